@@ -1,0 +1,54 @@
+"""Command line `tx200-twin`: one module per command in this package, listed in COMMANDS.
+
+Each command module defines `HELP` (one line), `add_arguments(parser)` and `run(args) -> int`.
+Commands that report numbers take `--json FILE` (`-` for stdout) and print a short human summary.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+from collections.abc import Sequence
+
+from twin.errors import TwinError
+
+# command name -> module under twin.cli (imported lazily so `--help` stays fast)
+COMMANDS: dict[str, str] = {
+    "info": "info",
+    "path": "path",
+    "fe-history": "fe_history",
+    "identify": "identify",
+    "lab": "lab",
+    "replay": "replay",
+}
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """Build the top-level parser with one sub-parser per command."""
+    parser = argparse.ArgumentParser(
+        prog="tx200-twin",
+        description="MuJoCo digital twin of a compliant Staubli TX200 forming a groove in sheet metal.",
+    )
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    for name, module_name in COMMANDS.items():
+        module = importlib.import_module(f"twin.cli.{module_name}")
+        command = sub.add_parser(name, help=module.HELP, description=module.HELP)
+        module.add_arguments(command)
+        command.set_defaults(_run=module.run)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the `tx200-twin` console script."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return int(args._run(args))
+    except TwinError as exc:
+        print(f"tx200-twin {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

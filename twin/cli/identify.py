@@ -1,0 +1,74 @@
+"""`tx200-twin identify`: fit the robot's Cartesian stiffness K_R (thesis §4.2)."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from twin.csvio import emit_json
+from twin.errors import IdentificationError, InputError
+from twin.identify import fit_kr_load_cases, load_cases_csv
+
+HELP = "Identify the Cartesian stiffness K_R: Method 1 from static load cases (thesis §4.2.1)."
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Add the command's options."""
+    parser.add_argument(
+        "--method",
+        type=int,
+        choices=(1, 2),
+        default=1,
+        help="1: static load cases (--loads); 2: a nominal run directory (RUN_DIR)",
+    )
+    parser.add_argument(
+        "--loads",
+        type=Path,
+        help="Method 1 load cases CSV: fx_n, fy_n, fz_n, dx_mm, dy_mm, dz_mm (one row per case)",
+    )
+    parser.add_argument("run_dir", nargs="?", type=Path, help="Method 2: run directory (tx200-twin-run/1)")
+    parser.add_argument("--json", metavar="FILE", help="write the result as JSON to FILE (- for stdout)")
+
+
+def _matrix_lines(matrix: np.ndarray) -> list[str]:
+    return ["    [" + ", ".join(f"{value:10.2f}" for value in row) + "]" for row in matrix]
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the identification and report it."""
+    if args.method == 2:
+        raise IdentificationError(
+            "method 2 needs the twin's replay of the nominal run (ideal forces and deflections "
+            f"from {args.run_dir or 'RUN_DIR'}); it is not available in this version: "
+            "use --method 1 --loads FILE.csv"
+        )
+    if args.loads is None:
+        raise InputError("--method 1 needs --loads FILE.csv (columns fx_n, fy_n, fz_n, dx_mm, dy_mm, dz_mm)")
+    if args.run_dir is not None:
+        raise InputError(f"--method 1 takes no run directory (got {args.run_dir}); use --loads FILE.csv")
+    f_n, d_m = load_cases_csv(args.loads)
+    fit = fit_kr_load_cases(f_n, d_m)
+    payload = {
+        "method": 1,
+        "loads": str(args.loads),
+        "k_r_n_per_mm": fit.k_r_n_per_mm,
+        "rows": ["fx", "fy", "fz"],
+        "columns": ["dux", "duy", "duz"],
+        "residuals_n": fit.residuals_n,
+        "condition_number": fit.condition_number,
+        "rank": fit.rank,
+    }
+    emit_json(args.json, payload, protect=[args.loads])
+    out = sys.stderr if args.json == "-" else sys.stdout
+    lines = [
+        f"Method 1: {len(f_n)} load case(s) from {args.loads}",
+        "K_R [N/mm] (rows Fx, Fy, Fz; columns dUx, dUy, dUz):",
+        *_matrix_lines(fit.k_r_n_per_mm),
+        f"residuals [N]: {', '.join(f'{r:.2f}' for r in fit.residuals_n)}",
+        f"condition number of the deflections: {fit.condition_number:.3g}; rank {fit.rank}",
+    ]
+    print("\n".join(lines), file=out)
+    return 0

@@ -1,0 +1,45 @@
+"""`tx200-twin info`: the model's joint stiffness, tool tip at home, home compliance and sheet origin."""
+
+from __future__ import annotations
+
+import argparse
+
+import numpy as np
+
+from twin.csvio import emit_json
+from twin.kinematics import Kinematics, load_model
+from twin.resources import scene_xml
+
+HELP = "Show the model: joint stiffness K_q, tool tip and compliance at home, sheet origin."
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Add `--json FILE` (`-` for stdout)."""
+    parser.add_argument("--json", metavar="FILE", default=None, help="write the numbers as JSON ('-' = stdout)")
+
+
+def run(args: argparse.Namespace) -> int:
+    """Print the summary (or JSON to stdout with `--json -`) and return 0."""
+    path = scene_xml()
+    kin = Kinematics(load_model(path=path))
+    p_home, _ = kin.fk(kin.q_home)
+    compliance_mm_per_kn = kin.compliance(kin.q_home) * 1e6  # [m/N] -> [mm/kN]
+    payload = {
+        "joint_stiffness_nm_per_rad": kin.joint_stiffness.tolist(),
+        "tcp_home_m": p_home.tolist(),
+        "compliance_home_mm_per_kn": compliance_mm_per_kn.tolist(),
+        "sheet_origin_m": kin.p_base_sheet_origin.tolist(),
+        "model": str(path),
+    }
+    emit_json(args.json, payload)
+    if args.json == "-":
+        return 0
+    with np.printoptions(precision=3, suppress=True):
+        print(f"model            {path}")
+        print(f"K_q [N m/rad]    {' '.join(f'{k:.4g}' for k in kin.joint_stiffness)}")
+        print(f"tcp at home [m]  {p_home}")
+        print(f"sheet origin [m] {kin.p_base_sheet_origin}")
+        print("compliance at home J K_q^-1 J^T [mm/kN]:")
+        for row in compliance_mm_per_kn:
+            print(f"  {row}")
+    return 0

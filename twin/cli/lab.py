@@ -1,0 +1,80 @@
+"""`tx200-twin lab`: make a measured run (or a Method 1 load-test file) on the virtual lab."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+
+from twin.csvio import emit_json, write_table
+from twin.effects import EFFECTS, parse_effect_args
+from twin.errors import InputError
+from twin.identify import THESIS_TABLE_4_2_LOADS_N
+from twin.lab import load_test, nominal_commanded, run_lab
+from twin.runs import read_commanded_csv, write_run
+
+HELP = "Run the virtual lab (richer plant, noise, hidden effects) and write a measured run."
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Add the `lab` options."""
+    parser.add_argument("--scenario", required=True, choices=("nominal", "compensated", "loadtest"))
+    parser.add_argument("--commanded", type=Path, help="commanded.csv-format path (required for compensated)")
+    effect_list = ", ".join(f"{name} [{spec.unit}]" for name, spec in EFFECTS.items())
+    parser.add_argument(
+        "--effect", action="append", metavar="NAME=VALUE", help=f"hidden effect, repeatable: {effect_list}"
+    )
+    parser.add_argument("--seed", type=int, required=True, help="seed of the lab's noise")
+    parser.add_argument("--out", type=Path, required=True, help="run directory (loadtest: a CSV file)")
+    parser.add_argument("--overwrite", action="store_true", help="replace an existing output")
+    parser.add_argument("--json", help="write a summary JSON to FILE ('-' for stdout)")
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the lab."""
+    effects = parse_effect_args(args.effect)
+    if args.scenario == "loadtest":
+        loads, deflections = load_test(THESIS_TABLE_4_2_LOADS_N, effects=effects, seed=args.seed)
+        if args.out.exists() and not args.overwrite:
+            raise InputError(f"{args.out} exists; pass --overwrite to replace it")
+        write_table(
+            args.out,
+            {
+                "fx_n": loads[:, 0], "fy_n": loads[:, 1], "fz_n": loads[:, 2],
+                "dx_mm": 1e3 * deflections[:, 0], "dy_mm": 1e3 * deflections[:, 1], "dz_mm": 1e3 * deflections[:, 2],
+            },
+            formats={"fx_n": ".1f", "fy_n": ".1f", "fz_n": ".1f", "dx_mm": ".5f", "dy_mm": ".5f", "dz_mm": ".5f"},
+        )
+        print(f"lab loadtest: {len(loads)} load cases at home (thesis Table 4.2) -> {args.out}")
+        emit_json(args.json, {"scenario": "loadtest", "out": args.out, "cases": len(loads)})
+        return 0
+    if args.scenario == "compensated" and args.commanded is None:
+        raise InputError("--scenario compensated needs --commanded PATH.csv (e.g. from `tx200-twin compensate`)")
+    protect: list[Path] = []
+    if args.commanded is not None:
+        commanded = read_commanded_csv(args.commanded)
+        t_s, p_cmd = commanded.t_s, commanded.values
+        protect.append(args.commanded)
+    else:
+        t_s, p_cmd = nominal_commanded()
+    run_, truth = run_lab(t_s, p_cmd, scenario=args.scenario, effects=effects, seed=args.seed)
+    write_run(args.out, run_, truth=truth, overwrite=args.overwrite, protect=protect)
+    deflection = np.max(np.linalg.norm(run_.tracker.values - np.column_stack(
+        [np.interp(run_.tracker.t_s, t_s, p_cmd[:, j]) for j in range(3)]), axis=1))
+    summary = {
+        "scenario": args.scenario,
+        "out": args.out,
+        "seed": args.seed,
+        "tracker_samples": len(run_.tracker.t_s),
+        "force_samples": len(run_.forces.t_s) if run_.forces is not None else 0,
+        "measured_deviation_max_mm": 1e3 * float(deflection),
+        "peak_force_n": float(np.max(np.linalg.norm(run_.forces.values, axis=1))) if run_.forces else 0.0,
+    }
+    print(
+        f"lab {args.scenario}: {summary['tracker_samples']} tracker / {summary['force_samples']} force samples, "
+        f"max |measured - commanded| {summary['measured_deviation_max_mm']:.2f} mm, "
+        f"peak |F| {summary['peak_force_n']:.0f} N -> {args.out}"
+    )
+    emit_json(args.json, summary)
+    return 0

@@ -1,0 +1,41 @@
+"""`tx200-twin replay`: simulate a run's commanded path on the twin and compare with its measurements."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from twin.csvio import emit_json
+from twin.effects import Effects, read_model_file
+from twin.replay import replay
+from twin.runs import read_run
+
+HELP = "Replay a measured run on the twin and report the gap (position and force)."
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Add the `replay` options."""
+    parser.add_argument("run_dir", type=Path, help="a tx200-twin-run/1 directory")
+    parser.add_argument("--model", type=Path, help="twin model file (effects, K_q) from `discrepancy --model-out`")
+    parser.add_argument("--json", help="write the metrics to FILE ('-' for stdout)")
+    parser.add_argument("--rrd", type=Path, help="also save a rerun recording of the replay to FILE")
+
+
+def run(args: argparse.Namespace) -> int:
+    """Replay the run."""
+    measured = read_run(args.run_dir)
+    effects, stiffness = read_model_file(args.model) if args.model else (Effects(), None)
+    result = replay(measured, effects=effects, joint_stiffness=stiffness)
+    m = result.metrics
+    print(
+        f"replay {args.run_dir}: {m['samples']} tracker samples; position gap rms {m['position_rms_mm']:.3f} mm "
+        f"(max {m['position_max_mm']:.3f}); force gap rms {m.get('force_rms_n', float('nan')):.1f} N "
+        f"(max {m.get('force_max_n', float('nan')):.1f}); measured deflection max {m['deflection_max_mm']:.2f} mm"
+    )
+    if args.rrd is not None:
+        from twin.recording import record_replay
+
+        record_replay(args.rrd, measured, result)
+        print(f"rerun recording -> {args.rrd}")
+    emit_json(args.json, {"run": args.run_dir, **m}, protect=[args.run_dir])
+    return 0

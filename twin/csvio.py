@@ -1,0 +1,213 @@
+"""Validated CSV reading and atomic writing, shared by every file format of the project.
+
+Readers name the file and the 1-based data row of the first bad value; writers write to a temporary
+file beside the target and rename it, so a crash never leaves half a file, and they refuse to write
+over a file the caller marked as an input.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+import os
+import sys
+import tempfile
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from twin.errors import DataFileError, InputError, UnitsError
+
+
+def read_table(
+    path: str | Path,
+    required: Sequence[str],
+    *,
+    optional: Sequence[str] = (),
+    min_rows: int = 1,
+) -> dict[str, np.ndarray]:
+    """Read a numeric CSV with a header row and return the named columns as float arrays.
+
+    Extra columns are ignored. Blank lines and lines starting with `#` are skipped.
+
+    Args:
+        path: CSV file.
+        required: Columns that must be present.
+        optional: Columns returned when present.
+        min_rows: Minimum number of data rows.
+
+    Returns:
+        Column name -> 1-D float64 array (one entry per data row).
+
+    Raises:
+        DataFileError: Missing file, missing columns, a short (truncated) or non-numeric row, NaN/inf,
+            or fewer than `min_rows` rows. The message names file, row and the expected columns.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise DataFileError(path, "file not found")
+    with path.open(newline="") as handle:
+        lines = [line for line in handle if line.strip() and not line.lstrip().startswith("#")]
+    if not lines:
+        raise DataFileError(path, f"file is empty; expected a header with columns {list(required)}")
+    reader = csv.reader(io.StringIO("".join(lines)))
+    header = [name.strip() for name in next(reader)]
+    missing = [name for name in required if name not in header]
+    if missing:
+        raise DataFileError(path, f"missing column(s) {missing}; header has {header}, required {list(required)}")
+    wanted = [name for name in (*required, *optional) if name in header]
+    index = {name: header.index(name) for name in wanted}
+    values: dict[str, list[float]] = {name: [] for name in wanted}
+    for row_number, fields in enumerate(reader, start=1):
+        if len(fields) < len(header):
+            raise DataFileError(
+                path, f"row has {len(fields)} field(s), header has {len(header)} (truncated file?)", row_number
+            )
+        for name, column in index.items():
+            text = fields[column].strip()
+            try:
+                value = float(text)
+            except ValueError:
+                raise DataFileError(path, f"column '{name}' holds {text!r}, expected a number", row_number) from None
+            if not math.isfinite(value):
+                raise DataFileError(path, f"column '{name}' holds {text!r}, expected a finite number", row_number)
+            values[name].append(value)
+    n_rows = len(values[wanted[0]]) if wanted else 0
+    if n_rows < min_rows:
+        raise DataFileError(path, f"has {n_rows} data row(s), expected at least {min_rows}")
+    return {name: np.asarray(column, dtype=float) for name, column in values.items()}
+
+
+def check_monotonic(path: str | Path, column: str, values: np.ndarray, *, strict: bool = True) -> None:
+    """Raise if `values` is not increasing (strictly by default), naming the first bad row."""
+    steps = np.diff(values)
+    bad = np.flatnonzero(steps <= 0) if strict else np.flatnonzero(steps < 0)
+    if bad.size:
+        row = int(bad[0]) + 2
+        kind = "strictly increasing" if strict else "non-decreasing"
+        raise DataFileError(
+            path, f"column '{column}' is not {kind}: {values[row - 2]!r} then {values[row - 1]!r}", row
+        )
+
+
+def check_mm_magnitude(path: str | Path, column: str, values: np.ndarray, *, min_span_mm: float) -> None:
+    """Raise UnitsError if a `_mm` column spans less than `min_span_mm` (values written in metres).
+
+    Args:
+        path: File the column came from (for the message).
+        column: Column name.
+        values: Column values [mm].
+        min_span_mm: Smallest plausible peak-to-peak span of the column in millimetres [mm].
+    """
+    span = float(np.ptp(values)) if values.size else 0.0
+    if 0.0 < span < min_span_mm:
+        raise UnitsError(
+            path,
+            f"column '{column}' spans {span:.6g}, expected at least {min_span_mm:g} mm: "
+            f"are the values in metres? multiply by 1000",
+        )
+
+
+def _atomic_write_text(path: Path, text: str, protect: Sequence[str | Path]) -> None:
+    path = Path(path)
+    for other in protect:
+        if Path(other).resolve() == path.resolve():
+            raise InputError(f"refusing to overwrite input file {path}: choose another output path")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "w", newline="") as handle:
+            handle.write(text)
+        os.replace(tmp_name, path)
+    except BaseException:
+        if os.path.exists(tmp_name):
+            os.unlink(tmp_name)
+        raise
+
+
+def write_table(
+    path: str | Path,
+    columns: Mapping[str, np.ndarray | Sequence[float]],
+    *,
+    formats: Mapping[str, str] | None = None,
+    protect: Sequence[str | Path] = (),
+    comment: str | None = None,
+) -> Path:
+    """Write columns to a CSV atomically.
+
+    Args:
+        path: Output file.
+        columns: Column name -> values; all the same length.
+        formats: Optional per-column format spec (default `.6f`; integer columns use `d`).
+        protect: Input files that must never be overwritten.
+        comment: Optional first line, written after `# `.
+
+    Returns:
+        The path written.
+    """
+    names = list(columns)
+    arrays = [np.asarray(columns[name]) for name in names]
+    lengths = {len(a) for a in arrays}
+    if len(lengths) > 1:
+        raise InputError(f"columns have different lengths {dict(zip(names, map(len, arrays), strict=True))}")
+    formats = dict(formats or {})
+    specs = [
+        formats.get(name, "d" if np.issubdtype(arr.dtype, np.integer) else ".6f")
+        for name, arr in zip(names, arrays, strict=True)
+    ]
+    out = io.StringIO()
+    if comment:
+        out.write(f"# {comment}\n")
+    out.write(",".join(names) + "\n")
+    for row in zip(*arrays, strict=True):
+        out.write(",".join(format(value, spec) for value, spec in zip(row, specs, strict=True)) + "\n")
+    _atomic_write_text(Path(path), out.getvalue(), protect)
+    return Path(path)
+
+
+def _jsonable(value: Any) -> Any:
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, Path):
+        return str(value)
+    if isinstance(value, Mapping):
+        return {str(k): _jsonable(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_jsonable(v) for v in value]
+    return value
+
+
+def write_json(path: str | Path, payload: Mapping[str, Any], *, protect: Sequence[str | Path] = ()) -> Path:
+    """Write a JSON document atomically (numpy arrays and scalars are converted)."""
+    _atomic_write_text(Path(path), json.dumps(_jsonable(payload), indent=2) + "\n", protect)
+    return Path(path)
+
+
+def emit_json(target: str | None, payload: Mapping[str, Any], *, protect: Sequence[str | Path] = ()) -> None:
+    """Write `payload` for a CLI `--json` option: `-` prints to stdout, a path writes a file, None skips."""
+    if target is None:
+        return
+    if target == "-":
+        sys.stdout.write(json.dumps(_jsonable(payload), indent=2) + "\n")
+    else:
+        write_json(target, payload, protect=protect)
+
+
+def read_json(path: str | Path) -> dict[str, Any]:
+    """Read a JSON object, raising DataFileError naming the file on any problem."""
+    path = Path(path)
+    if not path.is_file():
+        raise DataFileError(path, "file not found")
+    try:
+        payload = json.loads(path.read_text())
+    except json.JSONDecodeError as exc:
+        raise DataFileError(path, f"not valid JSON ({exc.msg} at line {exc.lineno})", exc.lineno) from None
+    if not isinstance(payload, dict):
+        raise DataFileError(path, f"expected a JSON object, found {type(payload).__name__}")
+    return payload

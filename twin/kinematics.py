@@ -1,0 +1,301 @@
+"""Kinematics of the TX200 MuJoCo model: forward kinematics, tool-tip Jacobian, inverse kinematics with
+the tool held vertical, and the Cartesian compliance of the compliant joints.
+
+Frames: world == robot base frame. The tool tip is the site `tcp`; the sheet frame origin is the scene site
+`sheet_origin` (= `tcp` at the `home` keyframe), axes parallel to the base.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+
+import mujoco
+import numpy as np
+from scipy.optimize import nnls
+
+from twin.dh import TOOL_LENGTH_M
+from twin.errors import InputError, ModelError, SingularityError, UnreachableError
+from twin.resources import robot_xml, scene_xml
+
+__all__ = [
+    "DET_J_MIN",
+    "HOME_Q_RAD",
+    "K_Q_UNOBSERVED_NM_PER_RAD",
+    "K_R1_N_PER_MM",
+    "TOOL_LENGTH_M",
+    "Kinematics",
+    "StiffnessFit",
+    "fit_diagonal_joint_stiffness",
+    "load_model",
+    "thesis_stiffness_fit",
+]
+
+# Machining pose of the load tests and of the forming, thesis Table 4.1 [deg] -> [rad].
+HOME_Q_RAD = np.deg2rad([-0.08, 38.03, 90.62, -0.33, 51.72, -7.91])
+
+# |det J| [m^3] below which an IK solution is refused as near-singular. det J (Eq. 3.16) is -0.877 m^3 at
+# home and stays within 0.80-0.93 m^3 over the whole forming box (x +-50, y +-15, z -15..+5 mm); near home
+# |det J| ~ 1.1 m^3 * |sin q5|, so 0.05 m^3 refuses wrist configurations with |q5| below about 2.6 deg.
+DET_J_MIN = 0.05
+
+# Thesis Eq. 4.17, K_R(1) [N/mm]: rows Fx, Fy, Fz; columns dUx, dUy, dUz (F = K_R dU) at the home pose.
+K_R1_N_PER_MM = np.array([[716.50, -949.00, -135.00], [320.50, 378.00, -91.00], [-552.00, 1130.00, 1080.00]])
+
+# Joints 4 and 6 are not observable from tool-tip translations at home: documented choice [N m/rad].
+K_Q_UNOBSERVED_NM_PER_RAD = 5.0e5
+
+_JOINTS = tuple(f"joint{i}" for i in range(1, 7))
+_ACTUATORS = tuple(f"actuator{i}" for i in range(1, 7))
+
+
+def load_model(scene: bool = True, path: str | Path | None = None) -> mujoco.MjModel:
+    """Load the cell scene (default) or the robot-only MJCF.
+
+    Args:
+        scene: True for `models/cell/scene.xml`, False for `models/tx200.xml`.
+        path: Explicit MJCF file; overrides `scene`.
+
+    Raises:
+        ModelError: If the file is missing or does not compile.
+    """
+    xml = Path(path) if path is not None else (scene_xml() if scene else robot_xml())
+    if not xml.is_file():
+        raise ModelError(f"model file not found: {xml} (expected an MJCF file such as models/tx200.xml)")
+    try:
+        return mujoco.MjModel.from_xml_path(str(xml))
+    except ValueError as exc:
+        raise ModelError(f"model {xml} does not compile: {exc}") from exc
+
+
+def _rotation_log(R: np.ndarray) -> np.ndarray:
+    """Rotation vector (axis * angle) of a rotation matrix [rad]."""
+    w = 0.5 * np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
+    s = float(np.linalg.norm(w))
+    c = 0.5 * (float(np.trace(R)) - 1.0)
+    angle = np.arctan2(s, c)
+    if s < 1e-12:
+        return w  # angle ~ 0: w == rotation vector to second order
+    if c < -0.99:  # near pi the skew part loses precision: use the symmetric part
+        B = 0.5 * (R + R.T) - c * np.eye(3)
+        axis = B[:, int(np.argmax(np.diag(B)))]
+        axis = axis / np.linalg.norm(axis) * np.sign(axis @ w if axis @ w != 0 else 1.0)
+        return axis * angle
+    return w * (angle / s)
+
+
+class Kinematics:
+    """Forward/inverse kinematics and compliance on the MuJoCo model (scene or robot-only).
+
+    Args:
+        model: A compiled TX200 model; None loads the cell scene.
+        det_j_min: |det J| threshold below which IK refuses a solution [m^3].
+    """
+
+    def __init__(self, model: mujoco.MjModel | None = None, det_j_min: float = DET_J_MIN) -> None:
+        self.model = load_model(scene=True) if model is None else model
+        self.data = mujoco.MjData(self.model)
+        self.det_j_min = float(det_j_min)
+        m = self.model
+        try:
+            joint_ids = [m.joint(name).id for name in _JOINTS]
+            self._tcp_id = m.site("tcp").id
+        except KeyError as exc:
+            raise ModelError(f"model lacks a required element ({exc}); expected joints joint1..joint6, site tcp") from exc
+        self._qadr = m.jnt_qposadr[joint_ids].copy()
+        self._dadr = m.jnt_dofadr[joint_ids].copy()
+        self.q_min = m.jnt_range[joint_ids, 0].copy()
+        self.q_max = m.jnt_range[joint_ids, 1].copy()
+        self._jacp = np.zeros((3, m.nv))
+        self._jacr = np.zeros((3, m.nv))
+        self.q_home = HOME_Q_RAD.copy()
+        _p_home, R_home = self.fk(self.q_home)
+        x = np.array([R_home[0, 0], R_home[1, 0], 0.0])
+        x /= np.linalg.norm(x)
+        z = np.array([0.0, 0.0, -1.0])
+        self.R_tool_down = np.column_stack([x, np.cross(z, x), z])
+        if "sheet_origin" in [m.site(i).name for i in range(m.nsite)]:
+            mujoco.mj_kinematics(m, self.data)
+            self.p_base_sheet_origin = self.data.site("sheet_origin").xpos.copy()
+        else:
+            self.p_base_sheet_origin = _p_home
+
+    def _check_q(self, q: np.ndarray) -> np.ndarray:
+        arr = np.asarray(q, dtype=float)
+        if arr.shape != (6,):
+            raise InputError(f"q must be 6 joint angles q1..q6 [rad], got shape {arr.shape}: {arr}")
+        if not np.all(np.isfinite(arr)):
+            raise InputError(f"q must be finite joint angles [rad], got {arr}")
+        return arr
+
+    def _set(self, q: np.ndarray) -> None:
+        self.data.qpos[self._qadr] = q
+        mujoco.mj_kinematics(self.model, self.data)
+
+    @property
+    def joint_stiffness(self) -> np.ndarray:
+        """K_q of the compliant joints: kp of actuator1..6 [N m/rad]."""
+        m = self.model
+        try:
+            ids = [m.actuator(name).id for name in _ACTUATORS]
+        except KeyError as exc:
+            raise ModelError(f"model lacks actuators actuator1..actuator6 ({exc})") from exc
+        return m.actuator_gainprm[ids, 0].copy()
+
+    def fk(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Tool-tip pose: p_base_tcp [m] (3,) and R_base_tcp (3, 3) for joint angles q (6,) [rad]."""
+        self._set(self._check_q(q))
+        site = self.data.site(self._tcp_id)
+        return site.xpos.copy(), site.xmat.reshape(3, 3).copy()
+
+    def jacobian(self, q: np.ndarray) -> np.ndarray:
+        """Geometric Jacobian of `tcp`, rows [linear; angular] in the base frame, (6, 6) [m/rad; 1]."""
+        self._set(self._check_q(q))
+        return self._jac()
+
+    def _jac(self) -> np.ndarray:
+        mujoco.mj_comPos(self.model, self.data)
+        mujoco.mj_jacSite(self.model, self.data, self._jacp, self._jacr, self._tcp_id)
+        return np.vstack([self._jacp[:, self._dadr], self._jacr[:, self._dadr]])
+
+    def compliance(self, q: np.ndarray, K_q: np.ndarray | None = None) -> np.ndarray:
+        """Translational Cartesian compliance J_v K_q^-1 J_v^T at q, (3, 3) [m/N].
+
+        Args:
+            q: Joint angles (6,) [rad].
+            K_q: Joint stiffnesses (6,) [N m/rad]; None uses `joint_stiffness`.
+        """
+        K = self.joint_stiffness if K_q is None else np.asarray(K_q, dtype=float)
+        if K.shape != (6,) or not np.all(np.isfinite(K)) or np.any(K <= 0):
+            raise InputError(f"K_q must be 6 positive finite joint stiffnesses [N m/rad], got {K}")
+        J_v = self.jacobian(q)[:3]
+        return (J_v / K) @ J_v.T
+
+    def ik(self, p_base_tcp: np.ndarray, q_seed: np.ndarray | None = None, max_iter: int = 60) -> np.ndarray:
+        """Joint angles putting the tool tip at `p_base_tcp` with orientation `R_tool_down`.
+
+        Damped Newton on the 6-D pose error, seeded at home (or `q_seed`) so it stays on home's branch.
+
+        Args:
+            p_base_tcp: Target tool-tip position in the base frame (3,) [m].
+            q_seed: Start configuration (6,) [rad]; None uses `q_home`.
+            max_iter: Newton iterations allowed.
+
+        Raises:
+            UnreachableError: No convergence to 1e-9 m / 1e-9 rad, or the solution leaves the joint ranges.
+            SingularityError: |det J| < `det_j_min` at the solution.
+        """
+        target = np.asarray(p_base_tcp, dtype=float)
+        if target.shape != (3,) or not np.all(np.isfinite(target)):
+            raise InputError(f"p_base_tcp must be 3 finite coordinates [m], got {target}")
+        q = self.q_home.copy() if q_seed is None else self._check_q(q_seed).copy()
+        R_t = self.R_tool_down
+        err_p = err_r = np.inf
+        for _ in range(max_iter):
+            self._set(q)
+            site = self.data.site(self._tcp_id)
+            e = np.concatenate([target - site.xpos, _rotation_log(R_t @ site.xmat.reshape(3, 3).T)])
+            err_p, err_r = float(np.linalg.norm(e[:3])), float(np.linalg.norm(e[3:]))
+            if err_p < 1e-12 and err_r < 1e-12:
+                break
+            J = self._jac()
+            dq = np.linalg.solve(J.T @ J + 1e-10 * np.eye(6), J.T @ e)
+            step = float(np.max(np.abs(dq)))
+            q = q + (dq * (0.2 / step) if step > 0.2 else dq)
+        if not (err_p < 1e-9 and err_r < 1e-9):
+            raise UnreachableError(
+                f"IK did not converge for p_base_tcp={target} m: position error {err_p:.3g} m, "
+                f"orientation error {err_r:.3g} rad after {max_iter} iterations (need < 1e-9)"
+            )
+        bad = np.flatnonzero((q < self.q_min - 1e-12) | (q > self.q_max + 1e-12))
+        if bad.size:
+            i = int(bad[0])
+            raise UnreachableError(
+                f"IK solution for p_base_tcp={target} m leaves the range of joint{i + 1}: q={q[i]:.6g} rad, "
+                f"valid [{self.q_min[i]:.6g}, {self.q_max[i]:.6g}] rad"
+            )
+        det = float(np.linalg.det(self._jac()))
+        if abs(det) < self.det_j_min:
+            raise SingularityError(
+                f"IK solution for p_base_tcp={target} m is near-singular: |det J| = {abs(det):.3g} m^3 "
+                f"< {self.det_j_min:.3g} m^3 at q={q} rad"
+            )
+        return q
+
+    def ik_path(self, P_base_tcp: np.ndarray, q_seed: np.ndarray | None = None) -> np.ndarray:
+        """IK along a path, each point warm-started from the previous solution.
+
+        Args:
+            P_base_tcp: Tool-tip positions in the base frame (n, 3) [m].
+            q_seed: Seed of the first point (6,) [rad]; None uses `q_home`.
+
+        Returns:
+            Q of shape (n, 6) [rad].
+        """
+        P = np.asarray(P_base_tcp, dtype=float)
+        if P.ndim != 2 or P.shape[1] != 3:
+            raise InputError(f"P_base_tcp must have shape (n, 3) [m], got {P.shape}")
+        Q = np.empty((P.shape[0], 6))
+        q = self.q_home if q_seed is None else self._check_q(q_seed)
+        for i, p in enumerate(P):
+            q = self.ik(p, q_seed=q)
+            Q[i] = q
+        return Q
+
+
+@dataclass(frozen=True)
+class StiffnessFit:
+    """Diagonal joint stiffness fitted to a Cartesian compliance.
+
+    Attributes:
+        K_q: Joint stiffnesses (6,) [N m/rad].
+        fitted: 0-based indices of the fitted joints (the others were fixed).
+        C_target: Compliance fitted to (3, 3) [m/N].
+        C_model: J_v K_q^-1 J_v^T with the fitted K_q (3, 3) [m/N].
+        residual_rel: ||C_model - C_target||_F / ||C_target||_F.
+    """
+
+    K_q: np.ndarray
+    fitted: tuple[int, ...]
+    C_target: np.ndarray
+    C_model: np.ndarray
+    residual_rel: float
+
+
+def fit_diagonal_joint_stiffness(
+    J_v: np.ndarray, C_target: np.ndarray, fixed: Mapping[int, float] | None = None
+) -> StiffnessFit:
+    """Least-squares diagonal K_q with J_v K_q^-1 J_v^T ~ C_target (Frobenius), compliances kept >= 0.
+
+    Args:
+        J_v: Translational Jacobian (3, 6) [m/rad].
+        C_target: Symmetric target compliance (3, 3) [m/N].
+        fixed: 0-based joint index -> fixed stiffness [N m/rad] for joints not to fit.
+    """
+    fixed = {} if fixed is None else dict(fixed)
+    basis = np.stack([np.outer(J_v[:, i], J_v[:, i]).ravel() for i in range(6)], axis=1)
+    rhs = C_target.ravel() - sum(basis[:, i] / k for i, k in fixed.items())
+    free = tuple(i for i in range(6) if i not in fixed)
+    c, _ = nnls(basis[:, free], rhs)
+    K_q = np.empty(6)
+    for i, k in fixed.items():
+        K_q[i] = k
+    with np.errstate(divide="ignore"):
+        K_q[list(free)] = 1.0 / c
+    C_model = (J_v / K_q) @ J_v.T
+    resid = float(np.linalg.norm(C_model - C_target) / np.linalg.norm(C_target))
+    return StiffnessFit(K_q, free, C_target.copy(), C_model, resid)
+
+
+def thesis_stiffness_fit(kin: Kinematics | None = None) -> StiffnessFit:
+    """Default K_q of the model: fit to the symmetric part of inv(K_R(1)) (thesis Eq. 4.17) at home.
+
+    Joints 4 and 6 are fixed at `K_Q_UNOBSERVED_NM_PER_RAD` (not observable from tip translations).
+    """
+    kin = Kinematics(load_model(scene=False)) if kin is None else kin
+    C = np.linalg.inv(K_R1_N_PER_MM * 1e3)  # [m/N]
+    J_v = kin.jacobian(kin.q_home)[:3]
+    return fit_diagonal_joint_stiffness(
+        J_v, 0.5 * (C + C.T), fixed={3: K_Q_UNOBSERVED_NM_PER_RAD, 5: K_Q_UNOBSERVED_NM_PER_RAD}
+    )
