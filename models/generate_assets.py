@@ -23,7 +23,7 @@ from trimesh.creation import annulus, box, capsule, cylinder
 MODELS_DIR = Path(__file__).resolve().parent
 SECTIONS = 24  # facets around a cylinder: a few hundred faces per mesh keeps the repository small
 
-# Clamp of the thesis (§2.2): ring blank holder and circular base, inner radius 70 mm, outer 95 mm, height 25 mm.
+# Clamp, thesis §2.2: ring blank holder and circular base, inner radius 70, outer 95, height 25 mm.
 CLAMP_R_MIN_M = 0.070
 CLAMP_R_MAX_M = 0.095
 CLAMP_HEIGHT_M = 0.025
@@ -61,7 +61,7 @@ def robot_meshes() -> dict[str, trimesh.Trimesh]:
     parts = {
         # base frame: z up, origin on the floor under joint 1
         "base": [_along("z", 0.0, 0.10, 0.30), _along("z", 0.10, 0.40, 0.23)],
-        # link1 frame: same origin as the base, turns with joint 1; joint 2 axis through (0.26, 0, 0.64) along y
+        # link1 frame: origin of the base, turns with joint 1; joint 2 axis through (0.26, 0, 0.64) along y
         "link1": [
             _along("z", 0.40, 0.50, 0.24),
             _box((0.42, 0.40, 0.30), (0.08, 0.0, 0.60)),

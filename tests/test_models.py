@@ -72,7 +72,9 @@ def test_joint_ranges_and_ctrlranges_follow_datasheet(robot: mujoco.MjModel) -> 
     for i, (lo, hi) in enumerate(RANGES_DEG):
         joint = robot.joint(f"joint{i + 1}")
         np.testing.assert_allclose(joint.range, np.deg2rad([lo, hi]), atol=1e-12)
-        np.testing.assert_allclose(robot.actuator(f"actuator{i + 1}").ctrlrange, np.deg2rad([lo, hi]), atol=1e-12)
+        np.testing.assert_allclose(
+            robot.actuator(f"actuator{i + 1}").ctrlrange, np.deg2rad([lo, hi]), atol=1e-12
+        )
         assert robot.actuator(f"actuator{i + 1}").trnid[0] == joint.id
 
 

@@ -27,7 +27,7 @@ from twin.errors import CompensationError, InputError
 from twin.identify import compensation_gain
 from twin.sim import Twin
 
-TWIN_TOL_M = 1e-6
+TWIN_TOL_M = 2e-6  # 1/10 of the tracker noise
 TWIN_MAX_ITER = 12
 
 
@@ -122,9 +122,10 @@ def compensate_twin(
         worst = float(np.max(np.abs(residual)))
         if worst < tol_m:
             return Compensation("twin", np.asarray(t_s, dtype=float), p_id, cmd, iteration, residual, tuple(history))
-        if iteration > 2 and history[-1] > history[-2]:
+        if iteration > 2 and history[-1] > 2.0 * min(history):
             raise CompensationError(f"twin compensation diverges: rms residual {history} m")
-        cmd = cmd - residual
+        # local Newton step per sample: the tip moves by tip_gain @ d_cmd when the command moves by d_cmd
+        cmd = cmd - np.linalg.solve(sim.tip_gain, residual[..., None])[..., 0]
     raise CompensationError(
         f"twin compensation did not reach {tol_m * 1e3:g} mm in {max_iter} iterations "
         f"(rms residual after each: {[round(h * 1e3, 4) for h in history]} mm)"

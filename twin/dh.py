@@ -10,7 +10,7 @@ import numpy as np
 
 from twin.errors import InputError
 
-# Table 3.3: A_i = Rot_z(theta_i) Trans_z(d_i) Trans_x(a_i) Rot_x(alpha_i), theta_i = q_i + THETA_OFFSET_RAD[i].
+# Table 3.3: A_i = Rot_z(theta_i) Trans_z(d_i) Trans_x(a_i) Rot_x(alpha_i), theta_i = q_i + offset_i.
 DH_D_M = np.array([0.64, 0.0, 0.0, 0.8, 0.0, 0.19])
 DH_A_M = np.array([0.26, 0.95, 0.0, 0.0, 0.0, 0.0])
 DH_ALPHA_RAD = np.array([-np.pi / 2, 0.0, -np.pi / 2, np.pi / 2, -np.pi / 2, 0.0])

@@ -138,17 +138,19 @@ def parse_effect_args(items: list[str] | None) -> Effects:
         InputError: Malformed item, unknown name or bad value (the message lists the valid names and units).
     """
     values: dict[str, float] = {}
+    listing = ", ".join(f"{n} [{s.unit}]" for n, s in EFFECTS.items())
     for item in items or []:
         name, sep, text = item.partition("=")
         if not sep:
-            raise InputError(f"--effect {item!r}: expected NAME=VALUE, e.g. force_scale=0.5")
+            raise InputError(f"--effect {item!r}: expected NAME=VALUE, e.g. force_scale=0.5; valid: {listing}")
         if name not in EFFECTS:
-            listing = ", ".join(f"{n} [{s.unit}]" for n, s in EFFECTS.items())
             raise InputError(f"--effect {item!r}: unknown effect {name!r}; valid: {listing}")
         try:
             values[name] = float(text)
         except ValueError:
-            raise InputError(f"--effect {item!r}: {text!r} is not a number [{EFFECTS[name].unit}]") from None
+            raise InputError(
+                f"--effect {item!r}: {text!r} is not a number [{EFFECTS[name].unit}]; valid: {listing}"
+            ) from None
     return Effects(values)
 
 

@@ -1,8 +1,8 @@
 """Generator of the stand-in FE force history `twin/data/fe_force_history.csv`.
 
-The thesis's ABAQUS export (§2.2.2: 1311 samples, half-symmetric model) is not public. This module writes a
-documented, deterministic stand-in with the same layout, from a reduced-order ISF force model. Replace the file
-with a real export to use real forces (see docs/forces.md); nothing else in the project depends on this model.
+The thesis's ABAQUS export (§2.2.2: 1311 samples, half-symmetric model) is not public. This module writes
+a documented, deterministic stand-in with the same layout, from a reduced-order ISF force model. Replace the
+file with a real export to use real forces (see docs/forces.md); nothing else depends on this model.
 
 Columns (half-symmetric model values, sheet frame, force EXERTED BY THE SHEET ON THE TOOL):
 `s_mm, x_mm, z_mm, fx_half_n, fy_sym_n, fz_half_n`. Physical forces are Fx = 2·fx_half, Fz = 2·fz_half,
@@ -67,7 +67,11 @@ _COMMENT = (
 
 
 def aerens_vertical_force_n(
-    tensile_strength_mpa: float, thickness_mm: float, tool_diameter_mm: float, step_down_mm: float, wall_angle_deg: float
+    tensile_strength_mpa: float,
+    thickness_mm: float,
+    tool_diameter_mm: float,
+    step_down_mm: float,
+    wall_angle_deg: float,
 ) -> float:
     """Steady-state vertical SPIF force of Aerens et al. (CIRP Annals 2010) [N].
 
@@ -105,7 +109,11 @@ def generate_history(spec: GrooveSpec | None = None) -> dict[str, np.ndarray]:
     d = path.direction
     depth_mm = spec.depth_m * 1000.0
     f_ss = aerens_vertical_force_n(
-        TENSILE_STRENGTH_MPA, THICKNESS_MM, TOOL_DIAMETER_MM, spec.step_down_m * 1000.0, math.degrees(spec.wall_angle_rad)
+        TENSILE_STRENGTH_MPA,
+        THICKNESS_MM,
+        TOOL_DIAMETER_MM,
+        spec.step_down_m * 1000.0,
+        math.degrees(spec.wall_angle_rad),
     )
     half_stroke = np.array([spec.stroke_m(int(j)) for j in k]) * 500.0
     to_end = np.clip(half_stroke - np.abs(x), 0.0, None)
@@ -118,7 +126,7 @@ def generate_history(spec: GrooveSpec | None = None) -> dict[str, np.ndarray]:
     for sr in s_rev:
         since = np.where(s >= sr, np.minimum(since, s - sr), since)
         nearest = np.minimum(nearest, np.abs(s - sr))
-    build_up = 1.0 - np.exp(-(-z) / _BUILD_UP_MM)
+    build_up = 1.0 - np.exp(z / _BUILD_UP_MM)  # z = -depth
     fz = (
         f_ss
         * build_up
@@ -143,7 +151,7 @@ def generate_history(spec: GrooveSpec | None = None) -> dict[str, np.ndarray]:
 
 
 def write_history(file: str | Path, spec: GrooveSpec | None = None) -> Path:
-    """Write the stand-in history CSV (atomic); the shipped file is `write_history(data/fe_force_history.csv)`.
+    """Write the stand-in history CSV (atomic); the shipped file is `write_history("twin/data/...csv")`.
 
     Args:
         file: Output CSV.

@@ -100,8 +100,12 @@ class SheetForceField:
             stateful: False: the reference surface is always the ideal one (no forming history).
             deadband_m: Dead band for labelling the history's passes (`label_passes`) [m].
         """
-        for name, value in (("k_unload_n_per_m", k_unload_n_per_m), ("k_load_n_per_m", k_load_n_per_m),
-                            ("tool_radius_m", tool_radius_m), ("grid_step_m", grid_step_m)):
+        for name, value in (
+            ("k_unload_n_per_m", k_unload_n_per_m),
+            ("k_load_n_per_m", k_load_n_per_m),
+            ("tool_radius_m", tool_radius_m),
+            ("grid_step_m", grid_step_m),
+        ):
             if not (math.isfinite(value) and value > 0):
                 raise InputError(f"{name} = {value!r}: expected a finite number > 0")
         self.k_unload = float(k_unload_n_per_m)
@@ -109,7 +113,7 @@ class SheetForceField:
         self.radius = float(tool_radius_m)
         self.stateful = stateful
         self._dx = float(grid_step_m)
-        n_grid = int(round(2 * SHEET_HALF_LENGTH_M / self._dx)) + 1
+        n_grid = round(2 * SHEET_HALF_LENGTH_M / self._dx) + 1
         self._x0 = -SHEET_HALF_LENGTH_M
         self.x_grid_m = self._x0 + self._dx * np.arange(n_grid)
         self._n_grid = n_grid
@@ -141,8 +145,13 @@ class SheetForceField:
                 self._commit(float(x[i]), float(z[i]))
             tables.append(
                 _PassTable(
-                    x0=float(grid[0]), dx=float(grid[1] - grid[0]), n=n, fz=fz_t,
-                    ratio=fx_t / np.maximum(fz_t, 1.0), z_plan=z_plan, delta_plan=delta_plan,
+                    x0=float(grid[0]),
+                    dx=float(grid[1] - grid[0]),
+                    n=n,
+                    fz=fz_t,
+                    ratio=fx_t / np.maximum(fz_t, 1.0),
+                    z_plan=z_plan,
+                    delta_plan=delta_plan,
                     direction=int(direction[sel[0]]),
                 )
             )
@@ -190,7 +199,9 @@ class SheetForceField:
             pass_index = self._infer_pass(x)
         if pass_index != self._pass:
             if pass_index < self._pass:
-                raise InputError(f"pass_index {pass_index} is before the current pass {self._pass}; call reset()")
+                raise InputError(
+                    f"pass_index {pass_index} is before the current pass {self._pass}; call reset()"
+                )
             self._snapshot = self._formed.copy()
             self._pass = pass_index
         self._commit(x, z)
@@ -241,6 +252,8 @@ class SheetForceField:
         Returns:
             (Fx, Fy, Fz) [N]; Fz >= 0, Fy = 0.
         """
+        if direction != 1 and direction != -1:
+            raise InputError(f"direction = {direction!r}: expected +1 or -1")
         x, z = float(p_sheet_m[0]), float(p_sheet_m[2])
         lin, _, ratio, _ = self._fz_lin(x, z, pass_index)
         w = _SOFTPLUS_N
@@ -248,7 +261,9 @@ class SheetForceField:
         sign = 1.0 if direction * self._tables[pass_index - 1].direction > 0 else -1.0
         return np.array([sign * ratio * fz, 0.0, fz])
 
-    def stiffness(self, p_sheet_m: np.ndarray, pass_index: int, direction: int, *, step_m: float = 1e-6) -> np.ndarray:
+    def stiffness(
+        self, p_sheet_m: np.ndarray, pass_index: int, direction: int, *, step_m: float = 1e-6
+    ) -> np.ndarray:
         """∂f/∂p [N/m], shape (3, 3), by central differences (the force does not depend on y).
 
         Args:
@@ -262,7 +277,9 @@ class SheetForceField:
         for j in (0, 2):
             e = np.zeros(3)
             e[j] = step_m
-            jac[:, j] = (self.force(p + e, pass_index, direction) - self.force(p - e, pass_index, direction)) / (2 * step_m)
+            jac[:, j] = (
+                self.force(p + e, pass_index, direction) - self.force(p - e, pass_index, direction)
+            ) / (2 * step_m)
         return jac
 
     def rigid_forces(self, path: ToolPath) -> np.ndarray:

@@ -1,9 +1,9 @@
 """Loading FE force histories: where the thesis's bug lived.
 
 The thesis's FE model is half-symmetric (§2.2): the exported Fx and Fz must be doubled, Fy (the reaction
-against the symmetry plane) discarded. The compensation script forgot the doubling, so only half the deflection
-was compensated (§5.1). Here the symmetry must be declared by every caller, and column names that contradict
-the declaration are refused.
+against the symmetry plane) discarded. The compensation script forgot the doubling, so only half the
+deflection was compensated (§5.1). Here the symmetry must be declared by every caller, and column names that
+contradict the declaration are refused.
 
 Accepted files (CSV, header row, `#` comment lines allowed; see docs/forces.md):
 
@@ -86,7 +86,7 @@ def load_force_history(path: str | Path, *, symmetry: str, trust_columns: bool =
     Raises:
         SymmetryError: `symmetry` is None or not `half`/`full`, or the column names contradict it (half-named
             columns declared `full`, full-named declared `half`) while `trust_columns` is True.
-        DataFileError: Missing file or columns, truncated or non-numeric rows, NaN, s/t not strictly increasing.
+        DataFileError: Missing file or columns, truncated or non-numeric rows, NaN, s or t not increasing.
         UnitsError: A `_mm` column spans so little it must hold metres.
     """
     if symmetry not in ("half", "full"):
@@ -96,12 +96,14 @@ def load_force_history(path: str | Path, *, symmetry: str, trust_columns: bool =
     has_half = all(name in table for name in HALF_COLUMNS)
     has_full = all(name in table for name in FULL_COLUMNS)
     if has_half and has_full:
-        raise DataFileError(path, f"holds both half-model {list(HALF_COLUMNS)} and full-model {list(FULL_COLUMNS)} columns")
+        raise DataFileError(
+            path, f"holds both half-model {list(HALF_COLUMNS)} and full-model {list(FULL_COLUMNS)} columns"
+        )
     if not (has_half or has_full):
         raise DataFileError(
             path,
-            f"missing force columns: expected {list(HALF_COLUMNS)} (half-symmetric model) or {list(FULL_COLUMNS)} "
-            f"(full model); found {sorted(table)}",
+            f"missing force columns: expected {list(HALF_COLUMNS)} (half-symmetric model) or "
+            f"{list(FULL_COLUMNS)} (full model); found {sorted(table)}",
         )
     names = HALF_COLUMNS if has_half else FULL_COLUMNS
     if trust_columns and (has_half != (symmetry == "half")):
@@ -121,7 +123,9 @@ def load_force_history(path: str | Path, *, symmetry: str, trust_columns: bool =
         check_monotonic(path, "t_s", table["t_s"])
         s_mm = np.concatenate(([0.0], np.cumsum(np.hypot(np.diff(x_mm), np.diff(z_mm)))))
     else:
-        raise DataFileError(path, f"missing column 's_mm' (arc length) or 't_s' (time); found {sorted(table)}")
+        raise DataFileError(
+            path, f"missing column 's_mm' (arc length) or 't_s' (time); found {sorted(table)}"
+        )
     scale = 2.0 if symmetry == "half" else 1.0
     f = np.zeros((len(x_mm), 3))
     f[:, 0] = scale * table[names[0]]

@@ -75,13 +75,13 @@ def _rotation_log(R: np.ndarray) -> np.ndarray:
     s = float(np.linalg.norm(w))
     c = 0.5 * (float(np.trace(R)) - 1.0)
     angle = np.arctan2(s, c)
-    if s < 1e-12:
-        return w  # angle ~ 0: w == rotation vector to second order
     if c < -0.99:  # near pi the skew part loses precision: use the symmetric part
         B = 0.5 * (R + R.T) - c * np.eye(3)
         axis = B[:, int(np.argmax(np.diag(B)))]
-        axis = axis / np.linalg.norm(axis) * np.sign(axis @ w if axis @ w != 0 else 1.0)
+        axis = axis / np.linalg.norm(axis) * (-1.0 if axis @ w < 0 else 1.0)
         return axis * angle
+    if s < 1e-12:
+        return w  # angle ~ 0: w == rotation vector to second order
     return w * (angle / s)
 
 
@@ -102,7 +102,9 @@ class Kinematics:
             joint_ids = [m.joint(name).id for name in _JOINTS]
             self._tcp_id = m.site("tcp").id
         except KeyError as exc:
-            raise ModelError(f"model lacks a required element ({exc}); expected joints joint1..joint6, site tcp") from exc
+            raise ModelError(
+                f"model lacks a required element ({exc}); expected joints joint1..joint6, site tcp"
+            ) from exc
         self._qadr = m.jnt_qposadr[joint_ids].copy()
         self._dadr = m.jnt_dofadr[joint_ids].copy()
         self.q_min = m.jnt_range[joint_ids, 0].copy()
@@ -126,7 +128,7 @@ class Kinematics:
         if arr.shape != (6,):
             raise InputError(f"q must be 6 joint angles q1..q6 [rad], got shape {arr.shape}: {arr}")
         if not np.all(np.isfinite(arr)):
-            raise InputError(f"q must be finite joint angles [rad], got {arr}")
+            raise InputError(f"q must be 6 finite joint angles q1..q6 [rad], got {arr}")
         return arr
 
     def _set(self, q: np.ndarray) -> None:

@@ -66,7 +66,9 @@ class GrooveSpec:
                 f"top_length_m = {self.top_length_m!r} (the strokes shrink by RpP each pass)"
             )
         if self.spacing_m > self.bottom_length_m:
-            raise InputError(f"GrooveSpec.spacing_m = {self.spacing_m!r} exceeds the last stroke {self.bottom_length_m!r}")
+            raise InputError(
+                f"GrooveSpec.spacing_m = {self.spacing_m!r} exceeds the last stroke {self.bottom_length_m!r}"
+            )
 
     @property
     def rpp_m(self) -> float:

@@ -50,7 +50,9 @@ class PinKinematics:
         site = mj.site("tcp")
         placement = placement * _se3(site.pos, site.quat)
         joint6 = self.model.frames[link6].parentJoint
-        self._tcp = self.model.addFrame(pin.Frame(TCP_FRAME, joint6, link6, placement, pin.FrameType.OP_FRAME))
+        self._tcp = self.model.addFrame(
+            pin.Frame(TCP_FRAME, joint6, link6, placement, pin.FrameType.OP_FRAME)
+        )
         self.data = self.model.createData()
 
     def _update(self, q: np.ndarray) -> None:
@@ -70,7 +72,9 @@ class PinKinematics:
         """Tcp Jacobian, LOCAL_WORLD_ALIGNED, rows [linear; angular] (6, 6) [m/rad; 1]."""
         self._update(q)
         pin.computeJointJacobians(self.model, self.data, np.asarray(q, dtype=float))
-        return pin.getFrameJacobian(self.model, self.data, self._tcp, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED).copy()
+        return pin.getFrameJacobian(
+            self.model, self.data, self._tcp, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+        ).copy()
 
     def site_position(self, q: np.ndarray, name: str) -> np.ndarray:
         """Position of a frame pin built from the MJCF (e.g. its own `tcp`, affected by the 4.1.0 bug) [m]."""

@@ -105,8 +105,9 @@ def build_model(effects: RobotEffects | None = None, *, scene: bool = True) -> m
             lost.type = mujoco.mjtJoint.mjJNT_HINGE
             lost.axis = joint.axis
             lost.pos = joint.pos
-            lost.stiffness = LOST_MOTION_STIFFNESS_NM_PER_RAD
-            lost.damping = 1.0e-3 * LOST_MOTION_STIFFNESS_NM_PER_RAD
+            # mujoco 4: joint stiffness/damping are [linear, quadratic, cubic] coefficients
+            lost.stiffness = [LOST_MOTION_STIFFNESS_NM_PER_RAD, 0.0, 0.0]
+            lost.damping = [1.0e-3 * LOST_MOTION_STIFFNESS_NM_PER_RAD, 0.0, 0.0]
             lost.armature = 1.0
     spec.option.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT
     try:

@@ -32,6 +32,9 @@ from twin.plant import ARM_JOINTS, LOST_MOTION_JOINTS, RobotEffects, build_model
 
 NEWTON_TOL_RAD = 1e-10
 NEWTON_MAX_ITER = 20
+# Back-travel that declares a reversal of the commanded path [m]: a compensated command may step back a
+# fraction of a millimetre where the force ramps up, a real reversal travels a whole stroke (>= 61 mm).
+PASS_DEADBAND_M = 2e-3
 
 
 @dataclass(frozen=True)
@@ -51,6 +54,8 @@ class SimResult:
         formed_x_m: Grid of the formed groove profile [m].
         formed_z_m: Formed groove bottom under load at the end of the run [m].
         iterations: Newton iterations per sample, shape (n,).
+        tip_gain: d p_tcp / d p_cmd at each equilibrium, (I + C S)^-1 with C the robot's Cartesian compliance
+            and S = -df/dp the sheet's stiffness [-], shape (n, 3, 3).
     """
 
     t_s: np.ndarray
@@ -65,6 +70,7 @@ class SimResult:
     formed_x_m: np.ndarray
     formed_z_m: np.ndarray
     iterations: np.ndarray
+    tip_gain: np.ndarray
 
     @property
     def deflection_sheet_m(self) -> np.ndarray:
@@ -189,7 +195,7 @@ class Twin:
             raise InputError("commanded path holds NaN or inf")
         m, d = self.model, self.data
         q_ik = self.kinematics.ik_path(p_cmd + self.p_base_sheet_origin)
-        pass_index, direction = label_passes(p_cmd[:, 0])
+        pass_index, direction = label_passes(p_cmd[:, 0], deadband_m=PASS_DEADBAND_M)
         k_diag = self._stiffness_diag()
         scale = self.effects.force_scale
 
@@ -206,6 +212,8 @@ class Twin:
         p_unloaded = np.zeros((n, 3))
         f_out = np.zeros((n, 3))
         iters = np.zeros(n, dtype=int)
+        tip_gain = np.zeros((n, 3, 3))
+        k_inv = 1.0 / k_diag
         jacp = np.zeros((3, m.nv))
         g = np.zeros(m.nv)
         self.field.reset()
@@ -239,6 +247,8 @@ class Twin:
             f_out[i] = scale * self.field.force(p, int(pass_index[i]), int(direction[i]))
             self.field.advance(p, int(pass_index[i]))
             qpos_out[i], p_out[i], iters[i] = q, p, k
+            compliance = (jacp * k_inv) @ jacp.T
+            tip_gain[i] = np.linalg.inv(np.eye(3) - compliance @ s)
             deflection_q = q - q_nominal
         formed_x, formed_z = self.field.x_grid_m, self.field.formed_z_m
         return SimResult(
@@ -254,6 +264,7 @@ class Twin:
             formed_x_m=np.asarray(formed_x, dtype=float).copy(),
             formed_z_m=np.asarray(formed_z, dtype=float).copy(),
             iterations=iters,
+            tip_gain=tip_gain,
         )
 
     def sensor_forces(self, result: SimResult, t_s: np.ndarray) -> np.ndarray:

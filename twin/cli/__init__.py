@@ -21,6 +21,8 @@ COMMANDS: dict[str, str] = {
     "identify": "identify",
     "lab": "lab",
     "replay": "replay",
+    "compensate": "compensate",
+    "check": "check",
 }
 
 

@@ -15,7 +15,9 @@ HELP = "Show the model: joint stiffness K_q, tool tip and compliance at home, sh
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Add `--json FILE` (`-` for stdout)."""
-    parser.add_argument("--json", metavar="FILE", default=None, help="write the numbers as JSON ('-' = stdout)")
+    parser.add_argument(
+        "--json", metavar="FILE", default=None, help="write the numbers as JSON ('-' = stdout)"
+    )
 
 
 def run(args: argparse.Namespace) -> int:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -31,13 +32,22 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", help="write a summary JSON to FILE ('-' for stdout)")
 
 
+def _check_out(out: Path, overwrite: bool) -> None:
+    """Refuse an existing output before any simulation is spent on it."""
+    if overwrite or not out.exists():
+        return
+    if out.is_dir() and not any(out.iterdir()):
+        return
+    raise InputError(f"{out} exists; pass --overwrite to replace it or choose another --out")
+
+
 def run(args: argparse.Namespace) -> int:
     """Run the lab."""
     effects = parse_effect_args(args.effect)
+    _check_out(args.out, args.overwrite)
+    out = sys.stderr if args.json == "-" else sys.stdout  # keep stdout pure JSON for `--json -`
     if args.scenario == "loadtest":
         loads, deflections = load_test(THESIS_TABLE_4_2_LOADS_N, effects=effects, seed=args.seed)
-        if args.out.exists() and not args.overwrite:
-            raise InputError(f"{args.out} exists; pass --overwrite to replace it")
         write_table(
             args.out,
             {
@@ -46,7 +56,7 @@ def run(args: argparse.Namespace) -> int:
             },
             formats={"fx_n": ".1f", "fy_n": ".1f", "fz_n": ".1f", "dx_mm": ".5f", "dy_mm": ".5f", "dz_mm": ".5f"},
         )
-        print(f"lab loadtest: {len(loads)} load cases at home (thesis Table 4.2) -> {args.out}")
+        print(f"lab loadtest: {len(loads)} load cases at home (thesis Table 4.2) -> {args.out}", file=out)
         emit_json(args.json, {"scenario": "loadtest", "out": args.out, "cases": len(loads)})
         return 0
     if args.scenario == "compensated" and args.commanded is None:
@@ -74,7 +84,8 @@ def run(args: argparse.Namespace) -> int:
     print(
         f"lab {args.scenario}: {summary['tracker_samples']} tracker / {summary['force_samples']} force samples, "
         f"max |measured - commanded| {summary['measured_deviation_max_mm']:.2f} mm, "
-        f"peak |F| {summary['peak_force_n']:.0f} N -> {args.out}"
+        f"peak |F| {summary['peak_force_n']:.0f} N -> {args.out}",
+        file=out,
     )
     emit_json(args.json, summary)
     return 0

@@ -17,14 +17,23 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Add the command's options."""
     d = GrooveSpec()
     parser.add_argument("--out", type=Path, required=True, help="output CSV file")
-    parser.add_argument("--passes", type=int, default=d.passes, help=f"number of passes N (default {d.passes})")
-    parser.add_argument("--top-length-mm", type=float, default=d.top_length_m * 1e3, help="groove length L at the surface")
     parser.add_argument(
-        "--bottom-length-mm", type=float, default=d.bottom_length_m * 1e3, help="groove length B at full depth"
+        "--passes", type=int, default=d.passes, help=f"number of passes N (default {d.passes})"
+    )
+    parser.add_argument(
+        "--top-length-mm", type=float, default=d.top_length_m * 1e3, help="groove length L at the surface"
+    )
+    parser.add_argument(
+        "--bottom-length-mm",
+        type=float,
+        default=d.bottom_length_m * 1e3,
+        help="groove length B at full depth",
     )
     parser.add_argument("--depth-mm", type=float, default=d.depth_m * 1e3, help="final depth H")
     parser.add_argument("--feed-mm-s", type=float, default=d.feed_m_per_s * 1e3, help="constant feed [mm/s]")
-    parser.add_argument("--spacing-mm", type=float, default=d.spacing_m * 1e3, help="largest sample spacing [mm]")
+    parser.add_argument(
+        "--spacing-mm", type=float, default=d.spacing_m * 1e3, help="largest sample spacing [mm]"
+    )
     parser.add_argument("--json", metavar="FILE", help="write the summary as JSON to FILE (- for stdout)")
 
 
@@ -53,11 +62,14 @@ def run(args: argparse.Namespace) -> int:
     }
     emit_json(args.json, payload, protect=[args.out])
     out = sys.stderr if args.json == "-" else sys.stdout
+    strokes = payload["strokes_mm"]
+    assert isinstance(strokes, list)
     print(
-        f"wrote {args.out}: {len(path)} samples, {spec.passes} passes, {payload['length_mm']:.2f} mm "
-        f"in {payload['duration_s']:.2f} s\n"
-        f"strokes {payload['strokes_mm'][0]:.2f} .. {payload['strokes_mm'][-1]:.2f} mm (RpP {payload['rpp_mm']:.3f} mm), "
-        f"final depth {payload['final_depth_mm']:.3f} mm, wall angle {payload['wall_angle_deg']:.2f} deg",
+        f"wrote {args.out}: {len(path)} samples, {spec.passes} passes, {path.s_m[-1] * 1e3:.2f} mm "
+        f"in {path.t_s[-1]:.2f} s\n"
+        f"strokes {strokes[0]:.2f} .. {strokes[-1]:.2f} mm (RpP {spec.rpp_m * 1e3:.3f} mm), "
+        f"final depth {-path.p_sheet_m[-1, 2] * 1e3:.3f} mm, "
+        f"wall angle {math.degrees(spec.wall_angle_rad):.2f} deg",
         file=out,
     )
     return 0

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 from twin.csvio import emit_json
@@ -27,15 +28,17 @@ def run(args: argparse.Namespace) -> int:
     effects, stiffness = read_model_file(args.model) if args.model else (Effects(), None)
     result = replay(measured, effects=effects, joint_stiffness=stiffness)
     m = result.metrics
+    out = sys.stderr if args.json == "-" else sys.stdout  # keep stdout pure JSON for `--json -`
     print(
         f"replay {args.run_dir}: {m['samples']} tracker samples; position gap rms {m['position_rms_mm']:.3f} mm "
         f"(max {m['position_max_mm']:.3f}); force gap rms {m.get('force_rms_n', float('nan')):.1f} N "
-        f"(max {m.get('force_max_n', float('nan')):.1f}); measured deflection max {m['deflection_max_mm']:.2f} mm"
+        f"(max {m.get('force_max_n', float('nan')):.1f}); measured deflection max {m['deflection_max_mm']:.2f} mm",
+        file=out,
     )
     if args.rrd is not None:
         from twin.recording import record_replay
 
         record_replay(args.rrd, measured, result)
-        print(f"rerun recording -> {args.rrd}")
+        print(f"rerun recording -> {args.rrd}", file=out)
     emit_json(args.json, {"run": args.run_dir, **m}, protect=[args.run_dir])
     return 0

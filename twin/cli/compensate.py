@@ -1,0 +1,93 @@
+"""`tx200-twin compensate`: offline compensation of the groove path (formula Eq. 4.28, or with the twin)."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+
+from twin.check import diagnose_gain
+from twin.cli._common import add_history_arguments, add_ideal_argument, history_from_arguments, ideal_from_arguments
+from twin.compensate import compensate_formula, compensate_twin, compliance_from_stiffness, gain_of
+from twin.csvio import emit_json, read_json, write_table
+from twin.effects import Effects, read_model_file
+from twin.errors import DataFileError, InputError
+from twin.field import SheetForceField
+from twin.sim import Twin
+
+HELP = "Compensate the ideal path offline (Eq. 4.28 formula, or iterating the twin) and write the command."
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Add the `compensate` options."""
+    parser.add_argument("--method", required=True, choices=("formula", "twin"))
+    parser.add_argument("--stiffness", type=Path, help="JSON with k_r_n_per_mm (2x2 x-z or 3x3); formula only")
+    parser.add_argument("--model", type=Path, help="twin model file (effects, K_q) for --method twin")
+    add_history_arguments(parser)
+    add_ideal_argument(parser)
+    parser.add_argument("--out", type=Path, required=True, help="compensated path, commanded.csv format")
+    parser.add_argument("--json", help="write the numbers to FILE ('-' for stdout)")
+
+
+def _stiffness(path: Path) -> np.ndarray:
+    payload = read_json(path)
+    if "k_r_n_per_mm" not in payload:
+        raise DataFileError(path, f"missing key 'k_r_n_per_mm'; found {sorted(payload)}")
+    k = np.asarray(payload["k_r_n_per_mm"], dtype=float)
+    if k.shape not in ((2, 2), (3, 3)):
+        raise DataFileError(path, f"k_r_n_per_mm has shape {k.shape}, expected 2x2 (x-z) or 3x3 [N/mm]")
+    return 1e3 * k
+
+
+def run(args: argparse.Namespace) -> int:
+    """Compensate."""
+    declared, reference = history_from_arguments(args)
+    ideal = ideal_from_arguments(args)
+    effects, stiffness = read_model_file(args.model) if args.model else (Effects(), None)
+    protect = [p for p in (args.stiffness, args.model, args.history, args.ideal) if p is not None]
+    f_reference = SheetForceField(reference).rigid_forces(ideal)
+    twin = Twin(history=declared, effects=effects.robot, joint_stiffness=stiffness)
+    if args.method == "formula":
+        if args.stiffness is None:
+            raise InputError("--method formula needs --stiffness FILE with k_r_n_per_mm (e.g. an identify output)")
+        c_r = compliance_from_stiffness(_stiffness(args.stiffness))
+        f_ideal = SheetForceField(declared).rigid_forces(ideal)
+        comp = compensate_formula(ideal.t_s, ideal.p_sheet_m, f_ideal, c_r)
+        predicted = twin.simulate(comp.t_s, comp.p_cmd_sheet_m).p_sheet_m - ideal.p_sheet_m
+    else:
+        comp = compensate_twin(ideal.t_s, ideal.p_sheet_m, twin)
+        c_r = twin.kinematics.compliance(twin.kinematics.q_home)
+        predicted = comp.predicted_residual_m
+    assert predicted is not None
+    gain = gain_of(comp, f_reference, c_r)
+    write_table(
+        args.out,
+        {"t_s": comp.t_s, "x_mm": 1e3 * comp.p_cmd_sheet_m[:, 0], "y_mm": 1e3 * comp.p_cmd_sheet_m[:, 1],
+         "z_mm": 1e3 * comp.p_cmd_sheet_m[:, 2]},
+        formats={"t_s": ".6f", "x_mm": ".4f", "y_mm": ".4f", "z_mm": ".4f"},
+        protect=protect,
+    )
+    norm = np.linalg.norm(predicted, axis=1)
+    summary = {
+        "method": args.method,
+        "out": args.out,
+        "gain": gain,
+        "gain_diagnosis": diagnose_gain(gain),
+        "iterations": comp.iterations,
+        "predicted_residual_rms_mm": 1e3 * float(np.sqrt(np.mean(norm**2))),
+        "predicted_residual_max_mm": 1e3 * float(np.max(norm)),
+        "correction_max_mm": 1e3 * float(np.max(np.linalg.norm(comp.correction_m, axis=1))),
+        "compliance_mm_per_kn": 1e6 * c_r,
+        "history": {"file": declared.source, "symmetry": declared.symmetry},
+        "effects": dict(effects.values),
+    }
+    print(
+        f"compensate ({args.method}): gain {gain:.3f}, {comp.iterations} iteration(s), predicted residual rms "
+        f"{summary['predicted_residual_rms_mm']:.4f} mm, max correction {summary['correction_max_mm']:.2f} mm "
+        f"-> {args.out}"
+    )
+    if abs(gain - 1.0) > 0.02:
+        print(f"warning: {diagnose_gain(gain)}")
+    emit_json(args.json, summary, protect=protect)
+    return 0
