@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-import time
 import dataclasses
+import time
 from pathlib import Path
 
 import mujoco
@@ -14,9 +14,8 @@ from rerun.chunk import RrdReader
 
 from twin import recording
 from twin.errors import InputError
-from twin.runs import Run, Stream
-
 from twin.replay import ReplayResult
+from twin.runs import Run, Stream
 from twin.sim import SimResult
 
 COMPLIANCE_M_PER_N = np.array([[1.54, 0.19], [0.79, 1.02]]) * 1e-6  # thesis Eq. 4.27, C_R(1)
@@ -33,7 +32,7 @@ def model() -> mujoco.MjModel:
 
 
 def _synthetic(model: mujoco.MjModel, n_pass: int, rate_hz: float = 50.0) -> tuple[Run, ReplayResult]:
-    """A zig-zag groove run (passes 1 mm deeper, 1 mm shorter) with forces and a compliance-made deflection."""
+    """A zig-zag groove run (passes 1 mm deeper, 1 mm shorter), forces, deflection = C_R(1)·F."""
     t_list, p_list, pass_list, dir_list = [], [], [], []
     t = 0.0
     for k in range(1, n_pass + 1):
@@ -58,18 +57,32 @@ def _synthetic(model: mujoco.MjModel, n_pass: int, rate_hz: float = 50.0) -> tup
     formed_x = np.linspace(-0.045, 0.045, 181)
     formed_z = -0.01 * (np.abs(formed_x) < 0.03)
     fields = dict(
-        t_s=t_s, p_cmd_sheet_m=p_cmd, p_unloaded_sheet_m=p_cmd, p_sheet_m=p_cmd + deflection, f_sheet_n=f,
-        qpos=qpos, q_ik=qpos[:, :6], pass_index=np.array(pass_list), direction=direction,
-        formed_x_m=formed_x, formed_z_m=formed_z, iterations=np.full(len(t_s), 2),
+        t_s=t_s,
+        p_cmd_sheet_m=p_cmd,
+        p_unloaded_sheet_m=p_cmd,
+        p_sheet_m=p_cmd + deflection,
+        f_sheet_n=f,
+        qpos=qpos,
+        q_ik=qpos[:, :6],
+        pass_index=np.array(pass_list),
+        direction=direction,
+        formed_x_m=formed_x,
+        formed_z_m=formed_z,
+        iterations=np.full(len(t_s), 2),
         tip_gain=np.tile(np.eye(3), (len(t_s), 1, 1)),
     )
+    # SimResult may gain fields the recorder does not read: pass only those it has
     names = {field.name for field in dataclasses.fields(SimResult)}
-    sim = SimResult(**{k: v for k, v in fields.items() if k in names})  # fields the recorder does not read may vary
+    sim = SimResult(**{k: v for k, v in fields.items() if k in names})
     t_f = t_s[::2]
     run = Run(
         directory=None,
-        meta={"scenario": "synthetic", "tool_length_m": 0.27494, "tracker_rate_hz": rate_hz,
-              "sensor_rate_hz": rate_hz / 2},
+        meta={
+            "scenario": "synthetic",
+            "tool_length_m": 0.27494,
+            "tracker_rate_hz": rate_hz,
+            "sensor_rate_hz": rate_hz / 2,
+        },
         commanded=Stream(t_s, p_cmd),
         tracker=Stream(t_s, p_cmd + 1.1 * deflection),
         forces=Stream(t_f, 1.05 * f[::2]),
@@ -93,15 +106,28 @@ def test_record_replay_writes_robot_paths_arrows_and_plots_on_sim_time(model: mu
     assert out.is_file() and out.stat().st_size > 10_000
     chunks = _chunks(out)
     expected_static = [
-        "/world/robot/link2/link2_visual", "/world/robot/tool/tool_tip_visual", "/world/robot/sheet/sheet",
-        "/world/paths/ideal", "/world/paths/commanded", "/world/paths/measured", "/world/paths/simulated",
+        "/world/robot/link2/link2_visual",
+        "/world/robot/tool/tool_tip_visual",
+        "/world/robot/sheet/sheet",
+        "/world/paths/ideal",
+        "/world/paths/commanded",
+        "/world/paths/measured",
+        "/world/paths/simulated",
         "/README",
     ]
     expected_timed = [
-        "/world/robot/link2", "/world/robot/tool", "/world/deflection_x20/simulated",
-        "/world/deflection_x20/measured", "/world/force_1mm_per_20N/simulated", "/world/force_1mm_per_20N/measured",
-        "/world/groove/formed_loaded", "/world/groove/part_profile", "/world/tool_tip/measured",
-        "/plots/deflection_z_mm/measured", "/plots/deflection_z_mm/predicted", "/plots/force_z_n/measured",
+        "/world/robot/link2",
+        "/world/robot/tool",
+        "/world/deflection_x20/simulated",
+        "/world/deflection_x20/measured",
+        "/world/force_1mm_per_20N/simulated",
+        "/world/force_1mm_per_20N/measured",
+        "/world/groove/formed_loaded",
+        "/world/groove/part_profile",
+        "/world/tool_tip/measured",
+        "/plots/deflection_z_mm/measured",
+        "/plots/deflection_z_mm/predicted",
+        "/plots/force_z_n/measured",
         "/plots/force_x_n/predicted",
     ]
     for entity in expected_static:
@@ -157,7 +183,7 @@ def test_record_replay_raises_if_qpos_does_not_match_model_and_writes_nothing(
     wide = np.hstack([replay.sim.qpos, np.zeros((len(replay.sim.t_s), 2))])
     bad_sim = dataclasses.replace(replay.sim, qpos=wide)
     bad = type(replay)(bad_sim, replay.tracker_pred_m, replay.forces_pred_n, replay.metrics)
-    with pytest.raises(InputError, match="Twin.model"):
+    with pytest.raises(InputError, match=r"Twin\.model"):
         recording.record_replay(tmp_path / "bad.rrd", run, bad, twin_model=model)
     assert list(tmp_path.iterdir()) == []
 
@@ -172,15 +198,18 @@ def test_record_replay_raises_if_tracker_prediction_has_wrong_length(model: mujo
 def test_record_runs_raises_on_duplicate_names(model: mujoco.MjModel, tmp_path: Path):
     run, replay = _synthetic(model, n_pass=1)
     with pytest.raises(InputError, match="unique"):
-        recording.record_runs(tmp_path / "dup.rrd", [("a", run, replay), ("a", run, replay)], twin_model=model)
+        recording.record_runs(
+            tmp_path / "dup.rrd", [("a", run, replay), ("a", run, replay)], twin_model=model
+        )
 
 
 def test_full_size_recording_is_fast_and_small(model: mujoco.MjModel, tmp_path: Path):
     run, replay = _synthetic(model, n_pass=10)
     assert len(run.tracker.t_s) > 900
     start = time.perf_counter()
-    out = recording.record_replay(tmp_path / "full.rrd", run, replay, ideal_sheet_m=replay.sim.p_cmd_sheet_m,
-                                  twin_model=model)
+    out = recording.record_replay(
+        tmp_path / "full.rrd", run, replay, ideal_sheet_m=replay.sim.p_cmd_sheet_m, twin_model=model
+    )
     elapsed = time.perf_counter() - start
     assert elapsed < 5.0
     assert out.stat().st_size < 5_000_000

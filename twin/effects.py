@@ -142,7 +142,9 @@ def parse_effect_args(items: list[str] | None) -> Effects:
     for item in items or []:
         name, sep, text = item.partition("=")
         if not sep:
-            raise InputError(f"--effect {item!r}: expected NAME=VALUE, e.g. force_scale=0.5; valid: {listing}")
+            raise InputError(
+                f"--effect {item!r}: expected NAME=VALUE, e.g. force_scale=0.5; valid: {listing}"
+            )
         if name not in EFFECTS:
             raise InputError(f"--effect {item!r}: unknown effect {name!r}; valid: {listing}")
         try:

@@ -8,6 +8,7 @@ where a function only needs x and z it also accepts (n, 2) arrays holding (x, z)
 
 from __future__ import annotations
 
+import itertools
 import os
 import uuid
 from collections.abc import Sequence
@@ -17,14 +18,14 @@ import matplotlib
 
 matplotlib.use("Agg")
 
-import numpy as np  # noqa: E402
-from matplotlib.axes import Axes  # noqa: E402
-from matplotlib.cm import ScalarMappable  # noqa: E402
-from matplotlib.colors import BoundaryNorm  # noqa: E402
-from matplotlib.figure import Figure  # noqa: E402
-from matplotlib.lines import Line2D  # noqa: E402
+import numpy as np
+from matplotlib.axes import Axes
+from matplotlib.cm import ScalarMappable
+from matplotlib.colors import BoundaryNorm
+from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
 
-from twin.errors import InputError  # noqa: E402
+from twin.errors import InputError
 
 FIGSIZE_IN = (8.0, 5.0)
 DPI = 120
@@ -81,9 +82,9 @@ def _save(fig: Figure, path: str | Path) -> Path:
     return target
 
 
-def _figure(nrows: int, *, sharex: bool = True, height_ratios: Sequence[float] | None = None) -> tuple[
-    Figure, list[Axes]
-]:
+def _figure(
+    nrows: int, *, sharex: bool = True, height_ratios: Sequence[float] | None = None
+) -> tuple[Figure, list[Axes]]:
     fig = Figure(figsize=FIGSIZE_IN, layout="constrained")
     axes = fig.subplots(nrows, 1, sharex=sharex, squeeze=False, height_ratios=height_ratios)[:, 0]
     for ax in axes:
@@ -163,21 +164,43 @@ def plot_path_xz(
     ax_path.plot(ideal[:, 0] * M_TO_MM, ideal[:, 1] * M_TO_MM, "--", color=COLOR_IDEAL, lw=1.2, label="ideal")
     if commanded is not None:
         ax_path.plot(
-            commanded[:, 0] * M_TO_MM, commanded[:, 1] * M_TO_MM, ":", color=COLOR_COMMANDED, lw=1.2,
+            commanded[:, 0] * M_TO_MM,
+            commanded[:, 1] * M_TO_MM,
+            ":",
+            color=COLOR_COMMANDED,
+            lw=1.2,
             label="commanded",
         )
-    ax_path.plot(measured[:, 0] * M_TO_MM, measured[:, 1] * M_TO_MM, "-", color=COLOR_MEASURED, lw=0.9,
-                 label="measured")
+    ax_path.plot(
+        measured[:, 0] * M_TO_MM,
+        measured[:, 1] * M_TO_MM,
+        "-",
+        color=COLOR_MEASURED,
+        lw=0.9,
+        label="measured",
+    )
     ax_path.set_ylabel("z [mm]")
     ax_path.set_title(title)
     ax_path.legend(**LEGEND_OUTSIDE)
 
     ax_err.axhline(0.0, color=COLOR_IDEAL, lw=0.8, ls="--")
-    ax_err.plot(measured[:, 0] * M_TO_MM, err_meas * M_TO_MM, "-", color=COLOR_MEASURED, lw=0.8,
-                label="measured - ideal")
+    ax_err.plot(
+        measured[:, 0] * M_TO_MM,
+        err_meas * M_TO_MM,
+        "-",
+        color=COLOR_MEASURED,
+        lw=0.8,
+        label="measured - ideal",
+    )
     if err_cmd is not None and commanded is not None:
-        ax_err.plot(commanded[:, 0] * M_TO_MM, err_cmd * M_TO_MM, ":", color=COLOR_COMMANDED, lw=1.0,
-                    label="commanded - ideal")
+        ax_err.plot(
+            commanded[:, 0] * M_TO_MM,
+            err_cmd * M_TO_MM,
+            ":",
+            color=COLOR_COMMANDED,
+            lw=1.0,
+            label="commanded - ideal",
+        )
     ax_err.set_xlabel("x [mm]")
     ax_err.set_ylabel("vertical error Δz [mm]")
     ax_err.set_title("Vertical error (magnified)", fontsize=9)
@@ -238,7 +261,7 @@ def _segments(pass_index: np.ndarray, direction: np.ndarray) -> list[tuple[int, 
     """[start, stop) index ranges over which pass and direction stay constant."""
     change = np.flatnonzero((np.diff(pass_index) != 0) | (np.diff(direction) != 0)) + 1
     bounds = [0, *change.tolist(), len(pass_index)]
-    return list(zip(bounds[:-1], bounds[1:], strict=True))
+    return list(itertools.pairwise(bounds))
 
 
 def plot_deflection_by_pass(

@@ -33,6 +33,7 @@ import rerun.blueprint as rrb
 import trimesh
 
 from twin.errors import InputError, ModelError
+from twin.plant import build_model
 
 if TYPE_CHECKING:
     from twin.replay import ReplayResult
@@ -109,8 +110,9 @@ def geom_mesh(model: mujoco.MjModel, geom: int) -> trimesh.Trimesh | None:
         mesh_id = int(model.geom_dataid[geom])
         v0, nv = int(model.mesh_vertadr[mesh_id]), int(model.mesh_vertnum[mesh_id])
         f0, nf = int(model.mesh_faceadr[mesh_id]), int(model.mesh_facenum[mesh_id])
-        mesh = trimesh.Trimesh(model.mesh_vert[v0 : v0 + nv].copy(), model.mesh_face[f0 : f0 + nf].copy(),
-                               process=False)
+        mesh = trimesh.Trimesh(
+            model.mesh_vert[v0 : v0 + nv].copy(), model.mesh_face[f0 : f0 + nf].copy(), process=False
+        )
     elif gtype == types.mjGEOM_BOX:
         mesh = trimesh.creation.box(extents=2.0 * size[:3])
     elif gtype == types.mjGEOM_SPHERE:
@@ -139,7 +141,7 @@ def _name(model: mujoco.MjModel, obj: str, index: int) -> str:
 
 
 def log_robot_geometry(rec: rr.RecordingStream, model: mujoco.MjModel, prefix: str = "") -> None:
-    """Log every body's visual geoms once (static), under `<prefix>world/robot/<body>/<geom>`, body frame [m]."""
+    """Log every body's visual geoms once (static) at `<prefix>world/robot/<body>/<geom>`, body frame [m]."""
     for geom in range(model.ngeom):
         if int(model.geom_group[geom]) == COLLISION_GROUP or model.geom_rgba[geom][3] == 0.0:
             continue
@@ -191,10 +193,13 @@ def log_body_poses(
     for body in range(1, model.nbody):
         entity = f"{prefix}world/robot/{_name(model, 'body', body)}"
         if int(model.body_weldid[body]) == 0:
-            rec.log(entity, rr.Transform3D(translation=xpos[0, body], quaternion=quat_xyzw[0, body]), static=True)
+            rec.log(
+                entity, rr.Transform3D(translation=xpos[0, body], quaternion=quat_xyzw[0, body]), static=True
+            )
             continue
         rec.send_columns(
-            entity, indexes=times,
+            entity,
+            indexes=times,
             columns=rr.Transform3D.columns(translation=xpos[:, body], quaternion=quat_xyzw[:, body]),
         )
 
@@ -204,21 +209,35 @@ def _colors_by_size(size: np.ndarray) -> np.ndarray:
     return (matplotlib.colormaps["plasma"](size / top) * 255).astype(np.uint8)
 
 
-def _arrows(rec: rr.RecordingStream, entity: str, t_s: np.ndarray, origins: np.ndarray, vectors: np.ndarray,
-            colors: np.ndarray | None = None) -> None:
+def _arrows(
+    rec: rr.RecordingStream,
+    entity: str,
+    t_s: np.ndarray,
+    origins: np.ndarray,
+    vectors: np.ndarray,
+    colors: np.ndarray | None = None,
+) -> None:
     if colors is None:
         colors = _colors_by_size(np.linalg.norm(vectors, axis=1))
     rec.send_columns(
-        entity, indexes=[rr.TimeColumn(TIMELINE, duration=t_s)],
+        entity,
+        indexes=[rr.TimeColumn(TIMELINE, duration=t_s)],
         columns=rr.Arrows3D.columns(origins=origins, vectors=vectors, colors=colors),
     )
 
 
-def _series(rec: rr.RecordingStream, entity: str, t_s: np.ndarray, values: np.ndarray, label: str,
-            color: tuple[int, int, int]) -> None:
+def _series(
+    rec: rr.RecordingStream,
+    entity: str,
+    t_s: np.ndarray,
+    values: np.ndarray,
+    label: str,
+    color: tuple[int, int, int],
+) -> None:
     rec.log(entity, rr.SeriesLines(colors=[color], names=[label], widths=[1.5]), static=True)
-    rec.send_columns(entity, indexes=[rr.TimeColumn(TIMELINE, duration=t_s)],
-                     columns=rr.Scalars.columns(scalars=values))
+    rec.send_columns(
+        entity, indexes=[rr.TimeColumn(TIMELINE, duration=t_s)], columns=rr.Scalars.columns(scalars=values)
+    )
 
 
 def _interp(t_query: np.ndarray, t_s: np.ndarray, values: np.ndarray) -> np.ndarray:
@@ -232,7 +251,8 @@ def _readme(run: Run, replay: ReplayResult, origin: np.ndarray) -> str:
         "All 3-D entities are in the robot base frame [m]; the sheet frame origin is at "
         f"({', '.join(f'{v:.4f}' for v in origin)}) m.",
         f"- `deflection_x20`: deflection arrows magnified {DEFLECTION_MAGNIFICATION:g}x, coloured by size.",
-        f"- `force_1mm_per_20N`: force of the sheet on the tool, {FORCE_ARROW_M_PER_N * 1e3 * 20:g} mm per 20 N.",
+        f"- `force_1mm_per_20N`: force of the sheet on the tool, "
+        f"{FORCE_ARROW_M_PER_N * 1e3 * 20:g} mm per 20 N.",
         "- `plots/*`: deflection (tool tip minus commanded) [mm] and forces [N], measured vs predicted.",
         "",
         "| metric | value |",
@@ -243,8 +263,13 @@ def _readme(run: Run, replay: ReplayResult, origin: np.ndarray) -> str:
 
 
 def _log_replay(
-    rec: rr.RecordingStream, prefix: str, run: Run, replay: ReplayResult, ideal_sheet_m: np.ndarray | None,
-    model: mujoco.MjModel, origin: np.ndarray,
+    rec: rr.RecordingStream,
+    prefix: str,
+    run: Run,
+    replay: ReplayResult,
+    ideal_sheet_m: np.ndarray | None,
+    model: mujoco.MjModel,
+    origin: np.ndarray,
 ) -> None:
     sim = replay.sim
     t_sim = np.asarray(sim.t_s, dtype=float)
@@ -259,8 +284,11 @@ def _log_replay(
     world = f"{prefix}world"
 
     rec.log(world, rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
-    rec.log(f"{prefix}README", rr.TextDocument(_readme(run, replay, origin), media_type=rr.MediaType.MARKDOWN),
-            static=True)
+    rec.log(
+        f"{prefix}README",
+        rr.TextDocument(_readme(run, replay, origin), media_type=rr.MediaType.MARKDOWN),
+        static=True,
+    )
     log_robot_geometry(rec, model, prefix)
     i_sim = decimate(t_sim)
     log_body_poses(rec, model, t_sim[i_sim], np.asarray(sim.qpos)[i_sim], prefix)
@@ -269,30 +297,63 @@ def _log_replay(
     if ideal_sheet_m is not None:
         strips = {"ideal": _points("ideal_sheet_m", ideal_sheet_m), **strips}
     for name, points in strips.items():
-        rec.log(f"{world}/paths/{name}",
-                rr.LineStrips3D([points + origin], radii=LINE_RADIUS, colors=[COLORS[name]]), static=True)
+        rec.log(
+            f"{world}/paths/{name}",
+            rr.LineStrips3D([points + origin], radii=LINE_RADIUS, colors=[COLORS[name]]),
+            static=True,
+        )
 
     i_trk = decimate(t_trk)
-    for name, t_pts, pts in (("measured", t_trk[i_trk], p_trk[i_trk]), ("simulated", t_sim[i_sim], p_sim[i_sim])):
-        rec.send_columns(f"{world}/tool_tip/{name}", indexes=[rr.TimeColumn(TIMELINE, duration=t_pts)],
-                         columns=rr.Points3D.columns(positions=pts + origin,
-                                                     colors=np.tile(COLORS[name], (len(pts), 1)),
-                                                     radii=np.full(len(pts), 0.002)))
+    for name, t_pts, pts in (
+        ("measured", t_trk[i_trk], p_trk[i_trk]),
+        ("simulated", t_sim[i_sim], p_sim[i_sim]),
+    ):
+        rec.send_columns(
+            f"{world}/tool_tip/{name}",
+            indexes=[rr.TimeColumn(TIMELINE, duration=t_pts)],
+            columns=rr.Points3D.columns(
+                positions=pts + origin,
+                colors=np.tile(COLORS[name], (len(pts), 1)),
+                radii=np.full(len(pts), 0.002),
+            ),
+        )
 
     arrows = f"{world}/deflection_x{DEFLECTION_MAGNIFICATION:g}"
-    _arrows(rec, f"{arrows}/simulated", t_sim[i_sim], p_unloaded[i_sim] + origin,
-            DEFLECTION_MAGNIFICATION * (p_sim - p_unloaded)[i_sim])
-    _arrows(rec, f"{arrows}/measured", t_trk[i_trk], cmd_at_trk[i_trk] + origin,
-            DEFLECTION_MAGNIFICATION * (p_trk - cmd_at_trk)[i_trk])
+    _arrows(
+        rec,
+        f"{arrows}/simulated",
+        t_sim[i_sim],
+        p_unloaded[i_sim] + origin,
+        DEFLECTION_MAGNIFICATION * (p_sim - p_unloaded)[i_sim],
+    )
+    _arrows(
+        rec,
+        f"{arrows}/measured",
+        t_trk[i_trk],
+        cmd_at_trk[i_trk] + origin,
+        DEFLECTION_MAGNIFICATION * (p_trk - cmd_at_trk)[i_trk],
+    )
     forces = f"{world}/force_1mm_per_20N"
-    _arrows(rec, f"{forces}/simulated", t_sim[i_sim], p_sim[i_sim] + origin,
-            FORCE_ARROW_M_PER_N * f_sim[i_sim], np.tile(COLORS["simulated"], (len(i_sim), 1)))
+    _arrows(
+        rec,
+        f"{forces}/simulated",
+        t_sim[i_sim],
+        p_sim[i_sim] + origin,
+        FORCE_ARROW_M_PER_N * f_sim[i_sim],
+        np.tile(COLORS["simulated"], (len(i_sim), 1)),
+    )
     if run.forces is not None:
         t_f = run.forces.t_s
         i_f = decimate(t_f)
         tip = _interp(t_f[i_f], t_trk, p_trk)
-        _arrows(rec, f"{forces}/measured", t_f[i_f], tip + origin, FORCE_ARROW_M_PER_N * run.forces.values[i_f],
-                np.tile(COLORS["measured"], (len(i_f), 1)))
+        _arrows(
+            rec,
+            f"{forces}/measured",
+            t_f[i_f],
+            tip + origin,
+            FORCE_ARROW_M_PER_N * run.forces.values[i_f],
+            np.tile(COLORS["measured"], (len(i_f), 1)),
+        )
 
     t_end = [float(t_sim[-1])]
     formed_x = np.asarray(sim.formed_x_m, dtype=float)
@@ -303,36 +364,78 @@ def _log_replay(
         profiles["part_profile"] = np.column_stack([x_m, np.zeros_like(x_m), z_m])
     for name, profile in profiles.items():
         if len(profile) >= 2:
-            rec.send_columns(f"{world}/groove/{name}", indexes=[rr.TimeColumn(TIMELINE, duration=t_end)],
-                             columns=rr.LineStrips3D.columns(strips=[profile + origin]))
+            rec.send_columns(
+                f"{world}/groove/{name}",
+                indexes=[rr.TimeColumn(TIMELINE, duration=t_end)],
+                columns=rr.LineStrips3D.columns(strips=[profile + origin]),
+            )
 
     plots = f"{prefix}plots"
     for k, axis in ((0, "x"), (2, "z")):
-        _series(rec, f"{plots}/deflection_{axis}_mm/measured", t_trk, M_TO_MM * (p_trk - cmd_at_trk)[:, k],
-                "measured", COLORS["measured"])
-        _series(rec, f"{plots}/deflection_{axis}_mm/predicted", t_trk, M_TO_MM * (p_pred - cmd_at_trk)[:, k],
-                "predicted", COLORS["predicted"])
-        _series(rec, f"{plots}/force_{axis}_n/simulated_sheet", t_sim, f_sim[:, k], "sheet force (twin)",
-                COLORS["simulated_sheet"])
+        _series(
+            rec,
+            f"{plots}/deflection_{axis}_mm/measured",
+            t_trk,
+            M_TO_MM * (p_trk - cmd_at_trk)[:, k],
+            "measured",
+            COLORS["measured"],
+        )
+        _series(
+            rec,
+            f"{plots}/deflection_{axis}_mm/predicted",
+            t_trk,
+            M_TO_MM * (p_pred - cmd_at_trk)[:, k],
+            "predicted",
+            COLORS["predicted"],
+        )
+        _series(
+            rec,
+            f"{plots}/force_{axis}_n/simulated_sheet",
+            t_sim,
+            f_sim[:, k],
+            "sheet force (twin)",
+            COLORS["simulated_sheet"],
+        )
         if run.forces is not None:
-            _series(rec, f"{plots}/force_{axis}_n/measured", run.forces.t_s, run.forces.values[:, k],
-                    "measured", COLORS["measured"])
+            _series(
+                rec,
+                f"{plots}/force_{axis}_n/measured",
+                run.forces.t_s,
+                run.forces.values[:, k],
+                "measured",
+                COLORS["measured"],
+            )
             if replay.forces_pred_n is not None:
                 f_pred = _points("replay.forces_pred_n", replay.forces_pred_n, len(run.forces.t_s))
-                _series(rec, f"{plots}/force_{axis}_n/predicted", run.forces.t_s, f_pred[:, k], "predicted",
-                        COLORS["predicted"])
+                _series(
+                    rec,
+                    f"{plots}/force_{axis}_n/predicted",
+                    run.forces.t_s,
+                    f_pred[:, k],
+                    "predicted",
+                    COLORS["predicted"],
+                )
 
 
 def _blueprint(prefixes: Sequence[str]) -> rrb.Blueprint:
     tabs = []
     for prefix in prefixes:
-        plots = [rrb.TimeSeriesView(origin=f"/{prefix}plots/{name}", name=name)
-                 for name in ("deflection_x_mm", "deflection_z_mm", "force_x_n", "force_z_n")]
-        tabs.append(rrb.Horizontal(
-            rrb.Vertical(rrb.Spatial3DView(origin=f"/{prefix}world", name="cell"),
-                         rrb.TextDocumentView(origin=f"/{prefix}README", name="notes"), row_shares=[4, 1]),
-            rrb.Vertical(*plots), column_shares=[3, 2], name=prefix.rstrip("/") or "replay",
-        ))
+        plots = [
+            rrb.TimeSeriesView(origin=f"/{prefix}plots/{name}", name=name)
+            for name in ("deflection_x_mm", "deflection_z_mm", "force_x_n", "force_z_n")
+        ]
+        tabs.append(
+            rrb.Horizontal(
+                rrb.Vertical(
+                    rrb.Spatial3DView(origin=f"/{prefix}world", name="cell"),
+                    rrb.TextDocumentView(origin=f"/{prefix}README", name="notes"),
+                    row_shares=[4, 1],
+                ),
+                rrb.Vertical(*plots),
+                column_shares=[3, 2],
+                name=prefix.rstrip("/") or "replay",
+            )
+        )
     return rrb.Blueprint(rrb.Tabs(*tabs), collapse_panels=True)
 
 
@@ -369,18 +472,23 @@ def record_runs(
         The path written.
 
     Raises:
-        InputError: Bad names, shapes that do not match the run, or a model whose nq differs from the replay's.
+        InputError: Bad names, shapes that do not match the run, or a model whose nq differs from
+            the replay's.
     """
     if not items:
         raise InputError("items is empty; expected at least one (name, run, replay)")
     names = [name for name, _, _ in items]
-    if len(set(names)) != len(names) or any(not (_NAME.match(n) or (n == "" and len(items) == 1)) for n in names):
-        raise InputError(f"run names must be unique and match [A-Za-z0-9_-]+ (or one unnamed run), got {names}")
+    valid = [bool(_NAME.match(n)) or (n == "" and len(items) == 1) for n in names]
+    if len(set(names)) != len(names) or not all(valid):
+        raise InputError(
+            f"run names must be unique and match [A-Za-z0-9_-]+ (or one unnamed run), got {names}"
+        )
     if twin_model is None:
-        from twin.plant import build_model  # noqa: PLC0415 - the twin's model is only needed here
-
         twin_model = build_model()
-    origin = _sheet_origin(twin_model) if p_base_sheet_origin is None else np.asarray(p_base_sheet_origin, float)
+    if p_base_sheet_origin is None:
+        origin = _sheet_origin(twin_model)
+    else:
+        origin = np.asarray(p_base_sheet_origin, dtype=float)
     if origin.shape != (3,) or not np.all(np.isfinite(origin)):
         raise InputError(f"p_base_sheet_origin must be 3 finite values [m], got {origin!r}")
     ideal = None if ideal_sheet_m is None else _points("ideal_sheet_m", ideal_sheet_m)
@@ -428,5 +536,11 @@ def record_replay(
     Returns:
         The path written.
     """
-    return record_runs(path, [("", run, replay_result)], ideal_sheet_m=ideal_sheet_m, twin_model=twin_model,
-                       p_base_sheet_origin=p_base_sheet_origin, application_id=application_id)
+    return record_runs(
+        path,
+        [("", run, replay_result)],
+        ideal_sheet_m=ideal_sheet_m,
+        twin_model=twin_model,
+        p_base_sheet_origin=p_base_sheet_origin,
+        application_id=application_id,
+    )

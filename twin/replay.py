@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from twin.effects import Effects
-from twin.errors import RunFormatError
+from twin.errors import InputError, RunFormatError
 from twin.forces import ForceHistory
 from twin.measure import predict_forces, predict_tracker
 from twin.runs import Run
@@ -79,10 +79,17 @@ def replay(
 
     Returns:
         Prediction at the run's stream times and the gap metrics.
+
+    Raises:
+        InputError: `twin` was built with other robot effects than `effects.robot`.
     """
     effects = effects or Effects()
     if len(run.commanded.t_s) < 2:
         raise RunFormatError("commanded.csv", "needs at least 2 samples to replay")
+    if twin is not None and twin.effects != effects.robot:
+        raise InputError(
+            f"the twin passed has effects {twin.effects}, but replay was asked for {effects.robot}"
+        )
     twin = twin or Twin(history=history, effects=effects.robot, joint_stiffness=joint_stiffness)
     sim = twin.simulate(run.commanded.t_s, run.commanded.values)
     tracker = predict_tracker(sim, run.tracker.t_s, effects)

@@ -37,14 +37,47 @@ def _matrix_lines(matrix: np.ndarray) -> list[str]:
     return ["    [" + ", ".join(f"{value:10.2f}" for value in row) + "]" for row in matrix]
 
 
+def _method2(args: argparse.Namespace) -> int:
+    """Method 2 on a run directory."""
+    from twin.identify_run import method2
+    from twin.runs import read_run
+    from twin.sim import Twin
+
+    if args.run_dir is None:
+        raise InputError("--method 2 needs a RUN_DIR (a nominal run with forces.csv)")
+    result = method2(read_run(args.run_dir))
+    twin = Twin()
+    c_twin = twin.kinematics.compliance(twin.kinematics.q_home)[np.ix_([0, 2], [0, 2])]
+    error = float(np.linalg.norm(result.c_measured_m_per_n - c_twin) / np.linalg.norm(c_twin))
+    bias = float(np.linalg.norm(result.c_ideal_m_per_n - c_twin) / np.linalg.norm(c_twin))
+    payload = {
+        "method": 2,
+        "run": args.run_dir,
+        "samples": result.samples,
+        "k_r_n_per_mm": 1e-3 * result.k_r_ideal_n_per_m,
+        "k_r_measured_forces_n_per_mm": 1e-3 * result.k_r_measured_n_per_m,
+        "compliance_ideal_forces_mm_per_kn": 1e6 * result.c_ideal_m_per_n,
+        "compliance_measured_forces_mm_per_kn": 1e6 * result.c_measured_m_per_n,
+        "twin_compliance_xz_mm_per_kn": 1e6 * c_twin,
+        "relative_error_measured_vs_twin": error,
+        "relative_bias_ideal_vs_twin": bias,
+        "force_drop_rms_ratio": result.force_drop,
+    }
+    print(
+        f"identify method 2 on {args.run_dir} ({result.samples} samples): "
+        f"K_R (ideal forces, thesis) [N/mm] = {np.round(payload['k_r_n_per_mm'], 1).tolist()}; "
+        f"K_R (measured forces) = {np.round(payload['k_r_measured_forces_n_per_mm'], 1).tolist()}; "
+        f"compliance from measured forces off the twin's x-z block by {100 * error:.2f} %, "
+        f"from ideal forces by {100 * bias:.2f} %; sheet force fell by {100 * result.force_drop:.1f} % rms"
+    )
+    emit_json(args.json, payload, protect=[args.run_dir])
+    return 0
+
+
 def run(args: argparse.Namespace) -> int:
     """Run the identification and report it."""
     if args.method == 2:
-        raise IdentificationError(
-            "method 2 needs the twin's replay of the nominal run (ideal forces and deflections "
-            f"from {args.run_dir or 'RUN_DIR'}); it is not available in this version: "
-            "use --method 1 --loads FILE.csv"
-        )
+        return _method2(args)
     if args.loads is None:
         raise InputError("--method 1 needs --loads FILE.csv (columns fx_n, fy_n, fz_n, dx_mm, dy_mm, dz_mm)")
     if args.run_dir is not None:

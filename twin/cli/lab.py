@@ -82,7 +82,8 @@ def run(args: argparse.Namespace) -> int:
         "peak_force_n": float(np.max(np.linalg.norm(run_.forces.values, axis=1))) if run_.forces else 0.0,
     }
     print(
-        f"lab {args.scenario}: {summary['tracker_samples']} tracker / {summary['force_samples']} force samples, "
+        f"lab {args.scenario}: {summary['tracker_samples']} tracker / "
+        f"{summary['force_samples']} force samples, "
         f"max |measured - commanded| {summary['measured_deviation_max_mm']:.2f} mm, "
         f"peak |F| {summary['peak_force_n']:.0f} N -> {args.out}",
         file=out,

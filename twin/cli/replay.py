@@ -30,9 +30,11 @@ def run(args: argparse.Namespace) -> int:
     m = result.metrics
     out = sys.stderr if args.json == "-" else sys.stdout  # keep stdout pure JSON for `--json -`
     print(
-        f"replay {args.run_dir}: {m['samples']} tracker samples; position gap rms {m['position_rms_mm']:.3f} mm "
-        f"(max {m['position_max_mm']:.3f}); force gap rms {m.get('force_rms_n', float('nan')):.1f} N "
-        f"(max {m.get('force_max_n', float('nan')):.1f}); measured deflection max {m['deflection_max_mm']:.2f} mm",
+        f"replay {args.run_dir}: {m['samples']} tracker samples; "
+        f"position gap rms {m['position_rms_mm']:.3f} mm (max {m['position_max_mm']:.3f}); "
+        f"force gap rms {m.get('force_rms_n', float('nan')):.1f} N "
+        f"(max {m.get('force_max_n', float('nan')):.1f}); "
+        f"measured deflection max {m['deflection_max_mm']:.2f} mm",
         file=out,
     )
     if args.rrd is not None:
