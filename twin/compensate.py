@@ -68,7 +68,7 @@ def compliance_from_stiffness(k_r_n_per_m: np.ndarray) -> np.ndarray:
     k = np.asarray(k_r_n_per_m, dtype=float)
     if k.shape not in ((2, 2), (3, 3)) or not np.all(np.isfinite(k)):
         raise InputError(f"K_R must be a finite 2x2 (x-z) or 3x3 matrix [N/m], got shape {k.shape}")
-    if abs(np.linalg.det(k)) < 1e-12 * np.max(np.abs(k)) ** k.shape[0]:
+    if abs(np.linalg.det(k)) <= 1e-12 * np.max(np.abs(k)) ** k.shape[0]:  # <=: an all-zero K is singular too
         raise InputError(f"K_R is singular: {k.tolist()}")
     if k.shape == (3, 3):
         return np.asarray(np.linalg.inv(k))

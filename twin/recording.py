@@ -319,41 +319,34 @@ def _log_replay(
         )
 
     arrows = f"{world}/deflection_x{DEFLECTION_MAGNIFICATION:g}"
-    _arrows(
-        rec,
-        f"{arrows}/simulated",
-        t_sim[i_sim],
-        p_unloaded[i_sim] + origin,
-        DEFLECTION_MAGNIFICATION * (p_sim - p_unloaded)[i_sim],
-    )
-    _arrows(
-        rec,
-        f"{arrows}/measured",
-        t_trk[i_trk],
-        cmd_at_trk[i_trk] + origin,
-        DEFLECTION_MAGNIFICATION * (p_trk - cmd_at_trk)[i_trk],
-    )
     forces = f"{world}/force_1mm_per_20N"
-    _arrows(
-        rec,
-        f"{forces}/simulated",
-        t_sim[i_sim],
-        p_sim[i_sim] + origin,
-        FORCE_ARROW_M_PER_N * f_sim[i_sim],
-        np.tile(COLORS["simulated"], (len(i_sim), 1)),
-    )
+    arrow_sets = [  # entity, times, origins [m], vectors [m], fixed colour (None: coloured by size)
+        (
+            f"{arrows}/simulated",
+            i_sim,
+            t_sim,
+            p_unloaded,
+            DEFLECTION_MAGNIFICATION * (p_sim - p_unloaded),
+            None,
+        ),
+        (
+            f"{arrows}/measured",
+            i_trk,
+            t_trk,
+            cmd_at_trk,
+            DEFLECTION_MAGNIFICATION * (p_trk - cmd_at_trk),
+            None,
+        ),
+        (f"{forces}/simulated", i_sim, t_sim, p_sim, FORCE_ARROW_M_PER_N * f_sim, COLORS["simulated"]),
+    ]
     if run.forces is not None:
-        t_f = run.forces.t_s
-        i_f = decimate(t_f)
-        tip = _interp(t_f[i_f], t_trk, p_trk)
-        _arrows(
-            rec,
-            f"{forces}/measured",
-            t_f[i_f],
-            tip + origin,
-            FORCE_ARROW_M_PER_N * run.forces.values[i_f],
-            np.tile(COLORS["measured"], (len(i_f), 1)),
-        )
+        tip = _interp(run.forces.t_s, t_trk, p_trk)
+        i_f = decimate(run.forces.t_s)
+        f_meas = FORCE_ARROW_M_PER_N * run.forces.values
+        arrow_sets.append((f"{forces}/measured", i_f, run.forces.t_s, tip, f_meas, COLORS["measured"]))
+    for entity, keep, t_s, origins, vectors, color in arrow_sets:
+        colors = None if color is None else np.tile(color, (len(keep), 1))
+        _arrows(rec, entity, t_s[keep], origins[keep] + origin, vectors[keep], colors)
 
     t_end = [float(t_sim[-1])]
     formed_x = np.asarray(sim.formed_x_m, dtype=float)
@@ -371,50 +364,26 @@ def _log_replay(
             )
 
     plots = f"{prefix}plots"
-    for k, axis in ((0, "x"), (2, "z")):
-        _series(
-            rec,
-            f"{plots}/deflection_{axis}_mm/measured",
+    series = [  # entity under plots/, times [s], values (n, 3), label, colour
+        ("deflection_{}_mm/measured", t_trk, M_TO_MM * (p_trk - cmd_at_trk), "measured", COLORS["measured"]),
+        (
+            "deflection_{}_mm/predicted",
             t_trk,
-            M_TO_MM * (p_trk - cmd_at_trk)[:, k],
-            "measured",
-            COLORS["measured"],
-        )
-        _series(
-            rec,
-            f"{plots}/deflection_{axis}_mm/predicted",
-            t_trk,
-            M_TO_MM * (p_pred - cmd_at_trk)[:, k],
+            M_TO_MM * (p_pred - cmd_at_trk),
             "predicted",
             COLORS["predicted"],
-        )
-        _series(
-            rec,
-            f"{plots}/force_{axis}_n/simulated_sheet",
-            t_sim,
-            f_sim[:, k],
-            "sheet force (twin)",
-            COLORS["simulated_sheet"],
-        )
-        if run.forces is not None:
-            _series(
-                rec,
-                f"{plots}/force_{axis}_n/measured",
-                run.forces.t_s,
-                run.forces.values[:, k],
-                "measured",
-                COLORS["measured"],
-            )
-            if replay.forces_pred_n is not None:
-                f_pred = _points("replay.forces_pred_n", replay.forces_pred_n, len(run.forces.t_s))
-                _series(
-                    rec,
-                    f"{plots}/force_{axis}_n/predicted",
-                    run.forces.t_s,
-                    f_pred[:, k],
-                    "predicted",
-                    COLORS["predicted"],
-                )
+        ),
+        ("force_{}_n/simulated_sheet", t_sim, f_sim, "sheet force (twin)", COLORS["simulated_sheet"]),
+    ]
+    if run.forces is not None:
+        t_f = run.forces.t_s
+        series.append(("force_{}_n/measured", t_f, run.forces.values, "measured", COLORS["measured"]))
+        if replay.forces_pred_n is not None:
+            f_pred = _points("replay.forces_pred_n", replay.forces_pred_n, len(t_f))
+            series.append(("force_{}_n/predicted", t_f, f_pred, "predicted", COLORS["predicted"]))
+    for k, axis in ((0, "x"), (2, "z")):
+        for entity, t_s, values, label, color in series:
+            _series(rec, f"{plots}/{entity.format(axis)}", t_s, values[:, k], label, color)
 
 
 def _blueprint(prefixes: Sequence[str]) -> rrb.Blueprint:

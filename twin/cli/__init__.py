@@ -23,6 +23,7 @@ COMMANDS: dict[str, str] = {
     "replay": "replay",
     "compensate": "compensate",
     "check": "check",
+    "discrepancy": "discrepancy",
 }
 
 

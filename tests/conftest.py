@@ -1,0 +1,69 @@
+"""Shared, session-scoped fixtures: one nominal twin, one clean lab run and its replay.
+
+A full twin simulation of the groove takes ~0.5 s, so the expensive objects are built once per session and
+shared. Tests must not mutate them (no `set_joint_stiffness` on `twin_nominal.model`, no writes into
+`clean_run_dir`): copy first.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from twin.cli import main
+from twin.lab import nominal_commanded
+from twin.path import groove_path
+from twin.replay import ReplayResult, replay
+from twin.runs import Run, read_run
+from twin.sim import Twin
+
+CLEAN_SEED = 1
+
+
+@pytest.fixture(scope="session")
+def twin_nominal() -> Twin:
+    """The nominal twin (no effects, model stiffness). Shared: do not change its model."""
+    return Twin()
+
+
+@pytest.fixture(scope="session")
+def nominal_path() -> tuple[np.ndarray, np.ndarray]:
+    """The thesis groove as a commanded path: times [s] and sheet-frame tool tip [m]."""
+    return nominal_commanded()
+
+
+@pytest.fixture(scope="session")
+def first_pass_path() -> tuple[np.ndarray, np.ndarray]:
+    """Only the first pass of the groove (142 samples, 70 mm stroke, 1 mm down): a cheap commanded path."""
+    path = groove_path()
+    keep = path.pass_index == 1
+    return path.t_s[keep].copy(), path.p_sheet_m[keep].copy()
+
+
+@pytest.fixture(scope="session")
+def clean_seed() -> int:
+    """Seed of the shared clean lab run."""
+    return CLEAN_SEED
+
+
+@pytest.fixture(scope="session")
+def clean_run_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A lab nominal run without effects, seed 1, written once through `tx200-twin lab`. Read-only."""
+    out = tmp_path_factory.mktemp("lab") / "clean"
+    code = main(["lab", "--scenario", "nominal", "--seed", str(CLEAN_SEED), "--out", str(out)])
+    assert code == 0
+    return out
+
+
+@pytest.fixture(scope="session")
+def clean_run(clean_run_dir: Path) -> Run:
+    """The clean run, read back with `read_run`."""
+    return read_run(clean_run_dir)
+
+
+@pytest.fixture(scope="session")
+def clean_replay(clean_run: Run, twin_nominal: Twin) -> ReplayResult:
+    """The clean run replayed on the nominal twin (its `sim` is the twin's simulation of the groove)."""
+    return replay(clean_run, twin=twin_nominal)

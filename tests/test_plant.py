@@ -1,0 +1,129 @@
+"""Tests of robot-side effects and the augmented model (twin/plant.py)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import pytest
+
+import twin.plant as plant
+from twin.errors import InputError, ModelError
+from twin.kinematics import HOME_Q_RAD
+from twin.path import label_passes
+from twin.plant import (
+    ARM_JOINTS,
+    LOST_MOTION_STIFFNESS_NM_PER_RAD,
+    RobotEffects,
+    build_model,
+    lost_motion_schedule,
+)
+from twin.sim import Twin
+
+
+def tcp_at_home(model: mujoco.MjModel) -> tuple[np.ndarray, np.ndarray]:
+    """Tool-tip position [m] and rotation of the `tcp` site at the home joint angles."""
+    data = mujoco.MjData(model)
+    for name, q in zip(ARM_JOINTS, HOME_Q_RAD, strict=True):
+        data.qpos[model.jnt_qposadr[model.joint(name).id]] = q
+    mujoco.mj_kinematics(model, data)
+    site = data.site("tcp")
+    return site.xpos.copy(), site.xmat.reshape(3, 3).copy()
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"lost_motion_rad": float("nan")}, "lost_motion_rad"),
+        ({"tcp_offset_m": float("inf")}, "tcp_offset_m"),
+        ({"lost_motion_takeup_m": 0.0}, "lost_motion_takeup_m"),
+        ({"force_scale": -0.5}, "force_scale"),
+    ],
+)
+def test_robot_effects_reject_bad_values(kwargs: dict[str, float], match: str) -> None:
+    with pytest.raises(InputError, match=match):
+        RobotEffects(**kwargs)
+
+
+def test_nominal_model_has_six_arm_joints_and_no_contacts() -> None:
+    model = build_model()
+    assert model.nq == 6
+    assert model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_CONTACT
+    robot_only = build_model(scene=False)
+    assert robot_only.nq == 6
+    with pytest.raises(KeyError):
+        robot_only.site("sheet_origin")
+    assert not RobotEffects().has_lost_motion
+
+
+@pytest.mark.parametrize("offset_mm", [1.0, -2.5])
+def test_tcp_offset_moves_the_tool_tip_along_the_tool_axis(offset_mm: float) -> None:
+    p_nominal, R_nominal = tcp_at_home(build_model())
+    p_offset, _ = tcp_at_home(build_model(RobotEffects(tcp_offset_m=1e-3 * offset_mm)))
+    shift = p_offset - p_nominal
+    tool_axis = R_nominal[:, 2]
+    assert np.linalg.norm(shift) == pytest.approx(1e-3 * abs(offset_mm), rel=1e-9)
+    assert shift @ tool_axis == pytest.approx(1e-3 * offset_mm, rel=1e-9)
+    assert shift[2] == pytest.approx(-1e-3 * offset_mm, abs=1e-6)  # the tool points down at home
+
+
+def test_lost_motion_adds_stiff_link_side_hinges_on_joints_2_and_3() -> None:
+    model = build_model(RobotEffects(lost_motion_rad=5e-4))
+    assert model.nq == 8
+    for name in ("joint2", "joint3"):
+        motor, link = model.joint(name), model.joint(f"{name}_lost")
+        assert link.type[0] == mujoco.mjtJoint.mjJNT_HINGE
+        assert int(link.bodyid[0]) == int(motor.bodyid[0])
+        np.testing.assert_allclose(link.axis, motor.axis)
+        np.testing.assert_allclose(link.pos, motor.pos)
+        assert model.jnt_stiffness[link.id] == LOST_MOTION_STIFFNESS_NM_PER_RAD
+    with pytest.raises(KeyError):
+        model.joint("joint1_lost")
+
+
+def test_build_model_raises_model_error_for_a_missing_file(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    missing = tmp_path / "nowhere.xml"
+    monkeypatch.setattr(plant, "scene_xml", lambda: missing)
+    with pytest.raises(ModelError, match=r"nowhere\.xml"):
+        build_model()
+
+
+def test_lost_motion_schedule_flips_with_direction_and_ramps_over_the_takeup() -> None:
+    step = 0.1e-3
+    x = np.concatenate([np.arange(0, 101) * step, (100 - np.arange(1, 101)) * step, np.arange(1, 101) * step])
+    _, direction = label_passes(x)
+    effects = RobotEffects(lost_motion_rad=1e-3, lost_motion_takeup_m=2e-3)
+    sign = np.array([-1.0, 1.0])
+    ref = lost_motion_schedule(x, direction, sign, effects)
+    assert ref.shape == (len(x), 2)
+    # first stroke (+x): fully taken up from the start, link gives way against the travel (-x)
+    np.testing.assert_allclose(ref[:101], np.tile([1e-3, -1e-3], (101, 1)))
+    # back stroke: ramps linearly over 2 mm = 20 samples from the old level to the flipped one
+    back = ref[101:201, 0]
+    travelled = np.arange(1, 101) * step
+    expected = 1e-3 * np.clip(1.0 - 2.0 * travelled / 2e-3, -1.0, 1.0)
+    np.testing.assert_allclose(back, expected, atol=1e-12)
+    assert back[9] == pytest.approx(0.0, abs=1e-12)  # half way through the take-up
+    np.testing.assert_allclose(ref[101:201, 1], -back)
+    # third stroke flips back
+    np.testing.assert_allclose(ref[-50:], np.tile([1e-3, -1e-3], (50, 1)))
+    assert lost_motion_schedule(x, direction, sign, RobotEffects()).max() == 0.0
+
+
+def test_lost_motion_shifts_the_tool_against_the_travel_in_free_space() -> None:
+    x = np.concatenate([np.linspace(-0.02, 0.02, 41), np.linspace(0.02, -0.02, 41)[1:]])
+    p_cmd = np.column_stack([x, np.zeros_like(x), np.full_like(x, 0.005)])  # 5 mm above the sheet: no force
+    t_s = 0.03 * np.arange(len(x))
+    theta = 5e-4
+    twin = Twin(effects=RobotEffects(lost_motion_rad=theta))
+    result = twin.simulate(t_s, p_cmd)
+    assert np.abs(result.f_sheet_n).max() == 0.0
+    jac = twin.kinematics.jacobian(result.q_ik[0])[:3]
+    expected_dx = theta * (abs(jac[0, 1]) + abs(jac[0, 2]))
+    error = result.p_sheet_m - p_cmd
+    forward, backward = error[5:38], error[45:78]
+    np.testing.assert_allclose(forward[:, 0], -expected_dx, rtol=0.05)
+    np.testing.assert_allclose(backward[:, 0], expected_dx, rtol=0.05)

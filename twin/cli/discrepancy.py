@@ -1,0 +1,62 @@
+"""`tx200-twin discrepancy`: find where twin and run disagree, name the missing effect, add it, show the shrink."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from twin.cli._common import add_history_arguments, history_from_arguments
+from twin.csvio import emit_json
+from twin.discrepancy import find_discrepancy, result_summary
+from twin.effects import Effects, read_model_file, write_model_file
+from twin.runs import read_run
+
+HELP = "Find where the twin and a measured run disagree, name the missing effect, add it, show the gap shrink."
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Add the `discrepancy` options."""
+    parser.add_argument("run_dir", type=Path, help="a tx200-twin-run/1 directory (truth.json is never read)")
+    parser.add_argument("--model", type=Path, help="start from this twin model file (effects, K_q)")
+    add_history_arguments(parser)
+    parser.add_argument("--model-out", type=Path, help="write the augmented twin model file here")
+    parser.add_argument("--report", type=Path, help="write figures of the residual before/after into this folder")
+    parser.add_argument("--json", help="write the findings to FILE ('-' for stdout)")
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the workflow."""
+    measured = read_run(args.run_dir)
+    declared, _ = history_from_arguments(args)
+    start, stiffness = read_model_file(args.model) if args.model else (Effects(), None)
+    result = find_discrepancy(measured, start=start, history=declared, joint_stiffness=stiffness)
+    summary = {"run": args.run_dir, **result_summary(result)}
+    protect = [p for p in (args.run_dir, args.model, args.history) if p is not None]
+    if args.model_out is not None:
+        write_model_file(
+            args.model_out, result.effects, joint_stiffness_nm_per_rad=stiffness,
+            note=f"tx200-twin discrepancy on {args.run_dir}: found {list(result.found) or result.verdict}",
+        )
+        summary["model_out"] = args.model_out
+    if args.report is not None:
+        from twin.figures import plot_residual_before_after
+
+        args.report.mkdir(parents=True, exist_ok=True)
+        figure = plot_residual_before_after(
+            args.report / "residual_before_after.png", measured.tracker.t_s,
+            result.residual_before["position"], result.residual_after["position"],
+            label_before="twin as given", label_after=f"twin + {', '.join(result.found) or 'nothing'}",
+        )
+        summary["report"] = [figure]
+    out = sys.stderr if args.json == "-" else sys.stdout
+    before, after = result.gap_before, result.gap_after
+    print(
+        f"discrepancy {args.run_dir}: effect {result.verdict} (found {list(result.found)}); parameters "
+        f"{result.effects.named_parameters()}; position gap {before['position_rms_mm']:.3f} -> "
+        f"{after['position_rms_mm']:.3f} mm, force gap {before['force_rms_n']:.1f} -> {after['force_rms_n']:.1f} N "
+        f"(noise {result.noise['position_mm']:.3f} mm, {result.noise['force_n']:.1f} N per axis)",
+        file=out,
+    )
+    emit_json(args.json, summary, protect=protect)
+    return 0
