@@ -9,6 +9,7 @@ from __future__ import annotations
 import json
 import shutil
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -73,7 +74,9 @@ def test_gain_near_one_half_names_the_forgotten_doubling(gain: float) -> None:
     assert "force scale of 0.5" in text and "half" in text and "symmetry='half'" in text
 
 
-@pytest.mark.parametrize(("gain", "word"), [(0.8, "under-corrects"), (0.3, "under-corrects"), (1.3, "over-corrects")])
+@pytest.mark.parametrize(
+    ("gain", "word"), [(0.8, "under-corrects"), (0.3, "under-corrects"), (1.3, "over-corrects")]
+)
 def test_other_gains_say_under_or_over(gain: float, word: str) -> None:
     text = diagnose_gain(gain)
     assert word in text and "force scale of 0.5" not in text
@@ -84,9 +87,11 @@ def test_other_gains_say_under_or_over(gain: float, word: str) -> None:
 
 def test_right_compensation_has_gain_one_and_small_residual(results: dict[str, CheckResult]) -> None:
     result = results["right"]
-    summary = result.summary()
-    print(f"\nformula with the twin's C, physical force: check gain {result.gain:.4f}, residual "
-          f"{summary['residual_rms_mm']:.4f} mm rms / {summary['residual_max_mm']:.4f} mm max")
+    summary: dict[str, Any] = result.summary()
+    print(
+        f"\nformula with the twin's C, physical force: check gain {result.gain:.4f}, residual "
+        f"{summary['residual_rms_mm']:.4f} mm rms / {summary['residual_max_mm']:.4f} mm max"
+    )
     assert result.gain == pytest.approx(1.0, abs=GAIN_TOLERANCE)
     assert summary["residual_rms_mm"] < 0.08  # 0.054 measured (constant home compliance, tracker noise)
     assert summary["residual_max_mm"] < 0.2
@@ -112,11 +117,14 @@ def test_uncompensated_run_has_gain_zero_and_the_full_deflection_as_residual(
     result = results["none"]
     assert abs(result.gain) < 0.01
     assert "under-corrects" in result.diagnosis
-    assert result.summary()["residual_max_mm"] > 2.0  # the whole deflection (2.2 mm measured)
+    summary: dict[str, Any] = result.summary()
+    assert summary["residual_max_mm"] > 2.0  # the whole deflection (2.2 mm measured)
 
 
-def test_summary_splits_residual_by_pass_and_direction(results: dict[str, CheckResult], runs: dict[str, Run]) -> None:
-    summary = results["right"].summary()
+def test_summary_splits_residual_by_pass_and_direction(
+    results: dict[str, CheckResult], runs: dict[str, Run]
+) -> None:
+    summary: dict[str, Any] = results["right"].summary()
     n = len(runs["right"].tracker.t_s)
     assert summary["samples"] == n == len(results["right"].residual_m)
     assert sorted(summary["per_pass"], key=int) == [str(k) for k in range(1, 11)]
@@ -130,14 +138,16 @@ def test_summary_splits_residual_by_pass_and_direction(results: dict[str, CheckR
 def test_check_without_forces_names_forces_csv(runs: dict[str, Run], ideal: ToolPath) -> None:
     run = runs["right"]
     bare = Run(None, run.meta, run.commanded, run.tracker, None)
-    with pytest.raises(RunFormatError, match="forces.csv"):
+    with pytest.raises(RunFormatError, match=r"forces\.csv"):
         check_run(bare, ideal.t_s, ideal.p_sheet_m)
 
 
 def test_check_with_zero_forces_cannot_estimate_the_compliance(runs: dict[str, Run], ideal: ToolPath) -> None:
     run = runs["right"]
     assert run.forces is not None
-    silent = Run(None, run.meta, run.commanded, run.tracker, Stream(run.forces.t_s, np.zeros_like(run.forces.values)))
+    silent = Run(
+        None, run.meta, run.commanded, run.tracker, Stream(run.forces.t_s, np.zeros_like(run.forces.values))
+    )
     with pytest.raises(IdentificationError, match="loaded force samples"):
         check_run(silent, ideal.t_s, ideal.p_sheet_m)
 
@@ -149,10 +159,12 @@ def test_check_is_registered() -> None:
     assert COMMANDS["check"] == "check"
 
 
-def test_cli_check_passes_a_right_run_with_exit_0(run_dirs: dict[str, Path], capsys: pytest.CaptureFixture[str]) -> None:
+def test_cli_check_passes_a_right_run_with_exit_0(
+    run_dirs: dict[str, Path], capsys: pytest.CaptureFixture[str]
+) -> None:
     assert main(["check", str(run_dirs["right"]), "--json", "-"]) == 0
     out = capsys.readouterr().out
-    payload = json.loads(out[out.index("{"):])
+    payload = json.loads(out[out.index("{") :])
     assert payload["gain"] == pytest.approx(1.0, abs=GAIN_TOLERANCE)
     assert payload["run"] == str(run_dirs["right"]) and payload["residual_rms_mm"] < 0.08
 

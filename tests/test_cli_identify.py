@@ -12,7 +12,7 @@ import pytest
 from twin.cli import COMMANDS
 from twin.cli import identify as command
 from twin.csvio import write_table
-from twin.errors import IdentificationError, InputError, TwinError
+from twin.errors import InputError, TwinError
 from twin.identify import THESIS_KR1_N_PER_MM, THESIS_TABLE_4_2_LOADS_N
 
 
@@ -71,9 +71,9 @@ def test_refuses_to_overwrite_the_loads_file(loads_csv: Path) -> None:
     assert loads_csv.read_text() == before
 
 
-def test_method2_says_it_needs_the_twin(tmp_path: Path) -> None:
-    with pytest.raises(IdentificationError, match="method 2 needs"):
-        command.run(argparse.Namespace(method=2, loads=None, run_dir=tmp_path, json=None))
+def test_method2_without_run_dir_is_an_input_error() -> None:
+    with pytest.raises(InputError, match="RUN_DIR"):
+        command.run(argparse.Namespace(method=2, loads=None, run_dir=None, json=None))
 
 
 def test_method1_without_loads_is_an_input_error() -> None:

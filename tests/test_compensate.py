@@ -82,7 +82,7 @@ def test_singular_stiffness_raises_input_error(k: np.ndarray) -> None:
 
 @pytest.mark.parametrize("k", [np.eye(4), np.eye(3)[:2], np.array([[1e6, np.nan], [0.0, 1e6]])])
 def test_stiffness_of_wrong_shape_or_nan_raises_input_error(k: np.ndarray) -> None:
-    with pytest.raises(InputError, match="2x2 .* or 3x3"):
+    with pytest.raises(InputError, match=r"2x2 .* or 3x3"):
         compliance_from_stiffness(k)
 
 
@@ -129,8 +129,10 @@ def test_twin_compensation_converges_below_tolerance(short_compensation: Compens
     assert np.max(np.abs(comp.predicted_residual_m)) < TWIN_TOL_M
     assert len(comp.history_m) == comp.iterations
     assert comp.history_m[-1] < 1e-3 * comp.history_m[0]  # from ~mm to below 2 um
-    print(f"\nfirst pass: twin iterations {comp.iterations}, rms residual per iteration [mm] "
-          f"{[round(1e3 * h, 5) for h in comp.history_m]}")
+    print(
+        f"\nfirst pass: twin iterations {comp.iterations}, rms residual per iteration [mm] "
+        f"{[round(1e3 * h, 5) for h in comp.history_m]}"
+    )
 
 
 def test_twin_command_makes_the_twin_tip_follow_the_ideal_path(
@@ -154,5 +156,5 @@ def test_twin_compensation_gain_is_near_one_with_the_twin_compliance(
 
 
 def test_twin_compensation_raises_when_iterations_run_out(twin: Twin, short_path: ToolPath) -> None:
-    with pytest.raises(CompensationError, match="did not reach 0.002 mm in 2 iterations"):
+    with pytest.raises(CompensationError, match=r"did not reach 0\.002 mm in 2 iterations"):
         compensate_twin(short_path.t_s, short_path.p_sheet_m, twin, max_iter=2)

@@ -15,6 +15,7 @@ by is below the reference), residual 0.72 mm rms.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import pytest
@@ -106,10 +107,12 @@ def test_twin_pipeline_has_gain_one(pipeline: Pipeline) -> None:
 def test_lab_runs_of_both_compensations_meet_the_ideal_path(pipeline: Pipeline) -> None:
     twin = lab_check(pipeline.twin, pipeline.path, seed=2)
     formula = lab_check(pipeline.formula, pipeline.path, seed=2)
-    s_twin, s_formula = twin.summary(), formula.summary()
+    s_twin: dict[str, Any] = twin.summary()
+    s_formula: dict[str, Any] = formula.summary()
     print(
-        f"\nlab residual: formula {s_formula['residual_rms_mm']:.4f} mm rms / {s_formula['residual_max_mm']:.4f}"
-        f" mm max (check gain {formula.gain:.4f}); twin {s_twin['residual_rms_mm']:.4f} mm rms / "
+        f"\nlab residual: formula {s_formula['residual_rms_mm']:.4f} mm rms / "
+        f"{s_formula['residual_max_mm']:.4f} mm max (check gain {formula.gain:.4f}); "
+        f"twin {s_twin['residual_rms_mm']:.4f} mm rms / "
         f"{s_twin['residual_max_mm']:.4f} mm max (check gain {twin.gain:.4f})"
     )
     assert s_twin["residual_rms_mm"] <= TWIN_RMS_MM
@@ -135,7 +138,9 @@ def test_half_file_declared_full_carries_half_the_physical_force(
     np.testing.assert_allclose(half_as_full.f_sheet_n[:, [0, 2]], 0.5 * pipeline.history.f_sheet_n[:, [0, 2]])
 
 
-def test_formula_with_the_mistaken_history_has_gain_one_half(pipeline: Pipeline, half_as_full: ForceHistory) -> None:
+def test_formula_with_the_mistaken_history_has_gain_one_half(
+    pipeline: Pipeline, half_as_full: ForceHistory
+) -> None:
     f_half = SheetForceField(half_as_full).rigid_forces(pipeline.path)
     comp = compensate_formula(pipeline.path.t_s, pipeline.path.p_sheet_m, f_half, pipeline.c_method1_m_per_n)
     assert gain_of(comp, pipeline.f_reference_n, pipeline.c_method1_m_per_n) == pytest.approx(0.5, abs=0.05)
@@ -153,7 +158,7 @@ def test_check_catches_the_mistake_on_the_lab_run(
     pipeline: Pipeline, mistaken_twin_compensation: Compensation
 ) -> None:
     result = lab_check(mistaken_twin_compensation, pipeline.path, seed=3)
-    summary = result.summary()
+    summary: dict[str, Any] = result.summary()
     print(
         f"\nmistaken run: check gain {result.gain:.4f}, residual {summary['residual_rms_mm']:.3f} mm rms; "
         f"{result.diagnosis}"

@@ -2,7 +2,7 @@
 `lab --scenario loadtest` -> `identify --method 1 --loads`) and Method 2 from a lab nominal run
 (twin/identify_run.py; its CLI is in tests/test_cli_identify_method2.py).
 
-The reference is the twin's exact stiffness at `home`: K = inv(C) with C = `Twin().kinematics.compliance(q_home)`.
+The reference is the twin's exact stiffness at `home`: K = inv(C), C = `Twin().kinematics.compliance(q_home)`.
 
 Measured (`pytest -s` prints them):
 - Method 1, noise-free load test: K_R off the twin's K by 0.22 % (the load test is a nonlinear equilibrium,
@@ -24,8 +24,14 @@ import pytest
 
 from twin.cli import main
 from twin.csvio import write_table
-from twin.errors import IdentificationError, RunFormatError
-from twin.identify import LOAD_CASE_COLUMNS, THESIS_KR1_N_PER_MM, THESIS_TABLE_4_2_LOADS_N, fit_kr_load_cases
+from twin.errors import IdentificationError, RunFormatError, UnitsError
+from twin.identify import (
+    LOAD_CASE_COLUMNS,
+    THESIS_KR1_N_PER_MM,
+    THESIS_TABLE_4_2_LOADS_N,
+    fit_kr_load_cases,
+    load_cases_csv,
+)
 from twin.identify_run import Method2Result, method2
 from twin.lab import LabSettings, load_test, nominal_commanded, run_lab
 from twin.runs import Run, Stream
@@ -82,7 +88,8 @@ def test_method1_with_tracker_noise_moves_kr_by_a_bounded_amount(c_twin: np.ndar
         k_rel.append(rel(k, k_twin))
         c_rel.append(rel(np.linalg.inv(k), c_twin))
     print(
-        f"\nMethod 1 with tracker noise, seeds 1-20: K_R moves {100 * min(k_rel):.1f}-{100 * max(k_rel):.1f} % "
+        f"\nMethod 1 with tracker noise, seeds 1-20: K_R moves "
+        f"{100 * min(k_rel):.1f}-{100 * max(k_rel):.1f} % "
         f"(median {100 * np.median(k_rel):.1f} %, seed 1 {100 * k_rel[0]:.1f} %), C moves "
         f"{100 * min(c_rel):.1f}-{100 * max(c_rel):.1f} % (seed 1 {100 * c_rel[0]:.1f} %)"
     )
@@ -97,7 +104,7 @@ def test_method1_load_test_is_reproducible_per_seed() -> None:
     assert not np.array_equal(kr_from_load_test(7), kr_from_load_test(8))
 
 
-# --- Method 1 through the CLI ---------------------------------------------------------------------------------
+# --- Method 1 through the CLI -----------------------------------------------------------------------------
 
 
 def write_loads(path: Path, f_n: np.ndarray, d_mm: np.ndarray) -> Path:
@@ -112,11 +119,15 @@ def identify_json(loads: Path, capsys: pytest.CaptureFixture[str]) -> dict[str, 
     return payload
 
 
-def test_cli_method1_returns_eq_4_17_from_table_4_2_loads(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_cli_method1_returns_eq_4_17_from_table_4_2_loads(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     d_mm = np.linalg.solve(THESIS_KR1_N_PER_MM, THESIS_TABLE_4_2_LOADS_N.T).T  # K_R(1)-implied deflections
     loads = write_loads(tmp_path / "table_4_2.csv", THESIS_TABLE_4_2_LOADS_N, d_mm)
     k = np.asarray(identify_json(loads, capsys)["k_r_n_per_mm"])
-    np.testing.assert_allclose(k, THESIS_KR1_N_PER_MM, rtol=1e-3, atol=1e-3 * np.max(np.abs(THESIS_KR1_N_PER_MM)))
+    np.testing.assert_allclose(
+        k, THESIS_KR1_N_PER_MM, rtol=1e-3, atol=1e-3 * np.max(np.abs(THESIS_KR1_N_PER_MM))
+    )
 
 
 def test_cli_lab_load_test_then_method1_gives_the_in_process_fit(
@@ -142,10 +153,14 @@ def test_cli_method1_metres_in_the_loads_file_is_a_units_error(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     d_mm = np.linalg.solve(THESIS_KR1_N_PER_MM, THESIS_TABLE_4_2_LOADS_N.T).T
-    loads = write_loads(tmp_path / "metres.csv", THESIS_TABLE_4_2_LOADS_N, 1e-3 * d_mm)  # metres in _mm columns
+    loads = write_loads(
+        tmp_path / "metres.csv", THESIS_TABLE_4_2_LOADS_N, 1e-3 * d_mm
+    )  # metres in _mm columns
     assert main(["identify", "--method", "1", "--loads", str(loads)]) == 2
     err = capsys.readouterr().err
     assert str(loads) in err and "metres" in err and "multiply by 1000" in err
+    with pytest.raises(UnitsError):
+        load_cases_csv(loads)
 
 
 # --- Method 2: a lab nominal run ----------------------------------------------------------------------------
@@ -155,12 +170,17 @@ def test_method2_measured_forces_recover_the_twin_xz_compliance_within_2_percent
     m2: Method2Result, c_twin: np.ndarray
 ) -> None:
     error = rel(m2.c_measured_m_per_n, c_twin[XZ])
-    print(f"\nMethod 2 (measured forces): C off the twin's x-z block by {100 * error:.2f} % ({m2.samples} samples)")
+    print(
+        f"\nMethod 2 (measured forces): C off the twin's x-z block by {100 * error:.2f} % "
+        f"({m2.samples} samples)"
+    )
     assert error < 0.02
     assert m2.samples > 500
 
 
-def test_method2_thesis_variant_with_ideal_forces_is_biased_stiff(m2: Method2Result, c_twin: np.ndarray) -> None:
+def test_method2_thesis_variant_with_ideal_forces_is_biased_stiff(
+    m2: Method2Result, c_twin: np.ndarray
+) -> None:
     error = rel(m2.c_measured_m_per_n, c_twin[XZ])
     bias = rel(m2.c_ideal_m_per_n, c_twin[XZ])
     print(f"\nMethod 2 (ideal forces, thesis): C off the twin's x-z block by {100 * bias:.1f} %")
@@ -171,9 +191,14 @@ def test_method2_thesis_variant_with_ideal_forces_is_biased_stiff(m2: Method2Res
     assert np.all(np.diag(m2.c_ideal_m_per_n) < 0.9 * np.diag(c_twin[XZ]))
 
 
-def test_method2_reports_the_force_drop_and_different_stiffnesses(m2: Method2Result, c_twin: np.ndarray) -> None:
+def test_method2_reports_the_force_drop_and_different_stiffnesses(
+    m2: Method2Result, c_twin: np.ndarray
+) -> None:
     k_diff = rel(m2.k_r_ideal_n_per_m, m2.k_r_measured_n_per_m)
-    print(f"\nforce drop {100 * m2.force_drop:.1f} % rms; K_R ideal vs measured forces differ by {100 * k_diff:.1f} %")
+    print(
+        f"\nforce drop {100 * m2.force_drop:.1f} % rms; "
+        f"K_R ideal vs measured forces differ by {100 * k_diff:.1f} %"
+    )
     assert 0.15 < m2.force_drop < 0.30  # 22 % measured
     assert k_diff > 0.1  # 23 % measured
     # K from measured forces regresses force on noisy deflections (errors in variables) but stays near inv(C)
@@ -182,7 +207,7 @@ def test_method2_reports_the_force_drop_and_different_stiffnesses(m2: Method2Res
 
 def test_method2_without_forces_names_forces_csv(nominal_run: Run) -> None:
     bare = Run(None, nominal_run.meta, nominal_run.commanded, nominal_run.tracker, None)
-    with pytest.raises(RunFormatError, match="forces.csv"):
+    with pytest.raises(RunFormatError, match=r"forces\.csv"):
         method2(bare)
 
 

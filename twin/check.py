@@ -57,7 +57,8 @@ class CheckResult:
             "residual_rms_xyz_mm": (1e3 * np.sqrt(np.mean(self.residual_m**2, axis=0))).tolist(),
             "per_pass": {str(k): stats(self.pass_index == k) for k in np.unique(self.pass_index)},
             "per_direction": {
-                ("forward" if d > 0 else "backward"): stats(self.direction == d) for d in np.unique(self.direction)
+                ("forward" if d > 0 else "backward"): stats(self.direction == d)
+                for d in np.unique(self.direction)
             },
             "gain": self.gain,
             "compliance_xz_mm_per_kn": (1e6 * self.compliance_m_per_n).tolist(),
@@ -68,7 +69,9 @@ class CheckResult:
 def diagnose_gain(gain: float) -> str:
     """Name the likely cause of a compensation gain."""
     if abs(gain - 1.0) <= GAIN_TOLERANCE:
-        return f"gain {gain:.3f} is within 1 +/- {GAIN_TOLERANCE}: the compensation used the right force scale"
+        return (
+            f"gain {gain:.3f} is within 1 +/- {GAIN_TOLERANCE}: the compensation used the right force scale"
+        )
     if abs(gain - 0.5) <= HALF_FORCE_WINDOW:
         return (
             f"gain {gain:.3f} ~ 0.5: the compensation used half the physical force (force scale of 0.5), the "

@@ -28,7 +28,7 @@ from twin.identify import compensation_gain
 from twin.sim import Twin
 
 TWIN_TOL_M = 2e-6  # 1/10 of the tracker noise
-TWIN_MAX_ITER = 12
+TWIN_MAX_ITER = 20
 
 
 @dataclass(frozen=True)
@@ -77,8 +77,9 @@ def compliance_from_stiffness(k_r_n_per_m: np.ndarray) -> np.ndarray:
     return c
 
 
-def compensate_formula(t_s: np.ndarray, p_ideal_sheet_m: np.ndarray, f_ideal_n: np.ndarray, c_r_m_per_n: np.ndarray
-                       ) -> Compensation:
+def compensate_formula(
+    t_s: np.ndarray, p_ideal_sheet_m: np.ndarray, f_ideal_n: np.ndarray, c_r_m_per_n: np.ndarray
+) -> Compensation:
     """Eq. 4.28: U_ALG = U_ID - C_R f_ID (forces of the sheet on the tool).
 
     Args:
@@ -96,8 +97,12 @@ def compensate_formula(t_s: np.ndarray, p_ideal_sheet_m: np.ndarray, f_ideal_n: 
 
 
 def compensate_twin(
-    t_s: np.ndarray, p_ideal_sheet_m: np.ndarray, twin: Twin, *, tol_m: float = TWIN_TOL_M,
-    max_iter: int = TWIN_MAX_ITER
+    t_s: np.ndarray,
+    p_ideal_sheet_m: np.ndarray,
+    twin: Twin,
+    *,
+    tol_m: float = TWIN_TOL_M,
+    max_iter: int = TWIN_MAX_ITER,
 ) -> Compensation:
     """Iterate the command with the twin until its simulated tool tip follows U_ID.
 
@@ -121,7 +126,9 @@ def compensate_twin(
         history.append(float(np.sqrt(np.mean(np.sum(residual**2, axis=1)))))
         worst = float(np.max(np.abs(residual)))
         if worst < tol_m:
-            return Compensation("twin", np.asarray(t_s, dtype=float), p_id, cmd, iteration, residual, tuple(history))
+            return Compensation(
+                "twin", np.asarray(t_s, dtype=float), p_id, cmd, iteration, residual, tuple(history)
+            )
         if iteration > 2 and history[-1] > 2.0 * min(history):
             raise CompensationError(f"twin compensation diverges: rms residual {history} m")
         # local Newton step per sample: the tip moves by tip_gain @ d_cmd when the command moves by d_cmd

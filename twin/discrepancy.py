@@ -22,14 +22,14 @@ import numpy as np
 
 from twin.effects import EFFECTS, Effects
 from twin.forces import ForceHistory
+from twin.measure import predict_forces, predict_tracker
 from twin.replay import replay_metrics
 from twin.residuals import ResidualModel
 from twin.runs import Run
-from twin.measure import predict_forces, predict_tracker
 
 CHI2_MARGIN = 0.15  # noise estimates are good to a few per cent; below this the residual is noise
 EXPLAINED_FRACTION = 0.6  # of the excess over noise, by all accepted effects together
-ROUND_FRACTION = 0.3  # of what is left, by the effect accepted in one round
+ROUND_FRACTION = 0.05  # of what is left, by the effect accepted in one round (then refitted jointly)
 MAX_EFFECTS = 3
 GN_ITERATIONS = 4
 
@@ -66,9 +66,15 @@ class CandidateFit:
     def summary(self) -> dict[str, Any]:
         """JSON-ready."""
         unit = EFFECTS[self.name].unit
-        return {"name": self.name, "score": self.score, "explained_fraction": self.explained,
-                "parameters": Effects({self.name: self.value}).named_parameters().get(self.name, {}),
-                "value": self.value, "unit": unit, "heldout_sse": self.heldout_sse}
+        return {
+            "name": self.name,
+            "score": self.score,
+            "explained_fraction": self.explained,
+            "parameters": Effects({self.name: self.value}).named_parameters().get(self.name, {}),
+            "value": self.value,
+            "unit": unit,
+            "heldout_sse": self.heldout_sse,
+        }
 
 
 @dataclass(frozen=True)
@@ -92,7 +98,11 @@ class DiscrepancyResult:
 
 def reduced_chi2(model: ResidualModel, streams: dict[str, np.ndarray]) -> dict[str, float]:
     """Reduced chi-square of each residual stream against the estimated noise."""
-    sigma = {"position": model.noise.position_m, "force": model.noise.force_n, "profile": model.noise.profile_m}
+    sigma = {
+        "position": model.noise.position_m,
+        "force": model.noise.force_n,
+        "profile": model.noise.profile_m,
+    }
     return {name: float(np.mean((values / sigma[name]) ** 2)) for name, values in streams.items()}
 
 
@@ -162,7 +172,9 @@ def _locate(model: ResidualModel, streams: dict[str, np.ndarray]) -> dict[str, A
         return 1e3 * float(np.sqrt(np.mean(norm[mask] ** 2))) if np.any(mask) else float("nan")
 
     return {
-        "position_rms_mm_per_pass": {str(k): rms(model.tracker_pass == k) for k in np.unique(model.tracker_pass)},
+        "position_rms_mm_per_pass": {
+            str(k): rms(model.tracker_pass == k) for k in np.unique(model.tracker_pass)
+        },
         "position_rms_mm_forward": rms(velocity > 0),
         "position_rms_mm_backward": rms(velocity < 0),
         "position_rms_mm_near_stroke_ends": rms(near_end),
@@ -179,7 +191,10 @@ def _gap(run: Run, model: ResidualModel, effects: Effects) -> dict[str, float]:
     tracker = predict_tracker(sim, run.tracker.t_s, effects)
     forces = predict_forces(twin, sim, run.forces.t_s, effects) if run.forces is not None else None
     metrics = replay_metrics(run, tracker, forces)
-    gap = {"position_rms_mm": metrics["position_rms_mm"], "force_rms_n": metrics.get("force_rms_n", float("nan"))}
+    gap = {
+        "position_rms_mm": metrics["position_rms_mm"],
+        "force_rms_n": metrics.get("force_rms_n", float("nan")),
+    }
     if run.part_profile is not None:
         gap["profile_rms_mm"] = 1e3 * float(np.sqrt(np.mean(model.streams(effects)["profile"] ** 2)))
     return gap
@@ -220,12 +235,14 @@ def find_discrepancy(
     while is_significant(chi2, counts) and len(found) < MAX_EFFECTS:
         r_base = model.vector(effects)
         fits = tuple(
-            sorted((_fit_candidate(model, effects, n, r_base) for n in names if n not in found),
-                   key=lambda c: -c.score)
+            sorted(
+                (_fit_candidate(model, effects, n, r_base) for n in names if n not in found),
+                key=lambda c: -c.score,
+            )
         )
         rounds.append(fits)
         best = fits[0]
-        if best.explained < ROUND_FRACTION:
+        if best.explained < ROUND_FRACTION or best.score <= 0.0:
             break
         runner_up = max(fits[1].score, 0.0) if len(fits) > 1 else 0.0
         if not found:

@@ -48,7 +48,10 @@ EFFECTS: dict[str, EffectSpec] = {
     spec.name: spec
     for spec in (
         EffectSpec(
-            "direction_dependent_compliance", "mrad", 0.0, "lost motion of joints 2-3 that flips with travel direction"
+            "direction_dependent_compliance",
+            "mrad",
+            0.0,
+            "lost motion of joints 2-3 that flips with travel direction",
         ),
         EffectSpec("force_scale", "-", 1.0, "real sheet force = k x the FE-fitted force field"),
         EffectSpec("stream_time_offset", "s", 0.0, "force-sensor clock ahead of the tracker clock by tau"),
@@ -84,7 +87,9 @@ class Effects:
                 raise InputError(f"unknown effect {name!r}; valid effects: {sorted(EFFECTS)}")
             number = float(value)
             if not np.isfinite(number):
-                raise InputError(f"effect {name} = {value!r}, expected a finite number [{EFFECTS[name].unit}]")
+                raise InputError(
+                    f"effect {name} = {value!r}, expected a finite number [{EFFECTS[name].unit}]"
+                )
             if name in ("force_scale", "sheet_springback") and number < 0:
                 raise InputError(f"effect {name} = {number!r}, expected >= 0")
             if name == "sheet_springback" and number >= 1:
@@ -157,7 +162,11 @@ def parse_effect_args(items: list[str] | None) -> Effects:
 
 
 def write_model_file(
-    path: str | Path, effects: Effects, *, joint_stiffness_nm_per_rad: np.ndarray | None = None, note: str = ""
+    path: str | Path,
+    effects: Effects,
+    *,
+    joint_stiffness_nm_per_rad: np.ndarray | None = None,
+    note: str = "",
 ) -> Path:
     """Write a twin model file (JSON) holding named effects and optionally K_q."""
     payload: dict[str, Any] = {

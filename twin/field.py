@@ -196,9 +196,14 @@ class SheetForceField:
         i1 = min(self._n_grid, math.floor((x + r - self._x0) / self._dx) + 1)
         if i1 <= i0:
             return
-        dxs = self.x_grid_m[i0:i1] - x
-        cap = z + r - np.sqrt(np.maximum(r * r - dxs * dxs, 0.0))
-        np.minimum(self._formed[i0:i1], cap, out=self._formed[i0:i1])
+        cap = self.x_grid_m[i0:i1] - x  # in place below: z + r - sqrt(max(r² - dx², 0)), ~2x faster
+        np.multiply(cap, cap, out=cap)
+        np.subtract(r * r, cap, out=cap)
+        np.maximum(cap, 0.0, out=cap)
+        np.sqrt(cap, out=cap)
+        np.subtract(z + r, cap, out=cap)
+        formed = self._formed[i0:i1]
+        np.minimum(formed, cap, out=formed)
 
     def advance(self, p_sheet_m: np.ndarray, pass_index: int | None = None) -> None:
         """Commit: the tool tip passed through `p_sheet_m`; the formed profile under the sphere is updated.

@@ -89,6 +89,86 @@ def _rotation_log(R: np.ndarray) -> np.ndarray:
     return w * (angle / s)
 
 
+def _quat_mat(quat: np.ndarray) -> np.ndarray:
+    """Rotation matrix of a MuJoCo (w, x, y, z) quaternion."""
+    R = np.zeros(9)
+    mujoco.mju_quat2Mat(R, np.asarray(quat, dtype=float))
+    return R.reshape(3, 3)
+
+
+class _ChainFK:
+    """Vectorised forward kinematics of the site `tcp` for a chain of hinge joints (numpy, many q at once).
+
+    Same composition as `mj_kinematics` (body offset, then each hinge about its anchor), with rotation
+    matrices instead of quaternions: agrees with MuJoCo to rounding (~1e-16 m). `supported` is False when
+    the chain to the site holds a joint other than the six arm hinges; callers then use MuJoCo per sample.
+    """
+
+    def __init__(self, model: mujoco.MjModel, site_id: int, qadr: np.ndarray) -> None:
+        m = model
+        chain = []
+        body = int(m.site_bodyid[site_id])
+        while body != 0:
+            chain.append(body)
+            body = int(m.body_parentid[body])
+        self.steps: list[tuple[np.ndarray, np.ndarray, list[tuple[int, np.ndarray, np.ndarray, float]]]] = []
+        arm = {int(a): i for i, a in enumerate(qadr)}
+        self.supported = True
+        for b in reversed(chain):
+            joints = []
+            for j in range(int(m.body_jntadr[b]), int(m.body_jntadr[b]) + int(m.body_jntnum[b])):
+                adr = int(m.jnt_qposadr[j])
+                if m.jnt_type[j] != mujoco.mjtJoint.mjJNT_HINGE or adr not in arm:
+                    self.supported = False
+                axis = m.jnt_axis[j] / np.linalg.norm(m.jnt_axis[j])
+                joints.append((arm.get(adr, -1), axis.copy(), m.jnt_pos[j].copy(), float(m.qpos0[adr])))
+            self.steps.append((m.body_pos[b].copy(), _quat_mat(m.body_quat[b]), joints))
+        self.site_pos = m.site_pos[site_id].copy()
+        self.site_R = _quat_mat(m.site_quat[site_id])
+
+    def __call__(self, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Site position (n, 3) [m], site orientation (n, 3, 3) and Jacobian (n, 6, 6) [m/rad; 1] at Q (n, 6)."""
+        n = Q.shape[0]
+
+        def rot(R: np.ndarray, C: np.ndarray) -> np.ndarray:  # R[i] @ C for every i, one BLAS call
+            return (R.reshape(-1, 3) @ C).reshape(R.shape[0], 3, C.shape[1] if C.ndim == 2 else 1)
+
+        pos = np.zeros((n, 3))
+        R = np.broadcast_to(np.eye(3), (n, 3, 3)).copy()
+        axes, anchors, cols = [], [], []
+        for body_pos, body_R, joints in self.steps:
+            pos = pos + rot(R, body_pos[:, None])[:, :, 0]
+            R = rot(R, body_R)
+            for col, axis, jpos, q0 in joints:
+                anchor = pos + rot(R, jpos[:, None])[:, :, 0]
+                axes.append(rot(R, axis[:, None])[:, :, 0])
+                anchors.append(anchor)
+                cols.append(col)
+                theta = Q[:, col] - q0
+                K = np.array([[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]], [-axis[1], axis[0], 0.0]])
+                # R Rot(axis, theta) = R + sin(theta) R K + (1 - cos(theta)) R K^2 (Rodrigues)
+                R = R + np.sin(theta)[:, None, None] * rot(R, K) + (1.0 - np.cos(theta))[:, None, None] * rot(R, K @ K)
+                pos = anchor - rot(R, jpos[:, None])[:, :, 0]
+        p_site = pos + rot(R, self.site_pos[:, None])[:, :, 0]
+        J = np.zeros((n, 6, 6))
+        for col, axis_w, anchor in zip(cols, axes, anchors, strict=True):
+            J[:, :3, col] += np.cross(axis_w, p_site - anchor)
+            J[:, 3:, col] += axis_w
+        return p_site, rot(R, self.site_R), J
+
+
+def _rotation_log_batch(M: np.ndarray) -> np.ndarray | None:
+    """`_rotation_log` of many rotations (n, 3, 3); None if one is near pi (use the scalar one there)."""
+    w = 0.5 * np.stack([M[:, 2, 1] - M[:, 1, 2], M[:, 0, 2] - M[:, 2, 0], M[:, 1, 0] - M[:, 0, 1]], axis=1)
+    s = np.sqrt(np.sum(w * w, axis=1))
+    c = 0.5 * (M[:, 0, 0] + M[:, 1, 1] + M[:, 2, 2] - 1.0)
+    if np.any(c < -0.99):
+        return None
+    angle = np.arctan2(s, c)
+    factor = np.where(s < 1e-12, 1.0, angle / np.where(s < 1e-12, 1.0, s))
+    return w * factor[:, None]
+
+
 class Kinematics:
     """Forward/inverse kinematics and compliance on the MuJoCo model (scene or robot-only).
 
@@ -116,6 +196,7 @@ class Kinematics:
         self._jacp = np.zeros((3, m.nv))
         self._jacr = np.zeros((3, m.nv))
         self._damping = 1e-10 * np.eye(6)
+        self._chain = _ChainFK(m, self._tcp_id, self._qadr)
         self.q_home = HOME_Q_RAD.copy()
         _p_home, R_home = self.fk(self.q_home)
         x = np.array([R_home[0, 0], R_home[1, 0], 0.0])
@@ -261,14 +342,19 @@ class Kinematics:
         if not np.all(finite):
             bad = P[int(np.argmin(finite))]
             raise InputError(f"p_base_tcp must be 3 finite coordinates [m], got {bad}")
+        q0 = self.q_home.copy() if q_seed is None else self._check_q(q_seed).copy()
+        Q = self._ik_batch(P, q0)
+        return Q if Q is not None else self._ik_sequential(P, q0)
+
+    def _ik_sequential(self, P: np.ndarray, q: np.ndarray) -> np.ndarray:
+        """`ik` point by point, each warm-started from a first-order prediction off the previous solution."""
         Q = np.empty((P.shape[0], 6))
-        q = self.q_home.copy() if q_seed is None else self._check_q(q_seed).copy()
         twist = np.zeros(6)
         J = np.eye(6)
         for i, p in enumerate(P):
             if i > 0:
-                # first-order prediction q + J^-1 [dp; 0] (the orientation is fixed): one Newton step is
-                # then enough; a prediction beyond the damped step limit falls back to the plain warm start
+                # q + J^-1 [dp; 0] (the orientation is fixed): one Newton step is then enough; a prediction
+                # beyond the damped step limit falls back to the plain warm start
                 twist[:3] = p - P[i - 1]
                 _, _, dq, info = dgesv(J, twist)
                 if info == 0 and float(abs(dq).max()) <= 0.2:
@@ -276,6 +362,62 @@ class Kinematics:
             q, J = self._ik(p, q, 60)
             Q[i] = q
         return Q
+
+    def _ik_batch(self, P: np.ndarray, q_seed: np.ndarray, max_iter: int = 30) -> np.ndarray | None:
+        """The same damped Newton for all points at once (numpy kinematics), seeded from `q_seed`.
+
+        Returns None, so that the caller solves point by point (which also raises the precise error), when
+        the chain is not supported, a point does not converge, leaves the joint ranges or is near-singular,
+        or consecutive solutions jump by more than 0.1 rad (a different IK branch than the warm-started one).
+        """
+        n = P.shape[0]
+        if not self._chain.supported or n < 2:
+            return None
+        Q = np.broadcast_to(q_seed, (n, 6)).copy()
+        J_final = np.empty((n, 6, 6))
+        R_tT = self.R_tool_down.T
+        active = np.arange(n)
+        for _ in range(max_iter):
+            p, R, J = self._chain(Q[active])
+            # R_t R^T = (R R_t^T)^T, one BLAS call for all points
+            M = (R.reshape(-1, 3) @ R_tT).reshape(-1, 3, 3).transpose(0, 2, 1)
+            log = _rotation_log_batch(M)
+            if log is None:
+                return None
+            e = np.concatenate([P[active] - p, log], axis=1)
+            converged = (np.sum(e[:, :3] ** 2, axis=1) < 1e-24) & (np.sum(e[:, 3:] ** 2, axis=1) < 1e-24)
+            J_final[active[converged]] = J[converged]
+            keep = ~converged
+            active, e, J = active[keep], e[keep], J[keep]
+            if active.size == 0:
+                break
+            Jt = J.transpose(0, 2, 1)
+            dq = np.linalg.solve(Jt @ J + self._damping, (Jt @ e[:, :, None]))[:, :, 0]
+            step = np.max(np.abs(dq), axis=1)
+            dq *= np.where(step > 0.2, 0.2 / np.maximum(step, 1e-300), 1.0)[:, None]
+            Q[active] += dq
+        if active.size:
+            return None
+        if np.any((self.q_min - 1e-12 > Q) | (self.q_max + 1e-12 < Q)):
+            return None
+        if np.any(np.abs(np.linalg.det(J_final)) < self.det_j_min):
+            return None
+        if np.max(np.abs(np.diff(Q, axis=0))) > 0.1:
+            return None
+        return Q
+
+    def jacobians(self, Q: np.ndarray) -> np.ndarray:
+        """`jacobian` at many configurations, (n, 6, 6) [m/rad; 1] (vectorised when the chain allows).
+
+        Args:
+            Q: Joint angles (n, 6) [rad].
+        """
+        arr = np.asarray(Q, dtype=float)
+        if arr.ndim != 2 or arr.shape[1] != 6 or not np.all(np.isfinite(arr)):
+            raise InputError(f"Q must be finite joint angles of shape (n, 6) [rad], got shape {arr.shape}")
+        if self._chain.supported:
+            return self._chain(arr)[2]
+        return np.array([self.jacobian(q) for q in arr])
 
 
 @dataclass(frozen=True)

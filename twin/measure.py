@@ -36,7 +36,9 @@ def predict_forces(twin: Twin, result: SimResult, t_s: np.ndarray, effects: Effe
 
     With `stream_time_offset` tau the sample stamped t was measured at t - tau (clamped to the run).
     """
-    t_true = np.clip(np.asarray(t_s, dtype=float) - effects.stream_time_offset_s, result.t_s[0], result.t_s[-1])
+    t_true = np.clip(
+        np.asarray(t_s, dtype=float) - effects.stream_time_offset_s, result.t_s[0], result.t_s[-1]
+    )
     return twin.sensor_forces(result, t_true)
 
 

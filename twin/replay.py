@@ -31,7 +31,9 @@ class ReplayResult:
     metrics: dict[str, float]
 
 
-def replay_metrics(run: Run, tracker_pred_m: np.ndarray, forces_pred_n: np.ndarray | None) -> dict[str, float]:
+def replay_metrics(
+    run: Run, tracker_pred_m: np.ndarray, forces_pred_n: np.ndarray | None
+) -> dict[str, float]:
     """Gap between measurement and prediction.
 
     Keys: `position_rms_mm` and `position_max_mm` (norm of measured minus predicted tool tip),

@@ -41,7 +41,11 @@ class Noise:
 
     def summary(self) -> dict[str, float]:
         """JSON keys with units: `position_mm`, `force_n`, `profile_mm` (per axis sigma)."""
-        return {"position_mm": 1e3 * self.position_m, "force_n": self.force_n, "profile_mm": 1e3 * self.profile_m}
+        return {
+            "position_mm": 1e3 * self.position_m,
+            "force_n": self.force_n,
+            "profile_mm": 1e3 * self.profile_m,
+        }
 
 
 def estimate_noise(run: Run) -> Noise:
@@ -50,8 +54,11 @@ def estimate_noise(run: Run) -> Noise:
     force = second_difference_noise(run.forces.values) if run.forces is not None else float("nan")
     profile = second_difference_noise(run.part_profile[1]) if run.part_profile is not None else float("nan")
     floor = 1e-6  # 1 um: below any real tracker
-    return Noise(max(position, floor), max(force, 0.1) if np.isfinite(force) else force, max(profile, floor)
-                 if np.isfinite(profile) else profile)
+    return Noise(
+        max(position, floor),
+        max(force, 0.1) if np.isfinite(force) else force,
+        max(profile, floor) if np.isfinite(profile) else profile,
+    )
 
 
 class ResidualModel:
@@ -66,8 +73,9 @@ class ResidualModel:
         joint_stiffness: K_q override [N·m/rad].
     """
 
-    def __init__(self, run: Run, history: ForceHistory | None = None, joint_stiffness: np.ndarray | None = None
-                 ) -> None:
+    def __init__(
+        self, run: Run, history: ForceHistory | None = None, joint_stiffness: np.ndarray | None = None
+    ) -> None:
         self.run = run
         self.history = history
         self.joint_stiffness = joint_stiffness
@@ -89,7 +97,10 @@ class ResidualModel:
         if key not in self._sims:
             twin = Twin(history=self.history, effects=key, joint_stiffness=self.joint_stiffness)
             cached = next(iter(self._sims.values()))[1].q_ik if self._sims else None
-            self._sims[key] = (twin, twin.simulate(self.run.commanded.t_s, self.run.commanded.values, q_ik=cached))
+            self._sims[key] = (
+                twin,
+                twin.simulate(self.run.commanded.t_s, self.run.commanded.values, q_ik=cached),
+            )
         return self._sims[key]
 
     def streams(self, effects: Effects) -> dict[str, np.ndarray]:

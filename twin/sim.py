@@ -18,7 +18,7 @@ surface advances to where the tool really was.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import mujoco
 import numpy as np
@@ -129,7 +129,12 @@ class Twin:
                 set_joint_stiffness(nominal, joint_stiffness)
         self.kinematics = Kinematics(nominal)
         self.data = mujoco.MjData(self.model)
-        self.field = SheetForceField(self.history)
+        # force_scale: the real forces are k x the FE history, so the field is fitted to the scaled history
+        # (its penetration sensitivity, a property of the sheet, is not scaled)
+        scaled = self.history
+        if self.effects.force_scale != 1.0:
+            scaled = replace(self.history, f_sheet_n=self.effects.force_scale * self.history.f_sheet_n)
+        self.field = SheetForceField(scaled)
         m = self.model
         self._tcp = m.site("tcp").id
         self._tool_body = int(m.site_bodyid[self._tcp])
@@ -211,7 +216,6 @@ class Twin:
             raise InputError(f"q_ik has shape {q_ik.shape}, expected {(len(t_s), 6)}")
         pass_index, direction = label_passes(p_cmd[:, 0], deadband_m=PASS_DEADBAND_M)
         k_diag = self._stiffness_diag()
-        scale = self.effects.force_scale
 
         n = len(t_s)
         lost_ref = np.zeros((n, self._lost_dof.size))
@@ -243,6 +247,7 @@ class Twin:
         passes = [int(v) for v in pass_index]
         dirs = [int(v) for v in direction]
         deflection_q = np.zeros(m.nq)
+        deflection_prev = np.zeros(m.nq)
         qvel_view[:] = 0.0
         for i in range(n):
             pi, di = passes[i], dirs[i]
@@ -253,7 +258,11 @@ class Twin:
             mujoco.mj_rne(m, d, 0, g_nom)
             p_unloaded[i] = xpos_tcp - origin
             q_ref = q_nominal + g_nom / k_diag  # taught under gravity
-            q = q_nominal + deflection_q
+            # start from the deflection extrapolated from the last two samples of this pass (else the last one)
+            if i >= 2 and passes[i - 2] == pi:
+                q = q_nominal + (2.0 * deflection_q - deflection_prev)
+            else:
+                q = q_nominal + deflection_q
             k = 0
             s = s_last[i]
             for k in range(1, NEWTON_MAX_ITER + 1):  # noqa: B007
@@ -263,8 +272,6 @@ class Twin:
                 mujoco.mj_rne(m, d, 0, g)
                 mujoco.mj_jacSite(m, d, jacp, None, self._tcp)
                 f, s = field.force_and_stiffness(xpos_tcp - origin, pi, di)
-                if scale != 1.0:
-                    f, s = scale * f, scale * s
                 r = k_diag * (q_ref - q) - g + jacp.T @ f
                 dq = _solve(h_const - jacp.T @ s @ jacp, r)
                 q = q + dq
@@ -277,9 +284,7 @@ class Twin:
             field.advance(p, pi)
             qpos_out[i], p_out[i], iters[i] = q, p, k
             jac_last[i], s_last[i] = jacp, s
-            deflection_q = q - q_nominal
-        if scale != 1.0:
-            f_out *= scale
+            deflection_prev, deflection_q = deflection_q, q - q_nominal
         compliance = (jac_last * (1.0 / k_diag)) @ jac_last.transpose(0, 2, 1)
         tip_gain = np.linalg.inv(np.eye(3) - compliance @ s_last)
         formed_x, formed_z = self.field.x_grid_m, self.field.formed_z_m
@@ -321,23 +326,25 @@ class Twin:
         force = np.column_stack([np.interp(t_s, result.t_s, result.f_sheet_n[:, j]) for j in range(3)])
         sensor_adr = m.sensor("ft_force").adr[0]
         out = np.zeros((len(t_s), 3))
-        for i in range(len(t_s)):
-            readings = []
-            for applied in (force[i], np.zeros(3)):
-                d.qpos[:] = qpos[i]
-                d.qvel[:] = 0.0
-                d.qacc[:] = 0.0
-                d.xfrc_applied[:] = 0.0
-                mujoco.mj_kinematics(m, d)
-                mujoco.mj_comPos(m, d)
-                lever = d.site_xpos[self._tcp] - d.xipos[self._tool_body]
-                d.xfrc_applied[self._tool_body, :3] = applied
-                d.xfrc_applied[self._tool_body, 3:] = np.cross(lever, applied)
-                mujoco.mj_inverse(m, d)
-                R_base_ft = d.site_xmat[self._ft_site].reshape(3, 3)
-                readings.append(R_base_ft @ d.sensordata[sensor_adr : sensor_adr + 3])
-            out[i] = -(readings[0] - readings[1])
+        # views into MjData, refreshed by every mj_kinematics / mj_inverse
+        sensor = d.sensordata[sensor_adr : sensor_adr + 3]
+        R_base_ft = d.site_xmat[self._ft_site].reshape(3, 3)
+        wrench = d.xfrc_applied[self._tool_body]
+        tcp_xpos, tool_xipos = d.site_xpos[self._tcp], d.xipos[self._tool_body]
+        d.qvel[:] = 0.0
+        d.qacc[:] = 0.0
         d.xfrc_applied[:] = 0.0
+        for i in range(len(t_s)):
+            d.qpos[:] = qpos[i]
+            mujoco.mj_kinematics(m, d)
+            l0, l1, l2 = (tcp_xpos - tool_xipos).tolist()
+            a0, a1, a2 = force[i].tolist()
+            wrench[:] = (a0, a1, a2, l1 * a2 - l2 * a1, l2 * a0 - l0 * a2, l0 * a1 - l1 * a0)  # lever x force
+            mujoco.mj_inverse(m, d)
+            loaded = R_base_ft @ sensor
+            wrench[:] = 0.0  # tare: the same pose unloaded
+            mujoco.mj_inverse(m, d)
+            out[i] = -(loaded - R_base_ft @ sensor)
         return out
 
     def static_deflection(self, f_base_n: np.ndarray, q: np.ndarray | None = None) -> np.ndarray:

@@ -23,7 +23,9 @@ COMMANDS: dict[str, str] = {
     "replay": "replay",
     "compensate": "compensate",
     "check": "check",
+    "bench": "bench",
     "discrepancy": "discrepancy",
+    "demo": "demo",
 }
 
 

@@ -5,9 +5,9 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from twin.forces import HALF_COLUMNS, ForceHistory, default_force_history, load_force_history
 from twin.csvio import read_table
 from twin.errors import InputError
+from twin.forces import HALF_COLUMNS, ForceHistory, default_force_history, load_force_history
 from twin.path import ToolPath, groove_path, label_passes
 from twin.runs import read_commanded_csv
 
@@ -16,7 +16,9 @@ def add_history_arguments(parser: argparse.ArgumentParser) -> None:
     """Add `--history FILE --symmetry half|full [--unchecked-symmetry]`."""
     parser.add_argument("--history", type=Path, help="FE force history CSV (default: the shipped stand-in)")
     parser.add_argument(
-        "--symmetry", choices=("half", "full"), help="REQUIRED with --history: half-symmetric or full FE model"
+        "--symmetry",
+        choices=("half", "full"),
+        help="REQUIRED with --history: half-symmetric or full FE model",
     )
     parser.add_argument(
         "--unchecked-symmetry",
@@ -41,7 +43,9 @@ def history_from_arguments(args: argparse.Namespace) -> tuple[ForceHistory, Forc
             f"--history {args.history} needs --symmetry half|full: a half-symmetric FE model's forces must be "
             "doubled (thesis sec. 2.2); forgetting it broke the thesis's compensated run (sec. 5.1)"
         )
-    declared = load_force_history(args.history, symmetry=args.symmetry, trust_columns=not args.unchecked_symmetry)
+    declared = load_force_history(
+        args.history, symmetry=args.symmetry, trust_columns=not args.unchecked_symmetry
+    )
     columns = read_table(args.history, ("x_mm", "z_mm"), optional=HALF_COLUMNS)
     implied = "half" if all(name in columns for name in HALF_COLUMNS) else "full"
     reference = declared if implied == args.symmetry else load_force_history(args.history, symmetry=implied)
@@ -50,7 +54,9 @@ def history_from_arguments(args: argparse.Namespace) -> tuple[ForceHistory, Forc
 
 def add_ideal_argument(parser: argparse.ArgumentParser) -> None:
     """Add `--ideal FILE` (the ideal path U_ID; default: the thesis groove)."""
-    parser.add_argument("--ideal", type=Path, help="ideal path U_ID as CSV t_s,x_mm,y_mm,z_mm (default: the groove)")
+    parser.add_argument(
+        "--ideal", type=Path, help="ideal path U_ID as CSV t_s,x_mm,y_mm,z_mm (default: the groove)"
+    )
 
 
 def ideal_from_arguments(args: argparse.Namespace) -> ToolPath:

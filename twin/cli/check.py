@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 from twin.check import GAIN_TOLERANCE, check_run
@@ -27,7 +28,8 @@ def run(args: argparse.Namespace) -> int:
     summary = {"run": args.run_dir, **result.summary()}
     print(
         f"check {args.run_dir}: residual rms {summary['residual_rms_mm']:.3f} mm, "
-        f"max {summary['residual_max_mm']:.3f} mm; {result.diagnosis}"
+        f"max {summary['residual_max_mm']:.3f} mm; {result.diagnosis}",
+        file=sys.stderr if args.json == "-" else sys.stdout,  # keep stdout pure JSON for `--json -`
     )
     emit_json(args.json, summary, protect=[args.run_dir])
     return 0 if abs(result.gain - 1.0) <= GAIN_TOLERANCE else 1

@@ -3,12 +3,18 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 import numpy as np
 
 from twin.check import diagnose_gain
-from twin.cli._common import add_history_arguments, add_ideal_argument, history_from_arguments, ideal_from_arguments
+from twin.cli._common import (
+    add_history_arguments,
+    add_ideal_argument,
+    history_from_arguments,
+    ideal_from_arguments,
+)
 from twin.compensate import compensate_formula, compensate_twin, compliance_from_stiffness, gain_of
 from twin.csvio import emit_json, read_json, write_table
 from twin.effects import Effects, read_model_file
@@ -22,7 +28,9 @@ HELP = "Compensate the ideal path offline (Eq. 4.28 formula, or iterating the tw
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Add the `compensate` options."""
     parser.add_argument("--method", required=True, choices=("formula", "twin"))
-    parser.add_argument("--stiffness", type=Path, help="JSON with k_r_n_per_mm (2x2 x-z or 3x3); formula only")
+    parser.add_argument(
+        "--stiffness", type=Path, help="JSON with k_r_n_per_mm (2x2 x-z or 3x3); formula only"
+    )
     parser.add_argument("--model", type=Path, help="twin model file (effects, K_q) for --method twin")
     add_history_arguments(parser)
     add_ideal_argument(parser)
@@ -50,7 +58,9 @@ def run(args: argparse.Namespace) -> int:
     twin = Twin(history=declared, effects=effects.robot, joint_stiffness=stiffness)
     if args.method == "formula":
         if args.stiffness is None:
-            raise InputError("--method formula needs --stiffness FILE with k_r_n_per_mm (e.g. an identify output)")
+            raise InputError(
+                "--method formula needs --stiffness FILE with k_r_n_per_mm (e.g. an identify output)"
+            )
         c_r = compliance_from_stiffness(_stiffness(args.stiffness))
         f_ideal = SheetForceField(declared).rigid_forces(ideal)
         comp = compensate_formula(ideal.t_s, ideal.p_sheet_m, f_ideal, c_r)
@@ -63,8 +73,12 @@ def run(args: argparse.Namespace) -> int:
     gain = gain_of(comp, f_reference, c_r)
     write_table(
         args.out,
-        {"t_s": comp.t_s, "x_mm": 1e3 * comp.p_cmd_sheet_m[:, 0], "y_mm": 1e3 * comp.p_cmd_sheet_m[:, 1],
-         "z_mm": 1e3 * comp.p_cmd_sheet_m[:, 2]},
+        {
+            "t_s": comp.t_s,
+            "x_mm": 1e3 * comp.p_cmd_sheet_m[:, 0],
+            "y_mm": 1e3 * comp.p_cmd_sheet_m[:, 1],
+            "z_mm": 1e3 * comp.p_cmd_sheet_m[:, 2],
+        },
         formats={"t_s": ".6f", "x_mm": ".4f", "y_mm": ".4f", "z_mm": ".4f"},
         protect=protect,
     )
@@ -82,12 +96,14 @@ def run(args: argparse.Namespace) -> int:
         "history": {"file": declared.source, "symmetry": declared.symmetry},
         "effects": dict(effects.values),
     }
+    out = sys.stderr if args.json == "-" else sys.stdout  # keep stdout pure JSON for `--json -`
     print(
         f"compensate ({args.method}): gain {gain:.3f}, {comp.iterations} iteration(s), predicted residual rms "
         f"{summary['predicted_residual_rms_mm']:.4f} mm, max correction {summary['correction_max_mm']:.2f} mm "
-        f"-> {args.out}"
+        f"-> {args.out}",
+        file=out,
     )
     if abs(gain - 1.0) > 0.02:
-        print(f"warning: {diagnose_gain(gain)}")
+        print(f"warning: {diagnose_gain(gain)}", file=out)
     emit_json(args.json, summary, protect=protect)
     return 0

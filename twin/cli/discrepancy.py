@@ -12,7 +12,9 @@ from twin.discrepancy import find_discrepancy, result_summary
 from twin.effects import Effects, read_model_file, write_model_file
 from twin.runs import read_run
 
-HELP = "Find where the twin and a measured run disagree, name the missing effect, add it, show the gap shrink."
+HELP = (
+    "Find where the twin and a measured run disagree, name the missing effect, add it, show the gap shrink."
+)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -21,7 +23,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--model", type=Path, help="start from this twin model file (effects, K_q)")
     add_history_arguments(parser)
     parser.add_argument("--model-out", type=Path, help="write the augmented twin model file here")
-    parser.add_argument("--report", type=Path, help="write figures of the residual before/after into this folder")
+    parser.add_argument(
+        "--report", type=Path, help="write figures of the residual before/after into this folder"
+    )
     parser.add_argument("--json", help="write the findings to FILE ('-' for stdout)")
 
 
@@ -35,7 +39,9 @@ def run(args: argparse.Namespace) -> int:
     protect = [p for p in (args.run_dir, args.model, args.history) if p is not None]
     if args.model_out is not None:
         write_model_file(
-            args.model_out, result.effects, joint_stiffness_nm_per_rad=stiffness,
+            args.model_out,
+            result.effects,
+            joint_stiffness_nm_per_rad=stiffness,
             note=f"tx200-twin discrepancy on {args.run_dir}: found {list(result.found) or result.verdict}",
         )
         summary["model_out"] = args.model_out
@@ -44,9 +50,12 @@ def run(args: argparse.Namespace) -> int:
 
         args.report.mkdir(parents=True, exist_ok=True)
         figure = plot_residual_before_after(
-            args.report / "residual_before_after.png", measured.tracker.t_s,
-            result.residual_before["position"], result.residual_after["position"],
-            label_before="twin as given", label_after=f"twin + {', '.join(result.found) or 'nothing'}",
+            args.report / "residual_before_after.png",
+            measured.tracker.t_s,
+            result.residual_before["position"],
+            result.residual_after["position"],
+            label_before="twin as given",
+            label_after=f"twin + {', '.join(result.found) or 'nothing'}",
         )
         summary["report"] = [figure]
     out = sys.stderr if args.json == "-" else sys.stdout

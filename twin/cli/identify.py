@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from twin.csvio import emit_json
-from twin.errors import IdentificationError, InputError
+from twin.errors import InputError
 from twin.identify import fit_kr_load_cases, load_cases_csv
 
 HELP = "Identify the Cartesian stiffness K_R: Method 1 from static load cases (thesis §4.2.1)."
@@ -68,7 +68,8 @@ def _method2(args: argparse.Namespace) -> int:
         f"K_R (ideal forces, thesis) [N/mm] = {np.round(payload['k_r_n_per_mm'], 1).tolist()}; "
         f"K_R (measured forces) = {np.round(payload['k_r_measured_forces_n_per_mm'], 1).tolist()}; "
         f"compliance from measured forces off the twin's x-z block by {100 * error:.2f} %, "
-        f"from ideal forces by {100 * bias:.2f} %; sheet force fell by {100 * result.force_drop:.1f} % rms"
+        f"from ideal forces by {100 * bias:.2f} %; sheet force fell by {100 * result.force_drop:.1f} % rms",
+        file=sys.stderr if args.json == "-" else sys.stdout,  # keep stdout pure JSON for `--json -`
     )
     emit_json(args.json, payload, protect=[args.run_dir])
     return 0

@@ -51,16 +51,29 @@ def run(args: argparse.Namespace) -> int:
         write_table(
             args.out,
             {
-                "fx_n": loads[:, 0], "fy_n": loads[:, 1], "fz_n": loads[:, 2],
-                "dx_mm": 1e3 * deflections[:, 0], "dy_mm": 1e3 * deflections[:, 1], "dz_mm": 1e3 * deflections[:, 2],
+                "fx_n": loads[:, 0],
+                "fy_n": loads[:, 1],
+                "fz_n": loads[:, 2],
+                "dx_mm": 1e3 * deflections[:, 0],
+                "dy_mm": 1e3 * deflections[:, 1],
+                "dz_mm": 1e3 * deflections[:, 2],
             },
-            formats={"fx_n": ".1f", "fy_n": ".1f", "fz_n": ".1f", "dx_mm": ".5f", "dy_mm": ".5f", "dz_mm": ".5f"},
+            formats={
+                "fx_n": ".1f",
+                "fy_n": ".1f",
+                "fz_n": ".1f",
+                "dx_mm": ".5f",
+                "dy_mm": ".5f",
+                "dz_mm": ".5f",
+            },
         )
         print(f"lab loadtest: {len(loads)} load cases at home (thesis Table 4.2) -> {args.out}", file=out)
         emit_json(args.json, {"scenario": "loadtest", "out": args.out, "cases": len(loads)})
         return 0
     if args.scenario == "compensated" and args.commanded is None:
-        raise InputError("--scenario compensated needs --commanded PATH.csv (e.g. from `tx200-twin compensate`)")
+        raise InputError(
+            "--scenario compensated needs --commanded PATH.csv (e.g. from `tx200-twin compensate`)"
+        )
     protect: list[Path] = []
     if args.commanded is not None:
         commanded = read_commanded_csv(args.commanded)
@@ -70,8 +83,13 @@ def run(args: argparse.Namespace) -> int:
         t_s, p_cmd = nominal_commanded()
     run_, truth = run_lab(t_s, p_cmd, scenario=args.scenario, effects=effects, seed=args.seed)
     write_run(args.out, run_, truth=truth, overwrite=args.overwrite, protect=protect)
-    deflection = np.max(np.linalg.norm(run_.tracker.values - np.column_stack(
-        [np.interp(run_.tracker.t_s, t_s, p_cmd[:, j]) for j in range(3)]), axis=1))
+    deflection = np.max(
+        np.linalg.norm(
+            run_.tracker.values
+            - np.column_stack([np.interp(run_.tracker.t_s, t_s, p_cmd[:, j]) for j in range(3)]),
+            axis=1,
+        )
+    )
     summary = {
         "scenario": args.scenario,
         "out": args.out,

@@ -17,7 +17,9 @@ HELP = "Replay a measured run on the twin and report the gap (position and force
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Add the `replay` options."""
     parser.add_argument("run_dir", type=Path, help="a tx200-twin-run/1 directory")
-    parser.add_argument("--model", type=Path, help="twin model file (effects, K_q) from `discrepancy --model-out`")
+    parser.add_argument(
+        "--model", type=Path, help="twin model file (effects, K_q) from `discrepancy --model-out`"
+    )
     parser.add_argument("--json", help="write the metrics to FILE ('-' for stdout)")
     parser.add_argument("--rrd", type=Path, help="also save a rerun recording of the replay to FILE")
 

@@ -1,0 +1,84 @@
+"""Smoke tests of the benchmark (twin/bench.py, `tx200-twin bench`): keys and sanity, never timings."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from twin.bench import analytic_replay, format_table, run_benchmarks
+from twin.cli import main
+from twin.errors import InputError
+from twin.replay import replay
+from twin.runs import Run, Stream
+from twin.sim import Twin
+
+SAMPLES = 160  # approach and most of pass 1: a tiny workload
+TIMES = (
+    "lab_run_s", "replay_s", "replay_warm_s", "simulate_warm_s", "ik_path_s", "analytic_replay_s",
+    "identify_method2_s", "compensate_twin_s", "force_field_eval_s",
+)
+
+
+@pytest.fixture(scope="module")
+def result() -> dict:
+    return run_benchmarks(repeats=1, samples=SAMPLES)
+
+
+def test_bench_reports_every_time_as_a_positive_number(result: dict) -> None:
+    for key in TIMES:
+        assert isinstance(result[key], float) and result[key] > 0.0, key
+    assert result["discrepancy_s"] is None or result["discrepancy_s"] > 0.0
+    if result["discrepancy_s"] is None:
+        assert result["discrepancy_note"]
+    assert result["workload"] == {"commanded_samples": SAMPLES, "machining_s": pytest.approx(
+        result["workload"]["machining_s"]), "repeats": 1}
+
+
+def test_bench_factors_follow_from_the_times(result: dict) -> None:
+    duration = result["workload"]["machining_s"]
+    assert result["replay_realtime_factor"] == pytest.approx(duration / result["replay_warm_s"])
+    assert result["twin_over_analytic"] == pytest.approx(result["replay_warm_s"] / result["analytic_replay_s"])
+    assert "replay_warm_s" in result["replay_realtime_factor_basis"]
+
+
+def test_bench_records_the_machine(result: dict) -> None:
+    machine = result["machine"]
+    assert machine["cpu_count"] >= 1
+    assert machine["python"].count(".") == 2 and machine["mujoco"]
+    assert machine["blas"] and machine["git_commit"]
+    assert "ready Twin" in format_table(result)
+
+
+def test_analytic_replay_tracks_the_twin_within_a_few_micrometres(first_pass_path) -> None:
+    """The linear model misses only gravity-free second-order terms: same tool tip within 5 µm."""
+    t_s, p_cmd = first_pass_path
+    t_tracker = np.linspace(t_s[0], t_s[-1], 40)
+    run = Run(
+        directory=None,
+        meta={},
+        commanded=Stream(t_s, p_cmd),
+        tracker=Stream(t_tracker, np.zeros((40, 3))),
+        forces=None,
+        part_profile=None,
+    )
+    twin = Twin()
+    linear = analytic_replay(run, twin=twin)
+    sim = replay(run, twin=twin).sim
+    assert linear.forces_pred_n is None and linear.tracker_pred_m.shape == (40, 3)
+    assert np.max(np.abs(sim.deflection_sheet_m)) > 1e-4  # the pass deflects the robot by > 0.1 mm
+    np.testing.assert_allclose(linear.p_sheet_m, sim.p_sheet_m, atol=5e-6)
+    np.testing.assert_allclose(linear.f_sheet_n, sim.f_sheet_n, atol=0.02 * np.max(np.abs(sim.f_sheet_n)))
+
+
+def test_bench_cli_writes_json(tmp_path) -> None:
+    out = tmp_path / "results.json"
+    assert main(["bench", "--json", str(out), "--repeats", "1", "--samples", str(SAMPLES)]) == 0
+    payload = json.loads(out.read_text())
+    assert set(TIMES) <= set(payload) and payload["workload"]["commanded_samples"] == SAMPLES
+
+
+def test_bench_refuses_zero_repeats() -> None:
+    with pytest.raises(InputError):
+        run_benchmarks(repeats=0, samples=SAMPLES)

@@ -1,0 +1,32 @@
+"""`tx200-twin bench`: time the main workflows on one nominal lab run (median of repeats)."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from twin.bench import format_table, run_benchmarks
+from twin.csvio import emit_json
+
+HELP = "Benchmark replay, analytic floor, lab, identify, compensate, discrepancy and the force field."
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Add the `bench` options."""
+    parser.add_argument("--json", help="write the results to FILE ('-' for stdout)")
+    parser.add_argument(
+        "--repeats", type=int, default=5, help="repeats per timed step, median reported (default 5)"
+    )
+    parser.add_argument(
+        "--samples", type=int, help="only the first N commanded samples of the groove (quick smoke run)"
+    )
+    parser.add_argument("--seed", type=int, default=0, help="seed of the lab run's noise (default 0)")
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the benchmarks."""
+    result = run_benchmarks(args.repeats, args.samples, seed=args.seed)
+    out = sys.stderr if args.json == "-" else sys.stdout  # keep stdout pure JSON for `--json -`
+    print(format_table(result), file=out)
+    emit_json(args.json, result)
+    return 0
