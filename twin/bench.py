@@ -83,11 +83,10 @@ def analytic_replay(run: Run, *, twin: Twin | None = None, history: ForceHistory
     t_s, p_cmd = run.commanded.t_s, run.commanded.values
     kin = twin.kinematics
     q_ik = kin.ik_path(p_cmd + twin.p_base_sheet_origin)
-    J_v = np.array([kin.jacobian(q)[:3] for q in q_ik])
+    J_v = kin.jacobians(q_ik)[:, :3]
     compliance = (J_v / twin.joint_stiffness) @ J_v.transpose(0, 2, 1)  # (n, 3, 3) [m/N]
     pass_index, direction = label_passes(p_cmd[:, 0], deadband_m=PASS_DEADBAND_M)
     passes, dirs = [int(v) for v in pass_index], [int(v) for v in direction]
-    scale = twin.effects.force_scale
     field = twin.field
     field.reset()
     n = len(t_s)
@@ -95,17 +94,17 @@ def analytic_replay(run: Run, *, twin: Twin | None = None, history: ForceHistory
     eye = np.eye(3)
     d = np.zeros(3)
     for i in range(n):
-        c, pi, di = compliance[i], passes[i], dirs[i]
+        c, pi, di, p_i = compliance[i], passes[i], dirs[i], p_cmd[i]
         for _ in range(ANALYTIC_MAX_ITER):
-            f, s = field.force_and_stiffness(p_cmd[i] + d, pi, di)
-            r = d - scale * (c @ f)
+            f, s = field.force_and_stiffness(p_i + d, pi, di)
+            r = d - c @ f
             if abs(r).max() < ANALYTIC_TOL_M:
                 break
-            d = d - dgesv(eye - scale * (c @ s), r)[2]
+            d = d - dgesv(eye - c @ s, r)[2]
         else:
             raise InputError(f"analytic replay: sample {i} did not converge (residual {abs(r).max():.3g} m)")
         p = p_cmd[i] + d
-        f_out[i] = scale * field.force(p, pi, di)
+        f_out[i] = field.force(p, pi, di)
         field.advance(p, pi)
         p_out[i] = p
     tracker = _interp_rows(run.tracker.t_s, t_s, p_out)

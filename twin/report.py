@@ -65,7 +65,7 @@ def write_report(
             nominal.tracker.values[:, 0],
             nominal.tracker.values - resample(nominal.commanded, nominal.tracker.t_s),
             *_labels(ideal, nominal.tracker.t_s),
-            title="Nominal run: measured deflection per pass and direction",
+            title="Nominal run: deflection per pass",
         ),
         plot_residual_before_after(
             fig_dir / "4_discrepancy_residual.png",
@@ -74,7 +74,7 @@ def write_report(
             found.residual_after["position"],
             label_before="twin as used for the thesis compensation",
             label_after="twin + " + " + ".join(found.found or (found.verdict,)),
-            title="Compensated (thesis) run: measured - twin, before and after the discrepancy fix",
+            title="Thesis compensated run: measured - twin",
         ),
         plot_stiffness_ellipse(
             fig_dir / "5_stiffness_ellipses.png",
@@ -89,7 +89,7 @@ def write_report(
             t_ideal_s=ideal.t_s,
             t_measured_s=final.tracker.t_s,
             t_commanded_s=thesis.tracker.t_s,
-            title="Compensated runs: corrected twin (measured) vs thesis compensation (as 'commanded')",
+            title="Compensated runs: corrected twin vs thesis",
         ),
     ]
     rrd = record_runs(out / "demo.rrd", list(replays), ideal_sheet_m=ideal.p_sheet_m, twin_model=model)

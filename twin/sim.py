@@ -79,14 +79,6 @@ class SimResult:
         return self.p_sheet_m - self.p_unloaded_sheet_m
 
 
-def _solve(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """x with a x = b for one small square system: LAPACK gesv without `np.linalg.solve`'s overhead (~5x)."""
-    _, _, x, info = _dgesv(a, b)
-    if info != 0:
-        raise np.linalg.LinAlgError(f"singular Newton matrix (LAPACK dgesv info = {info})")
-    return np.asarray(x)
-
-
 def set_joint_stiffness(model: mujoco.MjModel, k_q_nm_per_rad: np.ndarray) -> None:
     """Set the joint springs K_q (position-actuator gains) of `actuator1..6` in place.
 
@@ -273,7 +265,9 @@ class Twin:
                 mujoco.mj_jacSite(m, d, jacp, None, self._tcp)
                 f, s = field.force_and_stiffness(xpos_tcp - origin, pi, di)
                 r = k_diag * (q_ref - q) - g + jacp.T @ f
-                dq = _solve(h_const - jacp.T @ s @ jacp, r)
+                _, _, dq, info = _dgesv(h_const - jacp.T @ s @ jacp, r)  # np.linalg.solve costs 5x more
+                if info != 0:
+                    raise np.linalg.LinAlgError(f"singular Newton matrix at sample {i} (LAPACK dgesv info {info})")
                 q = q + dq
                 if abs(dq).max() < NEWTON_TOL_RAD:
                     break
