@@ -170,10 +170,13 @@ def write_table(
 
 
 def _jsonable(value: Any) -> Any:
+    """Convert numpy values, paths and non-finite floats (-> null, strict JSON) for `json.dumps`."""
     if isinstance(value, np.ndarray):
-        return value.tolist()
+        return _jsonable(value.tolist())
     if isinstance(value, np.generic):
-        return value.item()
+        return _jsonable(value.item())
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
     if isinstance(value, Path):
         return str(value)
     if isinstance(value, Mapping):
@@ -185,7 +188,7 @@ def _jsonable(value: Any) -> Any:
 
 def write_json(path: str | Path, payload: Mapping[str, Any], *, protect: Sequence[str | Path] = ()) -> Path:
     """Write a JSON document atomically (numpy arrays and scalars are converted)."""
-    _atomic_write_text(Path(path), json.dumps(_jsonable(payload), indent=2) + "\n", protect)
+    _atomic_write_text(Path(path), json.dumps(_jsonable(payload), indent=2, allow_nan=False) + "\n", protect)
     return Path(path)
 
 
@@ -194,7 +197,7 @@ def emit_json(target: str | None, payload: Mapping[str, Any], *, protect: Sequen
     if target is None:
         return
     if target == "-":
-        sys.stdout.write(json.dumps(_jsonable(payload), indent=2) + "\n")
+        sys.stdout.write(json.dumps(_jsonable(payload), indent=2, allow_nan=False) + "\n")
     else:
         write_json(target, payload, protect=protect)
 

@@ -9,6 +9,10 @@
    BIC penalty of log(N) per parameter. The best candidate is accepted when it removes at least
    EXPLAINED_FRACTION of the held-out excess over noise; otherwise the gap is `unexplained`. After an
    accepted effect the search repeats on what is left, so two effects are found one after the other.
+   A candidate is rejected when, fitted (and refitted jointly with the effects already accepted), it makes
+   any stream's residual significantly worse: an effect of the robot or its sensors must agree with every
+   stream (e.g. a force offset fitted as force_scale predicts deflections the tracker does not see).
+   When nothing is accepted the twin stays as given (`effects` = `start`).
 3. Add: the accepted effects form a twin model file (`twin.effects.write_model_file`).
 4. Shrink: the run is replayed with the augmented twin; gaps before and after are reported.
 """
@@ -109,6 +113,19 @@ def reduced_chi2(model: ResidualModel, streams: dict[str, np.ndarray]) -> dict[s
 def is_significant(chi2: dict[str, float], counts: dict[str, int]) -> bool:
     """Whether any stream's residual is above what its noise explains."""
     return any(chi2[name] > 1.0 + CHI2_MARGIN + 5.0 * np.sqrt(2.0 / max(counts[name], 1)) for name in chi2)
+
+
+def is_contradicted(chi2_now: dict[str, float], chi2_new: dict[str, float], counts: dict[str, int]) -> bool:
+    """Whether a new fit makes any stream's residual significantly worse than it is now.
+
+    A stream is worse when its reduced chi-square rises by more than CHI2_MARGIN (relative, and not below
+    the significance level of a noise-only stream) plus five standard errors.
+    """
+    return any(
+        chi2_new[name]
+        > (1.0 + CHI2_MARGIN) * max(chi2_now[name], 1.0 + CHI2_MARGIN) + 5.0 * np.sqrt(2.0 / max(counts[name], 1))
+        for name in chi2_new
+    )
 
 
 def _fit_candidate(model: ResidualModel, base: Effects, name: str, r_base: np.ndarray) -> CandidateFit:
@@ -241,17 +258,26 @@ def find_discrepancy(
             )
         )
         rounds.append(fits)
-        best = fits[0]
-        if best.explained < ROUND_FRACTION or best.score <= 0.0:
+        accepted: tuple[int, Effects, dict[str, float]] | None = None
+        for index, fit in enumerate(fits):
+            if fit.explained < ROUND_FRACTION or fit.score <= 0.0:
+                break
+            trial = effects.with_value(fit.name, fit.value)
+            if found:
+                trial = _refit_jointly(model, trial, [*found, fit.name])
+            chi2_trial = reduced_chi2(model, model.streams(trial))
+            if not is_contradicted(chi2, chi2_trial, counts):
+                accepted = (index, trial, chi2_trial)
+                break
+        if accepted is None:
             break
-        runner_up = max(fits[1].score, 0.0) if len(fits) > 1 else 0.0
+        index, effects, chi2 = accepted
+        best = fits[index]
         if not found:
+            others = [max(fit.score, 0.0) for i, fit in enumerate(fits) if i != index]
+            runner_up = max(others, default=0.0)
             confidence = float(best.score / (best.score + runner_up)) if best.score > 0 else 0.0
         found.append(best.name)
-        effects = effects.with_value(best.name, best.value)
-        if len(found) > 1:
-            effects = _refit_jointly(model, effects, found)
-        chi2 = reduced_chi2(model, model.streams(effects))
     r_start, r_end = model.vector(start or Effects()), model.vector(effects)
     excess = float(r_start @ r_start) - r_start.size
     total_explained = 1.0 - (float(r_end @ r_end) - r_end.size) / excess if excess > 0 else 1.0
@@ -259,6 +285,8 @@ def find_discrepancy(
         verdict = found[0]
     elif is_significant(chi2_before, counts):
         verdict = "unexplained"
+    if verdict == "unexplained":
+        effects = start or Effects()  # nothing named: the twin stays as given
     streams_after = model.streams(effects)
     return DiscrepancyResult(
         effects=effects,

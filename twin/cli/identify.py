@@ -12,7 +12,7 @@ from twin.csvio import emit_json
 from twin.errors import InputError
 from twin.identify import fit_kr_load_cases, load_cases_csv
 
-HELP = "Identify the Cartesian stiffness K_R: Method 1 from static load cases (thesis §4.2.1)."
+HELP = "Identify K_R (Method 1: load cases; Method 2: a run) and the joint stiffness K_q."
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -31,6 +31,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("run_dir", nargs="?", type=Path, help="Method 2: run directory (tx200-twin-run/1)")
     parser.add_argument("--json", metavar="FILE", help="write the result as JSON to FILE (- for stdout)")
+    parser.add_argument(
+        "--write-model",
+        type=Path,
+        metavar="FILE",
+        help="put the identified K_q into the twin: FILE.json (twin model file) or FILE.xml (MJCF)",
+    )
 
 
 def _matrix_lines(matrix: np.ndarray) -> list[str]:
@@ -45,7 +51,8 @@ def _method2(args: argparse.Namespace) -> int:
 
     if args.run_dir is None:
         raise InputError("--method 2 needs a RUN_DIR (a nominal run with forces.csv)")
-    result = method2(read_run(args.run_dir))
+    measured = read_run(args.run_dir)
+    result = method2(measured)
     twin = Twin()
     c_twin = twin.kinematics.compliance(twin.kinematics.q_home)[np.ix_([0, 2], [0, 2])]
     error = float(np.linalg.norm(result.c_measured_m_per_n - c_twin) / np.linalg.norm(c_twin))
@@ -63,6 +70,21 @@ def _method2(args: argparse.Namespace) -> int:
         "relative_bias_ideal_vs_twin": bias,
         "force_drop_rms_ratio": result.force_drop,
     }
+    from twin.identify_kq import kq_from_run, write_joint_stiffness
+
+    rollout = kq_from_run(measured)
+    payload |= {
+        "joint_stiffness_nm_per_rad": rollout.k_q_nm_per_rad,
+        "joint_fitted": rollout.fitted,
+        "joint_relative_std": rollout.relative_std,
+        "joint_stiffness_route": "rollouts: least squares over twin replays of the run (joints 2, 3, 5)",
+        "joint_fit_residual_rms_mm": rollout.residual_rms_mm,
+        "joint_fit_evaluations": rollout.evaluations,
+    }
+    if args.write_model is not None:
+        payload["model_written"] = write_joint_stiffness(
+            args.write_model, rollout.k_q_nm_per_rad, note=f"K_q by rollouts on {args.run_dir}"
+        )
     print(
         f"identify method 2 on {args.run_dir} ({result.samples} samples): "
         f"K_R (ideal forces, thesis) [N/mm] = {np.round(payload['k_r_n_per_mm'], 1).tolist()}; "
@@ -95,6 +117,23 @@ def run(args: argparse.Namespace) -> int:
         "condition_number": fit.condition_number,
         "rank": fit.rank,
     }
+    from twin.identify_kq import kq_from_stiffness, write_joint_stiffness
+    from twin.sim import Twin
+
+    twin = Twin()
+    kq = kq_from_stiffness(twin, fit.k_r_n_per_m)
+    k_q = np.where(np.isfinite(kq.k_q_nm_per_rad), kq.k_q_nm_per_rad, twin.joint_stiffness)
+    payload |= {
+        "joint_stiffness_nm_per_rad": k_q,
+        "joint_observable": kq.observable,
+        "joint_stiffness_route": "diagonal K_q with J K_q^-1 J^T ~ K_R^-1 at home (Eqs. 4.4-4.5); "
+        "unobservable joints keep the model's value",
+        "joint_fit_relative_residual": kq.relative_residual,
+    }
+    if args.write_model is not None:
+        payload["model_written"] = write_joint_stiffness(
+            args.write_model, k_q, note=f"K_q from Method 1 on {args.loads}"
+        )
     emit_json(args.json, payload, protect=[args.loads])
     out = sys.stderr if args.json == "-" else sys.stdout
     lines = [
@@ -103,6 +142,8 @@ def run(args: argparse.Namespace) -> int:
         *_matrix_lines(fit.k_r_n_per_mm),
         f"residuals [N]: {', '.join(f'{r:.2f}' for r in fit.residuals_n)}",
         f"condition number of the deflections: {fit.condition_number:.3g}; rank {fit.rank}",
+        "K_q [N·m/rad] (unobservable joints keep the model's): "
+        + ", ".join(f"{k:.3g}{'' if ok else '*'}" for k, ok in zip(k_q, kq.observable, strict=True)),
     ]
     print("\n".join(lines), file=out)
     return 0
