@@ -82,14 +82,14 @@ def write_report(
             list(compliances_mm_per_kn),
         ),
         plot_path_xz(
-            fig_dir / "6_compensated_runs_xz.png",
+            fig_dir / "6_compensated_run_xz.png",
             ideal.p_sheet_m,
             final.tracker.values,
-            p_commanded_sheet_m=thesis.tracker.values,
+            p_commanded_sheet_m=final.commanded.values,
             t_ideal_s=ideal.t_s,
             t_measured_s=final.tracker.t_s,
-            t_commanded_s=thesis.tracker.t_s,
-            title="Compensated runs: corrected twin vs thesis",
+            t_commanded_s=final.commanded.t_s,
+            title="Run compensated with the corrected twin (cf. thesis Fig. 5.1)",
         ),
     ]
     rrd = record_runs(out / "demo.rrd", list(replays), ideal_sheet_m=ideal.p_sheet_m, twin_model=model)
