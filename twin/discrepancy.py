@@ -33,6 +33,7 @@ from twin.runs import Run
 
 CHI2_MARGIN = 0.15  # noise estimates are good to a few per cent; below this the residual is noise
 EXPLAINED_FRACTION = 0.6  # of the excess over noise, by all accepted effects together
+COMPLETE_FRACTION = 0.9  # explained well enough to name effects although the rest is above noise
 ROUND_FRACTION = 0.05  # of what is left, by the effect accepted in one round (then refitted jointly)
 MAX_EFFECTS = 3
 GN_ITERATIONS = 4
@@ -281,7 +282,12 @@ def find_discrepancy(
     r_start, r_end = model.vector(start or Effects()), model.vector(effects)
     excess = float(r_start @ r_start) - r_start.size
     total_explained = 1.0 - (float(r_end @ r_end) - r_end.size) / excess if excess > 0 else 1.0
-    if found and total_explained >= EXPLAINED_FRACTION:
+    chi2_end = reduced_chi2(model, model.streams(effects))
+    margin = {name: 5.0 * np.sqrt(2.0 / max(counts[name], 1)) for name in counts}
+    # a named effect must not make any stream worse, and must bring the gap to noise (or nearly all the way)
+    worsened = any(chi2_end[name] > chi2_before[name] + margin[name] for name in chi2_end)
+    at_noise = not is_significant(chi2_end, counts) or total_explained >= COMPLETE_FRACTION
+    if found and total_explained >= EXPLAINED_FRACTION and at_noise and not worsened:
         verdict = found[0]
     elif is_significant(chi2_before, counts):
         verdict = "unexplained"
