@@ -12,6 +12,7 @@ import numpy as np
 from twin.check import CheckResult
 from twin.csvio import _atomic_write_text
 from twin.discrepancy import DiscrepancyResult
+from twin.errors import RunFormatError
 from twin.figures import (
     plot_deflection_by_pass,
     plot_forces,
@@ -43,6 +44,8 @@ def write_report(
     nominal, _ = runs["nominal"]
     final, _ = runs["compensated_twin"]
     thesis, _ = runs["compensated_thesis"]
+    if nominal.forces is None:
+        raise RunFormatError(nominal.directory or "nominal run", "the demo report needs forces.csv")
     figures = [
         plot_path_xz(
             fig_dir / "1_nominal_path_xz.png",

@@ -31,7 +31,7 @@ from twin.kinematics import Kinematics
 from twin.path import label_passes
 from twin.plant import ARM_JOINTS, LOST_MOTION_JOINTS, RobotEffects, build_model, lost_motion_schedule
 
-NEWTON_TOL_RAD = 1e-10
+NEWTON_TOL_RAD = 1e-7  # a Newton step this small leaves < 1e-9 m of error (quadratic convergence)
 NEWTON_MAX_ITER = 20
 # Back-travel that declares a reversal of the commanded path [m]: a compensated command may step back a
 # fraction of a millimetre where the force ramps up, a real reversal travels a whole stroke (>= 61 mm).
