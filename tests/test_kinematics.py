@@ -8,6 +8,7 @@ import mujoco
 import numpy as np
 import pytest
 
+from twin.default_stiffness import thesis_stiffness_fit
 from twin.dh import det_jacobian_thesis, dh_fk
 from twin.errors import InputError, ModelError, SingularityError, UnreachableError
 from twin.kinematics import (
@@ -16,7 +17,6 @@ from twin.kinematics import (
     Kinematics,
     _rotation_log,
     load_model,
-    thesis_stiffness_fit,
 )
 from twin.resources import robot_xml
 

@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 import trimesh
 
-from twin.kinematics import HOME_Q_RAD, TOOL_LENGTH_M, load_model, thesis_stiffness_fit
+from twin.default_stiffness import thesis_stiffness_fit
+from twin.kinematics import HOME_Q_RAD, TOOL_LENGTH_M, load_model
 from twin.resources import models_dir, robot_xml, scene_xml
 
 # Staubli datasheet D181.573.04 joint ranges [deg]

@@ -8,31 +8,18 @@ Frames: world == robot base frame. The tool tip is the site `tcp`; the sheet fra
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
-from dataclasses import dataclass
 from pathlib import Path
 
 import mujoco
 import numpy as np
 from scipy.linalg.lapack import dgesv
-from scipy.optimize import nnls
 
+from twin.chain_fk import ChainFK, rotation_log_batch
 from twin.dh import TOOL_LENGTH_M
 from twin.errors import InputError, ModelError, SingularityError, UnreachableError
 from twin.resources import robot_xml, scene_xml
 
-__all__ = [
-    "DET_J_MIN",
-    "HOME_Q_RAD",
-    "K_Q_UNOBSERVED_NM_PER_RAD",
-    "K_R1_N_PER_MM",
-    "TOOL_LENGTH_M",
-    "Kinematics",
-    "StiffnessFit",
-    "fit_diagonal_joint_stiffness",
-    "load_model",
-    "thesis_stiffness_fit",
-]
+__all__ = ["DET_J_MIN", "HOME_Q_RAD", "TOOL_LENGTH_M", "Kinematics", "load_model"]
 
 # Machining pose of the load tests and of the forming, thesis Table 4.1 [deg] -> [rad].
 HOME_Q_RAD = np.deg2rad([-0.08, 38.03, 90.62, -0.33, 51.72, -7.91])
@@ -42,11 +29,6 @@ HOME_Q_RAD = np.deg2rad([-0.08, 38.03, 90.62, -0.33, 51.72, -7.91])
 # |det J| ~ 1.1 m^3 * |sin q5|, so 0.05 m^3 refuses wrist configurations with |q5| below about 2.6 deg.
 DET_J_MIN = 0.05
 
-# Thesis Eq. 4.17, K_R(1) [N/mm]: rows Fx, Fy, Fz; columns dUx, dUy, dUz (F = K_R dU) at the home pose.
-K_R1_N_PER_MM = np.array([[716.50, -949.00, -135.00], [320.50, 378.00, -91.00], [-552.00, 1130.00, 1080.00]])
-
-# Joints 4 and 6 are not observable from tool-tip translations at home: documented choice [N m/rad].
-K_Q_UNOBSERVED_NM_PER_RAD = 5.0e5
 
 _JOINTS = tuple(f"joint{i}" for i in range(1, 7))
 _ACTUATORS = tuple(f"actuator{i}" for i in range(1, 7))
@@ -89,86 +71,6 @@ def _rotation_log(R: np.ndarray) -> np.ndarray:
     return w * (angle / s)
 
 
-def _quat_mat(quat: np.ndarray) -> np.ndarray:
-    """Rotation matrix of a MuJoCo (w, x, y, z) quaternion."""
-    R = np.zeros(9)
-    mujoco.mju_quat2Mat(R, np.asarray(quat, dtype=float))
-    return R.reshape(3, 3)
-
-
-class _ChainFK:
-    """Vectorised forward kinematics of the site `tcp` for a chain of hinge joints (numpy, many q at once).
-
-    Same composition as `mj_kinematics` (body offset, then each hinge about its anchor), with rotation
-    matrices instead of quaternions: agrees with MuJoCo to rounding (~1e-16 m). `supported` is False when
-    the chain to the site holds a joint other than the six arm hinges; callers then use MuJoCo per sample.
-    """
-
-    def __init__(self, model: mujoco.MjModel, site_id: int, qadr: np.ndarray) -> None:
-        m = model
-        chain = []
-        body = int(m.site_bodyid[site_id])
-        while body != 0:
-            chain.append(body)
-            body = int(m.body_parentid[body])
-        self.steps: list[tuple[np.ndarray, np.ndarray, list[tuple[int, np.ndarray, np.ndarray, float]]]] = []
-        arm = {int(a): i for i, a in enumerate(qadr)}
-        self.supported = True
-        for b in reversed(chain):
-            joints = []
-            for j in range(int(m.body_jntadr[b]), int(m.body_jntadr[b]) + int(m.body_jntnum[b])):
-                adr = int(m.jnt_qposadr[j])
-                if m.jnt_type[j] != mujoco.mjtJoint.mjJNT_HINGE or adr not in arm:
-                    self.supported = False
-                axis = m.jnt_axis[j] / np.linalg.norm(m.jnt_axis[j])
-                joints.append((arm.get(adr, -1), axis.copy(), m.jnt_pos[j].copy(), float(m.qpos0[adr])))
-            self.steps.append((m.body_pos[b].copy(), _quat_mat(m.body_quat[b]), joints))
-        self.site_pos = m.site_pos[site_id].copy()
-        self.site_R = _quat_mat(m.site_quat[site_id])
-
-    def __call__(self, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Site position (n, 3) [m], site orientation (n, 3, 3) and Jacobian (n, 6, 6) [m/rad; 1] at Q (n, 6)."""
-        n = Q.shape[0]
-
-        def rot(R: np.ndarray, C: np.ndarray) -> np.ndarray:  # R[i] @ C for every i, one BLAS call
-            return (R.reshape(-1, 3) @ C).reshape(R.shape[0], 3, C.shape[1] if C.ndim == 2 else 1)
-
-        pos = np.zeros((n, 3))
-        R = np.broadcast_to(np.eye(3), (n, 3, 3)).copy()
-        axes, anchors, cols = [], [], []
-        for body_pos, body_R, joints in self.steps:
-            pos = pos + rot(R, body_pos[:, None])[:, :, 0]
-            R = rot(R, body_R)
-            for col, axis, jpos, q0 in joints:
-                anchor = pos + rot(R, jpos[:, None])[:, :, 0]
-                axes.append(rot(R, axis[:, None])[:, :, 0])
-                anchors.append(anchor)
-                cols.append(col)
-                theta = Q[:, col] - q0
-                K = np.array([[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]], [-axis[1], axis[0], 0.0]])
-                # R Rot(axis, theta) = R + sin(theta) R K + (1 - cos(theta)) R K^2 (Rodrigues)
-                R = R + np.sin(theta)[:, None, None] * rot(R, K) + (1.0 - np.cos(theta))[:, None, None] * rot(R, K @ K)
-                pos = anchor - rot(R, jpos[:, None])[:, :, 0]
-        p_site = pos + rot(R, self.site_pos[:, None])[:, :, 0]
-        J = np.zeros((n, 6, 6))
-        for col, axis_w, anchor in zip(cols, axes, anchors, strict=True):
-            J[:, :3, col] += np.cross(axis_w, p_site - anchor)
-            J[:, 3:, col] += axis_w
-        return p_site, rot(R, self.site_R), J
-
-
-def _rotation_log_batch(M: np.ndarray) -> np.ndarray | None:
-    """`_rotation_log` of many rotations (n, 3, 3); None if one is near pi (use the scalar one there)."""
-    w = 0.5 * np.stack([M[:, 2, 1] - M[:, 1, 2], M[:, 0, 2] - M[:, 2, 0], M[:, 1, 0] - M[:, 0, 1]], axis=1)
-    s = np.sqrt(np.sum(w * w, axis=1))
-    c = 0.5 * (M[:, 0, 0] + M[:, 1, 1] + M[:, 2, 2] - 1.0)
-    if np.any(c < -0.99):
-        return None
-    angle = np.arctan2(s, c)
-    factor = np.where(s < 1e-12, 1.0, angle / np.where(s < 1e-12, 1.0, s))
-    return w * factor[:, None]
-
-
 class Kinematics:
     """Forward/inverse kinematics and compliance on the MuJoCo model (scene or robot-only).
 
@@ -196,7 +98,7 @@ class Kinematics:
         self._jacp = np.zeros((3, m.nv))
         self._jacr = np.zeros((3, m.nv))
         self._damping = 1e-10 * np.eye(6)
-        self._chain = _ChainFK(m, self._tcp_id, self._qadr)
+        self._chain = ChainFK(m, self._tcp_id, self._qadr)
         self.q_home = HOME_Q_RAD.copy()
         _p_home, R_home = self.fk(self.q_home)
         x = np.array([R_home[0, 0], R_home[1, 0], 0.0])
@@ -381,7 +283,7 @@ class Kinematics:
             p, R, J = self._chain(Q[active])
             # R_t R^T = (R R_t^T)^T, one BLAS call for all points
             M = (R.reshape(-1, 3) @ R_tT).reshape(-1, 3, 3).transpose(0, 2, 1)
-            log = _rotation_log_batch(M)
+            log = rotation_log_batch(M)
             if log is None:
                 return None
             e = np.concatenate([P[active] - p, log], axis=1)
@@ -418,60 +320,3 @@ class Kinematics:
         if self._chain.supported:
             return self._chain(arr)[2]
         return np.array([self.jacobian(q) for q in arr])
-
-
-@dataclass(frozen=True)
-class StiffnessFit:
-    """Diagonal joint stiffness fitted to a Cartesian compliance.
-
-    Attributes:
-        K_q: Joint stiffnesses (6,) [N m/rad].
-        fitted: 0-based indices of the fitted joints (the others were fixed).
-        C_target: Compliance fitted to (3, 3) [m/N].
-        C_model: J_v K_q^-1 J_v^T with the fitted K_q (3, 3) [m/N].
-        residual_rel: ||C_model - C_target||_F / ||C_target||_F.
-    """
-
-    K_q: np.ndarray
-    fitted: tuple[int, ...]
-    C_target: np.ndarray
-    C_model: np.ndarray
-    residual_rel: float
-
-
-def fit_diagonal_joint_stiffness(
-    J_v: np.ndarray, C_target: np.ndarray, fixed: Mapping[int, float] | None = None
-) -> StiffnessFit:
-    """Least-squares diagonal K_q with J_v K_q^-1 J_v^T ~ C_target (Frobenius), compliances kept >= 0.
-
-    Args:
-        J_v: Translational Jacobian (3, 6) [m/rad].
-        C_target: Symmetric target compliance (3, 3) [m/N].
-        fixed: 0-based joint index -> fixed stiffness [N m/rad] for joints not to fit.
-    """
-    fixed = {} if fixed is None else dict(fixed)
-    basis = np.stack([np.outer(J_v[:, i], J_v[:, i]).ravel() for i in range(6)], axis=1)
-    rhs = C_target.ravel() - sum(basis[:, i] / k for i, k in fixed.items())
-    free = tuple(i for i in range(6) if i not in fixed)
-    c, _ = nnls(basis[:, free], rhs)
-    K_q = np.empty(6)
-    for i, k in fixed.items():
-        K_q[i] = k
-    with np.errstate(divide="ignore"):
-        K_q[list(free)] = 1.0 / c
-    C_model = (J_v / K_q) @ J_v.T
-    resid = float(np.linalg.norm(C_model - C_target) / np.linalg.norm(C_target))
-    return StiffnessFit(K_q, free, C_target.copy(), C_model, resid)
-
-
-def thesis_stiffness_fit(kin: Kinematics | None = None) -> StiffnessFit:
-    """Default K_q of the model: fit to the symmetric part of inv(K_R(1)) (thesis Eq. 4.17) at home.
-
-    Joints 4 and 6 are fixed at `K_Q_UNOBSERVED_NM_PER_RAD` (not observable from tip translations).
-    """
-    kin = Kinematics(load_model(scene=False)) if kin is None else kin
-    C = np.linalg.inv(K_R1_N_PER_MM * 1e3)  # [m/N]
-    J_v = kin.jacobian(kin.q_home)[:3]
-    return fit_diagonal_joint_stiffness(
-        J_v, 0.5 * (C + C.T), fixed={3: K_Q_UNOBSERVED_NM_PER_RAD, 5: K_Q_UNOBSERVED_NM_PER_RAD}
-    )
