@@ -14,6 +14,7 @@ from rerun.chunk import RrdReader
 
 from twin import recording
 from twin.errors import InputError
+from twin.recording_robot import geom_mesh
 from twin.replay import ReplayResult
 from twin.runs import Run, Stream
 from twin.sim import SimResult
@@ -224,7 +225,7 @@ def test_geom_mesh_places_primitives_by_geom_pose():
       <geom name="floor" type="plane" size="1 1 0.1"/>
     </body></worldbody></mujoco>"""
     m = mujoco.MjModel.from_xml_string(xml)
-    bounds = {m.geom(g).name: recording.geom_mesh(m, g) for g in range(m.ngeom)}
+    bounds = {m.geom(g).name: geom_mesh(m, g) for g in range(m.ngeom)}
     assert bounds["floor"] is None
     np.testing.assert_allclose(bounds["box"].bounds, [[0.9, -0.2, -0.3], [1.1, 0.2, 0.3]], atol=1e-9)
     np.testing.assert_allclose(bounds["cyl"].bounds, [[-0.05, 0.8, -0.05], [0.05, 1.2, 0.05]], atol=1e-6)
