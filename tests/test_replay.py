@@ -188,3 +188,12 @@ def test_replay_metrics_measure_a_known_offset() -> None:
     assert m["force_peak_measured_n"] == pytest.approx(np.hypot(1000.0, 50.0))
     assert m["samples"] == 101 and m["force_samples"] == 61
     assert "force_rms_n" not in replay_metrics(Run(None, {}, commanded, Stream(t_trk, measured)), truth, None)
+
+
+def test_replay_cli_records_a_run_with_a_lost_motion_model(clean_run_dir: Path, tmp_path: Path) -> None:
+    from twin.effects import write_model_file
+
+    model = write_model_file(tmp_path / "m.json", Effects({"direction_dependent_compliance": 0.2}))
+    rrd = tmp_path / "replay.rrd"
+    assert main(["replay", str(clean_run_dir), "--model", str(model), "--rrd", str(rrd)]) == 0
+    assert rrd.stat().st_size > 10_000

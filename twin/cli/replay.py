@@ -10,6 +10,7 @@ from twin.csvio import emit_json
 from twin.effects import Effects, read_model_file
 from twin.replay import replay
 from twin.runs import read_run
+from twin.sim import Twin
 
 HELP = "Replay a measured run on the twin and report the gap (position and force)."
 
@@ -28,7 +29,8 @@ def run(args: argparse.Namespace) -> int:
     """Replay the run."""
     measured = read_run(args.run_dir)
     effects, stiffness = read_model_file(args.model) if args.model else (Effects(), None)
-    result = replay(measured, effects=effects, joint_stiffness=stiffness)
+    twin = Twin(effects=effects.robot, joint_stiffness=stiffness)
+    result = replay(measured, effects=effects, twin=twin)
     m = result.metrics
     out = sys.stderr if args.json == "-" else sys.stdout  # keep stdout pure JSON for `--json -`
     print(
@@ -42,7 +44,7 @@ def run(args: argparse.Namespace) -> int:
     if args.rrd is not None:
         from twin.recording import record_replay
 
-        record_replay(args.rrd, measured, result)
+        record_replay(args.rrd, measured, result, twin_model=twin.model)
         print(f"rerun recording -> {args.rrd}", file=out)
     emit_json(args.json, {"run": args.run_dir, **m}, protect=[args.run_dir])
     return 0
