@@ -19,6 +19,7 @@ Two methods:
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -103,6 +104,7 @@ def compensate_twin(
     *,
     tol_m: float = TWIN_TOL_M,
     max_iter: int = TWIN_MAX_ITER,
+    progress: Callable[[int, float], None] | None = None,
 ) -> Compensation:
     """Iterate the command with the twin until its simulated tool tip follows U_ID.
 
@@ -112,6 +114,7 @@ def compensate_twin(
         twin: The twin (with whatever effects and stiffness it carries).
         tol_m: Stop when the largest |U_sim - U_ID| is below this [m].
         max_iter: Iteration limit.
+        progress: Called after each iteration with (iteration, rms residual [m]), e.g. to draw progress.
 
     Raises:
         CompensationError: The iteration diverges or does not reach `tol_m` within `max_iter`.
@@ -124,6 +127,8 @@ def compensate_twin(
         sim = twin.simulate(t_s, cmd)
         residual = sim.p_sheet_m - p_id
         history.append(float(np.sqrt(np.mean(np.sum(residual**2, axis=1)))))
+        if progress is not None:
+            progress(iteration, history[-1])
         worst = float(np.max(np.abs(residual)))
         if worst < tol_m:
             return Compensation(

@@ -61,6 +61,11 @@ class _Stages:
         return value
 
 
+def _progress(iteration: int, rms_m: float) -> None:
+    """One mark per twin-compensation iteration with its residual, so a long stage shows it is moving."""
+    print(f" {iteration}:{1e3 * rms_m:.4f}mm", end="", flush=True)
+
+
 def _lab(out: Path, name: str, t_s: np.ndarray, p_cmd: np.ndarray, scenario: str, seed: int) -> Run:
     run, truth = run_lab(
         t_s,
@@ -147,7 +152,7 @@ def run_demo(out: str | Path = "out/demo") -> dict[str, Any]:
 
     def corrected() -> np.ndarray:
         comp = compensate_twin(
-            ideal.t_s, ideal.p_sheet_m, Twin(history=mistaken, effects=found.effects.robot)
+            ideal.t_s, ideal.p_sheet_m, Twin(history=mistaken, effects=found.effects.robot), progress=_progress
         )
         report["twin_compensation"] = {
             "iterations": comp.iterations,
