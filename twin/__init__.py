@@ -4,6 +4,7 @@ Data flows one way: path -> force field -> twin -> lab (or a real cell) -> ident
 -> discrepancy. The public API is re-exported here.
 """
 
+from twin.bench import analytic_replay, run_benchmarks
 from twin.check import CheckResult, check_run, diagnose_gain
 from twin.compensate import (
     Compensation,
@@ -39,6 +40,7 @@ from twin.identify import (
     fit_kr_load_cases,
     load_cases_csv,
 )
+from twin.identify_kq import KqRolloutFit, kq_from_run, kq_from_stiffness, write_joint_stiffness
 from twin.identify_run import Method2Result, method2
 from twin.kinematics import HOME_Q_RAD, TOOL_LENGTH_M, Kinematics, load_model
 from twin.lab import LabSettings, load_test, nominal_commanded, run_lab
@@ -66,6 +68,7 @@ __all__ = [
     "InputError",
     "Kinematics",
     "KqFit",
+    "KqRolloutFit",
     "KrFit",
     "LabSettings",
     "Method2Result",
@@ -86,6 +89,7 @@ __all__ = [
     "TwinError",
     "UnitsError",
     "UnreachableError",
+    "analytic_replay",
     "build_model",
     "check_run",
     "compensate_formula",
@@ -102,6 +106,8 @@ __all__ = [
     "fit_kr_load_cases",
     "gain_of",
     "groove_path",
+    "kq_from_run",
+    "kq_from_stiffness",
     "label_passes",
     "load_cases_csv",
     "load_force_history",
@@ -116,7 +122,9 @@ __all__ = [
     "replay",
     "replay_metrics",
     "result_summary",
+    "run_benchmarks",
     "run_lab",
+    "write_joint_stiffness",
     "write_model_file",
     "write_path_csv",
     "write_run",
