@@ -118,3 +118,13 @@ def test_starting_from_the_model_out_finds_nothing_more(workflow: dict[str, Path
     assert doc["effect"] == "none"
     assert doc["parameters"] == first["parameters"]
     assert doc["gap_before"]["position_rms_mm"] == pytest.approx(first["gap_after"]["position_rms_mm"], rel=1e-9)
+
+
+def test_discrepancy_refuses_to_write_the_model_into_the_run(tmp_path: Path) -> None:
+    from twin.effects import Effects, write_model_file
+    from twin.errors import InputError
+
+    run_dir = tmp_path / "run"
+    run_dir.mkdir()
+    with pytest.raises(InputError, match="refusing"):
+        write_model_file(run_dir / "model.json", Effects(), protect=[run_dir])

@@ -66,19 +66,19 @@ def test_json_to_stdout_is_pure_json(loads_csv: Path, capsys: pytest.CaptureFixt
 def test_refuses_to_overwrite_the_loads_file(loads_csv: Path) -> None:
     before = loads_csv.read_text()
     with pytest.raises(InputError, match="refusing to overwrite input file"):
-        command.run(argparse.Namespace(method=1, loads=loads_csv, run_dir=None, json=str(loads_csv)))
+        command.run(argparse.Namespace(method=1, loads=loads_csv, run_dir=None, json=str(loads_csv), write_model=None))
     assert run_command(["--loads", str(loads_csv), "--json", str(loads_csv)]) == 2
     assert loads_csv.read_text() == before
 
 
 def test_method2_without_run_dir_is_an_input_error() -> None:
     with pytest.raises(InputError, match="RUN_DIR"):
-        command.run(argparse.Namespace(method=2, loads=None, run_dir=None, json=None))
+        command.run(argparse.Namespace(method=2, loads=None, run_dir=None, json=None, write_model=None))
 
 
 def test_method1_without_loads_is_an_input_error() -> None:
     with pytest.raises(InputError, match="--loads"):
-        command.run(argparse.Namespace(method=1, loads=None, run_dir=None, json=None))
+        command.run(argparse.Namespace(method=1, loads=None, run_dir=None, json=None, write_model=None))
 
 
 def test_singular_load_file_exits_with_code_2(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

@@ -16,7 +16,13 @@ import numpy as np
 import pytest
 
 from twin.compensate import compensate_twin
-from twin.discrepancy import DiscrepancyResult, find_discrepancy, is_contradicted, result_summary
+from twin.discrepancy import (
+    DiscrepancyResult,
+    excess_over_noise,
+    find_discrepancy,
+    is_contradicted,
+    result_summary,
+)
 from twin.effects import EFFECTS, Effects
 from twin.forces import ForceHistory, load_force_history
 from twin.lab import LabSettings, run_lab
@@ -99,6 +105,33 @@ def test_each_library_effect_is_named_fitted_and_closes_the_gap(
     assert result.gap_after["position_rms_mm"] <= NOISE_FACTOR * NOISE_GAP["position_rms_mm"], info
     assert result.gap_after["force_rms_n"] <= NOISE_FACTOR * NOISE_GAP["force_rms_n"], info
     assert result.gap_after["profile_rms_mm"] <= NOISE_FACTOR * NOISE_GAP["profile_rms_mm"], info
+
+
+@pytest.mark.parametrize(
+    ("name", "value", "seed"),
+    [
+        # a clock offset far beyond a few Gauss-Newton steps from zero (needs the coarse scan)
+        ("stream_time_offset", 0.288, 201),
+        # springback at 1.5x the profile noise while the force noise is over-estimated a little: the
+        # profile's excess must not be cancelled by the other streams' chi-square below 1
+        ("sheet_springback", 0.0043, 201),
+    ],
+)
+def test_hard_single_effects_are_named(
+    name: str, value: float, seed: int, nominal_path: tuple[np.ndarray, np.ndarray]
+) -> None:
+    result, seconds = timed(lab_run(nominal_path, {name: value}, seed))
+    info = describe(result, seconds)
+    assert result.found == (name,), info
+    assert parameter_error(name, result.effects.get(name), value) <= PARAMETER_TOLERANCE, info
+
+
+def test_excess_over_noise_is_counted_per_stream() -> None:
+    sizes = [100, 50]
+    at_noise_low = np.full(100, 0.9)  # reduced chi-square 0.81: noise estimated a little high
+    above = np.full(50, 2.0)  # reduced chi-square 4: excess 150
+    assert excess_over_noise(np.concatenate([at_noise_low, above]), sizes) == pytest.approx(150.0)
+    assert excess_over_noise(np.ones(150), sizes) == pytest.approx(0.0)
 
 
 def test_two_effects_together_are_both_named_with_their_parameters(

@@ -18,7 +18,7 @@ stiffness); `replay --model` and `compensate --model` read it.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -167,6 +167,7 @@ def write_model_file(
     *,
     joint_stiffness_nm_per_rad: np.ndarray | None = None,
     note: str = "",
+    protect: Sequence[str | Path] = (),
 ) -> Path:
     """Write a twin model file (JSON) holding named effects and optionally K_q."""
     payload: dict[str, Any] = {
@@ -177,6 +178,11 @@ def write_model_file(
     }
     if joint_stiffness_nm_per_rad is not None:
         payload["joint_stiffness_nm_per_rad"] = np.asarray(joint_stiffness_nm_per_rad, dtype=float)
+    for other in protect:  # never write into a run (or over an input) the model was made from
+        if Path(path).resolve() == Path(other).resolve() or Path(path).resolve().is_relative_to(
+            Path(other).resolve()
+        ):
+            raise InputError(f"refusing to write the model file {path} into/over the input {other}")
     return write_json(path, payload)
 
 

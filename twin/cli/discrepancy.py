@@ -43,6 +43,7 @@ def run(args: argparse.Namespace) -> int:
             result.effects,
             joint_stiffness_nm_per_rad=stiffness,
             note=f"tx200-twin discrepancy on {args.run_dir}: found {list(result.found) or result.verdict}",
+            protect=protect,
         )
         summary["model_out"] = args.model_out
     if args.report is not None:
