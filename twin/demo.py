@@ -66,6 +66,11 @@ def _progress(iteration: int, rms_m: float) -> None:
     print(f" {iteration}:{1e3 * rms_m:.4f}mm", end="", flush=True)
 
 
+def _candidate(name: str) -> None:
+    """One mark per candidate effect fitted by the discrepancy workflow."""
+    print(f" {name}", end="", flush=True)
+
+
 def _lab(out: Path, name: str, t_s: np.ndarray, p_cmd: np.ndarray, scenario: str, seed: int) -> Run:
     run, truth = run_lab(
         t_s,
@@ -145,14 +150,17 @@ def run_demo(out: str | Path = "out/demo") -> dict[str, Any]:
 
     found = stages.run(
         "discrepancy workflow on it (twin with the mistaken history)",
-        lambda: find_discrepancy(comp_bug, history=mistaken),
+        lambda: find_discrepancy(comp_bug, history=mistaken, progress=_candidate),
     )
     report["discrepancy"] = result_summary(found)
     write_model_file(out / "twin_model.json", found.effects, note="found by the demo's discrepancy workflow")
 
     def corrected() -> np.ndarray:
         comp = compensate_twin(
-            ideal.t_s, ideal.p_sheet_m, Twin(history=mistaken, effects=found.effects.robot), progress=_progress
+            ideal.t_s,
+            ideal.p_sheet_m,
+            Twin(history=mistaken, effects=found.effects.robot),
+            progress=_progress,
         )
         report["twin_compensation"] = {
             "iterations": comp.iterations,

@@ -20,6 +20,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -129,7 +130,8 @@ def is_contradicted(chi2_now: dict[str, float], chi2_new: dict[str, float], coun
     """
     return any(
         chi2_new[name]
-        > (1.0 + CHI2_MARGIN) * max(chi2_now[name], 1.0 + CHI2_MARGIN) + 5.0 * np.sqrt(2.0 / max(counts[name], 1))
+        > (1.0 + CHI2_MARGIN) * max(chi2_now[name], 1.0 + CHI2_MARGIN)
+        + 5.0 * np.sqrt(2.0 / max(counts[name], 1))
         for name in chi2_new
     )
 
@@ -156,8 +158,11 @@ def _fit_candidate(
     theta = base.get(name)
     r = r_base
     if name in _SCAN_POINTS:
-        scan = [(float(v @ v), float(x), v) for x in np.linspace(lo, hi, _SCAN_POINTS[name])
-                for v in (model.vector(base.with_value(name, float(x))),)]
+        scan = [
+            (float(v @ v), float(x), v)
+            for x in np.linspace(lo, hi, _SCAN_POINTS[name])
+            for v in (model.vector(base.with_value(name, float(x))),)
+        ]
         sse, x_best, v_best = min(scan, key=lambda item: item[0])
         if sse < float(r @ r):
             theta, r = x_best, v_best
@@ -245,6 +250,19 @@ def _gap(run: Run, model: ResidualModel, effects: Effects) -> dict[str, float]:
     return gap
 
 
+def _fit_reporting(
+    model: ResidualModel,
+    base: Effects,
+    name: str,
+    r_base: np.ndarray,
+    sizes: list[int],
+    progress: Callable[[str], None] | None,
+) -> CandidateFit:
+    if progress is not None:
+        progress(name)
+    return _fit_candidate(model, base, name, r_base, sizes)
+
+
 def find_discrepancy(
     run: Run,
     *,
@@ -252,6 +270,7 @@ def find_discrepancy(
     history: ForceHistory | None = None,
     joint_stiffness: np.ndarray | None = None,
     candidates: tuple[str, ...] | None = None,
+    progress: Callable[[str], None] | None = None,
 ) -> DiscrepancyResult:
     """Run the workflow on one run.
 
@@ -261,6 +280,7 @@ def find_discrepancy(
         history: Force history of the twin's field (default: the shipped one).
         joint_stiffness: K_q of the twin [N·m/rad] (default: the model's).
         candidates: Names to try (default: all of EFFECTS; `sheet_springback` only with a part profile).
+        progress: Called with each candidate's name as its fit starts (to show a long search moving).
     """
     model = ResidualModel(run, history, joint_stiffness)
     names = candidates or tuple(EFFECTS)
@@ -282,7 +302,7 @@ def find_discrepancy(
         r_base = model.vector(effects)
         fits = tuple(
             sorted(
-                (_fit_candidate(model, effects, n, r_base, sizes) for n in names if n not in found),
+                (_fit_reporting(model, effects, n, r_base, sizes, progress) for n in names if n not in found),
                 key=lambda c: -c.score,
             )
         )
