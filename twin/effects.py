@@ -6,7 +6,7 @@ neutral value that switches it off:
 | name | parameter [unit] | what it does |
 |---|---|---|
 | direction_dependent_compliance | lost motion of joints 2-3 [mrad] | link-side hinge offset that flips with travel direction (`twin.plant`) |
-| force_scale | k [-] | the sheet's real force is k x the FE-fitted field |
+| force_scale | k [-] | the sheet's real forces are k x the FE history (the field is fitted to the scaled history) |
 | stream_time_offset | tau [s] | the force sensor's clock runs tau ahead: a sample stamped t was measured at t - tau |
 | tracker_drift | rate [mm/s] | the tracker's reading drifts linearly with time along TRACKER_DRIFT_DIRECTION |
 | tcp_offset | tool-length error [mm] | the real tool tip lies this much further along the tool axis than nominal |
@@ -53,7 +53,7 @@ EFFECTS: dict[str, EffectSpec] = {
             0.0,
             "lost motion of joints 2-3 that flips with travel direction",
         ),
-        EffectSpec("force_scale", "-", 1.0, "real sheet force = k x the FE-fitted force field"),
+        EffectSpec("force_scale", "-", 1.0, "real sheet forces = k x the FE force history"),
         EffectSpec("stream_time_offset", "s", 0.0, "force-sensor clock ahead of the tracker clock by tau"),
         EffectSpec("tracker_drift", "mm/s", 0.0, "linear drift of the tracker reading with time"),
         EffectSpec("tcp_offset", "mm", 0.0, "real tool tip further along the tool axis than nominal"),

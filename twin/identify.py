@@ -347,7 +347,8 @@ def compensation_gain(delta_m: np.ndarray, predicted_m: np.ndarray) -> float:
         predicted_m: Predicted deflections P = C_R·F_ID, same shape [m].
 
     Returns:
-        The gain g (1 when the prediction is exact; 2 for the thesis's halved FE forces, §5.1).
+        The gain g (1 when the correction is what the prediction asks for; 0.5 for the thesis's run, whose
+        correction used the half-model FE forces, §5.1).
 
     Raises:
         InputError: Shapes differ or values are not finite.

@@ -14,7 +14,8 @@ Effects on the robot:
   shows a distortion at the start of each stroke, as the thesis saw (sec. 3.3.1).
 - `tcp_offset_m`: tool-length error: the real tool tip lies `tcp_offset_m` further along the tool axis
   than the nominal 274.94 mm the path was computed with (the controller still uses the nominal length).
-- `force_scale`: the sheet's real force is `force_scale` times the field's (used by the simulator).
+- `force_scale`: the sheet's real forces are `force_scale` times the FE history; the simulator fits its field to
+  the scaled history (the field's penetration sensitivity, a property of the sheet, is not scaled).
 """
 
 from __future__ import annotations
@@ -40,7 +41,7 @@ class RobotEffects:
         lost_motion_rad: Lost motion of joints 2 and 3, half of the dead band [rad].
         lost_motion_takeup_m: Travel after a reversal over which the play is taken up [m].
         tcp_offset_m: Real tool tip minus nominal, along the tool axis [m].
-        force_scale: Real sheet force divided by the force field's [-].
+        force_scale: Real sheet forces divided by the FE history's [-].
     """
 
     lost_motion_rad: float = 0.0
