@@ -98,3 +98,13 @@ def test_bad_files_raise_clear_errors_naming_the_file(tmp_path, text, error, pat
     with pytest.raises(error, match=pattern) as info:
         load_force_history(path, symmetry="half")
     assert "bad.csv" in str(info.value)
+
+
+def test_history_records_what_its_columns_say_even_when_declared_otherwise() -> None:
+    from twin.resources import data_file
+
+    mistaken = load_force_history(data_file("fe_force_history.csv"), symmetry="full", trust_columns=False)
+    assert (mistaken.symmetry, mistaken.column_symmetry) == ("full", "half")
+    correct = load_force_history(data_file("fe_force_history.csv"), symmetry="half")
+    assert correct.column_symmetry == correct.symmetry == "half"
+    np.testing.assert_allclose(correct.f_sheet_n[:, [0, 2]], 2.0 * mistaken.f_sheet_n[:, [0, 2]])

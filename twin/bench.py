@@ -33,6 +33,7 @@ from twin.errors import InputError
 from twin.forces import ForceHistory
 from twin.path import label_passes
 from twin.runs import Run
+from twin.signals import interp_rows
 from twin.sim import PASS_DEADBAND_M, Twin
 
 ANALYTIC_TOL_M = 1e-12  # fixed-point residual of the per-sample 3x3 Newton solve [m]
@@ -54,10 +55,6 @@ class AnalyticReplay:
     f_sheet_n: np.ndarray
     tracker_pred_m: np.ndarray
     forces_pred_n: np.ndarray | None
-
-
-def _interp_rows(t_s: np.ndarray, t_ref_s: np.ndarray, values: np.ndarray) -> np.ndarray:
-    return np.column_stack([np.interp(t_s, t_ref_s, values[:, j]) for j in range(values.shape[1])])
 
 
 def analytic_replay(run: Run, *, twin: Twin | None = None, history: ForceHistory | None = None) -> AnalyticReplay:
@@ -107,8 +104,8 @@ def analytic_replay(run: Run, *, twin: Twin | None = None, history: ForceHistory
         f_out[i] = field.force(p, pi, di)
         field.advance(p, pi)
         p_out[i] = p
-    tracker = _interp_rows(run.tracker.t_s, t_s, p_out)
-    forces = _interp_rows(run.forces.t_s, t_s, f_out) if run.forces is not None else None
+    tracker = interp_rows(run.tracker.t_s, t_s, p_out)
+    forces = interp_rows(run.forces.t_s, t_s, f_out) if run.forces is not None else None
     return AnalyticReplay(p_out, f_out, tracker, forces)
 
 

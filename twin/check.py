@@ -16,6 +16,7 @@ from twin.errors import IdentificationError, RunFormatError
 from twin.identify import compensation_gain, fit_compliance
 from twin.path import label_passes
 from twin.runs import Run, resample
+from twin.signals import interp_rows
 
 GAIN_TOLERANCE = 0.02
 HALF_FORCE_WINDOW = 0.1  # a gain within 0.5 +/- this points at the forgotten doubling
@@ -101,7 +102,7 @@ def check_run(run: Run, t_ideal_s: np.ndarray, p_ideal_sheet_m: np.ndarray) -> C
     t_ideal = np.asarray(t_ideal_s, dtype=float)
     p_ideal = np.asarray(p_ideal_sheet_m, dtype=float)
     t_tr = run.tracker.t_s
-    ideal_tr = np.column_stack([np.interp(t_tr, t_ideal, p_ideal[:, j]) for j in range(3)])
+    ideal_tr = interp_rows(t_tr, t_ideal, p_ideal)
     residual = run.tracker.values - ideal_tr
     pass_ideal, dir_ideal = label_passes(p_ideal[:, 0])
     index = np.clip(np.searchsorted(t_ideal, t_tr), 0, len(t_ideal) - 1)
@@ -112,7 +113,7 @@ def check_run(run: Run, t_ideal_s: np.ndarray, p_ideal_sheet_m: np.ndarray) -> C
     f = run.forces.values[inside]
     cmd = resample(run.commanded, t_f)
     tip = resample(run.tracker, t_f)
-    ideal = np.column_stack([np.interp(t_f, t_ideal, p_ideal[:, j]) for j in range(3)])
+    ideal = interp_rows(t_f, t_ideal, p_ideal)
     loaded = np.linalg.norm(f, axis=1) > 0.1 * np.max(np.linalg.norm(f, axis=1))
     if np.sum(loaded) < 10:
         raise IdentificationError("fewer than 10 loaded force samples: cannot estimate the compliance")

@@ -112,6 +112,12 @@ def check_mm_magnitude(path: str | Path, column: str, values: np.ndarray, *, min
         )
 
 
+def write_text(path: str | Path, text: str, *, protect: Sequence[str | Path] = ()) -> Path:
+    """Write a text file atomically (temporary sibling, then rename); never over a `protect`ed input."""
+    _atomic_write_text(Path(path), text, protect)
+    return Path(path)
+
+
 def _atomic_write_text(path: Path, text: str, protect: Sequence[str | Path]) -> None:
     path = Path(path)
     for other in protect:

@@ -47,6 +47,8 @@ class ForceHistory:
         p_sheet_m: Tool-tip position (x, 0, z) in the sheet frame [m], shape (n, 3).
         f_sheet_n: PHYSICAL force exerted by the sheet on the tool, sheet frame [N], shape (n, 3).
         symmetry: The declaration the file was loaded with, `half` or `full`.
+        column_symmetry: The symmetry the file's column names state (`half` for `*_half_n` columns); it differs
+            from `symmetry` only when the column check was skipped (`trust_columns=False`).
         source: The file read.
     """
 
@@ -55,6 +57,7 @@ class ForceHistory:
     f_sheet_n: np.ndarray
     symmetry: str
     source: Path
+    column_symmetry: str
 
     def to_path(self, feed_m_per_s: float = 2.0 / 60.0) -> ToolPath:
         """The history's sample points as a ToolPath (constant feed; passes from `label_passes`).
@@ -133,7 +136,14 @@ def load_force_history(path: str | Path, *, symmetry: str, trust_columns: bool =
     if symmetry == "full" and "fy_n" in table:
         f[:, 1] = table["fy_n"]
     p = np.column_stack([x_mm, np.zeros_like(x_mm), z_mm]) / 1000.0
-    return ForceHistory(s_m=s_mm / 1000.0, p_sheet_m=p, f_sheet_n=f, symmetry=symmetry, source=path)
+    return ForceHistory(
+        s_m=s_mm / 1000.0,
+        p_sheet_m=p,
+        f_sheet_n=f,
+        symmetry=symmetry,
+        source=path,
+        column_symmetry="half" if has_half else "full",
+    )
 
 
 def default_force_history() -> ForceHistory:

@@ -19,6 +19,7 @@ import mujoco
 import numpy as np
 from scipy.optimize import least_squares
 
+from twin.csvio import write_text
 from twin.effects import Effects, write_model_file
 from twin.errors import IdentificationError, InputError, ModelError
 from twin.forces import ForceHistory
@@ -119,8 +120,6 @@ def write_joint_stiffness(path: str | Path, k_q_nm_per_rad: np.ndarray, *, note:
     if path.suffix.lower() != ".xml":
         return write_model_file(path, Effects(), joint_stiffness_nm_per_rad=k, note=note)
     source = robot_xml()
-    if path.resolve() == source.resolve():
-        raise InputError(f"refusing to overwrite the shipped model {source}; write the MJCF elsewhere")
     spec = mujoco.MjSpec.from_file(str(source))
     for i, value in enumerate(k, start=1):
         actuator = spec.actuator(f"actuator{i}")
@@ -133,8 +132,4 @@ def write_joint_stiffness(path: str | Path, k_q_nm_per_rad: np.ndarray, *, note:
     spec.meshdir = str((source.parent / spec.meshdir).resolve())  # the copy may live anywhere
     spec.compile()
     xml = spec.to_xml()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_text(xml)
-    tmp.replace(path)
-    return path
+    return write_text(path, xml, protect=[source])

@@ -19,6 +19,7 @@ from twin.forces import ForceHistory, default_force_history
 from twin.identify import fit_compliance, fit_kr_from_run
 from twin.path import ToolPath, label_passes
 from twin.runs import Run, resample
+from twin.signals import interp_rows
 from twin.sim import PASS_DEADBAND_M
 
 
@@ -59,7 +60,7 @@ def method2(run: Run, history: ForceHistory | None = None) -> Method2Result:
     pass_index, direction = label_passes(cmd.values[:, 0], deadband_m=PASS_DEADBAND_M)
     path = ToolPath(t_s=cmd.t_s, p_sheet_m=cmd.values, pass_index=pass_index, direction=direction)
     f_ideal_cmd = SheetForceField(history or default_force_history()).rigid_forces(path)
-    f_ideal = np.column_stack([np.interp(t, cmd.t_s, f_ideal_cmd[:, j]) for j in range(3)])
+    f_ideal = interp_rows(t, cmd.t_s, f_ideal_cmd)
     f_meas = resample(run.forces, t)
     d = resample(run.tracker, t) - resample(cmd, t)
     loaded = np.linalg.norm(f_ideal, axis=1) > 0.1 * np.max(np.linalg.norm(f_ideal, axis=1))

@@ -15,15 +15,13 @@ from typing import Any
 
 import numpy as np
 
+from twin.dh import TOOL_LENGTH_M
 from twin.effects import Effects
 from twin.forces import ForceHistory
 from twin.measure import predict_forces, predict_part_profile, predict_tracker, uniform_times
 from twin.path import groove_path
 from twin.runs import Run, Stream
 from twin.sim import Twin
-
-SCENARIOS = ("nominal", "compensated")
-TOOL_LENGTH_M = 0.27494
 
 
 @dataclass(frozen=True)

@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from twin.effects import Effects
+from twin.signals import interp_rows
 from twin.sim import SimResult, Twin
 
 PROFILE_HALF_SPAN_M = 0.045  # part profile scanned over x in [-45, 45] mm (groove 70 mm + margin)
@@ -27,7 +28,7 @@ def predict_tracker(result: SimResult, t_s: np.ndarray, effects: Effects) -> np.
     The simulated tip is interpolated linearly in time and the effect `tracker_drift` is added.
     """
     t_s = np.asarray(t_s, dtype=float)
-    tip = np.column_stack([np.interp(t_s, result.t_s, result.p_sheet_m[:, j]) for j in range(3)])
+    tip = interp_rows(t_s, result.t_s, result.p_sheet_m)
     return tip + np.outer(t_s - result.t_s[0], effects.tracker_drift_m_per_s)
 
 

@@ -30,6 +30,7 @@ import numpy as np
 
 from twin.csvio import write_table
 from twin.errors import InputError
+from twin.signals import interp_rows
 
 
 @dataclass(frozen=True)
@@ -197,7 +198,7 @@ def resample_by_arc_length(path: ToolPath, n: int) -> ToolPath:
         raise InputError(f"n = {n}: expected at least 2 samples")
     s = path.s_m
     s_new = np.linspace(0.0, s[-1], n)
-    p = np.column_stack([np.interp(s_new, s, path.p_sheet_m[:, j]) for j in range(3)])
+    p = interp_rows(s_new, s, path.p_sheet_m)
     idx = np.searchsorted(s, s_new, side="left").clip(0, len(s) - 1)
     return ToolPath(
         t_s=np.interp(s_new, s, path.t_s),

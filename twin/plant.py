@@ -65,6 +65,11 @@ class RobotEffects:
             raise InputError(f"force_scale = {self.force_scale!r}, expected >= 0")
 
     @property
+    def changes_model(self) -> bool:
+        """Whether the compiled robot differs from the nominal one (`force_scale` acts on the field only)."""
+        return self.has_lost_motion or self.tcp_offset_m != 0.0
+
+    @property
     def has_lost_motion(self) -> bool:
         """Whether the model needs the link-side hinges of joints 2 and 3."""
         return self.lost_motion_rad != 0.0

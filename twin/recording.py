@@ -34,6 +34,7 @@ import rerun.blueprint as rrb
 from twin.errors import InputError, ModelError
 from twin.plant import build_model
 from twin.recording_robot import TIMELINE, log_body_poses, log_robot_geometry
+from twin.signals import interp_rows
 
 if TYPE_CHECKING:
     from twin.replay import ReplayResult
@@ -122,10 +123,6 @@ def _series(
     )
 
 
-def _interp(t_query: np.ndarray, t_s: np.ndarray, values: np.ndarray) -> np.ndarray:
-    return np.column_stack([np.interp(t_query, t_s, values[:, k]) for k in range(values.shape[1])])
-
-
 def _readme(run: Run, replay: ReplayResult, origin: np.ndarray) -> str:
     lines = [
         f"# {run.scenario or 'run'}: replay on the twin",
@@ -162,7 +159,7 @@ def _log_replay(
     t_trk = run.tracker.t_s
     p_trk = run.tracker.values
     p_pred = _points("replay.tracker_pred_m", replay.tracker_pred_m, len(t_trk))
-    cmd_at_trk = _interp(t_trk, run.commanded.t_s, run.commanded.values)
+    cmd_at_trk = interp_rows(t_trk, run.commanded.t_s, run.commanded.values)
     world = f"{prefix}world"
 
     rec.log(world, rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
@@ -222,7 +219,7 @@ def _log_replay(
         (f"{forces}/simulated", i_sim, t_sim, p_sim, FORCE_ARROW_M_PER_N * f_sim, COLORS["simulated"]),
     ]
     if run.forces is not None:
-        tip = _interp(run.forces.t_s, t_trk, p_trk)
+        tip = interp_rows(run.forces.t_s, t_trk, p_trk)
         i_f = decimate(run.forces.t_s)
         f_meas = FORCE_ARROW_M_PER_N * run.forces.values
         arrow_sets.append((f"{forces}/measured", i_f, run.forces.t_s, tip, f_meas, COLORS["measured"]))

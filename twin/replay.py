@@ -11,6 +11,7 @@ from twin.errors import InputError, RunFormatError
 from twin.forces import ForceHistory
 from twin.measure import predict_forces, predict_tracker
 from twin.runs import Run
+from twin.signals import interp_rows
 from twin.sim import SimResult, Twin
 
 
@@ -41,9 +42,7 @@ def replay_metrics(
     of the measured tool tip minus the commanded one), `samples` (tracker samples), `force_samples`.
     """
     err = np.linalg.norm(run.tracker.values - tracker_pred_m, axis=1)
-    cmd = np.column_stack(
-        [np.interp(run.tracker.t_s, run.commanded.t_s, run.commanded.values[:, j]) for j in range(3)]
-    )
+    cmd = interp_rows(run.tracker.t_s, run.commanded.t_s, run.commanded.values)
     deflection = np.linalg.norm(run.tracker.values - cmd, axis=1)
     metrics = {
         "position_rms_mm": 1e3 * float(np.sqrt(np.mean(err**2))),

@@ -10,7 +10,7 @@ import mujoco
 import numpy as np
 
 from twin.check import CheckResult
-from twin.csvio import _atomic_write_text
+from twin.csvio import write_text
 from twin.discrepancy import DiscrepancyResult
 from twin.errors import RunFormatError
 from twin.figures import (
@@ -143,4 +143,4 @@ def _write_markdown(
     ]
     lines += [f"![{f.stem}](figures/{f.name})" for f in figures]
     lines += ["", f"Rerun recording: `{rrd.name}` (open with `rerun {rrd.name}`).", ""]
-    _atomic_write_text(out / "report.md", "\n".join(lines), ())
+    write_text(out / "report.md", "\n".join(lines))

@@ -36,6 +36,7 @@ import numpy as np
 
 from twin.csvio import check_mm_magnitude, check_monotonic, read_json, read_table, write_json, write_table
 from twin.errors import DataFileError, InputError, RunFormatError, UnitsError
+from twin.signals import interp_rows
 
 RUN_FORMAT = "tx200-twin-run/1"
 RUN_FRAME = "sheet"
@@ -412,7 +413,7 @@ def resample(stream: Stream, t_s: np.ndarray) -> np.ndarray:
             f"query times span [{query.min():.6g}, {query.max():.6g}] s, outside the stream's "
             f"[{stream.t_s[0]:.6g}, {stream.t_s[-1]:.6g}] s by more than half a sample ({margin:.3g} s)"
         )
-    return np.column_stack([np.interp(query, stream.t_s, stream.values[:, k]) for k in range(3)])
+    return interp_rows(query, stream.t_s, stream.values)
 
 
 def read_commanded_csv(path: str | Path) -> Stream:

@@ -18,7 +18,9 @@ surface advances to where the tool really was.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, replace
+from functools import partial
 
 import mujoco
 import numpy as np
@@ -30,6 +32,7 @@ from twin.forces import ForceHistory, default_force_history
 from twin.kinematics import Kinematics
 from twin.path import label_passes
 from twin.plant import ARM_JOINTS, LOST_MOTION_JOINTS, RobotEffects, build_model, lost_motion_schedule
+from twin.signals import interp_rows
 
 NEWTON_TOL_RAD = 1e-7  # a Newton step this small leaves < 1e-9 m of error (quadratic convergence)
 NEWTON_MAX_ITER = 20
@@ -114,7 +117,8 @@ class Twin:
         self.effects = effects or RobotEffects()
         self.history = history if history is not None else default_force_history()
         self.model = build_model(self.effects)
-        nominal = build_model(None) if self.effects != RobotEffects() else self.model
+        # the controller's kinematics (IK) use the nominal robot; a separate model only when effects change it
+        nominal = build_model(None) if self.effects.changes_model else self.model
         if joint_stiffness is not None:
             set_joint_stiffness(self.model, joint_stiffness)
             if nominal is not self.model:
@@ -137,12 +141,7 @@ class Twin:
         self._lost_dof = np.array([m.jnt_dofadr[m.joint(name).id] for name in lost], dtype=int)
         self._lost_qpos = np.array([m.jnt_qposadr[m.joint(name).id] for name in lost], dtype=int)
         self._lost_jnt = np.array([m.joint(name).id for name in lost], dtype=int)
-        self.p_base_sheet_origin = self._sheet_origin()
-
-    def _sheet_origin(self) -> np.ndarray:
-        data = mujoco.MjData(self.model)
-        mujoco.mj_kinematics(self.model, data)
-        return data.site("sheet_origin").xpos.copy()
+        self.p_base_sheet_origin = self.kinematics.p_base_sheet_origin
 
     @property
     def joint_stiffness(self) -> np.ndarray:
@@ -179,7 +178,52 @@ class Twin:
         qpos[self._arm_qpos] = q_arm
         return qpos
 
-    def simulate(self, t_s: np.ndarray, p_cmd_sheet_m: np.ndarray, *, q_ik: np.ndarray | None = None) -> SimResult:
+    def _newton(
+        self,
+        q: np.ndarray,
+        q_ref: np.ndarray,
+        k_diag: np.ndarray,
+        h_const: np.ndarray,
+        sheet: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]],
+    ) -> tuple[np.ndarray, int, np.ndarray, np.ndarray]:
+        """Newton's method on K (q_ref - q) - g(q) + J_tcp(q)^T f(p(q)) = 0 from `q`.
+
+        Args:
+            q: Start [rad], shape (nq,).
+            q_ref: Spring references (set-points taught under gravity) [rad], shape (nq,).
+            k_diag: Joint springs [N·m/rad], shape (nv,).
+            h_const: K + dg/dq, the Newton matrix without the sheet term, shape (nv, nv).
+            sheet: Tool-tip position in the sheet frame [m] -> (force on the tool [N], df/dp [N/m]).
+
+        Returns:
+            The equilibrium [rad], the iterations used, and the translational tcp Jacobian [m/rad] and df/dp
+            [N/m] of the last iteration.
+        """
+        m, d = self.model, self.data
+        jacp = np.zeros((3, m.nv))
+        g = np.zeros(m.nv)
+        stiffness = np.zeros((3, 3))
+        xpos_tcp = d.site_xpos[self._tcp]  # a view: follows every mj_kinematics
+        k = 0
+        for k in range(1, NEWTON_MAX_ITER + 1):  # noqa: B007
+            d.qpos[:] = q
+            mujoco.mj_kinematics(m, d)
+            mujoco.mj_comPos(m, d)
+            mujoco.mj_rne(m, d, 0, g)
+            mujoco.mj_jacSite(m, d, jacp, None, self._tcp)
+            force, stiffness = sheet(xpos_tcp - self.p_base_sheet_origin)
+            r = k_diag * (q_ref - q) - g + jacp.T @ force
+            _, _, dq, info = _dgesv(h_const - jacp.T @ stiffness @ jacp, r)  # np.linalg.solve costs 5x more
+            if info != 0:
+                raise np.linalg.LinAlgError(f"singular Newton matrix (LAPACK dgesv info {info}) at q = {q!r}")
+            q = q + dq
+            if abs(dq).max() < NEWTON_TOL_RAD:
+                break
+        return q, k, jacp, stiffness
+
+    def simulate(
+        self, t_s: np.ndarray, p_cmd_sheet_m: np.ndarray, *, q_ik: np.ndarray | None = None
+    ) -> SimResult:
         """Drive the twin along a commanded tool-tip path and solve every sample to equilibrium.
 
         Args:
@@ -198,7 +242,9 @@ class Twin:
         t_s = np.asarray(t_s, dtype=float)
         p_cmd = np.asarray(p_cmd_sheet_m, dtype=float)
         if p_cmd.ndim != 2 or p_cmd.shape[1] != 3 or len(t_s) != len(p_cmd) or len(t_s) < 2:
-            raise InputError(f"expected t_s (n,) and p_cmd_sheet_m (n, 3) with n >= 2, got {t_s.shape}, {p_cmd.shape}")
+            raise InputError(
+                f"expected t_s (n,) and p_cmd_sheet_m (n, 3) with n >= 2, got {t_s.shape}, {p_cmd.shape}"
+            )
         if not (np.all(np.isfinite(p_cmd)) and np.all(np.isfinite(t_s))):
             raise InputError("commanded path holds NaN or inf")
         m, d = self.model, self.data
@@ -228,8 +274,6 @@ class Twin:
         jac_last = np.zeros((n, 3, m.nv))
         s_last = np.zeros((n, 3, 3))
         h_const = np.diag(k_diag) + grad_g  # the Newton matrix without the sheet term
-        jacp = np.zeros((3, m.nv))
-        g = np.zeros(m.nv)
         g_nom = np.zeros(m.nv)
         origin = self.p_base_sheet_origin
         qpos_view, qvel_view = d.qpos, d.qvel
@@ -255,29 +299,15 @@ class Twin:
                 q = q_nominal + (2.0 * deflection_q - deflection_prev)
             else:
                 q = q_nominal + deflection_q
-            k = 0
-            s = s_last[i]
-            for k in range(1, NEWTON_MAX_ITER + 1):  # noqa: B007
-                qpos_view[:] = q
-                mujoco.mj_kinematics(m, d)
-                mujoco.mj_comPos(m, d)
-                mujoco.mj_rne(m, d, 0, g)
-                mujoco.mj_jacSite(m, d, jacp, None, self._tcp)
-                f, s = field.force_and_stiffness(xpos_tcp - origin, pi, di)
-                r = k_diag * (q_ref - q) - g + jacp.T @ f
-                _, _, dq, info = _dgesv(h_const - jacp.T @ s @ jacp, r)  # np.linalg.solve costs 5x more
-                if info != 0:
-                    raise np.linalg.LinAlgError(f"singular Newton matrix at sample {i} (LAPACK dgesv info {info})")
-                q = q + dq
-                if abs(dq).max() < NEWTON_TOL_RAD:
-                    break
+            q, k, jac_last[i], s_last[i] = self._newton(
+                q, q_ref, k_diag, h_const, partial(field.force_and_stiffness, pass_index=pi, direction=di)
+            )
             qpos_view[:] = q
             mujoco.mj_kinematics(m, d)
             p = xpos_tcp - origin
             f_out[i] = field.force(p, pi, di)
             field.advance(p, pi)
             qpos_out[i], p_out[i], iters[i] = q, p, k
-            jac_last[i], s_last[i] = jacp, s
             deflection_prev, deflection_q = deflection_q, q - q_nominal
         compliance = (jac_last * (1.0 / k_diag)) @ jac_last.transpose(0, 2, 1)
         tip_gain = np.linalg.inv(np.eye(3) - compliance @ s_last)
@@ -316,8 +346,8 @@ class Twin:
         """
         m, d = self.model, self.data
         t_s = np.asarray(t_s, dtype=float)
-        qpos = np.column_stack([np.interp(t_s, result.t_s, result.qpos[:, j]) for j in range(m.nq)])
-        force = np.column_stack([np.interp(t_s, result.t_s, result.f_sheet_n[:, j]) for j in range(3)])
+        qpos = interp_rows(t_s, result.t_s, result.qpos)
+        force = interp_rows(t_s, result.t_s, result.f_sheet_n)
         sensor_adr = m.sensor("ft_force").adr[0]
         out = np.zeros((len(t_s), 3))
         # views into MjData, refreshed by every mj_kinematics / mj_inverse
@@ -358,20 +388,9 @@ class Twin:
         g_nom = self._gravity(q_nominal)
         p0 = d.site_xpos[self._tcp].copy()
         q_ref = q_nominal + g_nom / k_diag
-        grad_g = self._gravity_gradient(q_nominal)
-        q = q_nominal.copy()
-        jacp = np.zeros((3, m.nv))
-        g = np.zeros(m.nv)
-        for _ in range(NEWTON_MAX_ITER):
-            d.qpos[:] = q
-            mujoco.mj_kinematics(m, d)
-            mujoco.mj_comPos(m, d)
-            mujoco.mj_rne(m, d, 0, g)
-            mujoco.mj_jacSite(m, d, jacp, None, self._tcp)
-            dq = np.linalg.solve(np.diag(k_diag) + grad_g, k_diag * (q_ref - q) - g + jacp.T @ f)
-            q = q + dq
-            if np.max(np.abs(dq)) < NEWTON_TOL_RAD:
-                break
+        h_const = np.diag(k_diag) + self._gravity_gradient(q_nominal)
+        no_sheet = np.zeros((3, 3))
+        q, _, _, _ = self._newton(q_nominal.copy(), q_ref, k_diag, h_const, lambda _p: (f, no_sheet))
         d.qpos[:] = q
         mujoco.mj_kinematics(m, d)
         return d.site_xpos[self._tcp] - p0

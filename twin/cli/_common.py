@@ -5,9 +5,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from twin.csvio import read_table
 from twin.errors import InputError
-from twin.forces import HALF_COLUMNS, ForceHistory, default_force_history, load_force_history
+from twin.forces import ForceHistory, default_force_history, load_force_history
 from twin.path import ToolPath, groove_path, label_passes
 from twin.runs import read_commanded_csv
 
@@ -46,10 +45,9 @@ def history_from_arguments(args: argparse.Namespace) -> tuple[ForceHistory, Forc
     declared = load_force_history(
         args.history, symmetry=args.symmetry, trust_columns=not args.unchecked_symmetry
     )
-    columns = read_table(args.history, ("x_mm", "z_mm"), optional=HALF_COLUMNS)
-    implied = "half" if all(name in columns for name in HALF_COLUMNS) else "full"
-    reference = declared if implied == args.symmetry else load_force_history(args.history, symmetry=implied)
-    return declared, reference
+    if declared.column_symmetry == declared.symmetry:
+        return declared, declared
+    return declared, load_force_history(args.history, symmetry=declared.column_symmetry)
 
 
 def add_ideal_argument(parser: argparse.ArgumentParser) -> None:

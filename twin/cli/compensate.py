@@ -89,6 +89,7 @@ def run(args: argparse.Namespace) -> int:
         "gain": gain,
         "gain_diagnosis": diagnose_gain(gain),
         "iterations": comp.iterations,
+        "residual_rms_per_iteration_mm": [1e3 * h for h in comp.history_m],
         "predicted_residual_rms_mm": 1e3 * float(np.sqrt(np.mean(norm**2))),
         "predicted_residual_max_mm": 1e3 * float(np.max(norm)),
         "correction_max_mm": 1e3 * float(np.max(np.linalg.norm(comp.correction_m, axis=1))),

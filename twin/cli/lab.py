@@ -14,6 +14,7 @@ from twin.errors import InputError
 from twin.identify import THESIS_TABLE_4_2_LOADS_N
 from twin.lab import load_test, nominal_commanded, run_lab
 from twin.runs import read_commanded_csv, write_run
+from twin.signals import interp_rows
 
 HELP = "Run the virtual lab (richer plant, noise, hidden effects) and write a measured run."
 
@@ -86,7 +87,7 @@ def run(args: argparse.Namespace) -> int:
     deflection = np.max(
         np.linalg.norm(
             run_.tracker.values
-            - np.column_stack([np.interp(run_.tracker.t_s, t_s, p_cmd[:, j]) for j in range(3)]),
+            - interp_rows(run_.tracker.t_s, t_s, p_cmd),
             axis=1,
         )
     )
