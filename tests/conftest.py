@@ -12,12 +12,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from twin.analysis.replay import ReplayResult, replay
 from twin.cli import main
-from twin.lab import nominal_commanded
-from twin.path import groove_path
-from twin.replay import ReplayResult, replay
-from twin.runs import Run, read_run
-from twin.sim import Twin
+from twin.lab.virtual import nominal_commanded
+from twin.process.path import groove_path
+from twin.runs.format import Run, read_run
+from twin.sim.quasi_static import Twin
 
 CLEAN_SEED = 1
 

@@ -1,4 +1,4 @@
-"""Smoke tests of the benchmark (twin/bench.py, `tx200-twin bench`): keys and sanity, never timings."""
+"""Smoke tests of the benchmark (twin/apps/bench.py, `tx200-twin bench`): keys and sanity, never timings."""
 
 from __future__ import annotations
 
@@ -7,12 +7,12 @@ import json
 import numpy as np
 import pytest
 
-from twin.bench import analytic_replay, format_table, run_benchmarks
+from twin.analysis.replay import replay
+from twin.apps.bench import analytic_replay, format_table, run_benchmarks
 from twin.cli import main
 from twin.errors import InputError
-from twin.replay import replay
-from twin.runs import Run, Stream
-from twin.sim import Twin
+from twin.runs.format import Run, Stream
+from twin.sim.quasi_static import Twin
 
 SAMPLES = 160  # approach and most of pass 1: a tiny workload
 TIMES = (

@@ -1,4 +1,4 @@
-"""Tests of `check` (twin/check.py, twin/cli/check.py): residual against U_ID and the effective gain.
+"""Tests of `check` (twin/analysis/check.py, twin/cli/check.py): residual against U_ID and the effective gain.
 
 The runs are cheap lab runs of formula compensations with the twin's exact home compliance: the physical
 force (gain 1), half of it (the thesis's mistake, gain ~0.5) and no compensation at all (gain 0).
@@ -14,16 +14,16 @@ from typing import Any
 import numpy as np
 import pytest
 
-from twin.check import GAIN_TOLERANCE, CheckResult, check_run, diagnose_gain
+from twin.analysis.check import GAIN_TOLERANCE, CheckResult, check_run, diagnose_gain
+from twin.analysis.compensate import compensate_formula
 from twin.cli import COMMANDS, main
-from twin.compensate import compensate_formula
 from twin.errors import IdentificationError, RunFormatError
-from twin.field import SheetForceField
-from twin.forces import default_force_history
-from twin.lab import run_lab
-from twin.path import ToolPath, groove_path
-from twin.runs import Run, Stream, write_run
-from twin.sim import Twin
+from twin.lab.virtual import run_lab
+from twin.process.field import SheetForceField
+from twin.process.forces import default_force_history
+from twin.process.path import ToolPath, groove_path
+from twin.runs.format import Run, Stream, write_run
+from twin.sim.quasi_static import Twin
 
 
 @pytest.fixture(scope="module")

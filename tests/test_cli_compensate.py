@@ -14,11 +14,11 @@ from typing import Any
 import numpy as np
 import pytest
 
+from twin.base.resources import data_file
 from twin.cli import COMMANDS, main
 from twin.cli import compensate as command
-from twin.path import ToolPath, groove_path, write_path_csv
-from twin.resources import data_file
-from twin.runs import read_commanded_csv
+from twin.process.path import ToolPath, groove_path, write_path_csv
+from twin.runs.format import read_commanded_csv
 
 HISTORY = data_file("fe_force_history.csv")  # the shipped half-symmetric export (fx_half_n, fz_half_n)
 

@@ -9,11 +9,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from twin.base.resources import data_file
 from twin.cli import main
-from twin.effects import Effects, read_model_file
-from twin.lab import LabSettings, run_lab
-from twin.resources import data_file
-from twin.runs import write_run
+from twin.lab.effects import Effects, read_model_file
+from twin.lab.virtual import LabSettings, run_lab
+from twin.runs.format import write_run
 
 HIDDEN = {"tcp_offset": 0.2}  # shows in position, force and profile
 SEED = 401
@@ -121,8 +121,8 @@ def test_starting_from_the_model_out_finds_nothing_more(workflow: dict[str, Path
 
 
 def test_discrepancy_refuses_to_write_the_model_into_the_run(tmp_path: Path) -> None:
-    from twin.effects import Effects, write_model_file
     from twin.errors import InputError
+    from twin.lab.effects import Effects, write_model_file
 
     run_dir = tmp_path / "run"
     run_dir.mkdir()

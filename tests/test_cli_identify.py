@@ -9,11 +9,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from twin.analysis.identify.cartesian import THESIS_KR1_N_PER_MM, THESIS_TABLE_4_2_LOADS_N
+from twin.base.csvio import write_table
 from twin.cli import COMMANDS
 from twin.cli import identify as command
-from twin.csvio import write_table
 from twin.errors import InputError, TwinError
-from twin.identify import THESIS_KR1_N_PER_MM, THESIS_TABLE_4_2_LOADS_N
 
 
 def run_command(argv: list[str]) -> int:

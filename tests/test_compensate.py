@@ -1,4 +1,4 @@
-"""Tests of the offline compensation (twin/compensate.py): Eq. 4.28, the twin iteration and the gain.
+"""Tests of the offline compensation (twin/analysis/compensate.py): Eq. 4.28, the twin iteration and the gain.
 
 The whole-groove pipeline (lab runs of the compensated paths, the 0.5 regression) is in
 tests/test_gain_regression.py; here the twin iteration runs on the groove's first pass only (142 samples).
@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from twin.compensate import (
+from twin.analysis.compensate import (
     TWIN_TOL_M,
     Compensation,
     compensate_formula,
@@ -18,10 +18,10 @@ from twin.compensate import (
     gain_of,
 )
 from twin.errors import CompensationError, InputError
-from twin.field import SheetForceField
-from twin.forces import default_force_history
-from twin.path import ToolPath, groove_path
-from twin.sim import Twin
+from twin.process.field import SheetForceField
+from twin.process.forces import default_force_history
+from twin.process.path import ToolPath, groove_path
+from twin.sim.quasi_static import Twin
 
 XZ = np.ix_([0, 2], [0, 2])
 

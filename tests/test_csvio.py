@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from twin.csvio import (
+from twin.base.csvio import (
     check_mm_magnitude,
     check_monotonic,
     emit_json,

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from twin.dh import THETA_OFFSET_RAD, TOOL_LENGTH_M, det_jacobian_thesis, dh_fk, dh_jacobian
 from twin.errors import InputError
+from twin.robot.dh import THETA_OFFSET_RAD, TOOL_LENGTH_M, det_jacobian_thesis, dh_fk, dh_jacobian
 
 HOME_Q_RAD = np.deg2rad([-0.08, 38.03, 90.62, -0.33, 51.72, -7.91])  # thesis Table 4.1
 

@@ -1,4 +1,4 @@
-"""Tests of the discrepancy workflow (twin/discrepancy.py) on lab runs whose effects are hidden from it.
+"""Tests of the discrepancy workflow (twin/analysis/discrepancy/search.py) on lab runs whose effects are hidden from it.
 
 Every run is made in memory by the virtual lab; `find_discrepancy` sees only the Run (never its truth).
 Gaps are compared with the lab's sensor noise: the position gap of a perfect twin is the norm of the
@@ -15,20 +15,20 @@ from typing import Any
 import numpy as np
 import pytest
 
-from twin.compensate import compensate_twin
-from twin.discrepancy import (
+from twin.analysis.compensate import compensate_twin
+from twin.analysis.discrepancy.search import (
     DiscrepancyResult,
     excess_over_noise,
     find_discrepancy,
     is_contradicted,
     result_summary,
 )
-from twin.effects import EFFECTS, Effects
-from twin.forces import ForceHistory, load_force_history
-from twin.lab import LabSettings, run_lab
-from twin.resources import data_file
-from twin.runs import Run, Stream
-from twin.sim import Twin
+from twin.base.resources import data_file
+from twin.lab.effects import EFFECTS, Effects
+from twin.lab.virtual import LabSettings, run_lab
+from twin.process.forces import ForceHistory, load_force_history
+from twin.runs.format import Run, Stream
+from twin.sim.quasi_static import Twin
 
 SETTINGS = LabSettings()
 NOISE_GAP = {  # gap of a perfect twin: the norm of the sensor noise (see module docstring)

@@ -1,4 +1,4 @@
-"""Tests of the named effects, `--effect` parsing and the twin model file (twin/effects.py)."""
+"""Tests of the named effects, `--effect` parsing and the twin model file (twin/lab/effects.py)."""
 
 from __future__ import annotations
 
@@ -8,7 +8,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from twin.effects import (
+from twin.errors import DataFileError, InputError
+from twin.lab.effects import (
     EFFECTS,
     MODEL_FORMAT,
     TRACKER_DRIFT_DIRECTION,
@@ -17,8 +18,7 @@ from twin.effects import (
     read_model_file,
     write_model_file,
 )
-from twin.errors import DataFileError, InputError
-from twin.plant import RobotEffects
+from twin.robot.model import RobotEffects
 
 
 def test_parse_effect_args_reads_values_in_their_units() -> None:

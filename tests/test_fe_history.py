@@ -1,16 +1,16 @@
-"""Tests of the stand-in FE force history generator and the shipped file (twin/fe_history.py)."""
+"""Tests of the stand-in FE force history generator and the shipped file (twin/process/fe_history.py)."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
+from twin.base.csvio import read_table
+from twin.base.resources import data_file
 from twin.cli import main
-from twin.csvio import read_table
-from twin.fe_history import FE_SAMPLES, aerens_vertical_force_n, generate_history, write_history
-from twin.forces import load_force_history
-from twin.path import groove_path, label_passes, resample_by_arc_length
-from twin.resources import data_file
+from twin.process.fe_history import FE_SAMPLES, aerens_vertical_force_n, generate_history, write_history
+from twin.process.forces import load_force_history
+from twin.process.path import groove_path, label_passes, resample_by_arc_length
 
 COLUMNS = ("s_mm", "x_mm", "z_mm", "fx_half_n", "fy_sym_n", "fz_half_n")
 

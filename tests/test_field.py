@@ -1,4 +1,4 @@
-"""Tests of the stateful sheet force field (twin/field.py)."""
+"""Tests of the stateful sheet force field (twin/process/field.py)."""
 
 from __future__ import annotations
 
@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from twin.errors import InputError
-from twin.field import K_LOAD_N_PER_M, K_UNLOAD_N_PER_M, SheetForceField
-from twin.forces import default_force_history
-from twin.path import ToolPath, groove_path
+from twin.process.field import K_LOAD_N_PER_M, K_UNLOAD_N_PER_M, SheetForceField
+from twin.process.forces import default_force_history
+from twin.process.path import ToolPath, groove_path
 
 UP = np.array([0.0, 0.0, 1.0])
 

@@ -1,4 +1,4 @@
-"""Tests of twin.figures: every plot writes a sane PNG from synthetic data and rejects bad shapes."""
+"""Tests of twin.viz.figures: every plot writes a sane PNG from synthetic data and rejects bad shapes."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from twin import figures
+from twin.viz import figures
 from twin.errors import InputError
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"

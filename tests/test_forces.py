@@ -1,14 +1,14 @@
-"""Tests of the FE force-history loader (twin/forces.py): the symmetry declaration and bad files."""
+"""Tests of the FE force-history loader (twin/process/forces.py): the symmetry declaration and bad files."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from twin.csvio import read_table
+from twin.base.csvio import read_table
+from twin.base.resources import data_file
 from twin.errors import DataFileError, SymmetryError, UnitsError
-from twin.forces import default_force_history, load_force_history
-from twin.resources import data_file
+from twin.process.forces import default_force_history, load_force_history
 
 SHIPPED = data_file("fe_force_history.csv")
 
@@ -101,7 +101,7 @@ def test_bad_files_raise_clear_errors_naming_the_file(tmp_path, text, error, pat
 
 
 def test_history_records_what_its_columns_say_even_when_declared_otherwise() -> None:
-    from twin.resources import data_file
+    from twin.base.resources import data_file
 
     mistaken = load_force_history(data_file("fe_force_history.csv"), symmetry="full", trust_columns=False)
     assert (mistaken.symmetry, mistaken.column_symmetry) == ("full", "half")

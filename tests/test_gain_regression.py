@@ -20,22 +20,22 @@ from typing import Any
 import numpy as np
 import pytest
 
-from twin.check import CheckResult, check_run
-from twin.compensate import (
+from twin.analysis.check import CheckResult, check_run
+from twin.analysis.compensate import (
     Compensation,
     compensate_formula,
     compensate_twin,
     compliance_from_stiffness,
     gain_of,
 )
+from twin.analysis.identify.cartesian import THESIS_TABLE_4_2_LOADS_N, fit_kr_load_cases
+from twin.base.resources import data_file
 from twin.errors import SymmetryError
-from twin.field import SheetForceField
-from twin.forces import ForceHistory, default_force_history, load_force_history
-from twin.identify import THESIS_TABLE_4_2_LOADS_N, fit_kr_load_cases
-from twin.lab import load_test, run_lab
-from twin.path import ToolPath, groove_path
-from twin.resources import data_file
-from twin.sim import Twin
+from twin.lab.virtual import load_test, run_lab
+from twin.process.field import SheetForceField
+from twin.process.forces import ForceHistory, default_force_history, load_force_history
+from twin.process.path import ToolPath, groove_path
+from twin.sim.quasi_static import Twin
 
 GAIN_TOL = 0.02
 # Bounds on the lab residual (tracker noise 0.02 mm per axis alone gives 0.035 mm rms of the 3-D norm).

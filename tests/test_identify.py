@@ -1,4 +1,4 @@
-"""Tests of the stiffness identification maths (twin/identify.py, thesis §4.1–4.2)."""
+"""Tests of the stiffness identification maths (twin/analysis/identify/cartesian.py, thesis §4.1–4.2)."""
 
 from __future__ import annotations
 
@@ -7,9 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from twin.csvio import write_table
-from twin.errors import DataFileError, IdentificationError, InputError, UnitsError
-from twin.identify import (
+from twin.analysis.identify.cartesian import (
     THESIS_CR1_MM_PER_KN,
     THESIS_CR2_MM_PER_KN,
     THESIS_KR1_N_PER_MM,
@@ -23,6 +21,8 @@ from twin.identify import (
     kq_from_kr_congruence,
     load_cases_csv,
 )
+from twin.base.csvio import write_table
+from twin.errors import DataFileError, IdentificationError, InputError, UnitsError
 
 KR1_N_PER_M = THESIS_KR1_N_PER_MM * 1e3
 

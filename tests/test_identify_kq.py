@@ -9,13 +9,13 @@ import mujoco
 import numpy as np
 import pytest
 
+from twin.analysis.identify.cartesian import THESIS_TABLE_4_2_LOADS_N, fit_kr_load_cases
+from twin.analysis.identify.rollouts import kq_from_run, kq_from_stiffness, write_joint_stiffness
 from twin.cli import main
 from twin.errors import InputError
-from twin.identify import THESIS_TABLE_4_2_LOADS_N, fit_kr_load_cases
-from twin.identify_kq import kq_from_run, kq_from_stiffness, write_joint_stiffness
-from twin.lab import LabSettings, load_test
-from twin.runs import Run
-from twin.sim import Twin
+from twin.lab.virtual import LabSettings, load_test
+from twin.runs.format import Run
+from twin.sim.quasi_static import Twin
 
 
 def test_rollouts_recover_the_run_observable_joint_stiffness(clean_run: Run, twin_nominal: Twin) -> None:

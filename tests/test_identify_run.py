@@ -1,6 +1,6 @@
 """Identification from lab measurements: Method 1 from the lab's load test (in process and through the CLI
 `lab --scenario loadtest` -> `identify --method 1 --loads`) and Method 2 from a lab nominal run
-(twin/identify_run.py; its CLI is in tests/test_cli_identify_method2.py).
+(twin/analysis/identify/method2.py; its CLI is in tests/test_cli_identify_method2.py).
 
 The reference is the twin's exact stiffness at `home`: K = inv(C), C = `Twin().kinematics.compliance(q_home)`.
 
@@ -22,20 +22,20 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from twin.cli import main
-from twin.csvio import write_table
-from twin.errors import IdentificationError, RunFormatError, UnitsError
-from twin.identify import (
+from twin.analysis.identify.cartesian import (
     LOAD_CASE_COLUMNS,
     THESIS_KR1_N_PER_MM,
     THESIS_TABLE_4_2_LOADS_N,
     fit_kr_load_cases,
     load_cases_csv,
 )
-from twin.identify_run import Method2Result, method2
-from twin.lab import LabSettings, load_test, nominal_commanded, run_lab
-from twin.runs import Run, Stream
-from twin.sim import Twin
+from twin.analysis.identify.method2 import Method2Result, method2
+from twin.base.csvio import write_table
+from twin.cli import main
+from twin.errors import IdentificationError, RunFormatError, UnitsError
+from twin.lab.virtual import LabSettings, load_test, nominal_commanded, run_lab
+from twin.runs.format import Run, Stream
+from twin.sim.quasi_static import Twin
 
 XZ = np.ix_([0, 2], [0, 2])
 # Method 1 with the lab's noise, documented bounds (see the module docstring for the measured values)

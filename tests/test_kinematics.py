@@ -8,17 +8,17 @@ import mujoco
 import numpy as np
 import pytest
 
-from twin.default_stiffness import thesis_stiffness_fit
-from twin.dh import det_jacobian_thesis, dh_fk
+from twin.analysis.identify.default_stiffness import thesis_stiffness_fit
+from twin.base.resources import robot_xml
 from twin.errors import InputError, ModelError, SingularityError, UnreachableError
-from twin.kinematics import (
+from twin.robot.dh import det_jacobian_thesis, dh_fk
+from twin.robot.kinematics import (
     DET_J_MIN,
     HOME_Q_RAD,
     Kinematics,
     _rotation_log,
     load_model,
 )
-from twin.resources import robot_xml
 
 N_RANDOM = 1000
 

@@ -1,4 +1,4 @@
-"""Tests of the virtual lab (twin/lab.py) and `tx200-twin lab` (twin/cli/lab.py)."""
+"""Tests of the virtual lab (twin/lab/virtual.py) and `tx200-twin lab` (twin/cli/lab.py)."""
 
 from __future__ import annotations
 
@@ -8,13 +8,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from twin.analysis.identify.cartesian import THESIS_TABLE_4_2_LOADS_N, load_cases_csv
 from twin.cli import main
-from twin.effects import EFFECTS, Effects
-from twin.identify import THESIS_TABLE_4_2_LOADS_N, load_cases_csv
-from twin.lab import LabSettings, load_test, run_lab
-from twin.path import ToolPath, groove_path, write_path_csv
-from twin.runs import RUN_FORMAT, Run, read_run, write_run
-from twin.sim import Twin
+from twin.lab.effects import EFFECTS, Effects
+from twin.lab.virtual import LabSettings, load_test, run_lab
+from twin.process.path import ToolPath, groove_path, write_path_csv
+from twin.runs.format import RUN_FORMAT, Run, read_run, write_run
+from twin.sim.quasi_static import Twin
 
 RUN_FILES = ("meta.json", "commanded.csv", "tracker.csv", "forces.csv", "part_profile.csv", "truth.json")
 

@@ -1,12 +1,13 @@
-"""Tests of the measurement model shared by the lab and replay (twin/measure.py)."""
+"""Tests of the measurement model shared by the lab and replay (twin/lab/measure.py)."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from twin.effects import TRACKER_DRIFT_DIRECTION, Effects
-from twin.measure import (
+from twin.analysis.replay import ReplayResult
+from twin.lab.effects import TRACKER_DRIFT_DIRECTION, Effects
+from twin.lab.measure import (
     PROFILE_HALF_SPAN_M,
     PROFILE_SPACING_M,
     predict_forces,
@@ -14,8 +15,7 @@ from twin.measure import (
     predict_tracker,
     uniform_times,
 )
-from twin.replay import ReplayResult
-from twin.sim import Twin
+from twin.sim.quasi_static import Twin
 
 
 def test_uniform_times_start_at_zero_and_include_the_end() -> None:

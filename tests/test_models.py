@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 import trimesh
 
-from twin.default_stiffness import thesis_stiffness_fit
-from twin.kinematics import HOME_Q_RAD, TOOL_LENGTH_M, load_model
-from twin.resources import models_dir, robot_xml, scene_xml
+from twin.analysis.identify.default_stiffness import thesis_stiffness_fit
+from twin.base.resources import models_dir, robot_xml, scene_xml
+from twin.robot.kinematics import HOME_Q_RAD, TOOL_LENGTH_M, load_model
 
 # Staubli datasheet D181.573.04 joint ranges [deg]
 RANGES_DEG = [(-180, 180), (-120, 120), (-140, 145), (-270, 270), (-120, 120), (-270, 270)]

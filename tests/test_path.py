@@ -1,4 +1,4 @@
-"""Tests of the ideal groove path (twin/path.py)."""
+"""Tests of the ideal groove path (twin/process/path.py)."""
 
 from __future__ import annotations
 
@@ -9,10 +9,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from twin.base.csvio import read_table
 from twin.cli import main
-from twin.csvio import read_table
 from twin.errors import InputError
-from twin.path import GrooveSpec, groove_path, label_passes, resample_by_arc_length, write_path_csv
+from twin.process.path import GrooveSpec, groove_path, label_passes, resample_by_arc_length, write_path_csv
 
 
 def _pass_ends(path, spec):

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from twin.errors import InputError, ModelError
-from twin.kinematics import Kinematics, load_model
-from twin.pinocchio_model import PinKinematics
+from twin.robot.kinematics import Kinematics, load_model
+from twin.robot.pinocchio_model import PinKinematics
 
 
 @pytest.fixture(scope="module")

@@ -1,4 +1,4 @@
-"""Tests of robot-side effects and the augmented model (twin/plant.py)."""
+"""Tests of robot-side effects and the augmented model (twin/robot/model.py)."""
 
 from __future__ import annotations
 
@@ -8,18 +8,18 @@ import mujoco
 import numpy as np
 import pytest
 
-import twin.plant as plant
+import twin.robot.model as plant
 from twin.errors import InputError, ModelError
-from twin.kinematics import HOME_Q_RAD
-from twin.path import label_passes
-from twin.plant import (
+from twin.process.path import label_passes
+from twin.robot.kinematics import HOME_Q_RAD
+from twin.robot.model import (
     ARM_JOINTS,
     LOST_MOTION_STIFFNESS_NM_PER_RAD,
     RobotEffects,
     build_model,
     lost_motion_schedule,
 )
-from twin.sim import Twin
+from twin.sim.quasi_static import Twin
 
 
 def tcp_at_home(model: mujoco.MjModel) -> tuple[np.ndarray, np.ndarray]:

@@ -1,4 +1,4 @@
-"""Tests of twin.recording: .rrd files of replays, read back with rerun's own reader."""
+"""Tests of twin.viz.recording: .rrd files of replays, read back with rerun's own reader."""
 
 from __future__ import annotations
 
@@ -12,12 +12,12 @@ import pyarrow as pa
 import pytest
 from rerun.chunk import RrdReader
 
-from twin import recording
+from twin.analysis.replay import ReplayResult
 from twin.errors import InputError
-from twin.recording_robot import geom_mesh
-from twin.replay import ReplayResult
-from twin.runs import Run, Stream
-from twin.sim import SimResult
+from twin.runs.format import Run, Stream
+from twin.sim.quasi_static import SimResult
+from twin.viz import recording
+from twin.viz.recording_robot import geom_mesh
 
 COMPLIANCE_M_PER_N = np.array([[1.54, 0.19], [0.79, 1.02]]) * 1e-6  # thesis Eq. 4.27, C_R(1)
 
@@ -25,7 +25,7 @@ COMPLIANCE_M_PER_N = np.array([[1.54, 0.19], [0.79, 1.02]]) * 1e-6  # thesis Eq.
 @pytest.fixture(scope="module")
 def model() -> mujoco.MjModel:
     try:
-        from twin.plant import build_model
+        from twin.robot.model import build_model
 
         return build_model()
     except Exception as exc:  # pragma: no cover - only while the MJCF model is unfinished

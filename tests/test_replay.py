@@ -1,4 +1,4 @@
-"""Tests of replay (twin/replay.py, `tx200-twin replay`): clean gap, the gap of each effect, bad runs."""
+"""Tests of replay (twin/analysis/replay.py, `tx200-twin replay`): clean gap, the gap of each effect, bad runs."""
 
 from __future__ import annotations
 
@@ -10,15 +10,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from twin.analysis.replay import ReplayResult, replay, replay_metrics
 from twin.cli import main
-from twin.effects import Effects
 from twin.errors import InputError
-from twin.lab import run_lab
-from twin.measure import predict_part_profile
-from twin.plant import RobotEffects
-from twin.replay import ReplayResult, replay, replay_metrics
-from twin.runs import Run, Stream
-from twin.sim import SimResult, Twin
+from twin.lab.effects import Effects
+from twin.lab.measure import predict_part_profile
+from twin.lab.virtual import run_lab
+from twin.robot.model import RobotEffects
+from twin.runs.format import Run, Stream
+from twin.sim.quasi_static import SimResult, Twin
 
 EFFECT_SEED = 11  # the effect runs use other noise than the clean run (seed 1)
 GAP_FACTOR = 3.0
@@ -191,7 +191,7 @@ def test_replay_metrics_measure_a_known_offset() -> None:
 
 
 def test_replay_cli_records_a_run_with_a_lost_motion_model(clean_run_dir: Path, tmp_path: Path) -> None:
-    from twin.effects import write_model_file
+    from twin.lab.effects import write_model_file
 
     model = write_model_file(tmp_path / "m.json", Effects({"direction_dependent_compliance": 0.2}))
     rrd = tmp_path / "replay.rrd"

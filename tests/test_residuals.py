@@ -1,14 +1,14 @@
-"""Tests of the residual model (twin/residuals.py): noise estimated from data alone, normalised residuals."""
+"""Tests of the residual model (twin/analysis/discrepancy/residuals.py): noise estimated from data alone, normalised residuals."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from twin.effects import Effects
-from twin.lab import LabSettings, run_lab
-from twin.residuals import Noise, ResidualModel, estimate_noise, second_difference_noise
-from twin.runs import Run
+from twin.analysis.discrepancy.residuals import Noise, ResidualModel, estimate_noise, second_difference_noise
+from twin.lab.effects import Effects
+from twin.lab.virtual import LabSettings, run_lab
+from twin.runs.format import Run
 
 SETTINGS = LabSettings()
 DRIFT_SEED = 31

@@ -7,8 +7,8 @@ from pathlib import Path
 
 import pytest
 
+from twin.base.resources import data_file, models_dir, robot_xml, scene_xml
 from twin.errors import ModelError
-from twin.resources import data_file, models_dir, robot_xml, scene_xml
 
 
 def test_models_and_data_are_found_from_any_working_directory(tmp_path: Path) -> None:

@@ -1,4 +1,4 @@
-"""Tests of the quasi-static twin (twin/sim.py): Hooke's law, the force sensor, the groove simulation."""
+"""Tests of the quasi-static twin (twin/sim/quasi_static.py): Hooke's law, the force sensor, the groove simulation."""
 
 from __future__ import annotations
 
@@ -7,10 +7,10 @@ import dataclasses
 import numpy as np
 import pytest
 
+from twin.analysis.replay import ReplayResult
 from twin.errors import InputError
-from twin.plant import build_model
-from twin.replay import ReplayResult
-from twin.sim import NEWTON_MAX_ITER, SimResult, Twin, set_joint_stiffness
+from twin.robot.model import build_model
+from twin.sim.quasi_static import NEWTON_MAX_ITER, SimResult, Twin, set_joint_stiffness
 
 
 def random_loads(seed: int, count: int, max_n: float) -> np.ndarray:

@@ -4,17 +4,35 @@ Data flows one way: path -> force field -> twin -> lab (or a real cell) -> ident
 -> discrepancy. The public API is re-exported here.
 """
 
-from twin.bench import analytic_replay, run_benchmarks
-from twin.check import CheckResult, check_run, diagnose_gain
-from twin.compensate import (
+from twin.analysis.check import CheckResult, check_run, diagnose_gain
+from twin.analysis.compensate import (
     Compensation,
     compensate_formula,
     compensate_twin,
     compliance_from_stiffness,
     gain_of,
 )
-from twin.discrepancy import DiscrepancyResult, find_discrepancy, result_summary
-from twin.effects import EFFECTS, Effects, parse_effect_args, read_model_file, write_model_file
+from twin.analysis.discrepancy.residuals import ResidualModel, estimate_noise
+from twin.analysis.discrepancy.search import DiscrepancyResult, find_discrepancy, result_summary
+from twin.analysis.identify.cartesian import (
+    KqFit,
+    KrFit,
+    compensation_gain,
+    fit_compliance,
+    fit_diagonal_kq,
+    fit_kr_from_run,
+    fit_kr_load_cases,
+    load_cases_csv,
+)
+from twin.analysis.identify.method2 import Method2Result, method2
+from twin.analysis.identify.rollouts import (
+    KqRolloutFit,
+    kq_from_run,
+    kq_from_stiffness,
+    write_joint_stiffness,
+)
+from twin.analysis.replay import ReplayResult, replay, replay_metrics
+from twin.apps.bench import analytic_replay, run_benchmarks
 from twin.errors import (
     CompensationError,
     DataFileError,
@@ -28,29 +46,16 @@ from twin.errors import (
     UnitsError,
     UnreachableError,
 )
-from twin.field import SheetForceField
-from twin.forces import ForceHistory, default_force_history, load_force_history
-from twin.identify import (
-    KqFit,
-    KrFit,
-    compensation_gain,
-    fit_compliance,
-    fit_diagonal_kq,
-    fit_kr_from_run,
-    fit_kr_load_cases,
-    load_cases_csv,
-)
-from twin.identify_kq import KqRolloutFit, kq_from_run, kq_from_stiffness, write_joint_stiffness
-from twin.identify_run import Method2Result, method2
-from twin.kinematics import HOME_Q_RAD, TOOL_LENGTH_M, Kinematics, load_model
-from twin.lab import LabSettings, load_test, nominal_commanded, run_lab
-from twin.path import GrooveSpec, ToolPath, groove_path, label_passes, write_path_csv
-from twin.pinocchio_model import PinKinematics
-from twin.plant import RobotEffects, build_model
-from twin.replay import ReplayResult, replay, replay_metrics
-from twin.residuals import ResidualModel, estimate_noise
-from twin.runs import Run, Stream, read_commanded_csv, read_run, write_run
-from twin.sim import SimResult, Twin
+from twin.lab.effects import EFFECTS, Effects, parse_effect_args, read_model_file, write_model_file
+from twin.lab.virtual import LabSettings, load_test, nominal_commanded, run_lab
+from twin.process.field import SheetForceField
+from twin.process.forces import ForceHistory, default_force_history, load_force_history
+from twin.process.path import GrooveSpec, ToolPath, groove_path, label_passes, write_path_csv
+from twin.robot.kinematics import HOME_Q_RAD, TOOL_LENGTH_M, Kinematics, load_model
+from twin.robot.model import RobotEffects, build_model
+from twin.robot.pinocchio_model import PinKinematics
+from twin.runs.format import Run, Stream, read_commanded_csv, read_run, write_run
+from twin.sim.quasi_static import SimResult, Twin
 
 __all__ = [
     "EFFECTS",

@@ -6,9 +6,9 @@ import argparse
 from pathlib import Path
 
 from twin.errors import InputError
-from twin.forces import ForceHistory, default_force_history, load_force_history
-from twin.path import ToolPath, groove_path, label_passes
-from twin.runs import read_commanded_csv
+from twin.process.forces import ForceHistory, default_force_history, load_force_history
+from twin.process.path import ToolPath, groove_path, label_passes
+from twin.runs.format import read_commanded_csv
 
 
 def add_history_arguments(parser: argparse.ArgumentParser) -> None:

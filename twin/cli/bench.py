@@ -5,8 +5,8 @@ from __future__ import annotations
 import argparse
 import sys
 
-from twin.bench import format_table, run_benchmarks
-from twin.csvio import emit_json
+from twin.apps.bench import format_table, run_benchmarks
+from twin.base.csvio import emit_json
 
 HELP = "Benchmark replay, analytic floor, lab, identify, compensate, discrepancy and the force field."
 

@@ -8,19 +8,19 @@ from pathlib import Path
 
 import numpy as np
 
-from twin.check import diagnose_gain
+from twin.analysis.check import diagnose_gain
+from twin.analysis.compensate import compensate_formula, compensate_twin, compliance_from_stiffness, gain_of
+from twin.base.csvio import emit_json, read_json, write_table
 from twin.cli._common import (
     add_history_arguments,
     add_ideal_argument,
     history_from_arguments,
     ideal_from_arguments,
 )
-from twin.compensate import compensate_formula, compensate_twin, compliance_from_stiffness, gain_of
-from twin.csvio import emit_json, read_json, write_table
-from twin.effects import Effects, read_model_file
 from twin.errors import DataFileError, InputError
-from twin.field import SheetForceField
-from twin.sim import Twin
+from twin.lab.effects import Effects, read_model_file
+from twin.process.field import SheetForceField
+from twin.sim.quasi_static import Twin
 
 HELP = "Compensate the ideal path offline (Eq. 4.28 formula, or iterating the twin) and write the command."
 

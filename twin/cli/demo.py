@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from twin.demo import run_demo
+from twin.apps.demo import run_demo
 
 HELP = (
     "Run the thesis story end to end (lab, replay, identify, compensate, check, discrepancy) with a report."

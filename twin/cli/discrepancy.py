@@ -6,11 +6,11 @@ import argparse
 import sys
 from pathlib import Path
 
+from twin.analysis.discrepancy.search import find_discrepancy, result_summary
+from twin.base.csvio import emit_json
 from twin.cli._common import add_history_arguments, history_from_arguments
-from twin.csvio import emit_json
-from twin.discrepancy import find_discrepancy, result_summary
-from twin.effects import Effects, read_model_file, write_model_file
-from twin.runs import read_run
+from twin.lab.effects import Effects, read_model_file, write_model_file
+from twin.runs.format import read_run
 
 HELP = (
     "Find where the twin and a measured run disagree, name the missing effect, add it, show the gap shrink."
@@ -47,7 +47,7 @@ def run(args: argparse.Namespace) -> int:
         )
         summary["model_out"] = args.model_out
     if args.report is not None:
-        from twin.figures import plot_residual_before_after
+        from twin.viz.figures import plot_residual_before_after
 
         args.report.mkdir(parents=True, exist_ok=True)
         figure = plot_residual_before_after(

@@ -1,4 +1,4 @@
-"""`tx200-twin fe-history`: regenerate the stand-in FE force history CSV (see twin.fe_history)."""
+"""`tx200-twin fe-history`: regenerate the stand-in FE force history CSV (see twin.process.fe_history)."""
 
 from __future__ import annotations
 
@@ -6,9 +6,9 @@ import argparse
 import sys
 from pathlib import Path
 
-from twin.csvio import emit_json
-from twin.fe_history import write_history
-from twin.forces import load_force_history
+from twin.base.csvio import emit_json
+from twin.process.fe_history import write_history
+from twin.process.forces import load_force_history
 
 HELP = "Regenerate the stand-in half-symmetric FE force history (1311 samples) to --out."
 

@@ -8,9 +8,9 @@ from pathlib import Path
 
 import numpy as np
 
-from twin.csvio import emit_json
+from twin.analysis.identify.cartesian import fit_kr_load_cases, load_cases_csv
+from twin.base.csvio import emit_json
 from twin.errors import InputError
-from twin.identify import fit_kr_load_cases, load_cases_csv
 
 HELP = "Identify K_R (Method 1: load cases; Method 2: a run) and the joint stiffness K_q."
 
@@ -45,9 +45,9 @@ def _matrix_lines(matrix: np.ndarray) -> list[str]:
 
 def _method2(args: argparse.Namespace) -> int:
     """Method 2 on a run directory."""
-    from twin.identify_run import method2
-    from twin.runs import read_run
-    from twin.sim import Twin
+    from twin.analysis.identify.method2 import method2
+    from twin.runs.format import read_run
+    from twin.sim.quasi_static import Twin
 
     if args.run_dir is None:
         raise InputError("--method 2 needs a RUN_DIR (a nominal run with forces.csv)")
@@ -70,7 +70,7 @@ def _method2(args: argparse.Namespace) -> int:
         "relative_bias_ideal_vs_twin": bias,
         "force_drop_rms_ratio": result.force_drop,
     }
-    from twin.identify_kq import kq_from_run, write_joint_stiffness
+    from twin.analysis.identify.rollouts import kq_from_run, write_joint_stiffness
 
     rollout = kq_from_run(measured)
     payload |= {
@@ -117,8 +117,8 @@ def run(args: argparse.Namespace) -> int:
         "condition_number": fit.condition_number,
         "rank": fit.rank,
     }
-    from twin.identify_kq import kq_from_stiffness, write_joint_stiffness
-    from twin.sim import Twin
+    from twin.analysis.identify.rollouts import kq_from_stiffness, write_joint_stiffness
+    from twin.sim.quasi_static import Twin
 
     twin = Twin()
     kq = kq_from_stiffness(twin, fit.k_r_n_per_m)

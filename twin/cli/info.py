@@ -6,9 +6,9 @@ import argparse
 
 import numpy as np
 
-from twin.csvio import emit_json
-from twin.kinematics import Kinematics, load_model
-from twin.resources import scene_xml
+from twin.base.csvio import emit_json
+from twin.base.resources import scene_xml
+from twin.robot.kinematics import Kinematics, load_model
 
 HELP = "Show the model: joint stiffness K_q, tool tip and compliance at home, sheet origin."
 

@@ -8,13 +8,13 @@ from pathlib import Path
 
 import numpy as np
 
-from twin.csvio import emit_json, write_table
-from twin.effects import EFFECTS, parse_effect_args
+from twin.analysis.identify.cartesian import THESIS_TABLE_4_2_LOADS_N
+from twin.base.csvio import emit_json, write_table
+from twin.base.signals import interp_rows
 from twin.errors import InputError
-from twin.identify import THESIS_TABLE_4_2_LOADS_N
-from twin.lab import load_test, nominal_commanded, run_lab
-from twin.runs import read_commanded_csv, write_run
-from twin.signals import interp_rows
+from twin.lab.effects import EFFECTS, parse_effect_args
+from twin.lab.virtual import load_test, nominal_commanded, run_lab
+from twin.runs.format import read_commanded_csv, write_run
 
 HELP = "Run the virtual lab (richer plant, noise, hidden effects) and write a measured run."
 

@@ -7,8 +7,8 @@ import math
 import sys
 from pathlib import Path
 
-from twin.csvio import emit_json
-from twin.path import GrooveSpec, groove_path, write_path_csv
+from twin.base.csvio import emit_json
+from twin.process.path import GrooveSpec, groove_path, write_path_csv
 
 HELP = "Write the ideal zig-zag groove path (sheet frame) as CSV: t_s, x_mm, y_mm, z_mm, pass, direction."
 

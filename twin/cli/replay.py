@@ -6,11 +6,11 @@ import argparse
 import sys
 from pathlib import Path
 
-from twin.csvio import emit_json
-from twin.effects import Effects, read_model_file
-from twin.replay import replay
-from twin.runs import read_run
-from twin.sim import Twin
+from twin.analysis.replay import replay
+from twin.base.csvio import emit_json
+from twin.lab.effects import Effects, read_model_file
+from twin.runs.format import read_run
+from twin.sim.quasi_static import Twin
 
 HELP = "Replay a measured run on the twin and report the gap (position and force)."
 
@@ -42,7 +42,7 @@ def run(args: argparse.Namespace) -> int:
         file=out,
     )
     if args.rrd is not None:
-        from twin.recording import record_replay
+        from twin.viz.recording import record_replay
 
         record_replay(args.rrd, measured, result, twin_model=twin.model)
         print(f"rerun recording -> {args.rrd}", file=out)

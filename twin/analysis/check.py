@@ -1,0 +1,123 @@
+"""Check a compensated run against its goal, the ideal path U_ID (not against the command).
+
+The effective gain is estimated from the run alone: its deflections (tracker minus command) and measured
+forces give a compliance C by least squares (d = C f); the command's correction U_cmd - U_ID is then compared
+with what a correct compensation would have commanded, -C f: (U_cmd - U_ID) ~ g (-C f). g = 1 is right;
+g = 0.5 is the thesis's mistake (half-model FE forces used as full, sec. 5.1).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from twin.analysis.identify.cartesian import compensation_gain, fit_compliance
+from twin.base.signals import interp_rows
+from twin.errors import IdentificationError, RunFormatError
+from twin.process.path import label_passes
+from twin.runs.format import Run, resample
+
+GAIN_TOLERANCE = 0.02
+HALF_FORCE_WINDOW = 0.1  # a gain within 0.5 +/- this points at the forgotten doubling
+
+
+@dataclass(frozen=True)
+class CheckResult:
+    """Outcome of checking a run against the ideal path.
+
+    Attributes:
+        residual_m: Tracker minus U_ID at the tracker times [m], shape (m, 3).
+        pass_index: Pass of each tracker sample.
+        direction: Travel direction of each tracker sample.
+        gain: Effective compensation gain.
+        compliance_m_per_n: Compliance fitted from the run (x-z) [m/N], shape (2, 2).
+        diagnosis: One line naming the likely cause of a gain away from 1.
+    """
+
+    residual_m: np.ndarray
+    pass_index: np.ndarray
+    direction: np.ndarray
+    gain: float
+    compliance_m_per_n: np.ndarray
+    diagnosis: str
+
+    def summary(self) -> dict[str, object]:
+        """JSON-ready numbers: overall, per pass and per direction residuals [mm], gain, diagnosis."""
+        norm = np.linalg.norm(self.residual_m, axis=1)
+
+        def stats(mask: np.ndarray) -> dict[str, float]:
+            return {
+                "residual_rms_mm": 1e3 * float(np.sqrt(np.mean(norm[mask] ** 2))),
+                "residual_max_mm": 1e3 * float(np.max(norm[mask])),
+                "samples": int(np.sum(mask)),
+            }
+
+        return {
+            **stats(np.ones(len(norm), dtype=bool)),
+            "residual_rms_xyz_mm": (1e3 * np.sqrt(np.mean(self.residual_m**2, axis=0))).tolist(),
+            "per_pass": {str(k): stats(self.pass_index == k) for k in np.unique(self.pass_index)},
+            "per_direction": {
+                ("forward" if d > 0 else "backward"): stats(self.direction == d)
+                for d in np.unique(self.direction)
+            },
+            "gain": self.gain,
+            "compliance_xz_mm_per_kn": (1e6 * self.compliance_m_per_n).tolist(),
+            "diagnosis": self.diagnosis,
+        }
+
+
+def diagnose_gain(gain: float) -> str:
+    """Name the likely cause of a compensation gain."""
+    if abs(gain - 1.0) <= GAIN_TOLERANCE:
+        return (
+            f"gain {gain:.3f} is within 1 +/- {GAIN_TOLERANCE}: the compensation used the right force scale"
+        )
+    if abs(gain - 0.5) <= HALF_FORCE_WINDOW:
+        return (
+            f"gain {gain:.3f} ~ 0.5: the compensation used half the physical force (force scale of 0.5), the "
+            "thesis's mistake: a half-symmetric FE history loaded as 'full' (declare symmetry='half', sec. 2.2)"
+        )
+    kind = "under" if gain < 1 else "over"
+    return (
+        f"gain {gain:.3f}: the compensation {kind}-corrects by a factor {gain:.2f}; check the force scale of the "
+        "FE history and the compliance used"
+    )
+
+
+def check_run(run: Run, t_ideal_s: np.ndarray, p_ideal_sheet_m: np.ndarray) -> CheckResult:
+    """Compare a run's measured tool tip with the ideal path and estimate the compensation gain.
+
+    Args:
+        run: A measured (compensated) run with forces.
+        t_ideal_s: Times of the ideal path [s] (same clock as the run).
+        p_ideal_sheet_m: Ideal path U_ID, sheet frame [m], shape (n, 3).
+
+    Raises:
+        RunFormatError: The run has no forces.
+        IdentificationError: The run's forces cannot determine a compliance.
+    """
+    if run.forces is None:
+        raise RunFormatError(run.directory or "run", "check needs forces.csv to estimate the gain")
+    t_ideal = np.asarray(t_ideal_s, dtype=float)
+    p_ideal = np.asarray(p_ideal_sheet_m, dtype=float)
+    t_tr = run.tracker.t_s
+    ideal_tr = interp_rows(t_tr, t_ideal, p_ideal)
+    residual = run.tracker.values - ideal_tr
+    pass_ideal, dir_ideal = label_passes(p_ideal[:, 0])
+    index = np.clip(np.searchsorted(t_ideal, t_tr), 0, len(t_ideal) - 1)
+
+    t_f = run.forces.t_s
+    inside = (t_f >= max(t_tr[0], run.commanded.t_s[0])) & (t_f <= min(t_tr[-1], run.commanded.t_s[-1]))
+    t_f = t_f[inside]
+    f = run.forces.values[inside]
+    cmd = resample(run.commanded, t_f)
+    tip = resample(run.tracker, t_f)
+    ideal = interp_rows(t_f, t_ideal, p_ideal)
+    loaded = np.linalg.norm(f, axis=1) > 0.1 * np.max(np.linalg.norm(f, axis=1))
+    if np.sum(loaded) < 10:
+        raise IdentificationError("fewer than 10 loaded force samples: cannot estimate the compliance")
+    c_xz = fit_compliance(f[loaded][:, [0, 2]], (tip - cmd)[loaded][:, [0, 2]])
+    predicted = -f[:, [0, 2]] @ c_xz.T
+    gain = compensation_gain((cmd - ideal)[:, [0, 2]], predicted)
+    return CheckResult(residual, pass_ideal[index], dir_ideal[index], gain, c_xz, diagnose_gain(gain))

@@ -1,0 +1,156 @@
+"""Offline compensation of the tool path (thesis sec. 4.3, Eq. 4.28) and its gain.
+
+Sign convention: forces here are exerted BY THE SHEET ON THE TOOL (Fz > 0 while forming), and the robot
+gives way along them: deflection d = C_R f. The compensated command therefore goes against the force,
+
+    U_ALG = U_ID - C_R f_ID,
+
+which is the thesis's Eq. 4.28 U_ALG = U_ID + C_R F_ID written with the force the tool exerts on the sheet.
+The compensation gain g is the least-squares factor with (U_ALG - U_ID) = g (-C_R f_ref), f_ref being the
+physical reference force: a correct compensation has g = 1; the thesis's run, made with the half-model FE
+forces, had g = 0.5 (sec. 5.1).
+
+Two methods:
+- `formula`: Eq. 4.28 with a constant compliance C_R (from an identified K_R).
+- `twin`: fixed-point iteration with the twin (force field feedback, formed-surface state, pose-dependent
+  Jacobian, and any effects the twin model carries): U_cmd <- U_cmd + (U_ID - U_sim) until the simulated tool
+  tip hits U_ID.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from twin.analysis.identify.cartesian import compensation_gain
+from twin.errors import CompensationError, InputError
+from twin.sim.quasi_static import Twin
+
+TWIN_TOL_M = 2e-6  # 1/10 of the tracker noise
+TWIN_MAX_ITER = 20
+
+
+@dataclass(frozen=True)
+class Compensation:
+    """A compensated path.
+
+    Attributes:
+        method: `formula` or `twin`.
+        t_s: Sample times [s].
+        p_ideal_sheet_m: Ideal path U_ID [m], shape (n, 3).
+        p_cmd_sheet_m: Compensated command U_ALG [m], shape (n, 3).
+        iterations: Twin iterations (0 for the formula).
+        predicted_residual_m: Predicted tool tip minus U_ID with the twin used [m], shape (n, 3), or None.
+        history_m: RMS residual after each twin iteration [m].
+    """
+
+    method: str
+    t_s: np.ndarray
+    p_ideal_sheet_m: np.ndarray
+    p_cmd_sheet_m: np.ndarray
+    iterations: int
+    predicted_residual_m: np.ndarray | None
+    history_m: tuple[float, ...] = ()
+
+    @property
+    def correction_m(self) -> np.ndarray:
+        """U_ALG - U_ID [m], shape (n, 3)."""
+        return self.p_cmd_sheet_m - self.p_ideal_sheet_m
+
+
+def compliance_from_stiffness(k_r_n_per_m: np.ndarray) -> np.ndarray:
+    """3x3 compliance [m/N] from a 2x2 (x-z) or 3x3 K_R [N/m].
+
+    A 2x2 x-z stiffness is inverted and embedded with zero y row and column; a 3x3 one is inverted whole
+    (y free, the right choice when Fy = 0 and the groove does not hold the tool in y).
+    """
+    k = np.asarray(k_r_n_per_m, dtype=float)
+    if k.shape not in ((2, 2), (3, 3)) or not np.all(np.isfinite(k)):
+        raise InputError(f"K_R must be a finite 2x2 (x-z) or 3x3 matrix [N/m], got shape {k.shape}")
+    if abs(np.linalg.det(k)) <= 1e-12 * np.max(np.abs(k)) ** k.shape[0]:  # <=: an all-zero K is singular too
+        raise InputError(f"K_R is singular: {k.tolist()}")
+    if k.shape == (3, 3):
+        return np.asarray(np.linalg.inv(k))
+    c = np.zeros((3, 3))
+    c[np.ix_([0, 2], [0, 2])] = np.linalg.inv(k)
+    return c
+
+
+def compensate_formula(
+    t_s: np.ndarray, p_ideal_sheet_m: np.ndarray, f_ideal_n: np.ndarray, c_r_m_per_n: np.ndarray
+) -> Compensation:
+    """Eq. 4.28: U_ALG = U_ID - C_R f_ID (forces of the sheet on the tool).
+
+    Args:
+        t_s: Sample times [s], shape (n,).
+        p_ideal_sheet_m: Ideal path U_ID [m], shape (n, 3).
+        f_ideal_n: Ideal (FE) forces along U_ID, physical, sheet on tool [N], shape (n, 3).
+        c_r_m_per_n: Compliance C_R [m/N], shape (3, 3).
+    """
+    p = np.asarray(p_ideal_sheet_m, dtype=float)
+    f = np.asarray(f_ideal_n, dtype=float)
+    if p.shape != f.shape or p.ndim != 2 or p.shape[1] != 3:
+        raise InputError(f"ideal path {p.shape} and forces {f.shape} must both be (n, 3)")
+    cmd = p - f @ np.asarray(c_r_m_per_n, dtype=float).T
+    return Compensation("formula", np.asarray(t_s, dtype=float), p, cmd, 0, None)
+
+
+def compensate_twin(
+    t_s: np.ndarray,
+    p_ideal_sheet_m: np.ndarray,
+    twin: Twin,
+    *,
+    tol_m: float = TWIN_TOL_M,
+    max_iter: int = TWIN_MAX_ITER,
+    progress: Callable[[int, float], None] | None = None,
+) -> Compensation:
+    """Iterate the command with the twin until its simulated tool tip follows U_ID.
+
+    Args:
+        t_s: Sample times [s].
+        p_ideal_sheet_m: Ideal path U_ID [m], shape (n, 3).
+        twin: The twin (with whatever effects and stiffness it carries).
+        tol_m: Stop when the largest |U_sim - U_ID| is below this [m].
+        max_iter: Iteration limit.
+        progress: Called after each iteration with (iteration, rms residual [m]), e.g. to draw progress.
+
+    Raises:
+        CompensationError: The iteration diverges or does not reach `tol_m` within `max_iter`.
+    """
+    p_id = np.asarray(p_ideal_sheet_m, dtype=float)
+    cmd = p_id.copy()
+    history: list[float] = []
+    residual = np.zeros_like(p_id)
+    for iteration in range(1, max_iter + 1):
+        sim = twin.simulate(t_s, cmd)
+        residual = sim.p_sheet_m - p_id
+        history.append(float(np.sqrt(np.mean(np.sum(residual**2, axis=1)))))
+        if progress is not None:
+            progress(iteration, history[-1])
+        worst = float(np.max(np.abs(residual)))
+        if worst < tol_m:
+            return Compensation(
+                "twin", np.asarray(t_s, dtype=float), p_id, cmd, iteration, residual, tuple(history)
+            )
+        if iteration > 2 and history[-1] > 2.0 * min(history):
+            raise CompensationError(f"twin compensation diverges: rms residual {history} m")
+        # local Newton step per sample: the tip moves by tip_gain @ d_cmd when the command moves by d_cmd
+        cmd = cmd - np.linalg.solve(sim.tip_gain, residual[..., None])[..., 0]
+    raise CompensationError(
+        f"twin compensation did not reach {tol_m * 1e3:g} mm in {max_iter} iterations "
+        f"(rms residual after each: {[round(h * 1e3, 4) for h in history]} mm)"
+    )
+
+
+def gain_of(compensation: Compensation, f_reference_n: np.ndarray, c_r_m_per_n: np.ndarray) -> float:
+    """Compensation gain g: (U_ALG - U_ID) ~ g (-C_R f_ref), least squares over x and z.
+
+    Args:
+        compensation: The compensated path.
+        f_reference_n: Physical reference forces along U_ID, sheet on tool [N], shape (n, 3).
+        c_r_m_per_n: Reference compliance [m/N], shape (3, 3).
+    """
+    predicted = -np.asarray(f_reference_n, dtype=float) @ np.asarray(c_r_m_per_n, dtype=float).T
+    return compensation_gain(compensation.correction_m[:, [0, 2]], predicted[:, [0, 2]])

@@ -1,0 +1,370 @@
+"""Stiffness identification of the robot at the machining pose (thesis §4.1–4.2, Eqs. 4.1–4.27).
+
+Method 1 (§4.2.1, Eq. 4.16): static load cases F_i = K_R·ΔU_i, K_R fitted by ordinary least squares.
+Method 2 (§4.2.2, Eqs. 4.18–4.25): the whole nominal run, F_ID = K_R(2)·ΔU_NT on x and z, OLS per force row.
+Joint stiffness (§4.1.2, Eqs. 4.4–4.5): diagonal K_q consistent with K_R through the Jacobian.
+Compensation (§4.3, Eq. 4.28): U_ALG = U_ID + C_R·F_ID, with an optional fitted gain.
+
+Conventions: K_R rows are force components, columns deflection components (as Eq. 4.17), so
+F = K_R·ΔU with ΔU = U_ideal − U_measured (Eq. 4.19). SI inside: N/m, m/N, N·m/rad; N/mm only in constants
+named `_N_PER_MM` and at CSV/JSON edges.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from scipy.optimize import nnls
+
+from twin.base.csvio import read_table
+from twin.errors import IdentificationError, InputError, UnitsError
+
+# Thesis Table 4.2 (§4.2.1): Method 1 load cases (Fx, Fy, Fz) [N]. Measured deflections are not printed.
+THESIS_TABLE_4_2_LOADS_N = np.array(
+    [
+        [800.0, 800.0, 1500.0],
+        [500.0, 500.0, 1000.0],
+        [1500.0, 800.0, 800.0],
+        [800.0, 1500.0, 800.0],
+        [1000.0, 1000.0, 1000.0],
+    ]
+)
+# Thesis Eq. 4.17 (§4.2.1): K_R(1) [N/mm], rows Fx, Fy, Fz; columns ΔUx, ΔUy, ΔUz.
+THESIS_KR1_N_PER_MM = np.array(
+    [
+        [716.50, -949.00, -135.00],
+        [320.50, 378.00, -91.00],
+        [-552.00, 1130.00, 1080.00],
+    ]
+)
+# Thesis Eq. 4.26 (§4.2.2): K_R(2) [N/mm], x–z only, rows Fx, Fz; columns ΔUx, ΔUz.
+THESIS_KR2_N_PER_MM = np.array([[779.37, -563.74], [-436.71, 1374.00]])
+# Thesis Eq. 4.27a (§4.2.3): C_R(1) [mm/kN], x–z. It is the inverse of the x–z SUB-BLOCK of K_R(1)
+# (y held fixed), not the x–z block of inv(K_R(1)) (y free), which is [[0.897, 0.241], [1.002, 1.009]].
+THESIS_CR1_MM_PER_KN = np.array([[1.54, 0.19], [0.79, 1.02]])
+# Thesis Eq. 4.27b (§4.2.3): C_R(2) = inv(K_R(2)) [mm/kN], x–z.
+THESIS_CR2_MM_PER_KN = np.array([[1.67, 0.68], [0.53, 0.95]])
+
+LOAD_CASE_COLUMNS = ("fx_n", "fy_n", "fz_n", "dx_mm", "dy_mm", "dz_mm")
+MAX_METRES_LIKE_DEFLECTION_MM = 0.01  # ~1 kN deflects this robot 0.1–10 mm: all values below 0.01 are metres
+MAX_KN_LIKE_FORCE_N = 10.0  # load cases are ~1 kN: all values below 10 are kN
+RANK_RTOL = 1e-9  # singular values below this times the largest count as zero
+
+
+@dataclass(frozen=True)
+class KrFit:
+    """A Cartesian stiffness fit F = K_R·ΔU.
+
+    Attributes:
+        k_r_n_per_m: Stiffness, shape (k, k), rows force, columns deflection [N/m].
+        residuals_n: Norm of F_i − K_R·ΔU_i per sample/load case, shape (m,) [N].
+        condition_number: 2-norm condition number of the deflection (regressor) matrix.
+        rank: Numerical rank of the deflection matrix.
+    """
+
+    k_r_n_per_m: np.ndarray
+    residuals_n: np.ndarray
+    condition_number: float
+    rank: int
+
+    @property
+    def k_r_n_per_mm(self) -> np.ndarray:
+        """Stiffness in the thesis's unit [N/mm]."""
+        return self.k_r_n_per_m * 1e-3
+
+
+@dataclass(frozen=True)
+class KqFit:
+    """A diagonal joint-stiffness fit at one pose.
+
+    Attributes:
+        k_q_nm_per_rad: Joint stiffness, shape (6,) [N·m/rad]; the default (NaN) for unobservable joints,
+            inf where the fit drives the compliance to its zero bound.
+        observable: Whether each joint's compliance is determined by the tool-tip translations, shape (6,).
+        singular_values: Singular values of the (6 entries × 6 joints) compliance design matrix [m²].
+        relative_residual: ‖J_v·diag(c)·J_vᵀ − sym(K_R⁻¹)‖ / ‖sym(K_R⁻¹)‖ over the 6 unique entries.
+    """
+
+    k_q_nm_per_rad: np.ndarray
+    observable: np.ndarray
+    singular_values: np.ndarray
+    relative_residual: float
+
+
+def _pair(f_n: np.ndarray, d_m: np.ndarray, widths: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray]:
+    f = np.asarray(f_n, dtype=float)
+    d = np.asarray(d_m, dtype=float)
+    if f.ndim != 2 or f.shape != d.shape or f.shape[1] not in widths:
+        raise InputError(f"forces {f.shape} and deflections {d.shape} must both be (n, k) with k in {widths}")
+    if not (np.all(np.isfinite(f)) and np.all(np.isfinite(d))):
+        raise InputError("forces and deflections must be finite (found NaN or inf)")
+    return f, d
+
+
+def _ols_stiffness(f: np.ndarray, d: np.ndarray, what: str) -> KrFit:
+    """Solve F_i = K·ΔU_i for all i: row j of K from ΔUᵀ·k_j = F_jᵀ (Eqs. 4.22–4.25), stacked."""
+    k = d.shape[1]
+    singular = np.linalg.svd(d, compute_uv=False)
+    rank = int(np.sum(singular > RANK_RTOL * max(float(singular[0]), np.finfo(float).tiny)))
+    if rank < k:
+        raise IdentificationError(
+            f"{what}: the deflection vectors have rank {rank}, need {k} independent deflection "
+            f"directions to determine the {k}×{k} stiffness ({d.shape[0]} sample(s) given); "
+            "add load cases in other directions"
+        )
+    k_transposed, *_ = np.linalg.lstsq(d, f, rcond=None)  # d·Kᵀ = f
+    k_r = k_transposed.T
+    residuals = np.linalg.norm(f - d @ k_transposed, axis=1)
+    return KrFit(k_r, residuals, float(singular[0] / singular[-1]), rank)
+
+
+def fit_kr_load_cases(f_n: np.ndarray, d_m: np.ndarray) -> KrFit:
+    """Method 1 (Eq. 4.16): 3×3 K_R from static load cases by ordinary least squares.
+
+    Each case gives 3 equations F_i = K_R·ΔU_i; m cases give a (3m × 9) system in the 9 entries of K_R
+    (15 × 9 for the thesis's 5 cases). It decouples into one (m × 3) OLS per row of K_R, which is solved.
+
+    Args:
+        f_n: Applied loads, shape (m, 3) [N].
+        d_m: Measured deflections ΔU, shape (m, 3) [m].
+
+    Returns:
+        The fit; `residuals_n` has one entry per load case.
+
+    Raises:
+        InputError: Shapes differ, are not (m, 3), or hold NaN.
+        IdentificationError: Fewer than 3 independent deflection vectors (rank-deficient load set).
+    """
+    f, d = _pair(f_n, d_m, (3,))
+    return _ols_stiffness(f, d, "Method 1 load set")
+
+
+def fit_kr_from_run(f_n: np.ndarray, d_m: np.ndarray) -> KrFit:
+    """Method 2 (Eqs. 4.18–4.25): 2×2 x–z stiffness from a whole run, exactly as the thesis did.
+
+    The thesis regresses FORCE on DEFLECTION: for each force row, ΔU_NTᵀ·[k_xx, k_xz]ᵀ = F_IDxᵀ (Eq. 4.22),
+    solved with the Moore–Penrose inverse (Eqs. 4.24–4.25). Here with `numpy.linalg.lstsq` (same solution,
+    better numerics). Note that the measured deflections are the noisy regressor, which biases K towards
+    zero (errors in variables); see `fit_compliance` for the better-posed alternative.
+
+    Args:
+        f_n: Forces (ideal F_ID or measured), shape (n, 2) as (x, z) or (n, 3) as (x, y, z) [N].
+        d_m: Deflections ΔU = U_ideal − U_measured, same shape [m]. From (n, 3) inputs x and z are used.
+
+    Returns:
+        The 2×2 fit, rows (Fx, Fz), columns (ΔUx, ΔUz) [N/m].
+    """
+    f, d = _pair(f_n, d_m, (2, 3))
+    if f.shape[1] == 3:
+        f, d = f[:, [0, 2]], d[:, [0, 2]]
+    return _ols_stiffness(f, d, "Method 2 run data")
+
+
+def fit_compliance(f_n: np.ndarray, d_m: np.ndarray) -> np.ndarray:
+    """Compliance C with ΔU = C·F by ordinary least squares (deflection regressed on force).
+
+    Not what the thesis did (it fitted K, Eqs. 4.22–4.25, and inverted it for C_R, Eq. 4.27). This is
+    better posed for run data: the ideal forces F_ID are (nearly) noise-free and span a wide range, the
+    tracker noise (~40 µm, §3.3) sits in the response where OLS expects it, so C is unbiased; fitting K
+    puts that noise in the regressor and biases K low (C high). The regressor here is the force matrix,
+    whose condition number does not depend on the small, noisy deflections. The two estimates agree only
+    for noise-free data, so inv(fit_compliance) is not fit_kr_from_run in general.
+
+    Args:
+        f_n: Forces, shape (n, k) with k in {2, 3} [N].
+        d_m: Deflections, same shape [m].
+
+    Returns:
+        C, shape (k, k), rows deflection, columns force [m/N].
+
+    Raises:
+        IdentificationError: The forces do not span k independent directions.
+    """
+    f, d = _pair(f_n, d_m, (2, 3))
+    singular = np.linalg.svd(f, compute_uv=False)
+    rank = int(np.sum(singular > RANK_RTOL * max(float(singular[0]), np.finfo(float).tiny)))
+    if rank < f.shape[1]:
+        raise IdentificationError(
+            f"forces have rank {rank}, need {f.shape[1]} independent force directions to fit a compliance"
+        )
+    c_transposed, *_ = np.linalg.lstsq(f, d, rcond=None)  # f·Cᵀ = d
+    return np.asarray(c_transposed.T)
+
+
+def load_cases_csv(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
+    """Read Method 1 load cases: columns `fx_n, fy_n, fz_n, dx_mm, dy_mm, dz_mm`.
+
+    Unit heuristics (a ~1 kN load deflects this robot by 0.1–10 mm): if every deflection magnitude is
+    below 0.01 the `_mm` columns hold metres; if every force magnitude is below 10 the `_n` columns hold
+    kN. Both raise UnitsError.
+
+    Returns:
+        (f_n, d_m): loads (m, 3) [N] and deflections (m, 3) [m].
+
+    Raises:
+        DataFileError: Missing file/columns, bad or truncated rows (names file and row).
+        UnitsError: Values that look like metres or kN.
+    """
+    table = read_table(path, LOAD_CASE_COLUMNS, min_rows=1)
+    f_n = np.column_stack([table[name] for name in LOAD_CASE_COLUMNS[:3]])
+    d_mm = np.column_stack([table[name] for name in LOAD_CASE_COLUMNS[3:]])
+    if np.max(np.abs(d_mm)) < MAX_METRES_LIKE_DEFLECTION_MM:
+        raise UnitsError(
+            path,
+            f"all deflections are below {MAX_METRES_LIKE_DEFLECTION_MM} "
+            f"(largest {np.max(np.abs(d_mm)):.3g}); "
+            "a ~1 kN load deflects the robot 0.1-10 mm: are dx_mm/dy_mm/dz_mm in metres? multiply by 1000",
+        )
+    if np.max(np.abs(f_n)) < MAX_KN_LIKE_FORCE_N:
+        raise UnitsError(
+            path,
+            f"all forces are below {MAX_KN_LIKE_FORCE_N} (largest {np.max(np.abs(f_n)):.3g}); "
+            "load cases are ~1 kN: are fx_n/fy_n/fz_n in kN? multiply by 1000",
+        )
+    return f_n, d_mm * 1e-3
+
+
+_SYM_ENTRIES = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
+
+
+def _translational(jacobian: np.ndarray) -> np.ndarray:
+    J = np.asarray(jacobian, dtype=float)
+    if J.shape not in ((6, 6), (3, 6)) or not np.all(np.isfinite(J)):
+        raise InputError(
+            f"Jacobian has shape {J.shape}, expected finite (6, 6) or (3, 6) (translational rows first)"
+        )
+    return J[:3]
+
+
+def _stiffness3(k_r_n_per_m: np.ndarray) -> np.ndarray:
+    K = np.asarray(k_r_n_per_m, dtype=float)
+    if K.shape != (3, 3) or not np.all(np.isfinite(K)):
+        raise InputError(f"K_R has shape {K.shape}, expected a finite (3, 3) matrix [N/m]")
+    return K
+
+
+def _observable_joints(design: np.ndarray, rcond: float) -> np.ndarray:
+    """Drop joints greedily while the design's smallest singular value is below rcond × the largest.
+
+    The joint with the largest share of the weakest direction goes first, so a zero (or negligible)
+    Jacobian column, or two joints that move the tool tip the same way (e.g. joints 1 and 4 at the
+    machining pose, both along y), are caught. Columns are not normalised: a joint whose lever arm is
+    tiny would need an enormous compliance to matter, so it is not determined either.
+    """
+    observable = np.ones(design.shape[1], dtype=bool)
+    largest = float(np.linalg.svd(design, compute_uv=False)[0]) if np.any(design) else 0.0
+    while np.any(observable):
+        if largest == 0.0:
+            observable[:] = False
+            break
+        _, singular, vt = np.linalg.svd(design[:, observable], full_matrices=True)
+        n_kept = int(np.sum(observable))
+        weakest = float(singular[n_kept - 1]) if len(singular) >= n_kept else 0.0
+        if weakest >= rcond * largest:
+            break
+        direction = vt[n_kept - 1]
+        observable[np.flatnonzero(observable)[int(np.argmax(np.abs(direction)))]] = False
+    return observable
+
+
+def fit_diagonal_kq(
+    jacobian: np.ndarray,
+    k_r_n_per_m: np.ndarray,
+    *,
+    default_nm_per_rad: float = float("nan"),
+    rcond: float = 1e-3,
+) -> KqFit:
+    """Best diagonal K_q with J_v·K_q⁻¹·J_vᵀ ≈ sym(K_R⁻¹) (Eqs. 4.4–4.5, fitted in compliance space).
+
+    A diagonal K_q gives a symmetric Cartesian compliance Σ_i c_i·j_i·j_iᵀ (j_i: column i of J_v,
+    c_i = 1/k_i), linear in the joint compliances c. It is fitted by non-negative least squares
+    (`scipy.optimize.nnls`) over the 6 unique entries (xx, yy, zz, xy, xz, yz, equal weights) of the
+    symmetric part of K_R⁻¹ (the antisymmetric part cannot come from a diagonal K_q, §4.1.3).
+    Joints that the tool-tip translations cannot tell apart are flagged unobservable (see
+    `_observable_joints`), left out of the fit, and reported as `default_nm_per_rad`. A compliance that
+    the fit drives to its zero bound is reported as an infinite stiffness.
+
+    Args:
+        jacobian: Geometric Jacobian at the pose, (6, 6) or its translational rows (3, 6) [m/rad].
+        k_r_n_per_m: Cartesian stiffness K_R (3, 3) [N/m].
+        default_nm_per_rad: Value reported for unobservable joints [N·m/rad].
+        rcond: Relative singular-value threshold below which a design direction counts as undetermined.
+            At the thesis's machining pose (Table 4.1) joints 1 and 4 both move the tip along y and the
+            weakest direction is at 4e-4 of the largest: the default 1e-3 flags joint 4 (and joint 6,
+            whose axis passes through the tool tip).
+
+    Returns:
+        The fit.
+
+    Raises:
+        IdentificationError: K_R is singular or no joint is observable.
+    """
+    J_v = _translational(jacobian)
+    K = _stiffness3(k_r_n_per_m)
+    try:
+        C = np.linalg.inv(K)
+    except np.linalg.LinAlgError:
+        raise IdentificationError("K_R is singular; cannot form the compliance to fit K_q") from None
+    C_sym = 0.5 * (C + C.T)
+    target = np.array([C_sym[a, b] for a, b in _SYM_ENTRIES])
+    design = np.array([[J_v[a, i] * J_v[b, i] for i in range(6)] for a, b in _SYM_ENTRIES])
+    singular = np.linalg.svd(design, compute_uv=False)
+    observable = _observable_joints(design, rcond)
+    if not np.any(observable):
+        raise IdentificationError("no joint compliance is observable from tool-tip translations at this pose")
+    columns = design[:, observable]
+    col_scale = np.linalg.norm(columns, axis=0)
+    rhs_scale = max(float(np.max(np.abs(target))), np.finfo(float).tiny)
+    scaled, _ = nnls(columns / col_scale, target / rhs_scale)
+    compliance = np.zeros(6)
+    compliance[observable] = scaled / col_scale * rhs_scale
+    norm_target = max(float(np.linalg.norm(target)), np.finfo(float).tiny)
+    residual = float(np.linalg.norm(design @ compliance - target) / norm_target)
+    k_q = np.full(6, float(default_nm_per_rad))
+    with np.errstate(divide="ignore"):
+        k_q[observable] = np.where(compliance[observable] > 0, 1.0 / compliance[observable], np.inf)
+    return KqFit(k_q, observable, singular, residual)
+
+
+def kq_from_kr_congruence(jacobian: np.ndarray, k_r_n_per_m: np.ndarray) -> np.ndarray:
+    """Eq. 4.5 taken literally: K_q ≈ diag(J_vᵀ·K_R·J_v) [N·m/rad], for comparison with `fit_diagonal_kq`.
+
+    This keeps only the diagonal of the congruence and ignores its off-diagonal terms, so it does not
+    reproduce K_R even when K_R came from a diagonal K_q.
+    """
+    J_v = _translational(jacobian)
+    K = _stiffness3(k_r_n_per_m)
+    return np.asarray(np.diag(J_v.T @ K @ J_v))
+
+
+def compensation_gain(delta_m: np.ndarray, predicted_m: np.ndarray) -> float:
+    """Least-squares gain g with (U_ALG − U_ID) ≈ g·C_R·F_ID (Eq. 4.28 scaled): g = ⟨Δ, P⟩ / ⟨P, P⟩.
+
+    Args:
+        delta_m: Observed corrections or deflections Δ, shape (n, k) [m].
+        predicted_m: Predicted deflections P = C_R·F_ID, same shape [m].
+
+    Returns:
+        The gain g (1 when the correction is what the prediction asks for; 0.5 for the thesis's run, whose
+        correction used the half-model FE forces, §5.1).
+
+    Raises:
+        InputError: Shapes differ or values are not finite.
+        IdentificationError: P is zero (all below 1 nm), so no gain is determined.
+    """
+    delta = np.asarray(delta_m, dtype=float)
+    predicted = np.asarray(predicted_m, dtype=float)
+    if delta.shape != predicted.shape or delta.size == 0:
+        raise InputError(
+            f"delta {delta.shape} and predicted {predicted.shape} must have the same non-empty shape"
+        )
+    if not (np.all(np.isfinite(delta)) and np.all(np.isfinite(predicted))):
+        raise InputError("delta and predicted must be finite (found NaN or inf)")
+    if float(np.max(np.abs(predicted))) < 1e-9:
+        raise IdentificationError(
+            f"predicted deflections are all below 1 nm (largest {np.max(np.abs(predicted)):.3g} m): "
+            "the gain is undetermined; are the forces zero?"
+        )
+    return float(np.vdot(delta, predicted) / np.vdot(predicted, predicted))

@@ -1,0 +1,98 @@
+"""Replay a measured run on the twin and compare prediction with measurement."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from twin.base.signals import interp_rows
+from twin.errors import InputError, RunFormatError
+from twin.lab.effects import Effects
+from twin.lab.measure import predict_forces, predict_tracker
+from twin.process.forces import ForceHistory
+from twin.runs.format import Run
+from twin.sim.quasi_static import SimResult, Twin
+
+
+@dataclass(frozen=True)
+class ReplayResult:
+    """A run replayed on the twin.
+
+    Attributes:
+        sim: The twin's simulation at the commanded samples.
+        tracker_pred_m: Predicted tracker reading at the run's tracker times, sheet frame [m].
+        forces_pred_n: Predicted sensor force at the run's sensor times [N] (None when the run has none).
+        metrics: Summary numbers (see `replay_metrics`).
+    """
+
+    sim: SimResult
+    tracker_pred_m: np.ndarray
+    forces_pred_n: np.ndarray | None
+    metrics: dict[str, float]
+
+
+def replay_metrics(
+    run: Run, tracker_pred_m: np.ndarray, forces_pred_n: np.ndarray | None
+) -> dict[str, float]:
+    """Gap between measurement and prediction.
+
+    Keys: `position_rms_mm` and `position_max_mm` (norm of measured minus predicted tool tip),
+    `force_rms_n` and `force_max_n` (norm of measured minus predicted force), `deflection_max_mm` (max norm
+    of the measured tool tip minus the commanded one), `samples` (tracker samples), `force_samples`.
+    """
+    err = np.linalg.norm(run.tracker.values - tracker_pred_m, axis=1)
+    cmd = interp_rows(run.tracker.t_s, run.commanded.t_s, run.commanded.values)
+    deflection = np.linalg.norm(run.tracker.values - cmd, axis=1)
+    metrics = {
+        "position_rms_mm": 1e3 * float(np.sqrt(np.mean(err**2))),
+        "position_max_mm": 1e3 * float(np.max(err)),
+        "deflection_max_mm": 1e3 * float(np.max(deflection)),
+        "samples": len(err),
+    }
+    if run.forces is not None and forces_pred_n is not None:
+        ferr = np.linalg.norm(run.forces.values - forces_pred_n, axis=1)
+        metrics |= {
+            "force_rms_n": float(np.sqrt(np.mean(ferr**2))),
+            "force_max_n": float(np.max(ferr)),
+            "force_peak_measured_n": float(np.max(np.linalg.norm(run.forces.values, axis=1))),
+            "force_samples": len(ferr),
+        }
+    return metrics
+
+
+def replay(
+    run: Run,
+    *,
+    effects: Effects | None = None,
+    joint_stiffness: np.ndarray | None = None,
+    history: ForceHistory | None = None,
+    twin: Twin | None = None,
+) -> ReplayResult:
+    """Simulate the run's commanded path on the twin and compare with its measurements.
+
+    Args:
+        run: A measured run (never its truth).
+        effects: Effects the twin knows (e.g. from a discrepancy model file); default none.
+        joint_stiffness: Override of K_q [N·m/rad].
+        history: Force history for the field; default the shipped one.
+        twin: A ready twin to reuse (its effects must match `effects.robot`).
+
+    Returns:
+        Prediction at the run's stream times and the gap metrics.
+
+    Raises:
+        InputError: `twin` was built with other robot effects than `effects.robot`.
+    """
+    effects = effects or Effects()
+    if len(run.commanded.t_s) < 2:
+        raise RunFormatError("commanded.csv", "needs at least 2 samples to replay")
+    if twin is not None and twin.effects != effects.robot:
+        raise InputError(
+            f"the twin passed has effects {twin.effects}, but replay was asked for {effects.robot}"
+        )
+    twin = twin or Twin(history=history, effects=effects.robot, joint_stiffness=joint_stiffness)
+    sim = twin.simulate(run.commanded.t_s, run.commanded.values)
+    tracker = predict_tracker(sim, run.tracker.t_s, effects)
+    forces = predict_forces(twin, sim, run.forces.t_s, effects) if run.forces is not None else None
+    return ReplayResult(sim, tracker, forces, replay_metrics(run, tracker, forces))

@@ -1,0 +1,278 @@
+"""Benchmarks of the twin (`tx200-twin bench`): wall times of the main workflows on one nominal lab run.
+
+Everything runs in one process. Each timed step is repeated and the median reported (the first call of a
+step also warms caches, so it is kept only as one of the repeats). The headline numbers:
+
+* `replay_realtime_factor`: simulated machining time of the run divided by the wall time of
+  `twin.analysis.replay.replay(run, twin=...)` with a ready `Twin` (`replay_warm_s`). `replay_s` is the same with a
+  fresh `Twin` (model compilation and field fit included).
+* `twin_over_analytic`: `replay_warm_s` over `analytic_replay_s`, the same run replayed with the linear model
+  d = J K_q^-1 J^T f(p_cmd + d) (`analytic_replay`): the physical floor of any compliant-robot replay.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import platform
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import mujoco
+import numpy as np
+from scipy.linalg.lapack import dgesv
+
+from twin.base.signals import interp_rows
+from twin.errors import InputError
+from twin.process.forces import ForceHistory
+from twin.process.path import label_passes
+from twin.runs.format import Run
+from twin.sim.quasi_static import PASS_DEADBAND_M, Twin
+
+ANALYTIC_TOL_M = 1e-12  # fixed-point residual of the per-sample 3x3 Newton solve [m]
+ANALYTIC_MAX_ITER = 20
+
+
+@dataclass(frozen=True)
+class AnalyticReplay:
+    """A run replayed with the linear compliance model (no gravity, no MuJoCo in the loop).
+
+    Attributes:
+        p_sheet_m: Tool tip at equilibrium, sheet frame [m], shape (n, 3) at the commanded samples.
+        f_sheet_n: Force of the sheet on the tool [N], shape (n, 3).
+        tracker_pred_m: Tool tip at the run's tracker times [m], shape (m, 3).
+        forces_pred_n: Force at the run's sensor times [N] (None when the run has none).
+    """
+
+    p_sheet_m: np.ndarray
+    f_sheet_n: np.ndarray
+    tracker_pred_m: np.ndarray
+    forces_pred_n: np.ndarray | None
+
+
+def analytic_replay(run: Run, *, twin: Twin | None = None, history: ForceHistory | None = None) -> AnalyticReplay:
+    """Replay a run with d = J K_q^-1 J^T f per sample, the field evaluated at the deflected tool tip.
+
+    The per-sample Jacobian comes from the IK of the commanded path (the twin's kinematics), the compliance
+    C = J_v K_q^-1 J_v^T is formed for all samples at once, and each sample solves d = C f(p_cmd + d) by a
+    3x3 Newton iteration (the sheet is stiffer than the robot, so a plain fixed point would diverge) before
+    the field's formed surface advances, exactly as in the twin. Gravity is taught away as in the twin.
+
+    Args:
+        run: A measured run (only its commanded path and stream times are used).
+        twin: A ready twin whose kinematics, K_q and field are used; default a fresh nominal one.
+        history: Force history for a fresh twin.
+
+    Returns:
+        The linear-model prediction.
+
+    Raises:
+        InputError: The per-sample solve did not converge.
+    """
+    twin = twin or Twin(history=history)
+    t_s, p_cmd = run.commanded.t_s, run.commanded.values
+    kin = twin.kinematics
+    q_ik = kin.ik_path(p_cmd + twin.p_base_sheet_origin)
+    J_v = kin.jacobians(q_ik)[:, :3]
+    compliance = (J_v / twin.joint_stiffness) @ J_v.transpose(0, 2, 1)  # (n, 3, 3) [m/N]
+    pass_index, direction = label_passes(p_cmd[:, 0], deadband_m=PASS_DEADBAND_M)
+    passes, dirs = [int(v) for v in pass_index], [int(v) for v in direction]
+    field = twin.field
+    field.reset()
+    n = len(t_s)
+    p_out, f_out = np.empty((n, 3)), np.empty((n, 3))
+    eye = np.eye(3)
+    d = np.zeros(3)
+    for i in range(n):
+        c, pi, di, p_i = compliance[i], passes[i], dirs[i], p_cmd[i]
+        for _ in range(ANALYTIC_MAX_ITER):
+            f, s = field.force_and_stiffness(p_i + d, pi, di)
+            r = d - c @ f
+            if abs(r).max() < ANALYTIC_TOL_M:
+                break
+            d = d - dgesv(eye - c @ s, r)[2]
+        else:
+            raise InputError(f"analytic replay: sample {i} did not converge (residual {abs(r).max():.3g} m)")
+        p = p_cmd[i] + d
+        f_out[i] = field.force(p, pi, di)
+        field.advance(p, pi)
+        p_out[i] = p
+    tracker = interp_rows(run.tracker.t_s, t_s, p_out)
+    forces = interp_rows(run.forces.t_s, t_s, f_out) if run.forces is not None else None
+    return AnalyticReplay(p_out, f_out, tracker, forces)
+
+
+def time_call(fn: Callable[[], Any], repeats: int) -> tuple[float, list[float]]:
+    """Median wall time of `repeats` calls of `fn` [s], and every time [s]."""
+    if repeats < 1:
+        raise InputError(f"repeats = {repeats!r}: expected >= 1")
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - start)
+    return statistics.median(times), times
+
+
+def _blas_summary() -> str:
+    try:
+        from threadpoolctl import threadpool_info  # optional: not a dependency
+    except ImportError:
+        pass
+    else:
+        pools = threadpool_info()
+        if pools:
+            return "; ".join(f"{p.get('internal_api')} {p.get('version')} ({p.get('num_threads')} threads)" for p in pools)
+    try:
+        config = np.show_config(mode="dicts")
+        blas = config.get("Build Dependencies", {}).get("blas", {})
+        return f"{blas.get('name', 'unknown')} {blas.get('version', '')}".strip()
+    except Exception:  # show_config's layout is not a stable API
+        return "unknown"
+
+
+def _git_commit() -> str:
+    try:
+        out = subprocess.run(
+            ["git", "rev-parse", "HEAD"], cwd=Path(__file__).resolve().parent, capture_output=True, text=True,
+            timeout=10, check=False,
+        )
+    except (OSError, subprocess.SubprocessError):
+        return "unknown"
+    return out.stdout.strip() if out.returncode == 0 and out.stdout.strip() else "unknown"
+
+
+def machine_info() -> dict[str, Any]:
+    """Cores, BLAS, versions and git commit of this process."""
+    return {
+        "cpu_count": os.cpu_count(),
+        "cpu_affinity": len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else None,
+        "platform": platform.platform(),
+        "processor": platform.processor() or platform.machine(),
+        "python": sys.version.split()[0],
+        "numpy": np.__version__,
+        "mujoco": mujoco.__version__,
+        "blas": _blas_summary(),
+        "git_commit": _git_commit(),
+    }
+
+
+def run_benchmarks(repeats: int = 5, samples: int | None = None, *, seed: int = 0) -> dict[str, Any]:
+    """Time the workflows on one nominal lab run.
+
+    Args:
+        repeats: Repeats of each timed step (median reported); the discrepancy search runs once.
+        samples: Keep only the first `samples` commanded samples of the groove (a small smoke workload);
+            None for the whole run.
+        seed: Seed of the lab's noise.
+
+    Returns:
+        The JSON payload: times [s], factors [-], `machine`, `workload`.
+    """
+    from twin.analysis.compensate import compensate_twin
+    from twin.analysis.discrepancy.search import find_discrepancy
+    from twin.analysis.identify.method2 import method2
+    from twin.analysis.replay import replay
+    from twin.lab.effects import Effects
+    from twin.lab.virtual import nominal_commanded, run_lab
+    from twin.process.field import SheetForceField
+    from twin.process.forces import default_force_history
+    from twin.process.path import ToolPath
+    from twin.runs.format import read_run, write_run
+
+    t_s, p_cmd = nominal_commanded()
+    if samples is not None:
+        if samples < 2:
+            raise InputError(f"samples = {samples!r}: expected >= 2")
+        t_s, p_cmd = t_s[:samples], p_cmd[:samples]
+    duration_s = float(t_s[-1] - t_s[0])
+    out: dict[str, Any] = {"workload": {"commanded_samples": len(t_s), "machining_s": duration_s, "repeats": repeats}}
+
+    with tempfile.TemporaryDirectory(prefix="tx200-bench-") as tmp:
+        directory = Path(tmp) / "run"
+
+        def lab() -> None:
+            lab_run, truth = run_lab(t_s, p_cmd, scenario="nominal", seed=seed)
+            write_run(directory, lab_run, truth=truth, overwrite=True)
+
+        out["lab_run_s"], _ = time_call(lab, repeats)
+        run = read_run(directory)
+
+    history = default_force_history()
+    out["replay_s"], _ = time_call(lambda: replay(run), repeats)
+    twin = Twin(history=history)
+    out["replay_warm_s"], warm_all = time_call(lambda: replay(run, twin=twin), repeats)
+    out["simulate_warm_s"], _ = time_call(lambda: twin.simulate(t_s, p_cmd), repeats)
+    out["ik_path_s"], _ = time_call(lambda: twin.kinematics.ik_path(p_cmd + twin.p_base_sheet_origin), repeats)
+    out["analytic_replay_s"], _ = time_call(lambda: analytic_replay(run, twin=twin), repeats)
+    out["replay_realtime_factor"] = duration_s / out["replay_warm_s"]
+    out["replay_realtime_factor_basis"] = "replay_warm_s (a ready Twin passed as twin=)"
+    out["twin_over_analytic"] = out["replay_warm_s"] / out["analytic_replay_s"]
+    sim = replay(run, twin=twin).sim
+    linear = analytic_replay(run, twin=twin)
+    out["analytic_vs_twin_max_mm"] = 1e3 * float(np.max(np.linalg.norm(linear.p_sheet_m - sim.p_sheet_m, axis=1)))
+
+    out["identify_method2_s"], _ = time_call(lambda: method2(run, history), repeats)
+    out["compensate_twin_s"], _ = time_call(lambda: compensate_twin(t_s, p_cmd, twin), repeats)
+    pass_index, direction = label_passes(p_cmd[:, 0], deadband_m=PASS_DEADBAND_M)
+    path = ToolPath(t_s=t_s, p_sheet_m=p_cmd, pass_index=pass_index, direction=direction)
+    field = SheetForceField(history)
+    out["force_field_eval_s"], _ = time_call(lambda: field.rigid_forces(path), repeats)
+
+    # the discrepancy workflow on a run with two hidden effects (the thesis story), and on a clean run
+    two_effects, _ = run_lab(
+        t_s, p_cmd, scenario="nominal", effects=Effects({"force_scale": 2.0, "direction_dependent_compliance": 0.3}),
+        seed=seed,
+    )
+    start = time.perf_counter()
+    found = find_discrepancy(two_effects, history=history)
+    out["discrepancy_s"] = time.perf_counter() - start
+    out["discrepancy_effects_found"] = list(found.found)
+    out["discrepancy_clean_s"], _ = time_call(lambda: find_discrepancy(run, history=history), 1)
+    out["replay_warm_all_s"] = warm_all
+    out["machine"] = machine_info()
+    return out
+
+
+TABLE_ROWS: tuple[tuple[str, str, str], ...] = (
+    ("lab_run_s", "lab run (simulate, sensors, write)", "s"),
+    ("replay_s", "replay, fresh Twin", "s"),
+    ("replay_warm_s", "replay, ready Twin", "s"),
+    ("simulate_warm_s", "  of which Twin.simulate", "s"),
+    ("ik_path_s", "  of which ik_path", "s"),
+    ("analytic_replay_s", "analytic replay (J K^-1 J^T f)", "s"),
+    ("replay_realtime_factor", "real-time factor (ready Twin)", "x"),
+    ("twin_over_analytic", "twin / analytic", "x"),
+    ("identify_method2_s", "identify Method 2", "s"),
+    ("compensate_twin_s", "compensate --method twin", "s"),
+    ("discrepancy_s", "discrepancy search", "s"),
+    ("force_field_eval_s", "field rigid_forces (full path)", "s"),
+)
+
+
+def format_table(result: dict[str, Any]) -> str:
+    """A short human table of a `run_benchmarks` payload."""
+    lines = []
+    for key, label, unit in TABLE_ROWS:
+        value = result.get(key)
+        if value is None or (isinstance(value, float) and math.isnan(value)):
+            text = "n/a"
+        elif unit == "s":
+            text = f"{value * 1e3:10.1f} ms"
+        else:
+            text = f"{value:10.1f} x"
+        lines.append(f"{label:<38s}{text}")
+    w = result["workload"]
+    m = result["machine"]
+    lines.append(
+        f"({w['commanded_samples']} samples, {w['machining_s']:.1f} s machining, median of {w['repeats']}; "
+        f"{m['cpu_count']} cores, python {m['python']}, mujoco {m['mujoco']})"
+    )
+    return "\n".join(lines)

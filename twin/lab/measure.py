@@ -1,0 +1,50 @@
+"""Measurement model: what a tracker, a force sensor and a profile scan see of a simulated run.
+
+Used twice with the same code: by the virtual lab (with its hidden effects and noise) and by the twin's
+replay (with the effects the twin knows, no noise), so the two differ only by what the lab hides.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from twin.base.signals import interp_rows
+from twin.lab.effects import Effects
+from twin.sim.quasi_static import SimResult, Twin
+
+PROFILE_HALF_SPAN_M = 0.045  # part profile scanned over x in [-45, 45] mm (groove 70 mm + margin)
+PROFILE_SPACING_M = 0.0005
+
+
+def uniform_times(t_end_s: float, rate_hz: float) -> np.ndarray:
+    """Sample times 0, 1/rate, ... up to `t_end_s` (inclusive within 1e-9 s) [s]."""
+    n = int(np.floor(t_end_s * rate_hz + 1e-9)) + 1
+    return np.arange(n) / rate_hz
+
+
+def predict_tracker(result: SimResult, t_s: np.ndarray, effects: Effects) -> np.ndarray:
+    """Tool tip the tracker reports at `t_s`, sheet frame [m], shape (m, 3) (no noise).
+
+    The simulated tip is interpolated linearly in time and the effect `tracker_drift` is added.
+    """
+    t_s = np.asarray(t_s, dtype=float)
+    tip = interp_rows(t_s, result.t_s, result.p_sheet_m)
+    return tip + np.outer(t_s - result.t_s[0], effects.tracker_drift_m_per_s)
+
+
+def predict_forces(twin: Twin, result: SimResult, t_s: np.ndarray, effects: Effects) -> np.ndarray:
+    """Force the flange sensor reports at stamped times `t_s`: sheet on tool, sheet frame [N], shape (m, 3).
+
+    With `stream_time_offset` tau the sample stamped t was measured at t - tau (clamped to the run).
+    """
+    t_true = np.clip(
+        np.asarray(t_s, dtype=float) - effects.stream_time_offset_s, result.t_s[0], result.t_s[-1]
+    )
+    return twin.sensor_forces(result, t_true)
+
+
+def predict_part_profile(result: SimResult, effects: Effects) -> tuple[np.ndarray, np.ndarray]:
+    """Groove centre line after unclamping: the formed bottom scaled by (1 - springback ratio) [m]."""
+    x_m = np.arange(-PROFILE_HALF_SPAN_M, PROFILE_HALF_SPAN_M + 1e-12, PROFILE_SPACING_M)
+    z_loaded = np.interp(x_m, result.formed_x_m, result.formed_z_m)
+    return x_m, z_loaded * (1.0 - effects.springback_ratio)

@@ -1,0 +1,141 @@
+"""The virtual lab: a richer plant than the twin that produces measured runs in the run format.
+
+It is the twin's robot and force field plus named effects hidden from every reader (`twin.lab.effects`),
+a tracker at 50 Hz with white noise (sigma 0.02 mm, Krypton K-610 class, thesis sec. 3.2.1), a flange
+force sensor at 30 Hz with white noise (sigma 5 N, ATI Omega160 at this range) and a profile scan of the
+part after unclamping (sigma 0.02 mm). Every random draw comes from one `numpy` generator seeded by the
+caller, in a fixed order, so the same seed gives identical files. The effects and noise levels go to
+`truth.json`, which no reader of runs opens.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+from typing import Any
+
+import numpy as np
+
+from twin.lab.effects import Effects
+from twin.lab.measure import predict_forces, predict_part_profile, predict_tracker, uniform_times
+from twin.process.forces import ForceHistory
+from twin.process.path import groove_path
+from twin.robot.dh import TOOL_LENGTH_M
+from twin.runs.format import Run, Stream
+from twin.sim.quasi_static import Twin
+
+
+@dataclass(frozen=True)
+class LabSettings:
+    """Stream rates and noise levels of the virtual lab.
+
+    Attributes:
+        tracker_rate_hz: Optical tracker rate [Hz] (thesis sec. 3.2.1: 50 Hz).
+        sensor_rate_hz: Force sensor rate [Hz] (thesis sec. 3.3: 30 Hz in the robot tests).
+        tracker_noise_m: Tracker white noise per axis [m].
+        force_noise_n: Force sensor white noise per axis [N].
+        profile_noise_m: Part-profile scan white noise [m].
+    """
+
+    tracker_rate_hz: float = 50.0
+    sensor_rate_hz: float = 30.0
+    tracker_noise_m: float = 2e-5
+    force_noise_n: float = 5.0
+    profile_noise_m: float = 2e-5
+
+
+def nominal_commanded() -> tuple[np.ndarray, np.ndarray]:
+    """The ideal groove path U_ID as a commanded path: times [s] and sheet-frame tool tip [m]."""
+    path = groove_path()
+    return path.t_s, path.p_sheet_m
+
+
+def run_lab(
+    t_s: np.ndarray,
+    p_cmd_sheet_m: np.ndarray,
+    *,
+    scenario: str,
+    effects: Effects | None = None,
+    seed: int,
+    settings: LabSettings | None = None,
+    history: ForceHistory | None = None,
+) -> tuple[Run, dict[str, Any]]:
+    """Run the commanded path on the lab plant and measure it.
+
+    Args:
+        t_s: Commanded sample times [s].
+        p_cmd_sheet_m: Commanded tool tip, sheet frame [m], shape (n, 3).
+        scenario: Label stored in meta.json (`nominal`, `compensated`, or free text).
+        effects: Hidden effects; default none.
+        seed: Seed of the noise generator.
+        settings: Rates and noise levels.
+        history: Force history of the lab's sheet; default the shipped one (declared half, doubled).
+
+    Returns:
+        The run (not yet written) and the truth record for `truth.json`.
+    """
+    effects = effects or Effects()
+    settings = settings or LabSettings()
+    twin = Twin(history=history, effects=effects.robot)
+    result = twin.simulate(t_s, p_cmd_sheet_m)
+    rng = np.random.default_rng(seed)
+    t_end = float(result.t_s[-1])
+    t_tracker = uniform_times(t_end, settings.tracker_rate_hz)
+    t_sensor = uniform_times(t_end, settings.sensor_rate_hz)
+    tracker = predict_tracker(result, t_tracker, effects)
+    tracker = tracker + rng.normal(0.0, settings.tracker_noise_m, tracker.shape)
+    forces = predict_forces(twin, result, t_sensor, effects)
+    forces = forces + rng.normal(0.0, settings.force_noise_n, forces.shape)
+    x_profile, z_profile = predict_part_profile(result, effects)
+    z_profile = z_profile + rng.normal(0.0, settings.profile_noise_m, z_profile.shape)
+    meta = {
+        "format": "tx200-twin-run/1",
+        "scenario": scenario,
+        "frame": "sheet",
+        "source": "tx200-twin virtual lab",
+        "tool_length_m": TOOL_LENGTH_M,
+        "tracker_rate_hz": settings.tracker_rate_hz,
+        "sensor_rate_hz": settings.sensor_rate_hz,
+        "seed": seed,
+    }
+    run = Run(
+        directory=None,
+        meta=meta,
+        commanded=Stream(np.asarray(t_s, dtype=float), np.asarray(p_cmd_sheet_m, dtype=float)),
+        tracker=Stream(t_tracker, tracker),
+        forces=Stream(t_sensor, forces),
+        part_profile=(x_profile, z_profile),
+    )
+    truth = {
+        "effects": dict(effects.values),
+        "effect_parameters": effects.named_parameters(),
+        "lost_motion_takeup_m": effects.lost_motion_takeup_m,
+        "settings": asdict(settings),
+        "seed": seed,
+        "max_deflection_mm": 1e3 * float(np.max(np.linalg.norm(result.deflection_sheet_m, axis=1))),
+        "peak_force_n": float(np.max(np.linalg.norm(result.f_sheet_n, axis=1))),
+    }
+    return run, truth
+
+
+def load_test(
+    loads_n: np.ndarray, *, effects: Effects | None = None, seed: int, settings: LabSettings | None = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """Thesis Method 1 load test at `home`: apply each load at the tool tip and measure the deflection.
+
+    Args:
+        loads_n: Loads on the tool tip, base frame [N], shape (m, 3) (Table 4.2 pushes the tool).
+        effects: Hidden robot effects.
+        seed: Seed of the tracker noise.
+        settings: Noise levels (tracker noise on each of the two readings, loaded and unloaded).
+
+    Returns:
+        The loads [N] and the measured deflections [m], shape (m, 3) each.
+    """
+    effects = effects or Effects()
+    settings = settings or LabSettings()
+    twin = Twin(effects=effects.robot)
+    rng = np.random.default_rng(seed)
+    loads = np.asarray(loads_n, dtype=float)
+    deflections = np.array([twin.static_deflection(f) for f in loads])
+    noise = rng.normal(0.0, settings.tracker_noise_m, (2, *deflections.shape))
+    return loads, deflections + noise[0] - noise[1]

@@ -1,0 +1,151 @@
+"""Loading FE force histories: where the thesis's bug lived.
+
+The thesis's FE model is half-symmetric (§2.2): the exported Fx and Fz must be doubled, Fy (the reaction
+against the symmetry plane) discarded. The compensation script forgot the doubling, so only half the
+deflection was compensated (§5.1). Here the symmetry must be declared by every caller, and column names that
+contradict the declaration are refused.
+
+Accepted files (CSV, header row, `#` comment lines allowed; see docs/forces.md):
+
+* position: `x_mm`, `z_mm`, and `s_mm` (arc length, strictly increasing) or `t_s` (time, strictly increasing;
+  then s is the arc length of the (x, z) polyline);
+* half-symmetric model: `fx_half_n`, `fz_half_n` (and optionally `fy_sym_n`, ignored);
+* full model: `fx_n`, `fz_n` (and optionally `fy_n`).
+
+Forces are those EXERTED BY THE SHEET ON THE TOOL, in the sheet frame (Fz > 0 while forming).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from twin.base.csvio import check_mm_magnitude, check_monotonic, read_table
+from twin.base.resources import data_file
+from twin.errors import DataFileError, SymmetryError
+from twin.process.path import ToolPath, label_passes
+
+HALF_COLUMNS = ("fx_half_n", "fz_half_n")
+FULL_COLUMNS = ("fx_n", "fz_n")
+_OPTIONAL = ("s_mm", "t_s", "fx_half_n", "fy_sym_n", "fz_half_n", "fx_n", "fy_n", "fz_n")
+
+_BUG = (
+    "the FE model is half-symmetric (thesis §2.2): its exported Fx and Fz are half the physical forces; "
+    "the thesis's compensation forgot to double them and compensated only half the deflection (§5.1). "
+    "Declare symmetry='half' for a half-model export (forces are doubled) or symmetry='full' for a full model"
+)
+
+
+@dataclass(frozen=True)
+class ForceHistory:
+    """A force history along the ideal path, physical forces.
+
+    Attributes:
+        s_m: Arc length along the path [m], shape (n,).
+        p_sheet_m: Tool-tip position (x, 0, z) in the sheet frame [m], shape (n, 3).
+        f_sheet_n: PHYSICAL force exerted by the sheet on the tool, sheet frame [N], shape (n, 3).
+        symmetry: The declaration the file was loaded with, `half` or `full`.
+        column_symmetry: The symmetry the file's column names state (`half` for `*_half_n` columns); it differs
+            from `symmetry` only when the column check was skipped (`trust_columns=False`).
+        source: The file read.
+    """
+
+    s_m: np.ndarray
+    p_sheet_m: np.ndarray
+    f_sheet_n: np.ndarray
+    symmetry: str
+    source: Path
+    column_symmetry: str
+
+    def to_path(self, feed_m_per_s: float = 2.0 / 60.0) -> ToolPath:
+        """The history's sample points as a ToolPath (constant feed; passes from `label_passes`).
+
+        Args:
+            feed_m_per_s: Feed used to turn arc length into time [m/s] (2 m/min, §1.2.3).
+        """
+        pass_index, direction = label_passes(self.p_sheet_m[:, 0])
+        return ToolPath(
+            t_s=(self.s_m - self.s_m[0]) / feed_m_per_s,
+            p_sheet_m=self.p_sheet_m.copy(),
+            pass_index=pass_index,
+            direction=direction,
+        )
+
+
+def load_force_history(path: str | Path, *, symmetry: str, trust_columns: bool = True) -> ForceHistory:
+    """Load an FE force history CSV and return PHYSICAL forces.
+
+    Args:
+        path: CSV file (column sets in the module docstring).
+        symmetry: REQUIRED, no default: `half` (half-symmetric model; Fx, Fz doubled, Fy set to 0) or `full`.
+        trust_columns: Keep True. False skips the check that the column names agree with `symmetry`; it exists
+            only to reproduce the thesis's mistake (a half-model file declared `full`) in regression tests.
+
+    Returns:
+        The history, physical forces.
+
+    Raises:
+        SymmetryError: `symmetry` is None or not `half`/`full`, or the column names contradict it (half-named
+            columns declared `full`, full-named declared `half`) while `trust_columns` is True.
+        DataFileError: Missing file or columns, truncated or non-numeric rows, NaN, s or t not increasing.
+        UnitsError: A `_mm` column spans so little it must hold metres.
+    """
+    if symmetry not in ("half", "full"):
+        raise SymmetryError(f"load_force_history({str(path)!r}): symmetry={symmetry!r} is not valid; {_BUG}")
+    path = Path(path)
+    table = read_table(path, ("x_mm", "z_mm"), optional=_OPTIONAL, min_rows=2)
+    has_half = all(name in table for name in HALF_COLUMNS)
+    has_full = all(name in table for name in FULL_COLUMNS)
+    if has_half and has_full:
+        raise DataFileError(
+            path, f"holds both half-model {list(HALF_COLUMNS)} and full-model {list(FULL_COLUMNS)} columns"
+        )
+    if not (has_half or has_full):
+        raise DataFileError(
+            path,
+            f"missing force columns: expected {list(HALF_COLUMNS)} (half-symmetric model) or "
+            f"{list(FULL_COLUMNS)} (full model); found {sorted(table)}",
+        )
+    names = HALF_COLUMNS if has_half else FULL_COLUMNS
+    if trust_columns and (has_half != (symmetry == "half")):
+        kind = "half-symmetric" if has_half else "full-model"
+        raise SymmetryError(
+            f"{path}: columns {list(names)} name a {kind} export but symmetry={symmetry!r} was declared; "
+            f"{_BUG}. (trust_columns=False exists only to reproduce the thesis's mistake.)"
+        )
+    x_mm, z_mm = table["x_mm"], table["z_mm"]
+    check_mm_magnitude(path, "x_mm", x_mm, min_span_mm=1.0)
+    check_mm_magnitude(path, "z_mm", z_mm, min_span_mm=0.1)
+    if "s_mm" in table:
+        s_mm = table["s_mm"]
+        check_monotonic(path, "s_mm", s_mm)
+        check_mm_magnitude(path, "s_mm", s_mm, min_span_mm=1.0)
+    elif "t_s" in table:
+        check_monotonic(path, "t_s", table["t_s"])
+        s_mm = np.concatenate(([0.0], np.cumsum(np.hypot(np.diff(x_mm), np.diff(z_mm)))))
+    else:
+        raise DataFileError(
+            path, f"missing column 's_mm' (arc length) or 't_s' (time); found {sorted(table)}"
+        )
+    scale = 2.0 if symmetry == "half" else 1.0
+    f = np.zeros((len(x_mm), 3))
+    f[:, 0] = scale * table[names[0]]
+    f[:, 2] = scale * table[names[1]]
+    if symmetry == "full" and "fy_n" in table:
+        f[:, 1] = table["fy_n"]
+    p = np.column_stack([x_mm, np.zeros_like(x_mm), z_mm]) / 1000.0
+    return ForceHistory(
+        s_m=s_mm / 1000.0,
+        p_sheet_m=p,
+        f_sheet_n=f,
+        symmetry=symmetry,
+        source=path,
+        column_symmetry="half" if has_half else "full",
+    )
+
+
+def default_force_history() -> ForceHistory:
+    """The shipped stand-in history `twin/data/fe_force_history.csv`, loaded as half-symmetric."""
+    return load_force_history(data_file("fe_force_history.csv"), symmetry="half")

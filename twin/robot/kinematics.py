@@ -1,0 +1,322 @@
+"""Kinematics of the TX200 MuJoCo model: forward kinematics, tool-tip Jacobian, inverse kinematics with
+the tool held vertical, and the Cartesian compliance of the compliant joints.
+
+Frames: world == robot base frame. The tool tip is the site `tcp`; the sheet frame origin is the scene site
+`sheet_origin` (= `tcp` at the `home` keyframe), axes parallel to the base.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import mujoco
+import numpy as np
+from scipy.linalg.lapack import dgesv
+
+from twin.base.resources import robot_xml, scene_xml
+from twin.errors import InputError, ModelError, SingularityError, UnreachableError
+from twin.robot.chain_fk import ChainFK, rotation_log_batch
+from twin.robot.dh import TOOL_LENGTH_M
+
+__all__ = ["DET_J_MIN", "HOME_Q_RAD", "TOOL_LENGTH_M", "Kinematics", "load_model"]
+
+# Machining pose of the load tests and of the forming, thesis Table 4.1 [deg] -> [rad].
+HOME_Q_RAD = np.deg2rad([-0.08, 38.03, 90.62, -0.33, 51.72, -7.91])
+
+# |det J| [m^3] below which an IK solution is refused as near-singular. det J (Eq. 3.16) is -0.877 m^3 at
+# home and stays within 0.80-0.93 m^3 over the whole forming box (x +-50, y +-15, z -15..+5 mm); near home
+# |det J| ~ 1.1 m^3 * |sin q5|, so 0.05 m^3 refuses wrist configurations with |q5| below about 2.6 deg.
+DET_J_MIN = 0.05
+
+
+_JOINTS = tuple(f"joint{i}" for i in range(1, 7))
+_ACTUATORS = tuple(f"actuator{i}" for i in range(1, 7))
+
+
+def load_model(scene: bool = True, path: str | Path | None = None) -> mujoco.MjModel:
+    """Load the cell scene (default) or the robot-only MJCF.
+
+    Args:
+        scene: True for `models/cell/scene.xml`, False for `models/tx200.xml`.
+        path: Explicit MJCF file; overrides `scene`.
+
+    Raises:
+        ModelError: If the file is missing or does not compile.
+    """
+    xml = Path(path) if path is not None else (scene_xml() if scene else robot_xml())
+    if not xml.is_file():
+        raise ModelError(f"model file not found: {xml} (expected an MJCF file such as models/tx200.xml)")
+    try:
+        return mujoco.MjModel.from_xml_path(str(xml))
+    except ValueError as exc:
+        raise ModelError(f"model {xml} does not compile: {exc}") from exc
+
+
+def _rotation_log(R: np.ndarray) -> np.ndarray:
+    """Rotation vector (axis * angle) of a rotation matrix [rad]."""
+    r = R.tolist()  # scalar maths on Python floats: ~5x faster than numpy for a 3x3
+    w0, w1, w2 = 0.5 * (r[2][1] - r[1][2]), 0.5 * (r[0][2] - r[2][0]), 0.5 * (r[1][0] - r[0][1])
+    s = math.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
+    c = 0.5 * (r[0][0] + r[1][1] + r[2][2] - 1.0)
+    angle = math.atan2(s, c)
+    w = np.array([w0, w1, w2])
+    if c < -0.99:  # near pi the skew part loses precision: use the symmetric part
+        B = 0.5 * (R + R.T) - c * np.eye(3)
+        axis = B[:, int(np.argmax(np.diag(B)))]
+        axis = axis / np.linalg.norm(axis) * (-1.0 if axis @ w < 0 else 1.0)
+        return axis * angle
+    if s < 1e-12:
+        return w  # angle ~ 0: w == rotation vector to second order
+    return w * (angle / s)
+
+
+class Kinematics:
+    """Forward/inverse kinematics and compliance on the MuJoCo model (scene or robot-only).
+
+    Args:
+        model: A compiled TX200 model; None loads the cell scene.
+        det_j_min: |det J| threshold below which IK refuses a solution [m^3].
+    """
+
+    def __init__(self, model: mujoco.MjModel | None = None, det_j_min: float = DET_J_MIN) -> None:
+        self.model = load_model(scene=True) if model is None else model
+        self.data = mujoco.MjData(self.model)
+        self.det_j_min = float(det_j_min)
+        m = self.model
+        try:
+            joint_ids = [m.joint(name).id for name in _JOINTS]
+            self._tcp_id = m.site("tcp").id
+        except KeyError as exc:
+            raise ModelError(
+                f"model lacks a required element ({exc}); expected joints joint1..joint6, site tcp"
+            ) from exc
+        self._qadr = m.jnt_qposadr[joint_ids].copy()
+        self._dadr = m.jnt_dofadr[joint_ids].copy()
+        self.q_min = m.jnt_range[joint_ids, 0].copy()
+        self.q_max = m.jnt_range[joint_ids, 1].copy()
+        self._jacp = np.zeros((3, m.nv))
+        self._jacr = np.zeros((3, m.nv))
+        self._damping = 1e-10 * np.eye(6)
+        self._chain = ChainFK(m, self._tcp_id, self._qadr)
+        self.q_home = HOME_Q_RAD.copy()
+        _p_home, R_home = self.fk(self.q_home)
+        x = np.array([R_home[0, 0], R_home[1, 0], 0.0])
+        x /= np.linalg.norm(x)
+        z = np.array([0.0, 0.0, -1.0])
+        self.R_tool_down = np.column_stack([x, np.cross(z, x), z])
+        if "sheet_origin" in [m.site(i).name for i in range(m.nsite)]:
+            mujoco.mj_kinematics(m, self.data)
+            self.p_base_sheet_origin = self.data.site("sheet_origin").xpos.copy()
+        else:
+            self.p_base_sheet_origin = _p_home
+
+    def _check_q(self, q: np.ndarray) -> np.ndarray:
+        arr = np.asarray(q, dtype=float)
+        if arr.shape != (6,):
+            raise InputError(f"q must be 6 joint angles q1..q6 [rad], got shape {arr.shape}: {arr}")
+        if not np.all(np.isfinite(arr)):
+            raise InputError(f"q must be 6 finite joint angles q1..q6 [rad], got {arr}")
+        return arr
+
+    def _set(self, q: np.ndarray) -> None:
+        self.data.qpos[self._qadr] = q
+        mujoco.mj_kinematics(self.model, self.data)
+
+    @property
+    def joint_stiffness(self) -> np.ndarray:
+        """K_q of the compliant joints: kp of actuator1..6 [N m/rad]."""
+        m = self.model
+        try:
+            ids = [m.actuator(name).id for name in _ACTUATORS]
+        except KeyError as exc:
+            raise ModelError(f"model lacks actuators actuator1..actuator6 ({exc})") from exc
+        return m.actuator_gainprm[ids, 0].copy()
+
+    def fk(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Tool-tip pose: p_base_tcp [m] (3,) and R_base_tcp (3, 3) for joint angles q (6,) [rad]."""
+        self._set(self._check_q(q))
+        site = self.data.site(self._tcp_id)
+        return site.xpos.copy(), site.xmat.reshape(3, 3).copy()
+
+    def jacobian(self, q: np.ndarray) -> np.ndarray:
+        """Geometric Jacobian of `tcp`, rows [linear; angular] in the base frame, (6, 6) [m/rad; 1]."""
+        self._set(self._check_q(q))
+        return self._jac()
+
+    def _jac(self) -> np.ndarray:
+        mujoco.mj_comPos(self.model, self.data)
+        mujoco.mj_jacSite(self.model, self.data, self._jacp, self._jacr, self._tcp_id)
+        J = np.empty((6, 6))
+        J[:3] = self._jacp[:, self._dadr]
+        J[3:] = self._jacr[:, self._dadr]
+        return J
+
+    def compliance(self, q: np.ndarray, K_q: np.ndarray | None = None) -> np.ndarray:
+        """Translational Cartesian compliance J_v K_q^-1 J_v^T at q, (3, 3) [m/N].
+
+        Args:
+            q: Joint angles (6,) [rad].
+            K_q: Joint stiffnesses (6,) [N m/rad]; None uses `joint_stiffness`.
+        """
+        K = self.joint_stiffness if K_q is None else np.asarray(K_q, dtype=float)
+        if K.shape != (6,) or not np.all(np.isfinite(K)) or np.any(K <= 0):
+            raise InputError(f"K_q must be 6 positive finite joint stiffnesses [N m/rad], got {K}")
+        J_v = self.jacobian(q)[:3]
+        return (J_v / K) @ J_v.T
+
+    def ik(self, p_base_tcp: np.ndarray, q_seed: np.ndarray | None = None, max_iter: int = 60) -> np.ndarray:
+        """Joint angles putting the tool tip at `p_base_tcp` with orientation `R_tool_down`.
+
+        Damped Newton on the 6-D pose error, seeded at home (or `q_seed`) so it stays on home's branch.
+
+        Args:
+            p_base_tcp: Target tool-tip position in the base frame (3,) [m].
+            q_seed: Start configuration (6,) [rad]; None uses `q_home`.
+            max_iter: Newton iterations allowed.
+
+        Raises:
+            UnreachableError: No convergence to 1e-9 m / 1e-9 rad, or the solution leaves the joint ranges.
+            SingularityError: |det J| < `det_j_min` at the solution.
+        """
+        target = np.asarray(p_base_tcp, dtype=float)
+        if target.shape != (3,) or not np.all(np.isfinite(target)):
+            raise InputError(f"p_base_tcp must be 3 finite coordinates [m], got {target}")
+        q = self.q_home.copy() if q_seed is None else self._check_q(q_seed).copy()
+        return self._ik(target, q, max_iter)[0]
+
+    def _ik(self, target: np.ndarray, q: np.ndarray, max_iter: int) -> tuple[np.ndarray, np.ndarray]:
+        """`ik` from the start configuration `q`; returns the solution and the Jacobian there."""
+        R_t = self.R_tool_down
+        xpos = self.data.site_xpos[self._tcp_id]  # views: they follow every mj_kinematics
+        xmat = self.data.site_xmat[self._tcp_id].reshape(3, 3)
+        e = np.empty(6)
+        err_p = err_r = math.inf
+        for _ in range(max_iter):
+            self._set(q)
+            np.subtract(target, xpos, out=e[:3])
+            e[3:] = _rotation_log(R_t @ xmat.T)
+            ep, er = e[:3] @ e[:3], e[3:] @ e[3:]
+            err_p, err_r = math.sqrt(ep), math.sqrt(er)
+            if err_p < 1e-12 and err_r < 1e-12:
+                break
+            J = self._jac()
+            _, _, dq, info = dgesv(J.T @ J + self._damping, J.T @ e)
+            if info != 0:
+                raise SingularityError(f"IK normal equations are singular at q={q} rad (LAPACK info {info})")
+            step = float(abs(dq).max())
+            q = q + (dq * (0.2 / step) if step > 0.2 else dq)
+        if not (err_p < 1e-9 and err_r < 1e-9):
+            raise UnreachableError(
+                f"IK did not converge for p_base_tcp={target} m: position error {err_p:.3g} m, "
+                f"orientation error {err_r:.3g} rad after {max_iter} iterations (need < 1e-9)"
+            )
+        bad = np.flatnonzero((q < self.q_min - 1e-12) | (q > self.q_max + 1e-12))
+        if bad.size:
+            i = int(bad[0])
+            raise UnreachableError(
+                f"IK solution for p_base_tcp={target} m leaves the range of joint{i + 1}: q={q[i]:.6g} rad, "
+                f"valid [{self.q_min[i]:.6g}, {self.q_max[i]:.6g}] rad"
+            )
+        J = self._jac()
+        det = float(np.linalg.det(J))
+        if abs(det) < self.det_j_min:
+            raise SingularityError(
+                f"IK solution for p_base_tcp={target} m is near-singular: |det J| = {abs(det):.3g} m^3 "
+                f"< {self.det_j_min:.3g} m^3 at q={q} rad"
+            )
+        return q, J
+
+    def ik_path(self, P_base_tcp: np.ndarray, q_seed: np.ndarray | None = None) -> np.ndarray:
+        """IK along a path, each point warm-started from the previous solution.
+
+        Args:
+            P_base_tcp: Tool-tip positions in the base frame (n, 3) [m].
+            q_seed: Seed of the first point (6,) [rad]; None uses `q_home`.
+
+        Returns:
+            Q of shape (n, 6) [rad].
+        """
+        P = np.asarray(P_base_tcp, dtype=float)
+        if P.ndim != 2 or P.shape[1] != 3:
+            raise InputError(f"P_base_tcp must have shape (n, 3) [m], got {P.shape}")
+        finite = np.all(np.isfinite(P), axis=1)
+        if not np.all(finite):
+            bad = P[int(np.argmin(finite))]
+            raise InputError(f"p_base_tcp must be 3 finite coordinates [m], got {bad}")
+        q0 = self.q_home.copy() if q_seed is None else self._check_q(q_seed).copy()
+        Q = self._ik_batch(P, q0)
+        return Q if Q is not None else self._ik_sequential(P, q0)
+
+    def _ik_sequential(self, P: np.ndarray, q: np.ndarray) -> np.ndarray:
+        """`ik` point by point, each warm-started from a first-order prediction off the previous solution."""
+        Q = np.empty((P.shape[0], 6))
+        twist = np.zeros(6)
+        J = np.eye(6)
+        for i, p in enumerate(P):
+            if i > 0:
+                # q + J^-1 [dp; 0] (the orientation is fixed): one Newton step is then enough; a prediction
+                # beyond the damped step limit falls back to the plain warm start
+                twist[:3] = p - P[i - 1]
+                _, _, dq, info = dgesv(J, twist)
+                if info == 0 and float(abs(dq).max()) <= 0.2:
+                    q = q + dq
+            q, J = self._ik(p, q, 60)
+            Q[i] = q
+        return Q
+
+    def _ik_batch(self, P: np.ndarray, q_seed: np.ndarray, max_iter: int = 30) -> np.ndarray | None:
+        """The same damped Newton for all points at once (numpy kinematics), seeded from `q_seed`.
+
+        Returns None, so that the caller solves point by point (which also raises the precise error), when
+        the chain is not supported, a point does not converge, leaves the joint ranges or is near-singular,
+        or consecutive solutions jump by more than 0.1 rad (a different IK branch than the warm-started one).
+        """
+        n = P.shape[0]
+        if not self._chain.supported or n < 2:
+            return None
+        Q = np.broadcast_to(q_seed, (n, 6)).copy()
+        J_final = np.empty((n, 6, 6))
+        R_tT = self.R_tool_down.T
+        active = np.arange(n)
+        for _ in range(max_iter):
+            p, R, J = self._chain(Q[active])
+            # R_t R^T = (R R_t^T)^T, one BLAS call for all points
+            M = (R.reshape(-1, 3) @ R_tT).reshape(-1, 3, 3).transpose(0, 2, 1)
+            log = rotation_log_batch(M)
+            if log is None:
+                return None
+            e = np.concatenate([P[active] - p, log], axis=1)
+            converged = (np.sum(e[:, :3] ** 2, axis=1) < 1e-24) & (np.sum(e[:, 3:] ** 2, axis=1) < 1e-24)
+            J_final[active[converged]] = J[converged]
+            keep = ~converged
+            active, e, J = active[keep], e[keep], J[keep]
+            if active.size == 0:
+                break
+            Jt = J.transpose(0, 2, 1)
+            dq = np.linalg.solve(Jt @ J + self._damping, (Jt @ e[:, :, None]))[:, :, 0]
+            step = np.max(np.abs(dq), axis=1)
+            dq *= np.where(step > 0.2, 0.2 / np.maximum(step, 1e-300), 1.0)[:, None]
+            Q[active] += dq
+        if active.size:
+            return None
+        if np.any((self.q_min - 1e-12 > Q) | (self.q_max + 1e-12 < Q)):
+            return None
+        if np.any(np.abs(np.linalg.det(J_final)) < self.det_j_min):
+            return None
+        if np.max(np.abs(np.diff(Q, axis=0))) > 0.1:
+            return None
+        return Q
+
+    def jacobians(self, Q: np.ndarray) -> np.ndarray:
+        """`jacobian` at many configurations, (n, 6, 6) [m/rad; 1] (vectorised when the chain allows).
+
+        Args:
+            Q: Joint angles (n, 6) [rad].
+        """
+        arr = np.asarray(Q, dtype=float)
+        if arr.ndim != 2 or arr.shape[1] != 6 or not np.all(np.isfinite(arr)):
+            raise InputError(f"Q must be finite joint angles of shape (n, 6) [rad], got shape {arr.shape}")
+        if self._chain.supported:
+            return self._chain(arr)[2]
+        return np.array([self.jacobian(q) for q in arr])

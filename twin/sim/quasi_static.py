@@ -1,0 +1,396 @@
+"""The twin: the compliant MuJoCo TX200 driven along a commanded path against the sheet force field.
+
+Per sample the robot is solved to quasi-static equilibrium (qvel = qacc = 0):
+
+    r(q) = K (q_ref - q) - g(q) + J_tcp(q)^T f(p_tcp(q)) = 0,
+
+with K the joint springs (position-actuator `kp`, plus the stiff link-side hinges of lost-motion joints),
+g the gravity torques from `mj_rne`, J_tcp the translational site Jacobian (`mj_jacSite`) and f the force the
+sheet exerts on the tool, from the stateful field. Newton's method with the matrix
+K + dg/dq - J^T (df/dp) J (gravity gradient by finite differences once per run) converges in 2-3
+iterations to 1e-10 rad. This direct solve was chosen over damped stepping (hundreds of `mj_step` per
+sample) because it is exact at equilibrium and an order of magnitude cheaper per sample.
+
+The path is taught under gravity: the set-points are q_ref = q_ik + K^-1 g(q_ik), so the unloaded robot
+lands exactly on the IK solution, and deflection = loaded - unloaded. After each sample the field's formed
+surface advances to where the tool really was.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+from functools import partial
+
+import mujoco
+import numpy as np
+from scipy.linalg.lapack import dgesv as _dgesv
+
+from twin.base.signals import interp_rows
+from twin.errors import InputError
+from twin.process.field import SheetForceField
+from twin.process.forces import ForceHistory, default_force_history
+from twin.process.path import label_passes
+from twin.robot.kinematics import Kinematics
+from twin.robot.model import ARM_JOINTS, LOST_MOTION_JOINTS, RobotEffects, build_model, lost_motion_schedule
+
+NEWTON_TOL_RAD = 1e-7  # a Newton step this small leaves < 1e-9 m of error (quadratic convergence)
+NEWTON_MAX_ITER = 20
+# Back-travel that declares a reversal of the commanded path [m]: a compensated command may step back a
+# fraction of a millimetre where the force ramps up, a real reversal travels a whole stroke (>= 61 mm).
+PASS_DEADBAND_M = 2e-3
+
+
+@dataclass(frozen=True)
+class SimResult:
+    """One simulated run, at the commanded samples.
+
+    Attributes:
+        t_s: Sample times [s], shape (n,).
+        p_cmd_sheet_m: Commanded tool tip, sheet frame [m], shape (n, 3).
+        p_unloaded_sheet_m: Tool tip of the unloaded robot (gravity only), sheet frame [m], shape (n, 3).
+        p_sheet_m: Tool tip at equilibrium under the sheet force, sheet frame [m], shape (n, 3).
+        f_sheet_n: Force exerted by the sheet on the tool, sheet frame [N], shape (n, 3).
+        qpos: Equilibrium joint positions (all model joints) [rad], shape (n, nq).
+        q_ik: Rigid IK solution of the commanded path [rad], shape (n, 6).
+        pass_index: Pass number per sample (1-based), shape (n,).
+        direction: Travel direction along x per sample (+1/-1), shape (n,).
+        formed_x_m: Grid of the formed groove profile [m].
+        formed_z_m: Formed groove bottom under load at the end of the run [m].
+        iterations: Newton iterations per sample, shape (n,).
+        tip_gain: d p_tcp / d p_cmd at each equilibrium, (I + C S)^-1 with C the robot's Cartesian compliance
+            and S = -df/dp the sheet's stiffness [-], shape (n, 3, 3).
+    """
+
+    t_s: np.ndarray
+    p_cmd_sheet_m: np.ndarray
+    p_unloaded_sheet_m: np.ndarray
+    p_sheet_m: np.ndarray
+    f_sheet_n: np.ndarray
+    qpos: np.ndarray
+    q_ik: np.ndarray
+    pass_index: np.ndarray
+    direction: np.ndarray
+    formed_x_m: np.ndarray
+    formed_z_m: np.ndarray
+    iterations: np.ndarray
+    tip_gain: np.ndarray
+
+    @property
+    def deflection_sheet_m(self) -> np.ndarray:
+        """Loaded minus unloaded tool tip [m], shape (n, 3)."""
+        return self.p_sheet_m - self.p_unloaded_sheet_m
+
+
+def set_joint_stiffness(model: mujoco.MjModel, k_q_nm_per_rad: np.ndarray) -> None:
+    """Set the joint springs K_q (position-actuator gains) of `actuator1..6` in place.
+
+    Args:
+        model: Compiled model with position actuators on joint1..6.
+        k_q_nm_per_rad: Joint stiffness [N·m/rad], shape (6,), all > 0.
+    """
+    k = np.asarray(k_q_nm_per_rad, dtype=float)
+    if k.shape != (6,) or not np.all(np.isfinite(k)) or np.any(k <= 0):
+        raise InputError(f"joint stiffness must be 6 finite positive values [N·m/rad], got {k!r}")
+    for i, value in enumerate(k):
+        act = model.actuator(f"actuator{i + 1}").id
+        model.actuator_gainprm[act, 0] = value
+        model.actuator_biasprm[act, 1] = -value
+
+
+class Twin:
+    """Quasi-static compliant-robot twin of the forming cell.
+
+    Args:
+        history: Physical FE force history the field is fitted to; default: the shipped history (half model,
+            doubled on load).
+        effects: Robot-side effects (lab truth or fitted augmentations); default none.
+        joint_stiffness: Override of K_q [N·m/rad], shape (6,); default: the model's.
+    """
+
+    def __init__(
+        self,
+        history: ForceHistory | None = None,
+        effects: RobotEffects | None = None,
+        joint_stiffness: np.ndarray | None = None,
+    ) -> None:
+        self.effects = effects or RobotEffects()
+        self.history = history if history is not None else default_force_history()
+        self.model = build_model(self.effects)
+        # the controller's kinematics (IK) use the nominal robot; a separate model only when effects change it
+        nominal = build_model(None) if self.effects.changes_model else self.model
+        if joint_stiffness is not None:
+            set_joint_stiffness(self.model, joint_stiffness)
+            if nominal is not self.model:
+                set_joint_stiffness(nominal, joint_stiffness)
+        self.kinematics = Kinematics(nominal)
+        self.data = mujoco.MjData(self.model)
+        # force_scale: the real forces are k x the FE history, so the field is fitted to the scaled history
+        # (its penetration sensitivity, a property of the sheet, is not scaled)
+        scaled = self.history
+        if self.effects.force_scale != 1.0:
+            scaled = replace(self.history, f_sheet_n=self.effects.force_scale * self.history.f_sheet_n)
+        self.field = SheetForceField(scaled)
+        m = self.model
+        self._tcp = m.site("tcp").id
+        self._tool_body = int(m.site_bodyid[self._tcp])
+        self._ft_site = m.site("ft_site").id
+        self._arm_dof = np.array([m.jnt_dofadr[m.joint(name).id] for name in ARM_JOINTS])
+        self._arm_qpos = np.array([m.jnt_qposadr[m.joint(name).id] for name in ARM_JOINTS])
+        lost = [f"{name}_lost" for name in LOST_MOTION_JOINTS] if self.effects.has_lost_motion else []
+        self._lost_dof = np.array([m.jnt_dofadr[m.joint(name).id] for name in lost], dtype=int)
+        self._lost_qpos = np.array([m.jnt_qposadr[m.joint(name).id] for name in lost], dtype=int)
+        self._lost_jnt = np.array([m.joint(name).id for name in lost], dtype=int)
+        self.p_base_sheet_origin = self.kinematics.p_base_sheet_origin
+
+    @property
+    def joint_stiffness(self) -> np.ndarray:
+        """K_q of joints 1..6 [N·m/rad]."""
+        return np.array([self.model.actuator(f"actuator{i}").gainprm[0] for i in range(1, 7)])
+
+    def _stiffness_diag(self) -> np.ndarray:
+        k = np.zeros(self.model.nv)
+        k[self._arm_dof] = self.joint_stiffness
+        if self._lost_dof.size:
+            k[self._lost_dof] = self.model.jnt_stiffness[self._lost_jnt]
+        return k
+
+    def _gravity(self, qpos: np.ndarray) -> np.ndarray:
+        m, d = self.model, self.data
+        d.qpos[:] = qpos
+        d.qvel[:] = 0.0
+        mujoco.mj_kinematics(m, d)
+        mujoco.mj_comPos(m, d)
+        out = np.zeros(m.nv)
+        mujoco.mj_rne(m, d, 0, out)
+        return out
+
+    def _gravity_gradient(self, qpos: np.ndarray, step: float = 1e-6) -> np.ndarray:
+        grad = np.zeros((self.model.nv, self.model.nv))
+        for j in range(self.model.nv):
+            dq = np.zeros(self.model.nq)
+            dq[j] = step
+            grad[:, j] = (self._gravity(qpos + dq) - self._gravity(qpos - dq)) / (2 * step)
+        return grad
+
+    def _full_qpos(self, q_arm: np.ndarray) -> np.ndarray:
+        qpos = np.zeros(self.model.nq)
+        qpos[self._arm_qpos] = q_arm
+        return qpos
+
+    def _newton(
+        self,
+        q: np.ndarray,
+        q_ref: np.ndarray,
+        k_diag: np.ndarray,
+        h_const: np.ndarray,
+        sheet: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]],
+    ) -> tuple[np.ndarray, int, np.ndarray, np.ndarray]:
+        """Newton's method on K (q_ref - q) - g(q) + J_tcp(q)^T f(p(q)) = 0 from `q`.
+
+        Args:
+            q: Start [rad], shape (nq,).
+            q_ref: Spring references (set-points taught under gravity) [rad], shape (nq,).
+            k_diag: Joint springs [N·m/rad], shape (nv,).
+            h_const: K + dg/dq, the Newton matrix without the sheet term, shape (nv, nv).
+            sheet: Tool-tip position in the sheet frame [m] -> (force on the tool [N], df/dp [N/m]).
+
+        Returns:
+            The equilibrium [rad], the iterations used, and the translational tcp Jacobian [m/rad] and df/dp
+            [N/m] of the last iteration.
+        """
+        m, d = self.model, self.data
+        jacp = np.zeros((3, m.nv))
+        g = np.zeros(m.nv)
+        stiffness = np.zeros((3, 3))
+        xpos_tcp = d.site_xpos[self._tcp]  # a view: follows every mj_kinematics
+        k = 0
+        for k in range(1, NEWTON_MAX_ITER + 1):  # noqa: B007
+            d.qpos[:] = q
+            mujoco.mj_kinematics(m, d)
+            mujoco.mj_comPos(m, d)
+            mujoco.mj_rne(m, d, 0, g)
+            mujoco.mj_jacSite(m, d, jacp, None, self._tcp)
+            force, stiffness = sheet(xpos_tcp - self.p_base_sheet_origin)
+            r = k_diag * (q_ref - q) - g + jacp.T @ force
+            _, _, dq, info = _dgesv(h_const - jacp.T @ stiffness @ jacp, r)  # np.linalg.solve costs 5x more
+            if info != 0:
+                raise np.linalg.LinAlgError(f"singular Newton matrix (LAPACK dgesv info {info}) at q = {q!r}")
+            q = q + dq
+            if abs(dq).max() < NEWTON_TOL_RAD:
+                break
+        return q, k, jacp, stiffness
+
+    def simulate(
+        self, t_s: np.ndarray, p_cmd_sheet_m: np.ndarray, *, q_ik: np.ndarray | None = None
+    ) -> SimResult:
+        """Drive the twin along a commanded tool-tip path and solve every sample to equilibrium.
+
+        Args:
+            t_s: Sample times [s], shape (n,), strictly increasing.
+            p_cmd_sheet_m: Commanded tool tip in the sheet frame [m], shape (n, 3).
+            q_ik: Rigid IK solution of this same path [rad], shape (n, 6), from an earlier `SimResult.q_ik`
+                (saves the IK when one command is replayed many times); computed when None.
+
+        Returns:
+            The simulated run at the commanded samples.
+
+        Raises:
+            InputError: Bad shapes or non-finite values.
+            UnreachableError, SingularityError: From inverse kinematics of the commanded path.
+        """
+        t_s = np.asarray(t_s, dtype=float)
+        p_cmd = np.asarray(p_cmd_sheet_m, dtype=float)
+        if p_cmd.ndim != 2 or p_cmd.shape[1] != 3 or len(t_s) != len(p_cmd) or len(t_s) < 2:
+            raise InputError(
+                f"expected t_s (n,) and p_cmd_sheet_m (n, 3) with n >= 2, got {t_s.shape}, {p_cmd.shape}"
+            )
+        if not (np.all(np.isfinite(p_cmd)) and np.all(np.isfinite(t_s))):
+            raise InputError("commanded path holds NaN or inf")
+        m, d = self.model, self.data
+        if q_ik is None:
+            q_ik = self.kinematics.ik_path(p_cmd + self.p_base_sheet_origin)
+        elif q_ik.shape != (len(t_s), 6):
+            raise InputError(f"q_ik has shape {q_ik.shape}, expected {(len(t_s), 6)}")
+        pass_index, direction = label_passes(p_cmd[:, 0], deadband_m=PASS_DEADBAND_M)
+        k_diag = self._stiffness_diag()
+
+        n = len(t_s)
+        lost_ref = np.zeros((n, self._lost_dof.size))
+        if self._lost_dof.size:
+            jac0 = self.kinematics.jacobian(q_ik[0])
+            dx_dq_sign = np.sign(jac0[0, [1, 2]])
+            lost_ref = lost_motion_schedule(p_cmd[:, 0], direction, dx_dq_sign, self.effects)
+
+        grad_g = self._gravity_gradient(self._full_qpos(q_ik[0]))
+        q_nominal_all = np.zeros((n, m.nq))
+        q_nominal_all[:, self._arm_qpos] = q_ik
+        q_nominal_all[:, self._lost_qpos] = lost_ref
+        qpos_out = np.zeros((n, m.nq))
+        p_out = np.zeros((n, 3))
+        p_unloaded = np.zeros((n, 3))
+        f_out = np.zeros((n, 3))
+        iters = np.zeros(n, dtype=int)
+        jac_last = np.zeros((n, 3, m.nv))
+        s_last = np.zeros((n, 3, 3))
+        h_const = np.diag(k_diag) + grad_g  # the Newton matrix without the sheet term
+        g_nom = np.zeros(m.nv)
+        origin = self.p_base_sheet_origin
+        qpos_view, qvel_view = d.qpos, d.qvel
+        xpos_tcp = d.site_xpos[self._tcp]  # a view: follows every mj_kinematics
+        field = self.field
+        field.reset()
+        passes = [int(v) for v in pass_index]
+        dirs = [int(v) for v in direction]
+        deflection_q = np.zeros(m.nq)
+        deflection_prev = np.zeros(m.nq)
+        qvel_view[:] = 0.0
+        for i in range(n):
+            pi, di = passes[i], dirs[i]
+            q_nominal = q_nominal_all[i]
+            qpos_view[:] = q_nominal
+            mujoco.mj_kinematics(m, d)
+            mujoco.mj_comPos(m, d)
+            mujoco.mj_rne(m, d, 0, g_nom)
+            p_unloaded[i] = xpos_tcp - origin
+            q_ref = q_nominal + g_nom / k_diag  # taught under gravity
+            # start from the deflection extrapolated from the last two samples of this pass (else the last one)
+            if i >= 2 and passes[i - 2] == pi:
+                q = q_nominal + (2.0 * deflection_q - deflection_prev)
+            else:
+                q = q_nominal + deflection_q
+            q, k, jac_last[i], s_last[i] = self._newton(
+                q, q_ref, k_diag, h_const, partial(field.force_and_stiffness, pass_index=pi, direction=di)
+            )
+            qpos_view[:] = q
+            mujoco.mj_kinematics(m, d)
+            p = xpos_tcp - origin
+            f_out[i] = field.force(p, pi, di)
+            field.advance(p, pi)
+            qpos_out[i], p_out[i], iters[i] = q, p, k
+            deflection_prev, deflection_q = deflection_q, q - q_nominal
+        compliance = (jac_last * (1.0 / k_diag)) @ jac_last.transpose(0, 2, 1)
+        tip_gain = np.linalg.inv(np.eye(3) - compliance @ s_last)
+        formed_x, formed_z = self.field.x_grid_m, self.field.formed_z_m
+        return SimResult(
+            t_s=t_s,
+            p_cmd_sheet_m=p_cmd,
+            p_unloaded_sheet_m=p_unloaded,
+            p_sheet_m=p_out,
+            f_sheet_n=f_out,
+            qpos=qpos_out,
+            q_ik=q_ik,
+            pass_index=pass_index,
+            direction=direction,
+            formed_x_m=np.asarray(formed_x, dtype=float).copy(),
+            formed_z_m=np.asarray(formed_z, dtype=float).copy(),
+            iterations=iters,
+            tip_gain=tip_gain,
+        )
+
+    def sensor_forces(self, result: SimResult, t_s: np.ndarray) -> np.ndarray:
+        """Read MuJoCo's flange force sensor at the given times, as the run format wants it.
+
+        The equilibrium joint positions and the sheet force are interpolated to `t_s`; the force is applied
+        at the tool tip (`xfrc_applied` on the tool body, moment carried to its centre of mass); `mj_inverse`
+        at qvel = qacc = 0 evaluates the `ft_force` sensor; the tool's weight is removed by a second, unloaded
+        reading at the same pose (tare); the result is turned into the sheet frame and its sign flipped
+        (the sensor reports the force the sensor body exerts on the tool).
+
+        Args:
+            result: A run from `simulate`.
+            t_s: Sensor sample times [s], within the run.
+
+        Returns:
+            Force exerted by the sheet on the tool, sheet frame [N], shape (m, 3).
+        """
+        m, d = self.model, self.data
+        t_s = np.asarray(t_s, dtype=float)
+        qpos = interp_rows(t_s, result.t_s, result.qpos)
+        force = interp_rows(t_s, result.t_s, result.f_sheet_n)
+        sensor_adr = m.sensor("ft_force").adr[0]
+        out = np.zeros((len(t_s), 3))
+        # views into MjData, refreshed by every mj_kinematics / mj_inverse
+        sensor = d.sensordata[sensor_adr : sensor_adr + 3]
+        R_base_ft = d.site_xmat[self._ft_site].reshape(3, 3)
+        wrench = d.xfrc_applied[self._tool_body]
+        tcp_xpos, tool_xipos = d.site_xpos[self._tcp], d.xipos[self._tool_body]
+        d.qvel[:] = 0.0
+        d.qacc[:] = 0.0
+        d.xfrc_applied[:] = 0.0
+        for i in range(len(t_s)):
+            d.qpos[:] = qpos[i]
+            mujoco.mj_kinematics(m, d)
+            l0, l1, l2 = (tcp_xpos - tool_xipos).tolist()
+            a0, a1, a2 = force[i].tolist()
+            wrench[:] = (a0, a1, a2, l1 * a2 - l2 * a1, l2 * a0 - l0 * a2, l0 * a1 - l1 * a0)  # lever x force
+            mujoco.mj_inverse(m, d)
+            loaded = R_base_ft @ sensor
+            wrench[:] = 0.0  # tare: the same pose unloaded
+            mujoco.mj_inverse(m, d)
+            out[i] = -(loaded - R_base_ft @ sensor)
+        return out
+
+    def static_deflection(self, f_base_n: np.ndarray, q: np.ndarray | None = None) -> np.ndarray:
+        """Equilibrium tool-tip deflection under a constant force at the tool tip (no sheet field).
+
+        Args:
+            f_base_n: Force on the tool tip, base frame [N], shape (3,).
+            q: Pose (rigid IK angles of joints 1..6) [rad]; default `home`.
+
+        Returns:
+            Loaded minus unloaded tool-tip position [m], shape (3,).
+        """
+        m, d = self.model, self.data
+        f = np.asarray(f_base_n, dtype=float)
+        q_nominal = self._full_qpos(self.kinematics.q_home if q is None else np.asarray(q, dtype=float))
+        k_diag = self._stiffness_diag()
+        g_nom = self._gravity(q_nominal)
+        p0 = d.site_xpos[self._tcp].copy()
+        q_ref = q_nominal + g_nom / k_diag
+        h_const = np.diag(k_diag) + self._gravity_gradient(q_nominal)
+        no_sheet = np.zeros((3, 3))
+        q, _, _, _ = self._newton(q_nominal.copy(), q_ref, k_diag, h_const, lambda _p: (f, no_sheet))
+        d.qpos[:] = q
+        mujoco.mj_kinematics(m, d)
+        return d.site_xpos[self._tcp] - p0
