@@ -16,7 +16,8 @@ from twin.analysis.replay import ReplayResult, replay
 from twin.cli import main
 from twin.lab.virtual import nominal_commanded
 from twin.process.path import groove_path
-from twin.runs.format import Run, read_run
+from twin.runs.format import Run
+from twin.runs.read import read_run
 from twin.sim.quasi_static import Twin
 
 CLEAN_SEED = 1

@@ -22,7 +22,8 @@ from twin.lab.virtual import run_lab
 from twin.process.field import SheetForceField
 from twin.process.forces import default_force_history
 from twin.process.path import ToolPath, groove_path
-from twin.runs.format import Run, Stream, write_run
+from twin.runs.format import Run, Stream
+from twin.runs.write import write_run
 from twin.sim.quasi_static import Twin
 
 
@@ -93,8 +94,10 @@ def test_right_compensation_has_gain_one_and_small_residual(results: dict[str, C
         f"{summary['residual_rms_mm']:.4f} mm rms / {summary['residual_max_mm']:.4f} mm max"
     )
     assert result.gain == pytest.approx(1.0, abs=GAIN_TOLERANCE)
-    assert summary["residual_rms_mm"] < 0.08  # 0.054 measured (constant home compliance, tracker noise)
-    assert summary["residual_max_mm"] < 0.2
+    # 0.115 measured: the linear C cannot cancel the joint-friction offsets that flip at every reversal
+    # (0.054 on a frictionless robot: constant home compliance, tracker noise)
+    assert summary["residual_rms_mm"] < 0.15
+    assert summary["residual_max_mm"] < 0.6  # 0.39 measured, at the reversals (0.2 on a frictionless robot)
 
 
 def test_fitted_compliance_matches_the_twin_xz_block(results: dict[str, CheckResult]) -> None:
@@ -166,7 +169,7 @@ def test_cli_check_passes_a_right_run_with_exit_0(
     out = capsys.readouterr().out
     payload = json.loads(out[out.index("{") :])
     assert payload["gain"] == pytest.approx(1.0, abs=GAIN_TOLERANCE)
-    assert payload["run"] == str(run_dirs["right"]) and payload["residual_rms_mm"] < 0.08
+    assert payload["run"] == str(run_dirs["right"]) and payload["residual_rms_mm"] < 0.15
 
 
 def test_cli_check_fails_the_half_run_with_exit_1_and_names_the_cause(

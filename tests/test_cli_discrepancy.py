@@ -13,12 +13,13 @@ from twin.base.resources import data_file
 from twin.cli import main
 from twin.lab.effects import Effects, read_model_file
 from twin.lab.virtual import LabSettings, run_lab
-from twin.runs.format import write_run
+from twin.runs.write import write_run
 
 HIDDEN = {"tcp_offset": 0.2}  # shows in position, force and profile
 SEED = 401
 NOISE_NORM_MM = math.sqrt(3.0) * 1e3 * LabSettings().tracker_noise_m
-JSON_KEYS = {"effect", "effects", "parameters", "confidence", "gap_before", "gap_after", "noise", "candidates"}
+JSON_KEYS = {"effect", "effects", "parameters", "confidence", "gap_before", "gap_after", "noise", "candidates",
+             "families", "explained_fraction", "remainder", "model_complete"}
 
 
 @pytest.fixture(scope="module")
@@ -52,6 +53,14 @@ def test_json_names_the_hidden_effect_with_every_documented_key(workflow: dict[s
     assert doc["effect"] == "tcp_offset"
     assert doc["effects"] == ["tcp_offset"]
     assert doc["parameters"]["tcp_offset"]["tcp_offset_mm"] == pytest.approx(0.2, rel=0.15)
+    # the family behind the lab's name, with its parameter, standard error and explained share
+    family = doc["families"][0]
+    assert family["name"] == "tool_length_offset" and family["lab_name"] == "tcp_offset"
+    assert family["parameters"]["length_mm"] == pytest.approx(0.2, abs=3.0 * family["uncertainty"]["length_mm"] + 0.02)
+    assert 0.0 < family["uncertainty"]["length_mm"] < 0.02
+    assert family["explained_fraction"] >= 0.9 and doc["explained_fraction"] >= 0.9
+    assert doc["model_complete"] is True
+    assert doc["remainder"]["words"] == "nothing left above the noise"
     assert 0.0 < doc["confidence"] <= 1.0
     for key in ("gap_before", "gap_after"):
         assert {"position_rms_mm", "force_rms_n"} <= set(doc[key])
@@ -62,7 +71,7 @@ def test_json_names_the_hidden_effect_with_every_documented_key(workflow: dict[s
     assert doc["candidates"], "the candidates of the first round are listed"
     for candidate in doc["candidates"]:
         assert {"name", "score", "parameters"} <= set(candidate)
-    assert doc["candidates"][0]["name"] == "tcp_offset"
+    assert doc["candidates"][0]["name"] == "tool_length_offset"
 
 
 def test_model_out_is_accepted_by_replay_and_shrinks_the_gap(workflow: dict[str, Path], hidden_run_dir: Path,

@@ -1,7 +1,10 @@
 """Tests of `tx200-twin identify --method 2 RUN_DIR` (twin/cli/identify.py) on a lab nominal run.
 
-Measured on `lab --scenario nominal --seed 1`: compliance from measured forces 0.88 % off the twin's x-z
-block, from ideal forces (the thesis's variant) 35 % off, sheet force 22 % below the FE history.
+Measured on `lab --scenario nominal --seed 1` (the calibrated robot, with joint friction): compliance from
+measured forces 14.2 % off the twin's elastic x-z block J K_q^-1 J^T (the sliding joints' friction offsets
+flip with the direction, as Fx does, so the run reads the robot more compliant: the thesis's C_R(2) > C_R(1)
+along x), from ideal forces (the thesis's variant) 6.4 % off, sheet force 10.4 % below the FE history.
+On the frictionless robot the first is 0.9 % (tests/test_identify_run.py).
 """
 
 from __future__ import annotations
@@ -48,9 +51,9 @@ def test_method2_reports_error_bias_and_force_drop(
     )
     assert payload["method"] == 2 and payload["run"] == str(run_dirs["nominal"])
     assert payload["samples"] > 500
-    assert payload["relative_error_measured_vs_twin"] < 0.02
-    assert 0.2 < payload["relative_bias_ideal_vs_twin"] < 0.5
-    assert 0.15 < payload["force_drop_rms_ratio"] < 0.30
+    assert 0.05 < payload["relative_error_measured_vs_twin"] < 0.25  # 14.2 %: friction, see the docstring
+    assert payload["relative_bias_ideal_vs_twin"] < 0.15  # 6.4 %
+    assert 0.05 < payload["force_drop_rms_ratio"] < 0.2  # 10.4 %
     c_meas = np.asarray(payload["compliance_measured_forces_mm_per_kn"])
     c_twin = np.asarray(payload["twin_compliance_xz_mm_per_kn"])
     assert c_meas.shape == c_twin.shape == (2, 2)
@@ -66,7 +69,7 @@ def test_method2_k_from_ideal_and_measured_forces_differ(
     k_ideal = np.asarray(payload["k_r_n_per_mm"])  # the thesis's variant (Eqs. 4.22-4.25)
     k_meas = np.asarray(payload["k_r_measured_forces_n_per_mm"])
     assert k_ideal.shape == k_meas.shape == (2, 2)
-    assert np.linalg.norm(k_ideal - k_meas) / np.linalg.norm(k_meas) > 0.1  # 23 % measured
+    assert np.linalg.norm(k_ideal - k_meas) / np.linalg.norm(k_meas) > 0.05  # 10.3 % measured
 
 
 def test_method2_writes_json_file_and_prints_summary(

@@ -149,10 +149,11 @@ def test_twin_compensation_gain_is_near_one_with_the_twin_compliance(
 ) -> None:
     f_ref = SheetForceField(default_force_history()).rigid_forces(short_path)
     c_home = twin.kinematics.compliance(twin.kinematics.q_home)
-    # 1.031 measured: the twin's compliance changes with the pose along the pass, while the
-    # reference is the constant home compliance; over the whole groove it averages to 1.003
-    # (tests/test_gain_regression.py). A force-scale mistake would be 0.5 or 2.
-    assert gain_of(short_compensation, f_ref, c_home) == pytest.approx(1.0, abs=0.05)
+    # 1.059 measured (1.031 on a frictionless robot): the twin's compliance changes with the pose along the
+    # pass, while the reference is the constant home compliance, and the command also cancels the joint-
+    # friction offsets, whose size follows J(q) rather than a constant per direction. A force-scale mistake
+    # would be 0.5 or 2.
+    assert gain_of(short_compensation, f_ref, c_home) == pytest.approx(1.0, abs=0.08)
 
 
 def test_twin_compensation_raises_when_iterations_run_out(twin: Twin, short_path: ToolPath) -> None:

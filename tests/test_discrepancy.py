@@ -1,8 +1,9 @@
-"""Tests of the discrepancy workflow (twin/analysis/discrepancy/search.py) on lab runs whose effects are hidden from it.
+"""Tests of the discrepancy workflow (twin/analysis/discrepancy) on runs whose effects are hidden from it.
 
-Every run is made in memory by the virtual lab; `find_discrepancy` sees only the Run (never its truth).
-Gaps are compared with the lab's sensor noise: the position gap of a perfect twin is the norm of the
-tracker noise, sqrt(3) x sigma per axis; the force gap sqrt(3) x the force sigma; the profile gap sigma.
+Every run is made in memory by the virtual lab, then possibly edited here by hand the way a user would (the
+issue's four cases); `find_discrepancy` sees only the Run (never its truth). Gaps are compared with the lab's
+sensor noise: the position gap of a perfect twin is the norm of the tracker noise, sqrt(3) x sigma per axis;
+the force gap sqrt(3) x the force sigma; the profile gap sigma.
 """
 
 from __future__ import annotations
@@ -10,25 +11,25 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 import pytest
 
 from twin.analysis.compensate import compensate_twin
-from twin.analysis.discrepancy.search import (
-    DiscrepancyResult,
-    excess_over_noise,
-    find_discrepancy,
-    is_contradicted,
-    result_summary,
-)
+from twin.analysis.discrepancy.context import Context
+from twin.analysis.discrepancy.families import FAMILIES, Delta, Family, register
+from twin.analysis.discrepancy.families.tracker import TrackerDrift
+from twin.analysis.discrepancy.search import DiscrepancyResult, find_discrepancy
+from twin.analysis.discrepancy.significance import excess_over_noise, is_contradicted
+from twin.analysis.discrepancy.summary import result_summary
 from twin.base.resources import data_file
 from twin.lab.effects import EFFECTS, Effects
 from twin.lab.virtual import LabSettings, run_lab
 from twin.process.forces import ForceHistory, load_force_history
+from twin.process.path import label_passes
 from twin.runs.format import Run, Stream
-from twin.sim.quasi_static import Twin
+from twin.sim.quasi_static import PASS_DEADBAND_M, Twin
 
 SETTINGS = LabSettings()
 NOISE_GAP = {  # gap of a perfect twin: the norm of the sensor noise (see module docstring)
@@ -39,16 +40,26 @@ NOISE_GAP = {  # gap of a perfect twin: the norm of the sensor noise (see module
 PARAMETER_TOLERANCE = 0.15  # of the effect's deviation from its neutral value
 SHRINK = 0.30  # gap after <= this x gap before, in the stream(s) where the effect shows
 NOISE_FACTOR = 2.0  # position gap after <= this x the noise norm
+# The family that fits each lab effect (the lab's direction_dependent_compliance is a lost motion of joints 2
+# and 3, its tcp_offset a tool length error); the summary reports the lab's name when the fit maps onto it.
+LAB_FAMILY = {
+    "direction_dependent_compliance": "lost_motion",
+    "force_scale": "force_scale",
+    "stream_time_offset": "stream_time_offset",
+    "tracker_drift": "tracker_drift",
+    "tcp_offset": "tool_length_offset",
+    "sheet_springback": "sheet_springback",
+}
 
 # effect -> (value, seed, the gaps in which it shows). Every value is well above 3x the sensor noise in
-# that stream (tracker_drift 0.012 mm/s drifts 0.24 mm over the 20 s run: a 0.004 mm/s drift cannot
-# shrink a raw gap to 30 % because the 0.035 mm noise norm stays; the slow grid covers small drifts).
+# that stream (tracker_drift 0.012 mm/s drifts 0.24 mm over the 20 s run).
 SINGLE_CASES: dict[str, tuple[float, int, tuple[str, ...]]] = {
     "direction_dependent_compliance": (0.2, 101, ("position_rms_mm", "force_rms_n", "profile_rms_mm")),
     "force_scale": (1.15, 102, ("position_rms_mm", "force_rms_n", "profile_rms_mm")),
     "stream_time_offset": (0.08, 103, ("force_rms_n",)),
     "tracker_drift": (0.012, 104, ("position_rms_mm",)),
-    "tcp_offset": (0.2, 105, ("position_rms_mm", "force_rms_n", "profile_rms_mm")),
+    # the twin's field barely changes the force for a 0.2 mm longer tool (13 N gap against an 8.7 N noise norm)
+    "tcp_offset": (0.2, 105, ("position_rms_mm", "profile_rms_mm")),
     "sheet_springback": (0.05, 106, ("profile_rms_mm",)),
 }
 
@@ -58,6 +69,14 @@ def lab_run(path: tuple[np.ndarray, np.ndarray], values: dict[str, float], seed:
     t_s, p_m = path
     run, _ = run_lab(t_s, p_m, scenario="nominal", effects=Effects(values), seed=seed)
     return run
+
+
+def edited(run: Run, position: np.ndarray | None = None, force: np.ndarray | None = None) -> Run:
+    """The run with its tracker and/or force values replaced (an edit by hand)."""
+    assert run.forces is not None
+    return Run(None, dict(run.meta), run.commanded,
+               Stream(run.tracker.t_s, run.tracker.values if position is None else position),
+               Stream(run.forces.t_s, run.forces.values if force is None else force), run.part_profile)
 
 
 def timed(run: Run, **kwargs: Any) -> tuple[DiscrepancyResult, float]:
@@ -72,10 +91,15 @@ def parameter_error(name: str, estimated: float, true: float) -> float:
 
 
 def describe(result: DiscrepancyResult, seconds: float) -> str:
+    named = [(n.name, n.parameters, round(n.explained_fraction, 3)) for n in result.named + result.partial]
     return (
-        f"verdict {result.verdict}, found {result.found}, effects {dict(result.effects.values)}, "
-        f"gap {result.gap_before} -> {result.gap_after}, {seconds:.1f} s"
+        f"verdict {result.verdict}, named {named}, lab effects {dict(result.effects.values)}, "
+        f"gap {result.gap_before} -> {result.gap_after}, left: {result.remainder['words']}, {seconds:.1f} s"
     )
+
+
+def named(result: DiscrepancyResult, name: str) -> Any:
+    return next(n for n in result.named if n.name == name)
 
 
 def test_clean_run_gives_none(nominal_path: tuple[np.ndarray, np.ndarray]) -> None:
@@ -87,24 +111,27 @@ def test_clean_run_gives_none(nominal_path: tuple[np.ndarray, np.ndarray]) -> No
     assert result.gap_before["position_rms_mm"] <= 1.2 * NOISE_GAP["position_rms_mm"]
     summary = result_summary(result)
     assert summary["effect"] == "none" and summary["effects"] == [] and summary["parameters"] == {}
+    assert summary["remainder"]["words"] == "nothing left above the noise"
 
 
 @pytest.mark.parametrize("name", list(SINGLE_CASES))
-def test_each_library_effect_is_named_fitted_and_closes_the_gap(
+def test_each_lab_effect_is_named_fitted_and_closes_the_gap(
     name: str, nominal_path: tuple[np.ndarray, np.ndarray]
 ) -> None:
     value, seed, shows_in = SINGLE_CASES[name]
     result, seconds = timed(lab_run(nominal_path, {name: value}, seed))
     info = describe(result, seconds)
-    assert result.verdict == name, info
-    assert result.found == (name,), info
+    assert result.verdict == LAB_FAMILY[name], info
+    assert result.found == (LAB_FAMILY[name],), info
+    assert result_summary(result)["effect"] == name, info  # the model file's (lab's) name
+    assert result.model_complete, info
     assert parameter_error(name, result.effects.get(name), value) <= PARAMETER_TOLERANCE, info
+    assert result.explained_fraction >= 0.9, info
     for key in shows_in:
         assert result.gap_before[key] > 3.0 * NOISE_GAP[key], (key, info)
         assert result.gap_after[key] <= SHRINK * result.gap_before[key], (key, info)
-    assert result.gap_after["position_rms_mm"] <= NOISE_FACTOR * NOISE_GAP["position_rms_mm"], info
-    assert result.gap_after["force_rms_n"] <= NOISE_FACTOR * NOISE_GAP["force_rms_n"], info
-    assert result.gap_after["profile_rms_mm"] <= NOISE_FACTOR * NOISE_GAP["profile_rms_mm"], info
+    for key in NOISE_GAP:
+        assert result.gap_after[key] <= NOISE_FACTOR * NOISE_GAP[key], (key, info)
 
 
 @pytest.mark.parametrize(
@@ -134,55 +161,141 @@ def test_excess_over_noise_is_counted_per_stream() -> None:
     assert excess_over_noise(np.ones(150), sizes) == pytest.approx(0.0)
 
 
-def test_two_effects_together_are_both_named_with_their_parameters(
+def test_two_lab_effects_together_are_both_named_with_their_parameters(
     nominal_path: tuple[np.ndarray, np.ndarray]
 ) -> None:
     hidden = {"force_scale": 2.0, "direction_dependent_compliance": 0.3}
     result, seconds = timed(lab_run(nominal_path, hidden, seed=110))
     info = describe(result, seconds)
-    assert set(result.found) == set(hidden), info
-    assert result.verdict in hidden, info
+    assert set(result.found) == {"force_scale", "lost_motion"}, info
     for name, value in hidden.items():
         assert parameter_error(name, result.effects.get(name), value) <= PARAMETER_TOLERANCE, info
     assert result.gap_after["position_rms_mm"] <= SHRINK * result.gap_before["position_rms_mm"], info
     assert result.gap_after["position_rms_mm"] <= NOISE_FACTOR * NOISE_GAP["position_rms_mm"], info
 
 
+# ---- the issue's cases: clean lab runs edited by hand in forms the library does not make ----
+
 @pytest.fixture(scope="module")
 def clean_unlabelled(nominal_path: tuple[np.ndarray, np.ndarray]) -> Run:
     return lab_run(nominal_path, {}, seed=120)
 
 
-def test_effect_outside_the_library_sinusoid_on_tracker_z_is_unexplained(clean_unlabelled: Run) -> None:
-    # a 0.5 Hz, 0.1 mm vibration of the tracker reading along z: no library effect oscillates
-    tracker = clean_unlabelled.tracker
-    values = tracker.values.copy()
-    values[:, 2] += 1e-4 * np.sin(2.0 * np.pi * 0.5 * tracker.t_s)
-    run = Run(None, dict(clean_unlabelled.meta), clean_unlabelled.commanded, Stream(tracker.t_s, values),
-              clean_unlabelled.forces, clean_unlabelled.part_profile)
-    result, seconds = timed(run)
+@pytest.fixture(scope="module")
+def commanded_at_tracker(clean_unlabelled: Run) -> tuple[np.ndarray, np.ndarray]:
+    """Commanded tip at the tracker times [m] and the travel direction there (+1/-1)."""
+    run = clean_unlabelled
+    cmd = np.column_stack([np.interp(run.tracker.t_s, run.commanded.t_s, run.commanded.values[:, i])
+                           for i in range(3)])
+    _, direction = label_passes(run.commanded.values[:, 0], deadband_m=PASS_DEADBAND_M)
+    return cmd, np.sign(np.interp(run.tracker.t_s, run.commanded.t_s, direction.astype(float)))
+
+
+@pytest.mark.parametrize("factor", [0.8, 1.35])
+def test_forces_and_deflections_scaled_by_hand_are_named_force_scale(
+    factor: float, clean_unlabelled: Run, commanded_at_tracker: tuple[np.ndarray, np.ndarray]
+) -> None:
+    run = clean_unlabelled
+    assert run.forces is not None
+    cmd, _ = commanded_at_tracker
+    result, seconds = timed(edited(run, cmd + factor * (run.tracker.values - cmd), factor * run.forces.values))
+    info = describe(result, seconds)
+    assert result.verdict == "force_scale", info
+    fit = named(result, "force_scale")
+    for key in ("scale_x_ratio", "scale_z_ratio"):
+        assert fit.parameters[key] == pytest.approx(factor, abs=0.03), info
+    assert fit.explained_fraction >= 0.9, info  # the profile was not edited: it disagrees, and is reported
+    assert result.gap_after["force_rms_n"] <= SHRINK * result.gap_before["force_rms_n"], info
+
+
+def test_tracker_drift_along_x_only_is_fitted_in_its_own_direction(clean_unlabelled: Run) -> None:
+    run = clean_unlabelled
+    rate = np.array([0.012, 0.0, 0.0])  # mm/s
+    result, seconds = timed(edited(run, run.tracker.values + 1e-3 * np.outer(run.tracker.t_s, rate)))
+    info = describe(result, seconds)
+    assert result.found == ("tracker_drift",), info
+    fit = named(result, "tracker_drift")
+    for value, (key, fitted) in zip(rate, fit.parameters.items(), strict=True):
+        assert abs(fitted - value) <= 3.0 * fit.uncertainty[key] + 5e-4, info
+    assert fit.explained_fraction >= 0.95, info
+
+
+def test_x_offset_flipping_at_reversals_is_named_lost_motion(
+    clean_unlabelled: Run, commanded_at_tracker: tuple[np.ndarray, np.ndarray]
+) -> None:
+    _, direction = commanded_at_tracker
+    run = clean_unlabelled
+    position = run.tracker.values + np.outer(1.2e-4 * direction, [1.0, 0.0, 0.0])
+    result, seconds = timed(edited(run, position))
+    info = describe(result, seconds)
+    assert result.verdict == "lost_motion", info
+    assert named(result, "lost_motion").explained_fraction >= 0.9, info
+    # the edit flips at once, the family over a 2 mm take-up: a little is left at each reversal
+    assert result.gap_after["position_rms_mm"] <= 1.2 * NOISE_GAP["position_rms_mm"], info
+
+
+def test_robot_softer_when_backing_is_named_direction_dependent_compliance(
+    clean_unlabelled: Run, commanded_at_tracker: tuple[np.ndarray, np.ndarray]
+) -> None:
+    cmd, direction = commanded_at_tracker
+    run = clean_unlabelled
+    softer = np.where((direction < 0)[:, None], cmd + 1.3 * (run.tracker.values - cmd), run.tracker.values)
+    result, seconds = timed(edited(run, softer))
+    info = describe(result, seconds)
+    assert result.verdict == "direction_dependent_compliance", info
+    fit = named(result, "direction_dependent_compliance")
+    assert fit.parameters["extra_compliance_backward_ratio"] == pytest.approx(0.3, abs=0.06), info
+    assert abs(fit.parameters["extra_compliance_forward_ratio"]) <= 0.05, info
+    assert fit.explained_fraction >= 0.6, info
+
+
+def test_sinusoid_on_tracker_z_is_unexplained_and_described(clean_unlabelled: Run) -> None:
+    # a 0.5 Hz, 0.1 mm vibration of the tracker reading along z: no family oscillates
+    run = clean_unlabelled
+    values = run.tracker.values.copy()
+    values[:, 2] += 1e-4 * np.sin(2.0 * np.pi * 0.5 * run.tracker.t_s)
+    result, seconds = timed(edited(run, values))
     info = describe(result, seconds)
     assert result.gap_before["position_rms_mm"] > 2.0 * NOISE_GAP["position_rms_mm"], info
+    assert result.verdict == "unexplained" and result.found == (), info
+    assert result.effects == Effects() and result.gap_after == result.gap_before, info
+    axes = [a for a in result.remainder["axes"] if a["stream"] == "position"]
+    assert [a["axis"] for a in axes] == ["z"], info
+    assert axes[0]["peak_hz"] == pytest.approx(0.5, rel=0.1), info
+    assert axes[0]["peak_amplitude"] == pytest.approx(0.1, rel=0.2), info
+    assert "Hz oscillation" in result.remainder["words"] and "not explained by any family" in result.remainder[
+        "words"], info
+
+
+def test_force_oscillation_is_unexplained_and_described(clean_unlabelled: Run) -> None:
+    run = clean_unlabelled
+    assert run.forces is not None
+    forces = run.forces.values.copy()
+    forces[:, 0] += 40.0 * np.sin(2.0 * np.pi * 1.3 * run.forces.t_s)
+    result, seconds = timed(edited(run, force=forces))
+    info = describe(result, seconds)
     assert result.verdict == "unexplained", info
-    assert result.found == (), info
+    axes = [(a["stream"], a["axis"]) for a in result.remainder["axes"]]
+    assert axes == [("force", "x")], info
+    assert result.remainder["axes"][0]["peak_hz"] == pytest.approx(1.3, rel=0.1), info
 
 
-def test_effect_outside_the_library_constant_fz_bias_is_unexplained(clean_unlabelled: Run) -> None:
-    # a 60 N offset on the sensor's fz (a zeroing error): it is not proportional to the forming force
-    # and the tracker sees no extra deflection, so no library effect explains it
-    assert clean_unlabelled.forces is not None
-    forces = clean_unlabelled.forces.values.copy()
+def test_constant_fz_bias_is_named_force_sensor_bias(clean_unlabelled: Run) -> None:
+    # a 60 N offset on the sensor's fz (a zeroing error): outside the lab's vocabulary, inside the families'
+    run = clean_unlabelled
+    assert run.forces is not None
+    forces = run.forces.values.copy()
     forces[:, 2] += 60.0
-    run = Run(None, dict(clean_unlabelled.meta), clean_unlabelled.commanded, clean_unlabelled.tracker,
-              Stream(clean_unlabelled.forces.t_s, forces), clean_unlabelled.part_profile)
-    result, seconds = timed(run)
+    result, seconds = timed(edited(run, force=forces))
     info = describe(result, seconds)
     assert result.gap_before["force_rms_n"] > 5.0 * NOISE_GAP["force_rms_n"], info
-    assert result.verdict == "unexplained", info
-    assert result.found == (), info
-    # nothing named, nothing added: the twin stays as given
-    assert result.effects == Effects(), info
-    assert result.gap_after == result.gap_before, info
+    assert result.found == ("force_sensor_bias",), info
+    fit = named(result, "force_sensor_bias")
+    assert fit.parameters["bias_z_n"] == pytest.approx(60.0, abs=3.0 * fit.uncertainty["bias_z_n"] + 1.0), info
+    assert abs(fit.parameters["bias_x_n"]) <= 3.0 * fit.uncertainty["bias_x_n"] + 1.0, info
+    # no lab equivalent: the model file cannot carry it, and the report says so
+    assert not result.model_complete and result.effects == Effects(), info
+    assert result.gap_after["force_rms_n"] <= NOISE_FACTOR * NOISE_GAP["force_rms_n"], info
 
 
 def test_a_fit_that_makes_another_stream_worse_is_contradicted() -> None:
@@ -194,13 +307,15 @@ def test_a_fit_that_makes_another_stream_worse_is_contradicted() -> None:
     assert not is_contradicted(now, {"position": 1.0, "force": 45.0, "profile": 0.9}, counts)
 
 
-def test_thesis_nominal_run_names_direction_dependent_compliance(
+# ---- the demo's story ----
+
+def test_thesis_nominal_run_names_the_labs_direction_dependent_compliance(
     nominal_path: tuple[np.ndarray, np.ndarray]
 ) -> None:
     result, seconds = timed(lab_run(nominal_path, {"direction_dependent_compliance": 0.3}, seed=130))
     info = describe(result, seconds)
-    assert result.verdict == "direction_dependent_compliance", info
-    assert result.found == ("direction_dependent_compliance",), info
+    assert result.found == ("lost_motion",), info
+    assert result_summary(result)["effects"] == ["direction_dependent_compliance"], info
     assert parameter_error("direction_dependent_compliance", result.effects.get("direction_dependent_compliance"),
                            0.3) <= PARAMETER_TOLERANCE, info
 
@@ -211,7 +326,7 @@ def mistaken_history() -> ForceHistory:
     return load_force_history(data_file("fe_force_history.csv"), symmetry="full", trust_columns=False)
 
 
-def test_thesis_compensated_run_with_forgotten_doubling_names_force_scale_and_direction(
+def test_thesis_compensated_run_with_forgotten_doubling_names_force_scale_then_direction(
     nominal_path: tuple[np.ndarray, np.ndarray], mistaken_history: ForceHistory
 ) -> None:
     t_s, p_ideal_m = nominal_path
@@ -220,7 +335,7 @@ def test_thesis_compensated_run_with_forgotten_doubling_names_force_scale_and_di
                      effects=Effects({"direction_dependent_compliance": 0.3}), seed=131)
     result, seconds = timed(run, history=mistaken_history)
     info = describe(result, seconds)
-    assert set(result.found) == {"force_scale", "direction_dependent_compliance"}, info
+    assert result_summary(result)["effects"] == ["force_scale", "direction_dependent_compliance"], info
     assert parameter_error("force_scale", result.effects.get("force_scale"), 2.0) <= PARAMETER_TOLERANCE, info
     assert parameter_error("direction_dependent_compliance", result.effects.get("direction_dependent_compliance"),
                            0.3) <= PARAMETER_TOLERANCE, info
@@ -233,7 +348,7 @@ def test_candidates_argument_limits_the_search(nominal_path: tuple[np.ndarray, n
                             candidates=("stream_time_offset", "sheet_springback"))
     info = describe(result, seconds)
     assert result.verdict == "unexplained", info
-    assert {fit.name for fit in result.rounds[0]} == {"stream_time_offset", "sheet_springback"}, info
+    assert {c.name for c in result.rounds[0].candidates} == {"stream_time_offset", "sheet_springback"}, info
 
 
 def test_start_effects_already_known_leave_nothing_to_find(nominal_path: tuple[np.ndarray, np.ndarray]) -> None:
@@ -243,6 +358,63 @@ def test_start_effects_already_known_leave_nothing_to_find(nominal_path: tuple[n
     assert result.verdict == "none", info
     assert result.effects == hidden, info
     assert result.gap_before["position_rms_mm"] <= 1.2 * NOISE_GAP["position_rms_mm"], info
+
+
+# ---- a user's own family ----
+
+class HalfHertzTrackerZ(Family):
+    """A user's family: a 0.5 Hz vibration of the tracker stand along z (sine and cosine amplitudes)."""
+
+    name = "tracker_stand_vibration"
+    parameters = ("sine_mm", "cosine_mm")
+    neutral = (0.0, 0.0)
+    bounds = ((-1.0, -1.0), (1.0, 1.0))
+    scale = (0.01, 0.01)
+    description = "0.5 Hz vibration of the tracker reading along z"
+    FREQUENCY_HZ: ClassVar[float] = 0.5
+
+    def delta(self, ctx: Context, theta: np.ndarray) -> Delta:
+        phase = 2.0 * np.pi * self.FREQUENCY_HZ * ctx.run.tracker.t_s
+        out = np.zeros_like(ctx.pred["position"])
+        out[:, 2] = 1e-3 * (theta[0] * np.sin(phase) + theta[1] * np.cos(phase))
+        return Delta(position=out)
+
+
+def test_a_family_added_by_a_user_is_picked_up(clean_unlabelled: Run, monkeypatch: pytest.MonkeyPatch) -> None:
+    run = clean_unlabelled
+    values = run.tracker.values.copy()
+    values[:, 2] += 1e-4 * np.sin(2.0 * np.pi * 0.5 * run.tracker.t_s)
+    monkeypatch.setitem(FAMILIES, HalfHertzTrackerZ.name, HalfHertzTrackerZ())
+    result, seconds = timed(edited(run, values))
+    info = describe(result, seconds)
+    assert result.found == ("tracker_stand_vibration",), info
+    fit = named(result, "tracker_stand_vibration")
+    assert fit.parameters["sine_mm"] == pytest.approx(0.1, abs=0.01), info
+    assert not result.model_complete, info  # the lab's vocabulary has no such effect
+
+
+def test_register_refuses_a_second_family_of_the_same_name() -> None:
+    class Again(TrackerDrift):
+        name = "tracker_drift"
+
+    with pytest.raises(ValueError, match="already registered"):
+        register(Again)
+
+
+def test_two_families_explaining_the_same_thing_are_reported_ambiguous(
+    clean_unlabelled: Run, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    class DriftCopy(TrackerDrift):
+        name = "tracker_drift_copy"
+
+    monkeypatch.setitem(FAMILIES, DriftCopy.name, DriftCopy())
+    run = clean_unlabelled
+    result, seconds = timed(edited(run, run.tracker.values + 1e-5 * np.outer(run.tracker.t_s, [1.0, 0.0, 1.0])))
+    info = describe(result, seconds)
+    assert len(result.found) == 1 and result.found[0] in ("tracker_drift", "tracker_drift_copy"), info
+    other = ({"tracker_drift", "tracker_drift_copy"} - set(result.found)).pop()
+    assert result.named[0].ambiguous_with == (other,), info
+    assert result_summary(result)["ambiguities"] == [{"named": result.found[0], "ambiguous_with": [other]}]
 
 
 # ---- slow grid: every effect over magnitudes from barely above the noise to large, three seeds each ----
@@ -304,7 +476,7 @@ def grid(nominal_path: tuple[np.ndarray, np.ndarray]) -> list[GridRow]:
 
 @pytest.mark.slow
 def test_grid_names_effects_in_95_percent_and_every_case_above_three_noise(grid: list[GridRow]) -> None:
-    missed = [row for row in grid if row.verdict != row.name]
+    missed = [row for row in grid if row.verdict != LAB_FAMILY[row.name]]
     assert len(missed) <= (1.0 - NAMED_RATE) * len(grid), missed
     assert [row for row in missed if row.multiple >= 1.0] == []
 

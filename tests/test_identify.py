@@ -1,4 +1,4 @@
-"""Tests of the stiffness identification maths (twin/analysis/identify/cartesian.py, thesis §4.1–4.2)."""
+"""Tests of the stiffness identification maths (twin/analysis/identify/cartesian.py and joint.py, thesis §4.1–4.2)."""
 
 from __future__ import annotations
 
@@ -7,20 +7,19 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from twin.analysis.compensate import compensation_gain
 from twin.analysis.identify.cartesian import (
     THESIS_CR1_MM_PER_KN,
     THESIS_CR2_MM_PER_KN,
     THESIS_KR1_N_PER_MM,
     THESIS_KR2_N_PER_MM,
     THESIS_TABLE_4_2_LOADS_N,
-    compensation_gain,
     fit_compliance,
-    fit_diagonal_kq,
     fit_kr_from_run,
     fit_kr_load_cases,
-    kq_from_kr_congruence,
     load_cases_csv,
 )
+from twin.analysis.identify.joint import fit_diagonal_kq, kq_from_kr_congruence
 from twin.base.csvio import write_table
 from twin.errors import DataFileError, IdentificationError, InputError, UnitsError
 

@@ -31,7 +31,9 @@ def test_rollouts_recover_the_run_observable_joint_stiffness(clean_run: Run, twi
 
 
 def test_jacobian_route_recovers_joints_two_three_five_from_noise_free_load_test(twin_nominal: Twin) -> None:
-    loads, deflections = load_test(THESIS_TABLE_4_2_LOADS_N, seed=0, settings=LabSettings(tracker_noise_m=0.0))
+    loads, deflections = load_test(  # the elastic robot: the maths of the route, without joint friction
+        THESIS_TABLE_4_2_LOADS_N, seed=0, settings=LabSettings(tracker_noise_m=0.0), joint_friction=np.zeros(6)
+    )
     fit = kq_from_stiffness(twin_nominal, fit_kr_load_cases(loads, deflections).k_r_n_per_m)
     truth = twin_nominal.joint_stiffness
     assert list(fit.observable) == [True, True, True, False, True, False]

@@ -3,6 +3,9 @@
 (twin/analysis/identify/method2.py; its CLI is in tests/test_cli_identify_method2.py).
 
 The reference is the twin's exact stiffness at `home`: K = inv(C), C = `Twin().kinematics.compliance(q_home)`.
+These tests check the identification maths, so the lab's robot here is the purely elastic one (joint friction
+0); what the calibrated robot's friction does to Method 1 and 2 (the thesis's asymmetric K_R(1), a more
+compliant C_R(2)) is tested in tests/test_calibration.py.
 
 Measured (`pytest -s` prints them):
 - Method 1, noise-free load test: K_R off the twin's K by 0.22 % (the load test is a nonlinear equilibrium,
@@ -10,8 +13,8 @@ Measured (`pytest -s` prints them):
   Table 4.2 loads (~1 mm deflections, condition number ~20) move K_R by 3-22 % (Frobenius, seeds 1-20,
   median ~9 %, seed 1: 6.9 %) and its inverse C by 3-8 % (seed 1: 5.0 %).
 - Method 2, seed 1: compliance from measured forces within 0.9 % of the twin's x-z block; from the ideal
-  (FE, rigid) forces, the thesis's variant, 35 % off (too stiff: the sheet pushed back 22 % less than the
-  FE history because the robot gave way), and the two K_R estimates differ by 23 %.
+  (FE, rigid) forces, the thesis's variant, 11 % off (too stiff: the sheet pushed back 7.4 % less than the
+  FE history because the robot gave way), and the two K_R estimates differ by 7.6 %.
 """
 
 from __future__ import annotations
@@ -38,6 +41,7 @@ from twin.runs.format import Run, Stream
 from twin.sim.quasi_static import Twin
 
 XZ = np.ix_([0, 2], [0, 2])
+ELASTIC = np.zeros(6)  # joint friction of the lab's robot in these tests
 # Method 1 with the lab's noise, documented bounds (see the module docstring for the measured values)
 M1_NOISE_FREE_REL = 0.005
 M1_NOISY_C_REL_MAX = 0.10  # every seed 1-20
@@ -59,7 +63,7 @@ def c_twin() -> np.ndarray:
 
 @pytest.fixture(scope="module")
 def nominal_run() -> Run:
-    return run_lab(*nominal_commanded(), scenario="nominal", seed=1)[0]
+    return run_lab(*nominal_commanded(), scenario="nominal", seed=1, joint_friction=ELASTIC)[0]
 
 
 @pytest.fixture(scope="module")
@@ -71,7 +75,9 @@ def m2(nominal_run: Run) -> Method2Result:
 
 
 def kr_from_load_test(seed: int, settings: LabSettings | None = None) -> np.ndarray:
-    loads, deflections = load_test(THESIS_TABLE_4_2_LOADS_N, seed=seed, settings=settings)
+    loads, deflections = load_test(
+        THESIS_TABLE_4_2_LOADS_N, seed=seed, settings=settings, joint_friction=ELASTIC
+    )
     return fit_kr_load_cases(loads, deflections).k_r_n_per_m
 
 
@@ -137,7 +143,8 @@ def test_cli_lab_load_test_then_method1_gives_the_in_process_fit(
     assert main(["lab", "--scenario", "loadtest", "--seed", "1", "--out", str(loads)]) == 0
     capsys.readouterr()
     k_cli = 1e3 * np.asarray(identify_json(loads, capsys)["k_r_n_per_mm"])
-    assert rel(k_cli, kr_from_load_test(1)) < 1e-3  # the file holds deflections to 1e-5 mm
+    in_process = fit_kr_load_cases(*load_test(THESIS_TABLE_4_2_LOADS_N, seed=1)).k_r_n_per_m  # the model's robot
+    assert rel(k_cli, in_process) < 1e-3  # the file holds deflections to 1e-5 mm
     assert rel(k_cli, np.linalg.inv(c_twin)) < M1_SEED1_K_REL
 
 
@@ -184,11 +191,11 @@ def test_method2_thesis_variant_with_ideal_forces_is_biased_stiff(
     error = rel(m2.c_measured_m_per_n, c_twin[XZ])
     bias = rel(m2.c_ideal_m_per_n, c_twin[XZ])
     print(f"\nMethod 2 (ideal forces, thesis): C off the twin's x-z block by {100 * bias:.1f} %")
-    assert 0.2 < bias < 0.5  # 35 % measured
-    assert bias > 10 * error
+    assert 0.05 < bias < 0.2  # 11 % measured (35 % before the sheet's force law knew forming from lifting)
+    assert bias > 5 * error
     # the FE force is larger than what the sheet really exerted: the same deflection is blamed on a larger
     # force, so the robot looks stiffer (smaller compliance) on both axes
-    assert np.all(np.diag(m2.c_ideal_m_per_n) < 0.9 * np.diag(c_twin[XZ]))
+    assert np.all(np.diag(m2.c_ideal_m_per_n) < 0.98 * np.diag(c_twin[XZ]))
 
 
 def test_method2_reports_the_force_drop_and_different_stiffnesses(
@@ -199,8 +206,8 @@ def test_method2_reports_the_force_drop_and_different_stiffnesses(
         f"\nforce drop {100 * m2.force_drop:.1f} % rms; "
         f"K_R ideal vs measured forces differ by {100 * k_diff:.1f} %"
     )
-    assert 0.15 < m2.force_drop < 0.30  # 22 % measured
-    assert k_diff > 0.1  # 23 % measured
+    assert 0.03 < m2.force_drop < 0.15  # 7.4 % measured
+    assert k_diff > 0.04  # 7.6 % measured
     # K from measured forces regresses force on noisy deflections (errors in variables) but stays near inv(C)
     assert rel(m2.k_r_measured_n_per_m, np.linalg.inv(c_twin[XZ])) < 0.06
 

@@ -190,13 +190,14 @@ def test_robot_only_model_uses_tcp_at_home_as_sheet_origin(kin: Kinematics) -> N
     np.testing.assert_allclose(robot.joint_stiffness, kin.joint_stiffness)
 
 
-def test_home_compliance_is_symmetric_and_matches_the_fit(kin: Kinematics) -> None:
+def test_home_compliance_is_symmetric_positive_and_the_old_diagonal_fit_still_derives(kin: Kinematics) -> None:
     C = kin.compliance(HOME_Q_RAD)
     np.testing.assert_allclose(C, C.T, atol=1e-18)
     assert np.all(np.linalg.eigvalsh(C) > 0)
+    # the pre-calibration default (diagonal K_q fitted to sym(inv(K_R(1))), y free) is still derivable:
+    # it matches that target's diagonal [mm/kN] within 1 %, and reads x 2x stiffer than the calibrated model
     fit = thesis_stiffness_fit(kin)
-    np.testing.assert_allclose(C, fit.C_model, rtol=1e-5)
-    # diagonal of the symmetric part of inv(K_R(1)) [mm/kN] is reproduced within 1 %
-    np.testing.assert_allclose(np.diag(C) * 1e6, np.diag(fit.C_target) * 1e6, rtol=1e-2)
+    np.testing.assert_allclose(np.diag(fit.C_model) * 1e6, np.diag(fit.C_target) * 1e6, rtol=1e-2)
     assert fit.fitted == (0, 1, 2, 4)
     assert fit.residual_rel < 0.4
+    assert C[0, 0] > 1.5 * fit.C_model[0, 0]

@@ -13,7 +13,9 @@ from twin.cli import main
 from twin.lab.effects import EFFECTS, Effects
 from twin.lab.virtual import LabSettings, load_test, run_lab
 from twin.process.path import ToolPath, groove_path, write_path_csv
-from twin.runs.format import RUN_FORMAT, Run, read_run, write_run
+from twin.runs.format import RUN_FORMAT, Run
+from twin.runs.read import read_run
+from twin.runs.write import write_run
 from twin.sim.quasi_static import Twin
 
 RUN_FILES = ("meta.json", "commanded.csv", "tracker.csv", "forces.csv", "part_profile.csv", "truth.json")
@@ -56,7 +58,7 @@ def test_lab_writes_truth_next_to_the_run_and_keeps_it_out_of_meta(
     assert truth["effects"] == {}
     assert truth["seed"] == clean_seed
     assert truth["settings"]["tracker_noise_m"] == LabSettings().tracker_noise_m
-    assert 1.0 <= truth["max_deflection_mm"] <= 3.0
+    assert 1.0 <= truth["max_deflection_mm"] <= 4.0  # calibrated: 1.7 mm/kN along x, friction at reversals
     assert 1500.0 <= truth["peak_force_n"] <= 2500.0
     assert clean_run.meta["format"] == RUN_FORMAT
     assert "effects" not in clean_run.meta and "truth" not in clean_run.meta
@@ -150,9 +152,8 @@ def test_loadtest_writes_the_five_table_4_2_cases(
     assert "5 load cases" in capsys.readouterr().out
     f_n, d_m = load_cases_csv(out)
     np.testing.assert_allclose(f_n, THESIS_TABLE_4_2_LOADS_N)
-    compliance = twin_nominal.kinematics.compliance(twin_nominal.kinematics.q_home)
-    expected = f_n @ compliance.T
-    assert np.abs(d_m - expected).max() < 0.01 * np.abs(expected).max() + 1e-4  # Hooke + tracker noise
+    expected = np.array([twin_nominal.static_deflection(f) for f in f_n])  # Hooke with joint friction
+    assert np.abs(d_m - expected).max() < 1e-4  # tracker noise, 2 readings of 20 µm
     assert main(["lab", "--scenario", "loadtest", "--seed", "4", "--out", str(out)]) == 2
     assert "--overwrite" in capsys.readouterr().err
 

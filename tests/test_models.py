@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import importlib.util
+import re
 from pathlib import Path
 
 import mujoco
@@ -10,7 +11,6 @@ import numpy as np
 import pytest
 import trimesh
 
-from twin.analysis.identify.default_stiffness import thesis_stiffness_fit
 from twin.base.resources import models_dir, robot_xml, scene_xml
 from twin.robot.kinematics import HOME_Q_RAD, TOOL_LENGTH_M, load_model
 
@@ -79,10 +79,22 @@ def test_joint_ranges_and_ctrlranges_follow_datasheet(robot: mujoco.MjModel) -> 
         assert robot.actuator(f"actuator{i + 1}").trnid[0] == joint.id
 
 
-def test_actuator_kp_is_the_documented_stiffness_fit(robot: mujoco.MjModel) -> None:
-    fit = thesis_stiffness_fit()
+def _documented(row: str) -> float:
+    """The value of a row of the calibration table in models/README.md ('| K_q,2 [N·m/rad] | 1 918 000 | ...')."""
+    text = (models_dir() / "README.md").read_text(encoding="utf-8")
+    match = re.search(r"^\| " + re.escape(row) + r" \| ([0-9 .]+) \|", text, flags=re.MULTILINE)
+    assert match, f"row {row!r} missing from models/README.md"
+    return float(match.group(1).replace(" ", ""))
+
+
+def test_actuator_kp_and_friction_are_the_documented_calibration(robot: mujoco.MjModel) -> None:
     kp = robot.actuator_gainprm[:6, 0]
-    np.testing.assert_allclose(kp, fit.K_q, rtol=1e-6)
+    documented = [_documented(f"K_q,{i} [N·m/rad]") for i in (1, 2, 3, 5)]
+    np.testing.assert_allclose(kp[[0, 1, 2, 4]], documented, rtol=1e-9)
+    np.testing.assert_allclose(kp[[3, 5]], _documented("K_q,4, K_q,6 [N·m/rad]"), rtol=1e-9)
+    friction = [_documented(f"friction joint {i} [N·m]") for i in (2, 3, 5)]
+    np.testing.assert_allclose(robot.dof_frictionloss[[1, 2, 4]], friction, rtol=1e-9)
+    assert robot.dof_frictionloss[[0, 3, 5]].tolist() == [0.0, 0.0, 0.0]
     np.testing.assert_allclose(robot.actuator_biasprm[:6, 1], -kp)
     assert np.all(robot.actuator_forcelimited[:6] == 0), "joint springs must not saturate"
     np.testing.assert_allclose(robot.dof_damping, 0.01 * kp, rtol=2e-3)

@@ -118,7 +118,7 @@ def test_lost_motion_shifts_the_tool_against_the_travel_in_free_space() -> None:
     p_cmd = np.column_stack([x, np.zeros_like(x), np.full_like(x, 0.005)])  # 5 mm above the sheet: no force
     t_s = 0.03 * np.arange(len(x))
     theta = 5e-4
-    twin = Twin(effects=RobotEffects(lost_motion_rad=theta))
+    twin = Twin(effects=RobotEffects(lost_motion_rad=theta), joint_friction=np.zeros(6))  # the lost motion alone
     result = twin.simulate(t_s, p_cmd)
     assert np.abs(result.f_sheet_n).max() == 0.0
     jac = twin.kinematics.jacobian(result.q_ik[0])[:3]

@@ -1,4 +1,4 @@
-"""Tests of twin.viz.recording: .rrd files of replays, read back with rerun's own reader."""
+"""Tests of twin.viz.recording and recording_layers: .rrd files of replays, read back with rerun's own reader."""
 
 from __future__ import annotations
 
@@ -15,8 +15,9 @@ from rerun.chunk import RrdReader
 from twin.analysis.replay import ReplayResult
 from twin.errors import InputError
 from twin.runs.format import Run, Stream
-from twin.sim.quasi_static import SimResult
+from twin.sim.result import SimResult
 from twin.viz import recording
+from twin.viz.recording_layers import POSE_RATE_HZ, decimate
 from twin.viz.recording_robot import geom_mesh
 
 COMPLIANCE_M_PER_N = np.array([[1.54, 0.19], [0.79, 1.02]]) * 1e-6  # thesis Eq. 4.27, C_R(1)
@@ -151,9 +152,9 @@ def test_record_replay_logs_body_poses_from_mj_kinematics_as_xyzw(model: mujoco.
     trans = np.concatenate([np.array(b.column("Transform3D:translation").to_pylist())[:, 0] for b in batches])
     quat = np.concatenate([np.array(b.column("Transform3D:quaternion").to_pylist())[:, 0] for b in batches])
     t_sim = replay.sim.t_s
-    keep = recording.decimate(t_sim)
+    keep = decimate(t_sim)
     np.testing.assert_allclose(times, t_sim[keep], atol=1e-8)  # stored in whole ns
-    assert 1.0 / np.median(np.diff(times)) == pytest.approx(recording.POSE_RATE_HZ, rel=0.25)
+    assert 1.0 / np.median(np.diff(times)) == pytest.approx(POSE_RATE_HZ, rel=0.25)
     data = mujoco.MjData(model)
     i = keep[len(keep) // 2]
     data.qpos[:] = replay.sim.qpos[i]
@@ -235,8 +236,8 @@ def test_geom_mesh_places_primitives_by_geom_pose():
 
 def test_decimate_keeps_first_and_last_sample_at_the_target_rate():
     t_s = np.arange(0.0, 2.0, 0.02)
-    idx = recording.decimate(t_s, 10.0)
+    idx = decimate(t_s, 10.0)
     assert idx[0] == 0 and idx[-1] == len(t_s) - 1
     np.testing.assert_allclose(np.diff(t_s[idx[:-1]]), 0.1, atol=1e-9)
     with pytest.raises(InputError):
-        recording.decimate(t_s, 0.0)
+        decimate(t_s, 0.0)

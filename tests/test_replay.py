@@ -18,7 +18,8 @@ from twin.lab.measure import predict_part_profile
 from twin.lab.virtual import run_lab
 from twin.robot.model import RobotEffects
 from twin.runs.format import Run, Stream
-from twin.sim.quasi_static import SimResult, Twin
+from twin.sim.quasi_static import Twin
+from twin.sim.result import SimResult
 
 EFFECT_SEED = 11  # the effect runs use other noise than the clean run (seed 1)
 GAP_FACTOR = 3.0
@@ -67,7 +68,7 @@ def test_clean_run_misses_the_path_by_millimetres_and_replays_to_the_noise(
         f"({100 * m['force_rms_n'] / m['force_peak_measured_n']:.2f} % of peak), "
         f"profile gap rms {clean_gaps['profile_rms_mm']:.4f} mm"
     )
-    assert 1.0 <= m["deflection_max_mm"] <= 3.0
+    assert 1.0 <= m["deflection_max_mm"] <= 4.0  # calibrated: 1.7 mm/kN along x, friction offsets at reversals
     assert 1500.0 <= m["force_peak_measured_n"] <= 2500.0
     assert m["position_rms_mm"] <= 0.05
     assert m["force_rms_n"] <= 0.02 * m["force_peak_measured_n"]

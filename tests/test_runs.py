@@ -1,4 +1,4 @@
-"""Tests of the run directory format `tx200-twin-run/1` (twin/runs/format.py)."""
+"""Tests of the run directory format `tx200-twin-run/1` (twin/runs/format.py, read.py, write.py)."""
 
 from __future__ import annotations
 
@@ -11,7 +11,9 @@ import numpy as np
 import pytest
 
 from twin.errors import DataFileError, InputError, RunFormatError, UnitsError
-from twin.runs.format import RUN_FORMAT, Run, Stream, read_run, resample, write_run
+from twin.runs.format import RUN_FORMAT, Run, Stream, resample
+from twin.runs.read import read_run
+from twin.runs.write import write_run
 
 
 def make_run(seed: int = 0, *, with_forces: bool = True, with_profile: bool = True) -> Run:

@@ -10,7 +10,9 @@ import pytest
 from twin.analysis.replay import ReplayResult
 from twin.errors import InputError
 from twin.robot.model import build_model
-from twin.sim.quasi_static import NEWTON_MAX_ITER, SimResult, Twin, set_joint_stiffness
+from twin.robot.stiffness import set_joint_stiffness
+from twin.sim.quasi_static import NEWTON_MAX_ITER, Twin, joint_motion
+from twin.sim.result import SimResult
 
 
 def random_loads(seed: int, count: int, max_n: float) -> np.ndarray:
@@ -22,11 +24,12 @@ def random_loads(seed: int, count: int, max_n: float) -> np.ndarray:
 
 
 def test_static_deflection_at_home_follows_hooke_within_one_percent(twin_nominal: Twin) -> None:
+    frictionless = Twin(joint_friction=np.zeros(6))
     compliance = twin_nominal.kinematics.compliance(twin_nominal.kinematics.q_home)
     loads = np.vstack([random_loads(seed=42, count=10, max_n=2000.0), [[0.0, 0.0, 2000.0], [-2000.0, 0, 0]]])
     errors = []
     for f in loads:
-        got = twin_nominal.static_deflection(f)
+        got = frictionless.static_deflection(f)
         expected = compliance @ f
         errors.append(np.linalg.norm(got - expected) / np.linalg.norm(expected))
         assert np.linalg.norm(got) > 0.1e-3  # at least 0.1 mm: the check is not trivially satisfied
@@ -34,6 +37,23 @@ def test_static_deflection_at_home_follows_hooke_within_one_percent(twin_nominal
         f"\nHooke check at home, {len(loads)} loads <= 2 kN: max |d - J K^-1 J^T F| / |d| = {max(errors):.2e}"
     )
     assert max(errors) < 0.01
+
+
+def test_load_from_rest_loses_each_joints_friction_before_the_joint_moves(twin_nominal: Twin) -> None:
+    """Stick/slip at rest: each joint turns by sign(τ)·max(|τ| - τ_f, 0)/K_q, τ = J^T F its torque change."""
+    friction = twin_nominal.joint_friction
+    assert friction.max() > 10.0  # the calibrated model has joint friction
+    q = twin_nominal.kinematics.q_home
+    J = twin_nominal.kinematics.jacobian(q)[:3]
+    k = twin_nominal.joint_stiffness
+    for f in np.vstack([random_loads(seed=7, count=8, max_n=2000.0), [[0.0, 0.0, 50.0]]]):
+        tau = J.T @ f
+        expected = J @ (np.sign(tau) * np.maximum(np.abs(tau) - friction, 0.0) / k)
+        got = twin_nominal.static_deflection(f)
+        np.testing.assert_allclose(got, expected, atol=0.01 * max(float(np.linalg.norm(expected)), 1e-5))
+    small = np.array([0.0, 0.0, 50.0])  # 50 N turns joints 3 and 5 by less than their friction: they stick
+    tau_small = J.T @ small
+    assert np.all(np.abs(tau_small[[2, 4]]) < friction[[2, 4]])
 
 
 def test_static_deflection_is_zero_without_load_and_halves_with_double_stiffness(twin_nominal: Twin) -> None:
@@ -84,11 +104,17 @@ def test_groove_run_converges_and_the_unloaded_robot_lands_on_the_path(clean_rep
 def test_groove_deflection_is_the_compliance_times_the_sheet_force(
     twin_nominal: Twin, clean_replay: ReplayResult
 ) -> None:
+    """Where the turning joints slide, the deflection is J K^-1 (J^T f - τ_f·sign(q̇)): Hooke plus friction."""
     sim = clean_replay.sim
-    forming = np.flatnonzero(np.linalg.norm(sim.f_sheet_n, axis=1) > 300.0)[::25]
+    motion = joint_motion(sim.t_s, sim.q_ik)
+    frictional = twin_nominal.joint_friction > 0.0
+    sliding = np.all(motion[:, frictional] != 0.0, axis=1)
+    forming = np.flatnonzero((np.linalg.norm(sim.f_sheet_n, axis=1) > 300.0) & sliding)[::25]
     assert forming.size > 10
+    k = twin_nominal.joint_stiffness
     for i in forming:
-        expected = twin_nominal.kinematics.compliance(sim.q_ik[i]) @ sim.f_sheet_n[i]
+        J = twin_nominal.kinematics.jacobian(sim.q_ik[i])[:3]
+        expected = J @ ((J.T @ sim.f_sheet_n[i] - twin_nominal.joint_friction * motion[i]) / k)
         np.testing.assert_allclose(
             sim.deflection_sheet_m[i], expected, rtol=0, atol=0.01 * float(np.linalg.norm(expected))
         )

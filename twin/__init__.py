@@ -9,21 +9,21 @@ from twin.analysis.compensate import (
     Compensation,
     compensate_formula,
     compensate_twin,
+    compensation_gain,
     compliance_from_stiffness,
     gain_of,
 )
 from twin.analysis.discrepancy.residuals import ResidualModel, estimate_noise
-from twin.analysis.discrepancy.search import DiscrepancyResult, find_discrepancy, result_summary
+from twin.analysis.discrepancy.search import DiscrepancyResult, find_discrepancy
+from twin.analysis.discrepancy.summary import result_summary
 from twin.analysis.identify.cartesian import (
-    KqFit,
     KrFit,
-    compensation_gain,
     fit_compliance,
-    fit_diagonal_kq,
     fit_kr_from_run,
     fit_kr_load_cases,
     load_cases_csv,
 )
+from twin.analysis.identify.joint import KqFit, fit_diagonal_kq
 from twin.analysis.identify.method2 import Method2Result, method2
 from twin.analysis.identify.rollouts import (
     KqRolloutFit,
@@ -33,6 +33,7 @@ from twin.analysis.identify.rollouts import (
 )
 from twin.analysis.replay import ReplayResult, replay, replay_metrics
 from twin.apps.bench import analytic_replay, run_benchmarks
+from twin.apps.export import export_path
 from twin.errors import (
     CompensationError,
     DataFileError,
@@ -54,14 +55,21 @@ from twin.process.path import GrooveSpec, ToolPath, groove_path, label_passes, w
 from twin.robot.kinematics import HOME_Q_RAD, TOOL_LENGTH_M, Kinematics, load_model
 from twin.robot.model import RobotEffects, build_model
 from twin.robot.pinocchio_model import PinKinematics
-from twin.runs.format import Run, Stream, read_commanded_csv, read_run, write_run
-from twin.sim.quasi_static import SimResult, Twin
+from twin.runs.format import Run, Stream
+from twin.runs.importer import ImportResult, import_run, import_to_directory
+from twin.runs.mapping import ImportMapping, load_mapping
+from twin.runs.read import read_commanded_csv, read_run
+from twin.runs.toml_keys import ClockError, MappingError, RegistrationError
+from twin.runs.write import write_run
+from twin.sim.quasi_static import Twin
+from twin.sim.result import SimResult
 
 __all__ = [
     "EFFECTS",
     "HOME_Q_RAD",
     "TOOL_LENGTH_M",
     "CheckResult",
+    "ClockError",
     "Compensation",
     "CompensationError",
     "DataFileError",
@@ -70,15 +78,19 @@ __all__ = [
     "ForceHistory",
     "GrooveSpec",
     "IdentificationError",
+    "ImportMapping",
+    "ImportResult",
     "InputError",
     "Kinematics",
     "KqFit",
     "KqRolloutFit",
     "KrFit",
     "LabSettings",
+    "MappingError",
     "Method2Result",
     "ModelError",
     "PinKinematics",
+    "RegistrationError",
     "ReplayResult",
     "ResidualModel",
     "RobotEffects",
@@ -104,6 +116,7 @@ __all__ = [
     "default_force_history",
     "diagnose_gain",
     "estimate_noise",
+    "export_path",
     "find_discrepancy",
     "fit_compliance",
     "fit_diagonal_kq",
@@ -111,11 +124,14 @@ __all__ = [
     "fit_kr_load_cases",
     "gain_of",
     "groove_path",
+    "import_run",
+    "import_to_directory",
     "kq_from_run",
     "kq_from_stiffness",
     "label_passes",
     "load_cases_csv",
     "load_force_history",
+    "load_mapping",
     "load_model",
     "load_test",
     "method2",

@@ -1,9 +1,10 @@
 """Check a compensated run against its goal, the ideal path U_ID (not against the command).
 
 The effective gain is estimated from the run alone: its deflections (tracker minus command) and measured
-forces give a compliance C by least squares (d = C f); the command's correction U_cmd - U_ID is then compared
-with what a correct compensation would have commanded, -C f: (U_cmd - U_ID) ~ g (-C f). g = 1 is right;
-g = 0.5 is the thesis's mistake (half-model FE forces used as full, sec. 5.1).
+forces give a compliance C by least squares (d = C f + b·direction, the offset b that flips with the travel
+direction, from joint friction or lost motion, kept apart); the command's correction U_cmd - U_ID is then
+compared with what a correct compensation would have commanded, -C f: (U_cmd - U_ID) ~ g (-C f) + b'·direction.
+g = 1 is right; g = 0.5 is the thesis's mistake (half-model FE forces used as full, sec. 5.1).
 """
 
 from __future__ import annotations
@@ -12,11 +13,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from twin.analysis.identify.cartesian import compensation_gain, fit_compliance
+from twin.analysis.compensate import compensation_gain
+from twin.analysis.identify.cartesian import fit_compliance
 from twin.base.signals import interp_rows
 from twin.errors import IdentificationError, RunFormatError
 from twin.process.path import label_passes
 from twin.runs.format import Run, resample
+from twin.sim.quasi_static import PASS_DEADBAND_M
 
 GAIN_TOLERANCE = 0.02
 HALF_FORCE_WINDOW = 0.1  # a gain within 0.5 +/- this points at the forgotten doubling
@@ -117,7 +120,8 @@ def check_run(run: Run, t_ideal_s: np.ndarray, p_ideal_sheet_m: np.ndarray) -> C
     loaded = np.linalg.norm(f, axis=1) > 0.1 * np.max(np.linalg.norm(f, axis=1))
     if np.sum(loaded) < 10:
         raise IdentificationError("fewer than 10 loaded force samples: cannot estimate the compliance")
-    c_xz = fit_compliance(f[loaded][:, [0, 2]], (tip - cmd)[loaded][:, [0, 2]])
+    _, direction = label_passes(cmd[:, 0], deadband_m=PASS_DEADBAND_M)
+    c_xz = fit_compliance(f[loaded][:, [0, 2]], (tip - cmd)[loaded][:, [0, 2]], direction[loaded])
     predicted = -f[:, [0, 2]] @ c_xz.T
-    gain = compensation_gain((cmd - ideal)[:, [0, 2]], predicted)
+    gain = compensation_gain((cmd - ideal)[:, [0, 2]], predicted, direction)
     return CheckResult(residual, pass_ideal[index], dir_ideal[index], gain, c_xz, diagnose_gain(gain))

@@ -24,12 +24,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from twin.analysis.identify.cartesian import compensation_gain
-from twin.errors import CompensationError, InputError
+from twin.errors import CompensationError, IdentificationError, InputError
+from twin.process.path import label_passes
 from twin.sim.quasi_static import Twin
 
 TWIN_TOL_M = 2e-6  # 1/10 of the tracker noise
 TWIN_MAX_ITER = 20
+STEP_LIMIT = 1.5  # largest command step of one iteration, in units of that sample's residual [-]
+# Stalled: the last STALL_ITERATIONS iterations did not bring the rms residual below STALL_RATIO times the best
+# before them. Joint friction flips with the joints' motion at each reversal, a discontinuity no command removes.
+STALL_ITERATIONS = 3
+STALL_RATIO = 0.95
 
 
 @dataclass(frozen=True)
@@ -44,6 +49,9 @@ class Compensation:
         iterations: Twin iterations (0 for the formula).
         predicted_residual_m: Predicted tool tip minus U_ID with the twin used [m], shape (n, 3), or None.
         history_m: RMS residual after each twin iteration [m].
+        converged: False when the twin iteration stalled above its tolerance and returned its best command
+            (the remainder is in `predicted_residual_m`, typically a few samples at the reversals, where joint
+            friction flips).
     """
 
     method: str
@@ -53,6 +61,7 @@ class Compensation:
     iterations: int
     predicted_residual_m: np.ndarray | None
     history_m: tuple[float, ...] = ()
+    converged: bool = True
 
     @property
     def correction_m(self) -> np.ndarray:
@@ -120,24 +129,36 @@ def compensate_twin(
         CompensationError: The iteration diverges or does not reach `tol_m` within `max_iter`.
     """
     p_id = np.asarray(p_ideal_sheet_m, dtype=float)
+    t = np.asarray(t_s, dtype=float)
     cmd = p_id.copy()
     history: list[float] = []
     residual = np.zeros_like(p_id)
+    best: tuple[float, np.ndarray, np.ndarray, int] | None = None
     for iteration in range(1, max_iter + 1):
-        sim = twin.simulate(t_s, cmd)
+        sim = twin.simulate(t, cmd)
         residual = sim.p_sheet_m - p_id
         history.append(float(np.sqrt(np.mean(np.sum(residual**2, axis=1)))))
         if progress is not None:
             progress(iteration, history[-1])
+        if best is None or history[-1] < best[0]:
+            best = (history[-1], cmd, residual, iteration)
         worst = float(np.max(np.abs(residual)))
         if worst < tol_m:
-            return Compensation(
-                "twin", np.asarray(t_s, dtype=float), p_id, cmd, iteration, residual, tuple(history)
-            )
+            return Compensation("twin", t, p_id, cmd, iteration, residual, tuple(history))
         if iteration > 2 and history[-1] > 2.0 * min(history):
             raise CompensationError(f"twin compensation diverges: rms residual {history} m")
-        # local Newton step per sample: the tip moves by tip_gain @ d_cmd when the command moves by d_cmd
-        cmd = cmd - np.linalg.solve(sim.tip_gain, residual[..., None])[..., 0]
+        if iteration > STALL_ITERATIONS and min(history[-STALL_ITERATIONS:]) > STALL_RATIO * min(
+            history[:-STALL_ITERATIONS]
+        ):
+            _, cmd_best, residual_best, _ = best
+            return Compensation("twin", t, p_id, cmd_best, iteration, residual_best, tuple(history), False)
+        # local Newton step per sample: the tip moves by tip_gain @ d_cmd when the command moves by d_cmd.
+        # The sheet's force law has a kink where the tool lifts off the surface it meets, and joint friction
+        # flips with the joints' motion: there the local gain can ask for a step several times the residual,
+        # so each sample's step is held within STEP_LIMIT times its residual (a trust region).
+        step = np.linalg.solve(sim.tip_gain, residual[..., None])[..., 0]
+        ratio = np.linalg.norm(step, axis=1) / np.maximum(np.linalg.norm(residual, axis=1), 1e-12)
+        cmd = cmd - step * np.minimum(1.0, STEP_LIMIT / np.maximum(ratio, 1e-12))[:, None]
     raise CompensationError(
         f"twin compensation did not reach {tol_m * 1e3:g} mm in {max_iter} iterations "
         f"(rms residual after each: {[round(h * 1e3, 4) for h in history]} mm)"
@@ -145,7 +166,7 @@ def compensate_twin(
 
 
 def gain_of(compensation: Compensation, f_reference_n: np.ndarray, c_r_m_per_n: np.ndarray) -> float:
-    """Compensation gain g: (U_ALG - U_ID) ~ g (-C_R f_ref), least squares over x and z.
+    """Compensation gain g: (U_ALG - U_ID) ~ g (-C_R f_ref) + b·direction, least squares over x and z.
 
     Args:
         compensation: The compensated path.
@@ -153,4 +174,55 @@ def gain_of(compensation: Compensation, f_reference_n: np.ndarray, c_r_m_per_n: 
         c_r_m_per_n: Reference compliance [m/N], shape (3, 3).
     """
     predicted = -np.asarray(f_reference_n, dtype=float) @ np.asarray(c_r_m_per_n, dtype=float).T
-    return compensation_gain(compensation.correction_m[:, [0, 2]], predicted[:, [0, 2]])
+    _, direction = label_passes(compensation.p_ideal_sheet_m[:, 0])
+    return compensation_gain(compensation.correction_m[:, [0, 2]], predicted[:, [0, 2]], direction)
+
+
+def compensation_gain(
+    delta_m: np.ndarray, predicted_m: np.ndarray, direction: np.ndarray | None = None
+) -> float:
+    """Least-squares gain g with (U_ALG − U_ID) ≈ g·C_R·F_ID (Eq. 4.28 scaled): g = ⟨Δ, P⟩ / ⟨P, P⟩.
+
+    With `direction`, an offset b per axis that flips with the travel direction is fitted jointly,
+    Δ ≈ g·P + b·direction: joint friction and lost motion shift the tool by such an offset, and a compensation
+    that cancels it is no force-scale error. Fx flips with the direction too, so without the offset term it
+    would pass for a gain.
+
+    Args:
+        delta_m: Observed corrections or deflections Δ, shape (n, k) [m].
+        predicted_m: Predicted deflections P = C_R·F_ID, same shape [m].
+        direction: Travel direction per sample (+1/-1), shape (n,); None fits the gain alone.
+
+    Returns:
+        The gain g (1 when the correction is what the prediction asks for; 0.5 for the thesis's run, whose
+        correction used the half-model FE forces, §5.1).
+
+    Raises:
+        InputError: Shapes differ or values are not finite.
+        IdentificationError: P is zero (all below 1 nm), so no gain is determined.
+    """
+    delta = np.asarray(delta_m, dtype=float)
+    predicted = np.asarray(predicted_m, dtype=float)
+    if delta.shape != predicted.shape or delta.size == 0:
+        raise InputError(
+            f"delta {delta.shape} and predicted {predicted.shape} must have the same non-empty shape"
+        )
+    if not (np.all(np.isfinite(delta)) and np.all(np.isfinite(predicted))):
+        raise InputError("delta and predicted must be finite (found NaN or inf)")
+    if float(np.max(np.abs(predicted))) < 1e-9:
+        raise IdentificationError(
+            f"predicted deflections are all below 1 nm (largest {np.max(np.abs(predicted)):.3g} m): "
+            "the gain is undetermined; are the forces zero?"
+        )
+    if direction is None:
+        return float(np.vdot(delta, predicted) / np.vdot(predicted, predicted))
+    d = np.asarray(direction, dtype=float)
+    if d.shape != (delta.shape[0],):
+        raise InputError(f"direction has shape {d.shape}, expected ({delta.shape[0]},)")
+    n, k = delta.shape
+    design = np.zeros((n * k, 1 + k))
+    design[:, 0] = predicted.ravel()
+    for j in range(k):
+        design[j::k, 1 + j] = d
+    solution, *_ = np.linalg.lstsq(design, delta.ravel(), rcond=None)
+    return float(solution[0])

@@ -12,7 +12,8 @@ from twin.lab.effects import Effects
 from twin.lab.measure import predict_forces, predict_tracker
 from twin.process.forces import ForceHistory
 from twin.runs.format import Run
-from twin.sim.quasi_static import SimResult, Twin
+from twin.sim.quasi_static import Twin
+from twin.sim.result import SimResult
 
 
 @dataclass(frozen=True)

@@ -22,7 +22,8 @@ import numpy as np
 
 from twin.analysis.check import check_run
 from twin.analysis.compensate import compensate_formula, compensate_twin, compliance_from_stiffness, gain_of
-from twin.analysis.discrepancy.search import find_discrepancy, result_summary
+from twin.analysis.discrepancy.search import find_discrepancy
+from twin.analysis.discrepancy.summary import result_summary
 from twin.analysis.identify.cartesian import (
     THESIS_CR1_MM_PER_KN,
     THESIS_CR2_MM_PER_KN,
@@ -39,7 +40,9 @@ from twin.lab.virtual import load_test, run_lab
 from twin.process.field import SheetForceField
 from twin.process.forces import default_force_history, load_force_history
 from twin.process.path import groove_path
-from twin.runs.format import Run, read_run, write_run
+from twin.runs.format import Run
+from twin.runs.read import read_run
+from twin.runs.write import write_run
 from twin.sim.quasi_static import Twin
 
 HIDDEN_LOST_MOTION_MRAD = 0.15  # the lab's direction-dependent compliance (hidden from every reader)

@@ -16,14 +16,10 @@ from twin.base.csvio import write_text
 from twin.errors import RunFormatError
 from twin.process.path import ToolPath
 from twin.runs.format import Run, resample
-from twin.viz.figures import (
-    plot_deflection_by_pass,
-    plot_forces,
-    plot_path_xz,
-    plot_residual_before_after,
-    plot_stiffness_ellipse,
-)
+from twin.viz.deflection_figures import plot_deflection_by_pass, plot_residual_before_after
+from twin.viz.path_figures import plot_forces, plot_path_xz
 from twin.viz.recording import record_runs
+from twin.viz.stiffness_figures import plot_stiffness_ellipse
 
 
 def write_report(
@@ -135,7 +131,8 @@ def _write_markdown(
         f"max {final['residual_max_mm']:.3f} mm; {check_final.diagnosis}.",
         "",
         "## Discrepancy workflow on the thesis's compensated run",
-        f"- Verdict: `{found.verdict}`; effects named in order: {', '.join(found.found) or 'none'}.",
+        f"- Verdict: `{found.verdict}`; effects named in order: {', '.join(found.found) or 'none'} "
+        f"({100 * found.explained_fraction:.0f} % of the gap explained); what is left: {found.remainder['words']}.",
         f"- Parameters: {found.effects.named_parameters()}.",
         f"- Gap before: {found.gap_before}; after: {found.gap_after}; noise estimated: {found.noise}.",
         "",

@@ -19,6 +19,8 @@ COMMANDS: dict[str, str] = {
     "path": "path",
     "fe-history": "fe_history",
     "identify": "identify",
+    "calibrate": "calibrate",
+    "reproduce": "reproduce",
     "lab": "lab",
     "replay": "replay",
     "compensate": "compensate",
@@ -26,6 +28,8 @@ COMMANDS: dict[str, str] = {
     "bench": "bench",
     "discrepancy": "discrepancy",
     "demo": "demo",
+    "import": "import_run",
+    "export": "export",
 }
 
 

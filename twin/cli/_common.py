@@ -8,7 +8,7 @@ from pathlib import Path
 from twin.errors import InputError
 from twin.process.forces import ForceHistory, default_force_history, load_force_history
 from twin.process.path import ToolPath, groove_path, label_passes
-from twin.runs.format import read_commanded_csv
+from twin.runs.read import read_commanded_csv
 
 
 def add_history_arguments(parser: argparse.ArgumentParser) -> None:

@@ -9,7 +9,7 @@ from pathlib import Path
 from twin.analysis.check import GAIN_TOLERANCE, check_run
 from twin.base.csvio import emit_json
 from twin.cli._common import add_ideal_argument, ideal_from_arguments
-from twin.runs.format import read_run
+from twin.runs.read import read_run
 
 HELP = "Check a run against the ideal path U_ID: residual per pass/direction and the compensation gain."
 

@@ -89,6 +89,7 @@ def run(args: argparse.Namespace) -> int:
         "gain": gain,
         "gain_diagnosis": diagnose_gain(gain),
         "iterations": comp.iterations,
+        "converged": comp.converged,
         "residual_rms_per_iteration_mm": [1e3 * h for h in comp.history_m],
         "predicted_residual_rms_mm": 1e3 * float(np.sqrt(np.mean(norm**2))),
         "predicted_residual_max_mm": 1e3 * float(np.max(norm)),
@@ -104,6 +105,13 @@ def run(args: argparse.Namespace) -> int:
         f"-> {args.out}",
         file=out,
     )
+    if not comp.converged:
+        print(
+            f"note: the twin iteration stalled at {summary['predicted_residual_rms_mm']:.4f} mm rms (max "
+            f"{summary['predicted_residual_max_mm']:.3f} mm, at the reversals where joint friction flips); "
+            "the best command is written",
+            file=out,
+        )
     if abs(gain - 1.0) > 0.02:
         print(f"warning: {diagnose_gain(gain)}", file=out)
     emit_json(args.json, summary, protect=protect)

@@ -6,11 +6,12 @@ import argparse
 import sys
 from pathlib import Path
 
-from twin.analysis.discrepancy.search import find_discrepancy, result_summary
+from twin.analysis.discrepancy.search import find_discrepancy
+from twin.analysis.discrepancy.summary import result_summary
 from twin.base.csvio import emit_json
 from twin.cli._common import add_history_arguments, history_from_arguments
 from twin.lab.effects import Effects, read_model_file, write_model_file
-from twin.runs.format import read_run
+from twin.runs.read import read_run
 
 HELP = (
     "Find where the twin and a measured run disagree, name the missing effect, add it, show the gap shrink."
@@ -42,12 +43,13 @@ def run(args: argparse.Namespace) -> int:
             args.model_out,
             result.effects,
             joint_stiffness_nm_per_rad=stiffness,
-            note=f"tx200-twin discrepancy on {args.run_dir}: found {list(result.found) or result.verdict}",
+            note=(f"tx200-twin discrepancy on {args.run_dir}: found {list(result.found) or result.verdict}"
+                  + ("" if result.model_complete else "; families without a lab equivalent are not in this file")),
             protect=protect,
         )
         summary["model_out"] = args.model_out
     if args.report is not None:
-        from twin.viz.figures import plot_residual_before_after
+        from twin.viz.deflection_figures import plot_residual_before_after
 
         args.report.mkdir(parents=True, exist_ok=True)
         figure = plot_residual_before_after(
@@ -61,11 +63,14 @@ def run(args: argparse.Namespace) -> int:
         summary["report"] = [figure]
     out = sys.stderr if args.json == "-" else sys.stdout
     before, after = result.gap_before, result.gap_after
+    named = ", ".join(f"{n.reported_name} ({100 * n.explained_fraction:.0f} %)" for n in result.named)
     print(
-        f"discrepancy {args.run_dir}: effect {result.verdict} (found {list(result.found)}); parameters "
+        f"discrepancy {args.run_dir}: effect {summary['effect']} (found {named or 'nothing'}; "
+        f"{100 * result.explained_fraction:.0f} % of the gap explained); model parameters "
         f"{result.effects.named_parameters()}; position gap {before['position_rms_mm']:.3f} -> "
         f"{after['position_rms_mm']:.3f} mm, force gap {before['force_rms_n']:.1f} -> {after['force_rms_n']:.1f} N "
-        f"(noise {result.noise['position_mm']:.3f} mm, {result.noise['force_n']:.1f} N per axis)",
+        f"(noise {result.noise['position_mm']:.3f} mm, {result.noise['force_n']:.1f} N per axis); "
+        f"left: {result.remainder['words']}",
         file=out,
     )
     emit_json(args.json, summary, protect=protect)

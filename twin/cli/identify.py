@@ -46,7 +46,7 @@ def _matrix_lines(matrix: np.ndarray) -> list[str]:
 def _method2(args: argparse.Namespace) -> int:
     """Method 2 on a run directory."""
     from twin.analysis.identify.method2 import method2
-    from twin.runs.format import read_run
+    from twin.runs.read import read_run
     from twin.sim.quasi_static import Twin
 
     if args.run_dir is None:
@@ -62,6 +62,7 @@ def _method2(args: argparse.Namespace) -> int:
         "run": args.run_dir,
         "samples": result.samples,
         "k_r_n_per_mm": 1e-3 * result.k_r_ideal_n_per_m,
+        "c_r_mm_per_kn": 1e6 * np.linalg.inv(result.k_r_ideal_n_per_m),  # thesis Eq. 4.27b: inv(K_R(2))
         "k_r_measured_forces_n_per_mm": 1e-3 * result.k_r_measured_n_per_m,
         "compliance_ideal_forces_mm_per_kn": 1e6 * result.c_ideal_m_per_n,
         "compliance_measured_forces_mm_per_kn": 1e6 * result.c_measured_m_per_n,
@@ -111,6 +112,8 @@ def run(args: argparse.Namespace) -> int:
         "method": 1,
         "loads": str(args.loads),
         "k_r_n_per_mm": fit.k_r_n_per_mm,
+        # thesis Eq. 4.27a: the inverse of K_R's x-z sub-block (y held)
+        "c_r_xz_y_held_mm_per_kn": 1e3 * np.linalg.inv(fit.k_r_n_per_mm[np.ix_([0, 2], [0, 2])]),
         "rows": ["fx", "fy", "fz"],
         "columns": ["dux", "duy", "duz"],
         "residuals_n": fit.residuals_n,
@@ -140,6 +143,8 @@ def run(args: argparse.Namespace) -> int:
         f"Method 1: {len(f_n)} load case(s) from {args.loads}",
         "K_R [N/mm] (rows Fx, Fy, Fz; columns dUx, dUy, dUz):",
         *_matrix_lines(fit.k_r_n_per_mm),
+        "C_R x-z, y held (thesis Eq. 4.27a) [mm/kN]:",
+        *_matrix_lines(payload["c_r_xz_y_held_mm_per_kn"]),
         f"residuals [N]: {', '.join(f'{r:.2f}' for r in fit.residuals_n)}",
         f"condition number of the deflections: {fit.condition_number:.3g}; rank {fit.rank}",
         "K_q [N·m/rad] (unobservable joints keep the model's): "

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
+from typing import TextIO
 
 import numpy as np
 
@@ -12,21 +13,34 @@ from twin.analysis.identify.cartesian import THESIS_TABLE_4_2_LOADS_N
 from twin.base.csvio import emit_json, write_table
 from twin.base.signals import interp_rows
 from twin.errors import InputError
+from twin.lab.cnc import run_cnc
 from twin.lab.effects import EFFECTS, parse_effect_args
 from twin.lab.virtual import load_test, nominal_commanded, run_lab
-from twin.runs.format import read_commanded_csv, write_run
+from twin.runs.read import read_commanded_csv
+from twin.runs.write import write_run
 
 HELP = "Run the virtual lab (richer plant, noise, hidden effects) and write a measured run."
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Add the `lab` options."""
-    parser.add_argument("--scenario", required=True, choices=("nominal", "compensated", "loadtest"))
+    parser.add_argument("--scenario", required=True, choices=("nominal", "compensated", "loadtest", "cnc"))
     parser.add_argument("--commanded", type=Path, help="commanded.csv-format path (required for compensated)")
     effect_list = ", ".join(f"{name} [{spec.unit}]" for name, spec in EFFECTS.items())
     parser.add_argument(
         "--effect", action="append", metavar="NAME=VALUE", help=f"hidden effect, repeatable: {effect_list}"
     )
+    parser.add_argument(
+        "--plant",
+        choices=("quasi-static", "dynamic"),
+        default="quasi-static",
+        help="quasi-static: the twin plus hidden effects (default); dynamic: a MuJoCo mj_step plant "
+        "(docs/dynamic-plant.md)",
+    )
+    parser.add_argument(
+        "--set", action="append", metavar="NAME=VALUE", help="dynamic plant knob, repeatable (docs/dynamic-plant.md lists them)"
+    )
+    parser.add_argument("--neutral", action="store_true", help="dynamic plant: start from the neutral knobs")
     parser.add_argument("--seed", type=int, required=True, help="seed of the lab's noise")
     parser.add_argument("--out", type=Path, required=True, help="run directory (loadtest: a CSV file)")
     parser.add_argument("--overwrite", action="store_true", help="replace an existing output")
@@ -44,6 +58,10 @@ def _check_out(out: Path, overwrite: bool) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the lab."""
+    if args.plant == "dynamic":
+        return _run_dynamic(args)
+    if args.set or args.neutral:
+        raise InputError("--set and --neutral are knobs of --plant dynamic; the quasi-static lab takes --effect")
     effects = parse_effect_args(args.effect)
     _check_out(args.out, args.overwrite)
     out = sys.stderr if args.json == "-" else sys.stdout  # keep stdout pure JSON for `--json -`
@@ -71,6 +89,8 @@ def run(args: argparse.Namespace) -> int:
         print(f"lab loadtest: {len(loads)} load cases at home (thesis Table 4.2) -> {args.out}", file=out)
         emit_json(args.json, {"scenario": "loadtest", "out": args.out, "cases": len(loads)})
         return 0
+    if args.scenario == "cnc":
+        return _run_cnc(args, effects_given=bool(args.effect), out=out)
     if args.scenario == "compensated" and args.commanded is None:
         raise InputError(
             "--scenario compensated needs --commanded PATH.csv (e.g. from `tx200-twin compensate`)"
@@ -99,6 +119,7 @@ def run(args: argparse.Namespace) -> int:
         "force_samples": len(run_.forces.t_s) if run_.forces is not None else 0,
         "measured_deviation_max_mm": 1e3 * float(deflection),
         "peak_force_n": float(np.max(np.linalg.norm(run_.forces.values, axis=1))) if run_.forces else 0.0,
+        "peak_fz_n": float(np.max(run_.forces.values[:, 2])) if run_.forces else 0.0,
     }
     print(
         f"lab {args.scenario}: {summary['tracker_samples']} tracker / "
@@ -109,3 +130,40 @@ def run(args: argparse.Namespace) -> int:
     )
     emit_json(args.json, summary)
     return 0
+
+
+def _run_cnc(args: argparse.Namespace, *, effects_given: bool, out: TextIO) -> int:
+    """The thesis's CNC validation (§2.3): the groove on a rigid machine, forces at 10 Hz, part after springback."""
+    if effects_given:
+        raise InputError("--scenario cnc is the rigid machine: robot effects (--effect) do not apply")
+    run_, truth = run_cnc(seed=args.seed)
+    write_run(args.out, run_, truth=truth, overwrite=args.overwrite)
+    assert run_.part_profile is not None and run_.forces is not None
+    summary = {
+        "scenario": "cnc",
+        "out": args.out,
+        "seed": args.seed,
+        "force_samples": len(run_.forces.t_s),
+        "peak_fz_n": float(np.max(run_.forces.values[:, 2])),
+        "formed_depth_mm": -1e3 * float(np.min(run_.part_profile[1])),
+    }
+    print(
+        f"lab cnc: rigid machine, {summary['force_samples']} force samples at 10 Hz, "
+        f"peak Fz {summary['peak_fz_n']:.0f} N, formed depth after springback "
+        f"{summary['formed_depth_mm']:.2f} mm -> {args.out}",
+        file=out,
+    )
+    emit_json(args.json, summary)
+    return 0
+
+
+def _run_dynamic(args: argparse.Namespace) -> int:
+    """`--plant dynamic`: the MuJoCo mj_step plant with its own sensor chain (twin.lab.dynamic)."""
+    from twin.lab.dynamic.cli_support import run_dynamic_command
+
+    if args.effect:
+        raise InputError("--plant dynamic takes no --effect: its effects are physical knobs, set with --set NAME=VALUE")
+    if args.scenario == "cnc":
+        raise InputError("--scenario cnc is the rigid machine; it does not apply to --plant dynamic (a robot)")
+    _check_out(args.out, args.overwrite)
+    return run_dynamic_command(args, loads_n=THESIS_TABLE_4_2_LOADS_N)

@@ -9,7 +9,7 @@ from pathlib import Path
 from twin.analysis.replay import replay
 from twin.base.csvio import emit_json
 from twin.lab.effects import Effects, read_model_file
-from twin.runs.format import read_run
+from twin.runs.read import read_run
 from twin.sim.quasi_static import Twin
 
 HELP = "Replay a measured run on the twin and report the gap (position and force)."

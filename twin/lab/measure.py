@@ -10,7 +10,10 @@ import numpy as np
 
 from twin.base.signals import interp_rows
 from twin.lab.effects import Effects
-from twin.sim.quasi_static import SimResult, Twin
+from twin.process.field import K_UNLOAD_N_PER_M, TOOL_RADIUS_M
+from twin.process.springback import unloaded_profile
+from twin.sim.quasi_static import Twin
+from twin.sim.result import SimResult
 
 PROFILE_HALF_SPAN_M = 0.045  # part profile scanned over x in [-45, 45] mm (groove 70 mm + margin)
 PROFILE_SPACING_M = 0.0005
@@ -44,7 +47,19 @@ def predict_forces(twin: Twin, result: SimResult, t_s: np.ndarray, effects: Effe
 
 
 def predict_part_profile(result: SimResult, effects: Effects) -> tuple[np.ndarray, np.ndarray]:
-    """Groove centre line after unclamping: the formed bottom scaled by (1 - springback ratio) [m]."""
+    """Groove centre line after unclamping [m].
+
+    The loaded, formed bottom recovers elastically by the force the tool last carried there over the sheet's
+    unloading stiffness (`twin.process.springback`); the `sheet_springback` effect then takes away a further
+    fraction of the depth.
+    """
     x_m = np.arange(-PROFILE_HALF_SPAN_M, PROFILE_HALF_SPAN_M + 1e-12, PROFILE_SPACING_M)
-    z_loaded = np.interp(x_m, result.formed_x_m, result.formed_z_m)
-    return x_m, z_loaded * (1.0 - effects.springback_ratio)
+    z_after = unloaded_profile(
+        result.formed_x_m,
+        result.formed_z_m,
+        result.p_sheet_m[:, 0],
+        result.f_sheet_n[:, 2],
+        k_unload_n_per_m=K_UNLOAD_N_PER_M,
+        radius_m=TOOL_RADIUS_M,
+    )
+    return x_m, np.interp(x_m, result.formed_x_m, z_after) * (1.0 - effects.springback_ratio)

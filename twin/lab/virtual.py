@@ -58,6 +58,7 @@ def run_lab(
     seed: int,
     settings: LabSettings | None = None,
     history: ForceHistory | None = None,
+    joint_friction: np.ndarray | None = None,
 ) -> tuple[Run, dict[str, Any]]:
     """Run the commanded path on the lab plant and measure it.
 
@@ -69,13 +70,15 @@ def run_lab(
         seed: Seed of the noise generator.
         settings: Rates and noise levels.
         history: Force history of the lab's sheet; default the shipped one (declared half, doubled).
+        joint_friction: Override of the robot's joint friction [N·m], shape (6,); default the model's (zeros
+            give the purely elastic robot, e.g. to test identification maths).
 
     Returns:
         The run (not yet written) and the truth record for `truth.json`.
     """
     effects = effects or Effects()
     settings = settings or LabSettings()
-    twin = Twin(history=history, effects=effects.robot)
+    twin = Twin(history=history, effects=effects.robot, joint_friction=joint_friction)
     result = twin.simulate(t_s, p_cmd_sheet_m)
     rng = np.random.default_rng(seed)
     t_end = float(result.t_s[-1])
@@ -118,7 +121,12 @@ def run_lab(
 
 
 def load_test(
-    loads_n: np.ndarray, *, effects: Effects | None = None, seed: int, settings: LabSettings | None = None
+    loads_n: np.ndarray,
+    *,
+    effects: Effects | None = None,
+    seed: int,
+    settings: LabSettings | None = None,
+    joint_friction: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Thesis Method 1 load test at `home`: apply each load at the tool tip and measure the deflection.
 
@@ -127,13 +135,14 @@ def load_test(
         effects: Hidden robot effects.
         seed: Seed of the tracker noise.
         settings: Noise levels (tracker noise on each of the two readings, loaded and unloaded).
+        joint_friction: Override of the robot's joint friction [N·m], shape (6,); default the model's.
 
     Returns:
         The loads [N] and the measured deflections [m], shape (m, 3) each.
     """
     effects = effects or Effects()
     settings = settings or LabSettings()
-    twin = Twin(effects=effects.robot)
+    twin = Twin(effects=effects.robot, joint_friction=joint_friction)
     rng = np.random.default_rng(seed)
     loads = np.asarray(loads_n, dtype=float)
     deflections = np.array([twin.static_deflection(f) for f in loads])

@@ -2,7 +2,7 @@
 
 Per sample the robot is solved to quasi-static equilibrium (qvel = qacc = 0):
 
-    r(q) = K (q_ref - q) - g(q) + J_tcp(q)^T f(p_tcp(q)) = 0,
+    r(q) = K (q_ref - q) + τ_fr - g(q) + J_tcp(q)^T f(p_tcp(q)) = 0,
 
 with K the joint springs (position-actuator `kp`, plus the stiff link-side hinges of lost-motion joints),
 g the gravity torques from `mj_rne`, J_tcp the translational site Jacobian (`mj_jacSite`) and f the force the
@@ -10,6 +10,10 @@ sheet exerts on the tool, from the stateful field. Newton's method with the matr
 K + dg/dq - J^T (df/dp) J (gravity gradient by finite differences once per run) converges in 2-3
 iterations to 1e-10 rad. This direct solve was chosen over damped stepping (hundreds of `mj_step` per
 sample) because it is exact at equilibrium and an order of magnitude cheaper per sample.
+
+Joint friction (the model's `frictionloss`, Coulomb, against the link's motion) enters as a torque τ_fr:
+a joint the command turns slides, and its spring carries -τ_f·sign(q̇) (an offset that flips when the
+joint reverses); a joint at rest sticks until its torque changes by more than τ_f (`_equilibrium`).
 
 The path is taught under gravity: the set-points are q_ref = q_ik + K^-1 g(q_ik), so the unloaded robot
 lands exactly on the IK solution, and deflection = loaded - unloaded. After each sample the field's formed
@@ -19,83 +23,47 @@ surface advances to where the tool really was.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from functools import partial
 
 import mujoco
 import numpy as np
 from scipy.linalg.lapack import dgesv as _dgesv
 
-from twin.base.signals import interp_rows
 from twin.errors import InputError
 from twin.process.field import SheetForceField
 from twin.process.forces import ForceHistory, default_force_history
 from twin.process.path import label_passes
 from twin.robot.kinematics import Kinematics
 from twin.robot.model import ARM_JOINTS, LOST_MOTION_JOINTS, RobotEffects, build_model, lost_motion_schedule
+from twin.robot.stiffness import set_joint_stiffness
+from twin.sim.ft_sensor import flange_sensor_forces
+from twin.sim.result import SimResult
 
 NEWTON_TOL_RAD = 1e-7  # a Newton step this small leaves < 1e-9 m of error (quadratic convergence)
 NEWTON_MAX_ITER = 20
 # Back-travel that declares a reversal of the commanded path [m]: a compensated command may step back a
 # fraction of a millimetre where the force ramps up, a real reversal travels a whole stroke (>= 61 mm).
 PASS_DEADBAND_M = 2e-3
+# A joint slower than this is at rest for its friction [rad/s]: the groove's joints 2, 3, 5 turn at ~0.02
+# rad/s while forming, joint 1 at ~6e-5 rad/s (the tool stays at y ~ 0), deflections change slower still.
+JOINT_REST_RAD_PER_S = 1e-3
+FRICTION_MAX_ROUNDS = 6  # active-set rounds of the stick/slip solve; 1-2 suffice in practice
 
 
-@dataclass(frozen=True)
-class SimResult:
-    """One simulated run, at the commanded samples.
-
-    Attributes:
-        t_s: Sample times [s], shape (n,).
-        p_cmd_sheet_m: Commanded tool tip, sheet frame [m], shape (n, 3).
-        p_unloaded_sheet_m: Tool tip of the unloaded robot (gravity only), sheet frame [m], shape (n, 3).
-        p_sheet_m: Tool tip at equilibrium under the sheet force, sheet frame [m], shape (n, 3).
-        f_sheet_n: Force exerted by the sheet on the tool, sheet frame [N], shape (n, 3).
-        qpos: Equilibrium joint positions (all model joints) [rad], shape (n, nq).
-        q_ik: Rigid IK solution of the commanded path [rad], shape (n, 6).
-        pass_index: Pass number per sample (1-based), shape (n,).
-        direction: Travel direction along x per sample (+1/-1), shape (n,).
-        formed_x_m: Grid of the formed groove profile [m].
-        formed_z_m: Formed groove bottom under load at the end of the run [m].
-        iterations: Newton iterations per sample, shape (n,).
-        tip_gain: d p_tcp / d p_cmd at each equilibrium, (I + C S)^-1 with C the robot's Cartesian compliance
-            and S = -df/dp the sheet's stiffness [-], shape (n, 3, 3).
-    """
-
-    t_s: np.ndarray
-    p_cmd_sheet_m: np.ndarray
-    p_unloaded_sheet_m: np.ndarray
-    p_sheet_m: np.ndarray
-    f_sheet_n: np.ndarray
-    qpos: np.ndarray
-    q_ik: np.ndarray
-    pass_index: np.ndarray
-    direction: np.ndarray
-    formed_x_m: np.ndarray
-    formed_z_m: np.ndarray
-    iterations: np.ndarray
-    tip_gain: np.ndarray
-
-    @property
-    def deflection_sheet_m(self) -> np.ndarray:
-        """Loaded minus unloaded tool tip [m], shape (n, 3)."""
-        return self.p_sheet_m - self.p_unloaded_sheet_m
-
-
-def set_joint_stiffness(model: mujoco.MjModel, k_q_nm_per_rad: np.ndarray) -> None:
-    """Set the joint springs K_q (position-actuator gains) of `actuator1..6` in place.
+def joint_motion(t_s: np.ndarray, q: np.ndarray, rest_rad_per_s: float = JOINT_REST_RAD_PER_S) -> np.ndarray:
+    """Sign of each joint's commanded velocity per sample (0 where slower than `rest_rad_per_s`).
 
     Args:
-        model: Compiled model with position actuators on joint1..6.
-        k_q_nm_per_rad: Joint stiffness [N·m/rad], shape (6,), all > 0.
+        t_s: Sample times [s], shape (n,).
+        q: Joint path [rad], shape (n, 6).
+        rest_rad_per_s: Speed below which a joint counts as at rest [rad/s].
+
+    Returns:
+        -1, 0 or +1 per sample and joint, shape (n, 6).
     """
-    k = np.asarray(k_q_nm_per_rad, dtype=float)
-    if k.shape != (6,) or not np.all(np.isfinite(k)) or np.any(k <= 0):
-        raise InputError(f"joint stiffness must be 6 finite positive values [N·m/rad], got {k!r}")
-    for i, value in enumerate(k):
-        act = model.actuator(f"actuator{i + 1}").id
-        model.actuator_gainprm[act, 0] = value
-        model.actuator_biasprm[act, 1] = -value
+    qdot = np.gradient(q, t_s, axis=0) if len(t_s) >= 2 else np.zeros_like(q)
+    return np.where(np.abs(qdot) > rest_rad_per_s, np.sign(qdot), 0.0)
 
 
 class Twin:
@@ -113,6 +81,7 @@ class Twin:
         history: ForceHistory | None = None,
         effects: RobotEffects | None = None,
         joint_stiffness: np.ndarray | None = None,
+        joint_friction: np.ndarray | None = None,
     ) -> None:
         self.effects = effects or RobotEffects()
         self.history = history if history is not None else default_force_history()
@@ -133,8 +102,6 @@ class Twin:
         self.field = SheetForceField(scaled)
         m = self.model
         self._tcp = m.site("tcp").id
-        self._tool_body = int(m.site_bodyid[self._tcp])
-        self._ft_site = m.site("ft_site").id
         self._arm_dof = np.array([m.jnt_dofadr[m.joint(name).id] for name in ARM_JOINTS])
         self._arm_qpos = np.array([m.jnt_qposadr[m.joint(name).id] for name in ARM_JOINTS])
         lost = [f"{name}_lost" for name in LOST_MOTION_JOINTS] if self.effects.has_lost_motion else []
@@ -142,6 +109,20 @@ class Twin:
         self._lost_qpos = np.array([m.jnt_qposadr[m.joint(name).id] for name in lost], dtype=int)
         self._lost_jnt = np.array([m.joint(name).id for name in lost], dtype=int)
         self.p_base_sheet_origin = self.kinematics.p_base_sheet_origin
+        if joint_friction is not None:
+            self.joint_friction = joint_friction
+
+    @property
+    def joint_friction(self) -> np.ndarray:
+        """Coulomb friction of joints 1..6 [N·m]: the model's `frictionloss` (0 where none is given)."""
+        return self.model.dof_frictionloss[self._arm_dof].copy()
+
+    @joint_friction.setter
+    def joint_friction(self, tau_nm: np.ndarray) -> None:
+        tau = np.asarray(tau_nm, dtype=float)
+        if tau.shape != (6,) or not np.all(np.isfinite(tau)) or np.any(tau < 0):
+            raise InputError(f"joint friction must be 6 finite values >= 0 [N·m], got {tau!r}")
+        self.model.dof_frictionloss[self._arm_dof] = tau
 
     @property
     def joint_stiffness(self) -> np.ndarray:
@@ -185,8 +166,9 @@ class Twin:
         k_diag: np.ndarray,
         h_const: np.ndarray,
         sheet: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]],
-    ) -> tuple[np.ndarray, int, np.ndarray, np.ndarray]:
-        """Newton's method on K (q_ref - q) - g(q) + J_tcp(q)^T f(p(q)) = 0 from `q`.
+        stick: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+    ) -> tuple[np.ndarray, int, np.ndarray, np.ndarray, np.ndarray]:
+        """Newton's method on K (q_ref - q) + τ_fr - g(q) + J_tcp(q)^T f(p(q)) = 0 from `q`.
 
         Args:
             q: Start [rad], shape (nq,).
@@ -194,15 +176,18 @@ class Twin:
             k_diag: Joint springs [N·m/rad], shape (nv,).
             h_const: K + dg/dq, the Newton matrix without the sheet term, shape (nv, nv).
             sheet: Tool-tip position in the sheet frame [m] -> (force on the tool [N], df/dp [N/m]).
+            stick: None (no friction), or (stuck, e_stuck, tau_fr): dofs whose elastic deflection q_ref - q is
+                held at e_stuck [rad] (the joint sticks), and the friction torque of the slipping ones [N·m].
 
         Returns:
-            The equilibrium [rad], the iterations used, and the translational tcp Jacobian [m/rad] and df/dp
-            [N/m] of the last iteration.
+            The equilibrium [rad], the iterations used, the translational tcp Jacobian [m/rad] and df/dp
+            [N/m] of the last iteration, and the demanded joint torque g - J^T f there [N·m].
         """
         m, d = self.model, self.data
         jacp = np.zeros((3, m.nv))
         g = np.zeros(m.nv)
         stiffness = np.zeros((3, 3))
+        force = np.zeros(3)
         xpos_tcp = d.site_xpos[self._tcp]  # a view: follows every mj_kinematics
         k = 0
         for k in range(1, NEWTON_MAX_ITER + 1):  # noqa: B007
@@ -213,13 +198,71 @@ class Twin:
             mujoco.mj_jacSite(m, d, jacp, None, self._tcp)
             force, stiffness = sheet(xpos_tcp - self.p_base_sheet_origin)
             r = k_diag * (q_ref - q) - g + jacp.T @ force
-            _, _, dq, info = _dgesv(h_const - jacp.T @ stiffness @ jacp, r)  # np.linalg.solve costs 5x more
+            h = h_const - jacp.T @ stiffness @ jacp
+            if stick is not None:
+                stuck, e_stuck, tau_fr = stick
+                r += tau_fr
+                r[stuck] = (k_diag * (q_ref - e_stuck - q))[stuck]
+                h[stuck, :] = 0.0
+                h[stuck, stuck] = k_diag[stuck]
+            _, _, dq, info = _dgesv(h, r)  # np.linalg.solve costs 5x more
             if info != 0:
                 raise np.linalg.LinAlgError(f"singular Newton matrix (LAPACK dgesv info {info}) at q = {q!r}")
             q = q + dq
             if abs(dq).max() < NEWTON_TOL_RAD:
                 break
-        return q, k, jacp, stiffness
+        return q, k, jacp, stiffness, g - jacp.T @ force
+
+    def _equilibrium(
+        self,
+        q: np.ndarray,
+        q_ref: np.ndarray,
+        k_diag: np.ndarray,
+        h_const: np.ndarray,
+        sheet: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]],
+        e_prev: np.ndarray,
+        motion: np.ndarray | None = None,
+    ) -> tuple[np.ndarray, int, np.ndarray, np.ndarray]:
+        """Equilibrium with joint friction: sliding for moving joints, stick/slip for joints at rest.
+
+        Coulomb friction τ_f in a joint acts on the link against its motion. A joint the command moves
+        (`motion` = ±1) slides: the friction torque is -τ_f·motion, and its gear spring carries it, so the
+        elastic deflection shifts by τ_f/K and flips when the joint reverses. A joint at rest (`motion` = 0)
+        holds its elastic deflection e = q_ref - q while the torque the friction must add, |D - K e_prev| with
+        D = g - J^T f, stays within τ_f (stick); beyond, it slips and carries K e = D - τ_f·sign(D - K e_prev).
+        Starting with every resting frictional joint stuck, joints whose needed friction exceeds τ_f slip,
+        and slipping joints that would move against their friction stick again, until the set is consistent
+        (a few rounds at most).
+
+        Args:
+            q, q_ref, k_diag, h_const, sheet: As for `_newton`.
+            e_prev: Elastic deflection after the previous sample [rad], shape (nv,).
+            motion: Sign of each dof's commanded velocity (0 at rest), shape (nv,); None: all at rest.
+
+        Returns:
+            As `_newton`, without the demanded torque; iterations summed over the rounds.
+        """
+        tau_f = self.model.dof_frictionloss
+        if not tau_f.any():
+            q, k, jac, s, _ = self._newton(q, q_ref, k_diag, h_const, sheet)
+            return q, k, jac, s
+        sliding = np.zeros(len(tau_f), dtype=bool) if motion is None else motion != 0.0
+        frictional = (tau_f > 0.0) & ~sliding
+        stuck = frictional.copy()
+        tau_fr = np.zeros_like(tau_f) if motion is None else -tau_f * motion
+        total = 0
+        for _ in range(FRICTION_MAX_ROUNDS):
+            q, k, jac, s, demand = self._newton(q, q_ref, k_diag, h_const, sheet, (stuck, e_prev, tau_fr))
+            total += k
+            need = demand - k_diag * e_prev
+            slip = stuck & (np.abs(need) > tau_f)
+            moved = q_ref - q - e_prev
+            back = frictional & ~stuck & (moved * tau_fr < 0.0)
+            if not (slip.any() or back.any()):
+                break
+            stuck = (stuck & ~slip) | back
+            tau_fr = np.where(slip, tau_f * np.sign(need), np.where(back, 0.0, tau_fr))
+        return q, total, jac, s
 
     def simulate(
         self, t_s: np.ndarray, p_cmd_sheet_m: np.ndarray, *, q_ik: np.ndarray | None = None
@@ -262,6 +305,8 @@ class Twin:
             dx_dq_sign = np.sign(jac0[0, [1, 2]])
             lost_ref = lost_motion_schedule(p_cmd[:, 0], direction, dx_dq_sign, self.effects)
 
+        motion = np.zeros((n, m.nv))
+        motion[:, self._arm_dof] = joint_motion(t_s, q_ik)
         grad_g = self._gravity_gradient(self._full_qpos(q_ik[0]))
         q_nominal_all = np.zeros((n, m.nq))
         q_nominal_all[:, self._arm_qpos] = q_ik
@@ -299,9 +344,18 @@ class Twin:
                 q = q_nominal + (2.0 * deflection_q - deflection_prev)
             else:
                 q = q_nominal + deflection_q
-            q, k, jac_last[i], s_last[i] = self._newton(
-                q, q_ref, k_diag, h_const, partial(field.force_and_stiffness, pass_index=pi, direction=di)
+            if i == 0:
+                e_prev = q_ref - q_nominal  # the joints hold the taught, unloaded deflection
+            q, k, jac_last[i], s_last[i] = self._equilibrium(
+                q,
+                q_ref,
+                k_diag,
+                h_const,
+                partial(field.force_and_stiffness, pass_index=pi, direction=di),
+                e_prev,
+                motion[i],
             )
+            e_prev = q_ref - q
             qpos_view[:] = q
             mujoco.mj_kinematics(m, d)
             p = xpos_tcp - origin
@@ -331,11 +385,8 @@ class Twin:
     def sensor_forces(self, result: SimResult, t_s: np.ndarray) -> np.ndarray:
         """Read MuJoCo's flange force sensor at the given times, as the run format wants it.
 
-        The equilibrium joint positions and the sheet force are interpolated to `t_s`; the force is applied
-        at the tool tip (`xfrc_applied` on the tool body, moment carried to its centre of mass); `mj_inverse`
-        at qvel = qacc = 0 evaluates the `ft_force` sensor; the tool's weight is removed by a second, unloaded
-        reading at the same pose (tare); the result is turned into the sheet frame and its sign flipped
-        (the sensor reports the force the sensor body exerts on the tool).
+        The force is applied at the tool tip and MuJoCo's `ft_force` sensor read at equilibrium, tared by an
+        unloaded reading at the same pose (`twin.sim.ft_sensor.flange_sensor_forces`).
 
         Args:
             result: A run from `simulate`.
@@ -344,35 +395,13 @@ class Twin:
         Returns:
             Force exerted by the sheet on the tool, sheet frame [N], shape (m, 3).
         """
-        m, d = self.model, self.data
-        t_s = np.asarray(t_s, dtype=float)
-        qpos = interp_rows(t_s, result.t_s, result.qpos)
-        force = interp_rows(t_s, result.t_s, result.f_sheet_n)
-        sensor_adr = m.sensor("ft_force").adr[0]
-        out = np.zeros((len(t_s), 3))
-        # views into MjData, refreshed by every mj_kinematics / mj_inverse
-        sensor = d.sensordata[sensor_adr : sensor_adr + 3]
-        R_base_ft = d.site_xmat[self._ft_site].reshape(3, 3)
-        wrench = d.xfrc_applied[self._tool_body]
-        tcp_xpos, tool_xipos = d.site_xpos[self._tcp], d.xipos[self._tool_body]
-        d.qvel[:] = 0.0
-        d.qacc[:] = 0.0
-        d.xfrc_applied[:] = 0.0
-        for i in range(len(t_s)):
-            d.qpos[:] = qpos[i]
-            mujoco.mj_kinematics(m, d)
-            l0, l1, l2 = (tcp_xpos - tool_xipos).tolist()
-            a0, a1, a2 = force[i].tolist()
-            wrench[:] = (a0, a1, a2, l1 * a2 - l2 * a1, l2 * a0 - l0 * a2, l0 * a1 - l1 * a0)  # lever x force
-            mujoco.mj_inverse(m, d)
-            loaded = R_base_ft @ sensor
-            wrench[:] = 0.0  # tare: the same pose unloaded
-            mujoco.mj_inverse(m, d)
-            out[i] = -(loaded - R_base_ft @ sensor)
-        return out
+        return flange_sensor_forces(self.model, self.data, result, t_s)
 
     def static_deflection(self, f_base_n: np.ndarray, q: np.ndarray | None = None) -> np.ndarray:
         """Equilibrium tool-tip deflection under a constant force at the tool tip (no sheet field).
+
+        The load is applied to the robot at rest, unloaded (a load test: weights hung on the tool, thesis
+        §4.2.1), so each joint's friction takes the first τ_f of its torque change (stick/slip).
 
         Args:
             f_base_n: Force on the tool tip, base frame [N], shape (3,).
@@ -390,7 +419,9 @@ class Twin:
         q_ref = q_nominal + g_nom / k_diag
         h_const = np.diag(k_diag) + self._gravity_gradient(q_nominal)
         no_sheet = np.zeros((3, 3))
-        q, _, _, _ = self._newton(q_nominal.copy(), q_ref, k_diag, h_const, lambda _p: (f, no_sheet))
+        q, _, _, _ = self._equilibrium(
+            q_nominal.copy(), q_ref, k_diag, h_const, lambda _p: (f, no_sheet), q_ref - q_nominal
+        )
         d.qpos[:] = q
         mujoco.mj_kinematics(m, d)
         return d.site_xpos[self._tcp] - p0

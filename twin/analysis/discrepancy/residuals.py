@@ -18,7 +18,8 @@ from twin.process.forces import ForceHistory
 from twin.process.path import label_passes
 from twin.robot.model import RobotEffects
 from twin.runs.format import Run
-from twin.sim.quasi_static import PASS_DEADBAND_M, SimResult, Twin
+from twin.sim.quasi_static import PASS_DEADBAND_M, Twin
+from twin.sim.result import SimResult
 
 MAD_TO_SIGMA = 1.4826
 
@@ -126,10 +127,14 @@ class ResidualModel:
         return np.concatenate(parts)
 
     def folds(self) -> list[np.ndarray]:
-        """Two boolean masks over `vector` rows: odd passes (and x < 0 of the profile), and the rest."""
-        rows = [np.repeat(self.tracker_pass % 2 == 1, 3)]
+        """Two boolean masks over `vector` rows: passes 1-2, 5-6, ... (and x < 0 of the profile), and the rest.
+
+        Passes go in pairs so that each fold holds both travel directions: a fold of odd passes only would
+        hold one direction, and no effect that depends on the direction could be scored out of sample.
+        """
+        rows = [np.repeat(((self.tracker_pass - 1) // 2) % 2 == 0, 3)]
         if self.run.forces is not None:
-            rows.append(np.repeat(self.force_pass % 2 == 1, 3))
+            rows.append(np.repeat(((self.force_pass - 1) // 2) % 2 == 0, 3))
         if self.profile_side is not None:
             rows.append(self.profile_side == 0)
         first = np.concatenate(rows)

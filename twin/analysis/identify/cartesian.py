@@ -1,9 +1,9 @@
-"""Stiffness identification of the robot at the machining pose (thesis §4.1–4.2, Eqs. 4.1–4.27).
+"""Cartesian stiffness identification of the robot at the machining pose (thesis §4.2, Eqs. 4.16–4.27).
 
 Method 1 (§4.2.1, Eq. 4.16): static load cases F_i = K_R·ΔU_i, K_R fitted by ordinary least squares.
 Method 2 (§4.2.2, Eqs. 4.18–4.25): the whole nominal run, F_ID = K_R(2)·ΔU_NT on x and z, OLS per force row.
-Joint stiffness (§4.1.2, Eqs. 4.4–4.5): diagonal K_q consistent with K_R through the Jacobian.
-Compensation (§4.3, Eq. 4.28): U_ALG = U_ID + C_R·F_ID, with an optional fitted gain.
+Also the compliance C_R fitted directly (ΔU regressed on F) and the load-case CSV reader. The joint
+stiffness K_q consistent with K_R (§4.1.2) is in `twin.analysis.identify.joint`.
 
 Conventions: K_R rows are force components, columns deflection components (as Eq. 4.17), so
 F = K_R·ΔU with ΔU = U_ideal − U_measured (Eq. 4.19). SI inside: N/m, m/N, N·m/rad; N/mm only in constants
@@ -16,7 +16,6 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from scipy.optimize import nnls
 
 from twin.base.csvio import read_table
 from twin.errors import IdentificationError, InputError, UnitsError
@@ -73,24 +72,6 @@ class KrFit:
     def k_r_n_per_mm(self) -> np.ndarray:
         """Stiffness in the thesis's unit [N/mm]."""
         return self.k_r_n_per_m * 1e-3
-
-
-@dataclass(frozen=True)
-class KqFit:
-    """A diagonal joint-stiffness fit at one pose.
-
-    Attributes:
-        k_q_nm_per_rad: Joint stiffness, shape (6,) [N·m/rad]; the default (NaN) for unobservable joints,
-            inf where the fit drives the compliance to its zero bound.
-        observable: Whether each joint's compliance is determined by the tool-tip translations, shape (6,).
-        singular_values: Singular values of the (6 entries × 6 joints) compliance design matrix [m²].
-        relative_residual: ‖J_v·diag(c)·J_vᵀ − sym(K_R⁻¹)‖ / ‖sym(K_R⁻¹)‖ over the 6 unique entries.
-    """
-
-    k_q_nm_per_rad: np.ndarray
-    observable: np.ndarray
-    singular_values: np.ndarray
-    relative_residual: float
 
 
 def _pair(f_n: np.ndarray, d_m: np.ndarray, widths: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray]:
@@ -162,8 +143,11 @@ def fit_kr_from_run(f_n: np.ndarray, d_m: np.ndarray) -> KrFit:
     return _ols_stiffness(f, d, "Method 2 run data")
 
 
-def fit_compliance(f_n: np.ndarray, d_m: np.ndarray) -> np.ndarray:
+def fit_compliance(f_n: np.ndarray, d_m: np.ndarray, direction: np.ndarray | None = None) -> np.ndarray:
     """Compliance C with ΔU = C·F by ordinary least squares (deflection regressed on force).
+
+    With `direction` (+1/-1 per sample), ΔU = C·F + b·direction: an offset per axis that flips with the
+    travel direction (joint friction, lost motion) is fitted alongside and kept out of C.
 
     Not what the thesis did (it fitted K, Eqs. 4.22–4.25, and inverted it for C_R, Eq. 4.27). This is
     better posed for run data: the ideal forces F_ID are (nearly) noise-free and span a wide range, the
@@ -189,8 +173,14 @@ def fit_compliance(f_n: np.ndarray, d_m: np.ndarray) -> np.ndarray:
         raise IdentificationError(
             f"forces have rank {rank}, need {f.shape[1]} independent force directions to fit a compliance"
         )
-    c_transposed, *_ = np.linalg.lstsq(f, d, rcond=None)  # f·Cᵀ = d
-    return np.asarray(c_transposed.T)
+    if direction is None:
+        c_transposed, *_ = np.linalg.lstsq(f, d, rcond=None)  # f·Cᵀ = d
+        return np.asarray(c_transposed.T)
+    sign = np.asarray(direction, dtype=float)
+    if sign.shape != (f.shape[0],):
+        raise InputError(f"direction has shape {sign.shape}, expected ({f.shape[0]},)")
+    solution, *_ = np.linalg.lstsq(np.column_stack([f, sign]), d, rcond=None)
+    return np.asarray(solution[: f.shape[1]].T)
 
 
 def load_cases_csv(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
@@ -224,147 +214,3 @@ def load_cases_csv(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
             "load cases are ~1 kN: are fx_n/fy_n/fz_n in kN? multiply by 1000",
         )
     return f_n, d_mm * 1e-3
-
-
-_SYM_ENTRIES = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
-
-
-def _translational(jacobian: np.ndarray) -> np.ndarray:
-    J = np.asarray(jacobian, dtype=float)
-    if J.shape not in ((6, 6), (3, 6)) or not np.all(np.isfinite(J)):
-        raise InputError(
-            f"Jacobian has shape {J.shape}, expected finite (6, 6) or (3, 6) (translational rows first)"
-        )
-    return J[:3]
-
-
-def _stiffness3(k_r_n_per_m: np.ndarray) -> np.ndarray:
-    K = np.asarray(k_r_n_per_m, dtype=float)
-    if K.shape != (3, 3) or not np.all(np.isfinite(K)):
-        raise InputError(f"K_R has shape {K.shape}, expected a finite (3, 3) matrix [N/m]")
-    return K
-
-
-def _observable_joints(design: np.ndarray, rcond: float) -> np.ndarray:
-    """Drop joints greedily while the design's smallest singular value is below rcond × the largest.
-
-    The joint with the largest share of the weakest direction goes first, so a zero (or negligible)
-    Jacobian column, or two joints that move the tool tip the same way (e.g. joints 1 and 4 at the
-    machining pose, both along y), are caught. Columns are not normalised: a joint whose lever arm is
-    tiny would need an enormous compliance to matter, so it is not determined either.
-    """
-    observable = np.ones(design.shape[1], dtype=bool)
-    largest = float(np.linalg.svd(design, compute_uv=False)[0]) if np.any(design) else 0.0
-    while np.any(observable):
-        if largest == 0.0:
-            observable[:] = False
-            break
-        _, singular, vt = np.linalg.svd(design[:, observable], full_matrices=True)
-        n_kept = int(np.sum(observable))
-        weakest = float(singular[n_kept - 1]) if len(singular) >= n_kept else 0.0
-        if weakest >= rcond * largest:
-            break
-        direction = vt[n_kept - 1]
-        observable[np.flatnonzero(observable)[int(np.argmax(np.abs(direction)))]] = False
-    return observable
-
-
-def fit_diagonal_kq(
-    jacobian: np.ndarray,
-    k_r_n_per_m: np.ndarray,
-    *,
-    default_nm_per_rad: float = float("nan"),
-    rcond: float = 1e-3,
-) -> KqFit:
-    """Best diagonal K_q with J_v·K_q⁻¹·J_vᵀ ≈ sym(K_R⁻¹) (Eqs. 4.4–4.5, fitted in compliance space).
-
-    A diagonal K_q gives a symmetric Cartesian compliance Σ_i c_i·j_i·j_iᵀ (j_i: column i of J_v,
-    c_i = 1/k_i), linear in the joint compliances c. It is fitted by non-negative least squares
-    (`scipy.optimize.nnls`) over the 6 unique entries (xx, yy, zz, xy, xz, yz, equal weights) of the
-    symmetric part of K_R⁻¹ (the antisymmetric part cannot come from a diagonal K_q, §4.1.3).
-    Joints that the tool-tip translations cannot tell apart are flagged unobservable (see
-    `_observable_joints`), left out of the fit, and reported as `default_nm_per_rad`. A compliance that
-    the fit drives to its zero bound is reported as an infinite stiffness.
-
-    Args:
-        jacobian: Geometric Jacobian at the pose, (6, 6) or its translational rows (3, 6) [m/rad].
-        k_r_n_per_m: Cartesian stiffness K_R (3, 3) [N/m].
-        default_nm_per_rad: Value reported for unobservable joints [N·m/rad].
-        rcond: Relative singular-value threshold below which a design direction counts as undetermined.
-            At the thesis's machining pose (Table 4.1) joints 1 and 4 both move the tip along y and the
-            weakest direction is at 4e-4 of the largest: the default 1e-3 flags joint 4 (and joint 6,
-            whose axis passes through the tool tip).
-
-    Returns:
-        The fit.
-
-    Raises:
-        IdentificationError: K_R is singular or no joint is observable.
-    """
-    J_v = _translational(jacobian)
-    K = _stiffness3(k_r_n_per_m)
-    try:
-        C = np.linalg.inv(K)
-    except np.linalg.LinAlgError:
-        raise IdentificationError("K_R is singular; cannot form the compliance to fit K_q") from None
-    C_sym = 0.5 * (C + C.T)
-    target = np.array([C_sym[a, b] for a, b in _SYM_ENTRIES])
-    design = np.array([[J_v[a, i] * J_v[b, i] for i in range(6)] for a, b in _SYM_ENTRIES])
-    singular = np.linalg.svd(design, compute_uv=False)
-    observable = _observable_joints(design, rcond)
-    if not np.any(observable):
-        raise IdentificationError("no joint compliance is observable from tool-tip translations at this pose")
-    columns = design[:, observable]
-    col_scale = np.linalg.norm(columns, axis=0)
-    rhs_scale = max(float(np.max(np.abs(target))), np.finfo(float).tiny)
-    scaled, _ = nnls(columns / col_scale, target / rhs_scale)
-    compliance = np.zeros(6)
-    compliance[observable] = scaled / col_scale * rhs_scale
-    norm_target = max(float(np.linalg.norm(target)), np.finfo(float).tiny)
-    residual = float(np.linalg.norm(design @ compliance - target) / norm_target)
-    k_q = np.full(6, float(default_nm_per_rad))
-    with np.errstate(divide="ignore"):
-        k_q[observable] = np.where(compliance[observable] > 0, 1.0 / compliance[observable], np.inf)
-    return KqFit(k_q, observable, singular, residual)
-
-
-def kq_from_kr_congruence(jacobian: np.ndarray, k_r_n_per_m: np.ndarray) -> np.ndarray:
-    """Eq. 4.5 taken literally: K_q ≈ diag(J_vᵀ·K_R·J_v) [N·m/rad], for comparison with `fit_diagonal_kq`.
-
-    This keeps only the diagonal of the congruence and ignores its off-diagonal terms, so it does not
-    reproduce K_R even when K_R came from a diagonal K_q.
-    """
-    J_v = _translational(jacobian)
-    K = _stiffness3(k_r_n_per_m)
-    return np.asarray(np.diag(J_v.T @ K @ J_v))
-
-
-def compensation_gain(delta_m: np.ndarray, predicted_m: np.ndarray) -> float:
-    """Least-squares gain g with (U_ALG − U_ID) ≈ g·C_R·F_ID (Eq. 4.28 scaled): g = ⟨Δ, P⟩ / ⟨P, P⟩.
-
-    Args:
-        delta_m: Observed corrections or deflections Δ, shape (n, k) [m].
-        predicted_m: Predicted deflections P = C_R·F_ID, same shape [m].
-
-    Returns:
-        The gain g (1 when the correction is what the prediction asks for; 0.5 for the thesis's run, whose
-        correction used the half-model FE forces, §5.1).
-
-    Raises:
-        InputError: Shapes differ or values are not finite.
-        IdentificationError: P is zero (all below 1 nm), so no gain is determined.
-    """
-    delta = np.asarray(delta_m, dtype=float)
-    predicted = np.asarray(predicted_m, dtype=float)
-    if delta.shape != predicted.shape or delta.size == 0:
-        raise InputError(
-            f"delta {delta.shape} and predicted {predicted.shape} must have the same non-empty shape"
-        )
-    if not (np.all(np.isfinite(delta)) and np.all(np.isfinite(predicted))):
-        raise InputError("delta and predicted must be finite (found NaN or inf)")
-    if float(np.max(np.abs(predicted))) < 1e-9:
-        raise IdentificationError(
-            f"predicted deflections are all below 1 nm (largest {np.max(np.abs(predicted)):.3g} m): "
-            "the gain is undetermined; are the forces zero?"
-        )
-    return float(np.vdot(delta, predicted) / np.vdot(predicted, predicted))

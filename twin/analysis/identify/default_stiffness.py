@@ -3,7 +3,7 @@
 The diagonal K_q whose Cartesian compliance J_v K_q^-1 J_v^T at `home` best matches (Frobenius, compliances
 kept >= 0) the symmetric part of inv(K_R(1)) of the thesis (Eq. 4.17). Joints 4 and 6 are not observable from
 tool-tip translations there and are fixed at K_Q_UNOBSERVED_NM_PER_RAD. For identification from data (which
-joints a given K_R can see, with rank tests), use `twin.analysis.identify.cartesian.fit_diagonal_kq`.
+joints a given K_R can see, with rank tests), use `twin.analysis.identify.joint.fit_diagonal_kq`.
 """
 
 from __future__ import annotations

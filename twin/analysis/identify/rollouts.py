@@ -20,15 +20,16 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from twin.analysis.discrepancy.residuals import estimate_noise
-from twin.analysis.identify.cartesian import KqFit, fit_diagonal_kq
+from twin.analysis.identify.joint import KqFit, fit_diagonal_kq
 from twin.base.csvio import write_text
 from twin.base.resources import robot_xml
 from twin.errors import IdentificationError, InputError, ModelError
 from twin.lab.effects import Effects, write_model_file
 from twin.lab.measure import predict_tracker
 from twin.process.forces import ForceHistory
+from twin.robot.stiffness import set_joint_stiffness
 from twin.runs.format import Run
-from twin.sim.quasi_static import Twin, set_joint_stiffness
+from twin.sim.quasi_static import Twin
 
 RUN_OBSERVABLE_JOINTS = (1, 2, 4)  # 0-based: joints 2, 3, 5
 

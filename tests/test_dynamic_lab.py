@@ -1,0 +1,171 @@
+"""The dynamic lab plant (twin.lab.dynamic): physics-made runs that the quasi-static twin replays."""
+
+from __future__ import annotations
+
+import ast
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import twin
+from twin.analysis.identify.cartesian import THESIS_TABLE_4_2_LOADS_N
+from twin.analysis.replay import replay
+from twin.base.signals import interp_rows
+from twin.cli import main
+from twin.errors import InputError
+from twin.lab.dynamic.knobs import KNOBS, Knobs, parse_set_args
+from twin.lab.dynamic.run import dynamic_load_test, run_dynamic_lab
+from twin.process.path import GrooveSpec, groove_path
+from twin.runs.read import read_run
+from twin.runs.write import write_run
+from twin.sim.quasi_static import Twin
+
+# the thesis groove's first three passes (same step-down and stroke reduction, 1 mm each): ~6 s of forming
+SHORT = GrooveSpec(passes=3, depth_m=0.003, bottom_length_m=0.068)
+DYNAMIC_DIR = Path(twin.__file__).resolve().parent / "lab" / "dynamic"
+FORBIDDEN = ("twin.lab.effects", "twin.lab.measure", "twin.lab.virtual", "twin.sim", "twin.analysis")
+
+
+def _short_run(tmp_path: Path, name: str, knobs: Knobs, seed: int = 11):
+    path = groove_path(SHORT)
+    run, truth, log = run_dynamic_lab(path.t_s, path.p_sheet_m, scenario="nominal", knobs=knobs, seed=seed)
+    directory = write_run(tmp_path / name, run, truth=truth)
+    return read_run(directory), log
+
+
+def _reversal_times(run) -> np.ndarray:
+    x = run.commanded.values[:, 0]
+    return run.commanded.t_s[np.flatnonzero(np.diff(np.sign(np.diff(x))) != 0) + 1]
+
+
+def _deflection_jumps_mm(run) -> np.ndarray:
+    """Measured deviation (tracker - commanded) 0.1-0.3 s after each reversal minus 0.1-0.3 s before [mm]."""
+    t = run.tracker.t_s
+    dev = run.tracker.values - interp_rows(t, run.commanded.t_s, run.commanded.values)
+    jumps = []
+    for tr in _reversal_times(run):
+        before = dev[(t > tr - 0.3) & (t < tr - 0.1)].mean(axis=0)
+        after = dev[(t > tr + 0.1) & (t < tr + 0.3)].mean(axis=0)
+        jumps.append(1e3 * np.linalg.norm(after - before))
+    return np.array(jumps)
+
+
+@pytest.fixture(scope="module")
+def neutral_short(tmp_path_factory):
+    run, log = _short_run(tmp_path_factory.mktemp("dyn"), "neutral", Knobs(neutral=True))
+    return run, log, replay(run).metrics
+
+
+def test_neutral_dynamic_run_replays_on_the_twin_within_the_noise(neutral_short):
+    run, _, metrics = neutral_short
+    sigma_mm = Knobs(neutral=True)["tracker_noise_mm"]
+    assert metrics["position_rms_mm"] <= 2.0 * math.sqrt(3.0) * sigma_mm  # 2x the noise's own 3-D rms
+    assert metrics["force_rms_n"] <= 0.02 * metrics["force_peak_measured_n"]
+    assert metrics["deflection_max_mm"] > 1.0  # the robot really deflected: the gap is not small by default
+
+
+def test_dead_band_on_joint3_switches_flank_at_reversals_and_grows_the_replay_gap(tmp_path, neutral_short):
+    neutral_run, _, neutral_metrics = neutral_short
+    run, log = _short_run(tmp_path, "backlash", Knobs({"backlash_j3_mrad": 0.5}, neutral=True))
+    half = 0.25e-3
+    play = log.q_play[:, 2]
+    assert play.max() == pytest.approx(half) and play.min() == pytest.approx(-half)  # both flanks touched
+    # the gear torque of joint 3 reverses with the process force: the teeth cross the gap at the reversals
+    crossings = log.t_s[np.flatnonzero(np.diff(np.sign(play)) != 0)]
+    for t_rev in _reversal_times(run):
+        assert np.min(np.abs(crossings - t_rev)) < 0.3
+    jump_gain = _deflection_jumps_mm(run) - _deflection_jumps_mm(neutral_run)
+    assert np.all(jump_gain > 0.2)  # b = 0.5 mrad on a ~0.9 m lever: ~0.4 mm more at each reversal
+    assert replay(run).metrics["position_rms_mm"] >= 3.0 * neutral_metrics["position_rms_mm"]
+
+
+def test_dead_band_on_joint2_stays_closed_on_the_gravity_flank(tmp_path, neutral_short):
+    # gravity holds joint 2's gear at ~2.3 kN·m; the groove's process torque never reverses it here
+    _, neutral_log, _ = neutral_short
+    _, log = _short_run(tmp_path, "j2", Knobs({"backlash_j2_mrad": 0.2}, neutral=True))
+    assert np.all(np.abs(log.q_play[:, 1]) == pytest.approx(0.1e-3))
+    assert np.max(np.abs(log.p_tip_sheet_m - neutral_log.p_tip_sheet_m)) < 1e-6
+
+
+def test_dynamic_load_test_matches_the_twin_static_deflection_without_friction():
+    knobs = Knobs({"tracker_noise_mm": 0.0, "link_friction_scale": 0.0}, neutral=True)
+    loads, deflections = dynamic_load_test(THESIS_TABLE_4_2_LOADS_N, knobs=knobs, seed=3)
+    twin_ = Twin(joint_friction=np.zeros(6))
+    expected = np.array([twin_.static_deflection(f) for f in loads])
+    assert np.max(np.linalg.norm(deflections - expected, axis=1)) < 0.01 * np.max(np.linalg.norm(expected, axis=1))
+
+
+def test_knobs_round_trip_into_truth_json_from_the_cli(tmp_path, capsys):
+    out = tmp_path / "run"
+    code = main(
+        [
+            "lab", "--plant", "dynamic", "--scenario", "nominal", "--seed", "4", "--out", str(out),
+            "--set", "backlash_j5_mrad=0.3", "--set", "ft_bias_n=-2.5",
+        ]
+    )  # fmt: skip
+    assert code == 0
+    truth = json.loads((out / "truth.json").read_text())
+    assert set(truth["knobs"]) == set(KNOBS)
+    assert truth["knobs"]["backlash_j5_mrad"] == 0.3 and truth["knobs"]["ft_bias_n"] == -2.5
+    assert truth["knobs"]["tracker_latency_s"] == KNOBS["tracker_latency_s"].default
+    assert truth["seed"] == 4 and truth["plant"] == "dynamic"
+    run = read_run(out)
+    assert run.meta["tracker_rate_hz"] == KNOBS["tracker_rate_hz"].default
+    assert "dynamic plant" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize(
+    ("item", "message"),
+    [
+        ("backlash_j2_mrad", "expected NAME=VALUE"),
+        ("bogus=1", "unknown knob 'bogus'"),
+        ("tracker_noise_mm=abc", "expected a number"),
+        ("timestep_s=0.01", "expected a finite value in"),
+        ("ft_bias_n=nan", "expected a finite value in"),
+    ],
+)
+def test_bad_set_is_refused_with_the_name_and_what_is_valid(item, message):
+    with pytest.raises(InputError, match=message):
+        parse_set_args([item])
+
+
+def test_bad_set_on_the_cli_fails_before_simulating(tmp_path, capsys):
+    out = tmp_path / "never"
+    assert main(["lab", "--plant", "dynamic", "--scenario", "nominal", "--seed", "1", "--out", str(out),
+                 "--set", "servo_damping_ratio=-1"]) != 0  # fmt: skip
+    assert "servo_damping_ratio" in capsys.readouterr().err
+    assert not out.exists()
+    with pytest.raises(InputError, match="given twice"):
+        parse_set_args(["ft_bias_n=1", "ft_bias_n=2"])
+
+
+def test_dynamic_plant_code_does_not_import_the_twin_or_the_effect_library():
+    offenders = []
+    for path in sorted(DYNAMIC_DIR.rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
+            names = []
+            if isinstance(node, ast.ImportFrom) and node.module:
+                names = [node.module] + [f"{node.module}.{a.name}" for a in node.names]
+            elif isinstance(node, ast.Import):
+                names = [a.name for a in node.names]
+            for name in names:
+                if any(name == bad or name.startswith(bad + ".") for bad in FORBIDDEN):
+                    offenders.append(f"{path.name}:{node.lineno} imports {name}")
+    assert not offenders, offenders
+    assert len(list(DYNAMIC_DIR.glob("*.py"))) >= 6  # the check saw the package
+
+
+@pytest.mark.slow
+def test_full_groove_dynamic_run_gap_is_dominated_by_the_reversals(tmp_path):
+    path = groove_path()
+    run, truth, _ = run_dynamic_lab(path.t_s, path.p_sheet_m, scenario="nominal", knobs=Knobs(neutral=True), seed=2)
+    run = read_run(write_run(tmp_path / "full", run, truth=truth))
+    result = replay(run)
+    err = np.linalg.norm(run.tracker.values - result.tracker_pred_m, axis=1)
+    near = np.min(np.abs(run.tracker.t_s[:, None] - _reversal_times(run)[None, :]), axis=1) < 0.15
+    sigma_m = 1e-3 * Knobs(neutral=True)["tracker_noise_mm"]
+    assert np.sqrt(np.mean(err[~near] ** 2)) <= 1.2 * math.sqrt(3.0) * sigma_m  # noise alone away from them
+    assert result.metrics["force_rms_n"] <= 0.02 * result.metrics["force_peak_measured_n"]

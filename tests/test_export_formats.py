@@ -1,0 +1,269 @@
+"""Export formats (twin/apps/export): each program is parsed back and its points equal the path to the printed
+precision; the VAL3 application passes the grammar check and the check rejects what the grammar forbids."""
+
+from __future__ import annotations
+
+import re
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from twin.apps.export import FORMATS, export_path
+from twin.apps.export.program import CellSetup, default_cell, euler_xyz_deg, euler_zyx_deg, quaternion_wxyz
+from twin.apps.export.val3_check import check_application
+from twin.cli import main
+from twin.errors import InputError, TwinError
+from twin.process.path import GrooveSpec, groove_path, write_path_csv
+from twin.runs.read import read_commanded_csv
+
+POSITION_TOL_MM = 0.5e-4 + 1e-9  # 4 decimals
+
+
+@pytest.fixture(scope="module")
+def cell() -> CellSetup:
+    """The thesis cell (sheet origin and tool from the MuJoCo scene)."""
+    return default_cell(tool_mass_kg=3.2)
+
+
+@pytest.fixture(scope="module")
+def path_csv(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A 3-pass groove with a varying feed (faster on pass 2), written as `tx200-twin path` does."""
+    path = groove_path(GrooveSpec(passes=3, bottom_length_m=0.066))
+    t = path.t_s.copy()
+    fast = path.pass_index == 2
+    dt = np.diff(t, prepend=0.0)
+    dt[fast] *= 0.5
+    path = type(path)(np.cumsum(dt), path.p_sheet_m, path.pass_index, path.direction)
+    return write_path_csv(path, tmp_path_factory.mktemp("path") / "compensated.csv")
+
+
+@pytest.fixture(scope="module")
+def expected(path_csv: Path) -> tuple[np.ndarray, np.ndarray]:
+    """The path's points [mm] and the feed into each point [mm/s]."""
+    stream = read_commanded_csv(path_csv)
+    p = stream.values * 1e3
+    feed = np.linalg.norm(np.diff(p, axis=0), axis=1) / np.diff(stream.t_s)
+    return p, np.concatenate([feed[:1], feed])
+
+
+@pytest.fixture(scope="module")
+def exported(
+    path_csv: Path, cell: CellSetup, tmp_path_factory: pytest.TempPathFactory
+) -> dict[str, list[Path]]:
+    """Every format written once."""
+    out = tmp_path_factory.mktemp("programs")
+    names = {"val3": "isf", "krl": "isf.src", "rapid": "isf.mod", "gcode": "isf.ngc", "csv": "isf.csv"}
+    return {fmt: export_path(path_csv, fmt, out / names[fmt], cell=cell)[1] for fmt in FORMATS}
+
+
+def _numbers(text: str) -> list[float]:
+    return [float(v) for v in re.findall(r"-?\d+\.?\d*(?:[eE][-+]?\d+)?", text)]
+
+
+def parse_val3(files: list[Path]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """pPath points [mm], their orientation [deg], and mPath tmax [mm/s] from the .dtx."""
+    dtx = next(f for f in files if f.suffix == ".dtx")
+    root = ET.parse(dtx).getroot()
+    datas = {d.get("name"): d for d in root.iter() if d.tag.endswith("Data")}
+    values = sorted(datas["pPath"], key=lambda v: int(v.get("key", "0")))
+    p = np.array([[float(v.get(k, "nan")) for k in ("x", "y", "z")] for v in values])
+    r = np.array([[float(v.get(k, "nan")) for k in ("rx", "ry", "rz")] for v in values])
+    feeds = sorted(datas["mPath"], key=lambda v: int(v.get("key", "0")))
+    return p, r, np.array([float(v.get("tmax", "nan")) for v in feeds])
+
+
+def parse_krl(files: list[Path]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """P_PATH[i] = {X, Y, Z, A, B, C} and V_PATH[i] [m/s] from the .dat, in index order."""
+    dat = next(f for f in files if f.suffix == ".dat").read_text()
+    points = dict(
+        (int(i), _numbers(body)) for i, body in re.findall(r"^P_PATH\[(\d+)\]=\{([^}]*)\}$", dat, re.M)
+    )
+    feeds = dict((int(i), float(v)) for i, v in re.findall(r"^V_PATH\[(\d+)\]=(\S+)$", dat, re.M))
+    pose = np.array([points[i] for i in sorted(points)])
+    assert sorted(points) == list(range(1, len(points) + 1))
+    return pose[:, :3], pose[:, 3:], np.array([feeds[i] for i in sorted(feeds)]) * 1e3
+
+
+def parse_rapid(files: list[Path]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """robtarget positions and quaternions, speeddata v_tcp, from the module."""
+    text = files[0].read_text()
+    targets = re.search(r"robtarget pPath\{(\d+)\}:=\[(.*?)\];", text, re.S)
+    speeds = re.search(r"speeddata vPath\{(\d+)\}:=\[(.*?)\];", text, re.S)
+    assert targets and speeds
+    rows = re.findall(r"\[\[([^\]]*)\],\[([^\]]*)\],\[[^\]]*\],\[[^\]]*\]\]", targets.group(2))
+    assert len(rows) == int(targets.group(1))
+    p = np.array([_numbers(a) for a, _ in rows])
+    q = np.array([_numbers(b) for _, b in rows])
+    v = np.array([_numbers(s)[0] for s in re.findall(r"\[([^\]]*)\]", speeds.group(2))])
+    return p, q, v
+
+
+def parse_gcode(files: list[Path]) -> tuple[np.ndarray, np.ndarray]:
+    """G1 targets [mm] and the modal feed F [mm/min] -> [mm/s]."""
+    points, feeds, feed = [], [], float("nan")
+    for line in files[0].read_text().splitlines():
+        if not line.startswith("G1 "):
+            continue
+        words = dict((w[0], float(w[1:])) for w in line.split()[1:])
+        feed = words.get("F", feed)
+        points.append([words["X"], words["Y"], words["Z"]])
+        feeds.append(feed / 60.0)
+    return np.array(points), np.array(feeds)
+
+
+def parse_csv(files: list[Path]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """x, y, z [mm], rx, ry, rz [deg], feed [mm/s]."""
+    lines = [line for line in files[0].read_text().splitlines() if not line.startswith("#")]
+    header = lines[0].split(",")
+    data = np.array([[float(v) for v in line.split(",")] for line in lines[1:]])
+    col = {name: data[:, k] for k, name in enumerate(header)}
+    p = np.column_stack([col["x_mm"], col["y_mm"], col["z_mm"]])
+    r = np.column_stack([col["rx_deg"], col["ry_deg"], col["rz_deg"]])
+    return p, r, col["feed_mm_s"]
+
+
+def _rx(a: float) -> np.ndarray:
+    c, s = np.cos(np.radians(a)), np.sin(np.radians(a))
+    return np.array([[1, 0, 0], [0, c, -s], [0, s, c]])
+
+
+def _ry(a: float) -> np.ndarray:
+    c, s = np.cos(np.radians(a)), np.sin(np.radians(a))
+    return np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]])
+
+
+def _rz(a: float) -> np.ndarray:
+    c, s = np.cos(np.radians(a)), np.sin(np.radians(a))
+    return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
+
+
+def test_val3_points_feeds_and_tool_orientation_read_back(
+    exported: dict[str, list[Path]], expected: tuple[np.ndarray, np.ndarray], cell: CellSetup
+) -> None:
+    p, r, feed = parse_val3(exported["val3"])
+    np.testing.assert_allclose(p, expected[0], atol=POSITION_TOL_MM)
+    np.testing.assert_allclose(feed, expected[1], atol=0.5e-3 + 1e-9)
+    R = _rx(r[0, 0]) @ _ry(r[0, 1]) @ _rz(r[0, 2])  # Stäubli: Rx Ry Rz
+    np.testing.assert_allclose(R, cell.R_sheet_tool, atol=1e-6)
+
+
+def test_krl_points_feeds_and_orientation_read_back(
+    exported: dict[str, list[Path]], expected: tuple[np.ndarray, np.ndarray], cell: CellSetup
+) -> None:
+    p, abc, feed = parse_krl(exported["krl"])
+    np.testing.assert_allclose(p, expected[0], atol=POSITION_TOL_MM)
+    np.testing.assert_allclose(feed, expected[1], atol=0.5e-4 + 1e-9)  # 7 decimals in m/s
+    R = _rz(abc[0, 0]) @ _ry(abc[0, 1]) @ _rx(abc[0, 2])  # KUKA: Rz(A) Ry(B) Rx(C)
+    np.testing.assert_allclose(R, cell.R_sheet_tool, atol=1e-6)
+    src = next(f for f in exported["krl"] if f.suffix == ".src").read_text()
+    assert "$TOOL=T_ISF" in src and "$BASE=B_SHEET" in src and "LIN P_PATH[I] C_DIS" in src
+
+
+def test_rapid_points_feeds_and_quaternion_read_back(
+    exported: dict[str, list[Path]], expected: tuple[np.ndarray, np.ndarray], cell: CellSetup
+) -> None:
+    p, q, feed = parse_rapid(exported["rapid"])
+    np.testing.assert_allclose(p, expected[0], atol=POSITION_TOL_MM)
+    np.testing.assert_allclose(feed, expected[1], atol=0.5e-3 + 1e-9)
+    np.testing.assert_allclose(np.linalg.norm(q, axis=1), 1.0, atol=2e-6)
+    np.testing.assert_allclose(np.abs(q[0] @ quaternion_wxyz(cell.R_sheet_tool)), 1.0, atol=1e-6)
+    text = exported["rapid"][0].read_text()
+    assert text.count("MODULE") == 2 and "MoveL pPath{i},vPath{i},z0,tIsf\\WObj:=wSheet;" in text
+
+
+def test_gcode_points_and_modal_feed_read_back(
+    exported: dict[str, list[Path]], expected: tuple[np.ndarray, np.ndarray]
+) -> None:
+    p, feed = parse_gcode(exported["gcode"])
+    np.testing.assert_allclose(p, expected[0], atol=POSITION_TOL_MM)
+    np.testing.assert_allclose(feed * 60.0, expected[1] * 60.0, atol=0.005 + 1e-9)
+    assert feed.max() > 1.9 * feed.min()  # the faster pass is in the program
+
+
+def test_csv_point_list_reads_back(
+    exported: dict[str, list[Path]], expected: tuple[np.ndarray, np.ndarray], cell: CellSetup
+) -> None:
+    p, r, feed = parse_csv(exported["csv"])
+    np.testing.assert_allclose(p, expected[0], atol=POSITION_TOL_MM)
+    np.testing.assert_allclose(feed, expected[1], atol=0.5e-3 + 1e-9)
+    R = _rx(r[0, 0]) @ _ry(r[0, 1]) @ _rz(r[0, 2])
+    np.testing.assert_allclose(R, cell.R_sheet_tool, atol=1e-5)  # 4 decimals in degrees
+
+
+def test_euler_and_quaternion_conventions_invert_each_other() -> None:
+    R = _rz(30.0) @ _ry(-20.0) @ _rx(170.0)
+    np.testing.assert_allclose(euler_zyx_deg(R), [30.0, -20.0, 170.0], atol=1e-9)
+    a, b, c = euler_xyz_deg(R)
+    np.testing.assert_allclose(_rx(a) @ _ry(b) @ _rz(c), R, atol=1e-12)
+    w, x, y, z = quaternion_wxyz(R)
+    Rq = np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+        ]
+    )
+    np.testing.assert_allclose(Rq, R, atol=1e-12)
+
+
+def test_val3_application_passes_the_grammar_check(exported: dict[str, list[Path]]) -> None:
+    files = {f.name: f.read_text() for f in exported["val3"]}
+    check_application(files)
+    assert set(files) == {"isf.pjx", "isf.dtx", "start.pgx", "stop.pgx"}
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "pattern"),
+    [
+        ("endFor", "endfor", r"not an instruction|missing endFor"),
+        ("movel(pPath[i], tIsf, mPath[i])", "movel(pPath[i], mPath[i], tIsf)", r"not a tool"),
+        ("movel(pPath[i], tIsf, mPath[i])", "movel(qPath[i], tIsf, mPath[i])", r"not a declared variable"),
+        ("waitEndMove()\nend", "waitEndMove()\n", r"missing end"),
+        ("waitEndMove()\n  for", "waitEndMove(1)\n  for", r"takes 0 argument"),
+        ('shoulder="ssame"', 'shoulder="sright"', r"shoulder"),
+        ('fatherId="fSheet[0]"', 'fatherId="fSheet[1]"', r"out of range"),
+        ('fatherId="flange[0]" ioLink', 'fatherId="fSheet[0]" ioLink', r"declared tool"),
+        ('tmax="', 'tmax="x', r"expected a number"),
+        ('name="pPath"', 'name="1Path"', r"not a new identifier"),
+    ],
+)
+def test_val3_check_rejects_what_the_grammar_forbids(
+    exported: dict[str, list[Path]], old: str, new: str, pattern: str
+) -> None:
+    files = {f.name: f.read_text() for f in exported["val3"]}
+    name = next(n for n, text in files.items() if old in text)
+    files[name] = files[name].replace(old, new, 1)
+    with pytest.raises(InputError, match=pattern):
+        check_application(files)
+
+
+def test_export_never_writes_over_its_input(path_csv: Path, cell: CellSetup, tmp_path: Path) -> None:
+    copy = tmp_path / "path.csv"
+    copy.write_bytes(path_csv.read_bytes())
+    for fmt in ("gcode", "csv", "rapid"):
+        with pytest.raises(InputError, match="refusing to overwrite"):
+            export_path(copy, fmt, copy, cell=cell)
+    with pytest.raises(InputError, match="holds the input"):
+        export_path(copy, "val3", tmp_path, cell=cell)
+    assert copy.read_bytes() == path_csv.read_bytes()
+
+
+def test_cli_export_writes_the_program_and_rejects_a_bad_path(
+    path_csv: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(["export", str(path_csv), "--format", "krl", "--out", str(tmp_path / "isf.src")]) == 0
+    assert (tmp_path / "isf.dat").is_file() and "export" in capsys.readouterr().out
+    bad = tmp_path / "bad.csv"
+    bad.write_text("t_s,x_mm,y_mm,z_mm\n0,0,0,0\n0.1,abc,0,0\n")
+    assert main(["export", str(bad), "--format", "gcode", "--out", str(tmp_path / "x.ngc")]) == 2
+    assert "row 2" in capsys.readouterr().err
+    assert not (tmp_path / "x.ngc").exists()
+    with pytest.raises(TwinError):
+        export_path(path_csv, "jbi", tmp_path / "x.jbi")
+
+
+def test_default_cell_puts_the_tool_down(cell: CellSetup) -> None:
+    np.testing.assert_allclose(cell.R_sheet_tool[:, 2], [0.0, 0.0, -1.0], atol=1e-12)
+    assert cell.tool_length_mm == pytest.approx(274.94)

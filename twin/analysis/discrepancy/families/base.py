@@ -1,0 +1,108 @@
+"""The effect-family interface and its registry.
+
+A family is one physical or measurement effect with a vector of parameters. It predicts how the twin's
+prediction of a run changes when the effect is present: a `Delta` of the tracker stream [m], the force stream
+[N] and the part profile [m], given the linearised replay (`Context`). The search fits the parameters by
+`scipy.optimize.least_squares` and never needs to know what a family does.
+
+To add a family, write one subclass and decorate it with `register`:
+
+    @register
+    class MyEffect(Family):
+        name = "my_effect"
+        parameters = ("a_mm",)          # units in the names
+        neutral = (0.0,)                # the value that switches it off
+        bounds = ((-5.0,), (5.0,))
+        scale = (0.1,)                  # a typical size of the parameter (for the solver and the report)
+        description = "what the effect is, in words"
+
+        def delta(self, ctx, theta):
+            return Delta(position=..., force=..., profile=...)
+
+`twin.analysis.discrepancy.families.FAMILIES` then holds it and every search tries it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+
+from twin.analysis.discrepancy.context import Context
+
+
+@dataclass(frozen=True)
+class Delta:
+    """Change of the twin's prediction caused by an effect (None: the stream is untouched).
+
+    Attributes:
+        position: Tracker reading change, sheet frame [m], shape (m, 3).
+        force: Sensor force change, sheet frame [N], shape (k, 3).
+        profile: Part-profile change [m], shape (p,).
+    """
+
+    position: np.ndarray | None = None
+    force: np.ndarray | None = None
+    profile: np.ndarray | None = None
+
+
+class Family:
+    """Base class of an effect family: a name, named parameters with units, and `delta`.
+
+    Class attributes:
+        name: Registry key, also the name in verdicts.
+        parameters: Parameter names, each ending with its unit (`_mm`, `_s`, `_ratio`, ...).
+        neutral: Parameter values that switch the effect off.
+        bounds: (lower, upper) per parameter.
+        scale: Typical magnitude of each parameter (solver scaling).
+        description: One line in words.
+        needs_forces: The family acts only through the force stream (skipped for runs without forces).
+        needs_profile: The family acts only through the profile (skipped for runs without one).
+        linear: `delta` is linear in theta - neutral (one least-squares solve suffices).
+        bilinear: The last parameter w weighs two changes linear in the others: delta = d0 + w (d1 - d0)
+            (d0 at w = 0, d1 at w = 1); the fitter caches both bases.
+    """
+
+    name: ClassVar[str] = ""
+    parameters: ClassVar[tuple[str, ...]] = ()
+    neutral: ClassVar[tuple[float, ...]] = ()
+    bounds: ClassVar[tuple[tuple[float, ...], tuple[float, ...]]] = ((), ())
+    scale: ClassVar[tuple[float, ...]] = ()
+    description: ClassVar[str] = ""
+    needs_forces: ClassVar[bool] = False
+    needs_profile: ClassVar[bool] = False
+    linear: ClassVar[bool] = True
+    bilinear: ClassVar[bool] = False
+
+    def delta(self, ctx: Context, theta: np.ndarray) -> Delta:
+        """Change of the prediction for parameters `theta` (same order as `parameters`)."""
+        raise NotImplementedError
+
+    def start(self, ctx: Context, residual: dict[str, np.ndarray]) -> np.ndarray:
+        """Starting parameters of the fit (default neutral); `residual` is measured - predicted by stream."""
+        del ctx, residual
+        return np.asarray(self.neutral, dtype=float)
+
+    def to_lab(self, theta: np.ndarray, covariance: np.ndarray | None) -> dict[str, float] | None:
+        """The fitted effect in the lab's vocabulary (`twin.lab.effects`), for a model file; None if not."""
+        del theta, covariance
+        return None
+
+    def applicable(self, ctx: Context) -> bool:
+        """Whether the run has the streams this family acts on."""
+        return (ctx.has_forces or not self.needs_forces) and (ctx.has_profile or not self.needs_profile)
+
+
+FAMILIES: dict[str, Family] = {}
+
+
+def register(cls: type[Family]) -> type[Family]:
+    """Class decorator: add one instance of a family to `FAMILIES` (names must be unique)."""
+    if not cls.name or cls.name in FAMILIES:
+        raise ValueError(f"family name {cls.name!r} is empty or already registered")
+    n = len(cls.parameters)
+    if not (len(cls.neutral) == len(cls.scale) == len(cls.bounds[0]) == len(cls.bounds[1]) == n):
+        raise ValueError(f"family {cls.name}: parameters, neutral, scale and bounds differ in length")
+    FAMILIES[cls.name] = cls()
+    return cls

@@ -1,0 +1,99 @@
+"""Families acting on the force sensor's data: bias, cross-talk between axes, clock offset and rate skew."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from twin.analysis.discrepancy.context import Context
+from twin.analysis.discrepancy.families.base import Delta, Family, register
+from twin.base.signals import interp_rows
+
+TIME_SCAN_POINTS = 161  # coarse scan of the clock offset over its bounds (a 0.3 s offset is far from 0)
+
+
+@register
+class ForceSensorBias(Family):
+    """A constant offset of each force axis (a zeroing error of the sensor)."""
+
+    name = "force_sensor_bias"
+    parameters = ("bias_x_n", "bias_y_n", "bias_z_n")
+    neutral = (0.0, 0.0, 0.0)
+    bounds = ((-1e4, -1e4, -1e4), (1e4, 1e4, 1e4))
+    scale = (10.0, 10.0, 10.0)
+    description = "constant offset of the force sensor on each axis"
+    needs_forces = True
+
+    def delta(self, ctx: Context, theta: np.ndarray) -> Delta:
+        """Every force sample shifted by theta [N]."""
+        return Delta(force=np.broadcast_to(theta, ctx.pred["force"].shape).copy())
+
+
+@register
+class ForceSensorCrosstalk(Family):
+    """Cross-talk: each force axis reads a fraction of the other axes' forces."""
+
+    name = "force_sensor_crosstalk"
+    parameters = ("x_from_y_ratio", "x_from_z_ratio", "y_from_x_ratio", "y_from_z_ratio",
+                  "z_from_x_ratio", "z_from_y_ratio")
+    neutral = (0.0,) * 6
+    bounds = ((-0.5,) * 6, (0.5,) * 6)
+    scale = (0.01,) * 6
+    description = "each force axis reads a fraction of the other axes"
+    needs_forces = True
+    PAIRS = ((0, 1), (0, 2), (1, 0), (1, 2), (2, 0), (2, 1))
+
+    def delta(self, ctx: Context, theta: np.ndarray) -> Delta:
+        """Force change M f with M zero on the diagonal."""
+        f = ctx.pred["force"]
+        out = np.zeros_like(f)
+        for (i, j), m in zip(self.PAIRS, theta, strict=True):
+            out[:, i] += m * f[:, j]
+        return Delta(force=out)
+
+
+@register
+class StreamTimeOffset(Family):
+    """The force sensor's clock is offset from the tracker's and runs at a slightly different rate."""
+
+    name = "stream_time_offset"
+    parameters = ("offset_s", "skew_ratio")
+    neutral = (0.0, 0.0)
+    bounds = ((-2.0, -0.05), (2.0, 0.05))
+    scale = (0.01, 1e-3)
+    description = "force-sensor clock ahead of the tracker by an offset plus a rate error"
+    needs_forces = True
+    linear = False
+
+    def delta(self, ctx: Context, theta: np.ndarray) -> Delta:
+        """A sample stamped t was measured at t - offset - skew (t - t0)."""
+        assert ctx.run.forces is not None
+        t = ctx.run.forces.t_s
+        t0 = ctx.t_cmd[0]
+        shifted = np.clip(t - theta[0] - theta[1] * (t - t0), ctx.t_cmd[0], ctx.t_cmd[-1])
+        return Delta(force=interp_rows(shifted, ctx.t_cmd, ctx.force_cmd) - ctx.pred["force"])
+
+    def start(self, ctx: Context, residual: dict[str, np.ndarray]) -> np.ndarray:
+        """The best offset of a coarse scan over the bounds (skew 0)."""
+        target = residual["force"]
+        best, best_sse = 0.0, float(np.sum(target**2))
+        for tau in np.linspace(self.bounds[0][0], self.bounds[1][0], TIME_SCAN_POINTS):
+            force = self.delta(ctx, np.array([tau, 0.0])).force
+            assert force is not None
+            sse = float(np.sum((target - force) ** 2))
+            if sse < best_sse:
+                best, best_sse = float(tau), sse
+        return np.array([best, 0.0])
+
+    def to_lab(self, theta: np.ndarray, covariance: np.ndarray | None) -> dict[str, float] | None:
+        """`stream_time_offset` [s] when the skew is not significant."""
+        if not negligible(theta[1], covariance, 1):
+            return None
+        return {"stream_time_offset": float(theta[0])}
+
+
+def negligible(value: float, covariance: np.ndarray | None, index: int, *, sigmas: float = 3.0) -> bool:
+    """Whether `value` is within `sigmas` standard errors of zero (True without a covariance)."""
+    if covariance is None:
+        return abs(value) < 1e-12
+    sd = float(np.sqrt(max(covariance[index, index], 0.0)))
+    return abs(value) <= sigmas * sd

@@ -1,0 +1,128 @@
+"""Model selection among effect families: nested candidates, held-out error, an information criterion.
+
+Forward selection. The current model starts empty. Each round every family not yet in it is fitted jointly
+with it (`Fitter.fit`); a candidate's gain is the drop of the HELD-OUT error (fit on odd passes, scored on even
+ones and back) and its share is that gain over the run's excess over noise. The best candidate enters when
+
+- its held-out gain is at least ROUND_SHARE of the run's excess over noise (a family explaining less is not
+  told apart from the noise estimate's own error of a few per cent, nor from the linearisation's), or, on a
+  twin replayed with the effects already named, of the excess they leave (`of_rest`: a small second effect
+  next to a large first one is then still found),
+- its gain in the full-data sum of squares beats the BIC penalty, k log N for its k observable parameters,
+- it makes no stream significantly worse (`significance.is_contradicted`): an effect of the robot or its
+  sensors should agree with every stream. A candidate that does is still taken when its held-out gain is
+  CONTRADICTED_LEAD times that of the best candidate that agrees with every stream (or none agrees): the
+  family then explains most of the gap while one stream disagrees (e.g. forces and deflections edited by
+  hand, the part profile not), and the report says which stream (`Candidate.contradicted`).
+
+Candidates whose held-out gain reaches AMBIGUITY_RATIO of the winner's, and that add less than ROUND_SHARE once
+the winner is in, explain the same thing: they are reported as ambiguous with it rather than guessed away.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from twin.analysis.discrepancy.families.base import Family
+from twin.analysis.discrepancy.fitting import Fit, Fitter
+from twin.analysis.discrepancy.significance import excess_over_noise, is_contradicted
+
+ROUND_SHARE = 0.05
+AMBIGUITY_RATIO = 0.8
+CONTRADICTED_LEAD = 1.2
+MAX_FAMILIES = 3
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """One family tried on top of the current model in one round."""
+
+    name: str
+    gain: float
+    share: float
+    share_of_rest: float
+    bic_gain: float
+    contradicted: bool
+    fit: Fit
+
+
+@dataclass(frozen=True)
+class Step:
+    """One round: the candidates in order of held-out gain, the family accepted (or None), ambiguities."""
+
+    candidates: tuple[Candidate, ...]
+    accepted: str | None
+    ambiguous_with: tuple[str, ...]
+
+
+def _chi2(fit: Fit, sizes: dict[str, int]) -> dict[str, float]:
+    parts = np.split(fit.residual, np.cumsum(list(sizes.values()))[:-1])
+    return {name: float(np.mean(part**2)) for name, part in zip(sizes, parts, strict=True)}
+
+
+def forward_select(
+    fitter: Fitter, families: Sequence[Family], excess: float, sizes: dict[str, int], *, of_rest: bool = False
+) -> tuple[Fit, tuple[Step, ...]]:
+    """Grow a model family by family while a family explains a significant held-out share of the gap.
+
+    Args:
+        fitter: Fitter of the run.
+        families: Families that may enter.
+        excess: The run's excess over noise (`significance.excess_over_noise` of the base residual).
+        sizes: Stream name -> length in the stacked vector.
+        of_rest: Judge ROUND_SHARE against the excess the current model leaves (True, used on a twin replayed
+            with the effects already named, where no linearisation error is left to be soaked up) or against
+            `excess` (False: on the linearised twin as given, where a small share can be linearisation error).
+
+    Returns:
+        The final joint fit and the rounds.
+    """
+    current: list[Family] = []
+    fit = fitter.fit(current)
+    steps: list[Step] = []
+    penalty = np.log(max(fitter.base.size, 2))
+    while len(current) < MAX_FAMILIES and excess > 0:
+        rest = excess_over_noise(fit.residual, list(sizes.values()))
+        if rest <= 0.0:
+            break
+        starts = dict(fit.theta)
+        chi2_now = _chi2(fit, sizes)
+        candidates = []
+        for family in families:
+            if family in current:
+                continue
+            trial = fitter.fit([*current, family], starts)
+            observable = int(np.sum(np.isfinite(trial.sigma[family.name])))
+            gain = fit.heldout - trial.heldout
+            candidates.append(Candidate(
+                family.name, gain, gain / excess, gain / rest, fit.sse - trial.sse - observable * penalty,
+                is_contradicted(chi2_now, _chi2(trial, sizes), sizes), trial,
+            ))
+        candidates.sort(key=lambda c: -c.gain)
+        eligible = [c for c in candidates
+                    if (c.share_of_rest if of_rest else c.share) >= ROUND_SHARE and c.bic_gain > 0]
+        best = eligible[0] if eligible else None
+        agreeing = next((c for c in eligible if not c.contradicted), None)
+        if best is not None and best.contradicted and (
+            agreeing is not None and best.gain < CONTRADICTED_LEAD * agreeing.gain
+        ):
+            best = agreeing
+        if best is None:
+            steps.append(Step(tuple(candidates), None, ()))
+            break
+        by_name = {f.name: f for f in families}
+        winner = by_name[best.name]
+        ambiguous = []
+        for other in candidates:
+            if other is best or other.gain < AMBIGUITY_RATIO * best.gain or other.contradicted:
+                continue
+            both = fitter.fit([*current, winner, by_name[other.name]], dict(best.fit.theta))
+            if (best.fit.heldout - both.heldout) / (rest if of_rest else excess) < ROUND_SHARE:
+                ambiguous.append(other.name)
+        steps.append(Step(tuple(candidates), best.name, tuple(ambiguous)))
+        current.append(winner)
+        fit = best.fit
+    return fit, tuple(steps)

@@ -1,0 +1,142 @@
+"""What every robot-program exporter needs: the path as points and feeds, the tool and the sheet frame.
+
+The path CSV (`t_s, x_mm, y_mm, z_mm, ...`, sheet frame: `tx200-twin path` or `compensate` output) is read
+with the run format's reader. Each point's feed is the speed of the straight move that reaches it
+(|Δp| / Δt of the path's own time stamps). The tool is the TX200's ISF tool: straight, `tool_length_mm`
+along the flange z axis, pointing down while forming; the sheet frame's origin in the robot base frame
+comes from the cell model (`Kinematics.p_base_sheet_origin`, axes parallel to the base).
+
+Rotation conventions (for the orientation of a frame R):
+- Stäubli VAL3 (rx, ry, rz): R = Rx(rx) · Ry(ry) · Rz(rz).
+- KUKA KRL (A, B, C): R = Rz(A) · Ry(B) · Rx(C).
+- ABB RAPID: unit quaternion [q1, q2, q3, q4] = [w, x, y, z].
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from twin.errors import InputError
+from twin.robot.dh import TOOL_LENGTH_M
+from twin.robot.kinematics import Kinematics
+from twin.runs.read import read_commanded_csv
+
+POSITION_DECIMALS = 4  # mm: 0.1 µm, below the tracker's 0.02 mm noise
+MIN_FEED_MM_S = 1e-3
+
+
+@dataclass(frozen=True)
+class CellSetup:
+    """Where the program's frame and tool are.
+
+    Attributes:
+        p_base_sheet_mm: Sheet frame origin in the robot base frame [mm] (axes parallel to the base).
+        R_sheet_tool: Tool axes in the sheet frame (z along the tool, pointing down for ISF).
+        tool_length_mm: Flange to tool tip along the flange z axis [mm].
+        tool_mass_kg: Tool mass for controllers that need load data [kg].
+    """
+
+    p_base_sheet_mm: np.ndarray
+    R_sheet_tool: np.ndarray
+    tool_length_mm: float
+    tool_mass_kg: float = 1.0
+
+
+@dataclass(frozen=True)
+class ProgramPath:
+    """A path ready to export.
+
+    Attributes:
+        name: Program name (letters, digits and `_`, starting with a letter).
+        points_mm: Tool-tip points in the sheet frame, shape (n, 3) [mm].
+        feed_mm_s: Feed of the move that reaches each point, shape (n,) [mm/s] (the first copies the second).
+        cell: Frame and tool.
+        source: The path CSV it came from.
+    """
+
+    name: str
+    points_mm: np.ndarray
+    feed_mm_s: np.ndarray
+    cell: CellSetup
+    source: Path
+
+
+def default_cell(tool_mass_kg: float = 1.0) -> CellSetup:
+    """The thesis cell: sheet origin and vertical tool from the MuJoCo scene, the TX200's tool length."""
+    kin = Kinematics()
+    return CellSetup(kin.p_base_sheet_origin * 1e3, kin.R_tool_down.copy(), TOOL_LENGTH_M * 1e3, tool_mass_kg)
+
+
+def program_name(text: str) -> str:
+    """A controller-safe program name from a file name: letters, digits, `_`; starts with a letter; <= 24."""
+    name = re.sub(r"[^A-Za-z0-9_]", "_", text)
+    if not name or not name[0].isalpha():
+        name = "p" + name
+    return name[:24]
+
+
+def load_program_path(path_csv: str | Path, cell: CellSetup, name: str) -> ProgramPath:
+    """Read a path CSV and compute the feed of each move.
+
+    Args:
+        path_csv: `t_s, x_mm, y_mm, z_mm` in the sheet frame.
+        cell: Frame and tool.
+        name: Program name (made controller-safe).
+
+    Raises:
+        RunFormatError: Bad CSV (file and row named). InputError: repeated points (zero-length moves).
+    """
+    stream = read_commanded_csv(path_csv)
+    points = stream.values * 1e3
+    step = np.linalg.norm(np.diff(points, axis=0), axis=1)
+    if np.any(step <= 0):
+        row = int(np.flatnonzero(step <= 0)[0]) + 2
+        raise InputError(f"{path_csv}, row {row}: the point repeats the previous one; expected a move")
+    feed = step / np.diff(stream.t_s)
+    feed = np.concatenate([feed[:1], feed])
+    return ProgramPath(program_name(name), points, np.maximum(feed, MIN_FEED_MM_S), cell, Path(path_csv))
+
+
+def euler_xyz_deg(R: np.ndarray) -> np.ndarray:
+    """Stäubli angles (rx, ry, rz) [deg] with R = Rx(rx) Ry(ry) Rz(rz)."""
+    ry = math.asin(max(-1.0, min(1.0, R[0, 2])))
+    if abs(R[0, 2]) < 1.0 - 1e-9:
+        rx = math.atan2(-R[1, 2], R[2, 2])
+        rz = math.atan2(-R[0, 1], R[0, 0])
+    else:  # gimbal lock: put everything in rx
+        rx = math.atan2(R[2, 1], R[1, 1])
+        rz = 0.0
+    return np.degrees([rx, ry, rz])
+
+
+def euler_zyx_deg(R: np.ndarray) -> np.ndarray:
+    """KUKA angles (A, B, C) [deg] with R = Rz(A) Ry(B) Rx(C)."""
+    b = math.asin(max(-1.0, min(1.0, -R[2, 0])))
+    if abs(R[2, 0]) < 1.0 - 1e-9:
+        a = math.atan2(R[1, 0], R[0, 0])
+        c = math.atan2(R[2, 1], R[2, 2])
+    else:
+        a = math.atan2(-R[0, 1], R[1, 1])
+        c = 0.0
+    return np.degrees([a, b, c])
+
+
+def quaternion_wxyz(R: np.ndarray) -> np.ndarray:
+    """Unit quaternion [w, x, y, z] of a rotation matrix (w >= 0)."""
+    w = math.sqrt(max(0.0, 1.0 + R[0, 0] + R[1, 1] + R[2, 2])) / 2.0
+    x = math.copysign(math.sqrt(max(0.0, 1.0 + R[0, 0] - R[1, 1] - R[2, 2])) / 2.0, R[2, 1] - R[1, 2])
+    y = math.copysign(math.sqrt(max(0.0, 1.0 - R[0, 0] + R[1, 1] - R[2, 2])) / 2.0, R[0, 2] - R[2, 0])
+    z = math.copysign(math.sqrt(max(0.0, 1.0 - R[0, 0] - R[1, 1] + R[2, 2])) / 2.0, R[1, 0] - R[0, 1])
+    q = np.array([w, x, y, z])
+    return q / np.linalg.norm(q)
+
+
+def fmt(value: float, decimals: int = POSITION_DECIMALS) -> str:
+    """Fixed-point text without a negative zero."""
+    text = f"{value:.{decimals}f}"
+    return text[1:] if text.startswith("-") and float(text) == 0.0 else text

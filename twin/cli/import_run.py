@@ -1,0 +1,51 @@
+"""`tx200-twin import`: assemble a `tx200-twin-run/1` directory from a cell's raw exports and a TOML mapping."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from twin.base.csvio import emit_json
+from twin.runs.importer import import_to_directory
+
+HELP = "Import raw cell exports (tracker, force sensor, robot path) described by a TOML mapping into a run."
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Add the `import` options."""
+    parser.add_argument(
+        "--mapping", type=Path, required=True, help="TOML mapping of the raw exports (docs/import-export.md)"
+    )
+    parser.add_argument("--out", type=Path, required=True, help="run directory to write")
+    parser.add_argument(
+        "--overwrite", action="store_true", help="replace an existing non-empty run directory"
+    )
+    parser.add_argument(
+        "--json", metavar="FILE", help="write the import report as JSON to FILE (- for stdout)"
+    )
+
+
+def run(args: argparse.Namespace) -> int:
+    """Import the run and print what was done."""
+    result = import_to_directory(args.mapping, args.out, overwrite=args.overwrite)
+    report = result.report
+    out = sys.stderr if args.json == "-" else sys.stdout
+    reg = report["registration"]
+    how = f"{reg['points']} reference points" if reg["points"] else "the given T_sheet_tracker"
+    counts = ", ".join(f"{n} {name}" for name, n in report["samples"].items())
+    print(f"import {args.mapping} -> {args.out}: {counts} samples", file=out)
+    print(
+        f"tracker frame from {how}: fit residual rms {reg['residual_rms_mm']:.4f} mm "
+        f"(max {reg['residual_max_mm']:.4f} mm)",
+        file=out,
+    )
+    for name, clock in report["clocks"].items():
+        extra = f", refined on the {clock['refined_on']}" if clock["refined_on"] else ""
+        print(
+            f"{name} clock: offset {clock['offset_s']:.6f} s ± {clock['sigma_s'] * 1e3:.3f} ms "
+            f"({clock['method']}{extra})",
+            file=out,
+        )
+    emit_json(args.json, {"out": args.out, **report}, protect=[args.mapping])
+    return 0

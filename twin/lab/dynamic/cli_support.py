@@ -1,0 +1,78 @@
+"""The `tx200-twin lab --plant dynamic` command body: run a scenario, write it, print and emit a summary."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from twin.base.csvio import emit_json, write_table
+from twin.base.signals import interp_rows
+from twin.errors import InputError
+from twin.lab.dynamic.knobs import parse_set_args
+from twin.lab.dynamic.run import dynamic_load_test, run_dynamic_lab
+from twin.process.path import groove_path
+from twin.runs.read import read_commanded_csv
+from twin.runs.write import write_run
+
+
+def run_dynamic_command(args: argparse.Namespace, *, loads_n: np.ndarray) -> int:
+    """Run `args.scenario` (nominal, compensated or loadtest) on the dynamic plant.
+
+    Args:
+        args: Parsed `lab` options (`scenario`, `commanded`, `set`, `neutral`, `seed`, `out`, `overwrite`, `json`).
+        loads_n: Load cases of the load test, base frame [N], shape (m, 3).
+
+    Returns:
+        The exit status (0).
+    """
+    knobs = parse_set_args(args.set, neutral=args.neutral)
+    out = sys.stderr if args.json == "-" else sys.stdout  # keep stdout pure JSON for `--json -`
+    if args.scenario == "loadtest":
+        loads, deflections = dynamic_load_test(loads_n, knobs=knobs, seed=args.seed)
+        columns = {"fx_n": loads[:, 0], "fy_n": loads[:, 1], "fz_n": loads[:, 2]}
+        columns |= {f"d{a}_mm": 1e3 * deflections[:, i] for i, a in enumerate("xyz")}
+        formats = {name: (".1f" if name.startswith("f") else ".5f") for name in columns}
+        write_table(args.out, columns, formats=formats)
+        print(f"lab loadtest (dynamic plant): {len(loads)} load cases at home -> {args.out}", file=out)
+        emit_json(args.json, {"scenario": "loadtest", "plant": "dynamic", "out": args.out, "cases": len(loads)})
+        return 0
+    if args.scenario == "compensated" and args.commanded is None:
+        raise InputError("--scenario compensated needs --commanded PATH.csv (e.g. from `tx200-twin compensate`)")
+    protect: list[Path] = []
+    if args.commanded is not None:
+        commanded = read_commanded_csv(args.commanded)
+        t_s, p_cmd = commanded.t_s, commanded.values
+        protect.append(args.commanded)
+    else:
+        path = groove_path()
+        t_s, p_cmd = path.t_s, path.p_sheet_m
+    run, truth, log = run_dynamic_lab(
+        t_s, p_cmd, scenario=args.scenario, knobs=knobs, seed=args.seed, progress=sys.stderr
+    )
+    write_run(args.out, run, truth=truth, overwrite=args.overwrite, protect=protect)
+    deviation = run.tracker.values - interp_rows(run.tracker.t_s, t_s, p_cmd)
+    assert run.forces is not None
+    summary = {
+        "scenario": args.scenario,
+        "plant": "dynamic",
+        "out": args.out,
+        "seed": args.seed,
+        "knobs_changed_from_neutral": knobs.changed(),
+        "tracker_samples": len(run.tracker.t_s),
+        "force_samples": len(run.forces.t_s),
+        "measured_deviation_max_mm": 1e3 * float(np.max(np.linalg.norm(deviation, axis=1))),
+        "peak_force_n": float(np.max(np.linalg.norm(run.forces.values, axis=1))),
+        "simulation_wall_s": log.wall_s,
+    }
+    print(
+        f"lab {args.scenario} (dynamic plant, {log.t_s.size} steps in {log.wall_s:.1f} s): "
+        f"{summary['tracker_samples']} tracker / {summary['force_samples']} force samples, "
+        f"max |measured - commanded| {summary['measured_deviation_max_mm']:.2f} mm, "
+        f"peak |F| {summary['peak_force_n']:.0f} N -> {args.out}",
+        file=out,
+    )
+    emit_json(args.json, summary)
+    return 0

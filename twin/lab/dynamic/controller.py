@@ -1,0 +1,145 @@
+"""A CS8C-class joint position controller for the dynamic plant.
+
+A Stäubli CS8C closes position and velocity loops on the motor encoders (the link side is not measured), with
+velocity and torque feed-forward from its trajectory generator, which interpolates the programmed path every
+4 ms. Here, per joint and per servo tick (one MuJoCo step):
+
+    tau = kp (q_sp - q_m) + kv (dq_sp - dq_m) + ki * integral(q_sp - q_m) + g(q_sp),
+
+with q_m the motor-side hinge, q_sp the motor set-point and g the gravity torque at the commanded pose
+(feed-forward). kp and kv are those of a MuJoCo position servo on the motor hinge (its kv term is integrated
+implicitly); the integral, velocity and gravity terms enter through `ctrl`. Gains: the servo is as stiff as the
+gear, kp = r K_q (r = `servo_stiffness_ratio`, default 1), critically damped on the inertia J = motor armature +
+the rigid arm's mass-matrix diagonal at the start pose, kv = 2 zeta sqrt(kp J), and ki = kp 2 pi f_i (zeta = 2, f_i = 10 Hz: the least
+replay gap at 2 m/min of the settings tried).
+The resulting position-loop bandwidths sqrt(kp/J)/2 pi are 12-13 Hz for joints 1-3 and 70-140 Hz for the wrist,
+the range of a CS8C-class controller whose wrist loops are much faster than the arm's.
+
+Set-points are taught under gravity, as the twin teaches them: the motor set-point is
+q_sp = q_ik + g(q_ik)/K_q + sign(g) b/2, so the unloaded robot (gear spring wound up by gravity, dead band
+closed on the gravity side) lands on the rigid IK solution q_ik.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from twin.lab.dynamic.knobs import Knobs
+from twin.lab.dynamic.plant import Plant
+
+
+@dataclass(frozen=True)
+class ServoGains:
+    """Gains of joints 1..6.
+
+    Attributes:
+        kp: Proportional gain [N·m/rad], shape (6,).
+        kv: Velocity gain [N·m·s/rad], shape (6,).
+        ki: Integral gain [N·m/(rad s)], shape (6,).
+    """
+
+    kp: np.ndarray
+    kv: np.ndarray
+    ki: np.ndarray
+
+
+def gravity_torques(rigid: mujoco.MjModel, q: np.ndarray) -> np.ndarray:
+    """Gravity torques g(q) of the rigid arm (MuJoCo bias at rest) [N·m], shape (n, 6) for q (n, 6)."""
+    data = mujoco.MjData(rigid)
+    out = np.zeros((len(q), 6))
+    bias = np.zeros(rigid.nv)
+    for i, qi in enumerate(q):
+        data.qpos[:6] = qi
+        data.qvel[:] = 0.0
+        mujoco.mj_kinematics(rigid, data)
+        mujoco.mj_comPos(rigid, data)
+        mujoco.mj_rne(rigid, data, 0, bias)
+        out[i] = bias[:6]
+    return out
+
+
+def design_gains(plant: Plant, rigid: mujoco.MjModel, q0: np.ndarray, knobs: Knobs) -> ServoGains:
+    """Gains from the bandwidth knobs and the arm's inertia at `q0` [rad]."""
+    data = mujoco.MjData(rigid)
+    data.qpos[:6] = q0
+    mujoco.mj_forward(rigid, data)
+    mass = np.zeros((rigid.nv, rigid.nv))
+    mujoco.mj_fullM(rigid, data, mass)
+    rigid_arm = rigid.dof_armature[:6]
+    inertia = plant.motor_armature + np.diag(mass)[:6] - rigid_arm
+    kp = knobs["servo_stiffness_ratio"] * plant.k_q
+    return ServoGains(
+        kp=kp,
+        kv=2.0 * knobs["servo_damping_ratio"] * np.sqrt(kp * inertia),
+        ki=kp * 2.0 * np.pi * knobs["servo_integral_hz"],
+    )
+
+
+def _moving_average(values: np.ndarray, width: int) -> np.ndarray:
+    """Centred moving average over `width` rows (odd), ends held."""
+    if width <= 1:
+        return values
+    half = width // 2
+    padded = np.concatenate([np.repeat(values[:1], half, 0), values, np.repeat(values[-1:], half, 0)])
+    csum = np.cumsum(padded, axis=0)
+    csum = np.concatenate([np.zeros((1, values.shape[1])), csum])
+    return (csum[width:] - csum[:-width]) / width
+
+
+def servo_setpoints(
+    t_cmd_s: np.ndarray,
+    q_ik: np.ndarray,
+    g_ik: np.ndarray,
+    plant: Plant,
+    knobs: Knobs,
+    t_servo_s: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Motor set-points at the servo ticks, through the trajectory generator.
+
+    Args:
+        t_cmd_s: Commanded sample times [s], shape (n,).
+        q_ik: Rigid IK of the commanded path [rad], shape (n, 6).
+        g_ik: Gravity torques at q_ik [N·m], shape (n, 6).
+        plant: The plant (K_q, dead bands).
+        knobs: Trajectory period and smoothing.
+        t_servo_s: Servo tick times [s], shape (m,).
+
+    Returns:
+        Motor set-point [rad], its rate [rad/s] and the gravity feed-forward [N·m], each shape (m, 6).
+    """
+    q_sp = q_ik + g_ik / plant.k_q + np.sign(g_ik) * plant.backlash_rad / 2.0
+    period = knobs["trajectory_period_s"]
+    t_traj = np.arange(0.0, t_servo_s[-1] + period, period)
+    traj = np.column_stack([np.interp(t_traj, t_cmd_s, q_sp[:, j]) for j in range(6)])
+    width = int(round(knobs["trajectory_smoothing_s"] / period)) | 1
+    traj = _moving_average(traj, width)
+    q_servo = np.column_stack([np.interp(t_servo_s, t_traj, traj[:, j]) for j in range(6)])
+    dq_servo = np.gradient(q_servo, t_servo_s, axis=0)
+    g_servo = np.column_stack([np.interp(t_servo_s, t_cmd_s, g_ik[:, j]) for j in range(6)])
+    return q_servo, dq_servo, g_servo
+
+
+def rest_state(plant: Plant, q_link: np.ndarray, g: np.ndarray) -> np.ndarray:
+    """qpos of the unloaded arm at rest on `q_link` [rad] with gravity torques `g` [N·m] (all hinges)."""
+    qpos = np.zeros(plant.model.nq)
+    gear = -g / plant.k_q - np.sign(g) * plant.backlash_rad / 2.0  # spring wound up, flank on the gravity side
+    qpos[plant.link_qpos] = gear
+    qpos[plant.motor_qpos] = q_link - gear
+    return qpos
+
+
+def apply_gains(plant: Plant, gains: ServoGains) -> None:
+    """Write kp and kv into the position servos `servo1..6` (gain kp, bias -kp q - kv dq)."""
+    m = plant.model
+    for j in range(6):
+        act = m.actuator(f"servo{j + 1}").id
+        m.actuator_gaintype[act] = mujoco.mjtGain.mjGAIN_FIXED
+        m.actuator_biastype[act] = mujoco.mjtBias.mjBIAS_AFFINE
+        m.actuator_gainprm[act, :] = 0.0
+        m.actuator_biasprm[act, :] = 0.0
+        m.actuator_gainprm[act, 0] = gains.kp[j]
+        m.actuator_biasprm[act, 1] = -gains.kp[j]
+        m.actuator_biasprm[act, 2] = -gains.kv[j]

@@ -1,0 +1,176 @@
+"""The dynamic plant's knobs: documented defaults, neutral values, `--set NAME=VALUE` parsing.
+
+Every physical or sensor parameter the dynamic lab can change is a knob with a unit, a default (what a
+CS8C-class cell with a laser tracker and an ATI Omega160 plausibly has) and a neutral value (the knob switched
+off: no backlash, no friction, perfect clocks, no registration error, no bias). Noise levels are the same in
+both (noise is not an effect; a test compares gaps with it). `Knobs.as_dict()` is what `truth.json` records.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
+
+from twin.errors import InputError
+
+
+@dataclass(frozen=True)
+class KnobSpec:
+    """One knob.
+
+    Attributes:
+        default: Value of a default lab run [unit].
+        neutral: Value that switches the effect off [unit].
+        unit: Unit, as written after the value.
+        doc: One line: what it is and why the default.
+        minimum: Smallest valid value [unit].
+        maximum: Largest valid value [unit].
+    """
+
+    default: float
+    neutral: float
+    unit: str
+    doc: str
+    minimum: float = 0.0
+    maximum: float = math.inf
+
+
+_BACKLASH_DOC = "dead band (full free play) of the gear of joint {j}: no gear torque inside it"
+
+KNOBS: dict[str, KnobSpec] = {
+    # ---- plant
+    **{
+        f"backlash_j{j}_mrad": KnobSpec(0.0, 0.0, "mrad", _BACKLASH_DOC.format(j=j), 0.0, 10.0)
+        for j in range(1, 7)
+    },
+    "link_friction_scale": KnobSpec(
+        1.0, 1.0, "-", "scale on the model's joint frictionloss (link-side Coulomb friction, as the twin's)", 0.0, 10.0
+    ),
+    "coulomb_friction_nm": KnobSpec(
+        30.0, 0.0, "N·m", "Coulomb friction of each motor-side hinge (MuJoCo frictionloss)", 0.0, 1e4
+    ),
+    "viscous_friction_nms": KnobSpec(
+        200.0, 0.0, "N·m·s/rad", "viscous friction of each motor-side hinge (joint damping)", 0.0, 1e6
+    ),
+    "gear_armature_frac": KnobSpec(
+        0.1, 0.1, "-", "armature of the gear/link-side hinges, fraction of the motor armature", 1e-3, 1.0
+    ),
+    "friction_reversal_mm": KnobSpec(
+        0.05, 0.05, "mm", "tool travel over which the sheet's tangential force reverses (-1 to +1)", 0.01, 10.0
+    ),
+    "timestep_s": KnobSpec(
+        1e-3, 1e-3, "s", "MuJoCo timestep (implicitfast); the servo runs once per step", 1e-4, 2e-3
+    ),
+    # ---- controller
+    "servo_stiffness_ratio": KnobSpec(
+        1.0, 1.0, "-", "position-loop gain kp over the gear stiffness K_q (servo as stiff as the gear)", 0.05, 20.0
+    ),
+    "servo_damping_ratio": KnobSpec(2.0, 2.0, "-", "damping ratio of the position loop", 0.1, 5.0),
+    "servo_integral_hz": KnobSpec(
+        10.0, 10.0, "Hz", "integral corner of the PID (removes the static process load)", 0.0, 20.0
+    ),
+    "trajectory_period_s": KnobSpec(
+        0.004, 0.004, "s", "trajectory-generator cycle (CS8C: 4 ms), linear in between", 1e-3, 0.05
+    ),
+    "trajectory_smoothing_s": KnobSpec(
+        0.02, 0.02, "s", "centred moving average of the joint set-points (jerk filter; 0: none)", 0.0, 0.5
+    ),
+    # ---- tracker
+    "tracker_rate_hz": KnobSpec(50.0, 50.0, "Hz", "tracker rate (thesis 3.2.1: 50 Hz)", 1.0, 1000.0),
+    "tracker_noise_mm": KnobSpec(0.02, 0.02, "mm", "tracker white noise per axis (K-610 class)", 0.0, 1.0),
+    "tracker_quantum_mm": KnobSpec(0.001, 0.0, "mm", "tracker resolution (0: none)", 0.0, 0.1),
+    "tracker_latency_s": KnobSpec(0.002, 0.0, "s", "tracker latency (sample shows the past)", 0.0, 0.5),
+    "tracker_clock_offset_s": KnobSpec(
+        0.001, 0.0, "s", "tracker clock minus controller clock", -0.5, 0.5
+    ),
+    "tracker_clock_skew_ppm": KnobSpec(20.0, 0.0, "ppm", "tracker clock-rate error", -1e4, 1e4),
+    "tracker_reg_mm": KnobSpec(
+        0.2, 0.0, "mm", "tracker-frame registration error: translation along (1,-1,1)/sqrt 3", -5.0, 5.0
+    ),
+    "tracker_reg_mrad": KnobSpec(
+        1.0, 0.0, "mrad", "registration error: rotation about (1,1,1)/sqrt 3 at the sheet origin", -10.0, 10.0
+    ),
+    # ---- force/torque sensor
+    "ft_rate_hz": KnobSpec(30.0, 30.0, "Hz", "F/T sensor rate (thesis 3.3: 30 Hz)", 1.0, 7000.0),
+    "ft_noise_n": KnobSpec(5.0, 5.0, "N", "F/T white noise per axis (ATI Omega160 at this range)", 0.0, 100.0),
+    "ft_quantum_n": KnobSpec(0.25, 0.0, "N", "F/T resolution (Omega160 SI-2500: 1/4 N)", 0.0, 10.0),
+    "ft_latency_s": KnobSpec(0.005, 0.0, "s", "F/T latency", 0.0, 0.5),
+    "ft_clock_offset_s": KnobSpec(-0.002, 0.0, "s", "F/T clock minus controller clock", -0.5, 0.5),
+    "ft_clock_skew_ppm": KnobSpec(-30.0, 0.0, "ppm", "F/T clock-rate error", -1e4, 1e4),
+    "ft_bias_n": KnobSpec(3.0, 0.0, "N", "F/T bias on each sensor axis after taring", -500.0, 500.0),
+    "ft_crosstalk": KnobSpec(0.01, 0.0, "-", "F/T cross-talk: off-diagonal coupling fraction", -0.2, 0.2),
+}
+
+
+class Knobs:
+    """A full set of knob values [the units of `KNOBS`].
+
+    Args:
+        values: Overrides by name; unset knobs take their default (or neutral) value.
+        neutral: Start from the neutral values instead of the defaults.
+
+    Raises:
+        InputError: Unknown name, non-finite or out-of-range value.
+    """
+
+    def __init__(self, values: Mapping[str, float] | None = None, *, neutral: bool = False) -> None:
+        base = {name: (spec.neutral if neutral else spec.default) for name, spec in KNOBS.items()}
+        for name, value in (values or {}).items():
+            base[name] = _checked(name, value)
+        self._values = base
+        self.neutral_base = neutral
+
+    def __getitem__(self, name: str) -> float:
+        if name not in self._values:
+            raise InputError(f"unknown knob {name!r}; valid: {', '.join(KNOBS)}")
+        return self._values[name]
+
+    def backlash_rad(self) -> list[float]:
+        """Dead band of joints 1..6 [rad]."""
+        return [1e-3 * self._values[f"backlash_j{j}_mrad"] for j in range(1, 7)]
+
+    def as_dict(self) -> dict[str, float]:
+        """All values by name (what `truth.json` records)."""
+        return dict(self._values)
+
+    def changed(self) -> dict[str, float]:
+        """Knobs that differ from their neutral value."""
+        return {k: v for k, v in self._values.items() if v != KNOBS[k].neutral}
+
+
+def _checked(name: str, value: float) -> float:
+    if name not in KNOBS:
+        raise InputError(f"unknown knob {name!r}; valid knobs: {', '.join(KNOBS)}")
+    spec = KNOBS[name]
+    try:
+        number = float(value)
+    except (TypeError, ValueError) as exc:
+        raise InputError(f"knob {name} = {value!r}: expected a number [{spec.unit}]") from exc
+    if not math.isfinite(number) or not spec.minimum <= number <= spec.maximum:
+        raise InputError(
+            f"knob {name} = {value!r} [{spec.unit}]: expected a finite value in [{spec.minimum:g}, {spec.maximum:g}]"
+        )
+    return number
+
+
+def parse_set_args(items: Iterable[str] | None, *, neutral: bool = False) -> Knobs:
+    """Parse repeated `--set NAME=VALUE` options into knobs.
+
+    Args:
+        items: Strings `NAME=VALUE` (None or empty: all defaults).
+        neutral: Start from the neutral values.
+
+    Raises:
+        InputError: Missing `=`, unknown name, bad or out-of-range value, a name given twice.
+    """
+    values: dict[str, float] = {}
+    for item in items or ():
+        name, sep, text = item.partition("=")
+        name = name.strip()
+        if not sep or not name:
+            raise InputError(f"--set {item!r}: expected NAME=VALUE, e.g. backlash_j2_mrad=0.2")
+        if name in values:
+            raise InputError(f"--set {name} given twice")
+        values[name] = _checked(name, text.strip())
+    return Knobs(values, neutral=neutral)

@@ -1,0 +1,184 @@
+"""The dynamic plant's MuJoCo model: each arm joint as a motor side and a gear (spring with a dead band).
+
+Built with `mujoco.MjSpec` from the shipped cell scene (`models/cell/scene.xml`), so K_q, masses, armature,
+damping and friction follow the model file. Each link body gets two hinges on the same axis and point:
+
+* `joint{i}_motor`: the motor side. Armature = the shipped joint's armature (reflected rotor inertia),
+  `damping` = viscous friction and `frictionloss` = Coulomb friction of the motor and gearbox input (knobs). Driven by actuator `servo{i}`, a MuJoCo
+  position servo (force = kp (ctrl - q) - kv q_dot) whose kv term `implicitfast` integrates implicitly; the
+  controller (`controller.py`) writes its set-point, integral and feed-forward into `ctrl`.
+* `joint{i}` (the shipped hinge): the gear, link angle minus motor angle. Its torque is the gear's
+  torsional spring K_q,i (read from `actuator{i}`'s gain, the twin's joint spring) acting through a dead band
+  of width b: tau = -K_q dz(q_gear), dz(x) = sign(x) max(|x| - b/2, 0): no torque while the teeth float in the
+  gap, the spring once they touch either flank. With b = 0 it is MuJoCo's own joint `stiffness`; with b > 0
+  the simulation loop applies it each step (`gear_torques` into `qfrc_applied`), like the native spring an
+  explicit force. Damping = the shipped joint damping (0.01 K_q), armature `gear_armature_frac` of the motor's.
+
+Why not a limited "play" hinge between motor and spring (MuJoCo's modelling-guide pattern): the node between
+the two hinges then carries only armature, the limit is a soft constraint whose stiffness is about
+m_eff / timeconst^2 (~1e5 N·m/rad for ~1 kg m^2 and 4 ms, against K_q ~ 2e6), and in our runs the gear node
+crossed the band and penetrated the limit by 3x the band itself. The dead-zone spring has no light node: its
+relative mode moves the motor's armature against K_q (sqrt(K/J) ~ 450 rad/s for joints 1-3).
+
+The link angle (what the twin calls q_i) is motor + gear: a fixed tendon `link{i}_angle` (coefficients 1, 1)
+carries the shipped joint's `frictionloss`, the twin's Coulomb friction against the link's own motion, which
+the gear spring must carry (the link lags by tau_f / K_q, as in the twin). Contacts stay disabled: the sheet acts by the
+force field, applied at the tool tip each step. Timestep 1 ms: the fastest mode, the wrist gear against
+its link and the gear armature (~1.5e3 rad/s for joint 6), stays inside the explicit spring's stability
+(omega dt < 2) and is damped implicitly; the arm's own modes on K_q are 10-40 Hz (25+ steps per period).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from twin.base.resources import scene_xml
+from twin.errors import ModelError
+from twin.lab.dynamic.knobs import Knobs
+
+ARM = tuple(range(1, 7))
+# MuJoCo's dry friction is a soft constraint: with the default impedance (d = 0.9) the light wrist slides at a
+# fraction of the friction torque at the groove's 0.025 rad/s; d ~ 1 makes it a Coulomb friction there too.
+FRICTION_SOLIMP = (0.9999, 0.9999, 0.001, 0.5, 2.0)
+FRICTION_SOLREF_STEPS = 2.0
+
+
+@dataclass(frozen=True)
+class Plant:
+    """The compiled dynamic plant and the addresses the controller and sensors need.
+
+    Attributes:
+        model: Compiled model.
+        k_q: Gear stiffness K_q of joints 1..6 [N·m/rad] (from the shipped actuator gains).
+        backlash_rad: Dead band of joints 1..6 [rad].
+        motor_qpos, motor_dof: qpos / dof addresses of the motor hinges, shape (6,).
+        link_qpos: qpos addresses of the gear hinges `joint{i}`, shape (6,).
+        link_dof: dof addresses of the gear hinges, shape (6,).
+        motor_armature: Armature of the motor hinges [kg m^2], shape (6,).
+        tcp_site, ft_site, tool_body: Ids.
+        tool_mass_kg: Mass below the F/T sensor [kg].
+        p_base_sheet_origin: Sheet origin in the base (world) frame [m].
+    """
+
+    model: mujoco.MjModel
+    k_q: np.ndarray
+    backlash_rad: np.ndarray
+    motor_qpos: np.ndarray
+    motor_dof: np.ndarray
+    link_qpos: np.ndarray
+    link_dof: np.ndarray
+    motor_armature: np.ndarray
+    tcp_site: int
+    ft_site: int
+    tool_body: int
+    tool_mass_kg: float
+    p_base_sheet_origin: np.ndarray
+
+    @property
+    def dead_band_joints(self) -> np.ndarray:
+        """Indices (0-based) of the joints with a dead band."""
+        return np.flatnonzero(self.backlash_rad > 0.0)
+
+    def link_angles(self, qpos: np.ndarray) -> np.ndarray:
+        """Link angles q_i = motor + gear hinge [rad], shape (6,)."""
+        return qpos[self.motor_qpos] + qpos[self.link_qpos]
+
+    def gear_torques(self, q_gear: np.ndarray, joints: np.ndarray) -> np.ndarray:
+        """Dead-band spring torques -K dz(q_gear) of `joints` [N·m] for their gear angles `q_gear` [rad]."""
+        half = self.backlash_rad[joints] / 2.0
+        engaged = np.sign(q_gear) * np.maximum(np.abs(q_gear) - half, 0.0)
+        return -self.k_q[joints] * engaged
+
+
+def _shipped_parameters(spec: mujoco.MjSpec) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """K_q [N·m/rad], joint damping [N·m·s/rad], armature [kg m^2] and joint friction [N·m] of the shipped model."""
+    model = spec.compile()
+    k_q = np.array([model.actuator(f"actuator{i}").gainprm[0] for i in ARM])
+    dofs = [model.jnt_dofadr[model.joint(f"joint{i}").id] for i in ARM]
+    return k_q, model.dof_damping[dofs].copy(), model.dof_armature[dofs].copy(), model.dof_frictionloss[dofs].copy()
+
+
+def build_plant(knobs: Knobs) -> Plant:
+    """Build and compile the dynamic plant for these knobs.
+
+    Raises:
+        ModelError: The scene is missing, lacks joint1..6 / actuator1..6, or does not compile.
+    """
+    path = scene_xml()
+    try:
+        spec = mujoco.MjSpec.from_file(str(path))
+        k_q, damping, armature, friction = _shipped_parameters(spec)
+    except Exception as exc:
+        raise ModelError(f"cannot build the dynamic plant from {path}: {exc}") from exc
+    dt = knobs["timestep_s"]
+    spec.option.timestep = dt
+    spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+    spec.option.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT
+    backlash = np.array(knobs.backlash_rad())
+    gear_arm = knobs["gear_armature_frac"] * armature
+    friction = knobs["link_friction_scale"] * friction
+    for act in list(spec.actuators):
+        spec.delete(act)
+    for idx, i in enumerate(ARM):
+        link = spec.joint(f"joint{i}")
+        if link is None:
+            raise ModelError(f"{path} has no joint joint{i}")
+        body = link.parent
+        motor = body.add_joint()
+        motor.name = f"joint{i}_motor"
+        motor.type = mujoco.mjtJoint.mjJNT_HINGE
+        motor.axis, motor.pos = link.axis, link.pos
+        motor.armature = float(armature[idx])
+        motor.damping = [knobs["viscous_friction_nms"], 0.0, 0.0]
+        motor.frictionloss = knobs["coulomb_friction_nm"]
+        motor.limited = mujoco.mjtLimited.mjLIMITED_FALSE
+        # the gear spring: MuJoCo's own without a dead band, applied by the loop with one
+        link.stiffness = [0.0 if backlash[idx] > 0.0 else float(k_q[idx]), 0.0, 0.0]
+        link.springref = 0.0
+        link.damping = [float(damping[idx]), 0.0, 0.0]
+        link.frictionloss = 0.0
+        link.armature = float(gear_arm[idx])
+        link.limited = mujoco.mjtLimited.mjLIMITED_FALSE
+        if friction[idx] > 0.0:  # the shipped joint friction acts on the link's own motion: motor + gear
+            link_angle = spec.add_tendon()
+            link_angle.name = f"link{i}_angle"
+            link_angle.wrap_joint(motor.name, 1.0)
+            link_angle.wrap_joint(link.name, 1.0)
+            link_angle.frictionloss = float(friction[idx])
+            link_angle.solref_friction = [FRICTION_SOLREF_STEPS * dt, 1.0]
+            link_angle.solimp_friction = list(FRICTION_SOLIMP)
+        servo = spec.add_actuator()
+        servo.name = f"servo{i}"
+        servo.target = motor.name
+        servo.trntype = mujoco.mjtTrn.mjTRN_JOINT
+        servo.ctrllimited = mujoco.mjtLimited.mjLIMITED_FALSE
+    try:
+        model = spec.compile()
+    except Exception as exc:
+        raise ModelError(f"cannot compile the dynamic plant from {path}: {exc}") from exc
+
+    def qadr(name: str) -> int:
+        return int(model.jnt_qposadr[model.joint(name).id])
+
+    tcp = model.site("tcp").id
+    tool = model.body("tool").id
+    data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)
+    return Plant(
+        model=model,
+        k_q=k_q,
+        backlash_rad=backlash,
+        motor_qpos=np.array([qadr(f"joint{i}_motor") for i in ARM]),
+        motor_dof=np.array([model.jnt_dofadr[model.joint(f"joint{i}_motor").id] for i in ARM]),
+        link_qpos=np.array([qadr(f"joint{i}") for i in ARM]),
+        link_dof=np.array([model.jnt_dofadr[model.joint(f"joint{i}").id] for i in ARM]),
+        motor_armature=armature.copy(),
+        tcp_site=tcp,
+        ft_site=model.site("ft_site").id,
+        tool_body=tool,
+        tool_mass_kg=float(model.body_subtreemass[tool]),
+        p_base_sheet_origin=data.site("sheet_origin").xpos.copy(),
+    )

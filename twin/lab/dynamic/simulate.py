@@ -1,0 +1,197 @@
+"""Step the dynamic plant along a commanded path against the sheet, and log the physical truth.
+
+Each servo tick (one `mj_step`): the controller writes its set-point, integral and feed-forward into the
+position servos; the sheet's force at the real tool tip (the field of `twin.process.field`, fitted to the FE
+history, advanced along the real tool path) is applied at the tip through `xfrc_applied` on the tool body
+(moment carried to its centre of mass); its tangential part follows the real travel of the tip, reversing
+linearly over `friction_reversal_mm` of travel after a reversal (friction and ploughing need the tool to move
+into the new direction; the field itself flips with the commanded direction); MuJoCo steps; the field commits the tip position. The log holds the
+tool tip, the sheet force and MuJoCo's flange F/T sensor at every tick, for the sensor chain to sample.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from dataclasses import dataclass
+from typing import TextIO
+
+import mujoco
+import numpy as np
+
+from twin.errors import InputError
+from twin.lab.dynamic.controller import apply_gains, design_gains, gravity_torques, rest_state, servo_setpoints
+from twin.lab.dynamic.knobs import Knobs
+from twin.lab.dynamic.plant import Plant, build_plant
+from twin.process.field import SheetForceField
+from twin.process.forces import ForceHistory, default_force_history
+from twin.process.path import label_passes
+from twin.robot.kinematics import Kinematics, load_model
+
+PASS_DEADBAND_M = 2e-3  # back-travel that declares a reversal of the commanded path [m] (a stroke is >= 61 mm)
+LOAD_RAMP_S = 0.5  # a load test's force rises linearly over this time, as a hand-applied load does [s]
+SETTLE_S = 0.3  # the arm rests on the first set-point this long before t = 0 [s]
+
+
+@dataclass(frozen=True)
+class DynamicLog:
+    """The physical truth of a dynamic run, at every servo tick.
+
+    Attributes:
+        t_s: Tick times [s], shape (m,).
+        p_tip_sheet_m: Real tool tip, sheet frame [m], shape (m, 3).
+        f_sheet_n: Force of the sheet on the tool, sheet frame [N], shape (m, 3).
+        f_ft_local_n: MuJoCo `ft_force` sensor (sensor body on tool, ft_site frame) [N], shape (m, 3).
+        R_world_ft: Orientation of ft_site [-], shape (m, 3, 3).
+        q_link: Link angles [rad], shape (m, 6).
+        q_motor_error: Motor set-point minus motor angle [rad], shape (m, 6).
+        q_play: Where the teeth sit in the dead band, q_gear - dz(q_gear) [rad], shape (m, 6): +/- b/2 on a
+            flank, in between while floating (0 for joints without a dead band).
+        wall_s: Wall time of the stepping [s].
+    """
+
+    t_s: np.ndarray
+    p_tip_sheet_m: np.ndarray
+    f_sheet_n: np.ndarray
+    f_ft_local_n: np.ndarray
+    R_world_ft: np.ndarray
+    q_link: np.ndarray
+    q_motor_error: np.ndarray
+    q_play: np.ndarray
+    wall_s: float
+
+
+def simulate(
+    t_cmd_s: np.ndarray,
+    p_cmd_sheet_m: np.ndarray,
+    knobs: Knobs,
+    *,
+    history: ForceHistory | None = None,
+    plant: Plant | None = None,
+    progress: TextIO | None = None,
+    tip_force_n: np.ndarray | None = None,
+) -> DynamicLog:
+    """Run the commanded tool-tip path on the dynamic plant.
+
+    Args:
+        t_cmd_s: Commanded times [s], shape (n,), from 0, increasing.
+        p_cmd_sheet_m: Commanded tool tip, sheet frame [m], shape (n, 3).
+        knobs: Plant and controller knobs.
+        history: FE force history for the sheet's field; default the shipped one.
+        plant: A plant built for `knobs` (built when None).
+        progress: Stream for a progress line every 10 % (None: quiet).
+        tip_force_n: A force on the tool tip, world frame [N], instead of the sheet (load tests); it rises
+            linearly over `LOAD_RAMP_S` from t = 0.
+
+    Returns:
+        The log at every servo tick.
+    """
+    t_cmd = np.asarray(t_cmd_s, dtype=float)
+    p_cmd = np.asarray(p_cmd_sheet_m, dtype=float)
+    if p_cmd.ndim != 2 or p_cmd.shape != (len(t_cmd), 3) or len(t_cmd) < 2 or np.any(np.diff(t_cmd) <= 0):
+        raise InputError(f"expected increasing t (n,) and p (n, 3), n >= 2; got {t_cmd.shape}, {p_cmd.shape}")
+    plant = plant or build_plant(knobs)
+    m = plant.model
+    rigid = load_model(scene=True)
+    kin = Kinematics(rigid)
+    q_ik = kin.ik_path(p_cmd + plant.p_base_sheet_origin)
+    g_ik = gravity_torques(rigid, q_ik)
+    gains = design_gains(plant, rigid, q_ik[0], knobs)
+    apply_gains(plant, gains)
+    dt = m.opt.timestep
+    n_tick = int(np.floor(t_cmd[-1] / dt + 1e-9)) + 1
+    t_tick = dt * np.arange(n_tick)
+    q_sp, dq_sp, g_ff = servo_setpoints(t_cmd, q_ik, g_ik, plant, knobs, t_tick)
+    ctrl_ff = q_sp + (gains.kv * dq_sp + g_ff) / gains.kp
+    ki_over_kp = gains.ki / gains.kp
+    pass_cmd, dir_cmd = label_passes(p_cmd[:, 0], deadband_m=PASS_DEADBAND_M)
+    idx = np.minimum(np.searchsorted(t_cmd, t_tick, side="left"), len(t_cmd) - 1)
+    passes = [int(v) for v in pass_cmd[idx]]
+    dirs = [int(v) for v in dir_cmd[idx]]
+
+    field = SheetForceField(history if history is not None else default_force_history())
+    field.reset()
+    d = mujoco.MjData(m)
+    d.qpos[:] = rest_state(plant, q_ik[0], g_ik[0])
+    d.ctrl[:] = q_sp[0] + g_ff[0] / gains.kp  # at rest: no velocity feed-forward
+    band = plant.dead_band_joints
+    band_qpos, band_dof = plant.link_qpos[band], plant.link_dof[band]
+    half_band = plant.backlash_rad[band] / 2.0
+    for _ in range(int(SETTLE_S / dt)):
+        d.qfrc_applied[band_dof] = plant.gear_torques(d.qpos[band_qpos], band)
+        mujoco.mj_step(m, d)
+    sensor_adr = m.sensor("ft_force").adr[0]
+    tip, xipos = d.site_xpos[plant.tcp_site], d.xipos[plant.tool_body]
+    R_ft = d.site_xmat[plant.ft_site]
+    wrench = d.xfrc_applied[plant.tool_body]
+    ft = d.sensordata[sensor_adr : sensor_adr + 3]
+    origin = plant.p_base_sheet_origin
+    motor_qpos, link_qpos = plant.motor_qpos, plant.link_qpos
+    log_p = np.zeros((n_tick, 3))
+    log_f = np.zeros((n_tick, 3))
+    log_ft = np.zeros((n_tick, 3))
+    log_R = np.zeros((n_tick, 9))
+    log_q = np.zeros((n_tick, 6))
+    log_e = np.zeros((n_tick, 6))
+    log_b = np.zeros((n_tick, 6))
+    integral = np.zeros(6)
+    # tangential (friction and ploughing) force: follows the real travel, reversing over `friction_reversal_mm`
+    slip = float(dirs[0])
+    slip_gain = 2.0 / (1e-3 * knobs["friction_reversal_mm"])
+    x_prev = float(tip[0] - origin[0])
+    step_report = max(1, n_tick // 10)
+    start = time.perf_counter()
+    for k in range(n_tick):
+        mujoco.mj_step1(m, d)  # positions and velocities: the tip is current
+        qm = d.qpos[motor_qpos]
+        err = q_sp[k] - qm
+        integral += err * dt
+        d.ctrl[:] = ctrl_ff[k] + ki_over_kp * integral
+        p = tip - origin
+        if tip_force_n is None:
+            slip = min(1.0, max(-1.0, slip + slip_gain * (float(p[0]) - x_prev)))
+            x_prev = float(p[0])
+            f = field.force(p, passes[k], dirs[k])
+            f[0] *= slip * dirs[k]
+        else:
+            f = tip_force_n * min(1.0, t_tick[k] / LOAD_RAMP_S)
+        l0, l1, l2 = (tip - xipos).tolist()
+        a0, a1, a2 = f.tolist()
+        wrench[:] = (a0, a1, a2, l1 * a2 - l2 * a1, l2 * a0 - l0 * a2, l0 * a1 - l1 * a0)
+        log_p[k] = p
+        log_f[k] = f
+        log_e[k] = err
+        log_q[k] = d.qpos[motor_qpos] + d.qpos[link_qpos]
+        if band.size:
+            q_gear = d.qpos[band_qpos]
+            d.qfrc_applied[band_dof] = plant.gear_torques(q_gear, band)
+            log_b[k, band] = np.clip(q_gear, -half_band, half_band)
+        mujoco.mj_step2(m, d)  # forces, the F/T sensor at the state logged above, integration
+        log_ft[k] = ft
+        log_R[k] = R_ft
+        if tip_force_n is None:
+            field.advance(p, passes[k])
+        if not np.isfinite(d.qpos[0]):
+            raise InputError(f"the dynamic plant diverged at t = {t_tick[k]:.4f} s (timestep {dt} s)")
+        if progress is not None and (k + 1) % step_report == 0:
+            print(
+                f"  dynamic plant: {t_tick[k]:6.2f} / {t_tick[-1]:.2f} s simulated, "
+                f"{time.perf_counter() - start:5.1f} s wall",
+                file=progress,
+            )
+    return DynamicLog(
+        t_s=t_tick,
+        p_tip_sheet_m=log_p,
+        f_sheet_n=log_f,
+        f_ft_local_n=log_ft,
+        R_world_ft=log_R.reshape(n_tick, 3, 3),
+        q_link=log_q,
+        q_motor_error=log_e,
+        q_play=log_b,
+        wall_s=time.perf_counter() - start,
+    )
+
+
+def default_progress() -> TextIO:
+    """Where progress lines go by default (stderr)."""
+    return sys.stderr

@@ -1,0 +1,123 @@
+"""Per-pass tables of an FE force history, for the sheet force field.
+
+For every pass of the history: Fz_hist and the ratio Fx/Fz as PCHIP fits over x, the ideal path's height
+z_plan and its reference depth δ_plan = z_ref - z_plan (z_ref the profile formed before the pass), tabulated on
+a regular x grid and read back by linear interpolation (`lerp`, `lerp_slope`) in the per-sample hot path.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.interpolate import PchipInterpolator
+
+from twin.errors import InputError
+from twin.process.forces import ForceHistory
+from twin.process.formed_profile import FormedProfile
+from twin.process.path import label_passes
+
+
+@dataclass(frozen=True)
+class PassTable:
+    """One pass of the history on a regular x grid.
+
+    Attributes:
+        x0: First grid abscissa [m].
+        dx: Grid spacing [m].
+        n: Number of grid nodes.
+        fz: Fz_hist [N], shape (n,).
+        ratio: Fx_hist / max(Fz_hist, 1 N) [-], shape (n,).
+        z_plan: Height of the ideal path [m], shape (n,).
+        delta_plan: Reference depth of the ideal path, profile before the pass minus z_plan [m], shape (n,).
+        direction: Travel direction of the pass along x, +1 or -1.
+    """
+
+    x0: float
+    dx: float
+    n: int
+    fz: np.ndarray
+    ratio: np.ndarray
+    z_plan: np.ndarray
+    delta_plan: np.ndarray
+    direction: int
+
+
+def lerp(table: np.ndarray, x0: float, dx: float, n: int, x: float) -> float:
+    """Linear interpolation in a table on the grid x0 + dx·i, i < n, clamped at its ends [table unit]."""
+    u = (x - x0) / dx
+    if u <= 0.0:
+        return float(table[0])
+    if u >= n - 1:
+        return float(table[n - 1])
+    i = int(u)
+    f = u - i
+    return float(table[i] * (1.0 - f) + table[i + 1] * f)
+
+
+def lerp_slope(table: np.ndarray, x0: float, dx: float, n: int, x: float) -> tuple[float, float]:
+    """`lerp` (same arithmetic) and its slope d/dx (0 where the table is clamped) [table unit / m]."""
+    u = (x - x0) / dx
+    if u <= 0.0:
+        return float(table[0]), 0.0
+    if u >= n - 1:
+        return float(table[n - 1]), 0.0
+    i = int(u)
+    f = u - i
+    a, b = float(table[i]), float(table[i + 1])
+    return a * (1.0 - f) + b * f, (b - a) / dx
+
+
+def build_pass_tables(history: ForceHistory, profile: FormedProfile, *, deadband_m: float) -> list[PassTable]:
+    """Tabulate every pass of `history`, driving `profile` along the history's own (ideal) samples.
+
+    Before pass j the profile is snapshot (the reference of δ_plan), then pass j's samples are committed; on
+    return `profile` holds the ideal path's formed profile.
+
+    Args:
+        history: Physical force history along the ideal path.
+        profile: Formed profile to drive (normally flat on entry); its grid step is the tables' (at most: each
+            pass's grid spans its x range exactly).
+        deadband_m: Dead band for labelling the history's passes (`label_passes`) [m].
+
+    Returns:
+        One table per pass, passes 1..N in order.
+
+    Raises:
+        InputError: A pass with fewer than 2 distinct x samples.
+    """
+    x, z = history.p_sheet_m[:, 0], history.p_sheet_m[:, 2]
+    fx, fz = history.f_sheet_n[:, 0], history.f_sheet_n[:, 2]
+    pass_index, direction = label_passes(x, deadband_m=deadband_m)
+    n_passes = int(pass_index.max())
+    tables: list[PassTable] = []
+    for j in range(1, n_passes + 1):
+        sel = np.flatnonzero(pass_index == j)
+        xs, order = np.unique(x[sel], return_index=True)
+        if len(xs) < 2:
+            raise InputError(f"{history.source}: pass {j} has fewer than 2 distinct x samples")
+        sel = sel[order]
+        n = max(2, math.ceil((xs[-1] - xs[0]) / profile.dx) + 1)
+        grid = np.linspace(xs[0], xs[-1], n)
+        fz_t = PchipInterpolator(xs, fz[sel])(grid)
+        fx_t = PchipInterpolator(xs, fx[sel])(grid)
+        # reference drive of the ideal path: profile before pass j, then commit pass j's samples
+        profile.take_snapshot()
+        z_plan = np.interp(grid, xs, z[sel])
+        delta_plan = np.interp(grid, profile.x_grid_m, profile.snapshot_m) - z_plan
+        for i in np.flatnonzero(pass_index == j):
+            profile.commit(float(x[i]), float(z[i]))
+        tables.append(
+            PassTable(
+                x0=float(grid[0]),
+                dx=float(grid[1] - grid[0]),
+                n=n,
+                fz=fz_t,
+                ratio=fx_t / np.maximum(fz_t, 1.0),
+                z_plan=z_plan,
+                delta_plan=delta_plan,
+                direction=int(direction[sel[0]]),
+            )
+        )
+    return tables

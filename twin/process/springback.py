@@ -1,0 +1,80 @@
+"""Springback: the part's profile after the tool has left, from the loaded profile and the contact forces.
+
+While the tool presses, the groove bottom under it sits at the loaded, formed surface (the lower envelope of
+the tool sphere, `SheetForceField.formed_z_m`). When the tool leaves, the sheet recovers elastically by the
+force it last carried there over the sheet's unloading stiffness, the same k_unload that makes the force fall
+when the tool lifts in the field (§2.3.1: the rigid CNC formed 8.7 mm of the 10 mm target):
+
+    z_after(x) = min(z_loaded(x) + Fz_last(x) / k_unload, 0),
+
+with Fz_last(x) the vertical force of the last sample whose tool sphere covered x. The recovery cannot lift
+the sheet above its flat, unformed plane (z = 0).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from twin.errors import InputError
+
+
+def last_contact_force(
+    x_grid_m: np.ndarray, x_tool_m: np.ndarray, fz_n: np.ndarray, radius_m: float
+) -> np.ndarray:
+    """Vertical force of the last tool sample whose sphere covered each grid point [N].
+
+    Args:
+        x_grid_m: Profile grid along the groove, increasing [m], shape (g,).
+        x_tool_m: Tool-tip x of the samples in time order [m], shape (n,).
+        fz_n: Vertical force on the tool at those samples [N], shape (n,).
+        radius_m: Tool sphere radius [m].
+
+    Returns:
+        Fz_last on the grid [N], 0 where the tool never passed, shape (g,).
+    """
+    x_grid = np.asarray(x_grid_m, dtype=float)
+    x_tool = np.asarray(x_tool_m, dtype=float)
+    fz = np.asarray(fz_n, dtype=float)
+    if x_tool.shape != fz.shape or x_tool.ndim != 1:
+        raise InputError(f"x_tool_m {x_tool.shape} and fz_n {fz.shape} must be equal-length 1-D arrays")
+    if not (math.isfinite(radius_m) and radius_m > 0):
+        raise InputError(f"radius_m = {radius_m!r}: expected a finite number > 0")
+    lo = np.searchsorted(x_grid, x_tool - radius_m, side="left")
+    hi = np.searchsorted(x_grid, x_tool + radius_m, side="right")
+    out = np.zeros(len(x_grid))
+    for i0, i1, f in zip(lo.tolist(), hi.tolist(), fz.tolist(), strict=True):
+        out[i0:i1] = f
+    return out
+
+
+def unloaded_profile(
+    x_grid_m: np.ndarray,
+    z_loaded_m: np.ndarray,
+    x_tool_m: np.ndarray,
+    fz_n: np.ndarray,
+    *,
+    k_unload_n_per_m: float,
+    radius_m: float,
+) -> np.ndarray:
+    """Groove bottom after the tool has left: loaded profile plus elastic recovery [m].
+
+    Args:
+        x_grid_m: Profile grid along the groove, increasing [m], shape (g,).
+        z_loaded_m: Loaded, formed profile on that grid [m] (<= 0), shape (g,).
+        x_tool_m: Tool-tip x of the run's samples in time order [m], shape (n,).
+        fz_n: Vertical force on the tool at those samples [N], shape (n,).
+        k_unload_n_per_m: Elastic unloading stiffness of the formed sheet [N/m].
+        radius_m: Tool sphere radius [m].
+
+    Returns:
+        z after springback on the grid [m], shape (g,).
+    """
+    if not (math.isfinite(k_unload_n_per_m) and k_unload_n_per_m > 0):
+        raise InputError(f"k_unload_n_per_m = {k_unload_n_per_m!r}: expected a finite number > 0")
+    z_loaded = np.asarray(z_loaded_m, dtype=float)
+    if z_loaded.shape != np.shape(x_grid_m):
+        raise InputError(f"z_loaded_m {z_loaded.shape} must match x_grid_m {np.shape(x_grid_m)}")
+    recovery = last_contact_force(x_grid_m, x_tool_m, fz_n, radius_m) / k_unload_n_per_m
+    return np.minimum(z_loaded + recovery, 0.0)

@@ -1,0 +1,284 @@
+"""The import mapping: a TOML file that describes a cell's raw exports (schema: docs/import-export.md).
+
+Read with the standard library's `tomllib`; every problem raises a `MappingError` that names the mapping
+file, the line of the offending key and what was expected. Relative file names are relative to the
+mapping file's folder. Units and frames are converted to SI here, so `twin.runs.importer` only sees
+metres, newtons and seconds.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from twin.errors import InputError
+from twin.robot.dh import TOOL_LENGTH_M
+from twin.runs.registration import Registration, fit_rigid, given_transform
+from twin.runs.toml_keys import ClockError, MappingError, RegistrationError, TomlReader
+
+LENGTH_UNITS = {"m": 1.0, "mm": 1e-3, "µm": 1e-6, "um": 1e-6}
+FORCE_UNITS = {"N": 1.0, "kN": 1e3}
+TIME_UNITS = {"s": 1.0, "ms": 1e-3, "µs": 1e-6, "us": 1e-6}
+DELIMITERS = {",": ",", ";": ";", "tab": "\t", "\t": "\t"}
+DECIMALS = (".", ",")
+CLOCK_METHODS = ("offset", "force_onset", "motion_onset")
+STANDARD_GRAVITY_M_S2 = 9.80665
+
+
+@dataclass(frozen=True)
+class TableSpec:
+    """How to read one raw export.
+
+    Attributes:
+        name: Stream name (`commanded`, `tracker`, `forces`, `profile`).
+        file: The raw file.
+        delimiter: Field separator (`,`, `;` or a tab).
+        decimal: Decimal separator (`.` or `,`).
+        header_line: 1-based line of the header row, 0 when there is none.
+        columns: Value columns, by header name or 0-based index (x, y, z / fx, fy, fz / x, z).
+        scale: Factor from the file's unit to SI [m or N per file unit].
+        time_column: Time column by name or index, None with `rate_hz` or for the profile.
+        time_scale: Factor from the time unit to seconds [s per unit].
+        rate_hz: Sample rate when the file has no time column [Hz].
+    """
+
+    name: str
+    file: Path
+    delimiter: str
+    decimal: str
+    header_line: int
+    columns: tuple[str | int, ...]
+    scale: float
+    time_column: str | int | None
+    time_scale: float
+    rate_hz: float | None
+
+
+@dataclass(frozen=True)
+class ClockSpec:
+    """Clock of a stream: `t_shared = t_stream - offset_s`, or the offset found by `method`.
+
+    Attributes:
+        method: `offset`, `force_onset` or `motion_onset`.
+        offset_s: The stream clock's reading when the commanded path starts [s] (method `offset`).
+        max_offset_s: Largest offset a search may return [s].
+    """
+
+    method: str
+    offset_s: float | None
+    max_offset_s: float
+
+
+@dataclass(frozen=True)
+class SensorSpec:
+    """Force sensor frame and the tool hanging below it.
+
+    Attributes:
+        R_sheet_sensor: Rotation of the sensor axes in the sheet frame (constant: the ISF tool stays vertical).
+        tool_mass_kg: Mass below the sensor's measuring plane [kg].
+        com_sensor_m: Its centre of mass in the sensor frame [m] (enters torques only; recorded in meta).
+        gravity_sheet_m_s2: Gravity in the sheet frame [m/s^2].
+    """
+
+    R_sheet_sensor: np.ndarray
+    tool_mass_kg: float
+    com_sensor_m: np.ndarray
+    gravity_sheet_m_s2: np.ndarray
+
+
+@dataclass(frozen=True)
+class ImportMapping:
+    """A validated import mapping, SI units.
+
+    Attributes:
+        path: The mapping file.
+        scenario: Scenario label for meta.json.
+        tool_length_m: Tool length for meta.json [m].
+        notes: Free text for meta.json.
+        commanded, tracker, forces, profile: How to read each raw export (profile optional).
+        registration: Tracker-to-sheet transform, given or fitted to reference points (with its residual).
+        tracker_clock, forces_clock: Clock alignment of the two measured streams.
+        sensor: Force sensor frame and tool weight.
+    """
+
+    path: Path
+    scenario: str
+    tool_length_m: float
+    notes: str
+    commanded: TableSpec
+    tracker: TableSpec
+    forces: TableSpec
+    profile: TableSpec | None
+    registration: Registration
+    tracker_clock: ClockSpec
+    forces_clock: ClockSpec
+    sensor: SensorSpec
+
+    def inputs(self) -> list[Path]:
+        """Every file the mapping reads (never to be written over)."""
+        tables = [self.commanded, self.tracker, self.forces, *([self.profile] if self.profile else [])]
+        return [self.path, *(t.file for t in tables)]
+
+
+def _table(reader: TomlReader, name: str, columns: tuple[str, ...], units: dict[str, float]) -> TableSpec:
+    file_text = reader.get(f"{name}.file", kind=str)
+    file = (reader.path.parent / file_text).resolve()
+    if not file.is_file():
+        raise reader.error(f"{name}.file", f"file not found: {file}")
+    delimiter = reader.get(f"{name}.delimiter", ",", kind=str)
+    if delimiter not in DELIMITERS:
+        raise reader.error(f"{name}.delimiter", f"is {delimiter!r}, expected one of ',', ';', 'tab'")
+    decimal = reader.get(f"{name}.decimal", ".", kind=str)
+    if decimal not in DECIMALS:
+        raise reader.error(f"{name}.decimal", f"is {decimal!r}, expected '.' or ','")
+    if decimal == DELIMITERS[delimiter]:
+        raise reader.error(f"{name}.decimal", f"decimal separator {decimal!r} equals the delimiter")
+    header_line = reader.get(f"{name}.header_line", 1, kind=int)
+    if header_line < 0:
+        raise reader.error(
+            f"{name}.header_line", f"is {header_line}, expected 0 (no header) or a line number"
+        )
+    cols: list[str | int] = []
+    for column in columns:
+        value = reader.get(f"{name}.{column}", kind=(str, int))
+        if (isinstance(value, int) and value < 0) or (isinstance(value, str) and header_line == 0):
+            raise reader.error(
+                f"{name}.{column}", f"is {value!r}, expected a 0-based column index (or a name with a header)"
+            )
+        cols.append(value)
+    scale = reader.unit(f"{name}.unit", units)
+    time_column = reader.get(f"{name}.time", None, kind=(str, int))
+    rate = reader.number(f"{name}.rate_hz", None, positive=True)
+    if name != "profile" and (time_column is None) == math.isnan(rate):
+        raise reader.error(f"{name}.time", "give either a time column ('time' with 'time_unit') or 'rate_hz'")
+    time_scale = reader.unit(f"{name}.time_unit", TIME_UNITS, "s")
+    return TableSpec(
+        name,
+        file,
+        DELIMITERS[delimiter],
+        decimal,
+        header_line,
+        tuple(cols),
+        scale,
+        time_column,
+        time_scale,
+        None if math.isnan(rate) else rate,
+    )
+
+
+def _clock(reader: TomlReader, name: str, default_method: str) -> ClockSpec:
+    offset = reader.number(f"{name}.clock.offset_s", None)
+    method = reader.get(
+        f"{name}.clock.method", "offset" if not math.isnan(offset) else default_method, kind=str
+    )
+    if method not in CLOCK_METHODS:
+        raise reader.error(f"{name}.clock.method", f"is {method!r}, expected one of {list(CLOCK_METHODS)}")
+    if method == "offset" and math.isnan(offset):
+        raise reader.error(f"{name}.clock.offset_s", "method 'offset' needs offset_s [s]", ClockError)
+    max_offset = reader.number(f"{name}.clock.max_offset_s", 600.0, positive=True)
+    return ClockSpec(method, None if math.isnan(offset) else offset, max_offset)
+
+
+def _rotation(reader: TomlReader, dotted: str, R: np.ndarray) -> np.ndarray:
+    if not np.allclose(R.T @ R, np.eye(3), atol=1e-6) or np.linalg.det(R) < 0:
+        raise reader.error(
+            dotted, f"is not a proper rotation (R^T R = I, det = +1 within 1e-6): {R.tolist()}"
+        )
+    return R
+
+
+def _registration(r: TomlReader) -> Registration:
+    length = r.unit("tracker.frame.unit", LENGTH_UNITS, "mm")
+    T = r.matrix("tracker.frame.T_sheet_tracker", (4, 4), None)
+    p_sheet = r.matrix("tracker.frame.points_sheet", None, None)
+    p_tracker = r.matrix("tracker.frame.points_tracker", None, None)
+    if T is not None:
+        if p_sheet is not None or p_tracker is not None:
+            raise r.error("tracker.frame.T_sheet_tracker", "give either T_sheet_tracker or reference points")
+        T = T.copy()
+        T[:3, 3] *= length
+        try:
+            return given_transform(T)
+        except InputError as exc:
+            raise r.error("tracker.frame.T_sheet_tracker", str(exc), RegistrationError) from None
+    if p_sheet is None or p_tracker is None:
+        raise r.error(
+            "tracker.frame.points_sheet",
+            "the tracker frame needs T_sheet_tracker (4x4) or points_sheet and points_tracker (>= 3 each)",
+            RegistrationError,
+        )
+    if p_sheet.shape != p_tracker.shape:
+        raise r.error(
+            "tracker.frame.points_tracker",
+            f"has {len(p_tracker)} points, points_sheet has {len(p_sheet)}: expected the same points",
+            RegistrationError,
+        )
+    if len(p_sheet) < 3:
+        raise r.error(
+            "tracker.frame.points_sheet",
+            f"has {len(p_sheet)} reference point(s), expected at least 3 (not collinear)",
+            RegistrationError,
+        )
+    try:
+        return fit_rigid(p_tracker * length, p_sheet * length)
+    except InputError as exc:
+        raise r.error("tracker.frame.points_sheet", str(exc), RegistrationError) from None
+
+
+def load_mapping(path: str | Path) -> ImportMapping:
+    """Read and validate an import mapping.
+
+    Args:
+        path: The TOML mapping file.
+
+    Returns:
+        The mapping, SI units, with absolute file names.
+
+    Raises:
+        MappingError: Missing mapping or raw file, bad TOML, missing key, unknown unit, bad value; names the
+            mapping file, the line and the key. RegistrationError: fewer than 3 reference points or mismatched
+            lists. ClockError: an `offset` clock without `offset_s`.
+    """
+    path = Path(path).resolve()
+    if not path.is_file():
+        raise MappingError(path, "mapping file not found")
+    text = path.read_text(encoding="utf-8-sig")
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        line = re.search(r"line (\d+)", str(exc))
+        raise MappingError(path, f"not valid TOML ({exc})", int(line.group(1)) if line else None) from None
+    r = TomlReader(path, text, data)
+    registration = _registration(r)
+    R_sensor = r.matrix("forces.sensor.R_sheet_sensor", (3, 3), [[1, 0, 0], [0, 1, 0], [0, 0, 1]])
+    assert R_sensor is not None
+    gravity = r.vector("forces.sensor.gravity_sheet_m_s2", [0.0, 0.0, -STANDARD_GRAVITY_M_S2])
+    com = r.vector("forces.sensor.com_sensor_mm", [0.0, 0.0, 0.0])
+    sensor = SensorSpec(
+        _rotation(r, "forces.sensor.R_sheet_sensor", R_sensor),
+        r.number("forces.sensor.tool_mass_kg", 0.0),
+        com * 1e-3,
+        gravity,
+    )
+    if sensor.tool_mass_kg < 0:
+        raise r.error("forces.sensor.tool_mass_kg", f"is {sensor.tool_mass_kg}, expected >= 0 [kg]")
+    has_profile = isinstance(data.get("profile"), dict)
+    return ImportMapping(
+        path=path,
+        scenario=r.get("run.scenario", "imported", kind=str),
+        tool_length_m=r.number("run.tool_length_mm", TOOL_LENGTH_M * 1e3, positive=True) * 1e-3,
+        notes=r.get("run.notes", "", kind=str),
+        commanded=_table(r, "commanded", ("x", "y", "z"), LENGTH_UNITS),
+        tracker=_table(r, "tracker", ("x", "y", "z"), LENGTH_UNITS),
+        forces=_table(r, "forces", ("fx", "fy", "fz"), FORCE_UNITS),
+        profile=_table(r, "profile", ("x", "z"), LENGTH_UNITS) if has_profile else None,
+        registration=registration,
+        tracker_clock=_clock(r, "tracker", "offset"),
+        forces_clock=_clock(r, "forces", "offset"),
+        sensor=sensor,
+    )

@@ -1,0 +1,129 @@
+"""Reading a cell's raw exports: any delimiter, decimal commas, a UTF-8 BOM, a header row or column indices.
+
+The file is only read, never modified. Every bad value raises a `MappingError` naming the raw file, its
+1-based line and the column, with what was expected.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from twin.runs.mapping import MappingError, TableSpec
+
+
+@dataclass(frozen=True)
+class RawTable:
+    """One raw export in SI units, still on its own clock and in its own frame.
+
+    Attributes:
+        t_s: Sample times on the stream's clock, strictly increasing [s] (None for a profile).
+        values: Samples converted to SI, shape (n, k) [m or N].
+        lines: 1-based file line of each sample, shape (n,).
+    """
+
+    t_s: np.ndarray | None
+    values: np.ndarray
+    lines: np.ndarray
+
+
+def _column_index(spec: TableSpec, header: list[str] | None, column: str | int, key: str, line: int) -> int:
+    if isinstance(column, int):
+        return column
+    assert header is not None
+    names = [name.strip() for name in header]
+    if column not in names:
+        raise MappingError(spec.file, f"column {column!r} ({key}) not in the header {names}", line, key)
+    return names.index(column)
+
+
+def _number(spec: TableSpec, text: str, line: int, key: str) -> float:
+    cleaned = text.strip()
+    if spec.decimal == ",":
+        if "." in cleaned:
+            raise MappingError(spec.file, f"holds {text!r}, expected a number with decimal ','", line, key)
+        cleaned = cleaned.replace(",", ".")
+    try:
+        value = float(cleaned)
+    except ValueError:
+        raise MappingError(
+            spec.file, f"holds {text!r}, expected a number with decimal {spec.decimal!r}", line, key
+        ) from None
+    if not math.isfinite(value):
+        raise MappingError(spec.file, f"holds {text!r}, expected a finite number", line, key)
+    return value
+
+
+def read_raw_table(spec: TableSpec) -> RawTable:
+    """Read one raw export as described by its mapping table.
+
+    Blank lines, lines starting with `#` and the lines before the header are skipped; every other line
+    after the header is a sample.
+
+    Args:
+        spec: The mapping's description of the file.
+
+    Returns:
+        Times [s] and values [m or N] with the file line of each sample.
+
+    Raises:
+        MappingError: Missing column, short row, non-numeric value, fewer than 2 samples, or time not strictly
+            increasing; names the file, the line and the column.
+    """
+    text = spec.file.read_text(encoding="utf-8-sig")  # a BOM is tolerated
+    rows = list(csv.reader(text.splitlines(), delimiter=spec.delimiter))
+    header: list[str] | None = None
+    first = 0
+    if spec.header_line > 0:
+        if spec.header_line > len(rows):
+            raise MappingError(spec.file, f"has {len(rows)} lines, header_line is {spec.header_line}")
+        header = rows[spec.header_line - 1]
+        first = spec.header_line
+    keys = {"commanded": ("x", "y", "z"), "tracker": ("x", "y", "z"), "profile": ("x", "z")}
+    names = keys.get(spec.name, ("fx", "fy", "fz"))
+    header_line = max(spec.header_line, 1)
+    index = [_column_index(spec, header, c, k, header_line) for c, k in zip(spec.columns, names, strict=True)]
+    t_index = (
+        None
+        if spec.time_column is None
+        else _column_index(spec, header, spec.time_column, "time", header_line)
+    )
+    wanted = [*index, *([] if t_index is None else [t_index])]
+    values: list[list[float]] = []
+    times: list[float] = []
+    lines: list[int] = []
+    for number, fields in enumerate(rows[first:], start=first + 1):
+        if not fields or not "".join(fields).strip() or fields[0].lstrip().startswith("#"):
+            continue
+        if len(fields) <= max(wanted):
+            raise MappingError(
+                spec.file, f"row has {len(fields)} field(s), expected at least {max(wanted) + 1}", number
+            )
+        values.append([_number(spec, fields[i], number, k) for i, k in zip(index, names, strict=True)])
+        if t_index is not None:
+            times.append(_number(spec, fields[t_index], number, "time"))
+        lines.append(number)
+    if len(values) < 2:
+        raise MappingError(spec.file, f"has {len(values)} data row(s), expected at least 2")
+    array = np.asarray(values, dtype=float) * spec.scale
+    line_array = np.asarray(lines)
+    if spec.name == "profile":
+        return RawTable(None, array, line_array)
+    if t_index is None:
+        assert spec.rate_hz is not None
+        t_s = np.arange(len(values)) / spec.rate_hz
+    else:
+        t_s = np.asarray(times) * spec.time_scale
+        bad = np.flatnonzero(np.diff(t_s) <= 0)
+        if bad.size:
+            k = int(bad[0])
+            raise MappingError(
+                spec.file,
+                f"time goes from {times[k]!r} to {times[k + 1]!r}; expected strictly increasing",
+                int(line_array[k + 1]),
+                "time",
+            )
+    return RawTable(t_s, array, line_array)

@@ -1,0 +1,120 @@
+"""Writing a `tx200-twin-run/1` run directory atomically, never over an input.
+
+The input-protection rule: the target directory may not be, or hold, any protected input path (the run's own
+`directory` is always protected); an existing non-empty target is replaced only with `overwrite`, and only
+after the new directory has been written beside it and read back with `read_run`.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import tempfile
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from twin.base.csvio import write_json, write_table
+from twin.errors import DataFileError, InputError
+from twin.runs.format import RUN_FORMAT, RUN_FRAME, Run
+from twin.runs.read import read_run
+
+
+def _protected_by(target: Path, protect: Sequence[str | Path]) -> Path | None:
+    for other in protect:
+        other_path = Path(other).resolve()
+        if other_path == target or other_path.is_relative_to(target):
+            return Path(other)
+    return None
+
+
+def write_run(
+    directory: str | Path,
+    run: Run,
+    *,
+    truth: Mapping[str, Any] | None = None,
+    overwrite: bool = False,
+    protect: Sequence[str | Path] = (),
+) -> Path:
+    """Write a run directory atomically (temporary sibling directory, validated, then renamed into place).
+
+    Positions are written in mm with 4 decimals, forces in N with 3, times in s with 6. The written
+    directory is read back with `read_run` before it replaces anything, so the writer never produces a
+    run the reader rejects.
+
+    Args:
+        directory: Target run directory.
+        run: The run (SI units). Missing `format`/`frame` keys in `run.meta` are filled in.
+        truth: Lab-only hidden truth, written to truth.json when given.
+        overwrite: Replace an existing non-empty directory.
+        protect: Input paths that must not be inside (or be) the target; `run.directory` is always protected.
+
+    Returns:
+        The directory written.
+
+    Raises:
+        InputError: Target exists and is non-empty without `overwrite`, target holds a protected input,
+            or the run does not satisfy the format (message names the file and row).
+    """
+    target = Path(directory).resolve()
+    guarded = [*protect, *([run.directory] if run.directory is not None else [])]
+    hit = _protected_by(target, guarded)
+    if hit is not None:
+        raise InputError(
+            f"refusing to write run into {target}: it holds the input {hit}; choose another directory"
+        )
+    if target.exists() and not target.is_dir():
+        raise InputError(f"{target} exists and is not a directory; choose another run directory")
+    if target.exists() and any(target.iterdir()) and not overwrite:
+        raise InputError(f"{target} exists and is not empty; pass overwrite=True or choose another directory")
+    meta = {"format": RUN_FORMAT, "frame": RUN_FRAME, **run.meta}
+    if "truth" in meta:
+        raise InputError(
+            "meta must not hold 'truth': pass it as write_run(..., truth=...) (written to truth.json)"
+        )
+    target.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent))
+    try:
+        write_json(tmp / "meta.json", meta)
+        for name, stream in (("commanded.csv", run.commanded), ("tracker.csv", run.tracker)):
+            mm = stream.values * 1e3
+            write_table(
+                tmp / name,
+                {"t_s": stream.t_s, "x_mm": mm[:, 0], "y_mm": mm[:, 1], "z_mm": mm[:, 2]},
+                formats={"t_s": ".6f", "x_mm": ".4f", "y_mm": ".4f", "z_mm": ".4f"},
+            )
+        if run.forces is not None:
+            f = run.forces.values
+            write_table(
+                tmp / "forces.csv",
+                {"t_s": run.forces.t_s, "fx_n": f[:, 0], "fy_n": f[:, 1], "fz_n": f[:, 2]},
+                formats={"t_s": ".6f", "fx_n": ".3f", "fy_n": ".3f", "fz_n": ".3f"},
+            )
+        if run.part_profile is not None:
+            x_m, z_m = run.part_profile
+            write_table(
+                tmp / "part_profile.csv",
+                {"x_mm": np.asarray(x_m) * 1e3, "z_mm": np.asarray(z_m) * 1e3},
+                formats={"x_mm": ".4f", "z_mm": ".4f"},
+            )
+        if truth is not None:
+            write_json(tmp / "truth.json", truth)
+        try:
+            read_run(tmp, require_forces=run.forces is not None)
+        except DataFileError as exc:
+            raise InputError(
+                f"run does not satisfy {RUN_FORMAT}: {str(exc).replace(str(tmp) + os.sep, '')}"
+            ) from None
+        if target.exists():
+            old = Path(tempfile.mkdtemp(prefix=f".{target.name}.", suffix=".old", dir=target.parent))
+            os.replace(target, old / "run")
+            os.replace(tmp, target)
+            shutil.rmtree(old, ignore_errors=True)
+        else:
+            os.replace(tmp, target)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    return target

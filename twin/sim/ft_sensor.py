@@ -1,0 +1,60 @@
+"""The flange force/torque sensor of the twin: MuJoCo's `ft_force` sensor read along a simulated run."""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+
+from twin.base.signals import interp_rows
+from twin.sim.result import SimResult
+
+
+def flange_sensor_forces(
+    model: mujoco.MjModel, data: mujoco.MjData, result: SimResult, t_s: np.ndarray
+) -> np.ndarray:
+    """Read MuJoCo's flange force sensor at the given times, as the run format wants it.
+
+    The equilibrium joint positions and the sheet force are interpolated to `t_s`; the force is applied
+    at the tool tip (`xfrc_applied` on the tool body, moment carried to its centre of mass); `mj_inverse`
+    at qvel = qacc = 0 evaluates the `ft_force` sensor; the tool's weight is removed by a second, unloaded
+    reading at the same pose (tare); the result is turned into the sheet frame and its sign flipped
+    (the sensor reports the force the sensor body exerts on the tool).
+
+    Args:
+        model: The model `result` was simulated with (sites `tcp` and `ft_site`, sensor `ft_force`).
+        data: Its data; qpos, qvel, qacc and xfrc_applied are overwritten.
+        result: A run from `Twin.simulate`.
+        t_s: Sensor sample times [s], within the run.
+
+    Returns:
+        Force exerted by the sheet on the tool, sheet frame [N], shape (m, 3).
+    """
+    m, d = model, data
+    tcp = m.site("tcp").id
+    tool_body = int(m.site_bodyid[tcp])
+    ft_site = m.site("ft_site").id
+    t_s = np.asarray(t_s, dtype=float)
+    qpos = interp_rows(t_s, result.t_s, result.qpos)
+    force = interp_rows(t_s, result.t_s, result.f_sheet_n)
+    sensor_adr = m.sensor("ft_force").adr[0]
+    out = np.zeros((len(t_s), 3))
+    # views into MjData, refreshed by every mj_kinematics / mj_inverse
+    sensor = d.sensordata[sensor_adr : sensor_adr + 3]
+    R_base_ft = d.site_xmat[ft_site].reshape(3, 3)
+    wrench = d.xfrc_applied[tool_body]
+    tcp_xpos, tool_xipos = d.site_xpos[tcp], d.xipos[tool_body]
+    d.qvel[:] = 0.0
+    d.qacc[:] = 0.0
+    d.xfrc_applied[:] = 0.0
+    for i in range(len(t_s)):
+        d.qpos[:] = qpos[i]
+        mujoco.mj_kinematics(m, d)
+        l0, l1, l2 = (tcp_xpos - tool_xipos).tolist()
+        a0, a1, a2 = force[i].tolist()
+        wrench[:] = (a0, a1, a2, l1 * a2 - l2 * a1, l2 * a0 - l0 * a2, l0 * a1 - l1 * a0)  # lever x force
+        mujoco.mj_inverse(m, d)
+        loaded = R_base_ft @ sensor
+        wrench[:] = 0.0  # tare: the same pose unloaded
+        mujoco.mj_inverse(m, d)
+        out[i] = -(loaded - R_base_ft @ sensor)
+    return out

@@ -1,0 +1,48 @@
+"""The result of one simulated run (`twin.sim.quasi_static.Twin.simulate`)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class SimResult:
+    """One simulated run, at the commanded samples.
+
+    Attributes:
+        t_s: Sample times [s], shape (n,).
+        p_cmd_sheet_m: Commanded tool tip, sheet frame [m], shape (n, 3).
+        p_unloaded_sheet_m: Tool tip of the unloaded robot (gravity only), sheet frame [m], shape (n, 3).
+        p_sheet_m: Tool tip at equilibrium under the sheet force, sheet frame [m], shape (n, 3).
+        f_sheet_n: Force exerted by the sheet on the tool, sheet frame [N], shape (n, 3).
+        qpos: Equilibrium joint positions (all model joints) [rad], shape (n, nq).
+        q_ik: Rigid IK solution of the commanded path [rad], shape (n, 6).
+        pass_index: Pass number per sample (1-based), shape (n,).
+        direction: Travel direction along x per sample (+1/-1), shape (n,).
+        formed_x_m: Grid of the formed groove profile [m].
+        formed_z_m: Formed groove bottom under load at the end of the run [m].
+        iterations: Newton iterations per sample, shape (n,).
+        tip_gain: d p_tcp / d p_cmd at each equilibrium, (I + C S)^-1 with C the robot's Cartesian compliance
+            and S = -df/dp the sheet's stiffness [-], shape (n, 3, 3).
+    """
+
+    t_s: np.ndarray
+    p_cmd_sheet_m: np.ndarray
+    p_unloaded_sheet_m: np.ndarray
+    p_sheet_m: np.ndarray
+    f_sheet_n: np.ndarray
+    qpos: np.ndarray
+    q_ik: np.ndarray
+    pass_index: np.ndarray
+    direction: np.ndarray
+    formed_x_m: np.ndarray
+    formed_z_m: np.ndarray
+    iterations: np.ndarray
+    tip_gain: np.ndarray
+
+    @property
+    def deflection_sheet_m(self) -> np.ndarray:
+        """Loaded minus unloaded tool tip [m], shape (n, 3)."""
+        return self.p_sheet_m - self.p_unloaded_sheet_m
