@@ -14,7 +14,7 @@ from twin.lab.dynamic.sweep import breaking_feed, feed_sweep, sweep_table, write
 
 def main() -> int:
     out = sys.argv[1] if len(sys.argv) > 1 else "docs/figures/feed_sweep.png"
-    rows = feed_sweep(lambda run: replay(run).metrics, seed=7, progress=sys.stderr)
+    rows = feed_sweep(replay, seed=7, progress=sys.stderr)
     print(sweep_table(rows))
     feed = breaking_feed(rows)
     print(f"quasi-static assumption breaks at: {feed if feed is not None else 'none of these'} m/min")

@@ -10,7 +10,8 @@ test, never through `twin.lab.effects` or the search's families:
 - sensor truths are edits of the streams (bias, cross-talk, clock offset with rate skew from the twin's
   force replayed at shifted times, a drift and a finite registration rotation in random directions, a
   springback that varies along the part);
-- made-up effects no family has (tracker or force oscillations at 0.7-3 Hz) must come out `unexplained`.
+- made-up effects no family has (tracker or force oscillations at 0.7-3 Hz) must come out `unexplained`;
+- runs of the dynamic MuJoCo plant (neutral, and with backlash on joint 2 or joint 1) are reported apart.
 
 Magnitudes are drawn log-uniformly between 3 and 30 times the per-axis noise of the stream the effect shows
 most in; two and three effects are combined; noise levels are 0.5, 1 and 2 x the lab's.
@@ -65,6 +66,8 @@ class Truth:
             return "none"
         if self.kind == "made_up":
             return "unexplained"
+        if self.kind == "dynamic":
+            return "dynamic plant" + (" + " + ", ".join(self.made_up["knobs"]) if self.made_up["knobs"] else "")
         return self.families[0]
 
 
@@ -232,11 +235,31 @@ def make_case(seed: int) -> tuple[Run, Truth]:
     return _apply(base.run, total), Truth(names, [float(m) for m in multiples], kind, noise_level, info)
 
 
-def evaluate(seeds: list[int]) -> dict[str, Any]:
-    """Run the search on each case; rows, the confusion matrix (expected -> verdict) and the rates."""
+# Dynamic-plant runs (`twin.lab.dynamic`, all knobs neutral but the ones set): the plant's servo dynamics
+# are outside the twin, so the right answer is `unexplained` with a signature; backlash is their hidden effect.
+DYNAMIC_CASES: tuple[tuple[str, ...], ...] = ((), ("backlash_j2_mrad=0.4",), ("backlash_j1_mrad=0.4",))
+
+
+def make_dynamic_case(index: int) -> tuple[Run, Truth]:
+    """Dynamic-plant case `index` of DYNAMIC_CASES (seed 900 + index)."""
+    from twin.lab.dynamic.knobs import parse_set_args
+    from twin.lab.dynamic.run import run_dynamic_lab
+
+    t, p = nominal_commanded()
+    sets = DYNAMIC_CASES[index]
+    run, _, _ = run_dynamic_lab(t, p, scenario="nominal", knobs=parse_set_args(list(sets), neutral=True),
+                                seed=900 + index)
+    return run, Truth(["lost_motion"] if sets else [], [], "dynamic", 1.0, {"knobs": list(sets)})
+
+
+def evaluate(seeds: list[int], dynamic: int = 0) -> dict[str, Any]:
+    """Run the search on each case (and the first `dynamic` dynamic-plant cases, reported apart from the
+    rates); rows, the confusion matrix (expected -> verdict) and the rates."""
     rows = []
-    for seed in seeds:
-        run, truth = make_case(seed)
+    cases = [(seed, lambda s=seed: make_case(s)) for seed in seeds]
+    cases += [(1000 + i, lambda i=i: make_dynamic_case(i)) for i in range(dynamic)]
+    for seed, make in cases:
+        run, truth = make()
         began = time.perf_counter()
         result = find_discrepancy(run)
         seconds = time.perf_counter() - began
@@ -255,7 +278,7 @@ def evaluate(seeds: list[int]) -> dict[str, Any]:
 
 def describes(remainder: dict[str, Any], made_up: dict[str, Any]) -> bool | None:
     """Whether the signature names a made-up oscillation: its stream and axis, its frequency within 10 %."""
-    if not made_up:
+    if "stream" not in made_up:
         return None
     return any(
         a["stream"] == made_up["stream"] and a["axis"] == made_up["axis"] and a.get("peak_share", 0.0) >= 0.5
@@ -269,6 +292,8 @@ def right_first(row: dict[str, Any]) -> bool:
     """Whether the first thing said is right: the hidden family (any of a combination's), none, unexplained."""
     if row["kind"] in ("single", "combo"):
         return row["verdict"] in row["truth"]
+    if row["kind"] == "dynamic":
+        return row["verdict"] in row["truth"] or row["verdict"] == "unexplained"
     return bool(row["verdict"] == row["expected"])
 
 
@@ -303,8 +328,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", required=True)
     parser.add_argument("--cases", type=int, default=64)
     parser.add_argument("--clean", type=int, default=20)
+    parser.add_argument("--dynamic", type=int, default=len(DYNAMIC_CASES), help="dynamic-plant cases (0-3)")
     args = parser.parse_args(argv)
-    doc = evaluate(list(range(args.cases)) + list(range(64, 64 + args.clean)))
+    doc = evaluate(list(range(args.cases)) + list(range(64, 64 + args.clean)), args.dynamic)
     with open(args.out, "w") as handle:
         json.dump(doc, handle, indent=1, default=float)
     print(json.dumps({k: v for k, v in doc.items() if k != "rows"}, indent=1, default=float))

@@ -82,7 +82,7 @@ def test_formula_writes_a_commanded_path_with_gain_one(
     assert payload["method"] == "formula" and payload["iterations"] == 0
     assert payload["gain"] == pytest.approx(1.0, abs=0.02)
     assert payload["history"]["symmetry"] == "half"
-    # 0.384 measured (0.074 on a frictionless robot): Eq. 4.28's linear C cannot cancel the joint-friction
+    # 0.360 measured (0.074 on a frictionless robot): Eq. 4.28's linear C cannot cancel the joint-friction
     # offsets that flip at every reversal; `compensate --method twin` does (test below)
     assert payload["predicted_residual_rms_mm"] < 0.5
     assert 2.0 < payload["correction_max_mm"] < 4.0  # 2.81 measured (peak deflection ~2.8 mm)

@@ -18,6 +18,7 @@ from twin.cli import main
 from twin.errors import InputError
 from twin.lab.dynamic.knobs import KNOBS, Knobs, parse_set_args
 from twin.lab.dynamic.run import dynamic_load_test, run_dynamic_lab
+from twin.lab.dynamic.sweep import breaking_feed, feed_sweep, reversal_mask, sweep_table
 from twin.process.path import GrooveSpec, groove_path
 from twin.runs.read import read_run
 from twin.runs.write import write_run
@@ -60,7 +61,7 @@ def neutral_short(tmp_path_factory):
 
 
 def test_neutral_dynamic_run_replays_on_the_twin_within_the_noise(neutral_short):
-    run, _, metrics = neutral_short
+    _, _, metrics = neutral_short
     sigma_mm = Knobs(neutral=True)["tracker_noise_mm"]
     assert metrics["position_rms_mm"] <= 2.0 * math.sqrt(3.0) * sigma_mm  # 2x the noise's own 3-D rms
     assert metrics["force_rms_n"] <= 0.02 * metrics["force_peak_measured_n"]
@@ -95,7 +96,9 @@ def test_dynamic_load_test_matches_the_twin_static_deflection_without_friction()
     loads, deflections = dynamic_load_test(THESIS_TABLE_4_2_LOADS_N, knobs=knobs, seed=3)
     twin_ = Twin(joint_friction=np.zeros(6))
     expected = np.array([twin_.static_deflection(f) for f in loads])
-    assert np.max(np.linalg.norm(deflections - expected, axis=1)) < 0.01 * np.max(np.linalg.norm(expected, axis=1))
+    assert np.max(np.linalg.norm(deflections - expected, axis=1)) < 0.01 * np.max(
+        np.linalg.norm(expected, axis=1)
+    )
 
 
 def test_knobs_round_trip_into_truth_json_from_the_cli(tmp_path, capsys):
@@ -114,7 +117,11 @@ def test_knobs_round_trip_into_truth_json_from_the_cli(tmp_path, capsys):
     assert truth["seed"] == 4 and truth["plant"] == "dynamic"
     run = read_run(out)
     assert run.meta["tracker_rate_hz"] == KNOBS["tracker_rate_hz"].default
-    assert "dynamic plant" in capsys.readouterr().out
+    assert run.part_profile is not None
+    assert 0.005 < -np.min(run.part_profile[1]) < 0.010  # formed, sprung back, shallower than the 10 mm plan
+    captured = capsys.readouterr()
+    assert "dynamic plant" in captured.out
+    assert captured.err.count("s simulated") == 10  # a progress line every 10 %
 
 
 @pytest.mark.parametrize(
@@ -161,11 +168,23 @@ def test_dynamic_plant_code_does_not_import_the_twin_or_the_effect_library():
 @pytest.mark.slow
 def test_full_groove_dynamic_run_gap_is_dominated_by_the_reversals(tmp_path):
     path = groove_path()
-    run, truth, _ = run_dynamic_lab(path.t_s, path.p_sheet_m, scenario="nominal", knobs=Knobs(neutral=True), seed=2)
+    run, truth, _ = run_dynamic_lab(
+        path.t_s, path.p_sheet_m, scenario="nominal", knobs=Knobs(neutral=True), seed=2
+    )
     run = read_run(write_run(tmp_path / "full", run, truth=truth))
     result = replay(run)
     err = np.linalg.norm(run.tracker.values - result.tracker_pred_m, axis=1)
-    near = np.min(np.abs(run.tracker.t_s[:, None] - _reversal_times(run)[None, :]), axis=1) < 0.15
+    near = reversal_mask(run)
     sigma_m = 1e-3 * Knobs(neutral=True)["tracker_noise_mm"]
     assert np.sqrt(np.mean(err[~near] ** 2)) <= 1.2 * math.sqrt(3.0) * sigma_m  # noise alone away from them
     assert result.metrics["force_rms_n"] <= 0.02 * result.metrics["force_peak_measured_n"]
+
+
+@pytest.mark.slow
+def test_feed_sweep_finds_the_twin_breaking_at_high_feed():
+    rows = feed_sweep(replay, feeds_m_per_min=(2.0, 20.0), spec=SHORT, seed=5)
+    slow_row, fast_row = rows
+    assert slow_row.position_away_mm <= slow_row.position_limit_mm  # quasi-static in the strokes at 2 m/min
+    assert fast_row.position_away_mm > 5.0 * fast_row.position_limit_mm
+    assert breaking_feed(rows) is not None and breaking_feed(rows) <= 20.0
+    assert "| 20 |" in sweep_table(rows)

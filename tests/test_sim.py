@@ -11,7 +11,8 @@ from twin.analysis.replay import ReplayResult
 from twin.errors import InputError
 from twin.robot.model import build_model
 from twin.robot.stiffness import set_joint_stiffness
-from twin.sim.quasi_static import NEWTON_MAX_ITER, Twin, joint_motion
+from twin.sim.equilibrium import NEWTON_MAX_ITER, joint_motion
+from twin.sim.quasi_static import Twin
 from twin.sim.result import SimResult
 
 

@@ -47,6 +47,8 @@ from twin.errors import (
     UnitsError,
     UnreachableError,
 )
+from twin.lab.dynamic.knobs import Knobs as DynamicKnobs
+from twin.lab.dynamic.run import dynamic_load_test, run_dynamic_lab
 from twin.lab.effects import EFFECTS, Effects, parse_effect_args, read_model_file, write_model_file
 from twin.lab.virtual import LabSettings, load_test, nominal_commanded, run_lab
 from twin.process.field import SheetForceField
@@ -74,6 +76,7 @@ __all__ = [
     "CompensationError",
     "DataFileError",
     "DiscrepancyResult",
+    "DynamicKnobs",
     "Effects",
     "ForceHistory",
     "GrooveSpec",
@@ -115,6 +118,7 @@ __all__ = [
     "compliance_from_stiffness",
     "default_force_history",
     "diagnose_gain",
+    "dynamic_load_test",
     "estimate_noise",
     "export_path",
     "find_discrepancy",
@@ -144,6 +148,7 @@ __all__ = [
     "replay_metrics",
     "result_summary",
     "run_benchmarks",
+    "run_dynamic_lab",
     "run_lab",
     "write_joint_stiffness",
     "write_model_file",

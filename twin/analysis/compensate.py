@@ -145,11 +145,13 @@ def compensate_twin(
         worst = float(np.max(np.abs(residual)))
         if worst < tol_m:
             return Compensation("twin", t, p_id, cmd, iteration, residual, tuple(history))
-        if iteration > 2 and history[-1] > 2.0 * min(history):
+        bounced = iteration > 2 and history[-1] > 2.0 * min(history)
+        if bounced and history[-1] > 0.5 * history[0]:
             raise CompensationError(f"twin compensation diverges: rms residual {history} m")
-        if iteration > STALL_ITERATIONS and min(history[-STALL_ITERATIONS:]) > STALL_RATIO * min(
+        stalled = iteration > STALL_ITERATIONS and min(history[-STALL_ITERATIONS:]) > STALL_RATIO * min(
             history[:-STALL_ITERATIONS]
-        ):
+        )
+        if bounced or stalled:  # bouncing well below the start: the friction flips at the reversals
             _, cmd_best, residual_best, _ = best
             return Compensation("twin", t, p_id, cmd_best, iteration, residual_best, tuple(history), False)
         # local Newton step per sample: the tip moves by tip_gain @ d_cmd when the command moves by d_cmd.

@@ -226,6 +226,13 @@ def run_benchmarks(repeats: int = 5, samples: int | None = None, *, seed: int = 
     path = ToolPath(t_s=t_s, p_sheet_m=p_cmd, pass_index=pass_index, direction=direction)
     field = SheetForceField(history)
     out["force_field_eval_s"], _ = time_call(lambda: field.rigid_forces(path), repeats)
+    # the dynamic lab plant (twin.lab.dynamic, mj_step at 1 kHz with its sensor chain) on the same command
+    from twin.lab.dynamic.knobs import Knobs as DynamicKnobs
+    from twin.lab.dynamic.run import run_dynamic_lab
+
+    out["dynamic_lab_run_s"], _ = time_call(
+        lambda: run_dynamic_lab(t_s, p_cmd, scenario="nominal", knobs=DynamicKnobs(), seed=seed), repeats
+    )
 
     # the discrepancy workflow on a run with two hidden effects (the thesis story), and on a clean run
     two_effects, _ = run_lab(

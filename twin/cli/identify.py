@@ -108,12 +108,13 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"--method 1 takes no run directory (got {args.run_dir}); use --loads FILE.csv")
     f_n, d_m = load_cases_csv(args.loads)
     fit = fit_kr_load_cases(f_n, d_m)
+    # thesis Eq. 4.27a: C_R(1) is the inverse of K_R's x-z sub-block (y held) [mm/kN]
+    c_r_xz = 1e3 * np.linalg.inv(fit.k_r_n_per_mm[np.ix_([0, 2], [0, 2])])
     payload = {
         "method": 1,
         "loads": str(args.loads),
         "k_r_n_per_mm": fit.k_r_n_per_mm,
-        # thesis Eq. 4.27a: the inverse of K_R's x-z sub-block (y held)
-        "c_r_xz_y_held_mm_per_kn": 1e3 * np.linalg.inv(fit.k_r_n_per_mm[np.ix_([0, 2], [0, 2])]),
+        "c_r_xz_y_held_mm_per_kn": c_r_xz,
         "rows": ["fx", "fy", "fz"],
         "columns": ["dux", "duy", "duz"],
         "residuals_n": fit.residuals_n,
@@ -144,7 +145,7 @@ def run(args: argparse.Namespace) -> int:
         "K_R [N/mm] (rows Fx, Fy, Fz; columns dUx, dUy, dUz):",
         *_matrix_lines(fit.k_r_n_per_mm),
         "C_R x-z, y held (thesis Eq. 4.27a) [mm/kN]:",
-        *_matrix_lines(payload["c_r_xz_y_held_mm_per_kn"]),
+        *_matrix_lines(c_r_xz),
         f"residuals [N]: {', '.join(f'{r:.2f}' for r in fit.residuals_n)}",
         f"condition number of the deflections: {fit.condition_number:.3g}; rank {fit.rank}",
         "K_q [N·m/rad] (unobservable joints keep the model's): "

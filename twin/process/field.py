@@ -54,9 +54,9 @@ from twin.process.path import ToolPath
 
 #: Elastic unloading stiffness of the formed sheet [N/m]: calibrated (`tx200-twin calibrate`) to the CNC test's
 #: springback, 8.7 mm formed of the 10 mm target (§2.3.1), 1.43 ± 0.29 kN/mm.
-K_UNLOAD_N_PER_M = 1.428e6
-#: Forming sensitivity [N/m]: calibrated with Aerens's 0.09·Fz/Δh ≈ 0.15 kN/mm as a prior, 0.16 ± 0.07 kN/mm.
-K_LOAD_N_PER_M = 0.1602e6
+K_UNLOAD_N_PER_M = 1.429e+06
+#: Forming sensitivity [N/m]: calibrated with Aerens's 0.09·Fz/Δh ≈ 0.15 kN/mm as a prior, 0.160 ± 0.065 kN/mm.
+K_LOAD_N_PER_M = 1.595e+05
 #: Tool radius R_T [m] (§2.2, Table 2.2).
 TOOL_RADIUS_M = 7.5e-3
 #: Half-width of the modelled sheet along x [m] (FE sheet 240 mm, §2.2).

@@ -1,19 +1,8 @@
 """The twin: the compliant MuJoCo TX200 driven along a commanded path against the sheet force field.
 
-Per sample the robot is solved to quasi-static equilibrium (qvel = qacc = 0):
-
-    r(q) = K (q_ref - q) + τ_fr - g(q) + J_tcp(q)^T f(p_tcp(q)) = 0,
-
-with K the joint springs (position-actuator `kp`, plus the stiff link-side hinges of lost-motion joints),
-g the gravity torques from `mj_rne`, J_tcp the translational site Jacobian (`mj_jacSite`) and f the force the
-sheet exerts on the tool, from the stateful field. Newton's method with the matrix
-K + dg/dq - J^T (df/dp) J (gravity gradient by finite differences once per run) converges in 2-3
-iterations to 1e-10 rad. This direct solve was chosen over damped stepping (hundreds of `mj_step` per
-sample) because it is exact at equilibrium and an order of magnitude cheaper per sample.
-
-Joint friction (the model's `frictionloss`, Coulomb, against the link's motion) enters as a torque τ_fr:
-a joint the command turns slides, and its spring carries -τ_f·sign(q̇) (an offset that flips when the
-joint reverses); a joint at rest sticks until its torque changes by more than τ_f (`_equilibrium`).
+Per sample the robot is solved to quasi-static equilibrium (qvel = qacc = 0) under its joint springs,
+gravity, joint friction and the force the sheet exerts on the tool, from the stateful field
+(`twin.sim.equilibrium`).
 
 The path is taught under gravity: the set-points are q_ref = q_ik + K^-1 g(q_ik), so the unloaded robot
 lands exactly on the IK solution, and deflection = loaded - unloaded. After each sample the field's formed
@@ -22,13 +11,11 @@ surface advances to where the tool really was.
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import replace
 from functools import partial
 
 import mujoco
 import numpy as np
-from scipy.linalg.lapack import dgesv as _dgesv
 
 from twin.errors import InputError
 from twin.process.field import SheetForceField
@@ -37,33 +24,13 @@ from twin.process.path import label_passes
 from twin.robot.kinematics import Kinematics
 from twin.robot.model import ARM_JOINTS, LOST_MOTION_JOINTS, RobotEffects, build_model, lost_motion_schedule
 from twin.robot.stiffness import set_joint_stiffness
+from twin.sim.equilibrium import EquilibriumSolver, joint_motion
 from twin.sim.ft_sensor import flange_sensor_forces
 from twin.sim.result import SimResult
 
-NEWTON_TOL_RAD = 1e-7  # a Newton step this small leaves < 1e-9 m of error (quadratic convergence)
-NEWTON_MAX_ITER = 20
 # Back-travel that declares a reversal of the commanded path [m]: a compensated command may step back a
 # fraction of a millimetre where the force ramps up, a real reversal travels a whole stroke (>= 61 mm).
 PASS_DEADBAND_M = 2e-3
-# A joint slower than this is at rest for its friction [rad/s]: the groove's joints 2, 3, 5 turn at ~0.02
-# rad/s while forming, joint 1 at ~6e-5 rad/s (the tool stays at y ~ 0), deflections change slower still.
-JOINT_REST_RAD_PER_S = 1e-3
-FRICTION_MAX_ROUNDS = 6  # active-set rounds of the stick/slip solve; 1-2 suffice in practice
-
-
-def joint_motion(t_s: np.ndarray, q: np.ndarray, rest_rad_per_s: float = JOINT_REST_RAD_PER_S) -> np.ndarray:
-    """Sign of each joint's commanded velocity per sample (0 where slower than `rest_rad_per_s`).
-
-    Args:
-        t_s: Sample times [s], shape (n,).
-        q: Joint path [rad], shape (n, 6).
-        rest_rad_per_s: Speed below which a joint counts as at rest [rad/s].
-
-    Returns:
-        -1, 0 or +1 per sample and joint, shape (n, 6).
-    """
-    qdot = np.gradient(q, t_s, axis=0) if len(t_s) >= 2 else np.zeros_like(q)
-    return np.where(np.abs(qdot) > rest_rad_per_s, np.sign(qdot), 0.0)
 
 
 class Twin:
@@ -109,6 +76,7 @@ class Twin:
         self._lost_qpos = np.array([m.jnt_qposadr[m.joint(name).id] for name in lost], dtype=int)
         self._lost_jnt = np.array([m.joint(name).id for name in lost], dtype=int)
         self.p_base_sheet_origin = self.kinematics.p_base_sheet_origin
+        self._solver = EquilibriumSolver(m, self.data, self._tcp, self.p_base_sheet_origin)
         if joint_friction is not None:
             self.joint_friction = joint_friction
 
@@ -158,111 +126,6 @@ class Twin:
         qpos = np.zeros(self.model.nq)
         qpos[self._arm_qpos] = q_arm
         return qpos
-
-    def _newton(
-        self,
-        q: np.ndarray,
-        q_ref: np.ndarray,
-        k_diag: np.ndarray,
-        h_const: np.ndarray,
-        sheet: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]],
-        stick: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
-    ) -> tuple[np.ndarray, int, np.ndarray, np.ndarray, np.ndarray]:
-        """Newton's method on K (q_ref - q) + τ_fr - g(q) + J_tcp(q)^T f(p(q)) = 0 from `q`.
-
-        Args:
-            q: Start [rad], shape (nq,).
-            q_ref: Spring references (set-points taught under gravity) [rad], shape (nq,).
-            k_diag: Joint springs [N·m/rad], shape (nv,).
-            h_const: K + dg/dq, the Newton matrix without the sheet term, shape (nv, nv).
-            sheet: Tool-tip position in the sheet frame [m] -> (force on the tool [N], df/dp [N/m]).
-            stick: None (no friction), or (stuck, e_stuck, tau_fr): dofs whose elastic deflection q_ref - q is
-                held at e_stuck [rad] (the joint sticks), and the friction torque of the slipping ones [N·m].
-
-        Returns:
-            The equilibrium [rad], the iterations used, the translational tcp Jacobian [m/rad] and df/dp
-            [N/m] of the last iteration, and the demanded joint torque g - J^T f there [N·m].
-        """
-        m, d = self.model, self.data
-        jacp = np.zeros((3, m.nv))
-        g = np.zeros(m.nv)
-        stiffness = np.zeros((3, 3))
-        force = np.zeros(3)
-        xpos_tcp = d.site_xpos[self._tcp]  # a view: follows every mj_kinematics
-        k = 0
-        for k in range(1, NEWTON_MAX_ITER + 1):  # noqa: B007
-            d.qpos[:] = q
-            mujoco.mj_kinematics(m, d)
-            mujoco.mj_comPos(m, d)
-            mujoco.mj_rne(m, d, 0, g)
-            mujoco.mj_jacSite(m, d, jacp, None, self._tcp)
-            force, stiffness = sheet(xpos_tcp - self.p_base_sheet_origin)
-            r = k_diag * (q_ref - q) - g + jacp.T @ force
-            h = h_const - jacp.T @ stiffness @ jacp
-            if stick is not None:
-                stuck, e_stuck, tau_fr = stick
-                r += tau_fr
-                r[stuck] = (k_diag * (q_ref - e_stuck - q))[stuck]
-                h[stuck, :] = 0.0
-                h[stuck, stuck] = k_diag[stuck]
-            _, _, dq, info = _dgesv(h, r)  # np.linalg.solve costs 5x more
-            if info != 0:
-                raise np.linalg.LinAlgError(f"singular Newton matrix (LAPACK dgesv info {info}) at q = {q!r}")
-            q = q + dq
-            if abs(dq).max() < NEWTON_TOL_RAD:
-                break
-        return q, k, jacp, stiffness, g - jacp.T @ force
-
-    def _equilibrium(
-        self,
-        q: np.ndarray,
-        q_ref: np.ndarray,
-        k_diag: np.ndarray,
-        h_const: np.ndarray,
-        sheet: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]],
-        e_prev: np.ndarray,
-        motion: np.ndarray | None = None,
-    ) -> tuple[np.ndarray, int, np.ndarray, np.ndarray]:
-        """Equilibrium with joint friction: sliding for moving joints, stick/slip for joints at rest.
-
-        Coulomb friction τ_f in a joint acts on the link against its motion. A joint the command moves
-        (`motion` = ±1) slides: the friction torque is -τ_f·motion, and its gear spring carries it, so the
-        elastic deflection shifts by τ_f/K and flips when the joint reverses. A joint at rest (`motion` = 0)
-        holds its elastic deflection e = q_ref - q while the torque the friction must add, |D - K e_prev| with
-        D = g - J^T f, stays within τ_f (stick); beyond, it slips and carries K e = D - τ_f·sign(D - K e_prev).
-        Starting with every resting frictional joint stuck, joints whose needed friction exceeds τ_f slip,
-        and slipping joints that would move against their friction stick again, until the set is consistent
-        (a few rounds at most).
-
-        Args:
-            q, q_ref, k_diag, h_const, sheet: As for `_newton`.
-            e_prev: Elastic deflection after the previous sample [rad], shape (nv,).
-            motion: Sign of each dof's commanded velocity (0 at rest), shape (nv,); None: all at rest.
-
-        Returns:
-            As `_newton`, without the demanded torque; iterations summed over the rounds.
-        """
-        tau_f = self.model.dof_frictionloss
-        if not tau_f.any():
-            q, k, jac, s, _ = self._newton(q, q_ref, k_diag, h_const, sheet)
-            return q, k, jac, s
-        sliding = np.zeros(len(tau_f), dtype=bool) if motion is None else motion != 0.0
-        frictional = (tau_f > 0.0) & ~sliding
-        stuck = frictional.copy()
-        tau_fr = np.zeros_like(tau_f) if motion is None else -tau_f * motion
-        total = 0
-        for _ in range(FRICTION_MAX_ROUNDS):
-            q, k, jac, s, demand = self._newton(q, q_ref, k_diag, h_const, sheet, (stuck, e_prev, tau_fr))
-            total += k
-            need = demand - k_diag * e_prev
-            slip = stuck & (np.abs(need) > tau_f)
-            moved = q_ref - q - e_prev
-            back = frictional & ~stuck & (moved * tau_fr < 0.0)
-            if not (slip.any() or back.any()):
-                break
-            stuck = (stuck & ~slip) | back
-            tau_fr = np.where(slip, tau_f * np.sign(need), np.where(back, 0.0, tau_fr))
-        return q, total, jac, s
 
     def simulate(
         self, t_s: np.ndarray, p_cmd_sheet_m: np.ndarray, *, q_ik: np.ndarray | None = None
@@ -346,7 +209,7 @@ class Twin:
                 q = q_nominal + deflection_q
             if i == 0:
                 e_prev = q_ref - q_nominal  # the joints hold the taught, unloaded deflection
-            q, k, jac_last[i], s_last[i] = self._equilibrium(
+            q, k, jac_last[i], s_last[i] = self._solver.solve(
                 q,
                 q_ref,
                 k_diag,
@@ -419,7 +282,7 @@ class Twin:
         q_ref = q_nominal + g_nom / k_diag
         h_const = np.diag(k_diag) + self._gravity_gradient(q_nominal)
         no_sheet = np.zeros((3, 3))
-        q, _, _, _ = self._equilibrium(
+        q, _, _, _ = self._solver.solve(
             q_nominal.copy(), q_ref, k_diag, h_const, lambda _p: (f, no_sheet), q_ref - q_nominal
         )
         d.qpos[:] = q

@@ -37,10 +37,14 @@ def run_dynamic_command(args: argparse.Namespace, *, loads_n: np.ndarray) -> int
         formats = {name: (".1f" if name.startswith("f") else ".5f") for name in columns}
         write_table(args.out, columns, formats=formats)
         print(f"lab loadtest (dynamic plant): {len(loads)} load cases at home -> {args.out}", file=out)
-        emit_json(args.json, {"scenario": "loadtest", "plant": "dynamic", "out": args.out, "cases": len(loads)})
+        emit_json(
+            args.json, {"scenario": "loadtest", "plant": "dynamic", "out": args.out, "cases": len(loads)}
+        )
         return 0
     if args.scenario == "compensated" and args.commanded is None:
-        raise InputError("--scenario compensated needs --commanded PATH.csv (e.g. from `tx200-twin compensate`)")
+        raise InputError(
+            "--scenario compensated needs --commanded PATH.csv (e.g. from `tx200-twin compensate`)"
+        )
     protect: list[Path] = []
     if args.commanded is not None:
         commanded = read_commanded_csv(args.commanded)

@@ -12,8 +12,8 @@ implicitly); the integral, velocity and gravity terms enter through `ctrl`. Gain
 gear, kp = r K_q (r = `servo_stiffness_ratio`, default 1), critically damped on the inertia J = motor armature +
 the rigid arm's mass-matrix diagonal at the start pose, kv = 2 zeta sqrt(kp J), and ki = kp 2 pi f_i (zeta = 2, f_i = 10 Hz: the least
 replay gap at 2 m/min of the settings tried).
-The resulting position-loop bandwidths sqrt(kp/J)/2 pi are 12-13 Hz for joints 1-3 and 70-140 Hz for the wrist,
-the range of a CS8C-class controller whose wrist loops are much faster than the arm's.
+With the shipped K_q the position-loop bandwidths sqrt(kp/J)/2 pi come out at 12-24 Hz for joints 1-3 and
+50-80 Hz for the wrist: a CS8C-class controller, whose wrist loops are faster than the arm's.
 
 Set-points are taught under gravity, as the twin teaches them: the motor set-point is
 q_sp = q_ik + g(q_ik)/K_q + sign(g) b/2, so the unloaded robot (gear spring wound up by gravity, dead band
@@ -114,7 +114,7 @@ def servo_setpoints(
     period = knobs["trajectory_period_s"]
     t_traj = np.arange(0.0, t_servo_s[-1] + period, period)
     traj = np.column_stack([np.interp(t_traj, t_cmd_s, q_sp[:, j]) for j in range(6)])
-    width = int(round(knobs["trajectory_smoothing_s"] / period)) | 1
+    width = round(knobs["trajectory_smoothing_s"] / period) | 1
     traj = _moving_average(traj, width)
     q_servo = np.column_stack([np.interp(t_servo_s, t_traj, traj[:, j]) for j in range(6)])
     dq_servo = np.gradient(q_servo, t_servo_s, axis=0)
@@ -125,7 +125,9 @@ def servo_setpoints(
 def rest_state(plant: Plant, q_link: np.ndarray, g: np.ndarray) -> np.ndarray:
     """qpos of the unloaded arm at rest on `q_link` [rad] with gravity torques `g` [N·m] (all hinges)."""
     qpos = np.zeros(plant.model.nq)
-    gear = -g / plant.k_q - np.sign(g) * plant.backlash_rad / 2.0  # spring wound up, flank on the gravity side
+    gear = (
+        -g / plant.k_q - np.sign(g) * plant.backlash_rad / 2.0
+    )  # spring wound up, flank on the gravity side
     qpos[plant.link_qpos] = gear
     qpos[plant.motor_qpos] = q_link - gear
     return qpos

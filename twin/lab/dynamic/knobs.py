@@ -45,7 +45,12 @@ KNOBS: dict[str, KnobSpec] = {
         for j in range(1, 7)
     },
     "link_friction_scale": KnobSpec(
-        1.0, 1.0, "-", "scale on the model's joint frictionloss (link-side Coulomb friction, as the twin's)", 0.0, 10.0
+        1.0,
+        1.0,
+        "-",
+        "scale on the model's joint frictionloss (link-side Coulomb friction, as the twin's)",
+        0.0,
+        10.0,
     ),
     "coulomb_friction_nm": KnobSpec(
         30.0, 0.0, "N·m", "Coulomb friction of each motor-side hinge (MuJoCo frictionloss)", 0.0, 1e4
@@ -57,14 +62,24 @@ KNOBS: dict[str, KnobSpec] = {
         0.1, 0.1, "-", "armature of the gear/link-side hinges, fraction of the motor armature", 1e-3, 1.0
     ),
     "friction_reversal_mm": KnobSpec(
-        0.05, 0.05, "mm", "tool travel over which the sheet's tangential force reverses (-1 to +1)", 0.01, 10.0
+        0.05,
+        0.05,
+        "mm",
+        "tool travel over which the sheet's tangential force reverses (-1 to +1)",
+        0.01,
+        10.0,
     ),
     "timestep_s": KnobSpec(
         1e-3, 1e-3, "s", "MuJoCo timestep (implicitfast); the servo runs once per step", 1e-4, 2e-3
     ),
     # ---- controller
     "servo_stiffness_ratio": KnobSpec(
-        1.0, 1.0, "-", "position-loop gain kp over the gear stiffness K_q (servo as stiff as the gear)", 0.05, 20.0
+        1.0,
+        1.0,
+        "-",
+        "position-loop gain kp over the gear stiffness K_q (servo as stiff as the gear)",
+        0.05,
+        20.0,
     ),
     "servo_damping_ratio": KnobSpec(2.0, 2.0, "-", "damping ratio of the position loop", 0.1, 5.0),
     "servo_integral_hz": KnobSpec(
@@ -81,9 +96,7 @@ KNOBS: dict[str, KnobSpec] = {
     "tracker_noise_mm": KnobSpec(0.02, 0.02, "mm", "tracker white noise per axis (K-610 class)", 0.0, 1.0),
     "tracker_quantum_mm": KnobSpec(0.001, 0.0, "mm", "tracker resolution (0: none)", 0.0, 0.1),
     "tracker_latency_s": KnobSpec(0.002, 0.0, "s", "tracker latency (sample shows the past)", 0.0, 0.5),
-    "tracker_clock_offset_s": KnobSpec(
-        0.001, 0.0, "s", "tracker clock minus controller clock", -0.5, 0.5
-    ),
+    "tracker_clock_offset_s": KnobSpec(0.001, 0.0, "s", "tracker clock minus controller clock", -0.5, 0.5),
     "tracker_clock_skew_ppm": KnobSpec(20.0, 0.0, "ppm", "tracker clock-rate error", -1e4, 1e4),
     "tracker_reg_mm": KnobSpec(
         0.2, 0.0, "mm", "tracker-frame registration error: translation along (1,-1,1)/sqrt 3", -5.0, 5.0
@@ -91,9 +104,14 @@ KNOBS: dict[str, KnobSpec] = {
     "tracker_reg_mrad": KnobSpec(
         1.0, 0.0, "mrad", "registration error: rotation about (1,1,1)/sqrt 3 at the sheet origin", -10.0, 10.0
     ),
+    "profile_noise_mm": KnobSpec(
+        0.02, 0.02, "mm", "part-profile scan white noise (after unclamping)", 0.0, 1.0
+    ),
     # ---- force/torque sensor
     "ft_rate_hz": KnobSpec(30.0, 30.0, "Hz", "F/T sensor rate (thesis 3.3: 30 Hz)", 1.0, 7000.0),
-    "ft_noise_n": KnobSpec(5.0, 5.0, "N", "F/T white noise per axis (ATI Omega160 at this range)", 0.0, 100.0),
+    "ft_noise_n": KnobSpec(
+        5.0, 5.0, "N", "F/T white noise per axis (ATI Omega160 at this range)", 0.0, 100.0
+    ),
     "ft_quantum_n": KnobSpec(0.25, 0.0, "N", "F/T resolution (Omega160 SI-2500: 1/4 N)", 0.0, 10.0),
     "ft_latency_s": KnobSpec(0.005, 0.0, "s", "F/T latency", 0.0, 0.5),
     "ft_clock_offset_s": KnobSpec(-0.002, 0.0, "s", "F/T clock minus controller clock", -0.5, 0.5),
@@ -139,7 +157,7 @@ class Knobs:
         return {k: v for k, v in self._values.items() if v != KNOBS[k].neutral}
 
 
-def _checked(name: str, value: float) -> float:
+def _checked(name: str, value: float | str) -> float:
     if name not in KNOBS:
         raise InputError(f"unknown knob {name!r}; valid knobs: {', '.join(KNOBS)}")
     spec = KNOBS[name]

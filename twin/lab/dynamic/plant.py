@@ -98,7 +98,12 @@ def _shipped_parameters(spec: mujoco.MjSpec) -> tuple[np.ndarray, np.ndarray, np
     model = spec.compile()
     k_q = np.array([model.actuator(f"actuator{i}").gainprm[0] for i in ARM])
     dofs = [model.jnt_dofadr[model.joint(f"joint{i}").id] for i in ARM]
-    return k_q, model.dof_damping[dofs].copy(), model.dof_armature[dofs].copy(), model.dof_frictionloss[dofs].copy()
+    return (
+        k_q,
+        model.dof_damping[dofs].copy(),
+        model.dof_armature[dofs].copy(),
+        model.dof_frictionloss[dofs].copy(),
+    )
 
 
 def build_plant(knobs: Knobs) -> Plant:

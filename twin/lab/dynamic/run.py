@@ -15,7 +15,7 @@ import numpy as np
 from twin.base.signals import interp_rows
 from twin.lab.dynamic.knobs import Knobs
 from twin.lab.dynamic.plant import Plant, build_plant
-from twin.lab.dynamic.sensors import ft_reading, tracker_reading
+from twin.lab.dynamic.sensors import ft_reading, profile_scan, tracker_reading
 from twin.lab.dynamic.simulate import DynamicLog, simulate
 from twin.process.forces import ForceHistory
 from twin.robot.dh import TOOL_LENGTH_M
@@ -54,6 +54,7 @@ def run_dynamic_lab(
     rng = np.random.default_rng(seed)
     t_tracker, tracker = tracker_reading(log, knobs, rng)
     t_ft, forces = ft_reading(log, knobs, rng, plant.tool_mass_kg)
+    profile = profile_scan(log, knobs, rng)
     meta = {
         "format": "tx200-twin-run/1",
         "scenario": scenario,
@@ -70,6 +71,7 @@ def run_dynamic_lab(
         commanded=Stream(np.asarray(t_s, dtype=float), np.asarray(p_cmd_sheet_m, dtype=float)),
         tracker=Stream(t_tracker, tracker),
         forces=Stream(t_ft, forces),
+        part_profile=profile,
     )
     return run, truth_record(plant, knobs, seed, log, t_s, p_cmd_sheet_m), log
 
@@ -94,9 +96,7 @@ def truth_record(
     }
 
 
-def dynamic_load_test(
-    loads_n: np.ndarray, *, knobs: Knobs, seed: int
-) -> tuple[np.ndarray, np.ndarray]:
+def dynamic_load_test(loads_n: np.ndarray, *, knobs: Knobs, seed: int) -> tuple[np.ndarray, np.ndarray]:
     """Thesis Method 1 on the dynamic plant: each load held at `home`, the tip read loaded and unloaded.
 
     Args:
@@ -123,4 +123,6 @@ def dynamic_load_test(
 
     unloaded = settled_tip(np.zeros(3))
     deflections = np.array([settled_tip(f) - unloaded for f in loads])
-    return loads, deflections + rng.normal(0.0, noise, deflections.shape) - rng.normal(0.0, noise, deflections.shape)
+    return loads, deflections + rng.normal(0.0, noise, deflections.shape) - rng.normal(
+        0.0, noise, deflections.shape
+    )

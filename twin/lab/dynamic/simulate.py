@@ -20,7 +20,13 @@ import mujoco
 import numpy as np
 
 from twin.errors import InputError
-from twin.lab.dynamic.controller import apply_gains, design_gains, gravity_torques, rest_state, servo_setpoints
+from twin.lab.dynamic.controller import (
+    apply_gains,
+    design_gains,
+    gravity_torques,
+    rest_state,
+    servo_setpoints,
+)
 from twin.lab.dynamic.knobs import Knobs
 from twin.lab.dynamic.plant import Plant, build_plant
 from twin.process.field import SheetForceField
@@ -28,7 +34,9 @@ from twin.process.forces import ForceHistory, default_force_history
 from twin.process.path import label_passes
 from twin.robot.kinematics import Kinematics, load_model
 
-PASS_DEADBAND_M = 2e-3  # back-travel that declares a reversal of the commanded path [m] (a stroke is >= 61 mm)
+PASS_DEADBAND_M = (
+    2e-3  # back-travel that declares a reversal of the commanded path [m] (a stroke is >= 61 mm)
+)
 LOAD_RAMP_S = 0.5  # a load test's force rises linearly over this time, as a hand-applied load does [s]
 SETTLE_S = 0.3  # the arm rests on the first set-point this long before t = 0 [s]
 
@@ -45,6 +53,8 @@ class DynamicLog:
         R_world_ft: Orientation of ft_site [-], shape (m, 3, 3).
         q_link: Link angles [rad], shape (m, 6).
         q_motor_error: Motor set-point minus motor angle [rad], shape (m, 6).
+        formed_x_m: Grid of the sheet's formed profile [m], shape (g,).
+        formed_z_m: Loaded, formed groove bottom at the end of the run [m], shape (g,).
         q_play: Where the teeth sit in the dead band, q_gear - dz(q_gear) [rad], shape (m, 6): +/- b/2 on a
             flank, in between while floating (0 for joints without a dead band).
         wall_s: Wall time of the stepping [s].
@@ -58,6 +68,8 @@ class DynamicLog:
     q_link: np.ndarray
     q_motor_error: np.ndarray
     q_play: np.ndarray
+    formed_x_m: np.ndarray
+    formed_z_m: np.ndarray
     wall_s: float
 
 
@@ -188,6 +200,8 @@ def simulate(
         q_link=log_q,
         q_motor_error=log_e,
         q_play=log_b,
+        formed_x_m=np.asarray(field.x_grid_m, dtype=float).copy(),
+        formed_z_m=np.asarray(field.formed_z_m, dtype=float).copy(),
         wall_s=time.perf_counter() - start,
     )
 

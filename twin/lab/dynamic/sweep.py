@@ -13,7 +13,7 @@ import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import TextIO
+from typing import Protocol, TextIO
 
 import numpy as np
 
@@ -27,6 +27,32 @@ FORCE_GAP_FRACTION = 0.02  # force gap allowed, fraction of the peak force [-]
 POSITION_GAP_NOISE_FACTOR = 2.0  # position gap allowed, in units of the tracker noise's 3-D rms [-]
 
 
+REVERSAL_WINDOW_S = 0.15  # tracker samples this close to a commanded reversal count as "at a reversal" [s]
+
+
+class ReplayLike(Protocol):
+    """What the sweep needs from a replay (`twin.analysis.replay.ReplayResult` has it)."""
+
+    @property
+    def metrics(self) -> Mapping[str, float]:
+        """Gap metrics: `position_rms_mm`, `position_max_mm`, `force_rms_n`, `force_peak_measured_n`."""
+        ...
+
+    @property
+    def tracker_pred_m(self) -> np.ndarray:
+        """Predicted tracker reading at the run's tracker times [m], shape (m, 3)."""
+        ...
+
+
+def reversal_mask(run: Run, window_s: float = REVERSAL_WINDOW_S) -> np.ndarray:
+    """Tracker samples within `window_s` of a reversal of the commanded x, shape (m,) [bool]."""
+    x = run.commanded.values[:, 0]
+    t_rev = run.commanded.t_s[np.flatnonzero(np.diff(np.sign(np.diff(x))) != 0) + 1]
+    if t_rev.size == 0:
+        return np.zeros(run.tracker.t_s.shape, dtype=bool)
+    return np.min(np.abs(run.tracker.t_s[:, None] - t_rev[None, :]), axis=1) < window_s
+
+
 @dataclass(frozen=True)
 class SweepRow:
     """One feed of the sweep.
@@ -35,6 +61,7 @@ class SweepRow:
         feed_m_per_min: Feed [m/min].
         position_rms_mm: Replay gap, tracker vs twin, rms of the 3-D distance [mm].
         position_max_mm: Its maximum [mm].
+        position_away_mm: The rms gap away from the reversals (farther than `REVERSAL_WINDOW_S`) [mm].
         force_rms_n: Replay gap of the force, rms of the 3-D difference [N].
         force_peak_n: Peak measured force [N].
         position_limit_mm: What noise alone allows, 2 sqrt(3) sigma_tracker [mm].
@@ -44,6 +71,7 @@ class SweepRow:
     feed_m_per_min: float
     position_rms_mm: float
     position_max_mm: float
+    position_away_mm: float
     force_rms_n: float
     force_peak_n: float
     position_limit_mm: float
@@ -59,7 +87,7 @@ class SweepRow:
 
 
 def feed_sweep(
-    replay_metrics: Callable[[Run], Mapping[str, float]],
+    replay: Callable[[Run], ReplayLike],
     *,
     feeds_m_per_min: Sequence[float] = DEFAULT_FEEDS_M_PER_MIN,
     spec: GrooveSpec | None = None,
@@ -70,8 +98,7 @@ def feed_sweep(
     """Run the groove at each feed on the dynamic plant and replay it.
 
     Args:
-        replay_metrics: Run -> replay metrics with `position_rms_mm`, `position_max_mm`, `force_rms_n`,
-            `force_peak_measured_n` (what `twin.analysis.replay.replay(run).metrics` gives).
+        replay: Run -> its replay on the twin (`twin.analysis.replay.replay`).
         feeds_m_per_min: Feeds [m/min].
         spec: Groove geometry (its feed is replaced); default the thesis groove.
         knobs: Plant knobs; default the neutral ones.
@@ -88,11 +115,15 @@ def feed_sweep(
     for feed in feeds_m_per_min:
         path = groove_path(replace(spec, feed_m_per_s=feed / 60.0))
         run, _, log = run_dynamic_lab(path.t_s, path.p_sheet_m, scenario="nominal", knobs=knobs, seed=seed)
-        metrics = replay_metrics(run)
+        result = replay(run)
+        metrics = result.metrics
+        err_m = np.linalg.norm(run.tracker.values - result.tracker_pred_m, axis=1)
+        away = ~reversal_mask(run)
         row = SweepRow(
             feed_m_per_min=float(feed),
             position_rms_mm=float(metrics["position_rms_mm"]),
             position_max_mm=float(metrics["position_max_mm"]),
+            position_away_mm=1e3 * float(np.sqrt(np.mean(err_m[away] ** 2))),
             force_rms_n=float(metrics["force_rms_n"]),
             force_peak_n=float(metrics["force_peak_measured_n"]),
             position_limit_mm=limit_mm,
@@ -101,7 +132,8 @@ def feed_sweep(
         rows.append(row)
         if progress is not None:
             print(
-                f"  feed {feed:5.1f} m/min: position gap {row.position_rms_mm:.3f} mm rms, "
+                f"  feed {feed:5.1f} m/min: position gap {row.position_rms_mm:.3f} mm rms "
+                f"({row.position_away_mm:.3f} away from reversals), "
                 f"force gap {row.force_rms_n:.1f} N rms ({log.wall_s:.1f} s)",
                 file=progress,
             )
@@ -117,14 +149,14 @@ def breaking_feed(rows: Sequence[SweepRow]) -> float | None:
 def sweep_table(rows: Sequence[SweepRow]) -> str:
     """The sweep as a Markdown table."""
     lines = [
-        "| feed [m/min] | position gap rms / max [mm] | limit [mm] | force gap rms [N] | 2 % of peak [N] | "
-        "quasi-static |",
-        "|---|---|---|---|---|---|",
+        "| feed [m/min] | position gap rms / max [mm] | rms away from reversals [mm] | limit [mm] | "
+        "force gap rms [N] | 2 % of peak [N] | quasi-static |",
+        "|---|---|---|---|---|---|---|",
     ]
     for r in rows:
         lines.append(
             f"| {r.feed_m_per_min:g} | {r.position_rms_mm:.3f} / {r.position_max_mm:.3f} | "
-            f"{r.position_limit_mm:.3f} | {r.force_rms_n:.1f} | {FORCE_GAP_FRACTION * r.force_peak_n:.1f} | "
+            f"{r.position_away_mm:.3f} | {r.position_limit_mm:.3f} | {r.force_rms_n:.1f} | {FORCE_GAP_FRACTION * r.force_peak_n:.1f} | "
             f"{'yes' if r.quasi_static else 'no'} |"
         )
     return "\n".join(lines)
@@ -140,6 +172,7 @@ def write_sweep_figure(rows: Sequence[SweepRow], path: str | Path) -> Path:
     feeds = np.array([r.feed_m_per_min for r in rows])
     fig, (ax_p, ax_f) = plt.subplots(1, 2, figsize=(9.0, 3.6), constrained_layout=True)
     ax_p.plot(feeds, [r.position_rms_mm for r in rows], "o-", label="replay gap (rms)")
+    ax_p.plot(feeds, [r.position_away_mm for r in rows], "s:", label="away from reversals")
     ax_p.plot(feeds, [r.position_limit_mm for r in rows], "k--", label="2x tracker noise (3-D rms)")
     ax_p.set(xscale="log", yscale="log", xlabel="feed [m/min]", ylabel="position gap [mm]")
     ax_f.plot(feeds, [r.force_rms_n for r in rows], "o-", color="C3", label="replay gap (rms)")
