@@ -495,3 +495,23 @@ def test_grid_clean_runs_give_none(nominal_path: tuple[np.ndarray, np.ndarray]) 
         print({"clean seed": seed, "verdict": result.verdict, "found": result.found, "seconds": seconds}, flush=True)
         verdicts.append(result.verdict)
     assert verdicts.count("none") >= NAMED_RATE * len(verdicts), verdicts
+
+
+def test_signature_says_an_offset_flips_with_the_travel_direction(
+    clean_unlabelled: Run, commanded_at_tracker: tuple[np.ndarray, np.ndarray]
+) -> None:
+    from twin.analysis.discrepancy.labmodel import context
+    from twin.analysis.discrepancy.residuals import ResidualModel
+    from twin.analysis.discrepancy.signature import describe_remainder
+
+    _, direction = commanded_at_tracker
+    run = clean_unlabelled
+    ctx = context(ResidualModel(run), Effects())
+    flip = np.zeros_like(run.tracker.values)
+    flip[:, 0] = 1e-4 * direction
+    sigma = {"position": 2e-5, "force": 5.0, "profile": 2e-5}
+    signature = describe_remainder(ctx, {"position": flip}, sigma, ())
+    assert [(a["stream"], a["axis"]) for a in signature["axes"]] == [("position", "x")]
+    assert "+/-0.1 mm offset that flips with the travel direction" in signature["words"], signature["words"]
+    assert signature["words"].endswith("(not explained by any family)")
+    assert describe_remainder(ctx, {"position": 0.0 * flip}, sigma, ())["words"] == "nothing left above the noise"

@@ -17,6 +17,7 @@ import numpy as np
 
 from twin.errors import InputError
 
+REFINE_MAX_WINDOWS = 6  # the reversal fit moves its window up to this many times to enclose the minimum
 ONSET_NOISE_FACTOR = 6.0  # onset: first sample above baseline + 6 noise sigmas (and 2 % of the range)
 ONSET_RANGE_FRACTION = 0.02
 LEAD_IN_SAMPLES = 10  # the baseline is the median of the first samples: they must precede the onset
@@ -108,7 +109,8 @@ def refine_on_reversals(
 
     The measured `fx/|f|` (in contact) is fitted to the commanded travel direction `sign(dx/dt)` (linear
     between commanded samples) shifted by τ,
-    within ±(4 σ + 2 samples) of the onset estimate. Each of the path's reversals is a sharp feature, so the
+    within ±(4 σ + 20 half-samples) of the onset estimate, the window moved (up to REFINE_MAX_WINDOWS times)
+    while the minimum sits on its edge. Each of the path's reversals is a sharp feature, so the
     refined offset is far more precise than the onset's. Without at least 2 reversals the fit is returned as is.
     Its uncertainty is statistical only: how sharply the measured flip follows the commanded reversal is a
     model assumption (on the virtual lab's runs the estimate lands 2-3 ms early, see docs/import-export.md).
@@ -132,9 +134,15 @@ def refine_on_reversals(
     contact = magnitude > 0.2 * np.percentile(magnitude, 95)
     step = step_of(t_s) / 2.0
     half = 4.0 * fit.sigma_s + 20.0 * step
-    taus = fit.offset_s + np.arange(-half, half, step)
-    tau, sigma = best_lag(t_s[contact], f_sheet_n[contact, 0] / magnitude[contact], t_ref_s, reference, taus)
-    return ClockFit(tau, sigma, fit.method, "reversals")
+    centre = fit.offset_s
+    measured = f_sheet_n[contact, 0] / magnitude[contact]
+    for _ in range(REFINE_MAX_WINDOWS):
+        taus = centre + np.arange(-half, half, step)
+        tau, sigma = best_lag(t_s[contact], measured, t_ref_s, reference, taus)
+        if np.isfinite(sigma) and taus[1] < tau < taus[-2]:  # a minimum inside the window
+            return ClockFit(tau, sigma, fit.method, "reversals")
+        centre = tau  # the minimum lies at the window's edge: move the window there
+    return fit
 
 
 def onset_offset(
