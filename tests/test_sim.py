@@ -11,7 +11,7 @@ from twin.analysis.replay import ReplayResult
 from twin.errors import InputError
 from twin.robot.model import build_model
 from twin.robot.stiffness import set_joint_stiffness
-from twin.sim.equilibrium import NEWTON_MAX_ITER, joint_motion
+from twin.sim.equilibrium import NEWTON_MAX_ITER
 from twin.sim.quasi_static import Twin
 from twin.sim.result import SimResult
 
@@ -97,7 +97,9 @@ def test_sensor_removes_the_tool_weight_and_reports_in_the_sheet_frame(
 def test_groove_run_converges_and_the_unloaded_robot_lands_on_the_path(clean_replay: ReplayResult) -> None:
     sim = clean_replay.sim
     assert isinstance(sim, SimResult)
-    assert sim.iterations.max() < NEWTON_MAX_ITER
+    # iterations are summed over the friction active set's rounds (one Newton solve each, at most 2-4 rounds)
+    assert sim.iterations.max() < 2 * NEWTON_MAX_ITER
+    assert sim.iterations.mean() < 6.0
     np.testing.assert_allclose(sim.p_unloaded_sheet_m, sim.p_cmd_sheet_m, rtol=0, atol=1e-6)
     assert sim.pass_index.max() == 10
 
@@ -107,7 +109,8 @@ def test_groove_deflection_is_the_compliance_times_the_sheet_force(
 ) -> None:
     """Where the turning joints slide, the deflection is J K^-1 (J^T f - τ_f·sign(q̇)): Hooke plus friction."""
     sim = clean_replay.sim
-    motion = joint_motion(sim.t_s, sim.q_ik)
+    qdot = np.gradient(sim.q_ik, sim.t_s, axis=0)
+    motion = np.where(np.abs(qdot) > 1e-3, np.sign(qdot), 0.0)  # joints turning faster than 1 mrad/s
     frictional = twin_nominal.joint_friction > 0.0
     sliding = np.all(motion[:, frictional] != 0.0, axis=1)
     forming = np.flatnonzero((np.linalg.norm(sim.f_sheet_n, axis=1) > 300.0) & sliding)[::25]

@@ -53,7 +53,10 @@ from twin.lab.effects import EFFECTS, Effects, parse_effect_args, read_model_fil
 from twin.lab.virtual import LabSettings, load_test, nominal_commanded, run_lab
 from twin.process.field import SheetForceField
 from twin.process.forces import ForceHistory, default_force_history, load_force_history
+from twin.process.gcode import parse_gcode, read_gcode, write_gcode
 from twin.process.path import GrooveSpec, ToolPath, groove_path, label_passes, write_path_csv
+from twin.process.placement import Placement, ReachReport, check_reach
+from twin.process.shapes import PartSpec, part_path
 from twin.robot.kinematics import HOME_Q_RAD, TOOL_LENGTH_M, Kinematics, load_model
 from twin.robot.model import RobotEffects, build_model
 from twin.robot.pinocchio_model import PinKinematics
@@ -92,7 +95,10 @@ __all__ = [
     "MappingError",
     "Method2Result",
     "ModelError",
+    "PartSpec",
     "PinKinematics",
+    "Placement",
+    "ReachReport",
     "RegistrationError",
     "ReplayResult",
     "ResidualModel",
@@ -111,6 +117,7 @@ __all__ = [
     "UnreachableError",
     "analytic_replay",
     "build_model",
+    "check_reach",
     "check_run",
     "compensate_formula",
     "compensate_twin",
@@ -141,7 +148,10 @@ __all__ = [
     "method2",
     "nominal_commanded",
     "parse_effect_args",
+    "parse_gcode",
+    "part_path",
     "read_commanded_csv",
+    "read_gcode",
     "read_model_file",
     "read_run",
     "replay",
@@ -150,6 +160,7 @@ __all__ = [
     "run_benchmarks",
     "run_dynamic_lab",
     "run_lab",
+    "write_gcode",
     "write_joint_stiffness",
     "write_model_file",
     "write_path_csv",

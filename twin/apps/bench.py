@@ -21,93 +21,21 @@ import sys
 import tempfile
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import mujoco
 import numpy as np
-from scipy.linalg.lapack import dgesv
 
-from twin.base.signals import interp_rows
+from twin.apps.analytic_replay import AnalyticReplay, analytic_replay
+from twin.apps.bench_speed import mujoco_call_floor, path_growth
+from twin.apps.sweep import run_sweep
 from twin.errors import InputError
-from twin.process.forces import ForceHistory
 from twin.process.path import label_passes
 from twin.runs.format import Run
 from twin.sim.quasi_static import PASS_DEADBAND_M, Twin
 
-ANALYTIC_TOL_M = 1e-12  # fixed-point residual of the per-sample 3x3 Newton solve [m]
-ANALYTIC_MAX_ITER = 20
-
-
-@dataclass(frozen=True)
-class AnalyticReplay:
-    """A run replayed with the linear compliance model (no gravity, no MuJoCo in the loop).
-
-    Attributes:
-        p_sheet_m: Tool tip at equilibrium, sheet frame [m], shape (n, 3) at the commanded samples.
-        f_sheet_n: Force of the sheet on the tool [N], shape (n, 3).
-        tracker_pred_m: Tool tip at the run's tracker times [m], shape (m, 3).
-        forces_pred_n: Force at the run's sensor times [N] (None when the run has none).
-    """
-
-    p_sheet_m: np.ndarray
-    f_sheet_n: np.ndarray
-    tracker_pred_m: np.ndarray
-    forces_pred_n: np.ndarray | None
-
-
-def analytic_replay(run: Run, *, twin: Twin | None = None, history: ForceHistory | None = None) -> AnalyticReplay:
-    """Replay a run with d = J K_q^-1 J^T f per sample, the field evaluated at the deflected tool tip.
-
-    The per-sample Jacobian comes from the IK of the commanded path (the twin's kinematics), the compliance
-    C = J_v K_q^-1 J_v^T is formed for all samples at once, and each sample solves d = C f(p_cmd + d) by a
-    3x3 Newton iteration (the sheet is stiffer than the robot, so a plain fixed point would diverge) before
-    the field's formed surface advances, exactly as in the twin. Gravity is taught away as in the twin.
-
-    Args:
-        run: A measured run (only its commanded path and stream times are used).
-        twin: A ready twin whose kinematics, K_q and field are used; default a fresh nominal one.
-        history: Force history for a fresh twin.
-
-    Returns:
-        The linear-model prediction.
-
-    Raises:
-        InputError: The per-sample solve did not converge.
-    """
-    twin = twin or Twin(history=history)
-    t_s, p_cmd = run.commanded.t_s, run.commanded.values
-    kin = twin.kinematics
-    q_ik = kin.ik_path(p_cmd + twin.p_base_sheet_origin)
-    J_v = kin.jacobians(q_ik)[:, :3]
-    compliance = (J_v / twin.joint_stiffness) @ J_v.transpose(0, 2, 1)  # (n, 3, 3) [m/N]
-    pass_index, direction = label_passes(p_cmd[:, 0], deadband_m=PASS_DEADBAND_M)
-    passes, dirs = [int(v) for v in pass_index], [int(v) for v in direction]
-    field = twin.field
-    field.reset()
-    n = len(t_s)
-    p_out, f_out = np.empty((n, 3)), np.empty((n, 3))
-    eye = np.eye(3)
-    d = np.zeros(3)
-    for i in range(n):
-        c, pi, di, p_i = compliance[i], passes[i], dirs[i], p_cmd[i]
-        for _ in range(ANALYTIC_MAX_ITER):
-            f, s = field.force_and_stiffness(p_i + d, pi, di)
-            r = d - c @ f
-            if abs(r).max() < ANALYTIC_TOL_M:
-                break
-            d = d - dgesv(eye - c @ s, r)[2]
-        else:
-            raise InputError(f"analytic replay: sample {i} did not converge (residual {abs(r).max():.3g} m)")
-        p = p_cmd[i] + d
-        f_out[i] = field.force(p, pi, di)
-        field.advance(p, pi)
-        p_out[i] = p
-    tracker = interp_rows(run.tracker.t_s, t_s, p_out)
-    forces = interp_rows(run.forces.t_s, t_s, f_out) if run.forces is not None else None
-    return AnalyticReplay(p_out, f_out, tracker, forces)
-
+__all__ = ["AnalyticReplay", "analytic_replay", "format_table", "machine_info", "run_benchmarks", "time_call"]
 
 def time_call(fn: Callable[[], Any], repeats: int) -> tuple[float, list[float]]:
     """Median wall time of `repeats` calls of `fn` [s], and every time [s]."""
@@ -164,7 +92,9 @@ def machine_info() -> dict[str, Any]:
     }
 
 
-def run_benchmarks(repeats: int = 5, samples: int | None = None, *, seed: int = 0) -> dict[str, Any]:
+def run_benchmarks(
+    repeats: int = 5, samples: int | None = None, *, seed: int = 0, sweep_draws: int | None = None
+) -> dict[str, Any]:
     """Time the workflows on one nominal lab run.
 
     Args:
@@ -172,6 +102,7 @@ def run_benchmarks(repeats: int = 5, samples: int | None = None, *, seed: int = 
         samples: Keep only the first `samples` commanded samples of the groove (a small smoke workload);
             None for the whole run.
         seed: Seed of the lab's noise.
+        sweep_draws: Draws of the Monte Carlo sweep timed on every core; default 4 per core.
 
     Returns:
         The JSON payload: times [s], factors [-], `machine`, `workload`.
@@ -216,7 +147,18 @@ def run_benchmarks(repeats: int = 5, samples: int | None = None, *, seed: int = 
     out["replay_realtime_factor"] = duration_s / out["replay_warm_s"]
     out["replay_realtime_factor_basis"] = "replay_warm_s (a ready Twin passed as twin=)"
     out["twin_over_analytic"] = out["replay_warm_s"] / out["analytic_replay_s"]
+    out["replay_fresh_realtime_factor"] = duration_s / out["replay_s"]
     sim = replay(run, twin=twin).sim
+    out["mujoco_floor_s"] = mujoco_call_floor(twin, sim, run.forces.t_s if run.forces is not None else None)
+    out["twin_over_mujoco_floor"] = out["replay_warm_s"] / out["mujoco_floor_s"]
+    out["newton_iterations_per_sample"] = float(np.mean(sim.iterations))
+    out["path_growth"] = path_growth(twin, t_s, p_cmd)
+    sweep = run_sweep(
+        sweep_draws or 4 * len(os.sched_getaffinity(0)), seed=seed, history=history,
+        path=ToolPath(t_s=t_s, p_sheet_m=p_cmd, pass_index=sim.pass_index, direction=sim.direction),
+    )
+    out["sweep_replays_per_s_per_core"] = sweep.replays_per_s_per_core
+    out["sweep"] = {"draws": len(sweep.rms_m), "workers": sweep.workers, "wall_s": sweep.wall_s}
     linear = analytic_replay(run, twin=twin)
     out["analytic_vs_twin_max_mm"] = 1e3 * float(np.max(np.linalg.norm(linear.p_sheet_m - sim.p_sheet_m, axis=1)))
 
@@ -247,7 +189,7 @@ def run_benchmarks(repeats: int = 5, samples: int | None = None, *, seed: int = 
     # the full family library on a run no family explains (every family fitted in every round) and on a
     # run edited by hand in a form the lab does not make (a drift along x only and an fz bias)
     from twin.analysis.discrepancy.families import FAMILIES
-    from twin.runs.format import Run, Stream
+    from twin.runs.format import Stream
 
     assert run.forces is not None
     wobble = run.tracker.values + np.outer(np.sin(2.0 * np.pi * 1.7 * run.tracker.t_s), [0.0, 0.0, 1e-4])
@@ -259,6 +201,14 @@ def run_benchmarks(repeats: int = 5, samples: int | None = None, *, seed: int = 
                   Stream(run.forces.t_s, bias), run.part_profile)
     out["discrepancy_by_hand_s"], _ = time_call(lambda: find_discrepancy(by_hand, history=history), 1)
     out["discrepancy_families"] = len(FAMILIES)
+    # G-code import (issue #16): a 101,840-move spiral 45 deg cone, 120 mm across, 40 mm deep, read back
+    from twin.process.gcode import read_gcode, write_gcode
+    from twin.process.shapes import PartSpec, part_path
+
+    with tempfile.TemporaryDirectory(prefix="tx200-bench-gcode-") as tmp:
+        program = write_gcode(part_path(PartSpec(step_down_m=0.3e-3)), Path(tmp) / "cone.nc")
+        out["gcode_load_s"], _ = time_call(lambda: read_gcode(program), repeats)
+        out["gcode_moves"] = len(read_gcode(program)) - 1
     out["replay_warm_all_s"] = warm_all
     out["machine"] = machine_info()
     return out
@@ -272,13 +222,18 @@ TABLE_ROWS: tuple[tuple[str, str, str], ...] = (
     ("ik_path_s", "  of which ik_path", "s"),
     ("analytic_replay_s", "analytic replay (J K^-1 J^T f)", "s"),
     ("replay_realtime_factor", "real-time factor (ready Twin)", "x"),
+    ("replay_fresh_realtime_factor", "real-time factor (fresh Twin)", "x"),
+    ("mujoco_floor_s", "MuJoCo-call floor of the replay", "s"),
+    ("twin_over_mujoco_floor", "replay / MuJoCo-call floor", "x"),
     ("twin_over_analytic", "twin / analytic", "x"),
+    ("sweep_replays_per_s_per_core", "sweep replays / s / core", "x"),
     ("identify_method2_s", "identify Method 2", "s"),
     ("compensate_twin_s", "compensate --method twin", "s"),
     ("discrepancy_s", "discrepancy search", "s"),
     ("discrepancy_unexplained_s", "  full library, nothing explains", "s"),
     ("discrepancy_by_hand_s", "  full library, two hand edits", "s"),
     ("force_field_eval_s", "field rigid_forces (full path)", "s"),
+    ("gcode_load_s", "G-code import, ~100k moves", "s"),
 )
 
 
@@ -294,6 +249,11 @@ def format_table(result: dict[str, Any]) -> str:
         else:
             text = f"{value:10.1f} x"
         lines.append(f"{label:<38s}{text}")
+    growth = result.get("path_growth")
+    if growth:
+        steps = ", ".join(f"{k} {v['samples']} samples {v['us_per_sample']:.0f} µs/sample ({v['over_1x']:.2f})"
+                          for k, v in growth.items())
+        lines.append(f"{'cost vs path length':<38s}{steps}")
     w = result["workload"]
     m = result["machine"]
     lines.append(

@@ -26,6 +26,7 @@ COMMANDS: dict[str, str] = {
     "compensate": "compensate",
     "check": "check",
     "bench": "bench",
+    "sweep": "sweep",
     "discrepancy": "discrepancy",
     "demo": "demo",
     "import": "import_run",

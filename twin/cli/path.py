@@ -1,4 +1,6 @@
-"""`tx200-twin path`: write the ideal groove path U_ID as CSV (thesis §1.2.3, Table 2.3)."""
+"""`tx200-twin path`: write an ideal tool path U_ID as CSV — the thesis groove (§1.2.3, Table 2.3), a cone,
+pyramid or variable-wall-angle cone (`twin.process.shapes`), or a G-code program (`twin.process.gcode`) —
+after checking that the robot reaches every sample at the given placement (`twin.process.placement`)."""
 
 from __future__ import annotations
 
@@ -6,70 +8,149 @@ import argparse
 import math
 import sys
 from pathlib import Path
+from typing import Any
+
+import numpy as np
 
 from twin.base.csvio import emit_json
-from twin.process.path import GrooveSpec, groove_path, write_path_csv
+from twin.process.gcode import read_gcode, write_gcode
+from twin.process.path import GrooveSpec, ToolPath, groove_path, write_path_csv
+from twin.process.placement import Placement, check_reach
+from twin.process.shapes import MODES, SHAPES, PartSpec, part_path
 
-HELP = "Write the ideal zig-zag groove path (sheet frame) as CSV: t_s, x_mm, y_mm, z_mm, pass, direction."
+HELP = (
+    "Write an ideal tool path (sheet frame) as CSV t_s, x_mm, y_mm, z_mm, pass, direction: the groove, a cone, "
+    "pyramid, variable-wall-angle cone, or an imported G-code program; checks reach along the whole path."
+)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Add the command's options."""
     d = GrooveSpec()
+    p = PartSpec()
     parser.add_argument("--out", type=Path, required=True, help="output CSV file")
-    parser.add_argument(
-        "--passes", type=int, default=d.passes, help=f"number of passes N (default {d.passes})"
-    )
-    parser.add_argument(
-        "--top-length-mm", type=float, default=d.top_length_m * 1e3, help="groove length L at the surface"
-    )
-    parser.add_argument(
-        "--bottom-length-mm",
-        type=float,
-        default=d.bottom_length_m * 1e3,
-        help="groove length B at full depth",
-    )
-    parser.add_argument("--depth-mm", type=float, default=d.depth_m * 1e3, help="final depth H")
+    parser.add_argument("--shape", choices=("groove", *SHAPES), default="groove", help="part (default groove)")
+    parser.add_argument("--gcode", type=Path, metavar="FILE", help="import this G-code program instead of --shape")
+    parser.add_argument("--gcode-out", type=Path, metavar="FILE", help="also write the path as G-code (G1, mm)")
+    parser.add_argument("--depth-mm", type=float, help="final depth H (default: groove 10, other parts 40)")
     parser.add_argument("--feed-mm-s", type=float, default=d.feed_m_per_s * 1e3, help="constant feed [mm/s]")
     parser.add_argument(
-        "--spacing-mm", type=float, default=d.spacing_m * 1e3, help="largest sample spacing [mm]"
+        "--spacing-mm", type=float, default=d.spacing_m * 1e3, help="largest sample spacing (G-code: arc chords)"
     )
+    groove = parser.add_argument_group("groove")
+    groove.add_argument("--passes", type=int, default=d.passes, help=f"number of passes N (default {d.passes})")
+    groove.add_argument(
+        "--top-length-mm", type=float, default=d.top_length_m * 1e3, help="groove length L at the surface"
+    )
+    groove.add_argument(
+        "--bottom-length-mm", type=float, default=d.bottom_length_m * 1e3, help="groove length B at full depth"
+    )
+    part = parser.add_argument_group("cone, pyramid, vwa-cone")
+    part.add_argument("--mode", choices=MODES, default=p.mode, help="descent (default spiral)")
+    part.add_argument(
+        "--top-width-mm",
+        type=float,
+        default=2e3 * p.top_half_width_m,
+        help="tool-tip contour at the surface: cone diameter or pyramid side (default 120)",
+    )
+    part.add_argument("--wall-angle-deg", type=float, default=p.wall_angle_deg, help="wall angle (vwa-cone: top)")
+    part.add_argument(
+        "--wall-angle-end-deg", type=float, default=p.wall_angle_end_deg, help="vwa-cone: wall angle at the bottom"
+    )
+    part.add_argument("--step-down-mm", type=float, default=p.step_down_m * 1e3, help="largest step-down")
+    place = parser.add_argument_group("placement and reach check")
+    place.add_argument(
+        "--origin-mm", type=float, nargs=3, metavar=("X", "Y", "Z"), help="sheet origin in the robot base frame"
+    )
+    place.add_argument("--yaw-deg", type=float, default=0.0, help="sheet yaw about the base z axis")
+    place.add_argument("--no-reach-check", action="store_true", help="skip the IK check along the path")
     parser.add_argument("--json", metavar="FILE", help="write the summary as JSON to FILE (- for stdout)")
 
 
-def run(args: argparse.Namespace) -> int:
-    """Build the path, write it and print a summary."""
-    spec = GrooveSpec(
-        top_length_m=args.top_length_mm / 1e3,
-        bottom_length_m=args.bottom_length_mm / 1e3,
-        depth_m=args.depth_mm / 1e3,
-        passes=args.passes,
+def _build(args: argparse.Namespace) -> tuple[ToolPath, dict[str, Any], str]:
+    """The path, its summary and one human line about its geometry."""
+    if args.gcode is not None:
+        path = read_gcode(args.gcode, spacing_m=args.spacing_mm / 1e3)
+        return path, {"source": str(args.gcode)}, f"from G-code {args.gcode}"
+    if args.shape == "groove":
+        spec = GrooveSpec(
+            top_length_m=args.top_length_mm / 1e3,
+            bottom_length_m=args.bottom_length_mm / 1e3,
+            depth_m=(10.0 if args.depth_mm is None else args.depth_mm) / 1e3,
+            passes=args.passes,
+            feed_m_per_s=args.feed_mm_s / 1e3,
+            spacing_m=args.spacing_mm / 1e3,
+        )
+        path = groove_path(spec)
+        strokes = [spec.stroke_m(k) * 1e3 for k in range(1, spec.passes + 1)]
+        payload = {
+            "passes": spec.passes,
+            "strokes_mm": strokes,
+            "rpp_mm": spec.rpp_m * 1e3,
+            "wall_angle_deg": math.degrees(spec.wall_angle_rad),
+        }
+        line = (
+            f"strokes {strokes[0]:.2f} .. {strokes[-1]:.2f} mm (RpP {spec.rpp_m * 1e3:.3f} mm), "
+            f"wall angle {math.degrees(spec.wall_angle_rad):.2f} deg"
+        )
+        return path, payload, line
+    part = PartSpec(
+        shape=args.shape,
+        top_half_width_m=args.top_width_mm / 2e3,
+        depth_m=(40.0 if args.depth_mm is None else args.depth_mm) / 1e3,
+        wall_angle_deg=args.wall_angle_deg,
+        wall_angle_end_deg=args.wall_angle_end_deg,
+        step_down_m=args.step_down_mm / 1e3,
+        mode=args.mode,
         feed_m_per_s=args.feed_mm_s / 1e3,
         spacing_m=args.spacing_mm / 1e3,
     )
-    path = groove_path(spec)
-    write_path_csv(path, args.out)
+    path = part_path(part)
+    angles = np.degrees(part.wall_angle_rad(np.array([0.0, part.depth_m])))
     payload = {
-        "out": str(args.out),
-        "samples": len(path),
-        "passes": spec.passes,
-        "length_mm": float(path.s_m[-1] * 1e3),
-        "duration_s": float(path.t_s[-1]),
-        "strokes_mm": [spec.stroke_m(k) * 1e3 for k in range(1, spec.passes + 1)],
-        "rpp_mm": spec.rpp_m * 1e3,
-        "final_depth_mm": float(-path.p_sheet_m[-1, 2] * 1e3),
-        "wall_angle_deg": math.degrees(spec.wall_angle_rad),
+        "shape": part.shape,
+        "mode": part.mode,
+        "passes": part.levels,
+        "step_down_mm": part.depth_m / part.levels * 1e3,
+        "wall_angle_deg": [float(angles[0]), float(angles[1])],
+        "bottom_width_mm": float(2e3 * part.half_width_m(part.depth_m)),
     }
+    line = (
+        f"{part.shape} ({part.mode}), {part.levels} levels of {part.depth_m / part.levels * 1e3:.3f} mm, "
+        f"wall angle {angles[0]:.2f} .. {angles[1]:.2f} deg"
+    )
+    return path, payload, line
+
+
+def run(args: argparse.Namespace) -> int:
+    """Build or import the path, check its reach, write it and print a summary."""
+    path, payload, line = _build(args)
+    if not args.no_reach_check:
+        origin = None if args.origin_mm is None else tuple(v / 1e3 for v in args.origin_mm)
+        reach = check_reach(path, Placement(origin_base_m=origin, yaw_rad=math.radians(args.yaw_deg)))
+        payload["reach"] = {
+            "min_abs_det_j_m3": reach.min_abs_det_j,
+            "min_det_sample": reach.min_det_sample,
+            "joint_margin_deg": np.degrees(reach.joint_margin_rad).tolist(),
+        }
+        line += f"; reachable, min |det J| {reach.min_abs_det_j:.3f} m^3"
+    write_path_csv(path, args.out)
+    if args.gcode_out is not None:
+        write_gcode(path, args.gcode_out)
+    payload.update(
+        {
+            "out": str(args.out),
+            "samples": len(path),
+            "length_mm": float(path.s_m[-1] * 1e3),
+            "duration_s": float(path.t_s[-1]),
+            "final_depth_mm": float(-path.p_sheet_m[-1, 2] * 1e3),
+        }
+    )
     emit_json(args.json, payload, protect=[args.out])
     out = sys.stderr if args.json == "-" else sys.stdout
-    strokes = payload["strokes_mm"]
-    assert isinstance(strokes, list)
     print(
-        f"wrote {args.out}: {len(path)} samples, {spec.passes} passes, {path.s_m[-1] * 1e3:.2f} mm "
-        f"in {path.t_s[-1]:.2f} s\n"
-        f"strokes {strokes[0]:.2f} .. {strokes[-1]:.2f} mm (RpP {spec.rpp_m * 1e3:.3f} mm), "
-        f"final depth {-path.p_sheet_m[-1, 2] * 1e3:.3f} mm, "
-        f"wall angle {math.degrees(spec.wall_angle_rad):.2f} deg",
+        f"wrote {args.out}: {len(path)} samples, {path.s_m[-1] * 1e3:.2f} mm in {path.t_s[-1]:.2f} s, "
+        f"final depth {-path.p_sheet_m[-1, 2] * 1e3:.3f} mm\n{line}",
         file=out,
     )
     return 0

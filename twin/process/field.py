@@ -56,7 +56,7 @@ from twin.process.path import ToolPath
 #: springback, 8.7 mm formed of the 10 mm target (§2.3.1), 1.43 ± 0.29 kN/mm.
 K_UNLOAD_N_PER_M = 1.429e+06
 #: Forming sensitivity [N/m]: calibrated with Aerens's 0.09·Fz/Δh ≈ 0.15 kN/mm as a prior, 0.160 ± 0.065 kN/mm.
-K_LOAD_N_PER_M = 1.595e+05
+K_LOAD_N_PER_M = 1.596e+05
 #: Tool radius R_T [m] (§2.2, Table 2.2).
 TOOL_RADIUS_M = 7.5e-3
 #: Half-width of the modelled sheet along x [m] (FE sheet 240 mm, §2.2).

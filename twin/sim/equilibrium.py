@@ -11,9 +11,11 @@ K + dg/dq - J^T (df/dp) J (gravity gradient by finite differences once per run) 
 iterations to 1e-10 rad. This direct solve was chosen over damped stepping (hundreds of `mj_step` per
 sample) because it is exact at equilibrium and an order of magnitude cheaper per sample.
 
-Joint friction (the model's `frictionloss`, Coulomb, against the link's motion) enters as a torque τ_fr:
-a joint the command turns slides, and its spring carries -τ_f·sign(q̇) (an offset that flips when the
-joint reverses); a joint at rest sticks until its torque changes by more than τ_f (`EquilibriumSolver.solve`).
+Joint friction (the model's `frictionloss`, Coulomb, against the link's motion) enters as a torque τ_fr
+(`EquilibriumSolver.solve`): each sample, a joint's link stays where it was (stick) while the torque its
+friction must supply stays within τ_f, and slides otherwise. A joint the command keeps turning slides every
+sample, its spring carrying the extra τ_f; when the command reverses, the link holds until the motor has wound
+its spring through 2·τ_f/K_q, a dead band made by the friction itself.
 
 The twin (`twin.sim.quasi_static.Twin`) calls `EquilibriumSolver.solve` once per sample.
 """
@@ -28,25 +30,7 @@ from scipy.linalg.lapack import dgesv as _dgesv
 
 NEWTON_TOL_RAD = 1e-7  # a Newton step this small leaves < 1e-9 m of error (quadratic convergence)
 NEWTON_MAX_ITER = 20
-# A joint slower than this is at rest for its friction [rad/s]: the groove's joints 2, 3, 5 turn at ~0.02
-# rad/s while forming, joint 1 at ~6e-5 rad/s (the tool stays at y ~ 0), deflections change slower still.
-JOINT_REST_RAD_PER_S = 1e-3
 FRICTION_MAX_ROUNDS = 6  # active-set rounds of the stick/slip solve; 1-2 suffice in practice
-
-
-def joint_motion(t_s: np.ndarray, q: np.ndarray, rest_rad_per_s: float = JOINT_REST_RAD_PER_S) -> np.ndarray:
-    """Sign of each joint's commanded velocity per sample (0 where slower than `rest_rad_per_s`).
-
-    Args:
-        t_s: Sample times [s], shape (n,).
-        q: Joint path [rad], shape (n, 6).
-        rest_rad_per_s: Speed below which a joint counts as at rest [rad/s].
-
-    Returns:
-        -1, 0 or +1 per sample and joint, shape (n, 6).
-    """
-    qdot = np.gradient(q, t_s, axis=0) if len(t_s) >= 2 else np.zeros_like(q)
-    return np.where(np.abs(qdot) > rest_rad_per_s, np.sign(qdot), 0.0)
 
 
 class EquilibriumSolver:
@@ -67,6 +51,11 @@ class EquilibriumSolver:
         self._tcp = tcp_site
         self.p_base_sheet_origin = p_base_sheet_origin
 
+    #: Choose the first stick/slip set from the friction torque needed at the start point (the first Newton
+    #: iteration's own evaluation) instead of starting with every frictional joint stuck: one active-set round
+    #: instead of two on the groove, the same consistent set, the same equilibrium (tests/test_speed_equilibrium.py).
+    predict_active_set: bool = True
+
     def _newton(
         self,
         q: np.ndarray,
@@ -75,7 +64,8 @@ class EquilibriumSolver:
         h_const: np.ndarray,
         sheet: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]],
         stick: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
-    ) -> tuple[np.ndarray, int, np.ndarray, np.ndarray, np.ndarray]:
+        choose_tau_f: np.ndarray | None = None,
+    ) -> tuple[np.ndarray, int, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Newton's method on K (q_ref - q) + τ_fr - g(q) + J_tcp(q)^T f(p(q)) = 0 from `q`.
 
         Args:
@@ -86,40 +76,57 @@ class EquilibriumSolver:
             sheet: Tool-tip position in the sheet frame [m] -> (force on the tool [N], df/dp [N/m]).
             stick: None (no friction), or (stuck, e_stuck, tau_fr): dofs whose elastic deflection q_ref - q is
                 held at e_stuck [rad] (the joint sticks), and the friction torque of the slipping ones [N·m].
+            choose_tau_f: Friction torques τ_f [N·m]: replace `stick`'s set by the one the start point asks
+                for (stuck where the needed friction |g - J^T f - K e_stuck| <= τ_f, else slipping with
+                τ_f·sign of it), from the first iteration's evaluation; None keeps `stick`.
 
         Returns:
             The equilibrium [rad], the iterations used, the translational tcp Jacobian [m/rad] and df/dp
-            [N/m] of the last iteration, and the demanded joint torque g - J^T f there [N·m].
+            [N/m] of the last iteration, the demanded joint torque g - J^T f there [N·m], and the stuck set and
+            friction torques [N·m] used.
         """
         m, d = self.model, self.data
-        jacp = np.zeros((3, m.nv))
-        g = np.zeros(m.nv)
+        nv = m.nv
+        jacp = np.zeros((3, nv))
+        g = np.zeros(nv)
         stiffness = np.zeros((3, 3))
         force = np.zeros(3)
         xpos_tcp = d.site_xpos[self._tcp]  # a view: follows every mj_kinematics
+        qpos, tcp, origin = d.qpos, self._tcp, self.p_base_sheet_origin
+        kinematics, com_pos, rne, jac_site = mujoco.mj_kinematics, mujoco.mj_comPos, mujoco.mj_rne, mujoco.mj_jacSite
+        no_friction = np.zeros(nv)
+        stuck, e_stuck, tau_fr = stick if stick is not None else (np.zeros(nv, dtype=bool), no_friction, no_friction)
+        # per active set: r = base - K q + free (J^T f - g) and the stuck rows of h replaced by those of diag(K)
+        base = free = stuck_idx = stuck_rows = None
         k = 0
         for k in range(1, NEWTON_MAX_ITER + 1):  # noqa: B007
-            d.qpos[:] = q
-            mujoco.mj_kinematics(m, d)
-            mujoco.mj_comPos(m, d)
-            mujoco.mj_rne(m, d, 0, g)
-            mujoco.mj_jacSite(m, d, jacp, None, self._tcp)
-            force, stiffness = sheet(xpos_tcp - self.p_base_sheet_origin)
-            r = k_diag * (q_ref - q) - g + jacp.T @ force
+            qpos[:] = q
+            kinematics(m, d)
+            com_pos(m, d)
+            rne(m, d, 0, g)
+            jac_site(m, d, jacp, None, tcp)
+            force, stiffness = sheet(xpos_tcp - origin)
+            jtf = jacp.T @ force
+            if choose_tau_f is not None and k == 1:
+                need = g - jtf - k_diag * e_stuck
+                stuck = (choose_tau_f > 0.0) & (np.abs(need) <= choose_tau_f)
+                tau_fr = np.where(stuck, 0.0, choose_tau_f * np.sign(need))
+            if base is None:
+                base = np.where(stuck, k_diag * (q_ref - e_stuck), k_diag * q_ref + tau_fr)
+                free = (~stuck).astype(float)
+                stuck_idx = np.flatnonzero(stuck)
+                stuck_rows = np.diag(k_diag)[stuck_idx]
+            r = base - k_diag * q + free * (jtf - g)
             h = h_const - jacp.T @ stiffness @ jacp
-            if stick is not None:
-                stuck, e_stuck, tau_fr = stick
-                r += tau_fr
-                r[stuck] = (k_diag * (q_ref - e_stuck - q))[stuck]
-                h[stuck, :] = 0.0
-                h[stuck, stuck] = k_diag[stuck]
+            if stuck_idx.size:
+                h[stuck_idx] = stuck_rows
             _, _, dq, info = _dgesv(h, r)  # np.linalg.solve costs 5x more
             if info != 0:
                 raise np.linalg.LinAlgError(f"singular Newton matrix (LAPACK dgesv info {info}) at q = {q!r}")
             q = q + dq
             if abs(dq).max() < NEWTON_TOL_RAD:
                 break
-        return q, k, jacp, stiffness, g - jacp.T @ force
+        return q, k, jacp, stiffness, g - jacp.T @ force, stuck, tau_fr
 
     def solve(
         self,
@@ -129,38 +136,40 @@ class EquilibriumSolver:
         h_const: np.ndarray,
         sheet: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]],
         e_prev: np.ndarray,
-        motion: np.ndarray | None = None,
     ) -> tuple[np.ndarray, int, np.ndarray, np.ndarray]:
-        """Equilibrium with joint friction: sliding for moving joints, stick/slip for joints at rest.
+        """Equilibrium with joint friction: stick/slip per joint, found by an active set.
 
-        Coulomb friction τ_f in a joint acts on the link against its motion. A joint the command moves
-        (`motion` = ±1) slides: the friction torque is -τ_f·motion, and its gear spring carries it, so the
-        elastic deflection shifts by τ_f/K and flips when the joint reverses. A joint at rest (`motion` = 0)
-        holds its elastic deflection e = q_ref - q while the torque the friction must add, |D - K e_prev| with
-        D = g - J^T f, stays within τ_f (stick); beyond, it slips and carries K e = D - τ_f·sign(D - K e_prev).
-        Starting with every resting frictional joint stuck, joints whose needed friction exceeds τ_f slip,
-        and slipping joints that would move against their friction stick again, until the set is consistent
-        (a few rounds at most).
+        Coulomb friction τ_f in a joint acts on the link against its motion. A joint sticks, its link where
+        it was, while the torque the friction must add, |D - K e_prev| with D = g - J^T f and e_prev = q_ref -
+        q_link_prev, stays within τ_f; beyond, it slips and its spring carries K e = D - τ_f·sign(D - K e_prev).
+        Starting with every frictional joint stuck, joints whose needed friction exceeds τ_f slip, and slipping
+        joints that would move against their friction stick again, until the set is consistent (a few rounds
+        at most).
 
         Args:
             q, q_ref, k_diag, h_const, sheet: As for `_newton`.
-            e_prev: Elastic deflection after the previous sample [rad], shape (nv,).
-            motion: Sign of each dof's commanded velocity (0 at rest), shape (nv,); None: all at rest.
+            e_prev: Spring stretch q_ref - q_link_prev that keeps each link where it was [rad], shape (nv,).
 
         Returns:
             As `_newton`, without the demanded torque; iterations summed over the rounds.
         """
         tau_f = self.model.dof_frictionloss
         if not tau_f.any():
-            q, k, jac, s, _ = self._newton(q, q_ref, k_diag, h_const, sheet)
+            q, k, jac, s, _, _, _ = self._newton(q, q_ref, k_diag, h_const, sheet)
             return q, k, jac, s
-        sliding = np.zeros(len(tau_f), dtype=bool) if motion is None else motion != 0.0
-        frictional = (tau_f > 0.0) & ~sliding
+        frictional = tau_f > 0.0
         stuck = frictional.copy()
-        tau_fr = np.zeros_like(tau_f) if motion is None else -tau_f * motion
+        tau_fr = np.zeros_like(tau_f)
         total = 0
+        choose = None
+        if self.predict_active_set:  # the set is chosen where every frictional joint still holds its link
+            choose = tau_f
+            q = np.where(frictional, q_ref - e_prev, q)
         for _ in range(FRICTION_MAX_ROUNDS):
-            q, k, jac, s, demand = self._newton(q, q_ref, k_diag, h_const, sheet, (stuck, e_prev, tau_fr))
+            q, k, jac, s, demand, stuck, tau_fr = self._newton(
+                q, q_ref, k_diag, h_const, sheet, (stuck, e_prev, tau_fr), choose
+            )
+            choose = None
             total += k
             need = demand - k_diag * e_prev
             slip = stuck & (np.abs(need) > tau_f)

@@ -24,7 +24,7 @@ from twin.process.path import label_passes
 from twin.robot.kinematics import Kinematics
 from twin.robot.model import ARM_JOINTS, LOST_MOTION_JOINTS, RobotEffects, build_model, lost_motion_schedule
 from twin.robot.stiffness import set_joint_stiffness
-from twin.sim.equilibrium import EquilibriumSolver, joint_motion
+from twin.sim.equilibrium import EquilibriumSolver
 from twin.sim.ft_sensor import flange_sensor_forces
 from twin.sim.result import SimResult
 
@@ -168,8 +168,6 @@ class Twin:
             dx_dq_sign = np.sign(jac0[0, [1, 2]])
             lost_ref = lost_motion_schedule(p_cmd[:, 0], direction, dx_dq_sign, self.effects)
 
-        motion = np.zeros((n, m.nv))
-        motion[:, self._arm_dof] = joint_motion(t_s, q_ik)
         grad_g = self._gravity_gradient(self._full_qpos(q_ik[0]))
         q_nominal_all = np.zeros((n, m.nq))
         q_nominal_all[:, self._arm_qpos] = q_ik
@@ -208,17 +206,17 @@ class Twin:
             else:
                 q = q_nominal + deflection_q
             if i == 0:
-                e_prev = q_ref - q_nominal  # the joints hold the taught, unloaded deflection
+                q_link = q_nominal  # the taught, unloaded pose
+            # a joint whose friction holds keeps its link where it was: its spring stretches by q_ref - q_link
             q, k, jac_last[i], s_last[i] = self._solver.solve(
                 q,
                 q_ref,
                 k_diag,
                 h_const,
                 partial(field.force_and_stiffness, pass_index=pi, direction=di),
-                e_prev,
-                motion[i],
+                q_ref - q_link,
             )
-            e_prev = q_ref - q
+            q_link = q
             qpos_view[:] = q
             mujoco.mj_kinematics(m, d)
             p = xpos_tcp - origin

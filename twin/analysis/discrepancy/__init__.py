@@ -1,5 +1,8 @@
-"""Discrepancy: where the twin and a run disagree — residuals normalised by noise estimated from the data,
-candidate effects fitted over twin replays, held-out selection, and the augmented model.
+"""Discrepancy: where the twin and a run disagree, which effects explain it, and what is left.
 
-Takes a run and a twin; gives a verdict (`none`, named effects, or `unexplained`) and a model file.
+Modules, in data-flow order: `residuals` (noise from the data, folds), `context` (the linearised replay),
+`families` (effect families with vector parameters, one registry), `fitting` (joint least squares,
+uncertainties, held-out error), `significance`, `selection` (forward selection, BIC, ambiguity),
+`labmodel` (families in the lab's vocabulary, replayed and refitted), `signature` (the remainder in words),
+`search` (the workflow), `summary` (its JSON document). Notes: docs/discrepancy.md.
 """

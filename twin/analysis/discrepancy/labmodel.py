@@ -1,14 +1,15 @@
 """The named families in the lab's vocabulary (`twin.lab.effects`): what a model file and `replay --model` carry.
 
-Families that map onto a lab effect (`Family.to_lab`) are composed into the twin's effects, the run is replayed
-with them and the same families are refitted on the new linearisation, a few times, so the linearised fit
-becomes exact (`refine`). A mapped family whose removal from the replayed model costs less than the selection's
+Families that map onto a lab effect (`Family.to_lab`) are composed into the twin's effects, and the lab effects
+are then fitted by Gauss-Newton over twin replays, so the linearised fit becomes exact (`refine`). A mapped family whose removal from the replayed model costs less than the selection's
 ROUND_SHARE of what is then left was only soaking up linearisation error and is dropped (`prune`).
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
+
+import numpy as np
 
 from twin.analysis.discrepancy.context import Context, build_context
 from twin.analysis.discrepancy.families.base import Family
@@ -19,7 +20,17 @@ from twin.analysis.discrepancy.significance import excess_over_noise
 from twin.lab.effects import Effects
 
 REFINE_ITERATIONS = 4  # replays to make the linearised fit exact (each ~0.1 s)
-MULTIPLICATIVE = {"force_scale"}  # lab effects composed by product; springback composes; the others add
+MULTIPLICATIVE = {"force_scale"}
+# finite-difference step of each lab effect in `refine`, in its unit, and bounds it must stay in
+LAB_STEP = {
+    "direction_dependent_compliance": 0.02,
+    "force_scale": 0.02,
+    "stream_time_offset": 0.005,
+    "tracker_drift": 0.002,
+    "tcp_offset": 0.05,
+    "sheet_springback": 0.01,
+}
+LAB_BOUNDS = {"force_scale": (0.0, 10.0), "sheet_springback": (0.0, 0.99)}  # lab effects composed by product; springback composes; the others add
 
 
 def lab_increment(
@@ -55,28 +66,37 @@ def refine(
     model: ResidualModel,
     effects: Effects,
     fitter_for: Callable[[Context], Fitter],
-    names: Sequence[str],
-    families: dict[str, Family],
+    keys: Sequence[str],
     progress: Callable[[str], None] | None = None,
 ) -> Effects:
-    """Replay with the lab effects and refit the families `names` on the new linearisation, while it helps."""
+    """Gauss-Newton on the lab effects `keys` over twin replays (finite differences), from `effects`.
+
+    The lab form is fitted directly (e.g. one lost motion for joints 2 and 3 together), so its parameters are
+    as precise as the data allow; replays of measurement-side effects reuse the cached simulation.
+    """
+    keys = [k for k in keys if k in LAB_STEP]
     best, best_sse = effects, float("inf")
     for _ in range(REFINE_ITERATIONS):
         if progress is not None:
             progress("replay")
-        refit = fitter_for(context(model, effects))
-        sse = float(refit.base @ refit.base)
+        r = fitter_for(context(model, effects)).base
+        sse = float(r @ r)
         if sse >= best_sse:
             break
         best, best_sse = effects, sse
-        fit = refit.fit([families[n] for n in names])
-        increments: dict[str, float] = {}
-        for name in names:
-            inc = lab_increment(fit, families, name, lenient=True)
-            if inc is None:
-                return best
-            increments.update(inc)
-        effects = compose(effects, increments)
+        cols = []
+        for key in keys:
+            step = LAB_STEP[key]
+            moved = Effects({**effects.values, key: effects.get(key) + step}, effects.lost_motion_takeup_m)
+            cols.append((fitter_for(context(model, moved)).base - r) / step)
+        delta, *_ = np.linalg.lstsq(np.column_stack(cols), -r, rcond=None)
+        values = dict(effects.values)
+        for key, d in zip(keys, delta, strict=True):
+            values[key] = float(np.clip(effects.get(key) + d, *LAB_BOUNDS.get(key, (-np.inf, np.inf))))
+        effects = Effects(values, effects.lost_motion_takeup_m)
+        if all(abs(d) < 0.01 * LAB_STEP[k] for k, d in zip(keys, delta, strict=True)):
+            sse_new = float(np.sum(fitter_for(context(model, effects)).base ** 2))
+            return effects if sse_new < best_sse else best
     return best
 
 

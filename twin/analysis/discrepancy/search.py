@@ -173,7 +173,8 @@ def _into_lab_model(
         for name in new:
             increments.update(lab_increment(fit_now, families, name, lenient=True) or {})
         trial_lab = {**lab, **new}
-        trial = refine(model, compose(effects, increments), fitter_for, list(trial_lab), families, progress)
+        lab_keys = [k for keys in trial_lab.values() for k in keys]
+        trial = refine(model, compose(effects, increments), fitter_for, lab_keys, progress)
         trial, kept = prune(model, start, trial, trial_lab, fitter_for, list(sizes.values()))
         replayed_trial = fitter_for(context(model, trial))
         rest = excess_over_noise(replayed_trial.base, list(sizes.values()))

@@ -15,8 +15,9 @@ ones and back) and its share is that gain over the run's excess over noise. The 
   family then explains most of the gap while one stream disagrees (e.g. forces and deflections edited by
   hand, the part profile not), and the report says which stream (`Candidate.contradicted`).
 
-Candidates whose held-out gain reaches AMBIGUITY_RATIO of the winner's, and that add less than ROUND_SHARE once
-the winner is in, explain the same thing: they are reported as ambiguous with it rather than guessed away.
+Candidates whose held-out gain reaches AMBIGUITY_RATIO of the best one's cannot be told apart by the held-out
+error; among them the information criterion (BIC gain) picks the winner. Those that add less than ROUND_SHARE
+once the winner is in explain the same thing: they are reported as ambiguous with it rather than guessed away.
 """
 
 from __future__ import annotations
@@ -104,15 +105,16 @@ def forward_select(
         candidates.sort(key=lambda c: -c.gain)
         eligible = [c for c in candidates
                     if (c.share_of_rest if of_rest else c.share) >= ROUND_SHARE and c.bic_gain > 0]
-        best = eligible[0] if eligible else None
-        agreeing = next((c for c in eligible if not c.contradicted), None)
-        if best is not None and best.contradicted and (
-            agreeing is not None and best.gain < CONTRADICTED_LEAD * agreeing.gain
-        ):
-            best = agreeing
-        if best is None:
+        agreeing = [c for c in eligible if not c.contradicted]
+        pool = eligible
+        if agreeing and eligible[0].contradicted and eligible[0].gain < CONTRADICTED_LEAD * agreeing[0].gain:
+            pool = agreeing
+        if not pool:
             steps.append(Step(tuple(candidates), None, ()))
             break
+        # candidates the held-out error cannot tell apart: the information criterion decides
+        band = [c for c in pool if c.gain >= AMBIGUITY_RATIO * pool[0].gain and c.contradicted == pool[0].contradicted]
+        best = max(band, key=lambda c: c.bic_gain)
         by_name = {f.name: f for f in families}
         winner = by_name[best.name]
         ambiguous = []

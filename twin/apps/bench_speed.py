@@ -1,0 +1,114 @@
+"""Speed measures of `tx200-twin bench`: the MuJoCo-call floor of a replay and the cost growth with path length.
+
+* `mujoco_call_floor`: the wall time of exactly the MuJoCo calls one replay makes (`mj_kinematics`,
+  `mj_comPos`, `mj_rne`, `mj_jacSite` per Newton iteration, the nominal pose and final tool tip per sample, the
+  gravity gradient, and the sensor's `mj_inverse` pairs), issued in a bare loop at the replay's own poses. No
+  replay that keeps MuJoCo as its source of kinematics and dynamics can be faster; the twin's replay over this
+  floor is the overhead of everything else (field, Newton algebra, Python).
+* `path_growth`: `Twin.simulate` of the groove resampled 1x, 4x, 16x as densely (the same geometry with k
+  times the samples, since the force history has a fixed number of passes): the cost must grow linearly.
+"""
+
+from __future__ import annotations
+
+import time
+
+import mujoco
+import numpy as np
+
+from twin.base.signals import interp_rows
+from twin.errors import InputError
+from twin.sim.quasi_static import Twin
+from twin.sim.result import SimResult
+
+
+def mujoco_call_floor(twin: Twin, sim: SimResult, t_sensor_s: np.ndarray | None, repeats: int = 3) -> float:
+    """Best-of-`repeats` wall time of the MuJoCo calls a replay of `sim` makes, alone [s].
+
+    Args:
+        twin: The twin `sim` came from.
+        sim: A simulated run (its poses and per-sample Newton iteration counts set the calls).
+        t_sensor_s: Sensor sample times of the replay (two `mj_inverse` and one `mj_kinematics` each), or None.
+        repeats: Timed repeats; the best is reported (the floor).
+    """
+    if repeats < 1:
+        raise InputError(f"repeats = {repeats!r}: expected >= 1")
+    m, d = twin.model, twin.data
+    site = m.site("tcp").id
+    jacp, g = np.zeros((3, m.nv)), np.zeros(m.nv)
+    q_nominal = np.zeros((len(sim.t_s), m.nq))
+    arm = [m.jnt_qposadr[m.joint(f"joint{i}").id] for i in range(1, 7)]
+    q_nominal[:, arm] = sim.q_ik
+    iterations = [int(k) for k in sim.iterations]
+    q_sensor = interp_rows(t_sensor_s, sim.t_s, sim.qpos) if t_sensor_s is not None else np.zeros((0, m.nq))
+    kinematics, com_pos, rne, jac_site, inverse = (
+        mujoco.mj_kinematics, mujoco.mj_comPos, mujoco.mj_rne, mujoco.mj_jacSite, mujoco.mj_inverse
+    )
+    best = float("inf")
+    for _ in range(repeats):
+        start = time.perf_counter()
+        for _ in range(2 * m.nv):  # the gravity gradient by central differences
+            d.qpos[:] = sim.qpos[0]
+            kinematics(m, d)
+            com_pos(m, d)
+            rne(m, d, 0, g)
+        for i, k in enumerate(iterations):
+            d.qpos[:] = q_nominal[i]
+            kinematics(m, d)
+            com_pos(m, d)
+            rne(m, d, 0, g)
+            d.qpos[:] = sim.qpos[i]
+            for _ in range(k):
+                kinematics(m, d)
+                com_pos(m, d)
+                rne(m, d, 0, g)
+                jac_site(m, d, jacp, None, site)
+            kinematics(m, d)
+        d.qvel[:] = 0.0
+        d.qacc[:] = 0.0
+        for q in q_sensor:
+            d.qpos[:] = q
+            kinematics(m, d)
+            inverse(m, d)
+            inverse(m, d)
+        best = min(best, time.perf_counter() - start)
+    return best
+
+
+def resample(t_s: np.ndarray, p_sheet_m: np.ndarray, factor: int) -> tuple[np.ndarray, np.ndarray]:
+    """The same path with `factor` times the samples (linear in time between the original samples).
+
+    Args:
+        t_s: Sample times [s], shape (n,).
+        p_sheet_m: Positions [m], shape (n, 3).
+        factor: Samples per original interval (1 returns the path itself).
+
+    Returns:
+        (t, p) with (n - 1)·factor + 1 samples.
+    """
+    if factor < 1:
+        raise InputError(f"factor = {factor!r}: expected >= 1")
+    n = len(t_s)
+    u = np.linspace(0.0, n - 1, (n - 1) * factor + 1)
+    t = np.interp(u, np.arange(n), t_s)
+    return t, interp_rows(t, t_s, p_sheet_m)
+
+
+def path_growth(
+    twin: Twin, t_s: np.ndarray, p_sheet_m: np.ndarray, factors: tuple[int, ...] = (1, 4, 16)
+) -> dict[str, dict[str, float]]:
+    """Wall time of `twin.simulate` (IK included) on the path resampled by each factor.
+
+    Returns:
+        Per factor ("1x", ...): samples, wall time [s], µs per sample, and time over the 1x time [-].
+    """
+    out: dict[str, dict[str, float]] = {}
+    base = None
+    for k in factors:
+        t, p = resample(t_s, p_sheet_m, k)
+        start = time.perf_counter()
+        twin.simulate(t, p)
+        wall = time.perf_counter() - start
+        base = wall if base is None else base
+        out[f"{k}x"] = {"samples": len(t), "s": wall, "us_per_sample": 1e6 * wall / len(t), "over_1x": wall / base}
+    return out
