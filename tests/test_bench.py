@@ -82,3 +82,29 @@ def test_bench_cli_writes_json(tmp_path) -> None:
 def test_bench_refuses_zero_repeats() -> None:
     with pytest.raises(InputError):
         run_benchmarks(repeats=0, samples=SAMPLES)
+
+
+def test_bench_reports_the_speed_ratios_of_issue_18(result: dict) -> None:
+    """MuJoCo-call floor, fresh real-time factor, sweep rate and cost growth, all from this one run."""
+    duration = result["workload"]["machining_s"]
+    assert 0.0 < result["mujoco_floor_s"] < result["replay_warm_s"]
+    assert result["twin_over_mujoco_floor"] == pytest.approx(result["replay_warm_s"] / result["mujoco_floor_s"])
+    assert result["replay_fresh_realtime_factor"] == pytest.approx(duration / result["replay_s"])
+    assert result["sweep_replays_per_s_per_core"] > 0.0 and result["sweep"]["draws"] >= 1
+    growth = result["path_growth"]
+    assert [growth[k]["samples"] for k in ("1x", "4x", "16x")] == [(SAMPLES - 1) * k + 1 for k in (1, 4, 16)]
+    assert growth["1x"]["over_1x"] == 1.0 and "cost vs path length" in format_table(result)
+
+
+def test_resampled_path_keeps_every_original_sample() -> None:
+    from twin.apps.bench_speed import resample
+
+    t = np.array([0.0, 1.0, 3.0])
+    p = np.array([[0.0, 0.0, 0.0], [1.0, 2.0, 3.0], [3.0, 2.0, 1.0]])
+    t4, p4 = resample(t, p, 4)
+    assert len(t4) == 9 and np.all(np.diff(t4) > 0)
+    np.testing.assert_array_equal(t4[::4], t)
+    np.testing.assert_allclose(p4[::4], p, atol=1e-15)
+    np.testing.assert_allclose(p4[6], [2.0, 2.0, 2.0])  # halfway between samples 1 and 2
+    with pytest.raises(InputError):
+        resample(t, p, 0)

@@ -34,6 +34,7 @@ from twin.analysis.identify.rollouts import (
 from twin.analysis.replay import ReplayResult, replay, replay_metrics
 from twin.apps.bench import analytic_replay, run_benchmarks
 from twin.apps.export import export_path
+from twin.apps.sweep import run_sweep
 from twin.errors import (
     CompensationError,
     DataFileError,
@@ -54,6 +55,9 @@ from twin.lab.virtual import LabSettings, load_test, nominal_commanded, run_lab
 from twin.process.field import SheetForceField
 from twin.process.forces import ForceHistory, default_force_history, load_force_history
 from twin.process.gcode import parse_gcode, read_gcode, write_gcode
+from twin.process.heightmap import HeightMap
+from twin.process.isf_calibration import IsfFit, calibrate_isf, isf_field_factory
+from twin.process.isf_force import IsfForceField, IsfForceParams
 from twin.process.path import GrooveSpec, ToolPath, groove_path, label_passes, write_path_csv
 from twin.process.placement import Placement, ReachReport, check_reach
 from twin.process.shapes import PartSpec, part_path
@@ -83,10 +87,14 @@ __all__ = [
     "Effects",
     "ForceHistory",
     "GrooveSpec",
+    "HeightMap",
     "IdentificationError",
     "ImportMapping",
     "ImportResult",
     "InputError",
+    "IsfFit",
+    "IsfForceField",
+    "IsfForceParams",
     "Kinematics",
     "KqFit",
     "KqRolloutFit",
@@ -117,6 +125,7 @@ __all__ = [
     "UnreachableError",
     "analytic_replay",
     "build_model",
+    "calibrate_isf",
     "check_reach",
     "check_run",
     "compensate_formula",
@@ -137,6 +146,7 @@ __all__ = [
     "groove_path",
     "import_run",
     "import_to_directory",
+    "isf_field_factory",
     "kq_from_run",
     "kq_from_stiffness",
     "label_passes",
@@ -160,6 +170,7 @@ __all__ = [
     "run_benchmarks",
     "run_dynamic_lab",
     "run_lab",
+    "run_sweep",
     "write_gcode",
     "write_joint_stiffness",
     "write_model_file",

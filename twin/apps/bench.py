@@ -29,7 +29,7 @@ import numpy as np
 
 from twin.apps.analytic_replay import AnalyticReplay, analytic_replay
 from twin.apps.bench_speed import mujoco_call_floor, path_growth
-from twin.apps.sweep import run_sweep
+from twin.apps.sweep import run_sweep, usable_cores
 from twin.errors import InputError
 from twin.process.path import label_passes
 from twin.runs.format import Run
@@ -102,7 +102,7 @@ def run_benchmarks(
         samples: Keep only the first `samples` commanded samples of the groove (a small smoke workload);
             None for the whole run.
         seed: Seed of the lab's noise.
-        sweep_draws: Draws of the Monte Carlo sweep timed on every core; default 4 per core.
+        sweep_draws: Draws of the Monte Carlo sweep timed on every core; default 8 per core.
 
     Returns:
         The JSON payload: times [s], factors [-], `machine`, `workload`.
@@ -154,7 +154,7 @@ def run_benchmarks(
     out["newton_iterations_per_sample"] = float(np.mean(sim.iterations))
     out["path_growth"] = path_growth(twin, t_s, p_cmd)
     sweep = run_sweep(
-        sweep_draws or 4 * len(os.sched_getaffinity(0)), seed=seed, history=history,
+        sweep_draws or 8 * usable_cores(), seed=seed, history=history,
         path=ToolPath(t_s=t_s, p_sheet_m=p_cmd, pass_index=sim.pass_index, direction=sim.direction),
     )
     out["sweep_replays_per_s_per_core"] = sweep.replays_per_s_per_core
@@ -168,6 +168,12 @@ def run_benchmarks(
     path = ToolPath(t_s=t_s, p_sheet_m=p_cmd, pass_index=pass_index, direction=direction)
     field = SheetForceField(history)
     out["force_field_eval_s"], _ = time_call(lambda: field.rigid_forces(path), repeats)
+    # the general ISF height-map force model (issue #16) on the same path: cost per sample against the table field
+    from twin.process.isf_force import IsfForceField
+
+    isf_field = IsfForceField()
+    out["isf_field_eval_s"], _ = time_call(lambda: isf_field.rigid_forces(path), repeats)
+    out["isf_over_table_field"] = out["isf_field_eval_s"] / out["force_field_eval_s"]
     # the dynamic lab plant (twin.lab.dynamic, mj_step at 1 kHz with its sensor chain) on the same command
     from twin.lab.dynamic.knobs import Knobs as DynamicKnobs
     from twin.lab.dynamic.run import run_dynamic_lab
@@ -233,6 +239,8 @@ TABLE_ROWS: tuple[tuple[str, str, str], ...] = (
     ("discrepancy_unexplained_s", "  full library, nothing explains", "s"),
     ("discrepancy_by_hand_s", "  full library, two hand edits", "s"),
     ("force_field_eval_s", "field rigid_forces (full path)", "s"),
+    ("isf_field_eval_s", "ISF height-map field (full path)", "s"),
+    ("isf_over_table_field", "  ISF field / table field", "x"),
     ("gcode_load_s", "G-code import, ~100k moves", "s"),
 )
 

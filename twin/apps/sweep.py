@@ -184,6 +184,11 @@ class SweepResult:
         }
 
 
+def usable_cores() -> int:
+    """Cores this process may run on (its CPU affinity where the OS has one)."""
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+
+
 # ------------------------------------------------------------------ worker side
 _WORKER: dict[str, Any] = {}
 
@@ -258,7 +263,7 @@ def run_sweep(
     history = history if history is not None else default_force_history()
     path = path if path is not None else groove_path()
     if workers is None:
-        workers = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+        workers = usable_cores()
     if chunk is None:
         chunk = max(1, min(8, draws // (4 * workers)))
     if workers < 1 or chunk < 1:

@@ -50,6 +50,7 @@ from twin.process.formed_profile import FormedProfile
 from twin.process.pass_tables import PassTable, build_pass_tables
 from twin.process.pass_tables import lerp as _lerp
 from twin.process.pass_tables import lerp_slope as _lerp_slope
+from twin.process.pass_tables import lerp_slope3 as _lerp_slope3
 from twin.process.path import ToolPath
 
 #: Elastic unloading stiffness of the formed sheet [N/m]: calibrated (`tx200-twin calibrate`) to the CNC test's
@@ -195,33 +196,30 @@ class SheetForceField:
         if direction != 1 and direction != -1:
             raise InputError(f"direction = {direction!r}: expected +1 or -1")
         t = self._table(pass_index)
-        fz_h, dfz_h = _lerp_slope(t.fz, t.x0, t.dx, t.n, x)
+        fz_h, dfz_h, ratio, dratio, plan, dplan = _lerp_slope3(
+            t.fz, t.ratio, t.delta_plan if self.stateful else t.z_plan, t.x0, t.dx, t.n, x
+        )
         if self.stateful:
             ref = self._snapshot if pass_index == self._pass else self._formed
             z_ref, dz_ref = _lerp_slope(ref, self._x0, self._dx, self._n_grid, x)
-            plan, dplan = _lerp_slope(t.delta_plan, t.x0, t.dx, t.n, x)
             delta = z_ref - z
             if delta > 0.0:
                 k = self.k_load
-                lin = fz_h + k * (delta - plan)
-                dlin_dx = dfz_h + k * (dz_ref - dplan)
+                lin, dlin_dx = fz_h + k * (delta - plan), dfz_h + k * (dz_ref - dplan)
             else:
                 k = self.k_unload
                 lin = fz_h - self.k_load * plan + k * delta
                 dlin_dx = dfz_h - self.k_load * dplan + k * dz_ref
-        else:
-            z_plan, derr = _lerp_slope(t.z_plan, t.x0, t.dx, t.n, x)
-            err = z_plan - z
+        else:  # plan, dplan: z_plan and its slope
+            err = plan - z
             k = self.k_load if err > 0.0 else self.k_unload
-            lin = fz_h + k * err
-            dlin_dx = dfz_h + k * derr
+            lin, dlin_dx = fz_h + k * err, dfz_h + k * dplan
         w = _SOFTPLUS_N
         if lin > 30.0 * w:
             fz, slope = lin, 1.0
         else:
             e = math.exp(lin / w)
             fz, slope = w * math.log1p(e), e / (1.0 + e)
-        ratio, dratio = _lerp_slope(t.ratio, t.x0, t.dx, t.n, x)
         sign = 1.0 if direction * t.direction > 0 else -1.0
         dfz_dx, dfz_dz = slope * dlin_dx, -slope * k
         return (

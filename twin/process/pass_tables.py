@@ -69,6 +69,25 @@ def lerp_slope(table: np.ndarray, x0: float, dx: float, n: int, x: float) -> tup
     return a * (1.0 - f) + b * f, (b - a) / dx
 
 
+def lerp_slope3(
+    a: np.ndarray, b: np.ndarray, c: np.ndarray, x0: float, dx: float, n: int, x: float
+) -> tuple[float, float, float, float, float, float]:
+    """`lerp_slope` of three tables on one grid at once (same arithmetic, one index computation).
+
+    Returns:
+        (a(x), a'(x), b(x), b'(x), c(x), c'(x)) [table unit, table unit / m].
+    """
+    u = (x - x0) / dx
+    if u <= 0.0 or u >= n - 1:
+        i = 0 if u <= 0.0 else n - 1
+        return float(a[i]), 0.0, float(b[i]), 0.0, float(c[i]), 0.0
+    i = int(u)
+    f = u - i
+    g = 1.0 - f
+    a0, a1, b0, b1, c0, c1 = float(a[i]), float(a[i + 1]), float(b[i]), float(b[i + 1]), float(c[i]), float(c[i + 1])
+    return a0 * g + a1 * f, (a1 - a0) / dx, b0 * g + b1 * f, (b1 - b0) / dx, c0 * g + c1 * f, (c1 - c0) / dx
+
+
 def build_pass_tables(history: ForceHistory, profile: FormedProfile, *, deadband_m: float) -> list[PassTable]:
     """Tabulate every pass of `history`, driving `profile` along the history's own (ideal) samples.
 

@@ -11,8 +11,10 @@ surface advances to where the tool really was.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import replace
 from functools import partial
+from typing import Any
 
 import mujoco
 import numpy as np
@@ -41,6 +43,7 @@ class Twin:
             doubled on load).
         effects: Robot-side effects (lab truth or fitted augmentations); default none.
         joint_stiffness: Override of K_q [N·m/rad], shape (6,); default: the model's.
+        field_factory: Builds the sheet force field from the (scaled) history; default `SheetForceField`.
     """
 
     def __init__(
@@ -49,6 +52,7 @@ class Twin:
         effects: RobotEffects | None = None,
         joint_stiffness: np.ndarray | None = None,
         joint_friction: np.ndarray | None = None,
+        field_factory: Callable[[ForceHistory], Any] | None = None,
     ) -> None:
         self.effects = effects or RobotEffects()
         self.history = history if history is not None else default_force_history()
@@ -66,7 +70,9 @@ class Twin:
         scaled = self.history
         if self.effects.force_scale != 1.0:
             scaled = replace(self.history, f_sheet_n=self.effects.force_scale * self.history.f_sheet_n)
-        self.field = SheetForceField(scaled)
+        # field_factory (issue #16): another force model with the field's interface, e.g. the height-map ISF
+        # model (`twin.process.isf_calibration.isf_field_factory`), built from the same (scaled) history
+        self.field = SheetForceField(scaled) if field_factory is None else field_factory(scaled)
         m = self.model
         self._tcp = m.site("tcp").id
         self._arm_dof = np.array([m.jnt_dofadr[m.joint(name).id] for name in ARM_JOINTS])

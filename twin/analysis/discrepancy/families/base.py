@@ -24,6 +24,7 @@ To add a family, write one subclass and decorate it with `register`:
 
 from __future__ import annotations
 
+from abc import ABC, abstractmethod
 from dataclasses import dataclass
 from typing import ClassVar
 
@@ -47,7 +48,7 @@ class Delta:
     profile: np.ndarray | None = None
 
 
-class Family:
+class Family(ABC):
     """Base class of an effect family: a name, named parameters with units, and `delta`.
 
     Class attributes:
@@ -75,9 +76,9 @@ class Family:
     linear: ClassVar[bool] = True
     bilinear: ClassVar[bool] = False
 
+    @abstractmethod
     def delta(self, ctx: Context, theta: np.ndarray) -> Delta:
         """Change of the prediction for parameters `theta` (same order as `parameters`)."""
-        raise NotImplementedError
 
     def start(self, ctx: Context, residual: dict[str, np.ndarray]) -> np.ndarray:
         """Starting parameters of the fit (default neutral); `residual` is measured - predicted by stream."""

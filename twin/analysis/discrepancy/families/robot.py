@@ -20,7 +20,7 @@ from twin.analysis.discrepancy.families.sensors import negligible
 # replay under-states an alternating offset's force change, biasing the two by up to ~25 %; the replay
 # refinement of the search then fits the lab form exactly and keeps it only if it fits better
 LAB_MATCH = 0.15
-CLAMP_DECAY_M = 0.005  # force rise near the stroke ends decays over this distance from the end (sec. 2.3.1)
+CLAMP_DECAYS_M = (0.003, 0.008)  # decay lengths of the force rise near the stroke ends (sec. 2.3.1)
 
 
 ANSWER = ("sheet_answer_ratio",)  # last parameter of every robot family: w in [0, 1]
@@ -138,19 +138,23 @@ class ToolLengthOffset(Family):
 
 @register
 class ClampProximity(Family):
-    """The sheet is stiffer near the clamped stroke ends: the force rises there (thesis sec. 2.3.1)."""
+    """The sheet is stiffer near the clamped stroke ends: the force rises there (thesis sec. 2.3.1).
+
+    The rise is a sum of two decays away from the end, 3 mm and 8 mm, so that any decay length in between is
+    matched closely while the family stays linear.
+    """
 
     name = "clamp_proximity"
-    parameters = ("end_rise_ratio", *ANSWER)
-    neutral = (0.0, 1.0)
-    bounds = ((-0.9, 0.0), (5.0, 1.0))
-    scale = (0.02, 0.1)
+    parameters = ("rise_3mm_ratio", "rise_8mm_ratio", *ANSWER)
+    neutral = (0.0, 0.0, 1.0)
+    bounds = ((-2.0, -2.0, 0.0), (5.0, 5.0, 1.0))
+    scale = (0.02, 0.02, 0.1)
+    description = "force x (1 + a3 exp(-d / 3 mm) + a8 exp(-d / 8 mm)), d the distance to the nearest stroke end"
     bilinear = True
-    description = "force x (1 + a exp(-d / 5 mm)), d the distance to the nearest stroke end"
 
     def delta(self, ctx: Context, theta: np.ndarray) -> Delta:
-        """Direct force change a w(x) f and the deflection it causes."""
+        """Direct force change (a3 w3 + a8 w8) f and the deflection it causes."""
         x = ctx.sim.p_cmd_sheet_m[:, 0]
-        end = np.max(np.abs(x))
-        weight = np.exp(-(end - np.abs(x)) / CLAMP_DECAY_M)
-        return _delta(ctx, theta, np.zeros((len(x), 3)), theta[0] * weight[:, None] * ctx.sim.f_sheet_n)
+        distance = np.max(np.abs(x)) - np.abs(x)
+        weight = sum(a * np.exp(-distance / decay) for a, decay in zip(theta[:2], CLAMP_DECAYS_M, strict=True))
+        return _delta(ctx, theta, np.zeros((len(x), 3)), weight[:, None] * ctx.sim.f_sheet_n)
