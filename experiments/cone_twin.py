@@ -51,7 +51,7 @@ def main() -> int:
     formed_nominal = surface(field)
     t_nominal = time.perf_counter() - start
     start = time.perf_counter()
-    comp = compensate_twin(path.t_s, path.p_sheet_m, twin, tol_m=20e-6)
+    comp = compensate_twin(path.t_s, path.p_sheet_m, twin, tol_m=0.1e-3, max_iter=30)
     t_comp = time.perf_counter() - start
     compensated = twin.simulate(path.t_s, comp.p_cmd_sheet_m)
     formed_comp = surface(field)

@@ -9,8 +9,10 @@ S (the surface formed before the tool got here):
   position (its owner), the cell under that one by another, and so on; walking up until the layer reached lies
   1 mm above the tip, α = atan2(rise, horizontal run) to it (a cone's previous revolutions, for instance), capped
   at α_max: a step straight down, as in the zig-zag groove, is no cone wall, and α_max is calibrated on the
-  groove's FE history (63.2°, close to the groove's 63.4° end walls); held from the last reading on sheet never
-  formed (first contact: α_max) or after a reading-less sample;
+  groove's FE history (63.8°, close to the groove's 63.4° end walls); the model holds α and moves it towards each
+  reading over 10 mm of travel (a wall angle changes slowly along a part; single readings jump with the path's
+  sampling and with the tool's deflection, and made twin compensation stall), starting at α_max (first
+  contact) and keeping it over sheet never formed;
 * forming (Δh > Δh_min): the steady-state vertical force of Aerens et al., "Force prediction for single point
   incremental forming deduced from experimental and FEM observations", CIRP Annals 59 (2010) 269-272,
 
@@ -35,7 +37,7 @@ R_m ≈ 354·e^-0.205 ≈ 288 MPa: within 5 %. Validity: the formula is a regres
 pyramids); we use it for wall angles 30-70°, step-downs 0.1-1 mm, t = 1 mm, Ø 15 mm and have not checked those
 against the paper's exact ranges. It gives no force on a flat sheet (α = 0) and peaks at α = 49.3° (α·tan α = 1
 in radians): steeper walls get *less* force from it. The stiffness ∂f/∂p is analytic (Δh^0.09, the build-up, the
-slope of the met surface, the implicit sliding direction); α is held per sample and not differentiated.
+slope of the met surface, the implicit sliding direction); α is state and not differentiated.
 """
 
 from __future__ import annotations
@@ -56,6 +58,8 @@ _SOFTPLUS_N = 5.0
 #: Height over which the wall angle is read from the layers above the tool [m], and the most layers walked.
 WALL_BASELINE_M = 1.0e-3
 _WALL_MAX_LAYERS = 12
+#: Travel over which the held wall angle follows its readings [m] (0: jump to each reading).
+ALPHA_LENGTH_M = 10e-3
 
 
 @dataclass(frozen=True)
@@ -80,10 +84,10 @@ class IsfForceParams:
     tensile_strength_mpa: float = 275.0
     thickness_m: float = 1.0e-3
     tool_radius_m: float = TOOL_RADIUS_M
-    wall_angle_max_deg: float = 63.18
-    build_up_m: float = 1.943e-3
-    mu_eff: float = 0.2969
-    direction_length_m: float = 0.395e-3
+    wall_angle_max_deg: float = 63.82
+    build_up_m: float = 1.953e-3
+    mu_eff: float = 0.2971
+    direction_length_m: float = 0.387e-3
     step_min_m: float = 0.2e-3
     k_unload_n_per_m: float = K_UNLOAD_N_PER_M
     scale: float = 1.0
@@ -141,6 +145,7 @@ class IsfForceField:
         self._dir = (0.0, 0.0)
         self._last = None
         self._alpha = self._amax
+        self._last_step = 0.0
         self._last_fz = ((math.nan, math.nan, math.nan), 0.0)
 
     @property
@@ -168,11 +173,16 @@ class IsfForceField:
             f_z_n = self._last_fz[1] if self._last_fz[0] == (x, y, z) else self._fz(x, y, z)[0]
         vx, vy, _ = self._travel(x, y)
         self._dir = (vx, vy)
+        self._last_step = 0.0 if self._last is None else math.dist(self._last, (x, y, z))
         self._last = (x, y, z)
         owner = self.map.met_owner(x, y)
         alpha = self._wall_angle(owner, x, y, z)
         if alpha is not None:
-            self._alpha = alpha
+            if self._last_step > 0.0 and ALPHA_LENGTH_M > 0.0:  # a wall angle changes slowly along a part
+                k = 1.0 - math.exp(-self._last_step / ALPHA_LENGTH_M)
+                self._alpha += k * (alpha - self._alpha)
+            else:
+                self._alpha = alpha
         self.map.commit((x, y, z), f_z_n, owner)
 
     def _wall_angle(self, owner: int, x: float, y: float, z: float) -> float | None:
