@@ -29,7 +29,10 @@ import numpy as np
 from scipy.linalg.lapack import dgesv as _dgesv
 
 NEWTON_TOL_RAD = 1e-7  # a Newton step this small leaves < 1e-9 m of error (quadratic convergence)
-NEWTON_MAX_ITER = 20
+NEWTON_MAX_ITER = 40
+# Past this many iterations Newton is cycling (the sheet's force law has a kink where the tool lifts off the
+# surface it meets, and near the end walls the equilibrium sits on it): the steps are halved from then on.
+NEWTON_DAMPED_AFTER = 10
 FRICTION_MAX_ROUNDS = 6  # active-set rounds of the stick/slip solve; 1-2 suffice in practice
 
 
@@ -124,6 +127,8 @@ class EquilibriumSolver:
             _, _, dq, info = _dgesv(h, r)  # np.linalg.solve costs 5x more
             if info != 0:
                 raise np.linalg.LinAlgError(f"singular Newton matrix (LAPACK dgesv info {info}) at q = {q!r}")
+            if k > NEWTON_DAMPED_AFTER:  # cycling across a kink of the sheet's force law: damped steps
+                dq *= 0.5
             q = q + dq
             if abs(dq).max() < NEWTON_TOL_RAD:
                 break
