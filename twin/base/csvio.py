@@ -12,6 +12,7 @@ import io
 import json
 import math
 import os
+import shutil
 import sys
 import tempfile
 from collections.abc import Mapping, Sequence
@@ -133,6 +134,21 @@ def _atomic_write_text(path: Path, text: str, protect: Sequence[str | Path]) -> 
         if os.path.exists(tmp_name):
             os.unlink(tmp_name)
         raise
+
+
+def swap_in_directory(tmp: Path, target: Path) -> None:
+    """Put a fully written sibling folder `tmp` at `target` by renames: a reader never sees it half written.
+
+    An existing `target` is first renamed aside into a temporary sibling and removed only once `tmp` stands in
+    its place.
+    """
+    if target.exists():
+        old = Path(tempfile.mkdtemp(prefix=f".{target.name}.", suffix=".old", dir=target.parent))
+        os.replace(target, old / "previous")
+        os.replace(tmp, target)
+        shutil.rmtree(old, ignore_errors=True)
+    else:
+        os.replace(tmp, target)
 
 
 def write_table(

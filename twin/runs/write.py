@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from twin.base.csvio import write_json, write_table
+from twin.base.csvio import swap_in_directory, write_json, write_table
 from twin.errors import DataFileError, InputError
 from twin.runs.format import RUN_FORMAT, RUN_FRAME, Run
 from twin.runs.read import read_run
@@ -107,13 +107,7 @@ def write_run(
             raise InputError(
                 f"run does not satisfy {RUN_FORMAT}: {str(exc).replace(str(tmp) + os.sep, '')}"
             ) from None
-        if target.exists():
-            old = Path(tempfile.mkdtemp(prefix=f".{target.name}.", suffix=".old", dir=target.parent))
-            os.replace(target, old / "run")
-            os.replace(tmp, target)
-            shutil.rmtree(old, ignore_errors=True)
-        else:
-            os.replace(tmp, target)
+        swap_in_directory(tmp, target)
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise

@@ -14,7 +14,6 @@ Every file is checked with `twin.apps.export.val3_check` before the folder is mo
 
 from __future__ import annotations
 
-import os
 import shutil
 import tempfile
 from collections.abc import Iterable, Sequence
@@ -22,6 +21,7 @@ from pathlib import Path
 
 from twin.apps.export.program import ProgramPath, euler_xyz_deg, fmt
 from twin.apps.export.val3_check import check_application
+from twin.base.csvio import swap_in_directory
 from twin.errors import InputError
 
 XSI = "http://www.w3.org/2001/XMLSchema-instance"
@@ -132,13 +132,7 @@ def write(path: ProgramPath, out: Path, protect: Sequence[Path] = ()) -> list[Pa
     try:
         for name, text in files.items():
             (tmp / name).write_text(text, encoding="utf-8")
-        if target.exists():
-            old = Path(tempfile.mkdtemp(prefix=f".{target.name}.", suffix=".old", dir=target.parent))
-            os.replace(target, old / "app")
-            os.replace(tmp, target)
-            shutil.rmtree(old, ignore_errors=True)
-        else:
-            os.replace(tmp, target)
+        swap_in_directory(tmp, target)
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
