@@ -1,12 +1,19 @@
-"""Options shared by several commands: the FE force history and its symmetry declaration, the ideal path."""
+"""Options shared by several commands: the FE force history and its symmetry declaration, the ideal path, and the
+sheet force model."""
 
 from __future__ import annotations
 
 import argparse
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
+
+import numpy as np
 
 from twin.errors import InputError
+from twin.process.field import SheetForceField
 from twin.process.forces import ForceHistory, default_force_history, load_force_history
+from twin.process.isf_calibration import isf_field_factory
 from twin.process.path import ToolPath, groove_path, label_passes
 from twin.runs.read import read_commanded_csv
 
@@ -64,3 +71,37 @@ def ideal_from_arguments(args: argparse.Namespace) -> ToolPath:
     stream = read_commanded_csv(args.ideal)
     pass_index, direction = label_passes(stream.values[:, 0])
     return ToolPath(t_s=stream.t_s, p_sheet_m=stream.values, pass_index=pass_index, direction=direction)
+
+
+FORCE_MODELS = ("auto", "table", "isf")
+
+
+def add_force_model_argument(parser: argparse.ArgumentParser) -> None:
+    """Add `--force-model auto|table|isf` (the sheet force model of the twin or lab)."""
+    parser.add_argument(
+        "--force-model",
+        choices=FORCE_MODELS,
+        default="auto",
+        help="sheet force model: 'table' the per-pass field of the groove's FE history, 'isf' the height-map ISF "
+        "model (any part); 'auto' (default) takes 'table' when the path is the history's groove, else 'isf'",
+    )
+
+
+def field_factory_for(
+    choice: str, history: ForceHistory, p_sheet_m: Any
+) -> Callable[[ForceHistory], Any] | None:
+    """The `Twin(field_factory=...)` for `--force-model` and a path; None is the per-pass table field.
+
+    `auto` keeps the table field when the path runs along the history's groove (y within 1 mm of the centre line
+    and no more passes than the history has), and takes the ISF height-map model otherwise.
+    """
+    if choice == "table":
+        return None
+    if choice == "isf":
+        return isf_field_factory()
+    path_m = np.asarray(p_sheet_m, dtype=float)
+    passes, _ = label_passes(path_m[:, 0])
+    along_groove = float(np.max(np.abs(path_m[:, 1]))) < 1e-3 and int(passes.max()) <= SheetForceField(
+        history
+    ).n_passes
+    return None if along_groove else isf_field_factory()

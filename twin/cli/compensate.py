@@ -9,11 +9,20 @@ from pathlib import Path
 import numpy as np
 
 from twin.analysis.check import diagnose_gain
-from twin.analysis.compensate import compensate_formula, compensate_twin, compliance_from_stiffness, gain_of
+from twin.analysis.compensate import (
+    TWIN_MAX_ITER,
+    TWIN_TOL_M,
+    compensate_formula,
+    compensate_twin,
+    compliance_from_stiffness,
+    gain_of,
+)
 from twin.base.csvio import emit_json, read_json, write_table
 from twin.cli._common import (
+    add_force_model_argument,
     add_history_arguments,
     add_ideal_argument,
+    field_factory_for,
     history_from_arguments,
     ideal_from_arguments,
 )
@@ -34,6 +43,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--model", type=Path, help="twin model file (effects, K_q) for --method twin")
     add_history_arguments(parser)
     add_ideal_argument(parser)
+    add_force_model_argument(parser)
+    parser.add_argument(
+        "--tol-mm", type=float, default=1e3 * TWIN_TOL_M, help="--method twin: stop below this |residual| [mm]"
+    )
+    parser.add_argument("--max-iter", type=int, default=TWIN_MAX_ITER, help="--method twin: iteration limit")
     parser.add_argument("--out", type=Path, required=True, help="compensated path, commanded.csv format")
     parser.add_argument("--json", help="write the numbers to FILE ('-' for stdout)")
 
@@ -54,19 +68,25 @@ def run(args: argparse.Namespace) -> int:
     ideal = ideal_from_arguments(args)
     effects, stiffness = read_model_file(args.model) if args.model else (Effects(), None)
     protect = [p for p in (args.stiffness, args.model, args.history, args.ideal) if p is not None]
-    f_reference = SheetForceField(reference).rigid_forces(ideal)
-    twin = Twin(history=declared, effects=effects.robot, joint_stiffness=stiffness)
+    factory = field_factory_for(args.force_model, reference, ideal.p_sheet_m)
+    build_field = SheetForceField if factory is None else factory
+    f_reference = build_field(reference).rigid_forces(ideal)
+    twin = Twin(history=declared, effects=effects.robot, joint_stiffness=stiffness, field_factory=factory)
     if args.method == "formula":
         if args.stiffness is None:
             raise InputError(
                 "--method formula needs --stiffness FILE with k_r_n_per_mm (e.g. an identify output)"
             )
         c_r = compliance_from_stiffness(_stiffness(args.stiffness))
-        f_ideal = SheetForceField(declared).rigid_forces(ideal)
+        f_ideal = build_field(declared).rigid_forces(ideal)
         comp = compensate_formula(ideal.t_s, ideal.p_sheet_m, f_ideal, c_r)
         predicted = twin.simulate(comp.t_s, comp.p_cmd_sheet_m).p_sheet_m - ideal.p_sheet_m
     else:
-        comp = compensate_twin(ideal.t_s, ideal.p_sheet_m, twin)
+        if not (args.tol_mm > 0 and args.max_iter >= 1):
+            raise InputError(f"--tol-mm {args.tol_mm} and --max-iter {args.max_iter}: expected > 0 and >= 1")
+        comp = compensate_twin(
+            ideal.t_s, ideal.p_sheet_m, twin, tol_m=1e-3 * args.tol_mm, max_iter=args.max_iter
+        )
         c_r = twin.kinematics.compliance(twin.kinematics.q_home)
         predicted = comp.predicted_residual_m
     assert predicted is not None
@@ -96,6 +116,7 @@ def run(args: argparse.Namespace) -> int:
         "correction_max_mm": 1e3 * float(np.max(np.linalg.norm(comp.correction_m, axis=1))),
         "compliance_mm_per_kn": 1e6 * c_r,
         "history": {"file": declared.source, "symmetry": declared.symmetry},
+        "force_model": "table" if factory is None else "isf",
         "effects": dict(effects.values),
     }
     out = sys.stderr if args.json == "-" else sys.stdout  # keep stdout pure JSON for `--json -`

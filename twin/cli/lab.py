@@ -12,10 +12,12 @@ import numpy as np
 from twin.analysis.identify.cartesian import THESIS_TABLE_4_2_LOADS_N
 from twin.base.csvio import emit_json, write_table
 from twin.base.signals import interp_rows
+from twin.cli._common import add_force_model_argument, field_factory_for
 from twin.errors import InputError
 from twin.lab.cnc import run_cnc
 from twin.lab.effects import EFFECTS, parse_effect_args
 from twin.lab.virtual import load_test, nominal_commanded, run_lab
+from twin.process.forces import default_force_history
 from twin.runs.read import read_commanded_csv
 from twin.runs.write import write_run
 
@@ -42,6 +44,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--neutral", action="store_true", help="dynamic plant: start from the neutral knobs")
     parser.add_argument("--seed", type=int, required=True, help="seed of the lab's noise")
+    add_force_model_argument(parser)
     parser.add_argument("--out", type=Path, required=True, help="run directory (loadtest: a CSV file)")
     parser.add_argument("--overwrite", action="store_true", help="replace an existing output")
     parser.add_argument("--json", help="write a summary JSON to FILE ('-' for stdout)")
@@ -102,7 +105,11 @@ def run(args: argparse.Namespace) -> int:
         protect.append(args.commanded)
     else:
         t_s, p_cmd = nominal_commanded()
-    run_, truth = run_lab(t_s, p_cmd, scenario=args.scenario, effects=effects, seed=args.seed)
+    factory = field_factory_for(args.force_model, default_force_history(), p_cmd)
+    run_, truth = run_lab(
+        t_s, p_cmd, scenario=args.scenario, effects=effects, seed=args.seed, field_factory=factory
+    )
+    truth["force_model"] = "table" if factory is None else "isf"
     write_run(args.out, run_, truth=truth, overwrite=args.overwrite, protect=protect)
     deflection = np.max(
         np.linalg.norm(

@@ -10,6 +10,7 @@ caller, in a fixed order, so the same seed gives identical files. The effects an
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from typing import Any
 
@@ -59,6 +60,7 @@ def run_lab(
     settings: LabSettings | None = None,
     history: ForceHistory | None = None,
     joint_friction: np.ndarray | None = None,
+    field_factory: Callable[[ForceHistory], Any] | None = None,
 ) -> tuple[Run, dict[str, Any]]:
     """Run the commanded path on the lab plant and measure it.
 
@@ -72,13 +74,14 @@ def run_lab(
         history: Force history of the lab's sheet; default the shipped one (declared half, doubled).
         joint_friction: Override of the robot's joint friction [N·m], shape (6,); default the model's (zeros
             give the purely elastic robot, e.g. to test identification maths).
+        field_factory: The sheet force model (`Twin(field_factory=...)`); default the groove's per-pass field.
 
     Returns:
         The run (not yet written) and the truth record for `truth.json`.
     """
     effects = effects or Effects()
     settings = settings or LabSettings()
-    twin = Twin(history=history, effects=effects.robot, joint_friction=joint_friction)
+    twin = Twin(history=history, effects=effects.robot, joint_friction=joint_friction, field_factory=field_factory)
     result = twin.simulate(t_s, p_cmd_sheet_m)
     rng = np.random.default_rng(seed)
     t_end = float(result.t_s[-1])
