@@ -16,9 +16,9 @@ from twin.cli._common import add_force_model_argument, field_factory_for
 from twin.errors import InputError
 from twin.lab.cnc import run_cnc
 from twin.lab.effects import EFFECTS, parse_effect_args
-from twin.lab.virtual import load_test, nominal_commanded, run_lab
+from twin.lab.virtual import load_test, run_lab
 from twin.process.forces import default_force_history
-from twin.runs.read import read_commanded_csv
+from twin.runs.read import lab_commanded
 from twin.runs.write import write_run
 
 HELP = "Run the virtual lab (richer plant, noise, hidden effects) and write a measured run."
@@ -94,17 +94,8 @@ def run(args: argparse.Namespace) -> int:
         return 0
     if args.scenario == "cnc":
         return _run_cnc(args, effects_given=bool(args.effect), out=out)
-    if args.scenario == "compensated" and args.commanded is None:
-        raise InputError(
-            "--scenario compensated needs --commanded PATH.csv (e.g. from `tx200-twin compensate`)"
-        )
-    protect: list[Path] = []
-    if args.commanded is not None:
-        commanded = read_commanded_csv(args.commanded)
-        t_s, p_cmd = commanded.t_s, commanded.values
-        protect.append(args.commanded)
-    else:
-        t_s, p_cmd = nominal_commanded()
+    commanded, protect = lab_commanded(args.scenario, args.commanded)
+    t_s, p_cmd = commanded.t_s, commanded.values
     factory = field_factory_for(args.force_model, default_force_history(), p_cmd)
     run_, truth = run_lab(
         t_s, p_cmd, scenario=args.scenario, effects=effects, seed=args.seed, field_factory=factory

@@ -20,8 +20,7 @@ from twin.process.field import SheetForceField
 from twin.process.forces import ForceHistory, default_force_history
 from twin.process.path import ToolPath, groove_path
 from twin.process.springback import unloaded_profile
-from twin.robot.dh import TOOL_LENGTH_M
-from twin.runs.format import Run, Stream
+from twin.runs.format import Run, Stream, run_meta
 
 
 @dataclass(frozen=True)
@@ -99,16 +98,13 @@ def run_cnc(
     x_profile = np.arange(-PROFILE_HALF_SPAN_M, PROFILE_HALF_SPAN_M + 1e-12, PROFILE_SPACING_M)
     z_profile = np.interp(x_profile, field.x_grid_m, z_after)
     z_profile = z_profile + rng.normal(0.0, settings.profile_noise_m, z_profile.shape)
-    meta = {
-        "format": "tx200-twin-run/1",
-        "scenario": "cnc",
-        "frame": "sheet",
-        "source": "tx200-twin virtual lab: rigid CNC (FAMUP MCX500 class, thesis sec. 2.3)",
-        "tool_length_m": TOOL_LENGTH_M,
-        "tracker_rate_hz": settings.position_rate_hz,
-        "sensor_rate_hz": settings.sensor_rate_hz,
-        "seed": seed,
-    }
+    meta = run_meta(
+        scenario="cnc",
+        source="tx200-twin virtual lab: rigid CNC (FAMUP MCX500 class, thesis sec. 2.3)",
+        tracker_rate_hz=settings.position_rate_hz,
+        sensor_rate_hz=settings.sensor_rate_hz,
+        seed=seed,
+    )
     run = Run(
         directory=None,
         meta=meta,

@@ -20,8 +20,7 @@ from twin.lab.effects import Effects
 from twin.lab.measure import predict_forces, predict_part_profile, predict_tracker, uniform_times
 from twin.process.forces import ForceHistory
 from twin.process.path import groove_path
-from twin.robot.dh import TOOL_LENGTH_M
-from twin.runs.format import Run, Stream
+from twin.runs.format import Run, Stream, run_meta
 from twin.sim.quasi_static import Twin
 
 
@@ -93,16 +92,13 @@ def run_lab(
     forces = forces + rng.normal(0.0, settings.force_noise_n, forces.shape)
     x_profile, z_profile = predict_part_profile(result, effects)
     z_profile = z_profile + rng.normal(0.0, settings.profile_noise_m, z_profile.shape)
-    meta = {
-        "format": "tx200-twin-run/1",
-        "scenario": scenario,
-        "frame": "sheet",
-        "source": "tx200-twin virtual lab",
-        "tool_length_m": TOOL_LENGTH_M,
-        "tracker_rate_hz": settings.tracker_rate_hz,
-        "sensor_rate_hz": settings.sensor_rate_hz,
-        "seed": seed,
-    }
+    meta = run_meta(
+        scenario=scenario,
+        source="tx200-twin virtual lab",
+        tracker_rate_hz=settings.tracker_rate_hz,
+        sensor_rate_hz=settings.sensor_rate_hz,
+        seed=seed,
+    )
     run = Run(
         directory=None,
         meta=meta,

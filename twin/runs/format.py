@@ -28,6 +28,7 @@ import numpy as np
 
 from twin.base.signals import interp_rows
 from twin.errors import InputError
+from twin.robot.dh import TOOL_LENGTH_M
 
 RUN_FORMAT = "tx200-twin-run/1"
 RUN_FRAME = "sheet"
@@ -159,3 +160,27 @@ def resample(stream: Stream, t_s: np.ndarray) -> np.ndarray:
             f"[{stream.t_s[0]:.6g}, {stream.t_s[-1]:.6g}] s by more than half a sample ({margin:.3g} s)"
         )
     return interp_rows(query, stream.t_s, stream.values)
+
+
+def run_meta(
+    *, scenario: str, source: str, tracker_rate_hz: float, sensor_rate_hz: float, seed: int
+) -> dict[str, Any]:
+    """The `meta.json` of a made-up run: format, frame, tool length, the scenario, rates and seed.
+
+    Args:
+        scenario: `nominal`, `compensated`, `loadtest`, `cnc` or free text.
+        source: What made the run, in words.
+        tracker_rate_hz: Tracker (or machine position) rate [Hz].
+        sensor_rate_hz: Force sensor rate [Hz].
+        seed: Seed of the run's noise.
+    """
+    return {
+        "format": RUN_FORMAT,
+        "scenario": scenario,
+        "frame": RUN_FRAME,
+        "source": source,
+        "tool_length_m": TOOL_LENGTH_M,
+        "tracker_rate_hz": float(tracker_rate_hz),
+        "sensor_rate_hz": float(sensor_rate_hz),
+        "seed": seed,
+    }

@@ -16,7 +16,8 @@ from typing import Any
 import numpy as np
 
 from twin.base.csvio import check_mm_magnitude, check_monotonic, read_json, read_table
-from twin.errors import DataFileError, RunFormatError, UnitsError
+from twin.errors import DataFileError, InputError, RunFormatError, UnitsError
+from twin.process.path import groove_path
 from twin.runs.format import (
     CLOCK_TOLERANCE_S,
     FORCE_COLUMNS,
@@ -203,3 +204,26 @@ def read_commanded_csv(path: str | Path) -> Stream:
         raise RunFormatError(path, f"t_s starts at {stream.t_s[0]:.6g} s, expected 0", 1)
     check_mm_magnitude(path, "x_mm", stream.values[:, 0] * 1e3, min_span_mm=MIN_PATH_SPAN_X_MM)
     return stream
+
+
+def lab_commanded(scenario: str, commanded_csv: str | Path | None) -> tuple[Stream, list[Path]]:
+    """The commanded path of a lab run: a `commanded.csv`-format file, else the thesis groove.
+
+    Args:
+        scenario: The lab scenario; `compensated` needs a file (a compensated path).
+        commanded_csv: Path of the file, or None for the groove.
+
+    Returns:
+        The commanded path and the inputs a run written from it must never overwrite.
+
+    Raises:
+        InputError: `compensated` without a file.
+    """
+    if commanded_csv is None:
+        if scenario == "compensated":
+            raise InputError(
+                "--scenario compensated needs --commanded PATH.csv (e.g. from `tx200-twin compensate`)"
+            )
+        path = groove_path()
+        return Stream(path.t_s, path.p_sheet_m), []
+    return read_commanded_csv(commanded_csv), [Path(commanded_csv)]

@@ -4,17 +4,14 @@ from __future__ import annotations
 
 import argparse
 import sys
-from pathlib import Path
 
 import numpy as np
 
 from twin.base.csvio import emit_json, write_table
 from twin.base.signals import interp_rows
-from twin.errors import InputError
 from twin.lab.dynamic.knobs import parse_set_args
 from twin.lab.dynamic.run import dynamic_load_test, run_dynamic_lab
-from twin.process.path import groove_path
-from twin.runs.read import read_commanded_csv
+from twin.runs.read import lab_commanded
 from twin.runs.write import write_run
 
 
@@ -41,18 +38,8 @@ def run_dynamic_command(args: argparse.Namespace, *, loads_n: np.ndarray) -> int
             args.json, {"scenario": "loadtest", "plant": "dynamic", "out": args.out, "cases": len(loads)}
         )
         return 0
-    if args.scenario == "compensated" and args.commanded is None:
-        raise InputError(
-            "--scenario compensated needs --commanded PATH.csv (e.g. from `tx200-twin compensate`)"
-        )
-    protect: list[Path] = []
-    if args.commanded is not None:
-        commanded = read_commanded_csv(args.commanded)
-        t_s, p_cmd = commanded.t_s, commanded.values
-        protect.append(args.commanded)
-    else:
-        path = groove_path()
-        t_s, p_cmd = path.t_s, path.p_sheet_m
+    commanded, protect = lab_commanded(args.scenario, args.commanded)
+    t_s, p_cmd = commanded.t_s, commanded.values
     run, truth, log = run_dynamic_lab(
         t_s, p_cmd, scenario=args.scenario, knobs=knobs, seed=args.seed, progress=sys.stderr
     )

@@ -18,9 +18,8 @@ from twin.lab.dynamic.plant import Plant, build_plant
 from twin.lab.dynamic.sensors import ft_reading, profile_scan, tracker_reading
 from twin.lab.dynamic.simulate import DynamicLog, simulate
 from twin.process.forces import ForceHistory
-from twin.robot.dh import TOOL_LENGTH_M
 from twin.robot.kinematics import Kinematics, load_model
-from twin.runs.format import Run, Stream
+from twin.runs.format import Run, Stream, run_meta
 
 LOAD_HOLD_S = 1.5  # each load case (ramped over 0.5 s) is held until this time, then read [s]
 
@@ -55,16 +54,13 @@ def run_dynamic_lab(
     t_tracker, tracker = tracker_reading(log, knobs, rng)
     t_ft, forces = ft_reading(log, knobs, rng, plant.tool_mass_kg)
     profile = profile_scan(log, knobs, rng)
-    meta = {
-        "format": "tx200-twin-run/1",
-        "scenario": scenario,
-        "frame": "sheet",
-        "source": "tx200-twin dynamic lab (MuJoCo mj_step plant)",
-        "tool_length_m": TOOL_LENGTH_M,
-        "tracker_rate_hz": knobs["tracker_rate_hz"],
-        "sensor_rate_hz": knobs["ft_rate_hz"],
-        "seed": seed,
-    }
+    meta = run_meta(
+        scenario=scenario,
+        source="tx200-twin dynamic lab (MuJoCo mj_step plant)",
+        tracker_rate_hz=knobs["tracker_rate_hz"],
+        sensor_rate_hz=knobs["ft_rate_hz"],
+        seed=seed,
+    )
     run = Run(
         directory=None,
         meta=meta,
