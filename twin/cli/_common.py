@@ -11,7 +11,6 @@ from typing import Any
 import numpy as np
 
 from twin.errors import InputError
-from twin.process.field import SheetForceField
 from twin.process.forces import ForceHistory, default_force_history, load_force_history
 from twin.process.isf_calibration import isf_field_factory
 from twin.process.path import ToolPath, groove_path, label_passes
@@ -101,7 +100,6 @@ def field_factory_for(
         return isf_field_factory()
     path_m = np.asarray(p_sheet_m, dtype=float)
     passes, _ = label_passes(path_m[:, 0])
-    along_groove = float(np.max(np.abs(path_m[:, 1]))) < 1e-3 and int(passes.max()) <= SheetForceField(
-        history
-    ).n_passes
+    history_passes, _ = label_passes(history.p_sheet_m[:, 0])
+    along_groove = float(np.max(np.abs(path_m[:, 1]))) < 1e-3 and int(passes.max()) <= int(history_passes.max())
     return None if along_groove else isf_field_factory()

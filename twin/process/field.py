@@ -311,18 +311,3 @@ class SheetForceField:
             out[i] = self.force(p, passes[i], dirs[i])
             self.advance(p, passes[i])
         return out
-
-    def part_profile(self, springback_ratio: float = 0.87) -> tuple[np.ndarray, np.ndarray]:
-        """Profile of the part after unloading: the formed depth scaled by `springback_ratio`.
-
-        A uniform depth ratio is the simplest reading of §2.3.1 (8.7 mm formed of the 10 mm target).
-
-        Args:
-            springback_ratio: Remaining fraction of the loaded depth, in (0, 1].
-
-        Returns:
-            (x_m, z_m) on the profile grid [m].
-        """
-        if not 0.0 < springback_ratio <= 1.0:
-            raise InputError(f"springback_ratio = {springback_ratio!r}: expected a value in (0, 1]")
-        return self.x_grid_m.copy(), self._formed * springback_ratio
