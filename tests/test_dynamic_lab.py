@@ -165,19 +165,33 @@ def test_dynamic_plant_code_does_not_import_the_twin_or_the_effect_library():
     assert len(list(DYNAMIC_DIR.glob("*.py"))) >= 6  # the check saw the package
 
 
-@pytest.mark.slow
-def test_full_groove_dynamic_run_gap_is_dominated_by_the_reversals(tmp_path):
+def test_full_groove_neutral_dynamic_run_replays_within_twice_the_noise(tmp_path):
+    """The issue's must-show: the whole thesis groove at 2 m/min, every knob neutral."""
     path = groove_path()
     run, truth, _ = run_dynamic_lab(
         path.t_s, path.p_sheet_m, scenario="nominal", knobs=Knobs(neutral=True), seed=2
     )
     run = read_run(write_run(tmp_path / "full", run, truth=truth))
     result = replay(run)
+    sigma_m = 1e-3 * Knobs(neutral=True)["tracker_noise_mm"]
+    # 0.052 mm measured (seeds 1-3) against 2 sqrt(3) sigma = 0.069 mm; 0.080 before the twin's tool stuck
+    # on the sheet at reversals (twin.process.tool_friction) and the controller stopped at them
+    assert result.metrics["position_rms_mm"] <= 2.0 * math.sqrt(3.0) * 1e3 * sigma_m
+    assert result.metrics["force_rms_n"] <= 0.02 * result.metrics["force_peak_measured_n"]  # 21 N of 40 N
     err = np.linalg.norm(run.tracker.values - result.tracker_pred_m, axis=1)
     near = reversal_mask(run)
-    sigma_m = 1e-3 * Knobs(neutral=True)["tracker_noise_mm"]
     assert np.sqrt(np.mean(err[~near] ** 2)) <= 1.2 * math.sqrt(3.0) * sigma_m  # noise alone away from them
-    assert result.metrics["force_rms_n"] <= 0.02 * result.metrics["force_peak_measured_n"]
+
+
+def test_commanded_stream_carries_the_controller_stops_at_reversals(neutral_short):
+    run, _, _ = neutral_short
+    t, p = run.commanded.t_s, run.commanded.values
+    speed = np.linalg.norm(np.diff(p, axis=0), axis=1) / np.diff(t)
+    feed = 2.0 / 60.0
+    assert speed.max() <= 1.001 * feed  # the programmed path is 2 m/min within 0.02 %
+    rev = np.flatnonzero(np.diff(np.sign(np.diff(p[:, 0]))) != 0) + 1
+    for k in rev:  # the segments next to a reversal are slow: the tool comes to rest there
+        assert speed[k - 1] < 0.5 * feed and speed[k] < 0.5 * feed
 
 
 @pytest.mark.slow

@@ -23,6 +23,7 @@ from twin.errors import InputError
 from twin.process.field import SheetForceField
 from twin.process.forces import ForceHistory, default_force_history
 from twin.process.path import label_passes
+from twin.process.tool_friction import REVERSAL_M, SlidingFriction
 from twin.robot.kinematics import Kinematics
 from twin.robot.model import ARM_JOINTS, LOST_MOTION_JOINTS, RobotEffects, build_model, lost_motion_schedule
 from twin.robot.stiffness import set_joint_stiffness
@@ -35,6 +36,19 @@ from twin.sim.result import SimResult
 PASS_DEADBAND_M = 2e-3
 
 
+def _one_regime(direction: int) -> tuple[None]:
+    """A field without regimes is solved once."""
+    return (None,)
+
+
+def _no_regime(regime: float | None) -> None:
+    return None
+
+
+def _any_position(p_sheet_m: np.ndarray) -> bool:
+    return True
+
+
 class Twin:
     """Quasi-static compliant-robot twin of the forming cell.
 
@@ -44,6 +58,9 @@ class Twin:
         effects: Robot-side effects (lab truth or fitted augmentations); default none.
         joint_stiffness: Override of K_q [N·m/rad], shape (6,); default: the model's.
         field_factory: Builds the sheet force field from the (scaled) history; default `SheetForceField`.
+        tool_friction_reversal_m: Travel over which the tool's sliding friction reverses [m]
+            (`twin.process.tool_friction`); None: the tangential force flips with the commanded direction.
+            Applies to the default field only.
     """
 
     def __init__(
@@ -53,6 +70,7 @@ class Twin:
         joint_stiffness: np.ndarray | None = None,
         joint_friction: np.ndarray | None = None,
         field_factory: Callable[[ForceHistory], Any] | None = None,
+        tool_friction_reversal_m: float | None = REVERSAL_M,
     ) -> None:
         self.effects = effects or RobotEffects()
         self.history = history if history is not None else default_force_history()
@@ -73,6 +91,9 @@ class Twin:
         # field_factory (issue #16): another force model with the field's interface, e.g. the height-map ISF
         # model (`twin.process.isf_calibration.isf_field_factory`), built from the same (scaled) history
         self.field = SheetForceField(scaled) if field_factory is None else field_factory(scaled)
+        if tool_friction_reversal_m is not None and field_factory is None:
+            # the tangential force follows the tool's real travel: it sticks at reversals (process.tool_friction)
+            self.field = SlidingFriction(self.field, tool_friction_reversal_m)
         m = self.model
         self._tcp = m.site("tcp").id
         self._arm_dof = np.array([m.jnt_dofadr[m.joint(name).id] for name in ARM_JOINTS])
@@ -194,6 +215,9 @@ class Twin:
         field.reset()
         passes = [int(v) for v in pass_index]
         dirs = [int(v) for v in direction]
+        regimes = getattr(field, "slip_regimes", _one_regime)
+        set_regime = getattr(field, "set_slip_regime", _no_regime)
+        consistent = getattr(field, "slip_consistent", _any_position)
         deflection_q = np.zeros(m.nq)
         deflection_prev = np.zeros(m.nq)
         qvel_view[:] = 0.0
@@ -214,14 +238,20 @@ class Twin:
             if i == 0:
                 q_link = q_nominal  # the taught, unloaded pose
             # a joint whose friction holds keeps its link where it was: its spring stretches by q_ref - q_link
-            q, k, jac_last[i], s_last[i] = self._solver.solve(
-                q,
-                q_ref,
-                k_diag,
-                h_const,
-                partial(field.force_and_stiffness, pass_index=pi, direction=di),
-                q_ref - q_link,
-            )
+            sheet = partial(field.force_and_stiffness, pass_index=pi, direction=di)
+            k = 0
+            for regime in regimes(di):  # the tool's sliding friction: one regime at a time (process.tool_friction)
+                set_regime(regime)
+                q_i, k_i, jac_last[i], s_last[i] = self._solver.solve(q, q_ref, k_diag, h_const, sheet, q_ref - q_link)
+                k += k_i
+                qpos_view[:] = q_i
+                mujoco.mj_kinematics(m, d)
+                if consistent(xpos_tcp - origin):
+                    break
+            set_regime(None)
+            q = q_i
+            # the tip gain is that of a sliding tool: a command step that matters makes a sticking tool slide
+            s_last[i, 0, 0] -= getattr(field, "last_stick_stiffness", 0.0)
             q_link = q
             qpos_view[:] = q
             mujoco.mj_kinematics(m, d)

@@ -25,7 +25,8 @@ class SimResult:
         formed_z_m: Formed groove bottom under load at the end of the run [m].
         iterations: Newton iterations per sample, shape (n,).
         tip_gain: d p_tcp / d p_cmd at each equilibrium, (I + C S)^-1 with C the robot's Cartesian compliance
-            and S = -df/dp the sheet's stiffness [-], shape (n, 3, 3).
+            and S = -df/dp the sheet's stiffness [-], shape (n, 3, 3); for a tool sticking on the sheet at a
+            reversal, S is that of the sliding tool (`twin.process.tool_friction`).
     """
 
     t_s: np.ndarray

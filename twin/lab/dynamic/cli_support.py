@@ -39,12 +39,12 @@ def run_dynamic_command(args: argparse.Namespace, *, loads_n: np.ndarray) -> int
         )
         return 0
     commanded, protect = lab_commanded(args.scenario, args.commanded)
-    t_s, p_cmd = commanded.t_s, commanded.values
+    p_cmd = commanded.values
     run, truth, log = run_dynamic_lab(
-        t_s, p_cmd, scenario=args.scenario, knobs=knobs, seed=args.seed, progress=sys.stderr
+        commanded.t_s, p_cmd, scenario=args.scenario, knobs=knobs, seed=args.seed, progress=sys.stderr
     )
     write_run(args.out, run, truth=truth, overwrite=args.overwrite, protect=protect)
-    deviation = run.tracker.values - interp_rows(run.tracker.t_s, t_s, p_cmd)
+    deviation = run.tracker.values - interp_rows(run.tracker.t_s, run.commanded.t_s, p_cmd)
     assert run.forces is not None
     summary = {
         "scenario": args.scenario,

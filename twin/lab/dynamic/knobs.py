@@ -88,6 +88,14 @@ KNOBS: dict[str, KnobSpec] = {
     "trajectory_period_s": KnobSpec(
         0.004, 0.004, "s", "trajectory-generator cycle (CS8C: 4 ms), linear in between", 1e-3, 0.05
     ),
+    "trajectory_accel_mps2": KnobSpec(
+        0.5,
+        0.5,
+        "m/s^2",
+        "acceleration/deceleration along the path into and out of a stop at each sharp corner (0: no stops)",
+        0.0,
+        100.0,
+    ),
     "trajectory_smoothing_s": KnobSpec(
         0.02, 0.02, "s", "centred moving average of the joint set-points (jerk filter; 0: none)", 0.0, 0.5
     ),

@@ -17,6 +17,7 @@ from twin.lab.dynamic.knobs import Knobs
 from twin.lab.dynamic.plant import Plant, build_plant
 from twin.lab.dynamic.sensors import ft_reading, profile_scan, tracker_reading
 from twin.lab.dynamic.simulate import DynamicLog, simulate
+from twin.lab.dynamic.trajectory import retime_with_stops
 from twin.process.forces import ForceHistory
 from twin.robot.kinematics import Kinematics, load_model
 from twin.runs.format import Run, Stream, run_meta
@@ -37,7 +38,8 @@ def run_dynamic_lab(
     """Run the commanded path on the dynamic plant and measure it.
 
     Args:
-        t_s: Commanded sample times [s], from 0.
+        t_s: Commanded sample times [s], from 0; the trajectory generator re-plans them to stop at sharp
+            corners (`trajectory.retime_with_stops`), and the run's commanded stream carries its times.
         p_cmd_sheet_m: Commanded tool tip, sheet frame [m], shape (n, 3).
         scenario: Label stored in meta.json.
         knobs: Plant, controller and sensor knobs.
@@ -49,6 +51,8 @@ def run_dynamic_lab(
         The run (not yet written), the truth record for `truth.json`, and the physical log.
     """
     plant = build_plant(knobs)
+    # the controller's trajectory generator stops at sharp corners: its timing is the run's commanded stream
+    t_s = retime_with_stops(t_s, p_cmd_sheet_m, knobs["trajectory_accel_mps2"])
     log = simulate(t_s, p_cmd_sheet_m, knobs, history=history, plant=plant, progress=progress)
     rng = np.random.default_rng(seed)
     t_tracker, tracker = tracker_reading(log, knobs, rng)

@@ -4,7 +4,9 @@ The groove is run on the dynamic plant with neutral knobs (no hidden effect; sen
 feeds, and each run is replayed by a caller-supplied replay (the quasi-static twin: `twin.analysis.replay`;
 this package may not import the twin, so the caller passes it in). The gap is compared with what noise
 alone leaves: 2x the tracker's noise as a 3-D rms (2 sqrt(3) sigma) for position, 2 % of the peak force for
-force. The first feed that exceeds either is where the quasi-static assumption breaks.
+force. The first feed that exceeds either is where the quasi-static assumption breaks. The controller's stops at
+the reversals keep the ramp length they have at 2 m/min (the acceleration grows with the feed squared), so every
+feed is reached along the stroke.
 """
 
 from __future__ import annotations
@@ -112,9 +114,14 @@ def feed_sweep(
     knobs = knobs or Knobs(neutral=True)
     limit_mm = POSITION_GAP_NOISE_FACTOR * math.sqrt(3.0) * knobs["tracker_noise_mm"]
     rows = []
+    ramp_m = (2.0 / 60.0) ** 2 / (2.0 * knobs["trajectory_accel_mps2"]) if knobs["trajectory_accel_mps2"] else 0.0
     for feed in feeds_m_per_min:
         path = groove_path(replace(spec, feed_m_per_s=feed / 60.0))
-        run, _, log = run_dynamic_lab(path.t_s, path.p_sheet_m, scenario="nominal", knobs=knobs, seed=seed)
+        feed_knobs = knobs
+        if ramp_m > 0.0:  # the stop ramps keep their length at 2 m/min, so every feed is reached in the stroke
+            accel = max(knobs["trajectory_accel_mps2"], (feed / 60.0) ** 2 / (2.0 * ramp_m))
+            feed_knobs = Knobs({**knobs.as_dict(), "trajectory_accel_mps2": accel})
+        run, _, log = run_dynamic_lab(path.t_s, path.p_sheet_m, scenario="nominal", knobs=feed_knobs, seed=seed)
         result = replay(run)
         metrics = result.metrics
         err_m = np.linalg.norm(run.tracker.values - result.tracker_pred_m, axis=1)

@@ -1,0 +1,136 @@
+"""Sliding friction of the tool on the sheet: the tangential force follows the tool's real travel.
+
+The sheet's in-plane force on the tool (friction and ploughing, ~30 % of Fz on the groove) opposes the tool's
+sliding. A force field evaluated with the *commanded* travel direction flips that force the instant the
+program reverses; a real tool does not slide back at once. At a reversal it sticks while the robot unwinds
+the deflection the force had caused, and the force reverses only as the tool starts to slide the other way.
+With the TX200's compliance the commanded path travels 1-2 mm (60 ms at 2 m/min) before the tip moves back.
+
+Model (rate-independent, a Dahl-type friction law along x, the groove's travel axis): a slip state
+s in [-1, 1] that follows the tool's real travel,
+
+    s = clip(s_prev + 2 (x - x_prev) / w, -1, 1),
+
+with x_prev the last committed tip position and w the travel over which the force reverses (`reversal_m`,
+0.05 mm: the tangential contact compliance of a lubricated sliding contact, a few tens of micrometres); the
+tangential force is s·Fx(+1), Fx(+1) the wrapped field's in-plane force for travel in +x. Within the band the
+force is stiff in x (dFx/dx = 2 Fx(+1)/w, ~2e7 N/m), which the twin's Newton solve takes as an analytic
+stiffness: the tip holds where it stopped until the robot's spring exceeds the friction, as a stuck joint does.
+
+Solving with this law: a Newton iteration across the clip's corners cycles between "stuck" and "sliding"
+(the force is flat outside the band, 2e7 N/m steep inside). The twin therefore solves each sample under one
+regime at a time, as it does joint friction (`slip_regimes`): sliding in the commanded direction (the slip
+state held at +-1: the old model, one solve away from reversals), then inside the band (the law unclipped,
+linear in x), then sliding the other way; the first whose solution lies in its own regime is the one.
+
+The wrapped field must flip only the sign of Fx with the direction (`SheetForceField` does).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from twin.errors import InputError
+
+#: Travel over which the tangential force reverses [m].
+REVERSAL_M = 5e-5
+
+
+class SlidingFriction:
+    """A sheet force field whose tangential force follows the tool's real travel along x.
+
+    Args:
+        field: The wrapped field (`force`, `force_and_stiffness`, `advance`, `reset`; Fx flips with direction).
+        reversal_m: Travel over which the tangential force reverses from -1 to +1 of its value [m].
+
+    Every other attribute is the wrapped field's.
+    """
+
+    def __init__(self, field: Any, reversal_m: float = REVERSAL_M) -> None:
+        if not (np.isfinite(reversal_m) and reversal_m > 0.0):
+            raise InputError(f"reversal_m = {reversal_m!r}: expected a finite travel > 0 [m]")
+        self.inner = field
+        self.reversal_m = float(reversal_m)
+        self._gain = 2.0 / self.reversal_m
+        self._slip: float | None = None
+        self._x_prev = 0.0
+        self._last_direction = 1
+        #: The sticking part of the last `force_and_stiffness`'s dFx/dx, 2 Fx(+1)/w inside the band, else 0
+        #: [N/m]: what a command step large enough to make the tool slide does not meet.
+        self.last_stick_stiffness = 0.0
+        self._regime: float | None = None  # None: clipped law; +-1: sliding held; 0: in the band, unclipped
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self.inner, name)
+
+    def reset(self) -> None:
+        """The wrapped field's reset; the slip state starts with the first commanded direction."""
+        self.inner.reset()
+        self._slip = None
+
+    def _slip_at(self, x: float, direction: int) -> tuple[float, float]:
+        """Slip state at tip x [m] and its derivative ds/dx [1/m] (0 where clipped)."""
+        if self._slip is None:
+            self._last_direction = direction
+            return float(direction), 0.0
+        if self._regime is not None and self._regime != 0.0:
+            return self._regime, 0.0
+        s = self._slip + self._gain * (x - self._x_prev)
+        if self._regime is not None:  # in the band: the law unclipped
+            return s, self._gain
+        if s >= 1.0:
+            return 1.0, 0.0
+        if s <= -1.0:
+            return -1.0, 0.0
+        return s, self._gain
+
+    def slip_regimes(self, direction: int) -> tuple[float | None, ...]:
+        """The regimes to try in turn for one sample: sliding along `direction`, the band, sliding back."""
+        if self._slip is None:
+            return (None,)
+        return (float(direction), 0.0, -float(direction))
+
+    def set_slip_regime(self, regime: float | None) -> None:
+        """Hold the slip state at +-1 (sliding), 0 (in the band, law unclipped) or None (the clipped law)."""
+        self._regime = regime
+
+    def slip_consistent(self, p_sheet_m: np.ndarray) -> bool:
+        """Whether the tip position `p_sheet_m` [m] lies in the regime being solved."""
+        if self._slip is None or self._regime is None:
+            return True
+        u = self._slip + self._gain * (float(p_sheet_m[0]) - self._x_prev)
+        if self._regime == 0.0:
+            return -1.0 <= u <= 1.0
+        return u * self._regime >= 1.0
+
+    def force(self, p_sheet_m: np.ndarray, pass_index: int, direction: int) -> np.ndarray:
+        """Force of the sheet on the tool [N], sheet frame; pure. `direction` only starts the slip state."""
+        f = self.inner.force(p_sheet_m, pass_index, 1)
+        s, _ = self._slip_at(float(p_sheet_m[0]), direction)
+        f[0] *= s
+        return f
+
+    def force_and_stiffness(
+        self, p_sheet_m: np.ndarray, pass_index: int, direction: int
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """`force` and ∂f/∂p [N/m], shape (3, 3), the slip state's stiffness included."""
+        f, k = self.inner.force_and_stiffness(p_sheet_m, pass_index, 1)
+        s, ds_dx = self._slip_at(float(p_sheet_m[0]), direction)
+        fx_plus = float(f[0])
+        f[0] = s * fx_plus
+        k[0] *= s
+        self.last_stick_stiffness = fx_plus * ds_dx
+        k[0, 0] += self.last_stick_stiffness
+        return f, k
+
+    def advance(self, p_sheet_m: np.ndarray, pass_index: int | None = None) -> None:
+        """Commit the tip position: the slip state and the wrapped field's formed surface."""
+        x = float(p_sheet_m[0])
+        if self._slip is None:
+            self._slip = float(self._last_direction)
+        else:
+            self._slip = min(1.0, max(-1.0, self._slip + self._gain * (x - self._x_prev)))
+        self._x_prev = x
+        self.inner.advance(p_sheet_m, pass_index)
