@@ -250,7 +250,9 @@ def make_dynamic_case(index: int) -> tuple[Run, Truth]:
     sets = DYNAMIC_CASES[index]
     run, _, _ = run_dynamic_lab(t, p, scenario="nominal", knobs=parse_set_args(list(sets), neutral=True),
                                 seed=900 + index)
-    return run, Truth(["lost_motion"] if sets else [], [], "dynamic", 1.0, {"knobs": list(sets)})
+    # the neutral run hides nothing but the plant's dynamics: its signature must place them at the reversals
+    info = {"knobs": list(sets), "transient_at_reversals": not sets}
+    return run, Truth(["lost_motion"] if sets else [], [], "dynamic", 1.0, info)
 
 
 def evaluate(seeds: list[int], dynamic: int = 0) -> dict[str, Any]:
@@ -278,7 +280,11 @@ def evaluate(seeds: list[int], dynamic: int = 0) -> dict[str, Any]:
 
 
 def describes(remainder: dict[str, Any], made_up: dict[str, Any]) -> bool | None:
-    """Whether the signature names a made-up oscillation: its stream and axis, its frequency within 10 %."""
+    """Whether the signature names a made-up oscillation (its stream and axis, its frequency within 10 %), or for
+    a neutral dynamic-plant run, a transient at the reversals on the position axes it shows in."""
+    if made_up.get("transient_at_reversals"):
+        position = [a for a in remainder["axes"] if a["stream"] == "position"]
+        return bool(position) and all("transient at the" in a["words"] for a in position)
     if "stream" not in made_up:
         return None
     return any(

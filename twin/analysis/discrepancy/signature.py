@@ -3,7 +3,9 @@
 For every stream axis whose remainder is above its noise (rms > SIGNATURE_RMS_FACTOR x sigma) the remainder is
 tested for the structures a cell shows: a spectral peak (share of the variance within one bin of the peak), an
 offset that flips with travel direction (correlation with the direction), a dependence on the forming force,
-on the position along the stroke (distance to the stroke ends) and a trend in time. Structures whose
+on the position along the stroke (distance to the stroke ends), a trend in time, and a transient at the
+reversals (the share of the excess over noise within REVERSAL_WINDOW_S of a reversal, against the share of
+time those windows take: a dynamic plant's or a real arm's ringing, a tool sticking). Structures whose
 correlation (or peak share) reaches STRUCTURE_LEVEL are written out; an axis with none is called broadband.
 """
 
@@ -17,6 +19,8 @@ from twin.analysis.discrepancy.context import Context
 
 SIGNATURE_RMS_FACTOR = 1.3  # rms above this x the noise sigma: the axis carries something
 STRUCTURE_LEVEL = 0.5  # |correlation| or spectral share from which a structure is named
+REVERSAL_WINDOW_S = 0.15  # a sample this close to a reversal of the commanded path is "at a reversal" [s]
+REVERSAL_TIME_SHARE_MAX = 0.3  # the windows must be a small part of the run for a concentration to mean anything
 AXES = "xyz"
 UNITS = {"position": ("mm", 1e3), "force": ("N", 1.0), "profile": ("mm", 1e3)}
 
@@ -40,6 +44,26 @@ def _peak(values: np.ndarray, rate_hz: float) -> tuple[float, float, float]:
     return float(k * rate_hz / x.size), amplitude, share
 
 
+def _reversal_times(ctx: Context) -> np.ndarray:
+    """Times of the commanded path's reversals [s] (direction changes of the replay's labels)."""
+    sim = ctx.sim
+    flips = np.flatnonzero(np.diff(sim.direction) != 0) + 1
+    return np.asarray(sim.t_s[flips], dtype=float)
+
+
+def _reversal_share(values: np.ndarray, t: np.ndarray, sigma: float, t_rev: np.ndarray) -> tuple[float, float, float]:
+    """Share of the excess over noise within the reversal windows, their share of the samples, and the rms there."""
+    if t_rev.size == 0:
+        return 0.0, 0.0, 0.0
+    near = np.min(np.abs(t[:, None] - t_rev[None, :]), axis=1) < REVERSAL_WINDOW_S
+    excess = values**2 - sigma**2
+    total = float(np.sum(excess))
+    if total <= 0.0 or not near.any():
+        return 0.0, float(near.mean()), 0.0
+    share = min(1.0, float(np.sum(excess[near]) / total))  # the noise estimate may leave the rest a little below 0
+    return share, float(near.mean()), float(np.sqrt(np.mean(values[near] ** 2)))
+
+
 def _axis_signature(
     stream: str, axis: int, values: np.ndarray, t: np.ndarray, ctx: Context, sigma: float
 ) -> dict[str, Any]:
@@ -59,6 +83,9 @@ def _axis_signature(
         "corr_direction": _corr(values, direction), "corr_force": _corr(values, force),
         "corr_stroke_end": _corr(values, near_end), "corr_time": _corr(values, t),
     }
+    t_rev = _reversal_times(ctx)
+    rev_share, rev_time, rev_rms = _reversal_share(values, t, sigma, t_rev)
+    out.update(reversal_share=rev_share, reversal_time_share=rev_time)
     half_flip = 0.5 * (np.mean(values[direction > 0]) - np.mean(values[direction < 0])) if np.any(
         direction < 0) and np.any(direction > 0) else 0.0
     words = []
@@ -73,6 +100,11 @@ def _axis_signature(
     if abs(out["corr_time"]) >= STRUCTURE_LEVEL:
         slope = np.polyfit(t, values, 1)[0]
         words.append(f"a trend of {factor * slope:.3g} {unit}/s over the run")
+    if rev_share >= STRUCTURE_LEVEL and rev_time <= REVERSAL_TIME_SHARE_MAX:
+        words.append(
+            f"a transient at the {t_rev.size} reversals, {factor * rev_rms:.3g} {unit} rms within "
+            f"{REVERSAL_WINDOW_S:g} s of them ({rev_share:.0%} of the excess over noise in {rev_time:.0%} of the time)"
+        )
     if not words:
         words.append(f"broadband, {out['rms']:.3g} {unit} rms against {factor * sigma:.3g} {unit} noise")
     out["words"] = f"{stream} {AXES[axis]}: " + "; ".join(words)
