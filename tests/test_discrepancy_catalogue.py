@@ -13,7 +13,15 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from discrepancy_catalogue import DYNAMIC_CASES, SINGLE, describes, evaluate, make_case, make_dynamic_case, right_first
+from discrepancy_catalogue import (
+    DYNAMIC_CASES,
+    SINGLE,
+    describes,
+    evaluate,
+    make_case,
+    make_dynamic_case,
+    right_first,
+)
 
 from twin.analysis.discrepancy.search import find_discrepancy
 
