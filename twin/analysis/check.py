@@ -93,7 +93,10 @@ def check_run(run: Run, t_ideal_s: np.ndarray, p_ideal_sheet_m: np.ndarray) -> C
 
     Args:
         run: A measured (compensated) run with forces.
-        t_ideal_s: Times of the ideal path [s] (same clock as the run).
+        t_ideal_s: Times of the ideal path [s] (same clock as the run). When the run's commanded stream has as
+            many samples as the ideal path but other times, the controller re-planned the timing of the same
+            program (a stop at each sharp corner, `twin.lab.dynamic.trajectory`): sample k of the ideal is then
+            taken at the commanded stream's time k.
         p_ideal_sheet_m: Ideal path U_ID, sheet frame [m], shape (n, 3).
 
     Raises:
@@ -104,6 +107,9 @@ def check_run(run: Run, t_ideal_s: np.ndarray, p_ideal_sheet_m: np.ndarray) -> C
         raise RunFormatError(run.directory or "run", "check needs forces.csv to estimate the gain")
     t_ideal = np.asarray(t_ideal_s, dtype=float)
     p_ideal = np.asarray(p_ideal_sheet_m, dtype=float)
+    t_cmd = run.commanded.t_s
+    if len(t_cmd) == len(t_ideal) and not np.allclose(t_cmd, t_ideal, rtol=0.0, atol=1e-6):
+        t_ideal = np.asarray(t_cmd, dtype=float)  # the same program, re-timed by the controller
     t_tr = run.tracker.t_s
     ideal_tr = interp_rows(t_tr, t_ideal, p_ideal)
     residual = run.tracker.values - ideal_tr

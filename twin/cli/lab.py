@@ -164,4 +164,8 @@ def _run_dynamic(args: argparse.Namespace) -> int:
     if args.scenario == "cnc":
         raise InputError("--scenario cnc is the rigid machine; it does not apply to --plant dynamic (a robot)")
     _check_out(args.out, args.overwrite)
-    return run_dynamic_command(args, loads_n=THESIS_TABLE_4_2_LOADS_N)
+    factory = None
+    if args.scenario != "loadtest":
+        commanded, _ = lab_commanded(args.scenario, args.commanded)
+        factory = field_factory_for(args.force_model, default_force_history(), commanded.values)
+    return run_dynamic_command(args, loads_n=THESIS_TABLE_4_2_LOADS_N, field_factory=factory)

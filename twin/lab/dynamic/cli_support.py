@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
@@ -11,16 +13,23 @@ from twin.base.csvio import emit_json, write_table
 from twin.base.signals import interp_rows
 from twin.lab.dynamic.knobs import parse_set_args
 from twin.lab.dynamic.run import dynamic_load_test, run_dynamic_lab
+from twin.process.forces import ForceHistory
 from twin.runs.read import lab_commanded
 from twin.runs.write import write_run
 
 
-def run_dynamic_command(args: argparse.Namespace, *, loads_n: np.ndarray) -> int:
+def run_dynamic_command(
+    args: argparse.Namespace,
+    *,
+    loads_n: np.ndarray,
+    field_factory: Callable[[ForceHistory], Any] | None = None,
+) -> int:
     """Run `args.scenario` (nominal, compensated or loadtest) on the dynamic plant.
 
     Args:
         args: Parsed `lab` options (`scenario`, `commanded`, `set`, `neutral`, `seed`, `out`, `overwrite`, `json`).
         loads_n: Load cases of the load test, base frame [N], shape (m, 3).
+        field_factory: The sheet force model for the commanded path (None: the groove's table field).
 
     Returns:
         The exit status (0).
@@ -41,8 +50,15 @@ def run_dynamic_command(args: argparse.Namespace, *, loads_n: np.ndarray) -> int
     commanded, protect = lab_commanded(args.scenario, args.commanded)
     p_cmd = commanded.values
     run, truth, log = run_dynamic_lab(
-        commanded.t_s, p_cmd, scenario=args.scenario, knobs=knobs, seed=args.seed, progress=sys.stderr
+        commanded.t_s,
+        p_cmd,
+        scenario=args.scenario,
+        knobs=knobs,
+        seed=args.seed,
+        progress=sys.stderr,
+        field_factory=field_factory,
     )
+    truth["force_model"] = "table" if field_factory is None else "isf"
     write_run(args.out, run, truth=truth, overwrite=args.overwrite, protect=protect)
     deviation = run.tracker.values - interp_rows(run.tracker.t_s, run.commanded.t_s, p_cmd)
     assert run.forces is not None

@@ -8,6 +8,7 @@ K_q and dead bands, the servo gains' inputs and a few physical numbers of the ru
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any, TextIO
 
 import numpy as np
@@ -34,6 +35,7 @@ def run_dynamic_lab(
     seed: int,
     history: ForceHistory | None = None,
     progress: TextIO | None = None,
+    field_factory: Callable[[ForceHistory], Any] | None = None,
 ) -> tuple[Run, dict[str, Any], DynamicLog]:
     """Run the commanded path on the dynamic plant and measure it.
 
@@ -46,6 +48,7 @@ def run_dynamic_lab(
         seed: Seed of the sensor noise.
         history: FE force history of the lab's sheet; default the shipped one.
         progress: Stream for progress lines (None: quiet).
+        field_factory: Another sheet force model built from the history (`simulate`); None: the table field.
 
     Returns:
         The run (not yet written), the truth record for `truth.json`, and the physical log.
@@ -53,7 +56,9 @@ def run_dynamic_lab(
     plant = build_plant(knobs)
     # the controller's trajectory generator stops at sharp corners: its timing is the run's commanded stream
     t_s = retime_with_stops(t_s, p_cmd_sheet_m, knobs["trajectory_accel_mps2"])
-    log = simulate(t_s, p_cmd_sheet_m, knobs, history=history, plant=plant, progress=progress)
+    log = simulate(
+        t_s, p_cmd_sheet_m, knobs, history=history, plant=plant, progress=progress, field_factory=field_factory
+    )
     rng = np.random.default_rng(seed)
     t_tracker, tracker = tracker_reading(log, knobs, rng)
     t_ft, forces = ft_reading(log, knobs, rng, plant.tool_mass_kg)

@@ -13,8 +13,9 @@ from __future__ import annotations
 
 import sys
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TextIO
+from typing import Any, TextIO
 
 import mujoco
 import numpy as np
@@ -82,6 +83,7 @@ def simulate(
     plant: Plant | None = None,
     progress: TextIO | None = None,
     tip_force_n: np.ndarray | None = None,
+    field_factory: Callable[[ForceHistory], Any] | None = None,
 ) -> DynamicLog:
     """Run the commanded tool-tip path on the dynamic plant.
 
@@ -94,6 +96,9 @@ def simulate(
         progress: Stream for a progress line every 10 % (None: quiet).
         tip_force_n: A force on the tool tip, world frame [N], instead of the sheet (load tests); it rises
             linearly over `LOAD_RAMP_S` from t = 0.
+        field_factory: Builds another sheet force model from the history (e.g. the height-map ISF model of
+            `twin.process.isf_calibration.isf_field_factory`, for any part); its in-plane force follows its own
+            sliding direction, so the groove's x-travel reversal law is not applied. None: the groove's table field.
 
     Returns:
         The log at every servo tick.
@@ -121,7 +126,9 @@ def simulate(
     passes = [int(v) for v in pass_cmd[idx]]
     dirs = [int(v) for v in dir_cmd[idx]]
 
-    field = SheetForceField(history if history is not None else default_force_history())
+    history = history if history is not None else default_force_history()
+    field = SheetForceField(history) if field_factory is None else field_factory(history)
+    table_field = field_factory is None
     field.reset()
     d = mujoco.MjData(m)
     d.qpos[:] = rest_state(plant, q_ik[0], g_ik[0])
@@ -161,10 +168,11 @@ def simulate(
         d.ctrl[:] = ctrl_ff[k] + ki_over_kp * integral
         p = tip - origin
         if tip_force_n is None:
-            slip = min(1.0, max(-1.0, slip + slip_gain * (float(p[0]) - x_prev)))
-            x_prev = float(p[0])
             f = field.force(p, passes[k], dirs[k])
-            f[0] *= slip * dirs[k]
+            if table_field:
+                slip = min(1.0, max(-1.0, slip + slip_gain * (float(p[0]) - x_prev)))
+                x_prev = float(p[0])
+                f[0] *= slip * dirs[k]
         else:
             f = tip_force_n * min(1.0, t_tick[k] / LOAD_RAMP_S)
         l0, l1, l2 = (tip - xipos).tolist()
