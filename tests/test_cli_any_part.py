@@ -87,3 +87,28 @@ def write_stiffness(folder: Path) -> Path:
     path = folder / "k.json"
     path.write_text(json.dumps({"k_r_n_per_mm": [[700.0, 0.0, -300.0], [0.0, 800.0, 0.0], [-300.0, 0.0, 1100.0]]}))
     return path
+
+
+def test_a_dynamic_cone_run_replays_on_the_isf_twin_within_the_noise(
+    cone_runs: dict[str, Path], capsys: pytest.CaptureFixture[str]
+) -> None:
+    capsys.readouterr()
+    assert main(["replay", str(cone_runs["dynamic/nominal"]), "--json", "-"]) == 0
+    metrics = json.loads(capsys.readouterr().out)
+    # 0.040 mm measured against 2 sqrt(3) x the tracker's 0.02 mm = 0.069 mm; 9.6 N of a ~1.5 kN peak
+    assert metrics["position_rms_mm"] < 2.0 * 3**0.5 * 0.02
+    assert metrics["force_rms_n"] < 0.02 * metrics["force_peak_measured_n"]
+
+
+def test_discrepancy_names_a_force_scale_hidden_in_a_cone_run(
+    cone_runs: dict[str, Path], capsys: pytest.CaptureFixture[str]
+) -> None:
+    run = cone_runs["base"] / "cone_force_scale"
+    assert main(["lab", "--scenario", "nominal", "--commanded", str(cone_runs["ideal"]), "--effect",
+                 "force_scale=1.3", "--seed", "3", "--out", str(run)]) == 0
+    capsys.readouterr()
+    assert main(["discrepancy", str(run), "--json", "-"]) == 0
+    found = json.loads(capsys.readouterr().out)
+    assert found["effect"] == "force_scale", found["remainder"]
+    assert found["parameters"]["force_scale"]["force_scale_ratio"] == pytest.approx(1.3, rel=0.03)  # 1.3002
+    assert found["gap_after"]["position_rms_mm"] < 0.3 * found["gap_before"]["position_rms_mm"]

@@ -9,7 +9,12 @@ from pathlib import Path
 from twin.analysis.discrepancy.search import find_discrepancy
 from twin.analysis.discrepancy.summary import result_summary
 from twin.base.csvio import emit_json
-from twin.cli._common import add_history_arguments, history_from_arguments
+from twin.cli._common import (
+    add_force_model_argument,
+    add_history_arguments,
+    field_factory_for,
+    history_from_arguments,
+)
 from twin.lab.effects import Effects, read_model_file, write_model_file
 from twin.runs.read import read_run
 
@@ -23,6 +28,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("run_dir", type=Path, help="a tx200-twin-run/1 directory (truth.json is never read)")
     parser.add_argument("--model", type=Path, help="start from this twin model file (effects, K_q)")
     add_history_arguments(parser)
+    add_force_model_argument(parser)
     parser.add_argument("--model-out", type=Path, help="write the augmented twin model file here")
     parser.add_argument(
         "--report", type=Path, help="write figures of the residual before/after into this folder"
@@ -35,7 +41,10 @@ def run(args: argparse.Namespace) -> int:
     measured = read_run(args.run_dir)
     declared, _ = history_from_arguments(args)
     start, stiffness = read_model_file(args.model) if args.model else (Effects(), None)
-    result = find_discrepancy(measured, start=start, history=declared, joint_stiffness=stiffness)
+    factory = field_factory_for(args.force_model, declared, measured.commanded.values)
+    result = find_discrepancy(
+        measured, start=start, history=declared, joint_stiffness=stiffness, field_factory=factory
+    )
     summary = {"run": args.run_dir, **result_summary(result)}
     protect = [p for p in (args.run_dir, args.model, args.history) if p is not None]
     if args.model_out is not None:

@@ -8,7 +8,9 @@ from pathlib import Path
 
 from twin.analysis.replay import replay
 from twin.base.csvio import emit_json
+from twin.cli._common import add_force_model_argument, field_factory_for
 from twin.lab.effects import Effects, read_model_file
+from twin.process.forces import default_force_history
 from twin.runs.read import read_run
 from twin.sim.quasi_static import Twin
 
@@ -21,6 +23,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--model", type=Path, help="twin model file (effects, K_q) from `discrepancy --model-out`"
     )
+    add_force_model_argument(parser)
     parser.add_argument("--json", help="write the metrics to FILE ('-' for stdout)")
     parser.add_argument("--rrd", type=Path, help="also save a rerun recording of the replay to FILE")
 
@@ -29,7 +32,8 @@ def run(args: argparse.Namespace) -> int:
     """Replay the run."""
     measured = read_run(args.run_dir)
     effects, stiffness = read_model_file(args.model) if args.model else (Effects(), None)
-    twin = Twin(effects=effects.robot, joint_stiffness=stiffness)
+    factory = field_factory_for(args.force_model, default_force_history(), measured.commanded.values)
+    twin = Twin(effects=effects.robot, joint_stiffness=stiffness, field_factory=factory)
     result = replay(measured, effects=effects, twin=twin)
     m = result.metrics
     out = sys.stderr if args.json == "-" else sys.stdout  # keep stdout pure JSON for `--json -`

@@ -8,7 +8,9 @@ by its noise, so a pure-noise residual has reduced chi-square 1.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -72,14 +74,21 @@ class ResidualModel:
         run: The measured run (never its truth).
         history: Force history of the twin's field.
         joint_stiffness: K_q override [N·m/rad].
+        field_factory: The twin's sheet force model built from the history (`Twin(field_factory=...)`, e.g. the
+            height-map ISF model for a part other than the groove); None: the groove's table field.
     """
 
     def __init__(
-        self, run: Run, history: ForceHistory | None = None, joint_stiffness: np.ndarray | None = None
+        self,
+        run: Run,
+        history: ForceHistory | None = None,
+        joint_stiffness: np.ndarray | None = None,
+        field_factory: Callable[[ForceHistory], Any] | None = None,
     ) -> None:
         self.run = run
         self.history = history
         self.joint_stiffness = joint_stiffness
+        self.field_factory = field_factory
         self.noise = estimate_noise(run)
         self._sims: dict[RobotEffects, tuple[Twin, SimResult]] = {}
         cmd = run.commanded
@@ -96,7 +105,12 @@ class ResidualModel:
         """The twin and its simulation of the run's command for the robot side of `effects` (cached)."""
         key = effects.robot
         if key not in self._sims:
-            twin = Twin(history=self.history, effects=key, joint_stiffness=self.joint_stiffness)
+            twin = Twin(
+                history=self.history,
+                effects=key,
+                joint_stiffness=self.joint_stiffness,
+                field_factory=self.field_factory,
+            )
             cached = next(iter(self._sims.values()))[1].q_ik if self._sims else None
             self._sims[key] = (
                 twin,

@@ -218,6 +218,7 @@ def find_discrepancy(
     joint_stiffness: np.ndarray | None = None,
     candidates: tuple[str, ...] | None = None,
     progress: Callable[[str], None] | None = None,
+    field_factory: Callable[[ForceHistory], Any] | None = None,
 ) -> DiscrepancyResult:
     """Run the workflow on one run.
 
@@ -228,9 +229,10 @@ def find_discrepancy(
         joint_stiffness: K_q of the twin [N·m/rad] (default: the model's).
         candidates: Family names to try (default: all of `FAMILIES` the run's streams allow).
         progress: Called with each stage's name as it starts (to show a long search moving).
+        field_factory: The twin's sheet force model (`ResidualModel`); None: the groove's table field.
     """
     start = start or Effects()
-    model = ResidualModel(run, history, joint_stiffness)
+    model = ResidualModel(run, history, joint_stiffness, field_factory)
     ctx = context(model, start)
     noise = model.noise
     sigma = {"position": noise.position_m, "force": noise.force_n, "profile": noise.profile_m}
