@@ -32,6 +32,7 @@ from twin.analysis.identify.rollouts import (
     write_joint_stiffness,
 )
 from twin.analysis.replay import ReplayResult, replay, replay_metrics
+from twin.analysis.surface_check import SurfaceDeviation, read_target_mesh, surface_deviation
 from twin.apps.bench import analytic_replay, run_benchmarks
 from twin.apps.export import export_path
 from twin.apps.sweep import run_sweep
@@ -50,6 +51,7 @@ from twin.errors import (
 )
 from twin.lab.dynamic.knobs import Knobs as DynamicKnobs
 from twin.lab.dynamic.run import dynamic_load_test, run_dynamic_lab
+from twin.lab.dynamic.trajectory import retime_with_stops
 from twin.lab.effects import EFFECTS, Effects, parse_effect_args, read_model_file, write_model_file
 from twin.lab.virtual import LabSettings, load_test, nominal_commanded, run_lab
 from twin.process.field import SheetForceField
@@ -58,9 +60,11 @@ from twin.process.gcode import parse_gcode, read_gcode, write_gcode
 from twin.process.heightmap import HeightMap
 from twin.process.isf_calibration import IsfFit, calibrate_isf, isf_field_factory
 from twin.process.isf_force import IsfForceField, IsfForceParams
+from twin.process.part_surface import formed_surface, heightmap_mesh, surface_points, target_part_surface
 from twin.process.path import GrooveSpec, ToolPath, groove_path, label_passes, write_path_csv
 from twin.process.placement import Placement, ReachReport, check_reach
 from twin.process.shapes import PartSpec, part_path
+from twin.process.tool_friction import SlidingFriction
 from twin.robot.kinematics import HOME_Q_RAD, TOOL_LENGTH_M, Kinematics, load_model
 from twin.robot.model import RobotEffects, build_model
 from twin.robot.pinocchio_model import PinKinematics
@@ -116,7 +120,9 @@ __all__ = [
     "SheetForceField",
     "SimResult",
     "SingularityError",
+    "SlidingFriction",
     "Stream",
+    "SurfaceDeviation",
     "SymmetryError",
     "ToolPath",
     "Twin",
@@ -142,8 +148,10 @@ __all__ = [
     "fit_diagonal_kq",
     "fit_kr_from_run",
     "fit_kr_load_cases",
+    "formed_surface",
     "gain_of",
     "groove_path",
+    "heightmap_mesh",
     "import_run",
     "import_to_directory",
     "isf_field_factory",
@@ -164,13 +172,18 @@ __all__ = [
     "read_gcode",
     "read_model_file",
     "read_run",
+    "read_target_mesh",
     "replay",
     "replay_metrics",
     "result_summary",
+    "retime_with_stops",
     "run_benchmarks",
     "run_dynamic_lab",
     "run_lab",
     "run_sweep",
+    "surface_deviation",
+    "surface_points",
+    "target_part_surface",
     "write_gcode",
     "write_joint_stiffness",
     "write_model_file",

@@ -119,7 +119,13 @@ def write_text(path: str | Path, text: str, *, protect: Sequence[str | Path] = (
     return Path(path)
 
 
-def _atomic_write_text(path: Path, text: str, protect: Sequence[str | Path]) -> None:
+def write_bytes(path: str | Path, data: bytes, *, protect: Sequence[str | Path] = ()) -> Path:
+    """Write a binary file (e.g. an STL) atomically; never over a `protect`ed input."""
+    _atomic_write_text(Path(path), data, protect)
+    return Path(path)
+
+
+def _atomic_write_text(path: Path, text: str | bytes, protect: Sequence[str | Path]) -> None:
     path = Path(path)
     for other in protect:
         if Path(other).resolve() == path.resolve():
@@ -127,8 +133,12 @@ def _atomic_write_text(path: Path, text: str, protect: Sequence[str | Path]) -> 
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     try:
-        with os.fdopen(fd, "w", newline="") as handle:
-            handle.write(text)
+        if isinstance(text, bytes):
+            with os.fdopen(fd, "wb") as binary:
+                binary.write(text)
+        else:
+            with os.fdopen(fd, "w", newline="") as handle:
+                handle.write(text)
         os.replace(tmp_name, path)
     except BaseException:
         if os.path.exists(tmp_name):

@@ -12,8 +12,9 @@ from typing import Any
 
 import numpy as np
 
-from twin.base.csvio import emit_json
+from twin.base.csvio import emit_json, write_bytes
 from twin.process.gcode import read_gcode, write_gcode
+from twin.process.part_surface import cropped_surface, heightmap_mesh, target_part_surface
 from twin.process.path import GrooveSpec, ToolPath, groove_path, write_path_csv
 from twin.process.placement import Placement, check_reach
 from twin.process.shapes import MODES, SHAPES, PartSpec, part_path
@@ -32,6 +33,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--shape", choices=("groove", *SHAPES), default="groove", help="part (default groove)")
     parser.add_argument("--gcode", type=Path, metavar="FILE", help="import this G-code program instead of --shape")
     parser.add_argument("--gcode-out", type=Path, metavar="FILE", help="also write the path as G-code (G1, mm)")
+    parser.add_argument(
+        "--stl-out",
+        type=Path,
+        metavar="FILE",
+        help="also write the target part as a binary STL [mm]: the surface a rigid machine forms along the path "
+        "(height-map ISF model, after elastic recovery), for `check --target-stl`",
+    )
     parser.add_argument("--depth-mm", type=float, help="final depth H (default: groove 10, other parts 40)")
     parser.add_argument("--feed-mm-s", type=float, default=d.feed_m_per_s * 1e3, help="constant feed [mm/s]")
     parser.add_argument(
@@ -137,6 +145,14 @@ def run(args: argparse.Namespace) -> int:
     write_path_csv(path, args.out)
     if args.gcode_out is not None:
         write_gcode(path, args.gcode_out)
+    if args.stl_out is not None:
+        mesh = heightmap_mesh(*cropped_surface(*target_part_surface(path)))
+        mesh.apply_scale(1e3)  # STL in millimetres, as CAD writes it
+        stl = mesh.export(file_type="stl")
+        assert isinstance(stl, bytes)  # binary STL
+        write_bytes(args.stl_out, stl, protect=[args.out])
+        payload["stl_out"] = str(args.stl_out)
+        payload["stl_faces"] = len(mesh.faces)
     payload.update(
         {
             "out": str(args.out),

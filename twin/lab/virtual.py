@@ -19,6 +19,7 @@ import numpy as np
 from twin.lab.effects import Effects
 from twin.lab.measure import predict_forces, predict_part_profile, predict_tracker, uniform_times
 from twin.process.forces import ForceHistory
+from twin.process.part_surface import formed_surface, surface_points
 from twin.process.path import groove_path
 from twin.runs.format import Run, Stream, run_meta
 from twin.sim.quasi_static import Twin
@@ -92,6 +93,11 @@ def run_lab(
     forces = forces + rng.normal(0.0, settings.force_noise_n, forces.shape)
     x_profile, z_profile = predict_part_profile(result, effects)
     z_profile = z_profile + rng.normal(0.0, settings.profile_noise_m, z_profile.shape)
+    scan = None  # a 2-D scan of the part where the force model keeps a surface (any part, not the groove table)
+    surface = formed_surface(twin.field)
+    if surface is not None:
+        scan = surface_points(*surface)
+        scan[:, 2] += rng.normal(0.0, settings.profile_noise_m, len(scan))
     meta = run_meta(
         scenario=scenario,
         source="tx200-twin virtual lab",
@@ -106,6 +112,7 @@ def run_lab(
         tracker=Stream(t_tracker, tracker),
         forces=Stream(t_sensor, forces),
         part_profile=(x_profile, z_profile),
+        part_scan=scan,
     )
     truth = {
         "effects": dict(effects.values),

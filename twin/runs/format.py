@@ -10,6 +10,8 @@ A run is a directory holding:
 - `forces.csv`: `t_s, fx_n, fy_n, fz_n`: force exerted BY THE SHEET ON THE TOOL, sheet frame (Fz > 0 while
   forming), tool weight removed, at the sensor rate.
 - optional `part_profile.csv`: `x_mm, z_mm`: the formed groove's centre line after unclamping (x increasing).
+- optional `part_scan.csv`: `x_mm, y_mm, z_mm`: a scan of the formed part's upper surface after unclamping
+  (a point cloud, any order), for the CAD-like check against a target mesh (`check --target-stl`).
 - optional `truth.json`: written by the lab for made-up runs; `read_run` never opens it.
 
 All streams share one clock: `t_s = 0` at the start of the commanded path. Extra columns are ignored.
@@ -35,7 +37,9 @@ RUN_FRAME = "sheet"
 POSITION_COLUMNS = ("t_s", "x_mm", "y_mm", "z_mm")
 FORCE_COLUMNS = ("t_s", "fx_n", "fy_n", "fz_n")
 PROFILE_COLUMNS = ("x_mm", "z_mm")
+SCAN_COLUMNS = ("x_mm", "y_mm", "z_mm")
 REQUIRED_META = ("format", "frame", "scenario", "tool_length_m", "tracker_rate_hz")
+MIN_SCAN_SPAN_MM = 10.0  # a part scan spans centimetres: an x span below this is metres in a _mm column
 MIN_PATH_SPAN_X_MM = 30.0  # the groove is 70 mm long (thesis §1.2): a commanded x span below this is metres
 MIN_TRACKER_SPAN_X_MM = 0.5  # tracker x span below this while the path moves >= 30 mm: metres
 RATE_TOLERANCE = 0.05  # meta rates may differ from the median sample interval by 5 %
@@ -97,6 +101,7 @@ class Run:
         tracker: Measured tool tip [m].
         forces: Force of the sheet on the tool [N], or None.
         part_profile: (x_m, z_m) centre line of the formed groove [m], or None.
+        part_scan: Scanned points of the formed part's surface [m], shape (n, 3), or None.
     """
 
     directory: Path | None
@@ -105,8 +110,13 @@ class Run:
     tracker: Stream
     forces: Stream | None = None
     part_profile: tuple[np.ndarray, np.ndarray] | None = field(default=None)
+    part_scan: np.ndarray | None = field(default=None)
 
     def __post_init__(self) -> None:
+        if self.part_scan is not None:
+            scan = np.asarray(self.part_scan)
+            if scan.ndim != 2 or scan.shape[1] != 3:
+                raise InputError(f"part_scan has shape {scan.shape}, expected (n, 3)")
         if self.part_profile is not None:
             x_m, z_m = (np.asarray(a, dtype=float) for a in self.part_profile)
             if x_m.ndim != 1 or x_m.shape != z_m.shape:

@@ -22,6 +22,7 @@ from twin.runs.format import (
     CLOCK_TOLERANCE_S,
     FORCE_COLUMNS,
     MIN_PATH_SPAN_X_MM,
+    MIN_SCAN_SPAN_MM,
     MIN_TRACKER_SPAN_X_MM,
     POSITION_COLUMNS,
     PROFILE_COLUMNS,
@@ -29,6 +30,7 @@ from twin.runs.format import (
     REQUIRED_META,
     RUN_FORMAT,
     RUN_FRAME,
+    SCAN_COLUMNS,
     START_TOLERANCE_S,
     Run,
     Stream,
@@ -182,7 +184,16 @@ def read_run(directory: str | Path, *, require_forces: bool = True) -> Run:
             frozen_array(table["x_mm"] * 1e-3, (), "x_m"),
             frozen_array(table["z_mm"] * 1e-3, (), "z_m"),
         )
-    return Run(directory, dict(meta), commanded, tracker, forces, profile)
+    scan = None
+    scan_path = directory / "part_scan.csv"
+    if scan_path.is_file():
+        try:
+            table = read_table(scan_path, SCAN_COLUMNS, min_rows=3)
+        except DataFileError as exc:
+            raise _format_error(exc) from None
+        check_mm_magnitude(scan_path, "x_mm", table["x_mm"], min_span_mm=MIN_SCAN_SPAN_MM)
+        scan = frozen_array(np.column_stack([table[c] for c in SCAN_COLUMNS]) * 1e-3, (3,), "part_scan_m")
+    return Run(directory, dict(meta), commanded, tracker, forces, profile, scan)
 
 
 def read_commanded_csv(path: str | Path) -> Stream:

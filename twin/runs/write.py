@@ -99,6 +99,13 @@ def write_run(
                 {"x_mm": np.asarray(x_m) * 1e3, "z_mm": np.asarray(z_m) * 1e3},
                 formats={"x_mm": ".4f", "z_mm": ".4f"},
             )
+        if run.part_scan is not None:
+            mm = np.asarray(run.part_scan) * 1e3
+            write_table(
+                tmp / "part_scan.csv",
+                {"x_mm": mm[:, 0], "y_mm": mm[:, 1], "z_mm": mm[:, 2]},
+                formats={"x_mm": ".3f", "y_mm": ".3f", "z_mm": ".4f"},
+            )
         if truth is not None:
             write_json(tmp / "truth.json", truth)
         try:

@@ -16,7 +16,7 @@ import numpy as np
 from twin.base.signals import interp_rows
 from twin.lab.dynamic.knobs import Knobs
 from twin.lab.dynamic.plant import Plant, build_plant
-from twin.lab.dynamic.sensors import ft_reading, profile_scan, tracker_reading
+from twin.lab.dynamic.sensors import ft_reading, part_scan, profile_scan, tracker_reading
 from twin.lab.dynamic.simulate import DynamicLog, simulate
 from twin.lab.dynamic.trajectory import retime_with_stops
 from twin.process.forces import ForceHistory
@@ -63,6 +63,7 @@ def run_dynamic_lab(
     t_tracker, tracker = tracker_reading(log, knobs, rng)
     t_ft, forces = ft_reading(log, knobs, rng, plant.tool_mass_kg)
     profile = profile_scan(log, knobs, rng)
+    scan = part_scan(log, knobs, rng)
     meta = run_meta(
         scenario=scenario,
         source="tx200-twin dynamic lab (MuJoCo mj_step plant)",
@@ -77,6 +78,7 @@ def run_dynamic_lab(
         tracker=Stream(t_tracker, tracker),
         forces=Stream(t_ft, forces),
         part_profile=profile,
+        part_scan=scan,
     )
     return run, truth_record(plant, knobs, seed, log, t_s, p_cmd_sheet_m), log
 

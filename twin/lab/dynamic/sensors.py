@@ -28,6 +28,7 @@ from twin.base.signals import interp_rows
 from twin.lab.dynamic.knobs import Knobs
 from twin.lab.dynamic.simulate import DynamicLog
 from twin.process.field import K_UNLOAD_N_PER_M, TOOL_RADIUS_M
+from twin.process.part_surface import surface_points
 from twin.process.springback import unloaded_profile
 
 GRAVITY_M_PER_S2 = 9.81
@@ -111,3 +112,13 @@ def profile_scan(log: DynamicLog, knobs: Knobs, rng: np.random.Generator) -> tup
     x_m = np.arange(-PROFILE_HALF_SPAN_M, PROFILE_HALF_SPAN_M + 1e-12, PROFILE_SPACING_M)
     z_m = np.interp(x_m, log.formed_x_m, z_after)
     return x_m, z_m + rng.normal(0.0, 1e-3 * knobs["profile_noise_mm"], z_m.shape)
+
+
+def part_scan(log: DynamicLog, knobs: Knobs, rng: np.random.Generator) -> np.ndarray | None:
+    """The part after unclamping, scanned as a point cloud [m], shape (n, 3), with the profile scanner's
+    noise in z; None where the force model keeps no 2-D surface (the groove's table field)."""
+    if log.formed_surface is None:
+        return None
+    points = surface_points(*log.formed_surface)
+    points[:, 2] += rng.normal(0.0, 1e-3 * knobs["profile_noise_mm"], len(points))
+    return points

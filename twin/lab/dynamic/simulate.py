@@ -32,6 +32,7 @@ from twin.lab.dynamic.knobs import Knobs
 from twin.lab.dynamic.plant import Plant, build_plant
 from twin.process.field import SheetForceField
 from twin.process.forces import ForceHistory, default_force_history
+from twin.process.part_surface import formed_surface
 from twin.process.path import label_passes
 from twin.robot.kinematics import Kinematics, load_model
 
@@ -59,6 +60,8 @@ class DynamicLog:
         q_play: Where the teeth sit in the dead band, q_gear - dz(q_gear) [rad], shape (m, 6): +/- b/2 on a
             flank, in between while floating (0 for joints without a dead band).
         wall_s: Wall time of the stepping [s].
+        formed_surface: (x_m, y_m, z_m grid) of the part after unclamping where the force model keeps a 2-D
+            surface (the height-map ISF model), else None.
     """
 
     t_s: np.ndarray
@@ -72,6 +75,7 @@ class DynamicLog:
     formed_x_m: np.ndarray
     formed_z_m: np.ndarray
     wall_s: float
+    formed_surface: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
 
 
 def simulate(
@@ -211,6 +215,7 @@ def simulate(
         formed_x_m=np.asarray(field.x_grid_m, dtype=float).copy(),
         formed_z_m=np.asarray(field.formed_z_m, dtype=float).copy(),
         wall_s=time.perf_counter() - start,
+        formed_surface=formed_surface(field),
     )
 
 

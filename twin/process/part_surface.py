@@ -1,0 +1,131 @@
+"""The formed part as a surface: a perfect machine's target part, a scan of a formed one, and their meshes.
+
+A forming lab checks a part the way a CAD check does: the part is scanned (a point cloud of its upper surface
+after unclamping, e.g. a fringe-projection scanner) and compared with the target geometry (an STL). Here:
+
+* `target_part_surface(path)`: the part a rigid machine forms along the ideal path, after elastic recovery:
+  the height-map ISF model (`twin.process.isf_force`) driven along the path without deflection. It is the
+  target for a check of the *forming*, as the ideal path is for the tool path.
+* `formed_surface(field)`: the surface a force field with a height map (`IsfForceField`) has formed, after
+  the tool has left; None for a field without one (the groove's table field keeps a centre line only).
+* `surface_points(...)`: grid nodes of a surface over the formed region and a margin, every `spacing_m`:
+  what a scan gives (the labs add their own scanner noise).
+* `heightmap_mesh(...)`: a triangulated surface (`trimesh.Trimesh`), e.g. to write the target as an STL.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import trimesh
+
+from twin.errors import InputError
+from twin.process.isf_force import IsfForceField, IsfForceParams
+from twin.process.path import ToolPath
+
+SCAN_SPACING_M = 1e-3  # a scan's point spacing [m]
+FORMED_BELOW_M = 5e-5  # a node counts as formed when it lies this far below the flat sheet [m]
+SCAN_MARGIN_M = 5e-3  # the scan covers the formed region and this margin of flat sheet [m]
+
+
+def formed_surface(field: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """The surface a field has formed, after the tool has left: (x_m (nx,), y_m (ny,), z_m (ny, nx)) [m].
+
+    Args:
+        field: A sheet force field; one with a height map (`map`, `k_unload`) gives its unloaded surface.
+
+    Returns:
+        The grid and heights, or None when the field keeps no 2-D surface (the groove's table field).
+    """
+    height_map = getattr(field, "map", None)
+    if height_map is None or not hasattr(field, "k_unload"):
+        return None
+    z = height_map.unloaded_z_m(field.k_unload)
+    return np.asarray(height_map.x_m, dtype=float), np.asarray(height_map.y_m, dtype=float), z
+
+
+def target_part_surface(
+    path: ToolPath, params: IsfForceParams | None = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The part a rigid machine forms along `path`, after elastic recovery (x_m, y_m, z_m grid) [m].
+
+    Args:
+        path: The ideal tool-tip path, sheet frame.
+        params: ISF model constants (tool radius, grid, springback); None for the calibrated defaults.
+    """
+    field = IsfForceField(params)
+    field.rigid_forces(path)
+    surface = formed_surface(field)
+    assert surface is not None  # an IsfForceField always has a height map
+    return surface
+
+
+def surface_points(
+    x_m: np.ndarray,
+    y_m: np.ndarray,
+    z_m: np.ndarray,
+    *,
+    spacing_m: float = SCAN_SPACING_M,
+    margin_m: float = SCAN_MARGIN_M,
+) -> np.ndarray:
+    """Grid nodes of a surface over its formed region and a margin, about every `spacing_m` [m], shape (n, 3).
+
+    Args:
+        x_m, y_m: Grid axes [m], (nx,), (ny,), uniform.
+        z_m: Heights [m], (ny, nx).
+        spacing_m: Point spacing (rounded to a whole number of grid steps) [m].
+        margin_m: Flat sheet kept around the formed region [m].
+
+    Raises:
+        InputError: Shapes disagree, or nothing is formed.
+    """
+    z = np.asarray(z_m, dtype=float)
+    if z.shape != (len(y_m), len(x_m)) or len(x_m) < 2 or len(y_m) < 2:
+        raise InputError(f"surface grid: z {z.shape} must be (len(y) {len(y_m)}, len(x) {len(x_m)}), both >= 2")
+    formed = z < -FORMED_BELOW_M
+    if not formed.any():
+        raise InputError(f"the surface is flat: no node lies {FORMED_BELOW_M * 1e3:g} mm below the sheet")
+    step = max(1, round(spacing_m / float(x_m[1] - x_m[0])))
+    rows, cols = np.nonzero(formed)
+    x_lo, x_hi = x_m[cols.min()] - margin_m, x_m[cols.max()] + margin_m
+    y_lo, y_hi = y_m[rows.min()] - margin_m, y_m[rows.max()] + margin_m
+    ix = np.flatnonzero((x_m >= x_lo) & (x_m <= x_hi))[::step]
+    iy = np.flatnonzero((y_m >= y_lo) & (y_m <= y_hi))[::step]
+    X, Y = np.meshgrid(x_m[ix], y_m[iy])
+    return np.column_stack([X.ravel(), Y.ravel(), z[np.ix_(iy, ix)].ravel()])
+
+
+def heightmap_mesh(x_m: np.ndarray, y_m: np.ndarray, z_m: np.ndarray) -> trimesh.Trimesh:
+    """The surface z(x, y) on a grid as a triangle mesh (two triangles per cell, normals up) [m].
+
+    Args:
+        x_m, y_m: Grid axes [m], (nx,), (ny,).
+        z_m: Heights [m], (ny, nx).
+    """
+    z = np.asarray(z_m, dtype=float)
+    nx, ny = len(x_m), len(y_m)
+    if z.shape != (ny, nx) or nx < 2 or ny < 2:
+        raise InputError(f"surface grid: z {z.shape} must be (len(y) {ny}, len(x) {nx}), both >= 2")
+    X, Y = np.meshgrid(np.asarray(x_m, dtype=float), np.asarray(y_m, dtype=float))
+    vertices = np.column_stack([X.ravel(), Y.ravel(), z.ravel()])
+    index = np.arange(nx * ny).reshape(ny, nx)
+    a, b = index[:-1, :-1].ravel(), index[:-1, 1:].ravel()
+    c, d = index[1:, :-1].ravel(), index[1:, 1:].ravel()
+    faces = np.vstack([np.column_stack([a, b, d]), np.column_stack([a, d, c])])  # counter-clockwise from above
+    return trimesh.Trimesh(vertices=vertices, faces=faces, process=False)
+
+
+def cropped_surface(
+    x_m: np.ndarray, y_m: np.ndarray, z_m: np.ndarray, margin_m: float = SCAN_MARGIN_M
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The grid cut to the formed region and a margin (a smaller mesh for the same comparison)."""
+    z = np.asarray(z_m, dtype=float)
+    rows, cols = np.nonzero(z < -FORMED_BELOW_M)
+    if rows.size == 0:
+        raise InputError(f"the surface is flat: no node lies {FORMED_BELOW_M * 1e3:g} mm below the sheet")
+    h = float(x_m[1] - x_m[0])
+    pad = int(np.ceil(margin_m / h)) + 1
+    r0, r1 = max(rows.min() - pad, 0), min(rows.max() + pad + 1, len(y_m))
+    c0, c1 = max(cols.min() - pad, 0), min(cols.max() + pad + 1, len(x_m))
+    return np.asarray(x_m)[c0:c1], np.asarray(y_m)[r0:r1], z[r0:r1, c0:c1]
