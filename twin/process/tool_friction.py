@@ -107,8 +107,10 @@ class SlidingFriction:
 
     def force(self, p_sheet_m: np.ndarray, pass_index: int, direction: int) -> np.ndarray:
         """Force of the sheet on the tool [N], sheet frame; pure. `direction` only starts the slip state."""
-        f = self.inner.force(p_sheet_m, pass_index, 1)
         s, _ = self._slip_at(float(p_sheet_m[0]), direction)
+        if s == 1.0 or s == -1.0:  # sliding: the wrapped field's force for that direction
+            return self.inner.force(p_sheet_m, pass_index, int(s))
+        f = self.inner.force(p_sheet_m, pass_index, 1)
         f[0] *= s
         return f
 
@@ -116,8 +118,11 @@ class SlidingFriction:
         self, p_sheet_m: np.ndarray, pass_index: int, direction: int
     ) -> tuple[np.ndarray, np.ndarray]:
         """`force` and ∂f/∂p [N/m], shape (3, 3), the slip state's stiffness included."""
-        f, k = self.inner.force_and_stiffness(p_sheet_m, pass_index, 1)
         s, ds_dx = self._slip_at(float(p_sheet_m[0]), direction)
+        if ds_dx == 0.0 and (s == 1.0 or s == -1.0):  # sliding: the wrapped field's force for that direction
+            self.last_stick_stiffness = 0.0
+            return self.inner.force_and_stiffness(p_sheet_m, pass_index, int(s))
+        f, k = self.inner.force_and_stiffness(p_sheet_m, pass_index, 1)
         fx_plus = float(f[0])
         f[0] = s * fx_plus
         k[0] *= s

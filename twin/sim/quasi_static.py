@@ -249,12 +249,10 @@ class Twin:
                 if consistent(xpos_tcp - origin):
                     break
             set_regime(None)
-            q = q_i
+            q = q_i  # the kinematics are at q_i: the consistency check ran them
             # the tip gain is that of a sliding tool: a command step that matters makes a sticking tool slide
             s_last[i, 0, 0] -= getattr(field, "last_stick_stiffness", 0.0)
             q_link = q
-            qpos_view[:] = q
-            mujoco.mj_kinematics(m, d)
             p = xpos_tcp - origin
             f_out[i] = field.force(p, pi, di)
             field.advance(p, pi)
