@@ -32,6 +32,7 @@ from twin.errors import InputError
 from twin.process.field import SheetForceField
 from twin.process.forces import ForceHistory, default_force_history
 from twin.process.path import ToolPath, groove_path
+from twin.process.tool_friction import SlidingFriction
 from twin.robot.stiffness import set_joint_stiffness
 from twin.sim.quasi_static import Twin
 
@@ -209,7 +210,9 @@ def replay_draw(twin: Twin, history: ForceHistory, values: np.ndarray, t_s: np.n
     twin.joint_friction = values[6:12]
     scale = float(values[14])
     scaled = history if scale == 1.0 else replace(history, f_sheet_n=scale * history.f_sheet_n)
-    twin.field = SheetForceField(scaled, k_unload_n_per_m=float(values[12]), k_load_n_per_m=float(values[13]))
+    field = SheetForceField(scaled, k_unload_n_per_m=float(values[12]), k_load_n_per_m=float(values[13]))
+    # keep the twin's sliding friction of the tool (the nominal twin's field is wrapped in it)
+    twin.field = SlidingFriction(field, twin.field.reversal_m) if isinstance(twin.field, SlidingFriction) else field
     return twin.simulate(t_s, p_cmd, q_ik=q_ik).p_sheet_m
 
 
