@@ -71,15 +71,27 @@ def analytic_replay(run: Run, *, twin: Twin | None = None, history: ForceHistory
     p_out, f_out = np.empty((n, 3)), np.empty((n, 3))
     eye = np.eye(3)
     d = np.zeros(3)
+    # the tool's sliding friction (twin.process.tool_friction) is solved one regime at a time, as in the twin
+    regimes = getattr(field, "slip_regimes", lambda direction: (None,))
+    set_regime = getattr(field, "set_slip_regime", lambda regime: None)
+    consistent = getattr(field, "slip_consistent", lambda p: True)
     for i in range(n):
         c, pi, di, p_i = compliance[i], passes[i], dirs[i], p_cmd[i]
-        for _ in range(ANALYTIC_MAX_ITER):
-            f, s = field.force_and_stiffness(p_i + d, pi, di)
-            r = d - c @ f
-            if abs(r).max() < ANALYTIC_TOL_M:
+        start = d
+        r = np.full(3, np.inf)
+        for regime in regimes(di):
+            set_regime(regime)
+            d = start
+            for _ in range(ANALYTIC_MAX_ITER):
+                f, s = field.force_and_stiffness(p_i + d, pi, di)
+                r = d - c @ f
+                if abs(r).max() < ANALYTIC_TOL_M:
+                    break
+                d = d - dgesv(eye - c @ s, r)[2]
+            if abs(r).max() < ANALYTIC_TOL_M and consistent(p_i + d):
                 break
-            d = d - dgesv(eye - c @ s, r)[2]
-        else:
+        set_regime(None)
+        if not abs(r).max() < ANALYTIC_TOL_M:
             raise InputError(f"analytic replay: sample {i} did not converge (residual {abs(r).max():.3g} m)")
         p = p_cmd[i] + d
         f_out[i] = field.force(p, pi, di)
