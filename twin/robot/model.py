@@ -20,7 +20,9 @@ Effects on the robot:
 
 from __future__ import annotations
 
+import copy
 from dataclasses import dataclass
+from pathlib import Path
 
 import mujoco
 import numpy as np
@@ -78,18 +80,36 @@ class RobotEffects:
 def build_model(effects: RobotEffects | None = None, *, scene: bool = True) -> mujoco.MjModel:
     """Compile the TX200 model (scene or robot only) with the robot-side effects added through MjSpec.
 
+    The compiled model depends only on the tool length offset and whether lost-motion hinges are present (the
+    other effects act through the field or the springs' references), so each such variant is compiled once
+    per process and handed out as a private copy (a copy costs 0.6 ms, a compile 28 ms; the discrepancy search
+    builds a twin per replay).
+
     Args:
         effects: Effects to add; None means the nominal twin.
         scene: Compile `cell/scene.xml` (True) or the robot-only `tx200.xml` (False).
 
     Returns:
-        The compiled model. Contacts are disabled: the sheet acts through the force field.
+        The compiled model, the caller's own (its springs and friction may be changed). Contacts are disabled:
+        the sheet acts through the force field.
 
     Raises:
         ModelError: If the model file is missing or does not compile.
     """
     effects = effects or RobotEffects()
     path = scene_xml() if scene else robot_xml()
+    stamps = tuple(p.stat().st_mtime_ns for p in {path, robot_xml()})  # a recalibrated model file is recompiled
+    key = (str(path), stamps, effects.tcp_offset_m, effects.has_lost_motion)
+    if key not in _COMPILED:
+        _COMPILED[key] = _compile(path, effects)
+    return copy.copy(_COMPILED[key])
+
+
+_COMPILED: dict[tuple[str, tuple[int, ...], float, bool], mujoco.MjModel] = {}
+
+
+def _compile(path: Path, effects: RobotEffects) -> mujoco.MjModel:
+    """Compile `path` with the model-changing effects (`build_model`)."""
     try:
         spec = mujoco.MjSpec.from_file(str(path))
     except Exception as exc:  # mujoco raises ValueError with the parser's message

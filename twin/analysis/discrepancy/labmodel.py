@@ -71,11 +71,15 @@ def refine(
 ) -> Effects:
     """Gauss-Newton on the lab effects `keys` over twin replays (finite differences), from `effects`.
 
+    The Jacobian is taken once, at the start (a chord method): the lab effects act nearly linearly over the
+    step from the linearised fit, and each later iteration then costs one replay instead of 1 + len(keys).
+
     The lab form is fitted directly (e.g. one lost motion for joints 2 and 3 together), so its parameters are
     as precise as the data allow; replays of measurement-side effects reuse the cached simulation.
     """
     keys = [k for k in keys if k in LAB_STEP]
     best, best_sse = effects, float("inf")
+    jacobian: np.ndarray | None = None
     for _ in range(REFINE_ITERATIONS):
         if progress is not None:
             progress("replay")
@@ -84,12 +88,14 @@ def refine(
         if sse >= best_sse:
             break
         best, best_sse = effects, sse
-        cols = []
-        for key in keys:
-            step = LAB_STEP[key]
-            moved = Effects({**effects.values, key: effects.get(key) + step}, effects.lost_motion_takeup_m)
-            cols.append((fitter_for(context(model, moved)).base - r) / step)
-        delta, *_ = np.linalg.lstsq(np.column_stack(cols), -r, rcond=None)
+        if jacobian is None:  # a chord method: the finite-difference Jacobian of the first point serves on
+            cols = []
+            for key in keys:
+                step = LAB_STEP[key]
+                moved = Effects({**effects.values, key: effects.get(key) + step}, effects.lost_motion_takeup_m)
+                cols.append((fitter_for(context(model, moved)).base - r) / step)
+            jacobian = np.column_stack(cols)
+        delta, *_ = np.linalg.lstsq(jacobian, -r, rcond=None)
         values = dict(effects.values)
         for key, d in zip(keys, delta, strict=True):
             values[key] = float(np.clip(effects.get(key) + d, *LAB_BOUNDS.get(key, (-np.inf, np.inf))))
