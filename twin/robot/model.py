@@ -98,7 +98,8 @@ def build_model(effects: RobotEffects | None = None, *, scene: bool = True) -> m
     """
     effects = effects or RobotEffects()
     path = scene_xml() if scene else robot_xml()
-    stamps = tuple(p.stat().st_mtime_ns for p in {path, robot_xml()})  # a recalibrated model file is recompiled
+    # a recalibrated model file is recompiled; a missing one reaches the compile, which names it
+    stamps = tuple(p.stat().st_mtime_ns if p.is_file() else -1 for p in (path, robot_xml()))
     key = (str(path), stamps, effects.tcp_offset_m, effects.has_lost_motion)
     if key not in _COMPILED:
         _COMPILED[key] = _compile(path, effects)
