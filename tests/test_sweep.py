@@ -88,3 +88,21 @@ def test_sweep_cli_writes_json_and_figure(tmp_path, short_path: ToolPath) -> Non
     assert code == 0 and figure.stat().st_size > 10_000
     assert payload["draws"] == 3 and len(payload["per_draw"]["rms_mm"]) == 3
     assert payload["uncertainty"]["source"] == "model defaults"
+
+
+def test_scaled_pass_tables_equal_a_refit_of_the_scaled_history() -> None:
+    """The sweep rescales the history's tables per draw instead of refitting them (PCHIP is homogeneous)."""
+    from dataclasses import replace
+
+    from twin.process.field import SheetForceField
+    from twin.process.forces import default_force_history
+    from twin.process.pass_tables import scaled_tables
+
+    history = default_force_history()
+    base = SheetForceField(history).pass_tables
+    for scale in (0.7, 1.3):
+        refit = SheetForceField(replace(history, f_sheet_n=scale * history.f_sheet_n)).pass_tables
+        for a, b in zip(scaled_tables(base, scale), refit, strict=True):
+            np.testing.assert_allclose(a.fz, b.fz, rtol=1e-12, atol=1e-9)
+            np.testing.assert_allclose(a.ratio, b.ratio, rtol=1e-12, atol=1e-12)
+            np.testing.assert_array_equal(a.delta_plan, b.delta_plan)

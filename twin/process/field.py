@@ -78,6 +78,7 @@ class SheetForceField:
         grid_step_m: float = 1e-4,
         stateful: bool = True,
         deadband_m: float = 1e-6,
+        tables: list[PassTable] | None = None,
     ) -> None:
         """Fit the field to a history.
 
@@ -89,6 +90,7 @@ class SheetForceField:
             grid_step_m: Spacing of the profile grid and of the per-pass tables [m].
             stateful: False: the reference surface is always the ideal one (no forming history).
             deadband_m: Dead band for labelling the history's passes (`label_passes`) [m].
+            tables: The history's pass tables when already built (`pass_tables`, `scaled_tables`): no refit.
         """
         for name, value in (
             ("k_unload_n_per_m", k_unload_n_per_m),
@@ -107,7 +109,7 @@ class SheetForceField:
         self._formed, self._snapshot = p.z_m, p.snapshot_m  # never rebound: the hot path reads them directly
         self._pass = 0
         self._hyst: tuple[float, float, int] | None = None  # (start x, extreme x, direction) for inference
-        self._tables = build_pass_tables(history, self._profile, deadband_m=deadband_m)
+        self._tables = tables if tables is not None else build_pass_tables(history, self._profile, deadband_m=deadband_m)
         self.n_passes = len(self._tables)
         self.reset()
 
@@ -117,6 +119,11 @@ class SheetForceField:
         self._profile.reset()
         self._pass = 0
         self._hyst = None
+
+    @property
+    def pass_tables(self) -> list[PassTable]:
+        """The history's per-pass tables (shared, never changed)."""
+        return self._tables
 
     @property
     def formed_z_m(self) -> np.ndarray:

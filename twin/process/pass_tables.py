@@ -8,7 +8,7 @@ a regular x grid and read back by linear interpolation (`lerp`, `lerp_slope`) in
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.interpolate import PchipInterpolator
@@ -140,3 +140,19 @@ def build_pass_tables(history: ForceHistory, profile: FormedProfile, *, deadband
             )
         )
     return tables
+
+
+def scaled_tables(tables: list[PassTable], scale: float) -> list[PassTable]:
+    """The tables of the history with every force times `scale` > 0, without refitting.
+
+    PCHIP is homogeneous (the fit of s·F is s times the fit of F), so Fz scales; the ratio Fx / max(Fz, 1 N)
+    changes only where s·Fz or Fz is below 1 N. Equal to `build_pass_tables` of the scaled history to rounding.
+    """
+    if not (math.isfinite(scale) and scale > 0.0):
+        raise InputError(f"scale = {scale!r}: expected a finite number > 0")
+    out = []
+    for t in tables:
+        fz = scale * t.fz
+        ratio = t.ratio * scale * np.maximum(t.fz, 1.0) / np.maximum(fz, 1.0)
+        out.append(replace(t, fz=fz, ratio=ratio))
+    return out
