@@ -7,7 +7,8 @@ import sys
 import time
 from pathlib import Path
 
-from twin.apps.sweep import run_sweep, sweep_figure
+from twin.apps.sweep import run_sweep
+from twin.apps.sweep_figure import sweep_figure
 from twin.base.csvio import emit_json
 from twin.cli._common import (
     add_history_arguments,
