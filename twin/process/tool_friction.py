@@ -28,6 +28,8 @@ The wrapped field must flip only the sign of Fx with the direction (`SheetForceF
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -95,6 +97,16 @@ class SlidingFriction:
     def set_slip_regime(self, regime: float | None) -> None:
         """Hold the slip state at +-1 (sliding), 0 (in the band, law unclipped) or None (the clipped law)."""
         self._regime = regime
+
+    def sheet_for(
+        self, regime: float | None, pass_index: int, direction: int
+    ) -> Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]:
+        """Tip position -> (force, stiffness) under `regime`, for the twin's solver: while sliding, the wrapped
+        field's own method for that direction (no wrapper in the Newton loop); otherwise this field's."""
+        if regime is not None and regime != 0.0:
+            self.last_stick_stiffness = 0.0
+            return partial(self.inner.force_and_stiffness, pass_index=pass_index, direction=1 if regime > 0 else -1)
+        return partial(self.force_and_stiffness, pass_index=pass_index, direction=direction)
 
     def slip_consistent(self, p_sheet_m: np.ndarray) -> bool:
         """Whether the tip position `p_sheet_m` [m] lies in the regime being solved."""

@@ -218,6 +218,7 @@ class Twin:
         regimes = getattr(field, "slip_regimes", _one_regime)
         set_regime = getattr(field, "set_slip_regime", _no_regime)
         consistent = getattr(field, "slip_consistent", _any_position)
+        sheet_for = getattr(field, "sheet_for", None)
         deflection_q = np.zeros(m.nq)
         deflection_prev = np.zeros(m.nq)
         qvel_view[:] = 0.0
@@ -238,10 +239,13 @@ class Twin:
             if i == 0:
                 q_link = q_nominal  # the taught, unloaded pose
             # a joint whose friction holds keeps its link where it was: its spring stretches by q_ref - q_link
-            sheet = partial(field.force_and_stiffness, pass_index=pi, direction=di)
             k = 0
             for regime in regimes(di):  # the tool's sliding friction: one regime at a time (process.tool_friction)
                 set_regime(regime)
+                if sheet_for is None:
+                    sheet = partial(field.force_and_stiffness, pass_index=pi, direction=di)
+                else:
+                    sheet = sheet_for(regime, pi, di)
                 q_i, k_i, jac_last[i], s_last[i] = self._solver.solve(q, q_ref, k_diag, h_const, sheet, q_ref - q_link)
                 k += k_i
                 qpos_view[:] = q_i
