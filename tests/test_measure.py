@@ -8,14 +8,13 @@ import pytest
 from twin.analysis.replay import ReplayResult
 from twin.lab.effects import TRACKER_DRIFT_DIRECTION, Effects
 from twin.lab.measure import (
-    PROFILE_HALF_SPAN_M,
-    PROFILE_SPACING_M,
     predict_forces,
     predict_part_profile,
     predict_tracker,
     uniform_times,
 )
 from twin.process.field import K_UNLOAD_N_PER_M
+from twin.process.springback import PROFILE_HALF_SPAN_M, PROFILE_SPACING_M
 from twin.sim.quasi_static import Twin
 
 

@@ -14,6 +14,7 @@ from twin.base.signals import interp_rows
 from twin.errors import InputError
 from twin.process.forces import ForceHistory
 from twin.process.path import label_passes
+from twin.process.tool_friction import SheetModel, solve_sample
 from twin.runs.format import Run
 from twin.sim.quasi_static import PASS_DEADBAND_M, Twin
 
@@ -71,28 +72,27 @@ def analytic_replay(run: Run, *, twin: Twin | None = None, history: ForceHistory
     p_out, f_out = np.empty((n, 3)), np.empty((n, 3))
     eye = np.eye(3)
     d = np.zeros(3)
-    # the tool's sliding friction (twin.process.tool_friction) is solved one regime at a time, as in the twin
-    regimes = getattr(field, "slip_regimes", lambda direction: (None,))
-    set_regime = getattr(field, "set_slip_regime", lambda regime: None)
-    consistent = getattr(field, "slip_consistent", lambda p: True)
     for i in range(n):
         c, pi, di, p_i = compliance[i], passes[i], dirs[i], p_cmd[i]
-        start = d
-        r = np.full(3, np.inf)
-        for regime in regimes(di):
-            set_regime(regime)
-            d = start
+
+        def deflection(
+            sheet: SheetModel, d0: np.ndarray = d, c: np.ndarray = c, p_i: np.ndarray = p_i, i: int = i
+        ) -> np.ndarray:
+            """d = C f(p_i + d) by a 3x3 Newton iteration from d0 [m]."""
+            d = d0
             for _ in range(ANALYTIC_MAX_ITER):
-                f, s = field.force_and_stiffness(p_i + d, pi, di)
+                f, s = sheet(p_i + d)
                 r = d - c @ f
                 if abs(r).max() < ANALYTIC_TOL_M:
-                    break
+                    return d
                 d = d - dgesv(eye - c @ s, r)[2]
-            if abs(r).max() < ANALYTIC_TOL_M and consistent(p_i + d):
-                break
-        set_regime(None)
-        if not abs(r).max() < ANALYTIC_TOL_M:
             raise InputError(f"analytic replay: sample {i} did not converge (residual {abs(r).max():.3g} m)")
+
+        # the tool's sliding friction is solved one regime at a time, as in the twin (process.tool_friction)
+        def tip(d_eq: np.ndarray, p_i: np.ndarray = p_i) -> np.ndarray:
+            return p_i + d_eq
+
+        d = solve_sample(field, pi, di, deflection, tip)
         p = p_cmd[i] + d
         f_out[i] = field.force(p, pi, di)
         field.advance(p, pi)

@@ -33,7 +33,6 @@ from twin.process.field import SheetForceField
 from twin.process.forces import ForceHistory, default_force_history
 from twin.process.pass_tables import PassTable, scaled_tables
 from twin.process.path import ToolPath, groove_path
-from twin.process.tool_friction import SlidingFriction
 from twin.robot.stiffness import set_joint_stiffness
 from twin.sim.quasi_static import Twin
 
@@ -91,7 +90,7 @@ def model_uncertainty(twin: Twin, calibration: Mapping[str, Any] | None = None, 
         InputError: A calibration without `parameters`/`sigma`, or with a non-finite, negative or zero-mean value.
     """
     k_q, friction = twin.joint_stiffness, twin.joint_friction
-    mean = np.array([*k_q, *friction, twin.field.k_unload, twin.field.k_load, 1.0])
+    mean = np.array([*k_q, *friction, twin.sheet_field.k_unload, twin.sheet_field.k_load, 1.0])
     rel = [DEFAULT_RELATIVE_SIGMA["k_q"]] * 6 + [DEFAULT_RELATIVE_SIGMA["friction"]] * 6
     rel += [DEFAULT_RELATIVE_SIGMA[name] for name in PARAMETERS[12:]]
     sigma = np.array(rel) * mean
@@ -198,9 +197,8 @@ _WORKER: dict[str, Any] = {}
 def _init_worker(history: ForceHistory, t_s: np.ndarray, p_cmd: np.ndarray, q_ik: np.ndarray,
                  p_ideal: np.ndarray) -> None:
     twin = Twin(history=history)
-    field = twin.field.inner if isinstance(twin.field, SlidingFriction) else twin.field
     _WORKER.update(twin=twin, history=history, t_s=t_s, p_cmd=p_cmd, q_ik=q_ik, p_ideal=p_ideal,
-                   tables=field.pass_tables)
+                   tables=twin.sheet_field.pass_tables)
 
 
 def replay_draw(twin: Twin, history: ForceHistory, values: np.ndarray, t_s: np.ndarray, p_cmd: np.ndarray,
@@ -221,8 +219,7 @@ def replay_draw(twin: Twin, history: ForceHistory, values: np.ndarray, t_s: np.n
     field = SheetForceField(
         scaled, k_unload_n_per_m=float(values[12]), k_load_n_per_m=float(values[13]), tables=drawn
     )
-    # keep the twin's sliding friction of the tool (the nominal twin's field is wrapped in it)
-    twin.field = SlidingFriction(field, twin.field.reversal_m) if isinstance(twin.field, SlidingFriction) else field
+    twin.set_sheet_field(field)
     return twin.simulate(t_s, p_cmd, q_ik=q_ik).p_sheet_m
 
 

@@ -125,11 +125,16 @@ def write_bytes(path: str | Path, data: bytes, *, protect: Sequence[str | Path] 
     return Path(path)
 
 
+def check_not_an_input(path: str | Path, protect: Sequence[str | Path]) -> None:
+    """InputError when the output `path` is one of the `protect`ed input files (an input is never overwritten)."""
+    for other in protect:
+        if Path(other).resolve() == Path(path).resolve():
+            raise InputError(f"refusing to overwrite input file {path}: choose another output path")
+
+
 def _atomic_write_text(path: Path, text: str | bytes, protect: Sequence[str | Path]) -> None:
     path = Path(path)
-    for other in protect:
-        if Path(other).resolve() == path.resolve():
-            raise InputError(f"refusing to overwrite input file {path}: choose another output path")
+    check_not_an_input(path, protect)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     try:

@@ -15,11 +15,11 @@ from typing import Any
 import numpy as np
 
 from twin.base.signals import interp_rows
-from twin.lab.measure import PROFILE_HALF_SPAN_M, PROFILE_SPACING_M, uniform_times
+from twin.lab.measure import uniform_times
 from twin.process.field import SheetForceField
 from twin.process.forces import ForceHistory, default_force_history
 from twin.process.path import ToolPath, groove_path
-from twin.process.springback import unloaded_profile
+from twin.process.springback import scanned_profile, unloaded_profile
 from twin.runs.format import Run, Stream, run_meta
 
 
@@ -95,8 +95,7 @@ def run_cnc(
     position = position + rng.normal(0.0, settings.position_noise_m, position.shape)
     f_sensor = interp_rows(t_sensor, path.t_s, forces)
     f_sensor = f_sensor + rng.normal(0.0, settings.force_noise_n, f_sensor.shape)
-    x_profile = np.arange(-PROFILE_HALF_SPAN_M, PROFILE_HALF_SPAN_M + 1e-12, PROFILE_SPACING_M)
-    z_profile = np.interp(x_profile, field.x_grid_m, z_after)
+    x_profile, z_profile = scanned_profile(field.x_grid_m, z_after)
     z_profile = z_profile + rng.normal(0.0, settings.profile_noise_m, z_profile.shape)
     meta = run_meta(
         scenario="cnc",

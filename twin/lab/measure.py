@@ -11,12 +11,9 @@ import numpy as np
 from twin.base.signals import interp_rows
 from twin.lab.effects import Effects
 from twin.process.field import K_UNLOAD_N_PER_M, TOOL_RADIUS_M
-from twin.process.springback import unloaded_profile
+from twin.process.springback import scanned_profile, unloaded_profile
 from twin.sim.quasi_static import Twin
 from twin.sim.result import SimResult
-
-PROFILE_HALF_SPAN_M = 0.045  # part profile scanned over x in [-45, 45] mm (groove 70 mm + margin)
-PROFILE_SPACING_M = 0.0005
 
 
 def uniform_times(t_end_s: float, rate_hz: float) -> np.ndarray:
@@ -53,7 +50,6 @@ def predict_part_profile(result: SimResult, effects: Effects) -> tuple[np.ndarra
     unloading stiffness (`twin.process.springback`); the `sheet_springback` effect then takes away a further
     fraction of the depth.
     """
-    x_m = np.arange(-PROFILE_HALF_SPAN_M, PROFILE_HALF_SPAN_M + 1e-12, PROFILE_SPACING_M)
     z_after = unloaded_profile(
         result.formed_x_m,
         result.formed_z_m,
@@ -62,4 +58,5 @@ def predict_part_profile(result: SimResult, effects: Effects) -> tuple[np.ndarra
         k_unload_n_per_m=K_UNLOAD_N_PER_M,
         radius_m=TOOL_RADIUS_M,
     )
-    return x_m, np.interp(x_m, result.formed_x_m, z_after) * (1.0 - effects.springback_ratio)
+    x_m, z_m = scanned_profile(result.formed_x_m, z_after)
+    return x_m, z_m * (1.0 - effects.springback_ratio)

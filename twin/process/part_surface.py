@@ -61,6 +61,28 @@ def target_part_surface(
     return surface
 
 
+def _formed_window(
+    x_m: np.ndarray, y_m: np.ndarray, z_m: np.ndarray, margin_m: float
+) -> tuple[slice, slice]:
+    """Row and column slices of the grid over the formed region and `margin_m` around it.
+
+    Raises:
+        InputError: Shapes disagree, or nothing is formed.
+    """
+    if np.shape(z_m) != (len(y_m), len(x_m)) or len(x_m) < 2 or len(y_m) < 2:
+        raise InputError(
+            f"surface grid: z {np.shape(z_m)} must be (len(y) {len(y_m)}, len(x) {len(x_m)}), both >= 2"
+        )
+    rows, cols = np.nonzero(np.asarray(z_m) < -FORMED_BELOW_M)
+    if rows.size == 0:
+        raise InputError(f"the surface is flat: no node lies {FORMED_BELOW_M * 1e3:g} mm below the sheet")
+    pad = int(np.ceil(margin_m / float(x_m[1] - x_m[0])))
+    return (
+        slice(max(rows.min() - pad, 0), min(rows.max() + pad + 1, len(y_m))),
+        slice(max(cols.min() - pad, 0), min(cols.max() + pad + 1, len(x_m))),
+    )
+
+
 def surface_points(
     x_m: np.ndarray,
     y_m: np.ndarray,
@@ -80,20 +102,12 @@ def surface_points(
     Raises:
         InputError: Shapes disagree, or nothing is formed.
     """
-    z = np.asarray(z_m, dtype=float)
-    if z.shape != (len(y_m), len(x_m)) or len(x_m) < 2 or len(y_m) < 2:
-        raise InputError(f"surface grid: z {z.shape} must be (len(y) {len(y_m)}, len(x) {len(x_m)}), both >= 2")
-    formed = z < -FORMED_BELOW_M
-    if not formed.any():
-        raise InputError(f"the surface is flat: no node lies {FORMED_BELOW_M * 1e3:g} mm below the sheet")
+    rows, cols = _formed_window(x_m, y_m, z_m, margin_m)
     step = max(1, round(spacing_m / float(x_m[1] - x_m[0])))
-    rows, cols = np.nonzero(formed)
-    x_lo, x_hi = x_m[cols.min()] - margin_m, x_m[cols.max()] + margin_m
-    y_lo, y_hi = y_m[rows.min()] - margin_m, y_m[rows.max()] + margin_m
-    ix = np.flatnonzero((x_m >= x_lo) & (x_m <= x_hi))[::step]
-    iy = np.flatnonzero((y_m >= y_lo) & (y_m <= y_hi))[::step]
-    X, Y = np.meshgrid(x_m[ix], y_m[iy])
-    return np.column_stack([X.ravel(), Y.ravel(), z[np.ix_(iy, ix)].ravel()])
+    iy = np.arange(len(y_m))[rows][::step]
+    ix = np.arange(len(x_m))[cols][::step]
+    X, Y = np.meshgrid(np.asarray(x_m)[ix], np.asarray(y_m)[iy])
+    return np.column_stack([X.ravel(), Y.ravel(), np.asarray(z_m, dtype=float)[np.ix_(iy, ix)].ravel()])
 
 
 def heightmap_mesh(x_m: np.ndarray, y_m: np.ndarray, z_m: np.ndarray) -> trimesh.Trimesh:
@@ -120,12 +134,5 @@ def cropped_surface(
     x_m: np.ndarray, y_m: np.ndarray, z_m: np.ndarray, margin_m: float = SCAN_MARGIN_M
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The grid cut to the formed region and a margin (a smaller mesh for the same comparison)."""
-    z = np.asarray(z_m, dtype=float)
-    rows, cols = np.nonzero(z < -FORMED_BELOW_M)
-    if rows.size == 0:
-        raise InputError(f"the surface is flat: no node lies {FORMED_BELOW_M * 1e3:g} mm below the sheet")
-    h = float(x_m[1] - x_m[0])
-    pad = int(np.ceil(margin_m / h)) + 1
-    r0, r1 = max(rows.min() - pad, 0), min(rows.max() + pad + 1, len(y_m))
-    c0, c1 = max(cols.min() - pad, 0), min(cols.max() + pad + 1, len(x_m))
-    return np.asarray(x_m)[c0:c1], np.asarray(y_m)[r0:r1], z[r0:r1, c0:c1]
+    rows, cols = _formed_window(x_m, y_m, z_m, margin_m)
+    return np.asarray(x_m)[cols], np.asarray(y_m)[rows], np.asarray(z_m, dtype=float)[rows, cols]

@@ -19,6 +19,16 @@ import numpy as np
 
 from twin.errors import InputError
 
+#: A part-profile scan reads x in [-45, 45] mm (the 70 mm groove and a margin) every 0.5 mm [m].
+PROFILE_HALF_SPAN_M = 0.045
+PROFILE_SPACING_M = 5e-4
+
+
+def scanned_profile(x_grid_m: np.ndarray, z_m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A profile on its grid, read where a profile scan reads it: scan x [m] and z there [m]."""
+    x_scan = np.arange(-PROFILE_HALF_SPAN_M, PROFILE_HALF_SPAN_M + 1e-12, PROFILE_SPACING_M)
+    return x_scan, np.interp(x_scan, x_grid_m, z_m)
+
 
 def last_contact_force(
     x_grid_m: np.ndarray, x_tool_m: np.ndarray, fz_n: np.ndarray, radius_m: float

@@ -19,7 +19,7 @@ stiffness: the tip holds where it stopped until the robot's spring exceeds the f
 
 Solving with this law: a Newton iteration across the clip's corners cycles between "stuck" and "sliding"
 (the force is flat outside the band, 2e7 N/m steep inside). The twin therefore solves each sample under one
-regime at a time, as it does joint friction (`slip_regimes`): sliding in the commanded direction (the slip
+regime at a time, as it does joint friction (`solve_sample`): sliding in the commanded direction (the slip
 state held at +-1: the old model, one solve away from reversals), then inside the band (the law unclipped,
 linear in x), then sliding the other way; the first whose solution lies in its own regime is the one.
 
@@ -30,11 +30,15 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from functools import partial
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 
 from twin.errors import InputError
+
+T = TypeVar("T")
+#: Tip position in the sheet frame [m] -> (force of the sheet on the tool [N], its gradient [N/m]).
+SheetModel = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
 
 #: Travel over which the tangential force reverses [m].
 REVERSAL_M = 5e-5
@@ -62,7 +66,7 @@ class SlidingFriction:
         #: The sticking part of the last `force_and_stiffness`'s dFx/dx, 2 Fx(+1)/w inside the band, else 0
         #: [N/m]: what a command step large enough to make the tool slide does not meet.
         self.last_stick_stiffness = 0.0
-        self._regime: float | None = None  # None: clipped law; +-1: sliding held; 0: in the band, unclipped
+        self._in_band = False  # True while a sample is solved inside the band: the law unclipped
 
     def __getattr__(self, name: str) -> Any:
         return getattr(self.inner, name)
@@ -77,10 +81,8 @@ class SlidingFriction:
         if self._slip is None:
             self._last_direction = direction
             return float(direction), 0.0
-        if self._regime is not None and self._regime != 0.0:
-            return self._regime, 0.0
         s = self._slip + self._gain * (x - self._x_prev)
-        if self._regime is not None:  # in the band: the law unclipped
+        if self._in_band:
             return s, self._gain
         if s >= 1.0:
             return 1.0, 0.0
@@ -88,34 +90,42 @@ class SlidingFriction:
             return -1.0, 0.0
         return s, self._gain
 
-    def slip_regimes(self, direction: int) -> tuple[float | None, ...]:
-        """The regimes to try in turn for one sample: sliding along `direction`, the band, sliding back."""
-        if self._slip is None:
-            return (None,)
-        return (float(direction), 0.0, -float(direction))
+    def solve_sample(
+        self,
+        pass_index: int,
+        direction: int,
+        solve: Callable[[SheetModel], T],
+        tip_of: Callable[[T], np.ndarray],
+    ) -> T:
+        """One sample's equilibrium, one regime at a time: sliding along `direction`, in the band, sliding back.
 
-    def set_slip_regime(self, regime: float | None) -> None:
-        """Hold the slip state at +-1 (sliding), 0 (in the band, law unclipped) or None (the clipped law)."""
-        self._regime = regime
+        Args:
+            pass_index, direction: The sample's pass and commanded direction.
+            solve: Solves the equilibrium against a sheet model (tip position -> force, stiffness).
+            tip_of: The tool tip of a solution, sheet frame [m].
 
-    def sheet_for(
-        self, regime: float | None, pass_index: int, direction: int
-    ) -> Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]:
-        """Tip position -> (force, stiffness) under `regime`, for the twin's solver: while sliding, the wrapped
-        field's own method for that direction (no wrapper in the Newton loop); otherwise this field's."""
-        if regime is not None and regime != 0.0:
-            self.last_stick_stiffness = 0.0
-            return partial(self.inner.force_and_stiffness, pass_index=pass_index, direction=1 if regime > 0 else -1)
-        return partial(self.force_and_stiffness, pass_index=pass_index, direction=direction)
-
-    def slip_consistent(self, p_sheet_m: np.ndarray) -> bool:
-        """Whether the tip position `p_sheet_m` [m] lies in the regime being solved."""
-        if self._slip is None or self._regime is None:
-            return True
-        u = self._slip + self._gain * (float(p_sheet_m[0]) - self._x_prev)
-        if self._regime == 0.0:
-            return -1.0 <= u <= 1.0
-        return u * self._regime >= 1.0
+        Returns:
+            The first solution whose tip lies in the regime it was solved in (the last one tried otherwise).
+        """
+        if self._slip is None:  # the first sample: no travel yet, the commanded direction
+            return solve(partial(self.force_and_stiffness, pass_index=pass_index, direction=direction))
+        result = None
+        try:
+            for regime in (float(direction), 0.0, -float(direction)):
+                self._in_band = regime == 0.0
+                if self._in_band:
+                    result = solve(partial(self.force_and_stiffness, pass_index=pass_index, direction=direction))
+                else:  # sliding: the wrapped field itself, no wrapper in the Newton loop
+                    self.last_stick_stiffness = 0.0
+                    sign = 1 if regime > 0 else -1
+                    result = solve(partial(self.inner.force_and_stiffness, pass_index=pass_index, direction=sign))
+                u = self._slip + self._gain * (float(tip_of(result)[0]) - self._x_prev)
+                if (-1.0 <= u <= 1.0) if regime == 0.0 else (u * regime >= 1.0):
+                    break
+        finally:
+            self._in_band = False
+        assert result is not None
+        return result
 
     def force(self, p_sheet_m: np.ndarray, pass_index: int, direction: int) -> np.ndarray:
         """Force of the sheet on the tool [N], sheet frame; pure. `direction` only starts the slip state."""
@@ -151,3 +161,23 @@ class SlidingFriction:
             self._slip = min(1.0, max(-1.0, self._slip + self._gain * (x - self._x_prev)))
         self._x_prev = x
         self.inner.advance(p_sheet_m, pass_index)
+
+
+def solve_sample(
+    field: Any,
+    pass_index: int,
+    direction: int,
+    solve: Callable[[SheetModel], T],
+    tip_of: Callable[[T], np.ndarray],
+) -> T:
+    """One sample's equilibrium against any sheet field: by regimes for `SlidingFriction`, else in one solve.
+
+    Args:
+        field: The sheet force field (`force_and_stiffness(p, pass_index, direction)`).
+        pass_index, direction: The sample's pass and commanded direction.
+        solve: Solves the equilibrium against a sheet model (tip position -> force, stiffness).
+        tip_of: The tool tip of a solution, sheet frame [m] (used by `SlidingFriction` only).
+    """
+    if isinstance(field, SlidingFriction):
+        return field.solve_sample(pass_index, direction, solve, tip_of)
+    return solve(partial(field.force_and_stiffness, pass_index=pass_index, direction=direction))

@@ -13,7 +13,6 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import replace
-from functools import partial
 from typing import Any
 
 import mujoco
@@ -23,7 +22,7 @@ from twin.errors import InputError
 from twin.process.field import SheetForceField
 from twin.process.forces import ForceHistory, default_force_history
 from twin.process.path import label_passes
-from twin.process.tool_friction import REVERSAL_M, SlidingFriction
+from twin.process.tool_friction import REVERSAL_M, SheetModel, SlidingFriction, solve_sample
 from twin.robot.kinematics import Kinematics
 from twin.robot.model import ARM_JOINTS, LOST_MOTION_JOINTS, RobotEffects, build_model, lost_motion_schedule
 from twin.robot.stiffness import set_joint_stiffness
@@ -34,19 +33,6 @@ from twin.sim.result import SimResult
 # Back-travel that declares a reversal of the commanded path [m]: a compensated command may step back a
 # fraction of a millimetre where the force ramps up, a real reversal travels a whole stroke (>= 61 mm).
 PASS_DEADBAND_M = 2e-3
-
-
-def _one_regime(direction: int) -> tuple[None]:
-    """A field without regimes is solved once."""
-    return (None,)
-
-
-def _no_regime(regime: float | None) -> None:
-    return None
-
-
-def _any_position(p_sheet_m: np.ndarray) -> bool:
-    return True
 
 
 class Twin:
@@ -90,10 +76,9 @@ class Twin:
             scaled = replace(self.history, f_sheet_n=self.effects.force_scale * self.history.f_sheet_n)
         # field_factory (issue #16): another force model with the field's interface, e.g. the height-map ISF
         # model (`twin.process.isf_calibration.isf_field_factory`), built from the same (scaled) history
-        self.field = SheetForceField(scaled) if field_factory is None else field_factory(scaled)
-        if tool_friction_reversal_m is not None and field_factory is None:
-            # the tangential force follows the tool's real travel: it sticks at reversals (process.tool_friction)
-            self.field = SlidingFriction(self.field, tool_friction_reversal_m)
+        # the tangential force follows the tool's real travel: it sticks at reversals (process.tool_friction)
+        self._reversal_m = tool_friction_reversal_m if field_factory is None else None
+        self.set_sheet_field(SheetForceField(scaled) if field_factory is None else field_factory(scaled))
         m = self.model
         self._tcp = m.site("tcp").id
         self._arm_dof = np.array([m.jnt_dofadr[m.joint(name).id] for name in ARM_JOINTS])
@@ -106,6 +91,19 @@ class Twin:
         self._solver = EquilibriumSolver(m, self.data, self._tcp, self.p_base_sheet_origin)
         if joint_friction is not None:
             self.joint_friction = joint_friction
+
+    def set_sheet_field(self, field: Any) -> None:
+        """Press the tool against `field` from now on, with the twin's sliding friction of the tool around it.
+
+        Args:
+            field: A sheet force field (`SheetForceField` or one with its interface).
+        """
+        self.field = field if self._reversal_m is None else SlidingFriction(field, self._reversal_m)
+
+    @property
+    def sheet_field(self) -> Any:
+        """The sheet's force field itself (`field` without the tool's sliding friction around it)."""
+        return self.field.inner if isinstance(self.field, SlidingFriction) else self.field
 
     @property
     def joint_friction(self) -> np.ndarray:
@@ -215,10 +213,6 @@ class Twin:
         field.reset()
         passes = [int(v) for v in pass_index]
         dirs = [int(v) for v in direction]
-        regimes = getattr(field, "slip_regimes", _one_regime)
-        set_regime = getattr(field, "set_slip_regime", _no_regime)
-        consistent = getattr(field, "slip_consistent", _any_position)
-        sheet_for = getattr(field, "sheet_for", None)
         deflection_q = np.zeros(m.nq)
         deflection_prev = np.zeros(m.nq)
         qvel_view[:] = 0.0
@@ -239,28 +233,26 @@ class Twin:
             if i == 0:
                 q_link = q_nominal  # the taught, unloaded pose
             # a joint whose friction holds keeps its link where it was: its spring stretches by q_ref - q_link
-            k = 0
-            for regime in regimes(di):  # the tool's sliding friction: one regime at a time (process.tool_friction)
-                set_regime(regime)
-                if sheet_for is None:
-                    sheet = partial(field.force_and_stiffness, pass_index=pi, direction=di)
-                else:
-                    sheet = sheet_for(regime, pi, di)
-                q_i, k_i, jac_last[i], s_last[i] = self._solver.solve(q, q_ref, k_diag, h_const, sheet, q_ref - q_link)
-                k += k_i
-                qpos_view[:] = q_i
+            iterations = 0
+
+            def equilibrium(
+                sheet: SheetModel, q: np.ndarray = q, q_ref: np.ndarray = q_ref, e_prev: np.ndarray = q_ref - q_link
+            ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+                nonlocal iterations
+                q_eq, k_eq, jac, stiffness = self._solver.solve(q, q_ref, k_diag, h_const, sheet, e_prev)
+                iterations += k_eq
+                qpos_view[:] = q_eq
                 mujoco.mj_kinematics(m, d)
-                if consistent(xpos_tcp - origin):
-                    break
-            set_regime(None)
-            q = q_i  # the kinematics are at q_i: the consistency check ran them
+                return q_eq, jac, stiffness, xpos_tcp - origin
+
+            # the tool's sliding friction is solved one regime at a time (process.tool_friction)
+            q, jac_last[i], s_last[i], p = solve_sample(field, pi, di, equilibrium, lambda solution: solution[3])
             # the tip gain is that of a sliding tool: a command step that matters makes a sticking tool slide
             s_last[i, 0, 0] -= getattr(field, "last_stick_stiffness", 0.0)
             q_link = q
-            p = xpos_tcp - origin
             f_out[i] = field.force(p, pi, di)
             field.advance(p, pi)
-            qpos_out[i], p_out[i], iters[i] = q, p, k
+            qpos_out[i], p_out[i], iters[i] = q, p, iterations
             deflection_prev, deflection_q = deflection_q, q - q_nominal
         compliance = (jac_last * (1.0 / k_diag)) @ jac_last.transpose(0, 2, 1)
         tip_gain = np.linalg.inv(np.eye(3) - compliance @ s_last)

@@ -9,7 +9,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from twin.analysis.surface_check import SurfaceDeviation
-from twin.errors import InputError
+from twin.base.csvio import check_not_an_input
 from twin.viz.style import M_TO_MM, save_figure
 
 
@@ -25,9 +25,7 @@ def plot_surface_deviation(
         protect: Inputs the figure must never overwrite.
     """
     target = Path(path)
-    for other in protect:
-        if Path(other).resolve() == target.resolve():
-            raise InputError(f"refusing to overwrite input file {target}: choose another figure path")
+    check_not_an_input(target, protect)
     xy = deviation.points_m[:, :2] * M_TO_MM
     dev = deviation.deviation_m * M_TO_MM
     limit = float(max(np.max(np.abs(dev)), 1e-3))

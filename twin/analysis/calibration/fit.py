@@ -146,7 +146,7 @@ class TwinEvaluator:
         def field() -> SheetForceField:
             return SheetForceField(self.history, k_unload_n_per_m=p[4], k_load_n_per_m=p[5])
 
-        self.twin.field = field()
+        self.twin.set_sheet_field(field())
         self.evaluations += 1
         return measure_twin(self.twin, self.path, field_factory=field, f_ideal_n=self.f_ideal_n)
 

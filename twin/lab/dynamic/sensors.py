@@ -29,13 +29,11 @@ from twin.lab.dynamic.knobs import Knobs
 from twin.lab.dynamic.simulate import DynamicLog
 from twin.process.field import K_UNLOAD_N_PER_M, TOOL_RADIUS_M
 from twin.process.part_surface import surface_points
-from twin.process.springback import unloaded_profile
+from twin.process.springback import scanned_profile, unloaded_profile
 
 GRAVITY_M_PER_S2 = 9.81
 _REG_TRANSLATION_AXIS = np.array([1.0, -1.0, 1.0]) / np.sqrt(3.0)
 _REG_ROTATION_AXIS = np.array([1.0, 1.0, 1.0]) / np.sqrt(3.0)
-PROFILE_HALF_SPAN_M = 0.045  # the scan covers x in [-45, 45] mm: the 70 mm groove and a margin
-PROFILE_SPACING_M = 5e-4
 _CROSSTALK_PATTERN = np.array([[0.0, 1.0, -1.0], [-1.0, 0.0, 1.0], [1.0, -1.0, 0.0]])
 
 
@@ -109,8 +107,7 @@ def profile_scan(log: DynamicLog, knobs: Knobs, rng: np.random.Generator) -> tup
         k_unload_n_per_m=K_UNLOAD_N_PER_M,
         radius_m=TOOL_RADIUS_M,
     )
-    x_m = np.arange(-PROFILE_HALF_SPAN_M, PROFILE_HALF_SPAN_M + 1e-12, PROFILE_SPACING_M)
-    z_m = np.interp(x_m, log.formed_x_m, z_after)
+    x_m, z_m = scanned_profile(log.formed_x_m, z_after)
     return x_m, z_m + rng.normal(0.0, 1e-3 * knobs["profile_noise_mm"], z_m.shape)
 
 
