@@ -6,6 +6,10 @@ step also warms caches, so it is kept only as one of the repeats). The headline 
 * `replay_realtime_factor`: simulated machining time of the run divided by the wall time of
   `twin.analysis.replay.replay(run, twin=...)` with a ready `Twin` (`replay_warm_s`). `replay_s` is the same with a
   fresh `Twin` (model compilation and field fit included).
+* `twin_over_mujoco_floor`: `replay_warm_s` over the wall time of the MuJoCo calls a replay that asks MuJoCo
+  at every Newton iteration makes (`twin.apps.bench_speed.mujoco_call_floor`). The compiled loop
+  (`twin.sim.compiled`) evaluates the chain from the model's own parameters instead, so the replay can fall
+  below 1; `simulate_python_loop_s` is the Python loop that does call MuJoCo per iteration, for reference.
 * `twin_over_analytic`: `replay_warm_s` over `analytic_replay_s`, the same run replayed with the linear model
   d = J K_q^-1 J^T f(p_cmd + d) (`analytic_replay`): the physical floor of any compliant-robot replay.
 """
@@ -142,6 +146,13 @@ def run_benchmarks(
     twin = Twin(history=history)
     out["replay_warm_s"], warm_all = time_call(lambda: replay(run, twin=twin), repeats)
     out["simulate_warm_s"], _ = time_call(lambda: twin.simulate(t_s, p_cmd), repeats)
+    # the reference: the same loop in Python, MuJoCo called per Newton iteration (twin.sim.compiled)
+    twin.use_compiled_loop = False
+    try:
+        out["simulate_python_loop_s"], _ = time_call(lambda: twin.simulate(t_s, p_cmd), max(1, repeats // 2))
+    finally:
+        twin.use_compiled_loop = True
+    out["python_over_compiled_loop"] = out["simulate_python_loop_s"] / out["simulate_warm_s"]
     out["ik_path_s"], _ = time_call(lambda: twin.kinematics.ik_path(p_cmd + twin.p_base_sheet_origin), repeats)
     out["analytic_replay_s"], _ = time_call(lambda: analytic_replay(run, twin=twin), repeats)
     out["replay_realtime_factor"] = duration_s / out["replay_warm_s"]
@@ -225,11 +236,13 @@ TABLE_ROWS: tuple[tuple[str, str, str], ...] = (
     ("replay_s", "replay, fresh Twin", "s"),
     ("replay_warm_s", "replay, ready Twin", "s"),
     ("simulate_warm_s", "  of which Twin.simulate", "s"),
+    ("simulate_python_loop_s", "Twin.simulate, Python loop", "s"),
+    ("python_over_compiled_loop", "  Python loop / compiled loop", "x"),
     ("ik_path_s", "  of which ik_path", "s"),
     ("analytic_replay_s", "analytic replay (J K^-1 J^T f)", "s"),
     ("replay_realtime_factor", "real-time factor (ready Twin)", "x"),
     ("replay_fresh_realtime_factor", "real-time factor (fresh Twin)", "x"),
-    ("mujoco_floor_s", "MuJoCo-call floor of the replay", "s"),
+    ("mujoco_floor_s", "MuJoCo-call floor (a call per iteration)", "s"),
     ("twin_over_mujoco_floor", "replay / MuJoCo-call floor", "x"),
     ("twin_over_analytic", "twin / analytic", "x"),
     ("sweep_replays_per_s_per_core", "sweep replays / s / core", "x"),

@@ -62,7 +62,8 @@ K_LOAD_N_PER_M = 1.596e+05
 TOOL_RADIUS_M = 7.5e-3
 #: Half-width of the modelled sheet along x [m] (FE sheet 240 mm, §2.2).
 SHEET_HALF_LENGTH_M = 0.120
-_SOFTPLUS_N = 5.0
+#: Width of the softplus that keeps Fz >= 0 and smooth [N].
+SOFTPLUS_N = 5.0
 
 
 class SheetForceField:
@@ -132,8 +133,17 @@ class SheetForceField:
 
     @property
     def current_pass(self) -> int:
-        """Pass of the last committed sample (0 before any)."""
+        """Pass of the last committed sample (0 before any); set by a loop that advanced `profile` itself."""
         return self._pass
+
+    @current_pass.setter
+    def current_pass(self, pass_index: int) -> None:
+        self._pass = int(pass_index)
+
+    @property
+    def profile(self) -> FormedProfile:
+        """The formed profile and its snapshot (changed in place by `advance`)."""
+        return self._profile
 
     def advance(self, p_sheet_m: np.ndarray, pass_index: int | None = None) -> None:
         """Commit: the tool tip passed through `p_sheet_m`; the formed profile under the sphere is updated.
@@ -221,7 +231,7 @@ class SheetForceField:
             err = plan - z
             k = self.k_load if err > 0.0 else self.k_unload
             lin, dlin_dx = fz_h + k * err, dfz_h + k * dplan
-        w = _SOFTPLUS_N
+        w = SOFTPLUS_N
         if lin > 30.0 * w:
             fz, slope = lin, 1.0
         else:
@@ -253,7 +263,7 @@ class SheetForceField:
             raise InputError(f"direction = {direction!r}: expected +1 or -1")
         x, z = float(p_sheet_m[0]), float(p_sheet_m[2])
         lin, _, ratio, _ = self._fz_lin(x, z, pass_index)
-        w = _SOFTPLUS_N
+        w = SOFTPLUS_N
         fz = lin if lin > 30.0 * w else w * math.log1p(math.exp(lin / w))
         sign = 1.0 if direction * self._tables[pass_index - 1].direction > 0 else -1.0
         return np.array([sign * ratio * fz, 0.0, fz])

@@ -48,13 +48,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from twin.errors import InputError
-from twin.process.field import K_UNLOAD_N_PER_M, TOOL_RADIUS_M
+from twin.process.field import K_UNLOAD_N_PER_M, SOFTPLUS_N, TOOL_RADIUS_M
 from twin.process.heightmap import HeightMap
 from twin.process.path import ToolPath
 
 #: Aerens et al. (2010) coefficient of the steady-state Fz formula [N / (MPa mm^2.07 deg)].
 AERENS_COEFFICIENT = 0.0716
-_SOFTPLUS_N = 5.0
+_SOFTPLUS_N = SOFTPLUS_N
 #: Height over which the wall angle is read from the layers above the tool [m], and the most layers walked.
 WALL_BASELINE_M = 1.0e-3
 _WALL_MAX_LAYERS = 12

@@ -76,6 +76,16 @@ class SlidingFriction:
         self.inner.reset()
         self._slip = None
 
+    @property
+    def slip_state(self) -> tuple[float | None, float, int]:
+        """(slip state s or None before the first sample, last committed tip x [m], first direction)."""
+        return self._slip, self._x_prev, self._last_direction
+
+    @slip_state.setter
+    def slip_state(self, state: tuple[float | None, float, int]) -> None:
+        # for a loop that advanced the slip state itself (the twin's compiled loop, `twin.sim.compiled`)
+        self._slip, self._x_prev, self._last_direction = state[0], float(state[1]), int(state[2])
+
     def _slip_at(self, x: float, direction: int) -> tuple[float, float]:
         """Slip state at tip x [m] and its derivative ds/dx [1/m] (0 where clipped)."""
         if self._slip is None:

@@ -22,17 +22,21 @@ from twin.errors import InputError
 from twin.process.field import SheetForceField
 from twin.process.forces import ForceHistory, default_force_history
 from twin.process.path import label_passes
-from twin.process.tool_friction import REVERSAL_M, SheetModel, SlidingFriction, solve_sample
+from twin.process.tool_friction import REVERSAL_M, SlidingFriction
 from twin.robot.kinematics import Kinematics
 from twin.robot.model import ARM_JOINTS, LOST_MOTION_JOINTS, RobotEffects, build_model, lost_motion_schedule
 from twin.robot.stiffness import set_joint_stiffness
+from twin.sim.compiled import compiled_replay
 from twin.sim.equilibrium import EquilibriumSolver
 from twin.sim.ft_sensor import flange_sensor_forces
+from twin.sim.python_loop import python_loop
 from twin.sim.result import SimResult
 
 # Back-travel that declares a reversal of the commanded path [m]: a compensated command may step back a
 # fraction of a millimetre where the force ramps up, a real reversal travels a whole stroke (>= 61 mm).
 PASS_DEADBAND_M = 2e-3
+#: Commanded paths whose rigid IK the twin keeps.
+IK_MEMO_PATHS = 4
 
 
 class Twin:
@@ -48,6 +52,10 @@ class Twin:
             (`twin.process.tool_friction`); None: the tangential force flips with the commanded direction.
             Applies to the default field only.
     """
+
+    #: Run the per-sample loop compiled (`twin.sim.compiled`) where the model and field allow it; False: the
+    #: Python loop, MuJoCo called per Newton iteration (the reference the compiled loop is tested against).
+    use_compiled_loop: bool = True
 
     def __init__(
         self,
@@ -89,6 +97,9 @@ class Twin:
         self._lost_jnt = np.array([m.joint(name).id for name in lost], dtype=int)
         self.p_base_sheet_origin = self.kinematics.p_base_sheet_origin
         self._solver = EquilibriumSolver(m, self.data, self._tcp, self.p_base_sheet_origin)
+        self._ik_memo: list[tuple[np.ndarray, np.ndarray]] = []
+        #: Whether the last `simulate` ran the compiled loop (else the Python one).
+        self.last_loop_compiled = False
         if joint_friction is not None:
             self.joint_friction = joint_friction
 
@@ -147,6 +158,16 @@ class Twin:
             grad[:, j] = (self._gravity(qpos + dq) - self._gravity(qpos - dq)) / (2 * step)
         return grad
 
+    def _ik_path(self, p_cmd: np.ndarray) -> np.ndarray:
+        """Rigid IK of a commanded path [rad], (n, 6); the last few paths' solutions are kept (a replay, a
+        discrepancy search or a sweep drives one command many times, and the IK depends on the command only)."""
+        for p_known, q_known in self._ik_memo:
+            if p_known.shape == p_cmd.shape and np.array_equal(p_known, p_cmd):
+                return q_known.copy()
+        q_ik = self.kinematics.ik_path(p_cmd + self.p_base_sheet_origin)
+        self._ik_memo = [(p_cmd.copy(), q_ik.copy()), *self._ik_memo[: IK_MEMO_PATHS - 1]]
+        return q_ik
+
     def _full_qpos(self, q_arm: np.ndarray) -> np.ndarray:
         qpos = np.zeros(self.model.nq)
         qpos[self._arm_qpos] = q_arm
@@ -178,9 +199,9 @@ class Twin:
             )
         if not (np.all(np.isfinite(p_cmd)) and np.all(np.isfinite(t_s))):
             raise InputError("commanded path holds NaN or inf")
-        m, d = self.model, self.data
+        m = self.model
         if q_ik is None:
-            q_ik = self.kinematics.ik_path(p_cmd + self.p_base_sheet_origin)
+            q_ik = self._ik_path(p_cmd)
         elif q_ik.shape != (len(t_s), 6):
             raise InputError(f"q_ik has shape {q_ik.shape}, expected {(len(t_s), 6)}")
         pass_index, direction = label_passes(p_cmd[:, 0], deadband_m=PASS_DEADBAND_M)
@@ -197,79 +218,37 @@ class Twin:
         q_nominal_all = np.zeros((n, m.nq))
         q_nominal_all[:, self._arm_qpos] = q_ik
         q_nominal_all[:, self._lost_qpos] = lost_ref
-        qpos_out = np.zeros((n, m.nq))
-        p_out = np.zeros((n, 3))
-        p_unloaded = np.zeros((n, 3))
-        f_out = np.zeros((n, 3))
-        iters = np.zeros(n, dtype=int)
-        jac_last = np.zeros((n, 3, m.nv))
-        s_last = np.zeros((n, 3, 3))
         h_const = np.diag(k_diag) + grad_g  # the Newton matrix without the sheet term
-        g_nom = np.zeros(m.nv)
-        origin = self.p_base_sheet_origin
-        qpos_view, qvel_view = d.qpos, d.qvel
-        xpos_tcp = d.site_xpos[self._tcp]  # a view: follows every mj_kinematics
-        field = self.field
-        field.reset()
-        passes = [int(v) for v in pass_index]
-        dirs = [int(v) for v in direction]
-        deflection_q = np.zeros(m.nq)
-        deflection_prev = np.zeros(m.nq)
-        qvel_view[:] = 0.0
-        for i in range(n):
-            pi, di = passes[i], dirs[i]
-            q_nominal = q_nominal_all[i]
-            qpos_view[:] = q_nominal
-            mujoco.mj_kinematics(m, d)
-            mujoco.mj_comPos(m, d)
-            mujoco.mj_rne(m, d, 0, g_nom)
-            p_unloaded[i] = xpos_tcp - origin
-            q_ref = q_nominal + g_nom / k_diag  # taught under gravity
-            # start from the deflection extrapolated from the last two samples of this pass (else the last one)
-            if i >= 2 and passes[i - 2] == pi:
-                q = q_nominal + (2.0 * deflection_q - deflection_prev)
-            else:
-                q = q_nominal + deflection_q
-            if i == 0:
-                q_link = q_nominal  # the taught, unloaded pose
-            # a joint whose friction holds keeps its link where it was: its spring stretches by q_ref - q_link
-            iterations = 0
-
-            def equilibrium(
-                sheet: SheetModel, q: np.ndarray = q, q_ref: np.ndarray = q_ref, e_prev: np.ndarray = q_ref - q_link
-            ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-                nonlocal iterations
-                q_eq, k_eq, jac, stiffness = self._solver.solve(q, q_ref, k_diag, h_const, sheet, e_prev)
-                iterations += k_eq
-                qpos_view[:] = q_eq
-                mujoco.mj_kinematics(m, d)
-                return q_eq, jac, stiffness, xpos_tcp - origin
-
-            # the tool's sliding friction is solved one regime at a time (process.tool_friction)
-            q, jac_last[i], s_last[i], p = solve_sample(field, pi, di, equilibrium, lambda solution: solution[3])
-            # the tip gain is that of a sliding tool: a command step that matters makes a sticking tool slide
-            s_last[i, 0, 0] -= getattr(field, "last_stick_stiffness", 0.0)
-            q_link = q
-            f_out[i] = field.force(p, pi, di)
-            field.advance(p, pi)
-            qpos_out[i], p_out[i], iters[i] = q, p, iterations
-            deflection_prev, deflection_q = deflection_q, q - q_nominal
+        self.field.reset()
+        out = None
+        if self.use_compiled_loop:
+            out = compiled_replay(
+                m, self._tcp, self.field, q_nominal_all, pass_index, direction, self.p_base_sheet_origin, k_diag,
+                h_const, self._solver.predict_active_set,
+            )
+        self.last_loop_compiled = out is not None
+        if out is None:
+            out = python_loop(
+                self.model, self.data, self._tcp, self.p_base_sheet_origin, self.field, self._solver,
+                q_nominal_all, pass_index, direction, k_diag, h_const,
+            )
+        jac_last, s_last = out.jac, out.stiffness
         compliance = (jac_last * (1.0 / k_diag)) @ jac_last.transpose(0, 2, 1)
         tip_gain = np.linalg.inv(np.eye(3) - compliance @ s_last)
         formed_x, formed_z = self.field.x_grid_m, self.field.formed_z_m
         return SimResult(
             t_s=t_s,
             p_cmd_sheet_m=p_cmd,
-            p_unloaded_sheet_m=p_unloaded,
-            p_sheet_m=p_out,
-            f_sheet_n=f_out,
-            qpos=qpos_out,
+            p_unloaded_sheet_m=out.p_unloaded_sheet_m,
+            p_sheet_m=out.p_sheet_m,
+            f_sheet_n=out.f_sheet_n,
+            qpos=out.qpos,
             q_ik=q_ik,
             pass_index=pass_index,
             direction=direction,
             formed_x_m=np.asarray(formed_x, dtype=float).copy(),
             formed_z_m=np.asarray(formed_z, dtype=float).copy(),
-            iterations=iters,
+            iterations=out.iterations,
             tip_gain=tip_gain,
         )
 

@@ -47,3 +47,26 @@ class SimResult:
     def deflection_sheet_m(self) -> np.ndarray:
         """Loaded minus unloaded tool tip [m], shape (n, 3)."""
         return self.p_sheet_m - self.p_unloaded_sheet_m
+
+
+@dataclass(frozen=True)
+class LoopOutput:
+    """What the per-sample loop (compiled or Python) gives `Twin.simulate`; shapes as in `SimResult`.
+
+    Attributes:
+        qpos: Equilibrium joint positions [rad], (n, nq).
+        p_sheet_m: Tool tip at equilibrium, sheet frame [m], (n, 3).
+        p_unloaded_sheet_m: Tool tip of the unloaded robot [m], (n, 3).
+        f_sheet_n: Force of the sheet on the tool [N], (n, 3).
+        iterations: Newton iterations per sample, (n,).
+        jac: Translational tcp Jacobian of the last Newton iteration [m/rad], (n, 3, nv).
+        stiffness: The sheet's ∂f/∂p of that iteration, a sliding tool's [N/m], (n, 3, 3).
+    """
+
+    qpos: np.ndarray
+    p_sheet_m: np.ndarray
+    p_unloaded_sheet_m: np.ndarray
+    f_sheet_n: np.ndarray
+    iterations: np.ndarray
+    jac: np.ndarray
+    stiffness: np.ndarray

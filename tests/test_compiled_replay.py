@@ -1,0 +1,126 @@
+"""The compiled replay loop (`twin.sim.compiled`) gives the Python loop's equilibria, and its chain is MuJoCo's."""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+import pytest
+
+from twin.process.field import SheetForceField
+from twin.process.forces import default_force_history
+from twin.process.isf_force import IsfForceField
+from twin.process.path import groove_path
+from twin.robot.model import RobotEffects
+from twin.sim.compiled import compiled_replay
+from twin.sim.compiled.chain import chain_arrays, chain_eval
+from twin.sim.ft_sensor import flange_sensor_forces
+from twin.sim.quasi_static import Twin
+from twin.sim.result import SimResult
+
+P_TOL_M = 1e-9  # the issue's exactness bound on the tool tip
+F_TOL_N = 1e-4  # 1e-9 m times the stiffest sheet sensitivity (1.4 kN/mm)
+
+
+@pytest.mark.parametrize(
+    "effects", [None, RobotEffects(lost_motion_rad=3e-4), RobotEffects(tcp_offset_m=2e-3)],
+    ids=["nominal", "lost-motion-hinges", "longer-tool"],
+)
+def test_chain_gives_mujocos_site_position_jacobian_and_gravity_torques(effects: RobotEffects | None) -> None:
+    twin = Twin(effects=effects)
+    m, d = twin.model, twin.data
+    site = m.site("tcp").id
+    chain = chain_arrays(m, site)
+    assert chain is not None
+    rng = np.random.default_rng(11)
+    p, jac, g = np.zeros(3), np.zeros((3, m.nv)), np.zeros(m.nv)
+    jac_mj, g_mj = np.zeros((3, m.nv)), np.zeros(m.nv)
+    for _ in range(40):
+        q = rng.uniform(-2.5, 2.5, m.nv)
+        chain_eval(chain, q, p, jac, g)
+        d.qpos[:], d.qvel[:] = q, 0.0
+        mujoco.mj_kinematics(m, d)
+        mujoco.mj_comPos(m, d)
+        mujoco.mj_rne(m, d, 0, g_mj)
+        mujoco.mj_jacSite(m, d, jac_mj, None, site)
+        np.testing.assert_allclose(p, d.site_xpos[site], rtol=0.0, atol=1e-12)
+        np.testing.assert_allclose(jac, jac_mj, rtol=0.0, atol=1e-12)
+        np.testing.assert_allclose(g, g_mj, rtol=0.0, atol=1e-9 * np.abs(g_mj).max())
+
+
+def _both(twin: Twin, t_s: np.ndarray, p_cmd: np.ndarray) -> tuple[SimResult, SimResult]:
+    fast = twin.simulate(t_s, p_cmd)
+    assert twin.last_loop_compiled
+    fast_state = (twin.field.formed_z_m, twin.sheet_field.current_pass)
+    twin.use_compiled_loop = False
+    try:
+        reference = twin.simulate(t_s, p_cmd, q_ik=fast.q_ik)
+        assert not twin.last_loop_compiled
+    finally:
+        twin.use_compiled_loop = True
+    # the field is left as the Python loop leaves it
+    np.testing.assert_allclose(fast_state[0], twin.field.formed_z_m, rtol=0.0, atol=1e-12)
+    assert fast_state[1] == twin.sheet_field.current_pass
+    return fast, reference
+
+
+def _assert_same(fast: SimResult, reference: SimResult) -> None:
+    np.testing.assert_allclose(fast.p_sheet_m, reference.p_sheet_m, rtol=0.0, atol=P_TOL_M)
+    np.testing.assert_allclose(fast.qpos, reference.qpos, rtol=0.0, atol=1e-9)
+    np.testing.assert_allclose(fast.f_sheet_n, reference.f_sheet_n, rtol=0.0, atol=F_TOL_N)
+    np.testing.assert_allclose(fast.p_unloaded_sheet_m, reference.p_unloaded_sheet_m, rtol=0.0, atol=1e-12)
+    np.testing.assert_allclose(fast.tip_gain, reference.tip_gain, rtol=0.0, atol=1e-6)
+    np.testing.assert_allclose(fast.formed_z_m, reference.formed_z_m, rtol=0.0, atol=P_TOL_M)
+    np.testing.assert_array_equal(fast.iterations, reference.iterations)
+
+
+def test_whole_groove_replays_to_the_python_loops_equilibria(nominal_path: tuple[np.ndarray, np.ndarray]) -> None:
+    """Tool stick at the reversals, joint friction, the stateful field: same tips (<= 1e-9 m), same iterations."""
+    t_s, p_cmd = nominal_path
+    twin = Twin()
+    assert twin.joint_friction.any()
+    fast, reference = _both(twin, t_s, p_cmd)
+    _assert_same(fast, reference)
+    assert np.ptp(fast.p_sheet_m[:, 2] - p_cmd[:, 2]) > 1e-3  # a loaded run, millimetres off the command
+
+
+@pytest.mark.parametrize(
+    "case", ["no-tool-stick", "lost-motion-and-force-scale", "frictionless-joints", "stateless-field", "jittered"]
+)
+def test_compiled_loop_matches_on_every_model_and_field_variant(case: str) -> None:
+    path = groove_path()
+    keep = path.pass_index <= 3
+    t_s, p_cmd = path.t_s[keep], path.p_sheet_m[keep].copy()
+    if case == "no-tool-stick":
+        twin = Twin(tool_friction_reversal_m=None)
+    elif case == "lost-motion-and-force-scale":
+        twin = Twin(effects=RobotEffects(lost_motion_rad=4e-4, force_scale=1.3))
+    elif case == "frictionless-joints":
+        twin = Twin(joint_friction=np.zeros(6))
+    elif case == "stateless-field":
+        twin = Twin(field_factory=lambda h: SheetForceField(h, stateful=False), tool_friction_reversal_m=None)
+    else:  # a compensated-looking command: seeded 20 µm jitter, joints reversing every few samples
+        twin = Twin()
+        p_cmd += np.random.default_rng(5).normal(0.0, 2e-5, p_cmd.shape) * np.array([1.0, 0.0, 1.0])
+    _assert_same(*_both(twin, t_s, p_cmd))
+
+
+def test_isf_field_and_out_of_range_passes_fall_back_to_the_python_loop() -> None:
+    twin = Twin()
+    path = groove_path()
+    q_nom = np.zeros((3, twin.model.nv))
+    args = (np.array([1, 1, 1]), np.array([1, 1, 1]), np.zeros(3), np.ones(6), np.eye(6), True)
+    assert compiled_replay(twin.model, twin.model.site("tcp").id, IsfForceField(), q_nom, *args) is None
+    beyond = (np.array([1, 2, 99]), *args[1:])
+    assert compiled_replay(twin.model, twin.model.site("tcp").id, twin.field, q_nom, *beyond) is None
+    assert SheetForceField(default_force_history()).n_passes == int(path.pass_index.max())
+
+
+def test_light_sensor_pipeline_reads_what_mj_inverse_reads(nominal_path: tuple[np.ndarray, np.ndarray]) -> None:
+    t_s, p_cmd = nominal_path
+    twin = Twin()
+    sim = twin.simulate(t_s[:400], p_cmd[:400])
+    t_sensor = np.linspace(t_s[0], t_s[399], 150)
+    light = flange_sensor_forces(twin.model, twin.data, sim, t_sensor)
+    full = flange_sensor_forces(twin.model, twin.data, sim, t_sensor, full_inverse=True)
+    np.testing.assert_allclose(light, full, rtol=0.0, atol=1e-8)
+    assert np.abs(full).max() > 100.0

@@ -1,0 +1,78 @@
+"""The twin's replay loop in compiled code (numba): MuJoCo's chain parameters, the table field, the same solver.
+
+`compiled_replay` runs `Twin.simulate`'s per-sample loop in one compiled call when the model is a chain of
+hinges (`chain.chain_arrays`) and the field is the table `SheetForceField`, bare or inside the tool's
+`SlidingFriction`; it returns None otherwise and the twin runs its Python loop, which calls MuJoCo per Newton
+iteration. Both give the same equilibria (`tests/test_compiled_replay.py`: ≤ 1e-9 m).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from twin.process.field import SheetForceField
+from twin.process.tool_friction import SlidingFriction
+from twin.sim.compiled.chain import chain_arrays
+from twin.sim.compiled.field import field_arrays
+from twin.sim.compiled.loop import replay_loop
+from twin.sim.result import LoopOutput
+
+
+def compiled_replay(
+    model: mujoco.MjModel,
+    tcp_site: int,
+    field: Any,
+    q_nominal: np.ndarray,
+    passes: np.ndarray,
+    dirs: np.ndarray,
+    origin: np.ndarray,
+    k_diag: np.ndarray,
+    h_const: np.ndarray,
+    predict_active_set: bool,
+) -> LoopOutput | None:
+    """Run the loop compiled, or None where it does not apply (the caller then runs the Python loop).
+
+    Args:
+        model: The twin's model (its current springs and `dof_frictionloss`).
+        tcp_site: Id of the `tcp` site.
+        field: The twin's field, reset (`SheetForceField`, optionally inside `SlidingFriction`).
+        q_nominal: Unloaded poses (all joints) [rad], shape (n, nv).
+        passes, dirs: Pass (1..N of the field's history) and direction (+1/-1) per sample.
+        origin: Sheet origin in the base frame [m].
+        k_diag: Joint springs [N·m/rad], shape (nv,).
+        h_const: K + dg/dq [N·m/rad], shape (nv, nv).
+        predict_active_set: As `EquilibriumSolver.predict_active_set`.
+
+    Returns:
+        The loop's outputs; the field is left as the Python loop leaves it (profile, pass, slip state).
+    """
+    friction = isinstance(field, SlidingFriction)
+    inner = field.inner if friction else field
+    if type(inner) is not SheetForceField:
+        return None
+    chain = chain_arrays(model, tcp_site)
+    if chain is None:
+        return None
+    passes = np.asarray(passes, dtype=np.int64)
+    if passes.min() < 1 or passes.max() > inner.n_passes or np.any(np.diff(passes) < 0):
+        return None  # the Python loop raises the field's own error
+    n, nv = q_nominal.shape
+    qpos, p_out, p_unloaded, f_out = np.zeros((n, nv)), np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3))
+    iters = np.zeros(n, dtype=np.int64)
+    jac, stiffness, state = np.zeros((n, 3, nv)), np.zeros((n, 3, 3)), np.zeros(4)
+    gain = 2.0 / field.reversal_m if friction else 0.0
+    status, sample = replay_loop(
+        chain, field_arrays(inner), np.ascontiguousarray(q_nominal, dtype=float), passes,
+        np.asarray(dirs, dtype=np.int64), np.asarray(origin, dtype=float), np.asarray(k_diag, dtype=float),
+        np.ascontiguousarray(h_const, dtype=float), model.dof_frictionloss.copy(), bool(predict_active_set),
+        friction, float(gain), qpos, p_out, p_unloaded, f_out, iters, jac, stiffness, state,
+    )
+    if status == 1:
+        raise np.linalg.LinAlgError(f"singular Newton matrix at sample {sample}, q = {qpos[max(sample - 1, 0)]!r}")
+    inner.current_pass = int(state[0])
+    if friction and n:
+        field.slip_state = (float(state[1]), float(state[2]), int(state[3]))
+    return LoopOutput(qpos, p_out, p_unloaded, f_out, iters, jac, stiffness)

@@ -1,0 +1,310 @@
+# mypy: disable-error-code="arg-type, assignment, return-value"
+# (numba kernels: the numpy scalars they pass, typed non-literal on purpose, are not the annotated builtins)
+"""The twin's per-sample replay loop in compiled code: equilibrium, joint friction, tool stick, field.
+
+One compiled call runs what `Twin.simulate`'s Python loop does sample by sample, with the same algorithm and
+the same decisions (`twin.sim.equilibrium.EquilibriumSolver`, `twin.process.tool_friction.solve_sample`):
+
+* per sample, the unloaded pose's gravity, the set-points q_ref = q_ik + K⁻¹ g, the start point extrapolated
+  from the pass's last two deflections;
+* the tool's sliding friction one regime at a time (sliding as commanded, in the stick band, sliding back);
+* in each regime the joint-friction active set (predicted from the start point), each round a Newton
+  iteration on K (q_ref − q) + τ_fr − g(q) + J(q)ᵀ f(p(q)) = 0 with the chain of `twin.sim.compiled.chain`;
+* the force at the equilibrium, then the field's formed profile and the slip state advance.
+
+Status codes: 0 done; 1 a singular Newton matrix (the sample in `status[1]`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from twin.sim.compiled.chain import ChainArrays, chain_eval
+from twin.sim.compiled.field import FieldArrays, field_advance, field_eval, field_force
+
+NEWTON_TOL_RAD = 1e-7
+NEWTON_MAX_ITER = 40
+NEWTON_DAMPED_AFTER = 10
+FRICTION_MAX_ROUNDS = 6
+
+
+@njit(cache=True)
+def _solve_linear(h: np.ndarray, r: np.ndarray, out: np.ndarray) -> bool:
+    """out = h⁻¹ r by Gaussian elimination with partial pivoting (h and r are overwritten); False if singular."""
+    n = r.shape[0]
+    for col in range(n):
+        piv = col
+        best = abs(h[col, col])
+        for row in range(col + 1, n):
+            if abs(h[row, col]) > best:
+                best, piv = abs(h[row, col]), row
+        if best == 0.0:
+            return False
+        if piv != col:
+            for s in range(n):
+                h[col, s], h[piv, s] = h[piv, s], h[col, s]
+            r[col], r[piv] = r[piv], r[col]
+        inv = 1.0 / h[col, col]
+        for row in range(col + 1, n):
+            f = h[row, col] * inv
+            if f != 0.0:
+                for s in range(col, n):
+                    h[row, s] -= f * h[col, s]
+                r[row] -= f * r[col]
+    for row in range(n - 1, -1, -1):
+        acc = r[row]
+        for s in range(row + 1, n):
+            acc -= h[row, s] * out[s]
+        out[row] = acc / h[row, row]
+    return True
+
+
+@njit(cache=True)
+def _sheet(
+    F: FieldArrays, cur: int, mode: int, slip: float, x_prev: float, gain: float, x: float, z: float,
+    pass_index: int, direction: int, f: np.ndarray, S: np.ndarray,
+) -> float:
+    """The sheet's force `f` and ∂f/∂p `S` at the tip; mode 0 sliding along `direction`, 1 in the stick band.
+
+    Returns:
+        The sticking part of dFx/dx [N/m] (0 when sliding).
+    """
+    if mode == 0:
+        fx, fz, fx_x, fx_z, fz_x, fz_z = field_eval(F, cur, x, z, pass_index, direction)
+        stick = 0.0
+        s = 1.0
+    else:
+        fx, fz, fx_x, fx_z, fz_x, fz_z = field_eval(F, cur, x, z, pass_index, np.int64(1))
+        s = slip + gain * (x - x_prev)
+        stick = fx * gain
+        fx, fx_x, fx_z = s * fx, s * fx_x + stick, s * fx_z
+    f[0], f[1], f[2] = fx, 0.0, fz
+    S[:] = 0.0
+    S[0, 0], S[0, 2], S[2, 0], S[2, 2] = fx_x, fx_z, fz_x, fz_z
+    return stick
+
+
+@njit(cache=True)
+def _newton(
+    C: ChainArrays, F: FieldArrays, cur: int, mode: int, slip: float, x_prev: float, gain: float,
+    pass_index: int, direction: int, origin: np.ndarray, q: np.ndarray, q_ref: np.ndarray, k_diag: np.ndarray,
+    h_const: np.ndarray, use_stick: bool, stuck: np.ndarray, e_stuck: np.ndarray, tau_fr: np.ndarray,
+    choose: bool, tau_f: np.ndarray, jac: np.ndarray, S: np.ndarray, demand: np.ndarray,
+) -> tuple:
+    """`EquilibriumSolver._newton`: q is updated in place; `stuck` and `tau_fr` too when `choose`.
+
+    Returns:
+        (iterations, status 0 or 1 for a singular matrix, stick stiffness of the last evaluation [N/m]).
+    """
+    nv = q.shape[0]
+    p = np.empty(3)
+    g = np.empty(nv)
+    f = np.empty(3)
+    r = np.empty(nv)
+    h = np.empty((nv, nv))
+    dq = np.empty(nv)
+    jtf = np.empty(nv)
+    sj = np.empty((3, nv))
+    base = k_diag * q_ref
+    free = np.ones(nv)
+    stick = 0.0
+    it = 0
+    for it in range(1, NEWTON_MAX_ITER + 1):
+        chain_eval(C, q, p, jac, g)
+        stick = _sheet(F, cur, mode, slip, x_prev, gain, p[0] - origin[0], p[2] - origin[2], pass_index, direction, f, S)
+        for j in range(nv):
+            jtf[j] = jac[0, j] * f[0] + jac[1, j] * f[1] + jac[2, j] * f[2]
+            for row in range(3):
+                sj[row, j] = S[row, 0] * jac[0, j] + S[row, 1] * jac[1, j] + S[row, 2] * jac[2, j]
+        if use_stick and it == 1:
+            if choose:
+                for j in range(nv):
+                    need = g[j] - jtf[j] - k_diag[j] * e_stuck[j]
+                    stuck[j] = tau_f[j] > 0.0 and abs(need) <= tau_f[j]
+                    tau_fr[j] = 0.0 if stuck[j] else tau_f[j] * np.sign(need)
+            for j in range(nv):
+                if stuck[j]:
+                    base[j] = k_diag[j] * (q_ref[j] - e_stuck[j])
+                    free[j] = 0.0
+                else:
+                    base[j] += tau_fr[j]
+        for a in range(nv):
+            r[a] = base[a] - k_diag[a] * q[a] + free[a] * (jtf[a] - g[a])
+            if use_stick and stuck[a]:
+                for b in range(nv):
+                    h[a, b] = 0.0
+                h[a, a] = k_diag[a]
+            else:
+                for b in range(nv):
+                    h[a, b] = h_const[a, b] - (jac[0, a] * sj[0, b] + jac[1, a] * sj[1, b] + jac[2, a] * sj[2, b])
+        for j in range(nv):
+            demand[j] = g[j] - jtf[j]
+        if not _solve_linear(h, r, dq):
+            return it, 1, stick
+        if it > NEWTON_DAMPED_AFTER:
+            dq *= 0.5
+        q += dq
+        if np.abs(dq).max() < NEWTON_TOL_RAD:
+            break
+    return it, 0, stick
+
+
+@njit(cache=True)
+def _equilibrium(
+    C: ChainArrays, F: FieldArrays, cur: int, mode: int, slip: float, x_prev: float, gain: float,
+    pass_index: int, direction: int, origin: np.ndarray, q: np.ndarray, q_ref: np.ndarray, k_diag: np.ndarray,
+    h_const: np.ndarray, e_prev: np.ndarray, tau_f: np.ndarray, predict: bool, jac: np.ndarray, S: np.ndarray,
+) -> tuple:
+    """`EquilibriumSolver.solve` (q in place). Returns (iterations, status, stick stiffness [N/m])."""
+    nv = q.shape[0]
+    demand = np.empty(nv)
+    stuck = np.zeros(nv, dtype=np.bool_)
+    tau_fr = np.zeros(nv)
+    frictional = False
+    for j in range(nv):
+        if tau_f[j] > 0.0:
+            frictional = True
+            stuck[j] = True
+    NO = np.bool_(False)
+    if not frictional:
+        return _newton(C, F, cur, mode, slip, x_prev, gain, pass_index, direction, origin, q, q_ref, k_diag,
+                       h_const, NO, stuck, e_prev, tau_fr, NO, tau_f, jac, S, demand)
+    if predict:
+        for j in range(nv):
+            if tau_f[j] > 0.0:
+                q[j] = q_ref[j] - e_prev[j]
+    choose = np.bool_(predict)
+    NO, YES = np.bool_(False), np.bool_(True)
+    total = 0
+    stick = 0.0
+    for _ in range(FRICTION_MAX_ROUNDS):
+        k, status, stick = _newton(C, F, cur, mode, slip, x_prev, gain, pass_index, direction, origin, q, q_ref,
+                                   k_diag, h_const, YES, stuck, e_prev, tau_fr, choose, tau_f, jac, S, demand)
+        total += k
+        if status != 0:
+            return total, status, stick
+        choose = NO
+        change = False
+        for j in range(nv):
+            need = demand[j] - k_diag[j] * e_prev[j]
+            slip_j = stuck[j] and abs(need) > tau_f[j]
+            back = (not stuck[j]) and (q_ref[j] - q[j] - e_prev[j]) * tau_fr[j] < 0.0
+            if slip_j:
+                stuck[j] = False
+                tau_fr[j] = tau_f[j] * np.sign(need)
+                change = True
+            elif back:
+                stuck[j] = True
+                tau_fr[j] = 0.0
+                change = True
+        if not change:
+            break
+    return total, 0, stick
+
+
+@njit(cache=True)
+def replay_loop(
+    C: ChainArrays, F: FieldArrays, q_nominal: np.ndarray, passes: np.ndarray, dirs: np.ndarray,
+    origin: np.ndarray, k_diag: np.ndarray, h_const: np.ndarray, tau_f: np.ndarray, predict: bool,
+    friction: bool, gain: float, qpos_out: np.ndarray, p_out: np.ndarray, p_unloaded: np.ndarray,
+    f_out: np.ndarray, iters: np.ndarray, jac_out: np.ndarray, s_out: np.ndarray, state: np.ndarray,
+) -> tuple:
+    """`Twin.simulate`'s per-sample loop over every sample, outputs in the `*_out` arrays.
+
+    Args:
+        friction: The tool's sliding friction (`SlidingFriction` of reversal travel 2 / `gain` [m]) wraps the field.
+        state: Out: (current pass, slip state, last tip x [m], first direction) after the last sample.
+
+    Returns:
+        (status, sample): status 0 done, 1 a singular Newton matrix at `sample`.
+    """
+    n, nv = q_nominal.shape
+    p = np.empty(3)
+    g_nom = np.empty(nv)
+    jac = np.zeros((3, nv))
+    jac_nom = np.zeros((3, nv))  # the Jacobian of the last Newton iteration stays in `jac`
+    S = np.zeros((3, 3))
+    q_ref = np.empty(nv)
+    q_link = q_nominal[0].copy()
+    defl = np.zeros(nv)
+    defl_prev = np.zeros(nv)
+    e_prev = np.empty(nv)
+    q = np.empty(nv)
+    q_try = np.empty(nv)
+    cur, ZERO, ONE = np.int64(0), np.int64(0), np.int64(1)  # typed, not literal: one compiled version each
+    slip, x_prev, first_dir = 0.0, 0.0, 0
+    for i in range(n):
+        pi, di = passes[i], dirs[i]
+        qn = q_nominal[i]
+        chain_eval(C, qn, p, jac_nom, g_nom)
+        for r in range(3):
+            p_unloaded[i, r] = p[r] - origin[r]
+        for j in range(nv):
+            q_ref[j] = qn[j] + g_nom[j] / k_diag[j]
+            if i >= 2 and passes[i - 2] == pi:
+                q[j] = qn[j] + 2.0 * defl[j] - defl_prev[j]
+            else:
+                q[j] = qn[j] + defl[j]
+            e_prev[j] = q_ref[j] - q_link[j]
+        total = 0
+        stick = 0.0
+        if not friction or i == 0:
+            q_try[:] = q
+            k, status, stick = _equilibrium(C, F, cur, ZERO, slip, x_prev, gain, pi, di, origin, q_try, q_ref, k_diag,
+                                            h_const, e_prev, tau_f, predict, jac, S)
+            total += k
+            if status != 0:
+                return status, i
+            stick = 0.0
+            chain_eval(C, q_try, p, jac_nom, g_nom)
+            if i == 0:
+                first_dir = di
+        else:
+            for attempt in range(3):
+                regime = float(di) if attempt == 0 else (0.0 if attempt == 1 else -float(di))
+                mode = ONE if regime == 0.0 else ZERO
+                sign = di if attempt == 0 else -di
+                q_try[:] = q
+                k, status, stick = _equilibrium(C, F, cur, mode, slip, x_prev, gain, pi, sign, origin, q_try, q_ref,
+                                                k_diag, h_const, e_prev, tau_f, predict, jac, S)
+                total += k
+                if status != 0:
+                    return status, i
+                if mode == 0:
+                    stick = 0.0
+                chain_eval(C, q_try, p, jac_nom, g_nom)
+                u = slip + gain * ((p[0] - origin[0]) - x_prev)
+                if (regime == 0.0 and -1.0 <= u <= 1.0) or (regime != 0.0 and u * regime >= 1.0):
+                    break
+        x, z = p[0] - origin[0], p[2] - origin[2]
+        # the force at the equilibrium (not in the band: the slip state clipped)
+        if friction and i > 0:
+            s = slip + gain * (x - x_prev)
+            s = 1.0 if s >= 1.0 else (-1.0 if s <= -1.0 else s)
+            if s == 1.0 or s == -1.0:
+                fx, fz = field_force(F, cur, x, z, pi, np.int64(s))
+            else:
+                fx, fz = field_force(F, cur, x, z, pi, ONE)
+                fx *= s
+        else:
+            fx, fz = field_force(F, cur, x, z, pi, di)
+        f_out[i, 0], f_out[i, 1], f_out[i, 2] = fx, 0.0, fz
+        for r in range(3):
+            for c in range(3):
+                s_out[i, r, c] = S[r, c]
+            p_out[i, r] = p[r] - origin[r]
+        s_out[i, 0, 0] -= stick
+        jac_out[i] = jac
+        if friction:
+            slip = float(first_dir) if i == 0 else min(1.0, max(-1.0, slip + gain * (x - x_prev)))
+            x_prev = x
+        cur = field_advance(F, cur, x, z, pi)
+        for j in range(nv):
+            qpos_out[i, j] = q_try[j]
+            defl_prev[j] = defl[j]
+            defl[j] = q_try[j] - qn[j]
+            q_link[j] = q_try[j]
+        iters[i] = total
+    state[0], state[1], state[2], state[3] = float(cur), slip, x_prev, float(first_dir)
+    return 0, n
