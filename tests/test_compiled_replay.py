@@ -124,3 +124,26 @@ def test_light_sensor_pipeline_reads_what_mj_inverse_reads(nominal_path: tuple[n
     full = flange_sensor_forces(twin.model, twin.data, sim, t_sensor, full_inverse=True)
     np.testing.assert_allclose(light, full, rtol=0.0, atol=1e-8)
     assert np.abs(full).max() > 100.0
+
+
+def test_a_chain_that_disagrees_with_mujoco_is_caught_and_replayed_in_python(
+    first_pass_path: tuple[np.ndarray, np.ndarray], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Every compiled replay is checked against mj_kinematics at a few poses; a misread chain falls back."""
+    import twin.sim.compiled as compiled
+
+    t_s, p_cmd = first_pass_path
+    twin = Twin()
+    reference = twin.simulate(t_s, p_cmd)
+    assert twin.last_loop_compiled
+
+    def misread(model: mujoco.MjModel, site: int):  # the site 0.1 mm off, as a parsing slip would put it
+        chain = chain_arrays(model, site)
+        assert chain is not None
+        return chain._replace(site_pos=chain.site_pos + np.array([0.0, 0.0, 1e-4]))
+
+    monkeypatch.setattr(compiled, "chain_arrays", misread)
+    with pytest.warns(UserWarning, match="disagrees with MuJoCo"):
+        result = twin.simulate(t_s, p_cmd)
+    assert not twin.last_loop_compiled
+    np.testing.assert_allclose(result.p_sheet_m, reference.p_sheet_m, rtol=0.0, atol=P_TOL_M)

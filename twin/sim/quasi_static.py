@@ -224,7 +224,7 @@ class Twin:
         if self.use_compiled_loop:
             out = compiled_replay(
                 m, self._tcp, self.field, q_nominal_all, pass_index, direction, self.p_base_sheet_origin, k_diag,
-                h_const, self._solver.predict_active_set,
+                h_const, self._solver.predict_active_set, self.data,
             )
         self.last_loop_compiled = out is not None
         if out is None:

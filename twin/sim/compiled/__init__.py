@@ -8,6 +8,7 @@ iteration. Both give the same equilibria (`tests/test_compiled_replay.py`: ≤ 1
 
 from __future__ import annotations
 
+import warnings
 from typing import Any
 
 import mujoco
@@ -19,6 +20,25 @@ from twin.sim.compiled.chain import chain_arrays
 from twin.sim.compiled.field import field_arrays
 from twin.sim.compiled.loop import replay_loop
 from twin.sim.result import LoopOutput
+
+#: Samples of every compiled replay whose tool tips (loaded and unloaded) MuJoCo recomputes from the poses.
+CHECKED_SAMPLES = 8
+#: Largest tool-tip difference to MuJoCo's `mj_kinematics` a compiled replay may show [m].
+CHECK_TOL_M = 1e-9
+
+
+def _agrees_with_mujoco(
+    model: mujoco.MjModel, data: mujoco.MjData, tcp_site: int, origin: np.ndarray, q_nominal: np.ndarray,
+    out: LoopOutput,
+) -> bool:
+    """MuJoCo's tool tip at a few of the replay's poses equals the compiled chain's (<= `CHECK_TOL_M`)."""
+    for i in np.unique(np.linspace(0, len(out.qpos) - 1, CHECKED_SAMPLES).round().astype(int)):
+        for qpos, p in ((out.qpos[i], out.p_sheet_m[i]), (q_nominal[i], out.p_unloaded_sheet_m[i])):
+            data.qpos[:] = qpos
+            mujoco.mj_kinematics(model, data)
+            if np.abs(data.site_xpos[tcp_site] - origin - p).max() > CHECK_TOL_M:
+                return False
+    return True
 
 
 def compiled_replay(
@@ -32,6 +52,7 @@ def compiled_replay(
     k_diag: np.ndarray,
     h_const: np.ndarray,
     predict_active_set: bool,
+    data: mujoco.MjData | None = None,
 ) -> LoopOutput | None:
     """Run the loop compiled, or None where it does not apply (the caller then runs the Python loop).
 
@@ -45,9 +66,12 @@ def compiled_replay(
         k_diag: Joint springs [N·m/rad], shape (nv,).
         h_const: K + dg/dq [N·m/rad], shape (nv, nv).
         predict_active_set: As `EquilibriumSolver.predict_active_set`.
+        data: The model's data, for the check against MuJoCo (qpos and kinematics overwritten); None: no check.
 
     Returns:
-        The loop's outputs; the field is left as the Python loop leaves it (profile, pass, slip state).
+        The loop's outputs; the field is left as the Python loop leaves it (profile, pass, slip state). With
+        `data`, MuJoCo recomputes the tool tip at `CHECKED_SAMPLES` of the poses; a difference over
+        `CHECK_TOL_M` (a model the chain misreads) warns and returns None, and the Python loop replays.
     """
     friction = isinstance(field, SlidingFriction)
     inner = field.inner if friction else field
@@ -75,4 +99,9 @@ def compiled_replay(
     inner.current_pass = int(state[0])
     if friction and n:
         field.slip_state = (float(state[1]), float(state[2]), int(state[3]))
-    return LoopOutput(qpos, p_out, p_unloaded, f_out, iters, jac, stiffness)
+    out = LoopOutput(qpos, p_out, p_unloaded, f_out, iters, jac, stiffness)
+    if data is not None and not _agrees_with_mujoco(model, data, tcp_site, origin, q_nominal, out):
+        warnings.warn("the compiled chain disagrees with MuJoCo's kinematics: replaying in Python", stacklevel=2)
+        field.reset()
+        return None
+    return out
