@@ -18,7 +18,7 @@ from twin.process.field import SheetForceField
 from twin.process.tool_friction import SlidingFriction
 from twin.sim.compiled.chain import chain_arrays
 from twin.sim.compiled.field import field_arrays
-from twin.sim.compiled.loop import replay_loop
+from twin.sim.compiled.loop import replay_loop, work_arrays
 from twin.sim.result import LoopOutput
 
 #: Samples of every compiled replay whose tool tips (loaded and unloaded) MuJoCo recomputes from the poses.
@@ -92,7 +92,7 @@ def compiled_replay(
         chain, field_arrays(inner), np.ascontiguousarray(q_nominal, dtype=float), passes,
         np.asarray(dirs, dtype=np.int64), np.asarray(origin, dtype=float), np.asarray(k_diag, dtype=float),
         np.ascontiguousarray(h_const, dtype=float), model.dof_frictionloss.copy(), bool(predict_active_set),
-        friction, float(gain), qpos, p_out, p_unloaded, f_out, iters, jac, stiffness, state,
+        friction, float(gain), qpos, p_out, p_unloaded, f_out, iters, jac, stiffness, state, work_arrays(nv),
     )
     if status == 1:
         raise np.linalg.LinAlgError(f"singular Newton matrix at sample {sample}, q = {qpos[max(sample - 1, 0)]!r}")

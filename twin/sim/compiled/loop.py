@@ -17,11 +17,37 @@ Status codes: 0 done; 1 a singular Newton matrix (the sample in `status[1]`).
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from numba import njit
 
 from twin.sim.compiled.chain import ChainArrays, chain_eval
 from twin.sim.compiled.field import FieldArrays, field_advance, field_eval, field_force
+
+class Work(NamedTuple):
+    """Scratch arrays of one replay (allocated once, reused by every Newton iteration)."""
+
+    p: np.ndarray  # (3,)
+    g: np.ndarray  # (nv,)
+    f: np.ndarray  # (3,)
+    r: np.ndarray  # (nv,)
+    h: np.ndarray  # (nv, nv)
+    dq: np.ndarray  # (nv,)
+    jtf: np.ndarray  # (nv,)
+    sj: np.ndarray  # (3, nv)
+    base: np.ndarray  # (nv,)
+    free: np.ndarray  # (nv,)
+    demand: np.ndarray  # (nv,)
+    stuck: np.ndarray  # (nv,) bool
+    tau_fr: np.ndarray  # (nv,)
+
+
+def work_arrays(nv: int) -> Work:
+    """Scratch arrays for a model with `nv` dofs."""
+    v, m = (lambda: np.zeros(nv)), (lambda rows: np.zeros((rows, nv)))
+    return Work(np.zeros(3), v(), np.zeros(3), v(), m(nv), v(), v(), m(3), v(), v(), v(), np.zeros(nv, np.bool_), v())
+
 
 NEWTON_TOL_RAD = 1e-7
 NEWTON_MAX_ITER = 40
@@ -90,7 +116,7 @@ def _newton(
     C: ChainArrays, F: FieldArrays, cur: int, mode: int, slip: float, x_prev: float, gain: float,
     pass_index: int, direction: int, origin: np.ndarray, q: np.ndarray, q_ref: np.ndarray, k_diag: np.ndarray,
     h_const: np.ndarray, use_stick: bool, stuck: np.ndarray, e_stuck: np.ndarray, tau_fr: np.ndarray,
-    choose: bool, tau_f: np.ndarray, jac: np.ndarray, S: np.ndarray, demand: np.ndarray,
+    choose: bool, tau_f: np.ndarray, jac: np.ndarray, S: np.ndarray, W: Work,
 ) -> tuple:
     """`EquilibriumSolver._newton`: q is updated in place; `stuck` and `tau_fr` too when `choose`.
 
@@ -98,16 +124,10 @@ def _newton(
         (iterations, status 0 or 1 for a singular matrix, stick stiffness of the last evaluation [N/m]).
     """
     nv = q.shape[0]
-    p = np.empty(3)
-    g = np.empty(nv)
-    f = np.empty(3)
-    r = np.empty(nv)
-    h = np.empty((nv, nv))
-    dq = np.empty(nv)
-    jtf = np.empty(nv)
-    sj = np.empty((3, nv))
-    base = k_diag * q_ref
-    free = np.ones(nv)
+    p, g, f, r, h, dq, jtf, sj, base, free, demand = W.p, W.g, W.f, W.r, W.h, W.dq, W.jtf, W.sj, W.base, W.free, W.demand
+    for j in range(nv):
+        base[j] = k_diag[j] * q_ref[j]
+        free[j] = 1.0
     stick = 0.0
     it = 0
     for it in range(1, NEWTON_MAX_ITER + 1):
@@ -142,10 +162,13 @@ def _newton(
             demand[j] = g[j] - jtf[j]
         if not _solve_linear(h, r, dq):
             return it, 1, stick
-        if it > NEWTON_DAMPED_AFTER:
-            dq *= 0.5
-        q += dq
-        if np.abs(dq).max() < NEWTON_TOL_RAD:
+        step = 0.0
+        for j in range(nv):
+            if it > NEWTON_DAMPED_AFTER:
+                dq[j] *= 0.5
+            q[j] += dq[j]
+            step = max(step, abs(dq[j]))
+        if step < NEWTON_TOL_RAD:
             break
     return it, 0, stick
 
@@ -155,21 +178,21 @@ def _equilibrium(
     C: ChainArrays, F: FieldArrays, cur: int, mode: int, slip: float, x_prev: float, gain: float,
     pass_index: int, direction: int, origin: np.ndarray, q: np.ndarray, q_ref: np.ndarray, k_diag: np.ndarray,
     h_const: np.ndarray, e_prev: np.ndarray, tau_f: np.ndarray, predict: bool, jac: np.ndarray, S: np.ndarray,
+    W: Work,
 ) -> tuple:
     """`EquilibriumSolver.solve` (q in place). Returns (iterations, status, stick stiffness [N/m])."""
     nv = q.shape[0]
-    demand = np.empty(nv)
-    stuck = np.zeros(nv, dtype=np.bool_)
-    tau_fr = np.zeros(nv)
+    demand, stuck, tau_fr = W.demand, W.stuck, W.tau_fr
     frictional = False
     for j in range(nv):
-        if tau_f[j] > 0.0:
+        stuck[j] = tau_f[j] > 0.0
+        tau_fr[j] = 0.0
+        if stuck[j]:
             frictional = True
-            stuck[j] = True
     NO = np.bool_(False)
     if not frictional:
         return _newton(C, F, cur, mode, slip, x_prev, gain, pass_index, direction, origin, q, q_ref, k_diag,
-                       h_const, NO, stuck, e_prev, tau_fr, NO, tau_f, jac, S, demand)
+                       h_const, NO, stuck, e_prev, tau_fr, NO, tau_f, jac, S, W)
     if predict:
         for j in range(nv):
             if tau_f[j] > 0.0:
@@ -180,7 +203,7 @@ def _equilibrium(
     stick = 0.0
     for _ in range(FRICTION_MAX_ROUNDS):
         k, status, stick = _newton(C, F, cur, mode, slip, x_prev, gain, pass_index, direction, origin, q, q_ref,
-                                   k_diag, h_const, YES, stuck, e_prev, tau_fr, choose, tau_f, jac, S, demand)
+                                   k_diag, h_const, YES, stuck, e_prev, tau_fr, choose, tau_f, jac, S, W)
         total += k
         if status != 0:
             return total, status, stick
@@ -208,7 +231,7 @@ def replay_loop(
     C: ChainArrays, F: FieldArrays, q_nominal: np.ndarray, passes: np.ndarray, dirs: np.ndarray,
     origin: np.ndarray, k_diag: np.ndarray, h_const: np.ndarray, tau_f: np.ndarray, predict: bool,
     friction: bool, gain: float, qpos_out: np.ndarray, p_out: np.ndarray, p_unloaded: np.ndarray,
-    f_out: np.ndarray, iters: np.ndarray, jac_out: np.ndarray, s_out: np.ndarray, state: np.ndarray,
+    f_out: np.ndarray, iters: np.ndarray, jac_out: np.ndarray, s_out: np.ndarray, state: np.ndarray, W: Work,
 ) -> tuple:
     """`Twin.simulate`'s per-sample loop over every sample, outputs in the `*_out` arrays.
 
@@ -252,7 +275,7 @@ def replay_loop(
         if not friction or i == 0:
             q_try[:] = q
             k, status, stick = _equilibrium(C, F, cur, ZERO, slip, x_prev, gain, pi, di, origin, q_try, q_ref, k_diag,
-                                            h_const, e_prev, tau_f, predict, jac, S)
+                                            h_const, e_prev, tau_f, predict, jac, S, W)
             total += k
             if status != 0:
                 return status, i
@@ -267,7 +290,7 @@ def replay_loop(
                 sign = di if attempt == 0 else -di
                 q_try[:] = q
                 k, status, stick = _equilibrium(C, F, cur, mode, slip, x_prev, gain, pi, sign, origin, q_try, q_ref,
-                                                k_diag, h_const, e_prev, tau_f, predict, jac, S)
+                                                k_diag, h_const, e_prev, tau_f, predict, jac, S, W)
                 total += k
                 if status != 0:
                     return status, i
