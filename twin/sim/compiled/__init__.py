@@ -18,7 +18,8 @@ from twin.process.field import SheetForceField
 from twin.process.tool_friction import SlidingFriction
 from twin.sim.compiled.chain import chain_arrays
 from twin.sim.compiled.field import field_arrays
-from twin.sim.compiled.loop import replay_loop, work_arrays
+from twin.sim.compiled.loop import replay_loop
+from twin.sim.compiled.work import work_arrays
 from twin.sim.result import LoopOutput
 
 #: Samples of every compiled replay whose tool tips (loaded and unloaded) MuJoCo recomputes from the poses.
