@@ -17,7 +17,8 @@ friction must supply stays within τ_f, and slides otherwise. A joint the comman
 sample, its spring carrying the extra τ_f; when the command reverses, the link holds until the motor has wound
 its spring through 2·τ_f/K_q, a dead band made by the friction itself.
 
-The twin (`twin.sim.quasi_static.Twin`) calls `EquilibriumSolver.solve` once per sample.
+The twin's Python loop (`twin.sim.python_loop`) calls `EquilibriumSolver.solve` once per sample; its compiled
+loop (`twin.sim.compiled.loop`) runs the same algorithm, decision for decision.
 """
 
 from __future__ import annotations

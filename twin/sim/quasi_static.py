@@ -2,7 +2,9 @@
 
 Per sample the robot is solved to quasi-static equilibrium (qvel = qacc = 0) under its joint springs,
 gravity, joint friction and the force the sheet exerts on the tool, from the stateful field
-(`twin.sim.equilibrium`).
+(`twin.sim.equilibrium`). The loop over the samples runs compiled (`twin.sim.compiled`) where the model is a chain
+of hinges and the field the table `SheetForceField`, else in Python (`twin.sim.python_loop`); both give the same
+equilibria.
 
 The path is taught under gravity: the set-points are q_ref = q_ik + K^-1 g(q_ik), so the unloaded robot
 lands exactly on the IK solution, and deflection = loaded - unloaded. After each sample the field's formed
