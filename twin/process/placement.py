@@ -8,8 +8,8 @@ about the base z axis (the sheet stays horizontal; the tool stays vertical, `Kin
 
 `check_reach` solves the inverse kinematics along the whole path (warm-started, `Kinematics.ik_path`) and
 raises on the first sample that is out of reach, outside a joint range or closer to a singularity than
-`Kinematics.det_j_min`, naming the sample, its time and its sheet-frame position. The twin itself
-(`twin.sim.quasi_static.Twin`) uses the default placement with yaw 0.
+`Kinematics.det_j_min`, naming the sample, its time and its sheet-frame position. The twin
+(`twin.sim.quasi_static.Twin(placement=...)`) and the quasi-static lab take a placement too; a run records it.
 """
 
 from __future__ import annotations
@@ -44,12 +44,26 @@ class Placement:
         if not math.isfinite(self.yaw_rad):
             raise InputError(f"Placement.yaw_rad = {self.yaw_rad!r}: expected a finite angle [rad]")
 
+    @property
+    def R_base_sheet(self) -> np.ndarray:
+        """Orientation of the sheet frame in the base frame, Rz(yaw) (3, 3)."""
+        c, s = math.cos(self.yaw_rad), math.sin(self.yaw_rad)
+        return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+    def origin_in(self, kinematics: Kinematics) -> np.ndarray:
+        """The sheet origin in the base frame (3,) [m]: `origin_base_m`, else the cell's `sheet_origin`."""
+        if self.origin_base_m is None:
+            return np.asarray(kinematics.p_base_sheet_origin, dtype=float).copy()
+        return np.asarray(self.origin_base_m, dtype=float)
+
+    @property
+    def is_default(self) -> bool:
+        """The cell's own placement: its `sheet_origin`, yaw 0."""
+        return self.origin_base_m is None and self.yaw_rad == 0.0
+
     def to_base(self, p_sheet_m: np.ndarray, kinematics: Kinematics) -> np.ndarray:
         """Sheet-frame points (n, 3) [m] -> base-frame points (n, 3) [m]."""
-        origin = kinematics.p_base_sheet_origin if self.origin_base_m is None else np.asarray(self.origin_base_m)
-        c, s = math.cos(self.yaw_rad), math.sin(self.yaw_rad)
-        R = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-        return np.asarray(origin) + np.asarray(p_sheet_m, dtype=float) @ R.T
+        return self.origin_in(kinematics) + np.asarray(p_sheet_m, dtype=float) @ self.R_base_sheet.T
 
 
 @dataclass(frozen=True)

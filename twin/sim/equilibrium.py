@@ -46,14 +46,22 @@ class EquilibriumSolver:
         data: Its data; qpos and the kinematics are overwritten.
         tcp_site: Id of the `tcp` site.
         p_base_sheet_origin: Sheet origin in the base frame [m], shape (3,).
+        R_base_sheet: Orientation of the sheet frame in the base (3, 3); None: the base axes. The sheet model
+            sees the tool tip, and the Newton iteration the Jacobian, in the sheet frame.
     """
 
     def __init__(
-        self, model: mujoco.MjModel, data: mujoco.MjData, tcp_site: int, p_base_sheet_origin: np.ndarray
+        self,
+        model: mujoco.MjModel,
+        data: mujoco.MjData,
+        tcp_site: int,
+        p_base_sheet_origin: np.ndarray,
+        R_base_sheet: np.ndarray | None = None,
     ) -> None:
         self.model, self.data = model, data
         self._tcp = tcp_site
         self.p_base_sheet_origin = p_base_sheet_origin
+        self.R_base_sheet = None if R_base_sheet is None or np.array_equal(R_base_sheet, np.eye(3)) else R_base_sheet
 
     #: Choose the first stick/slip set from the friction torque needed at the start point (the first Newton
     #: iteration's own evaluation) instead of starting with every frictional joint stuck: one active-set round
@@ -93,7 +101,7 @@ class EquilibriumSolver:
         jacp = np.zeros((3, m.nv))
         g = np.zeros(m.nv)
         xpos_tcp = d.site_xpos[self._tcp]  # a view: follows every mj_kinematics
-        qpos, tcp, origin = d.qpos, self._tcp, self.p_base_sheet_origin
+        qpos, tcp, origin, rot = d.qpos, self._tcp, self.p_base_sheet_origin, self.R_base_sheet
         kinematics, com_pos, rne, jac_site = mujoco.mj_kinematics, mujoco.mj_comPos, mujoco.mj_rne, mujoco.mj_jacSite
         # r = base - K q + free (J^T f - g), and the stuck rows of h replaced by those of diag(K)
         base = k_diag * q_ref
@@ -105,7 +113,11 @@ class EquilibriumSolver:
             com_pos(m, d)
             rne(m, d, 0, g)
             jac_site(m, d, jacp, None, tcp)
-            force, stiffness = sheet(xpos_tcp - origin)
+            if rot is None:
+                force, stiffness = sheet(xpos_tcp - origin)
+            else:  # the tip and the Jacobian in the sheet frame (the sheet model's own)
+                force, stiffness = sheet(rot.T @ (xpos_tcp - origin))
+                jacp[:] = rot.T @ jacp
             jtf = jacp.T @ force
             if stick is None:
                 r = base - k_diag * q + (jtf - g)

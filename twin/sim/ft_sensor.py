@@ -10,7 +10,13 @@ from twin.sim.result import SimResult
 
 
 def flange_sensor_forces(
-    model: mujoco.MjModel, data: mujoco.MjData, result: SimResult, t_s: np.ndarray, *, full_inverse: bool = False
+    model: mujoco.MjModel,
+    data: mujoco.MjData,
+    result: SimResult,
+    t_s: np.ndarray,
+    *,
+    full_inverse: bool = False,
+    R_base_sheet: np.ndarray | None = None,
 ) -> np.ndarray:
     """Read MuJoCo's flange force sensor at the given times, as the run format wants it.
 
@@ -31,6 +37,7 @@ def flange_sensor_forces(
         result: A run from `Twin.simulate`.
         t_s: Sensor sample times [s], within the run.
         full_inverse: Evaluate each reading with the whole `mj_inverse` (the reference of the lighter path).
+        R_base_sheet: Orientation of the sheet frame in the base (the placement's yaw); None: the base axes.
 
     Returns:
         Force exerted by the sheet on the tool, sheet frame [N], shape (m, 3).
@@ -42,6 +49,8 @@ def flange_sensor_forces(
     t_s = np.asarray(t_s, dtype=float)
     qpos = interp_rows(t_s, result.t_s, result.qpos)
     force = interp_rows(t_s, result.t_s, result.f_sheet_n)
+    rot = np.eye(3) if R_base_sheet is None else np.asarray(R_base_sheet, dtype=float)
+    force = force @ rot.T  # base frame
     sensor_adr = m.sensor("ft_force").adr[0]
     out = np.zeros((len(t_s), 3))
     # views into MjData, refreshed by every mj_kinematics / mj_inverse
@@ -74,4 +83,4 @@ def flange_sensor_forces(
             if wrench_i is not None:
                 loaded = R_base_ft @ sensor
         out[i] = -(loaded - R_base_ft @ sensor)
-    return out
+    return out @ rot  # sheet frame

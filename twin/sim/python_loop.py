@@ -40,7 +40,7 @@ def python_loop(
         tcp_site: Id of the `tcp` site.
         origin: Sheet origin in the base frame [m], shape (3,).
         field: The twin's sheet field, reset (advanced sample by sample).
-        solver: The equilibrium solver on `model`.
+        solver: The equilibrium solver on `model` (its `R_base_sheet` places the sheet frame).
         q_nominal_all: Unloaded poses (all joints) [rad], shape (n, nq).
         pass_index, direction: Pass and travel direction per sample.
         k_diag: Joint springs [N·m/rad], shape (nv,).
@@ -58,6 +58,11 @@ def python_loop(
     g_nom = np.zeros(m.nv)
     qpos_view, qvel_view = d.qpos, d.qvel
     xpos_tcp = d.site_xpos[tcp_site]  # a view: follows every mj_kinematics
+    rot = solver.R_base_sheet
+
+    def tip_sheet() -> np.ndarray:
+        return xpos_tcp - origin if rot is None else rot.T @ (xpos_tcp - origin)
+
     passes = [int(v) for v in pass_index]
     dirs = [int(v) for v in direction]
     deflection_q = np.zeros(m.nq)
@@ -70,7 +75,7 @@ def python_loop(
         mujoco.mj_kinematics(m, d)
         mujoco.mj_comPos(m, d)
         mujoco.mj_rne(m, d, 0, g_nom)
-        p_unloaded[i] = xpos_tcp - origin
+        p_unloaded[i] = tip_sheet()
         q_ref = q_nominal + g_nom / k_diag  # taught under gravity
         # start from the deflection extrapolated from the last two samples of this pass (else the last one)
         if i >= 2 and passes[i - 2] == pi:
@@ -90,7 +95,7 @@ def python_loop(
             iterations += k_eq
             qpos_view[:] = q_eq
             mujoco.mj_kinematics(m, d)
-            return q_eq, jac, stiffness, xpos_tcp - origin
+            return q_eq, jac, stiffness, tip_sheet()
 
         # the tool's sliding friction is solved one regime at a time (process.tool_friction)
         q, jac_last[i], s_last[i], p = solve_sample(field, pi, di, equilibrium, lambda solution: solution[3])

@@ -24,6 +24,7 @@ from twin.errors import InputError
 from twin.process.field import SheetForceField
 from twin.process.forces import ForceHistory, default_force_history
 from twin.process.path import label_passes
+from twin.process.placement import Placement
 from twin.process.tool_friction import REVERSAL_M, SlidingFriction
 from twin.robot.kinematics import Kinematics
 from twin.robot.model import ARM_JOINTS, LOST_MOTION_JOINTS, RobotEffects, build_model, lost_motion_schedule
@@ -53,6 +54,8 @@ class Twin:
         tool_friction_reversal_m: Travel over which the tool's sliding friction reverses [m]
             (`twin.process.tool_friction`); None: the tangential force flips with the commanded direction.
             Applies to the default field only.
+        placement: The sheet frame in the robot base (origin, yaw about z; `twin.process.placement`); None: the
+            cell's `sheet_origin`, yaw 0. Paths, tool tips and forces stay in the sheet frame.
     """
 
     #: Run the per-sample loop compiled (`twin.sim.compiled`) where the model and field allow it; False: the
@@ -67,6 +70,7 @@ class Twin:
         joint_friction: np.ndarray | None = None,
         field_factory: Callable[[ForceHistory], Any] | None = None,
         tool_friction_reversal_m: float | None = REVERSAL_M,
+        placement: Placement | None = None,
     ) -> None:
         self.effects = effects or RobotEffects()
         self.history = history if history is not None else default_force_history()
@@ -97,8 +101,11 @@ class Twin:
         self._lost_dof = np.array([m.jnt_dofadr[m.joint(name).id] for name in lost], dtype=int)
         self._lost_qpos = np.array([m.jnt_qposadr[m.joint(name).id] for name in lost], dtype=int)
         self._lost_jnt = np.array([m.joint(name).id for name in lost], dtype=int)
-        self.p_base_sheet_origin = self.kinematics.p_base_sheet_origin
-        self._solver = EquilibriumSolver(m, self.data, self._tcp, self.p_base_sheet_origin)
+        self.placement = placement or Placement()
+        self.p_base_sheet_origin = self.placement.origin_in(self.kinematics)
+        #: Orientation of the sheet frame in the base frame (the placement's yaw).
+        self.R_base_sheet = self.placement.R_base_sheet
+        self._solver = EquilibriumSolver(m, self.data, self._tcp, self.p_base_sheet_origin, self.R_base_sheet)
         self._ik_memo: list[tuple[np.ndarray, np.ndarray]] = []
         #: Whether the last `simulate` ran the compiled loop (else the Python one).
         self.last_loop_compiled = False
@@ -166,7 +173,7 @@ class Twin:
         for p_known, q_known in self._ik_memo:
             if p_known.shape == p_cmd.shape and np.array_equal(p_known, p_cmd):
                 return q_known.copy()
-        q_ik = self.kinematics.ik_path(p_cmd + self.p_base_sheet_origin)
+        q_ik = self.kinematics.ik_path(self.p_base_sheet_origin + p_cmd @ self.R_base_sheet.T)
         self._ik_memo = [(p_cmd.copy(), q_ik.copy()), *self._ik_memo[: IK_MEMO_PATHS - 1]]
         return q_ik
 
@@ -212,8 +219,8 @@ class Twin:
         n = len(t_s)
         lost_ref = np.zeros((n, self._lost_dof.size))
         if self._lost_dof.size:
-            jac0 = self.kinematics.jacobian(q_ik[0])
-            dx_dq_sign = np.sign(jac0[0, [1, 2]])
+            dx_dq = self.R_base_sheet.T[0] @ self.kinematics.jacobian(q_ik[0])[:3]  # sheet x per joint angle
+            dx_dq_sign = np.sign(dx_dq[[1, 2]])
             lost_ref = lost_motion_schedule(p_cmd[:, 0], direction, dx_dq_sign, self.effects)
 
         grad_g = self._gravity_gradient(self._full_qpos(q_ik[0]))
@@ -226,7 +233,7 @@ class Twin:
         if self.use_compiled_loop:
             out = compiled_replay(
                 m, self._tcp, self.field, q_nominal_all, pass_index, direction, self.p_base_sheet_origin, k_diag,
-                h_const, self._solver.predict_active_set, self.data,
+                h_const, self._solver.predict_active_set, self.data, self.R_base_sheet,
             )
         self.last_loop_compiled = out is not None
         if out is None:
@@ -267,7 +274,7 @@ class Twin:
         Returns:
             Force exerted by the sheet on the tool, sheet frame [N], shape (m, 3).
         """
-        return flange_sensor_forces(self.model, self.data, result, t_s)
+        return flange_sensor_forces(self.model, self.data, result, t_s, R_base_sheet=self.R_base_sheet)
 
     def static_deflection(self, f_base_n: np.ndarray, q: np.ndarray | None = None) -> np.ndarray:
         """Equilibrium tool-tip deflection under a constant force at the tool tip (no sheet field).

@@ -29,15 +29,15 @@ CHECK_TOL_M = 1e-9
 
 
 def _agrees_with_mujoco(
-    model: mujoco.MjModel, data: mujoco.MjData, tcp_site: int, origin: np.ndarray, q_nominal: np.ndarray,
-    out: LoopOutput,
+    model: mujoco.MjModel, data: mujoco.MjData, tcp_site: int, origin: np.ndarray, R_base_sheet: np.ndarray,
+    q_nominal: np.ndarray, out: LoopOutput,
 ) -> bool:
     """MuJoCo's tool tip at a few of the replay's poses equals the compiled chain's (<= `CHECK_TOL_M`)."""
     for i in np.unique(np.linspace(0, len(out.qpos) - 1, CHECKED_SAMPLES).round().astype(int)):
         for qpos, p in ((out.qpos[i], out.p_sheet_m[i]), (q_nominal[i], out.p_unloaded_sheet_m[i])):
             data.qpos[:] = qpos
             mujoco.mj_kinematics(model, data)
-            if np.abs(data.site_xpos[tcp_site] - origin - p).max() > CHECK_TOL_M:
+            if np.abs(R_base_sheet.T @ (data.site_xpos[tcp_site] - origin) - p).max() > CHECK_TOL_M:
                 return False
     return True
 
@@ -54,6 +54,7 @@ def compiled_replay(
     h_const: np.ndarray,
     predict_active_set: bool,
     data: mujoco.MjData | None = None,
+    R_base_sheet: np.ndarray | None = None,
 ) -> LoopOutput | None:
     """Run the loop compiled, or None where it does not apply (the caller then runs the Python loop).
 
@@ -68,6 +69,7 @@ def compiled_replay(
         h_const: K + dg/dq [N·m/rad], shape (nv, nv).
         predict_active_set: As `EquilibriumSolver.predict_active_set`.
         data: The model's data, for the check against MuJoCo (qpos and kinematics overwritten); None: no check.
+        R_base_sheet: Orientation of the sheet frame in the base (the placement's yaw); None: the base axes.
 
     Returns:
         The loop's outputs; the field is left as the Python loop leaves it (profile, pass, slip state). With
@@ -78,7 +80,8 @@ def compiled_replay(
     inner = field.inner if friction else field
     if type(inner) is not SheetForceField:
         return None
-    chain = chain_arrays(model, tcp_site)
+    rot = np.eye(3) if R_base_sheet is None else np.asarray(R_base_sheet, dtype=float)
+    chain = chain_arrays(model, tcp_site, origin, rot)
     if chain is None:
         return None
     passes = np.asarray(passes, dtype=np.int64)
@@ -91,7 +94,7 @@ def compiled_replay(
     gain = 2.0 / field.reversal_m if friction else 0.0
     status, sample = replay_loop(
         chain, field_arrays(inner), np.ascontiguousarray(q_nominal, dtype=float), passes,
-        np.asarray(dirs, dtype=np.int64), np.asarray(origin, dtype=float), np.asarray(k_diag, dtype=float),
+        np.asarray(dirs, dtype=np.int64), np.asarray(k_diag, dtype=float),
         np.ascontiguousarray(h_const, dtype=float), model.dof_frictionloss.copy(), bool(predict_active_set),
         friction, float(gain), qpos, p_out, p_unloaded, f_out, iters, jac, stiffness, state, work_arrays(nv),
     )
@@ -101,7 +104,7 @@ def compiled_replay(
     if friction and n:
         field.slip_state = (float(state[1]), float(state[2]), int(state[3]))
     out = LoopOutput(qpos, p_out, p_unloaded, f_out, iters, jac, stiffness)
-    if data is not None and not _agrees_with_mujoco(model, data, tcp_site, origin, q_nominal, out):
+    if data is not None and not _agrees_with_mujoco(model, data, tcp_site, origin, rot, q_nominal, out):
         warnings.warn("the compiled chain disagrees with MuJoCo's kinematics: replaying in Python", stacklevel=2)
         field.reset()
         return None

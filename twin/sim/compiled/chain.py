@@ -47,6 +47,8 @@ class ChainArrays(NamedTuple):
     site_body: int
     site_pos: np.ndarray  # (3,) site offset in its body's frame [m]
     gravity: np.ndarray  # (3,) [m/s²]
+    frame_rot: np.ndarray  # (3, 3) R_sheet_base: the site's position and Jacobian are given in this frame
+    frame_origin: np.ndarray  # (3,) its origin in the base frame [m]
     xpos: np.ndarray  # scratch (nbody, 3)
     xmat: np.ndarray  # scratch (nbody, 3, 3)
     xanchor: np.ndarray  # scratch (nv, 3)
@@ -62,12 +64,19 @@ def _quat_mat(quat: np.ndarray) -> np.ndarray:
     return R.reshape(3, 3)
 
 
-def chain_arrays(model: mujoco.MjModel, site_id: int) -> ChainArrays | None:
+def chain_arrays(
+    model: mujoco.MjModel,
+    site_id: int,
+    origin: np.ndarray | None = None,
+    R_base_frame: np.ndarray | None = None,
+) -> ChainArrays | None:
     """The chain of `model` with site `site_id` as flat arrays; None if it is not a chain of hinges.
 
     Args:
         model: A compiled model.
         site_id: The tool-tip site.
+        origin: Origin of the frame `chain_eval` gives the site in, base frame [m]; None: the base origin.
+        R_base_frame: Orientation of that frame in the base (the sheet's placement); None: the base axes.
 
     Returns:
         The arrays, or None when a joint is not a hinge, the model has mocap bodies or gravity compensation,
@@ -111,6 +120,8 @@ def chain_arrays(model: mujoco.MjModel, site_id: int) -> ChainArrays | None:
         site_body=site_body,
         site_pos=m.site_pos[site_id].copy(),
         gravity=m.opt.gravity.copy(),
+        frame_rot=np.eye(3) if R_base_frame is None else np.ascontiguousarray(np.asarray(R_base_frame, float).T),
+        frame_origin=np.zeros(3) if origin is None else np.asarray(origin, dtype=float).copy(),
         xpos=np.zeros((nb, 3)),
         xmat=np.zeros((nb, 3, 3)),
         xanchor=np.zeros((m.nv, 3)),
@@ -128,8 +139,8 @@ def chain_eval(c: ChainArrays, q: np.ndarray, p: np.ndarray, jac: np.ndarray, g:
     Args:
         c: The chain (`chain_arrays`).
         q: Joint positions [rad], shape (nv,).
-        p: Out: site position, world frame [m], shape (3,).
-        jac: Out: d p / d q [m/rad], shape (3, nv).
+        p: Out: site position in the chain's frame (the sheet frame; the base frame by default) [m], shape (3,).
+        jac: Out: d p / d q in that frame [m/rad], shape (3, nv).
         g: Out: gravity torques, as `mj_rne` at rest [N·m], shape (nv,).
     """
     xpos, xmat = c.xpos, c.xmat
@@ -172,8 +183,17 @@ def chain_eval(c: ChainArrays, q: np.ndarray, p: np.ndarray, jac: np.ndarray, g:
                     xmat[b, r, s] = new[r, s]
                 xpos[b, r] = c.xanchor[d, r] - (new[r, 0] * jp[0] + new[r, 1] * jp[1] + new[r, 2] * jp[2])
     sb = c.site_body
+    pw = np.empty(3)  # the site in the base frame
     for r in range(3):
-        p[r] = xpos[sb, r] + xmat[sb, r, 0] * c.site_pos[0] + xmat[sb, r, 1] * c.site_pos[1] + xmat[sb, r, 2] * c.site_pos[2]
+        pw[r] = (
+            xpos[sb, r]
+            + xmat[sb, r, 0] * c.site_pos[0]
+            + xmat[sb, r, 1] * c.site_pos[1]
+            + xmat[sb, r, 2] * c.site_pos[2]
+        )
+    R, o = c.frame_rot, c.frame_origin
+    for r in range(3):
+        p[r] = R[r, 0] * (pw[0] - o[0]) + R[r, 1] * (pw[1] - o[1]) + R[r, 2] * (pw[2] - o[2])
     # subtree masses and mass-weighted centres of mass, leaves first (children have larger ids)
     for b in range(nb):
         c.sub_m[b] = c.mass[b]
@@ -194,7 +214,7 @@ def chain_eval(c: ChainArrays, q: np.ndarray, p: np.ndarray, jac: np.ndarray, g:
         v2 = c.sub_mc[b, 2] - c.sub_m[b] * c.xanchor[d, 2]
         g[d] = -((a1 * v2 - a2 * v1) * gx + (a2 * v0 - a0 * v2) * gy + (a0 * v1 - a1 * v0) * gz)
         dep = c.site_dep[d]  # 0 or 1
-        w0, w1, w2 = p[0] - c.xanchor[d, 0], p[1] - c.xanchor[d, 1], p[2] - c.xanchor[d, 2]
-        jac[0, d] = dep * (a1 * w2 - a2 * w1)
-        jac[1, d] = dep * (a2 * w0 - a0 * w2)
-        jac[2, d] = dep * (a0 * w1 - a1 * w0)
+        w0, w1, w2 = pw[0] - c.xanchor[d, 0], pw[1] - c.xanchor[d, 1], pw[2] - c.xanchor[d, 2]
+        j0, j1, j2 = dep * (a1 * w2 - a2 * w1), dep * (a2 * w0 - a0 * w2), dep * (a0 * w1 - a1 * w0)
+        for r in range(3):
+            jac[r, d] = R[r, 0] * j0 + R[r, 1] * j1 + R[r, 2] * j2

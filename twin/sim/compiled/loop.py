@@ -58,7 +58,7 @@ def _sheet(
 @njit(cache=True)
 def _newton(
     C: ChainArrays, F: FieldArrays, cur: int, mode: int, slip: float, x_prev: float, gain: float,
-    pass_index: int, direction: int, origin: np.ndarray, q: np.ndarray, q_ref: np.ndarray, k_diag: np.ndarray,
+    pass_index: int, direction: int, q: np.ndarray, q_ref: np.ndarray, k_diag: np.ndarray,
     h_const: np.ndarray, use_stick: bool, stuck: np.ndarray, e_stuck: np.ndarray, tau_fr: np.ndarray,
     choose: bool, tau_f: np.ndarray, jac: np.ndarray, S: np.ndarray, W: Work,
 ) -> tuple:
@@ -76,7 +76,7 @@ def _newton(
     it = 0
     for it in range(1, NEWTON_MAX_ITER + 1):
         chain_eval(C, q, p, jac, g)
-        stick = _sheet(F, cur, mode, slip, x_prev, gain, p[0] - origin[0], p[2] - origin[2], pass_index, direction, f, S)
+        stick = _sheet(F, cur, mode, slip, x_prev, gain, p[0], p[2], pass_index, direction, f, S)
         for j in range(nv):
             jtf[j] = jac[0, j] * f[0] + jac[1, j] * f[1] + jac[2, j] * f[2]
             for row in range(3):
@@ -120,7 +120,7 @@ def _newton(
 @njit(cache=True)
 def _equilibrium(
     C: ChainArrays, F: FieldArrays, cur: int, mode: int, slip: float, x_prev: float, gain: float,
-    pass_index: int, direction: int, origin: np.ndarray, q: np.ndarray, q_ref: np.ndarray, k_diag: np.ndarray,
+    pass_index: int, direction: int, q: np.ndarray, q_ref: np.ndarray, k_diag: np.ndarray,
     h_const: np.ndarray, e_prev: np.ndarray, tau_f: np.ndarray, predict: bool, jac: np.ndarray, S: np.ndarray,
     W: Work,
 ) -> tuple:
@@ -135,7 +135,7 @@ def _equilibrium(
             frictional = True
     NO = np.bool_(False)
     if not frictional:
-        return _newton(C, F, cur, mode, slip, x_prev, gain, pass_index, direction, origin, q, q_ref, k_diag,
+        return _newton(C, F, cur, mode, slip, x_prev, gain, pass_index, direction, q, q_ref, k_diag,
                        h_const, NO, stuck, e_prev, tau_fr, NO, tau_f, jac, S, W)
     if predict:
         for j in range(nv):
@@ -146,7 +146,7 @@ def _equilibrium(
     total = 0
     stick = 0.0
     for _ in range(FRICTION_MAX_ROUNDS):
-        k, status, stick = _newton(C, F, cur, mode, slip, x_prev, gain, pass_index, direction, origin, q, q_ref,
+        k, status, stick = _newton(C, F, cur, mode, slip, x_prev, gain, pass_index, direction, q, q_ref,
                                    k_diag, h_const, YES, stuck, e_prev, tau_fr, choose, tau_f, jac, S, W)
         total += k
         if status != 0:
@@ -173,7 +173,7 @@ def _equilibrium(
 @njit(cache=True)
 def replay_loop(
     C: ChainArrays, F: FieldArrays, q_nominal: np.ndarray, passes: np.ndarray, dirs: np.ndarray,
-    origin: np.ndarray, k_diag: np.ndarray, h_const: np.ndarray, tau_f: np.ndarray, predict: bool,
+    k_diag: np.ndarray, h_const: np.ndarray, tau_f: np.ndarray, predict: bool,
     friction: bool, gain: float, qpos_out: np.ndarray, p_out: np.ndarray, p_unloaded: np.ndarray,
     f_out: np.ndarray, iters: np.ndarray, jac_out: np.ndarray, s_out: np.ndarray, state: np.ndarray, W: Work,
 ) -> tuple:
@@ -206,7 +206,7 @@ def replay_loop(
         qn = q_nominal[i]
         chain_eval(C, qn, p, jac_nom, g_nom)
         for r in range(3):
-            p_unloaded[i, r] = p[r] - origin[r]
+            p_unloaded[i, r] = p[r]
         for j in range(nv):
             q_ref[j] = qn[j] + g_nom[j] / k_diag[j]
             if i >= 2 and passes[i - 2] == pi:
@@ -218,7 +218,7 @@ def replay_loop(
         stick = 0.0
         if not friction or i == 0:
             q_try[:] = q
-            k, status, stick = _equilibrium(C, F, cur, ZERO, slip, x_prev, gain, pi, di, origin, q_try, q_ref, k_diag,
+            k, status, stick = _equilibrium(C, F, cur, ZERO, slip, x_prev, gain, pi, di, q_try, q_ref, k_diag,
                                             h_const, e_prev, tau_f, predict, jac, S, W)
             total += k
             if status != 0:
@@ -233,7 +233,7 @@ def replay_loop(
                 mode = ONE if regime == 0.0 else ZERO
                 sign = di if attempt == 0 else -di
                 q_try[:] = q
-                k, status, stick = _equilibrium(C, F, cur, mode, slip, x_prev, gain, pi, sign, origin, q_try, q_ref,
+                k, status, stick = _equilibrium(C, F, cur, mode, slip, x_prev, gain, pi, sign, q_try, q_ref,
                                                 k_diag, h_const, e_prev, tau_f, predict, jac, S, W)
                 total += k
                 if status != 0:
@@ -241,10 +241,10 @@ def replay_loop(
                 if mode == 0:
                     stick = 0.0
                 chain_eval(C, q_try, p, jac_nom, g_nom)
-                u = slip + gain * ((p[0] - origin[0]) - x_prev)
+                u = slip + gain * (p[0] - x_prev)
                 if (regime == 0.0 and -1.0 <= u <= 1.0) or (regime != 0.0 and u * regime >= 1.0):
                     break
-        x, z = p[0] - origin[0], p[2] - origin[2]
+        x, z = p[0], p[2]
         # the force at the equilibrium (not in the band: the slip state clipped)
         if friction and i > 0:
             s = slip + gain * (x - x_prev)
@@ -260,7 +260,7 @@ def replay_loop(
         for r in range(3):
             for c in range(3):
                 s_out[i, r, c] = S[r, c]
-            p_out[i, r] = p[r] - origin[r]
+            p_out[i, r] = p[r]
         s_out[i, 0, 0] -= stick
         jac_out[i] = jac
         if friction:
