@@ -11,7 +11,7 @@ from twin.errors import InputError, RunFormatError
 from twin.lab.effects import Effects
 from twin.lab.measure import predict_forces, predict_tracker
 from twin.process.forces import ForceHistory
-from twin.runs.format import Run
+from twin.runs.format import Run, run_placement
 from twin.sim.quasi_static import Twin
 from twin.sim.result import SimResult
 
@@ -83,7 +83,8 @@ def replay(
         Prediction at the run's stream times and the gap metrics.
 
     Raises:
-        InputError: `twin` was built with other robot effects than `effects.robot`.
+        InputError: `twin` was built with other robot effects than `effects.robot`, or at another placement
+            than the run's (`meta.json`'s `placement`).
     """
     effects = effects or Effects()
     if len(run.commanded.t_s) < 2:
@@ -92,7 +93,10 @@ def replay(
         raise InputError(
             f"the twin passed has effects {twin.effects}, but replay was asked for {effects.robot}"
         )
-    twin = twin or Twin(history=history, effects=effects.robot, joint_stiffness=joint_stiffness)
+    placement = run_placement(run.meta)
+    if twin is not None and twin.placement != placement:
+        raise InputError(f"the twin passed has the sheet placement {twin.placement}, but the run was made at {placement}")
+    twin = twin or Twin(history=history, effects=effects.robot, joint_stiffness=joint_stiffness, placement=placement)
     sim = twin.simulate(run.commanded.t_s, run.commanded.values)
     tracker = predict_tracker(sim, run.tracker.t_s, effects)
     forces = predict_forces(twin, sim, run.forces.t_s, effects) if run.forces is not None else None

@@ -4,6 +4,7 @@ sheet force model."""
 from __future__ import annotations
 
 import argparse
+import math
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -14,6 +15,7 @@ from twin.errors import InputError
 from twin.process.forces import ForceHistory, default_force_history, load_force_history
 from twin.process.isf_calibration import isf_field_factory
 from twin.process.path import ToolPath, groove_path, label_passes
+from twin.process.placement import Placement
 from twin.runs.read import read_commanded_csv
 
 
@@ -103,3 +105,23 @@ def field_factory_for(
     history_passes, _ = label_passes(history.p_sheet_m[:, 0])
     along_groove = float(np.max(np.abs(path_m[:, 1]))) < 1e-3 and int(passes.max()) <= int(history_passes.max())
     return None if along_groove else isf_field_factory()
+
+
+def add_placement_arguments(parser: argparse.ArgumentParser | Any, title: str = "sheet placement") -> Any:
+    """Add `--origin-mm X Y Z` and `--yaw-deg` (the sheet frame in the robot base); returns their group."""
+    place = parser.add_argument_group(title)
+    place.add_argument(
+        "--origin-mm",
+        type=float,
+        nargs=3,
+        metavar=("X", "Y", "Z"),
+        help="sheet origin in the robot base frame [mm] (default: the cell's sheet_origin)",
+    )
+    place.add_argument("--yaw-deg", type=float, default=0.0, help="sheet yaw about the base z axis [deg] (default 0)")
+    return place
+
+
+def placement_from(args: argparse.Namespace) -> Placement:
+    """The `Placement` of `--origin-mm` / `--yaw-deg`."""
+    origin = None if args.origin_mm is None else (args.origin_mm[0] / 1e3, args.origin_mm[1] / 1e3, args.origin_mm[2] / 1e3)
+    return Placement(origin_base_m=origin, yaw_rad=math.radians(args.yaw_deg))

@@ -22,9 +22,11 @@ from twin.cli._common import (
     add_force_model_argument,
     add_history_arguments,
     add_ideal_argument,
+    add_placement_arguments,
     field_factory_for,
     history_from_arguments,
     ideal_from_arguments,
+    placement_from,
 )
 from twin.errors import DataFileError, InputError
 from twin.lab.effects import Effects, read_model_file
@@ -44,6 +46,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_history_arguments(parser)
     add_ideal_argument(parser)
     add_force_model_argument(parser)
+    add_placement_arguments(parser, "sheet placement (the twin's)")
     parser.add_argument(
         "--tol-mm", type=float, default=1e3 * TWIN_TOL_M, help="--method twin: stop below this |residual| [mm]"
     )
@@ -71,7 +74,10 @@ def run(args: argparse.Namespace) -> int:
     factory = field_factory_for(args.force_model, reference, ideal.p_sheet_m)
     build_field = SheetForceField if factory is None else factory
     f_reference = build_field(reference).rigid_forces(ideal)
-    twin = Twin(history=declared, effects=effects.robot, joint_stiffness=stiffness, field_factory=factory)
+    twin = Twin(
+        history=declared, effects=effects.robot, joint_stiffness=stiffness, field_factory=factory,
+        placement=placement_from(args),
+    )
     if args.method == "formula":
         if args.stiffness is None:
             raise InputError(

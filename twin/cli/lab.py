@@ -12,7 +12,12 @@ import numpy as np
 from twin.analysis.identify.cartesian import THESIS_TABLE_4_2_LOADS_N
 from twin.base.csvio import emit_json, write_table
 from twin.base.signals import interp_rows
-from twin.cli._common import add_force_model_argument, field_factory_for
+from twin.cli._common import (
+    add_force_model_argument,
+    add_placement_arguments,
+    field_factory_for,
+    placement_from,
+)
 from twin.errors import InputError
 from twin.lab.cnc import run_cnc
 from twin.lab.effects import EFFECTS, parse_effect_args
@@ -45,6 +50,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--neutral", action="store_true", help="dynamic plant: start from the neutral knobs")
     parser.add_argument("--seed", type=int, required=True, help="seed of the lab's noise")
     add_force_model_argument(parser)
+    add_placement_arguments(parser, "sheet placement (quasi-static plant; recorded in meta.json)")
     parser.add_argument("--out", type=Path, required=True, help="run directory (loadtest: a CSV file)")
     parser.add_argument("--overwrite", action="store_true", help="replace an existing output")
     parser.add_argument("--json", help="write a summary JSON to FILE ('-' for stdout)")
@@ -61,6 +67,12 @@ def _check_out(out: Path, overwrite: bool) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the lab."""
+    placement = placement_from(args)
+    if not placement.is_default and (args.plant == "dynamic" or args.scenario in ("loadtest", "cnc")):
+        raise InputError(
+            f"--origin-mm/--yaw-deg place the sheet for the quasi-static plant's nominal and compensated runs; "
+            f"--plant {args.plant} --scenario {args.scenario} keeps the cell's sheet_origin, yaw 0"
+        )
     if args.plant == "dynamic":
         return _run_dynamic(args)
     if args.set or args.neutral:
@@ -98,7 +110,8 @@ def run(args: argparse.Namespace) -> int:
     t_s, p_cmd = commanded.t_s, commanded.values
     factory = field_factory_for(args.force_model, default_force_history(), p_cmd)
     run_, truth = run_lab(
-        t_s, p_cmd, scenario=args.scenario, effects=effects, seed=args.seed, field_factory=factory
+        t_s, p_cmd, scenario=args.scenario, effects=effects, seed=args.seed, field_factory=factory,
+        placement=placement,
     )
     truth["force_model"] = "table" if factory is None else "isf"
     write_run(args.out, run_, truth=truth, overwrite=args.overwrite, protect=protect)

@@ -13,10 +13,11 @@ from typing import Any
 import numpy as np
 
 from twin.base.csvio import emit_json, write_bytes
+from twin.cli._common import add_placement_arguments, placement_from
 from twin.process.gcode import read_gcode, write_gcode
 from twin.process.part_surface import cropped_surface, heightmap_mesh, target_part_surface
 from twin.process.path import GrooveSpec, ToolPath, groove_path, write_path_csv
-from twin.process.placement import Placement, check_reach
+from twin.process.placement import check_reach
 from twin.process.shapes import MODES, SHAPES, PartSpec, part_path
 
 HELP = (
@@ -66,11 +67,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--wall-angle-end-deg", type=float, default=p.wall_angle_end_deg, help="vwa-cone: wall angle at the bottom"
     )
     part.add_argument("--step-down-mm", type=float, default=p.step_down_m * 1e3, help="largest step-down")
-    place = parser.add_argument_group("placement and reach check")
-    place.add_argument(
-        "--origin-mm", type=float, nargs=3, metavar=("X", "Y", "Z"), help="sheet origin in the robot base frame"
-    )
-    place.add_argument("--yaw-deg", type=float, default=0.0, help="sheet yaw about the base z axis")
+    place = add_placement_arguments(parser, "placement and reach check")
     place.add_argument("--no-reach-check", action="store_true", help="skip the IK check along the path")
     parser.add_argument("--json", metavar="FILE", help="write the summary as JSON to FILE (- for stdout)")
 
@@ -134,8 +131,7 @@ def run(args: argparse.Namespace) -> int:
     """Build or import the path, check its reach, write it and print a summary."""
     path, payload, line = _build(args)
     if not args.no_reach_check:
-        origin = None if args.origin_mm is None else tuple(v / 1e3 for v in args.origin_mm)
-        reach = check_reach(path, Placement(origin_base_m=origin, yaw_rad=math.radians(args.yaw_deg)))
+        reach = check_reach(path, placement_from(args))
         payload["reach"] = {
             "min_abs_det_j_m3": reach.min_abs_det_j,
             "min_det_sample": reach.min_det_sample,

@@ -11,6 +11,7 @@ from twin.base.csvio import emit_json
 from twin.cli._common import add_force_model_argument, field_factory_for
 from twin.lab.effects import Effects, read_model_file
 from twin.process.forces import default_force_history
+from twin.runs.format import run_placement
 from twin.runs.read import read_run
 from twin.sim.quasi_static import Twin
 
@@ -33,7 +34,9 @@ def run(args: argparse.Namespace) -> int:
     measured = read_run(args.run_dir)
     effects, stiffness = read_model_file(args.model) if args.model else (Effects(), None)
     factory = field_factory_for(args.force_model, default_force_history(), measured.commanded.values)
-    twin = Twin(effects=effects.robot, joint_stiffness=stiffness, field_factory=factory)
+    twin = Twin(
+        effects=effects.robot, joint_stiffness=stiffness, field_factory=factory, placement=run_placement(measured.meta)
+    )
     result = replay(measured, effects=effects, twin=twin)
     m = result.metrics
     out = sys.stderr if args.json == "-" else sys.stdout  # keep stdout pure JSON for `--json -`
@@ -48,7 +51,7 @@ def run(args: argparse.Namespace) -> int:
     if args.rrd is not None:
         from twin.viz.recording import record_replay
 
-        record_replay(args.rrd, measured, result, twin_model=twin.model)
+        record_replay(args.rrd, measured, result, twin_model=twin.model, placement=twin.placement)
         print(f"rerun recording -> {args.rrd}", file=out)
     emit_json(args.json, {"run": args.run_dir, **m}, protect=[args.run_dir])
     return 0

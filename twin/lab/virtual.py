@@ -21,6 +21,7 @@ from twin.lab.measure import predict_forces, predict_part_profile, predict_track
 from twin.process.forces import ForceHistory
 from twin.process.part_surface import formed_surface, surface_points
 from twin.process.path import groove_path
+from twin.process.placement import Placement
 from twin.runs.format import Run, Stream, run_meta
 from twin.sim.quasi_static import Twin
 
@@ -61,6 +62,7 @@ def run_lab(
     history: ForceHistory | None = None,
     joint_friction: np.ndarray | None = None,
     field_factory: Callable[[ForceHistory], Any] | None = None,
+    placement: Placement | None = None,
 ) -> tuple[Run, dict[str, Any]]:
     """Run the commanded path on the lab plant and measure it.
 
@@ -75,13 +77,17 @@ def run_lab(
         joint_friction: Override of the robot's joint friction [N·m], shape (6,); default the model's (zeros
             give the purely elastic robot, e.g. to test identification maths).
         field_factory: The sheet force model (`Twin(field_factory=...)`); default the groove's per-pass field.
+        placement: The sheet's placement in the robot base (recorded in meta.json); default the cell's.
 
     Returns:
         The run (not yet written) and the truth record for `truth.json`.
     """
     effects = effects or Effects()
     settings = settings or LabSettings()
-    twin = Twin(history=history, effects=effects.robot, joint_friction=joint_friction, field_factory=field_factory)
+    twin = Twin(
+        history=history, effects=effects.robot, joint_friction=joint_friction, field_factory=field_factory,
+        placement=placement,
+    )
     result = twin.simulate(t_s, p_cmd_sheet_m)
     rng = np.random.default_rng(seed)
     t_end = float(result.t_s[-1])
@@ -104,6 +110,7 @@ def run_lab(
         tracker_rate_hz=settings.tracker_rate_hz,
         sensor_rate_hz=settings.sensor_rate_hz,
         seed=seed,
+        placement=placement,
     )
     run = Run(
         directory=None,

@@ -22,6 +22,8 @@ Reading and validating: `twin.runs.read`; writing (atomic, never over an input):
 
 from __future__ import annotations
 
+import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -29,7 +31,8 @@ from typing import Any
 import numpy as np
 
 from twin.base.signals import interp_rows
-from twin.errors import InputError
+from twin.errors import InputError, RunFormatError
+from twin.process.placement import Placement
 from twin.robot.dh import TOOL_LENGTH_M
 
 RUN_FORMAT = "tx200-twin-run/1"
@@ -173,7 +176,13 @@ def resample(stream: Stream, t_s: np.ndarray) -> np.ndarray:
 
 
 def run_meta(
-    *, scenario: str, source: str, tracker_rate_hz: float, sensor_rate_hz: float, seed: int
+    *,
+    scenario: str,
+    source: str,
+    tracker_rate_hz: float,
+    sensor_rate_hz: float,
+    seed: int,
+    placement: Placement | None = None,
 ) -> dict[str, Any]:
     """The `meta.json` of a made-up run: format, frame, tool length, the scenario, rates and seed.
 
@@ -183,7 +192,9 @@ def run_meta(
         tracker_rate_hz: Tracker (or machine position) rate [Hz].
         sensor_rate_hz: Force sensor rate [Hz].
         seed: Seed of the run's noise.
+        placement: The sheet's placement in the robot base; recorded unless it is the cell's own.
     """
+    extra = {} if placement is None or placement.is_default else {"placement": placement_meta(placement)}
     return {
         "format": RUN_FORMAT,
         "scenario": scenario,
@@ -193,4 +204,34 @@ def run_meta(
         "tracker_rate_hz": float(tracker_rate_hz),
         "sensor_rate_hz": float(sensor_rate_hz),
         "seed": seed,
+        **extra,
     }
+
+
+def placement_meta(placement: Placement) -> dict[str, Any]:
+    """`meta.json`'s `placement` entry: the sheet origin in the base [mm] (null: the cell's) and the yaw [deg]."""
+    origin = None if placement.origin_base_m is None else [1e3 * float(v) for v in placement.origin_base_m]
+    return {"origin_base_mm": origin, "yaw_deg": math.degrees(placement.yaw_rad)}
+
+
+def run_placement(meta: Mapping[str, Any], source: str | Path = "meta.json") -> Placement:
+    """The sheet placement a run was made at (`meta.json`'s `placement`; absent: the cell's, yaw 0).
+
+    Raises:
+        RunFormatError: The entry is not {"origin_base_mm": null or 3 numbers, "yaw_deg": a number}.
+    """
+    entry = meta.get("placement")
+    if entry is None:
+        return Placement()
+    expected = 'expected "placement": {"origin_base_mm": null or [x, y, z], "yaw_deg": number}'
+    if not isinstance(entry, Mapping) or set(entry) - {"origin_base_mm", "yaw_deg"}:
+        raise RunFormatError(source, f"placement = {entry!r}: {expected}")
+    origin, yaw = entry.get("origin_base_mm"), entry.get("yaw_deg", 0.0)
+    ok_origin = origin is None or (
+        isinstance(origin, list | tuple) and len(origin) == 3
+        and all(isinstance(v, int | float) and math.isfinite(v) for v in origin)
+    )
+    if not ok_origin or not isinstance(yaw, int | float) or not math.isfinite(yaw):
+        raise RunFormatError(source, f"placement = {entry!r}: {expected}")
+    base = None if origin is None else (origin[0] / 1e3, origin[1] / 1e3, origin[2] / 1e3)
+    return Placement(origin_base_m=base, yaw_rad=math.radians(yaw))

@@ -19,6 +19,7 @@ import rerun as rr
 import rerun.blueprint as rrb
 
 from twin.errors import InputError, ModelError
+from twin.process.placement import Placement
 from twin.robot.model import build_model
 from twin.viz.recording_layers import checked_points, log_replay
 
@@ -68,6 +69,7 @@ def record_runs(
     twin_model: mujoco.MjModel | None = None,
     p_base_sheet_origin: np.ndarray | None = None,
     application_id: str = "tx200-twin",
+    placement: Placement | None = None,
 ) -> Path:
     """Record several replayed runs into one `.rrd`, each under its own prefix `<name>/` (one tab each).
 
@@ -77,8 +79,11 @@ def record_runs(
             have the name "" (no prefix).
         ideal_sheet_m: Ideal (FE) tool-tip path, sheet frame [m], shape (k, 3), drawn for every run.
         twin_model: The twin's compiled model (`Twin.model`); default `twin.robot.model.build_model()`.
-        p_base_sheet_origin: Sheet origin in the base frame [m]; default the model's `sheet_origin` site.
+        p_base_sheet_origin: Sheet origin in the base frame [m]; default the placement's, else the model's
+            `sheet_origin` site.
         application_id: Rerun application id.
+        placement: Where the sheet was (`Twin.placement`): its origin (unless `p_base_sheet_origin` is given) and
+            yaw; default the cell's.
 
     Returns:
         The path written.
@@ -97,6 +102,9 @@ def record_runs(
         )
     if twin_model is None:
         twin_model = build_model()
+    rot = None if placement is None else placement.R_base_sheet
+    if p_base_sheet_origin is None and placement is not None and placement.origin_base_m is not None:
+        p_base_sheet_origin = np.asarray(placement.origin_base_m, dtype=float)
     if p_base_sheet_origin is None:
         origin = _sheet_origin(twin_model)
     else:
@@ -113,7 +121,7 @@ def record_runs(
     try:
         rec.save(tmp, default_blueprint=_blueprint(prefixes))
         for prefix, (_, run, replay) in zip(prefixes, items, strict=True):
-            log_replay(rec, prefix, run, replay, ideal, twin_model, origin)
+            log_replay(rec, prefix, run, replay, ideal, twin_model, origin, rot)
         rec.flush()
         rec.disconnect()
         os.replace(tmp, target)
@@ -133,6 +141,7 @@ def record_replay(
     twin_model: mujoco.MjModel | None = None,
     p_base_sheet_origin: np.ndarray | None = None,
     application_id: str = "tx200-twin",
+    placement: Placement | None = None,
 ) -> Path:
     """Record one replayed run into a `.rrd` (entities without prefix: `world/...`, `plots/...`, `README`).
 
@@ -142,8 +151,11 @@ def record_replay(
         replay_result: Its replay on the twin (`twin.analysis.replay.replay`).
         ideal_sheet_m: Ideal (FE) tool-tip path, sheet frame [m], shape (k, 3).
         twin_model: The twin's compiled model (`Twin.model`); default `twin.robot.model.build_model()`.
-        p_base_sheet_origin: Sheet origin in the base frame [m]; default the model's `sheet_origin` site.
+        p_base_sheet_origin: Sheet origin in the base frame [m]; default the placement's, else the model's
+            `sheet_origin` site.
         application_id: Rerun application id.
+        placement: Where the sheet was (`Twin.placement`): its origin (unless `p_base_sheet_origin` is given) and
+            yaw; default the cell's.
 
     Returns:
         The path written.
@@ -155,4 +167,5 @@ def record_replay(
         twin_model=twin_model,
         p_base_sheet_origin=p_base_sheet_origin,
         application_id=application_id,
+        placement=placement,
     )

@@ -1,6 +1,7 @@
 """The layers of one replayed run in a rerun recording: robot, paths, deflection, forces, groove, plots.
 
-Everything 3-D is in the robot base (world) frame in metres: sheet-frame points plus `p_base_sheet_origin`.
+Everything 3-D is in the robot base (world) frame in metres: sheet-frame points placed by the sheet's origin
+`p_base_sheet_origin` and yaw (`R_base_sheet`).
 Per recording (entity prefix `<name>/` when several runs share a file):
 
 - `world/robot/<body>/<geom>`: the visual geoms (group != 3, no planes) of every body as static meshes in the
@@ -144,6 +145,7 @@ def log_replay(
     ideal_sheet_m: np.ndarray | None,
     model: mujoco.MjModel,
     origin: np.ndarray,
+    R_base_sheet: np.ndarray | None = None,
 ) -> None:
     """Log every layer of one replayed run under `prefix` (see the module docstring) [m, N, s].
 
@@ -155,7 +157,13 @@ def log_replay(
         ideal_sheet_m: Ideal tool-tip path, sheet frame [m], shape (k, 3), or None.
         model: The twin's compiled model (geometry and body poses).
         origin: Sheet origin in the base frame [m], shape (3,).
+        R_base_sheet: Orientation of the sheet frame in the base (the placement's yaw); None: the base axes.
     """
+    rot = np.eye(3) if R_base_sheet is None else np.asarray(R_base_sheet, dtype=float)
+
+    def to_base(points: np.ndarray) -> np.ndarray:  # sheet-frame points (n, 3) -> base frame
+        return points @ rot.T + origin
+
     sim = replay.sim
     t_sim = np.asarray(sim.t_s, dtype=float)
     n = len(t_sim)
@@ -184,7 +192,7 @@ def log_replay(
     for name, points in strips.items():
         rec.log(
             f"{world}/paths/{name}",
-            rr.LineStrips3D([points + origin], radii=LINE_RADIUS, colors=[COLORS[name]]),
+            rr.LineStrips3D([to_base(points)], radii=LINE_RADIUS, colors=[COLORS[name]]),
             static=True,
         )
 
@@ -197,7 +205,7 @@ def log_replay(
             f"{world}/tool_tip/{name}",
             indexes=[rr.TimeColumn(TIMELINE, duration=t_pts)],
             columns=rr.Points3D.columns(
-                positions=pts + origin,
+                positions=to_base(pts),
                 colors=np.tile(COLORS[name], (len(pts), 1)),
                 radii=np.full(len(pts), 0.002),
             ),
@@ -231,7 +239,7 @@ def log_replay(
         arrow_sets.append((f"{forces}/measured", i_f, run.forces.t_s, tip, f_meas, COLORS["measured"]))
     for entity, keep, t_s, origins, vectors, color in arrow_sets:
         colors = None if color is None else np.tile(color, (len(keep), 1))
-        _arrows(rec, entity, t_s[keep], origins[keep] + origin, vectors[keep], colors)
+        _arrows(rec, entity, t_s[keep], to_base(origins[keep]), vectors[keep] @ rot.T, colors)
 
     t_end = [float(t_sim[-1])]
     formed_x = np.asarray(sim.formed_x_m, dtype=float)
@@ -245,7 +253,7 @@ def log_replay(
             rec.send_columns(
                 f"{world}/groove/{name}",
                 indexes=[rr.TimeColumn(TIMELINE, duration=t_end)],
-                columns=rr.LineStrips3D.columns(strips=[profile + origin]),
+                columns=rr.LineStrips3D.columns(strips=[to_base(profile)]),
             )
 
     plots = f"{prefix}plots"

@@ -19,7 +19,7 @@ from twin.lab.measure import predict_forces, predict_part_profile, predict_track
 from twin.process.forces import ForceHistory
 from twin.process.path import label_passes
 from twin.robot.model import RobotEffects
-from twin.runs.format import Run
+from twin.runs.format import Run, run_placement
 from twin.sim.quasi_static import PASS_DEADBAND_M, Twin
 from twin.sim.result import SimResult
 
@@ -110,6 +110,7 @@ class ResidualModel:
                 effects=key,
                 joint_stiffness=self.joint_stiffness,
                 field_factory=self.field_factory,
+                placement=run_placement(self.run.meta),
             )
             cached = next(iter(self._sims.values()))[1].q_ik if self._sims else None
             self._sims[key] = (

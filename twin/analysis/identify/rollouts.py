@@ -28,7 +28,7 @@ from twin.lab.effects import Effects, write_model_file
 from twin.lab.measure import predict_tracker
 from twin.process.forces import ForceHistory
 from twin.robot.stiffness import set_joint_stiffness
-from twin.runs.format import Run
+from twin.runs.format import Run, run_placement
 from twin.sim.quasi_static import Twin
 
 RUN_OBSERVABLE_JOINTS = (1, 2, 4)  # 0-based: joints 2, 3, 5
@@ -75,7 +75,7 @@ def kq_from_run(
     Raises:
         IdentificationError: The fit does not converge.
     """
-    twin = Twin(history=history, effects=(effects or Effects()).robot)
+    twin = Twin(history=history, effects=(effects or Effects()).robot, placement=run_placement(run.meta))
     start = twin.joint_stiffness.copy()
     noise = estimate_noise(run).position_m
     first = twin.simulate(run.commanded.t_s, run.commanded.values)

@@ -1,0 +1,79 @@
+"""A part placed elsewhere on the table, turned 30°, through the command line: the placement reaches the twin,
+the lab records it, and replay, discrepancy and compensation use the run's own placement (issue 16)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from twin.analysis.replay import replay
+from twin.cli import main
+from twin.errors import InputError, RunFormatError
+from twin.process.placement import Placement
+from twin.runs.format import placement_meta, run_placement
+from twin.runs.read import read_run
+from twin.sim.quasi_static import Twin
+
+PLACE = ["--origin-mm", "1550", "-60", "150", "--yaw-deg", "30"]  # 30 mm nearer, 60 mm aside of the cell's
+
+
+@pytest.fixture(scope="module")
+def placed(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    base = tmp_path_factory.mktemp("placed")
+    ideal, cmd = base / "cone.csv", base / "cone_cmd.csv"
+    assert main(["path", "--shape", "cone", "--depth-mm", "4", "--top-width-mm", "40", *PLACE, "--out", str(ideal)]) == 0
+    assert main(["compensate", "--method", "twin", "--ideal", str(ideal), "--tol-mm", "0.01", *PLACE,
+                 "--out", str(cmd)]) == 0
+    runs = {"ideal": ideal, "cmd": cmd}
+    for name, commanded in (("nominal", ideal), ("compensated", cmd)):
+        runs[name] = base / name
+        assert main(["lab", "--scenario", name, "--commanded", str(commanded), "--seed", "2", *PLACE,
+                     "--out", str(runs[name])]) == 0
+    return runs
+
+
+def _check(run: Path, ideal: Path, capsys: pytest.CaptureFixture[str]) -> dict[str, float]:
+    capsys.readouterr()
+    main(["check", str(run), "--ideal", str(ideal), "--json", "-"])  # exit 1 on a run that misses the path
+    payload: dict[str, float] = json.loads(capsys.readouterr().out)
+    return payload
+
+
+def test_lab_records_the_placement_and_replay_uses_it(placed: dict[str, Path], capsys: pytest.CaptureFixture[str]) -> None:
+    run = read_run(placed["nominal"])
+    placement = run_placement(run.meta)
+    assert placement.yaw_rad == pytest.approx(np.radians(30.0))
+    assert placement.origin_base_m == pytest.approx((1.55, -0.06, 0.15))
+    capsys.readouterr()
+    assert main(["replay", str(placed["nominal"]), "--force-model", "auto", "--json", "-"]) == 0
+    gap = json.loads(capsys.readouterr().out)
+    assert gap["position_rms_mm"] < 0.05  # the tracker noise: the replay placed the sheet where the lab did
+    with pytest.raises(InputError, match="placement"):
+        replay(run, twin=Twin())  # a twin at the cell's placement refuses the run
+
+
+def test_compensation_at_the_placement_lands_on_the_path(placed: dict[str, Path], capsys: pytest.CaptureFixture[str]) -> None:
+    nominal = _check(placed["nominal"], placed["ideal"], capsys)["residual_rms_mm"]
+    compensated = _check(placed["compensated"], placed["ideal"], capsys)["residual_rms_mm"]
+    assert nominal > 0.5
+    assert compensated < 0.1
+    assert nominal > 10 * compensated
+
+
+def test_the_dynamic_plant_refuses_a_placement(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["lab", "--plant", "dynamic", "--scenario", "nominal", "--seed", "1", "--yaw-deg", "10",
+                 "--out", str(tmp_path / "run")]) == 2
+    assert "quasi-static" in capsys.readouterr().err
+    assert not (tmp_path / "run").exists()
+
+
+def test_a_malformed_placement_in_meta_names_the_file_and_what_was_expected() -> None:
+    assert run_placement({}) == Placement()
+    good = placement_meta(Placement(origin_base_m=(1.5, 0.0, 0.1), yaw_rad=0.5))
+    assert run_placement({"placement": good}) == Placement(origin_base_m=(1.5, 0.0, 0.1), yaw_rad=0.5)
+    for bad in ({"yaw_deg": "ten"}, {"origin_base_mm": [1.0, 2.0]}, {"yaw_deg": 1.0, "roll_deg": 2.0}, [1, 2]):
+        with pytest.raises(RunFormatError, match=r"meta\.json.*origin_base_mm"):
+            run_placement({"placement": bad}, "run/meta.json")
