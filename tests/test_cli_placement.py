@@ -63,11 +63,28 @@ def test_compensation_at_the_placement_lands_on_the_path(placed: dict[str, Path]
     assert nominal > 10 * compensated
 
 
-def test_the_dynamic_plant_refuses_a_placement(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    assert main(["lab", "--plant", "dynamic", "--scenario", "nominal", "--seed", "1", "--yaw-deg", "10",
-                 "--out", str(tmp_path / "run")]) == 2
-    assert "quasi-static" in capsys.readouterr().err
-    assert not (tmp_path / "run").exists()
+def test_a_dynamic_plant_run_at_the_placement_replays_on_the_twin(
+    placed: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The independent plant steps the arm against the sheet placed and turned; the twin, told only the run's
+    meta.json, replays it within twice the tracker noise."""
+    out = tmp_path / "dynamic"
+    assert main(["lab", "--plant", "dynamic", "--neutral", "--scenario", "compensated", "--commanded",
+                 str(placed["cmd"]), "--force-model", "auto", "--seed", "3", *PLACE, "--out", str(out)]) == 0
+    assert run_placement(read_run(out).meta).yaw_rad == pytest.approx(np.radians(30.0))
+    capsys.readouterr()
+    assert main(["replay", str(out), "--force-model", "auto", "--json", "-"]) == 0
+    gap = json.loads(capsys.readouterr().out)
+    assert gap["position_rms_mm"] < 0.1
+    assert _check(out, placed["ideal"], capsys)["residual_rms_mm"] < 0.1
+
+
+def test_load_tests_and_the_cnc_refuse_a_placement(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    for scenario in ("loadtest", "cnc"):
+        assert main(["lab", "--scenario", scenario, "--seed", "1", "--yaw-deg", "10",
+                     "--out", str(tmp_path / scenario)]) == 2
+        assert "nominal and compensated" in capsys.readouterr().err
+        assert not (tmp_path / scenario).exists()
 
 
 def test_a_malformed_placement_in_meta_names_the_file_and_what_was_expected() -> None:

@@ -23,6 +23,7 @@ from twin.lab.cnc import run_cnc
 from twin.lab.effects import EFFECTS, parse_effect_args
 from twin.lab.virtual import load_test, run_lab
 from twin.process.forces import default_force_history
+from twin.process.placement import Placement
 from twin.runs.read import lab_commanded
 from twin.runs.write import write_run
 
@@ -50,7 +51,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--neutral", action="store_true", help="dynamic plant: start from the neutral knobs")
     parser.add_argument("--seed", type=int, required=True, help="seed of the lab's noise")
     add_force_model_argument(parser)
-    add_placement_arguments(parser, "sheet placement (quasi-static plant; recorded in meta.json)")
+    add_placement_arguments(parser, "sheet placement (nominal and compensated runs; recorded in meta.json)")
     parser.add_argument("--out", type=Path, required=True, help="run directory (loadtest: a CSV file)")
     parser.add_argument("--overwrite", action="store_true", help="replace an existing output")
     parser.add_argument("--json", help="write a summary JSON to FILE ('-' for stdout)")
@@ -68,13 +69,13 @@ def _check_out(out: Path, overwrite: bool) -> None:
 def run(args: argparse.Namespace) -> int:
     """Run the lab."""
     placement = placement_from(args)
-    if not placement.is_default and (args.plant == "dynamic" or args.scenario in ("loadtest", "cnc")):
+    if not placement.is_default and args.scenario in ("loadtest", "cnc"):
         raise InputError(
-            f"--origin-mm/--yaw-deg place the sheet for the quasi-static plant's nominal and compensated runs; "
-            f"--plant {args.plant} --scenario {args.scenario} keeps the cell's sheet_origin, yaw 0"
+            f"--origin-mm/--yaw-deg place the sheet for nominal and compensated runs; --scenario {args.scenario} "
+            "keeps the cell's sheet_origin, yaw 0"
         )
     if args.plant == "dynamic":
-        return _run_dynamic(args)
+        return _run_dynamic(args, placement)
     if args.set or args.neutral:
         raise InputError("--set and --neutral are knobs of --plant dynamic; the quasi-static lab takes --effect")
     effects = parse_effect_args(args.effect)
@@ -168,7 +169,7 @@ def _run_cnc(args: argparse.Namespace, *, effects_given: bool, out: TextIO) -> i
     return 0
 
 
-def _run_dynamic(args: argparse.Namespace) -> int:
+def _run_dynamic(args: argparse.Namespace, placement: Placement) -> int:
     """`--plant dynamic`: the MuJoCo mj_step plant with its own sensor chain (twin.lab.dynamic)."""
     from twin.lab.dynamic.cli_support import run_dynamic_command
 
@@ -181,4 +182,4 @@ def _run_dynamic(args: argparse.Namespace) -> int:
     if args.scenario != "loadtest":
         commanded, _ = lab_commanded(args.scenario, args.commanded)
         factory = field_factory_for(args.force_model, default_force_history(), commanded.values)
-    return run_dynamic_command(args, loads_n=THESIS_TABLE_4_2_LOADS_N, field_factory=factory)
+    return run_dynamic_command(args, loads_n=THESIS_TABLE_4_2_LOADS_N, field_factory=factory, placement=placement)

@@ -14,6 +14,7 @@ from twin.base.signals import interp_rows
 from twin.lab.dynamic.knobs import parse_set_args
 from twin.lab.dynamic.run import dynamic_load_test, run_dynamic_lab
 from twin.process.forces import ForceHistory
+from twin.process.placement import Placement
 from twin.runs.read import lab_commanded
 from twin.runs.write import write_run
 
@@ -23,6 +24,7 @@ def run_dynamic_command(
     *,
     loads_n: np.ndarray,
     field_factory: Callable[[ForceHistory], Any] | None = None,
+    placement: Placement | None = None,
 ) -> int:
     """Run `args.scenario` (nominal, compensated or loadtest) on the dynamic plant.
 
@@ -30,6 +32,7 @@ def run_dynamic_command(
         args: Parsed `lab` options (`scenario`, `commanded`, `set`, `neutral`, `seed`, `out`, `overwrite`, `json`).
         loads_n: Load cases of the load test, base frame [N], shape (m, 3).
         field_factory: The sheet force model for the commanded path (None: the groove's table field).
+        placement: Where the sheet lies in the cell (None: the cell's `sheet_origin`, yaw 0).
 
     Returns:
         The exit status (0).
@@ -57,6 +60,7 @@ def run_dynamic_command(
         seed=args.seed,
         progress=sys.stderr,
         field_factory=field_factory,
+        placement=placement,
     )
     truth["force_model"] = "table" if field_factory is None else "isf"
     write_run(args.out, run, truth=truth, overwrite=args.overwrite, protect=protect)

@@ -20,6 +20,7 @@ from twin.lab.dynamic.sensors import ft_reading, part_scan, profile_scan, tracke
 from twin.lab.dynamic.simulate import DynamicLog, simulate
 from twin.lab.dynamic.trajectory import retime_with_stops
 from twin.process.forces import ForceHistory
+from twin.process.placement import Placement
 from twin.robot.kinematics import Kinematics, load_model
 from twin.runs.format import Run, Stream, run_meta
 
@@ -36,6 +37,7 @@ def run_dynamic_lab(
     history: ForceHistory | None = None,
     progress: TextIO | None = None,
     field_factory: Callable[[ForceHistory], Any] | None = None,
+    placement: Placement | None = None,
 ) -> tuple[Run, dict[str, Any], DynamicLog]:
     """Run the commanded path on the dynamic plant and measure it.
 
@@ -49,6 +51,7 @@ def run_dynamic_lab(
         history: FE force history of the lab's sheet; default the shipped one.
         progress: Stream for progress lines (None: quiet).
         field_factory: Another sheet force model built from the history (`simulate`); None: the table field.
+        placement: Where the sheet lies in the cell (recorded in meta.json); None: the cell's, yaw 0.
 
     Returns:
         The run (not yet written), the truth record for `truth.json`, and the physical log.
@@ -57,7 +60,8 @@ def run_dynamic_lab(
     # the controller's trajectory generator stops at sharp corners: its timing is the run's commanded stream
     t_s = retime_with_stops(t_s, p_cmd_sheet_m, knobs["trajectory_accel_mps2"])
     log = simulate(
-        t_s, p_cmd_sheet_m, knobs, history=history, plant=plant, progress=progress, field_factory=field_factory
+        t_s, p_cmd_sheet_m, knobs, history=history, plant=plant, progress=progress, field_factory=field_factory,
+        placement=placement,
     )
     rng = np.random.default_rng(seed)
     t_tracker, tracker = tracker_reading(log, knobs, rng)
@@ -70,6 +74,7 @@ def run_dynamic_lab(
         tracker_rate_hz=knobs["tracker_rate_hz"],
         sensor_rate_hz=knobs["ft_rate_hz"],
         seed=seed,
+        placement=placement,
     )
     run = Run(
         directory=None,

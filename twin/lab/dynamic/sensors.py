@@ -94,7 +94,7 @@ def ft_reading(
     f_local = f_local @ crosstalk.T + knobs["ft_bias_n"]
     f_local = f_local + rng.normal(0.0, knobs["ft_noise_n"], f_local.shape)
     f_local = _quantise(f_local, knobs["ft_quantum_n"])
-    return stamps, np.einsum("nij,nj->ni", R_world_ft, f_local)
+    return stamps, np.einsum("nij,nj->ni", R_world_ft, f_local) @ log.R_world_sheet  # world, then sheet frame
 
 
 def profile_scan(log: DynamicLog, knobs: Knobs, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:

@@ -14,7 +14,7 @@ from __future__ import annotations
 import sys
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, TextIO
 
 import mujoco
@@ -34,6 +34,7 @@ from twin.process.field import SheetForceField
 from twin.process.forces import ForceHistory, default_force_history
 from twin.process.part_surface import formed_surface
 from twin.process.path import label_passes
+from twin.process.placement import Placement
 from twin.robot.kinematics import Kinematics, load_model
 
 PASS_DEADBAND_M = (
@@ -62,6 +63,7 @@ class DynamicLog:
         wall_s: Wall time of the stepping [s].
         formed_surface: (x_m, y_m, z_m grid) of the part after unclamping where the force model keeps a 2-D
             surface (the height-map ISF model), else None.
+        R_world_sheet: Orientation of the sheet frame in the world (the placement's yaw) [-], shape (3, 3).
     """
 
     t_s: np.ndarray
@@ -76,6 +78,7 @@ class DynamicLog:
     formed_z_m: np.ndarray
     wall_s: float
     formed_surface: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+    R_world_sheet: np.ndarray = field(default_factory=lambda: np.eye(3))
 
 
 def simulate(
@@ -88,6 +91,7 @@ def simulate(
     progress: TextIO | None = None,
     tip_force_n: np.ndarray | None = None,
     field_factory: Callable[[ForceHistory], Any] | None = None,
+    placement: Placement | None = None,
 ) -> DynamicLog:
     """Run the commanded tool-tip path on the dynamic plant.
 
@@ -103,6 +107,7 @@ def simulate(
         field_factory: Builds another sheet force model from the history (e.g. the height-map ISF model of
             `twin.process.isf_calibration.isf_field_factory`, for any part); its in-plane force follows its own
             sliding direction, so the groove's x-travel reversal law is not applied. None: the groove's table field.
+        placement: Where the sheet lies in the cell (origin, yaw); None: the cell's `sheet_origin`, yaw 0.
 
     Returns:
         The log at every servo tick.
@@ -115,7 +120,10 @@ def simulate(
     m = plant.model
     rigid = load_model(scene=True)
     kin = Kinematics(rigid)
-    q_ik = kin.ik_path(p_cmd + plant.p_base_sheet_origin)
+    place = placement or Placement()
+    origin = place.origin_in(kin) if place.origin_base_m is not None else plant.p_base_sheet_origin
+    R_ws = place.R_base_sheet  # the sheet's axes in the world
+    q_ik = kin.ik_path(origin + p_cmd @ R_ws.T)
     g_ik = gravity_torques(rigid, q_ik)
     gains = design_gains(plant, rigid, q_ik[0], knobs)
     apply_gains(plant, gains)
@@ -148,7 +156,6 @@ def simulate(
     R_ft = d.site_xmat[plant.ft_site]
     wrench = d.xfrc_applied[plant.tool_body]
     ft = d.sensordata[sensor_adr : sensor_adr + 3]
-    origin = plant.p_base_sheet_origin
     motor_qpos, link_qpos = plant.motor_qpos, plant.link_qpos
     log_p = np.zeros((n_tick, 3))
     log_f = np.zeros((n_tick, 3))
@@ -161,7 +168,7 @@ def simulate(
     # tangential (friction and ploughing) force: follows the real travel, reversing over `friction_reversal_mm`
     slip = float(dirs[0])
     slip_gain = 2.0 / (1e-3 * knobs["friction_reversal_mm"])
-    x_prev = float(tip[0] - origin[0])
+    x_prev = float(R_ws[:, 0] @ (tip - origin))
     step_report = max(1, n_tick // 10)
     start = time.perf_counter()
     for k in range(n_tick):
@@ -170,17 +177,18 @@ def simulate(
         err = q_sp[k] - qm
         integral += err * dt
         d.ctrl[:] = ctrl_ff[k] + ki_over_kp * integral
-        p = tip - origin
+        p = (tip - origin) @ R_ws  # sheet frame
         if tip_force_n is None:
             f = field.force(p, passes[k], dirs[k])
             if table_field:
                 slip = min(1.0, max(-1.0, slip + slip_gain * (float(p[0]) - x_prev)))
                 x_prev = float(p[0])
                 f[0] *= slip * dirs[k]
+            f_world = R_ws @ f
         else:
-            f = tip_force_n * min(1.0, t_tick[k] / LOAD_RAMP_S)
+            f_world = f = tip_force_n * min(1.0, t_tick[k] / LOAD_RAMP_S)
         l0, l1, l2 = (tip - xipos).tolist()
-        a0, a1, a2 = f.tolist()
+        a0, a1, a2 = f_world.tolist()
         wrench[:] = (a0, a1, a2, l1 * a2 - l2 * a1, l2 * a0 - l0 * a2, l0 * a1 - l1 * a0)
         log_p[k] = p
         log_f[k] = f
@@ -216,6 +224,7 @@ def simulate(
         formed_z_m=np.asarray(field.formed_z_m, dtype=float).copy(),
         wall_s=time.perf_counter() - start,
         formed_surface=formed_surface(field),
+        R_world_sheet=R_ws,
     )
 
 
