@@ -267,3 +267,32 @@ def test_cli_export_writes_the_program_and_rejects_a_bad_path(
 def test_default_cell_puts_the_tool_down(cell: CellSetup) -> None:
     np.testing.assert_allclose(cell.R_sheet_tool[:, 2], [0.0, 0.0, -1.0], atol=1e-12)
     assert cell.tool_length_mm == pytest.approx(274.94)
+
+
+def test_a_turned_sheet_frame_puts_every_format_on_the_twins_pose(path_csv: Path, tmp_path: Path) -> None:
+    """Placement yaw 30°: each format's sheet frame times its point pose is the pose the twin's IK solves for
+    (tool tip origin + Rz(30°)·p, tool axes `Kinematics.R_tool_down` in the base)."""
+    from twin.process.placement import Placement
+    from twin.robot.kinematics import Kinematics
+
+    placement = Placement(origin_base_m=(1.5, 0.1, 0.2), yaw_rad=np.radians(30.0))
+    cell = default_cell(placement=placement)
+    kin = Kinematics()
+    p_sheet = 1e3 * read_commanded_csv(path_csv).values
+    p_base = 1e3 * placement.to_base(p_sheet / 1e3, kin)
+    R_frame = _rz(30.0)
+    val3 = export_path(path_csv, "val3", tmp_path / "v", cell=cell)[1]
+    dtx = ET.parse(next(f for f in val3 if f.suffix == ".dtx")).getroot()
+    frame = next(v for d in dtx.iter() if d.tag.endswith("Data") and d.get("name") == "fSheet" for v in d)
+    assert float(frame.get("rz", "nan")) == pytest.approx(30.0)
+    p, r, _ = parse_val3(val3)
+    np.testing.assert_allclose(p @ R_frame.T + 1e3 * np.array([1.5, 0.1, 0.2]), p_base, atol=2 * POSITION_TOL_MM)
+    np.testing.assert_allclose(R_frame @ _rx(r[0, 0]) @ _ry(r[0, 1]) @ _rz(r[0, 2]), kin.R_tool_down, atol=1e-6)
+    krl = next(f for f in export_path(path_csv, "krl", tmp_path / "k", cell=cell)[1] if f.suffix == ".dat")
+    sheet = _numbers(re.search(r"B_SHEET=\{([^}]*)\}", krl.read_text()).group(1))  # type: ignore[union-attr]
+    assert sheet[3:] == pytest.approx([30.0, 0.0, 0.0])
+    rapid = export_path(path_csv, "rapid", tmp_path / "r.mod", cell=cell)[1][0].read_text()
+    wobj = _numbers(re.search(r"wSheet:=\[FALSE,TRUE,\"\",\[\[([^\]]*)\],\[([^\]]*)\]", rapid).group(2))  # type: ignore[union-attr]
+    assert wobj == pytest.approx([np.cos(np.radians(15.0)), 0.0, 0.0, np.sin(np.radians(15.0))], abs=1e-6)
+    gcode = export_path(path_csv, "gcode", tmp_path / "g.ngc", cell=cell)[1][0].read_text()
+    assert "G68 X0 Y0 R30" in gcode and "G69" in gcode

@@ -11,6 +11,7 @@ import numpy as np
 from twin.apps.export import FORMATS, export_path
 from twin.apps.export.program import default_cell
 from twin.base.csvio import emit_json
+from twin.cli._common import add_placement_arguments, placement_from
 
 HELP = "Export a (compensated) path CSV as a robot program: Staubli VAL3, KUKA KRL, ABB RAPID, G-code or CSV."
 
@@ -28,12 +29,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--tool-mass-kg", type=float, default=1.0, help="tool mass for RAPID's tooldata (default 1.0)"
     )
+    add_placement_arguments(parser, "sheet placement (the program's sheet frame)")
     parser.add_argument("--json", metavar="FILE", help="write a summary as JSON to FILE (- for stdout)")
 
 
 def run(args: argparse.Namespace) -> int:
     """Export and print a summary."""
-    path, files = export_path(args.path_csv, args.format, args.out, cell=default_cell(args.tool_mass_kg))
+    path, files = export_path(args.path_csv, args.format, args.out, cell=default_cell(args.tool_mass_kg, placement_from(args)))
     feed = path.feed_mm_s
     payload = {
         "format": args.format,

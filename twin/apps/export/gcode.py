@@ -30,13 +30,15 @@ def program_text(path: ProgramPath) -> str:
         "G21 G90 G17",
         "G54",
     ]
+    if cell.yaw_deg != 0.0:  # the sheet frame turned about the base z: a coordinate rotation about its origin
+        lines += [f"(sheet frame yaw {fmt(cell.yaw_deg, 3)} deg about the base z)", f"G68 X0 Y0 R{fmt(cell.yaw_deg, 4)}"]
     last_feed = ""
     for p, v in zip(path.points_mm, path.feed_mm_s, strict=True):
         feed = fmt(v * 60.0, FEED_DECIMALS)
         move = f"G1 X{fmt(p[0])} Y{fmt(p[1])} Z{fmt(p[2])}"
         lines.append(move + (f" F{feed}" if feed != last_feed else ""))
         last_feed = feed
-    lines += ["M30", "%"]
+    lines += [*(["G69"] if cell.yaw_deg != 0.0 else []), "M30", "%"]
     return "\n".join(lines) + "\n"
 
 

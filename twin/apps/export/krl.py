@@ -32,7 +32,7 @@ def program_files(path: ProgramPath) -> dict[str, str]:
         f"DEFDAT {name} PUBLIC",
         f"; tx200-twin export of {path.source.name}: {n} points, sheet frame",
         f"DECL FRAME T_ISF={_frame((0.0, 0.0, cell.tool_length_mm), (0.0, 0.0, 0.0))}",
-        f"DECL FRAME B_SHEET={_frame(cell.p_base_sheet_mm, (0.0, 0.0, 0.0))}",
+        f"DECL FRAME B_SHEET={_frame(cell.p_base_sheet_mm, (cell.yaw_deg, 0.0, 0.0))}",  # A: about the base z
         f"DECL INT N_PATH={n}",
         f"DECL POS P_PATH[{n}]",
         *(f"P_PATH[{i}]={_frame(p, abc)}" for i, p in enumerate(path.points_mm, start=1)),

@@ -31,7 +31,8 @@ def write(path: ProgramPath, out: Path, protect: Sequence[Path] = ()) -> list[Pa
     position = f".{POSITION_DECIMALS}f"
     formats = {"x_mm": position, "y_mm": position, "z_mm": position, "feed_mm_s": ".3f"}
     comment = (
-        f"tx200-twin export of {path.source.name}: sheet frame, origin in the robot base {origin} mm; "
+        f"tx200-twin export of {path.source.name}: sheet frame, origin in the robot base {origin} mm, "
+        f"yaw {fmt(path.cell.yaw_deg, 3)} deg about the base z; "
         f"tool length {fmt(path.cell.tool_length_mm)} mm"
     )
     return [

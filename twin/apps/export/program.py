@@ -4,7 +4,9 @@ The path CSV (`t_s, x_mm, y_mm, z_mm, ...`, sheet frame: `tx200-twin path` or `c
 with the run format's reader. Each point's feed is the speed of the straight move that reaches it
 (|Δp| / Δt of the path's own time stamps). The tool is the TX200's ISF tool: straight, `tool_length_mm`
 along the flange z axis, pointing down while forming; the sheet frame's origin in the robot base frame
-comes from the cell model (`Kinematics.p_base_sheet_origin`, axes parallel to the base).
+comes from the cell model (`Kinematics.p_base_sheet_origin`, axes parallel to the base) or from a placement
+(`twin.process.placement.Placement`: an origin and a yaw about the base z axis, which each format writes as the
+sheet frame's rotation rz / A / quaternion / G68).
 
 Rotation conventions (for the orientation of a frame R):
 - Stäubli VAL3 (rx, ry, rz): R = Rx(rx) · Ry(ry) · Rz(rz).
@@ -22,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from twin.errors import InputError
+from twin.process.placement import Placement
 from twin.robot.dh import TOOL_LENGTH_M
 from twin.robot.kinematics import Kinematics
 from twin.runs.read import read_commanded_csv
@@ -35,16 +38,18 @@ class CellSetup:
     """Where the program's frame and tool are.
 
     Attributes:
-        p_base_sheet_mm: Sheet frame origin in the robot base frame [mm] (axes parallel to the base).
+        p_base_sheet_mm: Sheet frame origin in the robot base frame [mm].
         R_sheet_tool: Tool axes in the sheet frame (z along the tool, pointing down for ISF).
         tool_length_mm: Flange to tool tip along the flange z axis [mm].
         tool_mass_kg: Tool mass for controllers that need load data [kg].
+        yaw_deg: Rotation of the sheet frame about the base z axis [deg] (0: axes parallel to the base).
     """
 
     p_base_sheet_mm: np.ndarray
     R_sheet_tool: np.ndarray
     tool_length_mm: float
     tool_mass_kg: float = 1.0
+    yaw_deg: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -66,10 +71,24 @@ class ProgramPath:
     source: Path
 
 
-def default_cell(tool_mass_kg: float = 1.0) -> CellSetup:
-    """The thesis cell: sheet origin and vertical tool from the MuJoCo scene, the TX200's tool length."""
+def default_cell(tool_mass_kg: float = 1.0, placement: Placement | None = None) -> CellSetup:
+    """The thesis cell: sheet origin and vertical tool from the MuJoCo scene, the TX200's tool length.
+
+    Args:
+        tool_mass_kg: Tool mass [kg].
+        placement: Where the sheet lies (origin, yaw); None: the scene's `sheet_origin`, yaw 0. The tool keeps the
+            twin's orientation in the base (`Kinematics.R_tool_down`), written in the turned sheet frame.
+    """
     kin = Kinematics()
-    return CellSetup(kin.p_base_sheet_origin * 1e3, kin.R_tool_down.copy(), TOOL_LENGTH_M * 1e3, tool_mass_kg)
+    place = placement or Placement()
+    R_base_sheet = place.R_base_sheet
+    return CellSetup(
+        place.origin_in(kin) * 1e3,
+        R_base_sheet.T @ kin.R_tool_down,
+        TOOL_LENGTH_M * 1e3,
+        tool_mass_kg,
+        math.degrees(place.yaw_rad),
+    )
 
 
 def program_name(text: str) -> str:

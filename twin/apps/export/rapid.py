@@ -8,6 +8,7 @@ Orientations are unit quaternions [q1, q2, q3, q4] = [w, x, y, z].
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 
@@ -25,6 +26,8 @@ def module_text(path: ProgramPath) -> str:
     """The module's text."""
     cell, n = path.cell, len(path.points_mm)
     q = _vec(quaternion_wxyz(cell.R_sheet_tool), QUATERNION_DECIMALS)
+    half = math.radians(cell.yaw_deg) / 2.0
+    q_sheet = _vec((math.cos(half), 0.0, 0.0, math.sin(half)), QUATERNION_DECIMALS)  # the yaw about the base z
     points = ",\n    ".join(f"[{_vec(p, 4)},{q},[0,0,0,0],[9E9,9E9,9E9,9E9,9E9,9E9]]" for p in path.points_mm)
     speeds = ",\n    ".join(f"[{fmt(v, 3)},500,5000,1000]" for v in path.feed_mm_s)
     lines = [
@@ -32,7 +35,7 @@ def module_text(path: ProgramPath) -> str:
         f"  ! tx200-twin export of {path.source.name}: {n} points, sheet frame (work object wSheet)",
         f"  PERS tooldata tIsf:=[TRUE,[[0,0,{fmt(cell.tool_length_mm)}],[1,0,0,0]],"
         f"[{fmt(cell.tool_mass_kg, 3)},[0,0,{fmt(cell.tool_length_mm / 2)}],[1,0,0,0],0,0,0]];",
-        f'  PERS wobjdata wSheet:=[FALSE,TRUE,"",[{_vec(cell.p_base_sheet_mm, 4)},[1,0,0,0]],'
+        f'  PERS wobjdata wSheet:=[FALSE,TRUE,"",[{_vec(cell.p_base_sheet_mm, 4)},{q_sheet}],'
         "[[0,0,0],[1,0,0,0]]];",
         f"  CONST num nPath:={n};",
         f"  CONST robtarget pPath{{{n}}}:=[\n    {points}];",

@@ -70,7 +70,7 @@ def application_files(path: ProgramPath) -> dict[str, str]:
     ]
     approach = f'accel="100" vel="{APPROACH_VEL_PERCENT}" decel="100" tmax="250" rmax="45" blend="off" leave="50" reach="50"'
     datas = [
-        _data("fSheet", "frame", [f'{_pose(cell.p_base_sheet_mm, (0, 0, 0))} fatherId="world[0]"']),
+        _data("fSheet", "frame", [f'{_pose(cell.p_base_sheet_mm, (0, 0, cell.yaw_deg))} fatherId="world[0]"']),
         _data(
             "tIsf",
             "tool",
