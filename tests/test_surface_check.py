@@ -10,6 +10,7 @@ import pytest
 
 from twin.analysis.surface_check import read_target_mesh, surface_deviation
 from twin.errors import DataFileError, InputError
+from twin.process.part_bottom import with_floating_bottom
 from twin.process.part_surface import heightmap_mesh, surface_points, target_part_surface
 from twin.process.shapes import PartSpec, part_path
 from twin.runs.format import Run, Stream
@@ -89,3 +90,37 @@ def test_part_scan_round_trips_through_the_run_format(tmp_path: Path):
     np.testing.assert_allclose(back.part_scan, scan, atol=1e-6)
     with pytest.raises(InputError, match="part_scan"):
         Run(None, meta, Stream(t, p), Stream(t, p), None, None, scan[:, :2])
+
+
+def _ring_part(turns: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """A trench 2 mm deep along a circle of 10 mm radius (what a z-level contour forms), the tips that formed it."""
+    x = np.arange(-0.02, 0.02 + 1e-12, 5e-4)
+    X, Y = np.meshgrid(x, x)
+    r = np.hypot(X, Y)
+    z = np.where(np.abs(r - 0.01) < 0.003, -0.002, 0.0)
+    phi = np.linspace(0.0, 2.0 * np.pi * turns, 400)
+    track = np.column_stack([0.01 * np.cos(phi), 0.01 * np.sin(phi), np.full_like(phi, -0.002)])
+    return x, x, z, track
+
+
+def test_the_unsupported_bottom_inside_the_last_contour_hangs_at_its_depth():
+    x, y, z, track = _ring_part(turns=1.2)
+    out = with_floating_bottom(x, y, z, track, 5e-5)
+    centre = (len(y) // 2, len(x) // 2)
+    assert z[centre] == 0.0 and out[centre] == pytest.approx(-0.002)  # the plate moved down with the contour
+    assert out[0, 0] == 0.0  # the sheet outside, held by the clamp, stays
+    np.testing.assert_array_equal(out[z < 0.0], z[z < 0.0])  # the formed wall is unchanged
+    # a contour that never closes (half a turn) holds nothing up: nothing moves
+    x, y, z, track = _ring_part(turns=0.5)
+    z_open = z.copy()
+    z_open[:, : len(x) // 2] = 0.0  # an arc, not a ring: the inside is connected to the sheet outside
+    np.testing.assert_array_equal(with_floating_bottom(x, y, z_open, track, 5e-5), z_open)
+
+
+def test_a_cones_target_has_its_bottom_at_the_last_contours_depth():
+    path = part_path(PartSpec(shape="cone", top_half_width_m=0.02, depth_m=0.005))
+    x, y, z = target_part_surface(path)
+    centre = z[np.argmin(np.abs(y)), np.argmin(np.abs(x))]
+    wall_bottom = z[np.argmin(np.abs(y)), np.argmin(np.abs(x - 0.015))]  # under the last contour (45°: 20 - 5)
+    assert centre < -0.6 * 0.005  # not at the flat sheet's height: the plate went down with the tool
+    assert centre == pytest.approx(wall_bottom, abs=3e-4)

@@ -7,7 +7,8 @@ after unclamping, e.g. a fringe-projection scanner) and compared with the target
   the height-map ISF model (`twin.process.isf_force`) driven along the path without deflection. It is the
   target for a check of the *forming*, as the ideal path is for the tool path.
 * `formed_surface(field)`: the surface a force field with a height map (`IsfForceField`) has formed, after
-  the tool has left; None for a field without one (the groove's table field keeps a centre line only).
+  the tool has left, its unsupported bottom lowered with the last contour (`twin.process.part_bottom`); None for
+  a field without one (the groove's table field keeps a centre line only).
 * `surface_points(...)`: grid nodes of a surface over the formed region and a margin, every `spacing_m`:
   what a scan gives (the labs add their own scanner noise).
 * `heightmap_mesh(...)`: a triangulated surface (`trimesh.Trimesh`), e.g. to write the target as an STL.
@@ -22,6 +23,7 @@ import trimesh
 
 from twin.errors import InputError
 from twin.process.isf_force import IsfForceField, IsfForceParams
+from twin.process.part_bottom import with_floating_bottom
 from twin.process.path import ToolPath
 
 SCAN_SPACING_M = 1e-3  # a scan's point spacing [m]
@@ -41,8 +43,11 @@ def formed_surface(field: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray] | No
     height_map = getattr(field, "map", None)
     if height_map is None or not hasattr(field, "k_unload"):
         return None
+    x, y = np.asarray(height_map.x_m, dtype=float), np.asarray(height_map.y_m, dtype=float)
     z = height_map.unloaded_z_m(field.k_unload)
-    return np.asarray(height_map.x_m, dtype=float), np.asarray(height_map.y_m, dtype=float), z
+    if len(height_map.track_m) >= 3:  # the unsupported bottom inside the last contour moves down with it
+        z = with_floating_bottom(x, y, z, height_map.track_m, FORMED_BELOW_M)
+    return x, y, z
 
 
 def target_part_surface(
