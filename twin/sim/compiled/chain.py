@@ -56,6 +56,7 @@ class ChainArrays(NamedTuple):
     sub_m: np.ndarray  # scratch (nbody,)
     sub_mc: np.ndarray  # scratch (nbody, 3)
     rot: np.ndarray  # scratch (2, 3, 3)
+    pw: np.ndarray  # scratch (3,): the site in the base frame
 
 
 def _quat_mat(quat: np.ndarray) -> np.ndarray:
@@ -129,6 +130,7 @@ def chain_arrays(
         sub_m=np.zeros(nb),
         sub_mc=np.zeros((nb, 3)),
         rot=np.zeros((2, 3, 3)),
+        pw=np.zeros(3),
     )
 
 
@@ -183,7 +185,7 @@ def chain_eval(c: ChainArrays, q: np.ndarray, p: np.ndarray, jac: np.ndarray, g:
                     xmat[b, r, s] = new[r, s]
                 xpos[b, r] = c.xanchor[d, r] - (new[r, 0] * jp[0] + new[r, 1] * jp[1] + new[r, 2] * jp[2])
     sb = c.site_body
-    pw = np.empty(3)  # the site in the base frame
+    pw = c.pw  # the site in the base frame
     for r in range(3):
         pw[r] = (
             xpos[sb, r]
