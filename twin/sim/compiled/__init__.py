@@ -4,11 +4,17 @@
 hinges (`chain.chain_arrays`) and the field is the table `SheetForceField`, bare or inside the tool's
 `SlidingFriction`; it returns None otherwise and the twin runs its Python loop, which calls MuJoCo per Newton
 iteration. Both give the same equilibria (`tests/test_compiled_replay.py`: ≤ 1e-9 m).
+
+The kernels are compiled on their first call and cached in this package's `__pycache__` (numba `cache=True`).
+numba re-validates a cached kernel against its own source file only, not against the files of the kernels it
+calls, so `_drop_stale_kernels` clears the whole cache when any kernel source changed.
 """
 
 from __future__ import annotations
 
+import hashlib
 import warnings
+from pathlib import Path
 from typing import Any
 
 import mujoco
@@ -21,6 +27,28 @@ from twin.sim.compiled.field import field_arrays
 from twin.sim.compiled.loop import replay_loop
 from twin.sim.compiled.work import work_arrays
 from twin.sim.result import LoopOutput
+
+KERNEL_SOURCES = ("chain.py", "field.py", "loop.py", "work.py")
+
+
+def _drop_stale_kernels() -> None:
+    """Delete the cached kernels when the sources they were compiled from changed (best effort)."""
+    here = Path(__file__).parent
+    digest = hashlib.sha256(b"".join((here / name).read_bytes() for name in KERNEL_SOURCES)).hexdigest()
+    cache = here / "__pycache__"
+    stamp = cache / "kernels.sha256"
+    try:
+        if stamp.is_file() and stamp.read_text() == digest:
+            return
+        for stale in [*cache.glob("*.nbi"), *cache.glob("*.nbc")]:
+            stale.unlink(missing_ok=True)
+        cache.mkdir(exist_ok=True)
+        stamp.write_text(digest)
+    except OSError:  # a read-only install: numba keeps its own per-file check
+        return
+
+
+_drop_stale_kernels()
 
 #: Samples of every compiled replay whose tool tips (loaded and unloaded) MuJoCo recomputes from the poses.
 CHECKED_SAMPLES = 8
