@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import mujoco
 import numpy as np
 import pytest
@@ -172,3 +174,29 @@ def test_a_yawed_and_shifted_sheet_replays_in_its_own_frame(first_pass_path: tup
     np.testing.assert_allclose(p_sheet, fast.p_sheet_m[-1], rtol=0.0, atol=1e-12)
     gap = np.abs(fast.deflection_sheet_m - default.deflection_sheet_m).max()
     assert gap > 1e-4, f"the yaw changed the deflection by only {gap * 1e3:.3f} mm"
+
+
+def test_an_edited_kernel_source_drops_every_cached_kernel(tmp_path: Path) -> None:
+    """numba checks a cached kernel against its own file only; a change in any kernel file must drop them all."""
+    import shutil
+
+    import twin.sim.compiled as compiled
+
+    here = Path(compiled.__file__).parent
+    for name in compiled.KERNEL_SOURCES:
+        shutil.copy(here / name, tmp_path / name)
+    cache = tmp_path / "__pycache__"
+    cache.mkdir()
+    cached = [cache / "loop.replay_loop-1.py311.nbi", cache / "loop.replay_loop-1.py311.1.nbc"]
+    for path in cached:
+        path.write_bytes(b"kernel")
+    assert compiled.drop_stale_kernels(tmp_path)  # no stamp yet: dropped
+    assert not any(path.exists() for path in cached)
+    for path in cached:
+        path.write_bytes(b"kernel")
+    assert not compiled.drop_stale_kernels(tmp_path)  # sources unchanged: kept
+    assert all(path.exists() for path in cached)
+    with (tmp_path / "chain.py").open("a") as source:
+        source.write("\n# an edit of the chain, which the loop's cached kernel inlined\n")
+    assert compiled.drop_stale_kernels(tmp_path)
+    assert not any(path.exists() for path in cached)

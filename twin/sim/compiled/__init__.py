@@ -7,7 +7,7 @@ iteration. Both give the same equilibria (`tests/test_compiled_replay.py`: ≤ 1
 
 The kernels are compiled on their first call and cached in this package's `__pycache__` (numba `cache=True`).
 numba re-validates a cached kernel against its own source file only, not against the files of the kernels it
-calls, so `_drop_stale_kernels` clears the whole cache when any kernel source changed.
+calls, so `drop_stale_kernels` clears the whole cache when any kernel source changed.
 """
 
 from __future__ import annotations
@@ -31,24 +31,28 @@ from twin.sim.result import LoopOutput
 KERNEL_SOURCES = ("chain.py", "field.py", "loop.py", "work.py")
 
 
-def _drop_stale_kernels() -> None:
-    """Delete the cached kernels when the sources they were compiled from changed (best effort)."""
-    here = Path(__file__).parent
+def drop_stale_kernels(here: Path = Path(__file__).parent) -> bool:
+    """Delete the cached kernels in `here/__pycache__` when the sources they were compiled from changed.
+
+    Returns:
+        True when the cache was dropped (a first run counts), False when it was current or cannot be written.
+    """
     digest = hashlib.sha256(b"".join((here / name).read_bytes() for name in KERNEL_SOURCES)).hexdigest()
     cache = here / "__pycache__"
     stamp = cache / "kernels.sha256"
     try:
         if stamp.is_file() and stamp.read_text() == digest:
-            return
+            return False
         for stale in [*cache.glob("*.nbi"), *cache.glob("*.nbc")]:
             stale.unlink(missing_ok=True)
         cache.mkdir(exist_ok=True)
         stamp.write_text(digest)
     except OSError:  # a read-only install: numba keeps its own per-file check
-        return
+        return False
+    return True
 
 
-_drop_stale_kernels()
+drop_stale_kernels()
 
 #: Samples of every compiled replay whose tool tips (loaded and unloaded) MuJoCo recomputes from the poses.
 CHECKED_SAMPLES = 8
