@@ -107,14 +107,22 @@ def test_compiled_loop_matches_on_every_model_and_field_variant(case: str) -> No
     _assert_same(*_both(twin, t_s, p_cmd))
 
 
-def test_isf_field_and_out_of_range_passes_fall_back_to_the_python_loop() -> None:
+def test_other_fields_and_out_of_range_passes_fall_back_to_the_python_loop() -> None:
     twin = Twin()
     path = groove_path()
     q_nom = np.zeros((3, twin.model.nv))
     args = (np.array([1, 1, 1]), np.array([1, 1, 1]), np.zeros(3), np.ones(6), np.eye(6), True)
-    assert compiled_replay(twin.model, twin.model.site("tcp").id, IsfForceField(), q_nom, *args) is None
+    site = twin.model.site("tcp").id
+
+    class OwnField(SheetForceField):  # a user's field: its own methods, so the Python loop calls them
+        pass
+
+    assert compiled_replay(twin.model, site, OwnField(default_force_history()), q_nom, *args) is None
+    used = IsfForceField()
+    used.advance(np.array([0.0, 0.0, -1e-4]))  # a field already formed: the compiled loop starts flat
+    assert compiled_replay(twin.model, site, used, q_nom, *args) is None
     beyond = (np.array([1, 2, 99]), *args[1:])
-    assert compiled_replay(twin.model, twin.model.site("tcp").id, twin.field, q_nom, *beyond) is None
+    assert compiled_replay(twin.model, site, twin.field, q_nom, *beyond) is None
     assert SheetForceField(default_force_history()).n_passes == int(path.pass_index.max())
 
 
@@ -200,3 +208,35 @@ def test_an_edited_kernel_source_drops_every_cached_kernel(tmp_path: Path) -> No
         source.write("\n# an edit of the chain, which the loop's cached kernel inlined\n")
     assert compiled.drop_stale_kernels(tmp_path)
     assert not any(path.exists() for path in cached)
+
+
+def test_the_height_map_isf_model_replays_compiled_to_the_python_loops_equilibria() -> None:
+    """A cone on the ISF model (any part): same tips and forces, and the field is left as the Python loop leaves
+    it (track, pending commits, travel direction, wall angle), so the part's surface after the run is the same."""
+    from twin.process.isf_calibration import isf_field_factory
+    from twin.process.part_surface import formed_surface
+    from twin.process.shapes import PartSpec, part_path
+
+    path = part_path(PartSpec(depth_m=3e-3, top_half_width_m=15e-3))
+    twin = Twin(field_factory=isf_field_factory())
+    fast = twin.simulate(path.t_s, path.p_sheet_m)
+    assert twin.last_loop_compiled
+    field = twin.sheet_field
+    state = (field._dir, field._alpha, field._last, field._last_step, field.map._s, len(field.map._queue))
+    surface = formed_surface(field)
+    twin.use_compiled_loop = False
+    try:
+        reference = twin.simulate(path.t_s, path.p_sheet_m, q_ik=fast.q_ik)
+    finally:
+        twin.use_compiled_loop = True
+    # the first two samples touch the flat sheet at Δh = 0, the kink of the force law: the gain's stiffness there
+    # takes either side with a 1e-16 m rounding of the tip
+    _assert_same(fast, reference, gain_from=2)
+    assert np.ptp(fast.f_sheet_n[:, 1]) > 100.0  # the in-plane force turns with the contour
+    assert state[5] > 0 and state[5] == len(field.map._queue)  # commits still within the lag when the run ended
+    np.testing.assert_allclose(state[0], field._dir, rtol=0.0, atol=1e-9)
+    assert state[1] == pytest.approx(field._alpha, abs=1e-9)
+    np.testing.assert_allclose(state[2], field._last, rtol=0.0, atol=1e-12)
+    assert state[3] == pytest.approx(field._last_step, abs=1e-12) and state[4] == pytest.approx(field.map._s, abs=1e-9)
+    assert surface is not None
+    np.testing.assert_allclose(surface[2], formed_surface(field)[2], rtol=0.0, atol=1e-12)  # type: ignore[index]

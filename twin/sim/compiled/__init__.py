@@ -1,9 +1,9 @@
 """The twin's replay loop in compiled code (numba): MuJoCo's chain parameters, the table field, the same solver.
 
 `compiled_replay` runs `Twin.simulate`'s per-sample loop in one compiled call when the model is a chain of
-hinges (`chain.chain_arrays`) and the field is the table `SheetForceField`, bare or inside the tool's
-`SlidingFriction`; it returns None otherwise and the twin runs its Python loop, which calls MuJoCo per Newton
-iteration. Both give the same equilibria (`tests/test_compiled_replay.py`: ≤ 1e-9 m).
+hinges (`chain.chain_arrays`) and the field is the table `SheetForceField` (bare or inside the tool's
+`SlidingFriction`) or the height-map ISF model `IsfForceField` (`isf`); it returns None otherwise and the twin
+runs its Python loop, which calls MuJoCo per Newton iteration. Both give the same equilibria (`tests/test_compiled_replay.py`: ≤ 1e-9 m).
 
 The kernels are compiled on their first call and cached in this package's `__pycache__` (numba `cache=True`).
 numba re-validates a cached kernel against its own source file only, not against the files of the kernels it
@@ -21,14 +21,16 @@ import mujoco
 import numpy as np
 
 from twin.process.field import SheetForceField
+from twin.process.isf_force import IsfForceField
 from twin.process.tool_friction import SlidingFriction
 from twin.sim.compiled.chain import chain_arrays
-from twin.sim.compiled.field import field_arrays
+from twin.sim.compiled.field import field_arrays, idle_field_arrays
+from twin.sim.compiled.isf import idle_isf_arrays, isf_arrays, write_back
 from twin.sim.compiled.loop import replay_loop
 from twin.sim.compiled.work import work_arrays
 from twin.sim.result import LoopOutput
 
-KERNEL_SOURCES = ("chain.py", "field.py", "loop.py", "work.py")
+KERNEL_SOURCES = ("chain.py", "field.py", "isf.py", "loop.py", "work.py")
 
 
 def drop_stale_kernels(here: Path = Path(__file__).parent) -> bool:
@@ -93,7 +95,7 @@ def compiled_replay(
     Args:
         model: The twin's model (its current springs and `dof_frictionloss`).
         tcp_site: Id of the `tcp` site.
-        field: The twin's field, reset (`SheetForceField`, optionally inside `SlidingFriction`).
+        field: The twin's field, reset: `SheetForceField` (optionally inside `SlidingFriction`) or `IsfForceField`.
         q_nominal: Unloaded poses (all joints) [rad], shape (n, nv).
         passes, dirs: Pass (1..N of the field's history) and direction (+1/-1) per sample.
         origin: Sheet origin in the base frame [m].
@@ -110,29 +112,41 @@ def compiled_replay(
     """
     friction = isinstance(field, SlidingFriction)
     inner = field.inner if friction else field
-    if type(inner) is not SheetForceField:
+    n, nv = q_nominal.shape
+    passes = np.asarray(passes, dtype=np.int64)
+    isf = None
+    if type(inner) is IsfForceField and not friction:
+        isf = isf_arrays(inner, n)
+        if isf is None:
+            return None
+        table = idle_field_arrays()
+    elif type(inner) is SheetForceField:
+        if passes.min() < 1 or passes.max() > inner.n_passes or np.any(np.diff(passes) < 0):
+            return None  # the Python loop raises the field's own error
+        table = field_arrays(inner)
+    else:
         return None
     rot = np.eye(3) if R_base_sheet is None else np.asarray(R_base_sheet, dtype=float)
     chain = chain_arrays(model, tcp_site, origin, rot)
     if chain is None:
         return None
-    passes = np.asarray(passes, dtype=np.int64)
-    if passes.min() < 1 or passes.max() > inner.n_passes or np.any(np.diff(passes) < 0):
-        return None  # the Python loop raises the field's own error
-    n, nv = q_nominal.shape
     qpos, p_out, p_unloaded, f_out = np.zeros((n, nv)), np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3))
     iters = np.zeros(n, dtype=np.int64)
     jac, stiffness, state = np.zeros((n, 3, nv)), np.zeros((n, 3, 3)), np.zeros(4)
     gain = 2.0 / field.reversal_m if friction else 0.0
     status, sample = replay_loop(
-        chain, field_arrays(inner), np.ascontiguousarray(q_nominal, dtype=float), passes,
+        chain, table, idle_isf_arrays() if isf is None else isf, np.int64(0 if isf is None else 1),  # type: ignore[arg-type]
+        np.ascontiguousarray(q_nominal, dtype=float), passes,
         np.asarray(dirs, dtype=np.int64), np.asarray(k_diag, dtype=float),
         np.ascontiguousarray(h_const, dtype=float), model.dof_frictionloss.copy(), bool(predict_active_set),
         friction, float(gain), qpos, p_out, p_unloaded, f_out, iters, jac, stiffness, state, work_arrays(nv),
     )
+    if isf is not None:
+        write_back(inner, isf)
     if status == 1:
         raise np.linalg.LinAlgError(f"singular Newton matrix at sample {sample}, q = {qpos[max(sample - 1, 0)]!r}")
-    inner.current_pass = int(state[0])
+    if isf is None:
+        inner.current_pass = int(state[0])
     if friction and n:
         field.slip_state = (float(state[1]), float(state[2]), int(state[3]))
     out = LoopOutput(qpos, p_out, p_unloaded, f_out, iters, jac, stiffness)

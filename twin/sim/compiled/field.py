@@ -63,6 +63,14 @@ def field_arrays(field: SheetForceField) -> FieldArrays:
     )
 
 
+def idle_field_arrays() -> FieldArrays:
+    """A placeholder of the right types for a replay on another field (never read)."""
+    z = np.zeros((1, 2))
+    one = np.ones(1)
+    return FieldArrays(z, z, z, one, one, np.full(1, 2, dtype=np.int64), np.ones(1, dtype=np.int64), np.zeros(2),
+                       np.zeros(2), np.array([0.0, 1.0, 2.0, 1.0]), np.array([1.0, 1.0, 1.0, 5.0]))
+
+
 @njit(cache=True)
 def _lerp_slope(table: np.ndarray, x0: float, dx: float, n: int, x: float) -> tuple[float, float]:
     u = (x - x0) / dx

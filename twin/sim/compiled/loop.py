@@ -22,6 +22,7 @@ from numba import njit
 
 from twin.sim.compiled.chain import ChainArrays, chain_eval
 from twin.sim.compiled.field import FieldArrays, field_advance, field_eval, field_force
+from twin.sim.compiled.isf import IsfArrays, isf_advance, isf_eval
 from twin.sim.compiled.work import Work, solve_linear
 
 NEWTON_TOL_RAD = 1e-7
@@ -32,14 +33,19 @@ FRICTION_MAX_ROUNDS = 6
 
 @njit(cache=True)
 def _sheet(
-    F: FieldArrays, cur: int, mode: int, slip: float, x_prev: float, gain: float, x: float, z: float,
-    pass_index: int, direction: int, f: np.ndarray, S: np.ndarray,
+    F: FieldArrays, M: IsfArrays, kind: int, cur: int, mode: int, slip: float, x_prev: float, gain: float,
+    p: np.ndarray, pass_index: int, direction: int, f: np.ndarray, S: np.ndarray,
 ) -> float:
-    """The sheet's force `f` and ∂f/∂p `S` at the tip; mode 0 sliding along `direction`, 1 in the stick band.
+    """The sheet's force `f` and ∂f/∂p `S` at the tip `p`: the ISF model (`kind` 1), or the table field (0)
+    sliding along `direction` (mode 0) or in the stick band (mode 1).
 
     Returns:
         The sticking part of dFx/dx [N/m] (0 when sliding).
     """
+    if kind == 1:
+        isf_eval(M, p[0], p[1], p[2], f, S)
+        return 0.0
+    x, z = p[0], p[2]
     if mode == 0:
         fx, fz, fx_x, fx_z, fz_x, fz_z = field_eval(F, cur, x, z, pass_index, direction)
         stick = 0.0
@@ -57,7 +63,7 @@ def _sheet(
 
 @njit(cache=True)
 def _newton(
-    C: ChainArrays, F: FieldArrays, cur: int, mode: int, slip: float, x_prev: float, gain: float,
+    C: ChainArrays, F: FieldArrays, M: IsfArrays, kind: int, cur: int, mode: int, slip: float, x_prev: float, gain: float,
     pass_index: int, direction: int, q: np.ndarray, q_ref: np.ndarray, k_diag: np.ndarray,
     h_const: np.ndarray, use_stick: bool, stuck: np.ndarray, e_stuck: np.ndarray, tau_fr: np.ndarray,
     choose: bool, tau_f: np.ndarray, jac: np.ndarray, S: np.ndarray, W: Work,
@@ -76,7 +82,7 @@ def _newton(
     it = 0
     for it in range(1, NEWTON_MAX_ITER + 1):
         chain_eval(C, q, p, jac, g)
-        stick = _sheet(F, cur, mode, slip, x_prev, gain, p[0], p[2], pass_index, direction, f, S)
+        stick = _sheet(F, M, kind, cur, mode, slip, x_prev, gain, p, pass_index, direction, f, S)
         for j in range(nv):
             jtf[j] = jac[0, j] * f[0] + jac[1, j] * f[1] + jac[2, j] * f[2]
             for row in range(3):
@@ -119,7 +125,7 @@ def _newton(
 
 @njit(cache=True)
 def _equilibrium(
-    C: ChainArrays, F: FieldArrays, cur: int, mode: int, slip: float, x_prev: float, gain: float,
+    C: ChainArrays, F: FieldArrays, M: IsfArrays, kind: int, cur: int, mode: int, slip: float, x_prev: float, gain: float,
     pass_index: int, direction: int, q: np.ndarray, q_ref: np.ndarray, k_diag: np.ndarray,
     h_const: np.ndarray, e_prev: np.ndarray, tau_f: np.ndarray, predict: bool, jac: np.ndarray, S: np.ndarray,
     W: Work,
@@ -135,7 +141,7 @@ def _equilibrium(
             frictional = True
     NO = np.bool_(False)
     if not frictional:
-        return _newton(C, F, cur, mode, slip, x_prev, gain, pass_index, direction, q, q_ref, k_diag,
+        return _newton(C, F, M, kind, cur, mode, slip, x_prev, gain, pass_index, direction, q, q_ref, k_diag,
                        h_const, NO, stuck, e_prev, tau_fr, NO, tau_f, jac, S, W)
     if predict:
         for j in range(nv):
@@ -146,7 +152,7 @@ def _equilibrium(
     total = 0
     stick = 0.0
     for _ in range(FRICTION_MAX_ROUNDS):
-        k, status, stick = _newton(C, F, cur, mode, slip, x_prev, gain, pass_index, direction, q, q_ref,
+        k, status, stick = _newton(C, F, M, kind, cur, mode, slip, x_prev, gain, pass_index, direction, q, q_ref,
                                    k_diag, h_const, YES, stuck, e_prev, tau_fr, choose, tau_f, jac, S, W)
         total += k
         if status != 0:
@@ -172,7 +178,7 @@ def _equilibrium(
 
 @njit(cache=True)
 def replay_loop(
-    C: ChainArrays, F: FieldArrays, q_nominal: np.ndarray, passes: np.ndarray, dirs: np.ndarray,
+    C: ChainArrays, F: FieldArrays, M: IsfArrays, kind: int, q_nominal: np.ndarray, passes: np.ndarray, dirs: np.ndarray,
     k_diag: np.ndarray, h_const: np.ndarray, tau_f: np.ndarray, predict: bool,
     friction: bool, gain: float, qpos_out: np.ndarray, p_out: np.ndarray, p_unloaded: np.ndarray,
     f_out: np.ndarray, iters: np.ndarray, jac_out: np.ndarray, s_out: np.ndarray, state: np.ndarray, W: Work,
@@ -199,6 +205,8 @@ def replay_loop(
     e_prev = np.empty(nv)
     q = np.empty(nv)
     q_try = np.empty(nv)
+    f_eq, S_eq = np.empty(3), np.empty((3, 3))
+    fy = 0.0
     cur, ZERO, ONE = np.int64(0), np.int64(0), np.int64(1)  # typed, not literal: one compiled version each
     slip, x_prev, first_dir = 0.0, 0.0, 0
     for i in range(n):
@@ -218,7 +226,7 @@ def replay_loop(
         stick = 0.0
         if not friction or i == 0:
             q_try[:] = q
-            k, status, stick = _equilibrium(C, F, cur, ZERO, slip, x_prev, gain, pi, di, q_try, q_ref, k_diag,
+            k, status, stick = _equilibrium(C, F, M, kind, cur, ZERO, slip, x_prev, gain, pi, di, q_try, q_ref, k_diag,
                                             h_const, e_prev, tau_f, predict, jac, S, W)
             total += k
             if status != 0:
@@ -233,7 +241,7 @@ def replay_loop(
                 mode = ONE if regime == 0.0 else ZERO
                 sign = di if attempt == 0 else -di
                 q_try[:] = q
-                k, status, stick = _equilibrium(C, F, cur, mode, slip, x_prev, gain, pi, sign, q_try, q_ref,
+                k, status, stick = _equilibrium(C, F, M, kind, cur, mode, slip, x_prev, gain, pi, sign, q_try, q_ref,
                                                 k_diag, h_const, e_prev, tau_f, predict, jac, S, W)
                 total += k
                 if status != 0:
@@ -246,7 +254,10 @@ def replay_loop(
                     break
         x, z = p[0], p[2]
         # the force at the equilibrium (not in the band: the slip state clipped)
-        if friction and i > 0:
+        if kind == 1:
+            isf_eval(M, x, p[1], z, f_eq, S_eq)
+            fx, fy, fz = f_eq[0], f_eq[1], f_eq[2]
+        elif friction and i > 0:
             s = slip + gain * (x - x_prev)
             s = 1.0 if s >= 1.0 else (-1.0 if s <= -1.0 else s)
             if s == 1.0 or s == -1.0:
@@ -256,7 +267,9 @@ def replay_loop(
                 fx *= s
         else:
             fx, fz = field_force(F, cur, x, z, pi, di)
-        f_out[i, 0], f_out[i, 1], f_out[i, 2] = fx, 0.0, fz
+        if kind != 1:
+            fy = 0.0
+        f_out[i, 0], f_out[i, 1], f_out[i, 2] = fx, fy, fz
         for r in range(3):
             for c in range(3):
                 s_out[i, r, c] = S[r, c]
@@ -266,7 +279,10 @@ def replay_loop(
         if friction:
             slip = float(first_dir) if i == 0 else min(1.0, max(-1.0, slip + gain * (x - x_prev)))
             x_prev = x
-        cur = field_advance(F, cur, x, z, pi)
+        if kind == 1:
+            isf_advance(M, x, p[1], z)
+        else:
+            cur = field_advance(F, cur, x, z, pi)
         for j in range(nv):
             qpos_out[i, j] = q_try[j]
             defl_prev[j] = defl[j]

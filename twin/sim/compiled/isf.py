@@ -1,0 +1,270 @@
+"""The height-map ISF force model in compiled code for the replay loop (any part: cones, pyramids, G-code).
+
+Mirrors `twin.process.isf_force.IsfForceField` (`force_and_stiffness`, `force`, `advance`) and its
+`twin.process.heightmap.HeightMap` (met surface with its lag, owners, track, envelope templates) operation for
+operation; `tests/test_compiled_replay.py` holds the replays together. The map's surface and owner arrays are
+the Python map's own, changed in place; `write_back` returns the rest of the state (track, travel, pending
+commits, travel direction, wall angle) to the Python objects after a replay.
+
+The pending commits (the lag: the sphere's last positions do not yet belong to the surface the tool meets) are
+the track entries from `state[Q_HEAD]` on, as the Python map's queue holds them.
+"""
+
+# mypy: disable-error-code="arg-type, assignment, return-value"
+from __future__ import annotations
+
+import math
+from collections import deque
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+
+from twin.process import isf_force
+from twin.process.heightmap import SUBSTEPS
+from twin.process.isf_force import IsfForceField
+
+# state slots
+DIR_X, DIR_Y, HAS_LAST, LAST_X, LAST_Y, LAST_Z, ALPHA, COUNT, Q_HEAD, TRAVEL = range(10)
+# track columns: x, y, z, f_z, parent, travel at the commit, has a patch on the grid
+TX, TY, TZ, TF, TP, TS, TW = range(7)
+
+
+class IsfArrays(NamedTuple):
+    """An `IsfForceField` and its height map as flat arrays."""
+
+    z_met: np.ndarray  # (ny, nx) met surface [m] (the Python map's array)
+    owner: np.ndarray  # (ny, nx) owner commit, -1 never formed (the Python map's array)
+    templates: np.ndarray  # (S+1, S+1, w, w) R - sqrt(R² - ρ²) per snapped sub-cell offset, inf outside [m]
+    track: np.ndarray  # (capacity, 7) commits
+    grid: np.ndarray  # (x0, y0, h, nx, ny, half window, lag, substeps)
+    prm: np.ndarray  # (base, α_max, D0, Δh_min, k_unload, μ_eff, L_f, alpha length, wall baseline, max layers)
+    state: np.ndarray  # (10,) see the slots above
+
+
+def isf_arrays(field: IsfForceField, capacity: int) -> IsfArrays | None:
+    """Pack a reset `field` for a replay of `capacity` samples; None if it is not fresh (the loop starts flat)."""
+    hm = field.map
+    if len(hm.track_m) or hm._queue:
+        return None
+    m = hm._half_window
+    templates = np.array([[hm._template(bu / SUBSTEPS, bv / SUBSTEPS) for bv in range(SUBSTEPS + 1)]
+                          for bu in range(SUBSTEPS + 1)])
+    p = field.params
+    ny, nx = hm.z_met_m.shape
+    prm = np.array([
+        field._base, field._amax, p.build_up_m, p.step_min_m, p.k_unload_n_per_m, p.mu_eff, p.direction_length_m,
+        isf_force.ALPHA_LENGTH_M, isf_force.WALL_BASELINE_M, float(isf_force._WALL_MAX_LAYERS),
+    ])
+    state = np.zeros(10)
+    state[ALPHA] = field._alpha
+    return IsfArrays(
+        z_met=hm.z_met_m, owner=hm.owner_met, templates=templates, track=np.zeros((max(capacity, 1), 7)),
+        grid=np.array([hm.x0, hm.y0, hm.h, nx, ny, m, hm.lag, SUBSTEPS]), prm=prm, state=state,
+    )
+
+
+def idle_isf_arrays() -> IsfArrays:
+    """A placeholder of the right types for a replay on the table field (never read)."""
+    return IsfArrays(np.zeros((2, 2)), np.full((2, 2), -1, dtype=np.int64), np.zeros((1, 1, 1, 1)), np.zeros((1, 7)),
+                     np.zeros(8), np.zeros(10), np.zeros(10))
+
+
+def write_back(field: IsfForceField, arrays: IsfArrays) -> None:
+    """Hand the state a compiled replay left in `arrays` back to `field` and its map."""
+    hm, st, track = field.map, arrays.state, arrays.track
+    count, head = int(st[COUNT]), int(st[Q_HEAD])
+    hm._track[:] = [(t[TX], t[TY], t[TZ], t[TF], int(t[TP])) for t in track[:count]]
+    hm._s = float(st[TRAVEL])
+    hm._queue = deque()
+    for i in range(head, count):
+        t = track[i]
+        patch = hm._patch(t[TX], t[TY], t[TZ])
+        if patch is not None:
+            hm._queue.append((float(t[TS]), i, *patch))
+    field._dir = (float(st[DIR_X]), float(st[DIR_Y]))
+    field._last = (float(st[LAST_X]), float(st[LAST_Y]), float(st[LAST_Z])) if st[HAS_LAST] else None
+    field._alpha = float(st[ALPHA])
+    if count:
+        last = track[count - 1]
+        field._last_step = 0.0 if count < 2 else math.dist(tuple(track[count - 2, :3]), tuple(last[:3]))
+        field._last_fz = ((float(last[TX]), float(last[TY]), float(last[TZ])), float(last[TF]))
+
+
+@njit(cache=True)
+def _met_height(M: IsfArrays, x: float, y: float) -> tuple:
+    """`HeightMap.met_height`: bilinear value and slopes, clamped at the grid edge."""
+    x0, y0, h, nx, ny = M.grid[0], M.grid[1], M.grid[2], int(M.grid[3]), int(M.grid[4])
+    u = min(max((x - x0) / h, 0.0), nx - 1.000000001)
+    v = min(max((y - y0) / h, 0.0), ny - 1.000000001)
+    i, j = int(u), int(v)
+    fu, fv = u - i, v - j
+    t = M.z_met
+    a, b, c, d = t[j, i], t[j, i + 1], t[j + 1, i], t[j + 1, i + 1]
+    value = (a * (1 - fu) + b * fu) * (1 - fv) + (c * (1 - fu) + d * fu) * fv
+    return value, ((b - a) * (1 - fv) + (d - c) * fv) / h, ((c - a) * (1 - fu) + (d - b) * fu) / h
+
+
+@njit(cache=True)
+def _met_owner(M: IsfArrays, x: float, y: float) -> int:
+    x0, y0, h, nx, ny = M.grid[0], M.grid[1], M.grid[2], int(M.grid[3]), int(M.grid[4])
+    ix = int((x - x0) / h + 0.5)
+    iy = int((y - y0) / h + 0.5)
+    if 0 <= ix < nx and 0 <= iy < ny and x >= x0 and y >= y0:
+        return M.owner[iy, ix]
+    return -1
+
+
+@njit(cache=True)
+def _fz(M: IsfArrays, x: float, y: float, z: float) -> tuple:
+    """`IsfForceField._fz`: (Fz, dFz/dx, dFz/dy, dFz/dz) [N, N/m]."""
+    base, D0, dmin, k_unload = M.prm[0], M.prm[2], M.prm[3], M.prm[4]
+    s, sx, sy = _met_height(M, x, y)
+    dh = s - z
+    alpha = M.state[ALPHA]
+    depth = max(-z, 0.0)
+    e = math.exp(-depth / D0)
+    build = 1.0 - e
+    dbuild_dz = -e / D0 if z < 0.0 else 0.0
+    g = base * alpha * math.cos(math.radians(alpha))
+    if dh > dmin:
+        f0 = g * (dh * 1e3) ** 0.09
+        lin, dlin_ddh = f0 * build, 0.09 * f0 * build / dh
+    elif dh >= 0.0:
+        f0 = g * (dmin * 1e3) ** 0.09
+        lin, dlin_ddh = f0 * build, 0.0
+    else:
+        f0 = g * (dmin * 1e3) ** 0.09
+        lin, dlin_ddh = f0 * build + k_unload * dh, k_unload
+    dlin_dz = -dlin_ddh + f0 * dbuild_dz
+    w = 5.0  # the softplus width of `twin.process.isf_force`
+    if lin > 30.0 * w:
+        fz, slope = lin, 1.0
+    else:
+        ex = math.exp(lin / w)
+        fz, slope = w * math.log1p(ex), ex / (1.0 + ex)
+    return fz, slope * dlin_ddh * sx, slope * dlin_ddh * sy, slope * dlin_dz
+
+
+@njit(cache=True)
+def _travel(M: IsfArrays, x: float, y: float, jac: np.ndarray) -> tuple:
+    """`IsfForceField._travel`: (vx, vy, has a Jacobian), ∂v/∂(x, y) into `jac` (2, 2)."""
+    st = M.state
+    if st[HAS_LAST] == 0.0:
+        return st[DIR_X], st[DIR_Y], False
+    dx, dy = x - st[LAST_X], y - st[LAST_Y]
+    length = math.hypot(dx, dy)
+    if length < 1e-9:
+        return st[DIR_X], st[DIR_Y], False
+    ex, ey = dx / length, dy / length
+    L = M.prm[6]
+    w = math.exp(-length / L)
+    vx, vy = w * st[DIR_X] + (1.0 - w) * ex, w * st[DIR_Y] + (1.0 - w) * ey
+    dw = -w / L
+    c = (1.0 - w) / length
+    jac[0, 0] = (st[DIR_X] - ex) * dw * ex + c * (1.0 - ex * ex)
+    jac[0, 1] = (st[DIR_X] - ex) * dw * ey - c * ex * ey
+    jac[1, 0] = (st[DIR_Y] - ey) * dw * ex - c * ex * ey
+    jac[1, 1] = (st[DIR_Y] - ey) * dw * ey + c * (1.0 - ey * ey)
+    return vx, vy, True
+
+
+@njit(cache=True)
+def isf_eval(M: IsfArrays, x: float, y: float, z: float, f: np.ndarray, S: np.ndarray) -> None:
+    """`IsfForceField.force_and_stiffness`: the force into `f` (3,) [N] and ∂f/∂p into `S` (3, 3) [N/m]."""
+    fz, gx, gy, gz = _fz(M, x, y, z)
+    jac = np.empty((2, 2))
+    vx, vy, has_jac = _travel(M, x, y, jac)
+    mu = -M.prm[5]
+    S[0, 0], S[0, 1], S[0, 2] = mu * vx * gx, mu * vx * gy, mu * vx * gz
+    S[1, 0], S[1, 1], S[1, 2] = mu * vy * gx, mu * vy * gy, mu * vy * gz
+    S[2, 0], S[2, 1], S[2, 2] = gx, gy, gz
+    if has_jac:
+        for r in range(2):
+            for c in range(2):
+                S[r, c] += (mu * fz) * jac[r, c]
+    f[0], f[1], f[2] = mu * vx * fz, mu * vy * fz, fz
+
+
+@njit(cache=True)
+def _round_half_even(value: float) -> int:
+    """Python's `round` of a float: to the nearest integer, ties to even."""
+    low = math.floor(value)
+    rest = value - low
+    if rest > 0.5 or (rest == 0.5 and low % 2 != 0):
+        return int(low) + 1
+    return int(low)
+
+
+@njit(cache=True)
+def _lower_commit(M: IsfArrays, index: int) -> None:
+    """`_lower` of commit `index`'s sphere into the met surface (its snapped template, clipped at the edge)."""
+    t = M.track[index]
+    x0, y0, h, nx, ny, m, sub = M.grid[0], M.grid[1], M.grid[2], int(M.grid[3]), int(M.grid[4]), int(M.grid[5]), M.grid[7]
+    u, v = (t[TX] - x0) / h, (t[TY] - y0) / h
+    iu, iv = math.floor(u), math.floor(v)
+    bu, bv = _round_half_even((u - iu) * sub), _round_half_even((v - iv) * sub)
+    ix0, iy0 = iu - m, iv - m
+    tpl = M.templates[bu, bv]
+    for r in range(max(iy0, 0), min(iy0 + 2 * m + 2, ny)):
+        for c in range(max(ix0, 0), min(ix0 + 2 * m + 2, nx)):
+            cap = tpl[r - iy0, c - ix0] + t[TZ]
+            if cap < M.z_met[r, c]:
+                M.z_met[r, c] = cap
+                M.owner[r, c] = index
+
+
+@njit(cache=True)
+def _has_patch(M: IsfArrays, x: float, y: float) -> bool:
+    x0, y0, h, nx, ny, m = M.grid[0], M.grid[1], M.grid[2], int(M.grid[3]), int(M.grid[4]), int(M.grid[5])
+    ix0, iy0 = math.floor((x - x0) / h) - m, math.floor((y - y0) / h) - m
+    return min(ix0 + 2 * m + 2, nx) > max(ix0, 0) and min(iy0 + 2 * m + 2, ny) > max(iy0, 0)
+
+
+@njit(cache=True)
+def _wall_angle(M: IsfArrays, owner: int, x: float, y: float, z: float) -> float:
+    """`IsfForceField._wall_angle` [deg]; NaN where nothing is formed."""
+    if owner < 0:
+        return math.nan
+    q = M.track[owner]
+    for _ in range(int(M.prm[9])):
+        if q[TZ] - z >= M.prm[8] or q[TP] < 0:
+            break
+        q = M.track[int(q[TP])]
+    return min(math.degrees(math.atan2(max(q[TZ] - z, 0.0), math.hypot(q[TX] - x, q[TY] - y))), M.prm[1])
+
+
+@njit(cache=True)
+def isf_advance(M: IsfArrays, x: float, y: float, z: float) -> None:
+    """`IsfForceField.advance` (f_z the model's at the tip) with `HeightMap.commit`."""
+    st = M.state
+    f_z = _fz(M, x, y, z)[0]
+    jac = np.empty((2, 2))
+    vx, vy, _ = _travel(M, x, y, jac)
+    st[DIR_X], st[DIR_Y] = vx, vy
+    step = 0.0
+    if st[HAS_LAST] != 0.0:
+        step = math.sqrt((x - st[LAST_X]) ** 2 + (y - st[LAST_Y]) ** 2 + (z - st[LAST_Z]) ** 2)
+    st[HAS_LAST], st[LAST_X], st[LAST_Y], st[LAST_Z] = 1.0, x, y, z
+    owner = _met_owner(M, x, y)
+    alpha = _wall_angle(M, owner, x, y, z)
+    if not math.isnan(alpha):
+        if step > 0.0 and M.prm[7] > 0.0:
+            st[ALPHA] += (1.0 - math.exp(-step / M.prm[7])) * (alpha - st[ALPHA])
+        else:
+            st[ALPHA] = alpha
+    # HeightMap.commit: travel, the track, the pending commits that have left the lag
+    index = int(st[COUNT])
+    if index > 0:
+        last = M.track[index - 1]
+        st[TRAVEL] += math.sqrt((x - last[TX]) ** 2 + (y - last[TY]) ** 2 + (z - last[TZ]) ** 2)
+    row = M.track[index]
+    row[TX], row[TY], row[TZ], row[TF], row[TP], row[TS] = x, y, z, f_z, owner, st[TRAVEL]
+    row[TW] = 1.0 if _has_patch(M, x, y) else 0.0
+    st[COUNT] = index + 1
+    head = int(st[Q_HEAD])
+    while head <= index and st[TRAVEL] - M.track[head, TS] >= M.grid[6]:
+        if M.track[head, TW] != 0.0:
+            _lower_commit(M, head)
+        head += 1
+    st[Q_HEAD] = head
