@@ -185,6 +185,22 @@ def run_benchmarks(
     isf_field = IsfForceField()
     out["isf_field_eval_s"], _ = time_call(lambda: isf_field.rigid_forces(path), repeats)
     out["isf_over_table_field"] = out["isf_field_eval_s"] / out["force_field_eval_s"]
+    # any part on the twin: a 45° cone, 4 mm deep, 40 mm across, on the ISF model, compiled and in Python
+    from twin.process.isf_calibration import isf_field_factory
+    from twin.process.shapes import PartSpec, part_path
+
+    cone = part_path(PartSpec(depth_m=4e-3, top_half_width_m=20e-3))
+    cone_twin = Twin(history=history, field_factory=isf_field_factory())
+    cone_q = cone_twin.simulate(cone.t_s, cone.p_sheet_m).q_ik
+    out["cone_simulate_s"], _ = time_call(lambda: cone_twin.simulate(cone.t_s, cone.p_sheet_m, q_ik=cone_q), repeats)
+    cone_twin.use_compiled_loop = False
+    try:
+        out["cone_simulate_python_loop_s"], _ = time_call(
+            lambda: cone_twin.simulate(cone.t_s, cone.p_sheet_m, q_ik=cone_q), max(1, repeats // 2)
+        )
+    finally:
+        cone_twin.use_compiled_loop = True
+    out["cone_realtime_factor"] = float(cone.t_s[-1] - cone.t_s[0]) / out["cone_simulate_s"]
     # the dynamic lab plant (twin.lab.dynamic, mj_step at 1 kHz with its sensor chain) on the same command
     from twin.lab.dynamic.knobs import Knobs as DynamicKnobs
     from twin.lab.dynamic.run import run_dynamic_lab
@@ -254,6 +270,9 @@ TABLE_ROWS: tuple[tuple[str, str, str], ...] = (
     ("force_field_eval_s", "field rigid_forces (full path)", "s"),
     ("isf_field_eval_s", "ISF height-map field (full path)", "s"),
     ("isf_over_table_field", "  ISF field / table field", "x"),
+    ("cone_simulate_s", "Twin.simulate, 4 mm cone on the ISF model", "s"),
+    ("cone_simulate_python_loop_s", "  the same, Python loop", "s"),
+    ("cone_realtime_factor", "  real-time factor (27 s of machining)", "x"),
     ("gcode_load_s", "G-code import, ~100k moves", "s"),
 )
 
