@@ -60,6 +60,7 @@ from twin.process.gcode import parse_gcode, read_gcode, write_gcode
 from twin.process.heightmap import HeightMap
 from twin.process.isf_calibration import IsfFit, calibrate_isf, isf_field_factory
 from twin.process.isf_force import IsfForceField, IsfForceParams
+from twin.process.part_bottom import with_floating_bottom
 from twin.process.part_surface import formed_surface, heightmap_mesh, surface_points, target_part_surface
 from twin.process.path import GrooveSpec, ToolPath, groove_path, label_passes, write_path_csv
 from twin.process.placement import Placement, ReachReport, check_reach
@@ -68,7 +69,7 @@ from twin.process.tool_friction import SlidingFriction
 from twin.robot.kinematics import HOME_Q_RAD, TOOL_LENGTH_M, Kinematics, load_model
 from twin.robot.model import RobotEffects, build_model
 from twin.robot.pinocchio_model import PinKinematics
-from twin.runs.format import Run, Stream
+from twin.runs.format import Run, Stream, run_placement
 from twin.runs.importer import ImportResult, import_run, import_to_directory
 from twin.runs.mapping import ImportMapping, load_mapping
 from twin.runs.read import read_commanded_csv, read_run
@@ -180,10 +181,12 @@ __all__ = [
     "run_benchmarks",
     "run_dynamic_lab",
     "run_lab",
+    "run_placement",
     "run_sweep",
     "surface_deviation",
     "surface_points",
     "target_part_surface",
+    "with_floating_bottom",
     "write_gcode",
     "write_joint_stiffness",
     "write_model_file",
