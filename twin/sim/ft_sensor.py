@@ -52,7 +52,6 @@ def flange_sensor_forces(
     rot = np.eye(3) if R_base_sheet is None else np.asarray(R_base_sheet, dtype=float)
     force = force @ rot.T  # base frame
     sensor_adr = m.sensor("ft_force").adr[0]
-    out = np.zeros((len(t_s), 3))
     # views into MjData, refreshed by every mj_kinematics / mj_inverse
     sensor = d.sensordata[sensor_adr : sensor_adr + 3]
     R_base_ft = d.site_xmat[ft_site].reshape(3, 3)
@@ -66,21 +65,30 @@ def flange_sensor_forces(
     kinematics, com_pos, post, sensor_acc, inverse = (
         mujoco.mj_kinematics, mujoco.mj_comPos, mujoco.mj_rnePostConstraint, mujoco.mj_sensorAcc, mujoco.mj_inverse
     )
-    for i in range(len(t_s)):
-        d.qpos[:] = qpos[i]
+    n = len(t_s)
+    loaded, tare, R_all = np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3, 3))
+    qpos_view, forces = d.qpos, force.tolist()
+    for i in range(n):
+        qpos_view[:] = qpos[i]
         kinematics(m, d)
         if not full_inverse:
             com_pos(m, d)
         l0, l1, l2 = (tcp_xpos - tool_xipos).tolist()
-        a0, a1, a2 = force[i].tolist()
-        for wrench_i in ((a0, a1, a2, l1 * a2 - l2 * a1, l2 * a0 - l0 * a2, l0 * a1 - l1 * a0), None):
-            wrench[:] = 0.0 if wrench_i is None else wrench_i  # lever x force; then the tare, unloaded
-            if full_inverse:
-                inverse(m, d)
-            else:
-                post(m, d)
-                sensor_acc(m, d)
-            if wrench_i is not None:
-                loaded = R_base_ft @ sensor
-        out[i] = -(loaded - R_base_ft @ sensor)
+        a0, a1, a2 = forces[i]
+        wrench[:] = (a0, a1, a2, l1 * a2 - l2 * a1, l2 * a0 - l0 * a2, l0 * a1 - l1 * a0)  # lever x force
+        if full_inverse:
+            inverse(m, d)
+        else:
+            post(m, d)
+            sensor_acc(m, d)
+        loaded[i] = sensor
+        wrench[:] = 0.0  # the tare: the same pose unloaded
+        if full_inverse:
+            inverse(m, d)
+        else:
+            post(m, d)
+            sensor_acc(m, d)
+        tare[i] = sensor
+        R_all[i] = R_base_ft
+    out = -np.einsum("nij,nj->ni", R_all, loaded - tare)
     return out @ rot  # sheet frame
