@@ -53,6 +53,10 @@ def test_lab_records_the_placement_and_replay_uses_it(placed: dict[str, Path], c
     assert gap["position_rms_mm"] < 0.05  # the tracker noise: the replay placed the sheet where the lab did
     with pytest.raises(InputError, match="placement"):
         replay(run, twin=Twin())  # a twin at the cell's placement refuses the run
+    # the discrepancy search replays at the run's placement too: a clean run explains itself (chi² ~ 1)
+    assert main(["discrepancy", str(placed["nominal"]), "--force-model", "auto", "--json", "-"]) == 0
+    found = json.loads(capsys.readouterr().out)
+    assert found["effect"] == "none" and found["reduced_chi2_before"]["position"] < 1.5
 
 
 def test_compensation_at_the_placement_lands_on_the_path(placed: dict[str, Path], capsys: pytest.CaptureFixture[str]) -> None:
