@@ -46,6 +46,7 @@ def _matrix_lines(matrix: np.ndarray) -> list[str]:
 def _method2(args: argparse.Namespace) -> int:
     """Method 2 on a run directory."""
     from twin.analysis.identify.method2 import method2
+    from twin.runs.format import run_placement
     from twin.runs.read import read_run
     from twin.sim.quasi_static import Twin
 
@@ -53,8 +54,9 @@ def _method2(args: argparse.Namespace) -> int:
         raise InputError("--method 2 needs a RUN_DIR (a nominal run with forces.csv)")
     measured = read_run(args.run_dir)
     result = method2(measured)
-    twin = Twin()
-    c_twin = twin.kinematics.compliance(twin.kinematics.q_home)[np.ix_([0, 2], [0, 2])]
+    twin = Twin(placement=run_placement(measured.meta))
+    R = twin.R_base_sheet  # the twin's compliance at home, in the run's sheet frame
+    c_twin = (R.T @ twin.kinematics.compliance(twin.kinematics.q_home) @ R)[np.ix_([0, 2], [0, 2])]
     error = float(np.linalg.norm(result.c_measured_m_per_n - c_twin) / np.linalg.norm(c_twin))
     bias = float(np.linalg.norm(result.c_ideal_m_per_n - c_twin) / np.linalg.norm(c_twin))
     payload = {
