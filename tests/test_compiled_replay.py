@@ -222,7 +222,8 @@ def test_the_height_map_isf_model_replays_compiled_to_the_python_loops_equilibri
     fast = twin.simulate(path.t_s, path.p_sheet_m)
     assert twin.last_loop_compiled
     field = twin.sheet_field
-    state = (field._dir, field._alpha, field._last, field._last_step, field.map._s, len(field.map._queue))
+    direction, last, alpha, step = field.motion_state
+    track, pending = field.map.track_m, len(field.map._queue)
     surface = formed_surface(field)
     twin.use_compiled_loop = False
     try:
@@ -233,10 +234,11 @@ def test_the_height_map_isf_model_replays_compiled_to_the_python_loops_equilibri
     # takes either side with a 1e-16 m rounding of the tip
     _assert_same(fast, reference, gain_from=2)
     assert np.ptp(fast.f_sheet_n[:, 1]) > 100.0  # the in-plane force turns with the contour
-    assert state[5] > 0 and state[5] == len(field.map._queue)  # commits still within the lag when the run ended
-    np.testing.assert_allclose(state[0], field._dir, rtol=0.0, atol=1e-9)
-    assert state[1] == pytest.approx(field._alpha, abs=1e-9)
-    np.testing.assert_allclose(state[2], field._last, rtol=0.0, atol=1e-12)
-    assert state[3] == pytest.approx(field._last_step, abs=1e-12) and state[4] == pytest.approx(field.map._s, abs=1e-9)
+    assert pending > 0 and pending == len(field.map._queue)  # commits still within the lag when the run ended
+    np.testing.assert_allclose(track, field.map.track_m, rtol=0.0, atol=1e-12)
+    np.testing.assert_allclose(direction, field.motion_state[0], rtol=0.0, atol=1e-9)
+    np.testing.assert_allclose(last, field.motion_state[1], rtol=0.0, atol=1e-12)
+    assert alpha == pytest.approx(field.motion_state[2], abs=1e-9)
+    assert step == pytest.approx(field.motion_state[3], abs=1e-12)
     assert surface is not None
     np.testing.assert_allclose(surface[2], formed_surface(field)[2], rtol=0.0, atol=1e-12)  # type: ignore[index]

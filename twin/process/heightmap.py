@@ -89,6 +89,37 @@ class HeightMap:
         self._queue.clear()
 
     @property
+    def half_window(self) -> int:
+        """Half-width of the square window a commit lowers, ceil(R / h) cells (the window is 2·m + 2 wide)."""
+        return self._half_window
+
+    @property
+    def is_fresh(self) -> bool:
+        """No commit yet (flat, or reset)."""
+        return not self._track and not self._queue
+
+    def templates(self) -> np.ndarray:
+        """Every snapped sphere template, [bu, bv] for a tip at cell offset (bu, bv)/`SUBSTEPS` (S+1, S+1, w, w)."""
+        return np.array([[self._template(bu / SUBSTEPS, bv / SUBSTEPS) for bv in range(SUBSTEPS + 1)]
+                         for bu in range(SUBSTEPS + 1)])
+
+    def restore(self, track: np.ndarray, travel_m: float, pending_from: int) -> None:
+        """Take over the commits of a loop that lowered `z_met_m`/`owner_met` itself (the compiled replay).
+
+        Args:
+            track: One row per commit: x, y, z [m], f_z [N], parent, the travel at the commit [m] (n, >= 6).
+            travel_m: Tool travel after the last commit [m].
+            pending_from: First commit not yet in the met surface (still within the lag).
+        """
+        self._track[:] = [(float(t[0]), float(t[1]), float(t[2]), float(t[3]), int(t[4])) for t in track]
+        self._s = float(travel_m)
+        self._queue.clear()
+        for i in range(pending_from, len(track)):
+            patch = self._patch(float(track[i, 0]), float(track[i, 1]), float(track[i, 2]))
+            if patch is not None:
+                self._queue.append((float(track[i, 5]), i, *patch))
+
+    @property
     def track_m(self) -> np.ndarray:
         """Committed tool-tip positions (n, 3) [m] (a copy)."""
         return np.array([row[:3] for row in self._track]).reshape(-1, 3)

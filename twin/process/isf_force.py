@@ -57,7 +57,7 @@ AERENS_COEFFICIENT = 0.0716
 _SOFTPLUS_N = SOFTPLUS_N
 #: Height over which the wall angle is read from the layers above the tool [m], and the most layers walked.
 WALL_BASELINE_M = 1.0e-3
-_WALL_MAX_LAYERS = 12
+WALL_MAX_LAYERS = 12
 #: Travel over which the held wall angle follows its readings [m] (0: jump to each reading).
 ALPHA_LENGTH_M = 10e-3
 
@@ -149,6 +149,22 @@ class IsfForceField:
         self._last_fz = ((math.nan, math.nan, math.nan), 0.0)
 
     @property
+    def base_fz_n(self) -> float:
+        """Fz / (Δh_mm^0.09 · α · cos α) of the params' material, tool and scale [N]."""
+        return self._base
+
+    @property
+    def motion_state(self) -> tuple[tuple[float, float], tuple[float, float, float] | None, float, float]:
+        """(travel direction v, last committed tip or None [m], held wall angle [deg], last step [m]); settable by
+        a loop that advanced the map itself (the compiled replay)."""
+        return self._dir, self._last, self._alpha, self._last_step
+
+    @motion_state.setter
+    def motion_state(self, state: tuple[tuple[float, float], tuple[float, float, float] | None, float, float]) -> None:
+        self._dir, self._last, self._alpha, self._last_step = state
+        self._last_fz = ((math.nan, math.nan, math.nan), 0.0)
+
+    @property
     def x_grid_m(self) -> np.ndarray:
         """Abscissae of the `formed_z_m` section [m]."""
         return self.map.x_m
@@ -196,7 +212,7 @@ class IsfForceField:
             return None
         track = self.map.owner_point
         q = track(owner)
-        for _ in range(_WALL_MAX_LAYERS):
+        for _ in range(WALL_MAX_LAYERS):
             if q[2] - z >= WALL_BASELINE_M or q[4] < 0:
                 break
             q = track(q[4])

@@ -14,7 +14,6 @@ the track entries from `state[Q_HEAD]` on, as the Python map's queue holds them.
 from __future__ import annotations
 
 import math
-from collections import deque
 from typing import NamedTuple
 
 import numpy as np
@@ -45,22 +44,20 @@ class IsfArrays(NamedTuple):
 def isf_arrays(field: IsfForceField, capacity: int) -> IsfArrays | None:
     """Pack a reset `field` for a replay of `capacity` samples; None if it is not fresh (the loop starts flat)."""
     hm = field.map
-    if len(hm.track_m) or hm._queue:
+    direction, last, alpha, _ = field.motion_state
+    if not hm.is_fresh or last is not None or direction != (0.0, 0.0):
         return None
-    m = hm._half_window
-    templates = np.array([[hm._template(bu / SUBSTEPS, bv / SUBSTEPS) for bv in range(SUBSTEPS + 1)]
-                          for bu in range(SUBSTEPS + 1)])
     p = field.params
     ny, nx = hm.z_met_m.shape
     prm = np.array([
-        field._base, field._amax, p.build_up_m, p.step_min_m, p.k_unload_n_per_m, p.mu_eff, p.direction_length_m,
-        isf_force.ALPHA_LENGTH_M, isf_force.WALL_BASELINE_M, float(isf_force._WALL_MAX_LAYERS),
+        field.base_fz_n, p.wall_angle_max_deg, p.build_up_m, p.step_min_m, p.k_unload_n_per_m, p.mu_eff,
+        p.direction_length_m, isf_force.ALPHA_LENGTH_M, isf_force.WALL_BASELINE_M, float(isf_force.WALL_MAX_LAYERS),
     ])
     state = np.zeros(10)
-    state[ALPHA] = field._alpha
+    state[ALPHA] = alpha
     return IsfArrays(
-        z_met=hm.z_met_m, owner=hm.owner_met, templates=templates, track=np.zeros((max(capacity, 1), 7)),
-        grid=np.array([hm.x0, hm.y0, hm.h, nx, ny, m, hm.lag, SUBSTEPS]), prm=prm, state=state,
+        z_met=hm.z_met_m, owner=hm.owner_met, templates=hm.templates(), track=np.zeros((max(capacity, 1), 7)),
+        grid=np.array([hm.x0, hm.y0, hm.h, nx, ny, hm.half_window, hm.lag, SUBSTEPS]), prm=prm, state=state,
     )
 
 
@@ -72,23 +69,12 @@ def idle_isf_arrays() -> IsfArrays:
 
 def write_back(field: IsfForceField, arrays: IsfArrays) -> None:
     """Hand the state a compiled replay left in `arrays` back to `field` and its map."""
-    hm, st, track = field.map, arrays.state, arrays.track
-    count, head = int(st[COUNT]), int(st[Q_HEAD])
-    hm._track[:] = [(t[TX], t[TY], t[TZ], t[TF], int(t[TP])) for t in track[:count]]
-    hm._s = float(st[TRAVEL])
-    hm._queue = deque()
-    for i in range(head, count):
-        t = track[i]
-        patch = hm._patch(t[TX], t[TY], t[TZ])
-        if patch is not None:
-            hm._queue.append((float(t[TS]), i, *patch))
-    field._dir = (float(st[DIR_X]), float(st[DIR_Y]))
-    field._last = (float(st[LAST_X]), float(st[LAST_Y]), float(st[LAST_Z])) if st[HAS_LAST] else None
-    field._alpha = float(st[ALPHA])
-    if count:
-        last = track[count - 1]
-        field._last_step = 0.0 if count < 2 else math.dist(tuple(track[count - 2, :3]), tuple(last[:3]))
-        field._last_fz = ((float(last[TX]), float(last[TY]), float(last[TZ])), float(last[TF]))
+    st, track = arrays.state, arrays.track
+    count = int(st[COUNT])
+    field.map.restore(track[:count, : TS + 1], float(st[TRAVEL]), int(st[Q_HEAD]))
+    last = (float(st[LAST_X]), float(st[LAST_Y]), float(st[LAST_Z])) if st[HAS_LAST] else None
+    step = math.dist(tuple(track[count - 2, :3]), tuple(track[count - 1, :3])) if count >= 2 else 0.0
+    field.motion_state = ((float(st[DIR_X]), float(st[DIR_Y])), last, float(st[ALPHA]), step)
 
 
 @njit(cache=True)
