@@ -10,9 +10,11 @@ the same decisions (`twin.sim.equilibrium.EquilibriumSolver`, `twin.process.tool
 * the tool's sliding friction one regime at a time (sliding as commanded, in the stick band, sliding back);
 * in each regime the joint-friction active set (predicted from the start point), each round a Newton
   iteration on K (q_ref − q) + τ_fr − g(q) + J(q)ᵀ f(p(q)) = 0 with the chain of `twin.sim.compiled.chain`;
-* the force at the equilibrium, then the field's formed profile and the slip state advance.
+* the force at the equilibrium, then the field advances: the table field's formed profile and the slip state
+  (`twin.sim.compiled.field`), or the ISF model's height map, travel direction and wall angle
+  (`twin.sim.compiled.isf`; `kind` 1).
 
-Status codes: 0 done; 1 a singular Newton matrix (the sample in `status[1]`).
+`replay_loop` returns (status, sample): status 0 done, 1 a singular Newton matrix at `sample`.
 """
 
 from __future__ import annotations
