@@ -65,6 +65,13 @@ def flange_sensor_forces(
     kinematics, com_pos, post, sensor_acc, inverse = (
         mujoco.mj_kinematics, mujoco.mj_comPos, mujoco.mj_rnePostConstraint, mujoco.mj_sensorAcc, mujoco.mj_inverse
     )
+    def read() -> None:  # the sensor at the current pose and wrench
+        if full_inverse:
+            inverse(m, d)
+        else:
+            post(m, d)
+            sensor_acc(m, d)
+
     n = len(t_s)
     loaded, tare, R_all = np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3, 3))
     qpos_view, forces = d.qpos, force.tolist()
@@ -76,18 +83,10 @@ def flange_sensor_forces(
         l0, l1, l2 = (tcp_xpos - tool_xipos).tolist()
         a0, a1, a2 = forces[i]
         wrench[:] = (a0, a1, a2, l1 * a2 - l2 * a1, l2 * a0 - l0 * a2, l0 * a1 - l1 * a0)  # lever x force
-        if full_inverse:
-            inverse(m, d)
-        else:
-            post(m, d)
-            sensor_acc(m, d)
+        read()
         loaded[i] = sensor
         wrench[:] = 0.0  # the tare: the same pose unloaded
-        if full_inverse:
-            inverse(m, d)
-        else:
-            post(m, d)
-            sensor_acc(m, d)
+        read()
         tare[i] = sensor
         R_all[i] = R_base_ft
     out = -np.einsum("nij,nj->ni", R_all, loaded - tare)
