@@ -30,6 +30,7 @@ from twin.sim.compiled.loop import replay_loop
 from twin.sim.compiled.work import work_arrays
 from twin.sim.result import LoopOutput
 
+#: The numba kernel modules (their sources together key the kernel cache).
 KERNEL_SOURCES = ("chain.py", "field.py", "isf.py", "loop.py", "work.py")
 
 
