@@ -17,7 +17,7 @@ from twin.runs.format import placement_meta, run_placement
 from twin.runs.read import read_run
 from twin.sim.quasi_static import Twin
 
-PLACE = ["--origin-mm", "1550", "-60", "150", "--yaw-deg", "30"]  # 30 mm nearer, 60 mm aside of the cell's
+PLACE = ["--origin-mm", "1550", "-60", "150", "--yaw-deg", "30"]  # cell's sheet_origin: (1467, -4, 424) mm
 
 
 @pytest.fixture(scope="module")

@@ -8,6 +8,7 @@ import pytest
 from twin.base.csvio import read_table
 from twin.base.resources import data_file
 from twin.cli import main
+from twin.errors import InputError
 from twin.process.fe_history import FE_SAMPLES, aerens_vertical_force_n, generate_history, write_history
 from twin.process.forces import load_force_history
 from twin.process.path import groove_path, label_passes, resample_by_arc_length
@@ -68,3 +69,14 @@ def test_fe_history_command_regenerates_the_file(tmp_path, capsys):
     assert main(["fe-history", "--out", str(tmp_path / "h.csv")]) == 0
     assert "1311 samples" in capsys.readouterr().out
     assert (tmp_path / "h.csv").read_bytes() == data_file("fe_force_history.csv").read_bytes()
+
+
+def test_the_causal_taper_variant_keeps_fx_until_the_tool_reverses() -> None:
+    """`fx_taper="since"`: Fx tapers only after each reversal; before one it keeps the travel's full sign."""
+    shipped, causal = generate_history(), generate_history(fx_taper="since")
+    np.testing.assert_array_equal(shipped["fz_half_n"], causal["fz_half_n"])
+    first_reversal = int(np.argmax(shipped["x_mm"]))  # pass 1 runs towards +x
+    before = slice(first_reversal - 3, first_reversal)
+    assert np.all(np.abs(causal["fx_half_n"][before]) > np.abs(shipped["fx_half_n"][before]) + 1.0)
+    with pytest.raises(InputError, match="fx_taper"):
+        generate_history(fx_taper="both")

@@ -110,11 +110,14 @@ def test_the_unsupported_bottom_inside_the_last_contour_hangs_at_its_depth():
     assert z[centre] == 0.0 and out[centre] == pytest.approx(-0.002)  # the plate moved down with the contour
     assert out[0, 0] == 0.0  # the sheet outside, held by the clamp, stays
     np.testing.assert_array_equal(out[z < 0.0], z[z < 0.0])  # the formed wall is unchanged
-    # a contour that never closes (half a turn) holds nothing up: nothing moves
-    x, y, z, track = _ring_part(turns=0.5)
+    # a trench that does not close holds nothing up, even where the track turns a full revolution: nothing moves
+    x, y, z, track = _ring_part(turns=1.2)
     z_open = z.copy()
     z_open[:, : len(x) // 2] = 0.0  # an arc, not a ring: the inside is connected to the sheet outside
     np.testing.assert_array_equal(with_floating_bottom(x, y, z_open, track, 5e-5), z_open)
+    # nor does a closed ring whose track never turns once about it (no last contour to hang from)
+    half = track[: len(track) * 5 // 12]  # 0.5 of the 1.2 turns
+    np.testing.assert_array_equal(with_floating_bottom(x, y, z, half, 5e-5), z)
 
 
 def test_a_cones_target_has_its_bottom_at_the_last_contours_depth():

@@ -40,6 +40,7 @@ from pathlib import Path
 import numpy as np
 
 from twin.base.csvio import write_table
+from twin.errors import InputError
 from twin.process.path import GrooveSpec, groove_path, resample_by_arc_length
 
 #: Samples of the thesis's ABAQUS force export (§2.2.2).
@@ -89,11 +90,13 @@ def aerens_vertical_force_n(
     )
 
 
-def generate_history(spec: GrooveSpec | None = None) -> dict[str, np.ndarray]:
+def generate_history(spec: GrooveSpec | None = None, *, fx_taper: str = "nearest") -> dict[str, np.ndarray]:
     """Compute the stand-in half-symmetric FE force history along the ideal path.
 
     Args:
         spec: Groove; None for the thesis groove.
+        fx_taper: `nearest` (the shipped file): Fx tapers with the arc length to the nearest reversal, before and
+            after it; `since`: with the arc length since the last reversal only (a causal variant, for checks).
 
     Returns:
         Columns `s_mm, x_mm, z_mm, fx_half_n, fy_sym_n, fz_half_n`, FE_SAMPLES equal arc-length samples.
@@ -134,7 +137,9 @@ def generate_history(spec: GrooveSpec | None = None) -> dict[str, np.ndarray]:
         * (1.0 + _OVERSHOOT * np.exp(-since / _OVERSHOOT_LENGTH_MM))
     )
     fx_mag = _FX_RATIO * fz * (1.0 + _FX_CLAMP_RISE * np.exp(-ahead / _END_LENGTH_MM))
-    fx = -d * fx_mag * np.tanh(nearest / _FX_REVERSAL_LENGTH_MM)
+    if fx_taper not in ("nearest", "since"):
+        raise InputError(f"fx_taper = {fx_taper!r}: expected 'nearest' or 'since'")
+    fx = -d * fx_mag * np.tanh((nearest if fx_taper == "nearest" else since) / _FX_REVERSAL_LENGTH_MM)
     fz_half = fz / 2.0
     fy_sym = -(0.30 + 0.05 * (-z) / depth_mm) * fz_half
     columns = {

@@ -24,7 +24,6 @@ def python_loop(
     model: mujoco.MjModel,
     data: mujoco.MjData,
     tcp_site: int,
-    origin: np.ndarray,
     field: Any,
     solver: EquilibriumSolver,
     q_nominal_all: np.ndarray,
@@ -38,9 +37,8 @@ def python_loop(
     Args:
         model, data: The twin's model and data (qpos and kinematics overwritten).
         tcp_site: Id of the `tcp` site.
-        origin: Sheet origin in the base frame [m], shape (3,).
         field: The twin's sheet field, reset (advanced sample by sample).
-        solver: The equilibrium solver on `model` (its `R_base_sheet` places the sheet frame).
+        solver: The equilibrium solver on `model` (its `p_base_sheet_origin` and `R_base_sheet` place the sheet).
         q_nominal_all: Unloaded poses (all joints) [rad], shape (n, nq).
         pass_index, direction: Pass and travel direction per sample.
         k_diag: Joint springs [N·m/rad], shape (nv,).
@@ -58,7 +56,7 @@ def python_loop(
     g_nom = np.zeros(m.nv)
     qpos_view, qvel_view = d.qpos, d.qvel
     xpos_tcp = d.site_xpos[tcp_site]  # a view: follows every mj_kinematics
-    rot = solver.R_base_sheet
+    origin, rot = solver.p_base_sheet_origin, solver.R_base_sheet
 
     def tip_sheet() -> np.ndarray:
         return xpos_tcp - origin if rot is None else rot.T @ (xpos_tcp - origin)

@@ -238,7 +238,7 @@ class Twin:
         self.last_loop_compiled = out is not None
         if out is None:
             out = python_loop(
-                self.model, self.data, self._tcp, self.p_base_sheet_origin, self.field, self._solver,
+                self.model, self.data, self._tcp, self.field, self._solver,
                 q_nominal_all, pass_index, direction, k_diag, h_const,
             )
         jac_last, s_last = out.jac, out.stiffness

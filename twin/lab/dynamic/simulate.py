@@ -121,7 +121,7 @@ def simulate(
     rigid = load_model(scene=True)
     kin = Kinematics(rigid)
     place = placement or Placement()
-    origin = place.origin_in(kin) if place.origin_base_m is not None else plant.p_base_sheet_origin
+    origin = place.origin_in(kin)  # the scene's sheet_origin by default, as the plant's
     R_ws = place.R_base_sheet  # the sheet's axes in the world
     q_ik = kin.ik_path(origin + p_cmd @ R_ws.T)
     g_ik = gravity_torques(rigid, q_ik)
