@@ -1,9 +1,10 @@
-"""How much of the ISF model's Fx error along the groove is the stand-in history's acausal taper (issue #16).
+"""How much the stand-in FE history's Fx taper costs the ISF model along the groove (issue #16).
 
-The shipped stand-in (`twin.process.fe_history`) tapers Fx through zero over the arc length to the *nearest*
-reversal, so before the tool reverses as well as after. This script builds the same history with the taper over
-the arc length *since* the last reversal only (causal), and reports the ISF model's Fx and Fz errors against both,
-with the shipped constants and refitted (`calibrate_isf`), and where the remaining Fx error lies.
+The shipped stand-in (`twin.process.fe_history`, since 2026-11-23) tapers Fx over the arc length *since* the last
+reversal (causal). Until then it tapered over the arc length to the *nearest* reversal, so before the tool
+reversed as well as after (`fx_taper="nearest"`), which no causal model can follow. This script reports the ISF
+model's Fx and Fz errors against both, with the shipped constants and refitted (`calibrate_isf`), and where the
+remaining Fx error lies.
 
 Run: `.venv/bin/python experiments/fx_causal_taper.py` (about 10 s).
 """
@@ -31,12 +32,12 @@ def history(fx_taper: str, directory: Path):
 
 def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
-        shipped, causal = history("nearest", Path(tmp)), history("since", Path(tmp))
+        shipped, acausal = history("since", Path(tmp)), history("nearest", Path(tmp))
     params = IsfForceParams()
-    for name, h in (("shipped (taper to the nearest reversal)", shipped), ("causal (taper since the reversal)", causal)):
+    for name, h in (("shipped (taper since the reversal)", shipped), ("old (taper to the nearest reversal)", acausal)):
         rms_fz, rms_fx, forces = groove_errors(params, h)
         refit = calibrate_isf(h)
-        path, ref = h.to_path(), h.f_sheet_n
+        path, ref = h.to_path(), h.f_sheet_n  # pass labels of the samples (turns between samples put back)
         err = (forces[:, 0] - ref[:, 0]) ** 2
         near = np.zeros(len(err), dtype=bool)
         for r in np.flatnonzero(np.diff(path.pass_index) != 0):

@@ -54,8 +54,10 @@ def check(run: Path, ideal: Path, capsys: pytest.CaptureFixture[str]) -> dict[st
 
 
 # measured (seed 1, 5 mm deep, 40 mm across): rms residual against the ideal path [mm]
-#   cone:    quasi-static nominal 1.12, compensated 0.035; dynamic (neutral knobs) nominal 1.13, compensated 0.050
-#   pyramid: quasi-static nominal 1.15, compensated 0.041; dynamic (neutral knobs) nominal 1.15, compensated 0.063
+#   cone:    quasi-static nominal 1.12, compensated 0.035; dynamic (neutral knobs) nominal 1.12, compensated 0.049
+#   pyramid: quasi-static nominal 1.14, compensated 0.035; dynamic (neutral knobs) nominal 1.14, compensated 0.056
+# (the pyramid's twin compensation ends after 20 iterations at 0.004 mm rms with a few samples above the
+# 0.01 mm asked, where joint friction sticks and slips: the best command, with a note)
 @pytest.mark.parametrize("plant", list(PLANTS))
 @pytest.mark.parametrize("part", ["cone_runs", "pyramid_runs"])
 def test_a_part_is_compensated_onto_its_path_on_both_plants(
@@ -142,6 +144,8 @@ def test_the_formed_cone_matches_its_target_stl_after_compensation(
         main(["check", str(cone_runs[f"{plant}/{name}"]), "--ideal", str(cone_runs["ideal"]),
               "--target-stl", str(cone_runs["stl"]), "--figure", str(figure), "--json", "-"])
         results[name] = json.loads(capsys.readouterr().out)
+    print(f"\ncone surface {plant}: nominal {results['nominal']['surface_rms_mm']:.3f} mm rms, "
+          f"compensated {results['compensated']['surface_rms_mm']:.3f} mm")
     assert results["compensated"]["surface_rms_mm"] < 0.05
     assert results["nominal"]["surface_mean_mm"] > 0.5  # the nominal part is too shallow
     assert results["nominal"]["surface_rms_mm"] > 10.0 * results["compensated"]["surface_rms_mm"]

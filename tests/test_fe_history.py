@@ -71,12 +71,14 @@ def test_fe_history_command_regenerates_the_file(tmp_path, capsys):
     assert (tmp_path / "h.csv").read_bytes() == data_file("fe_force_history.csv").read_bytes()
 
 
-def test_the_causal_taper_variant_keeps_fx_until_the_tool_reverses() -> None:
-    """`fx_taper="since"`: Fx tapers only after each reversal; before one it keeps the travel's full sign."""
-    shipped, causal = generate_history(), generate_history(fx_taper="since")
-    np.testing.assert_array_equal(shipped["fz_half_n"], causal["fz_half_n"])
+def test_the_shipped_taper_keeps_fx_until_the_tool_reverses() -> None:
+    """The shipped (`since`) Fx tapers only after each reversal; the old `nearest` variant already before it."""
+    shipped, acausal = generate_history(), generate_history(fx_taper="nearest")
+    np.testing.assert_array_equal(shipped["fz_half_n"], acausal["fz_half_n"])
     first_reversal = int(np.argmax(shipped["x_mm"]))  # pass 1 runs towards +x
     before = slice(first_reversal - 3, first_reversal)
-    assert np.all(np.abs(causal["fx_half_n"][before]) > np.abs(shipped["fx_half_n"][before]) + 1.0)
+    assert np.all(np.abs(shipped["fx_half_n"][before]) > np.abs(acausal["fx_half_n"][before]) + 1.0)
+    ratio = np.abs(shipped["fx_half_n"][before]) / shipped["fz_half_n"][before]
+    assert np.all(ratio > 0.30)  # the full in-plane ratio (and the clamp rise) up to the corner
     with pytest.raises(InputError, match="fx_taper"):
         generate_history(fx_taper="both")

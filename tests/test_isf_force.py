@@ -10,8 +10,10 @@ import numpy as np
 import pytest
 
 from twin.analysis.compensate import compensate_twin
+from twin.base.csvio import write_table
 from twin.errors import InputError
-from twin.process.forces import default_force_history
+from twin.process.fe_history import generate_history
+from twin.process.forces import default_force_history, load_force_history
 from twin.process.isf_calibration import calibrate_isf, fitted_scale, groove_errors, isf_field_factory
 from twin.process.isf_force import IsfForceField, IsfForceParams
 from twin.process.shapes import PartSpec, part_path
@@ -33,12 +35,20 @@ def steady_cone_fz(wall_angle_deg: float, step_down_mm: float) -> float:
     return float(np.median(forces[steady, 2]))
 
 
-def test_groove_fz_reproduces_the_fe_history_within_5_percent_rms_of_peak():
+def test_groove_fz_and_fx_reproduce_the_fe_history_within_5_percent_rms_of_peak():
     rms_fz, rms_fx, forces = groove_errors(IsfForceParams(), default_force_history())
-    assert rms_fz < 0.05
-    # Fx: 8.2 % measured; the history's Fx tapers (tanh) BEFORE each reversal, which no causal model sees coming
-    assert rms_fx < 0.10
-    assert np.all(forces[:, 2] >= 0.0) and np.all(forces[:, 1] == 0.0)
+    assert rms_fz < 0.05  # 2.85 % measured
+    assert rms_fx < 0.05  # 3.08 % measured
+    assert np.all(forces[:, 2] >= 0.0) and np.all(np.abs(forces[:, 1]) < 1e-9 * np.abs(forces[:, 2]).max())
+
+
+def test_fx_against_the_old_acausal_stand_in_is_what_its_taper_costs(tmp_path):
+    """The stand-in shipped until 2026-11-23 tapered Fx before each reversal too (fx_taper="nearest"); no causal
+    model follows that: the same constants leave 6.6 % there (6.5 % refitted, experiments/fx_causal_taper.py)."""
+    old = load_force_history(write_table(tmp_path / "nearest.csv", generate_history(fx_taper="nearest")),
+                             symmetry="half")
+    rms_fz, rms_fx, _ = groove_errors(IsfForceParams(), old)
+    assert rms_fz < 0.05 and 0.05 < rms_fx < 0.09
 
 
 @pytest.mark.parametrize("angle", [30.0, 45.0, 60.0])

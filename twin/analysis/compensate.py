@@ -49,7 +49,8 @@ class Compensation:
         iterations: Twin iterations (0 for the formula).
         predicted_residual_m: Predicted tool tip minus U_ID with the twin used [m], shape (n, 3), or None.
         history_m: RMS residual after each twin iteration [m].
-        converged: False when the twin iteration stalled above its tolerance and returned its best command
+        converged: False when the twin iteration stalled above its tolerance, or ran out of iterations with its
+            rms (not its largest) residual below it, and returned its best command
             (the remainder is in `predicted_residual_m`, typically a few samples at the reversals, where joint
             friction flips).
     """
@@ -125,8 +126,14 @@ def compensate_twin(
         max_iter: Iteration limit.
         progress: Called after each iteration with (iteration, rms residual [m]), e.g. to draw progress.
 
+    Returns:
+        The compensation; `converged` is False when the iteration stalled above `tol_m`, or ran out of
+        iterations with its best rms residual below `tol_m` but some samples above it (joint friction that
+        flips with the joints' motion, at reversals and corners, leaves a few samples that no command settles):
+        the best command is returned.
+
     Raises:
-        CompensationError: The iteration diverges or does not reach `tol_m` within `max_iter`.
+        CompensationError: The iteration diverges, or runs out of iterations with its rms residual above `tol_m`.
     """
     p_id = np.asarray(p_ideal_sheet_m, dtype=float)
     t = np.asarray(t_s, dtype=float)
@@ -161,6 +168,10 @@ def compensate_twin(
         step = np.linalg.solve(sim.tip_gain, residual[..., None])[..., 0]
         ratio = np.linalg.norm(step, axis=1) / np.maximum(np.linalg.norm(residual, axis=1), 1e-12)
         cmd = cmd - step * np.minimum(1.0, STEP_LIMIT / np.maximum(ratio, 1e-12))[:, None]
+    assert best is not None
+    if best[0] < tol_m:  # within tolerance on average, a few samples above it: as a stall, the best command
+        _, cmd_best, residual_best, _ = best
+        return Compensation("twin", t, p_id, cmd_best, max_iter, residual_best, tuple(history), False)
     raise CompensationError(
         f"twin compensation did not reach {tol_m * 1e3:g} mm in {max_iter} iterations "
         f"(rms residual after each: {[round(h * 1e3, 4) for h in history]} mm)"

@@ -135,8 +135,8 @@ def run(args: argparse.Namespace) -> int:
     if not comp.converged:
         print(
             f"note: the twin iteration stalled at {summary['predicted_residual_rms_mm']:.4f} mm rms (max "
-            f"{summary['predicted_residual_max_mm']:.3f} mm, at the reversals where joint friction flips); "
-            "the best command is written",
+            f"{summary['predicted_residual_max_mm']:.3f} mm, where joint friction flips: reversals, corners, "
+            "stick-slip); the best command is written",
             file=out,
         )
     if abs(gain - 1.0) > 0.02:

@@ -25,8 +25,12 @@ Physical model, per sample at arc length s, position (x, z), pass k, travel dire
   the reversal (our choice, modest);
 * in-plane force: |Fx| = 0.30·Fz·(1 + 0.15·exp(-e_ahead/5 mm)), opposing the travel, with e_ahead the distance
   to the stroke end being approached (friction 0.1 from §2.2 plus ploughing; the extra term is the feed
-  "hampered when the tool moves toward the blank holder", §2.3.1); Fx = -d·|Fx|·tanh(r/1.5 mm), r the arc
-  length to the nearest reversal, so Fx changes sign smoothly at every reversal (§2.3.1);
+  "hampered when the tool moves toward the blank holder", §2.3.1); Fx = -d·|Fx|·tanh(u/1.5 mm), u the arc
+  length since the last reversal (d and u from the groove's exact corners, which fall between samples), so Fx
+  keeps its sign up to each reversal and passes through zero there, as a quasi-static solution with Coulomb
+  friction does (the tool slides forward until it stops), and builds up against the new travel (§2.3.1).
+  Until 2026-11-23 the shipped file tapered over the distance to the *nearest* reversal, before it as well
+  (`fx_taper="nearest"`): no causal model can follow that;
 * symmetry-plane reaction (no physical meaning): fy_sym = -(0.30 + 0.05·D/H)·fz_half.
 
 Peak physical Fz ≈ 1.93 kN (|Fx| ≈ 0.64 kN), matching "maximum vertical force about 2 kN" (§4.2.3).
@@ -90,13 +94,14 @@ def aerens_vertical_force_n(
     )
 
 
-def generate_history(spec: GrooveSpec | None = None, *, fx_taper: str = "nearest") -> dict[str, np.ndarray]:
+def generate_history(spec: GrooveSpec | None = None, *, fx_taper: str = "since") -> dict[str, np.ndarray]:
     """Compute the stand-in half-symmetric FE force history along the ideal path.
 
     Args:
         spec: Groove; None for the thesis groove.
-        fx_taper: `nearest` (the shipped file): Fx tapers with the arc length to the nearest reversal, before and
-            after it; `since`: with the arc length since the last reversal only (a causal variant, for checks).
+        fx_taper: `since` (the shipped file): Fx tapers with the arc length since the last reversal;
+            `nearest`: with the arc length to the nearest reversal, before and after it (the file shipped until
+            2026-11-23, acausal; kept for comparisons).
 
     Returns:
         Columns `s_mm, x_mm, z_mm, fx_half_n, fy_sym_n, fz_half_n`, FE_SAMPLES equal arc-length samples.

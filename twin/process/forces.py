@@ -29,6 +29,8 @@ from twin.process.path import ToolPath, label_passes
 
 HALF_COLUMNS = ("fx_half_n", "fz_half_n")
 FULL_COLUMNS = ("fx_n", "fz_n")
+#: Arc length beyond the chord (relative, and [m]) that marks a turn between two samples (`ForceHistory.turns`).
+TURN_SLACK, TURN_SLACK_M = 1e-3, 1e-6
 _OPTIONAL = ("s_mm", "t_s", "fx_half_n", "fy_sym_n", "fz_half_n", "fx_n", "fy_n", "fz_n")
 
 _BUG = (
@@ -59,13 +61,35 @@ class ForceHistory:
     source: Path
     column_symmetry: str
 
+    def turns(self) -> np.ndarray:
+        """Where the path turned between two samples: the arc length between samples i and i+1 exceeds their
+        chord (by 0.1 % and 1 µm), shape (n-1,) bool. An export sampled at equal arc length puts a zig-zag's
+        reversals between samples; the sample just past one can still lie on the old side of the previous one.
+        """
+        chord = np.linalg.norm(np.diff(self.p_sheet_m, axis=0), axis=1)
+        return np.diff(self.s_m) > chord * (1.0 + TURN_SLACK) + TURN_SLACK_M
+
+    def pass_labels(self, deadband_m: float = 1e-6) -> tuple[np.ndarray, np.ndarray]:
+        """(pass_index, direction) of the samples: `label_passes` of x, with a sample reached through a turn
+        (`turns`) given to the pass that follows the turn.
+
+        Args:
+            deadband_m: Back-travel that declares a reversal (`label_passes`) [m].
+        """
+        pass_index, direction = label_passes(self.p_sheet_m[:, 0], deadband_m=deadband_m)
+        turned = self.turns()
+        for b in np.flatnonzero(np.diff(pass_index) != 0):  # b ends its pass
+            if b >= 1 and turned[b - 1] and pass_index[b - 1] == pass_index[b]:
+                pass_index[b], direction[b] = pass_index[b + 1], direction[b + 1]
+        return pass_index, direction
+
     def to_path(self, feed_m_per_s: float = 2.0 / 60.0) -> ToolPath:
-        """The history's sample points as a ToolPath (constant feed; passes from `label_passes`).
+        """The history's sample points as a ToolPath (constant feed; passes from `pass_labels`).
 
         Args:
             feed_m_per_s: Feed used to turn arc length into time [m/s] (2 m/min, §1.2.3).
         """
-        pass_index, direction = label_passes(self.p_sheet_m[:, 0])
+        pass_index, direction = self.pass_labels()
         return ToolPath(
             t_s=(self.s_m - self.s_m[0]) / feed_m_per_s,
             p_sheet_m=self.p_sheet_m.copy(),

@@ -1,10 +1,17 @@
 """Calibration of the ISF force model (`twin.process.isf_force`) on an FE force history along the groove.
 
-The history becomes calibration data: the model is driven rigidly along the history's own samples
+The history becomes calibration data: the model is driven rigidly along the history's tool path
 (`IsfForceField.rigid_forces`) and five constants are fitted by least squares to Fz and Fx, each normalised by
 its peak: the wall-angle cap α_max, the build-up depth D0, the in-plane ratio μ_eff, the travel-direction
 filter length L_f and the plateau engagement Δh_min. Aerens's coefficient and exponents, R_m, t and R stay as
 published, so the model's steady-state forces on cone walls below α_max are Aerens's formula, not a fit.
+
+The tool path between two samples is not always their chord: an export sampled at equal arc length puts the
+reversals of a zig-zag between samples (the groove's 1311 samples miss all nine corners), and a sample a few
+hundredths of a millimetre past a corner then seems to move the old way. `history_drive` puts the turns back
+where the arc length between two samples exceeds their chord (`ForceHistory.turns`): the corner where the incoming and outgoing lines
+meet with legs that add up to that arc length, accepted when they join the two samples to within 5 % of it. The model is driven through the corners and
+compared at the history's samples only.
 """
 
 from __future__ import annotations
@@ -17,6 +24,10 @@ from scipy.optimize import least_squares
 
 from twin.process.forces import ForceHistory
 from twin.process.isf_force import IsfForceField, IsfForceParams
+from twin.process.path import ToolPath, label_passes
+
+#: Miss [-] of a reconstructed corner's legs at the next sample, over the arc length between the samples.
+_TURN_TOLERANCE = 0.05
 
 # fitted constants: (name, scale to the optimiser's unit, lower bound, upper bound) in the optimiser's units
 _FITTED = (
@@ -45,13 +56,45 @@ class IsfFit:
     evaluations: int
 
 
+def history_drive(history: ForceHistory) -> tuple[ToolPath, np.ndarray]:
+    """The history's tool path with the turns between samples put back (module docstring).
+
+    Returns:
+        (path through the samples and the reconstructed corners, row of each history sample in that path).
+    """
+    p, s = history.p_sheet_m, history.s_m
+    turned = history.turns()
+    points, rows = [p[0]], [0]
+    for i in range(len(p) - 1):
+        gap = s[i + 1] - s[i]
+        d = p[i + 1] - p[i]
+        if turned[i] and 0 < i < len(p) - 2:
+            u_in, u_out = p[i] - p[i - 1], p[i + 2] - p[i + 1]
+            n_in, n_out = np.linalg.norm(u_in), np.linalg.norm(u_out)
+            if n_in > 0.0 and n_out > 0.0:
+                u_in, u_out = u_in / n_in, u_out / n_out
+                # legs a + b = gap with a·u_in + b·u_out = d (least squares in a)
+                a = float((u_in - u_out) @ (d - gap * u_out) / max((u_in - u_out) @ (u_in - u_out), 1e-12))
+                miss = np.linalg.norm(a * u_in + (gap - a) * u_out - d)
+                if 0.0 < a < gap and miss <= _TURN_TOLERANCE * gap:
+                    points.append(p[i] + a * u_in)
+        points.append(p[i + 1])
+        rows.append(len(points) - 1)
+    drive = np.array(points)
+    steps = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(drive, axis=0), axis=1))]
+    pass_index, direction = label_passes(drive[:, 0])
+    feed = 2.0 / 60.0
+    return ToolPath(t_s=steps / feed, p_sheet_m=drive, pass_index=pass_index, direction=direction), np.array(rows)
+
+
 def groove_errors(params: IsfForceParams, history: ForceHistory) -> tuple[float, float, np.ndarray]:
     """RMS errors of the model against the history, each over its peak, and the model's forces.
 
     Returns:
-        (rms_fz, rms_fx, forces (n, 3) [N]) along the history's samples.
+        (rms_fz, rms_fx, forces (n, 3) [N]) at the history's samples, the model driven along `history_drive`.
     """
-    forces = IsfForceField(params).rigid_forces(history.to_path())
+    drive, rows = history_drive(history)
+    forces = IsfForceField(params).rigid_forces(drive)[rows]
     ref = history.f_sheet_n
     rms_fz = float(np.sqrt(np.mean((forces[:, 2] - ref[:, 2]) ** 2)) / np.max(np.abs(ref[:, 2])))
     rms_fx = float(np.sqrt(np.mean((forces[:, 0] - ref[:, 0]) ** 2)) / np.max(np.abs(ref[:, 0])))
@@ -66,16 +109,16 @@ def calibrate_isf(history: ForceHistory, start: IsfForceParams | None = None) ->
         start: Initial constants (also the fixed ones: material, tool, k_unload); None for the defaults.
     """
     base = start or IsfForceParams()
-    path = history.to_path()
+    path, rows = history_drive(history)
     ref = history.f_sheet_n
     peak_z, peak_x = np.max(np.abs(ref[:, 2])), np.max(np.abs(ref[:, 0]))
-    norm = 1.0 / np.sqrt(len(path))
+    norm = 1.0 / np.sqrt(len(rows))
 
     def params_of(v: np.ndarray) -> IsfForceParams:
         return replace(base, **{name: float(x) * unit for (name, unit, _, _), x in zip(_FITTED, v, strict=True)})
 
     def residual(v: np.ndarray) -> np.ndarray:
-        f = IsfForceField(params_of(v)).rigid_forces(path)
+        f = IsfForceField(params_of(v)).rigid_forces(path)[rows]
         return norm * np.concatenate([(f[:, 2] - ref[:, 2]) / peak_z, (f[:, 0] - ref[:, 0]) / peak_x])
 
     lo = np.array([b[2] for b in _FITTED])
@@ -92,7 +135,8 @@ def fitted_scale(params: IsfForceParams, history: ForceHistory) -> float:
 
     A history scaled by k (a stiffer sheet, `force_scale`) gives k times the params' own scale.
     """
-    fz = IsfForceField(replace(params, scale=1.0)).rigid_forces(history.to_path())[:, 2]
+    drive, rows = history_drive(history)
+    fz = IsfForceField(replace(params, scale=1.0)).rigid_forces(drive)[rows, 2]
     ref = history.f_sheet_n[:, 2]
     return float(fz @ ref / (fz @ fz))
 

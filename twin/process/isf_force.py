@@ -9,7 +9,7 @@ S (the surface formed before the tool got here):
   position (its owner), the cell under that one by another, and so on; walking up until the layer reached lies
   1 mm above the tip, α = atan2(rise, horizontal run) to it (a cone's previous revolutions, for instance), capped
   at α_max: a step straight down, as in the zig-zag groove, is no cone wall, and α_max is calibrated on the
-  groove's FE history (63.8°, close to the groove's 63.4° end walls); the model holds α and moves it towards each
+  groove's FE history (63.6°, close to the groove's 63.4° end walls); the model holds α and moves it towards each
   reading over 10 mm of travel (a wall angle changes slowly along a part; single readings jump with the path's
   sampling and with the tool's deflection, and made twin compensation stall), starting at α_max (first
   contact) and keeping it over sheet never formed;
@@ -24,11 +24,12 @@ S (the surface formed before the tool got here):
   0.09·Fz/Δh would grow without bound; Δh_min caps it near k_unload);
 * elastic (Δh < 0, the tool has risen from the surface it meets): Fz(Δh_min) + k_unload·Δh, continuous,
   falling to zero by the sheet's elastic recovery; a softplus (5 N) keeps Fz >= 0 and smooth;
-* in-plane force against the sliding: F_xy = -μ_eff·Fz·v, v = w·v_prev + (1 - w)·e, e the unit step from the
-  last committed tip to the queried one, w = exp(-|step|/L_f) (|v| = 1 on a straight run; v turns over L_f
-  after a reversal). v is implicit in the queried position: a tool pushed sideways meets friction against that
-  motion (an explicit, one-sample-late direction made the twin's lateral deflection oscillate sample to sample).
-  μ_eff lumps the friction 0.1 (§2.4.2) and the ploughing of the wall ahead.
+* in-plane force against the sliding: F_xy = -μ_eff·Fz·v, v the sliding direction implicit in the queried
+  position (`twin.process.sliding`): it turns over L_f of travel (|v| = 1 on a straight run); a tool that
+  reverses leaves the wall it was pushing, so v is released over 0.05 mm and the in-plane force builds up
+  against the new travel as 1 - exp(-u/L_f). A tool pushed sideways meets friction against that motion (an
+  explicit, one-sample-late direction made the twin's lateral deflection oscillate sample to sample). μ_eff
+  lumps the friction 0.1 (§2.4.2) and the ploughing of the wall ahead.
 
 Material and tool (§1.2.2, §2.2): AA5086-H111, t = 1 mm, R = 7.5 mm, friction 0.1. Aerens's formula wants the
 tensile strength R_m: 275 MPa, the handbook value the stand-in history uses; the thesis's Voce law
@@ -51,6 +52,7 @@ from twin.errors import InputError
 from twin.process.field import K_UNLOAD_N_PER_M, SOFTPLUS_N, TOOL_RADIUS_M
 from twin.process.heightmap import HeightMap
 from twin.process.path import ToolPath
+from twin.process.sliding import RELEASE_LENGTH_M, sliding_direction
 
 #: Aerens et al. (2010) coefficient of the steady-state Fz formula [N / (MPa mm^2.07 deg)].
 AERENS_COEFFICIENT = 0.0716
@@ -84,10 +86,10 @@ class IsfForceParams:
     tensile_strength_mpa: float = 275.0
     thickness_m: float = 1.0e-3
     tool_radius_m: float = TOOL_RADIUS_M
-    wall_angle_max_deg: float = 63.82
-    build_up_m: float = 1.953e-3
-    mu_eff: float = 0.2971
-    direction_length_m: float = 0.387e-3
+    wall_angle_max_deg: float = 63.63
+    build_up_m: float = 1.966e-3
+    mu_eff: float = 0.3052
+    direction_length_m: float = 0.996e-3
     step_min_m: float = 0.2e-3
     k_unload_n_per_m: float = K_UNLOAD_N_PER_M
     scale: float = 1.0
@@ -249,30 +251,13 @@ class IsfForceField:
         return fz, slope * dlin_ddh * sx, slope * dlin_ddh * sy, slope * dlin_dz
 
     def _travel(self, x: float, y: float) -> tuple[float, float, np.ndarray | None]:
-        """Filtered travel direction v including the step from the last committed tip to (x, y), and ∂v/∂(x, y).
-
-        v = w·v_prev + (1 - w)·e, e the unit step, w = exp(-|step|/L_f): the direction of sliding, implicit in
-        the queried position (a tool pushed sideways meets friction against that motion, which keeps the
-        equilibrium stable); v_prev where the tool has not moved (the Jacobian is then None).
-        """
+        """Travel direction v including the step from the last committed tip to (x, y), and ∂v/∂(x, y)
+        (`twin.process.sliding.sliding_direction`); v_prev where the tool has not moved (Jacobian None)."""
         if self._last is None:
             return self._dir[0], self._dir[1], None
-        dx, dy = x - self._last[0], y - self._last[1]
-        length = math.hypot(dx, dy)
-        if length < 1e-9:
-            return self._dir[0], self._dir[1], None
-        ex, ey = dx / length, dy / length
-        w = math.exp(-length / self.params.direction_length_m)
-        vx, vy = w * self._dir[0] + (1.0 - w) * ex, w * self._dir[1] + (1.0 - w) * ey
-        dw = -w / self.params.direction_length_m  # ∂w/∂length; ∂length/∂(x, y) = e
-        c = (1.0 - w) / length
-        jac = np.array(
-            [
-                [(self._dir[0] - ex) * dw * ex + c * (1.0 - ex * ex), (self._dir[0] - ex) * dw * ey - c * ex * ey],
-                [(self._dir[1] - ey) * dw * ex - c * ex * ey, (self._dir[1] - ey) * dw * ey + c * (1.0 - ey * ey)],
-            ]
+        return sliding_direction(
+            self._dir, x - self._last[0], y - self._last[1], self.params.direction_length_m, RELEASE_LENGTH_M
         )
-        return vx, vy, jac
 
     def force_and_stiffness(
         self, p_sheet_m: np.ndarray, pass_index: int = 0, direction: int = 1

@@ -16,7 +16,6 @@ from scipy.interpolate import PchipInterpolator
 from twin.errors import InputError
 from twin.process.forces import ForceHistory
 from twin.process.formed_profile import FormedProfile
-from twin.process.path import label_passes
 
 
 @dataclass(frozen=True)
@@ -98,7 +97,7 @@ def build_pass_tables(history: ForceHistory, profile: FormedProfile, *, deadband
         history: Physical force history along the ideal path.
         profile: Formed profile to drive (normally flat on entry); its grid step is the tables' (at most: each
             pass's grid spans its x range exactly).
-        deadband_m: Dead band for labelling the history's passes (`label_passes`) [m].
+        deadband_m: Dead band for labelling the history's passes (`ForceHistory.pass_labels`) [m].
 
     Returns:
         One table per pass, passes 1..N in order.
@@ -108,7 +107,7 @@ def build_pass_tables(history: ForceHistory, profile: FormedProfile, *, deadband
     """
     x, z = history.p_sheet_m[:, 0], history.p_sheet_m[:, 2]
     fx, fz = history.f_sheet_n[:, 0], history.f_sheet_n[:, 2]
-    pass_index, direction = label_passes(x, deadband_m=deadband_m)
+    pass_index, direction = history.pass_labels(deadband_m)
     n_passes = int(pass_index.max())
     tables: list[PassTable] = []
     for j in range(1, n_passes + 1):

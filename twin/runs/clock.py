@@ -16,6 +16,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from twin.errors import InputError
+from twin.process.isf_force import IsfForceParams
+from twin.process.sliding import RELEASE_LENGTH_M, sliding_direction
 
 REFINE_MAX_WINDOWS = 6  # the reversal fit moves its window up to this many times to enclose the minimum
 ONSET_NOISE_FACTOR = 6.0  # onset: first sample above baseline + 6 noise sigmas (and 2 % of the range)
@@ -102,34 +104,54 @@ def best_lag(
     return float(taus[k] + shift), sigma
 
 
+def sliding_reference(p_ref_m: np.ndarray) -> np.ndarray:
+    """The x component of the tool's sliding direction along a commanded path (`twin.process.sliding`, with the
+    ISF model's calibrated build-up length): +-1 on straight runs, through zero at each reversal and back to
+    full over ~1 mm of travel, as the sheet's in-plane force does; shape (n,)."""
+    turn = IsfForceParams().direction_length_m
+    ref = np.zeros(len(p_ref_m))
+    v = (0.0, 0.0)
+    for i in range(1, len(p_ref_m)):
+        vx, vy, _ = sliding_direction(
+            v, p_ref_m[i, 0] - p_ref_m[i - 1, 0], p_ref_m[i, 1] - p_ref_m[i - 1, 1], turn, RELEASE_LENGTH_M
+        )
+        v = (vx, vy)
+        ref[i] = vx
+    if len(ref) > 1:
+        ref[0] = ref[1]
+    return ref
+
+
 def refine_on_reversals(
-    t_s: np.ndarray, f_sheet_n: np.ndarray, t_ref_s: np.ndarray, x_ref_m: np.ndarray, fit: ClockFit
+    t_s: np.ndarray, f_sheet_n: np.ndarray, t_ref_s: np.ndarray, p_ref_m: np.ndarray, fit: ClockFit
 ) -> ClockFit:
     """Refine a force clock offset on the travel reversals, where the tangential force flips sign.
 
-    The measured `fx/|f|` (in contact) is fitted to the commanded travel direction `sign(dx/dt)` (linear
-    between commanded samples) shifted by τ,
+    The measured `fx/|f|` (in contact) is fitted to the x component of the sliding direction along the
+    commanded path (`sliding_reference`: through zero at each reversal, then built up against the new travel
+    over ~1 mm, as the sheet's in-plane force does) shifted by τ,
     within ±(4 σ + 20 half-samples) of the onset estimate, the window moved (up to REFINE_MAX_WINDOWS times)
     while the minimum sits on its edge. Each of the path's reversals is a sharp feature, so the
     refined offset is far more precise than the onset's. Without at least 2 reversals the fit is returned as is.
-    Its uncertainty is statistical only: how sharply the measured flip follows the commanded reversal is a
-    model assumption (on the virtual lab's runs the estimate lands 2-3 ms early, see docs/import-export.md).
+    Its uncertainty is statistical only: how the measured flip follows the commanded reversal is a model
+    assumption (the tool also sticks while the robot unwinds; see docs/import-export.md for the bias measured
+    on the virtual lab's runs).
 
     Args:
         t_s: Sensor times on its own clock [s].
         f_sheet_n: Contact force in the sheet frame, shape (n, 3) [N].
         t_ref_s: Commanded times [s].
-        x_ref_m: Commanded x [m].
+        p_ref_m: Commanded positions in the sheet frame, shape (m, 3) [m].
         fit: The onset estimate.
 
     Returns:
         The refined fit (same method label), or `fit` when the path has fewer than 2 reversals.
     """
-    direction = np.sign(np.diff(x_ref_m))  # direction of travel from each commanded sample to the next
+    direction = np.sign(np.diff(p_ref_m[:, 0]))  # direction of travel from each commanded sample to the next
     moving = direction != 0
     if np.count_nonzero(np.diff(direction[moving]) != 0) < 2 or not np.isfinite(fit.sigma_s):
         return fit
-    reference = np.concatenate([direction[:1], direction])  # the direction into each sample, ramps between
+    reference = sliding_reference(p_ref_m)
     magnitude = np.linalg.norm(f_sheet_n, axis=1)
     contact = magnitude > 0.2 * np.percentile(magnitude, 95)
     step = step_of(t_s) / 2.0

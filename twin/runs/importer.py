@@ -64,7 +64,7 @@ def _align(
             table.t_s, magnitude, commanded.t_s, reference, max_offset_s=spec.max_offset_s, method=spec.method
         )
         if spec.method == "force_onset":
-            fit = refine_on_reversals(table.t_s, signal, commanded.t_s, p_cmd[:, 0], fit)
+            fit = refine_on_reversals(table.t_s, signal, commanded.t_s, p_cmd, fit)
         return fit
     except InputError as exc:
         raise _clock_error(mapping, stream, spec, f"{spec.method}: {exc}") from None

@@ -19,7 +19,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from twin.process import isf_force
+from twin.process import isf_force, sliding
 from twin.process.heightmap import SUBSTEPS
 from twin.process.isf_force import IsfForceField
 
@@ -37,7 +37,7 @@ class IsfArrays(NamedTuple):
     templates: np.ndarray  # (S+1, S+1, w, w) R - sqrt(R² - ρ²) per snapped sub-cell offset, inf outside [m]
     track: np.ndarray  # (capacity, 7) commits
     grid: np.ndarray  # (x0, y0, h, nx, ny, half window, lag, substeps)
-    prm: np.ndarray  # (base, α_max, D0, Δh_min, k_unload, μ_eff, L_f, alpha length, wall baseline, max layers)
+    prm: np.ndarray  # (base, α_max, D0, Δh_min, k_unload, μ_eff, L_f, alpha length, wall baseline, max layers, L_r)
     state: np.ndarray  # (10,) see the slots above
 
 
@@ -52,6 +52,7 @@ def isf_arrays(field: IsfForceField, capacity: int) -> IsfArrays | None:
     prm = np.array([
         field.base_fz_n, p.wall_angle_max_deg, p.build_up_m, p.step_min_m, p.k_unload_n_per_m, p.mu_eff,
         p.direction_length_m, isf_force.ALPHA_LENGTH_M, isf_force.WALL_BASELINE_M, float(isf_force.WALL_MAX_LAYERS),
+        sliding.RELEASE_LENGTH_M,
     ])
     state = np.zeros(10)
     state[ALPHA] = alpha
@@ -64,7 +65,7 @@ def isf_arrays(field: IsfForceField, capacity: int) -> IsfArrays | None:
 def idle_isf_arrays() -> IsfArrays:
     """A placeholder of the right types for a replay on the table field (never read)."""
     return IsfArrays(np.zeros((2, 2)), np.full((2, 2), -1, dtype=np.int64), np.zeros((1, 1, 1, 1)), np.zeros((1, 7)),
-                     np.zeros(8), np.zeros(10), np.zeros(10))
+                     np.zeros(8), np.zeros(11), np.zeros(10))
 
 
 def write_back(field: IsfForceField, arrays: IsfArrays) -> None:
@@ -134,7 +135,8 @@ def _fz(M: IsfArrays, x: float, y: float, z: float) -> tuple:
 
 @njit(cache=True)
 def _travel(M: IsfArrays, x: float, y: float, jac: np.ndarray) -> tuple:
-    """`IsfForceField._travel`: (vx, vy, has a Jacobian), ∂v/∂(x, y) into `jac` (2, 2)."""
+    """`IsfForceField._travel` (`twin.process.sliding.sliding_direction`): (vx, vy, has a Jacobian), ∂v/∂(x, y)
+    into `jac` (2, 2)."""
     st = M.state
     if st[HAS_LAST] == 0.0:
         return st[DIR_X], st[DIR_Y], False
@@ -143,15 +145,30 @@ def _travel(M: IsfArrays, x: float, y: float, jac: np.ndarray) -> tuple:
     if length < 1e-9:
         return st[DIR_X], st[DIR_Y], False
     ex, ey = dx / length, dy / length
+    qx, qy = st[DIR_X], st[DIR_Y]
+    c = qx * ex + qy * ey
+    pxx, pxy, pyy = 1.0 - ex * ex, -ex * ey, 1.0 - ey * ey
+    dqxx = dqxy = dqyx = dqyy = 0.0
+    if c < 0.0:
+        Lr = M.prm[10]
+        wr = math.exp(-length / Lr)
+        r = 1.0 - wr
+        qx, qy = qx - r * c * ex, qy - r * c * ey
+        a, b, k = c * wr / Lr, r / length, r * c / length
+        gx, gy = st[DIR_X] - c * ex, st[DIR_Y] - c * ey
+        dqxx = -(a * ex * ex + b * ex * gx + k * pxx)
+        dqxy = -(a * ex * ey + b * ex * gy + k * pxy)
+        dqyx = -(a * ey * ex + b * ey * gx + k * pxy)
+        dqyy = -(a * ey * ey + b * ey * gy + k * pyy)
     L = M.prm[6]
     w = math.exp(-length / L)
-    vx, vy = w * st[DIR_X] + (1.0 - w) * ex, w * st[DIR_Y] + (1.0 - w) * ey
+    vx, vy = w * qx + (1.0 - w) * ex, w * qy + (1.0 - w) * ey
     dw = -w / L
-    c = (1.0 - w) / length
-    jac[0, 0] = (st[DIR_X] - ex) * dw * ex + c * (1.0 - ex * ex)
-    jac[0, 1] = (st[DIR_X] - ex) * dw * ey - c * ex * ey
-    jac[1, 0] = (st[DIR_Y] - ey) * dw * ex - c * ex * ey
-    jac[1, 1] = (st[DIR_Y] - ey) * dw * ey + c * (1.0 - ey * ey)
+    g = (1.0 - w) / length
+    jac[0, 0] = (qx - ex) * dw * ex + w * dqxx + g * pxx
+    jac[0, 1] = (qx - ex) * dw * ey + w * dqxy + g * pxy
+    jac[1, 0] = (qy - ey) * dw * ex + w * dqyx + g * pxy
+    jac[1, 1] = (qy - ey) * dw * ey + w * dqyy + g * pyy
     return vx, vy, True
 
 
