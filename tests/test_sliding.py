@@ -101,3 +101,10 @@ def test_the_sample_just_past_a_corner_belongs_to_the_next_pass() -> None:
     fx = history.f_sheet_n[:, 0]
     # every sample's Fx opposes its labelled travel, or is within 20 N of zero (right at a corner)
     assert np.all((fx * direction <= 0.0) | (np.abs(fx) < 20.0))
+
+
+@pytest.mark.parametrize("step", [(4e-4, 1e-5), (-3e-4, 1e-4), (-4e-5, -1e-5), (0.0, 2e-4)])
+def test_the_direction_without_its_jacobian_is_the_same(step) -> None:
+    full = sliding_direction((0.8, 0.6), *step, L_F, RELEASE_LENGTH_M)
+    alone = sliding_direction((0.8, 0.6), *step, L_F, RELEASE_LENGTH_M, jacobian=False)
+    assert alone[2] is None and alone[:2] == pytest.approx(full[:2], abs=1e-15)

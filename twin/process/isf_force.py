@@ -189,7 +189,7 @@ class IsfForceField:
         x, y, z = float(p_sheet_m[0]), float(p_sheet_m[1]), float(p_sheet_m[2])
         if f_z_n is None:
             f_z_n = self._last_fz[1] if self._last_fz[0] == (x, y, z) else self._fz(x, y, z)[0]
-        vx, vy, _ = self._travel(x, y)
+        vx, vy, _ = self._travel(x, y, jacobian=False)
         self._dir = (vx, vy)
         self._last_step = 0.0 if self._last is None else math.dist(self._last, (x, y, z))
         self._last = (x, y, z)
@@ -250,13 +250,14 @@ class IsfForceField:
             fz, slope = w * math.log1p(ex), ex / (1.0 + ex)
         return fz, slope * dlin_ddh * sx, slope * dlin_ddh * sy, slope * dlin_dz
 
-    def _travel(self, x: float, y: float) -> tuple[float, float, np.ndarray | None]:
+    def _travel(self, x: float, y: float, jacobian: bool = True) -> tuple[float, float, np.ndarray | None]:
         """Travel direction v including the step from the last committed tip to (x, y), and ∂v/∂(x, y)
         (`twin.process.sliding.sliding_direction`); v_prev where the tool has not moved (Jacobian None)."""
         if self._last is None:
             return self._dir[0], self._dir[1], None
         return sliding_direction(
-            self._dir, x - self._last[0], y - self._last[1], self.params.direction_length_m, RELEASE_LENGTH_M
+            self._dir, x - self._last[0], y - self._last[1], self.params.direction_length_m, RELEASE_LENGTH_M,
+            jacobian,
         )
 
     def force_and_stiffness(
@@ -286,7 +287,7 @@ class IsfForceField:
         x, y, z = float(p_sheet_m[0]), float(p_sheet_m[1]), float(p_sheet_m[2])
         fz = self._fz(x, y, z)[0]
         self._last_fz = ((x, y, z), fz)
-        vx, vy, _ = self._travel(x, y)
+        vx, vy, _ = self._travel(x, y, jacobian=False)
         mu = self.params.mu_eff
         return np.array([-mu * vx * fz, -mu * vy * fz, fz])
 

@@ -31,7 +31,12 @@ MIN_STEP_M = 1e-9
 
 
 def sliding_direction(
-    v_prev: tuple[float, float], dx: float, dy: float, turn_length_m: float, release_length_m: float
+    v_prev: tuple[float, float],
+    dx: float,
+    dy: float,
+    turn_length_m: float,
+    release_length_m: float,
+    jacobian: bool = True,
 ) -> tuple[float, float, np.ndarray | None]:
     """Sliding direction after a step, and its Jacobian (module docstring).
 
@@ -41,6 +46,7 @@ def sliding_direction(
         dy: Step along y [m].
         turn_length_m: L_f, the travel over which v turns and builds up [m].
         release_length_m: L_r, the step over which a reversal releases the held direction [m].
+        jacobian: False skips the Jacobian (returned as None): the force alone, and the commit.
 
     Returns:
         (vx, vy, ∂v/∂(x, y) (2, 2) [1/m]); the Jacobian is None for a step shorter than `MIN_STEP_M`.
@@ -51,6 +57,12 @@ def sliding_direction(
     ex, ey = dx / length, dy / length
     qx, qy = v_prev
     c = qx * ex + qy * ey
+    if not jacobian:
+        if c < 0.0:
+            r = 1.0 - math.exp(-length / release_length_m)
+            qx, qy = qx - r * c * ex, qy - r * c * ey
+        w = math.exp(-length / turn_length_m)
+        return w * qx + (1.0 - w) * ex, w * qy + (1.0 - w) * ey, None
     # ∂e/∂(x, y) = P / length, P = I - e·eᵀ
     pxx, pxy, pyy = 1.0 - ex * ex, -ex * ey, 1.0 - ey * ey
     dqxx = dqxy = dqyx = dqyy = 0.0  # ∂v⁺/∂(x, y)
