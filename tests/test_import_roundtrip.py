@@ -144,13 +144,14 @@ def test_force_onset_finds_the_sensor_clock_and_the_position_gap_holds(
     clock = imported_onset.report["clocks"]["forces"]
     assert clock["method"] == "force_onset" and clock["refined_on"] == "reversals"
     assert 0.0 < clock["sigma_s"] < 0.002
-    # statistical sigma ~0.5 ms; the estimate lands ~11 ms late on lab runs: the tool sticks while the robot
-    # unwinds its deflection, so the measured flip trails the commanded reversal (docs/import-export.md)
-    assert clock["offset_s"] == pytest.approx(SENSOR_OFFSET_S + 0.011, abs=0.006)
+    # statistical sigma ~0.5 ms; the fit to the sliding reference lands within 1 ms here (docs/import-export.md)
+    assert clock["offset_s"] == pytest.approx(SENSOR_OFFSET_S, abs=0.004)
     back = replay(read_run(imported_onset.run.directory or ""), twin=twin_nominal).metrics
     assert back["position_rms_mm"] == pytest.approx(clean_replay.metrics["position_rms_mm"], rel=0.10)
-    # the force gap is very sensitive to the sensor clock (forces flip at each reversal): 11 ms add ~19 N
-    assert back["force_rms_n"] < 3.5 * clean_replay.metrics["force_rms_n"]
+    # the force gap is very sensitive to the sensor clock (forces flip at each reversal)
+    print(f"\nforce_onset clock: offset error {1e3 * (clock['offset_s'] - SENSOR_OFFSET_S):+.1f} ms, force gap "
+          f"{back['force_rms_n']:.1f} N (explicit offset {clean_replay.metrics['force_rms_n']:.1f} N)")
+    assert back["force_rms_n"] < 2.0 * clean_replay.metrics["force_rms_n"]
 
 
 def test_import_recovers_the_streams_in_the_sheet_frame(

@@ -2,7 +2,8 @@
 
 The effective gain is estimated from the run alone: its deflections (tracker minus command) and measured
 forces give a compliance C by least squares (d = C f + b·direction, the offset b that flips with the travel
-direction, from joint friction or lost motion, kept apart); the command's correction U_cmd - U_ID is then
+direction, from joint friction or lost motion, kept apart; force samples between a reversal's commanded sample
+and the next are left out, where the force has flipped and the deflection not yet); the command's correction U_cmd - U_ID is then
 compared with what a correct compensation would have commanded, -C f: (U_cmd - U_ID) ~ g (-C f) + b'·direction.
 g = 1 is right; g = 0.5 is the thesis's mistake (half-model FE forces used as full, sec. 5.1).
 """
@@ -127,6 +128,12 @@ def check_run(run: Run, t_ideal_s: np.ndarray, p_ideal_sheet_m: np.ndarray) -> C
     if np.sum(loaded) < 10:
         raise IdentificationError("fewer than 10 loaded force samples: cannot estimate the compliance")
     _, direction = label_passes(cmd[:, 0], deadband_m=PASS_DEADBAND_M)
+    # between a reversal's commanded sample and the next the force has flipped while the deflection has not
+    # (the tool sticks while the robot unwinds): no quasi-static d = C f there
+    pass_cmd, _ = label_passes(run.commanded.values[:, 0], deadband_m=PASS_DEADBAND_M)
+    after = np.clip(np.searchsorted(t_cmd, t_f, side="left"), 1, len(t_cmd) - 1)
+    turning = (pass_cmd[after] != pass_cmd[after - 1]) & (t_f > t_cmd[after - 1])
+    loaded &= ~turning
     c_xz = fit_compliance(f[loaded][:, [0, 2]], (tip - cmd)[loaded][:, [0, 2]], direction[loaded])
     predicted = -f[:, [0, 2]] @ c_xz.T
     gain = compensation_gain((cmd - ideal)[:, [0, 2]], predicted, direction)

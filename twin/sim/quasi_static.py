@@ -265,7 +265,8 @@ class Twin:
         """Read MuJoCo's flange force sensor at the given times, as the run format wants it.
 
         The force is applied at the tool tip and MuJoCo's `ft_force` sensor read at equilibrium, tared by an
-        unloaded reading at the same pose (`twin.sim.ft_sensor.flange_sensor_forces`).
+        unloaded reading at the same pose (`twin.sim.ft_sensor.flange_sensor_forces`). With the per-pass table
+        field the force steps at each reversal and is not interpolated across it.
 
         Args:
             result: A run from `simulate`.
@@ -274,7 +275,10 @@ class Twin:
         Returns:
             Force exerted by the sheet on the tool, sheet frame [N], shape (m, 3).
         """
-        return flange_sensor_forces(self.model, self.data, result, t_s, R_base_sheet=self.R_base_sheet)
+        return flange_sensor_forces(
+            self.model, self.data, result, t_s, R_base_sheet=self.R_base_sheet,
+            steps_between_passes=hasattr(self.field, "pass_tables"),
+        )
 
     def static_deflection(self, f_base_n: np.ndarray, q: np.ndarray | None = None) -> np.ndarray:
         """Equilibrium tool-tip deflection under a constant force at the tool tip (no sheet field).
