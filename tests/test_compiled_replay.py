@@ -242,3 +242,28 @@ def test_the_height_map_isf_model_replays_compiled_to_the_python_loops_equilibri
     assert step == pytest.approx(field.motion_state[3], abs=1e-12)
     assert surface is not None
     np.testing.assert_allclose(surface[2], formed_surface(field)[2], rtol=0.0, atol=1e-12)  # type: ignore[index]
+
+
+def test_the_isf_model_at_reversals_replays_compiled_to_the_python_loops_equilibria() -> None:
+    """The groove's first three passes on the ISF model: at each reversal the sliding direction is released
+    (`twin.process.sliding`), a branch a cone never takes; compiled and Python loops find the same tips and forces."""
+    from twin.process.isf_calibration import isf_field_factory
+    from twin.process.path import GrooveSpec, groove_path
+
+    path = groove_path(GrooveSpec(passes=3, depth_m=0.003, bottom_length_m=0.068))
+    twin = Twin(field_factory=isf_field_factory())
+    fast = twin.simulate(path.t_s, path.p_sheet_m)
+    assert twin.last_loop_compiled
+    twin.use_compiled_loop = False
+    try:
+        reference = twin.simulate(path.t_s, path.p_sheet_m, q_ik=fast.q_ik)
+    finally:
+        twin.use_compiled_loop = True
+    _assert_same(fast, reference, gain_from=2)
+    fx = fast.f_sheet_n[:, 0]
+    reversals = np.flatnonzero(np.diff(fast.pass_index) != 0)
+    assert len(reversals) == 2
+    for r in reversals:  # released: one sample after the turn (the tip moved back 0.1-0.2 mm) the in-plane force
+        # is below 20 % of its straight-run value (0.8 of it without the release), a sample later it opposes the
+        # new travel
+        assert abs(fx[r + 1]) < 0.2 * abs(fx[r - 1]) and np.sign(fx[r + 2]) == -np.sign(fx[r - 1])

@@ -9,9 +9,9 @@ published, so the model's steady-state forces on cone walls below α_max are Aer
 The tool path between two samples is not always their chord: an export sampled at equal arc length puts the
 reversals of a zig-zag between samples (the groove's 1311 samples miss all nine corners), and a sample a few
 hundredths of a millimetre past a corner then seems to move the old way. `history_drive` puts the turns back
-where the arc length between two samples exceeds their chord (`ForceHistory.turns`): the corner where the incoming and outgoing lines
-meet with legs that add up to that arc length, accepted when they join the two samples to within 5 % of it. The model is driven through the corners and
-compared at the history's samples only.
+where the arc length between two samples exceeds their chord (`ForceHistory.turns`): the corner where the
+incoming and outgoing lines meet with legs that add up to that arc length, accepted when they join the two
+samples to within 5 % of it. The model is driven through the corners and compared at the history's samples.
 """
 
 from __future__ import annotations
@@ -83,7 +83,7 @@ def history_drive(history: ForceHistory) -> tuple[ToolPath, np.ndarray]:
     drive = np.array(points)
     steps = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(drive, axis=0), axis=1))]
     pass_index, direction = label_passes(drive[:, 0])
-    feed = 2.0 / 60.0
+    feed = 2.0 / 60.0  # [m/s], as `ForceHistory.to_path` (the model is rate-independent)
     return ToolPath(t_s=steps / feed, p_sheet_m=drive, pass_index=pass_index, direction=direction), np.array(rows)
 
 

@@ -76,7 +76,7 @@ class IsfForceParams:
         wall_angle_max_deg: Cap α_max of the local wall angle [deg] (calibrated on the groove).
         build_up_m: Build-up depth D0 [m] (calibrated).
         mu_eff: In-plane over vertical force, against the travel [-] (calibrated).
-        direction_length_m: Filter length L_f of the travel direction [m] (calibrated).
+        direction_length_m: Length L_f over which the sliding direction turns and builds up [m] (calibrated).
         step_min_m: Engagement Δh_min below which the force stays at its Δh_min value [m] (calibrated).
         k_unload_n_per_m: Elastic unloading stiffness of the formed sheet [N/m] (`twin.process.field`).
         scale: Factor on Fz and F_xy [-] (1: Aerens as published; a real cell's forces may differ).
