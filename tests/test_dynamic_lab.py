@@ -109,7 +109,7 @@ def test_dead_band_on_joint2_opens_once_the_sheet_outweighs_gravity_on_joint2():
     half = 0.15e-3
     assert plays[1].max() == pytest.approx(half) and plays[1].min() == pytest.approx(-half)  # both flanks
     assert np.count_nonzero(np.diff(np.sign(plays[1])) != 0) >= 5  # 9 crossings measured
-    assert gaps[1] >= 3.0 * gaps[0]  # 0.237 against 0.059 mm measured (0.2 mrad: 2.8x)
+    assert gaps[1] >= 3.0 * gaps[0]  # 0.241 against 0.072 mm measured (3.4x; 0.2 mrad: 2.4x)
 
 
 def test_dynamic_load_test_matches_the_twin_static_deflection_without_friction():

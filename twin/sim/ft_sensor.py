@@ -17,11 +17,11 @@ def flange_sensor_forces(
     *,
     full_inverse: bool = False,
     R_base_sheet: np.ndarray | None = None,
-    steps_between_passes: bool = False,
 ) -> np.ndarray:
     """Read MuJoCo's flange force sensor at the given times, as the run format wants it.
 
-    The equilibrium joint positions and the sheet force are interpolated to `t_s`; the force is applied
+    The equilibrium joint positions and the sheet force are interpolated to `t_s` (the force by
+    `SimResult.force_at`: across a pass change of the per-pass table field it steps); the force is applied
     at the tool tip (`xfrc_applied` on the tool body, moment carried to its centre of mass); `mj_inverse`
     at qvel = qacc = 0 evaluates the `ft_force` sensor; the tool's weight is removed by a second, unloaded
     reading at the same pose (tare); the result is turned into the sheet frame and its sign flipped
@@ -39,10 +39,6 @@ def flange_sensor_forces(
         t_s: Sensor sample times [s], within the run.
         full_inverse: Evaluate each reading with the whole `mj_inverse` (the reference of the lighter path).
         R_base_sheet: Orientation of the sheet frame in the base (the placement's yaw); None: the base axes.
-        steps_between_passes: The field's force steps from one pass to the next (the per-pass table field):
-            between a pass's last sample (its reversal) and the next pass's first, the force is the next
-            sample's, not a ramp between the two (a pass starts right after its reversal sample, as the labs'
-            pass labels of their control ticks do). Within a pass the force is interpolated linearly.
 
     Returns:
         Force exerted by the sheet on the tool, sheet frame [N], shape (m, 3).
@@ -53,12 +49,7 @@ def flange_sensor_forces(
     ft_site = m.site("ft_site").id
     t_s = np.asarray(t_s, dtype=float)
     qpos = interp_rows(t_s, result.t_s, result.qpos)
-    force = interp_rows(t_s, result.t_s, result.f_sheet_n)
-    if steps_between_passes and len(result.t_s) > 1:
-        after = np.clip(np.searchsorted(result.t_s, t_s, side="left"), 1, len(result.t_s) - 1)
-        changes = np.asarray(result.pass_index)[after] != np.asarray(result.pass_index)[after - 1]
-        inside = changes & (t_s > result.t_s[after - 1]) & (t_s < result.t_s[after])
-        force[inside] = np.asarray(result.f_sheet_n)[after[inside]]
+    force = result.force_at(t_s)  # steps at the reversals with the per-pass table field
     rot = np.eye(3) if R_base_sheet is None else np.asarray(R_base_sheet, dtype=float)
     force = force @ rot.T  # base frame
     sensor_adr = m.sensor("ft_force").adr[0]

@@ -259,6 +259,7 @@ class Twin:
             formed_z_m=np.asarray(formed_z, dtype=float).copy(),
             iterations=out.iterations,
             tip_gain=tip_gain,
+            force_steps=hasattr(self.field, "pass_tables"),  # the per-pass table field steps between passes
         )
 
     def sensor_forces(self, result: SimResult, t_s: np.ndarray) -> np.ndarray:
@@ -275,10 +276,7 @@ class Twin:
         Returns:
             Force exerted by the sheet on the tool, sheet frame [N], shape (m, 3).
         """
-        return flange_sensor_forces(
-            self.model, self.data, result, t_s, R_base_sheet=self.R_base_sheet,
-            steps_between_passes=hasattr(self.field, "pass_tables"),
-        )
+        return flange_sensor_forces(self.model, self.data, result, t_s, R_base_sheet=self.R_base_sheet)
 
     def static_deflection(self, f_base_n: np.ndarray, q: np.ndarray | None = None) -> np.ndarray:
         """Equilibrium tool-tip deflection under a constant force at the tool tip (no sheet field).

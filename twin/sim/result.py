@@ -6,6 +6,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from twin.base.signals import interp_rows
+
 
 @dataclass(frozen=True)
 class SimResult:
@@ -27,6 +29,8 @@ class SimResult:
         tip_gain: d p_tcp / d p_cmd at each equilibrium, (I + C S)^-1 with C the robot's Cartesian compliance
             and S = -df/dp the sheet's stiffness [-], shape (n, 3, 3); for a tool sticking on the sheet at a
             reversal, S is that of the sliding tool (`twin.process.tool_friction`).
+        force_steps: The field's force steps from one pass to the next (the per-pass table field), so forces
+            are not interpolated across a pass change (`force_at`).
     """
 
     t_s: np.ndarray
@@ -42,11 +46,35 @@ class SimResult:
     formed_z_m: np.ndarray
     iterations: np.ndarray
     tip_gain: np.ndarray
+    force_steps: bool = False
 
     @property
     def deflection_sheet_m(self) -> np.ndarray:
         """Loaded minus unloaded tool tip [m], shape (n, 3)."""
         return self.p_sheet_m - self.p_unloaded_sheet_m
+
+    def force_at(self, t_s: np.ndarray, values: np.ndarray | None = None) -> np.ndarray:
+        """Forces (or a force change) given at the samples, at other times: linear within a pass; with
+        `force_steps`, between a pass's last sample (its reversal) and the next pass's first the next sample's
+        value, not a ramp (a pass starts right after its reversal sample, as the labs' control ticks take it).
+
+        Args:
+            t_s: Query times [s], shape (m,).
+            values: Per-sample values, shape (n, k); None for `f_sheet_n`.
+
+        Returns:
+            The values at `t_s`, shape (m, k).
+        """
+        t_s = np.asarray(t_s, dtype=float)
+        v = self.f_sheet_n if values is None else np.asarray(values, dtype=float)
+        out = interp_rows(t_s, self.t_s, v)
+        if self.force_steps and len(self.t_s) > 1:
+            after = np.clip(np.searchsorted(self.t_s, t_s, side="left"), 1, len(self.t_s) - 1)
+            inside = (self.pass_index[after] != self.pass_index[after - 1]) & (t_s > self.t_s[after - 1]) & (
+                t_s < self.t_s[after]
+            )
+            out[inside] = v[after[inside]]
+        return out
 
 
 @dataclass(frozen=True)

@@ -84,9 +84,10 @@ class Context:
         return interp_rows(self.run.tracker.t_s, self.sim.t_s, values)
 
     def at_force(self, values: np.ndarray) -> np.ndarray:
-        """Rows at the commanded samples interpolated to the force-sensor times."""
+        """Rows at the commanded samples interpolated to the force-sensor times (`SimResult.force_at`: a
+        force steps across a pass change of the per-pass table field)."""
         assert self.run.forces is not None
-        return interp_rows(self.run.forces.t_s, self.sim.t_s, values)
+        return self.sim.force_at(self.run.forces.t_s, values)
 
     def profile_change(self, dp_cmd: np.ndarray) -> np.ndarray:
         """Profile change caused by a tip change (n, 3) [m]: the last (deepest) pass's z change along x."""

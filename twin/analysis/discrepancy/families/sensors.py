@@ -6,9 +6,9 @@ import numpy as np
 
 from twin.analysis.discrepancy.context import Context
 from twin.analysis.discrepancy.families.base import Delta, Family, register
-from twin.base.signals import interp_rows
 
 TIME_SCAN_POINTS = 161  # coarse scan of the clock offset over its bounds (a 0.3 s offset is far from 0)
+SKEW_SCAN_POINTS = 201  # scans of the rate error: over its bounds (5e-4 apart), then within one step of the best
 
 
 @register
@@ -70,19 +70,40 @@ class StreamTimeOffset(Family):
         t = ctx.run.forces.t_s
         t0 = ctx.t_cmd[0]
         shifted = np.clip(t - theta[0] - theta[1] * (t - t0), ctx.t_cmd[0], ctx.t_cmd[-1])
-        return Delta(force=interp_rows(shifted, ctx.t_cmd, ctx.force_cmd) - ctx.pred["force"])
+        return Delta(force=ctx.sim.force_at(shifted, ctx.force_cmd) - ctx.pred["force"])
 
     def start(self, ctx: Context, residual: dict[str, np.ndarray]) -> np.ndarray:
-        """The best offset of a coarse scan over the bounds (skew 0)."""
+        """Scans: the offset over its bounds (skew 0), then the skew with the mid-run shift held, then the offset
+        again, finely. With the per-pass table field the force steps at each reversal, so the sum of squares
+        jumps wherever a shifted sample crosses a step: the least-squares refine that follows must start with
+        every sample on its right side of the steps, which a start at skew 0 misses on a long run."""
         target = residual["force"]
-        best, best_sse = 0.0, float(np.sum(target**2))
-        for tau in np.linspace(self.bounds[0][0], self.bounds[1][0], TIME_SCAN_POINTS):
-            force = self.delta(ctx, np.array([tau, 0.0])).force
+        assert ctx.run.forces is not None
+        mid = 0.5 * (ctx.run.forces.t_s[0] + ctx.run.forces.t_s[-1]) - ctx.t_cmd[0]
+
+        def sse(tau: float, skew: float) -> float:
+            force = self.delta(ctx, np.array([tau, skew])).force
             assert force is not None
-            sse = float(np.sum((target - force) ** 2))
-            if sse < best_sse:
-                best, best_sse = float(tau), sse
-        return np.array([best, 0.0])
+            return float(np.sum((target - force) ** 2))
+
+        def best_of(candidates: list[tuple[float, float]], incumbent: tuple[float, float]) -> tuple[float, float]:
+            scores = [sse(*c) for c in candidates]
+            k = int(np.argmin(scores))
+            return candidates[k] if scores[k] < sse(*incumbent) else incumbent
+
+        lo, hi = self.bounds[0], self.bounds[1]
+        taus = np.linspace(lo[0], hi[0], TIME_SCAN_POINTS)
+        tau, skew = best_of([(float(t), 0.0) for t in taus], (0.0, 0.0))
+        shift = tau  # the mid-run shift, tau + skew * mid, held while the skew is scanned
+        skews = np.linspace(lo[1], hi[1], SKEW_SCAN_POINTS)
+        for _ in range(2):  # over the bounds, then within one step of the best: 5e-6 apart
+            tau, skew = best_of([(float(np.clip(shift - k * mid, lo[0], hi[0])), float(k)) for k in skews], (tau, skew))
+            spacing = float(skews[1] - skews[0])
+            skews = np.clip(skew + np.linspace(-spacing, spacing, SKEW_SCAN_POINTS), lo[1], hi[1])
+        step = float(taus[1] - taus[0])
+        fine = tau + np.linspace(-step, step, TIME_SCAN_POINTS)
+        tau, skew = best_of([(float(np.clip(t, lo[0], hi[0])), skew) for t in fine], (tau, skew))
+        return np.array([tau, skew])
 
     def to_lab(self, theta: np.ndarray, covariance: np.ndarray | None) -> dict[str, float] | None:
         """`stream_time_offset` [s] when the skew is not significant."""
