@@ -8,7 +8,7 @@ from twin.analysis.discrepancy.context import Context
 from twin.analysis.discrepancy.families.base import Delta, Family, register
 
 TIME_SCAN_POINTS = 161  # coarse scan of the clock offset over its bounds (a 0.3 s offset is far from 0)
-SKEW_SCAN_POINTS = 201  # scans of the rate error: over its bounds (5e-4 apart), then within one step of the best
+SKEW_SCAN_POINTS = 101  # scans of the rate error: over its bounds (1e-3 apart), then within one step of the best
 
 
 @register
@@ -96,7 +96,7 @@ class StreamTimeOffset(Family):
         tau, skew = best_of([(float(t), 0.0) for t in taus], (0.0, 0.0))
         shift = tau  # the mid-run shift, tau + skew * mid, held while the skew is scanned
         skews = np.linspace(lo[1], hi[1], SKEW_SCAN_POINTS)
-        for _ in range(2):  # over the bounds, then within one step of the best: 5e-6 apart
+        for _ in range(2):  # over the bounds, then within one step of the best: 2e-5 apart
             tau, skew = best_of([(float(np.clip(shift - k * mid, lo[0], hi[0])), float(k)) for k in skews], (tau, skew))
             spacing = float(skews[1] - skews[0])
             skews = np.clip(skew + np.linspace(-spacing, spacing, SKEW_SCAN_POINTS), lo[1], hi[1])
