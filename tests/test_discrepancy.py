@@ -155,6 +155,32 @@ def test_hard_single_effects_are_named(
     assert parameter_error(name, result.effects.get(name), value) <= PARAMETER_TOLERANCE, info
 
 
+def test_a_dynamic_plant_sensor_clock_with_a_rate_error_is_named_and_placed(
+    nominal_path: tuple[np.ndarray, np.ndarray]
+) -> None:
+    """The dynamic plant's own F/T clock (`twin/lab/dynamic/sensors.py`, not the lab's `stream_time_offset`): 40 ms
+    ahead and 2000 ppm fast, everything else neutral. A sample stamped t was taken at (t - 0.04) / 1.002, so the
+    shift grows from 40 ms to 80 ms over the run; the plant's force steps at every reversal, which the family's
+    starts must bracket (measured: offset 44.9 ms, skew 0.0018, 93 % of the excess explained; the shift found is
+    5.0 / 3.0 / 1.1 ms off at the start, middle and end: the plant's transients at the reversals pull it)."""
+    from twin.lab.dynamic.knobs import Knobs
+    from twin.lab.dynamic.run import run_dynamic_lab
+
+    t_s, p_m = nominal_path
+    offset, skew = 0.04, 2000e-6
+    knobs = Knobs({"ft_clock_offset_s": offset, "ft_clock_skew_ppm": 1e6 * skew}, neutral=True)
+    run, _, _ = run_dynamic_lab(t_s, p_m, scenario="nominal", knobs=knobs, seed=5)
+    result, seconds = timed(run)
+    info = describe(result, seconds)
+    assert result.found[:1] == ("stream_time_offset",), info
+    theta = named(result, "stream_time_offset").parameters
+    for t in (0.0, 0.5 * t_s[-1], t_s[-1]):  # the shift the plant made (40-80 ms) and the one found
+        made = t - (t - offset) / (1.0 + skew)
+        found = theta["offset_s"] + theta["skew_ratio"] * (t - t_s[0])
+        assert found == pytest.approx(made, abs=0.008), (t, info)
+    assert result.explained_fraction >= 0.7, info
+
+
 def test_excess_over_noise_is_counted_per_stream() -> None:
     sizes = [100, 50]
     at_noise_low = np.full(100, 0.9)  # reduced chi-square 0.81: noise estimated a little high

@@ -117,14 +117,42 @@ class Fitter:
         return total
 
     def fit(self, families: Sequence[Family], starts: dict[str, np.ndarray] | None = None) -> Fit:
-        """Fit `families` jointly; `starts` may give starting parameters by name."""
+        """Fit `families` jointly; `starts` may give starting parameters by name. A family with several starts
+        of its own (`Family.starts`, e.g. a clock offset on a force that steps) is refined from each, the other
+        families from their first, and the lowest sum of squares is kept."""
         starts = starts or {}
         if not families:
             sse = float(self.base @ self.base)
             return Fit((), {}, {}, {}, self.base, sse, sse)
-        x0 = np.concatenate([
-            np.asarray(starts.get(f.name, f.start(self.ctx, self.raw)), dtype=float) for f in families
-        ])
+        options = [
+            [np.asarray(starts[f.name], dtype=float)] if f.name in starts else
+            [np.asarray(x, dtype=float) for x in f.starts(self.ctx, self.raw)]
+            for f in families
+        ]
+        candidates = [np.concatenate([o[0] for o in options])]
+        for k, own in enumerate(options):
+            for alternative in own[1:]:
+                candidates.append(np.concatenate([alternative if j == k else o[0] for j, o in enumerate(options)]))
+        scale = np.concatenate([f.scale for f in families])
+        x, free, r = min((self._refine(families, x0) for x0 in candidates), key=lambda out: float(out[2] @ out[2]))
+        jac = self.jacobian(families, x, scale)[:, free]
+        dof = max(r.size - int(free.sum()), 1)
+        cov_free = np.linalg.pinv(jac.T @ jac) * max(float(r @ r) / dof, 1.0)
+        cov = np.zeros((x.size, x.size))
+        cov[np.ix_(free, free)] = cov_free
+        sd = np.where(free, np.sqrt(np.clip(np.diag(cov), 0.0, None)), np.nan)
+        heldout = self.heldout(r, jac)
+        theta, sigma, covariance = {}, {}, {}
+        i = 0
+        for f in families:
+            n = len(f.parameters)
+            theta[f.name], sigma[f.name] = x[i : i + n], sd[i : i + n]
+            covariance[f.name] = cov[i : i + n, i : i + n]
+            i += n
+        return Fit(tuple(f.name for f in families), theta, sigma, covariance, r, float(r @ r), heldout)
+
+    def _refine(self, families: Sequence[Family], x0: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Least squares from `x0`: (parameters, which were free, residual)."""
         lower = np.concatenate([f.bounds[0] for f in families])
         upper = np.concatenate([f.bounds[1] for f in families])
         scale = np.concatenate([f.scale for f in families])
@@ -150,24 +178,7 @@ class Fitter:
         else:
             solution = least_squares(fun, x0[free], bounds=(lower[free], upper[free]), x_scale=scale[free],
                                      method="trf", diff_step=1e-3 * scale[free] / np.maximum(np.abs(x0[free]), 1.0))
-        x = x0.copy()
-        x[free] = solution.x
-        r = fun(solution.x)
-        jac = self.jacobian(families, x, scale)[:, free]
-        dof = max(r.size - int(free.sum()), 1)
-        cov_free = np.linalg.pinv(jac.T @ jac) * max(float(r @ r) / dof, 1.0)
-        cov = np.zeros((x.size, x.size))
-        cov[np.ix_(free, free)] = cov_free
-        sd = np.where(free, np.sqrt(np.clip(np.diag(cov), 0.0, None)), np.nan)
-        heldout = self.heldout(r, jac)
-        theta, sigma, covariance = {}, {}, {}
-        i = 0
-        for f in families:
-            n = len(f.parameters)
-            theta[f.name], sigma[f.name] = x[i : i + n], sd[i : i + n]
-            covariance[f.name] = cov[i : i + n, i : i + n]
-            i += n
-        return Fit(tuple(f.name for f in families), theta, sigma, covariance, r, float(r @ r), heldout)
+        return full(solution.x), free, fun(solution.x)
 
     def jacobian(self, families: Sequence[Family], x: np.ndarray, scale: np.ndarray) -> np.ndarray:
         """d model / d x (analytic for linear families, central differences otherwise)."""

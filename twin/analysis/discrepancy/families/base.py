@@ -85,6 +85,10 @@ class Family(ABC):
         del ctx, residual
         return np.asarray(self.neutral, dtype=float)
 
+    def starts(self, ctx: Context, residual: dict[str, np.ndarray]) -> list[np.ndarray]:
+        """Starting parameters to refine from, the best refined fit kept (default: `start` alone)."""
+        return [self.start(ctx, residual)]
+
     def to_lab(self, theta: np.ndarray, covariance: np.ndarray | None) -> dict[str, float] | None:
         """The fitted effect in the lab's vocabulary (`twin.lab.effects`), for a model file; None if not."""
         del theta, covariance

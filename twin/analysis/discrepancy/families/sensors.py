@@ -73,37 +73,48 @@ class StreamTimeOffset(Family):
         return Delta(force=ctx.sim.force_at(shifted, ctx.force_cmd) - ctx.pred["force"])
 
     def start(self, ctx: Context, residual: dict[str, np.ndarray]) -> np.ndarray:
-        """Scans: the offset over its bounds (skew 0), then the skew with the mid-run shift held, then the offset
-        again, finely. With the per-pass table field the force steps at each reversal, so the sum of squares
-        jumps wherever a shifted sample crosses a step: the least-squares refine that follows must start with
-        every sample on its right side of the steps, which a start at skew 0 misses on a long run."""
+        """The best offset of a coarse scan over the bounds (skew 0)."""
+        taus = np.linspace(self.bounds[0][0], self.bounds[1][0], TIME_SCAN_POINTS)
+        return np.array(self._best(ctx, residual["force"], [(float(t), 0.0) for t in taus], (0.0, 0.0)))
+
+    def starts(self, ctx: Context, residual: dict[str, np.ndarray]) -> list[np.ndarray]:
+        """`start`, and from it three scans: the skew with the mid-run shift held (over the bounds, then within
+        one step of the best), then the offset finely. With the per-pass table field the force steps at each
+        reversal, so the sum of squares jumps wherever a shifted sample crosses a step, and the least-squares
+        refine keeps every sample on the side of the steps it starts on: a start at skew 0 can miss on a long run
+        with a rate error, the scanned one can be drawn off by what the family does not model (the plant's
+        transients at the reversals). Both are refined; the fit keeps the better."""
         target = residual["force"]
         assert ctx.run.forces is not None
         mid = 0.5 * (ctx.run.forces.t_s[0] + ctx.run.forces.t_s[-1]) - ctx.t_cmd[0]
-
-        def sse(tau: float, skew: float) -> float:
-            force = self.delta(ctx, np.array([tau, skew])).force
-            assert force is not None
-            return float(np.sum((target - force) ** 2))
-
-        def best_of(candidates: list[tuple[float, float]], incumbent: tuple[float, float]) -> tuple[float, float]:
-            scores = [sse(*c) for c in candidates]
-            k = int(np.argmin(scores))
-            return candidates[k] if scores[k] < sse(*incumbent) else incumbent
-
-        lo, hi = self.bounds[0], self.bounds[1]
-        taus = np.linspace(lo[0], hi[0], TIME_SCAN_POINTS)
-        tau, skew = best_of([(float(t), 0.0) for t in taus], (0.0, 0.0))
+        lo, hi = self.bounds
+        coarse = self.start(ctx, residual)
+        tau, skew = float(coarse[0]), 0.0
         shift = tau  # the mid-run shift, tau + skew * mid, held while the skew is scanned
         skews = np.linspace(lo[1], hi[1], SKEW_SCAN_POINTS)
         for _ in range(2):  # over the bounds, then within one step of the best: 2e-5 apart
-            tau, skew = best_of([(float(np.clip(shift - k * mid, lo[0], hi[0])), float(k)) for k in skews], (tau, skew))
+            pairs = [(float(np.clip(shift - k * mid, lo[0], hi[0])), float(k)) for k in skews]
+            tau, skew = self._best(ctx, target, pairs, (tau, skew))
             spacing = float(skews[1] - skews[0])
             skews = np.clip(skew + np.linspace(-spacing, spacing, SKEW_SCAN_POINTS), lo[1], hi[1])
-        step = float(taus[1] - taus[0])
+        step = (hi[0] - lo[0]) / (TIME_SCAN_POINTS - 1)
         fine = tau + np.linspace(-step, step, TIME_SCAN_POINTS)
-        tau, skew = best_of([(float(np.clip(t, lo[0], hi[0])), skew) for t in fine], (tau, skew))
-        return np.array([tau, skew])
+        tau, skew = self._best(ctx, target, [(float(np.clip(t, lo[0], hi[0])), skew) for t in fine], (tau, skew))
+        scanned = np.array([tau, skew])
+        return [coarse] if np.array_equal(scanned, coarse) else [coarse, scanned]
+
+    def _best(
+        self, ctx: Context, target: np.ndarray, pairs: list[tuple[float, float]], incumbent: tuple[float, float]
+    ) -> tuple[float, float]:
+        """The (offset, skew) of `pairs` with the least sum of squares against `target`, or `incumbent`."""
+        def sse(pair: tuple[float, float]) -> float:
+            force = self.delta(ctx, np.array(pair)).force
+            assert force is not None
+            return float(np.sum((target - force) ** 2))
+
+        scores = [sse(p) for p in pairs]
+        k = int(np.argmin(scores))
+        return pairs[k] if scores[k] < sse(incumbent) else incumbent
 
     def to_lab(self, theta: np.ndarray, covariance: np.ndarray | None) -> dict[str, float] | None:
         """`stream_time_offset` [s] when the skew is not significant."""
