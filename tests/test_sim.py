@@ -73,7 +73,7 @@ def test_sensor_reads_the_applied_sheet_force_within_half_a_percent(
     read = twin_nominal.sensor_forces(sim, t_s)
     applied = np.column_stack([np.interp(t_s, sim.t_s, sim.f_sheet_n[:, j]) for j in range(3)])
     # the table field's force steps at each reversal: between a reversal sample and the next the force is
-    # the next pass's, not a ramp (flange_sensor_forces' steps_between_passes)
+    # the next pass's, not a ramp (SimResult.force_at, computed here on its own)
     after = np.searchsorted(sim.t_s, t_s, side="left")
     across = (after > 0) & (sim.pass_index[np.maximum(after - 1, 0)] != sim.pass_index[after]) & (t_s < sim.t_s[after])
     assert 5 <= across.sum() <= 9  # a 30 Hz sensor falls between the two samples at some of the 9 reversals
