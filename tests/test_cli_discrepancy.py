@@ -8,10 +8,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from twin.lab.effects import Effects, read_model_file
 
 from twin.base.resources import data_file
 from twin.cli import main
-from twin.lab.effects import Effects, read_model_file
 from twin.lab.virtual import LabSettings, run_lab
 from twin.runs.write import write_run
 
@@ -130,8 +130,9 @@ def test_starting_from_the_model_out_finds_nothing_more(workflow: dict[str, Path
 
 
 def test_discrepancy_refuses_to_write_the_model_into_the_run(tmp_path: Path) -> None:
-    from twin.errors import InputError
     from twin.lab.effects import Effects, write_model_file
+
+    from twin.errors import InputError
 
     run_dir = tmp_path / "run"
     run_dir.mkdir()

@@ -10,15 +10,15 @@ import numpy as np
 import pytest
 
 from twin.base.csvio import (
-    check_mm_magnitude,
     check_monotonic,
     emit_json,
+    read_header,
     read_json,
     read_table,
     write_json,
     write_table,
 )
-from twin.errors import DataFileError, InputError, UnitsError
+from twin.errors import DataFileError, InputError
 
 
 def _write(path: Path, text: str) -> Path:
@@ -66,10 +66,13 @@ def test_check_monotonic_names_the_first_bad_row(tmp_path: Path) -> None:
     check_monotonic(tmp_path / "f.csv", "t_s", np.array([0.0, 1.0, 1.0]), strict=False)
 
 
-def test_check_mm_magnitude_flags_metres(tmp_path: Path) -> None:
-    check_mm_magnitude(tmp_path / "f.csv", "x_mm", np.array([-35.0, 35.0]), min_span_mm=30.0)
-    with pytest.raises(UnitsError, match="metres"):
-        check_mm_magnitude(tmp_path / "f.csv", "x_mm", np.array([-0.035, 0.035]), min_span_mm=30.0)
+def test_read_header_skips_comments_and_blank_lines(tmp_path: Path) -> None:
+    path = _write(tmp_path / "h.csv", "# made by hand\n\n t_s , x_m\n0,1\n")
+    assert read_header(path) == ["t_s", "x_m"]
+    with pytest.raises(DataFileError, match=r"file is empty; expected a header with columns \['t_s'\]"):
+        read_header(_write(tmp_path / "e.csv", "# nothing\n"), ("t_s",))
+    with pytest.raises(DataFileError, match="file not found"):
+        read_header(tmp_path / "none.csv")
 
 
 def test_write_table_is_atomic_formats_and_protects_inputs(tmp_path: Path) -> None:

@@ -15,6 +15,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 import pytest
+from twin.lab.effects import EFFECTS, Effects
 
 from twin.analysis.compensate import compensate_twin
 from twin.analysis.discrepancy.context import Context
@@ -24,7 +25,6 @@ from twin.analysis.discrepancy.search import DiscrepancyResult, find_discrepancy
 from twin.analysis.discrepancy.significance import excess_over_noise, is_contradicted
 from twin.analysis.discrepancy.summary import result_summary
 from twin.base.resources import data_file
-from twin.lab.effects import EFFECTS, Effects
 from twin.lab.virtual import LabSettings, run_lab
 from twin.process.forces import ForceHistory, load_force_history
 from twin.process.path import label_passes
@@ -532,7 +532,7 @@ def test_grid_clean_runs_give_none(nominal_path: tuple[np.ndarray, np.ndarray]) 
 def test_signature_says_an_offset_flips_with_the_travel_direction(
     clean_unlabelled: Run, commanded_at_tracker: tuple[np.ndarray, np.ndarray]
 ) -> None:
-    from twin.analysis.discrepancy.labmodel import context
+    from twin.analysis.discrepancy.effect_model import context
     from twin.analysis.discrepancy.residuals import ResidualModel
     from twin.analysis.discrepancy.signature import describe_remainder
 

@@ -7,8 +7,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
-from twin.errors import DataFileError, InputError
 from twin.lab.effects import (
     EFFECTS,
     MODEL_FORMAT,
@@ -18,6 +16,8 @@ from twin.lab.effects import (
     read_model_file,
     write_model_file,
 )
+
+from twin.errors import DataFileError, InputError
 from twin.robot.model import RobotEffects
 
 

@@ -7,10 +7,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from twin.lab.effects import EFFECTS, Effects
 
 from twin.analysis.identify.cartesian import THESIS_TABLE_4_2_LOADS_N, load_cases_csv
 from twin.cli import main
-from twin.lab.effects import EFFECTS, Effects
 from twin.lab.virtual import LabSettings, load_test, run_lab
 from twin.process.path import ToolPath, groove_path, write_path_csv
 from twin.runs.format import RUN_FORMAT, Run

@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
-from twin.analysis.replay import ReplayResult
 from twin.lab.effects import TRACKER_DRIFT_DIRECTION, Effects
 from twin.lab.measure import (
     predict_forces,
@@ -13,6 +11,8 @@ from twin.lab.measure import (
     predict_tracker,
     uniform_times,
 )
+
+from twin.analysis.replay import ReplayResult
 from twin.process.field import K_UNLOAD_N_PER_M
 from twin.process.springback import PROFILE_HALF_SPAN_M, PROFILE_SPACING_M
 from twin.sim.quasi_static import Twin

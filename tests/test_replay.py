@@ -9,12 +9,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from twin.lab.effects import Effects
+from twin.lab.measure import predict_part_profile
 
 from twin.analysis.replay import ReplayResult, replay, replay_metrics
 from twin.cli import main
 from twin.errors import InputError
-from twin.lab.effects import Effects
-from twin.lab.measure import predict_part_profile
 from twin.lab.virtual import run_lab
 from twin.robot.model import RobotEffects
 from twin.runs.format import Run, Stream

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from twin.lab.effects import Effects
 
 from twin.analysis.discrepancy.residuals import Noise, ResidualModel, estimate_noise, second_difference_noise
-from twin.lab.effects import Effects
 from twin.lab.virtual import LabSettings, run_lab
 from twin.runs.format import Run
 

@@ -1,5 +1,48 @@
-"""Analysis: what is done with runs — replay on the twin, identification of K_R and K_q, offline compensation,
-the check of a compensated run, and the discrepancy workflow.
+"""Analysis: what is done with runs, on the twin of a `TwinSpec`.
+
+Modules: `replay` (a run replayed on the twin, with the gap), `identify/` (K_R by Methods 1 and 2, K_q from K_R
+or by rollouts), `compensate` (offline compensation, formula or iterated on the twin, and its gain), `check`
+(the check of a compensated run), `surface_check` (a part scan against its target mesh), `discrepancy/` (find,
+name, add and shrink what the twin is missing) and `calibration/` (the twin's free parameters fitted to the
+thesis's measurements). The analysis never imports a lab: what the twin knows lives in the twin's stages.
 
 Takes runs and a twin; gives stiffnesses, compensated paths, gains, verdicts and augmented models.
 """
+
+from twin.base.lazy import lazy_exports
+
+__all__, __getattr__, __dir__ = lazy_exports(__name__, {
+    "ReplayResult": "twin.analysis.replay",
+    "replay": "twin.analysis.replay",
+    "replay_metrics": "twin.analysis.replay",
+    "Compensation": "twin.analysis.compensate",
+    "compensate_formula": "twin.analysis.compensate",
+    "compensate_twin": "twin.analysis.compensate",
+    "compensation_gain": "twin.analysis.compensate",
+    "compliance_from_stiffness": "twin.analysis.compensate",
+    "gain_of": "twin.analysis.compensate",
+    "CheckResult": "twin.analysis.check",
+    "check_run": "twin.analysis.check",
+    "diagnose_gain": "twin.analysis.check",
+    "SurfaceDeviation": "twin.analysis.surface_check",
+    "read_target_mesh": "twin.analysis.surface_check",
+    "surface_deviation": "twin.analysis.surface_check",
+    "KrFit": "twin.analysis.identify.cartesian",
+    "fit_kr_load_cases": "twin.analysis.identify.cartesian",
+    "fit_kr_from_run": "twin.analysis.identify.cartesian",
+    "fit_compliance": "twin.analysis.identify.cartesian",
+    "load_cases_csv": "twin.analysis.identify.cartesian",
+    "KqFit": "twin.analysis.identify.joint",
+    "fit_diagonal_kq": "twin.analysis.identify.joint",
+    "Method2Result": "twin.analysis.identify.method2",
+    "method2": "twin.analysis.identify.method2",
+    "KqRolloutFit": "twin.analysis.identify.rollouts",
+    "kq_from_run": "twin.analysis.identify.rollouts",
+    "kq_from_stiffness": "twin.analysis.identify.rollouts",
+    "write_joint_stiffness": "twin.analysis.identify.rollouts",
+    "DiscrepancyResult": "twin.analysis.discrepancy.search",
+    "find_discrepancy": "twin.analysis.discrepancy.search",
+    "result_summary": "twin.analysis.discrepancy.summary",
+    "ResidualModel": "twin.analysis.discrepancy.residuals",
+    "estimate_noise": "twin.analysis.discrepancy.residuals",
+})

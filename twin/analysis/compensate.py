@@ -27,6 +27,7 @@ import numpy as np
 from twin.errors import CompensationError, IdentificationError, InputError
 from twin.process.path import label_passes
 from twin.sim.quasi_static import Twin
+from twin.sim.spec import TwinSpec
 
 TWIN_TOL_M = 2e-6  # 1/10 of the tracker noise
 TWIN_MAX_ITER = 20
@@ -110,7 +111,7 @@ def compensate_formula(
 def compensate_twin(
     t_s: np.ndarray,
     p_ideal_sheet_m: np.ndarray,
-    twin: Twin,
+    twin: Twin | TwinSpec,
     *,
     tol_m: float = TWIN_TOL_M,
     max_iter: int = TWIN_MAX_ITER,
@@ -121,7 +122,7 @@ def compensate_twin(
     Args:
         t_s: Sample times [s].
         p_ideal_sheet_m: Ideal path U_ID [m], shape (n, 3).
-        twin: The twin (with whatever effects and stiffness it carries).
+        twin: The twin (with whatever effects and stiffness it carries), or its spec.
         tol_m: Stop when the largest |U_sim - U_ID| is below this [m].
         max_iter: Iteration limit.
         progress: Called after each iteration with (iteration, rms residual [m]), e.g. to draw progress.
@@ -135,6 +136,8 @@ def compensate_twin(
     Raises:
         CompensationError: The iteration diverges, or runs out of iterations with its rms residual above `tol_m`.
     """
+    if isinstance(twin, TwinSpec):
+        twin = twin.build()
     p_id = np.asarray(p_ideal_sheet_m, dtype=float)
     t = np.asarray(t_s, dtype=float)
     cmd = p_id.copy()

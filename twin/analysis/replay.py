@@ -8,12 +8,11 @@ import numpy as np
 
 from twin.base.signals import interp_rows
 from twin.errors import InputError, RunFormatError
-from twin.lab.effects import Effects
-from twin.lab.measure import predict_forces, predict_tracker
-from twin.process.forces import ForceHistory
 from twin.runs.format import Run, run_placement
+from twin.sim.measure import predict_forces, predict_tracker
 from twin.sim.quasi_static import Twin
 from twin.sim.result import SimResult
+from twin.sim.spec import TwinSpec
 
 
 @dataclass(frozen=True)
@@ -62,41 +61,32 @@ def replay_metrics(
     return metrics
 
 
-def replay(
-    run: Run,
-    *,
-    effects: Effects | None = None,
-    joint_stiffness: np.ndarray | None = None,
-    history: ForceHistory | None = None,
-    twin: Twin | None = None,
-) -> ReplayResult:
+def replay(run: Run, twin: Twin | TwinSpec | None = None) -> ReplayResult:
     """Simulate the run's commanded path on the twin and compare with its measurements.
 
     Args:
         run: A measured run (never its truth).
-        effects: Effects the twin knows (e.g. from a discrepancy model file); default none.
-        joint_stiffness: Override of K_q [N·m/rad].
-        history: Force history for the field; default the shipped one.
-        twin: A ready twin to reuse (its effects must match `effects.robot`).
+        twin: The twin: a spec (built at the run's placement, `meta.json`'s `placement`, which replaces the
+            spec's), a ready twin to reuse (it must be at the run's placement), or None (the default cell at the
+            run's placement).
 
     Returns:
         Prediction at the run's stream times and the gap metrics.
 
     Raises:
-        InputError: `twin` was built with other robot effects than `effects.robot`, or at another placement
-            than the run's (`meta.json`'s `placement`).
+        InputError: A ready twin at another placement than the run's.
     """
-    effects = effects or Effects()
     if len(run.commanded.t_s) < 2:
         raise RunFormatError("commanded.csv", "needs at least 2 samples to replay")
-    if twin is not None and twin.effects != effects.robot:
-        raise InputError(
-            f"the twin passed has effects {twin.effects}, but replay was asked for {effects.robot}"
-        )
     placement = run_placement(run.meta)
-    if twin is not None and twin.placement != placement:
-        raise InputError(f"the twin passed has the sheet placement {twin.placement}, but the run was made at {placement}")
-    twin = twin or Twin(history=history, effects=effects.robot, joint_stiffness=joint_stiffness, placement=placement)
+    if isinstance(twin, Twin):
+        if twin.placement != placement:
+            raise InputError(
+                f"the twin passed has the sheet placement {twin.placement}, but the run was made at {placement}"
+            )
+    else:
+        twin = (twin or TwinSpec()).replace(placement=placement).build()
+    effects = twin.effects
     sim = twin.simulate(run.commanded.t_s, run.commanded.values)
     tracker = predict_tracker(sim, run.tracker.t_s, effects)
     forces = predict_forces(twin, sim, run.forces.t_s, effects) if run.forces is not None else None

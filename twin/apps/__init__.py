@@ -1,4 +1,19 @@
-"""Apps: the end-to-end jobs built from the stages — the thesis demo, its report and the benchmark.
+"""Apps: the end-to-end jobs built from the stages.
 
-Takes an output folder; gives reports, figures, recordings and benchmark ratios.
+Modules: `demo` (the thesis story) and its `report`, `reproduction` (the thesis-vs-twin table), `bench`,
+`bench_speed` and `machine` (the speed ratios and the machine they ran on), `analytic_replay` (the replay with
+the linear model, the physical floor), `sweep` (a Monte Carlo of the compensated groove) with its `uncertainty`
+and `sweep_figure`, `readme` (the README's generated tables) and `export/` (robot programs from a path).
+
+Takes an output folder; gives reports, figures, recordings, programs and benchmark ratios.
 """
+
+from twin.base.lazy import lazy_exports
+
+__all__, __getattr__, __dir__ = lazy_exports(__name__, {
+    "run_demo": "twin.apps.demo",
+    "run_benchmarks": "twin.apps.bench",
+    "analytic_replay": "twin.apps.analytic_replay",
+    "run_sweep": "twin.apps.sweep",
+    "export_path": "twin.apps.export",
+})

@@ -12,11 +12,13 @@ from scipy.linalg.lapack import dgesv
 
 from twin.base.signals import interp_rows
 from twin.errors import InputError
+from twin.process.description import Process
 from twin.process.forces import ForceHistory
 from twin.process.path import label_passes
 from twin.process.tool_friction import SheetModel, solve_sample
 from twin.runs.format import Run
 from twin.sim.quasi_static import PASS_DEADBAND_M, Twin
+from twin.sim.spec import TwinSpec
 
 ANALYTIC_TOL_M = 1e-12  # fixed-point residual of the per-sample 3x3 Newton solve [m]
 ANALYTIC_MAX_ITER = 20
@@ -58,7 +60,7 @@ def analytic_replay(run: Run, *, twin: Twin | None = None, history: ForceHistory
     Raises:
         InputError: The per-sample solve did not converge.
     """
-    twin = twin or Twin(history=history)
+    twin = twin or TwinSpec(process=Process(history=history)).build()
     t_s, p_cmd = run.commanded.t_s, run.commanded.values
     kin = twin.kinematics
     q_ik = kin.ik_path(p_cmd + twin.p_base_sheet_origin)

@@ -17,27 +17,25 @@ step also warms caches, so it is kept only as one of the repeats). The headline 
 from __future__ import annotations
 
 import math
-import os
-import platform
 import statistics
-import subprocess
-import sys
 import tempfile
 import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-import mujoco
 import numpy as np
 
 from twin.apps.analytic_replay import AnalyticReplay, analytic_replay
 from twin.apps.bench_speed import mujoco_call_floor, path_growth
+from twin.apps.machine import machine_info
 from twin.apps.sweep import run_sweep, usable_cores
 from twin.errors import InputError
-from twin.process.path import label_passes
+from twin.process.path import ToolPath, label_passes
 from twin.runs.format import Run
 from twin.sim.quasi_static import PASS_DEADBAND_M, Twin
+from twin.sim.result import SimResult
+from twin.sim.spec import TwinSpec
 
 __all__ = ["AnalyticReplay", "analytic_replay", "format_table", "machine_info", "run_benchmarks", "time_call"]
 
@@ -51,49 +49,6 @@ def time_call(fn: Callable[[], Any], repeats: int) -> tuple[float, list[float]]:
         fn()
         times.append(time.perf_counter() - start)
     return statistics.median(times), times
-
-
-def _blas_summary() -> str:
-    try:
-        from threadpoolctl import threadpool_info  # optional: not a dependency
-    except ImportError:
-        pass
-    else:
-        pools = threadpool_info()
-        if pools:
-            return "; ".join(f"{p.get('internal_api')} {p.get('version')} ({p.get('num_threads')} threads)" for p in pools)
-    try:
-        config = np.show_config(mode="dicts")
-        blas = config.get("Build Dependencies", {}).get("blas", {})
-        return f"{blas.get('name', 'unknown')} {blas.get('version', '')}".strip()
-    except Exception:  # show_config's layout is not a stable API
-        return "unknown"
-
-
-def _git_commit() -> str:
-    try:
-        out = subprocess.run(
-            ["git", "rev-parse", "HEAD"], cwd=Path(__file__).resolve().parent, capture_output=True, text=True,
-            timeout=10, check=False,
-        )
-    except (OSError, subprocess.SubprocessError):
-        return "unknown"
-    return out.stdout.strip() if out.returncode == 0 and out.stdout.strip() else "unknown"
-
-
-def machine_info() -> dict[str, Any]:
-    """Cores, BLAS, versions and git commit of this process."""
-    return {
-        "cpu_count": os.cpu_count(),
-        "cpu_affinity": len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else None,
-        "platform": platform.platform(),
-        "processor": platform.processor() or platform.machine(),
-        "python": sys.version.split()[0],
-        "numpy": np.__version__,
-        "mujoco": mujoco.__version__,
-        "blas": _blas_summary(),
-        "git_commit": _git_commit(),
-    }
 
 
 def run_benchmarks(
@@ -111,17 +66,7 @@ def run_benchmarks(
     Returns:
         The JSON payload: times [s], factors [-], `machine`, `workload`.
     """
-    from twin.analysis.compensate import compensate_twin
-    from twin.analysis.discrepancy.search import find_discrepancy
-    from twin.analysis.identify.method2 import method2
-    from twin.analysis.replay import replay
-    from twin.lab.effects import Effects
-    from twin.lab.virtual import nominal_commanded, run_lab
-    from twin.process.field import SheetForceField
-    from twin.process.forces import default_force_history
-    from twin.process.path import ToolPath
-    from twin.runs.read import read_run
-    from twin.runs.write import write_run
+    from twin.lab.virtual import nominal_commanded
 
     t_s, p_cmd = nominal_commanded()
     if samples is not None:
@@ -130,6 +75,31 @@ def run_benchmarks(
         t_s, p_cmd = t_s[:samples], p_cmd[:samples]
     duration_s = float(t_s[-1] - t_s[0])
     out: dict[str, Any] = {"workload": {"commanded_samples": len(t_s), "machining_s": duration_s, "repeats": repeats}}
+    run = _bench_lab(out, t_s, p_cmd, seed, repeats)
+    twin = TwinSpec().build()
+    sim = _bench_replay(out, run, twin, t_s, p_cmd, repeats, duration_s)
+    sweep = run_sweep(
+        sweep_draws or 8 * usable_cores(), seed=seed,
+        path=ToolPath(t_s=t_s, p_sheet_m=p_cmd, pass_index=sim.pass_index, direction=sim.direction),
+    )
+    out["sweep_replays_per_s_per_core"] = sweep.replays_per_s_per_core
+    out["sweep"] = {"draws": len(sweep.rms_m), "workers": sweep.workers, "wall_s": sweep.wall_s}
+    linear = analytic_replay(run, twin=twin)
+    out["analytic_vs_twin_max_mm"] = 1e3 * float(np.max(np.linalg.norm(linear.p_sheet_m - sim.p_sheet_m, axis=1)))
+    _bench_analysis(out, run, twin, t_s, p_cmd, repeats)
+    _bench_force_models(out, t_s, p_cmd, repeats)
+    _bench_dynamic(out, t_s, p_cmd, seed, repeats)
+    _bench_discrepancy(out, run, t_s, p_cmd, seed)
+    _bench_gcode(out, repeats)
+    out["machine"] = machine_info()
+    return out
+
+
+def _bench_lab(out: dict[str, Any], t_s: np.ndarray, p_cmd: np.ndarray, seed: int, repeats: int) -> Run:
+    """`lab_run_s`: a quasi-static lab run written to disk; returns the run read back."""
+    from twin.lab.virtual import run_lab
+    from twin.runs.read import read_run
+    from twin.runs.write import write_run
 
     with tempfile.TemporaryDirectory(prefix="tx200-bench-") as tmp:
         directory = Path(tmp) / "run"
@@ -139,11 +109,16 @@ def run_benchmarks(
             write_run(directory, lab_run, truth=truth, overwrite=True)
 
         out["lab_run_s"], _ = time_call(lab, repeats)
-        run = read_run(directory)
+        return read_run(directory)
 
-    history = default_force_history()
+
+def _bench_replay(
+    out: dict[str, Any], run: Run, twin: Twin, t_s: np.ndarray, p_cmd: np.ndarray, repeats: int, duration_s: float
+) -> SimResult:
+    """Replay (fresh and ready twin), the compiled and Python loops, IK, the analytic and MuJoCo-call floors."""
+    from twin.analysis.replay import replay
+
     out["replay_s"], _ = time_call(lambda: replay(run), repeats)
-    twin = Twin(history=history)
     out["replay_warm_s"], warm_all = time_call(lambda: replay(run, twin=twin), repeats)
     out["simulate_warm_s"], _ = time_call(lambda: twin.simulate(t_s, p_cmd), repeats)
     # the reference: the same loop in Python, MuJoCo called per Newton iteration (twin.sim.compiled)
@@ -164,33 +139,39 @@ def run_benchmarks(
     out["twin_over_mujoco_floor"] = out["replay_warm_s"] / out["mujoco_floor_s"]
     out["newton_iterations_per_sample"] = float(np.mean(sim.iterations))
     out["path_growth"] = path_growth(twin, t_s, p_cmd)
-    sweep = run_sweep(
-        sweep_draws or 8 * usable_cores(), seed=seed, history=history,
-        path=ToolPath(t_s=t_s, p_sheet_m=p_cmd, pass_index=sim.pass_index, direction=sim.direction),
-    )
-    out["sweep_replays_per_s_per_core"] = sweep.replays_per_s_per_core
-    out["sweep"] = {"draws": len(sweep.rms_m), "workers": sweep.workers, "wall_s": sweep.wall_s}
-    linear = analytic_replay(run, twin=twin)
-    out["analytic_vs_twin_max_mm"] = 1e3 * float(np.max(np.linalg.norm(linear.p_sheet_m - sim.p_sheet_m, axis=1)))
+    out["replay_warm_all_s"] = warm_all
+    return sim
 
-    out["identify_method2_s"], _ = time_call(lambda: method2(run, history), repeats)
+
+def _bench_analysis(
+    out: dict[str, Any], run: Run, twin: Twin, t_s: np.ndarray, p_cmd: np.ndarray, repeats: int
+) -> None:
+    """Method 2 and the twin compensation on the run."""
+    from twin.analysis.compensate import compensate_twin
+    from twin.analysis.identify.method2 import method2
+
+    out["identify_method2_s"], _ = time_call(lambda: method2(run), repeats)
     out["compensate_twin_s"], _ = time_call(lambda: compensate_twin(t_s, p_cmd, twin), repeats)
+
+
+def _bench_force_models(out: dict[str, Any], t_s: np.ndarray, p_cmd: np.ndarray, repeats: int) -> None:
+    """The table field and the ISF height-map field along the path, and a cone on the ISF model (any part)."""
+    from twin.process.description import Process
+    from twin.process.field import SheetForceField
+    from twin.process.forces import default_force_history
+    from twin.process.isf_force import IsfForceField
+    from twin.process.shapes import PartSpec, part_path
+
     pass_index, direction = label_passes(p_cmd[:, 0], deadband_m=PASS_DEADBAND_M)
     path = ToolPath(t_s=t_s, p_sheet_m=p_cmd, pass_index=pass_index, direction=direction)
-    field = SheetForceField(history)
+    field = SheetForceField(default_force_history())
     out["force_field_eval_s"], _ = time_call(lambda: field.rigid_forces(path), repeats)
-    # the general ISF height-map force model (issue #16) on the same path: cost per sample against the table field
-    from twin.process.isf_force import IsfForceField
-
     isf_field = IsfForceField()
     out["isf_field_eval_s"], _ = time_call(lambda: isf_field.rigid_forces(path), repeats)
     out["isf_over_table_field"] = out["isf_field_eval_s"] / out["force_field_eval_s"]
-    # any part on the twin: a 45° cone, 4 mm deep, 40 mm across, on the ISF model, compiled and in Python
-    from twin.process.isf_calibration import isf_field_factory
-    from twin.process.shapes import PartSpec, part_path
-
+    # a 45° cone, 4 mm deep, 40 mm across, on the ISF model, compiled and in Python
     cone = part_path(PartSpec(depth_m=4e-3, top_half_width_m=20e-3))
-    cone_twin = Twin(history=history, field_factory=isf_field_factory())
+    cone_twin = TwinSpec(process=Process(force_model="isf")).build()
     cone_q = cone_twin.simulate(cone.t_s, cone.p_sheet_m).q_ik
     out["cone_simulate_s"], _ = time_call(lambda: cone_twin.simulate(cone.t_s, cone.p_sheet_m, q_ik=cone_q), repeats)
     cone_twin.use_compiled_loop = False
@@ -201,7 +182,10 @@ def run_benchmarks(
     finally:
         cone_twin.use_compiled_loop = True
     out["cone_realtime_factor"] = float(cone.t_s[-1] - cone.t_s[0]) / out["cone_simulate_s"]
-    # the dynamic lab plant (twin.lab.dynamic, mj_step at 1 kHz with its sensor chain) on the same command
+
+
+def _bench_dynamic(out: dict[str, Any], t_s: np.ndarray, p_cmd: np.ndarray, seed: int, repeats: int) -> None:
+    """The dynamic lab plant (mj_step at 1 kHz with its sensor chain) on the same command."""
     from twin.lab.dynamic.knobs import Knobs as DynamicKnobs
     from twin.lab.dynamic.run import run_dynamic_lab
 
@@ -209,32 +193,38 @@ def run_benchmarks(
         lambda: run_dynamic_lab(t_s, p_cmd, scenario="nominal", knobs=DynamicKnobs(), seed=seed), repeats
     )
 
-    # the discrepancy workflow on a run with two hidden effects (the thesis story), and on a clean run
-    two_effects, _ = run_lab(
-        t_s, p_cmd, scenario="nominal", effects=Effects({"force_scale": 2.0, "direction_dependent_compliance": 0.3}),
-        seed=seed,
-    )
+
+def _bench_discrepancy(out: dict[str, Any], run: Run, t_s: np.ndarray, p_cmd: np.ndarray, seed: int) -> None:
+    """The discrepancy workflow on a run with two hidden effects (the thesis story), a clean run, a run no
+    family explains (every family fitted in every round) and a run edited by hand in a form the lab does not
+    make (a drift along x only and an fz bias)."""
+    from twin.analysis.discrepancy.families import FAMILIES
+    from twin.analysis.discrepancy.search import find_discrepancy
+    from twin.lab.virtual import run_lab
+    from twin.runs.format import Stream
+    from twin.sim.effects import Effects
+
+    hidden = TwinSpec(effects=Effects({"force_scale": 2.0, "lost_motion": 0.3}))
+    two_effects, _ = run_lab(t_s, p_cmd, scenario="nominal", seed=seed, spec=hidden)
     start = time.perf_counter()
-    found = find_discrepancy(two_effects, history=history)
+    found = find_discrepancy(two_effects)
     out["discrepancy_s"] = time.perf_counter() - start
     out["discrepancy_effects_found"] = list(found.found)
-    out["discrepancy_clean_s"], _ = time_call(lambda: find_discrepancy(run, history=history), 1)
-    # the full family library on a run no family explains (every family fitted in every round) and on a
-    # run edited by hand in a form the lab does not make (a drift along x only and an fz bias)
-    from twin.analysis.discrepancy.families import FAMILIES
-    from twin.runs.format import Stream
-
+    out["discrepancy_clean_s"], _ = time_call(lambda: find_discrepancy(run), 1)
     assert run.forces is not None
     wobble = run.tracker.values + np.outer(np.sin(2.0 * np.pi * 1.7 * run.tracker.t_s), [0.0, 0.0, 1e-4])
     edited = Run(None, dict(run.meta), run.commanded, Stream(run.tracker.t_s, wobble), run.forces, run.part_profile)
-    out["discrepancy_unexplained_s"], _ = time_call(lambda: find_discrepancy(edited, history=history), 1)
+    out["discrepancy_unexplained_s"], _ = time_call(lambda: find_discrepancy(edited), 1)
     drift = run.tracker.values + np.outer(run.tracker.t_s, [1e-5, 0.0, 0.0])
     bias = run.forces.values + np.array([0.0, 0.0, 40.0])
     by_hand = Run(None, dict(run.meta), run.commanded, Stream(run.tracker.t_s, drift),
                   Stream(run.forces.t_s, bias), run.part_profile)
-    out["discrepancy_by_hand_s"], _ = time_call(lambda: find_discrepancy(by_hand, history=history), 1)
+    out["discrepancy_by_hand_s"], _ = time_call(lambda: find_discrepancy(by_hand), 1)
     out["discrepancy_families"] = len(FAMILIES)
-    # G-code import (issue #16): a 101,840-move spiral 45 deg cone, 120 mm across, 40 mm deep, read back
+
+
+def _bench_gcode(out: dict[str, Any], repeats: int) -> None:
+    """G-code import: a 101,840-move spiral 45° cone, 120 mm across, 40 mm deep, read back."""
     from twin.process.gcode import read_gcode, write_gcode
     from twin.process.shapes import PartSpec, part_path
 
@@ -242,9 +232,6 @@ def run_benchmarks(
         program = write_gcode(part_path(PartSpec(step_down_m=0.3e-3)), Path(tmp) / "cone.nc")
         out["gcode_load_s"], _ = time_call(lambda: read_gcode(program), repeats)
         out["gcode_moves"] = len(read_gcode(program)) - 1
-    out["replay_warm_all_s"] = warm_all
-    out["machine"] = machine_info()
-    return out
 
 
 TABLE_ROWS: tuple[tuple[str, str, str], ...] = (

@@ -1,11 +1,12 @@
 """The thesis story end to end on the shipped data: what `tx200-twin demo` (and `make demo`) runs.
 
-1. Lab nominal run, with the direction-dependent compliance the thesis saw (sec. 3.3.1).
+1. Lab nominal run, with the lost motion of joints 2-3 behind the direction-dependent lag the thesis saw
+   (sec. 3.3.1).
 2. Replay it on the twin.
 3. Identify K_R: Method 1 (load test, sec. 4.2.1) and Method 2 (the run, sec. 4.2.2).
 4. Compensate as the thesis did, WITH its mistake: Eq. 4.28 with the half-model FE history declared `full`.
 5. Lab compensated run; `check` finds the gain ~0.5 and names the cause.
-6. Discrepancy workflow on that run, with the mistaken twin: names `force_scale` and the direction effect.
+6. Discrepancy workflow on that run, with the mistaken twin: names `force_scale` and `lost_motion`.
 7. Twin compensation with the augmented (corrected) twin; lab compensated run; `check`: residual at the
    tracker's repeatability.
 Everything lands in one folder: runs, figures, a rerun recording, report.md and report.json.
@@ -20,32 +21,35 @@ from typing import Any, TypeVar
 
 import numpy as np
 
-from twin.analysis.check import check_run
+from twin.analysis.check import CheckResult, check_run
 from twin.analysis.compensate import compensate_formula, compensate_twin, compliance_from_stiffness, gain_of
-from twin.analysis.discrepancy.search import find_discrepancy
+from twin.analysis.discrepancy.search import DiscrepancyResult, find_discrepancy
 from twin.analysis.discrepancy.summary import result_summary
 from twin.analysis.identify.cartesian import (
     THESIS_CR1_MM_PER_KN,
     THESIS_CR2_MM_PER_KN,
     THESIS_TABLE_4_2_LOADS_N,
+    KrFit,
     fit_kr_load_cases,
 )
-from twin.analysis.identify.method2 import method2
+from twin.analysis.identify.method2 import Method2Result, method2
 from twin.analysis.replay import ReplayResult, replay
 from twin.apps.report import write_report
 from twin.base.csvio import write_json
 from twin.base.resources import data_file
-from twin.lab.effects import Effects, write_model_file
 from twin.lab.virtual import load_test, run_lab
+from twin.process.description import Process
 from twin.process.field import SheetForceField
 from twin.process.forces import default_force_history, load_force_history
 from twin.process.path import groove_path
 from twin.runs.format import Run
 from twin.runs.read import read_run
 from twin.runs.write import write_run
-from twin.sim.quasi_static import Twin
+from twin.sim.effects import Effects
+from twin.sim.model_file import write_model_file
+from twin.sim.spec import TwinSpec
 
-HIDDEN_LOST_MOTION_MRAD = 0.15  # the lab's direction-dependent compliance (hidden from every reader)
+HIDDEN_LOST_MOTION_MRAD = 0.15  # the lab's lost motion of joints 2-3 (hidden from every reader) [mrad]
 T = TypeVar("T")
 
 
@@ -74,16 +78,74 @@ def _candidate(name: str) -> None:
     print(f" {name}", end="", flush=True)
 
 
-def _lab(out: Path, name: str, t_s: np.ndarray, p_cmd: np.ndarray, scenario: str, seed: int) -> Run:
-    run, truth = run_lab(
-        t_s,
-        p_cmd,
-        scenario=scenario,
-        effects=Effects({"direction_dependent_compliance": HIDDEN_LOST_MOTION_MRAD}),
-        seed=seed,
-    )
-    write_run(out / "runs" / name, run, truth=truth, overwrite=True)
-    return read_run(out / "runs" / name)  # everything downstream reads the run from disk, never its truth
+class _Demo:
+    """The demo's stages on shared inputs: the ideal groove, its forces, the nominal twin and the report."""
+
+    def __init__(self, out: Path) -> None:
+        self.out = out
+        self.stages = _Stages(11)
+        self.ideal = groove_path()
+        self.f_ideal = SheetForceField(default_force_history()).rigid_forces(self.ideal)
+        self.mistaken = load_force_history(data_file("fe_force_history.csv"), symmetry="full", trust_columns=False)
+        self.twin = TwinSpec().build()
+        self.report: dict[str, Any] = {}
+
+    def lab(self, name: str, p_cmd: np.ndarray, scenario: str, seed: int) -> Run:
+        """A lab run with the hidden lost motion, written and read back (downstream never sees its truth)."""
+        run, truth = run_lab(self.ideal.t_s, p_cmd, scenario=scenario, seed=seed, spec=LAB)
+        write_run(self.out / "runs" / name, run, truth=truth, overwrite=True)
+        return read_run(self.out / "runs" / name)
+
+    def identify(self, nominal: Run) -> tuple[KrFit, Method2Result]:
+        """Method 1 on a lab load test and Method 2 on the nominal run."""
+        loads, d = load_test(THESIS_TABLE_4_2_LOADS_N, seed=2, spec=LAB)
+        m1, m2 = fit_kr_load_cases(loads, d), method2(nominal)
+        self.report["identify"] = {
+            "method1_k_r_n_per_mm": 1e-3 * m1.k_r_n_per_m,
+            "method1_condition_number": m1.condition_number,
+            "method2_k_r_n_per_mm": 1e-3 * m2.k_r_ideal_n_per_m,
+            "method2_k_r_measured_forces_n_per_mm": 1e-3 * m2.k_r_measured_n_per_m,
+            "method2_force_drop_rms_ratio": m2.force_drop,
+        }
+        return m1, m2
+
+    def thesis_compensation(self, k_r1: np.ndarray) -> np.ndarray:
+        """Eq. 4.28 with the half-model history declared `full`: the thesis's mistake."""
+        c_r = compliance_from_stiffness(k_r1)
+        f_mistaken = SheetForceField(self.mistaken).rigid_forces(self.ideal)
+        comp = compensate_formula(self.ideal.t_s, self.ideal.p_sheet_m, f_mistaken, c_r)
+        self.report["thesis_compensation"] = {"gain": gain_of(comp, self.f_ideal, c_r), "history_symmetry_declared": "full"}
+        return comp.p_cmd_sheet_m
+
+    def corrected(self, spec: TwinSpec) -> np.ndarray:
+        """Twin compensation with the augmented twin."""
+        comp = compensate_twin(self.ideal.t_s, self.ideal.p_sheet_m, spec, progress=_progress)
+        kin = self.twin.kinematics
+        self.report["twin_compensation"] = {
+            "iterations": comp.iterations, "gain": gain_of(comp, self.f_ideal, kin.compliance(kin.q_home)),
+        }
+        return comp.p_cmd_sheet_m
+
+    def media(
+        self, runs: dict[str, tuple[Run, ReplayResult]], found: DiscrepancyResult, checks: tuple[CheckResult, CheckResult],
+        identified: tuple[KrFit, Method2Result],
+    ) -> dict[str, Any]:
+        """Figures, the rerun recording and report.md."""
+        kin, k_r1 = self.twin.kinematics, identified[0].k_r_n_per_m
+        xz = np.ix_([0, 2], [0, 2])
+        compliances = {
+            "twin (model K_q)": 1e6 * kin.compliance(kin.q_home)[xz],
+            "Method 1 (lab load test)": 1e6 * np.linalg.inv(k_r1)[xz],
+            "Method 2 (run, measured forces)": 1e6 * identified[1].c_measured_m_per_n,
+            "thesis C_R(1)": THESIS_CR1_MM_PER_KN,
+            "thesis C_R(2)": THESIS_CR2_MM_PER_KN,
+        }
+        replays = [(name, run, rep) for name, (run, rep) in runs.items()]
+        return write_report(self.out, self.ideal, self.f_ideal, replays, found, *checks, compliances, self.twin.model)
+
+
+#: The lab's cell: the thesis's, with a lost motion of joints 2-3 hidden from every reader (sec. 3.3.1).
+LAB = TwinSpec(effects=Effects({"lost_motion": HIDDEN_LOST_MOTION_MRAD}))
 
 
 def run_demo(out: str | Path = "out/demo") -> dict[str, Any]:
@@ -94,113 +156,41 @@ def run_demo(out: str | Path = "out/demo") -> dict[str, Any]:
     """
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    stages = _Stages(11)
-    ideal = groove_path()
-    history = default_force_history()
-    mistaken = load_force_history(data_file("fe_force_history.csv"), symmetry="full", trust_columns=False)
-    f_ideal = SheetForceField(history).rigid_forces(ideal)
-    twin = Twin()
-    report: dict[str, Any] = {}
-
-    nominal = stages.run(
-        "lab: nominal run (hidden direction-dependent compliance)",
-        lambda: _lab(out, "nominal", ideal.t_s, ideal.p_sheet_m, "nominal", seed=1),
-    )
-    nominal_replay = stages.run("replay the nominal run on the twin", lambda: replay(nominal, twin=twin))
+    demo = _Demo(out)
+    stages, ideal, report = demo.stages, demo.ideal, demo.report
+    nominal = stages.run("lab: nominal run (hidden lost motion)", lambda: demo.lab("nominal", ideal.p_sheet_m, "nominal", 1))
+    nominal_replay = stages.run("replay the nominal run on the twin", lambda: replay(nominal, twin=demo.twin))
     report["nominal"] = nominal_replay.metrics
-
-    def identify() -> dict[str, Any]:
-        loads, d = load_test(
-            THESIS_TABLE_4_2_LOADS_N,
-            effects=Effects({"direction_dependent_compliance": HIDDEN_LOST_MOTION_MRAD}),
-            seed=2,
-        )
-        m1 = fit_kr_load_cases(loads, d)
-        m2 = method2(nominal)
-        return {"method1": m1, "method2": m2}
-
-    ident = stages.run("identify K_R: Method 1 (load test) and Method 2 (nominal run)", identify)
-    k_r1 = ident["method1"].k_r_n_per_m
-    report["identify"] = {
-        "method1_k_r_n_per_mm": 1e-3 * k_r1,
-        "method1_condition_number": ident["method1"].condition_number,
-        "method2_k_r_n_per_mm": 1e-3 * ident["method2"].k_r_ideal_n_per_m,
-        "method2_k_r_measured_forces_n_per_mm": 1e-3 * ident["method2"].k_r_measured_n_per_m,
-        "method2_force_drop_rms_ratio": ident["method2"].force_drop,
-    }
-
-    def thesis_compensation() -> np.ndarray:
-        c_r = compliance_from_stiffness(k_r1)
-        f_mistaken = SheetForceField(mistaken).rigid_forces(ideal)
-        comp = compensate_formula(ideal.t_s, ideal.p_sheet_m, f_mistaken, c_r)
-        report["thesis_compensation"] = {
-            "gain": gain_of(comp, f_ideal, c_r),
-            "history_symmetry_declared": "full",
-        }
-        return comp.p_cmd_sheet_m
-
+    identified = stages.run("identify K_R: Method 1 (load test) and Method 2 (nominal run)", lambda: demo.identify(nominal))
     cmd_bug = stages.run(
-        "compensate as the thesis did (Eq. 4.28, half-model history declared 'full')", thesis_compensation
+        "compensate as the thesis did (Eq. 4.28, half-model history declared 'full')",
+        lambda: demo.thesis_compensation(identified[0].k_r_n_per_m),
     )
-    comp_bug = stages.run(
-        "lab: compensated run",
-        lambda: _lab(out, "compensated_thesis", ideal.t_s, cmd_bug, "compensated", seed=3),
-    )
-    check_bug = stages.run(
-        "check the compensated run", lambda: check_run(comp_bug, ideal.t_s, ideal.p_sheet_m)
-    )
+    comp_bug = stages.run("lab: compensated run", lambda: demo.lab("compensated_thesis", cmd_bug, "compensated", 3))
+    check_bug = stages.run("check the compensated run", lambda: check_run(comp_bug, ideal.t_s, ideal.p_sheet_m))
     report["check_thesis"] = check_bug.summary()
-
+    mistaken = TwinSpec(process=Process(history=demo.mistaken))
     found = stages.run(
         "discrepancy workflow on it (twin with the mistaken history)",
-        lambda: find_discrepancy(comp_bug, history=mistaken, progress=_candidate),
+        lambda: find_discrepancy(comp_bug, mistaken, progress=_candidate),
     )
     report["discrepancy"] = result_summary(found)
-    write_model_file(out / "twin_model.json", found.effects, note="found by the demo's discrepancy workflow")
-
-    def corrected() -> np.ndarray:
-        comp = compensate_twin(
-            ideal.t_s,
-            ideal.p_sheet_m,
-            Twin(history=mistaken, effects=found.effects.robot),
-            progress=_progress,
-        )
-        report["twin_compensation"] = {
-            "iterations": comp.iterations,
-            "gain": gain_of(comp, f_ideal, twin.kinematics.compliance(twin.kinematics.q_home)),
-        }
-        return comp.p_cmd_sheet_m
-
-    cmd_fixed = stages.run("compensate with the corrected twin", corrected)
-    comp_fixed = stages.run(
-        "lab: compensated run",
-        lambda: _lab(out, "compensated_twin", ideal.t_s, cmd_fixed, "compensated", seed=4),
-    )
+    augmented = mistaken.replace(effects=found.effects)
+    write_model_file(out / "twin_model.json", augmented, note="found by the demo's discrepancy workflow")
+    cmd_fixed = stages.run("compensate with the corrected twin", lambda: demo.corrected(augmented))
+    comp_fixed = stages.run("lab: compensated run", lambda: demo.lab("compensated_twin", cmd_fixed, "compensated", 4))
     check_fixed = stages.run("check it", lambda: check_run(comp_fixed, ideal.t_s, ideal.p_sheet_m))
     report["check_final"] = check_fixed.summary()
-
-    def media() -> dict[str, Any]:
-        replays: list[tuple[str, Run, ReplayResult]] = [
-            ("nominal", nominal, nominal_replay),
-            ("compensated_thesis", comp_bug, replay(comp_bug, twin=twin)),
-            ("compensated_twin", comp_fixed, replay(comp_fixed, twin=twin)),
-        ]
-        compliances = {
-            "twin (model K_q)": 1e6
-            * twin.kinematics.compliance(twin.kinematics.q_home)[np.ix_([0, 2], [0, 2])],
-            "Method 1 (lab load test)": 1e6 * np.linalg.inv(k_r1)[np.ix_([0, 2], [0, 2])],
-            "Method 2 (run, measured forces)": 1e6 * ident["method2"].c_measured_m_per_n,
-            "thesis C_R(1)": THESIS_CR1_MM_PER_KN,
-            "thesis C_R(2)": THESIS_CR2_MM_PER_KN,
-        }
-        return write_report(
-            out, ideal, f_ideal, replays, found, check_bug, check_fixed, compliances, twin.model
-        )
-
-    report["media"] = stages.run("figures, rerun recording, report", media)
+    runs = {
+        "nominal": (nominal, nominal_replay),
+        "compensated_thesis": (comp_bug, replay(comp_bug, twin=demo.twin)),
+        "compensated_twin": (comp_fixed, replay(comp_fixed, twin=demo.twin)),
+    }
+    report["media"] = stages.run(
+        "figures, rerun recording, report", lambda: demo.media(runs, found, (check_bug, check_fixed), identified)
+    )
     write_json(out / "report.json", report)
-    total = time.perf_counter() - stages.start
-    print_summary(report, out, total)
+    print_summary(report, out, time.perf_counter() - stages.start)
     return report
 
 

@@ -1,5 +1,24 @@
-"""Base: utilities every stage uses — atomic CSV/JSON I/O with precise errors (`csvio`), interpolation of
-sampled signals (`signals`) and the lookup of shipped models and data (`resources`).
+"""Base: utilities every stage uses.
+
+Modules: `csvio` (atomic CSV/JSON I/O with precise errors), `units` (length columns read by their declared unit,
+`_mm` or `_m`), `signals` (interpolation of sampled signals, sample clocks), `resources` (the lookup of shipped
+models and data) and `lazy` (a package's public names, imported on first use).
 
 Takes files and arrays; gives validated arrays and paths. Imports nothing of the project but `twin.errors`.
 """
+
+from twin.base.lazy import lazy_exports
+
+__all__, __getattr__, __dir__ = lazy_exports(__name__, {
+    "read_table": "twin.base.csvio",
+    "read_json": "twin.base.csvio",
+    "write_table": "twin.base.csvio",
+    "write_json": "twin.base.csvio",
+    "write_text": "twin.base.csvio",
+    "emit_json": "twin.base.csvio",
+    "read_si_table": "twin.base.units",
+    "interp_rows": "twin.base.signals",
+    "uniform_times": "twin.base.signals",
+    "models_dir": "twin.base.resources",
+    "data_file": "twin.base.resources",
+})

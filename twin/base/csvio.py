@@ -21,7 +21,37 @@ from typing import Any
 
 import numpy as np
 
-from twin.errors import DataFileError, InputError, UnitsError
+from twin.errors import DataFileError, InputError
+
+
+def _content_lines(path: Path, required: Sequence[str], *, first_only: bool = False) -> list[str]:
+    """The lines of a CSV that are neither blank nor `#` comments (only the header with `first_only`)."""
+    if not path.is_file():
+        raise DataFileError(path, "file not found")
+    lines: list[str] = []
+    with path.open(newline="") as handle:
+        for line in handle:
+            if line.strip() and not line.lstrip().startswith("#"):
+                lines.append(line)
+                if first_only:
+                    break
+    if not lines:
+        raise DataFileError(path, f"file is empty; expected a header with columns {list(required)}")
+    return lines
+
+
+def read_header(path: str | Path, required: Sequence[str] = ()) -> list[str]:
+    """The column names of a CSV's header row (stripped), reading no further than the header.
+
+    Args:
+        path: CSV file.
+        required: Columns the caller expects, for the message of an empty file.
+
+    Raises:
+        DataFileError: Missing or empty file.
+    """
+    path = Path(path)
+    return [name.strip() for name in next(csv.reader(_content_lines(path, required, first_only=True)))]
 
 
 def read_table(
@@ -33,7 +63,8 @@ def read_table(
 ) -> dict[str, np.ndarray]:
     """Read a numeric CSV with a header row and return the named columns as float arrays.
 
-    Extra columns are ignored. Blank lines and lines starting with `#` are skipped.
+    Extra columns are ignored. Blank lines and lines starting with `#` are skipped. Columns are taken as
+    named: a length column that may be declared in mm or m is read with `twin.base.units.read_si_table`.
 
     Args:
         path: CSV file.
@@ -49,12 +80,7 @@ def read_table(
             or fewer than `min_rows` rows. The message names file, row and the expected columns.
     """
     path = Path(path)
-    if not path.is_file():
-        raise DataFileError(path, "file not found")
-    with path.open(newline="") as handle:
-        lines = [line for line in handle if line.strip() and not line.lstrip().startswith("#")]
-    if not lines:
-        raise DataFileError(path, f"file is empty; expected a header with columns {list(required)}")
+    lines = _content_lines(path, required)
     reader = csv.reader(io.StringIO("".join(lines)))
     header = [name.strip() for name in next(reader)]
     missing = [name for name in required if name not in header]
@@ -92,24 +118,6 @@ def check_monotonic(path: str | Path, column: str, values: np.ndarray, *, strict
         kind = "strictly increasing" if strict else "non-decreasing"
         raise DataFileError(
             path, f"column '{column}' is not {kind}: {values[row - 2]!r} then {values[row - 1]!r}", row
-        )
-
-
-def check_mm_magnitude(path: str | Path, column: str, values: np.ndarray, *, min_span_mm: float) -> None:
-    """Raise UnitsError if a `_mm` column spans less than `min_span_mm` (values written in metres).
-
-    Args:
-        path: File the column came from (for the message).
-        column: Column name.
-        values: Column values [mm].
-        min_span_mm: Smallest plausible peak-to-peak span of the column in millimetres [mm].
-    """
-    span = float(np.ptp(values)) if values.size else 0.0
-    if 0.0 < span < min_span_mm:
-        raise UnitsError(
-            path,
-            f"column '{column}' spans {span:.6g}, expected at least {min_span_mm:g} mm: "
-            f"are the values in metres? multiply by 1000",
         )
 
 

@@ -10,33 +10,20 @@ _PACKAGE_DIR = Path(__file__).resolve().parent.parent  # twin/
 
 
 def models_dir() -> Path:
-    """Return the folder holding `tx200.xml` and `cell/scene.xml`.
+    """Return the folder holding the shipped robots (their descriptions `*.toml` beside their MJCF) and cells.
 
     In a checkout this is `<repo>/models`; in an installed wheel the same tree is shipped as `twin/models`.
 
     Raises:
-        ModelError: If neither location holds `tx200.xml`.
+        ModelError: If neither location holds a robot description.
     """
     for candidate in (_PACKAGE_DIR.parent / "models", _PACKAGE_DIR / "models"):
-        if (candidate / "tx200.xml").is_file():
+        if candidate.is_dir() and any(candidate.glob("*.toml")):
             return candidate
     raise ModelError(
-        f"model folder not found: looked for tx200.xml in {_PACKAGE_DIR.parent / 'models'} "
+        f"model folder not found: looked for robot descriptions (*.toml) in {_PACKAGE_DIR.parent / 'models'} "
         f"and {_PACKAGE_DIR / 'models'}"
     )
-
-
-def robot_xml() -> Path:
-    """Path of the robot-only MJCF `tx200.xml`."""
-    return models_dir() / "tx200.xml"
-
-
-def scene_xml() -> Path:
-    """Path of the cell scene `cell/scene.xml` (includes the robot)."""
-    path = models_dir() / "cell" / "scene.xml"
-    if not path.is_file():
-        raise ModelError(f"scene model not found at {path}")
-    return path
 
 
 def data_file(name: str) -> Path:

@@ -1,4 +1,4 @@
-"""Sampled signals: interpolation of many channels at once."""
+"""Sampled signals: interpolation of many channels at once, and the sample clock of a stream."""
 
 from __future__ import annotations
 
@@ -18,3 +18,9 @@ def interp_rows(query: np.ndarray, sample: np.ndarray, values: np.ndarray) -> np
     """
     values = np.asarray(values, dtype=float)
     return np.column_stack([np.interp(query, sample, values[:, j]) for j in range(values.shape[1])])
+
+
+def uniform_times(t_end_s: float, rate_hz: float) -> np.ndarray:
+    """Sample times 0, 1/rate, ... up to `t_end_s` (inclusive within 1e-9 s) [s]."""
+    n = int(np.floor(t_end_s * rate_hz + 1e-9)) + 1
+    return np.arange(n) / rate_hz

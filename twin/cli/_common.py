@@ -1,22 +1,27 @@
-"""Options shared by several commands: the FE force history and its symmetry declaration, the ideal path, and the
-sheet force model."""
+"""Options shared by several commands: the FE force history and its symmetry declaration, the ideal path, the
+sheet force model, the sheet's placement and the twin they make (`spec_from_arguments`)."""
 
 from __future__ import annotations
 
 import argparse
 import math
-from collections.abc import Callable
+from collections.abc import Mapping
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from twin.errors import InputError
+from twin.process.description import Process
+from twin.process.force_models import FORCE_MODELS, auto_force_model, force_model
 from twin.process.forces import ForceHistory, default_force_history, load_force_history
-from twin.process.isf_calibration import isf_field_factory
 from twin.process.path import ToolPath, groove_path, label_passes
 from twin.process.placement import Placement
+from twin.runs.format import Run, run_placement
 from twin.runs.read import read_commanded_csv
+from twin.sim.model_file import read_model_file
+from twin.sim.spec import TwinSpec
 
 
 def add_history_arguments(parser: argparse.ArgumentParser) -> None:
@@ -74,37 +79,57 @@ def ideal_from_arguments(args: argparse.Namespace) -> ToolPath:
     return ToolPath(t_s=stream.t_s, p_sheet_m=stream.values, pass_index=pass_index, direction=direction)
 
 
-FORCE_MODELS = ("auto", "table", "isf")
-
-
 def add_force_model_argument(parser: argparse.ArgumentParser) -> None:
-    """Add `--force-model auto|table|isf` (the sheet force model of the twin or lab)."""
+    """Add `--force-model auto|<registered model>` (the sheet force model of the twin or lab)."""
+    listing = "; ".join(f"'{m.name}': {m.description}" for m in FORCE_MODELS.values())
     parser.add_argument(
         "--force-model",
-        choices=FORCE_MODELS,
+        choices=("auto", *FORCE_MODELS),
         default="auto",
-        help="sheet force model: 'table' the per-pass field of the groove's FE history, 'isf' the height-map ISF "
-        "model (any part); 'auto' (default) takes 'table' when the path is the history's groove, else 'isf'",
+        help=f"sheet force model: {listing}; 'auto' (default): the model a run records, else the first that "
+        "applies to the path",
     )
 
 
-def field_factory_for(
-    choice: str, history: ForceHistory, p_sheet_m: Any
-) -> Callable[[ForceHistory], Any] | None:
-    """The `Twin(field_factory=...)` for `--force-model` and a path; None is the per-pass table field.
+def force_model_for(args: argparse.Namespace, process: Process, p_sheet_m: Any, meta: Mapping[str, Any] | None = None) -> str:
+    """The force model of `--force-model`: a named one, or for `auto` the one a run's `meta.json` records, else the
+    first registered model that applies to the path (`twin.process.force_models.auto_force_model`)."""
+    if args.force_model != "auto":
+        return str(force_model(args.force_model).name)
+    recorded = None if meta is None else meta.get("force_model")
+    if isinstance(recorded, str) and recorded in FORCE_MODELS:
+        return recorded
+    return auto_force_model(process, np.asarray(p_sheet_m, dtype=float))
 
-    `auto` keeps the table field when the path runs along the history's groove (y within 1 mm of the centre line
-    and no more passes than the history has), and takes the ISF height-map model otherwise.
+
+def spec_from_arguments(
+    args: argparse.Namespace,
+    p_sheet_m: Any,
+    *,
+    run: Run | None = None,
+    history: ForceHistory | None = None,
+) -> TwinSpec:
+    """The twin of a command: the model file of `--model` (or the default cell), with the FE history, the force
+    model (`force_model_for`) and the placement (a run's own, else `--origin-mm`/`--yaw-deg` where the command has
+    them, else the model file's).
+
+    Args:
+        args: The parsed options (`model`, `force_model`, and the placement options where present).
+        p_sheet_m: The commanded or ideal path the twin will drive, sheet frame [m], shape (n, 3).
+        run: The run the twin replays (its placement and recorded force model), or None.
+        history: The FE history (as declared) when the command takes one; None: the model file's or the shipped.
     """
-    if choice == "table":
-        return None
-    if choice == "isf":
-        return isf_field_factory()
-    path_m = np.asarray(p_sheet_m, dtype=float)
-    passes, _ = label_passes(path_m[:, 0])
-    history_passes, _ = label_passes(history.p_sheet_m[:, 0])
-    along_groove = float(np.max(np.abs(path_m[:, 1]))) < 1e-3 and int(passes.max()) <= int(history_passes.max())
-    return None if along_groove else isf_field_factory()
+    model = getattr(args, "model", None)
+    base = read_model_file(model) if model is not None else TwinSpec()
+    process = base.process if history is None else replace(base.process, history=history)
+    process = replace(process, force_model=force_model_for(args, process, p_sheet_m, None if run is None else run.meta))
+    if run is not None:
+        placement = run_placement(run.meta)
+    elif getattr(args, "origin_mm", None) is not None or getattr(args, "yaw_deg", 0.0) != 0.0:
+        placement = placement_from(args)
+    else:
+        placement = base.placement
+    return base.replace(process=process, placement=placement)
 
 
 def add_placement_arguments(parser: argparse.ArgumentParser | Any, title: str = "sheet placement") -> Any:

@@ -23,15 +23,12 @@ from twin.cli._common import (
     add_history_arguments,
     add_ideal_argument,
     add_placement_arguments,
-    field_factory_for,
     history_from_arguments,
     ideal_from_arguments,
-    placement_from,
+    spec_from_arguments,
 )
 from twin.errors import DataFileError, InputError
-from twin.lab.effects import Effects, read_model_file
-from twin.process.field import SheetForceField
-from twin.sim.quasi_static import Twin
+from twin.process.force_models import build_force_field
 
 HELP = "Compensate the ideal path offline (Eq. 4.28 formula, or iterating the twin) and write the command."
 
@@ -42,7 +39,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--stiffness", type=Path, help="JSON with k_r_n_per_mm (2x2 x-z or 3x3); formula only"
     )
-    parser.add_argument("--model", type=Path, help="twin model file (effects, K_q) for --method twin")
+    parser.add_argument("--model", type=Path, help="twin model file (effects, K_q, process) for --method twin")
     add_history_arguments(parser)
     add_ideal_argument(parser)
     add_force_model_argument(parser)
@@ -69,22 +66,17 @@ def run(args: argparse.Namespace) -> int:
     """Compensate."""
     declared, reference = history_from_arguments(args)
     ideal = ideal_from_arguments(args)
-    effects, stiffness = read_model_file(args.model) if args.model else (Effects(), None)
     protect = [p for p in (args.stiffness, args.model, args.history, args.ideal) if p is not None]
-    factory = field_factory_for(args.force_model, reference, ideal.p_sheet_m)
-    build_field = SheetForceField if factory is None else factory
-    f_reference = build_field(reference).rigid_forces(ideal)
-    twin = Twin(
-        history=declared, effects=effects.robot, joint_stiffness=stiffness, field_factory=factory,
-        placement=placement_from(args),
-    )
+    spec = spec_from_arguments(args, ideal.p_sheet_m, history=declared)
+    f_reference = build_force_field(spec.process, reference).rigid_forces(ideal)
+    twin = spec.build()
     if args.method == "formula":
         if args.stiffness is None:
             raise InputError(
                 "--method formula needs --stiffness FILE with k_r_n_per_mm (e.g. an identify output)"
             )
         c_r = compliance_from_stiffness(_stiffness(args.stiffness))
-        f_ideal = build_field(declared).rigid_forces(ideal)
+        f_ideal = build_force_field(spec.process, declared).rigid_forces(ideal)
         comp = compensate_formula(ideal.t_s, ideal.p_sheet_m, f_ideal, c_r)
         predicted = twin.simulate(comp.t_s, comp.p_cmd_sheet_m).p_sheet_m - ideal.p_sheet_m
     else:
@@ -122,8 +114,8 @@ def run(args: argparse.Namespace) -> int:
         "correction_max_mm": 1e3 * float(np.max(np.linalg.norm(comp.correction_m, axis=1))),
         "compliance_mm_per_kn": 1e6 * c_r,
         "history": {"file": declared.source, "symmetry": declared.symmetry},
-        "force_model": "table" if factory is None else "isf",
-        "effects": dict(effects.values),
+        "force_model": spec.process.force_model,
+        "effects": dict(spec.effects.values),
     }
     out = sys.stderr if args.json == "-" else sys.stdout  # keep stdout pure JSON for `--json -`
     print(

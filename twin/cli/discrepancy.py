@@ -12,11 +12,11 @@ from twin.base.csvio import emit_json
 from twin.cli._common import (
     add_force_model_argument,
     add_history_arguments,
-    field_factory_for,
     history_from_arguments,
+    spec_from_arguments,
 )
-from twin.lab.effects import Effects, read_model_file, write_model_file
 from twin.runs.read import read_run
+from twin.sim.model_file import write_model_file
 
 HELP = (
     "Find where the twin and a measured run disagree, name the missing effect, add it, show the gap shrink."
@@ -26,7 +26,7 @@ HELP = (
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Add the `discrepancy` options."""
     parser.add_argument("run_dir", type=Path, help="a tx200-twin-run/1 directory (truth.json is never read)")
-    parser.add_argument("--model", type=Path, help="start from this twin model file (effects, K_q)")
+    parser.add_argument("--model", type=Path, help="start from this twin model file (effects, K_q, process)")
     add_history_arguments(parser)
     add_force_model_argument(parser)
     parser.add_argument("--model-out", type=Path, help="write the augmented twin model file here")
@@ -40,20 +40,16 @@ def run(args: argparse.Namespace) -> int:
     """Run the workflow."""
     measured = read_run(args.run_dir)
     declared, _ = history_from_arguments(args)
-    start, stiffness = read_model_file(args.model) if args.model else (Effects(), None)
-    factory = field_factory_for(args.force_model, declared, measured.commanded.values)
-    result = find_discrepancy(
-        measured, start=start, history=declared, joint_stiffness=stiffness, field_factory=factory
-    )
+    spec = spec_from_arguments(args, measured.commanded.values, run=measured, history=declared)
+    result = find_discrepancy(measured, spec)
     summary = {"run": args.run_dir, **result_summary(result)}
     protect = [p for p in (args.run_dir, args.model, args.history) if p is not None]
     if args.model_out is not None:
         write_model_file(
             args.model_out,
-            result.effects,
-            joint_stiffness_nm_per_rad=stiffness,
+            spec.replace(effects=result.effects),
             note=(f"tx200-twin discrepancy on {args.run_dir}: found {list(result.found) or result.verdict}"
-                  + ("" if result.model_complete else "; families without a lab equivalent are not in this file")),
+                  + ("" if result.model_complete else "; families without an effect of their own are not in this file")),
             protect=protect,
         )
         summary["model_out"] = args.model_out

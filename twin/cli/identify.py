@@ -48,13 +48,14 @@ def _method2(args: argparse.Namespace) -> int:
     from twin.analysis.identify.method2 import method2
     from twin.runs.format import run_placement
     from twin.runs.read import read_run
-    from twin.sim.quasi_static import Twin
+    from twin.sim.spec import TwinSpec
 
     if args.run_dir is None:
         raise InputError("--method 2 needs a RUN_DIR (a nominal run with forces.csv)")
     measured = read_run(args.run_dir)
     result = method2(measured)
-    twin = Twin(placement=run_placement(measured.meta))
+    spec = TwinSpec(placement=run_placement(measured.meta))
+    twin = spec.build()
     R = twin.R_base_sheet  # the twin's compliance at home, in the run's sheet frame
     c_twin = (R.T @ twin.kinematics.compliance(twin.kinematics.q_home) @ R)[np.ix_([0, 2], [0, 2])]
     error = float(np.linalg.norm(result.c_measured_m_per_n - c_twin) / np.linalg.norm(c_twin))
@@ -75,18 +76,19 @@ def _method2(args: argparse.Namespace) -> int:
     }
     from twin.analysis.identify.rollouts import kq_from_run, write_joint_stiffness
 
-    rollout = kq_from_run(measured)
+    rollout = kq_from_run(measured, spec)
+    fitted = ", ".join(name for name, ok in zip(twin.robot.joints, rollout.fitted, strict=True) if ok)
     payload |= {
         "joint_stiffness_nm_per_rad": rollout.k_q_nm_per_rad,
         "joint_fitted": rollout.fitted,
         "joint_relative_std": rollout.relative_std,
-        "joint_stiffness_route": "rollouts: least squares over twin replays of the run (joints 2, 3, 5)",
+        "joint_stiffness_route": f"rollouts: least squares over twin replays of the run ({fitted})",
         "joint_fit_residual_rms_mm": rollout.residual_rms_mm,
         "joint_fit_evaluations": rollout.evaluations,
     }
     if args.write_model is not None:
         payload["model_written"] = write_joint_stiffness(
-            args.write_model, rollout.k_q_nm_per_rad, note=f"K_q by rollouts on {args.run_dir}"
+            args.write_model, rollout.k_q_nm_per_rad, note=f"K_q by rollouts on {args.run_dir}", spec=spec
         )
     print(
         f"identify method 2 on {args.run_dir} ({result.samples} samples): "
@@ -124,9 +126,9 @@ def run(args: argparse.Namespace) -> int:
         "rank": fit.rank,
     }
     from twin.analysis.identify.rollouts import kq_from_stiffness, write_joint_stiffness
-    from twin.sim.quasi_static import Twin
+    from twin.sim.spec import TwinSpec
 
-    twin = Twin()
+    twin = TwinSpec().build()
     kq = kq_from_stiffness(twin, fit.k_r_n_per_m)
     k_q = np.where(np.isfinite(kq.k_q_nm_per_rad), kq.k_q_nm_per_rad, twin.joint_stiffness)
     payload |= {

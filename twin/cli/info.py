@@ -7,8 +7,7 @@ import argparse
 import numpy as np
 
 from twin.base.csvio import emit_json
-from twin.base.resources import scene_xml
-from twin.robot.kinematics import Kinematics, load_model
+from twin.robot.kinematics import Kinematics
 
 HELP = "Show the model: joint stiffness K_q, tool tip and compliance at home, sheet origin."
 
@@ -22,8 +21,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Print the summary (or JSON to stdout with `--json -`) and return 0."""
-    path = scene_xml()
-    kin = Kinematics(load_model(path=path))
+    kin = Kinematics()
+    path = kin.robot.model_path()
     p_home, _ = kin.fk(kin.q_home)
     compliance_mm_per_kn = kin.compliance(kin.q_home) * 1e6  # [m/N] -> [mm/kN]
     payload = {
@@ -32,6 +31,7 @@ def run(args: argparse.Namespace) -> int:
         "compliance_home_mm_per_kn": compliance_mm_per_kn.tolist(),
         "sheet_origin_m": kin.p_base_sheet_origin.tolist(),
         "model": str(path),
+        "robot": kin.robot.name,
     }
     emit_json(args.json, payload)
     if args.json == "-":

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from dataclasses import replace
 from pathlib import Path
 from typing import TextIO
 
@@ -15,17 +16,18 @@ from twin.base.signals import interp_rows
 from twin.cli._common import (
     add_force_model_argument,
     add_placement_arguments,
-    field_factory_for,
+    force_model_for,
     placement_from,
 )
 from twin.errors import InputError
 from twin.lab.cnc import run_cnc
-from twin.lab.effects import EFFECTS, parse_effect_args
 from twin.lab.virtual import load_test, run_lab
-from twin.process.forces import default_force_history
+from twin.process.description import Process
 from twin.process.placement import Placement
 from twin.runs.read import lab_commanded
 from twin.runs.write import write_run
+from twin.sim.effects import EFFECTS, parse_effect_args
+from twin.sim.spec import TwinSpec
 
 HELP = "Run the virtual lab (richer plant, noise, hidden effects) and write a measured run."
 
@@ -82,7 +84,7 @@ def run(args: argparse.Namespace) -> int:
     _check_out(args.out, args.overwrite)
     out = sys.stderr if args.json == "-" else sys.stdout  # keep stdout pure JSON for `--json -`
     if args.scenario == "loadtest":
-        loads, deflections = load_test(THESIS_TABLE_4_2_LOADS_N, effects=effects, seed=args.seed)
+        loads, deflections = load_test(THESIS_TABLE_4_2_LOADS_N, seed=args.seed, spec=TwinSpec(effects=effects))
         write_table(
             args.out,
             {
@@ -109,12 +111,10 @@ def run(args: argparse.Namespace) -> int:
         return _run_cnc(args, effects_given=bool(args.effect), out=out)
     commanded, protect = lab_commanded(args.scenario, args.commanded)
     t_s, p_cmd = commanded.t_s, commanded.values
-    factory = field_factory_for(args.force_model, default_force_history(), p_cmd)
-    run_, truth = run_lab(
-        t_s, p_cmd, scenario=args.scenario, effects=effects, seed=args.seed, field_factory=factory,
-        placement=placement,
-    )
-    truth["force_model"] = "table" if factory is None else "isf"
+    process = Process()
+    process = replace(process, force_model=force_model_for(args, process, p_cmd))
+    spec = TwinSpec(process=process, placement=placement, effects=effects)
+    run_, truth = run_lab(t_s, p_cmd, scenario=args.scenario, seed=args.seed, spec=spec)
     write_run(args.out, run_, truth=truth, overwrite=args.overwrite, protect=protect)
     deflection = np.max(
         np.linalg.norm(
@@ -178,8 +178,8 @@ def _run_dynamic(args: argparse.Namespace, placement: Placement) -> int:
     if args.scenario == "cnc":
         raise InputError("--scenario cnc is the rigid machine; it does not apply to --plant dynamic (a robot)")
     _check_out(args.out, args.overwrite)
-    factory = None
+    process = Process()
     if args.scenario != "loadtest":
         commanded, _ = lab_commanded(args.scenario, args.commanded)
-        factory = field_factory_for(args.force_model, default_force_history(), commanded.values)
-    return run_dynamic_command(args, loads_n=THESIS_TABLE_4_2_LOADS_N, field_factory=factory, placement=placement)
+        process = replace(process, force_model=force_model_for(args, process, commanded.values))
+    return run_dynamic_command(args, loads_n=THESIS_TABLE_4_2_LOADS_N, process=process, placement=placement)

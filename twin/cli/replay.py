@@ -8,12 +8,8 @@ from pathlib import Path
 
 from twin.analysis.replay import replay
 from twin.base.csvio import emit_json
-from twin.cli._common import add_force_model_argument, field_factory_for
-from twin.lab.effects import Effects, read_model_file
-from twin.process.forces import default_force_history
-from twin.runs.format import run_placement
+from twin.cli._common import add_force_model_argument, spec_from_arguments
 from twin.runs.read import read_run
-from twin.sim.quasi_static import Twin
 
 HELP = "Replay a measured run on the twin and report the gap (position and force)."
 
@@ -22,7 +18,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Add the `replay` options."""
     parser.add_argument("run_dir", type=Path, help="a tx200-twin-run/1 directory")
     parser.add_argument(
-        "--model", type=Path, help="twin model file (effects, K_q) from `discrepancy --model-out`"
+        "--model", type=Path, help="twin model file (effects, K_q, process) from `discrepancy --model-out`"
     )
     add_force_model_argument(parser)
     parser.add_argument("--json", help="write the metrics to FILE ('-' for stdout)")
@@ -32,12 +28,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     """Replay the run."""
     measured = read_run(args.run_dir)
-    effects, stiffness = read_model_file(args.model) if args.model else (Effects(), None)
-    factory = field_factory_for(args.force_model, default_force_history(), measured.commanded.values)
-    twin = Twin(
-        effects=effects.robot, joint_stiffness=stiffness, field_factory=factory, placement=run_placement(measured.meta)
-    )
-    result = replay(measured, effects=effects, twin=twin)
+    twin = spec_from_arguments(args, measured.commanded.values, run=measured).build()
+    result = replay(measured, twin)
     m = result.metrics
     out = sys.stderr if args.json == "-" else sys.stdout  # keep stdout pure JSON for `--json -`
     print(

@@ -16,6 +16,8 @@ from twin.cli._common import (
     history_from_arguments,
     ideal_from_arguments,
 )
+from twin.process.description import Process
+from twin.sim.spec import TwinSpec
 
 HELP = "Monte Carlo of K_q / friction / sheet / force-scale uncertainty: distribution of the compensated residual."
 
@@ -28,7 +30,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--calibration", type=Path,
         help="calibration JSON with 'parameters' and 'sigma' (tx200-twin calibrate, e.g. docs/calibration.json); "
-        "default: the model's values with the relative sigma of twin.apps.sweep.DEFAULT_RELATIVE_SIGMA",
+        "default: the model's values with the relative sigma of twin.apps.uncertainty.DEFAULT_RELATIVE_SIGMA",
     )
     parser.add_argument("--uncompensated", action="store_true", help="replay the ideal path, not its compensation")
     add_history_arguments(parser)
@@ -49,8 +51,8 @@ def run(args: argparse.Namespace) -> int:
               f"{time.perf_counter() - start:.1f} s", end="\n" if done == total else "", file=sys.stderr, flush=True)
 
     result = run_sweep(
-        args.draws, seed=args.seed, workers=args.workers, calibration=args.calibration, history=history,
-        path=ideal, compensate=not args.uncompensated, progress=progress,
+        args.draws, spec=TwinSpec(process=Process(history=history)), seed=args.seed, workers=args.workers,
+        calibration=args.calibration, path=ideal, compensate=not args.uncompensated, progress=progress,
     )
     summary = result.summary()
     if args.figure is not None:

@@ -14,12 +14,12 @@ from typing import Any
 
 import numpy as np
 
-from twin.base.signals import interp_rows
-from twin.lab.measure import uniform_times
-from twin.process.field import SheetForceField
-from twin.process.forces import ForceHistory, default_force_history
+from twin.base.signals import interp_rows, uniform_times
+from twin.process.description import Process
+from twin.process.force_models import build_force_field
 from twin.process.path import ToolPath, groove_path
-from twin.process.springback import scanned_profile, unloaded_profile
+from twin.process.springback import form_rigidly, scanned_profile
+from twin.robot.description import load_robot
 from twin.runs.format import Run, Stream, run_meta
 
 
@@ -42,34 +42,11 @@ class CncSettings:
     profile_noise_m: float = 2e-5
 
 
-def form_on_cnc(path: ToolPath, field: SheetForceField) -> tuple[np.ndarray, np.ndarray]:
-    """Drive the field rigidly along the path, then let the part spring back.
-
-    Args:
-        path: The tool path, followed exactly.
-        field: A sheet force field (reset here); afterwards its `formed_z_m` is the loaded groove.
-
-    Returns:
-        The forces of the sheet on the tool along the path [N], shape (n, 3), and the groove bottom after
-        springback on `field.x_grid_m` [m].
-    """
-    forces = field.rigid_forces(path)
-    z_after = unloaded_profile(
-        field.x_grid_m,
-        field.formed_z_m,
-        path.p_sheet_m[:, 0],
-        forces[:, 2],
-        k_unload_n_per_m=field.k_unload,
-        radius_m=field.radius,
-    )
-    return forces, z_after
-
-
 def run_cnc(
     *,
     seed: int,
     path: ToolPath | None = None,
-    history: ForceHistory | None = None,
+    process: Process | None = None,
     settings: CncSettings | None = None,
 ) -> tuple[Run, dict[str, Any]]:
     """Form the groove on the rigid CNC and measure it.
@@ -77,7 +54,7 @@ def run_cnc(
     Args:
         seed: Seed of the noise generator.
         path: Ideal path; default the thesis's groove.
-        history: FE force history (physical forces); default the shipped one.
+        process: The sheet, tool and force model (and its FE history); default the thesis's.
         settings: Rates and noise levels.
 
     Returns:
@@ -85,8 +62,9 @@ def run_cnc(
     """
     settings = settings or CncSettings()
     path = path or groove_path()
-    field = SheetForceField(history or default_force_history())
-    forces, z_after = form_on_cnc(path, field)
+    process = process or Process()
+    field = build_force_field(process)
+    forces, z_after = form_rigidly(path, field)
     rng = np.random.default_rng(seed)
     t_end = float(path.t_s[-1])
     t_pos = uniform_times(t_end, settings.position_rate_hz)
@@ -103,6 +81,8 @@ def run_cnc(
         tracker_rate_hz=settings.position_rate_hz,
         sensor_rate_hz=settings.sensor_rate_hz,
         seed=seed,
+        tool_length_m=load_robot().tool_length_m,
+        force_model=process.force_model,
     )
     run = Run(
         directory=None,

@@ -1,6 +1,6 @@
 """The virtual lab: a richer plant than the twin that produces measured runs in the run format.
 
-It is the twin's robot and force field plus named effects hidden from every reader (`twin.lab.effects`),
+It is the twin of a `TwinSpec` whose effects (`twin.sim.effects`) are hidden from every reader,
 a tracker at 50 Hz with white noise (sigma 0.02 mm, Krypton K-610 class, thesis sec. 3.2.1), a flange
 force sensor at 30 Hz with white noise (sigma 5 N, ATI Omega160 at this range) and a profile scan of the
 part after unclamping (sigma 0.02 mm). Every random draw comes from one `numpy` generator seeded by the
@@ -10,20 +10,17 @@ caller, in a fixed order, so the same seed gives identical files. The effects an
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from typing import Any
 
 import numpy as np
 
-from twin.lab.effects import Effects
-from twin.lab.measure import predict_forces, predict_part_profile, predict_tracker, uniform_times
-from twin.process.forces import ForceHistory
+from twin.base.signals import uniform_times
 from twin.process.part_surface import formed_surface, surface_points
 from twin.process.path import groove_path
-from twin.process.placement import Placement
 from twin.runs.format import Run, Stream, run_meta
-from twin.sim.quasi_static import Twin
+from twin.sim.measure import predict_forces, predict_part_profile, predict_tracker
+from twin.sim.spec import TwinSpec
 
 
 @dataclass(frozen=True)
@@ -56,13 +53,9 @@ def run_lab(
     p_cmd_sheet_m: np.ndarray,
     *,
     scenario: str,
-    effects: Effects | None = None,
     seed: int,
+    spec: TwinSpec | None = None,
     settings: LabSettings | None = None,
-    history: ForceHistory | None = None,
-    joint_friction: np.ndarray | None = None,
-    field_factory: Callable[[ForceHistory], Any] | None = None,
-    placement: Placement | None = None,
 ) -> tuple[Run, dict[str, Any]]:
     """Run the commanded path on the lab plant and measure it.
 
@@ -70,24 +63,19 @@ def run_lab(
         t_s: Commanded sample times [s].
         p_cmd_sheet_m: Commanded tool tip, sheet frame [m], shape (n, 3).
         scenario: Label stored in meta.json (`nominal`, `compensated`, or free text).
-        effects: Hidden effects; default none.
         seed: Seed of the noise generator.
+        spec: The lab's cell, its effects the hidden truth (robot, process and force model, placement, joint
+            friction: zeros give the purely elastic robot, e.g. to test identification maths); default the
+            thesis's cell without effects.
         settings: Rates and noise levels.
-        history: Force history of the lab's sheet; default the shipped one (declared half, doubled).
-        joint_friction: Override of the robot's joint friction [N·m], shape (6,); default the model's (zeros
-            give the purely elastic robot, e.g. to test identification maths).
-        field_factory: The sheet force model (`Twin(field_factory=...)`); default the groove's per-pass field.
-        placement: The sheet's placement in the robot base (recorded in meta.json); default the cell's.
 
     Returns:
         The run (not yet written) and the truth record for `truth.json`.
     """
-    effects = effects or Effects()
+    spec = spec or TwinSpec()
+    effects = spec.effects
     settings = settings or LabSettings()
-    twin = Twin(
-        history=history, effects=effects.robot, joint_friction=joint_friction, field_factory=field_factory,
-        placement=placement,
-    )
+    twin = spec.build()
     result = twin.simulate(t_s, p_cmd_sheet_m)
     rng = np.random.default_rng(seed)
     t_end = float(result.t_s[-1])
@@ -97,7 +85,7 @@ def run_lab(
     tracker = tracker + rng.normal(0.0, settings.tracker_noise_m, tracker.shape)
     forces = predict_forces(twin, result, t_sensor, effects)
     forces = forces + rng.normal(0.0, settings.force_noise_n, forces.shape)
-    x_profile, z_profile = predict_part_profile(result, effects)
+    x_profile, z_profile = predict_part_profile(twin, result, effects)
     z_profile = z_profile + rng.normal(0.0, settings.profile_noise_m, z_profile.shape)
     scan = None  # a 2-D scan of the part where the force model keeps a surface (any part, not the groove table)
     surface = formed_surface(twin.field)
@@ -110,7 +98,10 @@ def run_lab(
         tracker_rate_hz=settings.tracker_rate_hz,
         sensor_rate_hz=settings.sensor_rate_hz,
         seed=seed,
-        placement=placement,
+        tool_length_m=spec.robot.tool_length_m,
+        placement=spec.placement,
+        robot=spec.robot.name,
+        force_model=spec.process.force_model,
     )
     run = Run(
         directory=None,
@@ -127,6 +118,7 @@ def run_lab(
         "lost_motion_takeup_m": effects.lost_motion_takeup_m,
         "settings": asdict(settings),
         "seed": seed,
+        "force_model": spec.process.force_model,
         "max_deflection_mm": 1e3 * float(np.max(np.linalg.norm(result.deflection_sheet_m, axis=1))),
         "peak_force_n": float(np.max(np.linalg.norm(result.f_sheet_n, axis=1))),
     }
@@ -134,28 +126,21 @@ def run_lab(
 
 
 def load_test(
-    loads_n: np.ndarray,
-    *,
-    effects: Effects | None = None,
-    seed: int,
-    settings: LabSettings | None = None,
-    joint_friction: np.ndarray | None = None,
+    loads_n: np.ndarray, *, seed: int, spec: TwinSpec | None = None, settings: LabSettings | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
     """Thesis Method 1 load test at `home`: apply each load at the tool tip and measure the deflection.
 
     Args:
         loads_n: Loads on the tool tip, base frame [N], shape (m, 3) (Table 4.2 pushes the tool).
-        effects: Hidden robot effects.
         seed: Seed of the tracker noise.
+        spec: The lab's cell, its robot-side effects hidden; default the thesis's cell without effects.
         settings: Noise levels (tracker noise on each of the two readings, loaded and unloaded).
-        joint_friction: Override of the robot's joint friction [N·m], shape (6,); default the model's.
 
     Returns:
         The loads [N] and the measured deflections [m], shape (m, 3) each.
     """
-    effects = effects or Effects()
     settings = settings or LabSettings()
-    twin = Twin(effects=effects.robot, joint_friction=joint_friction)
+    twin = (spec or TwinSpec()).build()
     rng = np.random.default_rng(seed)
     loads = np.asarray(loads_n, dtype=float)
     deflections = np.array([twin.static_deflection(f) for f in loads])

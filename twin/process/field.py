@@ -41,17 +41,18 @@ k·offset. With `stateful=False` the reference is always the ideal profile: Fz =
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
 from twin.errors import InputError
+from twin.process.force_field import FieldState, ForceField
 from twin.process.forces import ForceHistory
 from twin.process.formed_profile import FormedProfile
 from twin.process.pass_tables import PassTable, build_pass_tables
 from twin.process.pass_tables import lerp as _lerp
 from twin.process.pass_tables import lerp_slope as _lerp_slope
 from twin.process.pass_tables import lerp_slope3 as _lerp_slope3
-from twin.process.path import ToolPath
 
 #: Elastic unloading stiffness of the formed sheet [N/m]: calibrated (`tx200-twin calibrate`) to the CNC test's
 #: springback, 8.7 mm formed of the 10 mm target (§2.3.1), 1.43 ± 0.29 kN/mm.
@@ -66,8 +67,23 @@ SHEET_HALF_LENGTH_M = 0.120
 SOFTPLUS_N = 5.0
 
 
-class SheetForceField:
-    """Force exerted by the sheet on the tool as a function of tool position, pass and forming history."""
+@dataclass(frozen=True)
+class TableState(FieldState):
+    """Scalar state of the table field: the pass of the last committed sample (0 before any)."""
+
+    current_pass: int
+
+
+class SheetForceField(ForceField):
+    """Force exerted by the sheet on the tool as a function of tool position, pass and forming history.
+
+    Declares the compiled kernel `table`; its Fx flips with the commanded direction (the twin wraps it in the
+    tool's sliding friction) and its force steps from pass to pass (`twin.process.force_field`).
+    """
+
+    compiled_kernel = "table"
+    tangential_from_command = True
+    steps_between_passes = True
 
     def __init__(
         self,
@@ -106,7 +122,7 @@ class SheetForceField:
         self.radius = float(tool_radius_m)
         self.stateful = stateful
         self._profile = p = FormedProfile(self.radius, grid_step_m, SHEET_HALF_LENGTH_M)
-        self._x0, self._dx, self._n_grid, self.x_grid_m = p.x0, p.dx, p.n, p.x_grid_m
+        self._x0, self._dx, self._n_grid = p.x0, p.dx, p.n
         self._formed, self._snapshot = p.z_m, p.snapshot_m  # never rebound: the hot path reads them directly
         self._pass = 0
         self._hyst: tuple[float, float, int] | None = None  # (start x, extreme x, direction) for inference
@@ -127,18 +143,30 @@ class SheetForceField:
         return self._tables
 
     @property
+    def x_grid_m(self) -> np.ndarray:
+        """Abscissae of the formed profile [m]."""
+        return self._profile.x_grid_m
+
+    @property
     def formed_z_m(self) -> np.ndarray:
         """Loaded groove-bottom profile formed so far on `x_grid_m` [m] (a copy)."""
         return self._formed.copy()
 
     @property
-    def current_pass(self) -> int:
-        """Pass of the last committed sample (0 before any); set by a loop that advanced `profile` itself."""
-        return self._pass
+    def state(self) -> TableState:
+        """The pass of the last committed sample."""
+        return TableState(self._pass)
 
-    @current_pass.setter
-    def current_pass(self, pass_index: int) -> None:
-        self._pass = int(pass_index)
+    def restore(self, state: FieldState) -> None:
+        """Set the current pass (a loop that advanced `profile` itself)."""
+        if not isinstance(state, TableState):
+            raise InputError(f"state {state!r} is not a TableState")
+        self._pass = int(state.current_pass)
+
+    @property
+    def current_pass(self) -> int:
+        """Pass of the last committed sample (0 before any)."""
+        return self._pass
 
     @property
     def profile(self) -> FormedProfile:
@@ -310,21 +338,3 @@ class SheetForceField:
                 self.force(p + e, pass_index, direction) - self.force(p - e, pass_index, direction)
             ) / (2 * step_m)
         return jac
-
-    def rigid_forces(self, path: ToolPath) -> np.ndarray:
-        """Reset, then drive the field along `path` with a rigid robot: force at each sample, then advance.
-
-        Args:
-            path: Path with pass labels (within the history's passes).
-
-        Returns:
-            Forces exerted by the sheet on the tool [N], shape (n, 3).
-        """
-        self.reset()
-        out = np.empty((len(path), 3))
-        passes = [int(v) for v in path.pass_index]
-        dirs = [int(v) for v in path.direction]
-        for i, p in enumerate(path.p_sheet_m):
-            out[i] = self.force(p, passes[i], dirs[i])
-            self.advance(p, passes[i])
-        return out

@@ -12,6 +12,11 @@ Accepted files (CSV, header row, `#` comment lines allowed; see docs/forces.md):
 * half-symmetric model: `fx_half_n`, `fz_half_n` (and optionally `fy_sym_n`, ignored);
 * full model: `fx_n`, `fz_n` (and optionally `fy_n`).
 
+Lengths may be declared in metres instead (`x_m`, `z_m`, `s_m`; units by declaration, `twin.base.units`).
+Metres under `_mm` names are caught by the point spacing, not by the size of the part (`check_point_spacing`:
+every point within 0.5 mm of the origin, a median step below 0.01 mm); an FE export's `t_s` is often a
+normalised step time, so its speed says nothing of the unit.
+
 Forces are those EXERTED BY THE SHEET ON THE TOOL, in the sheet frame (Fz > 0 while forming).
 """
 
@@ -22,8 +27,9 @@ from pathlib import Path
 
 import numpy as np
 
-from twin.base.csvio import check_mm_magnitude, check_monotonic, read_table
+from twin.base.csvio import check_monotonic
 from twin.base.resources import data_file
+from twin.base.units import check_point_spacing, read_si_table
 from twin.errors import DataFileError, SymmetryError
 from twin.process.path import ToolPath, label_passes
 
@@ -114,12 +120,12 @@ def load_force_history(path: str | Path, *, symmetry: str, trust_columns: bool =
         SymmetryError: `symmetry` is None or not `half`/`full`, or the column names contradict it (half-named
             columns declared `full`, full-named declared `half`) while `trust_columns` is True.
         DataFileError: Missing file or columns, truncated or non-numeric rows, NaN, s or t not increasing.
-        UnitsError: A `_mm` column spans so little it must hold metres.
+        UnitsError: A length spelled both `_mm` and `_m`, or metres under `_mm` names (module docstring).
     """
     if symmetry not in ("half", "full"):
         raise SymmetryError(f"load_force_history({str(path)!r}): symmetry={symmetry!r} is not valid; {_BUG}")
     path = Path(path)
-    table = read_table(path, ("x_mm", "z_mm"), optional=_OPTIONAL, min_rows=2)
+    table = read_si_table(path, ("x_mm", "z_mm"), optional=_OPTIONAL, min_rows=2)
     has_half = all(name in table for name in HALF_COLUMNS)
     has_full = all(name in table for name in FULL_COLUMNS)
     if has_half and has_full:
@@ -130,7 +136,7 @@ def load_force_history(path: str | Path, *, symmetry: str, trust_columns: bool =
         raise DataFileError(
             path,
             f"missing force columns: expected {list(HALF_COLUMNS)} (half-symmetric model) or "
-            f"{list(FULL_COLUMNS)} (full model); found {sorted(table)}",
+            f"{list(FULL_COLUMNS)} (full model); found {sorted(table.typed.values())}",
         )
     names = HALF_COLUMNS if has_half else FULL_COLUMNS
     if trust_columns and (has_half != (symmetry == "half")):
@@ -139,29 +145,29 @@ def load_force_history(path: str | Path, *, symmetry: str, trust_columns: bool =
             f"{path}: columns {list(names)} name a {kind} export but symmetry={symmetry!r} was declared; "
             f"{_BUG}. (trust_columns=False exists only to reproduce the thesis's mistake.)"
         )
-    x_mm, z_mm = table["x_mm"], table["z_mm"]
-    check_mm_magnitude(path, "x_mm", x_mm, min_span_mm=1.0)
-    check_mm_magnitude(path, "z_mm", z_mm, min_span_mm=0.1)
+    x_m, z_m = table.si("x_mm"), table.si("z_mm")
+    check_point_spacing(table, ("x_mm", "z_mm"))
     if "s_mm" in table:
-        s_mm = table["s_mm"]
-        check_monotonic(path, "s_mm", s_mm)
-        check_mm_magnitude(path, "s_mm", s_mm, min_span_mm=1.0)
+        s_m = table.si("s_mm")
+        check_monotonic(path, table.typed["s_mm"], s_m)
+        check_point_spacing(table, ("s_mm",))
     elif "t_s" in table:
-        check_monotonic(path, "t_s", table["t_s"])
-        s_mm = np.concatenate(([0.0], np.cumsum(np.hypot(np.diff(x_mm), np.diff(z_mm)))))
+        check_monotonic(path, "t_s", table.si("t_s"))
+        s_m = np.concatenate(([0.0], np.cumsum(np.hypot(np.diff(x_m), np.diff(z_m)))))
     else:
+        found = sorted(table.typed.values())
         raise DataFileError(
-            path, f"missing column 's_mm' (arc length) or 't_s' (time); found {sorted(table)}"
+            path, f"missing column 's_mm' or 's_m' (arc length) or 't_s' (time); found {found}"
         )
     scale = 2.0 if symmetry == "half" else 1.0
-    f = np.zeros((len(x_mm), 3))
-    f[:, 0] = scale * table[names[0]]
-    f[:, 2] = scale * table[names[1]]
+    f = np.zeros((len(x_m), 3))
+    f[:, 0] = scale * table.si(names[0])
+    f[:, 2] = scale * table.si(names[1])
     if symmetry == "full" and "fy_n" in table:
-        f[:, 1] = table["fy_n"]
-    p = np.column_stack([x_mm, np.zeros_like(x_mm), z_mm]) / 1000.0
+        f[:, 1] = table.si("fy_n")
+    p = np.column_stack([x_m, np.zeros_like(x_m), z_m])
     return ForceHistory(
-        s_m=s_mm / 1000.0,
+        s_m=s_m,
         p_sheet_m=p,
         f_sheet_n=f,
         symmetry=symmetry,

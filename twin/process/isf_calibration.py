@@ -142,7 +142,8 @@ def fitted_scale(params: IsfForceParams, history: ForceHistory) -> float:
 
 
 def isf_field_factory(params: IsfForceParams | None = None) -> Callable[[ForceHistory], IsfForceField]:
-    """A `Twin(field_factory=...)` argument: the ISF height-map model with its force level fitted to the history.
+    """The ISF height-map model with its force level fitted to a history (the `isf` model of
+    `twin.process.force_models`).
 
     Args:
         params: Model constants (all but `scale`, which is fitted); None for the calibrated defaults.

@@ -50,8 +50,8 @@ import numpy as np
 
 from twin.errors import InputError
 from twin.process.field import K_UNLOAD_N_PER_M, SOFTPLUS_N, TOOL_RADIUS_M
+from twin.process.force_field import FieldState, ForceField
 from twin.process.heightmap import HeightMap
-from twin.process.path import ToolPath
 from twin.process.sliding import RELEASE_LENGTH_M, sliding_direction
 
 #: Aerens et al. (2010) coefficient of the steady-state Fz formula [N / (MPa mm^2.07 deg)].
@@ -116,16 +116,36 @@ def aerens_fz_n(params: IsfForceParams, step_down_m: float, wall_angle_deg: floa
     )
 
 
-class IsfForceField:
-    """Force of the sheet on the tool at any tool position, on the height map (interface of `SheetForceField`:
-    `force`, `force_and_stiffness`, `advance`, `reset`, `rigid_forces`, `x_grid_m`, `formed_z_m`).
+@dataclass(frozen=True)
+class IsfMotion(FieldState):
+    """The ISF model's scalar state besides its height map.
 
-    `pass_index` and `direction` are accepted for that interface and ignored: the model needs no pass labels.
+    Attributes:
+        direction: Held sliding direction (vx, vy) [-].
+        last_tip_m: Last committed tool tip (x, y, z) [m], or None before the first.
+        wall_angle_deg: Held wall angle [deg].
+        last_step_m: Length of the last committed step [m].
+    """
+
+    direction: tuple[float, float]
+    last_tip_m: tuple[float, float, float] | None
+    wall_angle_deg: float
+    last_step_m: float
+
+
+class IsfForceField(ForceField):
+    """Force of the sheet on the tool at any tool position, on the height map (a `ForceField`, compiled kernel
+    `isf`).
+
+    `pass_index` and `direction` are accepted for the interface and ignored: the model needs no pass labels, and
+    its in-plane force follows the tool's own travel.
 
     Args:
         params: Model constants; None for the calibrated defaults.
         half_size_m: Half-extent (x, y) of the modelled sheet [m].
     """
+
+    compiled_kernel = "isf"
 
     def __init__(self, params: IsfForceParams | None = None, half_size_m: tuple[float, float] = (0.12, 0.12)) -> None:
         self.params = p = params or IsfForceParams()
@@ -156,15 +176,23 @@ class IsfForceField:
         return self._base
 
     @property
-    def motion_state(self) -> tuple[tuple[float, float], tuple[float, float, float] | None, float, float]:
-        """(travel direction v, last committed tip or None [m], held wall angle [deg], last step [m]); settable by
-        a loop that advanced the map itself (the compiled replay)."""
-        return self._dir, self._last, self._alpha, self._last_step
+    def state(self) -> IsfMotion:
+        """Sliding direction, last committed tip, held wall angle and last step."""
+        return IsfMotion(self._dir, self._last, self._alpha, self._last_step)
 
-    @motion_state.setter
-    def motion_state(self, state: tuple[tuple[float, float], tuple[float, float, float] | None, float, float]) -> None:
-        self._dir, self._last, self._alpha, self._last_step = state
+    def restore(self, state: FieldState) -> None:
+        """Set the motion state (a loop that advanced the map itself, the compiled replay)."""
+        if not isinstance(state, IsfMotion):
+            raise InputError(f"state {state!r} is not an IsfMotion")
+        self._dir, self._last, self._alpha, self._last_step = (
+            state.direction, state.last_tip_m, state.wall_angle_deg, state.last_step_m
+        )
         self._last_fz = ((math.nan, math.nan, math.nan), 0.0)
+
+    @property
+    def height_map(self) -> HeightMap:
+        """The 2-D formed surface."""
+        return self.map
 
     @property
     def x_grid_m(self) -> np.ndarray:
@@ -290,16 +318,3 @@ class IsfForceField:
         vx, vy, _ = self._travel(x, y, jacobian=False)
         mu = self.params.mu_eff
         return np.array([-mu * vx * fz, -mu * vy * fz, fz])
-
-    def rigid_forces(self, path: ToolPath) -> np.ndarray:
-        """Reset, then drive the field along `path` with a rigid robot: force at each sample, then advance.
-
-        Returns:
-            Forces of the sheet on the tool [N], (n, 3).
-        """
-        self.reset()
-        out = np.empty((len(path), 3))
-        for i, p in enumerate(path.p_sheet_m):
-            out[i] = self.force(p)
-            self.advance(p)
-        return out

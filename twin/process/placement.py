@@ -9,17 +9,20 @@ about the base z axis (the sheet stays horizontal; the tool stays vertical, `Kin
 `check_reach` solves the inverse kinematics along the whole path (warm-started, `Kinematics.ik_path`) and
 raises on the first sample that is out of reach, outside a joint range or closer to a singularity than
 `Kinematics.det_j_min`, naming the sample, its time and its sheet-frame position. The twin
-(`twin.sim.quasi_static.Twin(placement=...)`) and the quasi-static lab take a placement too; a run records it.
+(`twin.sim.spec.TwinSpec.placement`) and the labs take a placement too; a run records it.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 
-from twin.errors import InputError, SingularityError, UnreachableError
+from twin.errors import DataFileError, InputError, SingularityError, UnreachableError
 from twin.process.path import ToolPath
 from twin.robot.kinematics import Kinematics
 
@@ -64,6 +67,34 @@ class Placement:
     def to_base(self, p_sheet_m: np.ndarray, kinematics: Kinematics) -> np.ndarray:
         """Sheet-frame points (n, 3) [m] -> base-frame points (n, 3) [m]."""
         return self.origin_in(kinematics) + np.asarray(p_sheet_m, dtype=float) @ self.R_base_sheet.T
+
+    def to_json(self) -> dict[str, Any]:
+        """As files record it (a run's `meta.json`, a model file): the origin [mm] (null: the cell's), yaw [deg]."""
+        origin = None if self.origin_base_m is None else [1e3 * float(v) for v in self.origin_base_m]
+        return {"origin_base_mm": origin, "yaw_deg": math.degrees(self.yaw_rad)}
+
+    @classmethod
+    def from_json(cls, entry: Any, source: str | Path) -> Placement:
+        """The placement a file records (`to_json`); None: the cell's, yaw 0.
+
+        Raises:
+            DataFileError: The entry is not {"origin_base_mm": null or 3 numbers, "yaw_deg": a number} (names
+                `source`).
+        """
+        if entry is None:
+            return cls()
+        expected = 'expected "placement": {"origin_base_mm": null or [x, y, z], "yaw_deg": number}'
+        if not isinstance(entry, Mapping) or set(entry) - {"origin_base_mm", "yaw_deg"}:
+            raise DataFileError(source, f"placement = {entry!r}: {expected}")
+        origin, yaw = entry.get("origin_base_mm"), entry.get("yaw_deg", 0.0)
+        ok_origin = origin is None or (
+            isinstance(origin, list | tuple) and len(origin) == 3
+            and all(isinstance(v, int | float) and math.isfinite(v) for v in origin)
+        )
+        if not ok_origin or not isinstance(yaw, int | float) or not math.isfinite(yaw):
+            raise DataFileError(source, f"placement = {entry!r}: {expected}")
+        base = None if origin is None else (origin[0] / 1e3, origin[1] / 1e3, origin[2] / 1e3)
+        return cls(origin_base_m=base, yaw_rad=math.radians(yaw))
 
 
 @dataclass(frozen=True)

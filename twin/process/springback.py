@@ -8,7 +8,8 @@ when the tool lifts in the field (§2.3.1: the rigid CNC formed 8.7 mm of the 10
     z_after(x) = min(z_loaded(x) + Fz_last(x) / k_unload, 0),
 
 with Fz_last(x) the vertical force of the last sample whose tool sphere covered x. The recovery cannot lift
-the sheet above its flat, unformed plane (z = 0).
+the sheet above its flat, unformed plane (z = 0). `form_rigidly` is a rigid machine's forming (the thesis's
+CNC test, §2.3): the field driven exactly along the path, then this springback.
 """
 
 from __future__ import annotations
@@ -18,6 +19,8 @@ import math
 import numpy as np
 
 from twin.errors import InputError
+from twin.process.force_field import ForceField
+from twin.process.path import ToolPath
 
 #: A part-profile scan reads x in [-45, 45] mm (the 70 mm groove and a margin) every 0.5 mm [m].
 PROFILE_HALF_SPAN_M = 0.045
@@ -88,3 +91,26 @@ def unloaded_profile(
         raise InputError(f"z_loaded_m {z_loaded.shape} must match x_grid_m {np.shape(x_grid_m)}")
     recovery = last_contact_force(x_grid_m, x_tool_m, fz_n, radius_m) / k_unload_n_per_m
     return np.minimum(z_loaded + recovery, 0.0)
+
+
+def form_rigidly(path: ToolPath, field: ForceField) -> tuple[np.ndarray, np.ndarray]:
+    """Drive the field rigidly along the path (a machine that follows it exactly), then let the part spring back.
+
+    Args:
+        path: The tool path, followed exactly.
+        field: A sheet force field (reset here); afterwards its `formed_z_m` is the loaded part.
+
+    Returns:
+        The forces of the sheet on the tool along the path [N], shape (n, 3), and the part's section after
+        springback on `field.x_grid_m` [m].
+    """
+    forces = field.rigid_forces(path)
+    z_after = unloaded_profile(
+        field.x_grid_m,
+        field.formed_z_m,
+        path.p_sheet_m[:, 0],
+        forces[:, 2],
+        k_unload_n_per_m=field.k_unload,
+        radius_m=field.radius,
+    )
+    return forces, z_after

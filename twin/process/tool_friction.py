@@ -23,18 +23,24 @@ regime at a time, as it does joint friction (`solve_sample`): sliding in the com
 state held at +-1: the old model, one solve away from reversals), then inside the band (the law unclipped,
 linear in x), then sliding the other way; the first whose solution lies in its own regime is the one.
 
-The wrapped field must flip only the sign of Fx with the direction (`SheetForceField` does).
+The wrapped field must flip only the sign of Fx with the direction: the models that declare
+`tangential_from_command` (`twin.process.force_field`; the table `SheetForceField` does).
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass
 from functools import partial
-from typing import Any, TypeVar
+from typing import TYPE_CHECKING, TypeVar
 
 import numpy as np
 
 from twin.errors import InputError
+from twin.process.force_field import FieldState, ForceField
+
+if TYPE_CHECKING:
+    from twin.process.heightmap import HeightMap
 
 T = TypeVar("T")
 #: Tip position in the sheet frame [m] -> (force of the sheet on the tool [N], its gradient [N/m]).
@@ -44,20 +50,36 @@ SheetModel = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
 REVERSAL_M = 5e-5
 
 
-class SlidingFriction:
+@dataclass(frozen=True)
+class SlipState(FieldState):
+    """The sliding state of the tool.
+
+    Attributes:
+        slip: Slip state s in [-1, 1], None before the first sample [-].
+        x_prev_m: Last committed tip x [m].
+        first_direction: The first commanded direction (+1/-1).
+    """
+
+    slip: float | None
+    x_prev_m: float
+    first_direction: int
+
+
+class SlidingFriction(ForceField):
     """A sheet force field whose tangential force follows the tool's real travel along x.
 
     Args:
-        field: The wrapped field (`force`, `force_and_stiffness`, `advance`, `reset`; Fx flips with direction).
+        field: The wrapped field (a model that declares `tangential_from_command`: Fx flips with direction).
         reversal_m: Travel over which the tangential force reverses from -1 to +1 of its value [m].
 
-    Every other attribute is the wrapped field's.
+    Its formed surface, tool radius and unloading stiffness are the wrapped field's.
     """
 
-    def __init__(self, field: Any, reversal_m: float = REVERSAL_M) -> None:
+    def __init__(self, field: ForceField, reversal_m: float = REVERSAL_M) -> None:
         if not (np.isfinite(reversal_m) and reversal_m > 0.0):
             raise InputError(f"reversal_m = {reversal_m!r}: expected a finite travel > 0 [m]")
         self.inner = field
+        self.radius, self.k_unload = field.radius, field.k_unload
         self.reversal_m = float(reversal_m)
         self._gain = 2.0 / self.reversal_m
         self._slip: float | None = None
@@ -68,8 +90,20 @@ class SlidingFriction:
         self.last_stick_stiffness = 0.0
         self._in_band = False  # True while a sample is solved inside the band: the law unclipped
 
-    def __getattr__(self, name: str) -> Any:
-        return getattr(self.inner, name)
+    @property
+    def x_grid_m(self) -> np.ndarray:
+        """The wrapped field's profile abscissae [m]."""
+        return self.inner.x_grid_m
+
+    @property
+    def formed_z_m(self) -> np.ndarray:
+        """The wrapped field's formed profile [m]."""
+        return self.inner.formed_z_m
+
+    @property
+    def height_map(self) -> HeightMap | None:
+        """The wrapped field's height map, if any."""
+        return self.inner.height_map
 
     def reset(self) -> None:
         """The wrapped field's reset; the slip state starts with the first commanded direction."""
@@ -77,14 +111,15 @@ class SlidingFriction:
         self._slip = None
 
     @property
-    def slip_state(self) -> tuple[float | None, float, int]:
-        """(slip state s or None before the first sample, last committed tip x [m], first direction)."""
-        return self._slip, self._x_prev, self._last_direction
+    def state(self) -> SlipState:
+        """The slip state, the last committed tip x and the first direction."""
+        return SlipState(self._slip, self._x_prev, self._last_direction)
 
-    @slip_state.setter
-    def slip_state(self, state: tuple[float | None, float, int]) -> None:
-        # for a loop that advanced the slip state itself (the twin's compiled loop, `twin.sim.compiled`)
-        self._slip, self._x_prev, self._last_direction = state[0], float(state[1]), int(state[2])
+    def restore(self, state: FieldState) -> None:
+        """Set the slip state (a loop that advanced it itself, the twin's compiled loop `twin.sim.compiled`)."""
+        if not isinstance(state, SlipState):
+            raise InputError(f"state {state!r} is not a SlipState")
+        self._slip, self._x_prev, self._last_direction = state.slip, float(state.x_prev_m), int(state.first_direction)
 
     def _slip_at(self, x: float, direction: int) -> tuple[float, float]:
         """Slip state at tip x [m] and its derivative ds/dx [1/m] (0 where clipped)."""
@@ -174,7 +209,7 @@ class SlidingFriction:
 
 
 def solve_sample(
-    field: Any,
+    field: ForceField,
     pass_index: int,
     direction: int,
     solve: Callable[[SheetModel], T],

@@ -1,6 +1,32 @@
-"""Robot: the TX200 as MuJoCo sees it — MJCF loading and MjSpec building with robot-side effects (`model`),
-kinematics (MuJoCo FK/Jacobian/IK, the thesis's DH chain, the Pinocchio cross-check) and the joint springs K_q
-(`stiffness`).
+"""Robot: a robot as MuJoCo sees it, described as data.
 
-Takes the MJCF in `models/`; gives compiled models, poses, Jacobians and IK solutions. Knows nothing of the sheet.
+Modules: `description` (the robot's description file beside its MJCF: joints, tool, F/T site, home pose, DH
+table, stiffness priors, vendor and language; `load_robot`), `model` (the compiled MJCF with robot-side effects,
+built with MjSpec), `kinematics` (MuJoCo FK, Jacobian, IK with the tool held vertical, Cartesian compliance),
+`chain_fk` (vectorised FK of the hinge chain), `dh` (the DH table's FK, the independent check), `pinocchio_model`
+(the Pinocchio cross-check) and `stiffness` (the joint springs K_q).
+
+Takes a robot's model folder; gives compiled models, poses, Jacobians and IK solutions. Knows nothing of the sheet.
+Nothing outside this stage names a joint, a joint count or a number of one robot.
 """
+
+from twin.base.lazy import lazy_exports
+
+__all__, __getattr__, __dir__ = lazy_exports(__name__, {
+    "RobotDescription": "twin.robot.description",
+    "DhTable": "twin.robot.description",
+    "StiffnessPrior": "twin.robot.description",
+    "JointAddresses": "twin.robot.description",
+    "load_robot": "twin.robot.description",
+    "shipped_robots": "twin.robot.description",
+    "build_model": "twin.robot.model",
+    "lost_motion_schedule": "twin.robot.model",
+    "Kinematics": "twin.robot.kinematics",
+    "load_model": "twin.robot.kinematics",
+    "dh_fk": "twin.robot.dh",
+    "dh_jacobian": "twin.robot.dh",
+    "det_jacobian_thesis": "twin.robot.dh",
+    "PinKinematics": "twin.robot.pinocchio_model",
+    "set_joint_stiffness": "twin.robot.stiffness",
+    "joint_stiffness": "twin.robot.stiffness",
+})

@@ -21,7 +21,7 @@ class ChainFK:
 
     Same composition as `mj_kinematics` (body offset, then each hinge about its anchor), with rotation
     matrices instead of quaternions: agrees with MuJoCo to rounding (~1e-16 m). `supported` is False when
-    the chain to the site holds a joint other than the six arm hinges; callers then use MuJoCo per sample.
+    the chain to the site holds a joint other than the arm's hinges (`qadr`); callers then use MuJoCo per sample.
     """
 
     def __init__(self, model: mujoco.MjModel, site_id: int, qadr: np.ndarray) -> None:
@@ -43,11 +43,12 @@ class ChainFK:
                 axis = m.jnt_axis[j] / np.linalg.norm(m.jnt_axis[j])
                 joints.append((arm.get(adr, -1), axis.copy(), m.jnt_pos[j].copy(), float(m.qpos0[adr])))
             self.steps.append((m.body_pos[b].copy(), quat_mat(m.body_quat[b]), joints))
+        self.dof = len(qadr)
         self.site_pos = m.site_pos[site_id].copy()
         self.site_R = quat_mat(m.site_quat[site_id])
 
     def __call__(self, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Site position (n, 3) [m], site orientation (n, 3, 3) and Jacobian (n, 6, 6) [m/rad; 1] at Q (n, 6)."""
+        """Site position (n, 3) [m], site orientation (n, 3, 3) and Jacobian (n, 6, dof) [m/rad; 1] at Q (n, dof)."""
         n = Q.shape[0]
 
         def rot(R: np.ndarray, C: np.ndarray) -> np.ndarray:  # R[i] @ C for every i, one BLAS call
@@ -74,7 +75,7 @@ class ChainFK:
                 )
                 pos = anchor - rot(R, jpos[:, None])[:, :, 0]
         p_site = pos + rot(R, self.site_pos[:, None])[:, :, 0]
-        J = np.zeros((n, 6, 6))
+        J = np.zeros((n, 6, self.dof))
         for col, axis_w, anchor in zip(cols, axes, anchors, strict=True):
             J[:, :3, col] += np.cross(axis_w, p_site - anchor)
             J[:, 3:, col] += axis_w

@@ -1,8 +1,8 @@
-"""Kinematics of the TX200 MuJoCo model: forward kinematics, tool-tip Jacobian, inverse kinematics with
-the tool held vertical, and the Cartesian compliance of the compliant joints.
+"""Kinematics of a robot's MuJoCo model: forward kinematics, tool-tip Jacobian, inverse kinematics with the
+tool held vertical, and the Cartesian compliance of the compliant joints.
 
-Frames: world == robot base frame. The tool tip is the site `tcp`; the sheet frame origin is the scene site
-`sheet_origin` (= `tcp` at the `home` keyframe), axes parallel to the base.
+Frames: world == robot base frame. The tool tip is the robot's tool site (`RobotDescription.tool_site`); the
+sheet frame's default origin is the scene's sheet site (the tool tip at `home`), axes parallel to the base.
 """
 
 from __future__ import annotations
@@ -14,37 +14,27 @@ import mujoco
 import numpy as np
 from scipy.linalg.lapack import dgesv
 
-from twin.base.resources import robot_xml, scene_xml
 from twin.errors import InputError, ModelError, SingularityError, UnreachableError
 from twin.robot.chain_fk import ChainFK, rotation_log_batch
-from twin.robot.dh import TOOL_LENGTH_M
+from twin.robot.description import RobotDescription, load_robot
 
-__all__ = ["DET_J_MIN", "HOME_Q_RAD", "TOOL_LENGTH_M", "Kinematics", "load_model"]
-
-# Machining pose of the load tests and of the forming, thesis Table 4.1 [deg] -> [rad].
-HOME_Q_RAD = np.deg2rad([-0.08, 38.03, 90.62, -0.33, 51.72, -7.91])
-
-# |det J| [m^3] below which an IK solution is refused as near-singular. det J (Eq. 3.16) is -0.877 m^3 at
-# home and stays within 0.80-0.93 m^3 over the whole forming box (x +-50, y +-15, z -15..+5 mm); near home
-# |det J| ~ 1.1 m^3 * |sin q5|, so 0.05 m^3 refuses wrist configurations with |q5| below about 2.6 deg.
-DET_J_MIN = 0.05
+__all__ = ["Kinematics", "load_model"]
 
 
-_JOINTS = tuple(f"joint{i}" for i in range(1, 7))
-_ACTUATORS = tuple(f"actuator{i}" for i in range(1, 7))
-
-
-def load_model(scene: bool = True, path: str | Path | None = None) -> mujoco.MjModel:
-    """Load the cell scene (default) or the robot-only MJCF.
+def load_model(
+    scene: bool = True, path: str | Path | None = None, robot: str | Path | RobotDescription | None = None
+) -> mujoco.MjModel:
+    """Load a robot's cell scene (default) or its robot-only MJCF.
 
     Args:
-        scene: True for `models/cell/scene.xml`, False for `models/tx200.xml`.
+        scene: True for the robot's scene (`cell/scene.xml`), False for its robot-only MJCF.
         path: Explicit MJCF file; overrides `scene`.
+        robot: The robot (`twin.robot.description.load_robot`); None: the default robot.
 
     Raises:
         ModelError: If the file is missing or does not compile.
     """
-    xml = Path(path) if path is not None else (scene_xml() if scene else robot_xml())
+    xml = Path(path) if path is not None else load_robot(robot).model_path(scene)
     if not xml.is_file():
         raise ModelError(f"model file not found: {xml} (expected an MJCF file such as models/tx200.xml)")
     try:
@@ -72,51 +62,60 @@ def _rotation_log(R: np.ndarray) -> np.ndarray:
 
 
 class Kinematics:
-    """Forward/inverse kinematics and compliance on the MuJoCo model (scene or robot-only).
+    """Forward/inverse kinematics and compliance on a robot's MuJoCo model (scene or robot-only).
 
     Args:
-        model: A compiled TX200 model; None loads the cell scene.
-        det_j_min: |det J| threshold below which IK refuses a solution [m^3].
+        model: A compiled model of the robot; None loads its scene.
+        det_j_min: |det J| threshold below which IK refuses a solution [m^3]; None: the robot's.
+        robot: The robot (`twin.robot.description.load_robot`); None: the default robot.
     """
 
-    def __init__(self, model: mujoco.MjModel | None = None, det_j_min: float = DET_J_MIN) -> None:
-        self.model = load_model(scene=True) if model is None else model
+    def __init__(
+        self,
+        model: mujoco.MjModel | None = None,
+        det_j_min: float | None = None,
+        robot: str | Path | RobotDescription | None = None,
+    ) -> None:
+        self.robot = load_robot(robot)
+        self.model = load_model(scene=True, robot=self.robot) if model is None else model
         self.data = mujoco.MjData(self.model)
-        self.det_j_min = float(det_j_min)
+        self.det_j_min = float(self.robot.det_j_min_m3 if det_j_min is None else det_j_min)
         m = self.model
+        addresses = self.robot.addresses(m)
         try:
-            joint_ids = [m.joint(name).id for name in _JOINTS]
-            self._tcp_id = m.site("tcp").id
-        except KeyError as exc:
-            raise ModelError(
-                f"model lacks a required element ({exc}); expected joints joint1..joint6, site tcp"
-            ) from exc
-        self._qadr = m.jnt_qposadr[joint_ids].copy()
-        self._dadr = m.jnt_dofadr[joint_ids].copy()
+            self._tcp_id = m.site(self.robot.tool_site).id
+        except KeyError:
+            raise ModelError(f"model lacks the tool site {self.robot.tool_site!r} of robot {self.robot.name!r}") from None
+        joint_ids = addresses.joint
+        self.dof = self.robot.dof
+        self._qadr = addresses.qpos
+        self._dadr = addresses.dof
+        self._actuators = addresses.actuator
         self.q_min = m.jnt_range[joint_ids, 0].copy()
         self.q_max = m.jnt_range[joint_ids, 1].copy()
         self._jacp = np.zeros((3, m.nv))
         self._jacr = np.zeros((3, m.nv))
-        self._damping = 1e-10 * np.eye(6)
+        self._damping = 1e-10 * np.eye(self.dof)
         self._chain = ChainFK(m, self._tcp_id, self._qadr)
-        self.q_home = HOME_Q_RAD.copy()
+        self.q_home = self.robot.q_home
         _p_home, R_home = self.fk(self.q_home)
         x = np.array([R_home[0, 0], R_home[1, 0], 0.0])
         x /= np.linalg.norm(x)
         z = np.array([0.0, 0.0, -1.0])
         self.R_tool_down = np.column_stack([x, np.cross(z, x), z])
-        if "sheet_origin" in [m.site(i).name for i in range(m.nsite)]:
+        sites = [m.site(i).name for i in range(m.nsite)]
+        if self.robot.sheet_site is not None and self.robot.sheet_site in sites:
             mujoco.mj_kinematics(m, self.data)
-            self.p_base_sheet_origin = self.data.site("sheet_origin").xpos.copy()
+            self.p_base_sheet_origin = self.data.site(self.robot.sheet_site).xpos.copy()
         else:
             self.p_base_sheet_origin = _p_home
 
     def _check_q(self, q: np.ndarray) -> np.ndarray:
         arr = np.asarray(q, dtype=float)
-        if arr.shape != (6,):
-            raise InputError(f"q must be 6 joint angles q1..q6 [rad], got shape {arr.shape}: {arr}")
+        if arr.shape != (self.dof,):
+            raise InputError(f"q must be {self.dof} joint angles [rad], got shape {arr.shape}: {arr}")
         if not np.all(np.isfinite(arr)):
-            raise InputError(f"q must be 6 finite joint angles q1..q6 [rad], got {arr}")
+            raise InputError(f"q must be {self.dof} finite joint angles [rad], got {arr}")
         return arr
 
     def _set(self, q: np.ndarray) -> None:
@@ -125,29 +124,24 @@ class Kinematics:
 
     @property
     def joint_stiffness(self) -> np.ndarray:
-        """K_q of the compliant joints: kp of actuator1..6 [N m/rad]."""
-        m = self.model
-        try:
-            ids = [m.actuator(name).id for name in _ACTUATORS]
-        except KeyError as exc:
-            raise ModelError(f"model lacks actuators actuator1..actuator6 ({exc})") from exc
-        return m.actuator_gainprm[ids, 0].copy()
+        """K_q of the compliant joints: the gains of their position actuators [N m/rad]."""
+        return self.model.actuator_gainprm[self._actuators, 0].copy()
 
     def fk(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Tool-tip pose: p_base_tcp [m] (3,) and R_base_tcp (3, 3) for joint angles q (6,) [rad]."""
+        """Tool-tip pose: p_base_tcp [m] (3,) and R_base_tcp (3, 3) for joint angles q (dof,) [rad]."""
         self._set(self._check_q(q))
         site = self.data.site(self._tcp_id)
         return site.xpos.copy(), site.xmat.reshape(3, 3).copy()
 
     def jacobian(self, q: np.ndarray) -> np.ndarray:
-        """Geometric Jacobian of `tcp`, rows [linear; angular] in the base frame, (6, 6) [m/rad; 1]."""
+        """Geometric Jacobian of `tcp`, rows [linear; angular] in the base frame, (6, dof) [m/rad; 1]."""
         self._set(self._check_q(q))
         return self._jac()
 
     def _jac(self) -> np.ndarray:
         mujoco.mj_comPos(self.model, self.data)
         mujoco.mj_jacSite(self.model, self.data, self._jacp, self._jacr, self._tcp_id)
-        J = np.empty((6, 6))
+        J = np.empty((6, self.dof))
         J[:3] = self._jacp[:, self._dadr]
         J[3:] = self._jacr[:, self._dadr]
         return J
@@ -156,12 +150,10 @@ class Kinematics:
         """Translational Cartesian compliance J_v K_q^-1 J_v^T at q, (3, 3) [m/N].
 
         Args:
-            q: Joint angles (6,) [rad].
-            K_q: Joint stiffnesses (6,) [N m/rad]; None uses `joint_stiffness`.
+            q: Joint angles (dof,) [rad].
+            K_q: Joint stiffnesses (dof,) [N m/rad]; None uses `joint_stiffness`.
         """
-        K = self.joint_stiffness if K_q is None else np.asarray(K_q, dtype=float)
-        if K.shape != (6,) or not np.all(np.isfinite(K)) or np.any(K <= 0):
-            raise InputError(f"K_q must be 6 positive finite joint stiffnesses [N m/rad], got {K}")
+        K = self.joint_stiffness if K_q is None else self.robot.joint_vector(K_q, "K_q", "N m/rad", positive=True)
         J_v = self.jacobian(q)[:3]
         return (J_v / K) @ J_v.T
 
@@ -172,7 +164,7 @@ class Kinematics:
 
         Args:
             p_base_tcp: Target tool-tip position in the base frame (3,) [m].
-            q_seed: Start configuration (6,) [rad]; None uses `q_home`.
+            q_seed: Start configuration (dof,) [rad]; None uses `q_home`.
             max_iter: Newton iterations allowed.
 
         Raises:
@@ -215,7 +207,7 @@ class Kinematics:
         if bad.size:
             i = int(bad[0])
             raise UnreachableError(
-                f"IK solution for p_base_tcp={target} m leaves the range of joint{i + 1}: q={q[i]:.6g} rad, "
+                f"IK solution for p_base_tcp={target} m leaves the range of {self.robot.joints[i]}: q={q[i]:.6g} rad, "
                 f"valid [{self.q_min[i]:.6g}, {self.q_max[i]:.6g}] rad"
             )
         J = self._jac()
@@ -232,10 +224,10 @@ class Kinematics:
 
         Args:
             P_base_tcp: Tool-tip positions in the base frame (n, 3) [m].
-            q_seed: Seed of the first point (6,) [rad]; None uses `q_home`.
+            q_seed: Seed of the first point (dof,) [rad]; None uses `q_home`.
 
         Returns:
-            Q of shape (n, 6) [rad].
+            Q of shape (n, dof) [rad].
         """
         P = np.asarray(P_base_tcp, dtype=float)
         if P.ndim != 2 or P.shape[1] != 3:
@@ -250,9 +242,9 @@ class Kinematics:
 
     def _ik_sequential(self, P: np.ndarray, q: np.ndarray) -> np.ndarray:
         """`ik` point by point, each warm-started from a first-order prediction off the previous solution."""
-        Q = np.empty((P.shape[0], 6))
+        Q = np.empty((P.shape[0], self.dof))
         twist = np.zeros(6)
-        J = np.eye(6)
+        J = np.eye(6, self.dof)
         for i, p in enumerate(P):
             if i > 0:
                 # q + J^-1 [dp; 0] (the orientation is fixed): one Newton step is then enough; a prediction
@@ -275,8 +267,8 @@ class Kinematics:
         n = P.shape[0]
         if not self._chain.supported or n < 2:
             return None
-        Q = np.broadcast_to(q_seed, (n, 6)).copy()
-        J_final = np.empty((n, 6, 6))
+        Q = np.broadcast_to(q_seed, (n, self.dof)).copy()
+        J_final = np.empty((n, 6, self.dof))
         R_tT = self.R_tool_down.T
         active = np.arange(n)
         for _ in range(max_iter):
@@ -309,14 +301,14 @@ class Kinematics:
         return Q
 
     def jacobians(self, Q: np.ndarray) -> np.ndarray:
-        """`jacobian` at many configurations, (n, 6, 6) [m/rad; 1] (vectorised when the chain allows).
+        """`jacobian` at many configurations, (n, 6, dof) [m/rad; 1] (vectorised when the chain allows).
 
         Args:
-            Q: Joint angles (n, 6) [rad].
+            Q: Joint angles (n, dof) [rad].
         """
         arr = np.asarray(Q, dtype=float)
-        if arr.ndim != 2 or arr.shape[1] != 6 or not np.all(np.isfinite(arr)):
-            raise InputError(f"Q must be finite joint angles of shape (n, 6) [rad], got shape {arr.shape}")
+        if arr.ndim != 2 or arr.shape[1] != self.dof or not np.all(np.isfinite(arr)):
+            raise InputError(f"Q must be finite joint angles of shape (n, {self.dof}) [rad], got shape {arr.shape}")
         if self._chain.supported:
             return self._chain(arr)[2]
         return np.array([self.jacobian(q) for q in arr])

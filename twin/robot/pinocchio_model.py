@@ -1,9 +1,10 @@
-"""Pinocchio model of the TX200 built from the SAME MJCF as MuJoCo, as an independent kinematics check.
+"""Pinocchio model of a robot built from the SAME MJCF as MuJoCo, as an independent kinematics check.
 
 pin 4.1.0 places a site on a body nested two or more levels below the last jointed body without the
-offsets of the intermediate jointless bodies (fixed upstream after 4.1.0). The tool tip `tcp` sits on
-link6 -> ft_sensor -> tool, exactly that layout, so this module composes the tcp frame itself: the link6
-body frame times the local poses of ft_sensor, tool and the tcp site, read from the MuJoCo model.
+offsets of the intermediate jointless bodies (fixed upstream after 4.1.0). A tool tip behind an F/T sensor
+sits exactly there (the TX200: link6 -> ft_sensor -> tool -> tcp), so this module composes the tool frame
+itself: the last jointed body's frame times the local poses of the jointless bodies below it and of the tool
+site, read from the MuJoCo model.
 """
 
 from __future__ import annotations
@@ -14,11 +15,10 @@ import mujoco
 import numpy as np
 import pinocchio as pin
 
-from twin.base.resources import robot_xml
 from twin.errors import InputError, ModelError
+from twin.robot.description import RobotDescription, load_robot
 
 TCP_FRAME = "tcp_composed"
-_CHAIN = ("ft_sensor", "tool")  # jointless bodies between link6 and the tcp site
 
 
 def _se3(pos: np.ndarray, quat_wxyz: np.ndarray) -> pin.SE3:
@@ -29,36 +29,41 @@ def _se3(pos: np.ndarray, quat_wxyz: np.ndarray) -> pin.SE3:
 
 
 class PinKinematics:
-    """Forward kinematics and tcp Jacobian with Pinocchio; q is MuJoCo's qpos (q1..q6) [rad].
+    """Forward kinematics and tool-tip Jacobian with Pinocchio; q is MuJoCo's qpos of the arm joints [rad].
 
     Args:
-        xml: MJCF of the robot; None uses `models/tx200.xml`.
+        xml: MJCF of the robot; None uses the robot's own.
+        robot: The robot; None: the default robot.
     """
 
-    def __init__(self, xml: str | Path | None = None) -> None:
-        path = Path(xml) if xml is not None else robot_xml()
+    def __init__(self, xml: str | Path | None = None, robot: str | Path | RobotDescription | None = None) -> None:
+        self.robot = load_robot(robot)
+        path = Path(xml) if xml is not None else self.robot.mjcf
         if not path.is_file():
             raise ModelError(f"model file not found: {path}")
         self.model = pin.buildModelFromMJCF(str(path))
         mj = mujoco.MjModel.from_xml_path(str(path))
-        if self.model.nq != 6 or list(self.model.names)[1:] != [f"joint{i}" for i in range(1, 7)]:
-            raise ModelError(f"expected joints joint1..joint6 in {path}, got {list(self.model.names)[1:]}")
-        link6 = self.model.getFrameId("link6", pin.FrameType.BODY)
-        placement = self.model.frames[link6].placement
-        for body in _CHAIN:
-            placement = placement * _se3(mj.body(body).pos, mj.body(body).quat)
-        site = mj.site("tcp")
+        if self.model.nq != self.robot.dof or tuple(self.model.names)[1:] != self.robot.joints:
+            raise ModelError(f"expected joints {list(self.robot.joints)} in {path}, got {list(self.model.names)[1:]}")
+        site = mj.site(self.robot.tool_site)
+        body = int(site.bodyid[0])
+        chain = []  # jointless bodies between the last jointed body and the site, outermost last
+        while mj.body_jntnum[body] == 0:
+            chain.append(body)
+            body = int(mj.body_parentid[body])
+        link = self.model.getFrameId(mj.body(body).name, pin.FrameType.BODY)
+        placement = self.model.frames[link].placement
+        for b in reversed(chain):
+            placement = placement * _se3(mj.body_pos[b], mj.body_quat[b])
         placement = placement * _se3(site.pos, site.quat)
-        joint6 = self.model.frames[link6].parentJoint
-        self._tcp = self.model.addFrame(
-            pin.Frame(TCP_FRAME, joint6, link6, placement, pin.FrameType.OP_FRAME)
-        )
+        joint = self.model.frames[link].parentJoint
+        self._tcp = self.model.addFrame(pin.Frame(TCP_FRAME, joint, link, placement, pin.FrameType.OP_FRAME))
         self.data = self.model.createData()
 
     def _update(self, q: np.ndarray) -> None:
         arr = np.asarray(q, dtype=float)
-        if arr.shape != (6,) or not np.all(np.isfinite(arr)):
-            raise InputError(f"q must be 6 finite joint angles q1..q6 [rad], got shape {arr.shape}: {arr}")
+        if arr.shape != (self.robot.dof,) or not np.all(np.isfinite(arr)):
+            raise InputError(f"q must be {self.robot.dof} finite joint angles [rad], got shape {arr.shape}: {arr}")
         pin.forwardKinematics(self.model, self.data, arr)
         pin.updateFramePlacements(self.model, self.data)
 
@@ -69,7 +74,7 @@ class PinKinematics:
         return oMf.translation.copy(), oMf.rotation.copy()
 
     def jacobian(self, q: np.ndarray) -> np.ndarray:
-        """Tcp Jacobian, LOCAL_WORLD_ALIGNED, rows [linear; angular] (6, 6) [m/rad; 1]."""
+        """Tool-tip Jacobian, LOCAL_WORLD_ALIGNED, rows [linear; angular] (6, dof) [m/rad; 1]."""
         self._update(q)
         pin.computeJointJacobians(self.model, self.data, np.asarray(q, dtype=float))
         return pin.getFrameJacobian(

@@ -1,6 +1,29 @@
-"""Runs: the run format `tx200-twin-run/1` — the seam between a lab (virtual or real) and everything after it.
+"""Runs: the run format `tx200-twin-run/1`, the seam between a lab (virtual or real) and everything after it.
 
-Takes run directories (commanded path, tracker, forces, optional profile); gives validated `Run` objects
-(`format`: the format, `Stream`, `Run`; `read`: reading and validation), and writes them atomically without
-ever overwriting an input (`write`).
+Modules: `format` (the format, `Stream`, `Run`, `meta.json`), `read` (reading and validation), `write` (atomic
+writing, never over an input), and the importers of real data: `mapping` (an import mapping file, read with
+`toml_keys`), `raw_tables` (vendor exports), `clock` (clock alignment), `registration` (tracker frame to sheet
+frame), `gravity` (tool weight removal) and `importer` (the import itself).
+
+Takes run directories and raw cell exports; gives validated `Run` objects.
 """
+
+from twin.base.lazy import lazy_exports
+
+__all__, __getattr__, __dir__ = lazy_exports(__name__, {
+    "Run": "twin.runs.format",
+    "Stream": "twin.runs.format",
+    "run_meta": "twin.runs.format",
+    "run_placement": "twin.runs.format",
+    "read_run": "twin.runs.read",
+    "read_commanded_csv": "twin.runs.read",
+    "write_run": "twin.runs.write",
+    "ImportMapping": "twin.runs.mapping",
+    "load_mapping": "twin.runs.mapping",
+    "ImportResult": "twin.runs.importer",
+    "import_run": "twin.runs.importer",
+    "import_to_directory": "twin.runs.importer",
+    "MappingError": "twin.runs.toml_keys",
+    "ClockError": "twin.runs.toml_keys",
+    "RegistrationError": "twin.runs.toml_keys",
+})

@@ -4,7 +4,9 @@ A run is a directory holding:
 
 - `meta.json`: `{"format": "tx200-twin-run/1", "frame": "sheet", "scenario": str, "tool_length_m": float,
   "tracker_rate_hz": float, "sensor_rate_hz": float, ...}` plus free keys (`"notes"`, ...). `sensor_rate_hz`
-  is required only when `forces.csv` is present. Never the lab's hidden truth.
+  is required only when `forces.csv` is present. Optional `robot` (its name), `force_model` (the sheet's force
+  model, `twin.process.force_models`) and `placement` (`twin.process.placement.Placement.to_json`). Never the
+  lab's hidden truth.
 - `commanded.csv`: `t_s, x_mm, y_mm, z_mm`: the tool-tip path sent to the robot, sheet frame.
 - `tracker.csv`: `t_s, x_mm, y_mm, z_mm`: the measured tool tip, sheet frame, at the tracker rate.
 - `forces.csv`: `t_s, fx_n, fy_n, fz_n`: force exerted BY THE SHEET ON THE TOOL, sheet frame (Fz > 0 while
@@ -15,14 +17,15 @@ A run is a directory holding:
 - optional `truth.json`: written by the lab for made-up runs; `read_run` never opens it.
 
 All streams share one clock: `t_s = 0` at the start of the commanded path. Extra columns are ignored.
-Inside the code everything is SI (m, N, s).
+Inside the code everything is SI (m, N, s). Lengths carry their unit in the column name: the writers write the
+canonical `_mm` columns; a reader also takes a length declared in metres (`x_m`, `y_m`, `z_m`), never both
+spellings of one column (`twin.base.units`).
 
 Reading and validating: `twin.runs.read`; writing (atomic, never over an input): `twin.runs.write`.
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -31,9 +34,8 @@ from typing import Any
 import numpy as np
 
 from twin.base.signals import interp_rows
-from twin.errors import InputError, RunFormatError
+from twin.errors import DataFileError, InputError, RunFormatError
 from twin.process.placement import Placement
-from twin.robot.dh import TOOL_LENGTH_M
 
 RUN_FORMAT = "tx200-twin-run/1"
 RUN_FRAME = "sheet"
@@ -42,9 +44,6 @@ FORCE_COLUMNS = ("t_s", "fx_n", "fy_n", "fz_n")
 PROFILE_COLUMNS = ("x_mm", "z_mm")
 SCAN_COLUMNS = ("x_mm", "y_mm", "z_mm")
 REQUIRED_META = ("format", "frame", "scenario", "tool_length_m", "tracker_rate_hz")
-MIN_SCAN_SPAN_MM = 10.0  # a part scan spans centimetres: an x span below this is metres in a _mm column
-MIN_PATH_SPAN_X_MM = 30.0  # the groove is 70 mm long (thesis §1.2): a commanded x span below this is metres
-MIN_TRACKER_SPAN_X_MM = 0.5  # tracker x span below this while the path moves >= 30 mm: metres
 RATE_TOLERANCE = 0.05  # meta rates may differ from the median sample interval by 5 %
 CLOCK_TOLERANCE_S = 1.0  # a stream starting further than this from the commanded start has another clock
 START_TOLERANCE_S = 1e-3  # the commanded path starts at t_s = 0
@@ -182,7 +181,10 @@ def run_meta(
     tracker_rate_hz: float,
     sensor_rate_hz: float,
     seed: int,
+    tool_length_m: float,
     placement: Placement | None = None,
+    robot: str | None = None,
+    force_model: str | None = None,
 ) -> dict[str, Any]:
     """The `meta.json` of a made-up run: format, frame, tool length, the scenario, rates and seed.
 
@@ -192,15 +194,22 @@ def run_meta(
         tracker_rate_hz: Tracker (or machine position) rate [Hz].
         sensor_rate_hz: Force sensor rate [Hz].
         seed: Seed of the run's noise.
+        tool_length_m: Flange to tool tip of the robot's tool [m].
         placement: The sheet's placement in the robot base; recorded unless it is the cell's own.
+        robot: The robot's name, recorded when given.
+        force_model: The sheet's force model (`twin.process.force_models`), recorded when given.
     """
-    extra = {} if placement is None or placement.is_default else {"placement": placement_meta(placement)}
+    extra: dict[str, Any] = {} if placement is None or placement.is_default else {"placement": placement.to_json()}
+    if robot is not None:
+        extra["robot"] = robot
+    if force_model is not None:
+        extra["force_model"] = force_model
     return {
         "format": RUN_FORMAT,
         "scenario": scenario,
         "frame": RUN_FRAME,
         "source": source,
-        "tool_length_m": TOOL_LENGTH_M,
+        "tool_length_m": float(tool_length_m),
         "tracker_rate_hz": float(tracker_rate_hz),
         "sensor_rate_hz": float(sensor_rate_hz),
         "seed": seed,
@@ -210,8 +219,7 @@ def run_meta(
 
 def placement_meta(placement: Placement) -> dict[str, Any]:
     """`meta.json`'s `placement` entry: the sheet origin in the base [mm] (null: the cell's) and the yaw [deg]."""
-    origin = None if placement.origin_base_m is None else [1e3 * float(v) for v in placement.origin_base_m]
-    return {"origin_base_mm": origin, "yaw_deg": math.degrees(placement.yaw_rad)}
+    return placement.to_json()
 
 
 def run_placement(meta: Mapping[str, Any], source: str | Path = "meta.json") -> Placement:
@@ -220,18 +228,7 @@ def run_placement(meta: Mapping[str, Any], source: str | Path = "meta.json") -> 
     Raises:
         RunFormatError: The entry is not {"origin_base_mm": null or 3 numbers, "yaw_deg": a number}.
     """
-    entry = meta.get("placement")
-    if entry is None:
-        return Placement()
-    expected = 'expected "placement": {"origin_base_mm": null or [x, y, z], "yaw_deg": number}'
-    if not isinstance(entry, Mapping) or set(entry) - {"origin_base_mm", "yaw_deg"}:
-        raise RunFormatError(source, f"placement = {entry!r}: {expected}")
-    origin, yaw = entry.get("origin_base_mm"), entry.get("yaw_deg", 0.0)
-    ok_origin = origin is None or (
-        isinstance(origin, list | tuple) and len(origin) == 3
-        and all(isinstance(v, int | float) and math.isfinite(v) for v in origin)
-    )
-    if not ok_origin or not isinstance(yaw, int | float) or not math.isfinite(yaw):
-        raise RunFormatError(source, f"placement = {entry!r}: {expected}")
-    base = None if origin is None else (origin[0] / 1e3, origin[1] / 1e3, origin[2] / 1e3)
-    return Placement(origin_base_m=base, yaw_rad=math.radians(yaw))
+    try:
+        return Placement.from_json(meta.get("placement"), source)
+    except DataFileError as exc:
+        raise RunFormatError(exc.path, str(exc)[len(str(exc.path)) + 2 :]) from None

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from twin.errors import InputError
-from twin.robot.dh import TOOL_LENGTH_M
+from twin.robot.description import load_robot
 from twin.runs.registration import Registration, fit_rigid, given_transform
 from twin.runs.toml_keys import ClockError, MappingError, RegistrationError, TomlReader
 
@@ -271,7 +271,7 @@ def load_mapping(path: str | Path) -> ImportMapping:
     return ImportMapping(
         path=path,
         scenario=r.get("run.scenario", "imported", kind=str),
-        tool_length_m=r.number("run.tool_length_mm", TOOL_LENGTH_M * 1e3, positive=True) * 1e-3,
+        tool_length_m=r.number("run.tool_length_mm", load_robot().tool_length_m * 1e3, positive=True) * 1e-3,
         notes=r.get("run.notes", "", kind=str),
         commanded=_table(r, "commanded", ("x", "y", "z"), LENGTH_UNITS),
         tracker=_table(r, "tracker", ("x", "y", "z"), LENGTH_UNITS),

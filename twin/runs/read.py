@@ -2,9 +2,11 @@
 
 Validation thresholds (the reader's contract): times strictly increasing, at least 2 rows per stream;
 the commanded path starts at t_s = 0 (±1 ms); tracker and forces start within 1 s of it; meta rates
-within 5 % of 1 / median sample interval; a commanded x span between 0 and 30 mm means metres were
-written in `x_mm` (the groove is 70 mm long), as does a tracker x span below 0.5 mm while the path
-moves; part_profile x strictly increasing and spanning at least 30 mm.
+within 5 % of 1 / median sample interval; part_profile x strictly increasing. Units by declaration
+(`twin.base.units`): every length column may be typed `_mm` (canonical) or `_m`, not both. Metres under
+`_mm` names are refused by checks that do not depend on the part's size: a commanded path (and, when the
+path moves, the tracker) whose median speed over the moving samples is below 0.05 mm/s; a part profile or
+scan whose points all lie within 0.5 mm of the origin at a median neighbour step below 0.01 mm.
 """
 
 from __future__ import annotations
@@ -15,15 +17,13 @@ from typing import Any
 
 import numpy as np
 
-from twin.base.csvio import check_mm_magnitude, check_monotonic, read_json, read_table
+from twin.base.csvio import check_monotonic, read_json
+from twin.base.units import SITable, check_path_speed, check_point_spacing, read_si_table
 from twin.errors import DataFileError, InputError, RunFormatError, UnitsError
 from twin.process.path import groove_path
 from twin.runs.format import (
     CLOCK_TOLERANCE_S,
     FORCE_COLUMNS,
-    MIN_PATH_SPAN_X_MM,
-    MIN_SCAN_SPAN_MM,
-    MIN_TRACKER_SPAN_X_MM,
     POSITION_COLUMNS,
     PROFILE_COLUMNS,
     RATE_TOLERANCE,
@@ -83,14 +83,26 @@ def _check_meta(path: Path, meta: Mapping[str, Any], *, need_sensor_rate: bool) 
         )
 
 
-def _read_stream(path: Path, columns: Sequence[str], scale: float) -> Stream:
+def _read_table(path: Path, columns: Sequence[str], min_rows: int) -> SITable:
+    """The file's columns in SI (lengths `_mm` or `_m`); a plain DataFileError becomes a RunFormatError."""
     try:
-        table = read_table(path, columns, min_rows=2)
-        check_monotonic(path, "t_s", table["t_s"])
+        return read_si_table(path, columns, min_rows=min_rows)
+    except UnitsError:
+        raise
     except DataFileError as exc:
         raise _format_error(exc) from None
-    values = np.column_stack([table[name] for name in columns[1:]]) * scale
-    return Stream(table["t_s"], values)
+
+
+def _read_stream(path: Path, columns: Sequence[str], *, check_speed: bool = False) -> Stream:
+    """A timed stream in SI; with `check_speed`, refuse metres under `_mm` names (`check_path_speed`)."""
+    table = _read_table(path, columns, 2)
+    try:
+        check_monotonic(path, columns[0], table.si(columns[0]))
+    except DataFileError as exc:
+        raise _format_error(exc) from None
+    if check_speed:
+        check_path_speed(table, columns[1:], time=columns[0])
+    return Stream(table.si(columns[0]), np.column_stack([table.si(name) for name in columns[1:]]))
 
 
 def _check_rate(path: Path, stream: Stream, key: str, rate_hz: float) -> None:
@@ -127,7 +139,8 @@ def read_run(directory: str | Path, *, require_forces: bool = True) -> Run:
         RunFormatError: Missing directory or file, wrong/missing columns, NaN, truncated or empty file,
             time not strictly increasing, wrong meta format/frame, rates that disagree with the samples,
             streams on different clocks. The message names the file and the 1-based data row.
-        UnitsError: Metres written in a `_mm` column.
+        UnitsError: A length column spelled both `_mm` and `_m`, or metres written under `_mm` names (a
+            moving path slower than 0.05 mm/s, profile or scan points packed within 0.5 mm; module docstring).
     """
     directory = Path(directory)
     if not directory.is_dir():
@@ -144,7 +157,7 @@ def read_run(directory: str | Path, *, require_forces: bool = True) -> Run:
         raise _format_error(exc) from None
     _check_meta(files["meta.json"], meta, need_sensor_rate=has_forces)
 
-    commanded = _read_stream(files["commanded.csv"], POSITION_COLUMNS, 1e-3)
+    commanded = _read_stream(files["commanded.csv"], POSITION_COLUMNS, check_speed=True)
     if abs(commanded.t_s[0]) > START_TOLERANCE_S:
         raise RunFormatError(
             files["commanded.csv"],
@@ -152,47 +165,33 @@ def read_run(directory: str | Path, *, require_forces: bool = True) -> Run:
             "(the shared clock starts with the commanded path)",
             1,
         )
-    path_span_mm = float(np.ptp(commanded.values[:, 0])) * 1e3
-    check_mm_magnitude(
-        files["commanded.csv"], "x_mm", commanded.values[:, 0] * 1e3, min_span_mm=MIN_PATH_SPAN_X_MM
-    )
-
-    tracker = _read_stream(files["tracker.csv"], POSITION_COLUMNS, 1e-3)
-    if path_span_mm >= MIN_PATH_SPAN_X_MM:
-        check_mm_magnitude(
-            files["tracker.csv"], "x_mm", tracker.values[:, 0] * 1e3, min_span_mm=MIN_TRACKER_SPAN_X_MM
-        )
+    path_moves = bool(np.any(np.ptp(commanded.values, axis=0) > 0.0))  # a standing tracker shows only noise
+    tracker = _read_stream(files["tracker.csv"], POSITION_COLUMNS, check_speed=path_moves)
     _check_rate(files["tracker.csv"], tracker, "tracker_rate_hz", float(meta["tracker_rate_hz"]))
     _check_clock(files["tracker.csv"], tracker, float(commanded.t_s[0]))
 
     forces = None
     if has_forces:
-        forces = _read_stream(files["forces.csv"], FORCE_COLUMNS, 1.0)
+        forces = _read_stream(files["forces.csv"], FORCE_COLUMNS)
         _check_rate(files["forces.csv"], forces, "sensor_rate_hz", float(meta["sensor_rate_hz"]))
         _check_clock(files["forces.csv"], forces, float(commanded.t_s[0]))
 
     profile = None
     profile_path = directory / "part_profile.csv"
     if profile_path.is_file():
+        table = _read_table(profile_path, PROFILE_COLUMNS, 2)
         try:
-            table = read_table(profile_path, PROFILE_COLUMNS, min_rows=2)
-            check_monotonic(profile_path, "x_mm", table["x_mm"])
+            check_monotonic(profile_path, table.typed["x_mm"], table.si("x_mm"))
         except DataFileError as exc:
             raise _format_error(exc) from None
-        check_mm_magnitude(profile_path, "x_mm", table["x_mm"], min_span_mm=MIN_PATH_SPAN_X_MM)
-        profile = (
-            frozen_array(table["x_mm"] * 1e-3, (), "x_m"),
-            frozen_array(table["z_mm"] * 1e-3, (), "z_m"),
-        )
+        check_point_spacing(table, PROFILE_COLUMNS)
+        profile = (frozen_array(table.si("x_mm"), (), "x_m"), frozen_array(table.si("z_mm"), (), "z_m"))
     scan = None
     scan_path = directory / "part_scan.csv"
     if scan_path.is_file():
-        try:
-            table = read_table(scan_path, SCAN_COLUMNS, min_rows=3)
-        except DataFileError as exc:
-            raise _format_error(exc) from None
-        check_mm_magnitude(scan_path, "x_mm", table["x_mm"], min_span_mm=MIN_SCAN_SPAN_MM)
-        scan = frozen_array(np.column_stack([table[c] for c in SCAN_COLUMNS]) * 1e-3, (3,), "part_scan_m")
+        table = _read_table(scan_path, SCAN_COLUMNS, 3)
+        check_point_spacing(table, SCAN_COLUMNS)
+        scan = frozen_array(np.column_stack([table.si(c) for c in SCAN_COLUMNS]), (3,), "part_scan_m")
     return Run(directory, dict(meta), commanded, tracker, forces, profile, scan)
 
 
@@ -200,20 +199,22 @@ def read_commanded_csv(path: str | Path) -> Stream:
     """Read a commanded tool path on its own (`commanded.csv` format, or `tx200-twin path` output).
 
     Args:
-        path: CSV with columns `t_s, x_mm, y_mm, z_mm` (extra columns ignored), sheet frame.
+        path: CSV with columns `t_s, x_mm, y_mm, z_mm` (extra columns ignored), sheet frame; any length
+            column may be declared in metres instead (`x_m`, ...).
 
     Returns:
         The path, SI units.
 
     Raises:
         RunFormatError: Missing file or columns, NaN, truncated rows, time not strictly increasing or not
-            starting at 0. UnitsError: metres in the `_mm` columns.
+            starting at 0.
+        UnitsError: A length column spelled both ways, or metres under `_mm` names (a moving path slower
+            than 0.05 mm/s, `twin.base.units.check_path_speed`).
     """
     path = Path(path)
-    stream = _read_stream(path, POSITION_COLUMNS, 1e-3)
+    stream = _read_stream(path, POSITION_COLUMNS, check_speed=True)
     if abs(stream.t_s[0]) > START_TOLERANCE_S:
         raise RunFormatError(path, f"t_s starts at {stream.t_s[0]:.6g} s, expected 0", 1)
-    check_mm_magnitude(path, "x_mm", stream.values[:, 0] * 1e3, min_span_mm=MIN_PATH_SPAN_X_MM)
     return stream
 
 

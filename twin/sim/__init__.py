@@ -1,6 +1,29 @@
-"""Sim: the quasi-static twin — the compliant robot (robot stage) pressed against the sheet force field
-(process stage), solved to equilibrium per sample (`quasi_static`, with the Newton and joint-friction solve in
-`equilibrium`), its result (`result`) and its flange force sensor (`ft_sensor`).
+"""Sim: the twin — the compliant robot (robot stage) pressed against the sheet's force model (process stage).
 
-Takes a commanded path; gives the tool's equilibrium path, the sheet force and the joint states (`SimResult`).
+Modules: `spec` (`TwinSpec`: robot, process, placement, effects, joint springs and friction; `.build()`),
+`model_file` (the spec saved as a versioned JSON model file), `effects` (the effect vocabulary, each effect
+declared once), `quasi_static` (`Twin`: the per-sample equilibrium along a commanded path), `equilibrium` (the
+Newton and joint-friction solve), `python_loop` and `compiled/` (the per-sample loop in Python and in numba),
+`result` (`SimResult`), `ft_sensor` (the flange force sensor) and `measure` (what a tracker, a force sensor and a
+profile scan see of a simulation, with the effects).
+
+Takes a spec and a commanded path; gives the tool's equilibrium path, the sheet force, the joint states and what
+the sensors read.
 """
+
+from twin.base.lazy import lazy_exports
+
+__all__, __getattr__, __dir__ = lazy_exports(__name__, {
+    "TwinSpec": "twin.sim.spec",
+    "Twin": "twin.sim.quasi_static",
+    "SimResult": "twin.sim.result",
+    "Effects": "twin.sim.effects",
+    "EffectSpec": "twin.sim.effects",
+    "EFFECTS": "twin.sim.effects",
+    "parse_effect_args": "twin.sim.effects",
+    "read_model_file": "twin.sim.model_file",
+    "write_model_file": "twin.sim.model_file",
+    "predict_tracker": "twin.sim.measure",
+    "predict_forces": "twin.sim.measure",
+    "predict_part_profile": "twin.sim.measure",
+})

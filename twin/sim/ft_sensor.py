@@ -1,4 +1,4 @@
-"""The flange force/torque sensor of the twin: MuJoCo's `ft_force` sensor read along a simulated run."""
+"""The flange force/torque sensor of the twin: the robot's MuJoCo force sensor read along a simulated run."""
 
 from __future__ import annotations
 
@@ -6,6 +6,7 @@ import mujoco
 import numpy as np
 
 from twin.base.signals import interp_rows
+from twin.robot.description import RobotDescription
 from twin.sim.result import SimResult
 
 
@@ -15,6 +16,7 @@ def flange_sensor_forces(
     result: SimResult,
     t_s: np.ndarray,
     *,
+    robot: RobotDescription,
     full_inverse: bool = False,
     R_base_sheet: np.ndarray | None = None,
 ) -> np.ndarray:
@@ -33,10 +35,11 @@ def flange_sensor_forces(
     `mj_inverse` reads to 1e-10 N at 60 % of its cost (tests/test_sim.py holds the two together).
 
     Args:
-        model: The model `result` was simulated with (sites `tcp` and `ft_site`, sensor `ft_force`).
+        model: The model `result` was simulated with (the robot's tool site, F/T site and force sensor).
         data: Its data; qpos, qvel, qacc and xfrc_applied are overwritten.
         result: A run from `Twin.simulate`.
         t_s: Sensor sample times [s], within the run.
+        robot: The robot (its tool site, F/T site and force sensor).
         full_inverse: Evaluate each reading with the whole `mj_inverse` (the reference of the lighter path).
         R_base_sheet: Orientation of the sheet frame in the base (the placement's yaw); None: the base axes.
 
@@ -44,15 +47,15 @@ def flange_sensor_forces(
         Force exerted by the sheet on the tool, sheet frame [N], shape (m, 3).
     """
     m, d = model, data
-    tcp = m.site("tcp").id
+    tcp = m.site(robot.tool_site).id
     tool_body = int(m.site_bodyid[tcp])
-    ft_site = m.site("ft_site").id
+    ft_site = m.site(robot.ft_site).id
     t_s = np.asarray(t_s, dtype=float)
     qpos = interp_rows(t_s, result.t_s, result.qpos)
     force = result.force_at(t_s)  # steps at the reversals with the per-pass table field
     rot = np.eye(3) if R_base_sheet is None else np.asarray(R_base_sheet, dtype=float)
     force = force @ rot.T  # base frame
-    sensor_adr = m.sensor("ft_force").adr[0]
+    sensor_adr = m.sensor(robot.ft_force_sensor).adr[0]
     # views into MjData, refreshed by every mj_kinematics / mj_inverse
     sensor = d.sensordata[sensor_adr : sensor_adr + 3]
     R_base_ft = d.site_xmat[ft_site].reshape(3, 3)

@@ -1,8 +1,7 @@
 """The twin's per-sample loop in Python: MuJoCo asked at every Newton iteration, any field, any model.
 
 The reference of the compiled loop (`twin.sim.compiled`), and the loop for what that one does not express
-(a field other than the table `SheetForceField`, e.g. the height-map ISF model; a model that is not a chain of
-hinges). Per sample: the unloaded pose's gravity (`mj_rne`), the set-points q_ref = q_ik + K⁻¹ g, the start point
+(a force model without a compiled kernel; a robot model that is not a chain of hinges). Per sample: the unloaded pose's gravity (`mj_rne`), the set-points q_ref = q_ik + K⁻¹ g, the start point
 extrapolated from the pass's last two deflections, the equilibrium by regimes of the tool's sliding friction
 (`twin.process.tool_friction.solve_sample`) with joint friction (`twin.sim.equilibrium`), then the force at the
 equilibrium and the field's advance.
@@ -10,12 +9,11 @@ equilibrium and the field's advance.
 
 from __future__ import annotations
 
-from typing import Any
-
 import mujoco
 import numpy as np
 
-from twin.process.tool_friction import SheetModel, solve_sample
+from twin.process.force_field import ForceField
+from twin.process.tool_friction import SheetModel, SlidingFriction, solve_sample
 from twin.sim.equilibrium import EquilibriumSolver
 from twin.sim.result import LoopOutput
 
@@ -24,7 +22,7 @@ def python_loop(
     model: mujoco.MjModel,
     data: mujoco.MjData,
     tcp_site: int,
-    field: Any,
+    field: ForceField,
     solver: EquilibriumSolver,
     q_nominal_all: np.ndarray,
     pass_index: np.ndarray,
@@ -98,7 +96,8 @@ def python_loop(
         # the tool's sliding friction is solved one regime at a time (process.tool_friction)
         q, jac_last[i], s_last[i], p = solve_sample(field, pi, di, equilibrium, lambda solution: solution[3])
         # the tip gain is that of a sliding tool: a command step that matters makes a sticking tool slide
-        s_last[i, 0, 0] -= getattr(field, "last_stick_stiffness", 0.0)
+        if isinstance(field, SlidingFriction):
+            s_last[i, 0, 0] -= field.last_stick_stiffness
         q_link = q
         f_out[i] = field.force(p, pi, di)
         field.advance(p, pi)

@@ -1,10 +1,10 @@
-"""The twin: the compliant MuJoCo TX200 driven along a commanded path against the sheet force field.
+"""The twin: the compliant MuJoCo robot driven along a commanded path against the sheet force field.
 
 Per sample the robot is solved to quasi-static equilibrium (qvel = qacc = 0) under its joint springs,
 gravity, joint friction and the force the sheet exerts on the tool, from the stateful field
 (`twin.sim.equilibrium`). The loop over the samples runs compiled (`twin.sim.compiled`) where the model is a chain
-of hinges and the field the table `SheetForceField`, else in Python (`twin.sim.python_loop`); both give the same
-equilibria.
+of hinges and the force model declares a compiled kernel, else in Python (`twin.sim.python_loop`); both give the
+same equilibria.
 
 The path is taught under gravity: the set-points are q_ref = q_ik + K^-1 g(q_ik), so the unloaded robot
 lands exactly on the IK solution, and deflection = loaded - unloaded. After each sample the field's formed
@@ -13,27 +13,25 @@ surface advances to where the tool really was.
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import replace
-from typing import Any
 
 import mujoco
 import numpy as np
 
 from twin.errors import InputError
-from twin.process.field import SheetForceField
-from twin.process.forces import ForceHistory, default_force_history
+from twin.process.force_field import ForceField
+from twin.process.force_models import build_force_field
 from twin.process.path import label_passes
-from twin.process.placement import Placement
-from twin.process.tool_friction import REVERSAL_M, SlidingFriction
+from twin.process.tool_friction import SlidingFriction
 from twin.robot.kinematics import Kinematics
-from twin.robot.model import ARM_JOINTS, LOST_MOTION_JOINTS, RobotEffects, build_model, lost_motion_schedule
-from twin.robot.stiffness import set_joint_stiffness
+from twin.robot.model import build_model, lost_joint_name, lost_motion_schedule
+from twin.robot.stiffness import joint_stiffness, set_joint_stiffness
 from twin.sim.compiled import compiled_replay
 from twin.sim.equilibrium import EquilibriumSolver
 from twin.sim.ft_sensor import flange_sensor_forces
 from twin.sim.python_loop import python_loop
 from twin.sim.result import SimResult
+from twin.sim.spec import TwinSpec
 
 # Back-travel that declares a reversal of the commanded path [m]: a compensated command may step back a
 # fraction of a millimetre where the force ramps up, a real reversal travels a whole stroke (>= 61 mm).
@@ -43,65 +41,52 @@ IK_MEMO_PATHS = 4
 
 
 class Twin:
-    """Quasi-static compliant-robot twin of the forming cell.
+    """Quasi-static compliant-robot twin of the forming cell, built from a `TwinSpec` (`TwinSpec.build()`).
+
+    The robot model carries the spec's robot-side effects (`twin.robot.model.build_model`); the controller's
+    kinematics (IK) use the nominal robot. The force field is the process's force model
+    (`twin.process.force_models`) fitted to the FE history, scaled by the `force_scale` effect (the sheet's
+    penetration sensitivity, a property of the sheet, is not scaled); a model whose in-plane force flips with
+    the commanded direction is wrapped in the tool's sliding friction (`twin.process.tool_friction`). Paths, tool
+    tips and forces are in the sheet frame, placed by the spec's placement.
 
     Args:
-        history: Physical FE force history the field is fitted to; default: the shipped history (half model,
-            doubled on load).
-        effects: Robot-side effects (lab truth or fitted augmentations); default none.
-        joint_stiffness: Override of K_q [N·m/rad], shape (6,); default: the model's.
-        field_factory: Builds the sheet force field from the (scaled) history; default `SheetForceField`.
-        tool_friction_reversal_m: Travel over which the tool's sliding friction reverses [m]
-            (`twin.process.tool_friction`); None: the tangential force flips with the commanded direction.
-            Applies to the default field only.
-        placement: The sheet frame in the robot base (origin, yaw about z; `twin.process.placement`); None: the
-            cell's `sheet_origin`, yaw 0. Paths, tool tips and forces stay in the sheet frame.
+        spec: The twin's specification; None: the default cell.
     """
 
     #: Run the per-sample loop compiled (`twin.sim.compiled`) where the model and field allow it; False: the
     #: Python loop, MuJoCo called per Newton iteration (the reference the compiled loop is tested against).
     use_compiled_loop: bool = True
 
-    def __init__(
-        self,
-        history: ForceHistory | None = None,
-        effects: RobotEffects | None = None,
-        joint_stiffness: np.ndarray | None = None,
-        joint_friction: np.ndarray | None = None,
-        field_factory: Callable[[ForceHistory], Any] | None = None,
-        tool_friction_reversal_m: float | None = REVERSAL_M,
-        placement: Placement | None = None,
-    ) -> None:
-        self.effects = effects or RobotEffects()
-        self.history = history if history is not None else default_force_history()
-        self.model = build_model(self.effects)
+    def __init__(self, spec: TwinSpec | None = None) -> None:
+        self.spec = spec = spec or TwinSpec()
+        self.robot, self.effects, self.placement = spec.robot, spec.effects, spec.placement
+        self.history = spec.process.force_history()
+        effects = self.effects
+        self.model = build_model(self.robot, tool_offset_m=effects.tool_offset_m, lost_motion=effects.lost_motion_rad != 0)
         # the controller's kinematics (IK) use the nominal robot; a separate model only when effects change it
-        nominal = build_model(None) if self.effects.changes_model else self.model
-        if joint_stiffness is not None:
-            set_joint_stiffness(self.model, joint_stiffness)
+        nominal = build_model(self.robot) if effects.changes_model else self.model
+        if spec.joint_stiffness is not None:
+            set_joint_stiffness(self.model, spec.joint_stiffness, self.robot)
             if nominal is not self.model:
-                set_joint_stiffness(nominal, joint_stiffness)
-        self.kinematics = Kinematics(nominal)
+                set_joint_stiffness(nominal, spec.joint_stiffness, self.robot)
+        self.kinematics = Kinematics(nominal, robot=self.robot)
         self.data = mujoco.MjData(self.model)
-        # force_scale: the real forces are k x the FE history, so the field is fitted to the scaled history
-        # (its penetration sensitivity, a property of the sheet, is not scaled)
         scaled = self.history
-        if self.effects.force_scale != 1.0:
-            scaled = replace(self.history, f_sheet_n=self.effects.force_scale * self.history.f_sheet_n)
-        # field_factory (issue #16): another force model with the field's interface, e.g. the height-map ISF
-        # model (`twin.process.isf_calibration.isf_field_factory`), built from the same (scaled) history
-        # the tangential force follows the tool's real travel: it sticks at reversals (process.tool_friction)
-        self._reversal_m = tool_friction_reversal_m if field_factory is None else None
-        self.set_sheet_field(SheetForceField(scaled) if field_factory is None else field_factory(scaled))
+        if effects.force_scale != 1.0:
+            scaled = replace(self.history, f_sheet_n=effects.force_scale * self.history.f_sheet_n)
+        self._reversal_m = spec.process.friction_reversal_m
+        self.set_sheet_field(build_force_field(spec.process, scaled))
         m = self.model
-        self._tcp = m.site("tcp").id
-        self._arm_dof = np.array([m.jnt_dofadr[m.joint(name).id] for name in ARM_JOINTS])
-        self._arm_qpos = np.array([m.jnt_qposadr[m.joint(name).id] for name in ARM_JOINTS])
-        lost = [f"{name}_lost" for name in LOST_MOTION_JOINTS] if self.effects.has_lost_motion else []
+        self._tcp = m.site(self.robot.tool_site).id
+        arm = self.robot.addresses(m)
+        self._arm_dof, self._arm_qpos, self._arm_act = arm.dof, arm.qpos, arm.actuator
+        lost = [lost_joint_name(j) for j in self.robot.lost_motion_joints] if effects.lost_motion_rad != 0 else []
         self._lost_dof = np.array([m.jnt_dofadr[m.joint(name).id] for name in lost], dtype=int)
         self._lost_qpos = np.array([m.jnt_qposadr[m.joint(name).id] for name in lost], dtype=int)
         self._lost_jnt = np.array([m.joint(name).id for name in lost], dtype=int)
-        self.placement = placement or Placement()
+        #: Column of each lost-motion joint among the arm joints.
+        self._lost_arm = [self.robot.joints.index(j) for j in self.robot.lost_motion_joints]
         self.p_base_sheet_origin = self.placement.origin_in(self.kinematics)
         #: Orientation of the sheet frame in the base frame (the placement's yaw).
         self.R_base_sheet = self.placement.R_base_sheet
@@ -109,38 +94,42 @@ class Twin:
         self._ik_memo: list[tuple[np.ndarray, np.ndarray]] = []
         #: Whether the last `simulate` ran the compiled loop (else the Python one).
         self.last_loop_compiled = False
-        if joint_friction is not None:
-            self.joint_friction = joint_friction
+        if spec.joint_friction is not None:
+            self.joint_friction = spec.joint_friction
 
-    def set_sheet_field(self, field: Any) -> None:
-        """Press the tool against `field` from now on, with the twin's sliding friction of the tool around it.
+    def set_sheet_field(self, field: ForceField) -> None:
+        """Press the tool against `field` from now on, with the tool's sliding friction around it where the
+        model's in-plane force flips with the command (`ForceField.tangential_from_command`).
 
         Args:
-            field: A sheet force field (`SheetForceField` or one with its interface).
+            field: A sheet force field.
         """
-        self.field = field if self._reversal_m is None else SlidingFriction(field, self._reversal_m)
+        wrap = field.tangential_from_command and self._reversal_m is not None
+        self.field: ForceField = SlidingFriction(field, self._reversal_m) if wrap else field  # type: ignore[arg-type]
 
     @property
-    def sheet_field(self) -> Any:
+    def sheet_field(self) -> ForceField:
         """The sheet's force field itself (`field` without the tool's sliding friction around it)."""
         return self.field.inner if isinstance(self.field, SlidingFriction) else self.field
 
     @property
     def joint_friction(self) -> np.ndarray:
-        """Coulomb friction of joints 1..6 [N·m]: the model's `frictionloss` (0 where none is given)."""
+        """Coulomb friction of the arm joints [N·m]: the model's `frictionloss` (0 where none is given)."""
         return self.model.dof_frictionloss[self._arm_dof].copy()
 
     @joint_friction.setter
     def joint_friction(self, tau_nm: np.ndarray) -> None:
-        tau = np.asarray(tau_nm, dtype=float)
-        if tau.shape != (6,) or not np.all(np.isfinite(tau)) or np.any(tau < 0):
-            raise InputError(f"joint friction must be 6 finite values >= 0 [N·m], got {tau!r}")
+        tau = self.robot.joint_vector(tau_nm, "joint friction", "N·m", nonnegative=True)
         self.model.dof_frictionloss[self._arm_dof] = tau
 
     @property
     def joint_stiffness(self) -> np.ndarray:
-        """K_q of joints 1..6 [N·m/rad]."""
-        return np.array([self.model.actuator(f"actuator{i}").gainprm[0] for i in range(1, 7)])
+        """K_q of the arm joints [N·m/rad]."""
+        return joint_stiffness(self.model, self.robot)
+
+    def set_joint_stiffness(self, k_q_nm_per_rad: np.ndarray) -> None:
+        """Set K_q of the arm joints [N·m/rad] in place (a calibration or a sweep's draw)."""
+        set_joint_stiffness(self.model, k_q_nm_per_rad, self.robot)
 
     def _stiffness_diag(self) -> np.ndarray:
         k = np.zeros(self.model.nv)
@@ -168,7 +157,7 @@ class Twin:
         return grad
 
     def _ik_path(self, p_cmd: np.ndarray) -> np.ndarray:
-        """Rigid IK of a commanded path [rad], (n, 6); the last few paths' solutions are kept (a replay, a
+        """Rigid IK of a commanded path [rad], (n, dof); the last few paths' solutions are kept (a replay, a
         discrepancy search or a sweep drives one command many times, and the IK depends on the command only)."""
         for p_known, q_known in self._ik_memo:
             if p_known.shape == p_cmd.shape and np.array_equal(p_known, p_cmd):
@@ -190,7 +179,7 @@ class Twin:
         Args:
             t_s: Sample times [s], shape (n,), strictly increasing.
             p_cmd_sheet_m: Commanded tool tip in the sheet frame [m], shape (n, 3).
-            q_ik: Rigid IK solution of this same path [rad], shape (n, 6), from an earlier `SimResult.q_ik`
+            q_ik: Rigid IK solution of this same path [rad], shape (n, dof), from an earlier `SimResult.q_ik`
                 (saves the IK when one command is replayed many times); computed when None.
 
         Returns:
@@ -211,8 +200,8 @@ class Twin:
         m = self.model
         if q_ik is None:
             q_ik = self._ik_path(p_cmd)
-        elif q_ik.shape != (len(t_s), 6):
-            raise InputError(f"q_ik has shape {q_ik.shape}, expected {(len(t_s), 6)}")
+        elif q_ik.shape != (len(t_s), self.robot.dof):
+            raise InputError(f"q_ik has shape {q_ik.shape}, expected {(len(t_s), self.robot.dof)}")
         pass_index, direction = label_passes(p_cmd[:, 0], deadband_m=PASS_DEADBAND_M)
         k_diag = self._stiffness_diag()
 
@@ -220,8 +209,10 @@ class Twin:
         lost_ref = np.zeros((n, self._lost_dof.size))
         if self._lost_dof.size:
             dx_dq = self.R_base_sheet.T[0] @ self.kinematics.jacobian(q_ik[0])[:3]  # sheet x per joint angle
-            dx_dq_sign = np.sign(dx_dq[[1, 2]])
-            lost_ref = lost_motion_schedule(p_cmd[:, 0], direction, dx_dq_sign, self.effects)
+            dx_dq_sign = np.sign(dx_dq[self._lost_arm])
+            lost_ref = lost_motion_schedule(
+                p_cmd[:, 0], direction, dx_dq_sign, self.effects.lost_motion_rad, self.effects.lost_motion_takeup_m
+            )
 
         grad_g = self._gravity_gradient(self._full_qpos(q_ik[0]))
         q_nominal_all = np.zeros((n, m.nq))
@@ -259,13 +250,13 @@ class Twin:
             formed_z_m=np.asarray(formed_z, dtype=float).copy(),
             iterations=out.iterations,
             tip_gain=tip_gain,
-            force_steps=hasattr(self.field, "pass_tables"),  # the per-pass table field steps between passes
+            force_steps=self.sheet_field.steps_between_passes,
         )
 
     def sensor_forces(self, result: SimResult, t_s: np.ndarray) -> np.ndarray:
         """Read MuJoCo's flange force sensor at the given times, as the run format wants it.
 
-        The force is applied at the tool tip and MuJoCo's `ft_force` sensor read at equilibrium, tared by an
+        The force is applied at the tool tip and the robot's MuJoCo force sensor read at equilibrium, tared by an
         unloaded reading at the same pose (`twin.sim.ft_sensor.flange_sensor_forces`). With the per-pass table
         field the force steps at each reversal and is not interpolated across it.
 
@@ -276,7 +267,9 @@ class Twin:
         Returns:
             Force exerted by the sheet on the tool, sheet frame [N], shape (m, 3).
         """
-        return flange_sensor_forces(self.model, self.data, result, t_s, R_base_sheet=self.R_base_sheet)
+        return flange_sensor_forces(
+            self.model, self.data, result, t_s, robot=self.robot, R_base_sheet=self.R_base_sheet
+        )
 
     def static_deflection(self, f_base_n: np.ndarray, q: np.ndarray | None = None) -> np.ndarray:
         """Equilibrium tool-tip deflection under a constant force at the tool tip (no sheet field).
@@ -286,7 +279,7 @@ class Twin:
 
         Args:
             f_base_n: Force on the tool tip, base frame [N], shape (3,).
-            q: Pose (rigid IK angles of joints 1..6) [rad]; default `home`.
+            q: Pose (rigid IK angles of the arm joints) [rad]; default `home`.
 
         Returns:
             Loaded minus unloaded tool-tip position [m], shape (3,).

@@ -1,6 +1,21 @@
-"""Viz: figures (matplotlib: `path_figures`, `deflection_figures`, `stiffness_figures` on a shared `style`) and
-rerun recordings of runs and replays (`recording`, with the layers of one replay in `recording_layers` and the
-robot in `recording_robot`).
+"""Viz: figures and rerun recordings of runs and replays.
+
+Modules: `path_figures`, `deflection_figures`, `stiffness_figures` and `surface_figures` (matplotlib PNG on the
+shared `style`), `recording` (rerun recordings of runs and replays), with the layers of one replay in
+`recording_layers` and the robot in `recording_robot`.
 
 Takes runs and analysis results; gives PNG files and `.rrd` recordings.
 """
+
+from twin.base.lazy import lazy_exports
+
+__all__, __getattr__, __dir__ = lazy_exports(__name__, {
+    "plot_path_xz": "twin.viz.path_figures",
+    "plot_forces": "twin.viz.path_figures",
+    "plot_deflection_by_pass": "twin.viz.deflection_figures",
+    "plot_residual_before_after": "twin.viz.deflection_figures",
+    "plot_stiffness_ellipse": "twin.viz.stiffness_figures",
+    "plot_surface_deviation": "twin.viz.surface_figures",
+    "record_runs": "twin.viz.recording",
+    "record_replay": "twin.viz.recording",
+})

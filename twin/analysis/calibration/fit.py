@@ -33,25 +33,29 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from twin.analysis.calibration.targets import TARGETS, TwinMeasurements, measure_twin
+from twin.process.description import Process
 from twin.process.field import K_LOAD_N_PER_M, K_UNLOAD_N_PER_M, SheetForceField
 from twin.process.forces import ForceHistory, default_force_history
 from twin.process.path import groove_path
-from twin.robot.stiffness import set_joint_stiffness
+from twin.robot.description import load_robot
 from twin.sim.quasi_static import Twin
+from twin.sim.spec import TwinSpec
 
+_ROBOT = load_robot()
+#: Joints (0-based) whose K_q and friction are fitted: the robot description's `[calibration]`.
+_JOINTS = tuple(_ROBOT.joints.index(j) for j in _ROBOT.calibrated_stiffness)
+_FRICTION_JOINTS = tuple(_ROBOT.joints.index(j) for j in _ROBOT.calibrated_friction)
 #: Parameter names, in the order of the fitted vector.
 PARAMETERS = (
-    "k_q1_nm_per_rad", "k_q2_nm_per_rad", "k_q3_nm_per_rad", "k_q5_nm_per_rad",
+    *(f"k_q{j + 1}_nm_per_rad" for j in _JOINTS),
     "k_unload_n_per_m", "k_load_n_per_m",
-    "friction2_nm", "friction3_nm", "friction5_nm",
+    *(f"friction{j + 1}_nm" for j in _FRICTION_JOINTS),
 )
-_JOINTS = (0, 1, 2, 4)
-_FRICTION_JOINTS = (1, 2, 4)  # joint 1 only turns the tool in y, where the thesis gives one number (C_yy)
-_N_LOG = 6  # the first six are fitted in log10, the frictions in units of _FRICTION_UNIT_NM
+_N_LOG = len(_JOINTS) + 2  # stiffnesses are fitted in log10, the frictions in units of _FRICTION_UNIT_NM
 _FRICTION_UNIT_NM = 100.0
 #: Bounds: K_q in 1e5..1e8 N·m/rad, sheet sensitivities in 1e4..1e8 N/m, frictions 0..500 N·m.
-_LOWER = np.array([5.0, 5.0, 5.0, 5.0, 4.0, 4.0, 0.0, 0.0, 0.0])
-_UPPER = np.array([8.0, 8.0, 8.0, 8.0, 8.0, 8.0, 5.0, 5.0, 5.0])
+_LOWER = np.array([5.0] * len(_JOINTS) + [4.0, 4.0] + [0.0] * len(_FRICTION_JOINTS))
+_UPPER = np.array([8.0] * len(_JOINTS) + [8.0, 8.0] + [5.0] * len(_FRICTION_JOINTS))
 
 
 def to_values(x: np.ndarray) -> np.ndarray:
@@ -88,17 +92,17 @@ class Calibration:
 
     @property
     def joint_stiffness(self) -> np.ndarray:
-        """Calibrated K_q of joints 1..6 [N·m/rad] (4 and 6 as in the model)."""
+        """Calibrated K_q of the arm joints [N·m/rad] (those not calibrated as in the model)."""
         k = Twin().joint_stiffness
-        for j, name in zip(_JOINTS, PARAMETERS[:4], strict=True):
+        for j, name in zip(_JOINTS, PARAMETERS[: len(_JOINTS)], strict=True):
             k[j] = self.values[name]
         return k
 
     @property
     def joint_friction(self) -> np.ndarray:
-        """Calibrated friction of joints 1..6 [N·m] (0 for joints 1, 4 and 6)."""
-        tau = np.zeros(6)
-        for j, name in zip(_FRICTION_JOINTS, PARAMETERS[6:], strict=True):
+        """Calibrated friction of the arm joints [N·m] (0 for those not calibrated)."""
+        tau = np.zeros(_ROBOT.dof)
+        for j, name in zip(_FRICTION_JOINTS, PARAMETERS[_N_LOG:], strict=True):
             tau[j] = self.values[name]
         return tau
 
@@ -120,7 +124,7 @@ class TwinEvaluator:
 
     def __init__(self, history: ForceHistory | None = None) -> None:
         self.history = history or default_force_history()
-        self.twin = Twin(history=self.history)
+        self.twin = TwinSpec(process=Process(history=self.history)).build()
         self.path = groove_path()
         self.f_ideal_n = SheetForceField(self.history).rigid_forces(self.path)
         self.evaluations = 0
@@ -137,14 +141,14 @@ class TwinEvaluator:
         """Set the parameters (a fitted vector) on the twin and measure every target."""
         p = to_values(x)
         k = self.twin.joint_stiffness
-        k[list(_JOINTS)] = p[:4]
-        set_joint_stiffness(self.twin.model, k)
-        tau = np.zeros(6)
-        tau[list(_FRICTION_JOINTS)] = p[6:]
+        k[list(_JOINTS)] = p[: len(_JOINTS)]
+        self.twin.set_joint_stiffness(k)
+        tau = np.zeros(_ROBOT.dof)
+        tau[list(_FRICTION_JOINTS)] = p[_N_LOG:]
         self.twin.joint_friction = tau
 
         def field() -> SheetForceField:
-            return SheetForceField(self.history, k_unload_n_per_m=p[4], k_load_n_per_m=p[5])
+            return SheetForceField(self.history, k_unload_n_per_m=p[_N_LOG - 2], k_load_n_per_m=p[_N_LOG - 1])
 
         self.twin.set_sheet_field(field())
         self.evaluations += 1

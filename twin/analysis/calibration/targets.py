@@ -36,11 +36,11 @@ from twin.analysis.identify.cartesian import (
     fit_kr_load_cases,
 )
 from twin.analysis.identify.method2 import method2
-from twin.base.signals import interp_rows
-from twin.lab.cnc import form_on_cnc
-from twin.lab.measure import uniform_times
+from twin.base.signals import interp_rows, uniform_times
+from twin.errors import InputError
 from twin.process.field import SheetForceField
 from twin.process.path import ToolPath
+from twin.process.springback import form_rigidly
 from twin.runs.format import Run, Stream
 from twin.sim.quasi_static import Twin
 
@@ -146,11 +146,11 @@ def measure_twin(
     k_r1 = fit_kr_load_cases(THESIS_TABLE_4_2_LOADS_N, d).k_r_n_per_m
     cr1 = np.linalg.inv(k_r1[_XZ]) * 1e6
     nominal = _noise_free_run(twin, path, path.p_sheet_m, "nominal")
-    m2 = method2(nominal, twin.history)
+    m2 = method2(nominal, twin.spec.process)
     cr2 = np.linalg.inv(m2.k_r_ideal_n_per_m) * 1e6
     assert nominal.forces is not None
     peak_fz = float(np.max(nominal.forces.values[:, 2]))
-    _, z_after = form_on_cnc(path, field_factory())
+    _, z_after = form_rigidly(path, field_factory())
     c_r = compliance_from_stiffness(k_r1)
     failed = compensate_formula(path.t_s, path.p_sheet_m, 0.5 * f_ideal_n, c_r)
     gain = check_run(_noise_free_run(twin, path, failed.p_cmd_sheet_m, "compensated"), path.t_s, path.p_sheet_m)
@@ -165,7 +165,7 @@ def measure_twin(
         "peak_fz": peak_fz,
         "depth_cnc": -1e3 * float(np.min(z_after)),
         "gain_failed_run": gain.gain,
-        "k_load_prior": twin.field.k_load * 1e-6,
+        "k_load_prior": _table_field(twin).k_load * 1e-6,
     }
     return TwinMeasurements(
         values=values,
@@ -176,3 +176,11 @@ def measure_twin(
         force_drop=m2.force_drop,
         residual_corrected_mm=float(corrected.summary()["residual_rms_mm"]),  # type: ignore[arg-type]
     )
+
+
+def _table_field(twin: Twin) -> SheetForceField:
+    """The twin's sheet field, the per-pass table field the calibration sets."""
+    field = twin.sheet_field
+    if not isinstance(field, SheetForceField):
+        raise InputError(f"the calibration needs the table force field, the twin has {type(field).__name__}")
+    return field

@@ -3,6 +3,6 @@
 Modules, in data-flow order: `residuals` (noise from the data, folds), `context` (the linearised replay),
 `families` (effect families with vector parameters, one registry), `fitting` (joint least squares,
 uncertainties, held-out error), `significance`, `selection` (forward selection, BIC, ambiguity),
-`labmodel` (families in the lab's vocabulary, replayed and refitted), `signature` (the remainder in words),
+`effect_model` (the named families as the twin's effects, replayed and refitted), `signature` (the remainder in words),
 `search` (the workflow), `summary` (its JSON document). Notes: docs/discrepancy.md.
 """

@@ -16,15 +16,15 @@ tip by dp = G (dp_free + C dF) and changes the force by dF + S dp (first order, 
 from __future__ import annotations
 
 import itertools
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
 from twin.base.signals import interp_rows
-from twin.lab.effects import Effects
-from twin.lab.measure import predict_forces, predict_part_profile, predict_tracker
-from twin.robot.model import ARM_JOINTS, RobotEffects, lost_motion_schedule
+from twin.robot.model import lost_motion_schedule
 from twin.runs.format import Run
+from twin.sim.effects import Effects
+from twin.sim.measure import predict_forces, predict_part_profile, predict_tracker
 from twin.sim.quasi_static import Twin
 from twin.sim.result import SimResult
 
@@ -43,10 +43,11 @@ class Context:
         gain: Tip gain G per commanded sample, shape (n, 3, 3).
         compliance: C [m/N], shape (n, 3, 3).
         stiffness: S [N/m], shape (n, 3, 3).
-        jac: Translational Jacobian of the arm joints [m/rad], shape (n, 3, 6).
+        jac: Translational Jacobian of the arm joints [m/rad], shape (n, 3, dof).
         tool_axis: Tool axis (tool z) in the sheet frame [-], shape (n, 3).
         level: Lost-motion level, +/-1 with the direction, ramped after reversals [-], shape (n,).
         force_cmd: Predicted sensor force at the commanded samples [N], shape (n, 3).
+        joint_sign: Sign of d x_tcp / d q of each arm joint at the start (1 where it is nearly 0), shape (dof,).
     """
 
     run: Run
@@ -62,7 +63,7 @@ class Context:
     tool_axis: np.ndarray
     level: np.ndarray
     force_cmd: np.ndarray
-    joint_sign: np.ndarray = field(default_factory=lambda: np.ones(6))
+    joint_sign: np.ndarray
 
     @property
     def has_forces(self) -> bool:
@@ -163,9 +164,7 @@ class Context:
 
 def build_context(run: Run, twin: Twin, sim: SimResult, effects: Effects) -> Context:
     """Linearise the replay `sim` of `run` on `twin` (which carries `effects.robot`)."""
-    m = twin.model
-    arm_qpos = np.array([m.jnt_qposadr[m.joint(name).id] for name in ARM_JOINTS])
-    q_arm = sim.qpos[:, arm_qpos]
+    q_arm = sim.qpos[:, twin.robot.addresses(twin.model).qpos]
     jac6 = twin.kinematics.jacobians(q_arm)
     jac = jac6[:, :3, :]
     k_q = twin.joint_stiffness
@@ -175,7 +174,7 @@ def build_context(run: Run, twin: Twin, sim: SimResult, effects: Effects) -> Con
     axis = np.array([twin.kinematics.fk(q)[1][:, 2] for q in q_arm[:: max(1, len(q_arm) // 50)]])
     axis_all = interp_rows(sim.t_s, sim.t_s[:: max(1, len(q_arm) // 50)], axis)
     level = -lost_motion_schedule(
-        sim.p_cmd_sheet_m[:, 0], sim.direction, np.ones(1), RobotEffects(lost_motion_rad=1.0)
+        sim.p_cmd_sheet_m[:, 0], sim.direction, np.ones(1), 1.0, effects.lost_motion_takeup_m
     )[:, 0]
     jac0 = twin.kinematics.jacobian(sim.q_ik[0])[0]
     joint_sign = np.where(np.abs(jac0) > 1e-3, np.sign(jac0), 1.0)
@@ -186,7 +185,7 @@ def build_context(run: Run, twin: Twin, sim: SimResult, effects: Effects) -> Con
         force_cmd = predict_forces(twin, sim, sim.t_s, effects)
     x_prof = np.zeros(0)
     if run.part_profile is not None:
-        x_pred, z_pred = predict_part_profile(sim, effects)
+        x_pred, z_pred = predict_part_profile(twin, sim, effects)
         x_prof = np.asarray(run.part_profile[0], dtype=float)
         pred["profile"] = np.interp(x_prof, x_pred, z_pred)
     return Context(

@@ -8,20 +8,17 @@ by its noise, so a pure-noise residual has reduced chi-square 1.
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
-from twin.lab.effects import Effects
-from twin.lab.measure import predict_forces, predict_part_profile, predict_tracker
-from twin.process.forces import ForceHistory
 from twin.process.path import label_passes
-from twin.robot.model import RobotEffects
 from twin.runs.format import Run, run_placement
+from twin.sim.effects import Effects
+from twin.sim.measure import predict_forces, predict_part_profile, predict_tracker
 from twin.sim.quasi_static import PASS_DEADBAND_M, Twin
 from twin.sim.result import SimResult
+from twin.sim.spec import TwinSpec
 
 MAD_TO_SIGMA = 1.4826
 
@@ -67,30 +64,20 @@ def estimate_noise(run: Run) -> Noise:
 class ResidualModel:
     """Replays one run on the twin with any set of effects and returns normalised residuals.
 
-    Simulations are cached per robot-side configuration, so effects of the measurement model
-    (time offset, drift, springback) cost no new simulation.
+    Simulations are cached per configuration of the simulated effects (`Effects.simulated`), so effects of the
+    measurement model (time offset, drift, springback) cost no new simulation.
 
     Args:
         run: The measured run (never its truth).
-        history: Force history of the twin's field.
-        joint_stiffness: K_q override [N·m/rad].
-        field_factory: The twin's sheet force model built from the history (`Twin(field_factory=...)`, e.g. the
-            height-map ISF model for a part other than the groove); None: the groove's table field.
+        spec: The twin (robot, process and force model, K_q); its effects are replaced by those asked for, its
+            placement by the run's.
     """
 
-    def __init__(
-        self,
-        run: Run,
-        history: ForceHistory | None = None,
-        joint_stiffness: np.ndarray | None = None,
-        field_factory: Callable[[ForceHistory], Any] | None = None,
-    ) -> None:
+    def __init__(self, run: Run, spec: TwinSpec | None = None) -> None:
         self.run = run
-        self.history = history
-        self.joint_stiffness = joint_stiffness
-        self.field_factory = field_factory
+        self.spec = (spec or TwinSpec()).replace(placement=run_placement(run.meta), effects=Effects())
         self.noise = estimate_noise(run)
-        self._sims: dict[RobotEffects, tuple[Twin, SimResult]] = {}
+        self._sims: dict[Effects, tuple[Twin, SimResult]] = {}
         cmd = run.commanded
         pass_cmd, _ = label_passes(cmd.values[:, 0], deadband_m=PASS_DEADBAND_M)
 
@@ -102,16 +89,10 @@ class ResidualModel:
         self.profile_side = (run.part_profile[0] >= 0).astype(int) if run.part_profile is not None else None
 
     def simulate(self, effects: Effects) -> tuple[Twin, SimResult]:
-        """The twin and its simulation of the run's command for the robot side of `effects` (cached)."""
-        key = effects.robot
+        """The twin and its simulation of the run's command for the simulated part of `effects` (cached)."""
+        key = effects.simulated()
         if key not in self._sims:
-            twin = Twin(
-                history=self.history,
-                effects=key,
-                joint_stiffness=self.joint_stiffness,
-                field_factory=self.field_factory,
-                placement=run_placement(self.run.meta),
-            )
+            twin = self.spec.replace(effects=key).build()
             cached = next(iter(self._sims.values()))[1].q_ik if self._sims else None
             self._sims[key] = (
                 twin,
@@ -127,7 +108,7 @@ class ResidualModel:
             out["force"] = self.run.forces.values - predict_forces(twin, sim, self.run.forces.t_s, effects)
         if self.run.part_profile is not None:
             x_m, z_m = self.run.part_profile
-            x_pred, z_pred = predict_part_profile(sim, effects)
+            x_pred, z_pred = predict_part_profile(twin, sim, effects)
             out["profile"] = z_m - np.interp(x_m, x_pred, z_pred)
         return out
 

@@ -9,9 +9,10 @@
    parameters and their standard errors. The verdict names the first one when some family explains at least
    MEANINGFUL_SHARE of the excess over noise; otherwise it is `unexplained`: then what the families could
    take is small against the unexplained rest, and naming it would be a guess.
-3. Add: families that exist in the lab's vocabulary (`twin.lab.effects`) are written into the twin's effects,
-   which a model file carries to `replay --model`; when all named families do, the twin is replayed with them
-   and refitted once (the linearisation is then exact to second order) and the gap after is that replay's.
+3. Add: families that map onto an effect of the vocabulary (`twin.sim.effects`) are written into the twin's
+   effects, which a model file carries to `replay --model`; when all named families do, the twin is replayed
+   with them and refitted once (the linearisation is then exact to second order) and the gap after is that
+   replay's.
 4. Say what is left: the remainder's signature in words (`signature`).
 """
 
@@ -19,14 +20,14 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
 from twin.analysis.discrepancy.context import Context
+from twin.analysis.discrepancy.effect_model import context, effect_increment, prune, refine
 from twin.analysis.discrepancy.families import FAMILIES, Family
 from twin.analysis.discrepancy.fitting import Fit, Fitter
-from twin.analysis.discrepancy.labmodel import compose, context, lab_increment, prune, refine
 from twin.analysis.discrepancy.residuals import ResidualModel
 from twin.analysis.discrepancy.selection import Step, forward_select
 from twin.analysis.discrepancy.signature import describe_remainder
@@ -36,17 +37,17 @@ from twin.analysis.discrepancy.significance import (
     reduced_chi2,
     split_streams,
 )
-from twin.lab.effects import Effects
-from twin.process.forces import ForceHistory
 from twin.runs.format import Run
+from twin.sim.effects import Effects
+from twin.sim.spec import TwinSpec
 
 STAGES = 3  # replay-and-select rounds after the first selection
-# the lab's form of the named families is kept when the twin replayed with it leaves at most this x the excess
-# of the linearised fit plus LAB_FORM_FLOOR of the run's: replaying removes linearisation error, so a lab form
-# that holds leaves less; one that does not (a per-axis scale forced to a scalar, a drift off the lab's
+# the effects' form of the named families is kept when the twin replayed with it leaves at most this x the excess
+# of the linearised fit plus EFFECT_FORM_FLOOR of the run's: replaying removes linearisation error, so an effect's
+# form that holds leaves less; one that does not (a per-axis scale forced to a scalar, a drift off the effect's
 # direction) leaves more
-LAB_FORM_SLACK = 1.1
-LAB_FORM_FLOOR = 0.005
+EFFECT_FORM_SLACK = 1.1
+EFFECT_FORM_FLOOR = 0.005
 MEANINGFUL_SHARE = 0.25  # a family explaining less than a quarter of the excess does not make a verdict
 
 
@@ -59,17 +60,17 @@ class NamedEffect:
     uncertainty: dict[str, float | None]
     explained_fraction: float
     ambiguous_with: tuple[str, ...]
-    lab_name: str | None = None
+    effect_name: str | None = None
 
     @property
     def reported_name(self) -> str:
-        """The name in the model file's (the lab's) vocabulary when the family maps onto one, else its own."""
-        return self.lab_name or self.name
+        """The effect's name (the model file's vocabulary) when the family maps onto one, else its own."""
+        return self.effect_name or self.name
 
     def summary(self) -> dict[str, Any]:
         """JSON-ready."""
         return {
-            "name": self.name, "lab_name": self.lab_name, "parameters": self.parameters,
+            "name": self.name, "effect_name": self.effect_name, "parameters": self.parameters,
             "uncertainty": self.uncertainty, "explained_fraction": self.explained_fraction,
             "ambiguous_with": list(self.ambiguous_with),
         }
@@ -80,7 +81,7 @@ class DiscrepancyResult:
     """Outcome of the workflow.
 
     Attributes:
-        effects: The twin's effects after the search (lab vocabulary, for a model file).
+        effects: The twin's effects after the search (the effect vocabulary, for a model file).
         found: Families named, in order (empty for `none` and `unexplained`).
         verdict: The first named family, `none` or `unexplained`.
         named: The named families with parameters, uncertainties and explained fractions.
@@ -140,7 +141,25 @@ def _named(steps: tuple[Step, ...], fit: Fit, families: dict[str, Family]) -> li
     return out
 
 
-def _into_lab_model(
+class EffectModel(NamedTuple):
+    """The named families carried into the twin's effects (`_into_effects`).
+
+    Attributes:
+        effects: The twin's effects.
+        named: The named families.
+        remainder: What is left by stream (SI).
+        complete: Whether the effects carry every named family.
+        steps: The selection rounds on the replayed twin.
+    """
+
+    effects: Effects
+    named: list[NamedEffect]
+    remainder: dict[str, np.ndarray]
+    complete: bool
+    steps: tuple[Step, ...]
+
+
+def _into_effects(
     model: ResidualModel,
     start: Effects,
     fit: Fit,
@@ -150,55 +169,49 @@ def _into_lab_model(
     sizes: dict[str, int],
     excess: float,
     progress: Callable[[str], None] | None,
-) -> tuple[Effects, list[NamedEffect], dict[str, np.ndarray], bool, tuple[Step, ...]]:
-    """Carry the named families that map onto the lab's vocabulary into the twin, replayed and refitted; then
-    select again on the replayed twin for what they leave (families without a lab form, small effects the
-    linearisation hid).
-
-    Returns:
-        The twin's effects, the named families, the remainder by stream (SI), whether the effects carry every
-        named family, and the selection rounds on the replayed twin.
-    """
+) -> EffectModel:
+    """Carry the named families that map onto an effect into the twin, replayed and refitted; then select again on
+    the replayed twin for what they leave (families without an effect, small effects the linearisation hid)."""
     effects = start
-    lab: dict[str, list[str]] = {}
+    mapped: dict[str, list[str]] = {}
     fits = {n.name: n for n in named}
     steps: tuple[Step, ...] = ()
     final, more, fit_now = fit, list(named), fit
     for _ in range(STAGES):
         new = {n.name: list(inc) for n in more
-               if (inc := lab_increment(fit_now, families, n.name, lenient=True)) is not None}
+               if (inc := effect_increment(fit_now, families, n.name, lenient=True)) is not None}
         if not new:
             break
         increments: dict[str, float] = {}
         for name in new:
-            increments.update(lab_increment(fit_now, families, name, lenient=True) or {})
-        trial_lab = {**lab, **new}
-        lab_keys = [k for keys in trial_lab.values() for k in keys]
-        trial = refine(model, compose(effects, increments), fitter_for, lab_keys, progress)
-        trial, kept = prune(model, start, trial, trial_lab, fitter_for, list(sizes.values()))
+            increments.update(effect_increment(fit_now, families, name, lenient=True) or {})
+        trial_mapped = {**mapped, **new}
+        effect_keys = [k for keys in trial_mapped.values() for k in keys]
+        trial = refine(model, effects.composed(increments), fitter_for, effect_keys, progress)
+        trial, kept = prune(model, start, trial, trial_mapped, fitter_for, list(sizes.values()))
         replayed_trial = fitter_for(context(model, trial))
         rest = excess_over_noise(replayed_trial.base, list(sizes.values()))
         linearised = excess_over_noise(fit_now.residual, list(sizes.values()))
-        if rest > LAB_FORM_SLACK * linearised + LAB_FORM_FLOOR * excess:
-            break  # the lab's form does not hold (e.g. a scale that differs per axis): keep the families' own
+        if rest > EFFECT_FORM_SLACK * linearised + EFFECT_FORM_FLOOR * excess:
+            break  # the effect's form does not hold (e.g. a scale that differs per axis): keep the families' own
         effects, replayed = trial, replayed_trial
-        lab = {k: v for k, v in trial_lab.items() if k in kept}
-        others = {k: f for k, f in families.items() if k not in lab}
+        mapped = {k: v for k, v in trial_mapped.items() if k in kept}
+        others = {k: f for k, f in families.items() if k not in mapped}
         final, steps = forward_select(replayed, list(others.values()), rest, sizes, of_rest=True) if rest > 0 else (
             replayed.fit([]), ())
         more = [replace(n, explained_fraction=n.explained_fraction * rest / excess)
                 for n in _named(steps, final, others)]
         fits.update({n.name: n for n in more if n.name not in fits})
         fit_now = final
-    if not lab:
+    if not mapped:
         fitter = fitter_for(context(model, start))
         streams = {s: (v * fitter.sigma[s]).reshape(fitter.raw[s].shape)
                    for s, v in split_streams(fit.residual, sizes).items()}
-        return start, named, streams, False, ()
-    lab_named = [replace(fits[name], lab_name=keys[0]) for name, keys in lab.items()]
+        return EffectModel(start, named, streams, False, ())
+    mapped_named = [replace(fits[name], effect_name=keys[0]) for name, keys in mapped.items()]
     streams = {s: (v * replayed.sigma[s]).reshape(replayed.raw[s].shape)
                for s, v in split_streams(final.residual, sizes).items()}
-    return effects, lab_named + more, streams, not more, steps
+    return EffectModel(effects, mapped_named + more, streams, not more, steps)
 
 
 def _measured(run: Run) -> dict[str, np.ndarray]:
@@ -212,27 +225,23 @@ def _measured(run: Run) -> dict[str, np.ndarray]:
 
 def find_discrepancy(
     run: Run,
+    spec: TwinSpec | None = None,
     *,
-    start: Effects | None = None,
-    history: ForceHistory | None = None,
-    joint_stiffness: np.ndarray | None = None,
     candidates: tuple[str, ...] | None = None,
     progress: Callable[[str], None] | None = None,
-    field_factory: Callable[[ForceHistory], Any] | None = None,
 ) -> DiscrepancyResult:
     """Run the workflow on one run.
 
     Args:
         run: Measured run (truth.json is never read).
-        start: Effects the twin already has (e.g. from an earlier model file).
-        history: Force history of the twin's field (default: the shipped one).
-        joint_stiffness: K_q of the twin [N·m/rad] (default: the model's).
+        spec: The twin as given (robot, process and force model, K_q, and the effects it already has, e.g. from
+            an earlier model file); placed at the run's placement. None: the default cell.
         candidates: Family names to try (default: all of `FAMILIES` the run's streams allow).
         progress: Called with each stage's name as it starts (to show a long search moving).
-        field_factory: The twin's sheet force model (`ResidualModel`); None: the groove's table field.
     """
-    start = start or Effects()
-    model = ResidualModel(run, history, joint_stiffness, field_factory)
+    spec = spec or TwinSpec()
+    start = spec.effects
+    model = ResidualModel(run, spec)
     ctx = context(model, start)
     noise = model.noise
     sigma = {"position": noise.position_m, "force": noise.force_n, "profile": noise.profile_m}
@@ -258,10 +267,11 @@ def find_discrepancy(
     effects, complete = start, True
     remainder = {s: (v * sigma[s]).reshape(measured[s].shape) for s, v in split_streams(fit.residual, sizes).items()}
     if verdict not in ("none", "unexplained"):
-        effects, named, remainder, complete, more = _into_lab_model(
+        carried = _into_effects(
             model, start, fit, named, families, lambda c: Fitter(c, measured, sigma, model.folds()), sizes,
             excess, progress)
-        steps = steps + more
+        effects, named, remainder, complete = carried.effects, carried.named, carried.remainder, carried.complete
+        steps = steps + carried.steps
         verdict = named[0].name
         explained = 1.0 - excess_over_noise(fitter.stack(remainder), list(sizes.values())) / excess
     else:

@@ -10,11 +10,11 @@ from twin.analysis.discrepancy.selection import ROUND_SHARE
 
 def result_summary(result: DiscrepancyResult) -> dict[str, Any]:
     """Keys: `effect` (first named, `none` or `unexplained`), `effects` (all named, in order; a family that maps
-    onto the lab's vocabulary, which the model file uses, under that name, e.g. `tool_length_offset` as
-    `tcp_offset`; the family names are in `families`),
+    onto an effect of the vocabulary, which the model file uses, under the effect's name; the family names are in
+    `families`),
     `families` (each with parameters, uncertainty, explained_fraction, ambiguous_with), `explained_fraction`,
-    `remainder` (signature of what is left, in words and numbers), `parameters` (the model file's effects in
-    the lab vocabulary), `gap_before`, `gap_after`, `noise`, `candidates` and `rounds`."""
+    `remainder` (signature of what is left, in words and numbers), `parameters` (the model file's effects),
+    `gap_before`, `gap_after`, `noise`, `candidates` and `rounds`."""
 
     def candidate(c: Any) -> dict[str, Any]:
         return {

@@ -20,10 +20,10 @@ class KqFit:
     """A diagonal joint-stiffness fit at one pose.
 
     Attributes:
-        k_q_nm_per_rad: Joint stiffness, shape (6,) [N·m/rad]; the default (NaN) for unobservable joints,
+        k_q_nm_per_rad: Joint stiffness, shape (dof,) [N·m/rad]; the default (NaN) for unobservable joints,
             inf where the fit drives the compliance to its zero bound.
-        observable: Whether each joint's compliance is determined by the tool-tip translations, shape (6,).
-        singular_values: Singular values of the (6 entries × 6 joints) compliance design matrix [m²].
+        observable: Whether each joint's compliance is determined by the tool-tip translations, shape (dof,).
+        singular_values: Singular values of the (6 entries × dof joints) compliance design matrix [m²].
         relative_residual: ‖J_v·diag(c)·J_vᵀ − sym(K_R⁻¹)‖ / ‖sym(K_R⁻¹)‖ over the 6 unique entries.
     """
 
@@ -38,9 +38,9 @@ _SYM_ENTRIES = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
 
 def _translational(jacobian: np.ndarray) -> np.ndarray:
     J = np.asarray(jacobian, dtype=float)
-    if J.shape not in ((6, 6), (3, 6)) or not np.all(np.isfinite(J)):
+    if J.ndim != 2 or J.shape[0] not in (3, 6) or J.shape[1] < 1 or not np.all(np.isfinite(J)):
         raise InputError(
-            f"Jacobian has shape {J.shape}, expected finite (6, 6) or (3, 6) (translational rows first)"
+            f"Jacobian has shape {J.shape}, expected finite (6, dof) or (3, dof) (translational rows first)"
         )
     return J[:3]
 
@@ -94,7 +94,7 @@ def fit_diagonal_kq(
     the fit drives to its zero bound is reported as an infinite stiffness.
 
     Args:
-        jacobian: Geometric Jacobian at the pose, (6, 6) or its translational rows (3, 6) [m/rad].
+        jacobian: Geometric Jacobian at the pose, (6, dof) or its translational rows (3, dof) [m/rad].
         k_r_n_per_m: Cartesian stiffness K_R (3, 3) [N/m].
         default_nm_per_rad: Value reported for unobservable joints [N·m/rad].
         rcond: Relative singular-value threshold below which a design direction counts as undetermined.
@@ -116,7 +116,8 @@ def fit_diagonal_kq(
         raise IdentificationError("K_R is singular; cannot form the compliance to fit K_q") from None
     C_sym = 0.5 * (C + C.T)
     target = np.array([C_sym[a, b] for a, b in _SYM_ENTRIES])
-    design = np.array([[J_v[a, i] * J_v[b, i] for i in range(6)] for a, b in _SYM_ENTRIES])
+    dof = J_v.shape[1]
+    design = np.array([[J_v[a, i] * J_v[b, i] for i in range(dof)] for a, b in _SYM_ENTRIES])
     singular = np.linalg.svd(design, compute_uv=False)
     observable = _observable_joints(design, rcond)
     if not np.any(observable):
@@ -125,11 +126,11 @@ def fit_diagonal_kq(
     col_scale = np.linalg.norm(columns, axis=0)
     rhs_scale = max(float(np.max(np.abs(target))), np.finfo(float).tiny)
     scaled, _ = nnls(columns / col_scale, target / rhs_scale)
-    compliance = np.zeros(6)
+    compliance = np.zeros(dof)
     compliance[observable] = scaled / col_scale * rhs_scale
     norm_target = max(float(np.linalg.norm(target)), np.finfo(float).tiny)
     residual = float(np.linalg.norm(design @ compliance - target) / norm_target)
-    k_q = np.full(6, float(default_nm_per_rad))
+    k_q = np.full(dof, float(default_nm_per_rad))
     with np.errstate(divide="ignore"):
         k_q[observable] = np.where(compliance[observable] > 0, 1.0 / compliance[observable], np.inf)
     return KqFit(k_q, observable, singular, residual)

@@ -16,8 +16,8 @@ import numpy as np
 from twin.analysis.identify.cartesian import fit_compliance, fit_kr_from_run
 from twin.base.signals import interp_rows
 from twin.errors import IdentificationError, RunFormatError
-from twin.process.field import SheetForceField
-from twin.process.forces import ForceHistory, default_force_history
+from twin.process.description import Process
+from twin.process.force_models import build_force_field
 from twin.process.path import ToolPath, label_passes
 from twin.runs.format import Run, resample
 from twin.sim.quasi_static import PASS_DEADBAND_M
@@ -45,8 +45,13 @@ class Method2Result:
     samples: int
 
 
-def method2(run: Run, history: ForceHistory | None = None) -> Method2Result:
+def method2(run: Run, process: Process | None = None) -> Method2Result:
     """Fit the x-z stiffness of the robot from a nominal run (commanded = ideal path).
+
+    Args:
+        run: A nominal run with forces.
+        process: The process whose force model, driven rigidly along the command, gives the ideal forces;
+            None: the thesis's (the groove's table field of the shipped history).
 
     Raises:
         RunFormatError: The run has no forces.
@@ -59,7 +64,7 @@ def method2(run: Run, history: ForceHistory | None = None) -> Method2Result:
     cmd = run.commanded
     pass_index, direction = label_passes(cmd.values[:, 0], deadband_m=PASS_DEADBAND_M)
     path = ToolPath(t_s=cmd.t_s, p_sheet_m=cmd.values, pass_index=pass_index, direction=direction)
-    f_ideal_cmd = SheetForceField(history or default_force_history()).rigid_forces(path)
+    f_ideal_cmd = build_force_field(process or Process()).rigid_forces(path)
     f_ideal = interp_rows(t, cmd.t_s, f_ideal_cmd)
     f_meas = resample(run.forces, t)
     d = resample(run.tracker, t) - resample(cmd, t)

@@ -2,9 +2,9 @@
 
 The path CSV (`t_s, x_mm, y_mm, z_mm, ...`, sheet frame: `tx200-twin path` or `compensate` output) is read
 with the run format's reader. Each point's feed is the speed of the straight move that reaches it
-(|Δp| / Δt of the path's own time stamps). The tool is the TX200's ISF tool: straight, `tool_length_mm`
-along the flange z axis, pointing down while forming; the sheet frame's origin in the robot base frame
-comes from the cell model (`Kinematics.p_base_sheet_origin`, axes parallel to the base) or from a placement
+(|Δp| / Δt of the path's own time stamps). The tool is the robot's ISF tool (`RobotDescription`): straight,
+`tool_length_mm` along the flange z axis, pointing down while forming; the sheet frame's origin in the robot
+base frame comes from the cell model (`Kinematics.p_base_sheet_origin`, axes parallel to the base) or from a placement
 (`twin.process.placement.Placement`: an origin and a yaw about the base z axis, which each format writes as the
 sheet frame's rotation rz / A / quaternion / G68).
 
@@ -25,7 +25,7 @@ import numpy as np
 
 from twin.errors import InputError
 from twin.process.placement import Placement
-from twin.robot.dh import TOOL_LENGTH_M
+from twin.robot.description import RobotDescription
 from twin.robot.kinematics import Kinematics
 from twin.runs.read import read_commanded_csv
 
@@ -71,21 +71,24 @@ class ProgramPath:
     source: Path
 
 
-def default_cell(tool_mass_kg: float = 1.0, placement: Placement | None = None) -> CellSetup:
-    """The thesis cell: sheet origin and vertical tool from the MuJoCo scene, the TX200's tool length.
+def default_cell(
+    tool_mass_kg: float = 1.0, placement: Placement | None = None, robot: str | RobotDescription | None = None
+) -> CellSetup:
+    """The robot's cell: sheet origin and vertical tool from its MuJoCo scene, its tool length.
 
     Args:
         tool_mass_kg: Tool mass [kg].
-        placement: Where the sheet lies (origin, yaw); None: the scene's `sheet_origin`, yaw 0. The tool keeps the
+        placement: Where the sheet lies (origin, yaw); None: the scene's sheet site, yaw 0. The tool keeps the
             twin's orientation in the base (`Kinematics.R_tool_down`), written in the turned sheet frame.
+        robot: The robot; None: the default robot.
     """
-    kin = Kinematics()
+    kin = Kinematics(robot=robot)
     place = placement or Placement()
     R_base_sheet = place.R_base_sheet
     return CellSetup(
         place.origin_in(kin) * 1e3,
         R_base_sheet.T @ kin.R_tool_down,
-        TOOL_LENGTH_M * 1e3,
+        kin.robot.tool_length_m * 1e3,
         tool_mass_kg,
         math.degrees(place.yaw_rad),
     )

@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-from collections.abc import Callable
-from typing import Any
 
 import numpy as np
 
@@ -13,7 +11,7 @@ from twin.base.csvio import emit_json, write_table
 from twin.base.signals import interp_rows
 from twin.lab.dynamic.knobs import parse_set_args
 from twin.lab.dynamic.run import dynamic_load_test, run_dynamic_lab
-from twin.process.forces import ForceHistory
+from twin.process.description import Process
 from twin.process.placement import Placement
 from twin.runs.read import lab_commanded
 from twin.runs.write import write_run
@@ -23,7 +21,7 @@ def run_dynamic_command(
     args: argparse.Namespace,
     *,
     loads_n: np.ndarray,
-    field_factory: Callable[[ForceHistory], Any] | None = None,
+    process: Process | None = None,
     placement: Placement | None = None,
 ) -> int:
     """Run `args.scenario` (nominal, compensated or loadtest) on the dynamic plant.
@@ -31,7 +29,7 @@ def run_dynamic_command(
     Args:
         args: Parsed `lab` options (`scenario`, `commanded`, `set`, `neutral`, `seed`, `out`, `overwrite`, `json`).
         loads_n: Load cases of the load test, base frame [N], shape (m, 3).
-        field_factory: The sheet force model for the commanded path (None: the groove's table field).
+        process: The sheet, tool and force model for the commanded path (None: the thesis's, the table field).
         placement: Where the sheet lies in the cell (None: the cell's `sheet_origin`, yaw 0).
 
     Returns:
@@ -59,10 +57,10 @@ def run_dynamic_command(
         knobs=knobs,
         seed=args.seed,
         progress=sys.stderr,
-        field_factory=field_factory,
+        process=process,
         placement=placement,
     )
-    truth["force_model"] = "table" if field_factory is None else "isf"
+    truth["force_model"] = (process or Process()).force_model
     write_run(args.out, run, truth=truth, overwrite=args.overwrite, protect=protect)
     deviation = run.tracker.values - interp_rows(run.tracker.t_s, run.commanded.t_s, p_cmd)
     assert run.forces is not None

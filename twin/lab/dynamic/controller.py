@@ -29,16 +29,17 @@ import numpy as np
 
 from twin.lab.dynamic.knobs import Knobs
 from twin.lab.dynamic.plant import Plant
+from twin.robot.description import RobotDescription
 
 
 @dataclass(frozen=True)
 class ServoGains:
-    """Gains of joints 1..6.
+    """Gains of the arm joints.
 
     Attributes:
-        kp: Proportional gain [N·m/rad], shape (6,).
-        kv: Velocity gain [N·m·s/rad], shape (6,).
-        ki: Integral gain [N·m/(rad s)], shape (6,).
+        kp: Proportional gain [N·m/rad], shape (dof,).
+        kv: Velocity gain [N·m·s/rad], shape (dof,).
+        ki: Integral gain [N·m/(rad s)], shape (dof,).
     """
 
     kp: np.ndarray
@@ -46,30 +47,32 @@ class ServoGains:
     ki: np.ndarray
 
 
-def gravity_torques(rigid: mujoco.MjModel, q: np.ndarray) -> np.ndarray:
-    """Gravity torques g(q) of the rigid arm (MuJoCo bias at rest) [N·m], shape (n, 6) for q (n, 6)."""
+def gravity_torques(rigid: mujoco.MjModel, q: np.ndarray, robot: RobotDescription) -> np.ndarray:
+    """Gravity torques g(q) of the rigid arm (MuJoCo bias at rest) [N·m], shape (n, dof) for q (n, dof)."""
+    arm = robot.addresses(rigid)
     data = mujoco.MjData(rigid)
-    out = np.zeros((len(q), 6))
+    out = np.zeros((len(q), robot.dof))
     bias = np.zeros(rigid.nv)
     for i, qi in enumerate(q):
-        data.qpos[:6] = qi
+        data.qpos[arm.qpos] = qi
         data.qvel[:] = 0.0
         mujoco.mj_kinematics(rigid, data)
         mujoco.mj_comPos(rigid, data)
         mujoco.mj_rne(rigid, data, 0, bias)
-        out[i] = bias[:6]
+        out[i] = bias[arm.dof]
     return out
 
 
 def design_gains(plant: Plant, rigid: mujoco.MjModel, q0: np.ndarray, knobs: Knobs) -> ServoGains:
     """Gains from the bandwidth knobs and the arm's inertia at `q0` [rad]."""
+    arm = plant.robot.addresses(rigid)
     data = mujoco.MjData(rigid)
-    data.qpos[:6] = q0
+    data.qpos[arm.qpos] = q0
     mujoco.mj_forward(rigid, data)
     mass = np.zeros((rigid.nv, rigid.nv))
     mujoco.mj_fullM(rigid, data, mass)
-    rigid_arm = rigid.dof_armature[:6]
-    inertia = plant.motor_armature + np.diag(mass)[:6] - rigid_arm
+    rigid_arm = rigid.dof_armature[arm.dof]
+    inertia = plant.motor_armature + np.diag(mass)[arm.dof] - rigid_arm
     kp = knobs["servo_stiffness_ratio"] * plant.k_q
     return ServoGains(
         kp=kp,
@@ -101,24 +104,24 @@ def servo_setpoints(
 
     Args:
         t_cmd_s: Commanded sample times [s], shape (n,).
-        q_ik: Rigid IK of the commanded path [rad], shape (n, 6).
-        g_ik: Gravity torques at q_ik [N·m], shape (n, 6).
+        q_ik: Rigid IK of the commanded path [rad], shape (n, dof).
+        g_ik: Gravity torques at q_ik [N·m], shape (n, dof).
         plant: The plant (K_q, dead bands).
         knobs: Trajectory period and smoothing.
         t_servo_s: Servo tick times [s], shape (m,).
 
     Returns:
-        Motor set-point [rad], its rate [rad/s] and the gravity feed-forward [N·m], each shape (m, 6).
+        Motor set-point [rad], its rate [rad/s] and the gravity feed-forward [N·m], each shape (m, dof).
     """
     q_sp = q_ik + g_ik / plant.k_q + np.sign(g_ik) * plant.backlash_rad / 2.0
     period = knobs["trajectory_period_s"]
     t_traj = np.arange(0.0, t_servo_s[-1] + period, period)
-    traj = np.column_stack([np.interp(t_traj, t_cmd_s, q_sp[:, j]) for j in range(6)])
+    traj = np.column_stack([np.interp(t_traj, t_cmd_s, q_sp[:, j]) for j in range(plant.dof)])
     width = round(knobs["trajectory_smoothing_s"] / period) | 1
     traj = _moving_average(traj, width)
-    q_servo = np.column_stack([np.interp(t_servo_s, t_traj, traj[:, j]) for j in range(6)])
+    q_servo = np.column_stack([np.interp(t_servo_s, t_traj, traj[:, j]) for j in range(plant.dof)])
     dq_servo = np.gradient(q_servo, t_servo_s, axis=0)
-    g_servo = np.column_stack([np.interp(t_servo_s, t_cmd_s, g_ik[:, j]) for j in range(6)])
+    g_servo = np.column_stack([np.interp(t_servo_s, t_cmd_s, g_ik[:, j]) for j in range(plant.dof)])
     return q_servo, dq_servo, g_servo
 
 
@@ -134,10 +137,9 @@ def rest_state(plant: Plant, q_link: np.ndarray, g: np.ndarray) -> np.ndarray:
 
 
 def apply_gains(plant: Plant, gains: ServoGains) -> None:
-    """Write kp and kv into the position servos `servo1..6` (gain kp, bias -kp q - kv dq)."""
+    """Write kp and kv into the motor servos (gain kp, bias -kp q - kv dq)."""
     m = plant.model
-    for j in range(6):
-        act = m.actuator(f"servo{j + 1}").id
+    for j, act in enumerate(plant.servo):
         m.actuator_gaintype[act] = mujoco.mjtGain.mjGAIN_FIXED
         m.actuator_biastype[act] = mujoco.mjtBias.mjBIAS_AFFINE
         m.actuator_gainprm[act, :] = 0.0

@@ -13,6 +13,7 @@ from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 
 from twin.errors import InputError
+from twin.robot.description import load_robot
 
 
 @dataclass(frozen=True)
@@ -42,7 +43,7 @@ KNOBS: dict[str, KnobSpec] = {
     # ---- plant
     **{
         f"backlash_j{j}_mrad": KnobSpec(0.0, 0.0, "mrad", _BACKLASH_DOC.format(j=j), 0.0, 10.0)
-        for j in range(1, 7)
+        for j in range(1, load_robot().dof + 1)
     },
     "link_friction_scale": KnobSpec(
         1.0,
@@ -152,9 +153,9 @@ class Knobs:
             raise InputError(f"unknown knob {name!r}; valid: {', '.join(KNOBS)}")
         return self._values[name]
 
-    def backlash_rad(self) -> list[float]:
-        """Dead band of joints 1..6 [rad]."""
-        return [1e-3 * self._values[f"backlash_j{j}_mrad"] for j in range(1, 7)]
+    def backlash_rad(self, dof: int) -> list[float]:
+        """Dead band of the first `dof` joints [rad] (knobs `backlash_j<i>_mrad`, numbered from 1)."""
+        return [1e-3 * self._values.get(f"backlash_j{j}_mrad", 0.0) for j in range(1, dof + 1)]
 
     def as_dict(self) -> dict[str, float]:
         """All values by name (what `truth.json` records)."""

@@ -1,14 +1,16 @@
 """The dynamic plant's MuJoCo model: each arm joint as a motor side and a gear (spring with a dead band).
 
-Built with `mujoco.MjSpec` from the shipped cell scene (`models/cell/scene.xml`), so K_q, masses, armature,
+Built with `mujoco.MjSpec` from the robot's cell scene (`RobotDescription.scene`), so K_q, masses, armature,
 damping and friction follow the model file. Each link body gets two hinges on the same axis and point:
 
-* `joint{i}_motor`: the motor side. Armature = the shipped joint's armature (reflected rotor inertia),
-  `damping` = viscous friction and `frictionloss` = Coulomb friction of the motor and gearbox input (knobs). Driven by actuator `servo{i}`, a MuJoCo
+* `<joint>_motor`: the motor side. Armature = the shipped joint's armature (reflected rotor inertia),
+  `damping` = viscous friction and `frictionloss` = Coulomb friction of the motor and gearbox input (knobs).
+  Driven by actuator `<joint>_servo`, a MuJoCo
   position servo (force = kp (ctrl - q) - kv q_dot) whose kv term `implicitfast` integrates implicitly; the
   controller (`controller.py`) writes its set-point, integral and feed-forward into `ctrl`.
-* `joint{i}` (the shipped hinge): the gear, link angle minus motor angle. Its torque is the gear's
-  torsional spring K_q,i (read from `actuator{i}`'s gain, the twin's joint spring) acting through a dead band
+* `<joint>` (the shipped hinge): the gear, link angle minus motor angle. Its torque is the gear's
+  torsional spring K_q,i (read from the joint's position actuator's gain, the twin's joint spring) acting
+  through a dead band
   of width b: tau = -K_q dz(q_gear), dz(x) = sign(x) max(|x| - b/2, 0): no torque while the teeth float in the
   gap, the spring once they touch either flank. With b = 0 it is MuJoCo's own joint `stiffness`; with b > 0
   the simulation loop applies it each step (`gear_torques` into `qfrc_applied`), like the native spring an
@@ -20,7 +22,7 @@ m_eff / timeconst^2 (~1e5 N·m/rad for ~1 kg m^2 and 4 ms, against K_q ~ 2e6), a
 crossed the band and penetrated the limit by 3x the band itself. The dead-zone spring has no light node: its
 relative mode moves the motor's armature against K_q (sqrt(K/J) ~ 450 rad/s for joints 1-3).
 
-The link angle (what the twin calls q_i) is motor + gear: a fixed tendon `link{i}_angle` (coefficients 1, 1)
+The link angle (what the twin calls q_i) is motor + gear: a fixed tendon `<joint>_link_angle` (coefficients 1, 1)
 carries the shipped joint's `frictionloss`, the twin's Coulomb friction against the link's own motion, which
 the gear spring must carry (the link lags by tau_f / K_q, as in the twin). Contacts stay disabled: the sheet acts by the
 force field, applied at the tool tip each step. Timestep 1 ms: the fastest mode, the wrist gear against
@@ -35,11 +37,10 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from twin.base.resources import scene_xml
 from twin.errors import ModelError
 from twin.lab.dynamic.knobs import Knobs
+from twin.robot.description import RobotDescription, load_robot
 
-ARM = tuple(range(1, 7))
 # MuJoCo's dry friction is a soft constraint: with the default impedance (d = 0.9) the light wrist slides at a
 # fraction of the friction torque at the groove's 0.025 rad/s; d ~ 1 makes it a Coulomb friction there too.
 FRICTION_SOLIMP = (0.9999, 0.9999, 0.001, 0.5, 2.0)
@@ -52,18 +53,21 @@ class Plant:
 
     Attributes:
         model: Compiled model.
-        k_q: Gear stiffness K_q of joints 1..6 [N·m/rad] (from the shipped actuator gains).
-        backlash_rad: Dead band of joints 1..6 [rad].
-        motor_qpos, motor_dof: qpos / dof addresses of the motor hinges, shape (6,).
-        link_qpos: qpos addresses of the gear hinges `joint{i}`, shape (6,).
-        link_dof: dof addresses of the gear hinges, shape (6,).
-        motor_armature: Armature of the motor hinges [kg m^2], shape (6,).
-        tcp_site, ft_site, tool_body: Ids.
+        robot: The robot it was built from.
+        k_q: Gear stiffness K_q of the arm joints [N·m/rad] (from the shipped actuator gains), shape (dof,).
+        backlash_rad: Dead band of the arm joints [rad], shape (dof,).
+        motor_qpos, motor_dof: qpos / dof addresses of the motor hinges, shape (dof,).
+        link_qpos: qpos addresses of the gear hinges (the shipped joints), shape (dof,).
+        link_dof: dof addresses of the gear hinges, shape (dof,).
+        motor_armature: Armature of the motor hinges [kg m^2], shape (dof,).
+        servo: Ids of the motor servos, shape (dof,).
+        tcp_site, ft_site, tool_body, ft_sensor_adr: Ids, and the address of the F/T force sensor's data.
         tool_mass_kg: Mass below the F/T sensor [kg].
         p_base_sheet_origin: Sheet origin in the base (world) frame [m].
     """
 
     model: mujoco.MjModel
+    robot: RobotDescription
     k_q: np.ndarray
     backlash_rad: np.ndarray
     motor_qpos: np.ndarray
@@ -71,11 +75,18 @@ class Plant:
     link_qpos: np.ndarray
     link_dof: np.ndarray
     motor_armature: np.ndarray
+    servo: np.ndarray
     tcp_site: int
     ft_site: int
     tool_body: int
+    ft_sensor_adr: int
     tool_mass_kg: float
     p_base_sheet_origin: np.ndarray
+
+    @property
+    def dof(self) -> int:
+        """Number of arm joints."""
+        return self.robot.dof
 
     @property
     def dead_band_joints(self) -> np.ndarray:
@@ -83,7 +94,7 @@ class Plant:
         return np.flatnonzero(self.backlash_rad > 0.0)
 
     def link_angles(self, qpos: np.ndarray) -> np.ndarray:
-        """Link angles q_i = motor + gear hinge [rad], shape (6,)."""
+        """Link angles q_i = motor + gear hinge [rad], shape (dof,)."""
         return qpos[self.motor_qpos] + qpos[self.link_qpos]
 
     def gear_torques(self, q_gear: np.ndarray, joints: np.ndarray) -> np.ndarray:
@@ -93,11 +104,14 @@ class Plant:
         return -self.k_q[joints] * engaged
 
 
-def _shipped_parameters(spec: mujoco.MjSpec) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def _shipped_parameters(
+    spec: mujoco.MjSpec, robot: RobotDescription
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """K_q [N·m/rad], joint damping [N·m·s/rad], armature [kg m^2] and joint friction [N·m] of the shipped model."""
     model = spec.compile()
-    k_q = np.array([model.actuator(f"actuator{i}").gainprm[0] for i in ARM])
-    dofs = [model.jnt_dofadr[model.joint(f"joint{i}").id] for i in ARM]
+    arm = robot.addresses(model)
+    k_q = model.actuator_gainprm[arm.actuator, 0].copy()
+    dofs = arm.dof
     return (
         k_q,
         model.dof_damping[dofs].copy(),
@@ -106,34 +120,39 @@ def _shipped_parameters(spec: mujoco.MjSpec) -> tuple[np.ndarray, np.ndarray, np
     )
 
 
-def build_plant(knobs: Knobs) -> Plant:
+def build_plant(knobs: Knobs, robot: str | RobotDescription | None = None) -> Plant:
     """Build and compile the dynamic plant for these knobs.
 
+    Args:
+        knobs: Plant knobs (dead bands, friction, armature, timestep).
+        robot: The robot; None: the default robot.
+
     Raises:
-        ModelError: The scene is missing, lacks joint1..6 / actuator1..6, or does not compile.
+        ModelError: The scene is missing, lacks the robot's joints or actuators, or does not compile.
     """
-    path = scene_xml()
+    robot = load_robot(robot)
+    path = robot.model_path(scene=True)
     try:
         spec = mujoco.MjSpec.from_file(str(path))
-        k_q, damping, armature, friction = _shipped_parameters(spec)
+        k_q, damping, armature, friction = _shipped_parameters(spec, robot)
     except Exception as exc:
         raise ModelError(f"cannot build the dynamic plant from {path}: {exc}") from exc
     dt = knobs["timestep_s"]
     spec.option.timestep = dt
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
     spec.option.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT
-    backlash = np.array(knobs.backlash_rad())
+    backlash = np.array(knobs.backlash_rad(robot.dof))
     gear_arm = knobs["gear_armature_frac"] * armature
     friction = knobs["link_friction_scale"] * friction
     for act in list(spec.actuators):
         spec.delete(act)
-    for idx, i in enumerate(ARM):
-        link = spec.joint(f"joint{i}")
+    for idx, name in enumerate(robot.joints):
+        link = spec.joint(name)
         if link is None:
-            raise ModelError(f"{path} has no joint joint{i}")
+            raise ModelError(f"{path} has no joint {name}")
         body = link.parent
         motor = body.add_joint()
-        motor.name = f"joint{i}_motor"
+        motor.name = f"{name}_motor"
         motor.type = mujoco.mjtJoint.mjJNT_HINGE
         motor.axis, motor.pos = link.axis, link.pos
         motor.armature = float(armature[idx])
@@ -149,14 +168,14 @@ def build_plant(knobs: Knobs) -> Plant:
         link.limited = mujoco.mjtLimited.mjLIMITED_FALSE
         if friction[idx] > 0.0:  # the shipped joint friction acts on the link's own motion: motor + gear
             link_angle = spec.add_tendon()
-            link_angle.name = f"link{i}_angle"
+            link_angle.name = f"{name}_link_angle"
             link_angle.wrap_joint(motor.name, 1.0)
             link_angle.wrap_joint(link.name, 1.0)
             link_angle.frictionloss = float(friction[idx])
             link_angle.solref_friction = [FRICTION_SOLREF_STEPS * dt, 1.0]
             link_angle.solimp_friction = list(FRICTION_SOLIMP)
         servo = spec.add_actuator()
-        servo.name = f"servo{i}"
+        servo.name = f"{name}_servo"
         servo.target = motor.name
         servo.trntype = mujoco.mjtTrn.mjTRN_JOINT
         servo.ctrllimited = mujoco.mjtLimited.mjLIMITED_FALSE
@@ -168,22 +187,29 @@ def build_plant(knobs: Knobs) -> Plant:
     def qadr(name: str) -> int:
         return int(model.jnt_qposadr[model.joint(name).id])
 
-    tcp = model.site("tcp").id
-    tool = model.body("tool").id
+    tcp = model.site(robot.tool_site).id
+    ft_site = model.site(robot.ft_site).id
+    tool = int(model.site_bodyid[tcp])  # the tool: the sheet's force acts on it, the F/T sensor carries it
     data = mujoco.MjData(model)
     mujoco.mj_kinematics(model, data)
+    motors = [f"{name}_motor" for name in robot.joints]
     return Plant(
         model=model,
+        robot=robot,
         k_q=k_q,
         backlash_rad=backlash,
-        motor_qpos=np.array([qadr(f"joint{i}_motor") for i in ARM]),
-        motor_dof=np.array([model.jnt_dofadr[model.joint(f"joint{i}_motor").id] for i in ARM]),
-        link_qpos=np.array([qadr(f"joint{i}") for i in ARM]),
-        link_dof=np.array([model.jnt_dofadr[model.joint(f"joint{i}").id] for i in ARM]),
+        motor_qpos=np.array([qadr(name) for name in motors]),
+        motor_dof=np.array([model.jnt_dofadr[model.joint(name).id] for name in motors]),
+        link_qpos=np.array([qadr(name) for name in robot.joints]),
+        link_dof=np.array([model.jnt_dofadr[model.joint(name).id] for name in robot.joints]),
         motor_armature=armature.copy(),
+        servo=np.array([model.actuator(f"{name}_servo").id for name in robot.joints]),
         tcp_site=tcp,
-        ft_site=model.site("ft_site").id,
+        ft_site=ft_site,
         tool_body=tool,
+        ft_sensor_adr=int(model.sensor(robot.ft_force_sensor).adr[0]),
         tool_mass_kg=float(model.body_subtreemass[tool]),
-        p_base_sheet_origin=data.site("sheet_origin").xpos.copy(),
+        p_base_sheet_origin=(
+            data.site(robot.sheet_site).xpos.copy() if robot.sheet_site is not None else data.site_xpos[tcp].copy()
+        ),
     )

@@ -8,7 +8,6 @@ K_q and dead bands, the servo gains' inputs and a few physical numbers of the ru
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from typing import Any, TextIO
 
 import numpy as np
@@ -19,7 +18,7 @@ from twin.lab.dynamic.plant import Plant, build_plant
 from twin.lab.dynamic.sensors import ft_reading, part_scan, profile_scan, tracker_reading
 from twin.lab.dynamic.simulate import DynamicLog, simulate
 from twin.lab.dynamic.trajectory import retime_with_stops
-from twin.process.forces import ForceHistory
+from twin.process.description import Process
 from twin.process.placement import Placement
 from twin.robot.kinematics import Kinematics, load_model
 from twin.runs.format import Run, Stream, run_meta
@@ -34,9 +33,8 @@ def run_dynamic_lab(
     scenario: str,
     knobs: Knobs,
     seed: int,
-    history: ForceHistory | None = None,
+    process: Process | None = None,
     progress: TextIO | None = None,
-    field_factory: Callable[[ForceHistory], Any] | None = None,
     placement: Placement | None = None,
 ) -> tuple[Run, dict[str, Any], DynamicLog]:
     """Run the commanded path on the dynamic plant and measure it.
@@ -48,21 +46,18 @@ def run_dynamic_lab(
         scenario: Label stored in meta.json.
         knobs: Plant, controller and sensor knobs.
         seed: Seed of the sensor noise.
-        history: FE force history of the lab's sheet; default the shipped one.
+        process: The lab's sheet, tool and force model (and its FE history); default the thesis's.
         progress: Stream for progress lines (None: quiet).
-        field_factory: Another sheet force model built from the history (`simulate`); None: the table field.
         placement: Where the sheet lies in the cell (recorded in meta.json); None: the cell's, yaw 0.
 
     Returns:
         The run (not yet written), the truth record for `truth.json`, and the physical log.
     """
     plant = build_plant(knobs)
+    process = process or Process()
     # the controller's trajectory generator stops at sharp corners: its timing is the run's commanded stream
     t_s = retime_with_stops(t_s, p_cmd_sheet_m, knobs["trajectory_accel_mps2"])
-    log = simulate(
-        t_s, p_cmd_sheet_m, knobs, history=history, plant=plant, progress=progress, field_factory=field_factory,
-        placement=placement,
-    )
+    log = simulate(t_s, p_cmd_sheet_m, knobs, process=process, plant=plant, progress=progress, placement=placement)
     rng = np.random.default_rng(seed)
     t_tracker, tracker = tracker_reading(log, knobs, rng)
     t_ft, forces = ft_reading(log, knobs, rng, plant.tool_mass_kg)
@@ -74,7 +69,10 @@ def run_dynamic_lab(
         tracker_rate_hz=knobs["tracker_rate_hz"],
         sensor_rate_hz=knobs["ft_rate_hz"],
         seed=seed,
+        tool_length_m=plant.robot.tool_length_m,
         placement=placement,
+        robot=plant.robot.name,
+        force_model=process.force_model,
     )
     run = Run(
         directory=None,
@@ -121,7 +119,7 @@ def dynamic_load_test(loads_n: np.ndarray, *, knobs: Knobs, seed: int) -> tuple[
     """
     loads = np.asarray(loads_n, dtype=float)
     plant = build_plant(knobs)
-    kin = Kinematics(load_model(scene=True))
+    kin = Kinematics(load_model(scene=True, robot=plant.robot), robot=plant.robot)
     p_home, _ = kin.fk(kin.q_home)
     p_sheet = p_home - plant.p_base_sheet_origin
     t_hold = np.array([0.0, LOAD_HOLD_S])

@@ -1,11 +1,12 @@
 """Step the dynamic plant along a commanded path against the sheet, and log the physical truth.
 
 Each servo tick (one `mj_step`): the controller writes its set-point, integral and feed-forward into the
-position servos; the sheet's force at the real tool tip (the field of `twin.process.field`, fitted to the FE
-history, advanced along the real tool path) is applied at the tip through `xfrc_applied` on the tool body
-(moment carried to its centre of mass); its tangential part follows the real travel of the tip, reversing
-linearly over `friction_reversal_mm` of travel after a reversal (friction and ploughing need the tool to move
-into the new direction; the field itself flips with the commanded direction); MuJoCo steps; the field commits the tip position. The log holds the
+position servos; the sheet's force at the real tool tip (the process's force model,
+`twin.process.force_models`, fitted to the FE history, advanced along the real tool path) is applied at the tip
+through `xfrc_applied` on the tool body (moment carried to its centre of mass); for a model whose in-plane force
+flips with the commanded direction, that part follows the real travel of the tip, reversing linearly over
+`friction_reversal_mm` of travel after a reversal (friction and ploughing need the tool to move into the new
+direction); MuJoCo steps; the field commits the tip position. The log holds the
 tool tip, the sheet force and MuJoCo's flange F/T sensor at every tick, for the sensor chain to sample.
 """
 
@@ -13,9 +14,8 @@ from __future__ import annotations
 
 import sys
 import time
-from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, TextIO
+from typing import TextIO
 
 import mujoco
 import numpy as np
@@ -30,8 +30,8 @@ from twin.lab.dynamic.controller import (
 )
 from twin.lab.dynamic.knobs import Knobs
 from twin.lab.dynamic.plant import Plant, build_plant
-from twin.process.field import SheetForceField
-from twin.process.forces import ForceHistory, default_force_history
+from twin.process.description import Process
+from twin.process.force_models import build_force_field
 from twin.process.part_surface import formed_surface
 from twin.process.path import label_passes
 from twin.process.placement import Placement
@@ -52,13 +52,13 @@ class DynamicLog:
         t_s: Tick times [s], shape (m,).
         p_tip_sheet_m: Real tool tip, sheet frame [m], shape (m, 3).
         f_sheet_n: Force of the sheet on the tool, sheet frame [N], shape (m, 3).
-        f_ft_local_n: MuJoCo `ft_force` sensor (sensor body on tool, ft_site frame) [N], shape (m, 3).
-        R_world_ft: Orientation of ft_site [-], shape (m, 3, 3).
-        q_link: Link angles [rad], shape (m, 6).
-        q_motor_error: Motor set-point minus motor angle [rad], shape (m, 6).
+        f_ft_local_n: The robot's MuJoCo F/T force sensor (sensor body on tool, F/T site frame) [N], shape (m, 3).
+        R_world_ft: Orientation of the F/T site [-], shape (m, 3, 3).
+        q_link: Link angles [rad], shape (m, dof).
+        q_motor_error: Motor set-point minus motor angle [rad], shape (m, dof).
         formed_x_m: Grid of the sheet's formed profile [m], shape (g,).
         formed_z_m: Loaded, formed groove bottom at the end of the run [m], shape (g,).
-        q_play: Where the teeth sit in the dead band, q_gear - dz(q_gear) [rad], shape (m, 6): +/- b/2 on a
+        q_play: Where the teeth sit in the dead band, q_gear - dz(q_gear) [rad], shape (m, dof): +/- b/2 on a
             flank, in between while floating (0 for joints without a dead band).
         wall_s: Wall time of the stepping [s].
         formed_surface: (x_m, y_m, z_m grid) of the part after unclamping where the force model keeps a 2-D
@@ -86,11 +86,10 @@ def simulate(
     p_cmd_sheet_m: np.ndarray,
     knobs: Knobs,
     *,
-    history: ForceHistory | None = None,
+    process: Process | None = None,
     plant: Plant | None = None,
     progress: TextIO | None = None,
     tip_force_n: np.ndarray | None = None,
-    field_factory: Callable[[ForceHistory], Any] | None = None,
     placement: Placement | None = None,
 ) -> DynamicLog:
     """Run the commanded tool-tip path on the dynamic plant.
@@ -99,14 +98,12 @@ def simulate(
         t_cmd_s: Commanded times [s], shape (n,), from 0, increasing.
         p_cmd_sheet_m: Commanded tool tip, sheet frame [m], shape (n, 3).
         knobs: Plant and controller knobs.
-        history: FE force history for the sheet's field; default the shipped one.
-        plant: A plant built for `knobs` (built when None).
+        process: The sheet, tool, force model and FE history (`twin.process.force_models` builds the field); default
+            the thesis's.
+        plant: A plant built for `knobs` (built when None, for the default robot).
         progress: Stream for a progress line every 10 % (None: quiet).
         tip_force_n: A force on the tool tip, world frame [N], instead of the sheet (load tests); it rises
             linearly over `LOAD_RAMP_S` from t = 0.
-        field_factory: Builds another sheet force model from the history (e.g. the height-map ISF model of
-            `twin.process.isf_calibration.isf_field_factory`, for any part); its in-plane force follows its own
-            sliding direction, so the groove's x-travel reversal law is not applied. None: the groove's table field.
         placement: Where the sheet lies in the cell (origin, yaw); None: the cell's `sheet_origin`, yaw 0.
 
     Returns:
@@ -118,13 +115,13 @@ def simulate(
         raise InputError(f"expected increasing t (n,) and p (n, 3), n >= 2; got {t_cmd.shape}, {p_cmd.shape}")
     plant = plant or build_plant(knobs)
     m = plant.model
-    rigid = load_model(scene=True)
-    kin = Kinematics(rigid)
+    rigid = load_model(scene=True, robot=plant.robot)
+    kin = Kinematics(rigid, robot=plant.robot)
     place = placement or Placement()
     origin = place.origin_in(kin)  # the scene's sheet_origin by default, as the plant's
     R_ws = place.R_base_sheet  # the sheet's axes in the world
     q_ik = kin.ik_path(origin + p_cmd @ R_ws.T)
-    g_ik = gravity_torques(rigid, q_ik)
+    g_ik = gravity_torques(rigid, q_ik, plant.robot)
     gains = design_gains(plant, rigid, q_ik[0], knobs)
     apply_gains(plant, gains)
     dt = m.opt.timestep
@@ -138,9 +135,8 @@ def simulate(
     passes = [int(v) for v in pass_cmd[idx]]
     dirs = [int(v) for v in dir_cmd[idx]]
 
-    history = history if history is not None else default_force_history()
-    field = SheetForceField(history) if field_factory is None else field_factory(history)
-    table_field = field_factory is None
+    field = build_force_field(process or Process())
+    flips_with_command = field.tangential_from_command  # its in-plane force follows the real travel here
     field.reset()
     d = mujoco.MjData(m)
     d.qpos[:] = rest_state(plant, q_ik[0], g_ik[0])
@@ -151,7 +147,7 @@ def simulate(
     for _ in range(int(SETTLE_S / dt)):
         d.qfrc_applied[band_dof] = plant.gear_torques(d.qpos[band_qpos], band)
         mujoco.mj_step(m, d)
-    sensor_adr = m.sensor("ft_force").adr[0]
+    sensor_adr = plant.ft_sensor_adr
     tip, xipos = d.site_xpos[plant.tcp_site], d.xipos[plant.tool_body]
     R_ft = d.site_xmat[plant.ft_site]
     wrench = d.xfrc_applied[plant.tool_body]
@@ -161,10 +157,10 @@ def simulate(
     log_f = np.zeros((n_tick, 3))
     log_ft = np.zeros((n_tick, 3))
     log_R = np.zeros((n_tick, 9))
-    log_q = np.zeros((n_tick, 6))
-    log_e = np.zeros((n_tick, 6))
-    log_b = np.zeros((n_tick, 6))
-    integral = np.zeros(6)
+    log_q = np.zeros((n_tick, plant.dof))
+    log_e = np.zeros((n_tick, plant.dof))
+    log_b = np.zeros((n_tick, plant.dof))
+    integral = np.zeros(plant.dof)
     # tangential (friction and ploughing) force: follows the real travel, reversing over `friction_reversal_mm`
     slip = float(dirs[0])
     slip_gain = 2.0 / (1e-3 * knobs["friction_reversal_mm"])
@@ -180,7 +176,7 @@ def simulate(
         p = (tip - origin) @ R_ws  # sheet frame
         if tip_force_n is None:
             f = field.force(p, passes[k], dirs[k])
-            if table_field:
+            if flips_with_command:
                 slip = min(1.0, max(-1.0, slip + slip_gain * (float(p[0]) - x_prev)))
                 x_prev = float(p[0])
                 f[0] *= slip * dirs[k]

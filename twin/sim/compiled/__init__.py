@@ -1,8 +1,9 @@
 """The twin's replay loop in compiled code (numba): MuJoCo's chain parameters, the table field, the same solver.
 
 `compiled_replay` runs `Twin.simulate`'s per-sample loop in one compiled call when the model is a chain of
-hinges (`chain.chain_arrays`) and the field is the table `SheetForceField` (bare or inside the tool's
-`SlidingFriction`) or the height-map ISF model `IsfForceField` (`isf`); it returns None otherwise and the twin
+hinges (`chain.chain_arrays`) and the force model declares a kernel (`ForceField.compiled_kernel`): `table`, the
+per-pass `SheetForceField` (bare or inside the tool's `SlidingFriction`), or `isf`, the height-map ISF model
+`IsfForceField` (`isf`); it returns None otherwise and the twin
 runs its Python loop, which calls MuJoCo per Newton iteration. Both give the same equilibria (`tests/test_compiled_replay.py`: ≤ 1e-9 m).
 
 The kernels are compiled on their first call and cached in this package's `__pycache__` (numba `cache=True`).
@@ -15,14 +16,14 @@ from __future__ import annotations
 import hashlib
 import warnings
 from pathlib import Path
-from typing import Any
 
 import mujoco
 import numpy as np
 
-from twin.process.field import SheetForceField
+from twin.process.field import SheetForceField, TableState
+from twin.process.force_field import ForceField
 from twin.process.isf_force import IsfForceField
-from twin.process.tool_friction import SlidingFriction
+from twin.process.tool_friction import SlidingFriction, SlipState
 from twin.sim.compiled.chain import chain_arrays
 from twin.sim.compiled.field import field_arrays, idle_field_arrays
 from twin.sim.compiled.isf import idle_isf_arrays, isf_arrays, write_back
@@ -80,7 +81,7 @@ def _agrees_with_mujoco(
 def compiled_replay(
     model: mujoco.MjModel,
     tcp_site: int,
-    field: Any,
+    field: ForceField,
     q_nominal: np.ndarray,
     passes: np.ndarray,
     dirs: np.ndarray,
@@ -96,7 +97,8 @@ def compiled_replay(
     Args:
         model: The twin's model (its current springs and `dof_frictionloss`).
         tcp_site: Id of the `tcp` site.
-        field: The twin's field, reset: `SheetForceField` (optionally inside `SlidingFriction`) or `IsfForceField`.
+        field: The twin's field, reset: a model declaring the kernel `table` (optionally inside `SlidingFriction`)
+            or `isf`.
         q_nominal: Unloaded poses (all joints) [rad], shape (n, nv).
         passes, dirs: Pass (1..N of the field's history) and direction (+1/-1) per sample.
         origin: Sheet origin in the base frame [m].
@@ -112,16 +114,16 @@ def compiled_replay(
         `CHECK_TOL_M` (a model the chain misreads) warns and returns None, and the Python loop replays.
     """
     friction = isinstance(field, SlidingFriction)
-    inner = field.inner if friction else field
+    inner = field.inner if isinstance(field, SlidingFriction) else field
     n, nv = q_nominal.shape
     passes = np.asarray(passes, dtype=np.int64)
     isf = None
-    if type(inner) is IsfForceField and not friction:
+    if inner.compiled_kernel == "isf" and isinstance(inner, IsfForceField) and not friction:
         isf = isf_arrays(inner, n)
         if isf is None:
             return None
         table = idle_field_arrays()
-    elif type(inner) is SheetForceField:
+    elif inner.compiled_kernel == "table" and isinstance(inner, SheetForceField):
         if passes.min() < 1 or passes.max() > inner.n_passes or np.any(np.diff(passes) < 0):
             return None  # the Python loop raises the field's own error
         table = field_arrays(inner)
@@ -134,7 +136,7 @@ def compiled_replay(
     qpos, p_out, p_unloaded, f_out = np.zeros((n, nv)), np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3))
     iters = np.zeros(n, dtype=np.int64)
     jac, stiffness, state = np.zeros((n, 3, nv)), np.zeros((n, 3, 3)), np.zeros(4)
-    gain = 2.0 / field.reversal_m if friction else 0.0
+    gain = 2.0 / field.reversal_m if isinstance(field, SlidingFriction) else 0.0
     status, sample = replay_loop(
         chain, table, idle_isf_arrays() if isf is None else isf, np.int64(0 if isf is None else 1),  # type: ignore[arg-type]
         np.ascontiguousarray(q_nominal, dtype=float), passes,
@@ -142,14 +144,14 @@ def compiled_replay(
         np.ascontiguousarray(h_const, dtype=float), model.dof_frictionloss.copy(), bool(predict_active_set),
         friction, float(gain), qpos, p_out, p_unloaded, f_out, iters, jac, stiffness, state, work_arrays(nv),
     )
-    if isf is not None:
+    if isf is not None and isinstance(inner, IsfForceField):
         write_back(inner, isf)
     if status == 1:
         raise np.linalg.LinAlgError(f"singular Newton matrix at sample {sample}, q = {qpos[max(sample - 1, 0)]!r}")
     if isf is None:
-        inner.current_pass = int(state[0])
+        inner.restore(TableState(int(state[0])))
     if friction and n:
-        field.slip_state = (float(state[1]), float(state[2]), int(state[3]))
+        field.restore(SlipState(float(state[1]), float(state[2]), int(state[3])))
     out = LoopOutput(qpos, p_out, p_unloaded, f_out, iters, jac, stiffness)
     if data is not None and not _agrees_with_mujoco(model, data, tcp_site, origin, rot, q_nominal, out):
         warnings.warn("the compiled chain disagrees with MuJoCo's kinematics: replaying in Python", stacklevel=2)

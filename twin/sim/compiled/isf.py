@@ -21,7 +21,7 @@ from numba import njit
 
 from twin.process import isf_force, sliding
 from twin.process.heightmap import SUBSTEPS
-from twin.process.isf_force import IsfForceField
+from twin.process.isf_force import IsfForceField, IsfMotion
 
 # state slots
 DIR_X, DIR_Y, HAS_LAST, LAST_X, LAST_Y, LAST_Z, ALPHA, COUNT, Q_HEAD, TRAVEL = range(10)
@@ -44,8 +44,8 @@ class IsfArrays(NamedTuple):
 def isf_arrays(field: IsfForceField, capacity: int) -> IsfArrays | None:
     """Pack a reset `field` for a replay of `capacity` samples; None if it is not fresh (the loop starts flat)."""
     hm = field.map
-    direction, last, alpha, _ = field.motion_state
-    if not hm.is_fresh or last is not None or direction != (0.0, 0.0):
+    motion = field.state
+    if not hm.is_fresh or motion.last_tip_m is not None or motion.direction != (0.0, 0.0):
         return None
     p = field.params
     ny, nx = hm.z_met_m.shape
@@ -55,7 +55,7 @@ def isf_arrays(field: IsfForceField, capacity: int) -> IsfArrays | None:
         sliding.RELEASE_LENGTH_M,
     ])
     state = np.zeros(10)
-    state[ALPHA] = alpha
+    state[ALPHA] = motion.wall_angle_deg
     return IsfArrays(
         z_met=hm.z_met_m, owner=hm.owner_met, templates=hm.templates(), track=np.zeros((max(capacity, 1), 7)),
         grid=np.array([hm.x0, hm.y0, hm.h, nx, ny, hm.half_window, hm.lag, SUBSTEPS]), prm=prm, state=state,
@@ -75,7 +75,7 @@ def write_back(field: IsfForceField, arrays: IsfArrays) -> None:
     field.map.restore(track[:count, : TS + 1], float(st[TRAVEL]), int(st[Q_HEAD]))
     last = (float(st[LAST_X]), float(st[LAST_Y]), float(st[LAST_Z])) if st[HAS_LAST] else None
     step = math.dist(tuple(track[count - 2, :3]), tuple(track[count - 1, :3])) if count >= 2 else 0.0
-    field.motion_state = ((float(st[DIR_X]), float(st[DIR_Y])), last, float(st[ALPHA]), step)
+    field.restore(IsfMotion((float(st[DIR_X]), float(st[DIR_Y])), last, float(st[ALPHA]), step))
 
 
 @njit(cache=True)

@@ -31,6 +31,7 @@ from typing import ClassVar
 import numpy as np
 
 from twin.analysis.discrepancy.context import Context
+from twin.sim.effects import EFFECTS
 
 
 @dataclass(frozen=True)
@@ -63,6 +64,8 @@ class Family(ABC):
         linear: `delta` is linear in theta - neutral (one least-squares solve suffices).
         bilinear: The last parameter w weighs two changes linear in the others: delta = d0 + w (d1 - d0)
             (d0 at w = 0, d1 at w = 1); the fitter caches both bases.
+        effect: The effect of the vocabulary (`twin.sim.effects.EFFECTS`) the family maps onto, or None: what a
+            model file carries of it (`to_effect`).
     """
 
     name: ClassVar[str] = ""
@@ -75,6 +78,7 @@ class Family(ABC):
     needs_profile: ClassVar[bool] = False
     linear: ClassVar[bool] = True
     bilinear: ClassVar[bool] = False
+    effect: ClassVar[str | None] = None
 
     @abstractmethod
     def delta(self, ctx: Context, theta: np.ndarray) -> Delta:
@@ -89,8 +93,9 @@ class Family(ABC):
         """Starting parameters to refine from, the best refined fit kept (default: `start` alone)."""
         return [self.start(ctx, residual)]
 
-    def to_lab(self, theta: np.ndarray, covariance: np.ndarray | None) -> dict[str, float] | None:
-        """The fitted effect in the lab's vocabulary (`twin.lab.effects`), for a model file; None if not."""
+    def to_effect(self, theta: np.ndarray, covariance: np.ndarray | None) -> float | None:
+        """The fitted family as a value of its `effect` [the effect's unit], for a model file; None when the fit is
+        not of the effect's form (or the family has no effect)."""
         del theta, covariance
         return None
 
@@ -106,6 +111,8 @@ def register(cls: type[Family]) -> type[Family]:
     """Class decorator: add one instance of a family to `FAMILIES` (names must be unique)."""
     if not cls.name or cls.name in FAMILIES:
         raise ValueError(f"family name {cls.name!r} is empty or already registered")
+    if cls.effect is not None and cls.effect not in EFFECTS:
+        raise ValueError(f"family {cls.name}: effect {cls.effect!r} is not one of {sorted(EFFECTS)}")
     n = len(cls.parameters)
     if not (len(cls.neutral) == len(cls.scale) == len(cls.bounds[0]) == len(cls.bounds[1]) == n):
         raise ValueError(f"family {cls.name}: parameters, neutral, scale and bounds differ in length")

@@ -16,7 +16,7 @@ from twin.analysis.discrepancy.context import Context
 from twin.analysis.discrepancy.families.base import Delta, Family, register
 from twin.analysis.discrepancy.families.sensors import negligible
 
-# joints 2 and 3 count as "alike" (the lab's lost motion) within this fraction of their sum: the linearised
+# joints 2 and 3 count as "alike" (the effect `lost_motion`) within this fraction of their sum: the linearised
 # replay under-states an alternating offset's force change, biasing the two by up to ~25 %; the replay
 # refinement of the search then fits the lab form exactly and keeps it only if it fits better
 LAB_MATCH = 0.15
@@ -51,12 +51,13 @@ class ForceScale(Family):
     scale = (0.02, 0.02, 0.02, 0.1)
     bilinear = True
     description = "real sheet forces = k x the FE history (per axis)"
+    effect = "force_scale"
 
     def delta(self, ctx: Context, theta: np.ndarray) -> Delta:
         """Direct force change (k - 1) f and the deflection it causes."""
         return _delta(ctx, theta, np.zeros_like(ctx.sim.f_sheet_n), (theta[:3] - 1.0) * ctx.sim.f_sheet_n)
 
-    def to_lab(self, theta: np.ndarray, covariance: np.ndarray | None) -> dict[str, float] | None:
+    def to_effect(self, theta: np.ndarray, covariance: np.ndarray | None) -> float | None:
         """`force_scale` (a factor on the twin's own) when x and z agree within 3 sigma (y carries no force)."""
         if covariance is None:
             return None
@@ -64,8 +65,7 @@ class ForceScale(Family):
         if abs(theta[0] - theta[2]) > 3.0 * np.sqrt(max(var, 0.0)) + 0.02 * abs(theta[2]):
             return None
         w = np.array([covariance[2, 2], covariance[0, 0]])
-        k = float((w @ theta[[0, 2]]) / w.sum()) if w.sum() > 0 else float(theta[2])
-        return {"force_scale": k}
+        return float((w @ theta[[0, 2]]) / w.sum()) if w.sum() > 0 else float(theta[2])
 
 
 @register
@@ -98,20 +98,21 @@ class LostMotion(Family):
     scale = (0.05, 0.05, 0.05, 0.1)
     bilinear = True
     description = "lost motion (half dead band) per joint, flipping with the travel direction"
+    effect = "lost_motion"
 
     def delta(self, ctx: Context, theta: np.ndarray) -> Delta:
         """Joint offsets -b level sign(dx/dq) moved to the tip through the arm Jacobian."""
         dq = -1e-3 * theta[None, :3] * ctx.level[:, None] * ctx.joint_sign[None, :3]
         return _delta(ctx, theta, np.einsum("nij,nj->ni", ctx.jac[:, :, :3], dq))
 
-    def to_lab(self, theta: np.ndarray, covariance: np.ndarray | None) -> dict[str, float] | None:
-        """The lab's `direction_dependent_compliance` [mrad] (joints 2 and 3 alike, joint 1 free of play)."""
+    def to_effect(self, theta: np.ndarray, covariance: np.ndarray | None) -> float | None:
+        """The effect `lost_motion` [mrad] (joints 2 and 3 alike, joint 1 free of play)."""
         if covariance is None or not negligible(theta[0], covariance, 0):
             return None
         var = covariance[1, 1] + covariance[2, 2] - 2.0 * covariance[1, 2]
         if abs(theta[1] - theta[2]) > 3.0 * np.sqrt(max(var, 0.0)) + LAB_MATCH * abs(theta[1] + theta[2]):
             return None
-        return {"direction_dependent_compliance": float(0.5 * (theta[1] + theta[2]))}
+        return float(0.5 * (theta[1] + theta[2]))
 
 
 @register
@@ -125,15 +126,16 @@ class ToolLengthOffset(Family):
     scale = (0.05, 0.1)
     bilinear = True
     description = "tool longer than nominal along its axis"
+    effect = "tool_length_offset"
 
     def delta(self, ctx: Context, theta: np.ndarray) -> Delta:
         """Unloaded tip moved by length x tool axis."""
         return _delta(ctx, theta, 1e-3 * theta[0] * ctx.tool_axis)
 
-    def to_lab(self, theta: np.ndarray, covariance: np.ndarray | None) -> dict[str, float] | None:
-        """The lab's `tcp_offset` [mm]."""
+    def to_effect(self, theta: np.ndarray, covariance: np.ndarray | None) -> float | None:
+        """The effect `tool_length_offset` [mm]."""
         del covariance
-        return {"tcp_offset": float(theta[0])}
+        return float(theta[0])
 
 
 @register

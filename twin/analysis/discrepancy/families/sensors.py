@@ -63,6 +63,7 @@ class StreamTimeOffset(Family):
     description = "force-sensor clock ahead of the tracker by an offset plus a rate error"
     needs_forces = True
     linear = False
+    effect = "stream_time_offset"
 
     def delta(self, ctx: Context, theta: np.ndarray) -> Delta:
         """A sample stamped t was measured at t - offset - skew (t - t0)."""
@@ -116,11 +117,11 @@ class StreamTimeOffset(Family):
         k = int(np.argmin(scores))
         return pairs[k] if scores[k] < sse(incumbent) else incumbent
 
-    def to_lab(self, theta: np.ndarray, covariance: np.ndarray | None) -> dict[str, float] | None:
+    def to_effect(self, theta: np.ndarray, covariance: np.ndarray | None) -> float | None:
         """`stream_time_offset` [s] when the skew is not significant."""
         if not negligible(theta[1], covariance, 1):
             return None
-        return {"stream_time_offset": float(theta[0])}
+        return float(theta[0])
 
 
 def negligible(value: float, covariance: np.ndarray | None, index: int, *, sigmas: float = 3.0) -> bool:

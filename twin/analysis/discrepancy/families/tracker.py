@@ -6,7 +6,7 @@ import numpy as np
 
 from twin.analysis.discrepancy.context import Context
 from twin.analysis.discrepancy.families.base import Delta, Family, register
-from twin.lab.effects import TRACKER_DRIFT_DIRECTION
+from twin.sim.effects import TRACKER_DRIFT_DIRECTION
 
 
 @register
@@ -19,19 +19,20 @@ class TrackerDrift(Family):
     bounds = ((-1.0, -1.0, -1.0), (1.0, 1.0, 1.0))
     scale = (0.005, 0.005, 0.005)
     description = "linear drift of the tracker reading with time"
+    effect = "tracker_drift"
 
     def delta(self, ctx: Context, theta: np.ndarray) -> Delta:
         """Position change (t - t0) x rate."""
         t = ctx.run.tracker.t_s - ctx.t_cmd[0]
         return Delta(position=1e-3 * np.outer(t, theta))
 
-    def to_lab(self, theta: np.ndarray, covariance: np.ndarray | None) -> dict[str, float] | None:
-        """`tracker_drift` [mm/s] when the rate is along the lab's drift direction (within 3 sigma)."""
+    def to_effect(self, theta: np.ndarray, covariance: np.ndarray | None) -> float | None:
+        """`tracker_drift` [mm/s] when the rate is along the effect's drift direction (within 3 sigma)."""
         rate = float(theta @ TRACKER_DRIFT_DIRECTION)
         off = theta - rate * TRACKER_DRIFT_DIRECTION
         if covariance is None or np.linalg.norm(off) > 3.0 * np.sqrt(np.trace(covariance)):
             return None
-        return {"tracker_drift": rate}
+        return rate
 
 
 @register
@@ -63,13 +64,14 @@ class SheetSpringback(Family):
     scale = (0.01,)
     description = "fraction of the formed depth recovered after unclamping"
     needs_profile = True
+    effect = "sheet_springback"
 
     def delta(self, ctx: Context, theta: np.ndarray) -> Delta:
         """Profile change -ratio x predicted profile."""
         return Delta(profile=-theta[0] * ctx.pred["profile"])
 
-    def to_lab(self, theta: np.ndarray, covariance: np.ndarray | None) -> dict[str, float] | None:
+    def to_effect(self, theta: np.ndarray, covariance: np.ndarray | None) -> float | None:
         """`sheet_springback` (an increment, composed with the twin's own by the search)."""
         del covariance
-        return {"sheet_springback": float(theta[0])} if 0.0 <= theta[0] < 1.0 else None
+        return float(theta[0]) if 0.0 <= theta[0] < 1.0 else None
 

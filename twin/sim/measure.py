@@ -6,20 +6,17 @@ replay (with the effects the twin knows, no noise), so the two differ only by wh
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from twin.base.signals import interp_rows
-from twin.lab.effects import Effects
-from twin.process.field import K_UNLOAD_N_PER_M, TOOL_RADIUS_M
 from twin.process.springback import scanned_profile, unloaded_profile
-from twin.sim.quasi_static import Twin
+from twin.sim.effects import Effects
 from twin.sim.result import SimResult
 
-
-def uniform_times(t_end_s: float, rate_hz: float) -> np.ndarray:
-    """Sample times 0, 1/rate, ... up to `t_end_s` (inclusive within 1e-9 s) [s]."""
-    n = int(np.floor(t_end_s * rate_hz + 1e-9)) + 1
-    return np.arange(n) / rate_hz
+if TYPE_CHECKING:
+    from twin.sim.quasi_static import Twin
 
 
 def predict_tracker(result: SimResult, t_s: np.ndarray, effects: Effects) -> np.ndarray:
@@ -43,20 +40,21 @@ def predict_forces(twin: Twin, result: SimResult, t_s: np.ndarray, effects: Effe
     return twin.sensor_forces(result, t_true)
 
 
-def predict_part_profile(result: SimResult, effects: Effects) -> tuple[np.ndarray, np.ndarray]:
+def predict_part_profile(twin: Twin, result: SimResult, effects: Effects) -> tuple[np.ndarray, np.ndarray]:
     """Groove centre line after unclamping [m].
 
     The loaded, formed bottom recovers elastically by the force the tool last carried there over the sheet's
-    unloading stiffness (`twin.process.springback`); the `sheet_springback` effect then takes away a further
-    fraction of the depth.
+    unloading stiffness (`twin.process.springback`, the twin's force model's own stiffness and tool); the
+    `sheet_springback` effect then takes away a further fraction of the depth.
     """
+    sheet = twin.sheet_field
     z_after = unloaded_profile(
         result.formed_x_m,
         result.formed_z_m,
         result.p_sheet_m[:, 0],
         result.f_sheet_n[:, 2],
-        k_unload_n_per_m=K_UNLOAD_N_PER_M,
-        radius_m=TOOL_RADIUS_M,
+        k_unload_n_per_m=sheet.k_unload,
+        radius_m=sheet.radius,
     )
     x_m, z_m = scanned_profile(result.formed_x_m, z_after)
     return x_m, z_m * (1.0 - effects.springback_ratio)

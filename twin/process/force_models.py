@@ -1,0 +1,161 @@
+"""The registry of force models: name -> how to build the `ForceField` from an FE history and the process.
+
+Every stage that needs the sheet's force builds it here, by the name the process declares
+(`twin.process.description.Process.force_model`); the CLI's `--force-model` choices, the name recorded in runs
+and model files, and the compiled loop's kernel (a capability the model declares, `ForceField.compiled_kernel`)
+all come from the model, never from its type. Shipped models:
+
+* `table`: the per-pass field of the groove's FE history (`twin.process.field.SheetForceField`): exact along the
+  history's own path, for the groove and commands near it;
+* `isf`: the height-map ISF model (`twin.process.isf_force.IsfForceField`), its force level fitted to the
+  history (`twin.process.isf_calibration.isf_field_factory`): any part and path.
+
+A new model registers itself with `register_force_model` when its module is imported (a test defines one inside
+the test). `auto_force_model` picks, for a path, the first registered model that says it applies.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from twin.errors import InputError
+from twin.process.description import Process
+from twin.process.field import SheetForceField
+from twin.process.force_field import ForceField
+from twin.process.forces import ForceHistory
+from twin.process.isf_calibration import isf_field_factory
+from twin.process.isf_force import IsfForceParams
+from twin.process.path import label_passes
+
+#: The table field is a section of the sheet along y = 0 (`twin.process.field`): it applies to commands within
+#: this distance of that section [m].
+TABLE_SECTION_HALF_WIDTH_M = 1e-3
+#: ... and within this distance, in x-z, of the history's own samples of the same pass [m] (a compensated
+#: groove's command moves by up to about 3.5 mm).
+TABLE_PATH_TOLERANCE_M = 5e-3
+
+#: (physical FE history, process) -> the model's field.
+Builder = Callable[[ForceHistory, Process], ForceField]
+#: (history, process, commanded path (n, 3) [m]) -> whether the model applies to that path.
+Applies = Callable[[ForceHistory, Process, np.ndarray], bool]
+
+
+@dataclass(frozen=True)
+class ForceModel:
+    """One registered force model.
+
+    Attributes:
+        name: Registry key: the `--force-model` choice and the name runs and model files record.
+        description: One line, for `--help`.
+        build: Builds the field from the (physical) FE history and the process.
+        applies: Whether the model suits a commanded path (`auto_force_model`); None: any path.
+    """
+
+    name: str
+    description: str
+    build: Builder
+    applies: Applies | None = None
+
+
+FORCE_MODELS: dict[str, ForceModel] = {}
+
+
+def register_force_model(model: ForceModel) -> ForceModel:
+    """Add `model` to the registry (names are unique)."""
+    if not model.name or model.name in FORCE_MODELS or model.name == "auto":
+        raise InputError(f"force model name {model.name!r} is empty, reserved or already registered")
+    FORCE_MODELS[model.name] = model
+    return model
+
+
+def unregister_force_model(name: str) -> None:
+    """Remove a registered model (a test's own)."""
+    FORCE_MODELS.pop(name, None)
+
+
+def force_model(name: str) -> ForceModel:
+    """The registered model `name`.
+
+    Raises:
+        InputError: Unknown name (the message lists the registered ones).
+    """
+    if name not in FORCE_MODELS:
+        raise InputError(f"unknown force model {name!r}; registered: {sorted(FORCE_MODELS)}")
+    return FORCE_MODELS[name]
+
+
+def build_force_field(process: Process, history: ForceHistory | None = None) -> ForceField:
+    """The process's force field, fitted to `history` (default: the process's own history).
+
+    Args:
+        process: The declared process (its `force_model` names the model).
+        history: The physical history to fit to (e.g. scaled by a `force_scale` effect); None: the process's.
+    """
+    return force_model(process.force_model).build(history or process.force_history(), process)
+
+
+def auto_force_model(process: Process, p_sheet_m: np.ndarray) -> str:
+    """The first registered model that applies to the commanded path (`ForceModel.applies`).
+
+    Args:
+        process: The process (its history and tool).
+        p_sheet_m: The commanded path, sheet frame [m], shape (n, 3).
+    """
+    path = np.asarray(p_sheet_m, dtype=float)
+    history = process.force_history()
+    for model in FORCE_MODELS.values():
+        if model.applies is None or model.applies(history, process, path):
+            return model.name
+    raise InputError(f"no registered force model applies to this path; registered: {sorted(FORCE_MODELS)}")
+
+
+def follows_history(history: ForceHistory, process: Process, p_sheet_m: np.ndarray) -> bool:
+    """Whether a path lies in the table field's domain: no more passes than the history, every sample within
+    `TABLE_SECTION_HALF_WIDTH_M` of the section y = 0 and within `TABLE_PATH_TOLERANCE_M` (in x-z) of the
+    history's samples of the same pass.
+
+    Args:
+        history: The FE history (its path and passes).
+        process: The process (unused: the domain is the history's).
+        p_sheet_m: The commanded path, sheet frame [m], shape (n, 3).
+    """
+    del process
+    if len(p_sheet_m) == 0 or float(np.max(np.abs(p_sheet_m[:, 1]))) > TABLE_SECTION_HALF_WIDTH_M:
+        return False
+    passes, _ = label_passes(p_sheet_m[:, 0])
+    history_passes, _ = history.pass_labels()
+    if int(passes.max()) > int(history_passes.max()):
+        return False
+    for k in np.unique(passes):
+        own = history.p_sheet_m[history_passes == k][:, [0, 2]]
+        distance, _ = cKDTree(own).query(p_sheet_m[passes == k][:, [0, 2]])
+        if float(np.max(distance)) > TABLE_PATH_TOLERANCE_M:
+            return False
+    return True
+
+
+def _table(history: ForceHistory, process: Process) -> ForceField:
+    return SheetForceField(history, tool_radius_m=process.tool_radius_m)
+
+
+def _isf(history: ForceHistory, process: Process) -> ForceField:
+    params = replace(
+        IsfForceParams(),
+        tensile_strength_mpa=process.tensile_strength_mpa,
+        thickness_m=process.thickness_m,
+        tool_radius_m=process.tool_radius_m,
+    )
+    return isf_field_factory(params)(history)
+
+
+register_force_model(ForceModel(
+    "table", "the per-pass field of the groove's FE history (the history's own path and commands near it)",
+    _table, follows_history,
+))
+register_force_model(ForceModel(
+    "isf", "the height-map ISF model, its force level fitted to the history (any part and path)", _isf,
+))

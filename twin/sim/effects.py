@@ -1,0 +1,238 @@
+"""The effect vocabulary: every effect the twin can carry, declared once.
+
+An effect is a named physical or measurement effect with one scalar parameter in a stated unit, a neutral value
+that switches it off, the range it may take and where it acts:
+
+| name | unit | acts on | what it does |
+|---|---|---|---|
+| lost_motion | mrad | robot | lost motion (half dead band) of the robot's lost-motion joints, flipping with the travel direction |
+| force_scale | - | sheet | the sheet's real forces are k x the FE history (the field is fitted to the scaled history) |
+| stream_time_offset | s | sensor | the force sensor's clock runs tau ahead: a sample stamped t was measured at t - tau |
+| tracker_drift | mm/s | tracker | the tracker's reading drifts linearly with time along `TRACKER_DRIFT_DIRECTION` |
+| tool_length_offset | mm | robot | the real tool tip lies this much further along the tool axis than nominal |
+| sheet_springback | - | sheet | fraction of the formed depth the sheet recovers after unclamping |
+
+The same vocabulary serves the quasi-static lab (its hidden truth), the twin (the effects it knows, e.g. found by
+the discrepancy search), the model file (`twin.sim.model_file`) and the discrepancy families, which map onto
+these names (`twin.analysis.discrepancy.families`). `step` is the finite-difference step the search refines an
+effect with; `compose` says how a fitted increment adds to a known value. Names used before are still read
+(`RENAMED`), with a message naming the new one.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+
+from twin.errors import InputError
+
+#: Direction of the lab's tracker drift in the sheet frame (thermal drift of the camera bar, mostly vertical).
+TRACKER_DRIFT_DIRECTION = np.array([0.6, 0.0, 0.8])
+#: Travel after a reversal over which lost motion is taken up [m].
+LOST_MOTION_TAKEUP_M = 0.002
+
+
+@dataclass(frozen=True)
+class EffectSpec:
+    """One named effect.
+
+    Attributes:
+        name: The effect's name (`--effect NAME=VALUE`, model files, verdicts).
+        unit: Unit of its parameter, as written after the value.
+        neutral: Value that switches it off.
+        bounds: Smallest and largest valid value [unit].
+        acts_on: `robot`, `sheet`, `sensor` (the F/T sensor) or `tracker`.
+        description: One line in words.
+        step: Finite-difference step of a refinement over replays [unit].
+        compose: How an increment joins a known value: `add`, `scale` (multiplies) or `fraction` (1 - (1-a)(1-b)).
+        key_suffix: Suffix of its parameter key in reports (`lost_motion_mrad`).
+        simulated: It changes the twin's simulation (a new replay), not only what its sensors report.
+    """
+
+    name: str
+    unit: str
+    neutral: float
+    bounds: tuple[float, float]
+    acts_on: Literal["robot", "sheet", "sensor", "tracker"]
+    description: str
+    step: float
+    compose: Literal["add", "scale", "fraction"] = "add"
+    key_suffix: str = ""
+    simulated: bool = False
+
+    @property
+    def key(self) -> str:
+        """The parameter key with its unit (`force_scale_ratio`)."""
+        return f"{self.name}_{self.key_suffix}"
+
+
+EFFECTS: dict[str, EffectSpec] = {
+    spec.name: spec
+    for spec in (
+        EffectSpec("lost_motion", "mrad", 0.0, (-20.0, 20.0), "robot",
+                   "lost motion of the lost-motion joints that flips with the travel direction", 0.02,
+                   key_suffix="mrad", simulated=True),
+        EffectSpec("force_scale", "-", 1.0, (0.0, 100.0), "sheet", "real sheet forces = k x the FE force history",
+                   0.02, "scale", "ratio", simulated=True),
+        EffectSpec("stream_time_offset", "s", 0.0, (-math.inf, math.inf), "sensor",
+                   "force-sensor clock ahead of the tracker clock by tau", 0.005, key_suffix="s"),
+        EffectSpec("tracker_drift", "mm/s", 0.0, (-math.inf, math.inf), "tracker",
+                   "linear drift of the tracker reading with time", 0.002, key_suffix="mm_per_s"),
+        EffectSpec("tool_length_offset", "mm", 0.0, (-math.inf, math.inf), "robot",
+                   "real tool tip further along the tool axis than nominal", 0.05, key_suffix="mm", simulated=True),
+        EffectSpec("sheet_springback", "-", 0.0, (0.0, 0.99), "sheet",
+                   "fraction of the formed depth recovered after unclamping", 0.01, "fraction", "ratio"),
+    )
+}
+#: Names read before, and the effect each is now.
+RENAMED: dict[str, str] = {"direction_dependent_compliance": "lost_motion", "tcp_offset": "tool_length_offset"}
+
+
+def effect_name(name: str, where: str = "effect") -> str:
+    """The vocabulary's name for `name`: itself, or the new name of a renamed effect (with a warning).
+
+    Raises:
+        InputError: Unknown name (the message lists the valid names and units).
+    """
+    if name in RENAMED:
+        warnings.warn(f"{where} {name!r} is now called {RENAMED[name]!r}; read as {RENAMED[name]!r}", FutureWarning,
+                      stacklevel=3)
+        return RENAMED[name]
+    if name not in EFFECTS:
+        listing = ", ".join(f"{n} [{s.unit}]" for n, s in EFFECTS.items())
+        raise InputError(f"unknown {where} {name!r}; valid: {listing}")
+    return name
+
+
+@dataclass(frozen=True)
+class Effects:
+    """A set of named effects with their parameters, in the units of `EFFECTS`.
+
+    Attributes:
+        values: Effect name -> parameter value (only effects that are switched on).
+        lost_motion_takeup_m: Travel after a reversal over which lost motion is taken up [m].
+    """
+
+    values: Mapping[str, float] = field(default_factory=dict)
+    lost_motion_takeup_m: float = LOST_MOTION_TAKEUP_M
+
+    def __post_init__(self) -> None:
+        clean: dict[str, float] = {}
+        for given, value in dict(self.values).items():
+            name = effect_name(given)
+            spec = EFFECTS[name]
+            try:
+                number = float(value)
+            except (TypeError, ValueError):
+                raise InputError(f"effect {name} = {value!r}, expected a number [{spec.unit}]") from None
+            if not np.isfinite(number):
+                raise InputError(f"effect {name} = {value!r}, expected a finite number [{spec.unit}]")
+            lo, hi = spec.bounds
+            if not lo <= number <= hi:
+                raise InputError(f"effect {name} = {number!r}, expected within [{lo:g}, {hi:g}] [{spec.unit}]")
+            if number != spec.neutral:
+                clean[name] = number
+        if not (np.isfinite(self.lost_motion_takeup_m) and self.lost_motion_takeup_m > 0):
+            raise InputError(f"lost_motion_takeup_m = {self.lost_motion_takeup_m!r} m, expected > 0")
+        object.__setattr__(self, "values", clean)
+
+    def __hash__(self) -> int:
+        return hash((tuple(sorted(self.values.items())), self.lost_motion_takeup_m))
+
+    def get(self, name: str) -> float:
+        """Parameter of `name`, or its neutral value when the effect is off."""
+        return float(self.values.get(name, EFFECTS[name].neutral))
+
+    def with_value(self, name: str, value: float) -> Effects:
+        """A copy with one effect set (neutral value switches it off)."""
+        return Effects({**self.values, name: value}, self.lost_motion_takeup_m)
+
+    def composed(self, increments: Mapping[str, float]) -> Effects:
+        """These effects with fitted increments joined by each effect's `compose` rule."""
+        values = dict(self.values)
+        for name, inc in increments.items():
+            rule = EFFECTS[name].compose
+            if rule == "scale":
+                values[name] = self.get(name) * inc
+            elif rule == "fraction":
+                values[name] = 1.0 - (1.0 - self.get(name)) * (1.0 - inc)
+            else:
+                values[name] = self.get(name) + inc
+        return Effects(values, self.lost_motion_takeup_m)
+
+    def simulated(self) -> Effects:
+        """The effects that change the twin's simulation (`EffectSpec.simulated`), the others off."""
+        return Effects({n: v for n, v in self.values.items() if EFFECTS[n].simulated}, self.lost_motion_takeup_m)
+
+    def acting_on(self, where: str) -> dict[str, float]:
+        """The switched-on effects that act on `where` (`robot`, `sheet`, `sensor`, `tracker`)."""
+        return {n: v for n, v in self.values.items() if EFFECTS[n].acts_on == where}
+
+    @property
+    def lost_motion_rad(self) -> float:
+        """Half of the lost-motion joints' dead band [rad]."""
+        return 1e-3 * self.get("lost_motion")
+
+    @property
+    def tool_offset_m(self) -> float:
+        """Real tool tip minus nominal, along the tool axis [m]."""
+        return 1e-3 * self.get("tool_length_offset")
+
+    @property
+    def force_scale(self) -> float:
+        """Real sheet forces over the FE history's [-]."""
+        return self.get("force_scale")
+
+    @property
+    def changes_model(self) -> bool:
+        """Whether the compiled robot differs from the nominal one (lost-motion hinges, another tool length)."""
+        return self.lost_motion_rad != 0.0 or self.tool_offset_m != 0.0
+
+    @property
+    def stream_time_offset_s(self) -> float:
+        """Force-sensor clock offset [s]."""
+        return self.get("stream_time_offset")
+
+    @property
+    def tracker_drift_m_per_s(self) -> np.ndarray:
+        """Tracker drift velocity in the sheet frame [m/s], shape (3,)."""
+        return 1e-3 * self.get("tracker_drift") * TRACKER_DRIFT_DIRECTION
+
+    @property
+    def springback_ratio(self) -> float:
+        """Fraction of the formed depth recovered after unclamping [-]."""
+        return self.get("sheet_springback")
+
+    def named_parameters(self) -> dict[str, dict[str, float]]:
+        """Effect name -> {parameter key with unit: value}, for JSON reports."""
+        return {name: {EFFECTS[name].key: value} for name, value in self.values.items()}
+
+
+def parse_effect_args(items: list[str] | None) -> Effects:
+    """Parse CLI `--effect NAME=VALUE` items.
+
+    Raises:
+        InputError: Malformed item, unknown name or bad value (the message lists the valid names and units).
+    """
+    values: dict[str, float] = {}
+    listing = ", ".join(f"{n} [{s.unit}]" for n, s in EFFECTS.items())
+    for item in items or []:
+        given, sep, text = item.partition("=")
+        if not sep:
+            raise InputError(f"--effect {item!r}: expected NAME=VALUE, e.g. force_scale=0.5; valid: {listing}")
+        try:
+            name = effect_name(given, "--effect")
+        except InputError:
+            raise InputError(f"--effect {item!r}: unknown effect {given!r}; valid: {listing}") from None
+        try:
+            values[name] = float(text)
+        except ValueError:
+            raise InputError(
+                f"--effect {item!r}: {text!r} is not a number [{EFFECTS[name].unit}]; valid: {listing}"
+            ) from None
+    return Effects(values)

@@ -1,0 +1,147 @@
+"""The twin model file: a `TwinSpec` saved as JSON (`tx200-twin-model/2`), and read back.
+
+What `discrepancy --model-out` and `identify --write-model` write and `replay`, `compensate` and `discrepancy`
+read with `--model`:
+
+    {"format": "tx200-twin-model/2", "robot": "tx200",
+     "process": {"material": ..., "tensile_strength_mpa": ..., "thickness_mm": ..., "tool_radius_mm": ...,
+                 "tool_friction": ..., "friction_reversal_mm": ..., "force_model": "table",
+                 "history": null | {"file": ..., "symmetry": "half", "unchecked_symmetry": false}},
+     "placement": {"origin_base_mm": null, "yaw_deg": 0.0},
+     "effects": {"lost_motion": 0.15}, "units": {"lost_motion": "mrad"}, "lost_motion_takeup_mm": 2.0,
+     "joint_stiffness_nm_per_rad": [...], "joint_friction_nm": [...], "note": "..."}
+
+Every key but `format` may be left out (the default cell's value). The first format, `tx200-twin-model/1`
+(effects and K_q only), is still read; effects under a name used before are read under the new one, with a
+warning naming it (`twin.sim.effects.RENAMED`). A history file is named relative to the model file.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+from twin.base.csvio import read_json, write_json
+from twin.errors import DataFileError, InputError, ModelError
+from twin.process.description import Process
+from twin.process.forces import load_force_history
+from twin.process.placement import Placement
+from twin.robot.description import load_robot, shipped_robots
+from twin.sim.effects import EFFECTS, LOST_MOTION_TAKEUP_M, Effects
+from twin.sim.spec import TwinSpec
+
+MODEL_FORMAT = "tx200-twin-model/2"
+READABLE_FORMATS = ("tx200-twin-model/1", MODEL_FORMAT)
+
+
+def model_payload(spec: TwinSpec, note: str = "") -> dict[str, Any]:
+    """The JSON document of `spec` (module docstring)."""
+    process, history = spec.process, spec.process.history
+    robot = spec.robot.name if shipped_robots().get(spec.robot.name) == spec.robot.source else str(spec.robot.source)
+    payload: dict[str, Any] = {
+        "format": MODEL_FORMAT,
+        "robot": robot,
+        "process": {
+            "material": process.material,
+            "tensile_strength_mpa": process.tensile_strength_mpa,
+            "thickness_mm": _mm(process.thickness_m),
+            "tool_radius_mm": _mm(process.tool_radius_m),
+            "tool_friction": process.tool_friction,
+            "friction_reversal_mm": None if process.friction_reversal_m is None else _mm(process.friction_reversal_m),
+            "force_model": process.force_model,
+            "history": None if history is None else {
+                "file": str(history.source), "symmetry": history.symmetry,
+                "unchecked_symmetry": history.symmetry != history.column_symmetry,
+            },
+        },
+        "placement": spec.placement.to_json(),
+        "effects": dict(spec.effects.values),
+        "units": {name: EFFECTS[name].unit for name in spec.effects.values},
+        "lost_motion_takeup_mm": _mm(spec.effects.lost_motion_takeup_m),
+        "note": note,
+    }
+    if spec.joint_stiffness is not None:
+        payload["joint_stiffness_nm_per_rad"] = spec.joint_stiffness
+    if spec.joint_friction is not None:
+        payload["joint_friction_nm"] = spec.joint_friction
+    return payload
+
+
+def write_model_file(
+    path: str | Path, spec: TwinSpec, *, note: str = "", protect: Sequence[str | Path] = ()
+) -> Path:
+    """Write `spec` as a twin model file (atomic); never into or over an input it was made from (`protect`)."""
+    for other in protect:
+        if Path(path).resolve() == Path(other).resolve() or Path(path).resolve().is_relative_to(
+            Path(other).resolve()
+        ):
+            raise InputError(f"refusing to write the model file {path} into/over the input {other}")
+    return write_json(path, model_payload(spec, note))
+
+
+def read_model_file(path: str | Path) -> TwinSpec:
+    """Read a twin model file (`write_model_file`, the first format, or one written by hand).
+
+    Raises:
+        DataFileError: Wrong format tag, unknown effects, bad values or a missing history file (naming the file).
+    """
+    path = Path(path)
+    payload = read_json(path)
+    if payload.get("format") not in READABLE_FORMATS:
+        raise DataFileError(path, f"format is {payload.get('format')!r}, expected one of {list(READABLE_FORMATS)}")
+    try:
+        takeup_mm = payload.get("lost_motion_takeup_mm")
+        takeup_m = LOST_MOTION_TAKEUP_M if takeup_mm is None else float(takeup_mm) / 1e3
+        effects = Effects(dict(payload.get("effects", {})), takeup_m)
+        return TwinSpec(
+            robot=load_robot(payload.get("robot")),
+            process=_process(path, payload.get("process")),
+            placement=Placement.from_json(payload.get("placement"), path),
+            effects=effects,
+            joint_stiffness_nm_per_rad=payload.get("joint_stiffness_nm_per_rad"),
+            joint_friction_nm=payload.get("joint_friction_nm"),
+        )
+    except DataFileError:
+        raise
+    except (InputError, ModelError, TypeError, ValueError) as exc:
+        raise DataFileError(path, f"bad model: {exc}") from None
+
+
+def _process(path: Path, entry: Any) -> Process:
+    """The `process` entry (None: the default process)."""
+    if entry is None:
+        return Process()
+    if not isinstance(entry, Mapping):
+        raise DataFileError(path, f"process = {entry!r}: expected an object")
+    defaults = Process()
+
+    def metres(key: str, default: float | None) -> float | None:
+        value = entry.get(key, "default")
+        if value == "default":
+            return default
+        return None if value is None else float(value) / 1e3
+
+    history = entry.get("history")
+    loaded = None
+    if history is not None:
+        file = Path(str(history.get("file", "")))
+        file = file if file.is_absolute() else path.parent / file
+        loaded = load_force_history(
+            file, symmetry=str(history.get("symmetry")), trust_columns=not history.get("unchecked_symmetry", False)
+        )
+    return Process(
+        material=str(entry.get("material", defaults.material)),
+        tensile_strength_mpa=float(entry.get("tensile_strength_mpa", defaults.tensile_strength_mpa)),
+        thickness_m=metres("thickness_mm", defaults.thickness_m) or 0.0,
+        tool_radius_m=metres("tool_radius_mm", defaults.tool_radius_m) or 0.0,
+        tool_friction=float(entry.get("tool_friction", defaults.tool_friction)),
+        friction_reversal_m=metres("friction_reversal_mm", defaults.friction_reversal_m),
+        force_model=str(entry.get("force_model", defaults.force_model)),
+        history=loaded,
+    )
+
+
+def _mm(length_m: float) -> float:
+    """A length for the file [mm], rounded to 1e-12 mm so that reading it back (/ 1e3) gives the same metres."""
+    return round(1e3 * length_m, 12)
