@@ -13,6 +13,7 @@ from scipy.linalg.lapack import dgesv
 from twin.base.signals import interp_rows
 from twin.errors import InputError
 from twin.process.description import Process
+from twin.process.force_field import ForceField
 from twin.process.forces import ForceHistory
 from twin.process.path import label_passes
 from twin.process.tool_friction import SheetModel, solve_sample
@@ -41,36 +42,35 @@ class AnalyticReplay:
     forces_pred_n: np.ndarray | None
 
 
-def analytic_replay(run: Run, *, twin: Twin | None = None, history: ForceHistory | None = None) -> AnalyticReplay:
-    """Replay a run with d = J K_q^-1 J^T f per sample, the field evaluated at the deflected tool tip.
+def _compliance_m_per_n(twin: Twin, p_cmd_sheet_m: np.ndarray) -> np.ndarray:
+    """C = J_v K_q^-1 J_v^T at the IK of each commanded sample [m/N], shape (n, 3, 3)."""
+    kin = twin.kinematics
+    q_ik = kin.ik_path(p_cmd_sheet_m + twin.p_base_sheet_origin)
+    J_v = kin.jacobians(q_ik)[:, :3]
+    return (J_v / twin.joint_stiffness) @ J_v.transpose(0, 2, 1)  # (n, 3, 3) [m/N]
 
-    The per-sample Jacobian comes from the IK of the commanded path (the twin's kinematics), the compliance
-    C = J_v K_q^-1 J_v^T is formed for all samples at once, and each sample solves d = C f(p_cmd + d) by a
-    3x3 Newton iteration (the sheet is stiffer than the robot, so a plain fixed point would diverge) before
-    the field's formed surface advances, exactly as in the twin. Gravity is taught away as in the twin.
+
+def _solve_samples(
+    field: ForceField, p_cmd_sheet_m: np.ndarray, compliance: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Solve d = C f(p_cmd + d) sample by sample, advancing the field's formed surface after each.
 
     Args:
-        run: A measured run (only its commanded path and stream times are used).
-        twin: A ready twin whose kinematics, K_q and field are used; default a fresh nominal one.
-        history: Force history for a fresh twin.
+        field: The twin's sheet field with the tool's sliding friction (`Twin.field`); reset here.
+        p_cmd_sheet_m: Commanded tool tip, sheet frame [m], shape (n, 3).
+        compliance: Compliance at each sample [m/N], shape (n, 3, 3).
 
     Returns:
-        The linear-model prediction.
+        Tool tip at equilibrium [m] and force of the sheet on the tool [N], each shape (n, 3).
 
     Raises:
-        InputError: The per-sample solve did not converge.
+        InputError: A sample's Newton iteration did not converge.
     """
-    twin = twin or TwinSpec(process=Process(history=history)).build()
-    t_s, p_cmd = run.commanded.t_s, run.commanded.values
-    kin = twin.kinematics
-    q_ik = kin.ik_path(p_cmd + twin.p_base_sheet_origin)
-    J_v = kin.jacobians(q_ik)[:, :3]
-    compliance = (J_v / twin.joint_stiffness) @ J_v.transpose(0, 2, 1)  # (n, 3, 3) [m/N]
+    p_cmd = p_cmd_sheet_m
     pass_index, direction = label_passes(p_cmd[:, 0], deadband_m=PASS_DEADBAND_M)
     passes, dirs = [int(v) for v in pass_index], [int(v) for v in direction]
-    field = twin.field
     field.reset()
-    n = len(t_s)
+    n = len(p_cmd)
     p_out, f_out = np.empty((n, 3)), np.empty((n, 3))
     eye = np.eye(3)
     d = np.zeros(3)
@@ -99,6 +99,32 @@ def analytic_replay(run: Run, *, twin: Twin | None = None, history: ForceHistory
         f_out[i] = field.force(p, pi, di)
         field.advance(p, pi)
         p_out[i] = p
+    return p_out, f_out
+
+
+def analytic_replay(run: Run, *, twin: Twin | None = None, history: ForceHistory | None = None) -> AnalyticReplay:
+    """Replay a run with d = J K_q^-1 J^T f per sample, the field evaluated at the deflected tool tip.
+
+    The per-sample Jacobian comes from the IK of the commanded path (the twin's kinematics), the compliance
+    C = J_v K_q^-1 J_v^T is formed for all samples at once, and each sample solves d = C f(p_cmd + d) by a
+    3x3 Newton iteration (the sheet is stiffer than the robot, so a plain fixed point would diverge) before
+    the field's formed surface advances, exactly as in the twin. Gravity is taught away as in the twin.
+
+    Args:
+        run: A measured run (only its commanded path and stream times are used).
+        twin: A ready twin whose kinematics, K_q and field are used; default a fresh nominal one.
+        history: Force history for a fresh twin.
+
+    Returns:
+        The linear-model prediction.
+
+    Raises:
+        InputError: The per-sample solve did not converge.
+    """
+    twin = twin or TwinSpec(process=Process(history=history)).build()
+    t_s, p_cmd = run.commanded.t_s, run.commanded.values
+    compliance = _compliance_m_per_n(twin, p_cmd)
+    p_out, f_out = _solve_samples(twin.field, p_cmd, compliance)
     tracker = interp_rows(run.tracker.t_s, t_s, p_out)
     forces = interp_rows(run.forces.t_s, t_s, f_out) if run.forces is not None else None
     return AnalyticReplay(p_out, f_out, tracker, forces)

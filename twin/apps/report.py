@@ -40,9 +40,33 @@ def write_report(
     nominal, _ = runs["nominal"]
     final, _ = runs["compensated_twin"]
     thesis, _ = runs["compensated_thesis"]
+    figures = [
+        *_nominal_figures(fig_dir, ideal, f_ideal_n, nominal),
+        *_compensation_figures(fig_dir, ideal, thesis, final, found, compliances_mm_per_kn),
+    ]
+    rrd = record_runs(out / "demo.rrd", list(replays), ideal_sheet_m=ideal.p_sheet_m, twin_model=model)
+    _write_markdown(out, figures, rrd, replays, found, check_thesis, check_final)
+    return {"figures": [str(f) for f in figures], "recording": str(rrd), "report": str(out / "report.md")}
+
+
+def _nominal_figures(fig_dir: Path, ideal: ToolPath, f_ideal_n: np.ndarray, nominal: Run) -> list[Path]:
+    """Figures 1-3 of the nominal run: its path against the ideal, its forces, its deflection per pass.
+
+    Args:
+        fig_dir: Folder of the figures.
+        ideal: The ideal tool path, sheet frame [m, s].
+        f_ideal_n: Ideal (FE) force at the ideal path's samples [N], shape (n, 3).
+        nominal: The nominal run, with forces.
+
+    Returns:
+        The three PNG files written.
+
+    Raises:
+        RunFormatError: The nominal run has no forces.
+    """
     if nominal.forces is None:
         raise RunFormatError(nominal.directory or "nominal run", "the demo report needs forces.csv")
-    figures = [
+    return [
         plot_path_xz(
             fig_dir / "1_nominal_path_xz.png",
             ideal.p_sheet_m,
@@ -66,6 +90,31 @@ def write_report(
             *_labels(ideal, nominal.tracker.t_s),
             title="Nominal run: deflection per pass",
         ),
+    ]
+
+
+def _compensation_figures(
+    fig_dir: Path,
+    ideal: ToolPath,
+    thesis: Run,
+    final: Run,
+    found: DiscrepancyResult,
+    compliances_mm_per_kn: Mapping[str, np.ndarray],
+) -> list[Path]:
+    """Figures 4-6: the discrepancy residual, the stiffness ellipses and the run compensated with the twin.
+
+    Args:
+        fig_dir: Folder of the figures.
+        ideal: The ideal tool path, sheet frame [m, s].
+        thesis: The run compensated as in the thesis.
+        final: The run compensated with the corrected twin.
+        found: The discrepancy workflow's result on the thesis's compensated run.
+        compliances_mm_per_kn: Label -> x-z compliance [mm/kN], shape (2, 2).
+
+    Returns:
+        The three PNG files written.
+    """
+    return [
         plot_residual_before_after(
             fig_dir / "4_discrepancy_residual.png",
             thesis.tracker.t_s,
@@ -91,9 +140,6 @@ def write_report(
             title="Run compensated with the corrected twin (cf. thesis Fig. 5.1)",
         ),
     ]
-    rrd = record_runs(out / "demo.rrd", list(replays), ideal_sheet_m=ideal.p_sheet_m, twin_model=model)
-    _write_markdown(out, figures, rrd, replays, found, check_thesis, check_final)
-    return {"figures": [str(f) for f in figures], "recording": str(rrd), "report": str(out / "report.md")}
 
 
 def _labels(ideal: ToolPath, t_s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

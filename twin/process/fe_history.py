@@ -40,6 +40,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -94,6 +95,61 @@ def aerens_vertical_force_n(
     )
 
 
+class _FeSamples(NamedTuple):
+    """FE_SAMPLES equal arc-length samples of the ideal path, sheet frame [mm], and its reversals."""
+
+    s_mm: np.ndarray  # arc length along the ideal path, (n,)
+    x_mm: np.ndarray  # (n,)
+    z_mm: np.ndarray  # (n,)
+    pass_index: np.ndarray  # (n,)
+    direction: np.ndarray  # travel direction along x, +1 or -1, (n,)
+    s_reversal_mm: np.ndarray  # arc length of each reversal: the corner where pass j ends, j = 1..N-1
+
+
+def _fe_samples(spec: GrooveSpec) -> _FeSamples:
+    """Resample the groove's ideal path at FE_SAMPLES equal arc lengths, with its exact reversal corners [mm]."""
+    full = groove_path(spec)
+    full_s = full.s_m * 1000.0  # exact arc length: groove_path samples every corner
+    path = resample_by_arc_length(full, FE_SAMPLES)
+    s = np.linspace(0.0, full_s[-1], FE_SAMPLES)  # the resampled points' arc length along the ideal path
+    ends = np.flatnonzero(np.diff(full.pass_index) != 0)
+    return _FeSamples(
+        s,
+        path.p_sheet_m[:, 0] * 1000.0,
+        path.p_sheet_m[:, 2] * 1000.0,
+        path.pass_index,
+        path.direction,
+        full_s[ends],
+    )
+
+
+def _arc_length_from_reversals(s_mm: np.ndarray, s_reversal_mm: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Arc length since the last reversal and to the nearest reversal [mm] (inf where there is none).
+
+    Args:
+        s_mm: Arc length of the samples [mm], shape (n,).
+        s_reversal_mm: Arc length of the reversals [mm], shape (r,).
+
+    Returns:
+        (since, nearest) [mm], each shape (n,).
+    """
+    since = np.full_like(s_mm, np.inf)
+    nearest = np.full_like(s_mm, np.inf)
+    for sr in s_reversal_mm:
+        since = np.where(s_mm >= sr, np.minimum(since, s_mm - sr), since)
+        nearest = np.minimum(nearest, np.abs(s_mm - sr))
+    return since, nearest
+
+
+def _rounded_as_written(columns: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """Columns rounded to the written precision (positions [mm] to 4 decimals, forces [N] to 3), no -0.0.
+
+    Rounding here and dropping negative zeros keeps the file stable and tidy.
+    """
+    digits = {"s_mm": 4, "x_mm": 4, "z_mm": 4}
+    return {name: np.round(v, digits.get(name, 3)) + 0.0 for name, v in columns.items()}
+
+
 def generate_history(spec: GrooveSpec | None = None, *, fx_taper: str = "since") -> dict[str, np.ndarray]:
     """Compute the stand-in half-symmetric FE force history along the ideal path.
 
@@ -107,14 +163,8 @@ def generate_history(spec: GrooveSpec | None = None, *, fx_taper: str = "since")
         Columns `s_mm, x_mm, z_mm, fx_half_n, fy_sym_n, fz_half_n`, FE_SAMPLES equal arc-length samples.
     """
     spec = spec or GrooveSpec()
-    full = groove_path(spec)
-    full_s = full.s_m * 1000.0  # exact arc length: groove_path samples every corner
-    path = resample_by_arc_length(full, FE_SAMPLES)
-    s = np.linspace(0.0, full_s[-1], FE_SAMPLES)  # the resampled points' arc length along the ideal path
-    x = path.p_sheet_m[:, 0] * 1000.0
-    z = path.p_sheet_m[:, 2] * 1000.0
-    k = path.pass_index
-    d = path.direction
+    samples = _fe_samples(spec)
+    s, x, z, d = samples.s_mm, samples.x_mm, samples.z_mm, samples.direction
     depth_mm = spec.depth_m * 1000.0
     f_ss = aerens_vertical_force_n(
         TENSILE_STRENGTH_MPA,
@@ -123,17 +173,10 @@ def generate_history(spec: GrooveSpec | None = None, *, fx_taper: str = "since")
         spec.step_down_m * 1000.0,
         math.degrees(spec.wall_angle_rad),
     )
-    half_stroke = np.array([spec.stroke_m(int(j)) for j in k]) * 500.0
+    half_stroke = np.array([spec.stroke_m(int(j)) for j in samples.pass_index]) * 500.0
     to_end = np.clip(half_stroke - np.abs(x), 0.0, None)
     ahead = np.clip(half_stroke - d * x, 0.0, None)
-    # arc length of each reversal: the corner where pass j ends, j = 1..N-1
-    ends = np.flatnonzero(np.diff(full.pass_index) != 0)
-    s_rev = full_s[ends]
-    since = np.full_like(s, np.inf)
-    nearest = np.full_like(s, np.inf)
-    for sr in s_rev:
-        since = np.where(s >= sr, np.minimum(since, s - sr), since)
-        nearest = np.minimum(nearest, np.abs(s - sr))
+    since, nearest = _arc_length_from_reversals(s, samples.s_reversal_mm)
     build_up = 1.0 - np.exp(z / _BUILD_UP_MM)  # z = -depth
     fz = (
         f_ss
@@ -155,9 +198,7 @@ def generate_history(spec: GrooveSpec | None = None, *, fx_taper: str = "since")
         "fy_sym_n": fy_sym,
         "fz_half_n": fz_half,
     }
-    # round to the written precision and drop negative zeros, so the file is stable and tidy
-    digits = {"s_mm": 4, "x_mm": 4, "z_mm": 4}
-    return {name: np.round(v, digits.get(name, 3)) + 0.0 for name, v in columns.items()}
+    return _rounded_as_written(columns)
 
 
 def write_history(file: str | Path, spec: GrooveSpec | None = None) -> Path:

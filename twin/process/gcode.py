@@ -23,6 +23,7 @@ from __future__ import annotations
 import math
 import re
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -60,6 +61,152 @@ def _arc_points(
     return pts
 
 
+class _Block(NamedTuple):
+    """The non-modal words of one block: axis and arc words [program units] and a G4 dwell [s]."""
+
+    coords: dict[str, float]
+    dwell: bool
+    dwell_s: float
+
+
+class _BlockReader:
+    """Reads a program block by block into tool-tip samples [mm] and the durations of the moves to them [s].
+
+    Holds the modal state (units, absolute/incremental, motion mode, feed) and the current position; the first
+    sample is the unknown start (0, 0, 0), dropped by `tool_path`.
+    """
+
+    def __init__(self, source: str | Path, spacing_mm: float, tol_mm: float, rapid_mm_s: float) -> None:
+        self.source = source
+        self.spacing_mm, self.tol_mm, self.rapid_mm_s = spacing_mm, tol_mm, rapid_mm_s
+        self.scale = 1.0  # [mm per program unit]
+        self.absolute = True
+        self.motion: float | None = None
+        self.feed_mm_s: float | None = None
+        self.pos = [0.0, 0.0, 0.0]  # [mm]
+        self.points: list[list[float]] = [list(self.pos)]
+        self.durations: list[float] = [0.0]
+
+    def fail(self, lineno: int, message: str) -> DataFileError:
+        """The error for a block, naming the file and the 1-based line."""
+        return DataFileError(self.source, f"line {lineno}: {message}")
+
+    def read(self, lineno: int, raw: str) -> None:
+        """Read one line: a dwell, a move, modal words only, or nothing (blank, comment, `%`)."""
+        line = _COMMENT.sub(" ", raw).strip()
+        if not line or line.startswith("%"):
+            return
+        words = _WORD.findall(line)
+        leftover = _WORD.sub("", line).strip()
+        if leftover:
+            raise self.fail(lineno, f"cannot read {leftover!r} in {raw.strip()!r} (expected words like G1 X10 F600)")
+        block = self._apply_words(lineno, words)
+        if block.dwell:
+            if not block.dwell_s >= 0:
+                raise self.fail(lineno, f"G4 dwell P{block.dwell_s} must be >= 0 s")
+            self.points.append(list(self.pos))
+            self.durations.append(block.dwell_s)
+            return
+        coords = block.coords
+        if not any(a in coords for a in _AXES):
+            if "I" in coords or "J" in coords or "R" in coords:
+                raise self.fail(lineno, "arc offsets without an end point (X/Y/Z)")
+            return
+        self._move(lineno, coords)
+
+    def _apply_words(self, lineno: int, words: list[tuple[str, str]]) -> _Block:
+        """Apply the modal words of a block in order and collect the others."""
+        coords: dict[str, float] = {}
+        dwell = False
+        dwell_s = 0.0
+        for letter, number in words:
+            letter = letter.upper()
+            value = float(number)
+            if letter == "G":
+                if value in (0.0, 1.0, 2.0, 3.0):
+                    self.motion = value
+                elif value == 4.0:
+                    dwell = True
+                elif value in (20.0, 21.0):
+                    self.scale = 25.4 if value == 20.0 else 1.0
+                elif value in (90.0, 91.0):
+                    self.absolute = value == 90.0
+                elif value not in _IGNORED_G:
+                    raise self.fail(
+                        lineno,
+                        f"G{number} is not supported (supported: G0 G1 G2 G3 G4 G17 G20 G21 G90 G91; "
+                        "arcs only in the XY plane, no cutter compensation)",
+                    )
+            elif letter in "XYZIJR":
+                coords[letter] = value
+            elif letter == "F":
+                if not value > 0:
+                    raise self.fail(lineno, f"feed F{number} must be > 0 (units per minute)")
+                self.feed_mm_s = value * self.scale / 60.0
+            elif letter == "P":
+                dwell_s = value
+            elif letter not in "NMST":
+                raise self.fail(lineno, f"word {letter}{number} is not supported (expected G, M, N, X, Y, Z, I, J, R, F, P, S, T)")
+        return _Block(coords, dwell, dwell_s)
+
+    def _move(self, lineno: int, coords: dict[str, float]) -> None:
+        """Append the samples and durations of a G0/G1 line or a G2/G3 arc to the block's end point."""
+        motion = self.motion
+        if motion is None:
+            raise self.fail(lineno, "coordinates before any motion mode (G0/G1/G2/G3)")
+        pos = self.pos
+        target = list(pos)
+        for i, a in enumerate(_AXES):
+            if a in coords:
+                target[i] = coords[a] * self.scale + (pos[i] if not self.absolute else 0.0)
+        speed = self.rapid_mm_s if motion == 0.0 else self.feed_mm_s
+        if speed is None:
+            raise self.fail(lineno, f"G{motion:g} move without a feed rate: set F (units per minute) first")
+        if motion in (2.0, 3.0):
+            start, end = np.array(pos), np.array(target)
+            chunk = self._arc_chunk(lineno, motion, coords, start, end)
+            prev = np.vstack([start[None, :], chunk[:-1]])
+            self.points.extend(chunk.tolist())
+            self.durations.extend((np.linalg.norm(chunk - prev, axis=1) / speed).tolist())
+        else:
+            self.points.append(target)
+            self.durations.append(math.dist(pos, target) / speed)
+        self.pos = target
+
+    def _arc_chunk(
+        self, lineno: int, motion: float, coords: dict[str, float], start: np.ndarray, end: np.ndarray
+    ) -> np.ndarray:
+        """Chord end points (k, 3) [mm] of a G2/G3 arc, its centre from I/J or R, its radii checked."""
+        scale = self.scale
+        if "R" in coords:
+            centre = _centre_from_radius(start, end, coords["R"] * scale, motion == 2.0)
+            if centre is None:
+                raise self.fail(lineno, f"arc radius R{coords['R']:g} is shorter than half the chord")
+        elif "I" in coords or "J" in coords:
+            centre = start[:2] + scale * np.array([coords.get("I", 0.0), coords.get("J", 0.0)])
+        else:
+            raise self.fail(lineno, f"G{motion:g} arc needs I/J (centre offset) or R (radius)")
+        r_start = float(np.hypot(*(start[:2] - centre)))
+        r_end = float(np.hypot(*(end[:2] - centre)))
+        if r_start < 1e-9 or abs(r_start - r_end) > max(1e-3, 1e-4 * r_start):
+            raise self.fail(lineno, f"arc start and end radii differ: {r_start:.6g} vs {r_end:.6g} mm")
+        return _arc_points(start, end, centre, motion == 2.0, self.spacing_mm, self.tol_mm)
+
+    def tool_path(self) -> ToolPath:
+        """The samples read as a path in SI units, from the end of the first move at t = 0."""
+        points, durations = self.points, self.durations
+        if len(points) < 3:
+            raise DataFileError(self.source, f"{len(points) - 1} move(s): a tool path needs at least 2 moves")
+        p_mm = np.asarray(points[1:])  # the position before the first move is unknown: the path starts at its end
+        dt = np.asarray(durations[1:])
+        dt[0] = 0.0
+        keep = np.concatenate(([True], dt[1:] > 0.0))  # zero-length moves add no sample (time stays increasing)
+        p_mm, t_s = p_mm[keep], np.cumsum(dt)[keep]
+        return ToolPath(
+            t_s=t_s, p_sheet_m=p_mm * 1e-3, pass_index=np.ones(len(t_s), dtype=int), direction=np.ones(len(t_s), dtype=int)
+        )
+
+
 def parse_gcode(
     text: str,
     *,
@@ -87,108 +234,10 @@ def parse_gcode(
     for name, value in (("spacing_m", spacing_m), ("chord_tol_m", chord_tol_m), ("rapid_m_per_s", rapid_m_per_s)):
         if not (math.isfinite(value) and value > 0):
             raise InputError(f"{name} = {value!r}: expected a finite number > 0")
-    scale = 1.0  # [mm per program unit]
-    absolute = True
-    motion: float | None = None
-    feed_mm_s: float | None = None
-    pos = [0.0, 0.0, 0.0]  # [mm]
-    points: list[list[float]] = [list(pos)]
-    durations: list[float] = [0.0]
-    spacing_mm, tol_mm, rapid_mm_s = spacing_m * 1e3, chord_tol_m * 1e3, rapid_m_per_s * 1e3
-
-    def fail(lineno: int, message: str) -> DataFileError:
-        return DataFileError(source, f"line {lineno}: {message}")
-
+    reader = _BlockReader(source, spacing_m * 1e3, chord_tol_m * 1e3, rapid_m_per_s * 1e3)
     for lineno, raw in enumerate(text.splitlines(), start=1):
-        line = _COMMENT.sub(" ", raw).strip()
-        if not line or line.startswith("%"):
-            continue
-        words = _WORD.findall(line)
-        leftover = _WORD.sub("", line).strip()
-        if leftover:
-            raise fail(lineno, f"cannot read {leftover!r} in {raw.strip()!r} (expected words like G1 X10 F600)")
-        coords: dict[str, float] = {}
-        dwell = False
-        dwell_s = 0.0
-        for letter, number in words:
-            letter = letter.upper()
-            value = float(number)
-            if letter == "G":
-                if value in (0.0, 1.0, 2.0, 3.0):
-                    motion = value
-                elif value == 4.0:
-                    dwell = True
-                elif value in (20.0, 21.0):
-                    scale = 25.4 if value == 20.0 else 1.0
-                elif value in (90.0, 91.0):
-                    absolute = value == 90.0
-                elif value not in _IGNORED_G:
-                    raise fail(
-                        lineno,
-                        f"G{number} is not supported (supported: G0 G1 G2 G3 G4 G17 G20 G21 G90 G91; "
-                        "arcs only in the XY plane, no cutter compensation)",
-                    )
-            elif letter in "XYZIJR":
-                coords[letter] = value
-            elif letter == "F":
-                if not value > 0:
-                    raise fail(lineno, f"feed F{number} must be > 0 (units per minute)")
-                feed_mm_s = value * scale / 60.0
-            elif letter == "P":
-                dwell_s = value
-            elif letter not in "NMST":
-                raise fail(lineno, f"word {letter}{number} is not supported (expected G, M, N, X, Y, Z, I, J, R, F, P, S, T)")
-        if dwell:
-            if not dwell_s >= 0:
-                raise fail(lineno, f"G4 dwell P{dwell_s} must be >= 0 s")
-            points.append(list(pos))
-            durations.append(dwell_s)
-            continue
-        if not any(a in coords for a in _AXES):
-            if "I" in coords or "J" in coords or "R" in coords:
-                raise fail(lineno, "arc offsets without an end point (X/Y/Z)")
-            continue
-        if motion is None:
-            raise fail(lineno, "coordinates before any motion mode (G0/G1/G2/G3)")
-        target = list(pos)
-        for i, a in enumerate(_AXES):
-            if a in coords:
-                target[i] = coords[a] * scale + (pos[i] if not absolute else 0.0)
-        speed = rapid_mm_s if motion == 0.0 else feed_mm_s
-        if speed is None:
-            raise fail(lineno, f"G{motion:g} move without a feed rate: set F (units per minute) first")
-        if motion in (2.0, 3.0):
-            start, end = np.array(pos), np.array(target)
-            if "R" in coords:
-                centre = _centre_from_radius(start, end, coords["R"] * scale, motion == 2.0)
-                if centre is None:
-                    raise fail(lineno, f"arc radius R{coords['R']:g} is shorter than half the chord")
-            elif "I" in coords or "J" in coords:
-                centre = start[:2] + scale * np.array([coords.get("I", 0.0), coords.get("J", 0.0)])
-            else:
-                raise fail(lineno, f"G{motion:g} arc needs I/J (centre offset) or R (radius)")
-            r_start = float(np.hypot(*(start[:2] - centre)))
-            r_end = float(np.hypot(*(end[:2] - centre)))
-            if r_start < 1e-9 or abs(r_start - r_end) > max(1e-3, 1e-4 * r_start):
-                raise fail(lineno, f"arc start and end radii differ: {r_start:.6g} vs {r_end:.6g} mm")
-            chunk = _arc_points(start, end, centre, motion == 2.0, spacing_mm, tol_mm)
-            prev = np.vstack([start[None, :], chunk[:-1]])
-            points.extend(chunk.tolist())
-            durations.extend((np.linalg.norm(chunk - prev, axis=1) / speed).tolist())
-        else:
-            points.append(target)
-            durations.append(math.dist(pos, target) / speed)
-        pos = target
-    if len(points) < 3:
-        raise DataFileError(source, f"{len(points) - 1} move(s): a tool path needs at least 2 moves")
-    p_mm = np.asarray(points[1:])  # the position before the first move is unknown: the path starts at its end
-    dt = np.asarray(durations[1:])
-    dt[0] = 0.0
-    keep = np.concatenate(([True], dt[1:] > 0.0))  # zero-length moves add no sample (time stays increasing)
-    p_mm, t_s = p_mm[keep], np.cumsum(dt)[keep]
-    return ToolPath(
-        t_s=t_s, p_sheet_m=p_mm * 1e-3, pass_index=np.ones(len(t_s), dtype=int), direction=np.ones(len(t_s), dtype=int)
-    )
+        reader.read(lineno, raw)
+    return reader.tool_path()
 
 
 def _centre_from_radius(start: np.ndarray, end: np.ndarray, radius: float, clockwise: bool) -> np.ndarray | None:

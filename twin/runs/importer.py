@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -81,24 +81,22 @@ def _crop(
     return Stream(t_s[keep], values[keep])
 
 
-def import_run(mapping: ImportMapping) -> ImportResult:
-    """Assemble a run from the raw exports a mapping describes (nothing is written).
+class _AlignedStream(NamedTuple):
+    """A stream on the shared clock, cropped to the commanded path's time span, and its clock fit."""
 
-    Args:
-        mapping: A loaded mapping (`load_mapping`).
+    stream: Stream
+    clock: ClockFit
 
-    Returns:
-        The run and the import record.
 
-    Raises:
-        MappingError: A raw file is malformed (file, line, column named). ClockError: a stream does not
-            overlap the commanded path on the shared clock, or its onset cannot be found.
-    """
+def _read_commanded(mapping: ImportMapping) -> Stream:
+    """The commanded path [m] with its first time as the shared clock's zero [s]."""
     raw_cmd = read_raw_table(mapping.commanded)
     assert raw_cmd.t_s is not None
-    commanded = Stream(raw_cmd.t_s - raw_cmd.t_s[0], raw_cmd.values)
-    t_end = float(commanded.t_s[-1])
+    return Stream(raw_cmd.t_s - raw_cmd.t_s[0], raw_cmd.values)
 
+
+def _import_tracker(mapping: ImportMapping, commanded: Stream, t_end_s: float) -> _AlignedStream:
+    """The tracker's tool tip registered to the sheet frame [m], on the shared clock up to `t_end_s` [s]."""
     raw_tracker = read_raw_table(mapping.tracker)
     assert raw_tracker.t_s is not None
     p_tracker_sheet = mapping.registration.apply(raw_tracker.values)
@@ -109,26 +107,40 @@ def import_run(mapping: ImportMapping) -> ImportResult:
         mapping.tracker_clock,
         raw_tracker.t_s - tracker_clock.offset_s,
         p_tracker_sheet,
-        t_end,
+        t_end_s,
     )
+    return _AlignedStream(tracker, tracker_clock)
 
+
+def _import_forces(mapping: ImportMapping, commanded: Stream, t_end_s: float) -> _AlignedStream:
+    """The sheet's force on the tool, sheet frame [N], from the sensor's reading, on the shared clock [s]."""
     raw_forces = read_raw_table(mapping.forces)
     assert raw_forces.t_s is not None
     s = mapping.sensor
     f_sheet = contact_force_sheet(raw_forces.values, s.R_sheet_sensor, s.tool_mass_kg, s.gravity_sheet_m_s2)
     forces_clock = _align(mapping, "forces", mapping.forces_clock, raw_forces, f_sheet, commanded)
     forces = _crop(
-        mapping, "forces", mapping.forces_clock, raw_forces.t_s - forces_clock.offset_s, f_sheet, t_end
+        mapping, "forces", mapping.forces_clock, raw_forces.t_s - forces_clock.offset_s, f_sheet, t_end_s
     )
+    return _AlignedStream(forces, forces_clock)
 
-    profile = None
-    if mapping.profile is not None:
-        raw_profile = read_raw_table(mapping.profile)
-        order = np.argsort(raw_profile.values[:, 0], kind="stable")
-        profile = (raw_profile.values[order, 0], raw_profile.values[order, 1])
 
+def _read_profile(mapping: ImportMapping) -> tuple[np.ndarray, np.ndarray] | None:
+    """The part profile (x_m, z_m) sorted by x [m], or None when the mapping has none."""
+    if mapping.profile is None:
+        return None
+    raw_profile = read_raw_table(mapping.profile)
+    order = np.argsort(raw_profile.values[:, 0], kind="stable")
+    return (raw_profile.values[order, 0], raw_profile.values[order, 1])
+
+
+def _import_report(
+    mapping: ImportMapping, commanded: Stream, tracker: _AlignedStream, forces: _AlignedStream
+) -> dict[str, Any]:
+    """The `import` record of meta.json: inputs, registration [mm], clock fits [s], sensor, sample counts."""
     reg = mapping.registration
-    report = {
+    s = mapping.sensor
+    return {
         "mapping": str(mapping.path),
         "inputs": [str(p) for p in mapping.inputs()[1:]],
         "registration": {
@@ -144,7 +156,7 @@ def import_run(mapping: ImportMapping) -> ImportResult:
                 "sigma_s": fit.sigma_s,
                 "refined_on": fit.refined_on,
             }
-            for name, fit in (("tracker", tracker_clock), ("forces", forces_clock))
+            for name, fit in (("tracker", tracker.clock), ("forces", forces.clock))
         },
         "sensor": {
             "R_sheet_sensor": s.R_sheet_sensor.tolist(),
@@ -152,20 +164,45 @@ def import_run(mapping: ImportMapping) -> ImportResult:
             "com_sensor_mm": (1e3 * s.com_sensor_m).tolist(),
             "gravity_sheet_m_s2": s.gravity_sheet_m_s2.tolist(),
         },
-        "samples": {"commanded": len(commanded.t_s), "tracker": len(tracker.t_s), "forces": len(forces.t_s)},
+        "samples": {
+            "commanded": len(commanded.t_s),
+            "tracker": len(tracker.stream.t_s),
+            "forces": len(forces.stream.t_s),
+        },
     }
+
+
+def import_run(mapping: ImportMapping) -> ImportResult:
+    """Assemble a run from the raw exports a mapping describes (nothing is written).
+
+    Args:
+        mapping: A loaded mapping (`load_mapping`).
+
+    Returns:
+        The run and the import record.
+
+    Raises:
+        MappingError: A raw file is malformed (file, line, column named). ClockError: a stream does not
+            overlap the commanded path on the shared clock, or its onset cannot be found.
+    """
+    commanded = _read_commanded(mapping)
+    t_end = float(commanded.t_s[-1])
+    tracker = _import_tracker(mapping, commanded, t_end)
+    forces = _import_forces(mapping, commanded, t_end)
+    profile = _read_profile(mapping)
+    report = _import_report(mapping, commanded, tracker, forces)
     meta = {
         "format": RUN_FORMAT,
         "frame": "sheet",
         "scenario": mapping.scenario,
         "source": "tx200-twin import",
         "tool_length_m": mapping.tool_length_m,
-        "tracker_rate_hz": round(1.0 / tracker.median_interval_s, 6),
-        "sensor_rate_hz": round(1.0 / forces.median_interval_s, 6),
+        "tracker_rate_hz": round(1.0 / tracker.stream.median_interval_s, 6),
+        "sensor_rate_hz": round(1.0 / forces.stream.median_interval_s, 6),
         "notes": mapping.notes,
         "import": report,
     }
-    run = Run(None, meta, commanded, tracker, forces, profile)
+    run = Run(None, meta, commanded, tracker.stream, forces.stream, profile)
     return ImportResult(run, report)
 
 

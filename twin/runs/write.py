@@ -30,6 +30,91 @@ def _protected_by(target: Path, protect: Sequence[str | Path]) -> Path | None:
     return None
 
 
+def _checked_target(
+    directory: str | Path, run: Run, protect: Sequence[str | Path], overwrite: bool
+) -> Path:
+    """The resolved target directory, checked to hold no protected input and to be free (or replaceable).
+
+    Raises:
+        InputError: The target holds a protected input (or `run.directory`), is a file, or is a non-empty
+            directory without `overwrite`.
+    """
+    target = Path(directory).resolve()
+    guarded = [*protect, *([run.directory] if run.directory is not None else [])]
+    hit = _protected_by(target, guarded)
+    if hit is not None:
+        raise InputError(
+            f"refusing to write run into {target}: it holds the input {hit}; choose another directory"
+        )
+    if target.exists() and not target.is_dir():
+        raise InputError(f"{target} exists and is not a directory; choose another run directory")
+    if target.exists() and any(target.iterdir()) and not overwrite:
+        raise InputError(f"{target} exists and is not empty; pass overwrite=True or choose another directory")
+    return target
+
+
+def _checked_meta(run: Run) -> dict[str, Any]:
+    """The run's meta.json contents with `format` and `frame` filled in; InputError if it holds `truth`."""
+    meta = {"format": RUN_FORMAT, "frame": RUN_FRAME, **run.meta}
+    if "truth" in meta:
+        raise InputError(
+            "meta must not hold 'truth': pass it as write_run(..., truth=...) (written to truth.json)"
+        )
+    return meta
+
+
+def _write_files(tmp: Path, run: Run, meta: Mapping[str, Any], truth: Mapping[str, Any] | None) -> None:
+    """Write the run's files into `tmp`: positions in mm (4 decimals), forces in N (3), times in s (6).
+
+    Args:
+        tmp: The new run directory, not yet in place.
+        run: The run (SI units, sheet frame).
+        meta: Contents of meta.json.
+        truth: Lab-only hidden truth for truth.json, or None.
+    """
+    write_json(tmp / "meta.json", meta)
+    for name, stream in (("commanded.csv", run.commanded), ("tracker.csv", run.tracker)):
+        mm = stream.values * 1e3
+        write_table(
+            tmp / name,
+            {"t_s": stream.t_s, "x_mm": mm[:, 0], "y_mm": mm[:, 1], "z_mm": mm[:, 2]},
+            formats={"t_s": ".6f", "x_mm": ".4f", "y_mm": ".4f", "z_mm": ".4f"},
+        )
+    if run.forces is not None:
+        f = run.forces.values
+        write_table(
+            tmp / "forces.csv",
+            {"t_s": run.forces.t_s, "fx_n": f[:, 0], "fy_n": f[:, 1], "fz_n": f[:, 2]},
+            formats={"t_s": ".6f", "fx_n": ".3f", "fy_n": ".3f", "fz_n": ".3f"},
+        )
+    if run.part_profile is not None:
+        x_m, z_m = run.part_profile
+        write_table(
+            tmp / "part_profile.csv",
+            {"x_mm": np.asarray(x_m) * 1e3, "z_mm": np.asarray(z_m) * 1e3},
+            formats={"x_mm": ".4f", "z_mm": ".4f"},
+        )
+    if run.part_scan is not None:
+        mm = np.asarray(run.part_scan) * 1e3
+        write_table(
+            tmp / "part_scan.csv",
+            {"x_mm": mm[:, 0], "y_mm": mm[:, 1], "z_mm": mm[:, 2]},
+            formats={"x_mm": ".3f", "y_mm": ".3f", "z_mm": ".4f"},
+        )
+    if truth is not None:
+        write_json(tmp / "truth.json", truth)
+
+
+def _read_back(tmp: Path, run: Run) -> None:
+    """Read the written directory back with `read_run`; InputError naming the file and row if rejected."""
+    try:
+        read_run(tmp, require_forces=run.forces is not None)
+    except DataFileError as exc:
+        raise InputError(
+            f"run does not satisfy {RUN_FORMAT}: {str(exc).replace(str(tmp) + os.sep, '')}"
+        ) from None
+
+
 def write_run(
     directory: str | Path,
     run: Run,
@@ -58,62 +143,13 @@ def write_run(
         InputError: Target exists and is non-empty without `overwrite`, target holds a protected input,
             or the run does not satisfy the format (message names the file and row).
     """
-    target = Path(directory).resolve()
-    guarded = [*protect, *([run.directory] if run.directory is not None else [])]
-    hit = _protected_by(target, guarded)
-    if hit is not None:
-        raise InputError(
-            f"refusing to write run into {target}: it holds the input {hit}; choose another directory"
-        )
-    if target.exists() and not target.is_dir():
-        raise InputError(f"{target} exists and is not a directory; choose another run directory")
-    if target.exists() and any(target.iterdir()) and not overwrite:
-        raise InputError(f"{target} exists and is not empty; pass overwrite=True or choose another directory")
-    meta = {"format": RUN_FORMAT, "frame": RUN_FRAME, **run.meta}
-    if "truth" in meta:
-        raise InputError(
-            "meta must not hold 'truth': pass it as write_run(..., truth=...) (written to truth.json)"
-        )
+    target = _checked_target(directory, run, protect, overwrite)
+    meta = _checked_meta(run)
     target.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent))
     try:
-        write_json(tmp / "meta.json", meta)
-        for name, stream in (("commanded.csv", run.commanded), ("tracker.csv", run.tracker)):
-            mm = stream.values * 1e3
-            write_table(
-                tmp / name,
-                {"t_s": stream.t_s, "x_mm": mm[:, 0], "y_mm": mm[:, 1], "z_mm": mm[:, 2]},
-                formats={"t_s": ".6f", "x_mm": ".4f", "y_mm": ".4f", "z_mm": ".4f"},
-            )
-        if run.forces is not None:
-            f = run.forces.values
-            write_table(
-                tmp / "forces.csv",
-                {"t_s": run.forces.t_s, "fx_n": f[:, 0], "fy_n": f[:, 1], "fz_n": f[:, 2]},
-                formats={"t_s": ".6f", "fx_n": ".3f", "fy_n": ".3f", "fz_n": ".3f"},
-            )
-        if run.part_profile is not None:
-            x_m, z_m = run.part_profile
-            write_table(
-                tmp / "part_profile.csv",
-                {"x_mm": np.asarray(x_m) * 1e3, "z_mm": np.asarray(z_m) * 1e3},
-                formats={"x_mm": ".4f", "z_mm": ".4f"},
-            )
-        if run.part_scan is not None:
-            mm = np.asarray(run.part_scan) * 1e3
-            write_table(
-                tmp / "part_scan.csv",
-                {"x_mm": mm[:, 0], "y_mm": mm[:, 1], "z_mm": mm[:, 2]},
-                formats={"x_mm": ".3f", "y_mm": ".3f", "z_mm": ".4f"},
-            )
-        if truth is not None:
-            write_json(tmp / "truth.json", truth)
-        try:
-            read_run(tmp, require_forces=run.forces is not None)
-        except DataFileError as exc:
-            raise InputError(
-                f"run does not satisfy {RUN_FORMAT}: {str(exc).replace(str(tmp) + os.sep, '')}"
-            ) from None
+        _write_files(tmp, run, meta, truth)
+        _read_back(tmp, run)
         swap_in_directory(tmp, target)
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)

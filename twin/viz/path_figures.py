@@ -5,8 +5,10 @@ forces against time, in the style of the thesis's Figs 3.10-3.11 and 5.1-5.2 (`t
 from __future__ import annotations
 
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
+from matplotlib.axes import Axes
 
 from twin.errors import InputError
 from twin.viz.style import (
@@ -48,6 +50,107 @@ def _times(name: str, values: object | None, n: int) -> np.ndarray | None:
     return t_s
 
 
+class _XzPaths(NamedTuple):
+    """The checked paths of the x-z figure, sheet frame, as (x, z) [m], and their vertical errors [m]."""
+
+    ideal_xz_m: np.ndarray  # (n, 2)
+    measured_xz_m: np.ndarray  # (m, 2)
+    commanded_xz_m: np.ndarray | None  # (k, 2)
+    dz_measured_m: np.ndarray  # z(measured) - z(ideal), (m,)
+    dz_commanded_m: np.ndarray | None  # z(commanded) - z(ideal), (k,)
+
+
+def _checked_paths(
+    p_ideal_sheet_m: object,
+    p_measured_sheet_m: object,
+    p_commanded_sheet_m: object | None,
+    t_ideal_s: object | None,
+    t_measured_s: object | None,
+    t_commanded_s: object | None,
+) -> _XzPaths:
+    """Check the paths and their sample times, and pair each with the ideal path for its vertical error.
+
+    Args:
+        p_ideal_sheet_m: Ideal tool-tip path, sheet frame [m], shape (n, 3) or (n, 2).
+        p_measured_sheet_m: Measured tool tip [m], shape (m, 3) or (m, 2).
+        p_commanded_sheet_m: Commanded path [m], shape (k, 3) or (k, 2), or None.
+        t_ideal_s: Sample times of the ideal path [s], shape (n,), or None.
+        t_measured_s: Sample times of the measured path [s], shape (m,), or None.
+        t_commanded_s: Sample times of the commanded path [s], shape (k,), or None.
+
+    Returns:
+        The paths as (x, z) [m] and z(path) - z(ideal) [m].
+
+    Raises:
+        InputError: Bad shapes, non-finite values, or paths that cannot be paired.
+    """
+    ideal = checked_xz("p_ideal_sheet_m", p_ideal_sheet_m)
+    measured = checked_xz("p_measured_sheet_m", p_measured_sheet_m)
+    commanded = None if p_commanded_sheet_m is None else checked_xz("p_commanded_sheet_m", p_commanded_sheet_m)
+    t_ideal = _times("t_ideal_s", t_ideal_s, len(ideal))
+    t_meas = _times("t_measured_s", t_measured_s, len(measured))
+    err_meas = _paired_z_error("p_measured_sheet_m", measured, t_meas, ideal, t_ideal)
+    err_cmd = None
+    if commanded is not None:
+        t_cmd = _times("t_commanded_s", t_commanded_s, len(commanded))
+        err_cmd = _paired_z_error("p_commanded_sheet_m", commanded, t_cmd, ideal, t_ideal)
+    return _XzPaths(ideal, measured, commanded, err_meas, err_cmd)
+
+
+def _plot_paths(ax: Axes, paths: _XzPaths, title: str) -> None:
+    """Upper panel: the ideal, commanded (when given) and measured paths in x-z [mm]."""
+    ideal, measured, commanded = paths.ideal_xz_m, paths.measured_xz_m, paths.commanded_xz_m
+    ax.plot(ideal[:, 0] * M_TO_MM, ideal[:, 1] * M_TO_MM, "--", color=COLOR_IDEAL, lw=1.2, label="ideal")
+    if commanded is not None:
+        ax.plot(
+            commanded[:, 0] * M_TO_MM,
+            commanded[:, 1] * M_TO_MM,
+            ":",
+            color=COLOR_COMMANDED,
+            lw=1.2,
+            label="commanded",
+        )
+    ax.plot(
+        measured[:, 0] * M_TO_MM,
+        measured[:, 1] * M_TO_MM,
+        "-",
+        color=COLOR_MEASURED,
+        lw=0.9,
+        label="measured",
+    )
+    ax.set_ylabel("z [mm]")
+    ax.set_title(title)
+    ax.legend(**LEGEND_OUTSIDE)
+
+
+def _plot_vertical_errors(ax: Axes, paths: _XzPaths) -> None:
+    """Lower panel: z(path) - z(ideal) against x for the measured and (when given) commanded paths [mm]."""
+    measured, commanded = paths.measured_xz_m, paths.commanded_xz_m
+    err_meas, err_cmd = paths.dz_measured_m, paths.dz_commanded_m
+    ax.axhline(0.0, color=COLOR_IDEAL, lw=0.8, ls="--")
+    ax.plot(
+        measured[:, 0] * M_TO_MM,
+        err_meas * M_TO_MM,
+        "-",
+        color=COLOR_MEASURED,
+        lw=0.8,
+        label="measured - ideal",
+    )
+    if err_cmd is not None and commanded is not None:
+        ax.plot(
+            commanded[:, 0] * M_TO_MM,
+            err_cmd * M_TO_MM,
+            ":",
+            color=COLOR_COMMANDED,
+            lw=1.0,
+            label="commanded - ideal",
+        )
+    ax.set_xlabel("x [mm]")
+    ax.set_ylabel("vertical error Δz [mm]")
+    ax.set_title("Vertical error (magnified)", fontsize=9)
+    ax.legend(**LEGEND_OUTSIDE)
+
+
 def plot_path_xz(
     path: str | Path,
     p_ideal_sheet_m: object,
@@ -80,62 +183,12 @@ def plot_path_xz(
     Raises:
         InputError: Bad shapes, non-finite values, or paths that cannot be paired for the error panel.
     """
-    ideal = checked_xz("p_ideal_sheet_m", p_ideal_sheet_m)
-    measured = checked_xz("p_measured_sheet_m", p_measured_sheet_m)
-    commanded = None if p_commanded_sheet_m is None else checked_xz("p_commanded_sheet_m", p_commanded_sheet_m)
-    t_ideal = _times("t_ideal_s", t_ideal_s, len(ideal))
-    t_meas = _times("t_measured_s", t_measured_s, len(measured))
-    err_meas = _paired_z_error("p_measured_sheet_m", measured, t_meas, ideal, t_ideal)
-    err_cmd = None
-    if commanded is not None:
-        t_cmd = _times("t_commanded_s", t_commanded_s, len(commanded))
-        err_cmd = _paired_z_error("p_commanded_sheet_m", commanded, t_cmd, ideal, t_ideal)
-
+    paths = _checked_paths(
+        p_ideal_sheet_m, p_measured_sheet_m, p_commanded_sheet_m, t_ideal_s, t_measured_s, t_commanded_s
+    )
     fig, (ax_path, ax_err) = new_figure(2, height_ratios=(3, 2))
-    ax_path.plot(ideal[:, 0] * M_TO_MM, ideal[:, 1] * M_TO_MM, "--", color=COLOR_IDEAL, lw=1.2, label="ideal")
-    if commanded is not None:
-        ax_path.plot(
-            commanded[:, 0] * M_TO_MM,
-            commanded[:, 1] * M_TO_MM,
-            ":",
-            color=COLOR_COMMANDED,
-            lw=1.2,
-            label="commanded",
-        )
-    ax_path.plot(
-        measured[:, 0] * M_TO_MM,
-        measured[:, 1] * M_TO_MM,
-        "-",
-        color=COLOR_MEASURED,
-        lw=0.9,
-        label="measured",
-    )
-    ax_path.set_ylabel("z [mm]")
-    ax_path.set_title(title)
-    ax_path.legend(**LEGEND_OUTSIDE)
-
-    ax_err.axhline(0.0, color=COLOR_IDEAL, lw=0.8, ls="--")
-    ax_err.plot(
-        measured[:, 0] * M_TO_MM,
-        err_meas * M_TO_MM,
-        "-",
-        color=COLOR_MEASURED,
-        lw=0.8,
-        label="measured - ideal",
-    )
-    if err_cmd is not None and commanded is not None:
-        ax_err.plot(
-            commanded[:, 0] * M_TO_MM,
-            err_cmd * M_TO_MM,
-            ":",
-            color=COLOR_COMMANDED,
-            lw=1.0,
-            label="commanded - ideal",
-        )
-    ax_err.set_xlabel("x [mm]")
-    ax_err.set_ylabel("vertical error Δz [mm]")
-    ax_err.set_title("Vertical error (magnified)", fontsize=9)
-    ax_err.legend(**LEGEND_OUTSIDE)
+    _plot_paths(ax_path, paths, title)
+    _plot_vertical_errors(ax_err, paths)
     return save_figure(fig, path)
 
 

@@ -61,6 +61,38 @@ def _sheet_origin(model: mujoco.MjModel) -> np.ndarray:
     return data.site_xpos[site].copy()
 
 
+def _checked_names(items: Sequence[tuple[str, Run, ReplayResult]]) -> list[str]:
+    """The run names of `items`: at least one, unique, letters/digits/`_`/`-` (or a single ""); InputError."""
+    if not items:
+        raise InputError("items is empty; expected at least one (name, run, replay)")
+    names = [name for name, _, _ in items]
+    valid = [bool(_NAME.match(n)) or (n == "" and len(items) == 1) for n in names]
+    if len(set(names)) != len(names) or not all(valid):
+        raise InputError(
+            f"run names must be unique and match [A-Za-z0-9_-]+ (or one unnamed run), got {names}"
+        )
+    return names
+
+
+def _checked_origin(
+    model: mujoco.MjModel, p_base_sheet_origin: np.ndarray | None, placement: Placement | None
+) -> np.ndarray:
+    """The sheet origin in the base frame [m], shape (3,): as given, else the placement's, else the model's site.
+
+    Raises:
+        InputError: Not 3 finite values.
+    """
+    if p_base_sheet_origin is None and placement is not None and placement.origin_base_m is not None:
+        p_base_sheet_origin = np.asarray(placement.origin_base_m, dtype=float)
+    if p_base_sheet_origin is None:
+        origin = _sheet_origin(model)
+    else:
+        origin = np.asarray(p_base_sheet_origin, dtype=float)
+    if origin.shape != (3,) or not np.all(np.isfinite(origin)):
+        raise InputError(f"p_base_sheet_origin must be 3 finite values [m], got {origin!r}")
+    return origin
+
+
 def record_runs(
     path: str | Path,
     items: Sequence[tuple[str, Run, ReplayResult]],
@@ -92,36 +124,21 @@ def record_runs(
         InputError: Bad names, shapes that do not match the run, or a model whose nq differs from
             the replay's.
     """
-    if not items:
-        raise InputError("items is empty; expected at least one (name, run, replay)")
-    names = [name for name, _, _ in items]
-    valid = [bool(_NAME.match(n)) or (n == "" and len(items) == 1) for n in names]
-    if len(set(names)) != len(names) or not all(valid):
-        raise InputError(
-            f"run names must be unique and match [A-Za-z0-9_-]+ (or one unnamed run), got {names}"
-        )
+    names = _checked_names(items)
     if twin_model is None:
         twin_model = build_model()
-    rot = None if placement is None else placement.R_base_sheet
-    if p_base_sheet_origin is None and placement is not None and placement.origin_base_m is not None:
-        p_base_sheet_origin = np.asarray(placement.origin_base_m, dtype=float)
-    if p_base_sheet_origin is None:
-        origin = _sheet_origin(twin_model)
-    else:
-        origin = np.asarray(p_base_sheet_origin, dtype=float)
-    if origin.shape != (3,) or not np.all(np.isfinite(origin)):
-        raise InputError(f"p_base_sheet_origin must be 3 finite values [m], got {origin!r}")
+    R_base_sheet = None if placement is None else placement.R_base_sheet
+    origin = _checked_origin(twin_model, p_base_sheet_origin, placement)
     ideal = None if ideal_sheet_m is None else checked_points("ideal_sheet_m", ideal_sheet_m)
-
+    prefixes = [f"{name}/" if name else "" for name in names]
     target = Path(path)
     target.parent.mkdir(parents=True, exist_ok=True)
     tmp = target.parent / f".{target.name}.{os.getpid()}.{uuid.uuid4().hex}.tmp"
-    prefixes = [f"{name}/" if name else "" for name in names]
     rec = rr.RecordingStream(application_id, send_properties=False)
     try:
         rec.save(tmp, default_blueprint=_blueprint(prefixes))
         for prefix, (_, run, replay) in zip(prefixes, items, strict=True):
-            log_replay(rec, prefix, run, replay, ideal, twin_model, origin, rot)
+            log_replay(rec, prefix, run, replay, ideal, twin_model, origin, R_base_sheet)
         rec.flush()
         rec.disconnect()
         os.replace(tmp, target)

@@ -21,7 +21,7 @@ The recording around them (file, blueprint, several runs): `twin.viz.recording`.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, NamedTuple
 
 import matplotlib
 import mujoco
@@ -35,6 +35,7 @@ from twin.viz.recording_robot import TIMELINE, log_body_poses, log_robot_geometr
 if TYPE_CHECKING:
     from twin.analysis.replay import ReplayResult
     from twin.runs.format import Run
+    from twin.sim.result import SimResult
 
 DEFLECTION_MAGNIFICATION = 20.0  # deflection arrows are drawn 20 times their size
 FORCE_ARROW_M_PER_N = 1e-3 / 20.0  # force arrows: 1 mm per 20 N
@@ -137,6 +138,165 @@ def _readme(run: Run, replay: ReplayResult, origin: np.ndarray) -> str:
     return "\n".join(lines)
 
 
+class _SheetInBase(NamedTuple):
+    """Pose of the sheet frame in the robot base frame: p_base = R_base_sheet · p_sheet + origin."""
+
+    R_base_sheet: np.ndarray  # (3, 3)
+    p_base_sheet_origin_m: np.ndarray  # (3,) [m]
+
+    def points(self, p_sheet_m: np.ndarray) -> np.ndarray:
+        """Sheet-frame points [m], shape (n, 3), in the base frame [m]."""
+        return p_sheet_m @ self.R_base_sheet.T + self.p_base_sheet_origin_m
+
+
+class _ReplayStreams(NamedTuple):
+    """The checked samples the layers draw, sheet frame [s, m, N], and the samples of the moving layers."""
+
+    t_sim_s: np.ndarray  # twin sample times, (n,)
+    p_sim_sheet_m: np.ndarray  # loaded tool tip on the twin, (n, 3)
+    p_unloaded_sheet_m: np.ndarray  # unloaded tool tip on the twin, (n, 3)
+    f_sim_sheet_n: np.ndarray  # force of the sheet on the tool on the twin, (n, 3)
+    t_trk_s: np.ndarray  # tracker sample times, (m,)
+    p_trk_sheet_m: np.ndarray  # measured tool tip, (m, 3)
+    p_pred_sheet_m: np.ndarray  # predicted tool tip at the tracker times, (m, 3)
+    p_cmd_at_trk_sheet_m: np.ndarray  # commanded tool tip at the tracker times, (m, 3)
+    i_sim: np.ndarray  # twin samples drawn, about POSE_RATE_HZ
+    i_trk: np.ndarray  # tracker samples drawn, about POSE_RATE_HZ
+
+
+def _checked_streams(run: Run, replay: ReplayResult) -> _ReplayStreams:
+    """The replay's samples, checked against its own length and the run's tracker (InputError naming one)."""
+    sim = replay.sim
+    t_sim_s = np.asarray(sim.t_s, dtype=float)
+    t_trk_s = run.tracker.t_s
+    return _ReplayStreams(
+        t_sim_s,
+        checked_points("sim.p_sheet_m", sim.p_sheet_m, len(t_sim_s)),
+        checked_points("sim.p_unloaded_sheet_m", sim.p_unloaded_sheet_m, len(t_sim_s)),
+        checked_points("sim.f_sheet_n", sim.f_sheet_n, len(t_sim_s)),
+        t_trk_s,
+        run.tracker.values,
+        checked_points("replay.tracker_pred_m", replay.tracker_pred_m, len(t_trk_s)),
+        interp_rows(t_trk_s, run.commanded.t_s, run.commanded.values),
+        decimate(t_sim_s),
+        decimate(t_trk_s),
+    )
+
+
+def _log_scene(
+    rec: rr.RecordingStream, prefix: str, run: Run, replay: ReplayResult, model: mujoco.MjModel,
+    p_base_sheet_origin_m: np.ndarray, streams: _ReplayStreams,
+) -> None:
+    """Log the view axes, the README note, the robot's geometry and its body poses at the drawn samples."""
+    rec.log(f"{prefix}world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
+    readme = _readme(run, replay, p_base_sheet_origin_m)
+    rec.log(f"{prefix}README", rr.TextDocument(readme, media_type=rr.MediaType.MARKDOWN), static=True)
+    log_robot_geometry(rec, model, prefix)
+    i_sim = streams.i_sim
+    log_body_poses(rec, model, streams.t_sim_s[i_sim], np.asarray(replay.sim.qpos)[i_sim], prefix)
+
+
+def _log_paths(
+    rec: rr.RecordingStream, world: str, p_cmd_sheet_m: np.ndarray, streams: _ReplayStreams,
+    ideal_sheet_m: np.ndarray | None, sheet: _SheetInBase,
+) -> None:
+    """Log the ideal (when given), commanded, measured and simulated tool-tip paths as static strips [m]."""
+    strips = {
+        "commanded": p_cmd_sheet_m, "measured": streams.p_trk_sheet_m, "simulated": streams.p_sim_sheet_m
+    }
+    if ideal_sheet_m is not None:
+        strips = {"ideal": checked_points("ideal_sheet_m", ideal_sheet_m), **strips}
+    for name, points in strips.items():
+        strip = rr.LineStrips3D([sheet.points(points)], radii=LINE_RADIUS, colors=[COLORS[name]])
+        rec.log(f"{world}/paths/{name}", strip, static=True)
+
+
+def _log_tool_tips(rec: rr.RecordingStream, world: str, streams: _ReplayStreams, sheet: _SheetInBase) -> None:
+    """Log the measured and simulated tool tip as moving points at the drawn samples [m, s]."""
+    i_sim, i_trk = streams.i_sim, streams.i_trk
+    for name, t_pts, pts in (
+        ("measured", streams.t_trk_s[i_trk], streams.p_trk_sheet_m[i_trk]),
+        ("simulated", streams.t_sim_s[i_sim], streams.p_sim_sheet_m[i_sim]),
+    ):
+        rec.send_columns(
+            f"{world}/tool_tip/{name}",
+            indexes=[rr.TimeColumn(TIMELINE, duration=t_pts)],
+            columns=rr.Points3D.columns(
+                positions=sheet.points(pts),
+                colors=np.tile(COLORS[name], (len(pts), 1)),
+                radii=np.full(len(pts), 0.002),
+            ),
+        )
+
+
+def _log_arrows(
+    rec: rr.RecordingStream, world: str, run: Run, streams: _ReplayStreams, sheet: _SheetInBase
+) -> None:
+    """Log the magnified deflection arrows and the force arrows at the tool tip, drawn samples [m, N, s]."""
+    s = streams
+    arrows = f"{world}/deflection_x{DEFLECTION_MAGNIFICATION:g}"
+    forces = f"{world}/force_1mm_per_20N"
+    d_sim = DEFLECTION_MAGNIFICATION * (s.p_sim_sheet_m - s.p_unloaded_sheet_m)
+    d_trk = DEFLECTION_MAGNIFICATION * (s.p_trk_sheet_m - s.p_cmd_at_trk_sheet_m)
+    arrow_sets = [  # entity, times, tails [m], vectors [m], fixed colour (None: coloured by size)
+        (f"{arrows}/simulated", s.i_sim, s.t_sim_s, s.p_unloaded_sheet_m, d_sim, None),
+        (f"{arrows}/measured", s.i_trk, s.t_trk_s, s.p_cmd_at_trk_sheet_m, d_trk, None),
+        (f"{forces}/simulated", s.i_sim, s.t_sim_s, s.p_sim_sheet_m, FORCE_ARROW_M_PER_N * s.f_sim_sheet_n,
+         COLORS["simulated"]),
+    ]
+    if run.forces is not None:
+        tip = interp_rows(run.forces.t_s, s.t_trk_s, s.p_trk_sheet_m)
+        i_f = decimate(run.forces.t_s)
+        f_meas = FORCE_ARROW_M_PER_N * run.forces.values
+        arrow_sets.append((f"{forces}/measured", i_f, run.forces.t_s, tip, f_meas, COLORS["measured"]))
+    for entity, keep, t_s, tails, vecs, color in arrow_sets:
+        colors = None if color is None else np.tile(color, (len(keep), 1))
+        _arrows(rec, entity, t_s[keep], sheet.points(tails[keep]), vecs[keep] @ sheet.R_base_sheet.T, colors)
+
+
+def _log_groove(
+    rec: rr.RecordingStream, world: str, run: Run, sim: SimResult, t_end_s: float, sheet: _SheetInBase
+) -> None:
+    """Log the formed groove's centre line (and the run's part profile) at the end of the run [m, s]."""
+    formed_x = np.asarray(sim.formed_x_m, dtype=float)
+    formed = np.column_stack([formed_x, np.zeros_like(formed_x), np.asarray(sim.formed_z_m, dtype=float)])
+    profiles = {"formed_loaded": formed}
+    if run.part_profile is not None:
+        x_m, z_m = (np.asarray(a, dtype=float) for a in run.part_profile)
+        profiles["part_profile"] = np.column_stack([x_m, np.zeros_like(x_m), z_m])
+    for name, profile in profiles.items():
+        if len(profile) >= 2:
+            rec.send_columns(
+                f"{world}/groove/{name}",
+                indexes=[rr.TimeColumn(TIMELINE, duration=[t_end_s])],
+                columns=rr.LineStrips3D.columns(strips=[sheet.points(profile)]),
+            )
+
+
+def _log_plots(
+    rec: rr.RecordingStream, plots: str, run: Run, forces_pred_n: np.ndarray | None, streams: _ReplayStreams
+) -> None:
+    """Log the x and z series of deflection [mm] and force [N], measured against predicted, on `sim_time`."""
+    s = streams
+    d_meas_mm = M_TO_MM * (s.p_trk_sheet_m - s.p_cmd_at_trk_sheet_m)
+    d_pred_mm = M_TO_MM * (s.p_pred_sheet_m - s.p_cmd_at_trk_sheet_m)
+    series = [  # entity under plots/, times [s], values (n, 3), label, colour
+        ("deflection_{}_mm/measured", s.t_trk_s, d_meas_mm, "measured", COLORS["measured"]),
+        ("deflection_{}_mm/predicted", s.t_trk_s, d_pred_mm, "predicted", COLORS["predicted"]),
+        ("force_{}_n/simulated_sheet", s.t_sim_s, s.f_sim_sheet_n, "sheet force (twin)",
+         COLORS["simulated_sheet"]),
+    ]
+    if run.forces is not None:
+        t_f = run.forces.t_s
+        series.append(("force_{}_n/measured", t_f, run.forces.values, "measured", COLORS["measured"]))
+        if forces_pred_n is not None:
+            f_pred = checked_points("replay.forces_pred_n", forces_pred_n, len(t_f))
+            series.append(("force_{}_n/predicted", t_f, f_pred, "predicted", COLORS["predicted"]))
+    for k, axis in ((0, "x"), (2, "z")):
+        for entity, t_s, values, label, color in series:
+            _series(rec, f"{plots}/{entity.format(axis)}", t_s, values[:, k], label, color)
+
+
 def log_replay(
     rec: rr.RecordingStream,
     prefix: str,
@@ -159,121 +319,11 @@ def log_replay(
         origin: Sheet origin in the base frame [m], shape (3,).
         R_base_sheet: Orientation of the sheet frame in the base (the placement's yaw); None: the base axes.
     """
-    rot = np.eye(3) if R_base_sheet is None else np.asarray(R_base_sheet, dtype=float)
-
-    def to_base(points: np.ndarray) -> np.ndarray:  # sheet-frame points (n, 3) -> base frame
-        return points @ rot.T + origin
-
-    sim = replay.sim
-    t_sim = np.asarray(sim.t_s, dtype=float)
-    n = len(t_sim)
-    p_sim = checked_points("sim.p_sheet_m", sim.p_sheet_m, n)
-    p_unloaded = checked_points("sim.p_unloaded_sheet_m", sim.p_unloaded_sheet_m, n)
-    f_sim = checked_points("sim.f_sheet_n", sim.f_sheet_n, n)
-    t_trk = run.tracker.t_s
-    p_trk = run.tracker.values
-    p_pred = checked_points("replay.tracker_pred_m", replay.tracker_pred_m, len(t_trk))
-    cmd_at_trk = interp_rows(t_trk, run.commanded.t_s, run.commanded.values)
-    world = f"{prefix}world"
-
-    rec.log(world, rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
-    rec.log(
-        f"{prefix}README",
-        rr.TextDocument(_readme(run, replay, origin), media_type=rr.MediaType.MARKDOWN),
-        static=True,
-    )
-    log_robot_geometry(rec, model, prefix)
-    i_sim = decimate(t_sim)
-    log_body_poses(rec, model, t_sim[i_sim], np.asarray(sim.qpos)[i_sim], prefix)
-
-    strips = {"commanded": run.commanded.values, "measured": p_trk, "simulated": p_sim}
-    if ideal_sheet_m is not None:
-        strips = {"ideal": checked_points("ideal_sheet_m", ideal_sheet_m), **strips}
-    for name, points in strips.items():
-        rec.log(
-            f"{world}/paths/{name}",
-            rr.LineStrips3D([to_base(points)], radii=LINE_RADIUS, colors=[COLORS[name]]),
-            static=True,
-        )
-
-    i_trk = decimate(t_trk)
-    for name, t_pts, pts in (
-        ("measured", t_trk[i_trk], p_trk[i_trk]),
-        ("simulated", t_sim[i_sim], p_sim[i_sim]),
-    ):
-        rec.send_columns(
-            f"{world}/tool_tip/{name}",
-            indexes=[rr.TimeColumn(TIMELINE, duration=t_pts)],
-            columns=rr.Points3D.columns(
-                positions=to_base(pts),
-                colors=np.tile(COLORS[name], (len(pts), 1)),
-                radii=np.full(len(pts), 0.002),
-            ),
-        )
-
-    arrows = f"{world}/deflection_x{DEFLECTION_MAGNIFICATION:g}"
-    forces = f"{world}/force_1mm_per_20N"
-    arrow_sets = [  # entity, times, origins [m], vectors [m], fixed colour (None: coloured by size)
-        (
-            f"{arrows}/simulated",
-            i_sim,
-            t_sim,
-            p_unloaded,
-            DEFLECTION_MAGNIFICATION * (p_sim - p_unloaded),
-            None,
-        ),
-        (
-            f"{arrows}/measured",
-            i_trk,
-            t_trk,
-            cmd_at_trk,
-            DEFLECTION_MAGNIFICATION * (p_trk - cmd_at_trk),
-            None,
-        ),
-        (f"{forces}/simulated", i_sim, t_sim, p_sim, FORCE_ARROW_M_PER_N * f_sim, COLORS["simulated"]),
-    ]
-    if run.forces is not None:
-        tip = interp_rows(run.forces.t_s, t_trk, p_trk)
-        i_f = decimate(run.forces.t_s)
-        f_meas = FORCE_ARROW_M_PER_N * run.forces.values
-        arrow_sets.append((f"{forces}/measured", i_f, run.forces.t_s, tip, f_meas, COLORS["measured"]))
-    for entity, keep, t_s, origins, vectors, color in arrow_sets:
-        colors = None if color is None else np.tile(color, (len(keep), 1))
-        _arrows(rec, entity, t_s[keep], to_base(origins[keep]), vectors[keep] @ rot.T, colors)
-
-    t_end = [float(t_sim[-1])]
-    formed_x = np.asarray(sim.formed_x_m, dtype=float)
-    formed = np.column_stack([formed_x, np.zeros_like(formed_x), np.asarray(sim.formed_z_m, dtype=float)])
-    profiles = {"formed_loaded": formed}
-    if run.part_profile is not None:
-        x_m, z_m = (np.asarray(a, dtype=float) for a in run.part_profile)
-        profiles["part_profile"] = np.column_stack([x_m, np.zeros_like(x_m), z_m])
-    for name, profile in profiles.items():
-        if len(profile) >= 2:
-            rec.send_columns(
-                f"{world}/groove/{name}",
-                indexes=[rr.TimeColumn(TIMELINE, duration=t_end)],
-                columns=rr.LineStrips3D.columns(strips=[to_base(profile)]),
-            )
-
-    plots = f"{prefix}plots"
-    series = [  # entity under plots/, times [s], values (n, 3), label, colour
-        ("deflection_{}_mm/measured", t_trk, M_TO_MM * (p_trk - cmd_at_trk), "measured", COLORS["measured"]),
-        (
-            "deflection_{}_mm/predicted",
-            t_trk,
-            M_TO_MM * (p_pred - cmd_at_trk),
-            "predicted",
-            COLORS["predicted"],
-        ),
-        ("force_{}_n/simulated_sheet", t_sim, f_sim, "sheet force (twin)", COLORS["simulated_sheet"]),
-    ]
-    if run.forces is not None:
-        t_f = run.forces.t_s
-        series.append(("force_{}_n/measured", t_f, run.forces.values, "measured", COLORS["measured"]))
-        if replay.forces_pred_n is not None:
-            f_pred = checked_points("replay.forces_pred_n", replay.forces_pred_n, len(t_f))
-            series.append(("force_{}_n/predicted", t_f, f_pred, "predicted", COLORS["predicted"]))
-    for k, axis in ((0, "x"), (2, "z")):
-        for entity, t_s, values, label, color in series:
-            _series(rec, f"{plots}/{entity.format(axis)}", t_s, values[:, k], label, color)
+    sheet = _SheetInBase(np.eye(3) if R_base_sheet is None else np.asarray(R_base_sheet, dtype=float), origin)
+    streams = _checked_streams(run, replay)
+    _log_scene(rec, prefix, run, replay, model, origin, streams)
+    _log_paths(rec, f"{prefix}world", run.commanded.values, streams, ideal_sheet_m, sheet)
+    _log_tool_tips(rec, f"{prefix}world", streams, sheet)
+    _log_arrows(rec, f"{prefix}world", run, streams, sheet)
+    _log_groove(rec, f"{prefix}world", run, replay.sim, float(streams.t_sim_s[-1]), sheet)
+    _log_plots(rec, f"{prefix}plots", run, replay.forces_pred_n, streams)

@@ -16,6 +16,36 @@ from twin.errors import InputError
 from twin.viz.style import FIGSIZE_IN, save_figure
 
 
+def _checked_compliances(
+    compliance_xz_mm_per_kn_list: Sequence[object], labels: Sequence[str]
+) -> list[np.ndarray]:
+    """The compliances as finite (2, 2) arrays [mm/kN], one per label.
+
+    Args:
+        compliance_xz_mm_per_kn_list: Compliances C [mm/kN], each shape (2, 2), rows (x, z), columns (Fx, Fz).
+        labels: One legend label per compliance.
+
+    Returns:
+        The matrices, in order.
+
+    Raises:
+        InputError: The list is empty, labels do not match, or a compliance is not a finite (2, 2) matrix.
+    """
+    if len(compliance_xz_mm_per_kn_list) == 0:
+        raise InputError("need at least one compliance matrix")
+    if len(labels) != len(compliance_xz_mm_per_kn_list):
+        raise InputError(
+            f"got {len(compliance_xz_mm_per_kn_list)} compliances and {len(labels)} labels; expected equal"
+        )
+    matrices = []
+    for i, c in enumerate(compliance_xz_mm_per_kn_list):
+        matrix = np.asarray(c, dtype=float)
+        if matrix.shape != (2, 2) or not np.all(np.isfinite(matrix)):
+            raise InputError(f"compliance {i} ({labels[i]!r}) must be a finite (2, 2) matrix, got {matrix!r}")
+        matrices.append(matrix)
+    return matrices
+
+
 def plot_stiffness_ellipse(
     path: str | Path,
     compliance_xz_mm_per_kn_list: Sequence[object],
@@ -40,19 +70,7 @@ def plot_stiffness_ellipse(
     Raises:
         InputError: A compliance is not a finite (2, 2) matrix, the list is empty, or labels do not match.
     """
-    if len(compliance_xz_mm_per_kn_list) == 0:
-        raise InputError("need at least one compliance matrix")
-    if len(labels) != len(compliance_xz_mm_per_kn_list):
-        raise InputError(
-            f"got {len(compliance_xz_mm_per_kn_list)} compliances and {len(labels)} labels; expected equal"
-        )
-    matrices = []
-    for i, c in enumerate(compliance_xz_mm_per_kn_list):
-        matrix = np.asarray(c, dtype=float)
-        if matrix.shape != (2, 2) or not np.all(np.isfinite(matrix)):
-            raise InputError(f"compliance {i} ({labels[i]!r}) must be a finite (2, 2) matrix, got {matrix!r}")
-        matrices.append(matrix)
-
+    matrices = _checked_compliances(compliance_xz_mm_per_kn_list, labels)
     angle = np.linspace(0.0, 2.0 * np.pi, 361)
     unit_kn = np.vstack([np.cos(angle), np.sin(angle)])
     fig = Figure(figsize=FIGSIZE_IN, layout="constrained")

@@ -64,6 +64,101 @@ def _chi2(fit: Fit, sizes: dict[str, int]) -> dict[str, float]:
     return {name: float(np.mean(part**2)) for name, part in zip(sizes, parts, strict=True)}
 
 
+def _candidates(
+    fitter: Fitter,
+    families: Sequence[Family],
+    current: list[Family],
+    fit: Fit,
+    sizes: dict[str, int],
+    penalty: float,
+    excess: float,
+    rest: float,
+) -> list[Candidate]:
+    """Fit every family not yet in the model jointly with it; the candidates by decreasing held-out gain.
+
+    Args:
+        fitter: Fitter of the run.
+        families: Families that may enter.
+        current: Families of the current model.
+        fit: The current model's fit (its parameters start the trials).
+        sizes: Stream name -> length in the stacked vector.
+        penalty: BIC penalty per observable parameter, log N.
+        excess: The run's excess over noise.
+        rest: The excess over noise the current model leaves.
+    """
+    starts = dict(fit.theta)
+    chi2_now = _chi2(fit, sizes)
+    candidates = []
+    for family in families:
+        if family in current:
+            continue
+        trial = fitter.fit([*current, family], starts)
+        observable = int(np.sum(np.isfinite(trial.sigma[family.name])))
+        gain = fit.heldout - trial.heldout
+        candidates.append(Candidate(
+            family.name, gain, gain / excess, gain / rest, fit.sse - trial.sse - observable * penalty,
+            is_contradicted(chi2_now, _chi2(trial, sizes), sizes), trial,
+        ))
+    candidates.sort(key=lambda c: -c.gain)
+    return candidates
+
+
+def _pool(candidates: list[Candidate], of_rest: bool) -> list[Candidate]:
+    """The candidates that may enter the model, by decreasing held-out gain.
+
+    Eligible: a held-out share of at least ROUND_SHARE (of the rest with `of_rest`) and a positive BIC gain.
+    Only the agreeing ones stay when the leader is contradicted and does not lead the best agreeing one by
+    CONTRADICTED_LEAD.
+    """
+    eligible = [c for c in candidates
+                if (c.share_of_rest if of_rest else c.share) >= ROUND_SHARE and c.bic_gain > 0]
+    agreeing = [c for c in eligible if not c.contradicted]
+    pool = eligible
+    if agreeing and eligible[0].contradicted and eligible[0].gain < CONTRADICTED_LEAD * agreeing[0].gain:
+        pool = agreeing
+    return pool
+
+
+def _best(pool: list[Candidate]) -> Candidate:
+    """The pool's winner: the highest BIC gain among the candidates the held-out error cannot tell apart.
+
+    Those reach AMBIGUITY_RATIO of the leader's (`pool[0]`) held-out gain and are alike in contradiction.
+    """
+    band = [
+        c for c in pool if c.gain >= AMBIGUITY_RATIO * pool[0].gain and c.contradicted == pool[0].contradicted
+    ]
+    return max(band, key=lambda c: c.bic_gain)
+
+
+def _ambiguous_with(
+    fitter: Fitter,
+    current: list[Family],
+    best: Candidate,
+    candidates: list[Candidate],
+    by_name: dict[str, Family],
+    scale: float,
+) -> list[str]:
+    """Names of the agreeing candidates close to `best` that add less than ROUND_SHARE of `scale` to it.
+
+    Args:
+        fitter: Fitter of the run.
+        current: Families of the current model (without the winner).
+        best: The winning candidate.
+        candidates: All candidates of the round.
+        by_name: Family name -> family.
+        scale: The excess the shares are judged against (the rest, or the run's excess).
+    """
+    winner = by_name[best.name]
+    ambiguous = []
+    for other in candidates:
+        if other is best or other.gain < AMBIGUITY_RATIO * best.gain or other.contradicted:
+            continue
+        both = fitter.fit([*current, winner, by_name[other.name]], dict(best.fit.theta))
+        if (best.fit.heldout - both.heldout) / scale < ROUND_SHARE:
+            ambiguous.append(other.name)
+    return ambiguous
+
+
 def forward_select(
     fitter: Fitter, families: Sequence[Family], excess: float, sizes: dict[str, int], *, of_rest: bool = False
 ) -> tuple[Fit, tuple[Step, ...]]:
@@ -89,41 +184,15 @@ def forward_select(
         rest = excess_over_noise(fit.residual, list(sizes.values()))
         if rest <= 0.0:
             break
-        starts = dict(fit.theta)
-        chi2_now = _chi2(fit, sizes)
-        candidates = []
-        for family in families:
-            if family in current:
-                continue
-            trial = fitter.fit([*current, family], starts)
-            observable = int(np.sum(np.isfinite(trial.sigma[family.name])))
-            gain = fit.heldout - trial.heldout
-            candidates.append(Candidate(
-                family.name, gain, gain / excess, gain / rest, fit.sse - trial.sse - observable * penalty,
-                is_contradicted(chi2_now, _chi2(trial, sizes), sizes), trial,
-            ))
-        candidates.sort(key=lambda c: -c.gain)
-        eligible = [c for c in candidates
-                    if (c.share_of_rest if of_rest else c.share) >= ROUND_SHARE and c.bic_gain > 0]
-        agreeing = [c for c in eligible if not c.contradicted]
-        pool = eligible
-        if agreeing and eligible[0].contradicted and eligible[0].gain < CONTRADICTED_LEAD * agreeing[0].gain:
-            pool = agreeing
+        candidates = _candidates(fitter, families, current, fit, sizes, penalty, excess, rest)
+        pool = _pool(candidates, of_rest)
         if not pool:
             steps.append(Step(tuple(candidates), None, ()))
             break
-        # candidates the held-out error cannot tell apart: the information criterion decides
-        band = [c for c in pool if c.gain >= AMBIGUITY_RATIO * pool[0].gain and c.contradicted == pool[0].contradicted]
-        best = max(band, key=lambda c: c.bic_gain)
+        best = _best(pool)
         by_name = {f.name: f for f in families}
         winner = by_name[best.name]
-        ambiguous = []
-        for other in candidates:
-            if other is best or other.gain < AMBIGUITY_RATIO * best.gain or other.contradicted:
-                continue
-            both = fitter.fit([*current, winner, by_name[other.name]], dict(best.fit.theta))
-            if (best.fit.heldout - both.heldout) / (rest if of_rest else excess) < ROUND_SHARE:
-                ambiguous.append(other.name)
+        ambiguous = _ambiguous_with(fitter, current, best, candidates, by_name, rest if of_rest else excess)
         steps.append(Step(tuple(candidates), best.name, tuple(ambiguous)))
         current.append(winner)
         fit = best.fit

@@ -4,17 +4,71 @@ from __future__ import annotations
 
 import argparse
 import sys
+from typing import Any, TextIO
 
 import numpy as np
 
 from twin.base.csvio import emit_json, write_table
 from twin.base.signals import interp_rows
-from twin.lab.dynamic.knobs import parse_set_args
+from twin.lab.dynamic.knobs import Knobs, parse_set_args
 from twin.lab.dynamic.run import dynamic_load_test, run_dynamic_lab
 from twin.process.description import Process
 from twin.process.placement import Placement
+from twin.runs.format import Run
 from twin.runs.read import lab_commanded
 from twin.runs.write import write_run
+
+
+def _run_load_test(args: argparse.Namespace, loads_n: np.ndarray, knobs: Knobs, out: TextIO) -> int:
+    """Hold each load at home on the dynamic plant, write the deflections [mm] to `args.out`, report it.
+
+    Args:
+        args: Parsed `lab` options (`seed`, `out`, `json`).
+        loads_n: Load cases, base frame [N], shape (m, 3).
+        knobs: The plant's knobs.
+        out: Where the one-line report goes.
+
+    Returns:
+        The exit status (0).
+    """
+    loads, deflections = dynamic_load_test(loads_n, knobs=knobs, seed=args.seed)
+    columns = {"fx_n": loads[:, 0], "fy_n": loads[:, 1], "fz_n": loads[:, 2]}
+    columns |= {f"d{a}_mm": 1e3 * deflections[:, i] for i, a in enumerate("xyz")}
+    formats = {name: (".1f" if name.startswith("f") else ".5f") for name in columns}
+    write_table(args.out, columns, formats=formats)
+    print(f"lab loadtest (dynamic plant): {len(loads)} load cases at home -> {args.out}", file=out)
+    emit_json(
+        args.json, {"scenario": "loadtest", "plant": "dynamic", "out": args.out, "cases": len(loads)}
+    )
+    return 0
+
+
+def _run_summary(
+    args: argparse.Namespace, knobs: Knobs, run: Run, p_cmd_sheet_m: np.ndarray, wall_s: float
+) -> dict[str, Any]:
+    """The summary of a dynamic run: sample counts, largest measured deviation [mm], peak force [N].
+
+    Args:
+        args: Parsed `lab` options (`scenario`, `out`, `seed`).
+        knobs: The plant's knobs.
+        run: The measured run, with forces.
+        p_cmd_sheet_m: The commanded path at the run's commanded times, sheet frame [m], shape (n, 3).
+        wall_s: Wall time of the simulation [s].
+    """
+    deviation = run.tracker.values - interp_rows(run.tracker.t_s, run.commanded.t_s, p_cmd_sheet_m)
+    assert run.forces is not None
+    return {
+        "scenario": args.scenario,
+        "plant": "dynamic",
+        "out": args.out,
+        "seed": args.seed,
+        "knobs_changed_from_neutral": knobs.changed(),
+        "tracker_samples": len(run.tracker.t_s),
+        "force_samples": len(run.forces.t_s),
+        "measured_deviation_max_mm": 1e3 * float(np.max(np.linalg.norm(deviation, axis=1))),
+        "peak_force_n": float(np.max(np.linalg.norm(run.forces.values, axis=1))),
+        "simulation_wall_s": wall_s,
+    }
 
 
 def run_dynamic_command(
@@ -38,16 +92,7 @@ def run_dynamic_command(
     knobs = parse_set_args(args.set, neutral=args.neutral)
     out = sys.stderr if args.json == "-" else sys.stdout  # keep stdout pure JSON for `--json -`
     if args.scenario == "loadtest":
-        loads, deflections = dynamic_load_test(loads_n, knobs=knobs, seed=args.seed)
-        columns = {"fx_n": loads[:, 0], "fy_n": loads[:, 1], "fz_n": loads[:, 2]}
-        columns |= {f"d{a}_mm": 1e3 * deflections[:, i] for i, a in enumerate("xyz")}
-        formats = {name: (".1f" if name.startswith("f") else ".5f") for name in columns}
-        write_table(args.out, columns, formats=formats)
-        print(f"lab loadtest (dynamic plant): {len(loads)} load cases at home -> {args.out}", file=out)
-        emit_json(
-            args.json, {"scenario": "loadtest", "plant": "dynamic", "out": args.out, "cases": len(loads)}
-        )
-        return 0
+        return _run_load_test(args, loads_n, knobs, out)
     commanded, protect = lab_commanded(args.scenario, args.commanded)
     p_cmd = commanded.values
     run, truth, log = run_dynamic_lab(
@@ -62,20 +107,7 @@ def run_dynamic_command(
     )
     truth["force_model"] = (process or Process()).force_model
     write_run(args.out, run, truth=truth, overwrite=args.overwrite, protect=protect)
-    deviation = run.tracker.values - interp_rows(run.tracker.t_s, run.commanded.t_s, p_cmd)
-    assert run.forces is not None
-    summary = {
-        "scenario": args.scenario,
-        "plant": "dynamic",
-        "out": args.out,
-        "seed": args.seed,
-        "knobs_changed_from_neutral": knobs.changed(),
-        "tracker_samples": len(run.tracker.t_s),
-        "force_samples": len(run.forces.t_s),
-        "measured_deviation_max_mm": 1e3 * float(np.max(np.linalg.norm(deviation, axis=1))),
-        "peak_force_n": float(np.max(np.linalg.norm(run.forces.values, axis=1))),
-        "simulation_wall_s": log.wall_s,
-    }
+    summary = _run_summary(args, knobs, run, p_cmd, log.wall_s)
     print(
         f"lab {args.scenario} (dynamic plant, {log.t_s.size} steps in {log.wall_s:.1f} s): "
         f"{summary['tracker_samples']} tracker / {summary['force_samples']} force samples, "
