@@ -9,6 +9,7 @@ from __future__ import annotations
 import ast
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 import twin
@@ -124,3 +125,139 @@ def test_no_module_is_much_longer_than_one_concept_needs() -> None:
         if (n := len(p.read_text().splitlines())) > MAX_MODULE_LINES
     }
     assert long == {}, f"split these by concept (> {MAX_MODULE_LINES} lines): {long}"
+
+
+# ---------------------------------------------------------------- a robot is data
+ROBOT_STAGE = PACKAGE_DIR / "robot"
+
+
+def _robot_facts() -> tuple[set[str], set[float]]:
+    """The names and numbers the shipped robots' descriptions state: no module outside `twin.robot` may write one."""
+    from twin.robot.description import load_robot, shipped_robots
+
+    names: set[str] = set()
+    numbers: set[float] = set()
+    for name in shipped_robots():
+        robot = load_robot(name)
+        names |= {*robot.joints, *robot.actuators, robot.flange_site, robot.tool_site, robot.ft_site,
+                  robot.ft_force_sensor, robot.home_keyframe, *(s for s in (robot.sheet_site,) if s)}
+        numbers |= {round(robot.tool_length_m, 9), round(1e3 * robot.tool_length_m, 6)}
+        numbers |= {round(v, 9) for v in robot.q_home_rad} | {round(float(np.degrees(v)), 2) for v in robot.q_home_rad}
+    return names, numbers - {0.0}
+
+
+def _docstrings(tree: ast.AST) -> set[int]:
+    """ids of the docstring nodes of a module, its classes and functions."""
+    out = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Module | ast.ClassDef | ast.FunctionDef | ast.AsyncFunctionDef) and node.body:
+            first = node.body[0]
+            if isinstance(first, ast.Expr) and isinstance(first.value, ast.Constant):
+                out.add(id(first.value))
+    return out
+
+
+def _joint_count_literal(node: ast.AST) -> bool:
+    """`(6,)`, `range(6)`, `range(1, 7)`, `np.zeros(6)` / `ones` / `empty` / `full(6, ...)`, `x[:6]`, `x[6:12]`."""
+    def is_(n: ast.AST | None, *values: int) -> bool:
+        return isinstance(n, ast.Constant) and type(n.value) is int and n.value in values
+
+    if isinstance(node, ast.Tuple) and len(node.elts) == 1 and is_(node.elts[0], 6):
+        return True
+    if isinstance(node, ast.Call):
+        func = node.func.attr if isinstance(node.func, ast.Attribute) else getattr(node.func, "id", "")
+        args = node.args
+        if func == "range" and ((len(args) == 1 and is_(args[0], 6)) or (len(args) == 2 and is_(args[1], 7))):
+            return True
+        if func in ("zeros", "ones", "empty", "full") and args and is_(args[0], 6):
+            return True
+    return isinstance(node, ast.Slice) and (is_(node.lower, 6, 12) or is_(node.upper, 6, 12))
+
+
+def _robot_violations(files: list[Path]) -> list[str]:
+    names, numbers = _robot_facts()
+    bad: list[str] = []
+    for path in files:
+        if ROBOT_STAGE in path.parents:
+            continue
+        tree = ast.parse(path.read_text(), filename=str(path))
+        docs = _docstrings(tree)
+        where = str(path.relative_to(PACKAGE_DIR.parent))
+        for node in ast.walk(tree):
+            line = getattr(node, "lineno", 0)
+            if isinstance(node, ast.Constant) and id(node) not in docs:
+                if isinstance(node.value, str) and node.value in names:
+                    bad.append(f"{where}:{line}: names the robot's {node.value!r} (ask twin.robot.description)")
+                elif isinstance(node.value, float) and round(node.value, 9) in numbers:
+                    bad.append(f"{where}:{line}: writes the robot's number {node.value!r} (ask twin.robot.description)")
+            elif isinstance(node, ast.JoinedStr) and any(
+                isinstance(v, ast.Constant) and isinstance(v.value, str) and v.value.rstrip("_").endswith(("joint", "actuator"))
+                for v in node.values
+            ):
+                bad.append(f"{where}:{line}: builds a joint or actuator name (use RobotDescription.joints/.actuators)")
+            elif _joint_count_literal(node):
+                bad.append(f"{where}:{line}: a joint count written as a number (use RobotDescription.dof)")
+    return bad
+
+
+def test_only_the_robot_stage_names_a_robot() -> None:
+    violations = _robot_violations(_package_files())
+    assert violations == [], "\n".join(violations)
+
+
+def test_the_robot_check_catches_a_joint_name_a_tool_length_and_a_joint_count() -> None:
+    bad = PACKAGE_DIR / "sim" / "_robot_probe_tmp.py"
+    bad.write_text('"""Docstrings may say joint2 and 0.27494."""\nimport numpy as np\n'
+                   'J = "joint2"\nL = 0.27494\nK = np.zeros(6)\nA = [f"actuator{i}" for i in range(1, 7)]\n')
+    try:
+        violations = _robot_violations([bad])
+    finally:
+        bad.unlink()
+    assert len(violations) == 5, violations
+    assert "'joint2'" in violations[0] and "0.27494" in violations[1] and "joint count" in violations[2]
+
+
+# ---------------------------------------------------------------- stages say what they hold
+def _stage_modules(stage: str) -> list[str]:
+    folder = PACKAGE_DIR / stage
+    modules = [p.stem for p in folder.glob("*.py") if p.stem != "__init__"]
+    packages = [p.name + "/" for p in folder.iterdir() if p.is_dir() and (p / "__init__.py").is_file()]
+    return sorted(modules + packages)
+
+
+@pytest.mark.parametrize("stage", STAGES)
+def test_every_stage_docstring_names_its_modules(stage: str) -> None:
+    doc = ast.get_docstring(ast.parse((PACKAGE_DIR / stage / "__init__.py").read_text())) or ""
+    missing = [m for m in _stage_modules(stage) if f"`{m}`" not in doc and f"`{m.rstrip('/')}`" not in doc]
+    assert missing == [], f"twin/{stage}/__init__.py's docstring does not name its module(s) {missing}"
+
+
+@pytest.mark.parametrize("stage", STAGES)
+def test_every_stage_exports_its_own_public_names(stage: str) -> None:
+    import importlib
+
+    package = importlib.import_module(f"twin.{stage}")
+    if stage == "cli":
+        assert callable(package.main)
+        return
+    names = getattr(package, "__all__", None)
+    assert names, f"twin.{stage} has no __all__"
+    for name in names:
+        assert getattr(package, name) is not None, f"twin.{stage}.{name}"
+
+
+def test_the_analysis_never_imports_a_lab() -> None:
+    bad = [
+        f"{p.relative_to(PACKAGE_DIR.parent)}:{line}: imports {target}"
+        for p in _package_files()
+        if _stage(_module_name(p)) == "analysis"
+        for line, target, _ in _twin_imports(p)
+        if _stage(target) == "lab"
+    ]
+    assert bad == [], "the analysis must not share a lab's code (what the twin knows lives in its stages):\n" + "\n".join(bad)
+
+
+def test_the_public_api_resolves() -> None:
+    assert len(twin.__all__) < 60
+    for name in twin.__all__:
+        assert getattr(twin, name) is not None, name

@@ -34,10 +34,10 @@ def mujoco_call_floor(twin: Twin, sim: SimResult, t_sensor_s: np.ndarray | None,
     if repeats < 1:
         raise InputError(f"repeats = {repeats!r}: expected >= 1")
     m, d = twin.model, twin.data
-    site = m.site("tcp").id
+    site = m.site(twin.robot.tool_site).id
     jacp, g = np.zeros((3, m.nv)), np.zeros(m.nv)
     q_nominal = np.zeros((len(sim.t_s), m.nq))
-    arm = [m.jnt_qposadr[m.joint(f"joint{i}").id] for i in range(1, 7)]
+    arm = twin.robot.addresses(m).qpos
     q_nominal[:, arm] = sim.q_ik
     iterations = [int(k) for k in sim.iterations]
     q_sensor = interp_rows(t_sensor_s, sim.t_s, sim.qpos) if t_sensor_s is not None else np.zeros((0, m.nq))

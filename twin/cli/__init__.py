@@ -1,7 +1,13 @@
 """Command line `tx200-twin`: one module per command in this package, listed in COMMANDS.
 
+Modules: `info`, `path`, `fe_history`, `identify`, `calibrate`, `reproduce`, `lab`, `replay`, `compensate`,
+`check`, `bench`, `sweep`, `discrepancy`, `demo`, `import_run` (`import`) and `export`, one per command; `_common`
+holds the options several commands share and the twin they make (`spec_from_arguments`).
+
 Each command module defines `HELP` (one line), `add_arguments(parser)` and `run(args) -> int`.
-Commands that report numbers take `--json FILE` (`-` for stdout) and print a short human summary.
+Commands that report numbers take `--json FILE` (`-` for stdout) and print a short human summary. A `TwinError`
+ends the command with its message and exit code 2; a warning (e.g. an effect read under a name used before) is
+printed as a note.
 """
 
 from __future__ import annotations
@@ -9,6 +15,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import sys
+import warnings
 from collections.abc import Sequence
 
 from twin.errors import TwinError
@@ -53,11 +60,19 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the `tx200-twin` console script."""
     parser = build_parser()
     args = parser.parse_args(argv)
-    try:
-        return int(args._run(args))
-    except TwinError as exc:
-        print(f"tx200-twin {args.command}: error: {exc}", file=sys.stderr)
-        return 2
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", FutureWarning)
+        try:
+            return int(args._run(args))
+        except TwinError as exc:
+            print(f"tx200-twin {args.command}: error: {exc}", file=sys.stderr)
+            return 2
+        finally:
+            for note in dict.fromkeys(str(w.message) for w in caught if issubclass(w.category, FutureWarning)):
+                print(f"tx200-twin {args.command}: note: {note}", file=sys.stderr)
+            for w in caught:
+                if not issubclass(w.category, FutureWarning):
+                    warnings.showwarning(w.message, w.category, w.filename, w.lineno)
 
 
 if __name__ == "__main__":

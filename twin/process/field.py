@@ -29,9 +29,9 @@ Sensitivities (dFz/dz = -k; calibrated, see `twin.analysis.calibrate` and models
 * k_load: pressing deeper or shallower while forming; Aerens's exponent 0.09 gives
   dFz/dΔh ≈ 0.09·Fz/Δh = 0.09·1.7 kN / 1 mm ≈ 0.15 kN/mm.
 
-The earlier law switched to k_unload as soon as the tool was above *plan*; a robot that gives way by a
-fraction of the step-down then lost force at 1.3 kN/mm, and Method 2 with ideal forces read 35 % stiffer
-than the robot, against the thesis, where Method 2 read as compliant as Method 1 (§4.2.3).
+Why not switch to k_unload as soon as the tool is above *plan*: a robot that gives way by a fraction of the
+step-down would then lose force at 1.3 kN/mm, and Method 2 with ideal forces would read 35 % stiffer than the
+robot, against the thesis, where Method 2 read as compliant as Method 1 (§4.2.3).
 
 Why the snapshot reference: a steady offset of the tool over every pass leaves δ = δ_plan from pass 2 on
 (the groove is shallower, the force is as planned), while on pass 1 (flat sheet) it changes the force by
@@ -312,29 +312,7 @@ class SheetForceField(ForceField):
         fx, fz, fx_x, fx_z, fz_x, fz_z = self._evaluate(float(p_sheet_m[0]), float(p_sheet_m[2]), pass_index, direction)
         return np.array([fx, 0.0, fz]), np.array([[fx_x, 0.0, fx_z], [0.0, 0.0, 0.0], [fz_x, 0.0, fz_z]])
 
-    def stiffness(
-        self, p_sheet_m: np.ndarray, pass_index: int, direction: int, *, step_m: float | None = None
-    ) -> np.ndarray:
-        """∂f/∂p [N/m], shape (3, 3) (the force does not depend on y).
-
-        Analytic by default (the field is piecewise linear in x and z under a softplus); with `step_m`, by
-        central differences as before. The two agree to ~1e-9 relative inside a grid cell; on a 0.1 mm grid
-        node or the load/unload switch the analytic one takes one side, the central difference averages.
-
-        Args:
-            p_sheet_m: Tool-tip position in the sheet frame [m].
-            pass_index: Pass of the history.
-            direction: Travel direction, +1 or -1.
-            step_m: Finite-difference step [m]; None for the analytic derivative.
-        """
-        p = np.asarray(p_sheet_m, dtype=float)
-        if step_m is None:
-            return self.force_and_stiffness(p, pass_index, direction)[1]
-        jac = np.zeros((3, 3))
-        for j in (0, 2):
-            e = np.zeros(3)
-            e[j] = step_m
-            jac[:, j] = (
-                self.force(p + e, pass_index, direction) - self.force(p - e, pass_index, direction)
-            ) / (2 * step_m)
-        return jac
+    def stiffness(self, p_sheet_m: np.ndarray, pass_index: int, direction: int) -> np.ndarray:
+        """∂f/∂p [N/m], shape (3, 3), analytic (the field is piecewise linear in x and z under a softplus; the
+        force does not depend on y): `force_and_stiffness`'s gradient."""
+        return self.force_and_stiffness(np.asarray(p_sheet_m, dtype=float), pass_index, direction)[1]

@@ -24,6 +24,7 @@ loop (`twin.sim.compiled.loop`) runs the same algorithm, decision for decision.
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import NamedTuple
 
 import mujoco
 import numpy as np
@@ -35,6 +36,41 @@ NEWTON_MAX_ITER = 40
 # surface it meets, and near the end walls the equilibrium sits on it): the steps are halved from then on.
 NEWTON_DAMPED_AFTER = 10
 FRICTION_MAX_ROUNDS = 6  # active-set rounds of the stick/slip solve; 1-2 suffice in practice
+
+
+class Equilibrium(NamedTuple):
+    """One sample's equilibrium (`EquilibriumSolver.solve`).
+
+    Attributes:
+        q: Joint positions at equilibrium [rad], shape (nq,).
+        iterations: Newton iterations used (summed over the friction rounds).
+        jac: Translational Jacobian of the tool tip at the last iteration, sheet frame [m/rad], shape (3, nv).
+        stiffness: The sheet's df/dp at the last iteration [N/m], shape (3, 3).
+    """
+
+    q: np.ndarray
+    iterations: int
+    jac: np.ndarray
+    stiffness: np.ndarray
+
+
+class NewtonResult(NamedTuple):
+    """One Newton solve (`EquilibriumSolver._newton`): the equilibrium, and what the friction rounds need.
+
+    Attributes:
+        q, iterations, jac, stiffness: As `Equilibrium` (for this solve alone).
+        demand: The demanded joint torque g - J^T f at the equilibrium [N·m], shape (nv,).
+        stuck: The stuck joints of the solve, shape (nv,) bool (a placeholder without friction).
+        tau_fr: The friction torques of the slipping joints [N·m], shape (nv,) (a placeholder without friction).
+    """
+
+    q: np.ndarray
+    iterations: int
+    jac: np.ndarray
+    stiffness: np.ndarray
+    demand: np.ndarray
+    stuck: np.ndarray
+    tau_fr: np.ndarray
 
 
 class EquilibriumSolver:
@@ -77,7 +113,7 @@ class EquilibriumSolver:
         sheet: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]],
         stick: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
         choose_tau_f: np.ndarray | None = None,
-    ) -> tuple[np.ndarray, int, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    ) -> NewtonResult:
         """Newton's method on K (q_ref - q) + τ_fr - g(q) + J_tcp(q)^T f(p(q)) = 0 from `q`.
 
         Args:
@@ -93,9 +129,7 @@ class EquilibriumSolver:
                 τ_f·sign of it), from the first iteration's evaluation; None keeps `stick`.
 
         Returns:
-            The equilibrium [rad], the iterations used, the translational tcp Jacobian [m/rad] and df/dp
-            [N/m] of the last iteration, the demanded joint torque g - J^T f there [N·m], and the stuck set and
-            friction torques [N·m] used (placeholders without `stick`).
+            The solve (`NewtonResult`).
         """
         m, d = self.model, self.data
         jacp = np.zeros((3, m.nv))
@@ -145,7 +179,7 @@ class EquilibriumSolver:
             q = q + dq
             if abs(dq).max() < NEWTON_TOL_RAD:
                 break
-        return q, k, jacp, stiffness, g - jacp.T @ force, stuck, tau_fr
+        return NewtonResult(q, k, jacp, stiffness, g - jacp.T @ force, stuck, tau_fr)
 
     def solve(
         self,
@@ -155,7 +189,7 @@ class EquilibriumSolver:
         h_const: np.ndarray,
         sheet: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]],
         e_prev: np.ndarray,
-    ) -> tuple[np.ndarray, int, np.ndarray, np.ndarray]:
+    ) -> Equilibrium:
         """Equilibrium with joint friction: stick/slip per joint, found by an active set.
 
         Coulomb friction τ_f in a joint acts on the link against its motion. A joint sticks, its link where
@@ -174,13 +208,13 @@ class EquilibriumSolver:
             e_prev: Spring stretch q_ref - q_link_prev that keeps each link where it was [rad], shape (nv,).
 
         Returns:
-            As `_newton`, without the demanded torque; iterations summed over the rounds.
+            The equilibrium; iterations summed over the rounds.
         """
         tau_f = self.model.dof_frictionloss
         frictional = tau_f > 0.0
         if not frictional.any():
-            q, k, jac, s, _, _, _ = self._newton(q, q_ref, k_diag, h_const, sheet)
-            return q, k, jac, s
+            solved = self._newton(q, q_ref, k_diag, h_const, sheet)
+            return Equilibrium(solved.q, solved.iterations, solved.jac, solved.stiffness)
         stuck, tau_fr = frictional, np.zeros(len(tau_f))  # every frictional link holds (never changed in place)
         total = 0
         choose = None
@@ -201,4 +235,4 @@ class EquilibriumSolver:
                 break
             stuck = (stuck & ~slip) | back
             tau_fr = np.where(slip, tau_f * np.sign(need), np.where(back, 0.0, tau_fr))
-        return q, total, jac, s
+        return Equilibrium(q, total, jac, s)

@@ -20,6 +20,7 @@ import rerun.blueprint as rrb
 
 from twin.errors import InputError, ModelError
 from twin.process.placement import Placement
+from twin.robot.description import load_robot
 from twin.robot.model import build_model
 from twin.viz.recording_layers import checked_points, log_replay
 
@@ -53,9 +54,10 @@ def _blueprint(prefixes: Sequence[str]) -> rrb.Blueprint:
 
 
 def _sheet_origin(model: mujoco.MjModel) -> np.ndarray:
-    site = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, "sheet_origin")
+    name = load_robot().sheet_site or ""
+    site = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, name)
     if site < 0:
-        raise ModelError("the model has no site 'sheet_origin'; pass p_base_sheet_origin")
+        raise ModelError(f"the model has no sheet site {name!r}; pass p_base_sheet_origin")
     data = mujoco.MjData(model)
     mujoco.mj_kinematics(model, data)
     return data.site_xpos[site].copy()
@@ -112,7 +114,7 @@ def record_runs(
         ideal_sheet_m: Ideal (FE) tool-tip path, sheet frame [m], shape (k, 3), drawn for every run.
         twin_model: The twin's compiled model (`Twin.model`); default `twin.robot.model.build_model()`.
         p_base_sheet_origin: Sheet origin in the base frame [m]; default the placement's, else the model's
-            `sheet_origin` site.
+            sheet site (`RobotDescription.sheet_site`).
         application_id: Rerun application id.
         placement: Where the sheet was (`Twin.placement`): its origin (unless `p_base_sheet_origin` is given) and
             yaw; default the cell's.
@@ -169,7 +171,7 @@ def record_replay(
         ideal_sheet_m: Ideal (FE) tool-tip path, sheet frame [m], shape (k, 3).
         twin_model: The twin's compiled model (`Twin.model`); default `twin.robot.model.build_model()`.
         p_base_sheet_origin: Sheet origin in the base frame [m]; default the placement's, else the model's
-            `sheet_origin` site.
+            sheet site (`RobotDescription.sheet_site`).
         application_id: Rerun application id.
         placement: Where the sheet was (`Twin.placement`): its origin (unless `p_base_sheet_origin` is given) and
             yaw; default the cell's.
