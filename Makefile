@@ -28,7 +28,7 @@ lint: $(STAMP)
 	$(BIN)/mypy twin
 
 bench: $(STAMP)
-	$(BIN)/tx200-twin bench --json benchmarks/results.json
+	$(BIN)/tx200-twin bench --json benchmarks/results.json --readme README.md
 
 clean:
 	rm -rf out .pytest_cache .mypy_cache .ruff_cache

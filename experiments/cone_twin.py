@@ -22,10 +22,10 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from twin.analysis.compensate import compensate_twin
-from twin.process.isf_calibration import isf_field_factory
+from twin.process.description import Process
 from twin.process.isf_force import IsfForceField
 from twin.process.shapes import PartSpec, part_path
-from twin.sim.quasi_static import Twin
+from twin.sim.spec import TwinSpec
 
 
 def surface(field: IsfForceField) -> np.ndarray:
@@ -43,8 +43,8 @@ def main() -> int:
     spec = PartSpec(shape="cone", top_half_width_m=args.top_width_mm / 2e3, depth_m=args.depth_mm / 1e3,
                     step_down_m=args.step_mm / 1e3, wall_angle_deg=45.0)
     path = part_path(spec)
-    twin = Twin(field_factory=isf_field_factory())
-    field = twin.field
+    twin = TwinSpec(process=Process(force_model="isf")).build()
+    field = twin.sheet_field
     assert isinstance(field, IsfForceField)
     start = time.perf_counter()
     nominal = twin.simulate(path.t_s, path.p_sheet_m)

@@ -13,7 +13,7 @@ from twin.cli import main
 from twin.errors import InputError
 from twin.process.path import groove_path
 from twin.runs.format import Run, Stream
-from twin.sim.quasi_static import Twin
+from twin.sim.spec import TwinSpec
 
 SAMPLES = 160  # approach and most of pass 1: a tiny workload
 TIMES = (
@@ -64,7 +64,7 @@ def test_analytic_replay_tracks_the_twin_within_a_few_micrometres(first_pass_pat
         forces=None,
         part_profile=None,
     )
-    twin = Twin(joint_friction=np.zeros(6))  # the linear model J K^-1 J^T F has no friction term
+    twin = TwinSpec(joint_friction_nm=np.zeros(6)).build()  # the linear model J K^-1 J^T F has no friction term
     linear = analytic_replay(run, twin=twin)
     sim = replay(run, twin=twin).sim
     assert linear.forces_pred_n is None and linear.tracker_pred_m.shape == (40, 3)
@@ -77,7 +77,7 @@ def test_analytic_replay_tracks_the_twin_through_the_reversals_where_the_tool_st
     """The whole groove: at each reversal the tool sticks on the sheet; both solve it by regimes."""
     path = groove_path()
     run = Run(None, {}, Stream(path.t_s, path.p_sheet_m), Stream(path.t_s, np.zeros_like(path.p_sheet_m)))
-    twin = Twin(joint_friction=np.zeros(6))
+    twin = TwinSpec(joint_friction_nm=np.zeros(6)).build()
     linear = analytic_replay(run, twin=twin)
     sim = replay(run, twin=twin).sim
     np.testing.assert_allclose(linear.p_sheet_m, sim.p_sheet_m, atol=2e-5)  # measured 7 µm (gravity terms)

@@ -27,6 +27,7 @@ from twin.errors import InputError
 from twin.process.springback import last_contact_force, unloaded_profile
 from twin.runs.read import read_run
 from twin.sim.quasi_static import Twin
+from twin.sim.spec import TwinSpec
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -68,7 +69,7 @@ def test_no_reciprocal_robot_comes_within_20_percent_of_the_thesis_cr1() -> None
 
 
 def test_joint_friction_is_what_makes_the_load_test_stiffness_asymmetric() -> None:
-    frictionless = Twin(joint_friction=np.zeros(6))
+    frictionless = TwinSpec(joint_friction_nm=np.zeros(6)).build()
     calibrated = Twin()
     asym = []
     for twin in (frictionless, calibrated):

@@ -117,8 +117,8 @@ def test_discrepancy_names_a_force_scale_hidden_in_a_cone_run(
 
     from twin.lab.dynamic.knobs import Knobs
     from twin.lab.dynamic.run import run_dynamic_lab
+    from twin.process.description import Process
     from twin.process.forces import default_force_history
-    from twin.process.isf_calibration import isf_field_factory
     from twin.runs.read import read_commanded_csv
     from twin.runs.write import write_run
 
@@ -126,7 +126,7 @@ def test_discrepancy_names_a_force_scale_hidden_in_a_cone_run(
     thicker = replace(history, f_sheet_n=1.3 * history.f_sheet_n)
     cone = read_commanded_csv(cone_runs["ideal"])
     run, truth, _ = run_dynamic_lab(cone.t_s, cone.values, scenario="nominal", knobs=Knobs(neutral=True), seed=3,
-                                    history=thicker, field_factory=isf_field_factory())
+                                    process=Process(history=thicker, force_model="isf"))
     directory = write_run(cone_runs["base"] / "cone_thicker_sheet", run, truth=truth)
     capsys.readouterr()
     assert main(["discrepancy", str(directory), "--json", "-"]) == 0

@@ -8,28 +8,30 @@ import mujoco
 import numpy as np
 import pytest
 
+from twin.process.description import Process
 from twin.process.field import SheetForceField
 from twin.process.forces import default_force_history
 from twin.process.isf_force import IsfForceField
 from twin.process.path import groove_path
 from twin.process.placement import Placement
-from twin.robot.model import RobotEffects
 from twin.sim.compiled import compiled_replay
 from twin.sim.compiled.chain import chain_arrays, chain_eval
+from twin.sim.effects import Effects
 from twin.sim.ft_sensor import flange_sensor_forces
 from twin.sim.quasi_static import Twin
 from twin.sim.result import SimResult
+from twin.sim.spec import TwinSpec
 
 P_TOL_M = 1e-9  # the issue's exactness bound on the tool tip
 F_TOL_N = 1e-4  # 1e-9 m times the stiffest sheet sensitivity (1.4 kN/mm)
 
 
 @pytest.mark.parametrize(
-    "effects", [None, RobotEffects(lost_motion_rad=3e-4), RobotEffects(tcp_offset_m=2e-3)],
+    "effects", [Effects(), Effects({"lost_motion": 0.3}), Effects({"tool_length_offset": 2.0})],
     ids=["nominal", "lost-motion-hinges", "longer-tool"],
 )
-def test_chain_gives_mujocos_site_position_jacobian_and_gravity_torques(effects: RobotEffects | None) -> None:
-    twin = Twin(effects=effects)
+def test_chain_gives_mujocos_site_position_jacobian_and_gravity_torques(effects: Effects) -> None:
+    twin = TwinSpec(effects=effects).build()
     m, d = twin.model, twin.data
     site = m.site("tcp").id
     chain = chain_arrays(m, site)
@@ -94,13 +96,14 @@ def test_compiled_loop_matches_on_every_model_and_field_variant(case: str) -> No
     keep = path.pass_index <= 3
     t_s, p_cmd = path.t_s[keep], path.p_sheet_m[keep].copy()
     if case == "no-tool-stick":
-        twin = Twin(tool_friction_reversal_m=None)
+        twin = TwinSpec(process=Process(friction_reversal_m=None)).build()
     elif case == "lost-motion-and-force-scale":
-        twin = Twin(effects=RobotEffects(lost_motion_rad=4e-4, force_scale=1.3))
+        twin = TwinSpec(effects=Effects({"lost_motion": 0.4, "force_scale": 1.3})).build()
     elif case == "frictionless-joints":
-        twin = Twin(joint_friction=np.zeros(6))
+        twin = TwinSpec(joint_friction_nm=(0.0,) * 6).build()
     elif case == "stateless-field":
-        twin = Twin(field_factory=lambda h: SheetForceField(h, stateful=False), tool_friction_reversal_m=None)
+        twin = TwinSpec(process=Process(friction_reversal_m=None)).build()
+        twin.set_sheet_field(SheetForceField(twin.history, stateful=False))
     else:  # a compensated-looking command: seeded 20 µm jitter, joints reversing every few samples
         twin = Twin()
         p_cmd += np.random.default_rng(5).normal(0.0, 2e-5, p_cmd.shape) * np.array([1.0, 0.0, 1.0])
@@ -115,7 +118,7 @@ def test_other_fields_and_out_of_range_passes_fall_back_to_the_python_loop() -> 
     site = twin.model.site("tcp").id
 
     class OwnField(SheetForceField):  # a user's field: its own methods, so the Python loop calls them
-        pass
+        compiled_kernel = None  # a subclass that changes the physics declares no kernel (`ForceField`)
 
     assert compiled_replay(twin.model, site, OwnField(default_force_history()), q_nom, *args) is None
     used = IsfForceField()
@@ -131,8 +134,8 @@ def test_light_sensor_pipeline_reads_what_mj_inverse_reads(nominal_path: tuple[n
     twin = Twin()
     sim = twin.simulate(t_s[:400], p_cmd[:400])
     t_sensor = np.linspace(t_s[0], t_s[399], 150)
-    light = flange_sensor_forces(twin.model, twin.data, sim, t_sensor)
-    full = flange_sensor_forces(twin.model, twin.data, sim, t_sensor, full_inverse=True)
+    light = flange_sensor_forces(twin.model, twin.data, sim, t_sensor, robot=twin.robot)
+    full = flange_sensor_forces(twin.model, twin.data, sim, t_sensor, robot=twin.robot, full_inverse=True)
     np.testing.assert_allclose(light, full, rtol=0.0, atol=1e-8)
     assert np.abs(full).max() > 100.0
 
@@ -166,7 +169,7 @@ def test_a_yawed_and_shifted_sheet_replays_in_its_own_frame(first_pass_path: tup
     t_s, p_cmd = first_pass_path
     default = Twin().simulate(t_s, p_cmd)
     origin = Twin().p_base_sheet_origin + np.array([0.05, -0.04, 0.0])
-    twin = Twin(placement=Placement(origin_base_m=tuple(origin), yaw_rad=np.pi / 2))
+    twin = TwinSpec(placement=Placement(origin_base_m=tuple(origin), yaw_rad=np.pi / 2)).build()
     fast, reference = _both(twin, t_s, p_cmd)
     # the first sample sits on the force table's first node (x = -35 mm): a 1e-16 m rounding difference of the
     # rotated tip picks the clamped side (slope 0) or the cell (the table's slope) for the gain's stiffness there
@@ -213,16 +216,15 @@ def test_an_edited_kernel_source_drops_every_cached_kernel(tmp_path: Path) -> No
 def test_the_height_map_isf_model_replays_compiled_to_the_python_loops_equilibria() -> None:
     """A cone on the ISF model (any part): same tips and forces, and the field is left as the Python loop leaves
     it (track, pending commits, travel direction, wall angle), so the part's surface after the run is the same."""
-    from twin.process.isf_calibration import isf_field_factory
     from twin.process.part_surface import formed_surface
     from twin.process.shapes import PartSpec, part_path
 
     path = part_path(PartSpec(depth_m=3e-3, top_half_width_m=15e-3))
-    twin = Twin(field_factory=isf_field_factory())
+    twin = TwinSpec(process=Process(force_model="isf")).build()
     fast = twin.simulate(path.t_s, path.p_sheet_m)
     assert twin.last_loop_compiled
     field = twin.sheet_field
-    direction, last, alpha, step = field.motion_state
+    before = field.state
     track, pending = field.map.track_m, len(field.map._queue)
     surface = formed_surface(field)
     twin.use_compiled_loop = False
@@ -236,10 +238,11 @@ def test_the_height_map_isf_model_replays_compiled_to_the_python_loops_equilibri
     assert np.ptp(fast.f_sheet_n[:, 1]) > 100.0  # the in-plane force turns with the contour
     assert pending > 0 and pending == len(field.map._queue)  # commits still within the lag when the run ended
     np.testing.assert_allclose(track, field.map.track_m, rtol=0.0, atol=1e-12)
-    np.testing.assert_allclose(direction, field.motion_state[0], rtol=0.0, atol=1e-9)
-    np.testing.assert_allclose(last, field.motion_state[1], rtol=0.0, atol=1e-12)
-    assert alpha == pytest.approx(field.motion_state[2], abs=1e-9)
-    assert step == pytest.approx(field.motion_state[3], abs=1e-12)
+    after = field.state
+    np.testing.assert_allclose(before.direction, after.direction, rtol=0.0, atol=1e-9)
+    np.testing.assert_allclose(before.last_tip_m, after.last_tip_m, rtol=0.0, atol=1e-12)  # type: ignore[arg-type]
+    assert before.wall_angle_deg == pytest.approx(after.wall_angle_deg, abs=1e-9)
+    assert before.last_step_m == pytest.approx(after.last_step_m, abs=1e-12)
     assert surface is not None
     np.testing.assert_allclose(surface[2], formed_surface(field)[2], rtol=0.0, atol=1e-12)  # type: ignore[index]
 
@@ -247,11 +250,10 @@ def test_the_height_map_isf_model_replays_compiled_to_the_python_loops_equilibri
 def test_the_isf_model_at_reversals_replays_compiled_to_the_python_loops_equilibria() -> None:
     """The groove's first three passes on the ISF model: at each reversal the sliding direction is released
     (`twin.process.sliding`), a branch a cone never takes; compiled and Python loops find the same tips and forces."""
-    from twin.process.isf_calibration import isf_field_factory
     from twin.process.path import GrooveSpec, groove_path
 
     path = groove_path(GrooveSpec(passes=3, depth_m=0.003, bottom_length_m=0.068))
-    fast, reference = _both(Twin(field_factory=isf_field_factory()), path.t_s, path.p_sheet_m)
+    fast, reference = _both(TwinSpec(process=Process(force_model="isf")).build(), path.t_s, path.p_sheet_m)
     _assert_same(fast, reference, gain_from=2)
     fx = fast.f_sheet_n[:, 0]
     reversals = np.flatnonzero(np.diff(fast.pass_index) != 0)

@@ -43,7 +43,7 @@ def test_demo_tells_the_thesis_story(demo_dir: Path) -> None:
     assert report["thesis_compensation"]["gain"] == pytest.approx(0.5, abs=0.02)
     assert report["check_thesis"]["gain"] == pytest.approx(0.5, abs=0.15)
     assert "half" in report["check_thesis"]["diagnosis"]
-    assert report["discrepancy"]["effects"][:2] == ["force_scale", "direction_dependent_compliance"]
+    assert report["discrepancy"]["effects"][:2] == ["force_scale", "lost_motion"]
     assert report["discrepancy"]["parameters"]["force_scale"]["force_scale_ratio"] == pytest.approx(
         2.0, rel=0.05
     )

@@ -6,9 +6,12 @@ import numpy as np
 import pytest
 
 from twin.errors import InputError
-from twin.robot.dh import THETA_OFFSET_RAD, TOOL_LENGTH_M, det_jacobian_thesis, dh_fk, dh_jacobian
+from twin.robot.description import load_robot
+from twin.robot.dh import det_jacobian_thesis, dh_fk, dh_jacobian
 
 HOME_Q_RAD = np.deg2rad([-0.08, 38.03, 90.62, -0.33, 51.72, -7.91])  # thesis Table 4.1
+THETA_OFFSET_RAD = np.array(load_robot().dh.offset_rad)
+TOOL_LENGTH_M = load_robot().tool_length_m
 
 
 @pytest.fixture(scope="module")

@@ -15,7 +15,6 @@ from typing import Any, ClassVar
 
 import numpy as np
 import pytest
-from twin.lab.effects import EFFECTS, Effects
 
 from twin.analysis.compensate import compensate_twin
 from twin.analysis.discrepancy.context import Context
@@ -26,10 +25,13 @@ from twin.analysis.discrepancy.significance import excess_over_noise, is_contrad
 from twin.analysis.discrepancy.summary import result_summary
 from twin.base.resources import data_file
 from twin.lab.virtual import LabSettings, run_lab
+from twin.process.description import Process
 from twin.process.forces import ForceHistory, load_force_history
 from twin.process.path import label_passes
 from twin.runs.format import Run, Stream
-from twin.sim.quasi_static import PASS_DEADBAND_M, Twin
+from twin.sim.effects import EFFECTS, Effects
+from twin.sim.quasi_static import PASS_DEADBAND_M
+from twin.sim.spec import TwinSpec
 
 SETTINGS = LabSettings()
 NOISE_GAP = {  # gap of a perfect twin: the norm of the sensor noise (see module docstring)
@@ -40,26 +42,26 @@ NOISE_GAP = {  # gap of a perfect twin: the norm of the sensor noise (see module
 PARAMETER_TOLERANCE = 0.15  # of the effect's deviation from its neutral value
 SHRINK = 0.30  # gap after <= this x gap before, in the stream(s) where the effect shows
 NOISE_FACTOR = 2.0  # position gap after <= this x the noise norm
-# The family that fits each lab effect (the lab's direction_dependent_compliance is a lost motion of joints 2
-# and 3, its tcp_offset a tool length error); the summary reports the lab's name when the fit maps onto it.
+# The family that fits each lab effect (the lab's lost_motion is a lost motion of the robot's lost-motion joints,
+# its tool_length_offset a tool length error); the summary reports the effect's name when the fit maps onto it.
 LAB_FAMILY = {
-    "direction_dependent_compliance": "lost_motion",
+    "lost_motion": "lost_motion",
     "force_scale": "force_scale",
     "stream_time_offset": "stream_time_offset",
     "tracker_drift": "tracker_drift",
-    "tcp_offset": "tool_length_offset",
+    "tool_length_offset": "tool_length_offset",
     "sheet_springback": "sheet_springback",
 }
 
 # effect -> (value, seed, the gaps in which it shows). Every value is well above 3x the sensor noise in
 # that stream (tracker_drift 0.012 mm/s drifts 0.24 mm over the 20 s run).
 SINGLE_CASES: dict[str, tuple[float, int, tuple[str, ...]]] = {
-    "direction_dependent_compliance": (0.2, 101, ("position_rms_mm", "force_rms_n", "profile_rms_mm")),
+    "lost_motion": (0.2, 101, ("position_rms_mm", "force_rms_n", "profile_rms_mm")),
     "force_scale": (1.15, 102, ("position_rms_mm", "force_rms_n", "profile_rms_mm")),
     "stream_time_offset": (0.08, 103, ("force_rms_n",)),
     "tracker_drift": (0.012, 104, ("position_rms_mm",)),
     # the twin's field barely changes the force for a 0.2 mm longer tool (13 N gap against an 8.7 N noise norm)
-    "tcp_offset": (0.2, 105, ("position_rms_mm", "profile_rms_mm")),
+    "tool_length_offset": (0.2, 105, ("position_rms_mm", "profile_rms_mm")),
     "sheet_springback": (0.05, 106, ("profile_rms_mm",)),
 }
 
@@ -67,7 +69,7 @@ SINGLE_CASES: dict[str, tuple[float, int, tuple[str, ...]]] = {
 def lab_run(path: tuple[np.ndarray, np.ndarray], values: dict[str, float], seed: int) -> Run:
     """A nominal lab run with hidden effects; the truth record is dropped."""
     t_s, p_m = path
-    run, _ = run_lab(t_s, p_m, scenario="nominal", effects=Effects(values), seed=seed)
+    run, _ = run_lab(t_s, p_m, scenario="nominal", seed=seed, spec=TwinSpec(effects=Effects(values)))
     return run
 
 
@@ -123,7 +125,7 @@ def test_each_lab_effect_is_named_fitted_and_closes_the_gap(
     info = describe(result, seconds)
     assert result.verdict == LAB_FAMILY[name], info
     assert result.found == (LAB_FAMILY[name],), info
-    assert result_summary(result)["effect"] == name, info  # the model file's (lab's) name
+    assert result_summary(result)["effect"] == name, info  # the model file's (the effect vocabulary's) name
     assert result.model_complete, info
     assert parameter_error(name, result.effects.get(name), value) <= PARAMETER_TOLERANCE, info
     assert result.explained_fraction >= 0.9, info
@@ -192,7 +194,7 @@ def test_excess_over_noise_is_counted_per_stream() -> None:
 def test_two_lab_effects_together_are_both_named_with_their_parameters(
     nominal_path: tuple[np.ndarray, np.ndarray]
 ) -> None:
-    hidden = {"force_scale": 2.0, "direction_dependent_compliance": 0.3}
+    hidden = {"force_scale": 2.0, "lost_motion": 0.3}
     result, seconds = timed(lab_run(nominal_path, hidden, seed=110))
     info = describe(result, seconds)
     assert set(result.found) == {"force_scale", "lost_motion"}, info
@@ -337,15 +339,12 @@ def test_a_fit_that_makes_another_stream_worse_is_contradicted() -> None:
 
 # ---- the demo's story ----
 
-def test_thesis_nominal_run_names_the_labs_direction_dependent_compliance(
-    nominal_path: tuple[np.ndarray, np.ndarray]
-) -> None:
-    result, seconds = timed(lab_run(nominal_path, {"direction_dependent_compliance": 0.3}, seed=130))
+def test_thesis_nominal_run_names_the_labs_lost_motion(nominal_path: tuple[np.ndarray, np.ndarray]) -> None:
+    result, seconds = timed(lab_run(nominal_path, {"lost_motion": 0.3}, seed=130))
     info = describe(result, seconds)
     assert result.found == ("lost_motion",), info
-    assert result_summary(result)["effects"] == ["direction_dependent_compliance"], info
-    assert parameter_error("direction_dependent_compliance", result.effects.get("direction_dependent_compliance"),
-                           0.3) <= PARAMETER_TOLERANCE, info
+    assert result_summary(result)["effects"] == ["lost_motion"], info
+    assert parameter_error("lost_motion", result.effects.get("lost_motion"), 0.3) <= PARAMETER_TOLERANCE, info
 
 
 @pytest.fixture(scope="module")
@@ -358,15 +357,15 @@ def test_thesis_compensated_run_with_forgotten_doubling_names_force_scale_then_d
     nominal_path: tuple[np.ndarray, np.ndarray], mistaken_history: ForceHistory
 ) -> None:
     t_s, p_ideal_m = nominal_path
-    compensation = compensate_twin(t_s, p_ideal_m, Twin(history=mistaken_history))
-    run, _ = run_lab(compensation.t_s, compensation.p_cmd_sheet_m, scenario="compensated",
-                     effects=Effects({"direction_dependent_compliance": 0.3}), seed=131)
-    result, seconds = timed(run, history=mistaken_history)
+    mistaken = TwinSpec(process=Process(history=mistaken_history))
+    compensation = compensate_twin(t_s, p_ideal_m, mistaken.build())
+    run, _ = run_lab(compensation.t_s, compensation.p_cmd_sheet_m, scenario="compensated", seed=131,
+                     spec=TwinSpec(effects=Effects({"lost_motion": 0.3})))
+    result, seconds = timed(run, spec=mistaken)
     info = describe(result, seconds)
-    assert result_summary(result)["effects"] == ["force_scale", "direction_dependent_compliance"], info
+    assert result_summary(result)["effects"] == ["force_scale", "lost_motion"], info
     assert parameter_error("force_scale", result.effects.get("force_scale"), 2.0) <= PARAMETER_TOLERANCE, info
-    assert parameter_error("direction_dependent_compliance", result.effects.get("direction_dependent_compliance"),
-                           0.3) <= PARAMETER_TOLERANCE, info
+    assert parameter_error("lost_motion", result.effects.get("lost_motion"), 0.3) <= PARAMETER_TOLERANCE, info
     assert result.gap_after["position_rms_mm"] <= NOISE_FACTOR * NOISE_GAP["position_rms_mm"], info
 
 
@@ -381,7 +380,7 @@ def test_candidates_argument_limits_the_search(nominal_path: tuple[np.ndarray, n
 
 def test_start_effects_already_known_leave_nothing_to_find(nominal_path: tuple[np.ndarray, np.ndarray]) -> None:
     hidden = Effects({"tracker_drift": 0.012})
-    result, seconds = timed(lab_run(nominal_path, dict(hidden.values), seed=141), start=hidden)
+    result, seconds = timed(lab_run(nominal_path, dict(hidden.values), seed=141), spec=TwinSpec(effects=hidden))
     info = describe(result, seconds)
     assert result.verdict == "none", info
     assert result.effects == hidden, info
@@ -450,14 +449,14 @@ def test_two_families_explaining_the_same_thing_are_reported_ambiguous(
 # Value (deviation from neutral) at which the effect's signature, in its most telling stream, has an rms of
 # 3x the per-axis sensor noise: measured with noiseless lab runs (signal rms of the tracker norm / 0.02 mm,
 # of the force norm / 5 N, of the profile / 0.02 mm). The most telling stream is the force for
-# direction_dependent_compliance, force_scale and stream_time_offset, the tracker for tracker_drift, the
-# profile for tcp_offset and sheet_springback.
+# lost_motion, force_scale and stream_time_offset, the tracker for tracker_drift, the
+# profile for tool_length_offset and sheet_springback.
 THREE_NOISE = {
-    "direction_dependent_compliance": 0.0115,
+    "lost_motion": 0.0115,
     "force_scale": 0.012,
     "stream_time_offset": 0.0096,
     "tracker_drift": 0.0053,
-    "tcp_offset": 0.065,
+    "tool_length_offset": 0.065,
     "sheet_springback": 0.0086,
 }
 GRID_MULTIPLES = (0.5, 1.0, 3.0, 30.0)  # x THREE_NOISE: 1.5x, 3x, 9x and 90x the noise

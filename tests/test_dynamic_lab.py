@@ -20,11 +20,12 @@ from twin.errors import InputError
 from twin.lab.dynamic.knobs import KNOBS, Knobs, parse_set_args
 from twin.lab.dynamic.run import dynamic_load_test, run_dynamic_lab
 from twin.lab.dynamic.sweep import breaking_feed, feed_sweep, reversal_mask, sweep_table
+from twin.process.description import Process
 from twin.process.forces import default_force_history
 from twin.process.path import GrooveSpec, groove_path
 from twin.runs.read import read_run
 from twin.runs.write import write_run
-from twin.sim.quasi_static import Twin
+from twin.sim.spec import TwinSpec
 
 # the thesis groove's first three passes (same step-down and stroke reduction, 1 mm each): ~6 s of forming
 SHORT = GrooveSpec(passes=3, depth_m=0.003, bottom_length_m=0.068)
@@ -102,9 +103,9 @@ def test_dead_band_on_joint2_opens_once_the_sheet_outweighs_gravity_on_joint2():
     for band in (0.0, 0.3):
         run, _, log = run_dynamic_lab(
             path.t_s, path.p_sheet_m, scenario="nominal", knobs=Knobs({"backlash_j2_mrad": band}, neutral=True),
-            seed=1, history=history,
+            seed=1, process=Process(history=history),
         )
-        gaps.append(replay(run, history=history).metrics["position_rms_mm"])
+        gaps.append(replay(run, TwinSpec(process=Process(history=history))).metrics["position_rms_mm"])
         plays.append(log.q_play[:, 1])
     half = 0.15e-3
     assert plays[1].max() == pytest.approx(half) and plays[1].min() == pytest.approx(-half)  # both flanks
@@ -115,7 +116,7 @@ def test_dead_band_on_joint2_opens_once_the_sheet_outweighs_gravity_on_joint2():
 def test_dynamic_load_test_matches_the_twin_static_deflection_without_friction():
     knobs = Knobs({"tracker_noise_mm": 0.0, "link_friction_scale": 0.0}, neutral=True)
     loads, deflections = dynamic_load_test(THESIS_TABLE_4_2_LOADS_N, knobs=knobs, seed=3)
-    twin_ = Twin(joint_friction=np.zeros(6))
+    twin_ = TwinSpec(joint_friction_nm=np.zeros(6)).build()
     expected = np.array([twin_.static_deflection(f) for f in loads])
     assert np.max(np.linalg.norm(deflections - expected, axis=1)) < 0.01 * np.max(
         np.linalg.norm(expected, axis=1)

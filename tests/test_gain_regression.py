@@ -32,10 +32,11 @@ from twin.analysis.identify.cartesian import THESIS_TABLE_4_2_LOADS_N, fit_kr_lo
 from twin.base.resources import data_file
 from twin.errors import SymmetryError
 from twin.lab.virtual import load_test, run_lab
+from twin.process.description import Process
 from twin.process.field import SheetForceField
 from twin.process.forces import ForceHistory, default_force_history, load_force_history
 from twin.process.path import ToolPath, groove_path
-from twin.sim.quasi_static import Twin
+from twin.sim.spec import TwinSpec
 
 GAIN_TOL = 0.02
 # Bounds on the lab residual (tracker noise 0.02 mm per axis alone gives 0.035 mm rms of the 3-D norm). The
@@ -79,7 +80,7 @@ def pipeline() -> Pipeline:
     c_method1 = compliance_from_stiffness(fit_kr_load_cases(loads, deflections).k_r_n_per_m)
     f_ideal = SheetForceField(history).rigid_forces(path)
     formula = compensate_formula(path.t_s, path.p_sheet_m, f_ideal, c_method1)
-    twin = Twin(history=history)
+    twin = TwinSpec(process=Process(history=history)).build()
     twin_comp = compensate_twin(path.t_s, path.p_sheet_m, twin)
     c_twin = twin.kinematics.compliance(twin.kinematics.q_home)
     return Pipeline(path, history, f_reference, c_method1, c_twin, formula, twin_comp)
@@ -93,7 +94,9 @@ def half_as_full() -> ForceHistory:
 
 @pytest.fixture(scope="module")
 def mistaken_twin_compensation(pipeline: Pipeline, half_as_full: ForceHistory) -> Compensation:
-    return compensate_twin(pipeline.path.t_s, pipeline.path.p_sheet_m, Twin(history=half_as_full))
+    return compensate_twin(
+        pipeline.path.t_s, pipeline.path.p_sheet_m, TwinSpec(process=Process(history=half_as_full)).build()
+    )
 
 
 # --- gain 1 -----------------------------------------------------------------------------------------------

@@ -179,8 +179,11 @@ def test_congruence_is_the_literal_eq_4_5_diagonal() -> None:
     J = rng.normal(size=(6, 6))
     K = rng.normal(size=(3, 3))
     np.testing.assert_allclose(kq_from_kr_congruence(J, K), np.einsum("ai,ab,bi->i", J[:3], K, J[:3]))
-    with pytest.raises(InputError, match=r"\(6, 6\) or \(3, 6\)"):
-        kq_from_kr_congruence(np.zeros((3, 3)), K)
+    # any number of joints (the robot is data), but 3 or 6 rows, translational first
+    with pytest.raises(InputError, match=r"\(6, dof\) or \(3, dof\)"):
+        kq_from_kr_congruence(np.zeros((4, 6)), K)
+    with pytest.raises(InputError, match=r"\(6, dof\) or \(3, dof\)"):
+        kq_from_kr_congruence(np.full((6, 6), np.nan), K)
 
 
 def test_compensation_gain_recovers_the_missing_factor_two() -> None:

@@ -16,6 +16,7 @@ from twin.errors import InputError
 from twin.lab.virtual import LabSettings, load_test
 from twin.runs.format import Run
 from twin.sim.quasi_static import Twin
+from twin.sim.spec import TwinSpec
 
 
 def test_rollouts_recover_the_run_observable_joint_stiffness(clean_run: Run, twin_nominal: Twin) -> None:
@@ -32,7 +33,8 @@ def test_rollouts_recover_the_run_observable_joint_stiffness(clean_run: Run, twi
 
 def test_jacobian_route_recovers_joints_two_three_five_from_noise_free_load_test(twin_nominal: Twin) -> None:
     loads, deflections = load_test(  # the elastic robot: the maths of the route, without joint friction
-        THESIS_TABLE_4_2_LOADS_N, seed=0, settings=LabSettings(tracker_noise_m=0.0), joint_friction=np.zeros(6)
+        THESIS_TABLE_4_2_LOADS_N, seed=0, spec=TwinSpec(joint_friction_nm=np.zeros(6)),
+        settings=LabSettings(tracker_noise_m=0.0),
     )
     fit = kq_from_stiffness(twin_nominal, fit_kr_load_cases(loads, deflections).k_r_n_per_m)
     truth = twin_nominal.joint_stiffness
@@ -52,7 +54,7 @@ def test_write_model_as_json_and_mjcf(tmp_path: Path) -> None:
     np.testing.assert_allclose(model.actuator_biasprm[:, 1], -k)
     payload = json.loads(write_joint_stiffness(tmp_path / "kq.json", k).read_text())
     np.testing.assert_allclose(payload["joint_stiffness_nm_per_rad"], k)
-    with pytest.raises(InputError, match="6 finite positive"):
+    with pytest.raises(InputError, match="6 finite values > 0"):
         write_joint_stiffness(tmp_path / "bad.json", np.array([1.0, 2.0]))
 
 

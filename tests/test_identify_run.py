@@ -39,9 +39,10 @@ from twin.errors import IdentificationError, RunFormatError, UnitsError
 from twin.lab.virtual import LabSettings, load_test, nominal_commanded, run_lab
 from twin.runs.format import Run, Stream
 from twin.sim.quasi_static import Twin
+from twin.sim.spec import TwinSpec
 
 XZ = np.ix_([0, 2], [0, 2])
-ELASTIC = np.zeros(6)  # joint friction of the lab's robot in these tests
+ELASTIC = TwinSpec(joint_friction_nm=np.zeros(6))  # the lab's robot in these tests: no joint friction
 # Method 1 with the lab's noise, documented bounds (see the module docstring for the measured values)
 M1_NOISE_FREE_REL = 0.005
 M1_NOISY_C_REL_MAX = 0.10  # every seed 1-20
@@ -63,7 +64,7 @@ def c_twin() -> np.ndarray:
 
 @pytest.fixture(scope="module")
 def nominal_run() -> Run:
-    return run_lab(*nominal_commanded(), scenario="nominal", seed=1, joint_friction=ELASTIC)[0]
+    return run_lab(*nominal_commanded(), scenario="nominal", seed=1, spec=ELASTIC)[0]
 
 
 @pytest.fixture(scope="module")
@@ -76,7 +77,7 @@ def m2(nominal_run: Run) -> Method2Result:
 
 def kr_from_load_test(seed: int, settings: LabSettings | None = None) -> np.ndarray:
     loads, deflections = load_test(
-        THESIS_TABLE_4_2_LOADS_N, seed=seed, settings=settings, joint_friction=ELASTIC
+        THESIS_TABLE_4_2_LOADS_N, seed=seed, settings=settings, spec=ELASTIC
     )
     return fit_kr_load_cases(loads, deflections).k_r_n_per_m
 

@@ -12,12 +12,14 @@ import pytest
 from twin.analysis.compensate import compensate_twin
 from twin.base.csvio import write_table
 from twin.errors import InputError
+from twin.process.description import Process
 from twin.process.fe_history import generate_history
 from twin.process.forces import default_force_history, load_force_history
-from twin.process.isf_calibration import calibrate_isf, fitted_scale, groove_errors, isf_field_factory
+from twin.process.isf_calibration import calibrate_isf, fitted_scale, groove_errors
 from twin.process.isf_force import IsfForceField, IsfForceParams
 from twin.process.shapes import PartSpec, part_path
 from twin.sim.quasi_static import Twin
+from twin.sim.spec import TwinSpec
 
 
 def aerens_fz(step_down_mm: float, wall_angle_deg: float) -> float:
@@ -114,8 +116,8 @@ def test_fitted_scale_follows_a_scaled_history_and_twin_takes_the_factory(first_
     s1, s2 = fitted_scale(IsfForceParams(), history), fitted_scale(IsfForceParams(), double)
     assert s1 == pytest.approx(1.0, abs=0.02) and s2 == pytest.approx(2.0 * s1, rel=1e-9)
     t_s, p_cmd = first_pass_path
-    twin_isf = Twin(field_factory=isf_field_factory())
-    assert isinstance(twin_isf.field, IsfForceField)
+    twin_isf = TwinSpec(process=Process(force_model="isf")).build()
+    assert isinstance(twin_isf.sheet_field, IsfForceField)
     sim = twin_isf.simulate(t_s, p_cmd)
     sim_ref = Twin().simulate(t_s, p_cmd)
     # same history, two force models; on pass 1 the ISF model's build-up follows the tool's real depth (the
@@ -128,7 +130,7 @@ def test_fitted_scale_follows_a_scaled_history_and_twin_takes_the_factory(first_
 def test_twin_compensation_brings_a_cone_and_a_pyramid_onto_the_target_path(shape):
     spec = PartSpec(shape=shape, top_half_width_m=0.02, depth_m=5e-3, step_down_m=1e-3, spacing_m=1e-3)
     path = part_path(spec)
-    twin = Twin(field_factory=isf_field_factory())
+    twin = TwinSpec(process=Process(force_model="isf")).build()
     nominal = twin.simulate(path.t_s, path.p_sheet_m)
     comp = compensate_twin(path.t_s, path.p_sheet_m, twin, tol_m=50e-6)
     compensated = twin.simulate(path.t_s, comp.p_cmd_sheet_m)

@@ -9,18 +9,14 @@ import numpy as np
 import pytest
 
 from twin.analysis.identify.default_stiffness import thesis_stiffness_fit
-from twin.base.resources import robot_xml
 from twin.errors import InputError, ModelError, SingularityError, UnreachableError
+from twin.robot.description import load_robot
 from twin.robot.dh import det_jacobian_thesis, dh_fk
-from twin.robot.kinematics import (
-    DET_J_MIN,
-    HOME_Q_RAD,
-    Kinematics,
-    _rotation_log,
-    load_model,
-)
+from twin.robot.kinematics import Kinematics, _rotation_log, load_model
 
 N_RANDOM = 1000
+HOME_Q_RAD = load_robot().q_home
+DET_J_MIN = load_robot().det_j_min_m3
 
 
 @pytest.fixture(scope="module")
@@ -132,7 +128,7 @@ def test_ik_raises_unreachable_for_far_target(kin: Kinematics) -> None:
 
 
 def test_ik_raises_unreachable_outside_joint_range() -> None:
-    spec = mujoco.MjSpec.from_file(str(robot_xml()))
+    spec = mujoco.MjSpec.from_file(str(load_robot().mjcf))
     spec.joint("joint1").range = [0.0, np.pi]  # home's q1 = -0.08 deg is now outside
     kin = Kinematics(spec.compile())
     with pytest.raises(UnreachableError, match="joint1"):
@@ -166,7 +162,7 @@ def test_bad_targets_raise_input_error(kin: Kinematics) -> None:
         kin.ik(np.array([1.0, np.nan, 0.4]))
     with pytest.raises(InputError, match=r"\(n, 3\)"):
         kin.ik_path(np.zeros((4, 2)))
-    with pytest.raises(InputError, match="positive"):
+    with pytest.raises(InputError, match="> 0"):
         kin.compliance(HOME_Q_RAD, K_q=np.array([1e6, 1e6, 0.0, 1e6, 1e6, 1e6]))
 
 
@@ -180,7 +176,11 @@ def test_missing_or_broken_model_file_raises_model_error(tmp_path) -> None:
 
 
 def test_model_without_tcp_raises_model_error() -> None:
+    spec = mujoco.MjSpec.from_file(str(load_robot().mjcf))
+    spec.delete(spec.site("tcp"))
     with pytest.raises(ModelError, match="tcp"):
+        Kinematics(spec.compile())
+    with pytest.raises(ModelError, match="joint1"):
         Kinematics(mujoco.MjModel.from_xml_string("<mujoco><worldbody/></mujoco>"))
 
 

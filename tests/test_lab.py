@@ -7,7 +7,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from twin.lab.effects import EFFECTS, Effects
 
 from twin.analysis.identify.cartesian import THESIS_TABLE_4_2_LOADS_N, load_cases_csv
 from twin.cli import main
@@ -16,7 +15,9 @@ from twin.process.path import ToolPath, groove_path, write_path_csv
 from twin.runs.format import RUN_FORMAT, Run
 from twin.runs.read import read_run
 from twin.runs.write import write_run
+from twin.sim.effects import EFFECTS, Effects
 from twin.sim.quasi_static import Twin
+from twin.sim.spec import TwinSpec
 
 RUN_FILES = ("meta.json", "commanded.csv", "tracker.csv", "forces.csv", "part_profile.csv", "truth.json")
 
@@ -66,10 +67,10 @@ def test_lab_writes_truth_next_to_the_run_and_keeps_it_out_of_meta(
 
 
 def test_lab_truth_records_the_hidden_effects(first_pass_path: tuple[np.ndarray, np.ndarray]) -> None:
-    effects = Effects({"tcp_offset": 1.0, "force_scale": 1.5})
-    run, truth = run_lab(*first_pass_path, scenario="probe", effects=effects, seed=3)
-    assert truth["effects"] == {"tcp_offset": 1.0, "force_scale": 1.5}
-    assert truth["effect_parameters"]["tcp_offset"] == {"tcp_offset_mm": 1.0}
+    effects = Effects({"tool_length_offset": 1.0, "force_scale": 1.5})
+    run, truth = run_lab(*first_pass_path, scenario="probe", seed=3, spec=TwinSpec(effects=effects))
+    assert truth["effects"] == {"tool_length_offset": 1.0, "force_scale": 1.5}
+    assert truth["effect_parameters"]["tool_length_offset"] == {"tool_length_offset_mm": 1.0}
     assert run.scenario == "probe"
     assert "effects" not in run.meta
 

@@ -1,20 +1,16 @@
-"""Tests of the measurement model shared by the lab and replay (twin/lab/measure.py)."""
+"""Tests of the measurement model shared by the lab and replay (twin/sim/measure.py)."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
-from twin.lab.effects import TRACKER_DRIFT_DIRECTION, Effects
-from twin.lab.measure import (
-    predict_forces,
-    predict_part_profile,
-    predict_tracker,
-    uniform_times,
-)
 
 from twin.analysis.replay import ReplayResult
+from twin.base.signals import uniform_times
 from twin.process.field import K_UNLOAD_N_PER_M
 from twin.process.springback import PROFILE_HALF_SPAN_M, PROFILE_SPACING_M
+from twin.sim.effects import TRACKER_DRIFT_DIRECTION, Effects
+from twin.sim.measure import predict_forces, predict_part_profile, predict_tracker
 from twin.sim.quasi_static import Twin
 
 
@@ -57,9 +53,11 @@ def test_force_stream_offset_reads_the_force_tau_earlier(
     assert np.abs(late - plain).max() > 50.0
 
 
-def test_part_profile_is_the_formed_bottom_after_elastic_recovery(clean_replay: ReplayResult) -> None:
+def test_part_profile_is_the_formed_bottom_after_elastic_recovery(
+    twin_nominal: Twin, clean_replay: ReplayResult
+) -> None:
     sim = clean_replay.sim
-    x_m, z_m = predict_part_profile(sim, Effects())
+    x_m, z_m = predict_part_profile(twin_nominal, sim, Effects())
     assert x_m[0] == pytest.approx(-PROFILE_HALF_SPAN_M) and x_m[-1] == pytest.approx(PROFILE_HALF_SPAN_M)
     np.testing.assert_allclose(np.diff(x_m), PROFILE_SPACING_M)
     loaded = np.interp(x_m, sim.formed_x_m, sim.formed_z_m)
@@ -73,6 +71,6 @@ def test_part_profile_is_the_formed_bottom_after_elastic_recovery(clean_replay: 
     assert recovery[centre] == pytest.approx(fz_centre / K_UNLOAD_N_PER_M, rel=0.05)
     assert -0.0085 < z_m.min() < -0.005  # 10 mm commanded, shallower by the deflection and the springback
     assert abs(z_m[0]) < 1e-4 and abs(z_m[-1]) < 1e-4  # flat sheet outside the groove
-    x_back, z_back = predict_part_profile(sim, Effects({"sheet_springback": 0.13}))
+    x_back, z_back = predict_part_profile(twin_nominal, sim, Effects({"sheet_springback": 0.13}))
     np.testing.assert_array_equal(x_back, x_m)
     np.testing.assert_allclose(z_back, 0.87 * z_m)

@@ -11,11 +11,17 @@ import numpy as np
 import pytest
 import trimesh
 
-from twin.base.resources import models_dir, robot_xml, scene_xml
-from twin.robot.kinematics import HOME_Q_RAD, TOOL_LENGTH_M, load_model
+from twin.analysis.identify.default_stiffness import thesis_stiffness_fit
+from twin.base.resources import models_dir
+from twin.errors import ModelError
+from twin.robot.description import load_robot
+from twin.robot.kinematics import load_model
 
 # Staubli datasheet D181.573.04 joint ranges [deg]
 RANGES_DEG = [(-180, 180), (-120, 120), (-140, 145), (-270, 270), (-120, 120), (-270, 270)]
+HOME_TABLE_4_1_DEG = [-0.08, 38.03, 90.62, -0.33, 51.72, -7.91]  # thesis Table 4.1
+HOME_Q_RAD = load_robot().q_home
+TOOL_LENGTH_M = load_robot().tool_length_m
 
 
 @pytest.fixture(scope="module")
@@ -32,7 +38,7 @@ def _warnings(data: mujoco.MjData) -> list[int]:
     return [int(w.number) for w in data.warning]
 
 
-@pytest.mark.parametrize("path", [robot_xml(), scene_xml()], ids=["robot", "scene"])
+@pytest.mark.parametrize("path", [load_robot().mjcf, load_robot().scene], ids=["robot", "scene"])
 def test_model_loads_and_home_is_clean(path: Path) -> None:
     model = mujoco.MjModel.from_xml_path(str(path))
     data = mujoco.MjData(model)
@@ -65,8 +71,57 @@ def test_scene_steps_stably_with_noisy_ctrl_around_home(scene: mujoco.MjModel) -
 
 def test_home_keyframe_is_table_4_1(robot: mujoco.MjModel) -> None:
     key = robot.key("home")
-    np.testing.assert_allclose(key.qpos, np.deg2rad([-0.08, 38.03, 90.62, -0.33, 51.72, -7.91]), atol=1e-15)
+    np.testing.assert_allclose(key.qpos, np.deg2rad(HOME_TABLE_4_1_DEG), atol=1e-15)
     np.testing.assert_array_equal(key.ctrl, key.qpos)
+
+
+def test_robot_description_reads_home_from_the_keyframe_as_table_4_1() -> None:
+    robot = load_robot()
+    assert robot.home_keyframe == "home"
+    np.testing.assert_allclose(robot.q_home_rad, np.deg2rad(HOME_TABLE_4_1_DEG), rtol=0.0, atol=1e-12)
+    np.testing.assert_allclose(robot.q_home, np.deg2rad(HOME_TABLE_4_1_DEG), rtol=0.0, atol=1e-12)
+
+
+def test_robot_description_tool_length_is_thesis_3_2_1() -> None:
+    assert load_robot().tool_length_m == pytest.approx(0.27494, abs=1e-12)
+
+
+def test_stiffness_priors_are_the_rounded_thesis_fit() -> None:
+    robot = load_robot()
+    fit = thesis_stiffness_fit()
+    priors = {p.joint: p.k_nm_per_rad for p in robot.stiffness_priors}
+    for joint in ("joint1", "joint2", "joint3", "joint5"):
+        i = robot.joints.index(joint)
+        assert priors[joint] == pytest.approx(fit.K_q[i], rel=5e-3), joint
+
+
+def _bad_description(tmp_path: Path, text: str) -> Path:
+    """The shipped description with `text` edited in, pointing at the shipped MJCF by absolute path."""
+    robot = load_robot()
+    out = tmp_path / "bad_robot.toml"
+    text = text.replace('mjcf = "tx200.xml"', f'mjcf = "{robot.mjcf.resolve()}"')
+    text = re.sub(r'^scene = .*$', "", text, flags=re.MULTILINE)
+    out.write_text(text, encoding="utf-8")
+    return out
+
+
+def test_description_without_joints_table_raises_model_error_naming_the_file(tmp_path: Path) -> None:
+    text = load_robot().source.read_text(encoding="utf-8")
+    text = re.sub(r"^\[joints\]\n(?:(?!\[).*\n)*", "", text, flags=re.MULTILINE)
+    assert "[joints]" not in text
+    bad = _bad_description(tmp_path, text)
+    with pytest.raises(ModelError, match=re.escape(str(bad))) as info:
+        load_robot(bad)
+    assert "joints" in str(info.value)
+
+
+def test_description_naming_a_joint_the_mjcf_lacks_raises_model_error_naming_the_file(tmp_path: Path) -> None:
+    text = load_robot().source.read_text(encoding="utf-8").replace('"joint6"]', '"joint7"]', 1)
+    assert '"joint7"' in text
+    bad = _bad_description(tmp_path, text)
+    with pytest.raises(ModelError, match=re.escape(str(bad))) as info:
+        load_robot(bad)
+    assert "joint7" in str(info.value)
 
 
 def test_joint_ranges_and_ctrlranges_follow_datasheet(robot: mujoco.MjModel) -> None:

@@ -8,18 +8,15 @@ import mujoco
 import numpy as np
 import pytest
 
-import twin.robot.model as plant
 from twin.errors import InputError, ModelError
 from twin.process.path import label_passes
-from twin.robot.kinematics import HOME_Q_RAD
-from twin.robot.model import (
-    ARM_JOINTS,
-    LOST_MOTION_STIFFNESS_NM_PER_RAD,
-    RobotEffects,
-    build_model,
-    lost_motion_schedule,
-)
-from twin.sim.quasi_static import Twin
+from twin.robot.description import load_robot
+from twin.robot.model import LOST_MOTION_STIFFNESS_NM_PER_RAD, build_model, lost_motion_schedule
+from twin.sim.effects import Effects
+from twin.sim.spec import TwinSpec
+
+ARM_JOINTS = load_robot().joints
+HOME_Q_RAD = load_robot().q_home
 
 
 def tcp_at_home(model: mujoco.MjModel) -> tuple[np.ndarray, np.ndarray]:
@@ -35,15 +32,15 @@ def tcp_at_home(model: mujoco.MjModel) -> tuple[np.ndarray, np.ndarray]:
 @pytest.mark.parametrize(
     ("kwargs", "match"),
     [
-        ({"lost_motion_rad": float("nan")}, "lost_motion_rad"),
-        ({"tcp_offset_m": float("inf")}, "tcp_offset_m"),
+        ({"values": {"lost_motion": float("nan")}}, "lost_motion"),
+        ({"values": {"tool_length_offset": float("inf")}}, "tool_length_offset"),
         ({"lost_motion_takeup_m": 0.0}, "lost_motion_takeup_m"),
-        ({"force_scale": -0.5}, "force_scale"),
+        ({"values": {"force_scale": -0.5}}, "force_scale"),
     ],
 )
-def test_robot_effects_reject_bad_values(kwargs: dict[str, float], match: str) -> None:
+def test_robot_effects_reject_bad_values(kwargs: dict, match: str) -> None:
     with pytest.raises(InputError, match=match):
-        RobotEffects(**kwargs)
+        Effects(**kwargs)
 
 
 def test_nominal_model_has_six_arm_joints_and_no_contacts() -> None:
@@ -54,13 +51,13 @@ def test_nominal_model_has_six_arm_joints_and_no_contacts() -> None:
     assert robot_only.nq == 6
     with pytest.raises(KeyError):
         robot_only.site("sheet_origin")
-    assert not RobotEffects().has_lost_motion
+    assert Effects().lost_motion_rad == 0.0
 
 
 @pytest.mark.parametrize("offset_mm", [1.0, -2.5])
-def test_tcp_offset_moves_the_tool_tip_along_the_tool_axis(offset_mm: float) -> None:
+def test_tool_length_offset_moves_the_tool_tip_along_the_tool_axis(offset_mm: float) -> None:
     p_nominal, R_nominal = tcp_at_home(build_model())
-    p_offset, _ = tcp_at_home(build_model(RobotEffects(tcp_offset_m=1e-3 * offset_mm)))
+    p_offset, _ = tcp_at_home(build_model(tool_offset_m=1e-3 * offset_mm))
     shift = p_offset - p_nominal
     tool_axis = R_nominal[:, 2]
     assert np.linalg.norm(shift) == pytest.approx(1e-3 * abs(offset_mm), rel=1e-9)
@@ -69,7 +66,7 @@ def test_tcp_offset_moves_the_tool_tip_along_the_tool_axis(offset_mm: float) -> 
 
 
 def test_lost_motion_adds_stiff_link_side_hinges_on_joints_2_and_3() -> None:
-    model = build_model(RobotEffects(lost_motion_rad=5e-4))
+    model = build_model(lost_motion=True)
     assert model.nq == 8
     for name in ("joint2", "joint3"):
         motor, link = model.joint(name), model.joint(f"{name}_lost")
@@ -82,22 +79,23 @@ def test_lost_motion_adds_stiff_link_side_hinges_on_joints_2_and_3() -> None:
         model.joint("joint1_lost")
 
 
-def test_build_model_raises_model_error_for_a_missing_file(
-    monkeypatch: pytest.MonkeyPatch, tmp_path: Path
-) -> None:
-    missing = tmp_path / "nowhere.xml"
-    monkeypatch.setattr(plant, "scene_xml", lambda: missing)
+def test_build_model_raises_model_error_for_a_missing_file(tmp_path: Path) -> None:
+    robot = load_robot()
+    text = robot.source.read_text(encoding="utf-8")
+    text = text.replace('mjcf = "tx200.xml"', f'mjcf = "{robot.mjcf.resolve()}"')
+    text = text.replace('scene = "cell/scene.xml"', f'scene = "{tmp_path / "nowhere.xml"}"')
+    description = tmp_path / "robot.toml"
+    description.write_text(text, encoding="utf-8")
     with pytest.raises(ModelError, match=r"nowhere\.xml"):
-        build_model()
+        build_model(description)
 
 
 def test_lost_motion_schedule_flips_with_direction_and_ramps_over_the_takeup() -> None:
     step = 0.1e-3
     x = np.concatenate([np.arange(0, 101) * step, (100 - np.arange(1, 101)) * step, np.arange(1, 101) * step])
     _, direction = label_passes(x)
-    effects = RobotEffects(lost_motion_rad=1e-3, lost_motion_takeup_m=2e-3)
     sign = np.array([-1.0, 1.0])
-    ref = lost_motion_schedule(x, direction, sign, effects)
+    ref = lost_motion_schedule(x, direction, sign, 1e-3, 2e-3)
     assert ref.shape == (len(x), 2)
     # first stroke (+x): fully taken up from the start, link gives way against the travel (-x)
     np.testing.assert_allclose(ref[:101], np.tile([1e-3, -1e-3], (101, 1)))
@@ -110,7 +108,7 @@ def test_lost_motion_schedule_flips_with_direction_and_ramps_over_the_takeup() -
     np.testing.assert_allclose(ref[101:201, 1], -back)
     # third stroke flips back
     np.testing.assert_allclose(ref[-50:], np.tile([1e-3, -1e-3], (50, 1)))
-    assert lost_motion_schedule(x, direction, sign, RobotEffects()).max() == 0.0
+    assert lost_motion_schedule(x, direction, sign, Effects().lost_motion_rad, 2e-3).max() == 0.0
 
 
 def test_lost_motion_shifts_the_tool_against_the_travel_in_free_space() -> None:
@@ -118,7 +116,9 @@ def test_lost_motion_shifts_the_tool_against_the_travel_in_free_space() -> None:
     p_cmd = np.column_stack([x, np.zeros_like(x), np.full_like(x, 0.005)])  # 5 mm above the sheet: no force
     t_s = 0.03 * np.arange(len(x))
     theta = 5e-4
-    twin = Twin(effects=RobotEffects(lost_motion_rad=theta), joint_friction=np.zeros(6))  # the lost motion alone
+    # the lost motion alone
+    twin = TwinSpec(effects=Effects({"lost_motion": 1e3 * theta}), joint_friction_nm=np.zeros(6)).build()
+    assert twin.effects.lost_motion_rad == theta
     result = twin.simulate(t_s, p_cmd)
     assert np.abs(result.f_sheet_n).max() == 0.0
     jac = twin.kinematics.jacobian(result.q_ik[0])[:3]

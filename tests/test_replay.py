@@ -9,52 +9,53 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from twin.lab.effects import Effects
-from twin.lab.measure import predict_part_profile
 
 from twin.analysis.replay import ReplayResult, replay, replay_metrics
 from twin.cli import main
 from twin.errors import InputError
 from twin.lab.virtual import run_lab
-from twin.robot.model import RobotEffects
-from twin.runs.format import Run, Stream
+from twin.process.placement import Placement
+from twin.runs.format import Run, Stream, run_placement
+from twin.sim.effects import Effects
+from twin.sim.measure import predict_part_profile
 from twin.sim.quasi_static import Twin
 from twin.sim.result import SimResult
+from twin.sim.spec import TwinSpec
 
 EFFECT_SEED = 11  # the effect runs use other noise than the clean run (seed 1)
 GAP_FACTOR = 3.0
 
 # effect -> (moderate value in its unit, the metric that must open, metrics the effect must leave alone)
 EFFECT_CASES: dict[str, tuple[float, str, tuple[str, ...]]] = {
-    "direction_dependent_compliance": (0.5, "position_rms_mm", ()),
+    "lost_motion": (0.5, "position_rms_mm", ()),
     "force_scale": (1.5, "force_rms_n", ()),
     "stream_time_offset": (0.2, "force_rms_n", ("position_rms_mm", "profile_rms_mm")),
     "tracker_drift": (0.02, "position_rms_mm", ("force_rms_n", "profile_rms_mm")),
-    "tcp_offset": (1.0, "position_rms_mm", ()),
+    "tool_length_offset": (1.0, "position_rms_mm", ()),
     "sheet_springback": (0.13, "profile_rms_mm", ("position_rms_mm", "force_rms_n")),
 }
 
 
-def profile_rms_mm(run: Run, sim: SimResult) -> float:
+def profile_rms_mm(twin: Twin, run: Run, sim: SimResult) -> float:
     """RMS of the measured part profile minus the twin's predicted one (no effects) [mm]."""
     assert run.part_profile is not None
     x_m, z_m = run.part_profile
-    x_pred, z_pred = predict_part_profile(sim, Effects())
+    x_pred, z_pred = predict_part_profile(twin, sim, Effects())
     return 1e3 * float(np.sqrt(np.mean((z_m - np.interp(x_m, x_pred, z_pred)) ** 2)))
 
 
-def gaps(run: Run, result: ReplayResult) -> dict[str, float]:
+def gaps(twin: Twin, run: Run, result: ReplayResult) -> dict[str, float]:
     """The three gap metrics compared across effects."""
     return {
         "position_rms_mm": result.metrics["position_rms_mm"],
         "force_rms_n": result.metrics["force_rms_n"],
-        "profile_rms_mm": profile_rms_mm(run, result.sim),
+        "profile_rms_mm": profile_rms_mm(twin, run, result.sim),
     }
 
 
 @pytest.fixture(scope="module")
-def clean_gaps(clean_run: Run, clean_replay: ReplayResult) -> dict[str, float]:
-    return gaps(clean_run, clean_replay)
+def clean_gaps(twin_nominal: Twin, clean_run: Run, clean_replay: ReplayResult) -> dict[str, float]:
+    return gaps(twin_nominal, clean_run, clean_replay)
 
 
 def test_clean_run_misses_the_path_by_millimetres_and_replays_to_the_noise(
@@ -83,9 +84,11 @@ def test_each_effect_opens_a_gap_over_the_clean_replay(
     clean_gaps: dict[str, float],
 ) -> None:
     value, metric, untouched = EFFECT_CASES[name]
-    run, truth = run_lab(*nominal_path, scenario="nominal", effects=Effects({name: value}), seed=EFFECT_SEED)
+    run, truth = run_lab(
+        *nominal_path, scenario="nominal", seed=EFFECT_SEED, spec=TwinSpec(effects=Effects({name: value}))
+    )
     assert truth["effects"] == {name: value}
-    got = gaps(run, replay(run, twin=twin_nominal))
+    got = gaps(twin_nominal, run, replay(run, twin=twin_nominal))
     ratio = got[metric] / clean_gaps[metric]
     print(
         f"\n{name}={value}: position rms {got['position_rms_mm']:.4f} mm, "
@@ -167,10 +170,12 @@ def test_replay_cli_reports_a_missing_directory(tmp_path: Path, capsys: pytest.C
     assert "nowhere" in capsys.readouterr().err
 
 
-def test_replay_refuses_a_twin_with_other_effects(clean_run: Run, twin_nominal: Twin) -> None:
-    with pytest.raises(InputError, match="effects"):
-        replay(clean_run, effects=Effects({"tcp_offset": 1.0}), twin=twin_nominal)
-    assert twin_nominal.effects == RobotEffects()
+def test_replay_refuses_a_twin_at_another_placement(clean_run: Run, twin_nominal: Twin) -> None:
+    elsewhere = TwinSpec(placement=Placement(yaw_rad=0.1)).build()
+    assert elsewhere.placement != run_placement(clean_run.meta)
+    with pytest.raises(InputError, match="placement"):
+        replay(clean_run, elsewhere)
+    assert twin_nominal.effects == Effects()
 
 
 def test_replay_metrics_measure_a_known_offset() -> None:
@@ -192,9 +197,9 @@ def test_replay_metrics_measure_a_known_offset() -> None:
 
 
 def test_replay_cli_records_a_run_with_a_lost_motion_model(clean_run_dir: Path, tmp_path: Path) -> None:
-    from twin.lab.effects import write_model_file
+    from twin.sim.model_file import write_model_file
 
-    model = write_model_file(tmp_path / "m.json", Effects({"direction_dependent_compliance": 0.2}))
+    model = write_model_file(tmp_path / "m.json", TwinSpec(effects=Effects({"lost_motion": 0.2})))
     rrd = tmp_path / "replay.rrd"
     assert main(["replay", str(clean_run_dir), "--model", str(model), "--rrd", str(rrd)]) == 0
     assert rrd.stat().st_size > 10_000

@@ -4,11 +4,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from twin.lab.effects import Effects
 
 from twin.analysis.discrepancy.residuals import Noise, ResidualModel, estimate_noise, second_difference_noise
 from twin.lab.virtual import LabSettings, run_lab
 from twin.runs.format import Run
+from twin.sim.effects import Effects
+from twin.sim.spec import TwinSpec
 
 SETTINGS = LabSettings()
 DRIFT_SEED = 31
@@ -84,7 +85,7 @@ def test_vector_of_a_clean_run_has_reduced_chi_square_one(clean_model: ResidualM
 def test_vector_is_noise_again_when_the_twin_knows_the_hidden_effect(nominal_path: tuple) -> None:
     t_s, p_m = nominal_path
     hidden = Effects({"tracker_drift": 0.02})
-    run, _ = run_lab(t_s, p_m, scenario="nominal", effects=hidden, seed=DRIFT_SEED)
+    run, _ = run_lab(t_s, p_m, scenario="nominal", seed=DRIFT_SEED, spec=TwinSpec(effects=hidden))
     model = ResidualModel(run)
     assert float(np.mean(model.vector(Effects()) ** 2)) > 3.0
     assert 0.8 <= float(np.mean(model.vector(hidden) ** 2)) <= 1.2
@@ -94,7 +95,7 @@ def test_measurement_side_effects_reuse_the_cached_simulation(clean_model: Resid
     base = clean_model.simulate(Effects())
     for name, value in (("tracker_drift", 0.01), ("stream_time_offset", 0.05), ("sheet_springback", 0.1)):
         assert clean_model.simulate(Effects({name: value})) is base
-    assert clean_model.simulate(Effects({"tcp_offset": 0.3})) is not base
+    assert clean_model.simulate(Effects({"tool_length_offset": 0.3})) is not base
 
 
 def test_folds_split_the_vector_into_two_complementary_halves(clean_model: ResidualModel) -> None:

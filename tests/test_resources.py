@@ -7,16 +7,19 @@ from pathlib import Path
 
 import pytest
 
-from twin.base.resources import data_file, models_dir, robot_xml, scene_xml
+from twin.base.resources import data_file, models_dir
 from twin.errors import ModelError
+from twin.robot.description import load_robot
 
 
 def test_models_and_data_are_found_from_any_working_directory(tmp_path: Path) -> None:
     cwd = os.getcwd()
     try:
         os.chdir(tmp_path)
-        assert robot_xml().is_file() and robot_xml().parent == models_dir()
-        assert scene_xml().is_file() and scene_xml().parent.name == "cell"
+        robot = load_robot()
+        assert robot.source.is_file() and robot.source.parent == models_dir()
+        assert robot.mjcf.is_file() and robot.mjcf.parent == models_dir()
+        assert robot.scene is not None and robot.scene.is_file() and robot.scene.parent.name == "cell"
         assert data_file("fe_force_history.csv").is_file()
     finally:
         os.chdir(cwd)

@@ -14,6 +14,7 @@ from twin.robot.stiffness import set_joint_stiffness
 from twin.sim.equilibrium import NEWTON_MAX_ITER
 from twin.sim.quasi_static import Twin
 from twin.sim.result import SimResult
+from twin.sim.spec import TwinSpec
 
 
 def random_loads(seed: int, count: int, max_n: float) -> np.ndarray:
@@ -25,7 +26,7 @@ def random_loads(seed: int, count: int, max_n: float) -> np.ndarray:
 
 
 def test_static_deflection_at_home_follows_hooke_within_one_percent(twin_nominal: Twin) -> None:
-    frictionless = Twin(joint_friction=np.zeros(6))
+    frictionless = TwinSpec(joint_friction_nm=(0.0,) * 6).build()
     compliance = twin_nominal.kinematics.compliance(twin_nominal.kinematics.q_home)
     loads = np.vstack([random_loads(seed=42, count=10, max_n=2000.0), [[0.0, 0.0, 2000.0], [-2000.0, 0, 0]]])
     errors = []
@@ -60,7 +61,7 @@ def test_load_from_rest_loses_each_joints_friction_before_the_joint_moves(twin_n
 def test_static_deflection_is_zero_without_load_and_halves_with_double_stiffness(twin_nominal: Twin) -> None:
     f = np.array([800.0, 800.0, 1500.0])
     assert np.linalg.norm(twin_nominal.static_deflection(np.zeros(3))) < 1e-12
-    stiff = Twin(joint_stiffness=2.0 * twin_nominal.joint_stiffness)
+    stiff = TwinSpec(joint_stiffness_nm_per_rad=tuple(2.0 * twin_nominal.joint_stiffness)).build()
     ratio = np.linalg.norm(stiff.static_deflection(f)) / np.linalg.norm(twin_nominal.static_deflection(f))
     assert ratio == pytest.approx(0.5, rel=0.01)
 

@@ -9,6 +9,7 @@ from twin.process.pass_tables import lerp_slope, lerp_slope3
 from twin.process.path import groove_path
 from twin.sim.equilibrium import EquilibriumSolver
 from twin.sim.quasi_static import Twin
+from twin.sim.spec import TwinSpec
 
 P_TOL_M = 1e-9  # the issue's exactness bound on the tool tip
 F_TOL_N = 1e-4  # 1e-9 m times the stiffest sheet sensitivity (1.4 kN/mm) is 1.4e-3 N; measured 7e-9 N
@@ -33,7 +34,7 @@ def test_predicted_stick_slip_set_reaches_the_same_equilibria_in_fewer_iteration
 ) -> None:
     """Whole groove: same tool tip (<= 1e-9 m) and force as the all-stuck start, with fewer Newton iterations."""
     t_s, p_cmd = nominal_path
-    twin = Twin(joint_friction=friction_nm)
+    twin = TwinSpec(joint_friction_nm=None if friction_nm is None else tuple(friction_nm)).build()
     assert twin.joint_friction.any()
     fast, reference = _both(twin, t_s, p_cmd + np.array([0.0, 0.0, dz_m]), monkeypatch)
     np.testing.assert_allclose(fast.p_sheet_m, reference.p_sheet_m, rtol=0.0, atol=P_TOL_M)

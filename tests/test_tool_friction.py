@@ -6,10 +6,12 @@ import numpy as np
 import pytest
 
 from twin.errors import InputError
+from twin.process.description import Process
 from twin.process.field import SheetForceField
 from twin.process.forces import default_force_history
 from twin.process.tool_friction import REVERSAL_M, SlidingFriction
 from twin.sim.quasi_static import Twin
+from twin.sim.spec import TwinSpec
 
 
 @pytest.fixture(scope="module")
@@ -66,7 +68,7 @@ def test_twin_tip_holds_at_a_reversal_instead_of_being_pushed_forward():
     p_cmd = np.column_stack([x, np.zeros_like(x), np.full_like(x, -1.5e-3)])
     t_s = np.arange(len(x)) * 0.015
     sticky = Twin().simulate(t_s, p_cmd)
-    flipping = Twin(tool_friction_reversal_m=None).simulate(t_s, p_cmd)
+    flipping = TwinSpec(process=Process(friction_reversal_m=None)).build().simulate(t_s, p_cmd)
     k = 121  # the first sample after the reversal: the command moved back 0.5 mm
     back_sticky = sticky.p_sheet_m[k - 1, 0] - sticky.p_sheet_m[k, 0]
     assert 0.0 < back_sticky < 0.1e-3  # measured 0.04 mm: held by the sheet's friction

@@ -120,12 +120,11 @@ def compensate_twin(
     """Iterate the command with the twin until its simulated tool tip follows U_ID.
 
     Args:
-        t_s: Sample times [s].
-        p_ideal_sheet_m: Ideal path U_ID [m], shape (n, 3).
+        t_s, p_ideal_sheet_m: Sample times [s] and the ideal path U_ID [m], shape (n, 3).
         twin: The twin (with whatever effects and stiffness it carries), or its spec.
         tol_m: Stop when the largest |U_sim - U_ID| is below this [m].
         max_iter: Iteration limit.
-        progress: Called after each iteration with (iteration, rms residual [m]), e.g. to draw progress.
+        progress: Called after each iteration with (iteration, rms residual [m]).
 
     Returns:
         The compensation; `converged` is False when the iteration stalled above `tol_m`, or ran out of
@@ -142,7 +141,6 @@ def compensate_twin(
     t = np.asarray(t_s, dtype=float)
     cmd = p_id.copy()
     history: list[float] = []
-    residual = np.zeros_like(p_id)
     best: tuple[float, np.ndarray, np.ndarray, int] | None = None
     for iteration in range(1, max_iter + 1):
         sim = twin.simulate(t, cmd)
@@ -152,8 +150,7 @@ def compensate_twin(
             progress(iteration, history[-1])
         if best is None or history[-1] < best[0]:
             best = (history[-1], cmd, residual, iteration)
-        worst = float(np.max(np.abs(residual)))
-        if worst < tol_m:
+        if float(np.max(np.abs(residual))) < tol_m:
             return Compensation("twin", t, p_id, cmd, iteration, residual, tuple(history))
         bounced = iteration > 2 and history[-1] > 2.0 * min(history)
         if bounced and history[-1] > 0.5 * history[0]:
@@ -162,23 +159,35 @@ def compensate_twin(
             history[:-STALL_ITERATIONS]
         )
         if bounced or stalled:  # bouncing well below the start: the friction flips at the reversals
-            _, cmd_best, residual_best, _ = best
-            return Compensation("twin", t, p_id, cmd_best, iteration, residual_best, tuple(history), False)
-        # local Newton step per sample: the tip moves by tip_gain @ d_cmd when the command moves by d_cmd.
-        # The sheet's force law has a kink where the tool lifts off the surface it meets, and joint friction
-        # flips with the joints' motion: there the local gain can ask for a step several times the residual,
-        # so each sample's step is held within STEP_LIMIT times its residual (a trust region).
-        step = np.linalg.solve(sim.tip_gain, residual[..., None])[..., 0]
-        ratio = np.linalg.norm(step, axis=1) / np.maximum(np.linalg.norm(residual, axis=1), 1e-12)
-        cmd = cmd - step * np.minimum(1.0, STEP_LIMIT / np.maximum(ratio, 1e-12))[:, None]
+            return Compensation("twin", t, p_id, best[1], iteration, best[2], tuple(history), False)
+        cmd = cmd - _trust_region_step(sim.tip_gain, residual)
     assert best is not None
     if best[0] < tol_m:  # within tolerance on average, a few samples above it: as a stall, the best command
-        _, cmd_best, residual_best, _ = best
-        return Compensation("twin", t, p_id, cmd_best, max_iter, residual_best, tuple(history), False)
+        return Compensation("twin", t, p_id, best[1], max_iter, best[2], tuple(history), False)
     raise CompensationError(
         f"twin compensation did not reach {tol_m * 1e3:g} mm in {max_iter} iterations "
         f"(rms residual after each: {[round(h * 1e3, 4) for h in history]} mm)"
     )
+
+
+def _trust_region_step(tip_gain: np.ndarray, residual: np.ndarray) -> np.ndarray:
+    """The command change of one iteration: a local Newton step per sample, held within a trust region.
+
+    The tip moves by tip_gain @ d_cmd when the command moves by d_cmd. The sheet's force law has a kink where the
+    tool lifts off the surface it meets, and joint friction flips with the joints' motion: there the local gain
+    can ask for a step several times the residual, so each sample's step is held within STEP_LIMIT times its
+    residual.
+
+    Args:
+        tip_gain: d p_tcp / d p_cmd per sample [-], shape (n, 3, 3).
+        residual: Simulated tool tip minus the ideal path [m], shape (n, 3).
+
+    Returns:
+        The step to subtract from the command [m], shape (n, 3).
+    """
+    step = np.linalg.solve(tip_gain, residual[..., None])[..., 0]
+    ratio = np.linalg.norm(step, axis=1) / np.maximum(np.linalg.norm(residual, axis=1), 1e-12)
+    return step * np.minimum(1.0, STEP_LIMIT / np.maximum(ratio, 1e-12))[:, None]
 
 
 def gain_of(compensation: Compensation, f_reference_n: np.ndarray, c_r_m_per_n: np.ndarray) -> float:

@@ -189,6 +189,7 @@ def run_demo(out: str | Path = "out/demo") -> dict[str, Any]:
     report["media"] = stages.run(
         "figures, rerun recording, report", lambda: demo.media(runs, found, (check_bug, check_fixed), identified)
     )
+    report["lab_hidden_effects"] = dict(LAB.effects.values)
     write_json(out / "report.json", report)
     print_summary(report, out, time.perf_counter() - stages.start)
     return report

@@ -202,9 +202,34 @@ def run_sweep(
     sim = nominal.simulate(t_s, p_cmd)
     compensate_s = time.perf_counter() - start
     nominal_rms = _residual_stats(sim.p_sheet_m, p_ideal)[0]
-    stats = np.empty((draws, 3))
-    init = (spec, t_s, p_cmd, sim.q_ik, p_ideal)
     start = time.perf_counter()
+    stats = _run_draws(values, (spec, t_s, p_cmd, sim.q_ik, p_ideal), workers, chunk, progress)
+    wall = time.perf_counter() - start
+    return SweepResult(values, stats[:, 0], stats[:, 1], stats[:, 2], nominal_rms, wall, workers, compensate_s,
+                       uncertainty)
+
+
+def _run_draws(
+    values: np.ndarray,
+    init: tuple[TwinSpec, np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+    workers: int,
+    chunk: int,
+    progress: Callable[[int, int], None] | None,
+) -> np.ndarray:
+    """Replay every draw in chunks, in this process (one worker) or on a process pool.
+
+    Args:
+        values: The draws, shape (n, len(PARAMETERS)).
+        init: The workers' spec, times, command, its rigid IK and the ideal path (`_init_worker`).
+        workers: Worker processes.
+        chunk: Draws per task.
+        progress: Called with (draws done, draws) as chunks complete.
+
+    Returns:
+        (rms, max, mean z) of each draw's residual [m], shape (n, 3).
+    """
+    draws = len(values)
+    stats = np.empty((draws, 3))
     done = 0
     if workers == 1:
         _init_worker(*init)
@@ -213,15 +238,13 @@ def run_sweep(
             done = min(draws, i + chunk)
             if progress is not None:
                 progress(done, draws)
-    else:
-        with ProcessPoolExecutor(max_workers=workers, initializer=_init_worker, initargs=init) as pool:
-            futures = [pool.submit(_run_chunk, i, values[i : i + chunk]) for i in range(0, draws, chunk)]
-            for future in as_completed(futures):
-                i, out = future.result()
-                stats[i : i + len(out)] = out
-                done += len(out)
-                if progress is not None:
-                    progress(done, draws)
-    wall = time.perf_counter() - start
-    return SweepResult(values, stats[:, 0], stats[:, 1], stats[:, 2], nominal_rms, wall, workers, compensate_s,
-                       uncertainty)
+        return stats
+    with ProcessPoolExecutor(max_workers=workers, initializer=_init_worker, initargs=init) as pool:
+        futures = [pool.submit(_run_chunk, i, values[i : i + chunk]) for i in range(0, draws, chunk)]
+        for future in as_completed(futures):
+            i, out = future.result()
+            stats[i : i + len(out)] = out
+            done += len(out)
+            if progress is not None:
+                progress(done, draws)
+    return stats

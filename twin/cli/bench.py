@@ -4,8 +4,10 @@ from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 
 from twin.apps.bench import format_table, run_benchmarks
+from twin.apps.readme import SPEED_BLOCK, speed_table
 from twin.base.csvio import emit_json
 
 HELP = "Benchmark replay, analytic floor, lab, identify, compensate, discrepancy and the force field."
@@ -21,6 +23,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--samples", type=int, help="only the first N commanded samples of the groove (quick smoke run)"
     )
     parser.add_argument("--seed", type=int, default=0, help="seed of the lab run's noise (default 0)")
+    parser.add_argument("--readme", type=Path, help="also write the speed table into FILE's generated block")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -29,4 +32,7 @@ def run(args: argparse.Namespace) -> int:
     out = sys.stderr if args.json == "-" else sys.stdout  # keep stdout pure JSON for `--json -`
     print(format_table(result), file=out)
     emit_json(args.json, result)
+    if args.readme is not None:
+        SPEED_BLOCK.update(args.readme, speed_table(result))
+        print(f"speed table -> {args.readme}", file=out)
     return 0

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -12,6 +13,7 @@ from twin.analysis.check import diagnose_gain
 from twin.analysis.compensate import (
     TWIN_MAX_ITER,
     TWIN_TOL_M,
+    Compensation,
     compensate_formula,
     compensate_twin,
     compliance_from_stiffness,
@@ -29,6 +31,9 @@ from twin.cli._common import (
 )
 from twin.errors import DataFileError, InputError
 from twin.process.force_models import build_force_field
+from twin.process.forces import ForceHistory
+from twin.process.path import ToolPath
+from twin.sim.spec import TwinSpec
 
 HELP = "Compensate the ideal path offline (Eq. 4.28 formula, or iterating the twin) and write the command."
 
@@ -69,34 +74,11 @@ def run(args: argparse.Namespace) -> int:
     protect = [p for p in (args.stiffness, args.model, args.history, args.ideal) if p is not None]
     spec = spec_from_arguments(args, ideal.p_sheet_m, history=declared)
     f_reference = build_force_field(spec.process, reference).rigid_forces(ideal)
-    twin = spec.build()
-    if args.method == "formula":
-        if args.stiffness is None:
-            raise InputError(
-                "--method formula needs --stiffness FILE with k_r_n_per_mm (e.g. an identify output)"
-            )
-        c_r = compliance_from_stiffness(_stiffness(args.stiffness))
-        f_ideal = build_force_field(spec.process, declared).rigid_forces(ideal)
-        comp = compensate_formula(ideal.t_s, ideal.p_sheet_m, f_ideal, c_r)
-        predicted = twin.simulate(comp.t_s, comp.p_cmd_sheet_m).p_sheet_m - ideal.p_sheet_m
-    else:
-        if not (args.tol_mm > 0 and args.max_iter >= 1):
-            raise InputError(f"--tol-mm {args.tol_mm} and --max-iter {args.max_iter}: expected > 0 and >= 1")
-        comp = compensate_twin(
-            ideal.t_s, ideal.p_sheet_m, twin, tol_m=1e-3 * args.tol_mm, max_iter=args.max_iter
-        )
-        c_r = twin.kinematics.compliance(twin.kinematics.q_home)
-        predicted = comp.predicted_residual_m
-    assert predicted is not None
+    comp, c_r, predicted = _compensate(args, spec, ideal, declared)
     gain = gain_of(comp, f_reference, c_r)
     write_table(
         args.out,
-        {
-            "t_s": comp.t_s,
-            "x_mm": 1e3 * comp.p_cmd_sheet_m[:, 0],
-            "y_mm": 1e3 * comp.p_cmd_sheet_m[:, 1],
-            "z_mm": 1e3 * comp.p_cmd_sheet_m[:, 2],
-        },
+        {"t_s": comp.t_s, **{f"{a}_mm": 1e3 * comp.p_cmd_sheet_m[:, i] for i, a in enumerate("xyz")}},
         formats={"t_s": ".6f", "x_mm": ".4f", "y_mm": ".4f", "z_mm": ".4f"},
         protect=protect,
     )
@@ -117,14 +99,42 @@ def run(args: argparse.Namespace) -> int:
         "force_model": spec.process.force_model,
         "effects": dict(spec.effects.values),
     }
+    _report(args, summary, comp.converged)
+    emit_json(args.json, summary, protect=protect)
+    return 0
+
+
+def _compensate(
+    args: argparse.Namespace, spec: TwinSpec, ideal: ToolPath, declared: ForceHistory
+) -> tuple[Compensation, np.ndarray, np.ndarray]:
+    """The compensation of `--method`, the compliance its gain is measured with [m/N], and the twin's predicted
+    residual of the command [m], shape (n, 3)."""
+    twin = spec.build()
+    if args.method == "formula":
+        if args.stiffness is None:
+            raise InputError("--method formula needs --stiffness FILE with k_r_n_per_mm (e.g. an identify output)")
+        c_r = compliance_from_stiffness(_stiffness(args.stiffness))
+        f_ideal = build_force_field(spec.process, declared).rigid_forces(ideal)
+        comp = compensate_formula(ideal.t_s, ideal.p_sheet_m, f_ideal, c_r)
+        return comp, c_r, twin.simulate(comp.t_s, comp.p_cmd_sheet_m).p_sheet_m - ideal.p_sheet_m
+    if not (args.tol_mm > 0 and args.max_iter >= 1):
+        raise InputError(f"--tol-mm {args.tol_mm} and --max-iter {args.max_iter}: expected > 0 and >= 1")
+    comp = compensate_twin(ideal.t_s, ideal.p_sheet_m, twin, tol_m=1e-3 * args.tol_mm, max_iter=args.max_iter)
+    assert comp.predicted_residual_m is not None
+    return comp, twin.kinematics.compliance(twin.kinematics.q_home), comp.predicted_residual_m
+
+
+def _report(args: argparse.Namespace, summary: dict[str, Any], converged: bool) -> None:
+    """The human summary (on stderr when the JSON goes to stdout)."""
     out = sys.stderr if args.json == "-" else sys.stdout  # keep stdout pure JSON for `--json -`
+    gain = summary["gain"]
     print(
-        f"compensate ({args.method}): gain {gain:.3f}, {comp.iterations} iteration(s), predicted residual rms "
+        f"compensate ({args.method}): gain {gain:.3f}, {summary['iterations']} iteration(s), predicted residual rms "
         f"{summary['predicted_residual_rms_mm']:.4f} mm, max correction {summary['correction_max_mm']:.2f} mm "
         f"-> {args.out}",
         file=out,
     )
-    if not comp.converged:
+    if not converged:
         print(
             f"note: the twin iteration stalled at {summary['predicted_residual_rms_mm']:.4f} mm rms (max "
             f"{summary['predicted_residual_max_mm']:.3f} mm, where joint friction flips: reversals, corners, "
@@ -133,5 +143,3 @@ def run(args: argparse.Namespace) -> int:
         )
     if abs(gain - 1.0) > 0.02:
         print(f"warning: {diagnose_gain(gain)}", file=out)
-    emit_json(args.json, summary, protect=protect)
-    return 0

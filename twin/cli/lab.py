@@ -84,29 +84,7 @@ def run(args: argparse.Namespace) -> int:
     _check_out(args.out, args.overwrite)
     out = sys.stderr if args.json == "-" else sys.stdout  # keep stdout pure JSON for `--json -`
     if args.scenario == "loadtest":
-        loads, deflections = load_test(THESIS_TABLE_4_2_LOADS_N, seed=args.seed, spec=TwinSpec(effects=effects))
-        write_table(
-            args.out,
-            {
-                "fx_n": loads[:, 0],
-                "fy_n": loads[:, 1],
-                "fz_n": loads[:, 2],
-                "dx_mm": 1e3 * deflections[:, 0],
-                "dy_mm": 1e3 * deflections[:, 1],
-                "dz_mm": 1e3 * deflections[:, 2],
-            },
-            formats={
-                "fx_n": ".1f",
-                "fy_n": ".1f",
-                "fz_n": ".1f",
-                "dx_mm": ".5f",
-                "dy_mm": ".5f",
-                "dz_mm": ".5f",
-            },
-        )
-        print(f"lab loadtest: {len(loads)} load cases at home (thesis Table 4.2) -> {args.out}", file=out)
-        emit_json(args.json, {"scenario": "loadtest", "out": args.out, "cases": len(loads)})
-        return 0
+        return _run_load_test(args, TwinSpec(effects=effects), out)
     if args.scenario == "cnc":
         return _run_cnc(args, effects_given=bool(args.effect), out=out)
     commanded, protect = lab_commanded(args.scenario, args.commanded)
@@ -116,13 +94,7 @@ def run(args: argparse.Namespace) -> int:
     spec = TwinSpec(process=process, placement=placement, effects=effects)
     run_, truth = run_lab(t_s, p_cmd, scenario=args.scenario, seed=args.seed, spec=spec)
     write_run(args.out, run_, truth=truth, overwrite=args.overwrite, protect=protect)
-    deflection = np.max(
-        np.linalg.norm(
-            run_.tracker.values
-            - interp_rows(run_.tracker.t_s, t_s, p_cmd),
-            axis=1,
-        )
-    )
+    deflection = np.max(np.linalg.norm(run_.tracker.values - interp_rows(run_.tracker.t_s, t_s, p_cmd), axis=1))
     summary = {
         "scenario": args.scenario,
         "out": args.out,
@@ -141,6 +113,17 @@ def run(args: argparse.Namespace) -> int:
         file=out,
     )
     emit_json(args.json, summary)
+    return 0
+
+
+def _run_load_test(args: argparse.Namespace, spec: TwinSpec, out: TextIO) -> int:
+    """Thesis Method 1's load cases (Table 4.2) at home, the deflections measured: a CSV for `identify --method 1`."""
+    loads, deflections = load_test(THESIS_TABLE_4_2_LOADS_N, seed=args.seed, spec=spec)
+    columns = {"fx_n": loads[:, 0], "fy_n": loads[:, 1], "fz_n": loads[:, 2]}
+    columns |= {f"d{a}_mm": 1e3 * deflections[:, i] for i, a in enumerate("xyz")}
+    write_table(args.out, columns, formats={name: (".1f" if name.startswith("f") else ".5f") for name in columns})
+    print(f"lab loadtest: {len(loads)} load cases at home (thesis Table 4.2) -> {args.out}", file=out)
+    emit_json(args.json, {"scenario": "loadtest", "out": args.out, "cases": len(loads)})
     return 0
 
 

@@ -11,7 +11,7 @@ caller, in a fixed order, so the same seed gives identical files. The effects an
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -20,6 +20,8 @@ from twin.process.part_surface import formed_surface, surface_points
 from twin.process.path import groove_path
 from twin.runs.format import Run, Stream, run_meta
 from twin.sim.measure import predict_forces, predict_part_profile, predict_tracker
+from twin.sim.quasi_static import Twin
+from twin.sim.result import SimResult
 from twin.sim.spec import TwinSpec
 
 
@@ -73,11 +75,50 @@ def run_lab(
         The run (not yet written) and the truth record for `truth.json`.
     """
     spec = spec or TwinSpec()
-    effects = spec.effects
     settings = settings or LabSettings()
     twin = spec.build()
     result = twin.simulate(t_s, p_cmd_sheet_m)
-    rng = np.random.default_rng(seed)
+    measured = _measure(twin, result, settings, np.random.default_rng(seed))
+    meta = run_meta(
+        scenario=scenario,
+        source="tx200-twin virtual lab",
+        tracker_rate_hz=settings.tracker_rate_hz,
+        sensor_rate_hz=settings.sensor_rate_hz,
+        seed=seed,
+        tool_length_m=spec.robot.tool_length_m,
+        placement=spec.placement,
+        robot=spec.robot.name,
+        force_model=spec.process.force_model,
+    )
+    commanded = Stream(np.asarray(t_s, dtype=float), np.asarray(p_cmd_sheet_m, dtype=float))
+    run = Run(None, meta, commanded, measured.tracker, measured.forces, measured.part_profile, measured.part_scan)
+    effects = spec.effects
+    truth = {
+        "effects": dict(effects.values),
+        "effect_parameters": effects.named_parameters(),
+        "lost_motion_takeup_m": effects.lost_motion_takeup_m,
+        "settings": asdict(settings),
+        "seed": seed,
+        "force_model": spec.process.force_model,
+        "max_deflection_mm": 1e3 * float(np.max(np.linalg.norm(result.deflection_sheet_m, axis=1))),
+        "peak_force_n": float(np.max(np.linalg.norm(result.f_sheet_n, axis=1))),
+    }
+    return run, truth
+
+
+class _Measured(NamedTuple):
+    """What the lab's sensors read of one simulated run."""
+
+    tracker: Stream
+    forces: Stream
+    part_profile: tuple[np.ndarray, np.ndarray]
+    part_scan: np.ndarray | None
+
+
+def _measure(twin: Twin, result: SimResult, settings: LabSettings, rng: np.random.Generator) -> _Measured:
+    """Tracker, force sensor, profile scan and (where the force model keeps a surface) part scan, with noise, in
+    the order of the draws that makes a seed give the same files."""
+    effects = twin.effects
     t_end = float(result.t_s[-1])
     t_tracker = uniform_times(t_end, settings.tracker_rate_hz)
     t_sensor = uniform_times(t_end, settings.sensor_rate_hz)
@@ -92,37 +133,7 @@ def run_lab(
     if surface is not None:
         scan = surface_points(*surface)
         scan[:, 2] += rng.normal(0.0, settings.profile_noise_m, len(scan))
-    meta = run_meta(
-        scenario=scenario,
-        source="tx200-twin virtual lab",
-        tracker_rate_hz=settings.tracker_rate_hz,
-        sensor_rate_hz=settings.sensor_rate_hz,
-        seed=seed,
-        tool_length_m=spec.robot.tool_length_m,
-        placement=spec.placement,
-        robot=spec.robot.name,
-        force_model=spec.process.force_model,
-    )
-    run = Run(
-        directory=None,
-        meta=meta,
-        commanded=Stream(np.asarray(t_s, dtype=float), np.asarray(p_cmd_sheet_m, dtype=float)),
-        tracker=Stream(t_tracker, tracker),
-        forces=Stream(t_sensor, forces),
-        part_profile=(x_profile, z_profile),
-        part_scan=scan,
-    )
-    truth = {
-        "effects": dict(effects.values),
-        "effect_parameters": effects.named_parameters(),
-        "lost_motion_takeup_m": effects.lost_motion_takeup_m,
-        "settings": asdict(settings),
-        "seed": seed,
-        "force_model": spec.process.force_model,
-        "max_deflection_mm": 1e3 * float(np.max(np.linalg.norm(result.deflection_sheet_m, axis=1))),
-        "peak_force_n": float(np.max(np.linalg.norm(result.f_sheet_n, axis=1))),
-    }
-    return run, truth
+    return _Measured(Stream(t_tracker, tracker), Stream(t_sensor, forces), (x_profile, z_profile), scan)
 
 
 def load_test(

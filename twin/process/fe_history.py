@@ -29,8 +29,8 @@ Physical model, per sample at arc length s, position (x, z), pass k, travel dire
   length since the last reversal (d and u from the groove's exact corners, which fall between samples), so Fx
   keeps its sign up to each reversal and passes through zero there, as a quasi-static solution with Coulomb
   friction does (the tool slides forward until it stops), and builds up against the new travel (§2.3.1).
-  Until 2026-11-23 the shipped file tapered over the distance to the *nearest* reversal, before it as well
-  (`fx_taper="nearest"`): no causal model can follow that;
+  The variant `fx_taper="nearest"` tapers over the distance to the *nearest* reversal, before it as well:
+  no causal model can follow that (kept for comparisons);
 * symmetry-plane reaction (no physical meaning): fy_sym = -(0.30 + 0.05·D/H)·fz_half.
 
 Peak physical Fz ≈ 1.93 kN (|Fx| ≈ 0.64 kN), matching "maximum vertical force about 2 kN" (§4.2.3).
@@ -156,8 +156,8 @@ def generate_history(spec: GrooveSpec | None = None, *, fx_taper: str = "since")
     Args:
         spec: Groove; None for the thesis groove.
         fx_taper: `since` (the shipped file): Fx tapers with the arc length since the last reversal;
-            `nearest`: with the arc length to the nearest reversal, before and after it (the file shipped until
-            2026-11-23, acausal; kept for comparisons).
+            `nearest`: with the arc length to the nearest reversal, before and after it (acausal; kept for
+            comparisons).
 
     Returns:
         Columns `s_mm, x_mm, z_mm, fx_half_n, fy_sym_n, fz_half_n`, FE_SAMPLES equal arc-length samples.

@@ -30,7 +30,7 @@ from twin.sim.compiled import compiled_replay
 from twin.sim.equilibrium import EquilibriumSolver
 from twin.sim.ft_sensor import flange_sensor_forces
 from twin.sim.python_loop import python_loop
-from twin.sim.result import SimResult
+from twin.sim.result import LoopOutput, SimResult
 from twin.sim.spec import TwinSpec
 
 # Back-travel that declares a reversal of the commanded path [m]: a compensated command may step back a
@@ -204,34 +204,12 @@ class Twin:
             raise InputError(f"q_ik has shape {q_ik.shape}, expected {(len(t_s), self.robot.dof)}")
         pass_index, direction = label_passes(p_cmd[:, 0], deadband_m=PASS_DEADBAND_M)
         k_diag = self._stiffness_diag()
-
-        n = len(t_s)
-        lost_ref = np.zeros((n, self._lost_dof.size))
-        if self._lost_dof.size:
-            dx_dq = self.R_base_sheet.T[0] @ self.kinematics.jacobian(q_ik[0])[:3]  # sheet x per joint angle
-            dx_dq_sign = np.sign(dx_dq[self._lost_arm])
-            lost_ref = lost_motion_schedule(
-                p_cmd[:, 0], direction, dx_dq_sign, self.effects.lost_motion_rad, self.effects.lost_motion_takeup_m
-            )
-
         grad_g = self._gravity_gradient(self._full_qpos(q_ik[0]))
-        q_nominal_all = np.zeros((n, m.nq))
+        q_nominal_all = np.zeros((len(t_s), m.nq))
         q_nominal_all[:, self._arm_qpos] = q_ik
-        q_nominal_all[:, self._lost_qpos] = lost_ref
+        q_nominal_all[:, self._lost_qpos] = self._lost_motion_references(p_cmd, direction, q_ik)
         h_const = np.diag(k_diag) + grad_g  # the Newton matrix without the sheet term
-        self.field.reset()
-        out = None
-        if self.use_compiled_loop:
-            out = compiled_replay(
-                m, self._tcp, self.field, q_nominal_all, pass_index, direction, self.p_base_sheet_origin, k_diag,
-                h_const, self._solver.predict_active_set, self.data, self.R_base_sheet,
-            )
-        self.last_loop_compiled = out is not None
-        if out is None:
-            out = python_loop(
-                self.model, self.data, self._tcp, self.field, self._solver,
-                q_nominal_all, pass_index, direction, k_diag, h_const,
-            )
+        out = self._loop(q_nominal_all, pass_index, direction, k_diag, h_const)
         jac_last, s_last = out.jac, out.stiffness
         compliance = (jac_last * (1.0 / k_diag)) @ jac_last.transpose(0, 2, 1)
         tip_gain = np.linalg.inv(np.eye(3) - compliance @ s_last)
@@ -251,6 +229,36 @@ class Twin:
             iterations=out.iterations,
             tip_gain=tip_gain,
             force_steps=self.sheet_field.steps_between_passes,
+        )
+
+    def _loop(
+        self, q_nominal_all: np.ndarray, pass_index: np.ndarray, direction: np.ndarray, k_diag: np.ndarray,
+        h_const: np.ndarray,
+    ) -> LoopOutput:
+        """Every sample to equilibrium from a fresh field: the compiled loop where it applies, else Python's."""
+        self.field.reset()
+        out = None
+        if self.use_compiled_loop:
+            out = compiled_replay(
+                self.model, self._tcp, self.field, q_nominal_all, pass_index, direction, self.p_base_sheet_origin,
+                k_diag, h_const, self._solver.predict_active_set, self.data, self.R_base_sheet,
+            )
+        self.last_loop_compiled = out is not None
+        if out is None:
+            out = python_loop(
+                self.model, self.data, self._tcp, self.field, self._solver,
+                q_nominal_all, pass_index, direction, k_diag, h_const,
+            )
+        return out
+
+    def _lost_motion_references(self, p_cmd: np.ndarray, direction: np.ndarray, q_ik: np.ndarray) -> np.ndarray:
+        """Spring references of the lost-motion hinges along the command [rad], shape (n, hinges)."""
+        if not self._lost_dof.size:
+            return np.zeros((len(p_cmd), 0))
+        dx_dq = self.R_base_sheet.T[0] @ self.kinematics.jacobian(q_ik[0])[:3]  # sheet x per joint angle
+        return lost_motion_schedule(
+            p_cmd[:, 0], direction, np.sign(dx_dq[self._lost_arm]), self.effects.lost_motion_rad,
+            self.effects.lost_motion_takeup_m,
         )
 
     def sensor_forces(self, result: SimResult, t_s: np.ndarray) -> np.ndarray:

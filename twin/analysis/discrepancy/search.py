@@ -248,11 +248,10 @@ def find_discrepancy(
     measured = _measured(run)
     fitter = Fitter(ctx, measured, sigma, model.folds())
     sizes = {s: fitter.raw[s].size for s in fitter.streams}
-    counts = dict(sizes)
     families = {n: f for n, f in FAMILIES.items() if f.applicable(ctx) and (candidates is None or n in candidates)}
     chi2_before = reduced_chi2(fitter.raw, sigma)
     excess = excess_over_noise(fitter.base, list(sizes.values()))
-    significant = is_significant(chi2_before, counts)
+    significant = is_significant(chi2_before, dict(sizes))
     if progress is not None:
         progress("selection")
     fit, steps = forward_select(fitter, list(families.values()), excess, sizes) if significant else (
@@ -264,9 +263,9 @@ def find_discrepancy(
         explained = 1.0 - excess_over_noise(fit.residual, list(sizes.values())) / excess
     else:
         explained = 0.0
-    effects, complete = start, True
-    remainder = {s: (v * sigma[s]).reshape(measured[s].shape) for s, v in split_streams(fit.residual, sizes).items()}
-    if verdict not in ("none", "unexplained"):
+    if verdict in ("none", "unexplained"):
+        effects, remainder, complete = start, dict(fitter.raw), True
+    else:
         carried = _into_effects(
             model, start, fit, named, families, lambda c: Fitter(c, measured, sigma, model.folds()), sizes,
             excess, progress)
@@ -274,20 +273,22 @@ def find_discrepancy(
         steps = steps + carried.steps
         verdict = named[0].name
         explained = 1.0 - excess_over_noise(fitter.stack(remainder), list(sizes.values())) / excess
-    else:
-        remainder = dict(fitter.raw)
     found = tuple(n.name for n in named) if verdict not in ("none", "unexplained") else ()
     signature = describe_remainder(ctx, remainder, sigma, found)
-    first = steps[0].candidates if steps else ()
-    confidence = 1.0
-    if first and first[0].gain > 0:
-        runner = max((c.gain for c in first[1:]), default=0.0)
-        confidence = float(first[0].gain / (first[0].gain + max(runner, 0.0)))
     return DiscrepancyResult(
         effects=effects, found=found, verdict=verdict, named=tuple(named) if found else (),
         partial=tuple(named) if not found else (), explained_fraction=float(explained),
         model_complete=complete, remainder=signature, rounds=steps, chi2_before=chi2_before,
         chi2_after=reduced_chi2(remainder, sigma), gap_before=gap(fitter.raw),
         gap_after=gap(remainder) if found else gap(fitter.raw), noise=noise.summary(),
-        confidence=confidence, residual_before=dict(fitter.raw), residual_after=remainder,
+        confidence=_confidence(steps), residual_before=dict(fitter.raw), residual_after=remainder,
     )
+
+
+def _confidence(steps: tuple[Step, ...]) -> float:
+    """The first round's winner's score over its own plus the runner-up's (1 when nothing competes)."""
+    first = steps[0].candidates if steps else ()
+    if not (first and first[0].gain > 0):
+        return 1.0
+    runner = max((c.gain for c in first[1:]), default=0.0)
+    return float(first[0].gain / (first[0].gain + max(runner, 0.0)))

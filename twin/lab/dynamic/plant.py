@@ -33,6 +33,7 @@ its link and the gear armature (~1.5e3 rad/s for joint 6), stays inside the expl
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import mujoco
 import numpy as np
@@ -120,6 +121,15 @@ def _shipped_parameters(
     )
 
 
+class _Shipped(NamedTuple):
+    """The shipped model's joint parameters, per arm joint."""
+
+    k_q: np.ndarray  # gear stiffness K_q [N·m/rad]
+    damping: np.ndarray  # joint damping [N·m·s/rad]
+    armature: np.ndarray  # armature [kg m^2]
+    friction: np.ndarray  # joint friction [N·m]
+
+
 def build_plant(knobs: Knobs, robot: str | RobotDescription | None = None) -> Plant:
     """Build and compile the dynamic plant for these knobs.
 
@@ -134,51 +144,20 @@ def build_plant(knobs: Knobs, robot: str | RobotDescription | None = None) -> Pl
     path = robot.model_path(scene=True)
     try:
         spec = mujoco.MjSpec.from_file(str(path))
-        k_q, damping, armature, friction = _shipped_parameters(spec, robot)
+        shipped = _Shipped(*_shipped_parameters(spec, robot))
     except Exception as exc:
         raise ModelError(f"cannot build the dynamic plant from {path}: {exc}") from exc
-    dt = knobs["timestep_s"]
-    spec.option.timestep = dt
+    spec.option.timestep = knobs["timestep_s"]
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
     spec.option.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT
     backlash = np.array(knobs.backlash_rad(robot.dof))
-    gear_arm = knobs["gear_armature_frac"] * armature
-    friction = knobs["link_friction_scale"] * friction
     for act in list(spec.actuators):
         spec.delete(act)
     for idx, name in enumerate(robot.joints):
         link = spec.joint(name)
         if link is None:
             raise ModelError(f"{path} has no joint {name}")
-        body = link.parent
-        motor = body.add_joint()
-        motor.name = f"{name}_motor"
-        motor.type = mujoco.mjtJoint.mjJNT_HINGE
-        motor.axis, motor.pos = link.axis, link.pos
-        motor.armature = float(armature[idx])
-        motor.damping = [knobs["viscous_friction_nms"], 0.0, 0.0]
-        motor.frictionloss = knobs["coulomb_friction_nm"]
-        motor.limited = mujoco.mjtLimited.mjLIMITED_FALSE
-        # the gear spring: MuJoCo's own without a dead band, applied by the loop with one
-        link.stiffness = [0.0 if backlash[idx] > 0.0 else float(k_q[idx]), 0.0, 0.0]
-        link.springref = 0.0
-        link.damping = [float(damping[idx]), 0.0, 0.0]
-        link.frictionloss = 0.0
-        link.armature = float(gear_arm[idx])
-        link.limited = mujoco.mjtLimited.mjLIMITED_FALSE
-        if friction[idx] > 0.0:  # the shipped joint friction acts on the link's own motion: motor + gear
-            link_angle = spec.add_tendon()
-            link_angle.name = f"{name}_link_angle"
-            link_angle.wrap_joint(motor.name, 1.0)
-            link_angle.wrap_joint(link.name, 1.0)
-            link_angle.frictionloss = float(friction[idx])
-            link_angle.solref_friction = [FRICTION_SOLREF_STEPS * dt, 1.0]
-            link_angle.solimp_friction = list(FRICTION_SOLIMP)
-        servo = spec.add_actuator()
-        servo.name = f"{name}_servo"
-        servo.target = motor.name
-        servo.trntype = mujoco.mjtTrn.mjTRN_JOINT
-        servo.ctrllimited = mujoco.mjtLimited.mjLIMITED_FALSE
+        _split_joint(spec, link, idx, shipped, knobs, backlash[idx])
     try:
         model = spec.compile()
     except Exception as exc:
@@ -186,9 +165,7 @@ def build_plant(knobs: Knobs, robot: str | RobotDescription | None = None) -> Pl
 
     def qadr(name: str) -> int:
         return int(model.jnt_qposadr[model.joint(name).id])
-
     tcp = model.site(robot.tool_site).id
-    ft_site = model.site(robot.ft_site).id
     tool = int(model.site_bodyid[tcp])  # the tool: the sheet's force acts on it, the F/T sensor carries it
     data = mujoco.MjData(model)
     mujoco.mj_kinematics(model, data)
@@ -196,16 +173,16 @@ def build_plant(knobs: Knobs, robot: str | RobotDescription | None = None) -> Pl
     return Plant(
         model=model,
         robot=robot,
-        k_q=k_q,
+        k_q=shipped.k_q,
         backlash_rad=backlash,
         motor_qpos=np.array([qadr(name) for name in motors]),
         motor_dof=np.array([model.jnt_dofadr[model.joint(name).id] for name in motors]),
         link_qpos=np.array([qadr(name) for name in robot.joints]),
         link_dof=np.array([model.jnt_dofadr[model.joint(name).id] for name in robot.joints]),
-        motor_armature=armature.copy(),
+        motor_armature=shipped.armature.copy(),
         servo=np.array([model.actuator(f"{name}_servo").id for name in robot.joints]),
         tcp_site=tcp,
-        ft_site=ft_site,
+        ft_site=model.site(robot.ft_site).id,
         tool_body=tool,
         ft_sensor_adr=int(model.sensor(robot.ft_force_sensor).adr[0]),
         tool_mass_kg=float(model.body_subtreemass[tool]),
@@ -213,3 +190,40 @@ def build_plant(knobs: Knobs, robot: str | RobotDescription | None = None) -> Pl
             data.site(robot.sheet_site).xpos.copy() if robot.sheet_site is not None else data.site_xpos[tcp].copy()
         ),
     )
+
+
+def _split_joint(
+    spec: mujoco.MjSpec, link: mujoco.MjsJoint, idx: int, shipped: _Shipped, knobs: Knobs, backlash_rad: float
+) -> None:
+    """One arm joint as a motor hinge (servo-driven) and the shipped hinge as its gear, with the link friction on
+    a tendon of both (module docstring)."""
+    name = link.name
+    motor = link.parent.add_joint()
+    motor.name = f"{name}_motor"
+    motor.type = mujoco.mjtJoint.mjJNT_HINGE
+    motor.axis, motor.pos = link.axis, link.pos
+    motor.armature = float(shipped.armature[idx])
+    motor.damping = [knobs["viscous_friction_nms"], 0.0, 0.0]
+    motor.frictionloss = knobs["coulomb_friction_nm"]
+    motor.limited = mujoco.mjtLimited.mjLIMITED_FALSE
+    # the gear spring: MuJoCo's own without a dead band, applied by the loop with one
+    link.stiffness = [0.0 if backlash_rad > 0.0 else float(shipped.k_q[idx]), 0.0, 0.0]
+    link.springref = 0.0
+    link.damping = [float(shipped.damping[idx]), 0.0, 0.0]
+    link.frictionloss = 0.0
+    link.armature = float((knobs["gear_armature_frac"] * shipped.armature)[idx])
+    link.limited = mujoco.mjtLimited.mjLIMITED_FALSE
+    friction = (knobs["link_friction_scale"] * shipped.friction)[idx]
+    if friction > 0.0:  # the shipped joint friction acts on the link's own motion: motor + gear
+        link_angle = spec.add_tendon()
+        link_angle.name = f"{name}_link_angle"
+        link_angle.wrap_joint(motor.name, 1.0)
+        link_angle.wrap_joint(link.name, 1.0)
+        link_angle.frictionloss = float(friction)
+        link_angle.solref_friction = [FRICTION_SOLREF_STEPS * knobs["timestep_s"], 1.0]
+        link_angle.solimp_friction = list(FRICTION_SOLIMP)
+    servo = spec.add_actuator()
+    servo.name = f"{name}_servo"
+    servo.target = motor.name
+    servo.trntype = mujoco.mjtTrn.mjTRN_JOINT
+    servo.ctrllimited = mujoco.mjtLimited.mjLIMITED_FALSE

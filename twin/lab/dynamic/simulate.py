@@ -15,7 +15,7 @@ from __future__ import annotations
 import sys
 import time
 from dataclasses import dataclass, field
-from typing import TextIO
+from typing import NamedTuple, TextIO
 
 import mujoco
 import numpy as np
@@ -31,6 +31,7 @@ from twin.lab.dynamic.controller import (
 from twin.lab.dynamic.knobs import Knobs
 from twin.lab.dynamic.plant import Plant, build_plant
 from twin.process.description import Process
+from twin.process.force_field import ForceField
 from twin.process.force_models import build_force_field
 from twin.process.part_surface import formed_surface
 from twin.process.path import label_passes
@@ -114,65 +115,106 @@ def simulate(
     if p_cmd.ndim != 2 or p_cmd.shape != (len(t_cmd), 3) or len(t_cmd) < 2 or np.any(np.diff(t_cmd) <= 0):
         raise InputError(f"expected increasing t (n,) and p (n, 3), n >= 2; got {t_cmd.shape}, {p_cmd.shape}")
     plant = plant or build_plant(knobs)
-    m = plant.model
+    plan = _plan(plant, knobs, t_cmd, p_cmd, placement or Placement())
+    field = build_force_field(process or Process())
+    field.reset()
+    return _step(plant, plan, field, knobs, _settled(plant, plan), tip_force_n, progress)
+
+
+class _Plan(NamedTuple):
+    """What the controller and the sheet need at every servo tick, computed before stepping."""
+
+    t_tick: np.ndarray  # tick times [s]
+    q_sp: np.ndarray  # motor set-points [rad], (ticks, dof)
+    ctrl_ff: np.ndarray  # servo ctrl without the integral [rad], (ticks, dof)
+    ki_over_kp: np.ndarray  # integral gain over kp [1/s], (dof,)
+    passes: list[int]  # commanded pass at each tick
+    dirs: list[int]  # commanded direction at each tick
+    origin: np.ndarray  # sheet origin in the world [m]
+    R_ws: np.ndarray  # the sheet's axes in the world
+    rest_qpos: np.ndarray  # the unloaded arm at rest on the first set-point
+    rest_ctrl: np.ndarray  # its servo ctrl (no velocity feed-forward) [rad]
+
+
+def _plan(plant: Plant, knobs: Knobs, t_cmd: np.ndarray, p_cmd: np.ndarray, place: Placement) -> _Plan:
+    """IK of the command, gravity, servo gains (written into the plant) and set-points at every tick."""
     rigid = load_model(scene=True, robot=plant.robot)
     kin = Kinematics(rigid, robot=plant.robot)
-    place = placement or Placement()
-    origin = place.origin_in(kin)  # the scene's sheet_origin by default, as the plant's
+    origin = place.origin_in(kin)  # the scene's sheet site by default, as the plant's
     R_ws = place.R_base_sheet  # the sheet's axes in the world
     q_ik = kin.ik_path(origin + p_cmd @ R_ws.T)
     g_ik = gravity_torques(rigid, q_ik, plant.robot)
     gains = design_gains(plant, rigid, q_ik[0], knobs)
     apply_gains(plant, gains)
-    dt = m.opt.timestep
+    dt = plant.model.opt.timestep
     n_tick = int(np.floor(t_cmd[-1] / dt + 1e-9)) + 1
     t_tick = dt * np.arange(n_tick)
     q_sp, dq_sp, g_ff = servo_setpoints(t_cmd, q_ik, g_ik, plant, knobs, t_tick)
-    ctrl_ff = q_sp + (gains.kv * dq_sp + g_ff) / gains.kp
-    ki_over_kp = gains.ki / gains.kp
     pass_cmd, dir_cmd = label_passes(p_cmd[:, 0], deadband_m=PASS_DEADBAND_M)
     idx = np.minimum(np.searchsorted(t_cmd, t_tick, side="left"), len(t_cmd) - 1)
-    passes = [int(v) for v in pass_cmd[idx]]
-    dirs = [int(v) for v in dir_cmd[idx]]
+    return _Plan(
+        t_tick, q_sp, q_sp + (gains.kv * dq_sp + g_ff) / gains.kp, gains.ki / gains.kp,
+        [int(v) for v in pass_cmd[idx]], [int(v) for v in dir_cmd[idx]], origin, R_ws,
+        rest_state(plant, q_ik[0], g_ik[0]), q_sp[0] + g_ff[0] / gains.kp,
+    )
 
-    field = build_force_field(process or Process())
-    flips_with_command = field.tangential_from_command  # its in-plane force follows the real travel here
-    field.reset()
-    d = mujoco.MjData(m)
-    d.qpos[:] = rest_state(plant, q_ik[0], g_ik[0])
-    d.ctrl[:] = q_sp[0] + g_ff[0] / gains.kp  # at rest: no velocity feed-forward
+
+def _settled(plant: Plant, plan: _Plan) -> mujoco.MjData:
+    """The plant's data after resting `SETTLE_S` on the first set-point."""
+    m, d = plant.model, mujoco.MjData(plant.model)
+    d.qpos[:] = plan.rest_qpos
+    d.ctrl[:] = plan.rest_ctrl
     band = plant.dead_band_joints
     band_qpos, band_dof = plant.link_qpos[band], plant.link_dof[band]
-    half_band = plant.backlash_rad[band] / 2.0
-    for _ in range(int(SETTLE_S / dt)):
+    for _ in range(int(SETTLE_S / m.opt.timestep)):
         d.qfrc_applied[band_dof] = plant.gear_torques(d.qpos[band_qpos], band)
         mujoco.mj_step(m, d)
-    sensor_adr = plant.ft_sensor_adr
-    tip, xipos = d.site_xpos[plant.tcp_site], d.xipos[plant.tool_body]
-    R_ft = d.site_xmat[plant.ft_site]
-    wrench = d.xfrc_applied[plant.tool_body]
-    ft = d.sensordata[sensor_adr : sensor_adr + 3]
+    return d
+
+
+class _Logs(NamedTuple):
+    """The per-tick logs of `_step` (module docstring of `DynamicLog`)."""
+
+    p: np.ndarray
+    f: np.ndarray
+    ft: np.ndarray
+    R: np.ndarray
+    q: np.ndarray
+    e: np.ndarray
+    b: np.ndarray
+
+    @classmethod
+    def empty(cls, n_tick: int, dof: int) -> _Logs:
+        three, joints = (n_tick, 3), (n_tick, dof)
+        return cls(np.zeros(three), np.zeros(three), np.zeros(three), np.zeros((n_tick, 9)), np.zeros(joints),
+                   np.zeros(joints), np.zeros(joints))
+
+
+def _step(
+    plant: Plant, plan: _Plan, field: ForceField, knobs: Knobs, d: mujoco.MjData, tip_force_n: np.ndarray | None,
+    progress: TextIO | None,
+) -> DynamicLog:
+    """Step the plant through every tick against the sheet (or the load), and log what happened."""
+    m, (t_tick, _, _, _, passes, dirs, origin, R_ws, _, _) = plant.model, plan
+    dt = m.opt.timestep
+    flips_with_command = field.tangential_from_command  # its in-plane force follows the real travel here
+    band = plant.dead_band_joints
+    band_qpos, band_dof, half_band = plant.link_qpos[band], plant.link_dof[band], plant.backlash_rad[band] / 2.0
+    tip, xipos, R_ft = d.site_xpos[plant.tcp_site], d.xipos[plant.tool_body], d.site_xmat[plant.ft_site]
+    wrench, ft = d.xfrc_applied[plant.tool_body], d.sensordata[plant.ft_sensor_adr : plant.ft_sensor_adr + 3]
     motor_qpos, link_qpos = plant.motor_qpos, plant.link_qpos
-    log_p = np.zeros((n_tick, 3))
-    log_f = np.zeros((n_tick, 3))
-    log_ft = np.zeros((n_tick, 3))
-    log_R = np.zeros((n_tick, 9))
-    log_q = np.zeros((n_tick, plant.dof))
-    log_e = np.zeros((n_tick, plant.dof))
-    log_b = np.zeros((n_tick, plant.dof))
-    integral = np.zeros(plant.dof)
+    n_tick = len(t_tick)
+    log, integral = _Logs.empty(n_tick, plant.dof), np.zeros(plant.dof)
     # tangential (friction and ploughing) force: follows the real travel, reversing over `friction_reversal_mm`
-    slip = float(dirs[0])
-    slip_gain = 2.0 / (1e-3 * knobs["friction_reversal_mm"])
+    slip, slip_gain = float(dirs[0]), 2.0 / (1e-3 * knobs["friction_reversal_mm"])
     x_prev = float(R_ws[:, 0] @ (tip - origin))
     step_report = max(1, n_tick // 10)
     start = time.perf_counter()
     for k in range(n_tick):
         mujoco.mj_step1(m, d)  # positions and velocities: the tip is current
-        qm = d.qpos[motor_qpos]
-        err = q_sp[k] - qm
+        err = plan.q_sp[k] - d.qpos[motor_qpos]
         integral += err * dt
-        d.ctrl[:] = ctrl_ff[k] + ki_over_kp * integral
+        d.ctrl[:] = plan.ctrl_ff[k] + plan.ki_over_kp * integral
         p = (tip - origin) @ R_ws  # sheet frame
         if tip_force_n is None:
             f = field.force(p, passes[k], dirs[k])
@@ -186,41 +228,27 @@ def simulate(
         l0, l1, l2 = (tip - xipos).tolist()
         a0, a1, a2 = f_world.tolist()
         wrench[:] = (a0, a1, a2, l1 * a2 - l2 * a1, l2 * a0 - l0 * a2, l0 * a1 - l1 * a0)
-        log_p[k] = p
-        log_f[k] = f
-        log_e[k] = err
-        log_q[k] = d.qpos[motor_qpos] + d.qpos[link_qpos]
+        log.p[k], log.f[k], log.e[k] = p, f, err
+        log.q[k] = d.qpos[motor_qpos] + d.qpos[link_qpos]
         if band.size:
             q_gear = d.qpos[band_qpos]
             d.qfrc_applied[band_dof] = plant.gear_torques(q_gear, band)
-            log_b[k, band] = np.clip(q_gear, -half_band, half_band)
+            log.b[k, band] = np.clip(q_gear, -half_band, half_band)
         mujoco.mj_step2(m, d)  # forces, the F/T sensor at the state logged above, integration
-        log_ft[k] = ft
-        log_R[k] = R_ft
+        log.ft[k], log.R[k] = ft, R_ft
         if tip_force_n is None:
             field.advance(p, passes[k])
         if not np.isfinite(d.qpos[0]):
             raise InputError(f"the dynamic plant diverged at t = {t_tick[k]:.4f} s (timestep {dt} s)")
         if progress is not None and (k + 1) % step_report == 0:
-            print(
-                f"  dynamic plant: {t_tick[k]:6.2f} / {t_tick[-1]:.2f} s simulated, "
-                f"{time.perf_counter() - start:5.1f} s wall",
-                file=progress,
-            )
+            print(f"  dynamic plant: {t_tick[k]:6.2f} / {t_tick[-1]:.2f} s simulated, "
+                  f"{time.perf_counter() - start:5.1f} s wall", file=progress)
     return DynamicLog(
-        t_s=t_tick,
-        p_tip_sheet_m=log_p,
-        f_sheet_n=log_f,
-        f_ft_local_n=log_ft,
-        R_world_ft=log_R.reshape(n_tick, 3, 3),
-        q_link=log_q,
-        q_motor_error=log_e,
-        q_play=log_b,
+        t_s=t_tick, p_tip_sheet_m=log.p, f_sheet_n=log.f, f_ft_local_n=log.ft, R_world_ft=log.R.reshape(n_tick, 3, 3),
+        q_link=log.q, q_motor_error=log.e, q_play=log.b,
         formed_x_m=np.asarray(field.x_grid_m, dtype=float).copy(),
         formed_z_m=np.asarray(field.formed_z_m, dtype=float).copy(),
-        wall_s=time.perf_counter() - start,
-        formed_surface=formed_surface(field),
-        R_world_sheet=R_ws,
+        wall_s=time.perf_counter() - start, formed_surface=formed_surface(field), R_world_sheet=R_ws,
     )
 
 

@@ -25,8 +25,8 @@ from twin.process.force_field import ForceField
 from twin.process.isf_force import IsfForceField
 from twin.process.tool_friction import SlidingFriction, SlipState
 from twin.sim.compiled.chain import chain_arrays
-from twin.sim.compiled.field import field_arrays, idle_field_arrays
-from twin.sim.compiled.isf import idle_isf_arrays, isf_arrays, write_back
+from twin.sim.compiled.field import FieldArrays, field_arrays, idle_field_arrays
+from twin.sim.compiled.isf import IsfArrays, idle_isf_arrays, isf_arrays, write_back
 from twin.sim.compiled.loop import replay_loop
 from twin.sim.compiled.work import work_arrays
 from twin.sim.result import LoopOutput
@@ -78,6 +78,30 @@ def _agrees_with_mujoco(
     return True
 
 
+def _kernel_arrays(
+    inner: ForceField, friction: bool, passes: np.ndarray, n: int
+) -> tuple[FieldArrays, IsfArrays | None] | None:
+    """The kernel's arrays for the force model's declared kernel (`ForceField.compiled_kernel`): the table field's
+    and None, or an idle table and the ISF model's; None where no kernel applies."""
+    if inner.compiled_kernel == "isf" and isinstance(inner, IsfForceField) and not friction:
+        isf = isf_arrays(inner, n)
+        return None if isf is None else (idle_field_arrays(), isf)
+    if inner.compiled_kernel == "table" and isinstance(inner, SheetForceField):
+        if passes.min() < 1 or passes.max() > inner.n_passes or np.any(np.diff(passes) < 0):
+            return None  # the Python loop raises the field's own error
+        return field_arrays(inner), None
+    return None
+
+
+def _hand_back(field: ForceField, table: bool, state: np.ndarray, n: int) -> None:
+    """Give the field the scalar state the kernel left: the table's current pass, the tool's slip state."""
+    inner = field.inner if isinstance(field, SlidingFriction) else field
+    if table:
+        inner.restore(TableState(int(state[0])))
+    if isinstance(field, SlidingFriction) and n:
+        field.restore(SlipState(float(state[1]), float(state[2]), int(state[3])))
+
+
 def compiled_replay(
     model: mujoco.MjModel,
     tcp_site: int,
@@ -95,18 +119,15 @@ def compiled_replay(
     """Run the loop compiled, or None where it does not apply (the caller then runs the Python loop).
 
     Args:
-        model: The twin's model (its current springs and `dof_frictionloss`).
-        tcp_site: Id of the `tcp` site.
+        model, tcp_site: The twin's model (its current springs and `dof_frictionloss`) and its tool site's id.
         field: The twin's field, reset: a model declaring the kernel `table` (optionally inside `SlidingFriction`)
             or `isf`.
         q_nominal: Unloaded poses (all joints) [rad], shape (n, nv).
         passes, dirs: Pass (1..N of the field's history) and direction (+1/-1) per sample.
-        origin: Sheet origin in the base frame [m].
-        k_diag: Joint springs [N·m/rad], shape (nv,).
-        h_const: K + dg/dq [N·m/rad], shape (nv, nv).
+        origin, R_base_sheet: The sheet frame in the base [m] (None: the base axes).
+        k_diag, h_const: Joint springs [N·m/rad], shape (nv,), and K + dg/dq [N·m/rad], shape (nv, nv).
         predict_active_set: As `EquilibriumSolver.predict_active_set`.
         data: The model's data, for the check against MuJoCo (qpos and kinematics overwritten); None: no check.
-        R_base_sheet: Orientation of the sheet frame in the base (the placement's yaw); None: the base axes.
 
     Returns:
         The loop's outputs; the field is left as the Python loop leaves it (profile, pass, slip state). With
@@ -117,25 +138,16 @@ def compiled_replay(
     inner = field.inner if isinstance(field, SlidingFriction) else field
     n, nv = q_nominal.shape
     passes = np.asarray(passes, dtype=np.int64)
-    isf = None
-    if inner.compiled_kernel == "isf" and isinstance(inner, IsfForceField) and not friction:
-        isf = isf_arrays(inner, n)
-        if isf is None:
-            return None
-        table = idle_field_arrays()
-    elif inner.compiled_kernel == "table" and isinstance(inner, SheetForceField):
-        if passes.min() < 1 or passes.max() > inner.n_passes or np.any(np.diff(passes) < 0):
-            return None  # the Python loop raises the field's own error
-        table = field_arrays(inner)
-    else:
+    kernel = _kernel_arrays(inner, friction, passes, n)
+    if kernel is None:
         return None
+    table, isf = kernel
     rot = np.eye(3) if R_base_sheet is None else np.asarray(R_base_sheet, dtype=float)
     chain = chain_arrays(model, tcp_site, origin, rot)
     if chain is None:
         return None
     qpos, p_out, p_unloaded, f_out = np.zeros((n, nv)), np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3))
-    iters = np.zeros(n, dtype=np.int64)
-    jac, stiffness, state = np.zeros((n, 3, nv)), np.zeros((n, 3, 3)), np.zeros(4)
+    iters, jac, stiffness, state = np.zeros(n, dtype=np.int64), np.zeros((n, 3, nv)), np.zeros((n, 3, 3)), np.zeros(4)
     gain = 2.0 / field.reversal_m if isinstance(field, SlidingFriction) else 0.0
     status, sample = replay_loop(
         chain, table, idle_isf_arrays() if isf is None else isf, np.int64(0 if isf is None else 1),  # type: ignore[arg-type]
@@ -148,10 +160,7 @@ def compiled_replay(
         write_back(inner, isf)
     if status == 1:
         raise np.linalg.LinAlgError(f"singular Newton matrix at sample {sample}, q = {qpos[max(sample - 1, 0)]!r}")
-    if isf is None:
-        inner.restore(TableState(int(state[0])))
-    if friction and n:
-        field.restore(SlipState(float(state[1]), float(state[2]), int(state[3])))
+    _hand_back(field, isf is None, state, n)
     out = LoopOutput(qpos, p_out, p_unloaded, f_out, iters, jac, stiffness)
     if data is not None and not _agrees_with_mujoco(model, data, tcp_site, origin, rot, q_nominal, out):
         warnings.warn("the compiled chain disagrees with MuJoCo's kinematics: replaying in Python", stacklevel=2)
