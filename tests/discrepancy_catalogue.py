@@ -1,7 +1,7 @@
 """A catalogue of hidden effects the discrepancy search has never seen in this form, and its confusion matrix.
 
 Every case starts from a clean virtual-lab run (its own seed and noise level) and edits the DATA here, in the
-test, never through `twin.lab.effects` or the search's families:
+test, never through `twin.sim.effects` or the search's families:
 
 - robot-side truths are made by replaying the run's command on test-built twins (a per-axis force scale of
   the FE history, an extra deflection c x (the clean deflection) executed in one travel direction only, a joint's lost motion pushed into the command
@@ -32,11 +32,13 @@ from scipy.spatial.transform import Rotation
 
 from twin.analysis.discrepancy.search import find_discrepancy
 from twin.lab.virtual import LabSettings, nominal_commanded, run_lab
-from twin.process.forces import default_force_history
+from twin.process.description import Process
+from twin.process.forces import ForceHistory, default_force_history
 from twin.process.path import label_passes
 from twin.runs.format import Run, Stream
 from twin.sim.quasi_static import PASS_DEADBAND_M, Twin
 from twin.sim.result import SimResult
+from twin.sim.spec import TwinSpec
 
 SINGLE = (
     "force_scale", "direction_dependent_compliance", "lost_motion", "tool_length_offset", "clamp_proximity",
@@ -114,6 +116,11 @@ class _Base:
         return level
 
 
+def _twin_of(history: ForceHistory) -> Twin:
+    """The default twin with its field fitted to the test's own FE history."""
+    return TwinSpec(process=Process(history=history)).build()
+
+
 def _telling_multiple(delta: dict[str, np.ndarray], sigma: dict[str, float]) -> float:
     """Largest per-axis rms of a change over the noise sigma of its stream."""
     out = 0.0
@@ -136,7 +143,7 @@ def _edit(
     history = default_force_history()
     if name == "force_scale":  # per axis, x and z differ
         k = 1.0 + size * 0.1 * rng.uniform(0.5, 1.5, 3) * rng.choice([-1.0, 1.0])
-        return base.replay(Twin(history=replace(history, f_sheet_n=history.f_sheet_n * k)))
+        return base.replay(_twin_of(replace(history, f_sheet_n=history.f_sheet_n * k)))
     if name == "direction_dependent_compliance":  # softer when backing (or forward), by its own ratio
         c = size * 0.15 * rng.uniform(0.5, 1.5)
         soft = (base.sim.direction < 0) == (rng.random() < 0.7)
@@ -156,7 +163,7 @@ def _edit(
         a = size * 0.3 * rng.uniform(0.5, 1.5)
         x = history.p_sheet_m[:, 0]
         w = 1.0 + a * np.exp(-(np.max(np.abs(x)) - np.abs(x)) / decay)
-        return base.replay(Twin(history=replace(history, f_sheet_n=history.f_sheet_n * w[:, None])))
+        return base.replay(_twin_of(replace(history, f_sheet_n=history.f_sheet_n * w[:, None])))
     if name == "force_sensor_bias":
         return {**zero, "force": np.broadcast_to(size * 15.0 * rng.normal(0.0, 1.0, 3), run.forces.values.shape)}
     if name == "force_sensor_crosstalk":

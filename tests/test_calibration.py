@@ -21,7 +21,6 @@ from twin.analysis.identify.cartesian import (
     THESIS_TABLE_4_2_LOADS_N,
     fit_kr_load_cases,
 )
-from twin.apps.reproduction import BEGIN_MARK, END_MARK, extract_block
 from twin.cli import main
 from twin.errors import InputError
 from twin.process.springback import last_contact_force, unloaded_profile
@@ -117,17 +116,16 @@ def test_springback_lifts_the_bottom_by_the_last_force_over_the_unloading_stiffn
         last_contact_force(x_grid, x_tool, fz[:2], 7.5e-3)
 
 
-def test_readme_reproduction_table_is_the_generated_one(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_the_shipped_reproduction_document_is_the_generated_one(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     doc = tmp_path / "reproduction.md"
     assert main(["reproduce", "--markdown", str(doc), "--json", "-"]) == 0
     rows = json.loads(capsys.readouterr().out)["rows"]
-    readme = (REPO / "README.md").read_text(encoding="utf-8")
-    assert BEGIN_MARK in readme and END_MARK in readme
-    generated = doc.read_text(encoding="utf-8")
-    assert extract_block(readme) in generated, "README's table is stale: run `tx200-twin reproduce --readme README.md`"
-    assert generated.endswith(extract_block(readme))
-    shipped_doc = (REPO / "docs" / "thesis-reproduction.md").read_text(encoding="utf-8")
-    assert extract_block(readme) in shipped_doc
+    shipped = (REPO / "docs" / "thesis-reproduction.md").read_text(encoding="utf-8")
+    assert doc.read_text(encoding="utf-8") == shipped, (
+        "docs/thesis-reproduction.md is stale: run `tx200-twin reproduce --markdown docs/thesis-reproduction.md`"
+    )
     by_name = {r["quantity"]: r for r in rows}
     assert by_name["C_R(2) (Eq. 4.27b)"]["relative_difference"] < 0.2
     assert by_name["C_R(1) x–z, y held (Eq. 4.27a)"]["relative_difference"] < 0.2

@@ -8,14 +8,16 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from twin.lab.effects import Effects, read_model_file
 
 from twin.base.resources import data_file
 from twin.cli import main
 from twin.lab.virtual import LabSettings, run_lab
 from twin.runs.write import write_run
+from twin.sim.effects import Effects
+from twin.sim.model_file import read_model_file
+from twin.sim.spec import TwinSpec
 
-HIDDEN = {"tcp_offset": 0.2}  # shows in position, force and profile
+HIDDEN = {"tool_length_offset": 0.2}  # shows in position, force and profile
 SEED = 401
 NOISE_NORM_MM = math.sqrt(3.0) * 1e3 * LabSettings().tracker_noise_m
 JSON_KEYS = {"effect", "effects", "parameters", "confidence", "gap_before", "gap_after", "noise", "candidates",
@@ -24,9 +26,9 @@ JSON_KEYS = {"effect", "effects", "parameters", "confidence", "gap_before", "gap
 
 @pytest.fixture(scope="module")
 def hidden_run_dir(tmp_path_factory: pytest.TempPathFactory, nominal_path: tuple[np.ndarray, np.ndarray]) -> Path:
-    """A lab run with a hidden tcp_offset, written to disk, its truth.json deleted."""
+    """A lab run with a hidden tool_length_offset, written to disk, its truth.json deleted."""
     t_s, p_m = nominal_path
-    run, truth = run_lab(t_s, p_m, scenario="nominal", effects=Effects(HIDDEN), seed=SEED)
+    run, truth = run_lab(t_s, p_m, scenario="nominal", seed=SEED, spec=TwinSpec(effects=Effects(HIDDEN)))
     directory = write_run(tmp_path_factory.mktemp("cli_discrepancy") / "run", run, truth=truth)
     (directory / "truth.json").unlink()
     return directory
@@ -50,12 +52,12 @@ def test_json_names_the_hidden_effect_with_every_documented_key(workflow: dict[s
     assert not (hidden_run_dir / "truth.json").exists()
     doc = json.loads(workflow["json"].read_text())
     assert set(doc) >= JSON_KEYS
-    assert doc["effect"] == "tcp_offset"
-    assert doc["effects"] == ["tcp_offset"]
-    assert doc["parameters"]["tcp_offset"]["tcp_offset_mm"] == pytest.approx(0.2, rel=0.15)
-    # the family behind the lab's name, with its parameter, standard error and explained share
+    assert doc["effect"] == "tool_length_offset"
+    assert doc["effects"] == ["tool_length_offset"]
+    assert doc["parameters"]["tool_length_offset"]["tool_length_offset_mm"] == pytest.approx(0.2, rel=0.15)
+    # the family behind the effect's name, with its parameter, standard error and explained share
     family = doc["families"][0]
-    assert family["name"] == "tool_length_offset" and family["lab_name"] == "tcp_offset"
+    assert family["name"] == "tool_length_offset" and family["effect_name"] == "tool_length_offset"
     assert family["parameters"]["length_mm"] == pytest.approx(0.2, abs=3.0 * family["uncertainty"]["length_mm"] + 0.02)
     assert 0.0 < family["uncertainty"]["length_mm"] < 0.02
     assert family["explained_fraction"] >= 0.9 and doc["explained_fraction"] >= 0.9
@@ -76,9 +78,9 @@ def test_json_names_the_hidden_effect_with_every_documented_key(workflow: dict[s
 
 def test_model_out_is_accepted_by_replay_and_shrinks_the_gap(workflow: dict[str, Path], hidden_run_dir: Path,
                                                              tmp_path: Path) -> None:
-    effects, stiffness = read_model_file(workflow["model"])
-    assert set(effects.values) == {"tcp_offset"}
-    assert stiffness is None
+    spec = read_model_file(workflow["model"])
+    assert set(spec.effects.values) == {"tool_length_offset"}
+    assert spec.joint_stiffness is None
     plain, fixed = tmp_path / "plain.json", tmp_path / "fixed.json"
     assert main(["replay", str(hidden_run_dir), "--json", str(plain)]) == 0
     assert main(["replay", str(hidden_run_dir), "--model", str(workflow["model"]), "--json", str(fixed)]) == 0
@@ -100,8 +102,8 @@ def test_json_to_stdout_is_pure_json(hidden_run_dir: Path, capsys: pytest.Captur
     assert main(["discrepancy", str(hidden_run_dir), "--json", "-"]) == 0
     captured = capsys.readouterr()
     doc = json.loads(captured.out)
-    assert doc["effect"] == "tcp_offset"
-    assert "discrepancy" in captured.err and "tcp_offset" in captured.err
+    assert doc["effect"] == "tool_length_offset"
+    assert "discrepancy" in captured.err and "tool_length_offset" in captured.err
 
 
 def test_missing_run_directory_exits_2(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -130,11 +132,10 @@ def test_starting_from_the_model_out_finds_nothing_more(workflow: dict[str, Path
 
 
 def test_discrepancy_refuses_to_write_the_model_into_the_run(tmp_path: Path) -> None:
-    from twin.lab.effects import Effects, write_model_file
-
     from twin.errors import InputError
+    from twin.sim.model_file import write_model_file
 
     run_dir = tmp_path / "run"
     run_dir.mkdir()
     with pytest.raises(InputError, match="refusing"):
-        write_model_file(run_dir / "model.json", Effects(), protect=[run_dir])
+        write_model_file(run_dir / "model.json", TwinSpec(), protect=[run_dir])

@@ -240,7 +240,8 @@ def test_the_height_map_isf_model_replays_compiled_to_the_python_loops_equilibri
     np.testing.assert_allclose(track, field.map.track_m, rtol=0.0, atol=1e-12)
     after = field.state
     np.testing.assert_allclose(before.direction, after.direction, rtol=0.0, atol=1e-9)
-    np.testing.assert_allclose(before.last_tip_m, after.last_tip_m, rtol=0.0, atol=1e-12)  # type: ignore[arg-type]
+    assert before.last_tip_m is not None and after.last_tip_m is not None
+    np.testing.assert_allclose(before.last_tip_m, after.last_tip_m, rtol=0.0, atol=1e-12)
     assert before.wall_angle_deg == pytest.approx(after.wall_angle_deg, abs=1e-9)
     assert before.last_step_m == pytest.approx(after.last_step_m, abs=1e-12)
     assert surface is not None

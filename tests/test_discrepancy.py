@@ -42,8 +42,9 @@ NOISE_GAP = {  # gap of a perfect twin: the norm of the sensor noise (see module
 PARAMETER_TOLERANCE = 0.15  # of the effect's deviation from its neutral value
 SHRINK = 0.30  # gap after <= this x gap before, in the stream(s) where the effect shows
 NOISE_FACTOR = 2.0  # position gap after <= this x the noise norm
-# The family that fits each lab effect (the lab's lost_motion is a lost motion of the robot's lost-motion joints,
-# its tool_length_offset a tool length error); the summary reports the effect's name when the fit maps onto it.
+# The family that fits each lab effect (the lab's lost_motion is a lost motion of the robot's lost-motion
+# joints, its tool_length_offset a tool length error); the summary reports the effect's name when the fit maps
+# onto it.
 LAB_FAMILY = {
     "lost_motion": "lost_motion",
     "force_scale": "force_scale",
@@ -380,7 +381,8 @@ def test_candidates_argument_limits_the_search(nominal_path: tuple[np.ndarray, n
 
 def test_start_effects_already_known_leave_nothing_to_find(nominal_path: tuple[np.ndarray, np.ndarray]) -> None:
     hidden = Effects({"tracker_drift": 0.012})
-    result, seconds = timed(lab_run(nominal_path, dict(hidden.values), seed=141), spec=TwinSpec(effects=hidden))
+    run = lab_run(nominal_path, dict(hidden.values), seed=141)
+    result, seconds = timed(run, spec=TwinSpec(effects=hidden))
     info = describe(result, seconds)
     assert result.verdict == "none", info
     assert result.effects == hidden, info

@@ -1,9 +1,10 @@
 """The discrepancy search on the catalogue of hidden effects in forms the library does not make.
 
-`tests/discrepancy_catalogue.py` builds the cases (data edits written there, never through the lab's effects
-or the search's families). The normal suite runs a handful of them; the slow test runs the whole catalogue
-(64 cases over 11 families, combinations and made-up effects, 20 clean runs and 3 dynamic-plant runs) and
-prints the confusion matrix (`make test-slow`; `python -m tests.discrepancy_catalogue --out confusion.json` writes it).
+`tests/discrepancy_catalogue.py` builds the cases (data edits written there, never through the effect
+vocabulary or the search's families). The normal suite runs a handful of them; the slow test runs the whole
+catalogue (64 cases over 11 families, combinations and made-up effects, 20 clean runs and 3 dynamic-plant
+runs) and prints the confusion matrix (`make test-slow`; `python -m tests.discrepancy_catalogue --out
+confusion.json` writes it).
 """
 
 from __future__ import annotations

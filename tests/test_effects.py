@@ -1,4 +1,5 @@
-"""Tests of the named effects, `--effect` parsing and the twin model file (twin/sim/effects.py, twin/sim/model_file.py)."""
+"""Tests of the named effects, `--effect` parsing and the twin model file (twin/sim/effects.py,
+twin/sim/model_file.py)."""
 
 from __future__ import annotations
 
@@ -93,7 +94,8 @@ def test_effect_units_convert_to_si() -> None:
         "stream_time_offset": {"stream_time_offset_s": 0.2},
         "sheet_springback": {"sheet_springback_ratio": 0.13},
     }
-    assert Effects({"lost_motion": 0.5, "tool_length_offset": 1.0, "force_scale": 2.0}).named_parameters() == {
+    robot_side = Effects({"lost_motion": 0.5, "tool_length_offset": 1.0, "force_scale": 2.0})
+    assert robot_side.named_parameters() == {
         "lost_motion": {"lost_motion_mrad": 0.5},
         "tool_length_offset": {"tool_length_offset_mm": 1.0},
         "force_scale": {"force_scale_ratio": 2.0},
@@ -112,9 +114,10 @@ def test_model_file_round_trip(tmp_path: Path) -> None:
     payload = json.loads(path.read_text())
     assert payload["format"] == MODEL_FORMAT
     assert payload["units"] == {"force_scale": "-", "lost_motion": "mrad"}
-    only_effects = write_model_file(tmp_path / "effects.json", TwinSpec(effects=Effects({"tool_length_offset": 1.0})))
+    offset = Effects({"tool_length_offset": 1.0})
+    only_effects = write_model_file(tmp_path / "effects.json", TwinSpec(effects=offset))
     back = read_model_file(only_effects)
-    assert (back.effects, back.joint_stiffness) == (Effects({"tool_length_offset": 1.0}), None)
+    assert (back.effects, back.joint_stiffness) == (offset, None)
 
 
 def test_a_model_file_of_the_first_format_is_read_with_the_new_effect_names(tmp_path: Path) -> None:
@@ -143,7 +146,10 @@ def test_a_model_file_of_the_first_format_is_read_with_the_new_effect_names(tmp_
         ({"format": "something/2", "effects": {}}, "format"),
         ({"format": MODEL_FORMAT, "effects": {"backlash": 1.0}}, "bad model"),
         ({"format": MODEL_FORMAT, "effects": {"force_scale": "big"}}, "bad model"),
-        ({"format": MODEL_FORMAT, "effects": {}, "joint_stiffness_nm_per_rad": [1e6] * 5}, "6 finite values > 0"),
+        (
+            {"format": MODEL_FORMAT, "effects": {}, "joint_stiffness_nm_per_rad": [1e6] * 5},
+            "6 finite values > 0",
+        ),
         (
             {"format": MODEL_FORMAT, "effects": {}, "joint_stiffness_nm_per_rad": [1e6] * 5 + [-1]},
             "6 finite values > 0",

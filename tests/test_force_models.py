@@ -131,8 +131,11 @@ def test_a_name_the_registry_does_not_know_is_refused(capsys: pytest.CaptureFixt
 def test_the_compiled_kernel_is_chosen_by_the_declared_capability(twin_nominal: object) -> None:
     from twin.process.field import SheetForceField
 
-    class Subclass(SheetForceField):
-        compiled_kernel = None  # a subclass that changes the physics declares no kernel
+    class Subclass(SheetForceField):  # a subclass may change the physics: it declares no kernel of its own
+        pass
+
+    class Declared(SheetForceField):  # one that keeps the table's physics declares the kernel again
+        compiled_kernel = "table"
 
     spec = TwinSpec()
     twin = spec.build()
@@ -141,6 +144,6 @@ def test_the_compiled_kernel_is_chosen_by_the_declared_capability(twin_nominal: 
     keep = path.pass_index == 1
     twin.simulate(path.t_s[keep], path.p_sheet_m[keep])
     assert not twin.last_loop_compiled
-    twin.set_sheet_field(SheetForceField(twin.history))
+    twin.set_sheet_field(Declared(twin.history))
     twin.simulate(path.t_s[keep], path.p_sheet_m[keep])
     assert twin.last_loop_compiled

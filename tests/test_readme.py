@@ -49,5 +49,5 @@ def test_the_python_example_runs() -> None:
     code = re.search(r"```python\n(.*?)```", README, re.S)
     assert code is not None
     namespace: dict[str, object] = {}
-    exec(compile(code.group(1), "README.md", "exec"), namespace)  # noqa: S102 - the README's own example
+    exec(compile(code.group(1), "README.md", "exec"), namespace)
     assert 0.05 < float(namespace["replay"](namespace["lab_run"], namespace["spec"]).metrics["position_rms_mm"]) < 1.0  # type: ignore[operator,index]

@@ -8,8 +8,9 @@ positions (pure), commits each equilibrium with `advance`, and starts a run with
 What a model declares (class attributes), so that no stage looks at its type:
 
 * `compiled_kernel`: the name of the compiled kernel that mirrors it in the twin's replay loop
-  (`twin.sim.compiled`: `table`, `isf`), or None (the twin's Python loop, MuJoCo per Newton iteration). A
-  subclass that changes the physics must set it back to None;
+  (`twin.sim.compiled`: `table`, `isf`), or None (the twin's Python loop, MuJoCo per Newton iteration). It is
+  not inherited (`kernel()`): a subclass may change the physics, so it runs in Python unless it declares the
+  kernel again;
 * `tangential_from_command`: its in-plane force flips with the commanded travel direction, so the twin wraps
   it in the tool's sliding friction (`twin.process.tool_friction`), which makes the force follow the tool's
   real travel at reversals;
@@ -52,6 +53,13 @@ class ForceField(ABC):
     steps_between_passes: ClassVar[bool] = False
     radius: float
     k_unload: float
+
+    @classmethod
+    def kernel(cls) -> str | None:
+        """The compiled kernel this very class declares (`compiled_kernel` of its own body; None for a subclass
+        that does not declare one again)."""
+        value = vars(cls).get("compiled_kernel")
+        return value if isinstance(value, str) else None
 
     @abstractmethod
     def reset(self) -> None:

@@ -47,7 +47,10 @@ def read_description(path: Path) -> RobotDescription:
     scene = path.parent / data["scene"] if "scene" in data else None
     names = {key: _string(path, frames, key) for key in
              ("flange_site", "tool_site", "ft_site", "ft_force_sensor", "home_keyframe")}
-    derived = _from_mjcf(mjcf, joints, names)
+    try:
+        derived = _from_mjcf(mjcf, joints, names)
+    except ModelError as exc:
+        raise ModelError(f"{path}: {exc}") from None
     calibration = data.get("calibration", {})
     stiffness_joints = tuple(_strings(path, calibration, "stiffness_joints", default=[]))
     friction_joints = tuple(_strings(path, calibration, "friction_joints", default=[]))

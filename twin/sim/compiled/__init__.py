@@ -81,12 +81,12 @@ def _agrees_with_mujoco(
 def _kernel_arrays(
     inner: ForceField, friction: bool, passes: np.ndarray, n: int
 ) -> tuple[FieldArrays, IsfArrays | None] | None:
-    """The kernel's arrays for the force model's declared kernel (`ForceField.compiled_kernel`): the table field's
+    """The kernel's arrays for the force model's declared kernel (`ForceField.kernel`): the table field's
     and None, or an idle table and the ISF model's; None where no kernel applies."""
-    if inner.compiled_kernel == "isf" and isinstance(inner, IsfForceField) and not friction:
+    if inner.kernel() == "isf" and isinstance(inner, IsfForceField) and not friction:
         isf = isf_arrays(inner, n)
         return None if isf is None else (idle_field_arrays(), isf)
-    if inner.compiled_kernel == "table" and isinstance(inner, SheetForceField):
+    if inner.kernel() == "table" and isinstance(inner, SheetForceField):
         if passes.min() < 1 or passes.max() > inner.n_passes or np.any(np.diff(passes) < 0):
             return None  # the Python loop raises the field's own error
         return field_arrays(inner), None
