@@ -1,4 +1,4 @@
-"""The demo part besides the groove (issue #16): a 45° cone 40 mm deep, compensated and checked on both plants.
+"""The demo part besides the groove: a 45° cone 40 mm deep, compensated and checked on both plants.
 
 Every step is a `tx200-twin` command, as a user types it:
 

@@ -1,4 +1,4 @@
-"""A 45° cone with the ISF height-map force model (issue #16): nominal run, twin compensation, surface check.
+"""A 45° cone with the ISF height-map force model: nominal run, twin compensation, surface check.
 
 Run: `.venv/bin/python experiments/cone_twin.py [OUT_DIR] [--depth-mm 20] [--top-width-mm 80] [--step-mm 0.5]`
 (default OUT_DIR docs/figures). The plant is the twin itself with the ISF field (the virtual-lab plants still

@@ -1,8 +1,8 @@
-"""How much the stand-in FE history's Fx taper costs the ISF model along the groove (issue #16).
+"""How much the stand-in FE history's Fx taper costs the ISF model along the groove.
 
-The shipped stand-in (`twin.process.fe_history`, since 2026-11-23) tapers Fx over the arc length *since* the last
-reversal (causal). Until then it tapered over the arc length to the *nearest* reversal, so before the tool
-reversed as well as after (`fx_taper="nearest"`), which no causal model can follow. This script reports the ISF
+The shipped stand-in (`twin.process.fe_history`) tapers Fx over the arc length *since* the last reversal
+(causal). The alternative, `fx_taper="nearest"`, tapers over the arc length to the *nearest* reversal, so before
+the tool reverses as well as after, which no causal model can follow. This script reports the ISF
 model's Fx and Fz errors against both, with the shipped constants and refitted (`calibrate_isf`), and where the
 remaining Fx error lies.
 

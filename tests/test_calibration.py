@@ -1,4 +1,4 @@
-"""The calibrated twin against the thesis's measurements (issue 13), and the reproduction table.
+"""The calibrated twin against the thesis's measurements, and the reproduction table.
 
 Measured at the shipped values (`pytest -s` prints them): C_R(1) 15.5 % and C_R(2) 8.0 % off the thesis
 (Frobenius, noise-free twin experiments), peak Fz 1928 N, CNC depth after springback 8.70 mm, failed-run

@@ -1,4 +1,4 @@
-"""A cone and a pyramid through the command line, as a new user would run them (issue 16): path -> compensate ->
+"""A cone and a pyramid through the command line, as a new user would run them: path -> compensate ->
 lab (both plants) -> check.
 
 `--force-model auto` takes the height-map ISF model for a path that is not the FE history's groove, so the

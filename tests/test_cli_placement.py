@@ -1,5 +1,5 @@
 """A part placed elsewhere on the table, turned 30°, through the command line: the placement reaches the twin,
-the lab records it, and replay, discrepancy and compensation use the run's own placement (issue 16)."""
+the lab records it, and replay, discrepancy and compensation use the run's own placement."""
 
 from __future__ import annotations
 

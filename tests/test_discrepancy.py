@@ -144,8 +144,8 @@ def test_each_lab_effect_is_named_fitted_and_closes_the_gap(
         ("stream_time_offset", 0.288, 201),
         # springback at 1.5x the profile noise while the force noise is over-estimated a little: the
         # profile's excess must not be cancelled by the other streams' chi-square below 1. At this size it is
-        # found on 4 of the 8 seeds 201-208 (measured before and after the causal Fx of 2026-11-23; seed 201
-        # was found before it, 206 after), so the test takes one found both times
+        # found on 4 of the 8 seeds 201-208, and the test takes one found with both the causal and the
+        # acausal stand-in history
         ("sheet_springback", 0.0043, 204),
     ],
 )
@@ -465,7 +465,7 @@ GRID_MULTIPLES = (0.5, 1.0, 3.0, 30.0)  # x THREE_NOISE: 1.5x, 3x, 9x and 90x th
 GRID_SEEDS = (201, 202, 203)
 CLEAN_SEEDS = tuple(range(301, 311))
 NAMED_RATE = 0.95
-# Over the whole grid, including 1.5x noise (below the 3-30x range of issue #15): 5 of the 18 cases at 1.5x
+# Over the whole grid, including 1.5x noise (below the 3-30x range the grid is asked to name): 5 of the 18 cases at 1.5x
 # noise are missed since the held-out folds became pass pairs and the families carry vector parameters (4 say
 # `none`, no false alarm; 1 names tracker_registration for a 0.03 mm tool length). Every case >= 3x is named.
 GRID_NAMED_RATE = 0.90

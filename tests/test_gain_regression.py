@@ -1,15 +1,12 @@
-"""THE GAIN REGRESSION TEST (issue 5): the whole pipeline compensates with gain 1, and the thesis's mistake
+"""THE GAIN REGRESSION TEST: the whole pipeline compensates with gain 1, and the thesis's mistake
 (a half-symmetric FE history used as full, thesis sec. 5.1) gives 0.5 and is caught by `check`.
 
 Pipeline, in process: shipped FE history -> force field -> lab load test (Table 4.2 loads, tracker noise)
 -> Method 1 K_R -> Eq. 4.28 formula compensation; and history -> twin compensation. The compensated paths
 are then run in the virtual lab (no hidden effects) and checked against the ideal path.
 
-Measured on the calibrated robot (seed 1 load test, seed 2 lab runs; `pytest -s` prints them): formula gain
-1.000 and twin gain 1.003 against the compliance each used; lab residual after the formula 0.360 mm rms /
-1.02 mm max (joint friction), after the twin 0.039 mm rms / 0.24 mm max (at the reversals); check gain 0.880
-(formula: Method 1 reads the robot stiffer than it forms) and 1.000 (twin). The mistake: compensate gain
-0.503, check gain 0.508, residual 0.95 mm rms.
+`pytest -s` prints what this pipeline measures on the calibrated robot (seed 1 load test, seed 2 lab runs):
+the gains of both compensations, the lab residuals after each, `check`'s gains, and the mistake's.
 """
 
 from __future__ import annotations
@@ -41,16 +38,15 @@ from twin.sim.spec import TwinSpec
 GAIN_TOL = 0.02
 # Bounds on the lab residual (tracker noise 0.02 mm per axis alone gives 0.035 mm rms of the 3-D norm). The
 # calibrated robot's joint friction flips its offset within one sample at each reversal: the twin's command
-# cannot follow a step there, so its largest residual (0.24 mm measured) sits on those few samples, while 95 %
+# cannot follow a step there, so its largest residual sits on those few samples, while 95 %
 # of the samples stay within TWIN_P95_MM.
 TWIN_RMS_MM, TWIN_MAX_MM, TWIN_P95_MM = 0.06, 0.4, 0.08
 # The formula keeps the home compliance along the whole groove, its K_R carries the load test's noise, and a
-# linear C cannot cancel the friction offsets (0.083 mm rms / 0.18 mm max on a frictionless robot): 0.360 mm
-# rms / 1.02 mm max measured; bounds with margin.
+# linear C cannot cancel the friction offsets: bounds with margin over what it leaves (`pytest -s`).
 FORMULA_RMS_MM, FORMULA_MAX_MM = 0.5, 1.5
 # Method 1's load test starts from rest, so each joint's friction holds back the first τ_f of its torque and
 # the robot reads stiffer than it is while forming (joints sliding): `check` finds the formula run
-# under-corrected, 0.880 measured; a gain this far from 0.5 is no force-scale mistake.
+# under-corrected (`pytest -s` prints the gain); a gain this far from 0.5 is no force-scale mistake.
 FORMULA_CHECK_GAIN = (0.75, 0.95)
 
 

@@ -45,8 +45,8 @@ def test_groove_fz_and_fx_reproduce_the_fe_history_within_5_percent_rms_of_peak(
 
 
 def test_fx_against_the_old_acausal_stand_in_is_what_its_taper_costs(tmp_path):
-    """The stand-in shipped until 2026-11-23 tapered Fx before each reversal too (fx_taper="nearest"); no causal
-    model follows that: the same constants leave 6.6 % there (6.5 % refitted, experiments/fx_causal_taper.py)."""
+    """An acausal stand-in that tapers Fx before each reversal too (fx_taper="nearest"); no causal model
+    follows that: the same constants leave 6.6 % there (6.5 % refitted, experiments/fx_causal_taper.py)."""
     old = load_force_history(write_table(tmp_path / "nearest.csv", generate_history(fx_taper="nearest")),
                              symmetry="half")
     rms_fz, rms_fx, _ = groove_errors(IsfForceParams(), old)

@@ -60,11 +60,13 @@ class SITable:
         path: The file read.
         values: Canonical column name (`x_mm`, `t_s`, ...) -> values in SI: lengths [m], others as read.
         typed: Canonical column name -> the name as the file typed it (`x_mm` or `x_m` for a length).
+        as_read: Canonical column name -> the values in the unit the file typed them in.
     """
 
     path: Path
     values: dict[str, np.ndarray]
     typed: dict[str, str]
+    as_read: dict[str, np.ndarray]
 
     def __contains__(self, name: object) -> bool:
         return name in self.values
@@ -134,7 +136,7 @@ def read_si_table(
         name: raw[spelling] * (1e-3 if is_length(name) and spelling.endswith(MM_SUFFIX) else 1.0)
         for name, spelling in typed.items()
     }
-    return SITable(path, values, typed)
+    return SITable(path, values, typed, {name: raw[spelling] for name, spelling in typed.items()})
 
 
 def moving_median_speed(t_s: np.ndarray, p: np.ndarray) -> float | None:

@@ -29,7 +29,7 @@ import numpy as np
 
 from twin.base.csvio import check_monotonic
 from twin.base.resources import data_file
-from twin.base.units import check_point_spacing, read_si_table
+from twin.base.units import SITable, check_point_spacing, read_si_table
 from twin.errors import DataFileError, SymmetryError
 from twin.process.path import ToolPath, label_passes
 
@@ -145,15 +145,19 @@ def load_force_history(path: str | Path, *, symmetry: str, trust_columns: bool =
             f"{path}: columns {list(names)} name a {kind} export but symmetry={symmetry!r} was declared; "
             f"{_BUG}. (trust_columns=False exists only to reproduce the thesis's mistake.)"
         )
-    x_m, z_m = table.si("x_mm"), table.si("z_mm")
+    x_m, z_m = _metres(table, "x_mm"), _metres(table, "z_mm")
     check_point_spacing(table, ("x_mm", "z_mm"))
     if "s_mm" in table:
-        s_m = table.si("s_mm")
+        s_m = _metres(table, "s_mm")
         check_monotonic(path, table.typed["s_mm"], s_m)
         check_point_spacing(table, ("s_mm",))
     elif "t_s" in table:
         check_monotonic(path, "t_s", table.si("t_s"))
-        s_m = np.concatenate(([0.0], np.cumsum(np.hypot(np.diff(x_m), np.diff(z_m)))))
+        if table.declared_mm(("x_mm", "z_mm")):  # the arc length summed in the file's millimetres
+            x_mm, z_mm = table.as_read["x_mm"], table.as_read["z_mm"]
+            s_m = np.concatenate(([0.0], np.cumsum(np.hypot(np.diff(x_mm), np.diff(z_mm))))) / 1000.0
+        else:
+            s_m = np.concatenate(([0.0], np.cumsum(np.hypot(np.diff(x_m), np.diff(z_m)))))
     else:
         found = sorted(table.typed.values())
         raise DataFileError(
@@ -174,6 +178,12 @@ def load_force_history(path: str | Path, *, symmetry: str, trust_columns: bool =
         source=path,
         column_symmetry="half" if has_half else "full",
     )
+
+
+def _metres(table: SITable, name: str) -> np.ndarray:
+    """A length column in metres: millimetres as typed divided by 1000 (the arithmetic of every history this loader
+    has read), metres as typed."""
+    return table.as_read[name] / 1000.0 if table.declared_mm((name,)) else table.si(name)
 
 
 def default_force_history() -> ForceHistory:
