@@ -126,25 +126,8 @@ def load_force_history(path: str | Path, *, symmetry: str, trust_columns: bool =
         raise SymmetryError(f"load_force_history({str(path)!r}): symmetry={symmetry!r} is not valid; {_BUG}")
     path = Path(path)
     table = read_si_table(path, ("x_mm", "z_mm"), optional=_OPTIONAL, min_rows=2)
-    has_half = all(name in table for name in HALF_COLUMNS)
-    has_full = all(name in table for name in FULL_COLUMNS)
-    if has_half and has_full:
-        raise DataFileError(
-            path, f"holds both half-model {list(HALF_COLUMNS)} and full-model {list(FULL_COLUMNS)} columns"
-        )
-    if not (has_half or has_full):
-        raise DataFileError(
-            path,
-            f"missing force columns: expected {list(HALF_COLUMNS)} (half-symmetric model) or "
-            f"{list(FULL_COLUMNS)} (full model); found {sorted(table.typed.values())}",
-        )
-    names = HALF_COLUMNS if has_half else FULL_COLUMNS
-    if trust_columns and (has_half != (symmetry == "half")):
-        kind = "half-symmetric" if has_half else "full-model"
-        raise SymmetryError(
-            f"{path}: columns {list(names)} name a {kind} export but symmetry={symmetry!r} was declared; "
-            f"{_BUG}. (trust_columns=False exists only to reproduce the thesis's mistake.)"
-        )
+    names = _force_columns(table, symmetry, trust_columns)
+    has_half = names == HALF_COLUMNS
     x_m, z_m = _metres(table, "x_mm"), _metres(table, "z_mm")
     check_point_spacing(table, ("x_mm", "z_mm"))
     if "s_mm" in table:
@@ -178,6 +161,35 @@ def load_force_history(path: str | Path, *, symmetry: str, trust_columns: bool =
         source=path,
         column_symmetry="half" if has_half else "full",
     )
+
+
+def _force_columns(table: SITable, symmetry: str, trust_columns: bool) -> tuple[str, str]:
+    """The force columns of the file (`HALF_COLUMNS` or `FULL_COLUMNS`), checked against the declaration.
+
+    Raises:
+        DataFileError: Both sets or neither. SymmetryError: The names contradict `symmetry` (`trust_columns`).
+    """
+    path = table.path
+    has_half = all(name in table for name in HALF_COLUMNS)
+    has_full = all(name in table for name in FULL_COLUMNS)
+    if has_half and has_full:
+        raise DataFileError(
+            path, f"holds both half-model {list(HALF_COLUMNS)} and full-model {list(FULL_COLUMNS)} columns"
+        )
+    if not (has_half or has_full):
+        raise DataFileError(
+            path,
+            f"missing force columns: expected {list(HALF_COLUMNS)} (half-symmetric model) or "
+            f"{list(FULL_COLUMNS)} (full model); found {sorted(table.typed.values())}",
+        )
+    names = HALF_COLUMNS if has_half else FULL_COLUMNS
+    if trust_columns and (has_half != (symmetry == "half")):
+        kind = "half-symmetric" if has_half else "full-model"
+        raise SymmetryError(
+            f"{path}: columns {list(names)} name a {kind} export but symmetry={symmetry!r} was declared; "
+            f"{_BUG}. (trust_columns=False exists only to reproduce the thesis's mistake.)"
+        )
+    return names
 
 
 def _metres(table: SITable, name: str) -> np.ndarray:

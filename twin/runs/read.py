@@ -176,6 +176,12 @@ def read_run(directory: str | Path, *, require_forces: bool = True) -> Run:
         _check_rate(files["forces.csv"], forces, "sensor_rate_hz", float(meta["sensor_rate_hz"]))
         _check_clock(files["forces.csv"], forces, float(commanded.t_s[0]))
 
+    profile, scan = _read_part(directory)
+    return Run(directory, dict(meta), commanded, tracker, forces, profile, scan)
+
+
+def _read_part(directory: Path) -> tuple[tuple[np.ndarray, np.ndarray] | None, np.ndarray | None]:
+    """The optional part profile (x, z) [m] and part scan (n, 3) [m] of a run directory (None where absent)."""
     profile = None
     profile_path = directory / "part_profile.csv"
     if profile_path.is_file():
@@ -192,7 +198,7 @@ def read_run(directory: str | Path, *, require_forces: bool = True) -> Run:
         table = _read_table(scan_path, SCAN_COLUMNS, 3)
         check_point_spacing(table, SCAN_COLUMNS)
         scan = frozen_array(np.column_stack([table.si(c) for c in SCAN_COLUMNS]), (3,), "part_scan_m")
-    return Run(directory, dict(meta), commanded, tracker, forces, profile, scan)
+    return profile, scan
 
 
 def read_commanded_csv(path: str | Path) -> Stream:

@@ -103,18 +103,9 @@ def _hand_back(field: ForceField, table: bool, state: np.ndarray, n: int) -> Non
 
 
 def compiled_replay(
-    model: mujoco.MjModel,
-    tcp_site: int,
-    field: ForceField,
-    q_nominal: np.ndarray,
-    passes: np.ndarray,
-    dirs: np.ndarray,
-    origin: np.ndarray,
-    k_diag: np.ndarray,
-    h_const: np.ndarray,
-    predict_active_set: bool,
-    data: mujoco.MjData | None = None,
-    R_base_sheet: np.ndarray | None = None,
+    model: mujoco.MjModel, tcp_site: int, field: ForceField, q_nominal: np.ndarray, passes: np.ndarray,
+    dirs: np.ndarray, origin: np.ndarray, k_diag: np.ndarray, h_const: np.ndarray, predict_active_set: bool,
+    data: mujoco.MjData | None = None, R_base_sheet: np.ndarray | None = None,
 ) -> LoopOutput | None:
     """Run the loop compiled, or None where it does not apply (the caller then runs the Python loop).
 
@@ -130,9 +121,8 @@ def compiled_replay(
         data: The model's data, for the check against MuJoCo (qpos and kinematics overwritten); None: no check.
 
     Returns:
-        The loop's outputs; the field is left as the Python loop leaves it (profile, pass, slip state). With
-        `data`, MuJoCo recomputes the tool tip at `CHECKED_SAMPLES` of the poses; a difference over
-        `CHECK_TOL_M` (a model the chain misreads) warns and returns None, and the Python loop replays.
+        The loop's outputs, the field left as the Python loop leaves it. With `data`, MuJoCo recomputes the tool
+        tip at `CHECKED_SAMPLES` poses; a difference over `CHECK_TOL_M` warns and returns None (Python replays).
     """
     friction = isinstance(field, SlidingFriction)
     inner = field.inner if isinstance(field, SlidingFriction) else field

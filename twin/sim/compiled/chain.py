@@ -65,6 +65,25 @@ def _quat_mat(quat: np.ndarray) -> np.ndarray:
     return R.reshape(3, 3)
 
 
+def _is_hinge_chain_with_gravity(m: mujoco.MjModel) -> bool:
+    """Hinges only (qpos and dof alike), no mocap bodies, no gravity compensation, gravity on."""
+    hinge = mujoco.mjtJoint.mjJNT_HINGE
+    if m.nq != m.nv or m.nmocap or np.any(m.body_gravcomp) or np.any(m.jnt_type != hinge):
+        return False
+    if m.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_GRAVITY:
+        return False
+    return not np.any(m.jnt_dofadr != m.jnt_qposadr)
+
+
+def _ancestors(m: mujoco.MjModel, body: int) -> set[int]:
+    """`body` and the bodies above it, up to (not including) the world."""
+    out = set()
+    while body != 0:
+        out.add(body)
+        body = int(m.body_parentid[body])
+    return out
+
+
 def chain_arrays(
     model: mujoco.MjModel,
     site_id: int,
@@ -84,21 +103,12 @@ def chain_arrays(
         or gravity is disabled (the twin then uses MuJoCo per sample).
     """
     m = model
-    hinge = mujoco.mjtJoint.mjJNT_HINGE
-    if m.nq != m.nv or m.nmocap or np.any(m.body_gravcomp) or np.any(m.jnt_type != hinge):
-        return None
-    if m.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_GRAVITY:
-        return None
-    if np.any(m.jnt_dofadr != m.jnt_qposadr):
+    if not _is_hinge_chain_with_gravity(m):
         return None
     nb = m.nbody
     dof_body = np.array([m.jnt_bodyid[j] for j in range(m.njnt)], dtype=np.int64)[np.argsort(m.jnt_dofadr)]
     site_body = int(m.site_bodyid[site_id])
-    ancestors = set()
-    b = site_body
-    while b != 0:
-        ancestors.add(b)
-        b = int(m.body_parentid[b])
+    ancestors = _ancestors(m, site_body)
     site_dep = np.array([1.0 if int(body) in ancestors else 0.0 for body in dof_body])
     axes = m.jnt_axis / np.linalg.norm(m.jnt_axis, axis=1, keepdims=True) if m.njnt else np.zeros((0, 3))
     K = np.array([[[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]] for a in axes]).reshape(-1, 3, 3)
