@@ -127,3 +127,32 @@ def test_lost_motion_shifts_the_tool_against_the_travel_in_free_space() -> None:
     forward, backward = error[5:38], error[45:78]
     np.testing.assert_allclose(forward[:, 0], -expected_dx, rtol=0.05)
     np.testing.assert_allclose(backward[:, 0], expected_dx, rtol=0.05)
+
+
+def test_the_documented_servo_gains_are_the_dynamic_plants() -> None:
+    """docs/dynamic-plant.md's gains table and link frictions, held to the plant built from the shipped model."""
+    import re
+
+    from twin.lab.dynamic.controller import design_gains
+    from twin.lab.dynamic.knobs import Knobs
+    from twin.lab.dynamic.plant import build_plant
+    from twin.robot.kinematics import Kinematics, load_model
+
+    doc = (Path(__file__).resolve().parents[1] / "docs" / "dynamic-plant.md").read_text(encoding="utf-8")
+
+    def row(label: str) -> np.ndarray:
+        line = next(x for x in doc.splitlines() if x.startswith(f"| {label}"))
+        return np.array([float(c.replace(" ", "")) for c in line.strip("|").split("|")[1:]])
+
+    knobs, rigid = Knobs(), load_model()
+    plant, kin = build_plant(knobs), Kinematics(rigid)
+    gains = design_gains(plant, rigid, kin.q_home, knobs)
+    inertia = (gains.kv / (2.0 * knobs["servo_damping_ratio"])) ** 2 / gains.kp
+    np.testing.assert_allclose(row("kp"), gains.kp, rtol=0, atol=0.5)
+    np.testing.assert_allclose(row("kv"), gains.kv, rtol=0, atol=0.5)
+    np.testing.assert_allclose(row("J"), inertia, rtol=2e-3)
+    np.testing.assert_allclose(row("bandwidth"), np.sqrt(gains.kp / inertia) / (2 * np.pi), rtol=0, atol=0.05)
+    friction = re.search(r"motion: ([\d.]+), ([\d.]+), ([\d.]+) N·m on joints 2, 3, 5", doc)
+    assert friction is not None
+    shipped = rigid.dof_frictionloss[load_robot().addresses(rigid).dof][[1, 2, 4]]
+    np.testing.assert_allclose([float(v) for v in friction.groups()], shipped)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 from pathlib import Path
 
 from twin.errors import ModelError
@@ -9,6 +10,7 @@ from twin.errors import ModelError
 _PACKAGE_DIR = Path(__file__).resolve().parent.parent  # twin/
 
 
+@functools.cache
 def models_dir() -> Path:
     """Return the folder holding the shipped robots (their descriptions `*.toml` beside their MJCF) and cells.
 

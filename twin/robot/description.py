@@ -186,21 +186,27 @@ class RobotDescription:
         return arr
 
 
-_CACHE: dict[tuple[str, int, int], RobotDescription] = {}
+#: Description file -> (its and its MJCF's modification times, the description): a recalibrated model is re-read.
+_CACHE: dict[str, tuple[tuple[int, int], RobotDescription]] = {}
+#: Models folder and its modification time -> the shipped robots found there.
+_SHIPPED: dict[tuple[str, int], dict[str, Path]] = {}
 
 
 def shipped_robots() -> dict[str, Path]:
     """Name -> description file of every robot shipped in the models folder (`*.toml`, `*/robot.toml`)."""
-    found: dict[str, Path] = {}
     folder = models_dir()
-    for path in sorted([*folder.glob("*.toml"), *folder.glob("*/robot.toml")]):
-        try:
-            data = tomllib.loads(path.read_text(encoding="utf-8"))
-        except (OSError, tomllib.TOMLDecodeError):
-            continue
-        if data.get("format") == ROBOT_FORMAT and isinstance(data.get("name"), str):
-            found[data["name"]] = path
-    return found
+    key = (str(folder), folder.stat().st_mtime_ns)
+    if key not in _SHIPPED:
+        found: dict[str, Path] = {}
+        for path in sorted([*folder.glob("*.toml"), *folder.glob("*/robot.toml")]):
+            try:
+                data = tomllib.loads(path.read_text(encoding="utf-8"))
+            except (OSError, tomllib.TOMLDecodeError):
+                continue
+            if data.get("format") == ROBOT_FORMAT and isinstance(data.get("name"), str):
+                found[data["name"]] = path
+        _SHIPPED[key] = found
+    return dict(_SHIPPED[key])
 
 
 def load_robot(robot: str | Path | RobotDescription | None = None) -> RobotDescription:
@@ -220,21 +226,18 @@ def load_robot(robot: str | Path | RobotDescription | None = None) -> RobotDescr
         path = shipped[name]
     else:
         path = Path(robot)
+    cached = _CACHE.get(str(path))
+    if cached is not None and cached[0] == _stamps(path, cached[1].mjcf):
+        return cached[1]
     if not path.is_file():
         raise ModelError(f"robot description not found: {path} (expected a {ROBOT_FORMAT} .toml file)")
-    mjcf_stamp = path.stat().st_mtime_ns
-    key = (str(path.resolve()), mjcf_stamp, _mjcf_stamp(path))
-    if key not in _CACHE:
-        from twin.robot.robot_file import read_description  # the reader builds this module's records
+    from twin.robot.robot_file import read_description  # the reader builds this module's records
 
-        _CACHE[key] = read_description(path)
-    return _CACHE[key]
+    description = read_description(path)
+    _CACHE[str(path)] = (_stamps(path, description.mjcf), description)
+    return description
 
 
-def _mjcf_stamp(path: Path) -> int:
-    """Modification time of the MJCF a description names (-1 when unreadable): a recalibrated model is re-read."""
-    try:
-        mjcf = path.parent / str(tomllib.loads(path.read_text(encoding="utf-8")).get("mjcf", ""))
-        return mjcf.stat().st_mtime_ns
-    except (OSError, tomllib.TOMLDecodeError):
-        return -1
+def _stamps(path: Path, mjcf: Path) -> tuple[int, int]:
+    """Modification times of a description file and its MJCF (-1 for one that is gone)."""
+    return tuple(p.stat().st_mtime_ns if p.exists() else -1 for p in (path, mjcf))  # type: ignore[return-value]
