@@ -62,3 +62,13 @@ def test_demo_recording_opens_with_rerun_and_has_the_runs_on_sim_time(demo_dir: 
         assert mine, f"no entity of run {run} in the recording"
         assert any("sim_time" in c.timeline_names for e in mine for c in entities[e])  # type: ignore[attr-defined]
     assert any("robot" in e for e in entities)
+
+
+def test_the_readme_demo_table_is_the_one_the_demo_gives(demo_dir: Path) -> None:
+    from twin.apps.readme import DEMO_BLOCK, demo_table
+
+    report = json.loads((demo_dir / "report.json").read_text())
+    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text(encoding="utf-8")
+    assert DEMO_BLOCK.extract(readme) == demo_table(report), (
+        "README's demo table is stale: run `tx200-twin demo --readme README.md`"
+    )
