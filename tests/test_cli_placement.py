@@ -13,7 +13,7 @@ from twin.analysis.replay import replay
 from twin.cli import main
 from twin.errors import InputError, RunFormatError
 from twin.process.placement import Placement
-from twin.runs.format import placement_meta, run_placement
+from twin.runs.format import run_placement
 from twin.runs.read import read_run
 from twin.sim.quasi_static import Twin
 
@@ -93,7 +93,7 @@ def test_load_tests_and_the_cnc_refuse_a_placement(tmp_path: Path, capsys: pytes
 
 def test_a_malformed_placement_in_meta_names_the_file_and_what_was_expected() -> None:
     assert run_placement({}) == Placement()
-    good = placement_meta(Placement(origin_base_m=(1.5, 0.0, 0.1), yaw_rad=0.5))
+    good = Placement(origin_base_m=(1.5, 0.0, 0.1), yaw_rad=0.5).to_json()
     assert run_placement({"placement": good}) == Placement(origin_base_m=(1.5, 0.0, 0.1), yaw_rad=0.5)
     for bad in ({"yaw_deg": "ten"}, {"origin_base_mm": [1.0, 2.0]}, {"yaw_deg": 1.0, "roll_deg": 2.0}, [1, 2]):
         with pytest.raises(RunFormatError, match=r"meta\.json.*origin_base_mm"):

@@ -27,11 +27,13 @@ class DataFileError(TwinError):
     Attributes:
         path: The offending file.
         row: 1-based data row (header is row 0), or None when the whole file is at fault.
+        detail: The message without the file and row.
     """
 
     def __init__(self, path: str | Path, message: str, row: int | None = None) -> None:
         self.path = Path(path)
         self.row = row
+        self.detail = message
         where = f"{self.path}" if row is None else f"{self.path}, row {row}"
         super().__init__(f"{where}: {message}")
 

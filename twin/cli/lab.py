@@ -36,7 +36,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Add the `lab` options."""
     parser.add_argument("--scenario", required=True, choices=("nominal", "compensated", "loadtest", "cnc"))
     parser.add_argument("--commanded", type=Path, help="commanded.csv-format path (required for compensated)")
-    effect_list = ", ".join(f"{name} [{spec.unit}]" for name, spec in EFFECTS.items())
+    effect_list = ", ".join(f"{name} [{spec.unit}] (acts on the {spec.acts_on})" for name, spec in EFFECTS.items())
     parser.add_argument(
         "--effect", action="append", metavar="NAME=VALUE", help=f"hidden effect, repeatable: {effect_list}"
     )

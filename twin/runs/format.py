@@ -217,11 +217,6 @@ def run_meta(
     }
 
 
-def placement_meta(placement: Placement) -> dict[str, Any]:
-    """`meta.json`'s `placement` entry: the sheet origin in the base [mm] (null: the cell's) and the yaw [deg]."""
-    return placement.to_json()
-
-
 def run_placement(meta: Mapping[str, Any], source: str | Path = "meta.json") -> Placement:
     """The sheet placement a run was made at (`meta.json`'s `placement`; absent: the cell's, yaw 0).
 
@@ -231,4 +226,4 @@ def run_placement(meta: Mapping[str, Any], source: str | Path = "meta.json") -> 
     try:
         return Placement.from_json(meta.get("placement"), source)
     except DataFileError as exc:
-        raise RunFormatError(exc.path, str(exc)[len(str(exc.path)) + 2 :]) from None
+        raise RunFormatError(exc.path, exc.detail) from None

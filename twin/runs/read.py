@@ -40,10 +40,7 @@ from twin.runs.format import (
 
 def _format_error(exc: DataFileError) -> RunFormatError:
     """Turn a plain DataFileError from csvio into a RunFormatError with the same file, row and text."""
-    where = f"{exc.path}" if exc.row is None else f"{exc.path}, row {exc.row}"
-    text = str(exc)
-    message = text[len(where) + 2 :] if text.startswith(where + ": ") else text
-    return RunFormatError(exc.path, message, exc.row)
+    return RunFormatError(exc.path, exc.detail, exc.row)
 
 
 def _check_meta(path: Path, meta: Mapping[str, Any], *, need_sensor_rate: bool) -> None:

@@ -169,10 +169,6 @@ class Effects:
         """The effects that change the twin's simulation (`EffectSpec.simulated`), the others off."""
         return Effects({n: v for n, v in self.values.items() if EFFECTS[n].simulated}, self.lost_motion_takeup_m)
 
-    def acting_on(self, where: str) -> dict[str, float]:
-        """The switched-on effects that act on `where` (`robot`, `sheet`, `sensor`, `tracker`)."""
-        return {n: v for n, v in self.values.items() if EFFECTS[n].acts_on == where}
-
     @property
     def lost_motion_rad(self) -> float:
         """Half of the lost-motion joints' dead band [rad]."""

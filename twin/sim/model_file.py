@@ -117,10 +117,9 @@ def _process(path: Path, entry: Any) -> Process:
     defaults = Process()
 
     def metres(key: str, default: float | None) -> float | None:
-        value = entry.get(key, "default")
-        if value == "default":
+        if key not in entry:
             return default
-        return None if value is None else float(value) / 1e3
+        return None if entry[key] is None else float(entry[key]) / 1e3
 
     history = entry.get("history")
     loaded = None

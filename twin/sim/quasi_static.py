@@ -80,7 +80,7 @@ class Twin:
         m = self.model
         self._tcp = m.site(self.robot.tool_site).id
         arm = self.robot.addresses(m)
-        self._arm_dof, self._arm_qpos, self._arm_act = arm.dof, arm.qpos, arm.actuator
+        self._arm_dof, self._arm_qpos = arm.dof, arm.qpos
         lost = [lost_joint_name(j) for j in self.robot.lost_motion_joints] if effects.lost_motion_rad != 0 else []
         self._lost_dof = np.array([m.jnt_dofadr[m.joint(name).id] for name in lost], dtype=int)
         self._lost_qpos = np.array([m.jnt_qposadr[m.joint(name).id] for name in lost], dtype=int)
