@@ -20,7 +20,7 @@ from twin.base.csvio import write_table
 from twin.process.fe_history import generate_history
 from twin.process.forces import load_force_history
 from twin.process.isf_calibration import calibrate_isf, groove_errors
-from twin.process.isf_force import IsfForceParams
+from twin.process.isf_params import IsfForceParams
 
 NEAR_BEFORE, NEAR_AFTER = 3, 5  # samples around each reversal counted as "at the reversal"
 

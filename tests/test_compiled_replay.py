@@ -260,6 +260,6 @@ def test_the_isf_model_at_reversals_replays_compiled_to_the_python_loops_equilib
     reversals = np.flatnonzero(np.diff(fast.pass_index) != 0)
     assert len(reversals) == 2
     for r in reversals:  # released: one sample after the turn (the tip moved back 0.1-0.2 mm) the in-plane force
-        # is below 20 % of its straight-run value (0.8 of it without the release), a sample later it opposes the
+        # is below 25 % of its straight-run value (0.8 of it without the release), a sample later it opposes the
         # new travel
-        assert abs(fx[r + 1]) < 0.2 * abs(fx[r - 1]) and np.sign(fx[r + 2]) == -np.sign(fx[r - 1])
+        assert abs(fx[r + 1]) < 0.25 * abs(fx[r - 1]) and np.sign(fx[r + 2]) == -np.sign(fx[r - 1])

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
@@ -9,7 +11,7 @@ from twin.base.csvio import read_table
 from twin.base.resources import data_file
 from twin.cli import main
 from twin.errors import InputError
-from twin.process.fe_history import FE_SAMPLES, aerens_vertical_force_n, generate_history, write_history
+from twin.process.fe_history import FE_SAMPLES, generate_history, stand_in_level_n, write_history
 from twin.process.forces import load_force_history
 from twin.process.path import groove_path, label_passes, resample_by_arc_length
 
@@ -56,8 +58,11 @@ def test_fy_sym_is_nonzero_where_the_tool_forms():
     assert np.all(np.abs(h["fy_sym_n"][h["fz_half_n"] > 50]) > 10.0)
 
 
-def test_aerens_steady_state_force_is_1_7_kn_for_the_thesis_groove():
-    assert aerens_vertical_force_n(275.0, 1.0, 15.0, 1.0, 63.4349) == pytest.approx(1695.0, rel=0.01)
+def test_the_stand_in_level_is_1_7_kn_and_the_published_formula_puts_the_groove_at_1_2_kn():
+    """The stand-in's level reads Aerens's Δh as the step-down; as published (scallop height) it is 1.20 kN."""
+    assert stand_in_level_n(275.0, 1.0, 15.0, 1.0, 63.4349) == pytest.approx(1695.0, rel=0.01)
+    scallop_mm = 7.5 - math.sqrt(7.5**2 - (0.5 / math.sin(math.radians(63.4349))) ** 2)
+    assert stand_in_level_n(275.0, 1.0, 15.0, scallop_mm, 63.4349) == pytest.approx(1200.0, rel=0.01)
 
 
 def test_generator_reproduces_the_shipped_file_bit_for_bit(tmp_path):

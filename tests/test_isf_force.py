@@ -1,9 +1,12 @@
-"""Tests of the ISF height-map force model (twin/process/isf_force.py) and its calibration
-(twin/process/isf_calibration.py). The reference formula is recomputed here, independently of the model."""
+"""Tests of the ISF height-map force model (twin/process/isf_force.py), its constants (isf_params.py), the
+published formula (aerens.py) and the fit to the groove (isf_calibration.py). The reference formula is recomputed
+here from the paper's statement, independently of the model: Aerens, Eyckens, Van Bael, Duflou, Int J Adv Manuf
+Technol 46 (2010) 969-982, Eq. 30, with Δh the scallop height and α in degrees."""
 
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import replace
 
 import numpy as np
@@ -11,72 +14,127 @@ import pytest
 
 from twin.analysis.compensate import compensate_twin
 from twin.base.csvio import write_table
-from twin.errors import InputError
+from twin.errors import ExtrapolationWarning, InputError
 from twin.process.description import Process
 from twin.process.fe_history import generate_history
+from twin.process.force_models import build_force_field
 from twin.process.forces import default_force_history, load_force_history
-from twin.process.isf_calibration import calibrate_isf, fitted_scale, groove_errors
-from twin.process.isf_force import IsfForceField, IsfForceParams
+from twin.process.isf_calibration import calibrate_isf, groove_errors
+from twin.process.isf_force import IsfForceField
+from twin.process.isf_params import IsfForceParams, params_for, steady_fz_n
 from twin.process.shapes import PartSpec, part_path
 from twin.sim.quasi_static import Twin
 from twin.sim.spec import TwinSpec
 
 
-def aerens_fz(step_down_mm: float, wall_angle_deg: float) -> float:
-    """Aerens et al., CIRP Annals 59 (2010): Fz = 0.0716 Rm t^1.57 d_t^0.41 Δh^0.09 α cos α (AA5086, t 1, Ø 15)."""
-    rm, t, d_t = 275.0, 1.0, 15.0
-    return 0.0716 * rm * t**1.57 * d_t**0.41 * step_down_mm**0.09 * wall_angle_deg * math.cos(math.radians(wall_angle_deg))
+def published_fz(rm: float, t_mm: float, d_mm: float, step_mm: float, alpha_deg: float) -> float:
+    """Eq. 30 as published: h the scallop height of a ball of radius d/2 between contours Δz apart on the wall."""
+    pitch = step_mm / math.sin(math.radians(alpha_deg))
+    h = d_mm / 2 - math.sqrt((d_mm / 2) ** 2 - (pitch / 2) ** 2)
+    return 0.0716 * rm * t_mm**1.57 * d_mm**0.41 * h**0.09 * alpha_deg * math.cos(math.radians(alpha_deg))
 
 
-def steady_cone_fz(wall_angle_deg: float, step_down_mm: float) -> float:
-    spec = PartSpec(shape="cone", wall_angle_deg=wall_angle_deg, step_down_m=step_down_mm * 1e-3, depth_m=10e-3,
-                    top_half_width_m=0.025)
+def steady_cone_fz(wall_angle_deg: float, step_down_mm: float, process: Process | None = None) -> float:
+    spec = PartSpec(shape="cone", wall_angle_deg=wall_angle_deg, step_down_m=step_down_mm * 1e-3, depth_m=16e-3,
+                    top_half_width_m=0.03)
     path = part_path(spec)
-    forces = IsfForceField().rigid_forces(path)
-    steady = path.p_sheet_m[:, 2] < -7e-3  # build-up (D0 ~ 2 mm) done to within 3 %
+    forces = IsfForceField(params_for(process or Process())).rigid_forces(path)
+    steady = path.p_sheet_m[:, 2] < -13e-3  # build-up (D0 3.75 mm) done to within 3 %
     return float(np.median(forces[steady, 2]))
 
 
-def test_groove_fz_and_fx_reproduce_the_fe_history_within_5_percent_rms_of_peak():
-    rms_fz, rms_fx, forces = groove_errors(IsfForceParams(), default_force_history())
-    assert rms_fz < 0.05  # 2.85 % measured
-    assert rms_fx < 0.05  # 3.08 % measured
-    assert np.all(forces[:, 2] >= 0.0) and np.all(forces[:, 1] == 0.0)
-
-
-def test_fx_against_the_old_acausal_stand_in_is_what_its_taper_costs(tmp_path):
-    """An acausal stand-in that tapers Fx before each reversal too (fx_taper="nearest"); no causal model
-    follows that: the same constants leave 6.6 % there (6.5 % refitted, experiments/fx_causal_taper.py)."""
-    old = load_force_history(write_table(tmp_path / "nearest.csv", generate_history(fx_taper="nearest")),
-                             symmetry="half")
-    rms_fz, rms_fx, _ = groove_errors(IsfForceParams(), old)
-    assert rms_fz < 0.05 and 0.05 < rms_fx < 0.09
+def test_the_issue_s_worked_case_is_1236_n_not_1775_n():
+    """AA5086, 1 mm, Ø 15 mm, 45°, 0.5 mm: 1236 N with the scallop height (1775 N read with the step-down)."""
+    assert published_fz(275.0, 1.0, 15.0, 0.5, 45.0) == pytest.approx(1236.0, abs=1.0)
+    assert steady_fz_n(Process(), 0.5e-3, 45.0) == pytest.approx(1236.0, abs=1.0)
 
 
 @pytest.mark.parametrize("angle", [30.0, 45.0, 60.0])
 @pytest.mark.parametrize("step_mm", [0.2, 0.5, 1.0])
-def test_cone_steady_state_fz_is_within_25_percent_of_aerens(angle, step_mm):
+def test_cone_steady_state_fz_follows_the_published_formula_within_5_percent(angle, step_mm):
     fz = steady_cone_fz(angle, step_mm)
-    assert fz == pytest.approx(aerens_fz(step_mm, angle), rel=0.25)
+    assert fz == pytest.approx(published_fz(275.0, 1.0, 15.0, step_mm, angle), rel=0.05)
 
 
-def test_forces_rise_with_wall_angle_and_step_down_as_the_formula_says():
-    f30, f45 = steady_cone_fz(30.0, 0.5), steady_cone_fz(45.0, 0.5)
-    assert f45 > 1.1 * f30  # Aerens: +22 % from 30 to 45 deg (its α·cos α peaks at 49.3 deg)
-    assert steady_cone_fz(45.0, 1.0) > steady_cone_fz(45.0, 0.2)
+def test_the_process_sets_the_force_level():
+    """R_m, t and R of the process, not a refit to the groove's history: 600 MPa gives 600/275 times the force,
+    a 2 mm sheet 2^1.57 times, a Ø 20 mm tool about (20/15)^0.41 times."""
+    base = steady_cone_fz(45.0, 0.5)
+    stronger = steady_cone_fz(45.0, 0.5, Process(tensile_strength_mpa=600.0))
+    thicker = steady_cone_fz(45.0, 0.5, Process(thickness_m=2e-3))
+    assert stronger / base == pytest.approx(600.0 / 275.0, rel=0.01)
+    assert thicker / base == pytest.approx(2.0**1.57, rel=0.02)
+    field = build_force_field(Process(tensile_strength_mpa=600.0, force_model="isf"))
+    assert field.params.tensile_strength_mpa == 600.0 and field.params.scale == 1.0
 
 
-def test_in_plane_force_opposes_the_travel_with_the_calibrated_ratio():
-    path = part_path(PartSpec(shape="cone", depth_m=4e-3, step_down_m=0.5e-3, top_half_width_m=0.025))
-    field = IsfForceField()
-    forces = field.rigid_forces(path)
-    travel = np.gradient(path.p_sheet_m[:, :2], axis=0)
-    late = slice(len(path) // 2, None)
-    cos = np.sum(forces[late, :2] * travel[late], axis=1) / (
-        np.linalg.norm(forces[late, :2], axis=1) * np.linalg.norm(travel[late], axis=1))
-    assert np.all(cos < -0.99)
-    ratio = np.linalg.norm(forces[late, :2], axis=1) / forces[late, 2]
-    np.testing.assert_allclose(ratio, IsfForceParams().mu_eff, rtol=0.02)
+def test_forces_rise_with_step_down_tool_thickness_and_strength_and_peak_near_49_degrees():
+    assert steady_cone_fz(45.0, 1.0) > steady_cone_fz(45.0, 0.5) > steady_cone_fz(45.0, 0.2)
+    big_tool = steady_cone_fz(45.0, 0.5, Process(tool_radius_m=10e-3))
+    assert big_tool > steady_cone_fz(45.0, 0.5)
+    f30, f45, f60 = (steady_fz_n(Process(), 0.5e-3, a) for a in (30.0, 45.0, 60.0))
+    assert f45 > f30 and f45 > f60  # α·cos α peaks at 49.3°, h^0.09 falls gently with α
+
+
+def test_a_scaled_history_scales_the_level_and_the_groove_keeps_its_table():
+    history = default_force_history()
+    double = replace(history, f_sheet_n=2.0 * history.f_sheet_n)
+    process = Process(force_model="isf")
+    assert build_force_field(process, double).params.scale == pytest.approx(2.0, rel=1e-12)
+    assert build_force_field(process).params.scale == 1.0
+
+
+def test_outside_the_published_range_the_model_warns():
+    with pytest.warns(ExtrapolationWarning, match="sheet thickness 3 mm"):
+        build_force_field(Process(thickness_m=3e-3, force_model="isf"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", ExtrapolationWarning)
+        build_force_field(Process(force_model="isf"))
+
+
+def test_groove_fit_is_a_fit_to_our_own_stand_in():
+    """The groove factor and shape are fitted to the stand-in history (our own data, not a validation): the
+    stand-in sits 1.69x above the general formula on the groove; with the factor, Fz and Fx follow it to 10 %."""
+    fit = calibrate_isf(default_force_history(), replace(IsfForceParams(), mu_eff=0.3))
+    assert fit.params.scale == pytest.approx(1.69, abs=0.05)
+    assert fit.rms_fz < 0.11 and fit.rms_fx < 0.10
+    assert fit.params.direction_length_m == pytest.approx(IsfForceParams().direction_length_m, rel=0.15)
+
+
+def test_fx_against_the_old_acausal_stand_in_is_worse(tmp_path):
+    """An acausal stand-in that tapers Fx before each reversal too (fx_taper="nearest"): no causal model follows
+    that."""
+    old = load_force_history(write_table(tmp_path / "nearest.csv", generate_history(fx_taper="nearest")),
+                             symmetry="half")
+    fitted = replace(IsfForceParams(), scale=1.69, mu_eff=0.305)
+    _, fx_new, _ = groove_errors(fitted, default_force_history())
+    _, fx_old, _ = groove_errors(fitted, old)
+    assert fx_old > fx_new
+
+
+def test_in_plane_force_has_the_published_tangential_and_radial_parts_on_a_cone():
+    path = part_path(PartSpec(shape="cone", depth_m=12e-3, step_down_m=0.5e-3, top_half_width_m=0.03))
+    forces = IsfForceField().rigid_forces(path)
+    p = path.p_sheet_m
+    travel = np.gradient(p[:, :2], axis=0)
+    travel /= np.linalg.norm(travel, axis=1)[:, None]
+    outward = p[:, :2] / np.linalg.norm(p[:, :2], axis=1)[:, None]
+    late = p[:, 2] < -8e-3
+    tangential = np.sum(forces[late, :2] * travel[late], axis=1) / forces[late, 2]
+    radial = np.sum(forces[late, :2] * outward[late], axis=1) / forces[late, 2]
+    params = IsfForceParams()
+    in_plane = np.linalg.norm(forces[late, :2], axis=1) / forces[late, 2]
+    np.testing.assert_allclose(np.median(in_plane), math.hypot(params.mu_eff, params.mu_radial), rtol=0.03)
+    np.testing.assert_allclose(np.median(radial), -params.mu_radial, rtol=0.03)  # towards the axis
+    # the sliding direction lags the travel by about L_f / r on a curve (3° here): part of μ_r shows along it
+    np.testing.assert_allclose(np.median(tangential), -params.mu_eff, rtol=0.15)
+    assert params.mu_radial / params.mu_eff == pytest.approx(412.6 / 187.3, rel=0.01)  # Neto et al. (2016) FE
+
+
+def test_the_groove_has_no_radial_force():
+    groove = default_force_history()
+    _, _, forces = groove_errors(IsfForceParams(), groove)
+    assert np.max(np.abs(forces[:, 1])) < 1e-9
 
 
 def test_stiffness_matches_central_differences():
@@ -102,7 +160,7 @@ def test_a_lifted_tool_unloads_elastically_to_zero():
     p = path.p_sheet_m[-1]  # where the tool stands: the met surface is the last revolution's, 0.5 mm up
     f0 = field.force(p)[2]
     lifted = [field.force(p + np.array([0.0, 0.0, dz]))[2] for dz in (0.4e-3, 0.55e-3, 0.65e-3, 1.5e-3)]
-    assert f0 > 1000.0
+    assert f0 > 500.0
     assert lifted[0] > 0.5 * f0  # still below the surface it meets: forming
     assert lifted[1] > lifted[2] > lifted[3] and lifted[3] < 1.0  # above it: elastic unloading, then free
     k = (lifted[1] - lifted[2]) / 0.1e-3
@@ -110,20 +168,16 @@ def test_a_lifted_tool_unloads_elastically_to_zero():
     assert k_unload < k < 1.2 * k_unload  # k_unload plus the build-up's slope (the tool rises: less depth)
 
 
-def test_fitted_scale_follows_a_scaled_history_and_twin_takes_the_factory(first_pass_path):
-    history = default_force_history()
-    double = replace(history, f_sheet_n=2.0 * history.f_sheet_n)
-    s1, s2 = fitted_scale(IsfForceParams(), history), fitted_scale(IsfForceParams(), double)
-    assert s1 == pytest.approx(1.0, abs=0.02) and s2 == pytest.approx(2.0 * s1, rel=1e-9)
+def test_twin_takes_the_isf_model_on_the_groove(first_pass_path):
     t_s, p_cmd = first_pass_path
     twin_isf = TwinSpec(process=Process(force_model="isf")).build()
     assert isinstance(twin_isf.sheet_field, IsfForceField)
     sim = twin_isf.simulate(t_s, p_cmd)
     sim_ref = Twin().simulate(t_s, p_cmd)
-    # same history, two force models; on pass 1 the ISF model's build-up follows the tool's real depth (the
-    # table field's the planned one), so it presses less: measured 0.33 mm apart, Fz peak 486 vs 640 N
-    assert np.max(np.abs(sim.p_sheet_m - sim_ref.p_sheet_m)) < 0.5e-3
-    assert 0.6 * np.max(sim_ref.f_sheet_n[:, 2]) < np.max(sim.f_sheet_n[:, 2]) <= np.max(sim_ref.f_sheet_n[:, 2])
+    # on the groove the ISF model has the general formula's level (the table field the stand-in's, 1.69x) and a
+    # slower build-up: it presses less and the tool deflects less
+    assert np.max(sim.f_sheet_n[:, 2]) < 0.8 * np.max(sim_ref.f_sheet_n[:, 2])
+    assert np.max(np.abs(sim.p_sheet_m - sim_ref.p_sheet_m)) < 1.0e-3
 
 
 @pytest.mark.parametrize("shape", ["cone", "pyramid"])
@@ -149,9 +203,5 @@ def test_params_reject_bad_values():
         IsfForceParams(wall_angle_max_deg=95.0)
 
 
-@pytest.mark.slow
-def test_calibration_from_a_perturbed_start_recovers_the_history():
-    start = replace(IsfForceParams(), wall_angle_max_deg=58.0, build_up_m=3e-3, mu_eff=0.2, direction_length_m=1e-3)
-    fit = calibrate_isf(default_force_history(), start)
-    assert fit.rms_fz < 0.05 and fit.rms_fx < 0.10
-    assert fit.params.wall_angle_max_deg == pytest.approx(63.8, abs=1.0)
+def test_params_reject_bad_values_and_allow_no_radial_force():
+    assert IsfForceParams(mu_radial=0.0).mu_radial == 0.0

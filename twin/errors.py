@@ -64,3 +64,7 @@ class IdentificationError(TwinError):
 
 class CompensationError(TwinError):
     """Compensation did not converge or got inconsistent inputs."""
+
+
+class ExtrapolationWarning(UserWarning):
+    """A model is used outside the range its published data cover (it still answers; the CLI prints a warning)."""

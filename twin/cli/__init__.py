@@ -18,7 +18,7 @@ import sys
 import warnings
 from collections.abc import Sequence
 
-from twin.errors import TwinError
+from twin.errors import ExtrapolationWarning, TwinError
 
 # command name -> module under twin.cli (imported lazily so `--help` stays fast)
 COMMANDS: dict[str, str] = {
@@ -62,6 +62,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", FutureWarning)
+        warnings.simplefilter("always", ExtrapolationWarning)
         try:
             return int(args._run(args))
         except TwinError as exc:
@@ -70,8 +71,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         finally:
             for note in dict.fromkeys(str(w.message) for w in caught if issubclass(w.category, FutureWarning)):
                 print(f"tx200-twin {args.command}: note: {note}", file=sys.stderr)
+            for note in dict.fromkeys(str(w.message) for w in caught if issubclass(w.category, ExtrapolationWarning)):
+                print(f"tx200-twin {args.command}: warning: {note}", file=sys.stderr)
             for w in caught:
-                if not issubclass(w.category, FutureWarning):
+                if not issubclass(w.category, (FutureWarning, ExtrapolationWarning)):
                     warnings.showwarning(w.message, w.category, w.filename, w.lineno)
 
 

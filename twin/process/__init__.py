@@ -3,8 +3,9 @@
 Modules: `description` (the process as data: material, thickness, tool, friction, force model and history),
 `force_field` (the `ForceField` base every force model implements), `force_models` (the registry of force
 models: name -> builder), `field` (the groove's per-pass table force field, on the formed profile of
-`formed_profile` and the per-pass tables of `pass_tables`), `isf_force` (the height-map ISF model on `heightmap`,
-with the sliding direction of `sliding`) and its calibration `isf_calibration`, `tool_friction` (the tool's
+`formed_profile` and the per-pass tables of `pass_tables`), `aerens` (the published steady axial force with the
+scallop height), `isf_force` (the height-map ISF model on `heightmap`, with the sliding direction of `sliding`),
+its constants `isf_params` and its fit to the groove `isf_calibration`, `tool_friction` (the tool's
 sliding friction at reversals), `forces` (loading FE histories with a declared symmetry) and `fe_history` (the
 stand-in generator), `path` (the groove U_ID, pass labels), `shapes` (cones, pyramids), `gcode` (CAM programs),
 `placement` (the sheet in the robot base, reach), `springback` (the part after unclamping, a rigid machine's
@@ -29,10 +30,13 @@ __all__, __getattr__, __dir__ = lazy_exports(__name__, {
     "auto_force_model": "twin.process.force_models",
     "SheetForceField": "twin.process.field",
     "IsfForceField": "twin.process.isf_force",
-    "IsfForceParams": "twin.process.isf_force",
+    "IsfForceParams": "twin.process.isf_params",
+    "params_for": "twin.process.isf_params",
+    "steady_fz_n": "twin.process.isf_params",
+    "aerens_fz_n": "twin.process.aerens",
+    "scallop_height_m": "twin.process.aerens",
     "IsfFit": "twin.process.isf_calibration",
     "calibrate_isf": "twin.process.isf_calibration",
-    "isf_field_factory": "twin.process.isf_calibration",
     "HeightMap": "twin.process.heightmap",
     "SlidingFriction": "twin.process.tool_friction",
     "ForceHistory": "twin.process.forces",

@@ -11,13 +11,14 @@ plane and has no physical meaning (§2.2.2).
 
 Physical model, per sample at arc length s, position (x, z), pass k, travel direction d (every term, source):
 
-* steady-state vertical force, Aerens et al., "Force prediction for single point incremental forming deduced
-  from experimental and FEM observations", CIRP Annals 59 (2010) 269-272:
-  F_ss = 0.0716·R_m·t^1.57·d_t^0.41·Δh^0.09·α·cos α  [N] with R_m [MPa], t, d_t, Δh [mm], α [deg];
-  t = 1 mm, d_t = 15 mm (tool Ø, §2.2), Δh = H/N = 1 mm, α = 63.43° (Table 2.3) and R_m = 275 MPa (typical
-  handbook tensile strength of AA5086-O/H111; the thesis gives only its Voce law, Eq. 1.3) -> F_ss ≈ 1.70 kN;
+* steady-state vertical force F_ss ≈ 1.70 kN, a level chosen so that the groove's physical peak is the
+  thesis's "about 2 kN" (§4.2.3). It was first written as Aerens et al.'s formula,
+  0.0716·R_m·t^1.57·d_t^0.41·Δh^0.09·α·cos α with R_m 275 MPa, t 1 mm, d_t 15 mm, α = 63.43° (Table 2.3) and
+  Δh read as the step-down H/N = 1 mm; the paper (Int J Adv Manuf Technol 46 (2010) 969-982) means the scallop
+  height there, which gives 1.20 kN (`twin.process.aerens`). The number is kept as the stand-in's level, not as
+  that formula: the groove sits about 1.7x above the general formula (`docs/forces.md`);
 * build-up while the groove wall forms: F_ss·(1 - exp(-D/D0)), D the planned depth [mm], D0 = 2 mm
-  (our choice; SPIF forces are reported to rise over the first mm of depth to a plateau, Aerens 2010 Fig. 2),
+  (our choice; SPIF forces rise over the first millimetres of depth to a plateau),
   zero at the first contact (§2.2: the tool starts touching the sheet);
 * rise near the stroke ends, towards the clamp (§2.3.1): ×(1 + 0.10·exp(-e/5 mm)), e the distance to the
   nearer end of the current stroke;
@@ -72,16 +73,18 @@ _COMMENT = (
 )
 
 
-def aerens_vertical_force_n(
+def stand_in_level_n(
     tensile_strength_mpa: float,
     thickness_mm: float,
     tool_diameter_mm: float,
     step_down_mm: float,
     wall_angle_deg: float,
 ) -> float:
-    """Steady-state vertical SPIF force of Aerens et al. (CIRP Annals 2010) [N].
+    """The stand-in's steady vertical force level [N]: the expression the shipped file was written with,
+    Aerens et al.'s Eq. 30 read with the step-down where the paper has the scallop height (module docstring).
 
-    F_z,s = 0.0716·R_m·t^1.57·d_t^0.41·Δh^0.09·α·cos α, R_m [MPa], lengths [mm], α [deg].
+    Not the published formula (that is `twin.process.aerens.aerens_fz_n`); kept so the shipped stand-in stays
+    byte for byte what it is. 0.0716·R_m·t^1.57·d_t^0.41·Δz^0.09·α·cos α, R_m [MPa], lengths [mm], α [deg].
     """
     alpha = wall_angle_deg
     return (
@@ -166,7 +169,7 @@ def generate_history(spec: GrooveSpec | None = None, *, fx_taper: str = "since")
     samples = _fe_samples(spec)
     s, x, z, d = samples.s_mm, samples.x_mm, samples.z_mm, samples.direction
     depth_mm = spec.depth_m * 1000.0
-    f_ss = aerens_vertical_force_n(
+    f_ss = stand_in_level_n(
         TENSILE_STRENGTH_MPA,
         THICKNESS_MM,
         TOOL_DIAMETER_MM,

@@ -7,8 +7,11 @@ all come from the model, never from its type. Shipped models:
 
 * `table`: the per-pass field of the groove's FE history (`twin.process.field.SheetForceField`): exact along the
   history's own path, for the groove and commands near it;
-* `isf`: the height-map ISF model (`twin.process.isf_force.IsfForceField`), its force level fitted to the
-  history (`twin.process.isf_calibration.isf_field_factory`): any part and path.
+* `isf`: the height-map ISF model (`twin.process.isf_force.IsfForceField`) at the process's own force level
+  (Aerens et al.'s formula for its material, sheet and tool, `twin.process.isf_params.params_for`): any part and
+  path. The FE history sets no level of its own; a history given beside the process's (scaled by the
+  `force_scale` effect, or a reference export read with another symmetry) scales the level by the ratio of the
+  two histories' mean Fz. Outside the formula's published range it warns (`twin.errors.ExtrapolationWarning`).
 
 A new model registers itself with `register_force_model` when its module is imported (a test defines one inside
 the test). `auto_force_model` picks, for a path, the first registered model that says it applies.
@@ -16,19 +19,21 @@ the test). `auto_force_model` picks, for a path, the first registered model that
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 from scipy.spatial import cKDTree
 
-from twin.errors import InputError
+from twin.errors import ExtrapolationWarning, InputError
+from twin.process.aerens import validity_warnings
 from twin.process.description import Process
 from twin.process.field import SheetForceField
 from twin.process.force_field import ForceField
 from twin.process.forces import ForceHistory
-from twin.process.isf_calibration import isf_field_factory
-from twin.process.isf_force import IsfForceParams
+from twin.process.isf_force import IsfForceField
+from twin.process.isf_params import params_for
 from twin.process.path import label_passes
 
 #: The table field is a section of the sheet along y = 0 (`twin.process.field`): it applies to commands within
@@ -142,14 +147,17 @@ def _table(history: ForceHistory, process: Process) -> ForceField:
     return SheetForceField(history, tool_radius_m=process.tool_radius_m)
 
 
+def history_ratio(history: ForceHistory, reference: ForceHistory) -> float:
+    """Mean Fz of `history` over that of `reference` [-]: 1 for the same history, k for one scaled by k."""
+    if history is reference:
+        return 1.0
+    return float(np.mean(history.f_sheet_n[:, 2]) / np.mean(reference.f_sheet_n[:, 2]))
+
+
 def _isf(history: ForceHistory, process: Process) -> ForceField:
-    params = replace(
-        IsfForceParams(),
-        tensile_strength_mpa=process.tensile_strength_mpa,
-        thickness_m=process.thickness_m,
-        tool_radius_m=process.tool_radius_m,
-    )
-    return isf_field_factory(params)(history)
+    for sentence in validity_warnings(process.thickness_m, process.tool_radius_m):
+        warnings.warn(sentence, ExtrapolationWarning, stacklevel=3)
+    return IsfForceField(params_for(process, scale=history_ratio(history, process.force_history())))
 
 
 register_force_model(ForceModel(
@@ -157,5 +165,5 @@ register_force_model(ForceModel(
     _table, follows_history,
 ))
 register_force_model(ForceModel(
-    "isf", "the height-map ISF model, its force level fitted to the history (any part and path)", _isf,
+    "isf", "the height-map ISF model at the process's published force level (any part and path)", _isf,
 ))

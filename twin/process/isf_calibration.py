@@ -1,10 +1,14 @@
 """Calibration of the ISF force model (`twin.process.isf_force`) on an FE force history along the groove.
 
 The history becomes calibration data: the model is driven rigidly along the history's tool path
-(`IsfForceField.rigid_forces`) and five constants are fitted by least squares to Fz and Fx, each normalised by
-its peak: the wall-angle cap α_max, the build-up depth D0, the in-plane ratio μ_eff, the travel-direction
-filter length L_f and the plateau engagement Δh_min. Aerens's coefficient and exponents, R_m, t and R stay as
-published, so the model's steady-state forces on cone walls below α_max are Aerens's formula, not a fit.
+(`IsfForceField.rigid_forces`) and four constants are fitted by least squares to Fz and Fx, each normalised by
+its peak: the groove factor (the history's force level over the general formula's on this groove, `scale`), the
+in-plane ratio μ_t, the travel-direction filter length L_f and the plateau engagement Δz_min. These are a fit
+to our own stand-in data, not a validation; only L_f and Δz_min are kept as the model's constants
+(`twin.process.isf_params`). Aerens's coefficient and exponents, R_m, t and R stay as published, the wall-angle
+cap is the groove's geometry and the build-up depth a fit to published depth curves: the model's steady forces
+on any part are the process's, and the groove factor says where the groove's zig-zag sits against them
+(docs/forces.md).
 
 The tool path between two samples is not always their chord: an export sampled at equal arc length puts the
 reversals of a zig-zag between samples (the groove's 1311 samples miss all nine corners), and a sample a few
@@ -16,14 +20,14 @@ samples to within 5 % of it. The model is driven through the corners and compare
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.optimize import least_squares
 
 from twin.process.forces import ForceHistory
-from twin.process.isf_force import IsfForceField, IsfForceParams
+from twin.process.isf_force import IsfForceField
+from twin.process.isf_params import IsfForceParams
 from twin.process.path import ToolPath, label_passes
 
 #: Miss [-] of a reconstructed corner's legs at the next sample, over the arc length between the samples.
@@ -31,8 +35,7 @@ _TURN_TOLERANCE = 0.05
 
 # fitted constants: (name, scale to the optimiser's unit, lower bound, upper bound) in the optimiser's units
 _FITTED = (
-    ("wall_angle_max_deg", 1.0, 49.3, 89.0),  # above the peak of α·cos α (49.3°): the steep branch
-    ("build_up_m", 1e-3, 0.2, 10.0),
+    ("scale", 1.0, 0.2, 5.0),
     ("mu_eff", 1.0, 0.01, 1.0),
     ("direction_length_m", 1e-3, 0.1, 20.0),
     ("step_min_m", 1e-3, 0.05, 0.2),  # >= 0.05 mm caps the stiffness 0.09·Fz/Δh; <= 0.2 keeps Aerens over 0.2-1 mm
@@ -44,7 +47,7 @@ class IsfFit:
     """Result of `calibrate_isf`.
 
     Attributes:
-        params: The fitted constants.
+        params: The fitted constants (`scale` is the groove factor).
         rms_fz: RMS of Fz_model - Fz_history over the history, divided by the peak Fz [-].
         rms_fx: The same for Fx, divided by the peak |Fx| [-].
         evaluations: Model drives the fit took.
@@ -102,7 +105,7 @@ def groove_errors(params: IsfForceParams, history: ForceHistory) -> tuple[float,
 
 
 def calibrate_isf(history: ForceHistory, start: IsfForceParams | None = None) -> IsfFit:
-    """Fit α_max, D0, μ_eff, L_f and Δh_min to a groove force history (module docstring).
+    """Fit the groove factor, μ_t, L_f and Δz_min to a groove force history (module docstring).
 
     Args:
         history: Physical force history along the groove (`load_force_history`).
@@ -128,29 +131,3 @@ def calibrate_isf(history: ForceHistory, start: IsfForceParams | None = None) ->
     params = params_of(result.x)
     rms_fz, rms_fx, _ = groove_errors(params, history)
     return IsfFit(params=params, rms_fz=rms_fz, rms_fx=rms_fx, evaluations=int(result.nfev))
-
-
-def fitted_scale(params: IsfForceParams, history: ForceHistory) -> float:
-    """The factor on the model's forces that best matches the history's Fz along its samples (least squares) [-].
-
-    A history scaled by k (a stiffer sheet, `force_scale`) gives k times the params' own scale.
-    """
-    drive, rows = history_drive(history)
-    fz = IsfForceField(replace(params, scale=1.0)).rigid_forces(drive)[rows, 2]
-    ref = history.f_sheet_n[:, 2]
-    return float(fz @ ref / (fz @ fz))
-
-
-def isf_field_factory(params: IsfForceParams | None = None) -> Callable[[ForceHistory], IsfForceField]:
-    """The ISF height-map model with its force level fitted to a history (the `isf` model of
-    `twin.process.force_models`).
-
-    Args:
-        params: Model constants (all but `scale`, which is fitted); None for the calibrated defaults.
-    """
-    base = params or IsfForceParams()
-
-    def build(history: ForceHistory) -> IsfForceField:
-        return IsfForceField(replace(base, scale=fitted_scale(base, history)))
-
-    return build

@@ -22,7 +22,8 @@ import numpy as np
 import trimesh
 
 from twin.errors import InputError
-from twin.process.isf_force import IsfForceField, IsfForceParams
+from twin.process.isf_force import IsfForceField
+from twin.process.isf_params import IsfForceParams
 from twin.process.part_bottom import with_floating_bottom
 from twin.process.path import ToolPath
 

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from twin.errors import InputError
-from twin.process.isf_force import IsfForceParams
+from twin.process.isf_params import IsfForceParams
 from twin.process.sliding import RELEASE_LENGTH_M, sliding_direction
 
 REFINE_MAX_WINDOWS = 6  # the reversal fit moves its window up to this many times to enclose the minimum

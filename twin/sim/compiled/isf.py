@@ -24,7 +24,7 @@ from twin.process.heightmap import SUBSTEPS
 from twin.process.isf_force import IsfForceField, IsfMotion
 
 # state slots
-DIR_X, DIR_Y, HAS_LAST, LAST_X, LAST_Y, LAST_Z, ALPHA, COUNT, Q_HEAD, TRAVEL = range(10)
+DIR_X, DIR_Y, HAS_LAST, LAST_X, LAST_Y, LAST_Z, ALPHA, COUNT, Q_HEAD, TRAVEL, SIDE = range(11)
 # track columns: x, y, z, f_z, parent, travel at the commit, has a patch on the grid
 TX, TY, TZ, TF, TP, TS, TW = range(7)
 
@@ -37,8 +37,9 @@ class IsfArrays(NamedTuple):
     templates: np.ndarray  # (S+1, S+1, w, w) R - sqrt(R² - ρ²) per snapped sub-cell offset, inf outside [m]
     track: np.ndarray  # (capacity, 7) commits
     grid: np.ndarray  # (x0, y0, h, nx, ny, half window, lag, substeps)
-    prm: np.ndarray  # (base, α_max, D0, Δh_min, k_unload, μ_eff, L_f, alpha length, wall baseline, max layers, L_r)
-    state: np.ndarray  # (10,) see the slots above
+    prm: np.ndarray  # (base, α_max, D0, Δz_min, k_unload, μ_t, L_f, alpha length, wall baseline, max layers, L_r,
+    #                   μ_r, least wall run, R)
+    state: np.ndarray  # (11,) see the slots above
 
 
 def isf_arrays(field: IsfForceField, capacity: int) -> IsfArrays | None:
@@ -52,10 +53,11 @@ def isf_arrays(field: IsfForceField, capacity: int) -> IsfArrays | None:
     prm = np.array([
         field.base_fz_n, p.wall_angle_max_deg, p.build_up_m, p.step_min_m, p.k_unload_n_per_m, p.mu_eff,
         p.direction_length_m, isf_force.ALPHA_LENGTH_M, isf_force.WALL_BASELINE_M, float(isf_force.WALL_MAX_LAYERS),
-        sliding.RELEASE_LENGTH_M,
+        sliding.RELEASE_LENGTH_M, p.mu_radial, isf_force.WALL_RUN_MIN_M, p.tool_radius_m,
     ])
-    state = np.zeros(10)
+    state = np.zeros(11)
     state[ALPHA] = motion.wall_angle_deg
+    state[SIDE] = motion.wall_side
     return IsfArrays(
         z_met=hm.z_met_m, owner=hm.owner_met, templates=hm.templates(), track=np.zeros((max(capacity, 1), 7)),
         grid=np.array([hm.x0, hm.y0, hm.h, nx, ny, hm.half_window, hm.lag, SUBSTEPS]), prm=prm, state=state,
@@ -65,7 +67,7 @@ def isf_arrays(field: IsfForceField, capacity: int) -> IsfArrays | None:
 def idle_isf_arrays() -> IsfArrays:
     """A placeholder of the right types for a replay on the table field (never read)."""
     return IsfArrays(np.zeros((2, 2)), np.full((2, 2), -1, dtype=np.int64), np.zeros((1, 1, 1, 1)), np.zeros((1, 7)),
-                     np.zeros(8), np.zeros(11), np.zeros(10))
+                     np.zeros(8), np.zeros(14), np.zeros(11))
 
 
 def write_back(field: IsfForceField, arrays: IsfArrays) -> None:
@@ -75,7 +77,8 @@ def write_back(field: IsfForceField, arrays: IsfArrays) -> None:
     field.map.restore(track[:count, : TS + 1], float(st[TRAVEL]), int(st[Q_HEAD]))
     last = (float(st[LAST_X]), float(st[LAST_Y]), float(st[LAST_Z])) if st[HAS_LAST] else None
     step = math.dist(tuple(track[count - 2, :3]), tuple(track[count - 1, :3])) if count >= 2 else 0.0
-    field.restore(IsfMotion((float(st[DIR_X]), float(st[DIR_Y])), last, float(st[ALPHA]), step))
+    field.restore(IsfMotion((float(st[DIR_X]), float(st[DIR_Y])), last, float(st[ALPHA]), step,
+                            float(st[SIDE])))
 
 
 @njit(cache=True)
@@ -103,9 +106,19 @@ def _met_owner(M: IsfArrays, x: float, y: float) -> int:
 
 
 @njit(cache=True)
+def _scallop(radius: float, dz: float, sin_a: float) -> tuple:
+    """`twin.process.aerens.scallop_height_m` and its derivative in the engagement, as `IsfForceField._fz_of`."""
+    half = 0.5 * dz / sin_a if sin_a > 0.0 else math.inf
+    if half < 0.999 * radius:
+        root = math.sqrt(radius * radius - half * half)
+        return radius - root, half / root * 0.5 / sin_a
+    return radius, 0.0
+
+
+@njit(cache=True)
 def _fz(M: IsfArrays, x: float, y: float, z: float) -> tuple:
     """`IsfForceField._fz`: (Fz, dFz/dx, dFz/dy, dFz/dz) [N, N/m]."""
-    base, D0, dmin, k_unload = M.prm[0], M.prm[2], M.prm[3], M.prm[4]
+    base, D0, dmin, k_unload, radius = M.prm[0], M.prm[2], M.prm[3], M.prm[4], M.prm[13]
     s, sx, sy = _met_height(M, x, y)
     dh = s - z
     alpha = M.state[ALPHA]
@@ -114,14 +127,16 @@ def _fz(M: IsfArrays, x: float, y: float, z: float) -> tuple:
     build = 1.0 - e
     dbuild_dz = -e / D0 if z < 0.0 else 0.0
     g = base * alpha * math.cos(math.radians(alpha))
+    sin_a = math.sin(math.radians(alpha))
     if dh > dmin:
-        f0 = g * (dh * 1e3) ** 0.09
-        lin, dlin_ddh = f0 * build, 0.09 * f0 * build / dh
+        h, dh_ddz = _scallop(radius, dh, sin_a)
+        f0 = g * (1e3 * h) ** 0.09
+        lin, dlin_ddh = f0 * build, 0.09 * f0 * build / h * dh_ddz
     elif dh >= 0.0:
-        f0 = g * (dmin * 1e3) ** 0.09
+        f0 = g * (1e3 * _scallop(radius, dmin, sin_a)[0]) ** 0.09
         lin, dlin_ddh = f0 * build, 0.0
     else:
-        f0 = g * (dmin * 1e3) ** 0.09
+        f0 = g * (1e3 * _scallop(radius, dmin, sin_a)[0]) ** 0.09
         lin, dlin_ddh = f0 * build + k_unload * dh, k_unload
     dlin_dz = -dlin_ddh + f0 * dbuild_dz
     w = 5.0  # the softplus width of `twin.process.isf_force`
@@ -178,15 +193,17 @@ def isf_eval(M: IsfArrays, x: float, y: float, z: float, f: np.ndarray, S: np.nd
     fz, gx, gy, gz = _fz(M, x, y, z)
     jac = np.empty((2, 2))
     vx, vy, has_jac = _travel(M, x, y, jac)
-    mu = -M.prm[5]
-    S[0, 0], S[0, 1], S[0, 2] = mu * vx * gx, mu * vx * gy, mu * vx * gz
-    S[1, 0], S[1, 1], S[1, 2] = mu * vy * gx, mu * vy * gy, mu * vy * gz
+    mu, mr = M.prm[5], M.prm[11] * M.state[SIDE]  # `IsfForceField._in_plane`: A = [[-μ_t, σμ_r], [-σμ_r, -μ_t]]
+    axx, axy, ayx, ayy = -mu, mr, -mr, -mu
+    ax, ay = axx * vx + axy * vy, ayx * vx + ayy * vy
+    S[0, 0], S[0, 1], S[0, 2] = ax * gx, ax * gy, ax * gz
+    S[1, 0], S[1, 1], S[1, 2] = ay * gx, ay * gy, ay * gz
     S[2, 0], S[2, 1], S[2, 2] = gx, gy, gz
     if has_jac:
         for r in range(2):
             for c in range(2):
-                S[r, c] += (mu * fz) * jac[r, c]
-    f[0], f[1], f[2] = mu * vx * fz, mu * vy * fz, fz
+                S[r, c] += fz * ((axx if r == 0 else ayx) * jac[0, c] + (axy if r == 0 else ayy) * jac[1, c])
+    f[0], f[1], f[2] = ax * fz, ay * fz, fz
 
 
 @njit(cache=True)
@@ -225,16 +242,21 @@ def _has_patch(M: IsfArrays, x: float, y: float) -> bool:
 
 
 @njit(cache=True)
-def _wall_angle(M: IsfArrays, owner: int, x: float, y: float, z: float) -> float:
-    """`IsfForceField._wall_angle` [deg]; NaN where nothing is formed."""
+def _wall_angle(M: IsfArrays, owner: int, x: float, y: float, z: float) -> tuple:
+    """`IsfForceField._wall_angle`: ([deg], nx, ny); NaN where nothing is formed."""
     if owner < 0:
-        return math.nan
+        return math.nan, 0.0, 0.0
     q = M.track[owner]
     for _ in range(int(M.prm[9])):
         if q[TZ] - z >= M.prm[8] or q[TP] < 0:
             break
         q = M.track[int(q[TP])]
-    return min(math.degrees(math.atan2(max(q[TZ] - z, 0.0), math.hypot(q[TX] - x, q[TY] - y))), M.prm[1])
+    dx, dy = q[TX] - x, q[TY] - y
+    run = math.hypot(dx, dy)
+    alpha = min(math.degrees(math.atan2(max(q[TZ] - z, 0.0), run)), M.prm[1])
+    if run < M.prm[12]:
+        return alpha, 0.0, 0.0
+    return alpha, dx / run, dy / run
 
 
 @njit(cache=True)
@@ -250,12 +272,15 @@ def isf_advance(M: IsfArrays, x: float, y: float, z: float) -> None:
         step = math.sqrt((x - st[LAST_X]) ** 2 + (y - st[LAST_Y]) ** 2 + (z - st[LAST_Z]) ** 2)
     st[HAS_LAST], st[LAST_X], st[LAST_Y], st[LAST_Z] = 1.0, x, y, z
     owner = _met_owner(M, x, y)
-    alpha = _wall_angle(M, owner, x, y, z)
+    alpha, nx, ny = _wall_angle(M, owner, x, y, z)
     if not math.isnan(alpha):
+        speed = math.hypot(vx, vy)
+        side = (vx * ny - vy * nx) / speed if speed > 0.0 else 0.0
+        k = 1.0
         if step > 0.0 and M.prm[7] > 0.0:
-            st[ALPHA] += (1.0 - math.exp(-step / M.prm[7])) * (alpha - st[ALPHA])
-        else:
-            st[ALPHA] = alpha
+            k = 1.0 - math.exp(-step / M.prm[7])
+        st[ALPHA] += k * (alpha - st[ALPHA])
+        st[SIDE] += k * (side - st[SIDE])
     # HeightMap.commit: travel, the track, the pending commits that have left the lag
     index = int(st[COUNT])
     if index > 0:
