@@ -28,6 +28,7 @@ COMMANDS: dict[str, str] = {
     "identify": "identify",
     "calibrate": "calibrate",
     "reproduce": "reproduce",
+    "force-validation": "force_validation",
     "lab": "lab",
     "replay": "replay",
     "compensate": "compensate",

@@ -13,7 +13,8 @@ formed. The model (all lengths in the sheet frame, along the groove centre line 
 * Vertical force, two regimes of the depth δ below the surface the tool meets (Fz_hist(x, pass) is a
   per-pass PCHIP fit of the history over x, tabulated on a 0.1 mm grid):
   - δ > 0, forming: the tool is still below that surface and deforms the sheet plastically, and the force
-    depends only weakly on the step-down (Aerens et al., CIRP Annals 2010: Fz ∝ Δh^0.09):
+    depends only weakly on the step-down (Aerens et al., Int J Adv Manuf Technol 46 (2010): Fz ∝ Δh^0.09 with
+    Δh the scallop height, about Δz^0.18 on a wall of fixed angle):
     Fz = Fz_hist + k_load·(δ - δ_plan), on both sides of the plan;
   - δ <= 0, lifted: the tool has risen above that surface and the sheet unloads elastically:
     Fz = Fz_hist - k_load·δ_plan + k_unload·δ (continuous at δ = 0), falling to zero within
@@ -26,8 +27,9 @@ Sensitivities (dFz/dz = -k; calibrated, see `twin.analysis.calibrate` and models
 
 * k_unload: elastic unloading of the formed sheet. It also sets the springback of the part when the tool
   leaves (`twin.process.springback`): the thesis's CNC test formed 8.7 mm of the 10 mm target (§2.3.1).
-* k_load: pressing deeper or shallower while forming; Aerens's exponent 0.09 gives
-  dFz/dΔh ≈ 0.09·Fz/Δh = 0.09·1.7 kN / 1 mm ≈ 0.15 kN/mm.
+* k_load: pressing deeper or shallower while forming; the prior reads Aerens's exponent 0.09 on the step-down,
+  dFz/dΔz ≈ 0.09·Fz/Δz = 0.09·1.7 kN / 1 mm ≈ 0.15 kN/mm (with the scallop height as published, twice that on
+  a wall of fixed angle; the calibration fits k_load to the thesis's tests, models/README.md).
 
 Why not switch to k_unload as soon as the tool is above *plan*: a robot that gives way by a fraction of the
 step-down would then lose force at 1.3 kN/mm, and Method 2 with ideal forces would read 35 % stiffer than the

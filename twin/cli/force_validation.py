@@ -1,0 +1,40 @@
+"""`tx200-twin force-validation`: the force model against published measurements of ISF forces."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+HELP = "Form every published ISF force measurement's part on the rigid machine; tabulate measured vs model."
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Add the `force-validation` options."""
+    parser.add_argument("--markdown", type=Path, help="write the page (docs/force-validation.md) to FILE")
+    parser.add_argument("--json", help="write the rows as JSON to FILE ('-' for stdout)")
+    parser.add_argument("--seed", type=int, default=1, help="seed of the rigid machine's sensor noise (default 1)")
+
+
+def run(args: argparse.Namespace) -> int:
+    """Validate, print the table, write it where asked."""
+    from twin.apps.force_validation import markdown, validate
+    from twin.base.csvio import emit_json, write_text
+
+    result = validate(seed=args.seed)
+    text = markdown(result)
+    if args.markdown is not None:
+        write_text(args.markdown, text)
+    print(text, file=sys.stderr if args.json == "-" else sys.stdout)
+    emit_json(args.json, {
+        "cases": [{
+            "key": r.case.key, "source": r.case.source, "material": r.case.material,
+            "tensile_strength_mpa": r.tensile_strength_mpa, "measured_steady_n": r.case.fz_steady_n,
+            "measured_peak_n": r.case.fz_peak_n, "model_steady_n": r.steady_n, "model_peak_n": r.peak_n,
+            "error": r.error, "inside": r.inside, "reasons": list(r.reasons),
+        } for r in result.cases],
+        "trends": [{"key": t.key, "published": t.published, "model": t.model} for t in result.trends],
+        "build_up": {"depth_mm": 1e3 * result.build_up.depth_m, "fz_steady_n": result.build_up.fz_steady_n,
+                     "rms_n": result.build_up.rms_n},
+    })
+    return 0
