@@ -14,6 +14,7 @@ from twin.base.csvio import write_table
 from twin.cli import main
 from twin.errors import DataFileError, InputError
 from twin.process.description import Process
+from twin.process.isf_params import steady_fz_n
 from twin.process.materials import material
 from twin.process.path import groove_path
 from twin.process.process_file import process_for, read_process_file
@@ -155,6 +156,14 @@ def test_compensate_path_and_discrepancy_take_the_process(
     path = run_json(["path", "--shape", "cone", "--depth-mm", "2", "--top-width-mm", "30", "--no-reach-check",
                      "--material", "Ti Gr 2", "--tool-radius-mm", "5", "--out", str(work / "p.csv")], capsys)
     assert path["process"]["material"] == "Ti Grade 2" and path["process"]["tool_radius_mm"] == 5.0
+    assert path["steady_fz_n"] == [pytest.approx(steady_fz_n(process_for("Ti Grade 2", tool_radius_m=5e-3),
+                                                           1e-3 * path["step_down_mm"], 45.0))] * 2
+    vwa = run_json(["path", "--shape", "vwa-cone", "--depth-mm", "2", "--no-reach-check", "--material", "DC04",
+                    "--out", str(work / "v.csv")], capsys)
+    top, bottom = vwa["steady_fz_n"]
+    assert top == pytest.approx(steady_fz_n(process_for("DC04"), 1e-3 * vwa["step_down_mm"], vwa["wall_angle_deg"][0]))
+    assert bottom != top
+    assert "steady_fz_n" not in run_json(["path", "--out", str(work / "g.csv"), "--no-reach-check"], capsys)
     found = run_json(["discrepancy", str(cnc_run), "--thickness-mm", "1.4"], capsys)
     assert found["process"] == {**ALU_15, "thickness_mm": 1.4, "force_model": "isf"}
 

@@ -1,15 +1,17 @@
 """`tx200-twin path`: write an ideal tool path U_ID as CSV — the thesis groove (§1.2.3, Table 2.3), a cone,
 pyramid or variable-wall-angle cone (`twin.process.shapes`), or a G-code program (`twin.process.gcode`) —
 after checking that the robot reaches every sample at the given placement (`twin.process.placement`). The declared
-process (`--process`, `--material`, `--thickness-mm`, `--tool-radius-mm`) is reported and shapes the target part
-of `--stl-out` (the tool's radius, the sheet's springback)."""
+process (`--process`, `--material`, `--thickness-mm`, `--tool-radius-mm`) is reported, shapes the target part of
+`--stl-out` (the tool's radius, the sheet's springback) and, for a cone, pyramid or variable-wall-angle cone, gives
+the predicted steady axial force of the ISF model (`twin.process.isf_params.steady_fz_n`, Aerens et al.'s formula;
+a warning where the process or the part lies outside the formula's experiments)."""
 
 from __future__ import annotations
 
 import argparse
 import math
 import sys
-from dataclasses import replace
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -22,9 +24,11 @@ from twin.cli._common import (
     placement_from,
     process_from_arguments,
 )
+from twin.errors import ExtrapolationWarning
+from twin.process.aerens import validity_warnings
 from twin.process.description import Process
 from twin.process.gcode import read_gcode, write_gcode
-from twin.process.isf_force import IsfForceParams
+from twin.process.isf_params import params_for, steady_fz_n
 from twin.process.part_surface import cropped_surface, heightmap_mesh, target_part_surface
 from twin.process.path import GrooveSpec, ToolPath, groove_path, write_path_csv
 from twin.process.placement import check_reach
@@ -143,6 +147,8 @@ def run(args: argparse.Namespace) -> int:
     """Build or import the path, check its reach, write it and print a summary."""
     process = process_from_arguments(args, Process())
     path, payload, line = _build(args)
+    if "step_down_mm" in payload:  # a cone, pyramid or variable-wall-angle cone: its steady axial force
+        line += _steady_force(process, payload)
     if not args.no_reach_check:
         reach = check_reach(path, placement_from(args))
         payload["reach"] = {
@@ -155,13 +161,7 @@ def run(args: argparse.Namespace) -> int:
     if args.gcode_out is not None:
         write_gcode(path, args.gcode_out)
     if args.stl_out is not None:
-        params = replace(
-            IsfForceParams(),
-            tensile_strength_mpa=process.tensile_strength_mpa,
-            thickness_m=process.thickness_m,
-            tool_radius_m=process.tool_radius_m,
-        )
-        mesh = heightmap_mesh(*cropped_surface(*target_part_surface(path, params)))
+        mesh = heightmap_mesh(*cropped_surface(*target_part_surface(path, params_for(process))))
         mesh.apply_scale(1e3)  # STL in millimetres, as CAD writes it
         stl = mesh.export(file_type="stl")
         assert isinstance(stl, bytes)  # binary STL
@@ -188,3 +188,17 @@ def run(args: argparse.Namespace) -> int:
         file=out,
     )
     return 0
+
+
+def _steady_force(process: Process, payload: dict[str, Any]) -> str:
+    """Add the ISF model's steady axial force at the part's top and bottom wall angles to `payload`
+    (`steady_fz_n` [N]), warn where Aerens's experiments do not reach, and say it in one line."""
+    step_m = 1e-3 * payload["step_down_mm"]
+    angles = payload["wall_angle_deg"]
+    forces = [steady_fz_n(process, step_m, angle) for angle in angles]
+    payload["steady_fz_n"] = forces
+    for angle in dict.fromkeys(angles):
+        for sentence in validity_warnings(process.thickness_m, process.tool_radius_m, step_m, angle):
+            warnings.warn(sentence, ExtrapolationWarning, stacklevel=2)
+    at = f"{forces[0]:.0f} N" if forces[0] == forces[1] else f"{forces[0]:.0f} .. {forces[1]:.0f} N"
+    return f"\npredicted steady axial force (ISF model, Aerens et al.): {at}"
