@@ -18,7 +18,6 @@ from twin.cli._common import (
     add_process_arguments,
     command_process,
     placement_from,
-    process_declaration,
     tool_path,
 )
 from twin.errors import InputError
@@ -82,7 +81,8 @@ def run(args: argparse.Namespace) -> int:
             f"--origin-mm/--yaw-deg place the sheet for nominal and compensated runs; --scenario {args.scenario} "
             "keeps the cell's sheet_origin, yaw 0"
         )
-    if args.scenario == "loadtest" and process_declaration(args) != process_declaration(argparse.Namespace()):
+    declared = [args.process, args.material, args.thickness_mm, args.tool_radius_mm]
+    if args.scenario == "loadtest" and any(value is not None for value in declared):
         raise InputError(
             "--scenario loadtest loads the tool at home, with no sheet: --process, --material, --thickness-mm and "
             "--tool-radius-mm apply to the runs that form one (nominal, compensated, cnc)"
