@@ -118,6 +118,7 @@ def test_discrepancy_names_a_force_scale_hidden_in_a_cone_run(
     from twin.lab.dynamic.knobs import Knobs
     from twin.lab.dynamic.run import run_dynamic_lab
     from twin.process.description import Process
+    from twin.process.process_file import process_record
     from twin.runs.read import read_commanded_csv
     from twin.runs.write import write_run
 
@@ -125,6 +126,8 @@ def test_discrepancy_names_a_force_scale_hidden_in_a_cone_run(
     cone = read_commanded_csv(cone_runs["ideal"])
     run, truth, _ = run_dynamic_lab(cone.t_s, cone.values, scenario="nominal", knobs=Knobs(neutral=True), seed=3,
                                     process=stronger)
+    # the run records the process the operator declared (the thesis's sheet), not the stronger coil it formed
+    run = replace(run, meta={**run.meta, "process": process_record(Process())})
     directory = write_run(cone_runs["base"] / "cone_stronger_sheet", run, truth=truth)
     capsys.readouterr()
     assert main(["discrepancy", str(directory), "--json", "-"]) == 0

@@ -1,8 +1,9 @@
 """Command line `tx200-twin`: one module per command in this package, listed in COMMANDS.
 
 Modules: `info`, `path`, `fe_history`, `identify`, `calibrate`, `reproduce`, `lab`, `replay`, `compensate`,
-`check`, `bench`, `sweep`, `discrepancy`, `demo`, `import_run` (`import`) and `export`, one per command; `_common`
-holds the options several commands share and the twin they make (`spec_from_arguments`).
+`check`, `bench`, `sweep`, `discrepancy`, `demo`, `import_run` (`import`), `export` and `materials`, one per
+command; `_common` holds the options several commands share (the FE history, the force model, the declared
+process, the placement) and the twin they make (`spec_from_arguments`).
 
 Each command module defines `HELP` (one line), `add_arguments(parser)` and `run(args) -> int`.
 Commands that report numbers take `--json FILE` (`-` for stdout) and print a short human summary. A `TwinError`
@@ -39,6 +40,7 @@ COMMANDS: dict[str, str] = {
     "demo": "demo",
     "import": "import_run",
     "export": "export",
+    "materials": "materials",
 }
 
 

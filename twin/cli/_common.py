@@ -1,10 +1,12 @@
 """Options shared by several commands: the FE force history and its symmetry declaration, the ideal path, the
-sheet force model, the sheet's placement and the twin they make (`spec_from_arguments`)."""
+sheet force model, the declared process (`--process`, `--material`, `--thickness-mm`, `--tool-radius-mm`), the
+sheet's placement and the twin they make (`spec_from_arguments`)."""
 
 from __future__ import annotations
 
 import argparse
 import math
+import sys
 from collections.abc import Mapping
 from dataclasses import replace
 from pathlib import Path
@@ -16,9 +18,11 @@ from twin.errors import InputError
 from twin.process.description import Process
 from twin.process.force_models import FORCE_MODELS, auto_force_model, force_model
 from twin.process.forces import ForceHistory, default_force_history, load_force_history
+from twin.process.materials import material
 from twin.process.path import ToolPath, groove_path, label_passes
 from twin.process.placement import Placement
-from twin.runs.format import Run, run_placement
+from twin.process.process_file import ProcessDeclaration, positive, read_process_declaration
+from twin.runs.format import Run, Stream, run_placement, run_process
 from twin.runs.read import read_commanded_csv
 from twin.sim.model_file import read_model_file
 from twin.sim.spec import TwinSpec
@@ -74,7 +78,11 @@ def ideal_from_arguments(args: argparse.Namespace) -> ToolPath:
     """The ideal path U_ID from `--ideal` or the default groove."""
     if args.ideal is None:
         return groove_path()
-    stream = read_commanded_csv(args.ideal)
+    return tool_path(read_commanded_csv(args.ideal))
+
+
+def tool_path(stream: Stream) -> ToolPath:
+    """A commanded or ideal path read from a file as a `ToolPath`, its passes labelled by its x reversals."""
     pass_index, direction = label_passes(stream.values[:, 0])
     return ToolPath(t_s=stream.t_s, p_sheet_m=stream.values, pass_index=pass_index, direction=direction)
 
@@ -91,11 +99,20 @@ def add_force_model_argument(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def force_model_for(args: argparse.Namespace, process: Process, p_sheet_m: Any, meta: Mapping[str, Any] | None = None) -> str:
-    """The force model of `--force-model`: a named one, or for `auto` the one a run's `meta.json` records, else the
-    first registered model that applies to the path (`twin.process.force_models.auto_force_model`)."""
+def force_model_for(
+    args: argparse.Namespace,
+    process: Process,
+    p_sheet_m: Any,
+    meta: Mapping[str, Any] | None = None,
+    declared: str | None = None,
+) -> str:
+    """The force model of `--force-model`: a named one, or for `auto` the one a process file declares
+    (`declared`), else the one a run's `meta.json` records, else the first registered model that applies to the
+    path (`twin.process.force_models.auto_force_model`)."""
     if args.force_model != "auto":
         return str(force_model(args.force_model).name)
+    if declared is not None:
+        return declared
     recorded = None if meta is None else meta.get("force_model")
     if isinstance(recorded, str) and recorded in FORCE_MODELS:
         return recorded
@@ -109,9 +126,10 @@ def spec_from_arguments(
     run: Run | None = None,
     history: ForceHistory | None = None,
 ) -> TwinSpec:
-    """The twin of a command: the model file of `--model` (or the default cell), with the FE history, the force
-    model (`force_model_for`) and the placement (a run's own, else `--origin-mm`/`--yaw-deg` where the command has
-    them, else the model file's).
+    """The twin of a command: the model file of `--model` (or the default cell), with the FE history, the process
+    (the model file's, under a run's recorded one, under `--process`, under the flags: `command_process`), the
+    force model (`force_model_for`) and the placement (a run's own, else `--origin-mm`/`--yaw-deg` where the
+    command has them, else the model file's).
 
     Args:
         args: The parsed options (`model`, `force_model`, and the placement options where present).
@@ -122,7 +140,11 @@ def spec_from_arguments(
     model = getattr(args, "model", None)
     base = read_model_file(model) if model is not None else TwinSpec()
     process = base.process if history is None else replace(base.process, history=history)
-    process = replace(process, force_model=force_model_for(args, process, p_sheet_m, None if run is None else run.meta))
+    name = "the model file's process" if model is not None else None
+    if run is not None and "process" in run.meta:
+        process = run_process(run.meta, process, (run.directory or Path(".")) / "meta.json")
+        name = "the run's recorded process"
+    process = command_process(args, process, p_sheet_m, None if run is None else run.meta, name)
     if run is not None:
         placement = run_placement(run.meta)
     elif getattr(args, "origin_mm", None) is not None or getattr(args, "yaw_deg", 0.0) != 0.0:
@@ -130,6 +152,86 @@ def spec_from_arguments(
     else:
         placement = base.placement
     return base.replace(process=process, placement=placement)
+
+
+def add_process_arguments(parser: argparse.ArgumentParser) -> Any:
+    """Add `--process FILE.toml`, `--material NAME`, `--thickness-mm T`, `--tool-radius-mm R`; returns their group."""
+    group = parser.add_argument_group(
+        "process (the sheet and the tool; a flag overrides --process, which overrides the model file's or the "
+        "run's process, else the thesis's: AA5086-H111, 1 mm, R 7.5 mm)"
+    )
+    group.add_argument(
+        "--process", type=Path, metavar="FILE.toml", help="a process file (tx200-twin-process/1: material, "
+        "material_file, thickness_mm, tool_radius_mm, tool_friction, force_model)"
+    )
+    group.add_argument("--material", metavar="NAME", help="sheet material of the library (`tx200-twin materials`)")
+    group.add_argument("--thickness-mm", type=float, metavar="T", help="sheet thickness [mm]")
+    group.add_argument("--tool-radius-mm", type=float, metavar="R", help="tool radius [mm], larger than the thickness")
+    return group
+
+
+def process_declaration(args: argparse.Namespace) -> ProcessDeclaration:
+    """What `--process` and the flags declare (the flags over the file); nothing for a command without them.
+
+    Raises:
+        InputError: An unknown `--material`, a length that is not > 0 (naming the option).
+        DataFileError: A bad process file (naming the file and the key).
+    """
+    file = getattr(args, "process", None)
+    declared = ProcessDeclaration() if file is None else read_process_declaration(file)
+    flags: dict[str, Any] = {}
+    origins: dict[str, str] = {}
+    if getattr(args, "material", None) is not None:
+        try:
+            flags["material"] = material(args.material)
+        except InputError as exc:
+            raise InputError(f"--material {args.material}: {exc}") from None
+    for option, name in (("--thickness-mm", "thickness_m"), ("--tool-radius-mm", "tool_radius_m")):
+        value = getattr(args, option.lstrip("-").replace("-", "_"), None)
+        if value is not None:
+            flags[name] = positive(option, value) / 1e3
+            origins[name] = f"{option} {value:g}"
+    return ProcessDeclaration(**flags, origins=tuple(origins.items())).over(declared)
+
+
+def process_from_arguments(args: argparse.Namespace, base: Process) -> Process:
+    """`base` with what `--process` and the flags declare (`process_declaration`); the force model as declared.
+
+    Raises:
+        InputError: A bad flag, or a tool not larger than the sheet is thick (naming where each came from).
+    """
+    return process_declaration(args).applied_to(base)
+
+
+def command_process(
+    args: argparse.Namespace,
+    base: Process,
+    p_sheet_m: Any,
+    meta: Mapping[str, Any] | None = None,
+    base_name: str | None = None,
+) -> Process:
+    """The process a command runs: `base` (a model file's, a run's; `base_name` says which, for messages), the
+    declared process over it (`process_from_arguments`), and its force model (`force_model_for`: `--force-model`,
+    else the process file's, else a run's recorded one, else the first that applies to the path)."""
+    declaration = process_declaration(args)
+    process = declaration.applied_to(base, base_name)
+    chosen = force_model_for(args, process, p_sheet_m, meta, declared=declaration.force_model)
+    if chosen == "table" and _differs_from_history(process):
+        print(
+            f"note: the 'table' force model plays back the FE history's forces; the declared sheet "
+            f"({process.material}, R_m {process.tensile_strength_mpa:g} MPa, {1e3 * process.thickness_m:g} mm) is "
+            "recorded but does not change them",
+            file=sys.stderr,
+        )
+    return replace(process, force_model=chosen)
+
+
+def _differs_from_history(process: Process) -> bool:
+    """Whether the process's sheet is not the thesis's, whose forces the shipped FE history holds."""
+    default = Process()
+    return process.history is None and (
+        process.tensile_strength_mpa != default.tensile_strength_mpa or process.thickness_m != default.thickness_m
+    )
 
 
 def add_placement_arguments(parser: argparse.ArgumentParser | Any, title: str = "sheet placement") -> Any:

@@ -25,6 +25,7 @@ from twin.cli._common import (
     add_history_arguments,
     add_ideal_argument,
     add_placement_arguments,
+    add_process_arguments,
     history_from_arguments,
     ideal_from_arguments,
     spec_from_arguments,
@@ -33,6 +34,7 @@ from twin.errors import DataFileError, InputError
 from twin.process.force_models import build_force_field
 from twin.process.forces import ForceHistory
 from twin.process.path import ToolPath
+from twin.process.process_file import process_record
 from twin.sim.spec import TwinSpec
 
 HELP = "Compensate the ideal path offline (Eq. 4.28 formula, or iterating the twin) and write the command."
@@ -48,6 +50,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_history_arguments(parser)
     add_ideal_argument(parser)
     add_force_model_argument(parser)
+    add_process_arguments(parser)
     add_placement_arguments(parser, "sheet placement (the twin's)")
     parser.add_argument(
         "--tol-mm", type=float, default=1e3 * TWIN_TOL_M, help="--method twin: stop below this |residual| [mm]"
@@ -71,7 +74,7 @@ def run(args: argparse.Namespace) -> int:
     """Compensate."""
     declared, reference = history_from_arguments(args)
     ideal = ideal_from_arguments(args)
-    protect = [p for p in (args.stiffness, args.model, args.history, args.ideal) if p is not None]
+    protect = [p for p in (args.stiffness, args.model, args.history, args.ideal, args.process) if p is not None]
     spec = spec_from_arguments(args, ideal.p_sheet_m, history=declared)
     f_reference = build_force_field(spec.process, reference).rigid_forces(ideal)
     comp, c_r, predicted = _compensate(args, spec, ideal, declared)
@@ -97,6 +100,7 @@ def run(args: argparse.Namespace) -> int:
         "compliance_mm_per_kn": 1e6 * c_r,
         "history": {"file": declared.source, "symmetry": declared.symmetry},
         "force_model": spec.process.force_model,
+        "process": process_record(spec.process),
         "effects": dict(spec.effects.values),
     }
     _report(args, summary, comp.converged)

@@ -12,9 +12,11 @@ from twin.base.csvio import emit_json
 from twin.cli._common import (
     add_force_model_argument,
     add_history_arguments,
+    add_process_arguments,
     history_from_arguments,
     spec_from_arguments,
 )
+from twin.process.process_file import process_record
 from twin.runs.read import read_run
 from twin.sim.model_file import write_model_file
 
@@ -29,6 +31,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--model", type=Path, help="start from this twin model file (effects, K_q, process)")
     add_history_arguments(parser)
     add_force_model_argument(parser)
+    add_process_arguments(parser)
     parser.add_argument("--model-out", type=Path, help="write the augmented twin model file here")
     parser.add_argument(
         "--report", type=Path, help="write figures of the residual before/after into this folder"
@@ -42,8 +45,12 @@ def run(args: argparse.Namespace) -> int:
     declared, _ = history_from_arguments(args)
     spec = spec_from_arguments(args, measured.commanded.values, run=measured, history=declared)
     result = find_discrepancy(measured, spec)
-    summary = {"run": args.run_dir, **result_summary(result)}
-    protect = [p for p in (args.run_dir, args.model, args.history) if p is not None]
+    summary = {
+        "run": args.run_dir,
+        **result_summary(result),
+        "process": {**process_record(spec.process), "force_model": spec.process.force_model},
+    }
+    protect = [p for p in (args.run_dir, args.model, args.history, args.process) if p is not None]
     if args.model_out is not None:
         write_model_file(
             args.model_out,

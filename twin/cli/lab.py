@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-from dataclasses import replace
 from pathlib import Path
 from typing import TextIO
 
@@ -16,14 +15,17 @@ from twin.base.signals import interp_rows
 from twin.cli._common import (
     add_force_model_argument,
     add_placement_arguments,
-    force_model_for,
+    add_process_arguments,
+    command_process,
     placement_from,
+    tool_path,
 )
 from twin.errors import InputError
 from twin.lab.cnc import run_cnc
 from twin.lab.virtual import load_test, run_lab
 from twin.process.description import Process
 from twin.process.placement import Placement
+from twin.process.process_file import process_record
 from twin.runs.read import lab_commanded
 from twin.runs.write import write_run
 from twin.sim.effects import EFFECTS, parse_effect_args
@@ -35,7 +37,9 @@ HELP = "Run the virtual lab (richer plant, noise, hidden effects) and write a me
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Add the `lab` options."""
     parser.add_argument("--scenario", required=True, choices=("nominal", "compensated", "loadtest", "cnc"))
-    parser.add_argument("--commanded", type=Path, help="commanded.csv-format path (required for compensated)")
+    parser.add_argument(
+        "--commanded", type=Path, help="commanded.csv-format path (required for compensated; default the groove)"
+    )
     effect_list = ", ".join(f"{name} [{spec.unit}] (acts on the {spec.acts_on})" for name, spec in EFFECTS.items())
     parser.add_argument(
         "--effect", action="append", metavar="NAME=VALUE", help=f"hidden effect, repeatable: {effect_list}"
@@ -53,6 +57,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--neutral", action="store_true", help="dynamic plant: start from the neutral knobs")
     parser.add_argument("--seed", type=int, required=True, help="seed of the lab's noise")
     add_force_model_argument(parser)
+    add_process_arguments(parser)
     add_placement_arguments(parser, "sheet placement (nominal and compensated runs; recorded in meta.json)")
     parser.add_argument("--out", type=Path, required=True, help="run directory (loadtest: a CSV file)")
     parser.add_argument("--overwrite", action="store_true", help="replace an existing output")
@@ -76,6 +81,12 @@ def run(args: argparse.Namespace) -> int:
             f"--origin-mm/--yaw-deg place the sheet for nominal and compensated runs; --scenario {args.scenario} "
             "keeps the cell's sheet_origin, yaw 0"
         )
+    declared = [args.process, args.material, args.thickness_mm, args.tool_radius_mm]
+    if args.scenario == "loadtest" and any(value is not None for value in declared):
+        raise InputError(
+            "--scenario loadtest loads the tool at home, with no sheet: --process, --material, --thickness-mm and "
+            "--tool-radius-mm apply to the runs that form one (nominal, compensated, cnc)"
+        )
     if args.plant == "dynamic":
         return _run_dynamic(args, placement)
     if args.set or args.neutral:
@@ -89,9 +100,7 @@ def run(args: argparse.Namespace) -> int:
         return _run_cnc(args, effects_given=bool(args.effect), out=out)
     commanded, protect = lab_commanded(args.scenario, args.commanded)
     t_s, p_cmd = commanded.t_s, commanded.values
-    process = Process()
-    process = replace(process, force_model=force_model_for(args, process, p_cmd))
-    spec = TwinSpec(process=process, placement=placement, effects=effects)
+    spec = TwinSpec(process=command_process(args, Process(), p_cmd), placement=placement, effects=effects)
     run_, truth = run_lab(t_s, p_cmd, scenario=args.scenario, seed=args.seed, spec=spec)
     write_run(args.out, run_, truth=truth, overwrite=args.overwrite, protect=protect)
     deflection = np.max(np.linalg.norm(run_.tracker.values - interp_rows(run_.tracker.t_s, t_s, p_cmd), axis=1))
@@ -104,6 +113,7 @@ def run(args: argparse.Namespace) -> int:
         "measured_deviation_max_mm": 1e3 * float(deflection),
         "peak_force_n": float(np.max(np.linalg.norm(run_.forces.values, axis=1))) if run_.forces else 0.0,
         "peak_fz_n": float(np.max(run_.forces.values[:, 2])) if run_.forces else 0.0,
+        "process": {**process_record(spec.process), "force_model": spec.process.force_model},
     }
     print(
         f"lab {args.scenario}: {summary['tracker_samples']} tracker / "
@@ -128,11 +138,16 @@ def _run_load_test(args: argparse.Namespace, spec: TwinSpec, out: TextIO) -> int
 
 
 def _run_cnc(args: argparse.Namespace, *, effects_given: bool, out: TextIO) -> int:
-    """The thesis's CNC validation (§2.3): the groove on a rigid machine, forces at 10 Hz, part after springback."""
+    """The thesis's CNC validation (§2.3) on a rigid machine: the groove, or any path of `--commanded`, formed with
+    the declared process; forces at 10 Hz, the part after springback (the y = 0 section, and a scan of the surface
+    where the force model keeps one)."""
     if effects_given:
         raise InputError("--scenario cnc is the rigid machine: robot effects (--effect) do not apply")
-    run_, truth = run_cnc(seed=args.seed)
-    write_run(args.out, run_, truth=truth, overwrite=args.overwrite)
+    commanded, protect = lab_commanded(args.scenario, args.commanded)
+    path = tool_path(commanded)
+    process = command_process(args, Process(), path.p_sheet_m)
+    run_, truth = run_cnc(seed=args.seed, path=path, process=process)
+    write_run(args.out, run_, truth=truth, overwrite=args.overwrite, protect=protect)
     assert run_.part_profile is not None and run_.forces is not None
     summary = {
         "scenario": "cnc",
@@ -141,11 +156,13 @@ def _run_cnc(args: argparse.Namespace, *, effects_given: bool, out: TextIO) -> i
         "force_samples": len(run_.forces.t_s),
         "peak_fz_n": float(np.max(run_.forces.values[:, 2])),
         "formed_depth_mm": -1e3 * float(np.min(run_.part_profile[1])),
+        "process": {**process_record(process), "force_model": process.force_model},
     }
     print(
         f"lab cnc: rigid machine, {summary['force_samples']} force samples at 10 Hz, "
         f"peak Fz {summary['peak_fz_n']:.0f} N, formed depth after springback "
-        f"{summary['formed_depth_mm']:.2f} mm -> {args.out}",
+        f"{summary['formed_depth_mm']:.2f} mm ({process.material}, {1e3 * process.thickness_m:g} mm, "
+        f"{process.force_model} model) -> {args.out}",
         file=out,
     )
     emit_json(args.json, summary)
@@ -164,5 +181,5 @@ def _run_dynamic(args: argparse.Namespace, placement: Placement) -> int:
     process = Process()
     if args.scenario != "loadtest":
         commanded, _ = lab_commanded(args.scenario, args.commanded)
-        process = replace(process, force_model=force_model_for(args, process, commanded.values))
+        process = command_process(args, process, commanded.values)
     return run_dynamic_command(args, loads_n=THESIS_TABLE_4_2_LOADS_N, process=process, placement=placement)

@@ -1,23 +1,38 @@
 """`tx200-twin path`: write an ideal tool path U_ID as CSV — the thesis groove (§1.2.3, Table 2.3), a cone,
 pyramid or variable-wall-angle cone (`twin.process.shapes`), or a G-code program (`twin.process.gcode`) —
-after checking that the robot reaches every sample at the given placement (`twin.process.placement`)."""
+after checking that the robot reaches every sample at the given placement (`twin.process.placement`). The declared
+process (`--process`, `--material`, `--thickness-mm`, `--tool-radius-mm`) is reported, shapes the target part of
+`--stl-out` (the tool's radius, the sheet's springback) and, for a cone, pyramid or variable-wall-angle cone, gives
+the predicted steady axial force of the ISF model (`twin.process.isf_params.steady_fz_n`, Aerens et al.'s formula;
+a warning where the process or the part lies outside the formula's experiments)."""
 
 from __future__ import annotations
 
 import argparse
 import math
 import sys
+import warnings
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from twin.base.csvio import emit_json, write_bytes
-from twin.cli._common import add_placement_arguments, placement_from
+from twin.cli._common import (
+    add_placement_arguments,
+    add_process_arguments,
+    placement_from,
+    process_from_arguments,
+)
+from twin.errors import ExtrapolationWarning
+from twin.process.aerens import validity_warnings
+from twin.process.description import Process
 from twin.process.gcode import read_gcode, write_gcode
+from twin.process.isf_params import params_for, steady_fz_n
 from twin.process.part_surface import cropped_surface, heightmap_mesh, target_part_surface
 from twin.process.path import GrooveSpec, ToolPath, groove_path, write_path_csv
 from twin.process.placement import check_reach
+from twin.process.process_file import process_record
 from twin.process.shapes import MODES, SHAPES, PartSpec, part_path
 
 HELP = (
@@ -67,6 +82,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--wall-angle-end-deg", type=float, default=p.wall_angle_end_deg, help="vwa-cone: wall angle at the bottom"
     )
     part.add_argument("--step-down-mm", type=float, default=p.step_down_m * 1e3, help="largest step-down")
+    add_process_arguments(parser)
     place = add_placement_arguments(parser, "placement and reach check")
     place.add_argument("--no-reach-check", action="store_true", help="skip the IK check along the path")
     parser.add_argument("--json", metavar="FILE", help="write the summary as JSON to FILE (- for stdout)")
@@ -129,7 +145,10 @@ def _build(args: argparse.Namespace) -> tuple[ToolPath, dict[str, Any], str]:
 
 def run(args: argparse.Namespace) -> int:
     """Build or import the path, check its reach, write it and print a summary."""
+    process = process_from_arguments(args, Process())
     path, payload, line = _build(args)
+    if "step_down_mm" in payload:  # a cone, pyramid or variable-wall-angle cone: its steady axial force
+        line += _steady_force(process, payload)
     if not args.no_reach_check:
         reach = check_reach(path, placement_from(args))
         payload["reach"] = {
@@ -142,7 +161,7 @@ def run(args: argparse.Namespace) -> int:
     if args.gcode_out is not None:
         write_gcode(path, args.gcode_out)
     if args.stl_out is not None:
-        mesh = heightmap_mesh(*cropped_surface(*target_part_surface(path)))
+        mesh = heightmap_mesh(*cropped_surface(*target_part_surface(path, params_for(process))))
         mesh.apply_scale(1e3)  # STL in millimetres, as CAD writes it
         stl = mesh.export(file_type="stl")
         assert isinstance(stl, bytes)  # binary STL
@@ -156,13 +175,30 @@ def run(args: argparse.Namespace) -> int:
             "length_mm": float(path.s_m[-1] * 1e3),
             "duration_s": float(path.t_s[-1]),
             "final_depth_mm": float(-path.p_sheet_m[-1, 2] * 1e3),
+            "process": process_record(process),
         }
     )
     emit_json(args.json, payload, protect=[args.out])
     out = sys.stderr if args.json == "-" else sys.stdout
     print(
         f"wrote {args.out}: {len(path)} samples, {path.s_m[-1] * 1e3:.2f} mm in {path.t_s[-1]:.2f} s, "
-        f"final depth {-path.p_sheet_m[-1, 2] * 1e3:.3f} mm\n{line}",
+        f"final depth {-path.p_sheet_m[-1, 2] * 1e3:.3f} mm\n{line}\nprocess: {process.material} "
+        f"(R_m {process.tensile_strength_mpa:g} MPa), {1e3 * process.thickness_m:g} mm sheet, "
+        f"tool radius {1e3 * process.tool_radius_m:g} mm",
         file=out,
     )
     return 0
+
+
+def _steady_force(process: Process, payload: dict[str, Any]) -> str:
+    """Add the ISF model's steady axial force at the part's top and bottom wall angles to `payload`
+    (`steady_fz_n` [N]), warn where Aerens's experiments do not reach, and say it in one line."""
+    step_m = 1e-3 * payload["step_down_mm"]
+    angles = payload["wall_angle_deg"]
+    forces = [steady_fz_n(process, step_m, angle) for angle in angles]
+    payload["steady_fz_n"] = forces
+    for angle in dict.fromkeys(angles):
+        for sentence in validity_warnings(process.thickness_m, process.tool_radius_m, step_m, angle):
+            warnings.warn(sentence, ExtrapolationWarning, stacklevel=2)
+    at = f"{forces[0]:.0f} N" if forces[0] == forces[1] else f"{forces[0]:.0f} .. {forces[1]:.0f} N"
+    return f"\npredicted steady axial force (ISF model, Aerens et al.): {at}"

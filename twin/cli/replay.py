@@ -8,7 +8,8 @@ from pathlib import Path
 
 from twin.analysis.replay import replay
 from twin.base.csvio import emit_json
-from twin.cli._common import add_force_model_argument, spec_from_arguments
+from twin.cli._common import add_force_model_argument, add_process_arguments, spec_from_arguments
+from twin.process.process_file import process_record
 from twin.runs.read import read_run
 
 HELP = "Replay a measured run on the twin and report the gap (position and force)."
@@ -21,6 +22,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--model", type=Path, help="twin model file (effects, K_q, process) from `discrepancy --model-out`"
     )
     add_force_model_argument(parser)
+    add_process_arguments(parser)
     parser.add_argument("--json", help="write the metrics to FILE ('-' for stdout)")
     parser.add_argument("--rrd", type=Path, help="also save a rerun recording of the replay to FILE")
 
@@ -28,7 +30,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     """Replay the run."""
     measured = read_run(args.run_dir)
-    twin = spec_from_arguments(args, measured.commanded.values, run=measured).build()
+    spec = spec_from_arguments(args, measured.commanded.values, run=measured)
+    twin = spec.build()
     result = replay(measured, twin)
     m = result.metrics
     out = sys.stderr if args.json == "-" else sys.stdout  # keep stdout pure JSON for `--json -`
@@ -37,7 +40,8 @@ def run(args: argparse.Namespace) -> int:
         f"position gap rms {m['position_rms_mm']:.3f} mm (max {m['position_max_mm']:.3f}); "
         f"force gap rms {m.get('force_rms_n', float('nan')):.1f} N "
         f"(max {m.get('force_max_n', float('nan')):.1f}); "
-        f"measured deflection max {m['deflection_max_mm']:.2f} mm",
+        f"measured deflection max {m['deflection_max_mm']:.2f} mm; process {spec.process.material}, "
+        f"{1e3 * spec.process.thickness_m:g} mm, {spec.process.force_model} model",
         file=out,
     )
     if args.rrd is not None:
@@ -45,5 +49,7 @@ def run(args: argparse.Namespace) -> int:
 
         record_replay(args.rrd, measured, result, twin_model=twin.model, placement=twin.placement)
         print(f"rerun recording -> {args.rrd}", file=out)
-    emit_json(args.json, {"run": args.run_dir, **m}, protect=[args.run_dir])
+    process = {**process_record(spec.process), "force_model": spec.process.force_model}
+    protect = [p for p in (args.run_dir, args.model, args.process) if p is not None]
+    emit_json(args.json, {"run": args.run_dir, **m, "process": process}, protect=protect)
     return 0

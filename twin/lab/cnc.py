@@ -1,10 +1,12 @@
-"""The thesis's CNC validation as a lab scenario (§2.3): the groove formed on a rigid machine.
+"""The thesis's CNC validation as a lab scenario (§2.3): the groove, or any path, formed on a rigid machine.
 
 The FAMUP MCX500 (accuracy 15 µm) follows the ideal path exactly, so the tool is where it was commanded and the
 sheet's forces are those of the field driven rigidly (the FE history's own forces, with the field's state).
 The force sensor samples at 10 Hz on the CNC (§2.3, 30 Hz on the robot); the machine's position is recorded at
 50 Hz with its 15 µm accuracy as white noise; the part is scanned after unclamping, its depth set by the
-sheet's elastic recovery (`twin.process.springback`; the thesis measured 8.7 mm of the 10 mm target, §2.3.1).
+sheet's elastic recovery (`twin.process.springback`; the thesis measured 8.7 mm of the 10 mm target, §2.3.1):
+the section y = 0 as a profile and, where the force model keeps a surface (any part), a scan of that surface.
+The run records the process it was formed with (`meta.json`'s `process`).
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ import numpy as np
 from twin.base.signals import interp_rows, uniform_times
 from twin.process.description import Process
 from twin.process.force_models import build_force_field
+from twin.process.part_surface import formed_surface, surface_points
 from twin.process.path import ToolPath, groove_path
 from twin.process.springback import form_rigidly, scanned_profile
 from twin.robot.description import load_robot
@@ -49,11 +52,11 @@ def run_cnc(
     process: Process | None = None,
     settings: CncSettings | None = None,
 ) -> tuple[Run, dict[str, Any]]:
-    """Form the groove on the rigid CNC and measure it.
+    """Form a path on the rigid CNC and measure it.
 
     Args:
         seed: Seed of the noise generator.
-        path: Ideal path; default the thesis's groove.
+        path: Ideal path (any part); default the thesis's groove.
         process: The sheet, tool and force model (and its FE history); default the thesis's.
         settings: Rates and noise levels.
 
@@ -75,6 +78,11 @@ def run_cnc(
     f_sensor = f_sensor + rng.normal(0.0, settings.force_noise_n, f_sensor.shape)
     x_profile, z_profile = scanned_profile(field.x_grid_m, z_after)
     z_profile = z_profile + rng.normal(0.0, settings.profile_noise_m, z_profile.shape)
+    scan = None  # where the force model keeps a 2-D surface (any part, not the groove's table field)
+    surface = formed_surface(field)
+    if surface is not None:
+        scan = surface_points(*surface)
+        scan[:, 2] += rng.normal(0.0, settings.profile_noise_m, len(scan))
     meta = run_meta(
         scenario="cnc",
         source="tx200-twin virtual lab: rigid CNC (FAMUP MCX500 class, thesis sec. 2.3)",
@@ -83,6 +91,7 @@ def run_cnc(
         seed=seed,
         tool_length_m=load_robot().tool_length_m,
         force_model=process.force_model,
+        process=process,
     )
     run = Run(
         directory=None,
@@ -91,6 +100,7 @@ def run_cnc(
         tracker=Stream(t_pos, position),
         forces=Stream(t_sensor, f_sensor),
         part_profile=(x_profile, z_profile),
+        part_scan=scan,
     )
     truth = {
         "machine": "rigid CNC",

@@ -89,6 +89,7 @@ def run_lab(
         placement=spec.placement,
         robot=spec.robot.name,
         force_model=spec.process.force_model,
+        process=spec.process,
     )
     commanded = Stream(np.asarray(t_s, dtype=float), np.asarray(p_cmd_sheet_m, dtype=float))
     run = Run(None, meta, commanded, measured.tracker, measured.forces, measured.part_profile, measured.part_scan)

@@ -1,6 +1,9 @@
 """Process: what the tool does to the sheet, and the declared process every stage receives.
 
 Modules: `description` (the process as data: material, thickness, tool, friction, force model and history),
+`materials` (sheet materials, each number with its source: the shipped library and name look-up), `hardening`
+(a material's hardening law), `material_file` (reading a materials file, the library's or a user's),
+`process_file` (the process a user declares in a process file, and its record in runs and model files),
 `force_field` (the `ForceField` base every force model implements), `force_models` (the registry of force
 models: name -> builder), `field` (the groove's per-pass table force field, on the formed profile of
 `formed_profile` and the per-pass tables of `pass_tables`), `aerens` (the published steady axial force with the
@@ -11,7 +14,7 @@ stand-in generator), `path` (the groove U_ID, pass labels), `shapes` (cones, pyr
 `placement` (the sheet in the robot base, reach), `springback` (the part after unclamping, a rigid machine's
 forming), `part_surface` and `part_bottom` (the formed part as a surface).
 
-Takes path parameters, an FE export and the process; gives the commanded path U_ID and the force on the tool at
+Takes path parameters, an FE export, the process and the materials; gives the commanded path U_ID and the force on the tool at
 any position.
 """
 
@@ -19,6 +22,21 @@ from twin.base.lazy import lazy_exports
 
 __all__, __getattr__, __dir__ = lazy_exports(__name__, {
     "Process": "twin.process.description",
+    "Material": "twin.process.materials",
+    "Source": "twin.process.materials",
+    "MaterialLibrary": "twin.process.materials",
+    "material": "twin.process.materials",
+    "shipped_materials": "twin.process.materials",
+    "shipped_library": "twin.process.materials",
+    "HardeningLaw": "twin.process.hardening",
+    "read_material_file": "twin.process.material_file",
+    "read_material_library": "twin.process.material_file",
+    "ProcessDeclaration": "twin.process.process_file",
+    "read_process_file": "twin.process.process_file",
+    "read_process_declaration": "twin.process.process_file",
+    "process_for": "twin.process.process_file",
+    "process_record": "twin.process.process_file",
+    "process_from_record": "twin.process.process_file",
     "ForceField": "twin.process.force_field",
     "FieldState": "twin.process.force_field",
     "ForceModel": "twin.process.force_models",

@@ -61,6 +61,11 @@ class Process:
             value = getattr(self, name)
             if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
                 raise InputError(f"Process.{name} = {value!r}: expected a finite number > 0")
+        if self.tool_radius_m <= self.thickness_m:
+            raise InputError(
+                f"Process.tool_radius_m = {self.tool_radius_m!r} is not larger than thickness_m = {self.thickness_m!r}: "
+                "a tool smaller than the sheet is thick"
+            )
         if not (math.isfinite(self.tool_friction) and self.tool_friction >= 0):
             raise InputError(f"Process.tool_friction = {self.tool_friction!r}: expected a finite number >= 0")
         if self.friction_reversal_m is not None and not (

@@ -15,6 +15,7 @@ __all__, __getattr__, __dir__ = lazy_exports(__name__, {
     "Stream": "twin.runs.format",
     "run_meta": "twin.runs.format",
     "run_placement": "twin.runs.format",
+    "run_process": "twin.runs.format",
     "read_run": "twin.runs.read",
     "read_commanded_csv": "twin.runs.read",
     "write_run": "twin.runs.write",

@@ -5,8 +5,9 @@ A run is a directory holding:
 - `meta.json`: `{"format": "tx200-twin-run/1", "frame": "sheet", "scenario": str, "tool_length_m": float,
   "tracker_rate_hz": float, "sensor_rate_hz": float, ...}` plus free keys (`"notes"`, ...). `sensor_rate_hz`
   is required only when `forces.csv` is present. Optional `robot` (its name), `force_model` (the sheet's force
-  model, `twin.process.force_models`) and `placement` (`twin.process.placement.Placement.to_json`). Never the
-  lab's hidden truth.
+  model, `twin.process.force_models`), `process` (`{"material", "tensile_strength_mpa", "thickness_mm",
+  "tool_radius_mm", "tool_friction"}`, `twin.process.process_file.process_record`; absent: the thesis's process)
+  and `placement` (`twin.process.placement.Placement.to_json`). Never the lab's hidden truth.
 - `commanded.csv`: `t_s, x_mm, y_mm, z_mm`: the tool-tip path sent to the robot, sheet frame.
 - `tracker.csv`: `t_s, x_mm, y_mm, z_mm`: the measured tool tip, sheet frame, at the tracker rate.
 - `forces.csv`: `t_s, fx_n, fy_n, fz_n`: force exerted BY THE SHEET ON THE TOOL, sheet frame (Fz > 0 while
@@ -35,7 +36,9 @@ import numpy as np
 
 from twin.base.signals import interp_rows
 from twin.errors import DataFileError, InputError, RunFormatError
+from twin.process.description import Process
 from twin.process.placement import Placement
+from twin.process.process_file import process_from_record, process_record
 
 RUN_FORMAT = "tx200-twin-run/1"
 RUN_FRAME = "sheet"
@@ -185,6 +188,7 @@ def run_meta(
     placement: Placement | None = None,
     robot: str | None = None,
     force_model: str | None = None,
+    process: Process | None = None,
 ) -> dict[str, Any]:
     """The `meta.json` of a made-up run: format, frame, tool length, the scenario, rates and seed.
 
@@ -198,12 +202,15 @@ def run_meta(
         placement: The sheet's placement in the robot base; recorded unless it is the cell's own.
         robot: The robot's name, recorded when given.
         force_model: The sheet's force model (`twin.process.force_models`), recorded when given.
+        process: The sheet and tool the run formed with (`process_record`), recorded when given.
     """
     extra: dict[str, Any] = {} if placement is None or placement.is_default else {"placement": placement.to_json()}
     if robot is not None:
         extra["robot"] = robot
     if force_model is not None:
         extra["force_model"] = force_model
+    if process is not None:
+        extra["process"] = process_record(process)
     return {
         "format": RUN_FORMAT,
         "scenario": scenario,
@@ -227,3 +234,18 @@ def run_placement(meta: Mapping[str, Any], source: str | Path = "meta.json") -> 
         return Placement.from_json(meta.get("placement"), source)
     except DataFileError as exc:
         raise RunFormatError(exc.path, exc.detail) from None
+
+
+def run_process(meta: Mapping[str, Any], base: Process, source: str | Path = "meta.json") -> Process:
+    """`base` with the process a run records (`meta.json`'s `process`; absent, as in runs before it was
+    recorded: `base` unchanged).
+
+    Raises:
+        RunFormatError: The entry is not an object of valid values (naming the key).
+    """
+    if "process" not in meta:
+        return base
+    try:
+        return process_from_record(meta["process"], base)
+    except InputError as exc:
+        raise RunFormatError(source, str(exc)) from None

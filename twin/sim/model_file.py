@@ -11,7 +11,9 @@ read with `--model`:
      "effects": {"lost_motion": 0.15}, "units": {"lost_motion": "mrad"}, "lost_motion_takeup_mm": 2.0,
      "joint_stiffness_nm_per_rad": [...], "joint_friction_nm": [...], "note": "..."}
 
-Every key but `format` may be left out (the default cell's value). The first format, `tx200-twin-model/1`
+Every key but `format` may be left out (the default cell's value); a `material` of the library
+(`tx200-twin materials`) without `tensile_strength_mpa` takes the library's R_m, any other material (a user's)
+needs it. The first format, `tx200-twin-model/1`
 (effects and K_q only), is still read; effects under a name used before are read under the new one, with a
 warning naming it (`twin.sim.effects.RENAMED`). A history file is named relative to the model file.
 """
@@ -19,6 +21,7 @@ warning naming it (`twin.sim.effects.RENAMED`). A history file is named relative
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -27,6 +30,7 @@ from twin.errors import DataFileError, InputError, ModelError
 from twin.process.description import Process
 from twin.process.forces import load_force_history
 from twin.process.placement import Placement
+from twin.process.process_file import RECORD_KEYS, process_from_record
 from twin.robot.description import load_robot, shipped_robots
 from twin.sim.effects import EFFECTS, LOST_MOTION_TAKEUP_M, Effects
 from twin.sim.spec import TwinSpec
@@ -129,12 +133,9 @@ def _process(path: Path, entry: Any) -> Process:
         loaded = load_force_history(
             file, symmetry=str(history.get("symmetry")), trust_columns=not history.get("unchecked_symmetry", False)
         )
-    return Process(
-        material=str(entry.get("material", defaults.material)),
-        tensile_strength_mpa=float(entry.get("tensile_strength_mpa", defaults.tensile_strength_mpa)),
-        thickness_m=metres("thickness_mm", defaults.thickness_m) or 0.0,
-        tool_radius_m=metres("tool_radius_mm", defaults.tool_radius_m) or 0.0,
-        tool_friction=float(entry.get("tool_friction", defaults.tool_friction)),
+    recorded = process_from_record({k: entry[k] for k in RECORD_KEYS if k in entry}, defaults)
+    return replace(
+        recorded,
         friction_reversal_m=metres("friction_reversal_mm", defaults.friction_reversal_m),
         force_model=str(entry.get("force_model", defaults.force_model)),
         history=loaded,

@@ -73,6 +73,7 @@ def run_dynamic_lab(
         placement=placement,
         robot=plant.robot.name,
         force_model=process.force_model,
+        process=process,
     )
     run = Run(
         directory=None,
