@@ -1,0 +1,72 @@
+"""The force model held to published measurements (twin/apps/force_validation.py, force_data.py): the generated
+page docs/force-validation.md is the one a fresh run writes, the measurements file is read strictly, and the
+build-up depth is the fit to the published depth curve."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from twin.apps.force_data import read_measurements, shipped_measurements
+from twin.apps.force_validation import TOLERANCE, fit_build_up, markdown, validate
+from twin.cli import main
+from twin.errors import DataFileError
+from twin.process.description import Process
+from twin.process.isf_params import IsfForceParams, steady_fz_n
+from twin.process.materials import material
+
+DOC = Path(__file__).resolve().parent.parent / "docs" / "force-validation.md"
+
+
+@pytest.fixture(scope="module")
+def validation():
+    return validate()
+
+
+def test_the_page_is_the_one_a_fresh_run_writes(validation, tmp_path):
+    assert DOC.read_text(encoding="utf-8") == markdown(validation), (
+        "docs/force-validation.md is stale: run `tx200-twin force-validation --markdown docs/force-validation.md`"
+    )
+    out = tmp_path / "page.md"
+    assert main(["force-validation", "--markdown", str(out), "--json", str(tmp_path / "rows.json")]) == 0
+    assert out.read_text(encoding="utf-8") == DOC.read_text(encoding="utf-8")
+
+
+def test_steady_cases_are_within_20_percent_and_each_case_outside_says_why(validation):
+    """Measured: BM3 +19 % (1814 vs 1525 N), Bharti's 71° cone -6 % (359 vs 381 N, with the library's R_m and the
+    model's wall-angle cap), the thesis groove's peak -37 % (1262 vs about 2000 N: a groove is no cone wall)."""
+    steady = [r for r in validation.cases if r.case.fz_steady_n is not None]
+    assert len(steady) >= 2 and all(r.inside for r in steady)
+    assert len({r.case.source for r in validation.cases}) >= 3
+    for r in validation.cases:
+        assert r.inside == (abs(r.error) <= TOLERANCE)
+        if not r.inside:
+            assert r.reasons, r.case.key
+
+
+def test_the_build_up_depth_is_the_fit_to_the_published_depth_curve(validation):
+    fit = fit_build_up(shipped_measurements().build_up)
+    assert fit.depth_m == pytest.approx(IsfForceParams().build_up_m, rel=0.02)  # 3.74 mm fitted, 3.75 used
+    assert fit.rms_n < 0.05 * fit.fz_steady_n
+
+
+def test_the_force_ratio_of_two_materials_follows_their_strength():
+    """The same 45° cone in AA1050-O and AA5086-H111: the ratio of their tensile strengths (it was 1.0 when the
+    level was refitted to the groove history)."""
+    soft, strong = material("AA1050-O"), material("AA5086-H111")
+    ratio = steady_fz_n(Process(tensile_strength_mpa=soft.tensile_strength_mpa), 0.5e-3, 45.0) / steady_fz_n(
+        Process(tensile_strength_mpa=strong.tensile_strength_mpa), 0.5e-3, 45.0)
+    assert ratio == pytest.approx(soft.tensile_strength_mpa / strong.tensile_strength_mpa, rel=1e-9)
+    assert ratio < 0.5
+
+
+def test_a_bad_measurements_file_names_the_case_and_key(tmp_path):
+    text = (Path(__file__).resolve().parent.parent / "twin" / "data" / "force_measurements.toml").read_text()
+    bad = tmp_path / "bad.toml"
+    bad.write_text(text.replace("thickness_mm = 1.63", "thickness_mm = -1.63"), encoding="utf-8")
+    with pytest.raises(DataFileError, match=r"BM3 cone.*thickness_mm = -1.63"):
+        read_measurements(bad)
+    bad.write_text(text.replace('source = "bharti2024"', 'source = "nobody"'), encoding="utf-8")
+    with pytest.raises(DataFileError, match="nobody"):
+        read_measurements(bad)
