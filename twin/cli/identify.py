@@ -4,15 +4,17 @@ from __future__ import annotations
 
 import argparse
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
 from twin.analysis.identify.cartesian import fit_kr_load_cases, load_cases_csv
 from twin.base.csvio import emit_json
+from twin.cli._common import add_force_model_argument, add_process_arguments
 from twin.errors import InputError
 
-HELP = "Identify K_R (Method 1: load cases; Method 2: a run) and the joint stiffness K_q."
+HELP = "Identify K_R (Method 1: load cases; Method 2: a run), the joint stiffness K_q, or the sheet's forces."
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -30,6 +32,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="Method 1 load cases CSV: fx_n, fy_n, fz_n, dx_mm, dy_mm, dz_mm (one row per case)",
     )
     parser.add_argument("run_dir", nargs="?", type=Path, help="Method 2: run directory (tx200-twin-run/1)")
+    parser.add_argument(
+        "--forces",
+        type=Path,
+        metavar="RUN",
+        help="fit the sheet force model's level and shape to this run's measured forces (the process its meta.json "
+        "records, or --process/--material ...); --write-model puts the fit into a twin model file",
+    )
+    parser.add_argument("--model", type=Path, help="--forces: start from this twin model file (its process)")
+    add_force_model_argument(parser)
+    add_process_arguments(parser)
     parser.add_argument("--json", metavar="FILE", help="write the result as JSON to FILE (- for stdout)")
     parser.add_argument(
         "--write-model",
@@ -102,8 +114,47 @@ def _method2(args: argparse.Namespace) -> int:
     return 0
 
 
+def _forces(args: argparse.Namespace) -> int:
+    """`--forces RUN`: the force model fitted to a run's measured forces."""
+    from twin.analysis.identify.forces import fit_forces
+    from twin.cli._common import spec_from_arguments
+    from twin.runs.read import read_run
+    from twin.sim.model_file import write_model_file
+
+    if args.run_dir is not None or args.loads is not None:
+        raise InputError("--forces RUN takes no other run directory and no --loads")
+    measured = read_run(args.forces)
+    spec = spec_from_arguments(args, measured.commanded.values, run=measured)
+    fit = fit_forces(measured, spec.process)
+    payload: dict[str, object] = {
+        "run": args.forces,
+        "force_model": spec.process.force_model,
+        "process": {"material": spec.process.material, "tensile_strength_mpa": spec.process.tensile_strength_mpa},
+        "force_fit": dict(fit.force_fit),
+        "force_rms_before_n": fit.rms_before_n,
+        "force_rms_after_n": fit.rms_after_n,
+        "samples": fit.samples,
+        "evaluations": fit.evaluations,
+    }
+    if args.write_model is not None:
+        fitted = spec.replace(process=replace(spec.process, force_fit=fit.force_fit))
+        payload["model_written"] = write_model_file(
+            args.write_model, fitted, note=f"sheet forces fitted to {args.forces}", protect=[args.forces]
+        )
+    values = ", ".join(f"{k} {v:.4g}" for k, v in fit.force_fit)
+    print(
+        f"identify --forces {args.forces} ({spec.process.force_model} model, {fit.samples} samples): {values}; force "
+        f"rms {fit.rms_before_n:.1f} N -> {fit.rms_after_n:.1f} N",
+        file=sys.stderr if args.json == "-" else sys.stdout,
+    )
+    emit_json(args.json, payload, protect=[args.forces])
+    return 0
+
+
 def run(args: argparse.Namespace) -> int:
     """Run the identification and report it."""
+    if args.forces is not None:
+        return _forces(args)
     if args.method == 2:
         return _method2(args)
     if args.loads is None:

@@ -45,6 +45,9 @@ class Process:
         force_model: Name of the force model (`twin.process.force_models.FORCE_MODELS`).
         history: The FE force history the force model is fitted to; None: the shipped stand-in (a half model,
             doubled on load).
+        force_fit: Force-model constants learned from the cell (`identify --forces`), (name, value) pairs that
+            replace the model's shipped ones (`scale`, the level over the published one; `build_up_m`, `mu_eff`,
+            `mu_radial` for the `isf` model; the `table` model takes `scale` only).
     """
 
     material: str = DEFAULT_MATERIAL
@@ -55,6 +58,7 @@ class Process:
     friction_reversal_m: float | None = REVERSAL_M
     force_model: str = "table"
     history: ForceHistory | None = None
+    force_fit: tuple[tuple[str, float], ...] = ()
 
     def __post_init__(self) -> None:
         for name in ("tensile_strength_mpa", "thickness_m", "tool_radius_m"):
@@ -72,6 +76,10 @@ class Process:
             math.isfinite(self.friction_reversal_m) and self.friction_reversal_m > 0
         ):
             raise InputError(f"Process.friction_reversal_m = {self.friction_reversal_m!r}: expected > 0 [m] or None")
+        for item in self.force_fit:
+            if not (isinstance(item, tuple) and len(item) == 2 and isinstance(item[0], str)
+                    and isinstance(item[1], int | float) and math.isfinite(item[1]) and item[1] > 0):
+                raise InputError(f"Process.force_fit item {item!r}: expected (name, finite value > 0)")
         if not self.material or not self.force_model:
             raise InputError(f"Process: material {self.material!r} and force_model {self.force_model!r} must be named")
 

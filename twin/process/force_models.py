@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -144,6 +144,11 @@ def follows_history(history: ForceHistory, process: Process, p_sheet_m: np.ndarr
 
 
 def _table(history: ForceHistory, process: Process) -> ForceField:
+    fit = dict(process.force_fit)
+    if set(fit) - {"scale"}:
+        raise InputError(f"the table force model takes only 'scale' from Process.force_fit; got {sorted(fit)}")
+    if "scale" in fit:
+        history = replace(history, f_sheet_n=fit["scale"] * history.f_sheet_n)
     return SheetForceField(history, tool_radius_m=process.tool_radius_m)
 
 
@@ -157,7 +162,9 @@ def history_ratio(history: ForceHistory, reference: ForceHistory) -> float:
 def _isf(history: ForceHistory, process: Process) -> ForceField:
     for sentence in validity_warnings(process.thickness_m, process.tool_radius_m):
         warnings.warn(sentence, ExtrapolationWarning, stacklevel=3)
-    return IsfForceField(params_for(process, scale=history_ratio(history, process.force_history())))
+    fit = dict(process.force_fit)
+    scale = history_ratio(history, process.force_history()) * fit.pop("scale", 1.0)
+    return IsfForceField(params_for(process, scale=scale, **fit))
 
 
 register_force_model(ForceModel(

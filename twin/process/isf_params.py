@@ -90,6 +90,9 @@ def params_for(process: Process, **overrides: float) -> IsfForceParams:
         tensile_strength_mpa=process.tensile_strength_mpa, thickness_m=process.thickness_m,
         tool_radius_m=process.tool_radius_m,
     )
+    unknown = set(overrides) - set(vars(base))
+    if unknown:
+        raise InputError(f"unknown ISF force-model constant(s) {sorted(unknown)}; valid: {sorted(vars(base))}")
     return replace(base, **overrides) if overrides else base
 
 

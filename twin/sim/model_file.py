@@ -6,6 +6,7 @@ read with `--model`:
     {"format": "tx200-twin-model/2", "robot": "tx200",
      "process": {"material": ..., "tensile_strength_mpa": ..., "thickness_mm": ..., "tool_radius_mm": ...,
                  "tool_friction": ..., "friction_reversal_mm": ..., "force_model": "table",
+                 "force_fit": {"scale": 1.25, ...} (force-model constants learned by `identify --forces`),
                  "history": null | {"file": ..., "symmetry": "half", "unchecked_symmetry": false}},
      "placement": {"origin_base_mm": null, "yaw_deg": 0.0},
      "effects": {"lost_motion": 0.15}, "units": {"lost_motion": "mrad"}, "lost_motion_takeup_mm": 2.0,
@@ -54,6 +55,7 @@ def model_payload(spec: TwinSpec, note: str = "") -> dict[str, Any]:
             "tool_friction": process.tool_friction,
             "friction_reversal_mm": None if process.friction_reversal_m is None else _mm(process.friction_reversal_m),
             "force_model": process.force_model,
+            "force_fit": dict(process.force_fit),
             "history": None if history is None else {
                 "file": str(history.source), "symmetry": history.symmetry,
                 "unchecked_symmetry": history.symmetry != history.column_symmetry,
@@ -139,7 +141,19 @@ def _process(path: Path, entry: Any) -> Process:
         friction_reversal_m=metres("friction_reversal_mm", defaults.friction_reversal_m),
         force_model=str(entry.get("force_model", defaults.force_model)),
         history=loaded,
+        force_fit=_force_fit(path, entry.get("force_fit")),
     )
+
+
+def _force_fit(path: Path, entry: Any) -> tuple[tuple[str, float], ...]:
+    """The `process.force_fit` object (name -> value), as `Process.force_fit`."""
+    if entry is None:
+        return ()
+    if not isinstance(entry, Mapping) or not all(
+        isinstance(k, str) and isinstance(v, int | float) and not isinstance(v, bool) for k, v in entry.items()
+    ):
+        raise DataFileError(path, f"process.force_fit = {entry!r}: expected an object of name: number")
+    return tuple((k, float(v)) for k, v in entry.items())
 
 
 def _mm(length_m: float) -> float:
