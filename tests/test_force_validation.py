@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from twin.apps.force_data import read_measurements, shipped_measurements
-from twin.apps.force_validation import TOLERANCE, fit_build_up, markdown, validate
+from twin.apps.force_validation import TOLERANCE, fit_build_up, markdown, validate_forces
 from twin.cli import main
 from twin.errors import DataFileError
 from twin.process.description import Process
@@ -21,7 +21,7 @@ DOC = Path(__file__).resolve().parent.parent / "docs" / "force-validation.md"
 
 @pytest.fixture(scope="module")
 def validation():
-    return validate()
+    return validate_forces()
 
 
 def test_the_page_is_the_one_a_fresh_run_writes(validation, tmp_path):

@@ -1,6 +1,7 @@
 """Apps: the end-to-end jobs built from the stages.
 
-Modules: `demo` (the thesis story) and its `report`, `reproduction` (the thesis-vs-twin table), `bench`,
+Modules: `demo` (the thesis story) and its `report`, `reproduction` (the thesis-vs-twin table),
+`force_validation` (the force model against the published measurements of `force_data`), `bench`,
 `bench_speed` and `machine` (the speed ratios and the machine they ran on), `analytic_replay` (the replay with
 the linear model, the physical floor), `sweep` (a Monte Carlo of the compensated groove) with its `uncertainty`
 and `sweep_figure`, `readme` (the README's generated tables) and `export/` (robot programs from a path).
@@ -15,5 +16,6 @@ __all__, __getattr__, __dir__ = lazy_exports(__name__, {
     "run_benchmarks": "twin.apps.bench",
     "analytic_replay": "twin.apps.analytic_replay",
     "run_sweep": "twin.apps.sweep",
+    "validate_forces": "twin.apps.force_validation",
     "export_path": "twin.apps.export",
 })

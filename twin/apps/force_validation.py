@@ -173,7 +173,7 @@ def _formula(process: Process, case: Case) -> float:
                        case.wall_angle_deg)
 
 
-def validate(measurements: Measurements | None = None, seed: int = 1) -> Validation:
+def validate_forces(measurements: Measurements | None = None, seed: int = 1) -> Validation:
     """Every case and trend of the measurements (default: the shipped ones) against the model."""
     data = measurements or shipped_measurements()
     cases = tuple(predict_case(c, seed) for c in data.cases)

@@ -1,14 +1,14 @@
 """Command line `tx200-twin`: one module per command in this package, listed in COMMANDS.
 
-Modules: `info`, `path`, `fe_history`, `identify`, `calibrate`, `reproduce`, `lab`, `replay`, `compensate`,
-`check`, `bench`, `sweep`, `discrepancy`, `demo`, `import_run` (`import`), `export` and `materials`, one per
-command; `_common` holds the options several commands share (the FE history, the force model, the declared
+Modules: `info`, `path`, `fe_history`, `identify`, `calibrate`, `reproduce`, `force_validation`, `lab`, `replay`,
+`compensate`, `check`, `bench`, `sweep`, `discrepancy`, `demo`, `import_run` (`import`), `export` and `materials`,
+one per command; `_common` holds the options several commands share (the FE history, the force model, the declared
 process, the placement) and the twin they make (`spec_from_arguments`).
 
 Each command module defines `HELP` (one line), `add_arguments(parser)` and `run(args) -> int`.
 Commands that report numbers take `--json FILE` (`-` for stdout) and print a short human summary. A `TwinError`
 ends the command with its message and exit code 2; a warning (e.g. an effect read under a name used before) is
-printed as a note.
+printed as a note, a model used outside its published range (`ExtrapolationWarning`) as a warning.
 """
 
 from __future__ import annotations

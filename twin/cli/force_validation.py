@@ -18,10 +18,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Validate, print the table, write it where asked."""
-    from twin.apps.force_validation import markdown, validate
+    from twin.apps.force_validation import markdown, validate_forces
     from twin.base.csvio import emit_json, write_text
 
-    result = validate(seed=args.seed)
+    result = validate_forces(seed=args.seed)
     text = markdown(result)
     if args.markdown is not None:
         write_text(args.markdown, text)

@@ -153,7 +153,7 @@ def _forces(args: argparse.Namespace) -> int:
 
 def run(args: argparse.Namespace) -> int:
     """Run the identification and report it."""
-    if args.forces is not None:
+    if getattr(args, "forces", None) is not None:
         return _forces(args)
     if args.method == 2:
         return _method2(args)
