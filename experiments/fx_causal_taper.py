@@ -3,8 +3,8 @@
 The shipped stand-in (`twin.process.fe_history`) tapers Fx over the arc length *since* the last reversal
 (causal). The alternative, `fx_taper="nearest"`, tapers over the arc length to the *nearest* reversal, so before
 the tool reverses as well as after, which no causal model can follow. This script reports the ISF
-model's Fx and Fz errors against both, with the shipped constants and refitted (`calibrate_isf`), and where the
-remaining Fx error lies.
+model's Fx and Fz errors against both, with the constants fitted to the shipped stand-in (`calibrate_isf`: the
+groove factor, μ_t, L_f, Δz_min) and refitted to each, and where the remaining Fx error lies.
 
 Run: `.venv/bin/python experiments/fx_causal_taper.py` (about 10 s).
 """
@@ -12,6 +12,7 @@ Run: `.venv/bin/python experiments/fx_causal_taper.py` (about 10 s).
 from __future__ import annotations
 
 import tempfile
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -33,7 +34,7 @@ def history(fx_taper: str, directory: Path):
 def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         shipped, acausal = history("since", Path(tmp)), history("nearest", Path(tmp))
-    params = IsfForceParams()
+    params = calibrate_isf(shipped, replace(IsfForceParams(), mu_eff=0.3)).params
     for name, h in (("shipped (taper since the reversal)", shipped), ("old (taper to the nearest reversal)", acausal)):
         rms_fz, rms_fx, forces = groove_errors(params, h)
         refit = calibrate_isf(h)
