@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from twin.apps.force_data import read_measurements, shipped_measurements
@@ -13,8 +14,10 @@ from twin.apps.force_validation import TOLERANCE, fit_build_up, markdown, valida
 from twin.cli import main
 from twin.errors import DataFileError
 from twin.process.description import Process
+from twin.process.force_models import build_force_field
 from twin.process.isf_params import IsfForceParams, steady_fz_n
 from twin.process.materials import material
+from twin.process.shapes import PartSpec, part_path
 
 DOC = Path(__file__).resolve().parent.parent / "docs" / "force-validation.md"
 
@@ -55,9 +58,17 @@ def test_the_force_ratio_of_two_materials_follows_their_strength():
     """The same 45° cone in AA1050-O and AA5086-H111: the ratio of their tensile strengths (it was 1.0 when the
     level was refitted to the groove history)."""
     soft, strong = material("AA1050-O"), material("AA5086-H111")
-    ratio = steady_fz_n(Process(tensile_strength_mpa=soft.tensile_strength_mpa), 0.5e-3, 45.0) / steady_fz_n(
-        Process(tensile_strength_mpa=strong.tensile_strength_mpa), 0.5e-3, 45.0)
-    assert ratio == pytest.approx(soft.tensile_strength_mpa / strong.tensile_strength_mpa, rel=1e-9)
+    path = part_path(PartSpec(shape="cone", depth_m=16e-3, step_down_m=0.5e-3, top_half_width_m=0.03))
+    steady = path.p_sheet_m[:, 2] < -13e-3
+
+    def formed(rm: float) -> float:  # the cone formed rigidly with the material's process
+        field = build_force_field(Process(material="x", tensile_strength_mpa=rm, force_model="isf"))
+        return float(np.mean(field.rigid_forces(path)[steady, 2]))
+
+    ratio = formed(soft.tensile_strength_mpa) / formed(strong.tensile_strength_mpa)
+    assert ratio == pytest.approx(soft.tensile_strength_mpa / strong.tensile_strength_mpa, rel=1e-6)
+    assert ratio == pytest.approx(steady_fz_n(Process(tensile_strength_mpa=soft.tensile_strength_mpa), 0.5e-3, 45.0)
+                                  / steady_fz_n(Process(), 0.5e-3, 45.0), rel=1e-6)
     assert ratio < 0.5
 
 
