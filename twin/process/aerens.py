@@ -14,7 +14,7 @@ above their bottoms (`scallop_height_m`). A few micrometres to a few hundredths 
 settings: Δh^0.09 is the formula's way of saying that the step-down matters little. Read with the step-down in
 place of the scallop height, the formula gives 29-67 % more force on usual cones (AA5086, 1 mm, Ø 15 mm, 45°,
 0.5 mm: 1775 N instead of 1236 N); the paper's own DC01 regression (Eq. 13) agrees with Eq. 30 to 0.3 % only
-when both are read with the scallop height (secondary check, ../shared/outside-references.md).
+when both are read with the scallop height (a check of two public secondary sources, not of the paper).
 
 The paper's regression was fitted to SPIF cones and pyramids; its own table of experimental conditions was not
 read here. `VALIDITY` is the range the twin declares (our choice, from the conditions of the published
