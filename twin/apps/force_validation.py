@@ -25,9 +25,10 @@ from twin.apps.force_data import BuildUp, Case, Measurements, shipped_measuremen
 from twin.base.signals import interp_rows
 from twin.errors import ExtrapolationWarning
 from twin.lab.cnc import run_cnc
-from twin.process.aerens import validity_warnings
+from twin.process.aerens import aerens_fz_n, validity_warnings
 from twin.process.description import Process
 from twin.process.isf_params import IsfForceParams, steady_fz_n
+from twin.process.materials import material
 from twin.process.path import ToolPath, groove_path
 from twin.process.shapes import PartSpec, part_path
 
@@ -121,8 +122,6 @@ def fit_build_up(data: BuildUp) -> BuildUpFit:
 def _strength(case: Case) -> tuple[float, tuple[str, ...]]:
     if case.tensile_strength_mpa is not None:
         return case.tensile_strength_mpa, ()
-    from twin.process.materials import material  # the library; a case without R_m of its own
-
     rm = material(case.material).tensile_strength_mpa
     return rm, (f"R_m {rm:g} MPa: the library's {case.material} (the source's strength was not read)",)
 
@@ -167,8 +166,6 @@ def predict_case(case: Case, seed: int = 1) -> CaseResult:
 
 
 def _formula(process: Process, case: Case) -> float:
-    from twin.process.aerens import aerens_fz_n
-
     return aerens_fz_n(process.tensile_strength_mpa, process.thickness_m, process.tool_radius_m, case.step_down_m,
                        case.wall_angle_deg)
 
