@@ -192,7 +192,7 @@ def run(args: argparse.Namespace) -> int:
 
 def _steady_force(process: Process, payload: dict[str, Any]) -> str:
     """Add the ISF model's steady axial force at the part's top and bottom wall angles to `payload`
-    (`steady_fz_n` [N]), warn where Aerens's experiments do not reach, and say it in one line."""
+    (`steady_fz_n` [N]), warn outside the formula's declared range, and say it in one line."""
     step_m = 1e-3 * payload["step_down_mm"]
     angles = payload["wall_angle_deg"]
     forces = [steady_fz_n(process, step_m, angle) for angle in angles]
