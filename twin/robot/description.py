@@ -63,6 +63,23 @@ class StiffnessPrior:
     source: str
 
 
+@dataclass(frozen=True)
+class Datasheet:
+    """The maker's numbers of a robot, with their source.
+
+    Attributes:
+        reach_m: Maximum reach (wrist centre or flange, as the maker states it) [m].
+        payload_kg: Rated payload [kg].
+        joint_speed_rad_s: Maximum speed of each joint [rad/s], or None where not given.
+        source: Datasheet, URDF or page the numbers come from.
+    """
+
+    reach_m: float
+    payload_kg: float
+    joint_speed_rad_s: tuple[float, ...] | None
+    source: str
+
+
 class JointAddresses(NamedTuple):
     """Where a robot's arm joints live in one compiled model (arrays of shape (dof,))."""
 
@@ -96,6 +113,9 @@ class RobotDescription:
         stiffness_priors: Joint-stiffness priors with sources.
         calibrated_stiffness: Joints whose K_q a calibration to measurements fits.
         calibrated_friction: Joints whose friction a calibration fits.
+        datasheet: The maker's reach, payload and joint speeds with their source, or None.
+        controller_sign: Per joint, +1 or -1: the controller's axis value turns the way the MJCF's q does or not.
+        controller_offset_rad: Per joint, the controller's axis value at q = 0 [rad].
     """
 
     name: str
@@ -124,6 +144,16 @@ class RobotDescription:
     stiffness_priors: tuple[StiffnessPrior, ...]
     calibrated_stiffness: tuple[str, ...] = ()
     calibrated_friction: tuple[str, ...] = ()
+    datasheet: Datasheet | None = None
+    controller_sign: tuple[float, ...] = ()
+    controller_offset_rad: tuple[float, ...] = ()
+
+    def controller_angles(self, q_rad: np.ndarray) -> np.ndarray:
+        """The controller's axis values (A1..A6, J1..J6) of MJCF joint angles [rad], shape as `q_rad`."""
+        q = np.asarray(q_rad, dtype=float)
+        sign = np.array(self.controller_sign or (1.0,) * self.dof)
+        offset = np.array(self.controller_offset_rad or (0.0,) * self.dof)
+        return sign * q + offset
 
     @property
     def dof(self) -> int:

@@ -20,6 +20,7 @@ from twin.errors import ModelError
 from twin.robot.description import (
     ROBOT_FORMAT,
     TOOL_ROUNDING_DIGITS,
+    Datasheet,
     DhTable,
     RobotDescription,
     StiffnessPrior,
@@ -64,8 +65,42 @@ def read_description(path: Path) -> RobotDescription:
         q_max_rad=derived["q_max"], tool_in_flange_m=derived["tool"],
         det_j_min_m3=float(data.get("det_j_min_m3", 0.0)), dh=_dh(path, data.get("dh"), len(joints)),
         stiffness_priors=_priors(path, data.get("stiffness_prior", []), joints),
-        calibrated_stiffness=stiffness_joints, calibrated_friction=friction_joints, **names,
+        calibrated_stiffness=stiffness_joints, calibrated_friction=friction_joints,
+        datasheet=_datasheet(path, data.get("datasheet"), len(joints)),
+        controller_sign=_per_joint(path, joint_table, "controller_sign", len(joints), 1.0),
+        controller_offset_rad=tuple(np.deg2rad(_per_joint(path, joint_table, "controller_offset_deg", len(joints),
+                                                          0.0)).tolist()), **names,
     )
+
+
+def _per_joint(path: Path, table: Mapping[str, Any], key: str, dof: int, default: float) -> tuple[float, ...]:
+    """A list of one number per joint (`default` for each where the key is absent)."""
+    value = table.get(key, [default] * dof)
+    try:
+        out = tuple(float(v) for v in value)
+    except (TypeError, ValueError):
+        out = ()
+    if len(out) != dof or (key == "controller_sign" and any(v not in (-1.0, 1.0) for v in out)):
+        raise ModelError(f"{path}: [joints] {key} = {value!r}: expected {dof} numbers"
+                         + (" of +1 or -1" if key == "controller_sign" else ""))
+    return out
+
+
+def _datasheet(path: Path, table: Any, dof: int) -> Datasheet | None:
+    """The `[datasheet]` table: reach_mm, payload_kg, joint_speed_deg_s (optional), source."""
+    if table is None:
+        return None
+    try:
+        reach, payload, source = float(table["reach_mm"]) / 1e3, float(table["payload_kg"]), str(table["source"])
+        speeds = table.get("joint_speed_deg_s")
+        speed = None if speeds is None else tuple(float(np.deg2rad(float(v))) for v in speeds)
+    except (KeyError, TypeError, ValueError) as exc:
+        raise ModelError(f"{path}: [datasheet] needs reach_mm, payload_kg and source (and optional "
+                         f"joint_speed_deg_s, one per joint): {exc}") from None
+    if not (reach > 0 and payload > 0 and source) or (speed is not None and (len(speed) != dof or min(speed) <= 0)):
+        raise ModelError(f"{path}: [datasheet] {dict(table)!r}: positive reach and payload, a source, and one "
+                         f"positive speed per joint ({dof})")
+    return Datasheet(reach, payload, speed, source)
 
 
 def _table(path: Path, data: Mapping[str, Any], key: str) -> Mapping[str, Any]:
