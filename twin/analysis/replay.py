@@ -8,7 +8,7 @@ import numpy as np
 
 from twin.base.signals import interp_rows
 from twin.errors import InputError, RunFormatError
-from twin.runs.format import Run, run_placement
+from twin.runs.format import Run, run_placement, run_robot
 from twin.sim.measure import predict_forces, predict_tracker
 from twin.sim.quasi_static import Twin
 from twin.sim.result import SimResult
@@ -67,25 +67,30 @@ def replay(run: Run, twin: Twin | TwinSpec | None = None) -> ReplayResult:
     Args:
         run: A measured run (never its truth).
         twin: The twin: a spec (built at the run's placement, `meta.json`'s `placement`, which replaces the
-            spec's), a ready twin to reuse (it must be at the run's placement), or None (the default cell at the
-            run's placement).
+            spec's), a ready twin to reuse (it must be at the run's placement), or None (the run's robot in its
+            cell at the run's placement). Its robot must be the run's (`meta.json`'s `robot`).
 
     Returns:
         Prediction at the run's stream times and the gap metrics.
 
     Raises:
-        InputError: A ready twin at another placement than the run's.
+        InputError: A twin at another placement than the run's, or of another robot.
     """
     if len(run.commanded.t_s) < 2:
         raise RunFormatError("commanded.csv", "needs at least 2 samples to replay")
     placement = run_placement(run.meta)
+    robot = run_robot(run.meta)
+    twin_robot = twin.robot if twin is not None else robot
+    if twin_robot.source != robot.source:
+        raise InputError(f"the run was made with robot {robot.name!r} ({robot.source}); the twin is a "
+                         f"{twin_robot.name!r} ({twin_robot.source}): replay it on the run's robot")
     if isinstance(twin, Twin):
         if twin.placement != placement:
             raise InputError(
                 f"the twin passed has the sheet placement {twin.placement}, but the run was made at {placement}"
             )
     else:
-        twin = (twin or TwinSpec()).replace(placement=placement).build()
+        twin = (twin or TwinSpec(robot=robot)).replace(placement=placement).build()
     effects = twin.effects
     sim = twin.simulate(run.commanded.t_s, run.commanded.values)
     tracker = predict_tracker(sim, run.tracker.t_s, effects)

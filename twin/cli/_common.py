@@ -22,7 +22,8 @@ from twin.process.materials import material
 from twin.process.path import ToolPath, groove_path, label_passes
 from twin.process.placement import Placement
 from twin.process.process_file import ProcessDeclaration, positive, read_process_declaration
-from twin.runs.format import Run, Stream, run_placement, run_process
+from twin.robot.description import DEFAULT_ROBOT, RobotDescription, load_robot, shipped_robots
+from twin.runs.format import Run, Stream, run_placement, run_process, run_robot
 from twin.runs.read import read_commanded_csv
 from twin.sim.model_file import read_model_file
 from twin.sim.spec import TwinSpec
@@ -139,6 +140,7 @@ def spec_from_arguments(
     """
     model = getattr(args, "model", None)
     base = read_model_file(model) if model is not None else TwinSpec()
+    base = base.replace(robot=command_robot(args, base.robot if model is not None else None, run))
     process = base.process if history is None else replace(base.process, history=history)
     name = "the model file's process" if model is not None else None
     if run is not None and "process" in run.meta:
@@ -152,6 +154,39 @@ def spec_from_arguments(
     else:
         placement = base.placement
     return base.replace(process=process, placement=placement)
+
+
+def add_robot_argument(parser: argparse.ArgumentParser | Any) -> None:
+    """Add `--robot NAME|PATH` (a shipped robot, `tx200-twin robots`, or a robot description file)."""
+    parser.add_argument(
+        "--robot",
+        metavar="NAME|PATH",
+        help=f"the robot: a shipped one ({', '.join(sorted(shipped_robots()))}; `tx200-twin robots`) or a "
+        "tx200-twin-robot/1 description file; default: a run's recorded robot, else the model file's, else "
+        f"{DEFAULT_ROBOT}",
+    )
+
+
+def command_robot(
+    args: argparse.Namespace, model_robot: RobotDescription | None = None, run: Run | None = None
+) -> RobotDescription:
+    """The robot of a command: a run's recorded one (which `--robot` and a model file must match), else
+    `--robot`, else the model file's, else the default.
+
+    Raises:
+        InputError: `--robot` or the model file names another robot than the run was made with.
+        ModelError: An unknown robot name or a bad description file.
+    """
+    given = getattr(args, "robot", None)
+    chosen = load_robot(given) if given is not None else None
+    if run is not None:
+        recorded = run_robot(run.meta, (run.directory or Path(".")) / "meta.json")
+        for what, other in (("--robot", chosen), ("the model file", model_robot)):
+            if other is not None and other.source != recorded.source:
+                raise InputError(f"{what} gives robot {other.name!r}, but the run {run.directory} was made with "
+                                 f"{recorded.name!r}: a twin of another robot cannot replay it")
+        return recorded
+    return chosen or model_robot or load_robot()
 
 
 def add_process_arguments(parser: argparse.ArgumentParser) -> Any:

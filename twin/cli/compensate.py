@@ -26,6 +26,7 @@ from twin.cli._common import (
     add_ideal_argument,
     add_placement_arguments,
     add_process_arguments,
+    add_robot_argument,
     history_from_arguments,
     ideal_from_arguments,
     spec_from_arguments,
@@ -51,6 +52,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_ideal_argument(parser)
     add_force_model_argument(parser)
     add_process_arguments(parser)
+    add_robot_argument(parser)
     add_placement_arguments(parser, "sheet placement (the twin's)")
     parser.add_argument(
         "--tol-mm", type=float, default=1e3 * TWIN_TOL_M, help="--method twin: stop below this |residual| [mm]"

@@ -13,6 +13,7 @@ from twin.cli._common import (
     add_force_model_argument,
     add_history_arguments,
     add_process_arguments,
+    add_robot_argument,
     history_from_arguments,
     spec_from_arguments,
 )
@@ -32,6 +33,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_history_arguments(parser)
     add_force_model_argument(parser)
     add_process_arguments(parser)
+    add_robot_argument(parser)
     parser.add_argument("--model-out", type=Path, help="write the augmented twin model file here")
     parser.add_argument(
         "--report", type=Path, help="write figures of the residual before/after into this folder"

@@ -11,7 +11,12 @@ import numpy as np
 
 from twin.analysis.identify.cartesian import fit_kr_load_cases, load_cases_csv
 from twin.base.csvio import emit_json
-from twin.cli._common import add_force_model_argument, add_process_arguments
+from twin.cli._common import (
+    add_force_model_argument,
+    add_process_arguments,
+    add_robot_argument,
+    command_robot,
+)
 from twin.errors import InputError
 
 HELP = "Identify K_R (Method 1: load cases; Method 2: a run), the joint stiffness K_q, or the sheet's forces."
@@ -42,6 +47,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--model", type=Path, help="--forces: start from this twin model file (its process)")
     add_force_model_argument(parser)
     add_process_arguments(parser)
+    add_robot_argument(parser)
     parser.add_argument("--json", metavar="FILE", help="write the result as JSON to FILE (- for stdout)")
     parser.add_argument(
         "--write-model",
@@ -58,15 +64,21 @@ def _matrix_lines(matrix: np.ndarray) -> list[str]:
 def _method2(args: argparse.Namespace) -> int:
     """Method 2 on a run directory."""
     from twin.analysis.identify.method2 import method2
-    from twin.runs.format import run_placement
+    from twin.process.description import Process
+    from twin.runs.format import run_placement, run_process
     from twin.runs.read import read_run
     from twin.sim.spec import TwinSpec
 
     if args.run_dir is None:
         raise InputError("--method 2 needs a RUN_DIR (a nominal run with forces.csv)")
     measured = read_run(args.run_dir)
-    result = method2(measured)
-    spec = TwinSpec(placement=run_placement(measured.meta))
+    robot = command_robot(args, run=measured)
+    process = run_process(measured.meta, Process())
+    recorded_model = measured.meta.get("force_model")
+    if isinstance(recorded_model, str):
+        process = replace(process, force_model=recorded_model)
+    result = method2(measured, process)
+    spec = TwinSpec(robot=robot, placement=run_placement(measured.meta))
     twin = spec.build()
     R = twin.R_base_sheet  # the twin's compliance at home, in the run's sheet frame
     c_twin = (R.T @ twin.kinematics.compliance(twin.kinematics.q_home) @ R)[np.ix_([0, 2], [0, 2])]
@@ -179,7 +191,7 @@ def run(args: argparse.Namespace) -> int:
     from twin.analysis.identify.rollouts import kq_from_stiffness, write_joint_stiffness
     from twin.sim.spec import TwinSpec
 
-    twin = TwinSpec().build()
+    twin = TwinSpec(robot=command_robot(args)).build()
     kq = kq_from_stiffness(twin, fit.k_r_n_per_m)
     k_q = np.where(np.isfinite(kq.k_q_nm_per_rad), kq.k_q_nm_per_rad, twin.joint_stiffness)
     payload |= {
@@ -191,7 +203,7 @@ def run(args: argparse.Namespace) -> int:
     }
     if args.write_model is not None:
         payload["model_written"] = write_joint_stiffness(
-            args.write_model, k_q, note=f"K_q from Method 1 on {args.loads}"
+            args.write_model, k_q, note=f"K_q from Method 1 on {args.loads}", spec=TwinSpec(robot=twin.robot)
         )
     emit_json(args.json, payload, protect=[args.loads])
     out = sys.stderr if args.json == "-" else sys.stdout

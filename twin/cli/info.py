@@ -7,13 +7,15 @@ import argparse
 import numpy as np
 
 from twin.base.csvio import emit_json
+from twin.cli._common import add_robot_argument, command_robot
 from twin.robot.kinematics import Kinematics
 
 HELP = "Show the model: joint stiffness K_q, tool tip and compliance at home, sheet origin."
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """Add `--json FILE` (`-` for stdout)."""
+    """Add `--robot` and `--json FILE` (`-` for stdout)."""
+    add_robot_argument(parser)
     parser.add_argument(
         "--json", metavar="FILE", default=None, help="write the numbers as JSON ('-' = stdout)"
     )
@@ -21,7 +23,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Print the summary (or JSON to stdout with `--json -`) and return 0."""
-    kin = Kinematics()
+    kin = Kinematics(robot=command_robot(args))
     path = kin.robot.model_path()
     p_home, _ = kin.fk(kin.q_home)
     compliance_mm_per_kn = kin.compliance(kin.q_home) * 1e6  # [m/N] -> [mm/kN]

@@ -16,7 +16,9 @@ from twin.cli._common import (
     add_force_model_argument,
     add_placement_arguments,
     add_process_arguments,
+    add_robot_argument,
     command_process,
+    command_robot,
     placement_from,
     tool_path,
 )
@@ -58,6 +60,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seed", type=int, required=True, help="seed of the lab's noise")
     add_force_model_argument(parser)
     add_process_arguments(parser)
+    add_robot_argument(parser)
     add_placement_arguments(parser, "sheet placement (nominal and compensated runs; recorded in meta.json)")
     parser.add_argument("--out", type=Path, required=True, help="run directory (loadtest: a CSV file)")
     parser.add_argument("--overwrite", action="store_true", help="replace an existing output")
@@ -95,12 +98,13 @@ def run(args: argparse.Namespace) -> int:
     _check_out(args.out, args.overwrite)
     out = sys.stderr if args.json == "-" else sys.stdout  # keep stdout pure JSON for `--json -`
     if args.scenario == "loadtest":
-        return _run_load_test(args, TwinSpec(effects=effects), out)
+        return _run_load_test(args, TwinSpec(robot=command_robot(args), effects=effects), out)
     if args.scenario == "cnc":
         return _run_cnc(args, effects_given=bool(args.effect), out=out)
     commanded, protect = lab_commanded(args.scenario, args.commanded)
     t_s, p_cmd = commanded.t_s, commanded.values
-    spec = TwinSpec(process=command_process(args, Process(), p_cmd), placement=placement, effects=effects)
+    spec = TwinSpec(robot=command_robot(args), process=command_process(args, Process(), p_cmd), placement=placement,
+                    effects=effects)
     run_, truth = run_lab(t_s, p_cmd, scenario=args.scenario, seed=args.seed, spec=spec)
     write_run(args.out, run_, truth=truth, overwrite=args.overwrite, protect=protect)
     deflection = np.max(np.linalg.norm(run_.tracker.values - interp_rows(run_.tracker.t_s, t_s, p_cmd), axis=1))
@@ -182,4 +186,5 @@ def _run_dynamic(args: argparse.Namespace, placement: Placement) -> int:
     if args.scenario != "loadtest":
         commanded, _ = lab_commanded(args.scenario, args.commanded)
         process = command_process(args, process, commanded.values)
-    return run_dynamic_command(args, loads_n=THESIS_TABLE_4_2_LOADS_N, process=process, placement=placement)
+    return run_dynamic_command(args, loads_n=THESIS_TABLE_4_2_LOADS_N, process=process, placement=placement,
+                               robot=command_robot(args))

@@ -21,6 +21,8 @@ from twin.base.csvio import emit_json, write_bytes
 from twin.cli._common import (
     add_placement_arguments,
     add_process_arguments,
+    add_robot_argument,
+    command_robot,
     placement_from,
     process_from_arguments,
 )
@@ -34,6 +36,7 @@ from twin.process.path import GrooveSpec, ToolPath, groove_path, write_path_csv
 from twin.process.placement import check_reach
 from twin.process.process_file import process_record
 from twin.process.shapes import MODES, SHAPES, PartSpec, part_path
+from twin.robot.kinematics import Kinematics
 
 HELP = (
     "Write an ideal tool path (sheet frame) as CSV t_s, x_mm, y_mm, z_mm, pass, direction: the groove, a cone, "
@@ -84,6 +87,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     part.add_argument("--step-down-mm", type=float, default=p.step_down_m * 1e3, help="largest step-down")
     add_process_arguments(parser)
     place = add_placement_arguments(parser, "placement and reach check")
+    add_robot_argument(place)
     place.add_argument("--no-reach-check", action="store_true", help="skip the IK check along the path")
     parser.add_argument("--json", metavar="FILE", help="write the summary as JSON to FILE (- for stdout)")
 
@@ -150,13 +154,15 @@ def run(args: argparse.Namespace) -> int:
     if "step_down_mm" in payload:  # a cone, pyramid or variable-wall-angle cone: its steady axial force
         line += _steady_force(process, payload)
     if not args.no_reach_check:
-        reach = check_reach(path, placement_from(args))
+        robot = command_robot(args)
+        reach = check_reach(path, placement_from(args), Kinematics(robot=robot))
         payload["reach"] = {
+            "robot": robot.name,
             "min_abs_det_j_m3": reach.min_abs_det_j,
             "min_det_sample": reach.min_det_sample,
             "joint_margin_deg": np.degrees(reach.joint_margin_rad).tolist(),
         }
-        line += f"; reachable, min |det J| {reach.min_abs_det_j:.3f} m^3"
+        line += f"; reachable by {robot.name}, min |det J| {reach.min_abs_det_j:.3f} m^3"
     write_path_csv(path, args.out)
     if args.gcode_out is not None:
         write_gcode(path, args.gcode_out)

@@ -8,7 +8,12 @@ from pathlib import Path
 
 from twin.analysis.replay import replay
 from twin.base.csvio import emit_json
-from twin.cli._common import add_force_model_argument, add_process_arguments, spec_from_arguments
+from twin.cli._common import (
+    add_force_model_argument,
+    add_process_arguments,
+    add_robot_argument,
+    spec_from_arguments,
+)
 from twin.process.process_file import process_record
 from twin.runs.read import read_run
 
@@ -23,6 +28,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     add_force_model_argument(parser)
     add_process_arguments(parser)
+    add_robot_argument(parser)
     parser.add_argument("--json", help="write the metrics to FILE ('-' for stdout)")
     parser.add_argument("--rrd", type=Path, help="also save a rerun recording of the replay to FILE")
 

@@ -268,6 +268,11 @@ def load_robot(robot: str | Path | RobotDescription | None = None) -> RobotDescr
     return description
 
 
+def robot_record(robot: RobotDescription) -> str:
+    """How runs and model files name a robot: its name when it is the shipped one, else its description file."""
+    return robot.name if shipped_robots().get(robot.name) == robot.source else str(robot.source)
+
+
 def _stamps(path: Path, mjcf: Path) -> tuple[int, int]:
     """Modification times of a description file and its MJCF (-1 for one that is gone)."""
     return tuple(p.stat().st_mtime_ns if p.exists() else -1 for p in (path, mjcf))  # type: ignore[return-value]

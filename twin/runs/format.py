@@ -35,10 +35,11 @@ from typing import Any
 import numpy as np
 
 from twin.base.signals import interp_rows
-from twin.errors import DataFileError, InputError, RunFormatError
+from twin.errors import DataFileError, InputError, ModelError, RunFormatError
 from twin.process.description import Process
 from twin.process.placement import Placement
 from twin.process.process_file import process_from_record, process_record
+from twin.robot.description import RobotDescription, load_robot
 
 RUN_FORMAT = "tx200-twin-run/1"
 RUN_FRAME = "sheet"
@@ -234,6 +235,22 @@ def run_placement(meta: Mapping[str, Any], source: str | Path = "meta.json") -> 
         return Placement.from_json(meta.get("placement"), source)
     except DataFileError as exc:
         raise RunFormatError(exc.path, exc.detail) from None
+
+
+def run_robot(meta: Mapping[str, Any], source: str | Path = "meta.json") -> RobotDescription:
+    """The robot a run was made with (`meta.json`'s `robot`: a shipped name or a description file; absent, as in
+    runs before it was recorded: the default robot).
+
+    Raises:
+        RunFormatError: The entry is not a string, or names no robot the twin can load.
+    """
+    name = meta.get("robot")
+    if name is not None and not isinstance(name, str):
+        raise RunFormatError(source, f"robot = {name!r}: expected a robot's name or description file")
+    try:
+        return load_robot(name)
+    except ModelError as exc:
+        raise RunFormatError(source, f"robot: {exc}") from None
 
 
 def run_process(meta: Mapping[str, Any], base: Process, source: str | Path = "meta.json") -> Process:

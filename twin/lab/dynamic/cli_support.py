@@ -14,12 +14,15 @@ from twin.lab.dynamic.knobs import Knobs, parse_set_args
 from twin.lab.dynamic.run import dynamic_load_test, run_dynamic_lab
 from twin.process.description import Process
 from twin.process.placement import Placement
+from twin.robot.description import RobotDescription
 from twin.runs.format import Run
 from twin.runs.read import lab_commanded
 from twin.runs.write import write_run
 
 
-def _run_load_test(args: argparse.Namespace, loads_n: np.ndarray, knobs: Knobs, out: TextIO) -> int:
+def _run_load_test(
+    args: argparse.Namespace, loads_n: np.ndarray, knobs: Knobs, out: TextIO, robot: RobotDescription | None = None
+) -> int:
     """Hold each load at home on the dynamic plant, write the deflections [mm] to `args.out`, report it.
 
     Args:
@@ -27,11 +30,12 @@ def _run_load_test(args: argparse.Namespace, loads_n: np.ndarray, knobs: Knobs, 
         loads_n: Load cases, base frame [N], shape (m, 3).
         knobs: The plant's knobs.
         out: Where the one-line report goes.
+        robot: The robot (None: the default robot).
 
     Returns:
         The exit status (0).
     """
-    loads, deflections = dynamic_load_test(loads_n, knobs=knobs, seed=args.seed)
+    loads, deflections = dynamic_load_test(loads_n, knobs=knobs, seed=args.seed, robot=robot)
     columns = {"fx_n": loads[:, 0], "fy_n": loads[:, 1], "fz_n": loads[:, 2]}
     columns |= {f"d{a}_mm": 1e3 * deflections[:, i] for i, a in enumerate("xyz")}
     formats = {name: (".1f" if name.startswith("f") else ".5f") for name in columns}
@@ -77,6 +81,7 @@ def run_dynamic_command(
     loads_n: np.ndarray,
     process: Process | None = None,
     placement: Placement | None = None,
+    robot: RobotDescription | None = None,
 ) -> int:
     """Run `args.scenario` (nominal, compensated or loadtest) on the dynamic plant.
 
@@ -85,6 +90,7 @@ def run_dynamic_command(
         loads_n: Load cases of the load test, base frame [N], shape (m, 3).
         process: The sheet, tool and force model for the commanded path (None: the thesis's, the table field).
         placement: Where the sheet lies in the cell (None: the cell's `sheet_origin`, yaw 0).
+        robot: The robot (None: the default robot).
 
     Returns:
         The exit status (0).
@@ -92,7 +98,7 @@ def run_dynamic_command(
     knobs = parse_set_args(args.set, neutral=args.neutral)
     out = sys.stderr if args.json == "-" else sys.stdout  # keep stdout pure JSON for `--json -`
     if args.scenario == "loadtest":
-        return _run_load_test(args, loads_n, knobs, out)
+        return _run_load_test(args, loads_n, knobs, out, robot)
     commanded, protect = lab_commanded(args.scenario, args.commanded)
     p_cmd = commanded.values
     run, truth, log = run_dynamic_lab(
@@ -104,6 +110,7 @@ def run_dynamic_command(
         progress=sys.stderr,
         process=process,
         placement=placement,
+        robot=robot,
     )
     truth["force_model"] = (process or Process()).force_model
     write_run(args.out, run, truth=truth, overwrite=args.overwrite, protect=protect)

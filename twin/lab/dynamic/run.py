@@ -20,6 +20,7 @@ from twin.lab.dynamic.simulate import DynamicLog, simulate
 from twin.lab.dynamic.trajectory import retime_with_stops
 from twin.process.description import Process
 from twin.process.placement import Placement
+from twin.robot.description import RobotDescription
 from twin.robot.kinematics import Kinematics, load_model
 from twin.runs.format import Run, Stream, run_meta
 
@@ -36,6 +37,7 @@ def run_dynamic_lab(
     process: Process | None = None,
     progress: TextIO | None = None,
     placement: Placement | None = None,
+    robot: str | RobotDescription | None = None,
 ) -> tuple[Run, dict[str, Any], DynamicLog]:
     """Run the commanded path on the dynamic plant and measure it.
 
@@ -49,11 +51,12 @@ def run_dynamic_lab(
         process: The lab's sheet, tool and force model (and its FE history); default the thesis's.
         progress: Stream for progress lines (None: quiet).
         placement: Where the sheet lies in the cell (recorded in meta.json); None: the cell's, yaw 0.
+        robot: The robot (its model folder builds the plant); None: the default robot.
 
     Returns:
         The run (not yet written), the truth record for `truth.json`, and the physical log.
     """
-    plant = build_plant(knobs)
+    plant = build_plant(knobs, robot)
     process = process or Process()
     # the controller's trajectory generator stops at sharp corners: its timing is the run's commanded stream
     t_s = retime_with_stops(t_s, p_cmd_sheet_m, knobs["trajectory_accel_mps2"])
@@ -107,19 +110,22 @@ def truth_record(
     }
 
 
-def dynamic_load_test(loads_n: np.ndarray, *, knobs: Knobs, seed: int) -> tuple[np.ndarray, np.ndarray]:
+def dynamic_load_test(
+    loads_n: np.ndarray, *, knobs: Knobs, seed: int, robot: str | RobotDescription | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """Thesis Method 1 on the dynamic plant: each load held at `home`, the tip read loaded and unloaded.
 
     Args:
         loads_n: Loads on the tool tip, base frame [N], shape (m, 3).
         knobs: Plant, controller and tracker knobs (the tracker noise and registration apply).
         seed: Seed of the tracker noise.
+        robot: The robot; None: the default robot.
 
     Returns:
         The loads [N] and the measured deflections [m], shape (m, 3) each.
     """
     loads = np.asarray(loads_n, dtype=float)
-    plant = build_plant(knobs)
+    plant = build_plant(knobs, robot)
     kin = Kinematics(load_model(scene=True, robot=plant.robot), robot=plant.robot)
     p_home, _ = kin.fk(kin.q_home)
     p_sheet = p_home - plant.p_base_sheet_origin
