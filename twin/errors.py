@@ -68,3 +68,7 @@ class CompensationError(TwinError):
 
 class ExtrapolationWarning(UserWarning):
     """A model is used outside the range its published data cover (it still answers; the CLI prints a warning)."""
+
+
+class AssumptionWarning(UserWarning):
+    """The twin completed an input with an assumption it states (the CLI prints it as a note)."""

@@ -1,7 +1,7 @@
 """Command line `tx200-twin`: one module per command in this package, listed in COMMANDS.
 
 Modules: `info`, `path`, `fe_history`, `identify`, `calibrate`, `reproduce`, `force_validation`, `lab`, `replay`,
-`compensate`, `check`, `bench`, `sweep`, `discrepancy`, `demo`, `import_run` (`import`), `export` and `materials`,
+`compensate`, `check`, `bench`, `sweep`, `discrepancy`, `demo`, `import_run` (`import`), `export`, `materials` and `robots`,
 one per command; `_common` holds the options several commands share (the FE history, the force model, the declared
 process, the placement) and the twin they make (`spec_from_arguments`).
 
@@ -19,7 +19,7 @@ import sys
 import warnings
 from collections.abc import Sequence
 
-from twin.errors import ExtrapolationWarning, TwinError
+from twin.errors import AssumptionWarning, ExtrapolationWarning, TwinError
 
 # command name -> module under twin.cli (imported lazily so `--help` stays fast)
 COMMANDS: dict[str, str] = {
@@ -40,6 +40,7 @@ COMMANDS: dict[str, str] = {
     "demo": "demo",
     "import": "import_run",
     "export": "export",
+    "robots": "robots",
     "materials": "materials",
 }
 
@@ -66,18 +67,20 @@ def main(argv: Sequence[str] | None = None) -> int:
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", FutureWarning)
         warnings.simplefilter("always", ExtrapolationWarning)
+        warnings.simplefilter("always", AssumptionWarning)
         try:
             return int(args._run(args))
         except TwinError as exc:
             print(f"tx200-twin {args.command}: error: {exc}", file=sys.stderr)
             return 2
         finally:
-            for note in dict.fromkeys(str(w.message) for w in caught if issubclass(w.category, FutureWarning)):
+            for note in dict.fromkeys(str(w.message) for w in caught
+                                      if issubclass(w.category, (FutureWarning, AssumptionWarning))):
                 print(f"tx200-twin {args.command}: note: {note}", file=sys.stderr)
             for note in dict.fromkeys(str(w.message) for w in caught if issubclass(w.category, ExtrapolationWarning)):
                 print(f"tx200-twin {args.command}: warning: {note}", file=sys.stderr)
             for w in caught:
-                if not issubclass(w.category, (FutureWarning, ExtrapolationWarning)):
+                if not issubclass(w.category, (FutureWarning, ExtrapolationWarning, AssumptionWarning)):
                     warnings.showwarning(w.message, w.category, w.filename, w.lineno)
 
 

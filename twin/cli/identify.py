@@ -78,7 +78,7 @@ def _method2(args: argparse.Namespace) -> int:
     if isinstance(recorded_model, str):
         process = replace(process, force_model=recorded_model)
     result = method2(measured, process)
-    spec = TwinSpec(robot=robot, placement=run_placement(measured.meta))
+    spec = TwinSpec(robot=robot, process=process, placement=run_placement(measured.meta))
     twin = spec.build()
     R = twin.R_base_sheet  # the twin's compliance at home, in the run's sheet frame
     c_twin = (R.T @ twin.kinematics.compliance(twin.kinematics.q_home) @ R)[np.ix_([0, 2], [0, 2])]

@@ -18,6 +18,7 @@ import numpy as np
 from twin.base.signals import uniform_times
 from twin.process.part_surface import formed_surface, surface_points
 from twin.process.path import groove_path
+from twin.robot.description import robot_record
 from twin.runs.format import Run, Stream, run_meta
 from twin.sim.measure import predict_forces, predict_part_profile, predict_tracker
 from twin.sim.quasi_static import Twin
@@ -87,7 +88,7 @@ def run_lab(
         seed=seed,
         tool_length_m=spec.robot.tool_length_m,
         placement=spec.placement,
-        robot=spec.robot.name,
+        robot=robot_record(spec.robot),
         force_model=spec.process.force_model,
         process=spec.process,
     )

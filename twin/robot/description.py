@@ -15,6 +15,7 @@ other module names a joint or a TX200 number.
 from __future__ import annotations
 
 import tomllib
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, NamedTuple
@@ -23,7 +24,7 @@ import mujoco
 import numpy as np
 
 from twin.base.resources import models_dir
-from twin.errors import InputError, ModelError
+from twin.errors import AssumptionWarning, InputError, ModelError
 
 ROBOT_FORMAT = "tx200-twin-robot/1"
 DEFAULT_ROBOT = "tx200"
@@ -240,7 +241,8 @@ def shipped_robots() -> dict[str, Path]:
 
 
 def load_robot(robot: str | Path | RobotDescription | None = None) -> RobotDescription:
-    """The robot named (a shipped robot), at a path (a description file), or the default (`tx200`).
+    """The robot named (a shipped robot), at a path (a description file, or a URDF/MJCF of the user's own that
+    `twin.robot.user_model` completes), or the default (`tx200`).
 
     Raises:
         ModelError: Unknown name (lists the shipped robots), a missing or malformed file, or an MJCF that lacks
@@ -256,6 +258,8 @@ def load_robot(robot: str | Path | RobotDescription | None = None) -> RobotDescr
         path = shipped[name]
     else:
         path = Path(robot)
+        if path.suffix.lower() in (".xml", ".urdf"):
+            path = _user_model(path)
     cached = _CACHE.get(str(path))
     if cached is not None and cached[0] == _stamps(path, cached[1].mjcf):
         return cached[1]
@@ -265,6 +269,19 @@ def load_robot(robot: str | Path | RobotDescription | None = None) -> RobotDescr
 
     description = read_description(path)
     _CACHE[str(path)] = (_stamps(path, description.mjcf), description)
+    return description
+
+
+def _user_model(path: Path) -> Path:
+    """The description the twin writes for a user's URDF or MJCF (`twin.robot.user_model`), warning with each
+    assumption it made."""
+    from twin.robot.user_model import describe_model_file
+
+    if not path.is_file():
+        raise ModelError(f"robot model not found: {path} (expected a URDF or MJCF file)")
+    description, assumptions = describe_model_file(path)
+    for sentence in assumptions:
+        warnings.warn(f"robot {path.name}: {sentence}", AssumptionWarning, stacklevel=3)
     return description
 
 

@@ -20,7 +20,7 @@ from twin.lab.dynamic.simulate import DynamicLog, simulate
 from twin.lab.dynamic.trajectory import retime_with_stops
 from twin.process.description import Process
 from twin.process.placement import Placement
-from twin.robot.description import RobotDescription
+from twin.robot.description import RobotDescription, robot_record
 from twin.robot.kinematics import Kinematics, load_model
 from twin.runs.format import Run, Stream, run_meta
 
@@ -74,7 +74,7 @@ def run_dynamic_lab(
         seed=seed,
         tool_length_m=plant.robot.tool_length_m,
         placement=placement,
-        robot=plant.robot.name,
+        robot=robot_record(plant.robot),
         force_model=process.force_model,
         process=process,
     )
