@@ -50,7 +50,7 @@ def test_each_robot_forms_the_cone_at_its_default_placement(name: str) -> None:
     reach = check_reach(path, kinematics=kin)
     assert reach.min_abs_det_j > 2 * robot.det_j_min_m3
     assert np.min(reach.joint_margin_rad) > np.radians(10.0)
-    home_tip, R = kin.fk(kin.q_home)
+    _, R = kin.fk(kin.q_home)
     assert np.degrees(np.arccos(-R[2, 2])) < 0.5  # home: the tool points down
     twin = TwinSpec(robot=robot, process=Process(force_model="isf")).build()
     sim = twin.simulate(path.t_s, path.p_sheet_m)
