@@ -35,7 +35,7 @@ def test_a_spec_names_its_robot_by_name_or_path_and_refuses_an_unknown_one() -> 
     robot = load_robot()
     assert TwinSpec(robot="tx200").robot is robot  # type: ignore[arg-type]
     assert TwinSpec(robot=robot.source).robot == robot  # type: ignore[arg-type]
-    with pytest.raises(ModelError, match=r"unknown robot 'kr210'; shipped robots: \['tx200'\]"):
+    with pytest.raises(ModelError, match=r"unknown robot 'kr210'; shipped robots: \[.*'tx200'.*\]"):
         TwinSpec(robot="kr210")  # type: ignore[arg-type]
 
 
