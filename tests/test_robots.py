@@ -165,3 +165,10 @@ def test_a_users_urdf_with_tool_and_ft_links_loads(tmp_path: Path) -> None:
     kin = Kinematics(robot=robot)
     p, _ = kin.fk(np.zeros(6))
     np.testing.assert_allclose(p, [0.2 + 0.8 + 0.1 + 0.1 + 0.3, 0.0, 0.5 + 0.3 + 0.9 + 0.1], atol=1e-12)
+
+
+def test_the_robots_page_is_the_one_a_fresh_run_writes(tmp_path: Path) -> None:
+    page = Path(__file__).resolve().parent.parent / "docs" / "robots.md"
+    assert main(["robots", "--markdown", str(tmp_path / "robots.md")]) == 0
+    assert (tmp_path / "robots.md").read_text() == page.read_text(), (
+        "docs/robots.md is stale: run `tx200-twin robots --markdown docs/robots.md`")
