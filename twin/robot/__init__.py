@@ -1,7 +1,8 @@
 """Robot: a robot as MuJoCo sees it, described as data.
 
 Modules: `description` (what the twin knows of a robot: joints, tool, F/T site, home pose, DH table, stiffness
-priors, vendor and language; `load_robot`), `robot_file` (reading a description file beside its MJCF), `model` (the compiled MJCF with robot-side effects,
+priors, vendor and language; `load_robot`), `robot_file` (reading a description file beside its MJCF), `user_model`
+(a user's own URDF or MJCF completed for the twin), `model` (the compiled MJCF with robot-side effects,
 built with MjSpec), `kinematics` (MuJoCo FK, Jacobian, IK with the tool held vertical, Cartesian compliance),
 `chain_fk` (vectorised FK of the hinge chain), `dh` (the DH table's FK, the independent check), `pinocchio_model`
 (the Pinocchio cross-check) and `stiffness` (the joint springs K_q).
