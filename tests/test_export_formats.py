@@ -75,10 +75,12 @@ def parse_val3(files: list[Path]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 def parse_krl(files: list[Path]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """P_PATH[i] = {X, Y, Z, A, B, C} and V_PATH[i] [m/s] from the .dat, in index order."""
+    """P_PATH[i] = {X, Y, Z, A, B, C} and V_PATH[i] [m/s] from the .dat, in index order (the first point's S and
+    T, its configuration, are left out)."""
     dat = next(f for f in files if f.suffix == ".dat").read_text()
     points = dict(
-        (int(i), _numbers(body)) for i, body in re.findall(r"^P_PATH\[(\d+)\]=\{([^}]*)\}$", dat, re.M)
+        (int(i), [float(dict(re.findall(r"([XYZABC]) (-?[\d.]+)", body))[k]) for k in "XYZABC"])
+        for i, body in re.findall(r"^P_PATH\[(\d+)\]=\{([^}]*)\}$", dat, re.M)
     )
     feeds = dict((int(i), float(v)) for i, v in re.findall(r"^V_PATH\[(\d+)\]=(\S+)$", dat, re.M))
     pose = np.array([points[i] for i in sorted(points)])

@@ -6,7 +6,10 @@ with the run format's reader. Each point's feed is the speed of the straight mov
 `tool_length_mm` along the flange z axis, pointing down while forming; the sheet frame's origin in the robot
 base frame comes from the cell model (`Kinematics.p_base_sheet_origin`, axes parallel to the base) or from a placement
 (`twin.process.placement.Placement`: an origin and a yaw about the base z axis, which each format writes as the
-sheet frame's rotation rz / A / quaternion / G68).
+sheet frame's rotation rz / A / quaternion / G68). The tool length is the robot's, or a run's (`CellSetup`).
+
+A robot program also carries the arm configuration (`with_configuration`): the robot's IK along the path in the
+base frame, tool down, one `twin.apps.export.configuration.RobotConfiguration` per point; the path must keep one.
 
 Rotation conventions (for the orientation of a frame R):
 - Stäubli VAL3 (rx, ry, rz): R = Rx(rx) · Ry(ry) · Rz(rz).
@@ -18,14 +21,15 @@ from __future__ import annotations
 
 import math
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 
+from twin.apps.export.configuration import RobotConfiguration, path_configurations
 from twin.errors import InputError
 from twin.process.placement import Placement
-from twin.robot.description import RobotDescription
+from twin.robot.description import DEFAULT_ROBOT, RobotDescription, robot_record
 from twin.robot.kinematics import Kinematics
 from twin.runs.read import read_commanded_csv
 
@@ -43,6 +47,8 @@ class CellSetup:
         tool_length_mm: Flange to tool tip along the flange z axis [mm].
         tool_mass_kg: Tool mass for controllers that need load data [kg].
         yaw_deg: Rotation of the sheet frame about the base z axis [deg] (0: axes parallel to the base).
+        robot: The robot the program is for (a shipped robot's name or a description file).
+        configuration: The arm configuration at the program's first point (`with_configuration`), or None.
     """
 
     p_base_sheet_mm: np.ndarray
@@ -50,6 +56,13 @@ class CellSetup:
     tool_length_mm: float
     tool_mass_kg: float = 1.0
     yaw_deg: float = 0.0
+    robot: str = DEFAULT_ROBOT
+    configuration: RobotConfiguration | None = None
+
+    @property
+    def R_base_sheet(self) -> np.ndarray:
+        """The sheet frame's axes in the robot base (the yaw about the base z axis)."""
+        return Placement(yaw_rad=math.radians(self.yaw_deg)).R_base_sheet
 
 
 @dataclass(frozen=True)
@@ -62,6 +75,7 @@ class ProgramPath:
         feed_mm_s: Feed of the move that reaches each point, shape (n,) [mm/s] (the first copies the second).
         cell: Frame and tool.
         source: The path CSV it came from.
+        configurations: The arm configuration at each point (`with_configuration`), or () when not solved.
     """
 
     name: str
@@ -69,6 +83,7 @@ class ProgramPath:
     feed_mm_s: np.ndarray
     cell: CellSetup
     source: Path
+    configurations: tuple[RobotConfiguration, ...] = ()
 
 
 def default_cell(
@@ -91,7 +106,30 @@ def default_cell(
         kin.robot.tool_length_m * 1e3,
         tool_mass_kg,
         math.degrees(place.yaw_rad),
+        robot_record(kin.robot),
     )
+
+
+def with_configuration(path: ProgramPath, language: str = "") -> ProgramPath:
+    """`path` with the arm configuration of each point and the first one's in its cell.
+
+    Solves the cell robot's IK for the tool-tip points in the base frame (`configuration.path_configurations`).
+
+    Args:
+        path: The path.
+        language: The program's language, for messages.
+
+    Raises:
+        InputError: The cell's tool is not the twin's tool-down orientation, or the configuration changes along
+            the path (the message names the row). UnreachableError, SingularityError: A point out of reach.
+    """
+    cell = path.cell
+    p_base_m = (cell.p_base_sheet_mm + path.points_mm @ cell.R_base_sheet.T) * 1e-3
+    configs = path_configurations(
+        cell.robot, p_base_m, cell.R_base_sheet @ cell.R_sheet_tool, cell.tool_length_mm * 1e-3, str(path.source),
+        language,
+    )
+    return replace(path, cell=replace(cell, configuration=configs[0]), configurations=tuple(configs))
 
 
 def program_name(text: str) -> str:

@@ -4,7 +4,9 @@ A VAL3 application is a folder of XML files (VAL3 reference manual, "Application
 `NAME.pjx`, the global data `NAME.dtx`, and one `.pgx` file per program. We write:
 
 - `NAME.dtx`: the frame `fSheet` (sheet origin in the robot base, child of `world`), the tool `tIsf`
-  (child of `flange`), the points `pPath[n]` (`pointRx`, children of `fSheet`), one `mdesc` per point
+  (child of `flange`), the points `pPath[n]` (`pointRx`, children of `fSheet`; the first carries the shoulder,
+  elbow and wrist of the robot's IK solution, `twin.apps.export.configuration`, which the `movej` to it goes to;
+  the others `ssame`/`esame`/`wsame`, as a `movel` cannot change them), one `mdesc` per point
   `mPath[n]` whose Cartesian speed `tmax` is the path's feed, and `mApproach` for the first move;
 - `start.pgx`: `movej` to the first point, `movel(pPath[i], tIsf, mPath[i])` for every point, `waitEndMove()`;
 - `stop.pgx`: empty.
@@ -32,7 +34,7 @@ BLEND_MM = 0.1  # Cartesian blending: leave/reach distance, well below the 0.5 m
 APPROACH_VEL_PERCENT = 10
 
 START_CODE = """begin
-  // {name}: {n} points of {source}, sheet frame fSheet, tool tIsf
+  // {name}: {n} points of {source}, sheet frame fSheet, tool tIsf, robot {robot}
   movej(pPath[0], tIsf, mApproach)
   waitEndMove()
   for i = 1 to size(pPath) - 1
@@ -60,9 +62,11 @@ def application_files(path: ProgramPath) -> dict[str, str]:
     """The application's files: name -> XML text."""
     cell = path.cell
     r_tool = euler_xyz_deg(cell.R_sheet_tool)
+    same = ("ssame", "esame", "wsame")
+    first = cell.configuration.val3 if cell.configuration is not None else same
     points = [
-        f'{_pose(p, r_tool)} shoulder="ssame" elbow="esame" wrist="wsame" fatherId="fSheet[0]"'
-        for p in path.points_mm
+        f'{_pose(p, r_tool)} shoulder="{s}" elbow="{e}" wrist="{w}" fatherId="fSheet[0]"'
+        for p, (s, e, w) in zip(path.points_mm, [first] + [same] * (len(path.points_mm) - 1), strict=True)
     ]
     blend = f'blend="Cartesian" leave="{fmt(BLEND_MM)}" reach="{fmt(BLEND_MM)}"'
     mdesc = [
@@ -87,7 +91,7 @@ def application_files(path: ProgramPath) -> dict[str, str]:
         + "\n".join(datas)
         + "\n  </Datas>\n</Database>\n"
     )
-    code = START_CODE.format(name=path.name, n=len(path.points_mm), source=path.source.name)
+    code = START_CODE.format(name=path.name, n=len(path.points_mm), source=path.source.name, robot=cell.robot)
     start = (
         f'<?xml version="1.0" encoding="utf-8"?>\n<Programs xmlns="{NS_PROGRAM}" xmlns:xsi="{XSI}">\n'
         '  <Program name="start">\n    <Locals>\n'
