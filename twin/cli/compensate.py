@@ -58,6 +58,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--tol-mm", type=float, default=1e3 * TWIN_TOL_M, help="--method twin: stop below this |residual| [mm]"
     )
     parser.add_argument("--max-iter", type=int, default=TWIN_MAX_ITER, help="--method twin: iteration limit")
+    part = parser.add_argument_group("the formed part to the design (--method twin, a height-map force model)")
+    part.add_argument("--target-stl", type=Path, metavar="DESIGN",
+                      help="design surface (STL, PLY or OBJ; sheet frame, mm, tool side, z = 0 at the sheet's top): "
+                      "compensate so that the twin's part after unclamping lies on it, springback included")
+    part.add_argument("--part-iterations", type=int, default=2, help="outer iterations on the part (default 2)")
+    part.add_argument("--learn-from", type=Path, metavar="RUN",
+                      help="the last part's run (its command and part scan): the next command from its measured "
+                      "deviation from the design")
+    part.add_argument("--learn-gain", type=float, default=1.0, help="learning gain (0, 1] (default 1)")
+    part.add_argument("--learn-smoothing-mm", type=float, default=2.0, help="smoothing along the path (default 2)")
     parser.add_argument("--out", type=Path, required=True, help="compensated path, commanded.csv format")
     parser.add_argument("--json", help="write the numbers to FILE ('-' for stdout)")
 
@@ -72,8 +82,67 @@ def _stiffness(path: Path) -> np.ndarray:
     return 1e3 * k
 
 
+def _design(path: Path) -> Any:
+    """The design surface in metres (read in millimetres)."""
+    import trimesh
+
+    try:
+        mesh = trimesh.load(path, force="mesh")
+    except (OSError, ValueError) as exc:
+        raise DataFileError(path, f"cannot read a surface mesh (STL, PLY, OBJ): {exc}") from None
+    if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
+        raise DataFileError(path, "no faces: expected the design surface as a triangle mesh")
+    mesh.apply_scale(1e-3)
+    return mesh
+
+
+def _part(args: argparse.Namespace) -> int:
+    """`--target-stl`: the part to the design, on the twin, or learned from the last part's scan."""
+    from twin.analysis.part_compensation import compensate_part, learn_from_scan
+    from twin.runs.read import read_run
+
+    if args.method != "twin":
+        raise InputError("--target-stl needs --method twin (the twin predicts the part after unclamping)")
+    design = _design(args.target_stl)
+    protect = [p for p in (args.target_stl, args.ideal, args.learn_from, args.model) if p is not None]
+    if args.learn_from is not None:
+        last = read_run(args.learn_from)
+        if last.part_scan is None:
+            raise InputError(f"--learn-from {args.learn_from}: the run has no part_scan.csv to learn from")
+        command, measured = learn_from_scan(last.commanded.values, last.part_scan, design, gain=args.learn_gain,
+                                            smoothing_m=1e-3 * args.learn_smoothing_mm)
+        t_s = last.commanded.t_s
+        seen = np.isfinite(measured)
+        summary: dict[str, Any] = {
+            "method": "learn", "out": args.out, "learned_from": args.learn_from, "gain": args.learn_gain,
+            "smoothing_mm": args.learn_smoothing_mm, "samples_seen": int(seen.sum()), "samples": len(seen),
+            "measured_error_rms_mm": 1e3 * float(np.sqrt(np.mean(measured[seen] ** 2))) if seen.any() else None,
+        }
+    else:
+        ideal = ideal_from_arguments(args)
+        twin = spec_from_arguments(args, ideal.p_sheet_m).build()
+        result = compensate_part(ideal, twin, design, iterations=args.part_iterations, tol_m=1e-3 * args.tol_mm)
+        command, t_s = result.compensation.p_cmd_sheet_m, ideal.t_s
+        summary = {
+            "method": "part", "out": args.out, "iterations": args.part_iterations,
+            "predicted_surface_rms_mm_per_iteration": [{k: 1e3 * v for k, v in e.rms_m.items()}
+                                                      for e in result.error_per_iteration],
+        }
+    write_table(
+        args.out, {"t_s": t_s, **{f"{a}_mm": 1e3 * command[:, i] for i, a in enumerate("xyz")}},
+        formats={"t_s": ".6f", "x_mm": ".4f", "y_mm": ".4f", "z_mm": ".4f"}, protect=protect,
+    )
+    print(f"compensate ({summary['method']}): -> {args.out}", file=sys.stderr if args.json == "-" else sys.stdout)
+    emit_json(args.json, summary, protect=protect)
+    return 0
+
+
 def run(args: argparse.Namespace) -> int:
     """Compensate."""
+    if args.target_stl is not None:
+        return _part(args)
+    if args.learn_from is not None:
+        raise InputError("--learn-from needs --target-stl DESIGN (the surface the part is measured against)")
     declared, reference = history_from_arguments(args)
     ideal = ideal_from_arguments(args)
     protect = [p for p in (args.stiffness, args.model, args.history, args.ideal, args.process) if p is not None]

@@ -132,8 +132,9 @@ def _measure(twin: Twin, result: SimResult, settings: LabSettings, rng: np.rando
     z_profile = z_profile + rng.normal(0.0, settings.profile_noise_m, z_profile.shape)
     scan = None  # a 2-D scan of the part where the force model keeps a surface (any part, not the groove table)
     surface = formed_surface(twin.field)
-    if surface is not None:
-        scan = surface_points(*surface)
+    if surface is not None:  # the `sheet_springback` effect takes the same further fraction of the depth as above
+        x_m, y_m, z_m = surface
+        scan = surface_points(x_m, y_m, z_m * (1.0 - effects.springback_ratio))
         scan[:, 2] += rng.normal(0.0, settings.profile_noise_m, len(scan))
     return _Measured(Stream(t_tracker, tracker), Stream(t_sensor, forces), (x_profile, z_profile), scan)
 

@@ -1,0 +1,132 @@
+"""The formed part against its design, on both plants, with the plant's sheet other than the twin's: nominal,
+path-compensated, part-compensated, and one and two learning iterations from the scans.
+
+The plant's sheet is 20 % stronger than declared and springs back more: the quasi-static lab hides
+`force_scale=1.2` and `sheet_springback=0.05` (5 % more of the depth lost on unclamping); the dynamic plant forms
+with R_m 1.2 x 275 MPa and a 25 % softer elastic unloading (k_unload x 0.75) while its runs record the declared
+process (the twin is told nothing). Each number is the scan (`part_scan.csv`) against the design, normal to it,
+rms over the formed part and its rim (`twin.analysis.part_compensation.scan_error`).
+
+Run: `.venv/bin/python experiments/part_to_design.py OUT [--shape cone|pyramid] [--width-mm 80 --depth-mm 20]
+[--plants quasi-static,dynamic] [--learn 2]`. Prints a JSON summary.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from contextlib import redirect_stdout
+from dataclasses import replace
+from io import StringIO
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from twin.analysis.part_compensation import scan_error
+from twin.cli import main as cli
+from twin.lab.dynamic.knobs import Knobs
+from twin.lab.dynamic.run import run_dynamic_lab
+from twin.process.description import Process
+from twin.process.field import K_UNLOAD_N_PER_M
+from twin.process.process_file import process_record
+from twin.runs.read import read_commanded_csv, read_run
+from twin.runs.write import write_run
+
+HIDDEN_QS = ["--effect", "force_scale=1.2", "--effect", "sheet_springback=0.05"]
+PLANT_PROCESS = Process(tensile_strength_mpa=1.2 * 275.0, force_model="isf",
+                        force_fit=(("k_unload_n_per_m", 0.75 * K_UNLOAD_N_PER_M),))
+
+
+def _cli(*argv: str) -> None:
+    with redirect_stdout(StringIO()):
+        code = cli(list(argv))
+    if code != 0:
+        raise SystemExit(f"`tx200-twin {' '.join(argv)}` exited with {code}")
+
+
+def _lab(plant: str, command: Path, out: Path, seed: int) -> Path:
+    """Form `command` on `plant` with the plant's own sheet; the run records the declared one."""
+    if plant == "quasi-static":
+        _cli("lab", "--scenario", "nominal", "--commanded", str(command), *HIDDEN_QS, "--seed", str(seed),
+             "--force-model", "isf", "--out", str(out))
+        return out
+    cmd = read_commanded_csv(command)
+    run, truth, _ = run_dynamic_lab(cmd.t_s, cmd.values, scenario="nominal", knobs=Knobs(neutral=True), seed=seed,
+                                    process=PLANT_PROCESS)
+    run = replace(run, meta={**run.meta, "process": process_record(Process())})  # the declared sheet
+    write_run(out, run, truth={**truth, "plant_process": {**process_record(PLANT_PROCESS),
+                                                            "force_fit": dict(PLANT_PROCESS.force_fit)}})
+    return out
+
+
+def write_design(ideal_csv: Path, out: Path) -> None:
+    """The design as CAD gives it: the tool-side surface a rigid machine forms along the ideal path with no
+    springback (the tool sphere's lower envelope, the unsupported bottom lowered), STL in millimetres."""
+    from twin.process.isf_force import IsfForceField
+    from twin.process.part_bottom import with_floating_bottom
+    from twin.process.part_surface import FORMED_BELOW_M, cropped_surface, heightmap_mesh
+    from twin.process.path import ToolPath, label_passes
+
+    cmd = read_commanded_csv(ideal_csv)
+    passes, direction = label_passes(cmd.values[:, 0])
+    field = IsfForceField()
+    field.rigid_forces(ToolPath(t_s=cmd.t_s, p_sheet_m=cmd.values, pass_index=passes, direction=direction))
+    hm = field.map
+    x, y = np.asarray(hm.x_m), np.asarray(hm.y_m)
+    z = with_floating_bottom(x, y, hm.z_loaded_m, hm.track_m, FORMED_BELOW_M)
+    mesh = heightmap_mesh(*cropped_surface(x, y, z, 10e-3))
+    mesh.apply_scale(1e3)
+    out.write_bytes(mesh.export(file_type="stl"))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("out", type=Path)
+    parser.add_argument("--shape", default="cone")
+    parser.add_argument("--width-mm", type=float, default=80.0)
+    parser.add_argument("--depth-mm", type=float, default=20.0)
+    parser.add_argument("--plants", default="quasi-static,dynamic")
+    parser.add_argument("--learn", type=int, default=2)
+    args = parser.parse_args()
+    out: Path = args.out
+    out.mkdir(parents=True, exist_ok=True)
+    ideal, design = out / "ideal.csv", out / "design.stl"
+    _cli("path", "--shape", args.shape, "--top-width-mm", f"{args.width_mm:g}", "--depth-mm", f"{args.depth_mm:g}",
+         "--out", str(ideal))
+    write_design(ideal, design)
+    _cli("compensate", "--method", "twin", "--ideal", str(ideal), "--force-model", "isf", "--out",
+         str(out / "cmd_path.csv"))
+    _cli("compensate", "--method", "twin", "--ideal", str(ideal), "--force-model", "isf", "--target-stl", str(design),
+         "--out", str(out / "cmd_part.csv"), "--json", str(out / "part.json"))
+    import trimesh
+
+    mesh = trimesh.load(design, force="mesh")
+    mesh.apply_scale(1e-3)
+    summary: dict[str, Any] = {"shape": args.shape, "width_mm": args.width_mm, "depth_mm": args.depth_mm,
+                               "twin_predicted": json.loads((out / "part.json").read_text())[
+                                   "predicted_surface_rms_mm_per_iteration"]}
+    for plant in args.plants.split(","):
+        rows: dict[str, Any] = {}
+        for name, command in (("nominal", ideal), ("path-compensated", out / "cmd_path.csv"),
+                              ("part-compensated", out / "cmd_part.csv")):
+            run = _lab(plant, command, out / f"{plant}_{name}", seed=1)
+            rows[name] = scan_error(read_run(run).part_scan, mesh)
+        last = out / f"{plant}_part-compensated"
+        for k in range(1, args.learn + 1):
+            nxt = out / f"{plant}_cmd_learn{k}.csv"
+            _cli("compensate", "--method", "twin", "--ideal", str(ideal), "--target-stl", str(design),
+                 "--learn-from", str(last), "--out", str(nxt))
+            last = _lab(plant, nxt, out / f"{plant}_learn{k}", seed=1 + k)
+            rows[f"learn {k}"] = scan_error(read_run(last).part_scan, mesh)
+        summary[plant] = {name: {"rms_mm": {r: round(1e3 * v, 4) for r, v in e.rms_m.items()},
+                                 "mean_mm": {r: round(1e3 * v, 4) for r, v in e.mean_m.items()}}
+                          for name, e in rows.items()}
+    json.dump(summary, sys.stdout, indent=1)
+    print()
+    np.set_printoptions(precision=3)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,216 @@
+"""The formed part compensated to the design: springback included, and learned from scans.
+
+A path compensation (`twin.analysis.compensate.compensate_twin`) makes the tool tip follow the path; the part then
+springs back when it is unclamped (the elastic recovery F/k_unload of `twin.process.heightmap`, the unsupported
+bottom of `twin.process.part_bottom`), so it misses the drawing by about that recovery. Two loops close the gap:
+
+* **Part compensation** (`compensate_part`, on the twin): the target tool path is moved, each sample along z, by the
+  twin's predicted surface error there (the part after unclamping, minus the design, at the sample's x-y), and the
+  robot's deflection is compensated again for the new target; `iterations` times. Held fixed: x-y of every sample,
+  the timing. The design is a surface z_design(x, y) in the sheet frame (the tool-side sheet surface, z = 0 at the
+  unformed sheet's top), from an STL or from the path itself (`design_heights`).
+* **Learning from a scan** (`learn_from_scan`, part to part): the next part's command is the previous command moved
+  along z by `gain` times the measured surface error at each sample (the scan against the design, at the sample's
+  x-y, smoothed along the path over `smoothing_m`): a spatial iterative-learning update (P-type, gain 1 by
+  default), so that the second part improves where the twin is wrong. Held fixed: x-y, timing, samples where the
+  scan has no point within `SCAN_REACH_M`.
+
+Surface errors are reported per region of the design (`REGIONS`: the wall, slope above 10°; the bottom, flat
+and formed; the rim, within `RIM_WIDTH_M` of the unformed sheet at the part's edge).
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from typing import NamedTuple
+
+import numpy as np
+import trimesh
+from scipy.ndimage import gaussian_filter1d
+from scipy.spatial import cKDTree
+
+from twin.analysis.compensate import Compensation, compensate_twin
+from twin.errors import InputError
+from twin.process.part_surface import formed_surface
+from twin.process.path import ToolPath
+from twin.sim.quasi_static import Twin
+
+#: Slope above which a design point is wall [deg]; depth above which it is formed [m]; rim width [m].
+WALL_SLOPE_DEG = 10.0
+FORMED_DEPTH_M = 0.2e-3
+RIM_WIDTH_M = 3e-3
+REGIONS = ("wall", "bottom", "rim")
+#: A path sample learns only from scan points within this x-y distance [m].
+SCAN_REACH_M = 1.5e-3
+
+
+class SurfaceError(NamedTuple):
+    """Surface error against the design, normal to it [m]: rms, max |.|, mean, and points, per region."""
+
+    rms_m: dict[str, float]
+    max_m: dict[str, float]
+    mean_m: dict[str, float]
+    points: dict[str, int]
+
+
+class PartCompensation(NamedTuple):
+    """`compensate_part`'s result.
+
+    Attributes:
+        target: The tool path whose formed part (after unclamping) the twin predicts on the design.
+        compensation: The twin compensation of `target` (its command is the part-compensated command).
+        error_per_iteration: The twin's predicted surface error at each outer iteration (0: path-compensated).
+    """
+
+    target: ToolPath
+    compensation: Compensation
+    error_per_iteration: list[SurfaceError]
+
+
+def design_heights(design: trimesh.Trimesh, x_m: np.ndarray, y_m: np.ndarray) -> np.ndarray:
+    """z of the design surface above each (x, y) [m] (the highest hit of a vertical ray; NaN off the design)."""
+    x, y = np.ravel(x_m), np.ravel(y_m)
+    top = float(design.bounds[1, 2]) + 1.0
+    origins = np.column_stack([x, y, np.full(len(x), top)])
+    directions = np.tile([0.0, 0.0, -1.0], (len(x), 1))
+    hits, rays, _ = design.ray.intersects_location(origins, directions, multiple_hits=False)
+    z = np.full(len(x), np.nan)
+    z[rays] = hits[:, 2]
+    return z.reshape(np.shape(x_m))
+
+
+def surface_error(surface: tuple[np.ndarray, np.ndarray, np.ndarray], design: trimesh.Trimesh) -> SurfaceError:
+    """A formed surface (x (nx,), y (ny,), z (ny, nx)) [m] against the design, per region (module docstring)."""
+    x, y, z = surface
+    X, Y = np.meshgrid(x, y)
+    zd = design_heights(design, X, Y)
+    gy, gx = np.gradient(zd, y, x)
+    slope = np.degrees(np.arctan(np.hypot(gx, gy)))
+    normal_error = (z - zd) * np.cos(np.radians(slope))  # vertical gap to the normal distance, to first order
+    formed = zd < -FORMED_DEPTH_M
+    near_formed = _dilate(formed, max(1, round(RIM_WIDTH_M / float(x[1] - x[0]))))
+    masks = {"wall": formed & (slope > WALL_SLOPE_DEG), "bottom": formed & (slope <= WALL_SLOPE_DEG),
+             "rim": near_formed & ~formed}
+    ok = np.isfinite(normal_error)
+    out: dict[str, dict[str, float]] = {"rms": {}, "max": {}, "mean": {}, "n": {}}
+    for name, mask in {**masks, "all": formed | masks["rim"]}.items():
+        e = normal_error[mask & ok]
+        out["rms"][name] = float(np.sqrt(np.mean(e**2))) if e.size else float("nan")
+        out["max"][name] = float(np.max(np.abs(e))) if e.size else float("nan")
+        out["mean"][name] = float(np.mean(e)) if e.size else float("nan")
+        out["n"][name] = int(e.size)
+    return SurfaceError(out["rms"], out["max"], out["mean"], {k: int(v) for k, v in out["n"].items()})
+
+
+def scan_error(scan_m: np.ndarray, design: trimesh.Trimesh, step_m: float = 0.25e-3) -> SurfaceError:
+    """A scan (points (m, 3) [m], sheet frame) against the design, per region, as `surface_error`."""
+    x, y, z = (np.asarray(scan_m, dtype=float)[:, i] for i in range(3))
+    zd = design_heights(design, x, y)
+    gx = (design_heights(design, x + step_m, y) - design_heights(design, x - step_m, y)) / (2 * step_m)
+    gy = (design_heights(design, x, y + step_m) - design_heights(design, x, y - step_m)) / (2 * step_m)
+    slope = np.degrees(np.arctan(np.hypot(gx, gy)))
+    normal_error = (z - zd) * np.cos(np.radians(slope))
+    formed = zd < -FORMED_DEPTH_M
+    rim = ~formed & (cKDTree(np.column_stack([x, y])[formed]).query(np.column_stack([x, y]))[0] < RIM_WIDTH_M)
+    masks = {"wall": formed & (slope > WALL_SLOPE_DEG), "bottom": formed & (slope <= WALL_SLOPE_DEG), "rim": rim}
+    masks["all"] = formed | rim
+    ok = np.isfinite(normal_error)
+    errors = {name: normal_error[mask & ok] for name, mask in masks.items()}
+    return SurfaceError(
+        {k: float(np.sqrt(np.mean(e**2))) if e.size else float("nan") for k, e in errors.items()},
+        {k: float(np.max(np.abs(e))) if e.size else float("nan") for k, e in errors.items()},
+        {k: float(np.mean(e)) if e.size else float("nan") for k, e in errors.items()},
+        {k: int(e.size) for k, e in errors.items()},
+    )
+
+
+def _dilate(mask: np.ndarray, cells: int) -> np.ndarray:
+    from scipy.ndimage import binary_dilation
+
+    return np.asarray(binary_dilation(mask, iterations=cells))
+
+
+def predicted_surface(twin: Twin, t_s: np.ndarray, command_m: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The part the twin forms with `command_m`, after unclamping (x, y, z grid) [m]."""
+    twin.simulate(t_s, command_m)
+    surface = formed_surface(twin.sheet_field)
+    if surface is None:
+        raise InputError(f"force model {twin.spec.process.force_model!r} keeps no surface; part compensation needs "
+                         "a height-map model (--force-model isf)")
+    return surface
+
+
+def _heights_at(surface: tuple[np.ndarray, np.ndarray, np.ndarray], p_m: np.ndarray) -> np.ndarray:
+    from scipy.interpolate import RegularGridInterpolator
+
+    x, y, z = surface
+    return np.asarray(RegularGridInterpolator((y, x), z, bounds_error=False, fill_value=np.nan)(p_m[:, [1, 0]]))
+
+
+def compensate_part(
+    ideal: ToolPath, twin: Twin, design: trimesh.Trimesh, *, iterations: int = 3, tol_m: float = 10e-6,
+    gain: float = 1.0,
+) -> PartCompensation:
+    """Move the target path until the twin's formed part after unclamping lies on the design (module docstring).
+
+    Args:
+        ideal: The tool path of the design (its x-y are kept).
+        twin: The twin (a height-map force model).
+        design: The design surface, sheet frame [m].
+        iterations: Outer iterations (each one a twin compensation).
+        tol_m: The twin compensation's tolerance [m].
+        gain: Fraction of the predicted error moved per iteration [-].
+    """
+    if not 0.0 < gain <= 1.0 or iterations < 1:
+        raise InputError(f"gain {gain} must be in (0, 1] and iterations {iterations} >= 1")
+    target = ideal
+    errors: list[SurfaceError] = []
+    comp = compensate_twin(ideal.t_s, ideal.p_sheet_m, twin, tol_m=tol_m)
+    for _ in range(iterations + 1):
+        surface = predicted_surface(twin, target.t_s, comp.p_cmd_sheet_m)
+        errors.append(surface_error(surface, design))
+        if len(errors) == iterations + 1:
+            break
+        gap = _heights_at(surface, target.p_sheet_m) - design_heights(design, target.p_sheet_m[:, 0],
+                                                                      target.p_sheet_m[:, 1])
+        p = target.p_sheet_m.copy()
+        p[:, 2] -= gain * np.nan_to_num(gap)
+        target = replace(target, p_sheet_m=p)
+        comp = compensate_twin(target.t_s, target.p_sheet_m, twin, tol_m=tol_m)
+    return PartCompensation(target, comp, errors)
+
+
+def learn_from_scan(
+    command_m: np.ndarray, scan_m: np.ndarray, design: trimesh.Trimesh, *, gain: float = 1.0,
+    smoothing_m: float = 2e-3,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The next part's command from the last part's scan (module docstring).
+
+    Args:
+        command_m: The last part's command, sheet frame [m], shape (n, 3).
+        scan_m: Its scan in the sheet frame (registered), shape (m, 3) [m].
+        design: The design surface [m].
+        gain: Learning gain [-] (0, 1].
+        smoothing_m: Gaussian smoothing of the error along the path [m] (0: none).
+
+    Returns:
+        (the next command (n, 3) [m], the measured vertical error at each sample (n,) [m], NaN where unseen).
+    """
+    if not 0.0 < gain <= 1.0:
+        raise InputError(f"learning gain {gain} must be in (0, 1]")
+    scan = np.asarray(scan_m, dtype=float)
+    error = scan[:, 2] - design_heights(design, scan[:, 0], scan[:, 1])
+    keep = np.isfinite(error)
+    tree = cKDTree(scan[keep, :2])
+    distance, index = tree.query(command_m[:, :2], k=4)
+    weights = np.where(distance < SCAN_REACH_M, 1.0 / np.maximum(distance, 1e-6), 0.0)
+    total = weights.sum(axis=1)
+    measured = np.where(total > 0, (weights * error[keep][index]).sum(axis=1) / np.maximum(total, 1e-12), np.nan)
+    steps = np.r_[0.0, np.linalg.norm(np.diff(command_m, axis=0), axis=1)]
+    sigma = smoothing_m / max(float(np.median(steps[1:])), 1e-9) if smoothing_m > 0 else 0.0
+    filled = np.nan_to_num(measured)
+    smooth = gaussian_filter1d(filled, sigma) if sigma > 0 else filled
+    update = np.where(np.isfinite(measured), smooth, 0.0)
+    out = np.asarray(command_m, dtype=float).copy()
+    out[:, 2] -= gain * update
+    return out, measured
