@@ -81,40 +81,31 @@ def write_design(ideal_csv: Path, out: Path) -> None:
     out.write_bytes(mesh.export(file_type="stl"))
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("out", type=Path)
-    parser.add_argument("--shape", default="cone")
-    parser.add_argument("--width-mm", type=float, default=80.0)
-    parser.add_argument("--depth-mm", type=float, default=20.0)
-    parser.add_argument("--plants", default="quasi-static,dynamic")
-    parser.add_argument("--learn", type=int, default=2)
-    args = parser.parse_args()
-    out: Path = args.out
+def part_study(out: Path, path_args: list[str], plants: tuple[str, ...] = ("quasi-static", "dynamic"),
+               learn: int = 2) -> dict[str, Any]:
+    """The study for one part (`path_args`: the `tx200-twin path` options that make it) in `out`."""
+    import trimesh
+
     out.mkdir(parents=True, exist_ok=True)
     ideal, design = out / "ideal.csv", out / "design.stl"
-    _cli("path", "--shape", args.shape, "--top-width-mm", f"{args.width_mm:g}", "--depth-mm", f"{args.depth_mm:g}",
-         "--out", str(ideal))
+    _cli("path", *path_args, "--out", str(ideal), "--no-reach-check")
     write_design(ideal, design)
     _cli("compensate", "--method", "twin", "--ideal", str(ideal), "--force-model", "isf", "--out",
          str(out / "cmd_path.csv"))
     _cli("compensate", "--method", "twin", "--ideal", str(ideal), "--force-model", "isf", "--target-stl", str(design),
          "--out", str(out / "cmd_part.csv"), "--json", str(out / "part.json"))
-    import trimesh
-
     mesh = trimesh.load(design, force="mesh")
     mesh.apply_scale(1e-3)
-    summary: dict[str, Any] = {"shape": args.shape, "width_mm": args.width_mm, "depth_mm": args.depth_mm,
-                               "twin_predicted": json.loads((out / "part.json").read_text())[
-                                   "predicted_surface_rms_mm_per_iteration"]}
-    for plant in args.plants.split(","):
+    summary: dict[str, Any] = {"path": path_args, "twin_predicted_rms_mm": [
+        round(e["all"], 4) for e in json.loads((out / "part.json").read_text())["predicted_surface_rms_mm_per_iteration"]]}
+    for plant in plants:
         rows: dict[str, Any] = {}
         for name, command in (("nominal", ideal), ("path-compensated", out / "cmd_path.csv"),
                               ("part-compensated", out / "cmd_part.csv")):
             run = _lab(plant, command, out / f"{plant}_{name}", seed=1)
             rows[name] = scan_error(read_run(run).part_scan, mesh)
         last = out / f"{plant}_part-compensated"
-        for k in range(1, args.learn + 1):
+        for k in range(1, learn + 1):
             nxt = out / f"{plant}_cmd_learn{k}.csv"
             _cli("compensate", "--method", "twin", "--ideal", str(ideal), "--target-stl", str(design),
                  "--learn-from", str(last), "--out", str(nxt))
@@ -123,9 +114,24 @@ def main() -> None:
         summary[plant] = {name: {"rms_mm": {r: round(1e3 * v, 4) for r, v in e.rms_m.items()},
                                  "mean_mm": {r: round(1e3 * v, 4) for r, v in e.mean_m.items()}}
                           for name, e in rows.items()}
+    return summary
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("out", type=Path)
+    parser.add_argument("--shape", default="cone")
+    parser.add_argument("--gcode", type=Path, help="a G-code part instead of --shape")
+    parser.add_argument("--width-mm", type=float, default=80.0)
+    parser.add_argument("--depth-mm", type=float, default=20.0)
+    parser.add_argument("--plants", default="quasi-static,dynamic")
+    parser.add_argument("--learn", type=int, default=2)
+    args = parser.parse_args()
+    path_args = (["--gcode", str(args.gcode)] if args.gcode is not None else
+                 ["--shape", args.shape, "--top-width-mm", f"{args.width_mm:g}", "--depth-mm", f"{args.depth_mm:g}"])
+    summary = part_study(args.out, path_args, tuple(args.plants.split(",")), args.learn)
     json.dump(summary, sys.stdout, indent=1)
     print()
-    np.set_printoptions(precision=3)
 
 
 if __name__ == "__main__":
