@@ -1,7 +1,8 @@
 """Analysis: what is done with runs, on the twin of a `TwinSpec`.
 
 Modules: `replay` (a run replayed on the twin, with the gap), `identify/` (K_R by Methods 1 and 2, K_q from K_R
-or by rollouts), `compensate` (offline compensation, formula or iterated on the twin, and its gain), `check`
+or by rollouts), `compensate` (offline compensation, formula or iterated on the twin, and its gain), `part_compensation` (the
+formed part to the design, springback included, and learned from scans), `check`
 (the check of a compensated run), `surface_check` (a part scan against its target mesh), `discrepancy/` (find,
 name, add and shrink what the twin is missing) and `calibration/` (the twin's free parameters fitted to the
 thesis's measurements). The analysis never imports a lab: what the twin knows lives in the twin's stages.

@@ -22,6 +22,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from twin.apps.force_data import BuildUp, Case, Measurements, shipped_measurements
+from twin.apps.springback_validation import ProfileResult, bm3_profile, profile_lines
 from twin.base.signals import interp_rows
 from twin.errors import ExtrapolationWarning
 from twin.lab.cnc import run_cnc
@@ -101,6 +102,7 @@ class Validation:
     cases: tuple[CaseResult, ...]
     trends: tuple[TrendResult, ...]
     build_up: BuildUpFit
+    profile: ProfileResult | None = None
 
 
 def fit_build_up(data: BuildUp) -> BuildUpFit:
@@ -181,7 +183,7 @@ def validate_forces(measurements: Measurements | None = None, seed: int = 1) -> 
         lo, hi = (Process(thickness_m=1e-3 * v, tool_radius_m=0.5e-3 * t.tool_diameter_mm) for v in
                   (t.from_value, t.to_value))
         trends.append(TrendResult(t.key, t.ratio, steady_fz_n(hi, 0.5e-3, 45.0) / steady_fz_n(lo, 0.5e-3, 45.0)))
-    return Validation(data, cases, tuple(trends), fit_build_up(data.build_up))
+    return Validation(data, cases, tuple(trends), fit_build_up(data.build_up), bm3_profile(seed))
 
 
 def _n(value: float | None) -> str:
@@ -245,6 +247,7 @@ def markdown(validation: Validation) -> str:
         *(f"| {1e3 * a:.1f}–{1e3 * z:.1f} | {f:.0f} |" for a, z, f in zip(b.depth_from_m, b.depth_to_m, b.fz_mean_n,
                                                                           strict=True)),
         "",
+        *profile_lines(validation.profile),
         "## Sources",
         "",
         *(f"- `{s.key}`: {s.citation}. Group: {s.group}. Read: {s.read}." for s in data.sources.values()),
