@@ -1,9 +1,10 @@
 """Analysis: what is done with runs, on the twin of a `TwinSpec`.
 
 Modules: `replay` (a run replayed on the twin, with the gap), `identify/` (K_R by Methods 1 and 2, K_q from K_R
-or by rollouts), `compensate` (offline compensation, formula or iterated on the twin, and its gain), `part_compensation` (the
-formed part to the design, springback included, and learned from scans), `check`
-(the check of a compensated run), `surface_check` (a part scan against its target mesh), `discrepancy/` (find,
+or by rollouts), `compensate` (offline compensation, formula or iterated on the twin, and its gain),
+`part_compensation` (the formed part to the design, springback included, and learned from scans), `check` (the
+check of a compensated run), `surface_check` (a part scan against its target or design mesh, by region),
+`scan_registration` (a scanner's point cloud laid on its design by ICP), `discrepancy/` (find,
 name, add and shrink what the twin is missing) and `calibration/` (the twin's free parameters fitted to the
 thesis's measurements). The analysis never imports a lab: what the twin knows lives in the twin's stages.
 
@@ -28,6 +29,11 @@ __all__, __getattr__, __dir__ = lazy_exports(__name__, {
     "SurfaceDeviation": "twin.analysis.surface_check",
     "read_target_mesh": "twin.analysis.surface_check",
     "surface_deviation": "twin.analysis.surface_check",
+    "DesignIndex": "twin.analysis.surface_check",
+    "RegionDeviation": "twin.analysis.surface_check",
+    "region_deviation": "twin.analysis.surface_check",
+    "ScanRegistration": "twin.analysis.scan_registration",
+    "register_scan": "twin.analysis.scan_registration",
     "KrFit": "twin.analysis.identify.cartesian",
     "fit_kr_load_cases": "twin.analysis.identify.cartesian",
     "fit_kr_from_run": "twin.analysis.identify.cartesian",

@@ -2,7 +2,8 @@
 pyramid or variable-wall-angle cone (`twin.process.shapes`), or a G-code program (`twin.process.gcode`) —
 after checking that the robot reaches every sample at the given placement (`twin.process.placement`). The declared
 process (`--process`, `--material`, `--thickness-mm`, `--tool-radius-mm`) is reported, shapes the target part of
-`--stl-out` (the tool's radius, the sheet's springback) and, for a cone, pyramid or variable-wall-angle cone, gives
+`--stl-out` (the tool's radius, the sheet's springback) and the design part of `--design-stl` (the tool's radius,
+no springback) and, for a cone, pyramid or variable-wall-angle cone, gives
 the predicted steady axial force of the ISF model (`twin.process.isf_params.steady_fz_n`, Aerens et al.'s formula;
 a warning where the process or the part lies outside the formula's experiments)."""
 
@@ -16,6 +17,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import trimesh
 
 from twin.base.csvio import emit_json, write_bytes
 from twin.cli._common import (
@@ -31,7 +33,13 @@ from twin.process.aerens import validity_warnings
 from twin.process.description import Process
 from twin.process.gcode import read_gcode, write_gcode
 from twin.process.isf_params import params_for, steady_fz_n
-from twin.process.part_surface import cropped_surface, heightmap_mesh, target_part_surface
+from twin.process.part_surface import (
+    DESIGN_MARGIN_M,
+    cropped_surface,
+    design_part_surface,
+    heightmap_mesh,
+    target_part_surface,
+)
 from twin.process.path import GrooveSpec, ToolPath, groove_path, write_path_csv
 from twin.process.placement import check_reach
 from twin.process.process_file import process_record
@@ -58,6 +66,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="FILE",
         help="also write the target part as a binary STL [mm]: the surface a rigid machine forms along the path "
         "(height-map ISF model, after elastic recovery), for `check --target-stl`",
+    )
+    parser.add_argument(
+        "--design-stl",
+        type=Path,
+        metavar="FILE",
+        help="also write the design part as a binary STL [mm]: the sheet's tool-side surface a rigid machine forms "
+        "with no springback (the tool sphere's envelope, the bottom lowered), for `check --target-stl --scan`",
     )
     parser.add_argument("--depth-mm", type=float, help="final depth H (default: groove 10, other parts 40)")
     parser.add_argument("--feed-mm-s", type=float, default=d.feed_m_per_s * 1e3, help="constant feed [mm/s]")
@@ -164,16 +179,16 @@ def run(args: argparse.Namespace) -> int:
         }
         line += f"; reachable by {robot.name}, min |det J| {reach.min_abs_det_j:.3f} m^3"
     write_path_csv(path, args.out)
+    params = params_for(process)
     if args.gcode_out is not None:
         write_gcode(path, args.gcode_out)
     if args.stl_out is not None:
-        mesh = heightmap_mesh(*cropped_surface(*target_part_surface(path, params_for(process))))
-        mesh.apply_scale(1e3)  # STL in millimetres, as CAD writes it
-        stl = mesh.export(file_type="stl")
-        assert isinstance(stl, bytes)  # binary STL
-        write_bytes(args.stl_out, stl, protect=[args.out])
+        payload["stl_faces"] = _write_stl(args, heightmap_mesh(*cropped_surface(*target_part_surface(path, params))))
         payload["stl_out"] = str(args.stl_out)
-        payload["stl_faces"] = len(mesh.faces)
+    if args.design_stl is not None:
+        design = cropped_surface(*design_part_surface(path, params), DESIGN_MARGIN_M)
+        payload["design_stl_faces"] = _write_stl(args, heightmap_mesh(*design), args.design_stl)
+        payload["design_stl"] = str(args.design_stl)
     payload.update(
         {
             "out": str(args.out),
@@ -194,6 +209,15 @@ def run(args: argparse.Namespace) -> int:
         file=out,
     )
     return 0
+
+
+def _write_stl(args: argparse.Namespace, mesh: trimesh.Trimesh, file: Path | None = None) -> int:
+    """Write a mesh in metres as a binary STL in millimetres, as CAD writes it (never over the path); its faces."""
+    mesh.apply_scale(1e3)
+    stl = mesh.export(file_type="stl")
+    assert isinstance(stl, bytes)  # binary STL
+    write_bytes(args.stl_out if file is None else file, stl, protect=[args.out])
+    return len(mesh.faces)
 
 
 def _steady_force(process: Process, payload: dict[str, Any]) -> str:

@@ -12,7 +12,7 @@ its constants `isf_params` and its fit to the groove `isf_calibration`, `tool_fr
 sliding friction at reversals), `forces` (loading FE histories with a declared symmetry) and `fe_history` (the
 stand-in generator), `path` (the groove U_ID, pass labels), `shapes` (cones, pyramids), `gcode` (CAM programs),
 `placement` (the sheet in the robot base, reach), `springback` (the part after unclamping, a rigid machine's
-forming), `part_surface` and `part_bottom` (the formed part as a surface).
+forming), `part_surface` and `part_bottom` (the formed part as a surface: target, design, scan).
 
 Takes path parameters, an FE export, the process and the materials; gives the commanded path U_ID and the force on the tool at
 any position.
@@ -79,4 +79,5 @@ __all__, __getattr__, __dir__ = lazy_exports(__name__, {
     "heightmap_mesh": "twin.process.part_surface",
     "surface_points": "twin.process.part_surface",
     "target_part_surface": "twin.process.part_surface",
+    "design_part_surface": "twin.process.part_surface",
 })

@@ -6,6 +6,9 @@ after unclamping, e.g. a fringe-projection scanner) and compared with the target
 * `target_part_surface(path)`: the part a rigid machine forms along the ideal path, after elastic recovery:
   the height-map ISF model (`twin.process.isf_force`) driven along the path without deflection. It is the
   target for a check of the *forming*, as the ideal path is for the tool path.
+* `design_part_surface(path)`: the part as CAD gives it: the sheet's tool-side surface a rigid machine forms
+  along the path with no springback, the lower envelope of the tool sphere (`twin.process.heightmap`) with the
+  unsupported bottom lowered (`twin.process.part_bottom`). The reference of a check of a scanned part.
 * `formed_surface(field)`: the surface a force field with a height map (`IsfForceField`) has formed, after
   the tool has left, its unsupported bottom lowered with the last contour (`twin.process.part_bottom`); None for
   a field without one (the groove's table field keeps a centre line only).
@@ -22,6 +25,7 @@ import numpy as np
 import trimesh
 
 from twin.errors import InputError
+from twin.process.heightmap import HeightMap
 from twin.process.isf_force import IsfForceField
 from twin.process.isf_params import IsfForceParams
 from twin.process.part_bottom import with_floating_bottom
@@ -30,6 +34,7 @@ from twin.process.path import ToolPath
 SCAN_SPACING_M = 1e-3  # a scan's point spacing [m]
 FORMED_BELOW_M = 5e-5  # a node counts as formed when it lies this far below the flat sheet [m]
 SCAN_MARGIN_M = 5e-3  # the scan covers the formed region and this margin of flat sheet [m]
+DESIGN_MARGIN_M = 10e-3  # a design mesh keeps this much flat sheet around the part (the registration's datum) [m]
 
 
 def formed_surface(field: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
@@ -65,6 +70,32 @@ def target_part_surface(
     surface = formed_surface(field)
     assert surface is not None  # an IsfForceField always has a height map
     return surface
+
+
+def design_part_surface(
+    path: ToolPath, params: IsfForceParams | None = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The part as designed: the tool sphere's lower envelope along `path`, no springback (x_m, y_m, z_m) [m].
+
+    The sheet's tool-side surface in the sheet frame (z = 0 at the unformed sheet's top), on a grid of the
+    params' spacing that covers the path, the tool and `DESIGN_MARGIN_M`; the unsupported bottom inside the last
+    contour hangs at that contour's depth, as in `formed_surface`.
+
+    Args:
+        path: The ideal tool-tip path, sheet frame.
+        params: ISF model constants (only the tool radius and the grid spacing count); None for the defaults.
+    """
+    p = params or IsfForceParams()
+    reach = float(np.max(np.abs(path.p_sheet_m[:, :2]))) + p.tool_radius_m + DESIGN_MARGIN_M
+    half = p.spacing_m * (np.ceil(reach / p.spacing_m) + 1.0)
+    height_map = HeightMap(p.tool_radius_m, p.spacing_m, (half, half), lag_m=0.0)
+    for tip in path.p_sheet_m:
+        height_map.commit(tip)
+    height_map.flush()
+    x, y, z = height_map.x_m, height_map.y_m, height_map.z_met_m.copy()
+    if len(path) >= 3:
+        z = with_floating_bottom(x, y, z, height_map.track_m, FORMED_BELOW_M)
+    return x, y, z
 
 
 def _formed_window(

@@ -3,7 +3,8 @@
 Modules: `format` (the format, `Stream`, `Run`, `meta.json`), `read` (reading and validation), `write` (atomic
 writing, never over an input), and the importers of real data: `mapping` (an import mapping file, read with
 `toml_keys`), `raw_tables` (vendor exports), `clock` (clock alignment), `registration` (tracker frame to sheet
-frame), `gravity` (tool weight removal) and `importer` (the import itself).
+frame), `gravity` (tool weight removal), `importer` (the import itself) and `scan_file` (a scanner's point cloud
+of the formed part: PLY, XYZ, CSV).
 
 Takes run directories and raw cell exports; gives validated `Run` objects.
 """
@@ -24,6 +25,7 @@ __all__, __getattr__, __dir__ = lazy_exports(__name__, {
     "ImportResult": "twin.runs.importer",
     "import_run": "twin.runs.importer",
     "import_to_directory": "twin.runs.importer",
+    "read_scan": "twin.runs.scan_file",
     "MappingError": "twin.runs.toml_keys",
     "ClockError": "twin.runs.toml_keys",
     "RegistrationError": "twin.runs.toml_keys",
