@@ -22,8 +22,6 @@ from io import StringIO
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from twin.analysis.part_compensation import scan_error
 from twin.cli import main as cli
 from twin.lab.dynamic.knobs import Knobs
@@ -61,26 +59,6 @@ def _lab(plant: str, command: Path, out: Path, seed: int) -> Path:
     return out
 
 
-def write_design(ideal_csv: Path, out: Path) -> None:
-    """The design as CAD gives it: the tool-side surface a rigid machine forms along the ideal path with no
-    springback (the tool sphere's lower envelope, the unsupported bottom lowered), STL in millimetres."""
-    from twin.process.isf_force import IsfForceField
-    from twin.process.part_bottom import with_floating_bottom
-    from twin.process.part_surface import FORMED_BELOW_M, cropped_surface, heightmap_mesh
-    from twin.process.path import ToolPath, label_passes
-
-    cmd = read_commanded_csv(ideal_csv)
-    passes, direction = label_passes(cmd.values[:, 0])
-    field = IsfForceField()
-    field.rigid_forces(ToolPath(t_s=cmd.t_s, p_sheet_m=cmd.values, pass_index=passes, direction=direction))
-    hm = field.map
-    x, y = np.asarray(hm.x_m), np.asarray(hm.y_m)
-    z = with_floating_bottom(x, y, hm.z_loaded_m, hm.track_m, FORMED_BELOW_M)
-    mesh = heightmap_mesh(*cropped_surface(x, y, z, 10e-3))
-    mesh.apply_scale(1e3)
-    out.write_bytes(mesh.export(file_type="stl"))
-
-
 def part_study(out: Path, path_args: list[str], plants: tuple[str, ...] = ("quasi-static", "dynamic"),
                learn: int = 2) -> dict[str, Any]:
     """The study for one part (`path_args`: the `tx200-twin path` options that make it) in `out`."""
@@ -88,8 +66,7 @@ def part_study(out: Path, path_args: list[str], plants: tuple[str, ...] = ("quas
 
     out.mkdir(parents=True, exist_ok=True)
     ideal, design = out / "ideal.csv", out / "design.stl"
-    _cli("path", *path_args, "--out", str(ideal), "--no-reach-check")
-    write_design(ideal, design)
+    _cli("path", *path_args, "--out", str(ideal), "--no-reach-check", "--design-stl", str(design))
     _cli("compensate", "--method", "twin", "--ideal", str(ideal), "--force-model", "isf", "--out",
          str(out / "cmd_path.csv"))
     _cli("compensate", "--method", "twin", "--ideal", str(ideal), "--force-model", "isf", "--target-stl", str(design),

@@ -65,7 +65,7 @@ def test_a_scan_above_the_design_moves_the_next_command_down_by_the_gap(cone) ->
 
 
 def test_the_options_are_checked(tmp_path: Path, cone, capsys: pytest.CaptureFixture[str]) -> None:
-    path, design = cone
+    _, design = cone
     stl = tmp_path / "design.stl"
     mesh = design.copy()
     mesh.apply_scale(1e3)
