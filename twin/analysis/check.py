@@ -37,6 +37,7 @@ class CheckResult:
         gain: Effective compensation gain.
         compliance_m_per_n: Compliance fitted from the run (x-z) [m/N], shape (2, 2).
         diagnosis: One line naming the likely cause of a gain away from 1.
+        nominal: Whether the run's command is the ideal path itself (no compensation to judge).
     """
 
     residual_m: np.ndarray
@@ -45,6 +46,7 @@ class CheckResult:
     gain: float
     compliance_m_per_n: np.ndarray
     diagnosis: str
+    nominal: bool = False
 
     def summary(self) -> dict[str, object]:
         """JSON-ready numbers: overall, per pass and per direction residuals [mm], gain, diagnosis."""
@@ -68,7 +70,12 @@ class CheckResult:
             "gain": self.gain,
             "compliance_xz_mm_per_kn": (1e6 * self.compliance_m_per_n).tolist(),
             "diagnosis": self.diagnosis,
+            "nominal": self.nominal,
         }
+
+
+#: A command within this of the ideal path everywhere is the ideal path (a nominal run) [m].
+NOMINAL_TOL_M = 1e-6
 
 
 def diagnose_gain(gain: float) -> str:
@@ -137,4 +144,8 @@ def check_run(run: Run, t_ideal_s: np.ndarray, p_ideal_sheet_m: np.ndarray) -> C
     c_xz = fit_compliance(f[loaded][:, [0, 2]], (tip - cmd)[loaded][:, [0, 2]], direction[loaded])
     predicted = -f[:, [0, 2]] @ c_xz.T
     gain = compensation_gain((cmd - ideal)[:, [0, 2]], predicted, direction)
+    if float(np.max(np.abs(cmd - ideal))) < NOMINAL_TOL_M:  # the data say it: the command is the ideal path
+        diagnosis = ("a nominal run: its command is the ideal path, so there is no compensation to judge; the "
+                     "residual is the robot's deflection")
+        return CheckResult(residual, pass_ideal[index], dir_ideal[index], gain, c_xz, diagnosis, nominal=True)
     return CheckResult(residual, pass_ideal[index], dir_ideal[index], gain, c_xz, diagnose_gain(gain))

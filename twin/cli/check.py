@@ -28,7 +28,8 @@ from twin.runs.format import Run
 from twin.runs.read import read_run
 from twin.runs.scan_file import UNITS, read_scan
 
-HELP = "Check a run against the ideal path U_ID: residual per pass/direction and the compensation gain."
+HELP = ("Check a run against the ideal path U_ID: residual per pass/direction and the compensation gain. Exit 0: "
+        "the gain is within tolerance, or a nominal run; 1: a compensated run's gain is off; 2: bad input.")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -70,7 +71,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Check the run; exit code 1 when the gain is off by more than the tolerance."""
+    """Check the run; exit code 1 when a compensated run's gain is off by more than the tolerance (0 for a
+    nominal run, whose command is the ideal path)."""
     needs = [name for name, on in (("--figure", args.figure), ("--scan", args.scan), ("--register", args.register))
              if on]
     if needs and args.target_stl is None:
@@ -90,7 +92,7 @@ def run(args: argparse.Namespace) -> int:
         line += _surface(args, measured, summary, protect)
     print(line, file=sys.stderr if args.json == "-" else sys.stdout)  # keep stdout pure JSON for `--json -`
     emit_json(args.json, summary, protect=protect)
-    return 0 if abs(result.gain - 1.0) <= GAIN_TOLERANCE else 1
+    return 0 if result.nominal or abs(result.gain - 1.0) <= GAIN_TOLERANCE else 1
 
 
 def _surface(args: argparse.Namespace, measured: Run, summary: dict[str, Any], protect: list[Path]) -> str:
