@@ -43,7 +43,7 @@ def test_a_20_mm_cone_is_formed_compensated_and_checked(small_cone: Path, capsys
     assert meta["force_model"] == "isf"
     compensation = json.loads((small_cone / "compensate.json").read_text())
     assert compensation["force_model"] == "isf"
-    nominal = _check(capsys, small_cone / "nominal", small_cone, code=1)  # the residual of no compensation
+    nominal = _check(capsys, small_cone / "nominal", small_cone)  # a nominal run: exit 0, the residual of no compensation
     right = _check(capsys, small_cone / "compensated", small_cone)
     print(f"\n20 mm cone: nominal {nominal['residual_rms_mm']:.3f} mm, compensated {right['residual_rms_mm']:.3f} mm")
     assert float(right["residual_rms_mm"]) < 0.1  # type: ignore[arg-type]
