@@ -1,6 +1,7 @@
 """Each shipped robot through the whole pipeline (`experiments/robot_tour.py`): a 45° cone, Ø 60 mm, 10 mm deep,
 compensated by the twin and formed on both plants; Method 1 and Method 2 on lab runs; a sheet 30 % stronger than
-declared named by `discrepancy`; a program in the robot's language. Slow (about 35 s a robot): `make test-slow`.
+declared, formed on the dynamic plant (not through the effect library), named by `discrepancy`; a program in the
+robot's language. Slow (about 35 s a robot): `make test-slow`.
 The numbers of the note and docs/robots.md come from these runs."""
 
 from __future__ import annotations
