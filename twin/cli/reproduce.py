@@ -51,7 +51,8 @@ noise 0.02 mm, force noise 5 N).
   row and column are nearly decoupled; the thesis's come from five loads in one octant (Table 4.2), which
   cannot separate a coupling from an offset, and they are not reciprocal.
 - **C_R(1) no closer than the table shows**: the friction term gives part of the asymmetry; the rest is beyond
-  three friction torques without overfitting (`tx200-twin calibrate` reports the reduced χ² over 15 targets).
+  three friction torques without overfitting (`tx200-twin calibrate` reports the reduced χ² over 13 targets and 9
+  parameters: 4 degrees of freedom).
 - **The corrected run's residual** is a figure in the thesis (§5.1.2, "quite satisfactory"), not a number. The
   twin's Eq. 4.28 compensation leaves the friction offsets (they flip with the direction, a linear C_R cannot
   cancel them); the twin's own compensation removes them except on the reversal samples.
