@@ -5,7 +5,7 @@ The plant's sheet is 20 % stronger than declared and springs back more: the quas
 `force_scale=1.2` and `sheet_springback=0.05` (5 % more of the depth lost on unclamping); the dynamic plant forms
 with R_m 1.2 x 275 MPa and a 25 % softer elastic unloading (k_unload x 0.75) while its runs record the declared
 process (the twin is told nothing). Each number is the scan (`part_scan.csv`) against the design, normal to it,
-rms over the formed part and its rim (`twin.analysis.part_compensation.scan_error`).
+rms over the formed part and its rim (`twin.analysis.part_compensation.part_error`).
 
 Run: `.venv/bin/python experiments/part_to_design.py OUT [--shape cone|pyramid] [--width-mm 80 --depth-mm 20]
 [--plants quasi-static,dynamic] [--learn 2]`. Prints a JSON summary.
@@ -17,18 +17,17 @@ import argparse
 import json
 import sys
 from contextlib import redirect_stdout
-from dataclasses import replace
 from io import StringIO
 from pathlib import Path
 from typing import Any
 
-from twin.analysis.part_compensation import scan_error
+from twin.analysis.part_compensation import part_error
+from twin.analysis.surface_check import read_target_mesh
 from twin.cli import main as cli
 from twin.lab.dynamic.knobs import Knobs
 from twin.lab.dynamic.run import run_dynamic_lab
 from twin.process.description import Process
 from twin.process.field import K_UNLOAD_N_PER_M
-from twin.process.process_file import process_record
 from twin.runs.read import read_commanded_csv, read_run
 from twin.runs.write import write_run
 
@@ -52,18 +51,14 @@ def _lab(plant: str, command: Path, out: Path, seed: int) -> Path:
         return out
     cmd = read_commanded_csv(command)
     run, truth, _ = run_dynamic_lab(cmd.t_s, cmd.values, scenario="nominal", knobs=Knobs(neutral=True), seed=seed,
-                                    process=PLANT_PROCESS)
-    run = replace(run, meta={**run.meta, "process": process_record(Process())})  # the declared sheet
-    write_run(out, run, truth={**truth, "plant_process": {**process_record(PLANT_PROCESS),
-                                                            "force_fit": dict(PLANT_PROCESS.force_fit)}})
+                                    process=PLANT_PROCESS, declared=Process())
+    write_run(out, run, truth=truth)
     return out
 
 
 def part_study(out: Path, path_args: list[str], plants: tuple[str, ...] = ("quasi-static", "dynamic"),
                learn: int = 2) -> dict[str, Any]:
     """The study for one part (`path_args`: the `tx200-twin path` options that make it) in `out`."""
-    import trimesh
-
     out.mkdir(parents=True, exist_ok=True)
     ideal, design = out / "ideal.csv", out / "design.stl"
     _cli("path", *path_args, "--out", str(ideal), "--no-reach-check", "--design-stl", str(design))
@@ -71,25 +66,24 @@ def part_study(out: Path, path_args: list[str], plants: tuple[str, ...] = ("quas
          str(out / "cmd_path.csv"))
     _cli("compensate", "--method", "twin", "--ideal", str(ideal), "--force-model", "isf", "--target-stl", str(design),
          "--out", str(out / "cmd_part.csv"), "--json", str(out / "part.json"))
-    mesh = trimesh.load(design, force="mesh")
-    mesh.apply_scale(1e-3)
+    mesh = read_target_mesh(design)
     summary: dict[str, Any] = {"path": path_args, "twin_predicted_rms_mm": [
-        round(e["all"], 4) for e in json.loads((out / "part.json").read_text())["predicted_surface_rms_mm_per_iteration"]]}
+        round(e["part"], 4) for e in json.loads((out / "part.json").read_text())["predicted_surface_rms_mm_per_iteration"]]}
     for plant in plants:
         rows: dict[str, Any] = {}
         for name, command in (("nominal", ideal), ("path-compensated", out / "cmd_path.csv"),
                               ("part-compensated", out / "cmd_part.csv")):
             run = _lab(plant, command, out / f"{plant}_{name}", seed=1)
-            rows[name] = scan_error(read_run(run).part_scan, mesh)
+            rows[name] = part_error(read_run(run).part_scan, mesh)
         last = out / f"{plant}_part-compensated"
         for k in range(1, learn + 1):
             nxt = out / f"{plant}_cmd_learn{k}.csv"
             _cli("compensate", "--method", "twin", "--ideal", str(ideal), "--target-stl", str(design),
                  "--learn-from", str(last), "--out", str(nxt))
             last = _lab(plant, nxt, out / f"{plant}_learn{k}", seed=1 + k)
-            rows[f"learn {k}"] = scan_error(read_run(last).part_scan, mesh)
-        summary[plant] = {name: {"rms_mm": {r: round(1e3 * v, 4) for r, v in e.rms_m.items()},
-                                 "mean_mm": {r: round(1e3 * v, 4) for r, v in e.mean_m.items()}}
+            rows[f"learn {k}"] = part_error(read_run(last).part_scan, mesh)
+        summary[plant] = {name: {"rms_mm": {r: round(v["rms_mm"], 4) for r, v in e.items()},
+                                 "mean_mm": {r: round(v["mean_mm"], 4) for r, v in e.items()}}
                           for name, e in rows.items()}
     return summary
 

@@ -40,20 +40,17 @@ def _json(path: Path) -> Any:
 def _stronger_sheet_run(robot: str, commanded: Path, out: Path) -> None:
     """The cone formed on the dynamic plant with a sheet 30 % stronger than declared; meta.json keeps the declared
     process, as a cell's export would."""
-    from dataclasses import replace
-
     from twin.lab.dynamic.knobs import Knobs
     from twin.lab.dynamic.run import run_dynamic_lab
     from twin.process.description import Process
-    from twin.process.process_file import process_record
     from twin.runs.read import read_commanded_csv
     from twin.runs.write import write_run
 
     cmd = read_commanded_csv(commanded)
     stronger = Process(tensile_strength_mpa=1.3 * Process().tensile_strength_mpa, force_model="isf")
     run, truth, _ = run_dynamic_lab(cmd.t_s, cmd.values, scenario="nominal", knobs=Knobs(neutral=True), seed=2,
-                                    process=stronger, robot=robot)
-    write_run(out, replace(run, meta={**run.meta, "process": process_record(Process())}), truth=truth)
+                                    process=stronger, robot=robot, declared=Process())
+    write_run(out, run, truth=truth)
 
 
 def tour(robot: str, out: Path, quick: bool = False, export: bool = True) -> dict[str, Any]:

@@ -118,16 +118,15 @@ def test_discrepancy_names_a_force_scale_hidden_in_a_cone_run(
     from twin.lab.dynamic.knobs import Knobs
     from twin.lab.dynamic.run import run_dynamic_lab
     from twin.process.description import Process
-    from twin.process.process_file import process_record
     from twin.runs.read import read_commanded_csv
     from twin.runs.write import write_run
 
     stronger = replace(Process(force_model="isf"), tensile_strength_mpa=1.3 * Process().tensile_strength_mpa)
     cone = read_commanded_csv(cone_runs["ideal"])
-    run, truth, _ = run_dynamic_lab(cone.t_s, cone.values, scenario="nominal", knobs=Knobs(neutral=True), seed=3,
-                                    process=stronger)
     # the run records the process the operator declared (the thesis's sheet), not the stronger coil it formed
-    run = replace(run, meta={**run.meta, "process": process_record(Process())})
+    run, truth, _ = run_dynamic_lab(cone.t_s, cone.values, scenario="nominal", knobs=Knobs(neutral=True), seed=3,
+                                    process=stronger, declared=Process())
+    assert run.meta["process"]["tensile_strength_mpa"] == 275.0 and truth["process_formed"]["tensile_strength_mpa"] > 350
     directory = write_run(cone_runs["base"] / "cone_stronger_sheet", run, truth=truth)
     capsys.readouterr()
     assert main(["discrepancy", str(directory), "--json", "-"]) == 0

@@ -18,7 +18,7 @@ from twin.process.description import Process
 from twin.process.placement import check_reach
 from twin.process.shapes import PartSpec, part_path
 from twin.robot.description import load_robot, shipped_robots
-from twin.robot.dh import dh_fk, dh_jacobian
+from twin.robot.dh import dh_fk
 from twin.robot.kinematics import Kinematics, load_model
 from twin.sim.spec import TwinSpec
 
@@ -100,18 +100,6 @@ def test_dh_table_is_the_public_urdf_and_the_controller_angles_are_krl_axis_valu
     # A1 > 0 turns the arm clockwise seen from above
     p_a1, _ = dh_fk(np.array([-0.1, -1.0, 1.5, 0.0, 0.5, 0.0]), tool_length_m=0.0, dh=robot.dh)
     assert robot.controller_angles(np.array([-0.1, 0, 0, 0, 0, 0]))[0] > 0 and p_a1[1] < 0
-
-
-def test_mujoco_fk_equals_the_dh_table_at_random_poses(kin: Kinematics) -> None:
-    robot = kin.robot
-    rng = np.random.default_rng(0)
-    Q = rng.uniform(kin.q_min, kin.q_max, (200, robot.dof))
-    p_dh, R_dh = dh_fk(Q, tool_length_m=robot.tool_length_m, dh=robot.dh)
-    for q, p_ref, R_ref in zip(Q, p_dh, R_dh, strict=True):
-        p, R = kin.fk(q)
-        np.testing.assert_allclose(p, p_ref, atol=1e-9)
-        np.testing.assert_allclose(R, R_ref, atol=1e-9)
-    np.testing.assert_allclose(kin.jacobians(Q[:20]), dh_jacobian(Q[:20], robot.tool_length_m, robot.dh), atol=1e-9)
 
 
 def test_home_is_a_clean_forming_pose(kin: Kinematics) -> None:

@@ -20,7 +20,7 @@ from twin.process.description import Process
 from twin.process.placement import check_reach
 from twin.process.shapes import PartSpec, part_path
 from twin.robot.description import load_robot, shipped_robots
-from twin.robot.dh import dh_fk
+from twin.robot.dh import dh_fk, dh_jacobian
 from twin.robot.kinematics import Kinematics
 from twin.runs.read import read_run
 from twin.sim.spec import TwinSpec
@@ -39,6 +39,7 @@ def test_mujoco_kinematics_equal_the_dh_table_at_random_poses(name: str) -> None
     fk = [kin.fk(qi) for qi in q]
     assert np.max(np.abs(np.array([p for p, _ in fk]) - p_dh)) < 1e-9
     assert np.max(np.abs(np.array([R for _, R in fk]) - R_dh)) < 1e-9
+    np.testing.assert_allclose(kin.jacobians(q[:20]), dh_jacobian(q[:20], robot.tool_length_m, robot.dh), atol=1e-9)
 
 
 @pytest.mark.parametrize("name", ROBOTS)

@@ -15,8 +15,9 @@ bottom of `twin.process.part_bottom`), so it misses the drawing by about that re
   default), so that the second part improves where the twin is wrong. Held fixed: x-y, timing, samples where the
   scan has no point within `SCAN_REACH_M`.
 
-Surface errors are reported per region of the design (`REGIONS`: the wall, slope above 10°; the bottom, flat
-and formed; the rim, within `RIM_WIDTH_M` of the unformed sheet at the part's edge).
+Surface errors are normal to the design, per region of it, as `check --target-stl` reports them
+(`twin.analysis.surface_check.region_deviation`: wall, bottom, rim, sheet), and for the part itself (`part`: its
+wall, bottom and rim together, `part_error`).
 """
 
 from __future__ import annotations
@@ -30,27 +31,16 @@ from scipy.ndimage import gaussian_filter1d
 from scipy.spatial import cKDTree
 
 from twin.analysis.compensate import Compensation, compensate_twin
+from twin.analysis.surface_check import REGIONS, DesignIndex, region_deviation
 from twin.errors import InputError
-from twin.process.part_surface import formed_surface
+from twin.process.part_surface import formed_surface, surface_points
 from twin.process.path import ToolPath
 from twin.sim.quasi_static import Twin
 
-#: Slope above which a design point is wall [deg]; depth above which it is formed [m]; rim width [m].
-WALL_SLOPE_DEG = 10.0
-FORMED_DEPTH_M = 0.2e-3
-RIM_WIDTH_M = 3e-3
-REGIONS = ("wall", "bottom", "rim")
+#: The regions of the design that are the part (the rest is flat sheet).
+PART_REGIONS = ("wall", "bottom", "rim")
 #: A path sample learns only from scan points within this x-y distance [m].
 SCAN_REACH_M = 1.5e-3
-
-
-class SurfaceError(NamedTuple):
-    """Surface error against the design, normal to it [m]: rms, max |.|, mean, and points, per region."""
-
-    rms_m: dict[str, float]
-    max_m: dict[str, float]
-    mean_m: dict[str, float]
-    points: dict[str, int]
 
 
 class PartCompensation(NamedTuple):
@@ -59,12 +49,13 @@ class PartCompensation(NamedTuple):
     Attributes:
         target: The tool path whose formed part (after unclamping) the twin predicts on the design.
         compensation: The twin compensation of `target` (its command is the part-compensated command).
-        error_per_iteration: The twin's predicted surface error at each outer iteration (0: path-compensated).
+        error_per_iteration: The twin's predicted surface error (`part_error`) at each outer iteration (0:
+            path-compensated).
     """
 
     target: ToolPath
     compensation: Compensation
-    error_per_iteration: list[SurfaceError]
+    error_per_iteration: list[dict[str, dict[str, float]]]
 
 
 def design_heights(design: trimesh.Trimesh, x_m: np.ndarray, y_m: np.ndarray) -> np.ndarray:
@@ -79,55 +70,15 @@ def design_heights(design: trimesh.Trimesh, x_m: np.ndarray, y_m: np.ndarray) ->
     return z.reshape(np.shape(x_m))
 
 
-def surface_error(surface: tuple[np.ndarray, np.ndarray, np.ndarray], design: trimesh.Trimesh) -> SurfaceError:
-    """A formed surface (x (nx,), y (ny,), z (ny, nx)) [m] against the design, per region (module docstring)."""
-    x, y, z = surface
-    X, Y = np.meshgrid(x, y)
-    zd = design_heights(design, X, Y)
-    gy, gx = np.gradient(zd, y, x)
-    slope = np.degrees(np.arctan(np.hypot(gx, gy)))
-    normal_error = (z - zd) * np.cos(np.radians(slope))  # vertical gap to the normal distance, to first order
-    formed = zd < -FORMED_DEPTH_M
-    near_formed = _dilate(formed, max(1, round(RIM_WIDTH_M / float(x[1] - x[0]))))
-    masks = {"wall": formed & (slope > WALL_SLOPE_DEG), "bottom": formed & (slope <= WALL_SLOPE_DEG),
-             "rim": near_formed & ~formed}
-    ok = np.isfinite(normal_error)
-    out: dict[str, dict[str, float]] = {"rms": {}, "max": {}, "mean": {}, "n": {}}
-    for name, mask in {**masks, "all": formed | masks["rim"]}.items():
-        e = normal_error[mask & ok]
-        out["rms"][name] = float(np.sqrt(np.mean(e**2))) if e.size else float("nan")
-        out["max"][name] = float(np.max(np.abs(e))) if e.size else float("nan")
-        out["mean"][name] = float(np.mean(e)) if e.size else float("nan")
-        out["n"][name] = int(e.size)
-    return SurfaceError(out["rms"], out["max"], out["mean"], {k: int(v) for k, v in out["n"].items()})
-
-
-def scan_error(scan_m: np.ndarray, design: trimesh.Trimesh, step_m: float = 0.25e-3) -> SurfaceError:
-    """A scan (points (m, 3) [m], sheet frame) against the design, per region, as `surface_error`."""
-    x, y, z = (np.asarray(scan_m, dtype=float)[:, i] for i in range(3))
-    zd = design_heights(design, x, y)
-    gx = (design_heights(design, x + step_m, y) - design_heights(design, x - step_m, y)) / (2 * step_m)
-    gy = (design_heights(design, x, y + step_m) - design_heights(design, x, y - step_m)) / (2 * step_m)
-    slope = np.degrees(np.arctan(np.hypot(gx, gy)))
-    normal_error = (z - zd) * np.cos(np.radians(slope))
-    formed = zd < -FORMED_DEPTH_M
-    rim = ~formed & (cKDTree(np.column_stack([x, y])[formed]).query(np.column_stack([x, y]))[0] < RIM_WIDTH_M)
-    masks = {"wall": formed & (slope > WALL_SLOPE_DEG), "bottom": formed & (slope <= WALL_SLOPE_DEG), "rim": rim}
-    masks["all"] = formed | rim
-    ok = np.isfinite(normal_error)
-    errors = {name: normal_error[mask & ok] for name, mask in masks.items()}
-    return SurfaceError(
-        {k: float(np.sqrt(np.mean(e**2))) if e.size else float("nan") for k, e in errors.items()},
-        {k: float(np.max(np.abs(e))) if e.size else float("nan") for k, e in errors.items()},
-        {k: float(np.mean(e)) if e.size else float("nan") for k, e in errors.items()},
-        {k: int(e.size) for k, e in errors.items()},
-    )
-
-
-def _dilate(mask: np.ndarray, cells: int) -> np.ndarray:
-    from scipy.ndimage import binary_dilation
-
-    return np.asarray(binary_dilation(mask, iterations=cells))
+def part_error(points_m: np.ndarray, design: trimesh.Trimesh | DesignIndex) -> dict[str, dict[str, float]]:
+    """Normal deviation of surface points from the design [mm] per region (`region_deviation`), and `part`: the
+    wall, bottom and rim together (rms, max |.|, mean, points)."""
+    deviation = region_deviation(points_m, design)
+    stats = deviation.stats_mm()
+    d = 1e3 * deviation.deviation_m[np.isin(deviation.region, [REGIONS.index(r) for r in PART_REGIONS])]
+    stats["part"] = {"rms_mm": float(np.sqrt(np.mean(d**2))), "max_mm": float(np.max(np.abs(d))),
+                     "mean_mm": float(np.mean(d)), "points": float(len(d))}
+    return stats
 
 
 def predicted_surface(twin: Twin, t_s: np.ndarray, command_m: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -164,11 +115,12 @@ def compensate_part(
     if not 0.0 < gain <= 1.0 or iterations < 1:
         raise InputError(f"gain {gain} must be in (0, 1] and iterations {iterations} >= 1")
     target = ideal
-    errors: list[SurfaceError] = []
+    index = DesignIndex(design)
+    errors: list[dict[str, dict[str, float]]] = []
     comp = compensate_twin(ideal.t_s, ideal.p_sheet_m, twin, tol_m=tol_m)
     for _ in range(iterations + 1):
         surface = predicted_surface(twin, target.t_s, comp.p_cmd_sheet_m)
-        errors.append(surface_error(surface, design))
+        errors.append(part_error(surface_points(*surface), index))
         if len(errors) == iterations + 1:
             break
         gap = _heights_at(surface, target.p_sheet_m) - design_heights(design, target.p_sheet_m[:, 0],

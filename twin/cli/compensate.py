@@ -82,28 +82,15 @@ def _stiffness(path: Path) -> np.ndarray:
     return 1e3 * k
 
 
-def _design(path: Path) -> Any:
-    """The design surface in metres (read in millimetres)."""
-    import trimesh
-
-    try:
-        mesh = trimesh.load(path, force="mesh")
-    except (OSError, ValueError) as exc:
-        raise DataFileError(path, f"cannot read a surface mesh (STL, PLY, OBJ): {exc}") from None
-    if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
-        raise DataFileError(path, "no faces: expected the design surface as a triangle mesh")
-    mesh.apply_scale(1e-3)
-    return mesh
-
-
 def _part(args: argparse.Namespace) -> int:
     """`--target-stl`: the part to the design, on the twin, or learned from the last part's scan."""
     from twin.analysis.part_compensation import compensate_part, learn_from_scan
+    from twin.analysis.surface_check import read_target_mesh
     from twin.runs.read import read_run
 
     if args.method != "twin":
         raise InputError("--target-stl needs --method twin (the twin predicts the part after unclamping)")
-    design = _design(args.target_stl)
+    design = read_target_mesh(args.target_stl)
     protect = [p for p in (args.target_stl, args.ideal, args.learn_from, args.model) if p is not None]
     if args.learn_from is not None:
         last = read_run(args.learn_from)
@@ -125,7 +112,7 @@ def _part(args: argparse.Namespace) -> int:
         command, t_s = result.compensation.p_cmd_sheet_m, ideal.t_s
         summary = {
             "method": "part", "out": args.out, "iterations": args.part_iterations,
-            "predicted_surface_rms_mm_per_iteration": [{k: 1e3 * v for k, v in e.rms_m.items()}
+            "predicted_surface_rms_mm_per_iteration": [{region: stats["rms_mm"] for region, stats in e.items()}
                                                       for e in result.error_per_iteration],
         }
     write_table(

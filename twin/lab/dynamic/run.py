@@ -20,6 +20,7 @@ from twin.lab.dynamic.simulate import DynamicLog, simulate
 from twin.lab.dynamic.trajectory import retime_with_stops
 from twin.process.description import Process
 from twin.process.placement import Placement
+from twin.process.process_file import process_record
 from twin.robot.description import RobotDescription, robot_record
 from twin.robot.kinematics import Kinematics, load_model
 from twin.runs.format import Run, Stream, run_meta
@@ -38,6 +39,7 @@ def run_dynamic_lab(
     progress: TextIO | None = None,
     placement: Placement | None = None,
     robot: str | RobotDescription | None = None,
+    declared: Process | None = None,
 ) -> tuple[Run, dict[str, Any], DynamicLog]:
     """Run the commanded path on the dynamic plant and measure it.
 
@@ -52,6 +54,8 @@ def run_dynamic_lab(
         progress: Stream for progress lines (None: quiet).
         placement: Where the sheet lies in the cell (recorded in meta.json); None: the cell's, yaw 0.
         robot: The robot (its model folder builds the plant); None: the default robot.
+        declared: The process the run's meta.json records, as a cell's user declared it (a sheet other than the
+            one formed, which truth.json then records); None: the process formed with.
 
     Returns:
         The run (not yet written), the truth record for `truth.json`, and the physical log.
@@ -76,7 +80,7 @@ def run_dynamic_lab(
         placement=placement,
         robot=robot_record(plant.robot),
         force_model=process.force_model,
-        process=process,
+        process=declared or process,
     )
     run = Run(
         directory=None,
@@ -87,7 +91,10 @@ def run_dynamic_lab(
         part_profile=profile,
         part_scan=scan,
     )
-    return run, truth_record(plant, knobs, seed, log, t_s, p_cmd_sheet_m), log
+    truth = truth_record(plant, knobs, seed, log, t_s, p_cmd_sheet_m)
+    if declared is not None and declared != process:
+        truth["process_formed"] = {**process_record(process), "force_fit": dict(process.force_fit)}
+    return run, truth, log
 
 
 def truth_record(
