@@ -5,7 +5,11 @@ The plant's sheet is 20 % stronger than declared and springs back more: the quas
 `force_scale=1.2` and `sheet_springback=0.05` (5 % more of the depth lost on unclamping); the dynamic plant forms
 with R_m 1.2 x 275 MPa and a 25 % softer elastic unloading (k_unload x 0.75) while its runs record the declared
 process (the twin is told nothing). Each number is the scan (`part_scan.csv`) against the design, normal to it,
-rms over the formed part and its rim (`twin.analysis.part_compensation.part_error`).
+rms over the formed part and its rim (`twin.analysis.part_compensation.part_stats`). Both compensations are made
+twice: with the declared sheet, and with the sheet's forces identified from the nominal part's F/T stream
+(`identify --forces RUN --write-model`; the springback stays the declared one: forces do not show it). Figures and rerun recordings
+in OUT: `twin_stages.png|.rrd` (the twin's predicted part at each part-compensation iteration) and
+`<plant>_stages.png|.rrd` (the scan of each formed part: nominal, path-, part-compensated, each learning iteration).
 
 Run: `.venv/bin/python experiments/part_to_design.py OUT [--shape cone|pyramid] [--width-mm 80 --depth-mm 20]
 [--plants quasi-static,dynamic] [--learn 2]`. Prints a JSON summary.
@@ -21,8 +25,8 @@ from io import StringIO
 from pathlib import Path
 from typing import Any
 
-from twin.analysis.part_compensation import part_error
-from twin.analysis.surface_check import read_target_mesh
+from twin.analysis.part_compensation import PartStage, part_stats
+from twin.analysis.surface_check import DesignIndex, RegionDeviation, read_target_mesh, region_deviation
 from twin.cli import main as cli
 from twin.lab.dynamic.knobs import Knobs
 from twin.lab.dynamic.run import run_dynamic_lab
@@ -30,6 +34,8 @@ from twin.process.description import Process
 from twin.process.field import K_UNLOAD_N_PER_M
 from twin.runs.read import read_commanded_csv, read_run
 from twin.runs.write import write_run
+from twin.viz.part_recording import record_part
+from twin.viz.surface_figures import plot_part_stages
 
 HIDDEN_QS = ["--effect", "force_scale=1.2", "--effect", "sheet_springback=0.05"]
 PLANT_PROCESS = Process(tensile_strength_mpa=1.2 * 275.0, force_model="isf",
@@ -56,6 +62,14 @@ def _lab(plant: str, command: Path, out: Path, seed: int) -> Path:
     return out
 
 
+def _scan(run: Path, design: DesignIndex) -> RegionDeviation:
+    """The run's part scan against the design."""
+    scan = read_run(run).part_scan
+    if scan is None:
+        raise SystemExit(f"{run}: the run has no part_scan.csv")
+    return region_deviation(scan, design)
+
+
 def part_study(out: Path, path_args: list[str], plants: tuple[str, ...] = ("quasi-static", "dynamic"),
                learn: int = 2) -> dict[str, Any]:
     """The study for one part (`path_args`: the `tx200-twin path` options that make it) in `out`."""
@@ -65,27 +79,52 @@ def part_study(out: Path, path_args: list[str], plants: tuple[str, ...] = ("quas
     _cli("compensate", "--method", "twin", "--ideal", str(ideal), "--force-model", "isf", "--out",
          str(out / "cmd_path.csv"))
     _cli("compensate", "--method", "twin", "--ideal", str(ideal), "--force-model", "isf", "--target-stl", str(design),
-         "--out", str(out / "cmd_part.csv"), "--json", str(out / "part.json"))
+         "--out", str(out / "cmd_part.csv"), "--json", str(out / "part.json"), "--figure", str(out / "twin_stages.png"),
+         "--rerun", str(out / "twin_stages.rrd"))
     mesh = read_target_mesh(design)
     summary: dict[str, Any] = {"path": path_args, "twin_predicted_rms_mm": [
         round(e["part"], 4) for e in json.loads((out / "part.json").read_text())["predicted_surface_rms_mm_per_iteration"]]}
+    index = DesignIndex(mesh)
     for plant in plants:
-        rows: dict[str, Any] = {}
+        scans: dict[str, RegionDeviation] = {}
         for name, command in (("nominal", ideal), ("path-compensated", out / "cmd_path.csv"),
                               ("part-compensated", out / "cmd_part.csv")):
             run = _lab(plant, command, out / f"{plant}_{name}", seed=1)
-            rows[name] = part_error(read_run(run).part_scan, mesh)
+            scans[name] = _scan(run, index)
+        # The sheet's forces identified from the nominal part's F/T stream, then both compensations again.
+        model = out / f"{plant}_identified_forces.json"
+        _cli("identify", "--forces", str(out / f"{plant}_nominal"), "--write-model", str(model))
+        for name, extra in (("path-compensated, identified forces", []),
+                            ("part-compensated, identified forces", ["--target-stl", str(design)])):
+            command = out / f"{plant}_cmd_{name.split(',')[0]}_identified.csv"
+            _cli("compensate", "--method", "twin", "--ideal", str(ideal), "--model", str(model), *extra,
+                 "--out", str(command))
+            scans[name] = _scan(_lab(plant, command, out / f"{plant}_{name.split(',')[0]}_identified", seed=1), index)
         last = out / f"{plant}_part-compensated"
         for k in range(1, learn + 1):
             nxt = out / f"{plant}_cmd_learn{k}.csv"
             _cli("compensate", "--method", "twin", "--ideal", str(ideal), "--target-stl", str(design),
                  "--learn-from", str(last), "--out", str(nxt))
             last = _lab(plant, nxt, out / f"{plant}_learn{k}", seed=1 + k)
-            rows[f"learn {k}"] = part_error(read_run(last).part_scan, mesh)
+            scans[f"learn {k}"] = _scan(last, index)
+        stages = [PartStage(f"scan: {name}", "scanned", deviation) for name, deviation in scans.items()]
+        plot_part_stages(out / f"{plant}_stages.png", stages, title=f"{plant} plant, its sheet not the twin's")
+        record_part(out / f"{plant}_stages.rrd", mesh, stages)
+        rows = {name: part_stats(deviation) for name, deviation in scans.items()}
         summary[plant] = {name: {"rms_mm": {r: round(v["rms_mm"], 4) for r, v in e.items()},
                                  "mean_mm": {r: round(v["mean_mm"], 4) for r, v in e.items()}}
                           for name, e in rows.items()}
     return summary
+
+
+def stage_table(summary: dict[str, Any]) -> str:
+    """The study's part rms [mm] per stage (rows) and plant (columns), as a markdown table."""
+    plants = [p for p in ("quasi-static", "dynamic") if p in summary]
+    lines = ["| stage | " + " | ".join(f"{p} plant, part rms [mm]" for p in plants) + " |",
+             "|---|" + "---|" * len(plants)]
+    for stage in summary[plants[0]]:
+        lines.append(f"| {stage} | " + " | ".join(f"{summary[p][stage]['rms_mm']['part']:.3f}" for p in plants) + " |")
+    return "\n".join(lines) + "\n"
 
 
 def main() -> None:
@@ -103,6 +142,7 @@ def main() -> None:
     summary = part_study(args.out, path_args, tuple(args.plants.split(",")), args.learn)
     json.dump(summary, sys.stdout, indent=1)
     print()
+    print(stage_table(summary), file=sys.stderr)
 
 
 if __name__ == "__main__":

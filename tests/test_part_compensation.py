@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import trimesh
+from rerun.chunk import RrdReader
 
 from twin.analysis.part_compensation import compensate_part, design_heights, learn_from_scan, part_error
 from twin.cli import main
@@ -84,7 +85,24 @@ def test_the_options_are_checked(tmp_path: Path, cone, capsys: pytest.CaptureFix
     assert main(["compensate", "--method", "twin", "--ideal", str(ideal), "--target-stl", str(bad),
                  "--out", str(tmp_path / "c.csv")]) == 2
     assert "bad.stl" in capsys.readouterr().err
+    assert main(["compensate", "--method", "twin", "--ideal", str(ideal), "--figure", str(tmp_path / "f.png"),
+                 "--out", str(tmp_path / "c.csv")]) == 2
+    assert "--figure" in capsys.readouterr().err and not (tmp_path / "f.png").exists()
     assert main(["compensate", "--method", "twin", "--ideal", str(ideal), "--target-stl", str(stl),
-                 "--force-model", "isf", "--out", str(tmp_path / "part.csv"), "--json", "-"]) == 0
-    rms = json.loads(capsys.readouterr().out)["predicted_surface_rms_mm_per_iteration"]
+                 "--force-model", "isf", "--out", str(tmp_path / "part.csv"), "--json", "-",
+                 "--figure", str(tmp_path / "maps.png"), "--rerun", str(tmp_path / "part.rrd")]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    rms = summary["predicted_surface_rms_mm_per_iteration"]
     assert rms[-1]["part"] < rms[0]["part"] / 3
+    assert (tmp_path / "maps.png").stat().st_size > 20_000 and summary["figure"].endswith("maps.png")
+    _check_recording(tmp_path / "part.rrd", stages=len(rms))
+
+
+def _check_recording(path: Path, stages: int) -> None:
+    """The recording holds the design (static), a predicted surface and the rms plots at each stage."""
+    chunks: dict[str, list] = {}
+    for chunk in RrdReader(path).stream().to_chunks():
+        chunks.setdefault(chunk.entity_path, []).append(chunk)
+    assert all(c.is_static for c in chunks["/world/design"]) and "/README" in chunks
+    for entity in ("/world/predicted", "/plots/rms_mm/wall", "/plots/rms_mm/bottom"):
+        assert sum(c.num_rows for c in chunks[entity] if not c.is_static) == stages, entity

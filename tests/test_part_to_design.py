@@ -26,6 +26,10 @@ def stadium_gcode(levels: int = 8, step_mm: float = 0.5, half_length_mm: float =
     return "\n".join(lines) + "\n"
 
 
+def _numbers(lines: list[str]) -> list[float]:
+    return [float(cell) for line in lines[2:] for cell in line.strip("|").split("|")[1:]]
+
+
 def _all(summary: dict, plant: str, row: str) -> float:
     return summary[plant][row]["rms_mm"]["part"]
 
@@ -38,6 +42,15 @@ def test_a_cone_on_both_plants_learns_to_within_0_1_mm(tmp_path: Path) -> None:
     for plant in ("quasi-static", "dynamic"):
         assert _all(summary, plant, "part-compensated") < _all(summary, plant, "path-compensated")
         assert _all(summary, plant, "learn 2") < 0.1
+        # with the forces identified from the nominal part, the part compensation removes two thirds and more
+        assert _all(summary, plant, "part-compensated, identified forces") < _all(summary, plant, "path-compensated") / 3
+        assert (_all(summary, plant, "part-compensated, identified forces")
+                < _all(summary, plant, "path-compensated, identified forces") / 3)
+    documented = (Path(__file__).resolve().parent.parent / "docs" / "any-part.md").read_text()
+    table = documented.split("<!-- part-to-design table")[1].split("\n\n")[0].splitlines()[1:]
+    assert _numbers(table) == pytest.approx(_numbers(study.stage_table(summary).splitlines()), abs=0.005)
+    for stem in ("twin_stages", "quasi-static_stages", "dynamic_stages"):  # the maps and recordings of each stage
+        assert (tmp_path / f"{stem}.png").stat().st_size > 20_000 and (tmp_path / f"{stem}.rrd").stat().st_size > 10_000
 
 
 @pytest.mark.slow

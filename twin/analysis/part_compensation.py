@@ -31,7 +31,7 @@ from scipy.ndimage import gaussian_filter1d
 from scipy.spatial import cKDTree
 
 from twin.analysis.compensate import Compensation, compensate_twin
-from twin.analysis.surface_check import REGIONS, DesignIndex, region_deviation
+from twin.analysis.surface_check import REGIONS, DesignIndex, RegionDeviation, region_deviation
 from twin.errors import InputError
 from twin.process.part_surface import formed_surface, surface_points
 from twin.process.path import ToolPath
@@ -41,6 +41,22 @@ from twin.sim.quasi_static import Twin
 PART_REGIONS = ("wall", "bottom", "rim")
 #: A path sample learns only from scan points within this x-y distance [m].
 SCAN_REACH_M = 1.5e-3
+#: What a stage's surface is: the twin's part after unclamping, or a formed part's scan.
+STAGE_KINDS = ("predicted", "scanned")
+
+
+class PartStage(NamedTuple):
+    """One stage of a part on its way to the design, for its figures and recordings.
+
+    Attributes:
+        name: What the stage is, e.g. "twin, iteration 1" or "scan: learn 2".
+        kind: One of `STAGE_KINDS`.
+        deviation: Its points and their signed normal deviation from the design, by region [m].
+    """
+
+    name: str
+    kind: str
+    deviation: RegionDeviation
 
 
 class PartCompensation(NamedTuple):
@@ -49,13 +65,21 @@ class PartCompensation(NamedTuple):
     Attributes:
         target: The tool path whose formed part (after unclamping) the twin predicts on the design.
         compensation: The twin compensation of `target` (its command is the part-compensated command).
-        error_per_iteration: The twin's predicted surface error (`part_error`) at each outer iteration (0:
-            path-compensated).
+        deviations: The twin's predicted part against the design at each outer iteration (0: path-compensated).
     """
 
     target: ToolPath
     compensation: Compensation
-    error_per_iteration: list[dict[str, dict[str, float]]]
+    deviations: list[RegionDeviation]
+
+    @property
+    def error_per_iteration(self) -> list[dict[str, dict[str, float]]]:
+        """`part_stats` of each iteration's predicted part [mm]."""
+        return [part_stats(d) for d in self.deviations]
+
+    def stages(self) -> list[PartStage]:
+        """The iterations as stages ("twin, iteration k", predicted)."""
+        return [PartStage(f"twin, iteration {k}", "predicted", d) for k, d in enumerate(self.deviations)]
 
 
 def design_heights(design: trimesh.Trimesh, x_m: np.ndarray, y_m: np.ndarray) -> np.ndarray:
@@ -73,7 +97,11 @@ def design_heights(design: trimesh.Trimesh, x_m: np.ndarray, y_m: np.ndarray) ->
 def part_error(points_m: np.ndarray, design: trimesh.Trimesh | DesignIndex) -> dict[str, dict[str, float]]:
     """Normal deviation of surface points from the design [mm] per region (`region_deviation`), and `part`: the
     wall, bottom and rim together (rms, max |.|, mean, points)."""
-    deviation = region_deviation(points_m, design)
+    return part_stats(region_deviation(points_m, design))
+
+
+def part_stats(deviation: RegionDeviation) -> dict[str, dict[str, float]]:
+    """`RegionDeviation.stats_mm` and `part`: the wall, bottom and rim together (rms, max |.|, mean, points) [mm]."""
     stats = deviation.stats_mm()
     d = 1e3 * deviation.deviation_m[np.isin(deviation.region, [REGIONS.index(r) for r in PART_REGIONS])]
     stats["part"] = {"rms_mm": float(np.sqrt(np.mean(d**2))), "max_mm": float(np.max(np.abs(d))),
@@ -116,12 +144,12 @@ def compensate_part(
         raise InputError(f"gain {gain} must be in (0, 1] and iterations {iterations} >= 1")
     target = ideal
     index = DesignIndex(design)
-    errors: list[dict[str, dict[str, float]]] = []
+    deviations: list[RegionDeviation] = []
     comp = compensate_twin(ideal.t_s, ideal.p_sheet_m, twin, tol_m=tol_m)
     for _ in range(iterations + 1):
         surface = predicted_surface(twin, target.t_s, comp.p_cmd_sheet_m)
-        errors.append(part_error(surface_points(*surface), index))
-        if len(errors) == iterations + 1:
+        deviations.append(region_deviation(surface_points(*surface), index))
+        if len(deviations) == iterations + 1:
             break
         gap = _heights_at(surface, target.p_sheet_m) - design_heights(design, target.p_sheet_m[:, 0],
                                                                       target.p_sheet_m[:, 1])
@@ -129,7 +157,7 @@ def compensate_part(
         p[:, 2] -= gain * np.nan_to_num(gap)
         target = replace(target, p_sheet_m=p)
         comp = compensate_twin(target.t_s, target.p_sheet_m, twin, tol_m=tol_m)
-    return PartCompensation(target, comp, errors)
+    return PartCompensation(target, comp, deviations)
 
 
 def learn_from_scan(

@@ -68,6 +68,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                       "deviation from the design")
     part.add_argument("--learn-gain", type=float, default=1.0, help="learning gain (0, 1] (default 1)")
     part.add_argument("--learn-smoothing-mm", type=float, default=2.0, help="smoothing along the path (default 2)")
+    part.add_argument("--figure", type=Path, metavar="PNG",
+                      help="deviation maps from the design: the twin's predicted part at each iteration "
+                      "(with --learn-from: the last part's scan)")
+    part.add_argument("--rerun", type=Path, metavar="RRD",
+                      help="rerun recording: the design, and each iteration's surface coloured by its deviation")
     parser.add_argument("--out", type=Path, required=True, help="compensated path, commanded.csv format")
     parser.add_argument("--json", help="write the numbers to FILE ('-' for stdout)")
 
@@ -84,8 +89,8 @@ def _stiffness(path: Path) -> np.ndarray:
 
 def _part(args: argparse.Namespace) -> int:
     """`--target-stl`: the part to the design, on the twin, or learned from the last part's scan."""
-    from twin.analysis.part_compensation import compensate_part, learn_from_scan
-    from twin.analysis.surface_check import read_target_mesh
+    from twin.analysis.part_compensation import PartStage, compensate_part, learn_from_scan
+    from twin.analysis.surface_check import read_target_mesh, region_deviation
     from twin.runs.read import read_run
 
     if args.method != "twin":
@@ -96,6 +101,8 @@ def _part(args: argparse.Namespace) -> int:
         last = read_run(args.learn_from)
         if last.part_scan is None:
             raise InputError(f"--learn-from {args.learn_from}: the run has no part_scan.csv to learn from")
+        stages = [PartStage(f"scan of {Path(args.learn_from).name}", "scanned",
+                            region_deviation(last.part_scan, design))]
         command, measured = learn_from_scan(last.commanded.values, last.part_scan, design, gain=args.learn_gain,
                                             smoothing_m=1e-3 * args.learn_smoothing_mm)
         t_s = last.commanded.t_s
@@ -109,7 +116,7 @@ def _part(args: argparse.Namespace) -> int:
         ideal = ideal_from_arguments(args)
         twin = spec_from_arguments(args, ideal.p_sheet_m).build()
         result = compensate_part(ideal, twin, design, iterations=args.part_iterations, tol_m=1e-3 * args.tol_mm)
-        command, t_s = result.compensation.p_cmd_sheet_m, ideal.t_s
+        command, t_s, stages = result.compensation.p_cmd_sheet_m, ideal.t_s, result.stages()
         summary = {
             "method": "part", "out": args.out, "iterations": args.part_iterations,
             "predicted_surface_rms_mm_per_iteration": [{region: stats["rms_mm"] for region, stats in e.items()}
@@ -119,6 +126,15 @@ def _part(args: argparse.Namespace) -> int:
         args.out, {"t_s": t_s, **{f"{a}_mm": 1e3 * command[:, i] for i, a in enumerate("xyz")}},
         formats={"t_s": ".6f", "x_mm": ".4f", "y_mm": ".4f", "z_mm": ".4f"}, protect=protect,
     )
+    if args.figure is not None:
+        from twin.viz.surface_figures import plot_part_stages
+
+        title = f"{Path(args.target_stl).name}: " + ("the last part's scan" if args.learn_from else "the twin's part")
+        summary["figure"] = str(plot_part_stages(args.figure, stages, title=title, protect=protect))
+    if args.rerun is not None:
+        from twin.viz.part_recording import record_part
+
+        summary["rerun"] = str(record_part(args.rerun, design, stages, protect=protect))
     print(f"compensate ({summary['method']}): -> {args.out}", file=sys.stderr if args.json == "-" else sys.stdout)
     emit_json(args.json, summary, protect=protect)
     return 0
@@ -128,8 +144,10 @@ def run(args: argparse.Namespace) -> int:
     """Compensate."""
     if args.target_stl is not None:
         return _part(args)
-    if args.learn_from is not None:
-        raise InputError("--learn-from needs --target-stl DESIGN (the surface the part is measured against)")
+    for option, value in (("--learn-from", args.learn_from), ("--figure", args.figure), ("--rerun", args.rerun)):
+        if value is not None:
+            raise InputError(f"{option} needs --target-stl DESIGN (the surface the part is measured against); "
+                             f"got {option} {value} without it")
     declared, reference = history_from_arguments(args)
     ideal = ideal_from_arguments(args)
     protect = [p for p in (args.stiffness, args.model, args.history, args.ideal, args.process) if p is not None]

@@ -6,9 +6,7 @@ Each run's entities (robot, paths, deflection, forces, groove, plots, README) ar
 
 from __future__ import annotations
 
-import os
 import re
-import uuid
 from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -23,6 +21,7 @@ from twin.process.placement import Placement
 from twin.robot.description import load_robot
 from twin.robot.model import build_model
 from twin.viz.recording_layers import checked_points, log_replay
+from twin.viz.rrd_file import save_recording
 
 if TYPE_CHECKING:
     from twin.analysis.replay import ReplayResult
@@ -133,22 +132,12 @@ def record_runs(
     origin = _checked_origin(twin_model, p_base_sheet_origin, placement)
     ideal = None if ideal_sheet_m is None else checked_points("ideal_sheet_m", ideal_sheet_m)
     prefixes = [f"{name}/" if name else "" for name in names]
-    target = Path(path)
-    target.parent.mkdir(parents=True, exist_ok=True)
-    tmp = target.parent / f".{target.name}.{os.getpid()}.{uuid.uuid4().hex}.tmp"
-    rec = rr.RecordingStream(application_id, send_properties=False)
-    try:
-        rec.save(tmp, default_blueprint=_blueprint(prefixes))
+
+    def log(rec: rr.RecordingStream) -> None:
         for prefix, (_, run, replay) in zip(prefixes, items, strict=True):
             log_replay(rec, prefix, run, replay, ideal, twin_model, origin, R_base_sheet)
-        rec.flush()
-        rec.disconnect()
-        os.replace(tmp, target)
-    except BaseException:
-        rec.disconnect()
-        tmp.unlink(missing_ok=True)
-        raise
-    return target
+
+    return save_recording(path, _blueprint(prefixes), log, application_id=application_id)
 
 
 def record_replay(

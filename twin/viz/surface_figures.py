@@ -2,7 +2,8 @@
 
 A scan on a grid (the labs' `part_scan.csv`) is drawn as an image; scattered points (a laser scan, registered)
 as a triangulation, triangles longer than `GAP_SPACINGS` median point spacings left blank. With the regions of a design, the map
-covers every region, the wall's edges are outlined and each region's numbers are listed.
+covers every region, the wall's edges are outlined and each region's numbers are listed. A part's stages on its
+way to the design (`plot_part_stages`) are drawn side by side on one colour scale.
 """
 
 from __future__ import annotations
@@ -17,9 +18,11 @@ from matplotlib.figure import Figure
 from matplotlib.tri import Triangulation
 from scipy.spatial import cKDTree
 
+from twin.analysis.part_compensation import PartStage, part_stats
 from twin.analysis.scan_registration import ScanRegistration
 from twin.analysis.surface_check import REGIONS, RegionDeviation, SurfaceDeviation
 from twin.base.csvio import check_not_an_input
+from twin.errors import InputError
 from twin.viz.style import M_TO_MM, save_figure
 
 GAP_SPACINGS = 6.0  # a triangle of scattered points longer than this many median spacings spans a gap: blank
@@ -101,4 +104,45 @@ def plot_surface_deviation(
         ax.text(0.01, 0.01, text, transform=ax.transAxes, fontsize=7, va="bottom", ha="left",
                 bbox={"facecolor": "white", "alpha": 0.8, "linewidth": 0})
     fig.colorbar(drawn, ax=ax, label="deviation along the target's normal [mm] (+: too shallow)")
+    return save_figure(fig, target)
+
+
+def plot_part_stages(
+    path: str | Path, stages: Sequence[PartStage], *, title: str = "", protect: Sequence[str | Path] = ()
+) -> Path:
+    """Write a PNG of the deviation maps of a part's stages side by side, on one colour scale [mm].
+
+    Args:
+        path: Output PNG.
+        stages: The stages (`twin.analysis.part_compensation.PartStage`): predicted parts and scans, in order.
+        title: The figure's title.
+        protect: Inputs the figure must never overwrite.
+
+    Raises:
+        InputError: No stage.
+    """
+    target = Path(path)
+    check_not_an_input(target, protect)
+    if not stages:
+        raise InputError("a stage figure needs at least one stage")
+    limit = max(float(np.max(np.abs(s.deviation.deviation_m))) for s in stages) * M_TO_MM
+    cols = min(len(stages), 3)
+    rows = -(-len(stages) // cols)
+    fig = Figure(figsize=(3.4 * cols + 0.8, 3.3 * rows + 0.4), layout="constrained")
+    axes = np.atleast_1d(fig.subplots(rows, cols, squeeze=False)).ravel()
+    drawn = None
+    for ax, stage in zip(axes, stages, strict=False):
+        dev = stage.deviation
+        drawn = _draw(ax, dev.points_m[:, :2] * M_TO_MM, dev.deviation_m * M_TO_MM, max(limit, 1e-3), dev.region)
+        part = part_stats(dev)["part"]
+        ax.set_aspect("equal")
+        ax.set_title(f"{stage.name} ({stage.kind})\npart rms {part['rms_mm']:.3f} mm, mean {part['mean_mm']:+.3f} mm",
+                     fontsize=7)
+        ax.tick_params(labelsize=6)
+    for ax in axes[len(stages):]:
+        ax.set_axis_off()
+    if title:
+        fig.suptitle(title, fontsize=8)
+    assert drawn is not None
+    fig.colorbar(drawn, ax=list(axes), label="normal deviation [mm] (+: too shallow)", shrink=0.8)
     return save_figure(fig, target)
