@@ -10,7 +10,7 @@ process feed while in contact, and a linear retract.
   The process feed is the given one, else the median of the path's own feeds (|Δp|/Δt of its time stamps). A move
   faster than `FEED_TOLERANCE` times the process feed is programmed at the process feed: it is time-scaled, the
   robot takes longer over it, and the positions are unchanged. This is what a compensated path needs: its
-  command jumps by up to ~1.7 mm within one 15 ms sample where the forces reverse, a feed several times the
+  command jumps by up to ~2 mm within one 15 ms sample where the forces reverse, a feed several times the
   process feed that the robot would otherwise be asked to reach in contact. Moves at or below the tolerance keep
   their feed (the CSV's rounding of times and positions moves feeds by ~0.1 %).
 
