@@ -44,9 +44,13 @@ def path_csv(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 def _ik_configuration(path_csv: Path, tool_length_m: float | None = None) -> RobotConfiguration:
-    """The first point's configuration from the twin's own IK (the cell's sheet origin, tool down)."""
+    """The program's first point's configuration from the twin's own IK (the cell's sheet origin, tool down): the
+    approach point, 20 mm straight above the path's first point (the groove's highest points lie on the sheet
+    top, z = 0)."""
     kin = Kinematics()
-    p_base = kin.p_base_sheet_origin + read_commanded_csv(path_csv).values
+    p_sheet = read_commanded_csv(path_csv).values
+    approach = p_sheet[0] + np.array([0.0, 0.0, 0.020])
+    p_base = kin.p_base_sheet_origin + np.vstack([approach, p_sheet])
     if tool_length_m is not None:  # the flange where this tool puts it: the model's tool tip that far higher
         p_base = p_base + np.array([0.0, 0.0, tool_length_m - kin.robot.tool_length_m])
     return robot_configurations(kin.robot, kin.ik_path(p_base))[0]
@@ -168,7 +172,7 @@ def test_krl_on_the_tx200_prints_a_note_and_writes_status_and_turn(
 
 
 def test_rapid_writes_each_points_robconf(path_csv: Path, tmp_path: Path) -> None:
-    path, files = export_path(path_csv, "rapid", tmp_path / "isf.mod", cell=default_cell())
+    path, files, _ = export_path(path_csv, "rapid", tmp_path / "isf.mod", cell=default_cell())
     text = files[0].read_text()
     confs = re.findall(r"\],\[(-?\d+,-?\d+,-?\d+,\d)\],\[9E9", text)
     assert len(confs) == len(path.points_mm) == len(path.configurations)

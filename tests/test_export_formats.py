@@ -1,5 +1,6 @@
-"""Export formats (twin/apps/export): each program is parsed back and its points equal the path to the printed
-precision; the VAL3 application passes the grammar check and the check rejects what the grammar forbids."""
+"""Export formats (twin/apps/export): each program is parsed back and its path points equal the path to the printed
+precision, between an approach point and a retract point at the safe height; the VAL3 application passes the
+grammar check and the check rejects what the grammar forbids."""
 
 from __future__ import annotations
 
@@ -19,6 +20,7 @@ from twin.process.path import GrooveSpec, groove_path, write_path_csv
 from twin.runs.read import read_commanded_csv
 
 POSITION_TOL_MM = 0.5e-4 + 1e-9  # 4 decimals
+FAST_FEED_MM_S = 2 * 2000.0 / 60.0  # the fixture's pass 2: twice the groove's 2 m/min
 
 
 @pytest.fixture(scope="module")
@@ -55,7 +57,10 @@ def exported(
     """Every format written once."""
     out = tmp_path_factory.mktemp("programs")
     names = {"val3": "isf", "krl": "isf.src", "rapid": "isf.mod", "gcode": "isf.ngc", "csv": "isf.csv"}
-    return {fmt: export_path(path_csv, fmt, out / names[fmt], cell=cell)[1] for fmt in FORMATS}
+    return {  # the process feed is the fast pass's, so that the program keeps the path's two feeds
+        fmt: export_path(path_csv, fmt, out / names[fmt], cell=cell, process_feed_mm_s=FAST_FEED_MM_S).files
+        for fmt in FORMATS
+    }
 
 
 def _numbers(text: str) -> list[float]:
@@ -106,7 +111,7 @@ def parse_gcode(files: list[Path]) -> tuple[np.ndarray, np.ndarray]:
     """G1 targets [mm] and the modal feed F [mm/min] -> [mm/s]."""
     points, feeds, feed = [], [], float("nan")
     for line in files[0].read_text().splitlines():
-        if not line.startswith("G1 "):
+        if not line.startswith("G1 "):  # the G0 to the approach point is not a feed move
             continue
         words = dict((w[0], float(w[1:])) for w in line.split()[1:])
         feed = words.get("F", feed)
@@ -117,7 +122,7 @@ def parse_gcode(files: list[Path]) -> tuple[np.ndarray, np.ndarray]:
 
 def parse_csv(files: list[Path]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """x, y, z [mm], rx, ry, rz [deg], feed [mm/s]."""
-    lines = [line for line in files[0].read_text().splitlines() if not line.startswith("#")]
+    lines = files[0].read_text().splitlines()
     header = lines[0].split(",")
     data = np.array([[float(v) for v in line.split(",")] for line in lines[1:]])
     col = {name: data[:, k] for k, name in enumerate(header)}
@@ -145,8 +150,8 @@ def test_val3_points_feeds_and_tool_orientation_read_back(
     exported: dict[str, list[Path]], expected: tuple[np.ndarray, np.ndarray], cell: CellSetup
 ) -> None:
     p, r, feed = parse_val3(exported["val3"])
-    np.testing.assert_allclose(p, expected[0], atol=POSITION_TOL_MM)
-    np.testing.assert_allclose(feed, expected[1], atol=0.5e-3 + 1e-9)
+    np.testing.assert_allclose(p[1:-1], expected[0], atol=POSITION_TOL_MM)
+    np.testing.assert_allclose(feed[2:-1], expected[1][1:], atol=0.5e-3 + 1e-9)
     R = _rx(r[0, 0]) @ _ry(r[0, 1]) @ _rz(r[0, 2])  # Stäubli: Rx Ry Rz
     np.testing.assert_allclose(R, cell.R_sheet_tool, atol=1e-6)
 
@@ -155,8 +160,8 @@ def test_krl_points_feeds_and_orientation_read_back(
     exported: dict[str, list[Path]], expected: tuple[np.ndarray, np.ndarray], cell: CellSetup
 ) -> None:
     p, abc, feed = parse_krl(exported["krl"])
-    np.testing.assert_allclose(p, expected[0], atol=POSITION_TOL_MM)
-    np.testing.assert_allclose(feed, expected[1], atol=0.5e-4 + 1e-9)  # 7 decimals in m/s
+    np.testing.assert_allclose(p[1:-1], expected[0], atol=POSITION_TOL_MM)
+    np.testing.assert_allclose(feed[2:-1], expected[1][1:], atol=0.5e-4 + 1e-9)  # 7 decimals in m/s
     R = _rz(abc[0, 0]) @ _ry(abc[0, 1]) @ _rx(abc[0, 2])  # KUKA: Rz(A) Ry(B) Rx(C)
     np.testing.assert_allclose(R, cell.R_sheet_tool, atol=1e-6)
     src = next(f for f in exported["krl"] if f.suffix == ".src").read_text()
@@ -167,20 +172,21 @@ def test_rapid_points_feeds_and_quaternion_read_back(
     exported: dict[str, list[Path]], expected: tuple[np.ndarray, np.ndarray], cell: CellSetup
 ) -> None:
     p, q, feed = parse_rapid(exported["rapid"])
-    np.testing.assert_allclose(p, expected[0], atol=POSITION_TOL_MM)
-    np.testing.assert_allclose(feed, expected[1], atol=0.5e-3 + 1e-9)
+    np.testing.assert_allclose(p[1:-1], expected[0], atol=POSITION_TOL_MM)
+    np.testing.assert_allclose(feed[2:-1], expected[1][1:], atol=0.5e-3 + 1e-9)
     np.testing.assert_allclose(np.linalg.norm(q, axis=1), 1.0, atol=2e-6)
     np.testing.assert_allclose(np.abs(q[0] @ quaternion_wxyz(cell.R_sheet_tool)), 1.0, atol=1e-6)
     text = exported["rapid"][0].read_text()
     assert text.count("MODULE") == 2 and "MoveL pPath{i},vPath{i},z0,tIsf\\WObj:=wSheet;" in text
+    assert "tIsf:=[TRUE,[[0,0,274.9400],[1,0,0,0]],[3.200," in text  # the cell's 3.2 kg tool
 
 
 def test_gcode_points_and_modal_feed_read_back(
     exported: dict[str, list[Path]], expected: tuple[np.ndarray, np.ndarray]
 ) -> None:
     p, feed = parse_gcode(exported["gcode"])
-    np.testing.assert_allclose(p, expected[0], atol=POSITION_TOL_MM)
-    np.testing.assert_allclose(feed * 60.0, expected[1] * 60.0, atol=0.005 + 1e-9)
+    np.testing.assert_allclose(p[:-1], expected[0], atol=POSITION_TOL_MM)  # G1 down onto the path, ..., retract
+    np.testing.assert_allclose(feed[1:-1] * 60.0, expected[1][1:] * 60.0, atol=0.005 + 1e-9)
     assert feed.max() > 1.9 * feed.min()  # the faster pass is in the program
 
 
@@ -188,8 +194,8 @@ def test_csv_point_list_reads_back(
     exported: dict[str, list[Path]], expected: tuple[np.ndarray, np.ndarray], cell: CellSetup
 ) -> None:
     p, r, feed = parse_csv(exported["csv"])
-    np.testing.assert_allclose(p, expected[0], atol=POSITION_TOL_MM)
-    np.testing.assert_allclose(feed, expected[1], atol=0.5e-3 + 1e-9)
+    np.testing.assert_allclose(p[1:-1], expected[0], atol=POSITION_TOL_MM)
+    np.testing.assert_allclose(feed[2:-1], expected[1][1:], atol=0.5e-3 + 1e-9)
     R = _rx(r[0, 0]) @ _ry(r[0, 1]) @ _rz(r[0, 2])
     np.testing.assert_allclose(R, cell.R_sheet_tool, atol=1e-5)  # 4 decimals in degrees
 
@@ -247,9 +253,12 @@ def test_export_never_writes_over_its_input(path_csv: Path, cell: CellSetup, tmp
     for fmt in ("gcode", "csv", "rapid"):
         with pytest.raises(InputError, match="refusing to overwrite"):
             export_path(copy, fmt, copy, cell=cell)
+    inside = tmp_path / "app" / "path.csv"
+    inside.parent.mkdir()
+    inside.write_bytes(path_csv.read_bytes())
     with pytest.raises(InputError, match="holds the input"):
-        export_path(copy, "val3", tmp_path, cell=cell)
-    assert copy.read_bytes() == path_csv.read_bytes()
+        export_path(inside, "val3", inside.parent, cell=cell)
+    assert copy.read_bytes() == inside.read_bytes() == path_csv.read_bytes()
 
 
 def test_cli_export_writes_the_program_and_rejects_a_bad_path(
@@ -283,18 +292,19 @@ def test_a_turned_sheet_frame_puts_every_format_on_the_twins_pose(path_csv: Path
     p_sheet = 1e3 * read_commanded_csv(path_csv).values
     p_base = 1e3 * placement.to_base(p_sheet / 1e3, kin)
     R_frame = _rz(30.0)
-    val3 = export_path(path_csv, "val3", tmp_path / "v", cell=cell)[1]
+    val3 = export_path(path_csv, "val3", tmp_path / "v", cell=cell).files
     dtx = ET.parse(next(f for f in val3 if f.suffix == ".dtx")).getroot()
     frame = next(v for d in dtx.iter() if d.tag.endswith("Data") and d.get("name") == "fSheet" for v in d)
     assert float(frame.get("rz", "nan")) == pytest.approx(30.0)
     p, r, _ = parse_val3(val3)
+    p = p[1:-1]
     np.testing.assert_allclose(p @ R_frame.T + 1e3 * np.array([1.5, 0.1, 0.2]), p_base, atol=2 * POSITION_TOL_MM)
     np.testing.assert_allclose(R_frame @ _rx(r[0, 0]) @ _ry(r[0, 1]) @ _rz(r[0, 2]), kin.R_tool_down, atol=1e-6)
-    krl = next(f for f in export_path(path_csv, "krl", tmp_path / "k", cell=cell)[1] if f.suffix == ".dat")
+    krl = next(f for f in export_path(path_csv, "krl", tmp_path / "k", cell=cell).files if f.suffix == ".dat")
     sheet = _numbers(re.search(r"B_SHEET=\{([^}]*)\}", krl.read_text()).group(1))  # type: ignore[union-attr]
     assert sheet[3:] == pytest.approx([30.0, 0.0, 0.0])
-    rapid = export_path(path_csv, "rapid", tmp_path / "r.mod", cell=cell)[1][0].read_text()
+    rapid = export_path(path_csv, "rapid", tmp_path / "r.mod", cell=cell).files[0].read_text()
     wobj = _numbers(re.search(r"wSheet:=\[FALSE,TRUE,\"\",\[\[([^\]]*)\],\[([^\]]*)\]", rapid).group(2))  # type: ignore[union-attr]
     assert wobj == pytest.approx([np.cos(np.radians(15.0)), 0.0, 0.0, np.sin(np.radians(15.0))], abs=1e-6)
-    gcode = export_path(path_csv, "gcode", tmp_path / "g.ngc", cell=cell)[1][0].read_text()
+    gcode = export_path(path_csv, "gcode", tmp_path / "g.ngc", cell=cell).files[0].read_text()
     assert "G68 X0 Y0 R30" in gcode and "G69" in gcode

@@ -2,22 +2,29 @@
 
 Takes a path CSV (`t_s, x_mm, y_mm, z_mm`, sheet frame); gives a Stäubli VAL3 application (`val3`), a KUKA
 KRL `.src`/`.dat` pair (`krl`), an ABB RAPID module (`rapid`), G-code (`gcode`) or a point list (`points_csv`),
-each with the tool and the sheet frame in its header and the feed taken from the path (`program`). A robot
-program carries the arm configuration of the robot's IK solution (`configuration`); `val3_check` checks the VAL3
-application's grammar.
+each with the tool and the sheet frame in its header and the feed taken from the path (`program`). Every program
+approaches from a safe height and retracts to it, its feeds limited to the process feed in contact (`motion`);
+every point is checked for reach (`reach`); a program over its controller's size limit is split into parts that a
+main program calls (`parts`). A robot program carries the arm configuration of the robot's IK solution
+(`configuration`); `val3_check` checks the VAL3 application's grammar.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
+from dataclasses import replace
 from pathlib import Path
+from typing import NamedTuple
 
 from twin.apps.export import gcode, krl, points_csv, rapid, val3
+from twin.apps.export.motion import FeedSummary, with_moves
 from twin.apps.export.program import (
     CellSetup,
     ProgramPath,
+    check_reach,
     default_cell,
     load_program_path,
+    program_name,
     with_configuration,
 )
 from twin.errors import InputError
@@ -51,9 +58,30 @@ def robot_format(robot: RobotDescription) -> str:
     )
 
 
+class Exported(NamedTuple):
+    """What `export_path` wrote.
+
+    Attributes:
+        path: The program (approach, path, retract; with its arm configurations for a robot language).
+        files: The files written.
+        feeds: The feeds in contact and the safe height.
+    """
+
+    path: ProgramPath
+    files: list[Path]
+    feeds: FeedSummary
+
+
 def export_path(
-    path_csv: str | Path, fmt: str, out: str | Path, *, cell: CellSetup | None = None
-) -> tuple[ProgramPath, list[Path]]:
+    path_csv: str | Path,
+    fmt: str,
+    out: str | Path,
+    *,
+    cell: CellSetup | None = None,
+    safe_z_mm: float | None = None,
+    process_feed_mm_s: float | None = None,
+    max_points: int = 0,
+) -> Exported:
     """Export a path CSV in one of `FORMATS`.
 
     Args:
@@ -61,18 +89,33 @@ def export_path(
         fmt: A key of `FORMATS`.
         out: Output file (KRL: the `.src`, its `.dat` goes beside it; VAL3: the application folder).
         cell: Frame, tool and robot; default the default robot's cell.
+        safe_z_mm: Approach and retract height, sheet frame z [mm]; None: `motion.default_safe_z_mm`.
+        process_feed_mm_s: The process feed [mm/s]; None: the median of the path's feeds.
+        max_points: Points per file before a program is split (`parts`); 0: the format's limit.
 
     Returns:
-        The exported path (with its arm configurations for a robot language) and the files written.
+        The exported program, the files written and the feed summary.
 
     Raises:
-        InputError: Unknown format, a bad path, or (robot languages) a path whose arm configuration changes.
-        UnreachableError, SingularityError: (robot languages) a point the robot cannot reach.
+        InputError: Unknown format, a bad path, a VAL3 folder name VAL3 does not take, a safe height below the path,
+            or (robot languages) a path whose arm configuration changes.
+        UnreachableError, SingularityError: A point the robot cannot reach (named with its row and distance).
     """
     if fmt not in FORMATS:
         raise InputError(f"unknown export format {fmt!r}; expected one of {sorted(FORMATS)}")
     out = Path(out)
-    path = load_program_path(path_csv, cell or default_cell(), out.stem if fmt != "val3" else out.name)
+    name = out.stem if fmt != "val3" else out.name
+    if fmt == "val3" and program_name(name) != name:
+        raise InputError(
+            f"--out {out}: a VAL3 application's folder is its name, and VAL3 names are letters, digits and _, "
+            f"starting with a letter, at most 24 characters; {name!r} is not one (expected e.g. "
+            f"{out.with_name(program_name(name))})"
+        )
+    path = load_program_path(path_csv, cell or default_cell(), name)
+    path, feeds = with_moves(path, safe_z_mm, process_feed_mm_s)
+    path = replace(path, max_points=max_points)
     if fmt in LANGUAGES:
         path = with_configuration(path, LANGUAGES[fmt])
-    return path, FORMATS[fmt](path, out, [Path(path_csv)])
+    else:
+        check_reach(path)
+    return Exported(path, FORMATS[fmt](path, out, [Path(path_csv)]), feeds)

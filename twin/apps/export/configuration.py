@@ -42,16 +42,16 @@ against RoboDK, Autodesk's example (A3 = 100°, elbow up: bit 1 set) and visose,
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
 
-from twin.errors import InputError, ModelError, SingularityError, UnreachableError
+from twin.apps.export.reach import path_joint_angles
+from twin.errors import InputError, ModelError
 from twin.robot.description import DhTable, RobotDescription, load_robot
 from twin.robot.dh import dh_transforms
-from twin.robot.kinematics import Kinematics
 
 #: The vendors' definitions (S/T bits, cf1/cf4/cf6, shoulder/elbow/wrist) are those of six-axis arms.
 ARM_AXES = 6
@@ -196,22 +196,27 @@ def robot_configurations(robot: str | Path | RobotDescription, q_rad: np.ndarray
     ]
 
 
-def check_one_configuration(configs: Sequence[RobotConfiguration], source: str, language: str = "") -> None:
+def check_one_configuration(
+    configs: Sequence[RobotConfiguration],
+    source: str,
+    language: str = "",
+    label: Callable[[int], str] | None = None,
+) -> None:
     """Refuse a path whose arm configuration changes: a program that flips mid-path is not run.
 
     Args:
         configs: One configuration per point, in path order.
         source: The path, for the message (`PATH.csv`).
         language: The program's language, for how the message writes the configurations.
+        label: Point index -> how the message names it; None: `row i + 1` (the path CSV's data row).
 
     Raises:
-        InputError: Naming the first point (1-based data row of the path CSV) whose configuration differs from
-            the first point's.
+        InputError: Naming the first point whose configuration differs from the first point's.
     """
     for i, config in enumerate(configs):
         if config.arm != configs[0].arm:
             raise InputError(
-                f"{source}, row {i + 1}: the robot's configuration changes here, from {configs[0].describe()} "
+                f"{source}, {label(i) if label is not None else f'row {i + 1}'}: the robot's configuration changes here, from {configs[0].describe()} "
                 f"({configs[0].text(language)}) to {config.describe()} ({config.text(language)}); expected one "
                 "configuration along the path (split the path, or move it away from the singularity it crosses)"
             )
@@ -224,6 +229,7 @@ def path_configurations(
     tool_length_m: float,
     source: str,
     language: str = "",
+    label: Callable[[int], str] | None = None,
 ) -> list[RobotConfiguration]:
     """Solve the robot's IK along tool-tip points (tool down, `Kinematics.R_tool_down`) and give each configuration.
 
@@ -235,26 +241,14 @@ def path_configurations(
             is moved along the tool axis to where this tool puts the flange.
         source: The path, for messages.
         language: The program's language, for messages.
+        label: Point index -> how messages name it (`ProgramPath.label`); None: the path CSV's data row.
 
     Raises:
         InputError: The tool orientation is not the twin's, or the configuration changes along the path.
-        UnreachableError, SingularityError: A point the robot cannot reach (the message names the path).
+        UnreachableError, SingularityError: A point the robot cannot reach (`reach.solve_reach` names it).
     """
-    kin = Kinematics(robot=robot)
-    gap = float(np.linalg.norm(np.asarray(R_base_tool, dtype=float) - kin.R_tool_down))  # = 2√2 sin(angle / 2)
-    turn = math.degrees(2.0 * math.asin(min(1.0, gap / (2.0 * math.sqrt(2.0)))))
-    if turn > 1e-6:
-        raise InputError(
-            f"the program's tool is turned {turn:.3g}° from the twin's tool-down orientation "
-            "(Kinematics.R_tool_down); the arm configuration is solved for that orientation (build the cell with "
-            "default_cell)"
-        )
-    tool_axis = kin.R_tool_down[:, 2]
-    p_model_tip = np.asarray(p_base_tip_m, dtype=float) - (tool_length_m - kin.robot.tool_length_m) * tool_axis
-    try:
-        Q = kin.ik_path(p_model_tip)
-    except (UnreachableError, SingularityError) as exc:
-        raise type(exc)(f"{source}: robot {kin.robot.name!r} cannot follow the path: {exc}") from None
+    name = label if label is not None else (lambda i: f"row {i + 1}")
+    kin, Q = path_joint_angles(robot, p_base_tip_m, R_base_tool, tool_length_m, source, name)
     configs = robot_configurations(kin.robot, Q)
-    check_one_configuration(configs, source, language)
+    check_one_configuration(configs, source, language, name)
     return configs

@@ -1,5 +1,8 @@
 """G-code for CNC-style controllers and RoboDK: `G1` moves in the sheet frame, feed from the path.
 
+A rapid `G0` to the approach point above the path (`twin.apps.export.motion`), `G1` down onto the path and
+through it, and a `G1` retract to the safe height.
+
 The header comments give the tool and the frame: use the sheet frame's origin in the robot base as the
 work offset (`G54`), the tool length as the tool offset. Millimetres (`G21`), absolute (`G90`), XY plane
 (`G17`); the feed `F` [mm/min] is modal and written only when it changes at the printed precision.
@@ -33,7 +36,10 @@ def program_text(path: ProgramPath) -> str:
     if cell.yaw_deg != 0.0:  # the sheet frame turned about the base z: a coordinate rotation about its origin
         lines += [f"(sheet frame yaw {fmt(cell.yaw_deg, 3)} deg about the base z)", f"G68 X0 Y0 R{fmt(cell.yaw_deg, 4)}"]
     last_feed = ""
-    for p, v in zip(path.points_mm, path.feed_mm_s, strict=True):
+    for i, (p, v) in enumerate(zip(path.points_mm, path.feed_mm_s, strict=True)):
+        if i == 0 and path.approach:
+            lines.append(f"G0 X{fmt(p[0])} Y{fmt(p[1])} Z{fmt(p[2])} (approach at the safe height)")
+            continue
         feed = fmt(v * 60.0, FEED_DECIMALS)
         move = f"G1 X{fmt(p[0])} Y{fmt(p[1])} Z{fmt(p[2])}"
         lines.append(move + (f" F{feed}" if feed != last_feed else ""))

@@ -27,6 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from twin.apps.export.configuration import RobotConfiguration, path_configurations
+from twin.apps.export.reach import path_joint_angles
 from twin.errors import InputError
 from twin.process.placement import Placement
 from twin.robot.description import DEFAULT_ROBOT, RobotDescription, robot_record
@@ -35,6 +36,8 @@ from twin.runs.read import read_commanded_csv
 
 POSITION_DECIMALS = 4  # mm: 0.1 µm, below the tracker's 0.02 mm noise
 MIN_FEED_MM_S = 1e-3
+#: Program names: KRL's 24 characters (the shortest of the three controllers' limits).
+MAX_NAME = 24
 
 
 @dataclass(frozen=True)
@@ -54,10 +57,16 @@ class CellSetup:
     p_base_sheet_mm: np.ndarray
     R_sheet_tool: np.ndarray
     tool_length_mm: float
-    tool_mass_kg: float = 1.0
+    tool_mass_kg: float = 2.0
     yaw_deg: float = 0.0
     robot: str = DEFAULT_ROBOT
     configuration: RobotConfiguration | None = None
+
+    def __post_init__(self) -> None:
+        for name, option in (("tool_length_mm", "--tool-length-mm"), ("tool_mass_kg", "--tool-mass-kg")):
+            value = getattr(self, name)
+            if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
+                raise InputError(f"{option} {value!r} ({name}): expected a finite number > 0")
 
     @property
     def R_base_sheet(self) -> np.ndarray:
@@ -76,6 +85,10 @@ class ProgramPath:
         cell: Frame and tool.
         source: The path CSV it came from.
         configurations: The arm configuration at each point (`with_configuration`), or () when not solved.
+        approach: The first point is an approach above the path and the last a retract (`motion.with_moves`);
+            the path CSV's data row r is then point r (else point r - 1).
+        joint_start: The first point is reached by a joint move (False: a later part of a split program).
+        max_points: Points per file or module before a program is split (`parts`); 0: the format's limit.
     """
 
     name: str
@@ -84,15 +97,30 @@ class ProgramPath:
     cell: CellSetup
     source: Path
     configurations: tuple[RobotConfiguration, ...] = ()
+    approach: bool = False
+    joint_start: bool = True
+    max_points: int = 0
+
+    def label(self, i: int) -> str:
+        """Point `i` as the user knows it: `row R` of the path CSV, or the approach / retract point."""
+        if not self.approach:
+            return f"row {i + 1}"
+        if i == 0:
+            return "the approach point (above row 1)"
+        if i == len(self.points_mm) - 1:
+            return f"the retract point (above row {i - 1})"
+        return f"row {i}"
 
 
 def default_cell(
-    tool_mass_kg: float = 1.0, placement: Placement | None = None, robot: str | RobotDescription | None = None
+    tool_mass_kg: float | None = None,
+    placement: Placement | None = None,
+    robot: str | RobotDescription | None = None,
 ) -> CellSetup:
-    """The robot's cell: sheet origin and vertical tool from its MuJoCo scene, its tool length.
+    """The robot's cell: sheet origin and vertical tool from its MuJoCo scene, its tool length and mass.
 
     Args:
-        tool_mass_kg: Tool mass [kg].
+        tool_mass_kg: Tool mass [kg]; None: the mass of the robot model's tool body (the body of its tool site).
         placement: Where the sheet lies (origin, yaw); None: the scene's sheet site, yaw 0. The tool keeps the
             twin's orientation in the base (`Kinematics.R_tool_down`), written in the turned sheet frame.
         robot: The robot; None: the default robot.
@@ -100,6 +128,8 @@ def default_cell(
     kin = Kinematics(robot=robot)
     place = placement or Placement()
     R_base_sheet = place.R_base_sheet
+    if tool_mass_kg is None:
+        tool_mass_kg = float(kin.model.body_subtreemass[kin.model.site(kin.robot.tool_site).bodyid[0]])
     return CellSetup(
         place.origin_in(kin) * 1e3,
         R_base_sheet.T @ kin.R_tool_down,
@@ -127,9 +157,24 @@ def with_configuration(path: ProgramPath, language: str = "") -> ProgramPath:
     p_base_m = (cell.p_base_sheet_mm + path.points_mm @ cell.R_base_sheet.T) * 1e-3
     configs = path_configurations(
         cell.robot, p_base_m, cell.R_base_sheet @ cell.R_sheet_tool, cell.tool_length_mm * 1e-3, str(path.source),
-        language,
+        language, path.label,
     )
     return replace(path, cell=replace(cell, configuration=configs[0]), configurations=tuple(configs))
+
+
+def check_reach(path: ProgramPath) -> None:
+    """Refuse a program with a point the cell's robot cannot reach (`reach.path_joint_angles` names it).
+
+    Raises:
+        InputError: The cell's tool is not the twin's tool-down orientation. UnreachableError, SingularityError:
+            A point out of reach (its row or approach / retract point, position and distance from the base).
+    """
+    cell = path.cell
+    p_base_m = (cell.p_base_sheet_mm + path.points_mm @ cell.R_base_sheet.T) * 1e-3
+    path_joint_angles(
+        cell.robot, p_base_m, cell.R_base_sheet @ cell.R_sheet_tool, cell.tool_length_mm * 1e-3, str(path.source),
+        path.label,
+    )
 
 
 def program_name(text: str) -> str:
@@ -137,7 +182,7 @@ def program_name(text: str) -> str:
     name = re.sub(r"[^A-Za-z0-9_]", "_", text)
     if not name or not name[0].isalpha():
         name = "p" + name
-    return name[:24]
+    return name[:MAX_NAME]
 
 
 def load_program_path(path_csv: str | Path, cell: CellSetup, name: str) -> ProgramPath:

@@ -1,11 +1,18 @@
-"""ABB RAPID module `NAME.mod`: tool, work object, the points as `robtarget`s and a `MoveL` through them.
+"""ABB RAPID module `NAME.mod`: tool, work object, the points as `robtarget`s and the moves through them.
 
-`tIsf` (`tooldata`: flange to tool tip, mass), `wSheet` (`wobjdata`: the sheet frame in the robot base),
-`pPath{n}` (`robtarget`, in `wSheet`) and `vPath{n}` (`speeddata`, TCP speed = the path's feed [mm/s]);
-`main` sets `ConfJ \\On; ConfL \\Off;` (the joint move goes to the written configuration, the linear moves
-keep it), moves `MoveJ` to the first point, then `MoveL` through the rest with zone `z0`.
-Each robtarget's robconf [cf1, cf4, cf6, cfx] is that point's IK solution (`twin.apps.export.configuration`).
-Orientations are unit quaternions [q1, q2, q3, q4] = [w, x, y, z].
+Structure as the open post-processors write it (RoboDK's `ABB_RAPID_IRC5.py`: `MODULE`, `PERS tooldata`, `PERS
+wobjdata`, a `PROC` starting with `ConfJ \\On; ConfL \\Off;`, `MoveJ`/`MoveL ... \\WObj:=`, `ENDPROC`,
+`ENDMODULE`). `tIsf` (`tooldata`: flange to tool tip, the tool's mass with its centre of gravity half way down
+the tool), `wSheet` (`wobjdata`: the sheet frame in the robot base), `pPath{n}` (`robtarget`, in `wSheet`) and
+`vPath{n}` (`speeddata`, TCP speed = the programmed feed [mm/s]); `main` sets `ConfJ \\On; ConfL \\Off;` (the
+joint move goes to the written configuration, the linear moves keep it), moves `MoveJ` to the approach point
+(`twin.apps.export.motion`), then `MoveL` down onto the path and through it with zone `z0`, and a last `MoveL`
+(the retract) to `fine`. Each robtarget's robconf [cf1, cf4, cf6, cfx] is that point's IK solution
+(`twin.apps.export.configuration`). Orientations are unit quaternions [q1, q2, q3, q4] = [w, x, y, z].
+
+A program over the RAPID limit (`twin.apps.export.parts`) is written as modules `NAME_1.mod`, ... each with a
+procedure `NAME_k` and its own `LOCAL` data, and a main module `NAME.mod` holding the tool and work object and a
+`main` that calls `NAME_1;`, `NAME_2;`, ... in order.
 """
 
 from __future__ import annotations
@@ -14,54 +21,96 @@ import math
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 
+from twin.apps.export.parts import parts
 from twin.apps.export.program import ProgramPath, fmt, quaternion_wxyz
 from twin.base.csvio import write_text
 
 QUATERNION_DECIMALS = 6
+APPROACH_SPEED = "v100"  # the joint move to the approach point [mm/s of the TCP]
 
 
 def _vec(values: Iterable[float], decimals: int) -> str:
     return "[" + ",".join(fmt(v, decimals) for v in values) + "]"
 
 
-def module_text(path: ProgramPath) -> str:
-    """The module's text."""
-    cell, n = path.cell, len(path.points_mm)
-    q = _vec(quaternion_wxyz(cell.R_sheet_tool), QUATERNION_DECIMALS)
+def _declarations(path: ProgramPath) -> list[str]:
+    """The tool and the work object."""
+    cell = path.cell
     half = math.radians(cell.yaw_deg) / 2.0
     q_sheet = _vec((math.cos(half), 0.0, 0.0, math.sin(half)), QUATERNION_DECIMALS)  # the yaw about the base z
+    return [
+        f"  PERS tooldata tIsf:=[TRUE,[[0,0,{fmt(cell.tool_length_mm)}],[1,0,0,0]],"
+        f"[{fmt(cell.tool_mass_kg, 3)},[0,0,{fmt(cell.tool_length_mm / 2)}],[1,0,0,0],0,0,0]];",
+        f'  PERS wobjdata wSheet:=[FALSE,TRUE,"",[{_vec(cell.p_base_sheet_mm, 4)},{q_sheet}],'
+        "[[0,0,0],[1,0,0,0]]];",
+    ]
+
+
+def _motion(path: ProgramPath, proc: str, last: bool, local: str) -> list[str]:
+    """The points, speeds and the procedure `proc` that moves through them."""
+    cell, n = path.cell, len(path.points_mm)
+    q = _vec(quaternion_wxyz(cell.R_sheet_tool), QUATERNION_DECIMALS)
     confs = [list(c.rapid) for c in path.configurations] or [[0, 0, 0, 0]] * n
     points = ",\n    ".join(
         f"[{_vec(p, 4)},{q},[{','.join(map(str, conf))}],[9E9,9E9,9E9,9E9,9E9,9E9]]"
         for p, conf in zip(path.points_mm, confs, strict=True)
     )
-    config = cell.configuration
     speeds = ",\n    ".join(f"[{fmt(v, 3)},500,5000,1000]" for v in path.feed_mm_s)
-    lines = [
-        f"MODULE {path.name}",
-        f"  ! tx200-twin export of {path.source.name}: {n} points, sheet frame (work object wSheet)",
-        f"  ! robot {cell.robot}" + (f", first point {config.describe()}" if config is not None else ""),
-        f"  PERS tooldata tIsf:=[TRUE,[[0,0,{fmt(cell.tool_length_mm)}],[1,0,0,0]],"
-        f"[{fmt(cell.tool_mass_kg, 3)},[0,0,{fmt(cell.tool_length_mm / 2)}],[1,0,0,0],0,0,0]];",
-        f'  PERS wobjdata wSheet:=[FALSE,TRUE,"",[{_vec(cell.p_base_sheet_mm, 4)},{q_sheet}],'
-        "[[0,0,0],[1,0,0,0]]];",
-        f"  CONST num nPath:={n};",
-        f"  CONST robtarget pPath{{{n}}}:=[\n    {points}];",
-        f"  CONST speeddata vPath{{{n}}}:=[\n    {speeds}];",
+    first = (
+        [f"    MoveJ pPath{{1}},{APPROACH_SPEED},fine,tIsf\\WObj:=wSheet;", "    FOR i FROM 2 TO nPath - 1 DO"]
+        if path.joint_start
+        else ["    FOR i FROM 1 TO nPath - 1 DO"]
+    )
+    return [
+        f"  {local}CONST num nPath:={n};",
+        f"  {local}CONST robtarget pPath{{{n}}}:=[\n    {points}];",
+        f"  {local}CONST speeddata vPath{{{n}}}:=[\n    {speeds}];",
         "",
-        "  PROC main()",
+        f"  PROC {proc}()",
         "    ConfJ \\On;",
         "    ConfL \\Off;",
-        "    MoveJ pPath{1},v100,fine,tIsf\\WObj:=wSheet;",
-        "    FOR i FROM 2 TO nPath DO",
+        *first,
         "      MoveL pPath{i},vPath{i},z0,tIsf\\WObj:=wSheet;",
         "    ENDFOR",
+        f"    MoveL pPath{{nPath}},vPath{{nPath}},{'fine' if last else 'z0'},tIsf\\WObj:=wSheet;",
         "  ENDPROC",
-        "ENDMODULE",
     ]
-    return "\n".join(lines) + "\n"
+
+
+def _about(path: ProgramPath) -> list[str]:
+    config = path.cell.configuration
+    return [
+        f"  ! tx200-twin export of {path.source.name}: {len(path.points_mm)} points, sheet frame (work object wSheet)",
+        f"  ! robot {path.cell.robot}" + (f", first point {config.describe()}" if config is not None else ""),
+    ]
+
+
+def module_files(path: ProgramPath) -> dict[str, str]:
+    """The module `NAME.mod`, and for a split program the parts' modules -> text."""
+    pieces = parts(path, "rapid")
+    if len(pieces) == 1:
+        lines = [f"MODULE {path.name}", *_about(path), *_declarations(path), *_motion(path, "main", True, ""),
+                 "ENDMODULE"]
+        return {f"{path.name}.mod": "\n".join(lines) + "\n"}
+    main = [
+        f"MODULE {path.name}", *_about(path), f"  ! {len(pieces)} parts, in order", *_declarations(path), "",
+        "  PROC main()", *(f"    {p.name};" for p in pieces), "  ENDPROC", "ENDMODULE",
+    ]
+    files = {f"{path.name}.mod": "\n".join(main) + "\n"}
+    for k, piece in enumerate(pieces):
+        body = _motion(piece, piece.name, k == len(pieces) - 1, "LOCAL ")
+        files[f"{piece.name}.mod"] = "\n".join([f"MODULE {piece.name}", *body, "ENDMODULE"]) + "\n"
+    return files
+
+
+def module_text(path: ProgramPath) -> str:
+    """The main module's text."""
+    return module_files(path)[f"{path.name}.mod"]
 
 
 def write(path: ProgramPath, out: Path, protect: Sequence[Path] = ()) -> list[Path]:
-    """Write the module atomically (never over an input)."""
-    return [write_text(Path(out), module_text(path), protect=protect)]
+    """Write the module, and any parts beside it, atomically (never over an input)."""
+    return [
+        write_text(Path(out) if name == f"{path.name}.mod" else Path(out).with_name(name), text, protect=protect)
+        for name, text in module_files(path).items()
+    ]

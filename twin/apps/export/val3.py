@@ -4,12 +4,17 @@ A VAL3 application is a folder of XML files (VAL3 reference manual, "Application
 `NAME.pjx`, the global data `NAME.dtx`, and one `.pgx` file per program. We write:
 
 - `NAME.dtx`: the frame `fSheet` (sheet origin in the robot base, child of `world`), the tool `tIsf`
-  (child of `flange`), the points `pPath[n]` (`pointRx`, children of `fSheet`; the first carries the shoulder,
+  (child of `flange`), the points `pPath[n]` (`pointRx`, children of `fSheet`: the approach point above the path,
+  the path, the retract point, `twin.apps.export.motion`; the first carries the shoulder,
   elbow and wrist of the robot's IK solution, `twin.apps.export.configuration`, which the `movej` to it goes to;
   the others `ssame`/`esame`/`wsame`, as a `movel` cannot change them), one `mdesc` per point
   `mPath[n]` whose Cartesian speed `tmax` is the path's feed, and `mApproach` for the first move;
-- `start.pgx`: `movej` to the first point, `movel(pPath[i], tIsf, mPath[i])` for every point, `waitEndMove()`;
+- `start.pgx`: `movej` to the approach point, `movel(pPath[i], tIsf, mPath[i])` down onto the path, through it
+  and up to the retract point, `waitEndMove()`;
 - `stop.pgx`: empty.
+
+The folder is the application's name: a name VAL3 does not take (`my prog-1`) is refused by `export_path` with
+the name it would take (`my_prog_1`), so that the folder and its `.pjx` agree.
 
 Every file is checked with `twin.apps.export.val3_check` before the folder is moved into place.
 """
