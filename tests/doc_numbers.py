@@ -15,7 +15,7 @@ from typing import NamedTuple
 import pytest
 
 REPO = Path(__file__).resolve().parents[1]
-_NUMBER = re.compile(r"[-+]?\d+(?:\.\d+)?")
+_NUMBER = re.compile(r"(?<![\d.])[-+]?\d+(?:\.\d+)?")  # a range's dash (0.976-1.009) is no minus
 
 
 class Quoted(NamedTuple):

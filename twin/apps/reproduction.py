@@ -148,7 +148,8 @@ def rows(outputs: Mapping[str, Mapping[str, Any]], loo: Mapping[str, Mapping[str
             ("cnc",), fitted="yes" + alone("depth_cnc"), predicted=pred("depth_cnc")),
         Row("gain of the failed compensated run, found by `check` (§5.1)", "-", 0.5,
             outputs["check_thesis"]["gain"], ("method1", "compensate_thesis", "lab_thesis", "check_thesis"),
-            "the half-model forces were used as full", "yes", pred("gain_failed_run")),
+            "the half-model forces were used as full; the cause `check` names from the run's record of what the "
+            f"compensation used: `{outputs['check_thesis'].get('cause', 'unknown')}`", "yes", pred("gain_failed_run")),
         Row("residual of the corrected run, rms (§5.1.2)", "mm",
             "no number: 'quite satisfactory', offsets at the stroke ends (Figs. 5.4–5.5)",
             outputs["check_fixed"]["residual_rms_mm"],
