@@ -8,6 +8,7 @@ import importlib.util
 from pathlib import Path
 
 import pytest
+from doc_numbers import quoted
 
 _SPEC = importlib.util.spec_from_file_location(
     "part_to_design", Path(__file__).resolve().parent.parent / "experiments" / "part_to_design.py")
@@ -38,6 +39,11 @@ def test_a_cone_on_both_plants_learns_to_within_0_1_mm(tmp_path: Path) -> None:
     for plant in ("quasi-static", "dynamic"):
         assert _all(summary, plant, "part-compensated") < _all(summary, plant, "path-compensated")
         assert _all(summary, plant, "learn 2") < 0.1
+    # docs/any-part.md: learn 2, then path-compensated, then part-compensated; quasi-static / dynamic each
+    doc = quoted("any-part.md", "on both plants reaches", 6)
+    for k, row in enumerate(("learn 2", "path-compensated", "part-compensated")):
+        for j, plant in enumerate(("quasi-static", "dynamic")):
+            doc[2 * k + j].check(_all(summary, plant, row))
 
 
 @pytest.mark.slow
@@ -53,3 +59,7 @@ def test_a_pyramid_and_a_gcode_part_improve_in_one_iteration(part: str, tmp_path
     print(f"\n{part}: {summary}")
     assert _all(summary, "quasi-static", "part-compensated") < _all(summary, "quasi-static", "path-compensated")
     assert _all(summary, "quasi-static", "learn 1") < 0.5 * _all(summary, "quasi-static", "part-compensated")
+    # docs/any-part.md: path-compensated, part, learn 1; pyramid / G-code each
+    doc = quoted("any-part.md", "a pyramid and a G-code stadium pocket improve from", 6)
+    for k, row in enumerate(("path-compensated", "part-compensated", "learn 1")):
+        doc[2 * k + (0 if part == "pyramid" else 1)].check(_all(summary, "quasi-static", row))
