@@ -195,3 +195,14 @@ def test_bad_arguments_raise(field, history):
     field.advance(p, 3)
     with pytest.raises(InputError, match="before the current pass"):
         field.advance(p, 2)
+
+
+def test_the_numbers_docs_forces_md_quotes_are_the_shipped_field_and_history() -> None:
+    """The sheet's calibrated stiffnesses [kN/mm] and the stand-in history's physical peaks [N]."""
+    quoted("forces.md", "k = **k_unload =", 1)[0].check(1e-6 * K_UNLOAD_N_PER_M)
+    quoted("forces.md", "k = **k_load =", 1)[0].check(1e-6 * K_LOAD_N_PER_M)
+    f = default_force_history().f_sheet_n
+    fz, fx = quoted("forces.md", "Physical peaks: **Fz", 2)
+    fz.check(float(np.max(f[:, 2])))
+    fx.check(float(np.max(np.abs(f[:, 0]))))
+    quoted("forces.md", "history (peak", 1)[0].check(float(np.max(f[:, 2])))
