@@ -39,27 +39,22 @@ def run(*args: str) -> dict:
     return json.loads(buffer.getvalue())
 
 
-def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("out", nargs="?", default="out/cone_demo", type=Path)
-    parser.add_argument("--depth-mm", type=float, default=40.0)
-    parser.add_argument("--top-width-mm", type=float, default=120.0)
-    parser.add_argument("--step-down-mm", type=float, default=0.5)
-    args = parser.parse_args()
-    out = args.out
+def cone_demo(out: Path, depth_mm: float = 40.0, top_width_mm: float = 120.0, step_down_mm: float = 0.5) -> dict:
+    """Run the study into `out`; returns the path's and the compensation's summaries, the checks by (plant, run)
+    and the timings [s]."""
     (out / "runs").mkdir(parents=True, exist_ok=True)
     ideal, stl, cmd = out / "cone.csv", out / "cone.stl", out / "cone_cmd.csv"
     timings = {}
     began = time.perf_counter()
-    path = run("path", "--shape", "cone", "--depth-mm", f"{args.depth_mm:g}", "--top-width-mm",
-               f"{args.top_width_mm:g}", "--step-down-mm", f"{args.step_down_mm:g}", "--out", str(ideal),
+    path = run("path", "--shape", "cone", "--depth-mm", f"{depth_mm:g}", "--top-width-mm",
+               f"{top_width_mm:g}", "--step-down-mm", f"{step_down_mm:g}", "--out", str(ideal),
                "--stl-out", str(stl))
     timings["path + STL"] = time.perf_counter() - began
     began = time.perf_counter()
     comp = run("compensate", "--method", "twin", "--ideal", str(ideal), "--tol-mm", "0.1", "--max-iter", "12",
                "--out", str(cmd))
     timings["twin compensation"] = time.perf_counter() - began
-    rows = []
+    rows = {}
     for plant, options in PLANTS.items():
         for name, commanded in (("nominal", ideal), ("compensated", cmd)):
             directory = out / "runs" / f"{plant}_{name}"
@@ -67,22 +62,33 @@ def main() -> int:
             run("lab", *options, "--scenario", name, "--commanded", str(commanded), "--seed", "1",
                 "--out", str(directory), "--overwrite")
             timings[f"lab {plant} {name}"] = time.perf_counter() - began
-            checked = run("check", str(directory), "--ideal", str(ideal), "--target-stl", str(stl),
-                          "--figure", str(out / f"deviation_{plant}_{name}.png"))
-            rows.append((plant, name, checked))
+            rows[(plant, name)] = run("check", str(directory), "--ideal", str(ideal), "--target-stl", str(stl),
+                                      "--figure", str(out / f"deviation_{plant}_{name}.png"))
     began = time.perf_counter()
     run("replay", str(out / "runs" / "dynamic_compensated"), "--rrd", str(out / "cone.rrd"))
     timings["replay + recording"] = time.perf_counter() - began
+    return {"path": path, "compensation": comp, "checks": rows, "timings": timings}
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("out", nargs="?", default="out/cone_demo", type=Path)
+    parser.add_argument("--depth-mm", type=float, default=40.0)
+    parser.add_argument("--top-width-mm", type=float, default=120.0)
+    parser.add_argument("--step-down-mm", type=float, default=0.5)
+    args = parser.parse_args()
+    result = cone_demo(args.out, args.depth_mm, args.top_width_mm, args.step_down_mm)
+    path, comp = result["path"], result["compensation"]
     print(f"45° spiral cone, top Ø {args.top_width_mm:g} mm, {args.depth_mm:g} mm deep, step-down "
           f"{args.step_down_mm:g} mm: {path['samples']} samples, {path['length_mm'] / 1e3:.1f} m, "
           f"{path['duration_s']:.0f} s at 2 m/min; twin compensation: {comp.get('iterations')} iterations")
     print("| plant | run | path rms / max [mm] | surface rms / max [mm] | surface mean [mm] |")
     print("|---|---|---|---|---|")
-    for plant, name, c in rows:
+    for (plant, name), c in result["checks"].items():
         print(f"| {plant} | {name} | {c['residual_rms_mm']:.3f} / {c['residual_max_mm']:.3f} | "
               f"{c['surface_rms_mm']:.3f} / {c['surface_max_mm']:.3f} | {c['surface_mean_mm']:+.3f} |")
-    print("timings [s]: " + ", ".join(f"{k} {v:.1f}" for k, v in timings.items()))
-    print(f"figures and runs: {out}; recording: {out / 'cone.rrd'}")
+    print("timings [s]: " + ", ".join(f"{k} {v:.1f}" for k, v in result["timings"].items()))
+    print(f"figures and runs: {args.out}; recording: {args.out / 'cone.rrd'}")
     return 0
 
 

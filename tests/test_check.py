@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import shutil
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -16,6 +17,7 @@ import pytest
 
 from twin.analysis.check import GAIN_TOLERANCE, CheckResult, check_run, diagnose_gain
 from twin.analysis.compensate import compensate_formula
+from twin.analysis.compensation_record import CompensationRecord
 from twin.cli import COMMANDS, main
 from twin.errors import IdentificationError, RunFormatError
 from twin.lab.virtual import run_lab
@@ -61,26 +63,54 @@ def run_dirs(runs: dict[str, Run], tmp_path_factory: pytest.TempPathFactory) -> 
     return dirs
 
 
-# --- diagnose_gain ----------------------------------------------------------------------------------------
+# --- diagnose_gain: the cause from evidence ----------------------------------------------------------------
 
 
 @pytest.mark.parametrize("gain", [1.0, 0.981, 1.019])
 def test_gain_near_one_is_diagnosed_right(gain: float) -> None:
-    assert "right force scale" in diagnose_gain(gain)
+    assert "corrects the deflection fully" in diagnose_gain(gain)
 
 
-@pytest.mark.parametrize("gain", [0.5, 0.41, 0.59])
-def test_gain_near_one_half_names_the_forgotten_doubling(gain: float) -> None:
+@pytest.mark.parametrize("gain", [0.5, 0.41, 0.59, 0.8, 1.3])
+def test_without_evidence_a_gain_is_reported_with_its_cause_unknown(gain: float) -> None:
+    """No fixed band: a gain of 0.5 alone does not name the half-symmetric history."""
     text = diagnose_gain(gain)
-    assert "force scale of 0.5" in text and "half" in text and "symmetry='half'" in text
+    assert "cause is unknown" in text and "half" not in text
+    assert ("under-corrects" if gain < 1 else "over-corrects") in text
+
+
+def with_record(run: Run, f_used_n: np.ndarray, symmetry: str, columns: str) -> Run:
+    """The run as `lab --commanded` writes it when the command carries its compensation's record."""
+    record = CompensationRecord("formula", run.commanded.t_s, f_used_n, symmetry, columns, "fe.csv")
+    return replace(run, meta={**run.meta, "compensation": record.to_json()})
 
 
 @pytest.mark.parametrize(
-    ("gain", "word"), [(0.8, "under-corrects"), (0.3, "under-corrects"), (1.3, "over-corrects")]
+    ("symmetry", "columns", "cause"),
+    [("full", "half", "half_history_as_full"), ("full", "full", "force_scale")],
 )
-def test_other_gains_say_under_or_over(gain: float, word: str) -> None:
-    text = diagnose_gain(gain)
-    assert word in text and "force scale of 0.5" not in text
+def test_the_cause_of_half_a_gain_is_named_from_the_forces_used_and_the_recorded_symmetry(
+    runs: dict[str, Run], ideal: ToolPath, symmetry: str, columns: str, cause: str
+) -> None:
+    f_half = 0.5 * SheetForceField(default_force_history()).rigid_forces(ideal)  # what the compensation used
+    result = check_run(with_record(runs["half"], f_half, symmetry, columns), ideal.t_s, ideal.p_sheet_m)
+    print(f"\n{result.diagnosis}")
+    assert result.cause == cause and result.force_scale == pytest.approx(0.5, abs=0.06)
+    assert ("loaded as full" in result.diagnosis) == (cause == "half_history_as_full")
+
+
+def test_right_forces_and_half_the_compliance_is_named_a_compliance_error(
+    ideal: ToolPath, runs: dict[str, Run]
+) -> None:
+    twin = Twin()
+    f_physical = SheetForceField(default_force_history()).rigid_forces(ideal)
+    comp = compensate_formula(ideal.t_s, ideal.p_sheet_m, f_physical, 0.5 * twin.kinematics.compliance(
+        twin.kinematics.q_home))
+    run = run_lab(comp.t_s, comp.p_cmd_sheet_m, scenario="compensated", seed=7)[0]
+    result = check_run(with_record(run, f_physical, "half", "half"), ideal.t_s, ideal.p_sheet_m)
+    print(f"\n{result.diagnosis}")
+    assert result.gain == pytest.approx(0.5, abs=0.1) and result.cause == "compliance"
+    assert result.force_scale == pytest.approx(1.0, abs=0.1) and "half" not in result.diagnosis
 
 
 # --- check_run ----------------------------------------------------------------------------------------------
@@ -107,11 +137,13 @@ def test_fitted_compliance_matches_the_twin_xz_block(results: dict[str, CheckRes
     assert np.linalg.norm(fitted - c_xz) / np.linalg.norm(c_xz) < 0.05
 
 
-def test_half_compensation_is_diagnosed_as_the_forgotten_doubling(results: dict[str, CheckResult]) -> None:
+def test_half_compensation_without_its_record_has_gain_one_half_and_an_unknown_cause(
+    results: dict[str, CheckResult],
+) -> None:
     result = results["half"]
     print(f"\nhalf force: check gain {result.gain:.4f}; {result.diagnosis}")
     assert result.gain == pytest.approx(0.5, abs=0.1)
-    assert "force scale of 0.5" in result.diagnosis and "half" in result.diagnosis
+    assert result.cause == "unknown" and result.force_scale is None
 
 
 def test_an_uncompensated_run_is_reported_as_nominal_with_the_full_deflection_as_residual(
@@ -173,13 +205,39 @@ def test_cli_check_passes_a_right_run_with_exit_0(
     assert payload["run"] == str(run_dirs["right"]) and payload["residual_rms_mm"] < 0.15
 
 
-def test_cli_check_fails_the_half_run_with_exit_1_and_names_the_cause(
+def test_cli_check_fails_the_half_run_with_exit_1_and_says_its_cause_is_unknown_without_a_record(
     run_dirs: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     json_out = tmp_path / "check.json"
     assert main(["check", str(run_dirs["half"]), "--json", str(json_out)]) == 1
-    assert "force scale of 0.5" in capsys.readouterr().out
-    assert json.loads(json_out.read_text())["gain"] == pytest.approx(0.5, abs=0.1)
+    assert "cause is unknown" in capsys.readouterr().out
+    payload = json.loads(json_out.read_text())
+    assert payload["gain"] == pytest.approx(0.5, abs=0.1) and payload["cause"] == "unknown"
+
+
+def test_cli_compensate_lab_check_names_the_half_history_loaded_as_full(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The thesis's mistake through the command line: the record travels command -> run -> check."""
+    twin = Twin()
+    stiffness = tmp_path / "k.json"
+    k_xz = np.linalg.inv(twin.kinematics.compliance(twin.kinematics.q_home)[np.ix_([0, 2], [0, 2])])
+    stiffness.write_text(json.dumps({"k_r_n_per_mm": (1e-3 * k_xz).tolist()}))
+    history = Path(__file__).resolve().parents[1] / "twin" / "data" / "fe_force_history.csv"
+    cmd, run_dir = tmp_path / "cmd.csv", tmp_path / "run"
+    assert main(["compensate", "--method", "formula", "--stiffness", str(stiffness), "--history", str(history),
+                 "--symmetry", "full", "--unchecked-symmetry", "--out", str(cmd)]) == 0
+    assert (tmp_path / "cmd.compensation.json").is_file()
+    assert main(["lab", "--scenario", "compensated", "--commanded", str(cmd), "--seed", "3", "--out",
+                 str(run_dir)]) == 0
+    assert json.loads((run_dir / "meta.json").read_text())["compensation"]["history"]["column_symmetry"] == "half"
+    capsys.readouterr()
+    assert main(["check", str(run_dir), "--json", "-"]) == 1
+    captured = capsys.readouterr()
+    payload = json.loads(captured.out)
+    print(f"\n{payload['diagnosis']}")
+    assert payload["cause"] == "half_history_as_full" and payload["force_scale"] == pytest.approx(0.5, abs=0.06)
+    assert "loaded as full" in captured.err
 
 
 def test_cli_check_on_a_run_without_forces_exits_2_naming_forces_csv(

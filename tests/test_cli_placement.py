@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from doc_numbers import quoted
 
 from twin.analysis.replay import replay
 from twin.cli import main
@@ -65,6 +66,9 @@ def test_compensation_at_the_placement_lands_on_the_path(placed: dict[str, Path]
     print(f"\nplaced cone, quasi-static: nominal {nominal:.3f} mm rms, compensated {compensated:.3f} mm")
     assert nominal > 0.5
     assert compensated < 0.1
+    doc = quoted("any-part.md", "at (1550, -60, 150) mm turned 30°:", 2)
+    doc[0].check(nominal)
+    doc[1].check(compensated)
     assert nominal > 10 * compensated
 
 
@@ -84,6 +88,9 @@ def test_a_dynamic_plant_run_at_the_placement_replays_on_the_twin(
     residual = _check(out, placed["ideal"], capsys)["residual_rms_mm"]
     print(f"\nplaced cone, dynamic compensated {residual:.3f} mm rms; replay gap {gap['position_rms_mm']:.3f} mm")
     assert residual < 0.1
+    doc = quoted("any-part.md", "at (1550, -60, 150) mm turned 30°:", 4)
+    doc[2].check(residual)
+    doc[3].check(gap["position_rms_mm"])
 
 
 def test_load_tests_and_the_cnc_refuse_a_placement(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

@@ -43,6 +43,9 @@ def test_demo_tells_the_thesis_story(demo_dir: Path) -> None:
     assert report["thesis_compensation"]["gain"] == pytest.approx(0.5, abs=0.02)
     assert report["check_thesis"]["gain"] == pytest.approx(0.5, abs=0.15)
     assert "half" in report["check_thesis"]["diagnosis"]
+    # named from the run's evidence: the forces its compensation used (recorded) against the measured ones
+    assert report["check_thesis"]["cause"] == "half_history_as_full"
+    assert report["check_thesis"]["force_scale"] == pytest.approx(0.5, abs=0.06)
     assert report["discrepancy"]["effects"][:2] == ["force_scale", "lost_motion"]
     assert report["discrepancy"]["parameters"]["force_scale"]["force_scale_ratio"] == pytest.approx(
         2.0, rel=0.05

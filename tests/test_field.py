@@ -7,6 +7,7 @@ import time
 
 import numpy as np
 import pytest
+from doc_numbers import quoted
 
 from twin.errors import InputError
 from twin.process.field import K_LOAD_N_PER_M, K_UNLOAD_N_PER_M, SheetForceField
@@ -42,7 +43,8 @@ def test_rigid_run_on_the_history_samples_reproduces_the_history(field, history)
     peak = history.f_sheet_n[:, 2].max()
     rms = np.sqrt(np.mean((forces - history.f_sheet_n) ** 2, axis=0)) / peak
     assert np.all(rms < 0.03)
-    assert rms.max() < 0.005  # measured 0.1 %
+    assert rms.max() < 0.005
+    quoted("forces.md", "reproduces the history to", 1)[0].check(100.0 * rms.max())  # [%]
 
 
 def test_rigid_run_on_the_groove_path_reproduces_the_history(field, history):
@@ -193,3 +195,14 @@ def test_bad_arguments_raise(field, history):
     field.advance(p, 3)
     with pytest.raises(InputError, match="before the current pass"):
         field.advance(p, 2)
+
+
+def test_the_numbers_docs_forces_md_quotes_are_the_shipped_field_and_history() -> None:
+    """The sheet's calibrated stiffnesses [kN/mm] and the stand-in history's physical peaks [N]."""
+    quoted("forces.md", "k = **k_unload =", 1)[0].check(1e-6 * K_UNLOAD_N_PER_M)
+    quoted("forces.md", "k = **k_load =", 1)[0].check(1e-6 * K_LOAD_N_PER_M)
+    f = default_force_history().f_sheet_n
+    fz, fx = quoted("forces.md", "Physical peaks: **Fz", 2)
+    fz.check(float(np.max(f[:, 2])))
+    fx.check(float(np.max(np.abs(f[:, 0]))))
+    quoted("forces.md", "history (peak", 1)[0].check(float(np.max(f[:, 2])))

@@ -11,7 +11,7 @@ the gains of both compensations, the lab residuals after each, `check`'s gains, 
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -25,6 +25,7 @@ from twin.analysis.compensate import (
     compliance_from_stiffness,
     gain_of,
 )
+from twin.analysis.compensation_record import CompensationRecord
 from twin.analysis.identify.cartesian import THESIS_TABLE_4_2_LOADS_N, fit_kr_load_cases
 from twin.base.resources import data_file
 from twin.errors import SymmetryError
@@ -61,9 +62,14 @@ class Pipeline:
     twin: Compensation
 
 
-def lab_check(comp: Compensation, path: ToolPath, seed: int) -> CheckResult:
-    """Run a compensated path in the lab (no hidden effects) and check it against the ideal path."""
+def lab_check(
+    comp: Compensation, path: ToolPath, seed: int, record: CompensationRecord | None = None
+) -> CheckResult:
+    """Run a compensated path in the lab (no hidden effects) and check it against the ideal path; with `record`,
+    the run carries what the compensation used (as `lab --commanded` writes it)."""
     run, _truth = run_lab(comp.t_s, comp.p_cmd_sheet_m, scenario="compensated", seed=seed)
+    if record is not None:
+        run = replace(run, meta={**run.meta, "compensation": record.to_json()})
     return check_run(run, path.t_s, path.p_sheet_m)
 
 
@@ -164,15 +170,17 @@ def test_twin_with_the_mistaken_history_has_gain_one_half(
 
 
 def test_check_catches_the_mistake_on_the_lab_run(
-    pipeline: Pipeline, mistaken_twin_compensation: Compensation
+    pipeline: Pipeline, mistaken_twin_compensation: Compensation, half_as_full: ForceHistory
 ) -> None:
-    result = lab_check(mistaken_twin_compensation, pipeline.path, seed=3)
+    comp = mistaken_twin_compensation
+    f_used = TwinSpec(process=Process(history=half_as_full)).build().simulate(comp.t_s, comp.p_cmd_sheet_m).f_sheet_n
+    record = CompensationRecord("twin", comp.t_s, f_used, half_as_full.symmetry, half_as_full.column_symmetry)
+    result = lab_check(comp, pipeline.path, seed=3, record=record)
     summary: dict[str, Any] = result.summary()
     print(
         f"\nmistaken run: check gain {result.gain:.4f}, residual {summary['residual_rms_mm']:.3f} mm rms; "
         f"{result.diagnosis}"
     )
     assert result.gain == pytest.approx(0.5, abs=0.1)
-    assert "force scale of 0.5" in result.diagnosis
-    assert "half" in result.diagnosis
+    assert result.cause == "half_history_as_full" and "force scale of 0.5" in result.diagnosis
     assert summary["residual_rms_mm"] > 5 * TWIN_RMS_MM  # half the deflection (~1.4 mm) left in the part

@@ -8,9 +8,13 @@ import json
 from pathlib import Path
 
 import pytest
+from doc_numbers import quoted
 
 from twin.cli import main
 from twin.sim.model_file import read_model_file
+
+#: docs/any-part.md's row for this test: scale, then rms declared / learned [mm].
+ANCHOR = "| a sheet 25 % stronger than declared, fitted from a first part's F/T stream | scale"
 
 
 @pytest.fixture(scope="module")
@@ -33,22 +37,25 @@ def cell(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
 
 
 def test_the_level_of_a_stronger_sheet_is_found_from_the_f_t_stream(cell: dict[str, Path]) -> None:
-    """Measured: scale 1.246 (hidden 1.25), force rms 144 N -> 13 N (the sensor's noise and the tracker's)."""
+    """Measured: the scale docs/any-part.md quotes (hidden 1.25); force rms falls under a fifth."""
     fit = json.loads((cell["base"] / "fit.json").read_text())
     assert fit["force_model"] == "isf"
     assert fit["force_fit"]["scale"] == pytest.approx(1.25, rel=0.02)
+    quoted("any-part.md", ANCHOR, 1)[0].check(fit["force_fit"]["scale"])
     assert fit["force_rms_after_n"] < 0.2 * fit["force_rms_before_n"]
     spec = read_model_file(cell["base"] / "cell.json")
     assert dict(spec.process.force_fit)["scale"] == pytest.approx(fit["force_fit"]["scale"])
 
 
 def test_the_second_part_compensated_with_the_learned_forces_lands_closer(cell: dict[str, Path]) -> None:
-    """Measured (seed 2, a pyramid 40 mm across, 6 mm deep): rms 0.186 mm with the declared forces, 0.048 mm with
-    the learned ones."""
+    """Measured (seed 2, a pyramid 40 mm across, 6 mm deep): the rms docs/any-part.md quotes, declared / learned."""
     declared = json.loads((cell["base"] / "check_declared.json").read_text())["residual_rms_mm"]
     learned = json.loads((cell["base"] / "check_learned.json").read_text())["residual_rms_mm"]
     print(f"\nsecond part: declared forces {declared:.3f} mm rms, learned forces {learned:.3f} mm rms")
     assert learned < 0.5 * declared
+    doc = quoted("any-part.md", ANCHOR, 3)
+    doc[1].check(declared)
+    doc[2].check(learned)
 
 
 def test_a_run_without_forces_is_a_clear_error(cell: dict[str, Path], capsys: pytest.CaptureFixture[str]) -> None:

@@ -11,6 +11,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from doc_numbers import quoted
 
 from twin.analysis.compensate import compensate_twin
 from twin.base.csvio import write_table
@@ -54,6 +55,8 @@ def test_the_issue_s_worked_case_is_1236_n_not_1775_n():
 def test_cone_steady_state_fz_follows_the_published_formula_within_5_percent(angle, step_mm):
     fz = steady_cone_fz(angle, step_mm)
     assert fz == pytest.approx(published_fz(275.0, 1.0, 15.0, step_mm, angle), rel=0.05)
+    low, high = quoted("any-part.md", "steady Fz / the published formula |", 2)  # the range the doc quotes
+    assert low.value - low.tol <= fz / published_fz(275.0, 1.0, 15.0, step_mm, angle) <= high.value + high.tol
 
 
 def test_the_process_sets_the_force_level():
@@ -92,11 +95,21 @@ def test_outside_the_published_range_the_model_warns():
         build_force_field(Process(force_model="isf"))
 
 
-def test_groove_fit_is_a_fit_to_our_own_stand_in():
+def test_groove_fit_is_a_fit_to_our_own_stand_in(tmp_path):
     """The groove factor and shape are fitted to the stand-in history (our own data, not a validation): the
     stand-in sits 1.69x above the general formula on the groove; with the factor, Fz and Fx follow it to 10 %."""
     fit = calibrate_isf(default_force_history(), replace(IsfForceParams(), mu_eff=0.3))
     assert fit.params.scale == pytest.approx(1.69, abs=0.05)
+    quoted("any-part.md", "On the stand-in: factor", 1)[0].check(fit.params.scale)
+    # docs/any-part.md, "Still missing": Fz and Fx rms [% of peak], the factor; Fx against the acausal stand-in
+    fz_doc, fx_doc, factor = quoted("any-part.md", "within 10 % rms of peak (Fz", 3)
+    fz_doc.check(100.0 * fit.rms_fz)
+    fx_doc.check(100.0 * fit.rms_fx)
+    factor.check(fit.params.scale)
+    acausal = load_force_history(write_table(tmp_path / "nearest.csv", generate_history(fx_taper="nearest")),
+                                 symmetry="half")
+    quoted("any-part.md", "Fx tapering before each reversal as well) Fx is", 1)[0].check(
+        100.0 * groove_errors(fit.params, acausal)[1])
     assert fit.rms_fz < 0.11 and fit.rms_fx < 0.10
     assert fit.params.direction_length_m == pytest.approx(IsfForceParams().direction_length_m, rel=0.15)
 
@@ -194,6 +207,10 @@ def test_twin_compensation_brings_a_cone_and_a_pyramid_onto_the_target_path(shap
 
     assert rms(compensated) < 0.1e-3
     assert rms(nominal) > 10 * rms(compensated)
+    doc = quoted("any-part.md", "path RMS nominal / twin-compensated |", 4)
+    first = 0 if shape == "cone" else 2
+    doc[first].check(1e3 * rms(nominal))
+    doc[first + 1].check(1e3 * rms(compensated))
 
 
 def test_params_reject_bad_values():

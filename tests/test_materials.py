@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from doc_numbers import quoted
 
 from twin.cli import main
 from twin.errors import DataFileError, InputError
@@ -202,3 +203,13 @@ def test_materials_lists_a_user_file_and_refuses_a_bad_one(tmp_path: Path, capsy
     err = capsys.readouterr().err
     assert err.startswith("tx200-twin materials: error: ") and "materials.X.tensile_strength_mpa" in err
     assert "looks like Pa; expected MPa" in err and "Traceback" not in err
+
+
+def test_the_thesis_voce_law_necks_where_the_docs_say() -> None:
+    """docs/process.md: the thesis's Voce law (AA5086-H111's hardening) necks at an engineering R_m of about
+    288 MPa: the largest true stress × exp(-true strain) (Considère), on a grid written here."""
+    law = material("AA5086-H111").hardening
+    assert law is not None
+    strain = np.linspace(0.0, 2.0, 200_001)
+    r_m = float(np.max(law.stress_mpa(strain) * np.exp(-strain)))
+    quoted("process.md", "the thesis's Voce law necks at about", 1)[0].check(r_m)

@@ -8,6 +8,7 @@ import importlib.util
 from pathlib import Path
 
 import pytest
+from doc_numbers import quoted
 
 _SPEC = importlib.util.spec_from_file_location(
     "part_to_design", Path(__file__).resolve().parent.parent / "experiments" / "part_to_design.py")
@@ -66,3 +67,7 @@ def test_a_pyramid_and_a_gcode_part_improve_in_one_iteration(part: str, tmp_path
     print(f"\n{part}: {summary}")
     assert _all(summary, "quasi-static", "part-compensated") < _all(summary, "quasi-static", "path-compensated")
     assert _all(summary, "quasi-static", "learn 1") < 0.5 * _all(summary, "quasi-static", "part-compensated")
+    # docs/any-part.md: path-compensated, part, learn 1; pyramid / G-code each
+    doc = quoted("any-part.md", "a pyramid and a G-code stadium pocket improve from", 6)
+    for k, row in enumerate(("path-compensated", "part-compensated", "learn 1")):
+        doc[2 * k + (0 if part == "pyramid" else 1)].check(_all(summary, "quasi-static", row))

@@ -5,16 +5,20 @@ forces give a compliance C by least squares (d = C f + b·direction, the offset 
 direction, from joint friction or lost motion, kept apart; force samples between a reversal's commanded sample
 and the next are left out, where the force has flipped and the deflection not yet); the command's correction U_cmd - U_ID is then
 compared with what a correct compensation would have commanded, -C f: (U_cmd - U_ID) ~ g (-C f) + b'·direction.
-g = 1 is right; g = 0.5 is the thesis's mistake (half-model FE forces used as full, sec. 5.1).
+g = 1 is right. The cause of another gain is named from evidence (`twin.analysis.gain_cause`): the forces the
+compensation used, recorded in the run's meta (`twin.analysis.compensation_record`), against the forces the run
+measured, and the symmetry recorded with its FE history; without that record the cause is reported unknown.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from twin.analysis.compensate import compensation_gain
+from twin.analysis.compensation_record import CompensationRecord, run_record
+from twin.analysis.gain_cause import GAIN_TOLERANCE, name_cause
 from twin.analysis.identify.cartesian import fit_compliance
 from twin.base.signals import interp_rows
 from twin.errors import IdentificationError, RunFormatError
@@ -22,8 +26,7 @@ from twin.process.path import label_passes
 from twin.runs.format import Run, resample
 from twin.sim.quasi_static import PASS_DEADBAND_M
 
-GAIN_TOLERANCE = 0.02
-HALF_FORCE_WINDOW = 0.1  # a gain within 0.5 +/- this points at the forgotten doubling
+__all__ = ["GAIN_TOLERANCE", "CheckResult", "check_run", "diagnose_gain"]
 
 
 @dataclass(frozen=True)
@@ -36,8 +39,10 @@ class CheckResult:
         direction: Travel direction of each tracker sample.
         gain: Effective compensation gain.
         compliance_m_per_n: Compliance fitted from the run (x-z) [m/N], shape (2, 2).
-        diagnosis: One line naming the likely cause of a gain away from 1.
+        diagnosis: One line: the gain and its cause, as far as the run's evidence goes.
         nominal: Whether the run's command is the ideal path itself (no compensation to judge).
+        cause: `nominal`, or `twin.analysis.gain_cause.GainCause.cause`.
+        force_scale: Forces the compensation used / forces measured, or None without its record.
     """
 
     residual_m: np.ndarray
@@ -47,6 +52,8 @@ class CheckResult:
     compliance_m_per_n: np.ndarray
     diagnosis: str
     nominal: bool = False
+    cause: str = "unknown"
+    force_scale: float | None = None
 
     def summary(self) -> dict[str, object]:
         """JSON-ready numbers: overall, per pass and per direction residuals [mm], gain, diagnosis."""
@@ -70,6 +77,8 @@ class CheckResult:
             "gain": self.gain,
             "compliance_xz_mm_per_kn": (1e6 * self.compliance_m_per_n).tolist(),
             "diagnosis": self.diagnosis,
+            "cause": self.cause,
+            "force_scale": self.force_scale,
             "nominal": self.nominal,
         }
 
@@ -78,22 +87,14 @@ class CheckResult:
 NOMINAL_TOL_M = 1e-6
 
 
-def diagnose_gain(gain: float) -> str:
-    """Name the likely cause of a compensation gain."""
-    if abs(gain - 1.0) <= GAIN_TOLERANCE:
-        return (
-            f"gain {gain:.3f} is within 1 +/- {GAIN_TOLERANCE}: the compensation used the right force scale"
-        )
-    if abs(gain - 0.5) <= HALF_FORCE_WINDOW:
-        return (
-            f"gain {gain:.3f} ~ 0.5: the compensation used half the physical force (force scale of 0.5), the "
-            "thesis's mistake: a half-symmetric FE history loaded as 'full' (declare symmetry='half', sec. 2.2)"
-        )
-    kind = "under" if gain < 1 else "over"
-    return (
-        f"gain {gain:.3f}: the compensation {kind}-corrects by a factor {gain:.2f}; check the force scale of the "
-        "FE history and the compliance used"
-    )
+def diagnose_gain(
+    gain: float,
+    record: CompensationRecord | None = None,
+    t_s: np.ndarray | None = None,
+    f_measured_n: np.ndarray | None = None,
+) -> str:
+    """One line: the gain and its cause from the evidence given (`twin.analysis.gain_cause.name_cause`)."""
+    return name_cause(gain, record, t_s, f_measured_n).text
 
 
 def check_run(run: Run, t_ideal_s: np.ndarray, p_ideal_sheet_m: np.ndarray) -> CheckResult:
@@ -147,5 +148,11 @@ def check_run(run: Run, t_ideal_s: np.ndarray, p_ideal_sheet_m: np.ndarray) -> C
     if float(np.max(np.abs(cmd - ideal))) < NOMINAL_TOL_M:  # the data say it: the command is the ideal path
         diagnosis = ("a nominal run: its command is the ideal path, so there is no compensation to judge; the "
                      "residual is the robot's deflection")
-        return CheckResult(residual, pass_ideal[index], dir_ideal[index], gain, c_xz, diagnosis, nominal=True)
-    return CheckResult(residual, pass_ideal[index], dir_ideal[index], gain, c_xz, diagnose_gain(gain))
+        return CheckResult(residual, pass_ideal[index], dir_ideal[index], gain, c_xz, diagnosis, nominal=True,
+                           cause="nominal")
+    record = run_record(run.meta, run.directory or "meta.json")
+    if record is not None and len(record.t_s) == len(t_cmd):  # the same program, perhaps re-timed by the controller
+        record = replace(record, t_s=np.asarray(t_cmd, dtype=float))
+    cause = name_cause(gain, record, t_f, f)
+    return CheckResult(residual, pass_ideal[index], dir_ideal[index], gain, c_xz, cause.text,
+                       cause=cause.cause, force_scale=cause.force_scale)

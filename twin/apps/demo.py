@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 from typing import Any, TypeVar
 
@@ -23,6 +24,7 @@ import numpy as np
 
 from twin.analysis.check import CheckResult, check_run
 from twin.analysis.compensate import compensate_formula, compensate_twin, compliance_from_stiffness, gain_of
+from twin.analysis.compensation_record import CompensationRecord
 from twin.analysis.discrepancy.search import DiscrepancyResult, find_discrepancy
 from twin.analysis.discrepancy.summary import result_summary
 from twin.analysis.identify.cartesian import (
@@ -89,10 +91,14 @@ class _Demo:
         self.mistaken = load_force_history(data_file("fe_force_history.csv"), symmetry="full", trust_columns=False)
         self.twin = TwinSpec().build()
         self.report: dict[str, Any] = {}
+        self.records: dict[str, CompensationRecord] = {}
 
     def lab(self, name: str, p_cmd: np.ndarray, scenario: str, seed: int) -> Run:
-        """A lab run with the hidden lost motion, written and read back (downstream never sees its truth)."""
+        """A lab run with the hidden lost motion, written and read back (downstream never sees its truth); a
+        compensated run carries what its compensation used (as `lab --commanded` does)."""
         run, truth = run_lab(self.ideal.t_s, p_cmd, scenario=scenario, seed=seed, spec=LAB)
+        if name in self.records:
+            run = replace(run, meta={**run.meta, "compensation": self.records[name].to_json()})
         write_run(self.out / "runs" / name, run, truth=truth, overwrite=True)
         return read_run(self.out / "runs" / name)
 
@@ -114,12 +120,19 @@ class _Demo:
         c_r = compliance_from_stiffness(k_r1)
         f_mistaken = SheetForceField(self.mistaken).rigid_forces(self.ideal)
         comp = compensate_formula(self.ideal.t_s, self.ideal.p_sheet_m, f_mistaken, c_r)
+        self.records["compensated_thesis"] = CompensationRecord(
+            "formula", comp.t_s, f_mistaken, self.mistaken.symmetry, self.mistaken.column_symmetry,
+            "twin/data/fe_force_history.csv")
         self.report["thesis_compensation"] = {"gain": gain_of(comp, self.f_ideal, c_r), "history_symmetry_declared": "full"}
         return comp.p_cmd_sheet_m
 
     def corrected(self, spec: TwinSpec) -> np.ndarray:
         """Twin compensation with the augmented twin."""
         comp = compensate_twin(self.ideal.t_s, self.ideal.p_sheet_m, spec, progress=_progress)
+        f_used = spec.build().simulate(comp.t_s, comp.p_cmd_sheet_m).f_sheet_n
+        self.records["compensated_twin"] = CompensationRecord(
+            "twin", comp.t_s, f_used, spec.process.force_history().symmetry,
+            spec.process.force_history().column_symmetry)
         kin = self.twin.kinematics
         self.report["twin_compensation"] = {
             "iterations": comp.iterations, "gain": gain_of(comp, self.f_ideal, kin.compliance(kin.q_home)),

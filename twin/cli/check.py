@@ -28,8 +28,10 @@ from twin.runs.format import Run
 from twin.runs.read import read_run
 from twin.runs.scan_file import UNITS, read_scan
 
-HELP = ("Check a run against the ideal path U_ID: residual per pass/direction and the compensation gain. Exit 0: "
-        "the gain is within tolerance, or a nominal run; 1: a compensated run's gain is off; 2: bad input.")
+HELP = ("Check a run against the ideal path U_ID: residual per pass/direction and the compensation gain, its cause "
+        "named from the run's record of what its compensation used (`compensate` writes CMD.compensation.json, "
+        "`lab --commanded CMD.csv` carries it into the run), else unknown. Exit 0: the gain is within tolerance, or "
+        "a nominal run; 1: a compensated run's gain is off; 2: bad input.")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

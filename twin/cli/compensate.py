@@ -19,6 +19,7 @@ from twin.analysis.compensate import (
     compliance_from_stiffness,
     gain_of,
 )
+from twin.analysis.compensation_record import CompensationRecord, write_record
 from twin.base.csvio import emit_json, read_json, write_table
 from twin.cli._common import (
     add_force_model_argument,
@@ -153,20 +154,24 @@ def run(args: argparse.Namespace) -> int:
     protect = [p for p in (args.stiffness, args.model, args.history, args.ideal, args.process) if p is not None]
     spec = spec_from_arguments(args, ideal.p_sheet_m, history=declared)
     f_reference = build_force_field(spec.process, reference).rigid_forces(ideal)
-    comp, c_r, predicted = _compensate(args, spec, ideal, declared)
+    comp, c_r, predicted, f_used = _compensate(args, spec, ideal, declared)
     gain = gain_of(comp, f_reference, c_r)
+    record = CompensationRecord(args.method, comp.t_s, f_used, declared.symmetry, declared.column_symmetry,
+                                None if args.history is None else str(args.history))
     write_table(
         args.out,
         {"t_s": comp.t_s, **{f"{a}_mm": 1e3 * comp.p_cmd_sheet_m[:, i] for i, a in enumerate("xyz")}},
         formats={"t_s": ".6f", "x_mm": ".4f", "y_mm": ".4f", "z_mm": ".4f"},
         protect=protect,
     )
+    record_file = write_record(args.out, record)
     norm = np.linalg.norm(predicted, axis=1)
     summary = {
         "method": args.method,
         "out": args.out,
         "gain": gain,
-        "gain_diagnosis": diagnose_gain(gain),
+        "gain_diagnosis": diagnose_gain(gain, record, ideal.t_s, f_reference),
+        "record": record_file,
         "iterations": comp.iterations,
         "converged": comp.converged,
         "residual_rms_per_iteration_mm": [1e3 * h for h in comp.history_m],
@@ -179,16 +184,16 @@ def run(args: argparse.Namespace) -> int:
         "process": process_record(spec.process),
         "effects": dict(spec.effects.values),
     }
-    _report(args, summary, comp.converged)
+    _report(args, summary, comp.converged, summary["gain_diagnosis"])
     emit_json(args.json, summary, protect=protect)
     return 0
 
 
 def _compensate(
     args: argparse.Namespace, spec: TwinSpec, ideal: ToolPath, declared: ForceHistory
-) -> tuple[Compensation, np.ndarray, np.ndarray]:
-    """The compensation of `--method`, the compliance its gain is measured with [m/N], and the twin's predicted
-    residual of the command [m], shape (n, 3)."""
+) -> tuple[Compensation, np.ndarray, np.ndarray, np.ndarray]:
+    """The compensation of `--method`, the compliance its gain is measured with [m/N], the twin's predicted
+    residual of the command [m], shape (n, 3), and the forces it assumed at each sample [N], shape (n, 3)."""
     twin = spec.build()
     if args.method == "formula":
         if args.stiffness is None:
@@ -196,15 +201,16 @@ def _compensate(
         c_r = compliance_from_stiffness(_stiffness(args.stiffness))
         f_ideal = build_force_field(spec.process, declared).rigid_forces(ideal)
         comp = compensate_formula(ideal.t_s, ideal.p_sheet_m, f_ideal, c_r)
-        return comp, c_r, twin.simulate(comp.t_s, comp.p_cmd_sheet_m).p_sheet_m - ideal.p_sheet_m
+        return comp, c_r, twin.simulate(comp.t_s, comp.p_cmd_sheet_m).p_sheet_m - ideal.p_sheet_m, f_ideal
     if not (args.tol_mm > 0 and args.max_iter >= 1):
         raise InputError(f"--tol-mm {args.tol_mm} and --max-iter {args.max_iter}: expected > 0 and >= 1")
     comp = compensate_twin(ideal.t_s, ideal.p_sheet_m, twin, tol_m=1e-3 * args.tol_mm, max_iter=args.max_iter)
     assert comp.predicted_residual_m is not None
-    return comp, twin.kinematics.compliance(twin.kinematics.q_home), comp.predicted_residual_m
+    f_twin = twin.simulate(comp.t_s, comp.p_cmd_sheet_m).f_sheet_n  # the forces the twin predicts for its command
+    return comp, twin.kinematics.compliance(twin.kinematics.q_home), comp.predicted_residual_m, f_twin
 
 
-def _report(args: argparse.Namespace, summary: dict[str, Any], converged: bool) -> None:
+def _report(args: argparse.Namespace, summary: dict[str, Any], converged: bool, diagnosis: str) -> None:
     """The human summary (on stderr when the JSON goes to stdout)."""
     out = sys.stderr if args.json == "-" else sys.stdout  # keep stdout pure JSON for `--json -`
     gain = summary["gain"]
@@ -222,4 +228,4 @@ def _report(args: argparse.Namespace, summary: dict[str, Any], converged: bool) 
             file=out,
         )
     if abs(gain - 1.0) > 0.02:
-        print(f"warning: {diagnose_gain(gain)}", file=out)
+        print(f"warning: {diagnosis}", file=out)

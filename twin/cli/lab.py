@@ -4,11 +4,13 @@ from __future__ import annotations
 
 import argparse
 import sys
+from dataclasses import replace
 from pathlib import Path
 from typing import TextIO
 
 import numpy as np
 
+from twin.analysis.compensation_record import read_record
 from twin.analysis.identify.cartesian import THESIS_TABLE_4_2_LOADS_N
 from twin.base.csvio import emit_json, write_table
 from twin.base.signals import interp_rows
@@ -106,6 +108,9 @@ def run(args: argparse.Namespace) -> int:
     spec = TwinSpec(robot=command_robot(args), process=command_process(args, Process(), p_cmd), placement=placement,
                     effects=effects)
     run_, truth = run_lab(t_s, p_cmd, scenario=args.scenario, seed=args.seed, spec=spec)
+    record = read_record(args.commanded) if args.commanded is not None else None
+    if record is not None:  # what the compensation used travels with the run, for `check`
+        run_ = replace(run_, meta={**run_.meta, "compensation": record.to_json()})
     write_run(args.out, run_, truth=truth, overwrite=args.overwrite, protect=protect)
     deflection = np.max(np.linalg.norm(run_.tracker.values - interp_rows(run_.tracker.t_s, t_s, p_cmd), axis=1))
     summary = {

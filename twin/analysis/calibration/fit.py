@@ -53,9 +53,9 @@ PARAMETERS = (
 )
 _N_LOG = len(_JOINTS) + 2  # stiffnesses are fitted in log10, the frictions in units of _FRICTION_UNIT_NM
 _FRICTION_UNIT_NM = 100.0
-#: Bounds: K_q in 1e5..1e8 N·m/rad, sheet sensitivities in 1e4..1e8 N/m, frictions 0..500 N·m.
-_LOWER = np.array([5.0] * len(_JOINTS) + [4.0, 4.0] + [0.0] * len(_FRICTION_JOINTS))
-_UPPER = np.array([8.0] * len(_JOINTS) + [8.0, 8.0] + [5.0] * len(_FRICTION_JOINTS))
+#: Bounds of the fitted vector: K_q in 1e5..1e8 N·m/rad, sheet sensitivities in 1e4..1e8 N/m, frictions 0..500 N·m.
+LOWER = np.array([5.0] * len(_JOINTS) + [4.0, 4.0] + [0.0] * len(_FRICTION_JOINTS))
+UPPER = np.array([8.0] * len(_JOINTS) + [8.0, 8.0] + [5.0] * len(_FRICTION_JOINTS))
 
 
 def to_values(x: np.ndarray) -> np.ndarray:
@@ -180,7 +180,7 @@ def calibrate(
     x0 = ev.start_vector() if start is None else to_vector(start)
     # a friction of exactly 0 is a kink of the stick/slip model (no slope there): start frictions at 100 N·m
     x0[_N_LOG:] = np.where(x0[_N_LOG:] > 0.0, x0[_N_LOG:], 1.0)
-    x0 = np.clip(x0, _LOWER, _UPPER)
+    x0 = np.clip(x0, LOWER, UPPER)
 
     def fun(x: np.ndarray) -> np.ndarray:
         r = ev.residual(x)
@@ -188,7 +188,7 @@ def calibrate(
             progress(ev.evaluations, 0.5 * float(r @ r))
         return r
 
-    fit = least_squares(fun, x0, bounds=(_LOWER, _UPPER), diff_step=1e-3, x_scale=0.1, xtol=1e-6)
+    fit = least_squares(fun, x0, bounds=(LOWER, UPPER), diff_step=1e-3, x_scale=0.1, xtol=1e-6)
     dof = max(len(TARGETS) - len(PARAMETERS), 1)
     chi2_red = float(fit.fun @ fit.fun) / dof
     cov = np.linalg.pinv(fit.jac.T @ fit.jac) * max(chi2_red, 1.0)
