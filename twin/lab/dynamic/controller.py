@@ -8,12 +8,25 @@ velocity and torque feed-forward from its trajectory generator, which interpolat
 
 with q_m the motor-side hinge, q_sp the motor set-point and g the gravity torque at the commanded pose
 (feed-forward). kp and kv are those of a MuJoCo position servo on the motor hinge (its kv term is integrated
-implicitly); the integral, velocity and gravity terms enter through `ctrl`. Gains: the servo is as stiff as the
-gear, kp = r K_q (r = `servo_stiffness_ratio`, default 1), critically damped on the inertia J = motor armature +
-the rigid arm's mass-matrix diagonal at the start pose, kv = 2 zeta sqrt(kp J), and ki = kp 2 pi f_i (zeta = 2, f_i = 10 Hz: the least
-replay gap at 2 m/min of the settings tried).
-With the shipped K_q the position-loop bandwidths sqrt(kp/J)/2 pi come out at 12-24 Hz for joints 1-3 and
-50-80 Hz for the wrist: a CS8C-class controller, whose wrist loops are faster than the arm's.
+implicitly); the integral, velocity and gravity terms enter through `ctrl`.
+
+Gains from a stated design rule, a cascade tuned as a drive's autotune tunes it, not from any replay:
+
+* the joint's first structural mode f_s = sqrt(K_q/J)/2 pi, the link on its gear spring (J = motor armature +
+  the rigid arm's mass-matrix diagonal at the start pose);
+* velocity-loop bandwidth f_v = r f_s, r = `servo_bandwidth_over_mode` (0.5: a velocity loop kept an octave
+  below the first mechanical resonance, which it would otherwise excite);
+* the position loop from f_v and the damping factor zeta (`servo_damping_ratio`, 0.8) by Rockwell
+  Automation's single-knob tuning rules (publication MOTION-RM003I-EN-P, Feb 2018, pp. 259-260, "System
+  Bandwidth", Position Loop operation: velocity-loop bandwidth = 4 zeta^2 x position-loop bandwidth, position
+  integrator bandwidth = 0.25/zeta^2 x position-loop bandwidth; damping factor default 0.8, 1784-UM003A-EN-P
+  p. 124): w_p = w_v / (4 zeta^2), w_pi = w_p / (4 zeta^2);
+* the cascade written as one PID: velocity command w_p (e + w_pi integral(e)) + dq_sp, torque J w_v times the
+  velocity error, so kv = J w_v, kp = kv w_p, ki = kp w_pi. The closed loop J s^2 + kv s + kp has natural
+  frequency 2 zeta w_p and damping ratio zeta.
+
+With the shipped K_q the position-loop bandwidths come out at 2.4-4.7 Hz for joints 1-3 and 9-16 Hz for the
+wrist (docs/dynamic-plant.md's table, held by tests/test_plant.py).
 
 Set-points are taught under gravity, as the twin teaches them: the motor set-point is
 q_sp = q_ik + g(q_ik)/K_q + sign(g) b/2, so the unloaded robot (gear spring wound up by gravity, dead band
@@ -40,11 +53,20 @@ class ServoGains:
         kp: Proportional gain [N·m/rad], shape (dof,).
         kv: Velocity gain [N·m·s/rad], shape (dof,).
         ki: Integral gain [N·m/(rad s)], shape (dof,).
+        inertia: Inertia J the gains were designed on [kg m²], shape (dof,).
+        mode_hz: First structural mode sqrt(K_q/J)/2 pi of each joint [Hz], shape (dof,).
     """
 
     kp: np.ndarray
     kv: np.ndarray
     ki: np.ndarray
+    inertia: np.ndarray
+    mode_hz: np.ndarray
+
+    @property
+    def position_hz(self) -> np.ndarray:
+        """Position-loop bandwidth kp/kv/2 pi [Hz], shape (dof,)."""
+        return self.kp / self.kv / (2.0 * np.pi)
 
 
 def gravity_torques(rigid: mujoco.MjModel, q: np.ndarray, robot: RobotDescription) -> np.ndarray:
@@ -64,7 +86,7 @@ def gravity_torques(rigid: mujoco.MjModel, q: np.ndarray, robot: RobotDescriptio
 
 
 def design_gains(plant: Plant, rigid: mujoco.MjModel, q0: np.ndarray, knobs: Knobs) -> ServoGains:
-    """Gains from the bandwidth knobs and the arm's inertia at `q0` [rad]."""
+    """Gains by the design rule (module docstring) from the arm's inertia at `q0` [rad] and the gear's K_q."""
     arm = plant.robot.addresses(rigid)
     data = mujoco.MjData(rigid)
     data.qpos[arm.qpos] = q0
@@ -73,12 +95,13 @@ def design_gains(plant: Plant, rigid: mujoco.MjModel, q0: np.ndarray, knobs: Kno
     mujoco.mj_fullM(rigid, data, mass)
     rigid_arm = rigid.dof_armature[arm.dof]
     inertia = plant.motor_armature + np.diag(mass)[arm.dof] - rigid_arm
-    kp = knobs["servo_stiffness_ratio"] * plant.k_q
-    return ServoGains(
-        kp=kp,
-        kv=2.0 * knobs["servo_damping_ratio"] * np.sqrt(kp * inertia),
-        ki=kp * 2.0 * np.pi * knobs["servo_integral_hz"],
-    )
+    mode_hz = np.sqrt(plant.k_q / inertia) / (2.0 * np.pi)
+    zeta2 = knobs["servo_damping_ratio"] ** 2
+    w_v = 2.0 * np.pi * knobs["servo_bandwidth_over_mode"] * mode_hz
+    w_p = w_v / (4.0 * zeta2)
+    kv = inertia * w_v
+    kp = kv * w_p
+    return ServoGains(kp=kp, kv=kv, ki=kp * w_p / (4.0 * zeta2), inertia=inertia, mode_hz=mode_hz)
 
 
 def _moving_average(values: np.ndarray, width: int) -> np.ndarray:
