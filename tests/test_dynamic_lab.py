@@ -20,7 +20,7 @@ from twin.cli import main
 from twin.errors import InputError
 from twin.lab.dynamic.knobs import KNOBS, Knobs, parse_set_args
 from twin.lab.dynamic.run import dynamic_load_test, run_dynamic_lab
-from twin.lab.dynamic.sweep import breaking_feed, feed_sweep, reversal_mask, sweep_table
+from twin.lab.dynamic.sweep import breaking_feed, feed_sweep, sweep_table
 from twin.process.description import Process
 from twin.process.forces import default_force_history
 from twin.process.path import GrooveSpec, groove_path
