@@ -78,7 +78,7 @@ KNOBS: dict[str, KnobSpec] = {
         0.5,
         0.5,
         "-",
-        "velocity-loop bandwidth over the joint's first structural mode sqrt(K_q/J)/2pi (design rule)",
+        "position-loop bandwidth over the joint's first structural mode sqrt(K_q/J)/2pi (design rule)",
         0.05,
         2.0,
     ),

@@ -10,9 +10,12 @@ plant forms its own sheet from its own material law, in a form the twin does not
   Bay, "Revisiting the fundamentals of single point incremental forming by means of membrane analysis", Int J
   Mach Tools Manuf 48 (2008) 73-83: the deforming sheet carries a meridional membrane force sigma_phi t per
   unit width in plane strain). The sheet wraps the tool across its travel, from the formed surface on its left
-  to the one on its right; each side leaves the tool at its angle alpha_s = atan(rise_s / R), rise_s the formed
-  surface one tool radius R to that side above the tip (0 on flat sheet, so the force builds up with depth to
-  the tool's own flank angle, 45 deg). Each side pulls with N_s = sigma_phi(alpha_s) t_s over its contact length
+  to the one on its right; each side leaves the tool at its angle alpha_s, the larger of atan(rise_s / R), rise_s
+  the formed surface one tool radius R to that side above the tip (0 on flat sheet, so the force builds up with
+  depth to the tool's own flank angle, 45 deg), and the slope of the formed surface from R to 2R (a wall formed
+  by earlier contours: a cone's wall angle). A side the tool never pressed, across from one it did, is an unsupported
+  bottom (a cone's inside, hanging from the wall): the same strip runs on from the wall, flat (alpha 0, the
+  wall's N and w), the classical wrap of one membrane strip around the tool. Each side pulls with N_s = sigma_phi(alpha_s) t_s over its contact length
   along the travel, w_s = R sin alpha_s (the front of the sphere against a wall tangent at alpha_s): the force on
   the tool
 
@@ -54,6 +57,7 @@ YOUNGS_MODULUS_PA, POISSON_RATIO = 71.0e9, 0.33
 GRID_SPACING_M = 5e-4  # formed-surface grid [m]
 HALF_SIZE_M = 0.12  # the grid covers +/- this around the sheet origin [m]
 MIN_RECOVERY_M = 0.01e-3  # least elastic follow of the sheet behind a rising tool [m]
+FORMED_READ = 1.2  # a side is read as formed or not this many tool radii across the travel (past its own track)
 MAX_ANGLE_RAD = math.radians(70.0)  # a side steeper than this is a step, read as this angle
 _PLANE = 2.0 / math.sqrt(3.0)
 
@@ -95,6 +99,7 @@ class PlantSheet:
     def reset(self) -> None:
         """A flat sheet, the tool at rest along +x."""
         self.z_m = np.zeros((len(self.y_m), len(self.x_m)))
+        self.pressed = np.zeros(self.z_m.shape, dtype=bool)
         self.slip = np.array([1.0, 0.0])
         self.travel = np.array([1.0, 0.0])
         self._last: np.ndarray | None = None
@@ -116,6 +121,14 @@ class PlantSheet:
         z = self.z_m
         return float((z[iy, ix] * (1 - u) + z[iy, ix + 1] * u) * (1 - v) + (z[iy + 1, ix] * (1 - u) + z[iy + 1, ix + 1] * u) * v)
 
+    def formed(self, x: float, y: float) -> bool:
+        """Whether the tool sphere has pressed the grid node nearest (x, y)."""
+        ix = round((x + HALF_SIZE_M) / GRID_SPACING_M)
+        iy = round((y + HALF_SIZE_M) / GRID_SPACING_M)
+        if ix < 0 or iy < 0 or ix >= len(self.x_m) or iy >= len(self.y_m):
+            return False
+        return bool(self.pressed[iy, ix])
+
     def membrane_n_per_m(self, alpha: float) -> float:
         """Membrane force per unit width sigma_phi t of a side leaving the tool at `alpha` [rad], in [N/m]."""
         c = math.cos(alpha)
@@ -133,21 +146,31 @@ class PlantSheet:
         x, y, z = (float(v) for v in p_sheet_m)
         r = self.radius
         tx, ty = float(self.travel[0]), float(self.travel[1])
-        alpha = []
-        for side in (1.0, -1.0):  # left, right of the travel
-            rise = max(self.height(x - side * r * ty, y + side * r * tx) - z, 0.0)
-            alpha.append(min(math.atan2(rise, r), MAX_ANGLE_RAD))
+        alpha = [min(self._side_angle(x, y, z, sx, sy), MAX_ANGLE_RAD) for sx, sy in ((-ty, tx), (ty, -tx))]
         met = self.height(x + r * tx, y + r * ty) - z  # the step the tool meets one radius ahead
-        n_l, n_r = self.membrane_n_per_m(alpha[0]), self.membrane_n_per_m(alpha[1])
-        w_l, w_r = r * math.sin(alpha[0]), r * math.sin(alpha[1])  # front contact along the travel
-        up = w_l * n_l * math.sin(alpha[0]) + w_r * n_r * math.sin(alpha[1])
-        left = w_l * n_l * math.cos(alpha[0]) - w_r * n_r * math.cos(alpha[1])
+        n = [self.membrane_n_per_m(a) for a in alpha]
+        w = [r * math.sin(a) for a in alpha]  # front contact along the travel
+        far = FORMED_READ * r  # beyond the tool's own track
+        formed = [self.formed(x - far * ty, y + far * tx), self.formed(x + far * ty, y - far * tx)]
+        for s, o in ((0, 1), (1, 0)):
+            if formed[o] and not formed[s]:  # an unsupported bottom: the strip from the wall runs on, flat
+                alpha[s], n[s], w[s] = 0.0, n[o], w[o]
+        up = w[0] * n[0] * math.sin(alpha[0]) + w[1] * n[1] * math.sin(alpha[1])
+        left = w[0] * n[0] * math.cos(alpha[0]) - w[1] * n[1] * math.cos(alpha[1])
         recovery = max(self.springback_m(-z, max(alpha)), MIN_RECOVERY_M)
         contact = min(1.0, max(0.0, 1.0 + met / recovery))
         if contact <= 0.0:
             return np.zeros(3)
         friction = -self.mu * up * self.slip
         return contact * np.array([friction[0] - left * ty, friction[1] + left * tx, up])
+
+    def _side_angle(self, x: float, y: float, z: float, sx: float, sy: float) -> float:
+        """Angle [rad] at which the sheet leaves the tool towards (sx, sy): the larger of the chord from the tip to
+        the surface one radius away and the surface's own slope from one to two radii away (a formed wall)."""
+        r = self.radius
+        h1 = self.height(x + r * sx, y + r * sy)
+        h2 = self.height(x + 2.0 * r * sx, y + 2.0 * r * sy)
+        return max(math.atan2(max(h1 - z, 0.0), r), math.atan2(max(h2 - h1, 0.0), r))
 
     def advance(self, p_sheet_m: np.ndarray) -> None:
         """Commit: the tool tip passed through `p_sheet_m` [m]: the surface under the sphere, the travel state."""
@@ -178,6 +201,7 @@ class PlantSheet:
         under = p[2] + self.radius - np.sqrt(np.where(inside, self.radius**2 - r2, 0.0))
         patch = self.z_m[y0:y1, x0:x1]
         np.minimum(patch, np.where(inside, under, np.inf), out=patch)
+        self.pressed[y0:y1, x0:x1] |= inside
 
     def section(self) -> tuple[np.ndarray, np.ndarray]:
         """The loaded surface along y = 0: x [m], z [m]."""

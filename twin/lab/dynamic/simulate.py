@@ -27,6 +27,7 @@ from twin.lab.dynamic.controller import (
     gravity_torques,
     rest_state,
     servo_setpoints,
+    setpoint_acceleration,
 )
 from twin.lab.dynamic.knobs import Knobs
 from twin.lab.dynamic.plant import Plant, build_plant
@@ -152,10 +153,11 @@ def _plan(plant: Plant, knobs: Knobs, t_cmd: np.ndarray, p_cmd: np.ndarray, plac
     n_tick = int(np.floor(t_cmd[-1] / dt + 1e-9)) + 1
     t_tick = dt * np.arange(n_tick)
     q_sp, dq_sp, g_ff = servo_setpoints(t_cmd, q_ik, g_ik, plant, knobs, t_tick)
+    tau_ff = g_ff + gains.inertia * setpoint_acceleration(dq_sp, t_tick, knobs["trajectory_period_s"])
     pass_cmd, dir_cmd = label_passes(p_cmd[:, 0], deadband_m=PASS_DEADBAND_M)
     idx = np.minimum(np.searchsorted(t_cmd, t_tick, side="left"), len(t_cmd) - 1)
     return _Plan(
-        t_tick, q_sp, q_sp + (gains.kv * dq_sp + g_ff) / gains.kp, gains.ki / gains.kp,
+        t_tick, q_sp, q_sp + (gains.kv * dq_sp + tau_ff) / gains.kp, gains.ki / gains.kp,
         [int(v) for v in pass_cmd[idx]], [int(v) for v in dir_cmd[idx]], origin, R_ws,
         rest_state(plant, q_ik[0], g_ik[0]), q_sp[0] + g_ff[0] / gains.kp,
     )
