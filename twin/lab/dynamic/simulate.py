@@ -33,6 +33,8 @@ from twin.lab.dynamic.knobs import Knobs
 from twin.lab.dynamic.plant import Plant, build_plant
 from twin.lab.dynamic.sheet import PlantSheet
 from twin.process.description import Process
+from twin.process.part_bottom import with_floating_bottom
+from twin.process.part_surface import FORMED_BELOW_M
 from twin.process.path import label_passes
 from twin.process.placement import Placement
 from twin.robot.kinematics import Kinematics, load_model
@@ -243,7 +245,10 @@ def _step(
     wall = time.perf_counter() - start
     x_m, z_loaded = sheet.section()
     _, z_unloaded = sheet.unloaded_section()
-    surface = (sheet.x_m.copy(), sheet.y_m.copy(), sheet.unloaded_surface()) if scanned else None
+    surface = None
+    if scanned:  # the unsupported bottom inside the last contour hangs from the wall, down with it
+        bottom = with_floating_bottom(sheet.x_m, sheet.y_m, sheet.unloaded_surface(), log.p, FORMED_BELOW_M)
+        surface = (sheet.x_m.copy(), sheet.y_m.copy(), bottom)
     return DynamicLog(
         t_s=t_tick, p_tip_sheet_m=log.p, f_sheet_n=log.f, f_ft_local_n=log.ft, R_world_ft=log.R.reshape(n_tick, 3, 3),
         q_link=log.q, q_motor_error=log.e, q_play=log.b, formed_x_m=x_m, formed_z_m=z_loaded,
