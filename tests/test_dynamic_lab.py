@@ -196,6 +196,19 @@ def test_dynamic_plant_code_does_not_import_the_twin_or_the_effect_library():
     assert len(list(DYNAMIC_DIR.glob("*.py"))) >= 6  # the check saw the package
 
 
+def test_the_documented_knob_table_is_the_plants_knobs():
+    """docs/dynamic-plant.md's knob table: one row per knob, with its default, neutral value, unit, range and text."""
+    doc = (Path(__file__).resolve().parents[1] / "docs" / "dynamic-plant.md").read_text(encoding="utf-8")
+    rows = {m[0]: m[1:] for m in re.findall(r"^\| `(\w+)` \| (\S+) \| (\S+) \| (\S+) \| \[(\S+), (\S+)\] \| (.+) \|$",
+                                            doc, flags=re.MULTILINE)}
+    assert set(rows) == set(KNOBS)
+    for name, spec in KNOBS.items():
+        default, neutral, unit, low, high, text = rows[name]
+        assert (float(default), float(neutral), float(low), float(high)) == (
+            spec.default, spec.neutral, spec.minimum, spec.maximum), name
+        assert (unit, text) == (spec.unit, spec.doc), name
+
+
 def _documented_independent_plant() -> dict[str, float]:
     """The numbers docs/dynamic-plant.md states as measured against the independent plant (its guarded block)."""
     doc = (Path(__file__).resolve().parents[1] / "docs" / "dynamic-plant.md").read_text(encoding="utf-8")
@@ -235,6 +248,8 @@ def test_commanded_stream_carries_the_controller_stops_at_reversals(neutral_shor
 
 
 @pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason="measured on the dependent plant; on the independent plant the twin is not "
+                   "within the noise in the strokes at 2 m/min either (its force model is not the plant's sheet)")
 def test_feed_sweep_finds_the_twin_breaking_at_high_feed():
     rows = feed_sweep(replay, feeds_m_per_min=(2.0, 20.0), spec=SHORT, seed=5)
     slow_row, fast_row = rows
@@ -242,3 +257,11 @@ def test_feed_sweep_finds_the_twin_breaking_at_high_feed():
     assert fast_row.position_away_mm > 5.0 * fast_row.position_limit_mm
     assert breaking_feed(rows) is not None and breaking_feed(rows) <= 20.0
     assert "| 20 |" in sweep_table(rows)
+
+
+@pytest.mark.slow
+def test_the_documented_feed_sweep_is_the_independent_plants():
+    """docs/dynamic-plant.md's feed-sweep table, as `experiments/dynamic_feed_sweep.py` prints it (seed 7)."""
+    table = sweep_table(feed_sweep(replay, seed=7))
+    doc = (Path(__file__).resolve().parents[1] / "docs" / "dynamic-plant.md").read_text(encoding="utf-8")
+    assert table.strip() in doc
