@@ -265,3 +265,23 @@ def test_the_documented_feed_sweep_is_the_independent_plants():
     table = sweep_table(feed_sweep(replay, seed=7))
     doc = (Path(__file__).resolve().parents[1] / "docs" / "dynamic-plant.md").read_text(encoding="utf-8")
     assert table.strip() in doc
+
+
+@pytest.mark.slow
+def test_discrepancy_on_the_independent_plant_says_unexplained(tmp_path, capsys):
+    """`discrepancy` on the full neutral groove of the independent plant: what docs/dynamic-plant.md reports."""
+    path = groove_path()
+    run, truth, _ = run_dynamic_lab(path.t_s, path.p_sheet_m, scenario="nominal", knobs=Knobs(neutral=True), seed=1)
+    directory = write_run(tmp_path / "full", run, truth=truth)
+    capsys.readouterr()
+    assert main(["discrepancy", str(directory), "--json", "-"]) == 0
+    found = json.loads(capsys.readouterr().out)
+    assert found["effect"] == "unexplained" and found["explained_fraction"] == 0.0
+    best = found["candidates"][0]
+    assert best["name"] == "force_scale" and best["explained_fraction"] == pytest.approx(0.24, abs=0.005)
+    assert best["parameters"]["scale_x_ratio"] == pytest.approx(0.27, abs=0.005)
+    assert best["parameters"]["scale_z_ratio"] == pytest.approx(0.84, abs=0.005)
+    words = " ".join(axis["words"] for axis in found["remainder"]["axes"])
+    for phrase in ("a +/-278 N offset that flips with the travel direction", "a trend of 61.3 N/s",
+                   "a 0.24 Hz oscillation of 0.625 mm"):
+        assert phrase in words, words
