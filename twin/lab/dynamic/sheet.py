@@ -13,9 +13,10 @@ plant forms its own sheet from its own material law, in a form the twin does not
   to the one on its right; each side leaves the tool at its angle alpha_s, the larger of atan(rise_s / R), rise_s
   the formed surface one tool radius R to that side above the tip (0 on flat sheet, so the force builds up with
   depth to the tool's own flank angle, 45 deg), and the slope of the formed surface from R to 2R (a wall formed
-  by earlier contours: a cone's wall angle). A side the tool never pressed, across from one it did, is an unsupported
-  bottom (a cone's inside, hanging from the wall): the same strip runs on from the wall, flat (alpha 0, the
-  wall's N and w), the classical wrap of one membrane strip around the tool. Each side pulls with N_s = sigma_phi(alpha_s) t_s over its contact length
+  by earlier contours: a cone's wall angle). A side the tool never pressed (read 1.2 R across), across from one
+  it did, is an unsupported bottom (a cone's inside, hanging from the wall): the same strip runs on from the
+  wall, flat (alpha 0, the wall's N and w), one membrane strip wrapped around the tool (its horizontal pull is
+  then tan(alpha/2) of F_up, inwards). Each side pulls with N_s = sigma_phi(alpha_s) t_s over its contact length
   along the travel, w_s = R sin alpha_s (the front of the sphere against a wall tangent at alpha_s): the force on
   the tool
 
@@ -29,7 +30,8 @@ plant forms its own sheet from its own material law, in a form the twin does not
   formula with published constants, and it was not fitted to anything.
 * **Material**: the flow curve measured for the thesis's AA5086-H111 (thesis Eq. 1.3, Voce with m = 1/2:
   sigma = 130.2 + 300.37 (1 - exp(-3.94 eps))^0.5 MPa), scaled by the declared R_m over the law's own
-  engineering R_m (necking: d sigma / d eps = sigma), so a stronger declared sheet forms harder; E = 71 GPa
+  engineering R_m (necking: d sigma / d eps = sigma), so a stronger declared sheet forms harder (the twin's force
+  models use R_m alone, not this law); E = 71 GPa
   (SubsTech, "Wrought aluminum-magnesium alloy 5086"), nu = 0.33 (ASM/MatWeb, "Aluminum 5086-H116").
 * **Contact**: the step met one radius ahead of the tip, dz; below 0 the force falls linearly to zero over the
   sheet's elastic recovery there (`springback_m`, at least `MIN_RECOVERY_M`): a tool that rose above the
