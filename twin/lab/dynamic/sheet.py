@@ -121,7 +121,9 @@ class PlantSheet:
             return 0.0
         u, v = fx - ix, fy - iy
         z = self.z_m
-        return float((z[iy, ix] * (1 - u) + z[iy, ix + 1] * u) * (1 - v) + (z[iy + 1, ix] * (1 - u) + z[iy + 1, ix + 1] * u) * v)
+        low = z[iy, ix] * (1 - u) + z[iy, ix + 1] * u
+        high = z[iy + 1, ix] * (1 - u) + z[iy + 1, ix + 1] * u
+        return float(low * (1 - v) + high * v)
 
     def formed(self, x: float, y: float) -> bool:
         """Whether the tool sphere has pressed the grid node nearest (x, y)."""
