@@ -5,6 +5,7 @@ from __future__ import annotations
 import ast
 import json
 import math
+import re
 from dataclasses import replace
 from pathlib import Path
 
@@ -19,7 +20,7 @@ from twin.cli import main
 from twin.errors import InputError
 from twin.lab.dynamic.knobs import KNOBS, Knobs, parse_set_args
 from twin.lab.dynamic.run import dynamic_load_test, run_dynamic_lab
-from twin.lab.dynamic.sweep import breaking_feed, feed_sweep, reversal_mask, sweep_table
+from twin.lab.dynamic.sweep import breaking_feed, feed_sweep, sweep_table
 from twin.process.description import Process
 from twin.process.forces import default_force_history
 from twin.process.path import GrooveSpec, groove_path
@@ -63,14 +64,20 @@ def neutral_short(tmp_path_factory):
     return run, log, replay(run).metrics
 
 
-def test_neutral_dynamic_run_replays_on_the_twin_within_the_noise(neutral_short):
+def test_neutral_short_run_on_the_independent_plant_is_not_the_twin(neutral_short):
+    """The plant's own sheet and gains: the twin no longer replays it within the noise (it did when the plant
+    pressed against the twin's own field: 0.045 mm on these 3 passes; now 0.78 mm, docs/dynamic-plant.md)."""
     _, _, metrics = neutral_short
     sigma_mm = Knobs(neutral=True)["tracker_noise_mm"]
-    assert metrics["position_rms_mm"] <= 2.0 * math.sqrt(3.0) * sigma_mm  # 2x the noise's own 3-D rms
-    assert metrics["force_rms_n"] <= 0.02 * metrics["force_peak_measured_n"]
-    assert metrics["deflection_max_mm"] > 1.0  # the robot really deflected: the gap is not small by default
+    assert metrics["position_rms_mm"] > 2.0 * math.sqrt(3.0) * sigma_mm  # 2x the noise's own 3-D rms
+    assert metrics["force_rms_n"] > 0.02 * metrics["force_peak_measured_n"]
+    # the robot really deflected: 0.68 mm measured (the membrane sheet builds up with depth: < 500 N in the first
+    # 3 mm; the dependent plant's FE-history forces gave > 1 mm here)
+    assert metrics["deflection_max_mm"] > 0.5
 
 
+@pytest.mark.xfail(strict=True, reason="measured on the dependent plant; on the independent plant's 3-pass groove "
+                   "(forces < 300 N) joint 3's gear torque does not reverse: to be re-derived on the full groove")
 def test_dead_band_on_joint3_switches_flank_at_reversals_and_grows_the_replay_gap(tmp_path, neutral_short):
     neutral_run, _, neutral_metrics = neutral_short
     run, log = _short_run(tmp_path, "backlash", Knobs({"backlash_j3_mrad": 0.5}, neutral=True))
@@ -94,6 +101,8 @@ def test_dead_band_on_joint2_stays_closed_on_the_gravity_flank(tmp_path, neutral
     assert np.max(np.abs(log.p_tip_sheet_m - neutral_log.p_tip_sheet_m)) < 1e-6
 
 
+@pytest.mark.xfail(strict=True, reason="its 1.3x FE history no longer reaches the independent plant, and the "
+                   "force-model gap (1.1 mm) hides the dead band's: to be re-derived with a stronger declared sheet")
 def test_dead_band_on_joint2_opens_once_the_sheet_outweighs_gravity_on_joint2():
     """With 1.3x the FE forces (a thicker or harder sheet) the sheet's torque on joint 2 reaches gravity's."""
     history = default_force_history()
@@ -187,23 +196,44 @@ def test_dynamic_plant_code_does_not_import_the_twin_or_the_effect_library():
     assert len(list(DYNAMIC_DIR.glob("*.py"))) >= 6  # the check saw the package
 
 
-def test_full_groove_neutral_dynamic_run_replays_within_twice_the_noise(tmp_path):
-    """The issue's must-show: the whole thesis groove at 2 m/min, every knob neutral."""
+def test_the_documented_knob_table_is_the_plants_knobs():
+    """docs/dynamic-plant.md's knob table: one row per knob, with its default, neutral value, unit, range and text."""
+    doc = (Path(__file__).resolve().parents[1] / "docs" / "dynamic-plant.md").read_text(encoding="utf-8")
+    rows = {m[0]: m[1:] for m in re.findall(r"^\| `(\w+)` \| (\S+) \| (\S+) \| (\S+) \| \[(\S+), (\S+)\] \| (.+) \|$",
+                                            doc, flags=re.MULTILINE)}
+    assert set(rows) == set(KNOBS)
+    for name, spec in KNOBS.items():
+        default, neutral, unit, low, high, text = rows[name]
+        assert (float(default), float(neutral), float(low), float(high)) == (
+            spec.default, spec.neutral, spec.minimum, spec.maximum), name
+        assert (unit, text) == (spec.unit, spec.doc), name
+
+
+def _documented_independent_plant() -> dict[str, float]:
+    """The numbers docs/dynamic-plant.md states as measured against the independent plant (its guarded block)."""
+    doc = (Path(__file__).resolve().parents[1] / "docs" / "dynamic-plant.md").read_text(encoding="utf-8")
+    block = doc.split("<!-- independent-plant:begin")[1].split("<!-- independent-plant:end")[0]
+    return {m[0]: float(m[1]) for m in re.findall(r"`(\w+)` = ([\d.]+)", block)}
+
+
+def test_full_groove_neutral_run_on_the_independent_plant_gives_the_documented_gap(tmp_path):
+    """The whole thesis groove at 2 m/min, every knob neutral, seed 1, on the plant's own sheet and gains: the
+    replay gap as it comes out, held to docs/dynamic-plant.md (no bound chosen; the twin's `table` force
+    model is not the plant's membrane sheet, so the gap is far above the tracker noise)."""
     path = groove_path()
     run, truth, _ = run_dynamic_lab(
-        path.t_s, path.p_sheet_m, scenario="nominal", knobs=Knobs(neutral=True), seed=2
+        path.t_s, path.p_sheet_m, scenario="nominal", knobs=Knobs(neutral=True), seed=1
     )
     run = read_run(write_run(tmp_path / "full", run, truth=truth))
-    result = replay(run)
-    sigma_m = 1e-3 * Knobs(neutral=True)["tracker_noise_mm"]
-    # 0.058 mm measured (seeds 1-3) against 2 sqrt(3) sigma = 0.069 mm; 0.080 before the twin's tool stuck
-    # on the sheet at reversals (twin.process.tool_friction) and the controller stopped at them
-    assert result.metrics["position_rms_mm"] <= 2.0 * math.sqrt(3.0) * 1e3 * sigma_m
-    # 27.0 N of 40 N (21 N before the stand-in's Fx stepped at each reversal; docs/dynamic-plant.md)
-    assert result.metrics["force_rms_n"] <= 0.02 * result.metrics["force_peak_measured_n"]
-    err = np.linalg.norm(run.tracker.values - result.tracker_pred_m, axis=1)
-    near = reversal_mask(run)
-    assert np.sqrt(np.mean(err[~near] ** 2)) <= 1.2 * math.sqrt(3.0) * sigma_m  # noise alone away from them
+    metrics = replay(run).metrics
+    doc = _documented_independent_plant()
+    assert metrics["position_rms_mm"] == pytest.approx(doc["position_rms_mm"], abs=0.0005)
+    assert metrics["position_max_mm"] == pytest.approx(doc["position_max_mm"], abs=0.0005)
+    assert metrics["force_rms_n"] == pytest.approx(doc["force_rms_n"], abs=0.05)
+    assert metrics["force_peak_measured_n"] == pytest.approx(doc["force_peak_measured_n"], abs=0.5)
+    assert truth["peak_force_n"] == pytest.approx(doc["plant_peak_force_n"], abs=0.5)
+    # the plant is not the twin: its force differs from the twin's by far more than 2 % of the peak
+    assert metrics["force_rms_n"] > 0.02 * metrics["force_peak_measured_n"]
 
 
 def test_commanded_stream_carries_the_controller_stops_at_reversals(neutral_short):
@@ -218,6 +248,8 @@ def test_commanded_stream_carries_the_controller_stops_at_reversals(neutral_shor
 
 
 @pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason="measured on the dependent plant; on the independent plant the twin is not "
+                   "within the noise in the strokes at 2 m/min either (its force model is not the plant's sheet)")
 def test_feed_sweep_finds_the_twin_breaking_at_high_feed():
     rows = feed_sweep(replay, feeds_m_per_min=(2.0, 20.0), spec=SHORT, seed=5)
     slow_row, fast_row = rows
@@ -225,3 +257,31 @@ def test_feed_sweep_finds_the_twin_breaking_at_high_feed():
     assert fast_row.position_away_mm > 5.0 * fast_row.position_limit_mm
     assert breaking_feed(rows) is not None and breaking_feed(rows) <= 20.0
     assert "| 20 |" in sweep_table(rows)
+
+
+@pytest.mark.slow
+def test_the_documented_feed_sweep_is_the_independent_plants():
+    """docs/dynamic-plant.md's feed-sweep table, as `experiments/dynamic_feed_sweep.py` prints it (seed 7)."""
+    table = sweep_table(feed_sweep(replay, seed=7))
+    doc = (Path(__file__).resolve().parents[1] / "docs" / "dynamic-plant.md").read_text(encoding="utf-8")
+    assert table.strip() in doc
+
+
+@pytest.mark.slow
+def test_discrepancy_on_the_independent_plant_says_unexplained(tmp_path, capsys):
+    """`discrepancy` on the full neutral groove of the independent plant: what docs/dynamic-plant.md reports."""
+    path = groove_path()
+    run, truth, _ = run_dynamic_lab(path.t_s, path.p_sheet_m, scenario="nominal", knobs=Knobs(neutral=True), seed=1)
+    directory = write_run(tmp_path / "full", run, truth=truth)
+    capsys.readouterr()
+    assert main(["discrepancy", str(directory), "--json", "-"]) == 0
+    found = json.loads(capsys.readouterr().out)
+    assert found["effect"] == "unexplained" and found["explained_fraction"] == 0.0
+    best = found["candidates"][0]
+    assert best["name"] == "force_scale" and best["explained_fraction"] == pytest.approx(0.24, abs=0.005)
+    assert best["parameters"]["scale_x_ratio"] == pytest.approx(0.27, abs=0.005)
+    assert best["parameters"]["scale_z_ratio"] == pytest.approx(0.84, abs=0.005)
+    words = " ".join(axis["words"] for axis in found["remainder"]["axes"])
+    for phrase in ("a +/-278 N offset that flips with the travel direction", "a trend of 61.3 N/s",
+                   "a 0.24 Hz oscillation of 0.625 mm"):
+        assert phrase in words, words

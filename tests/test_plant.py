@@ -147,11 +147,16 @@ def test_the_documented_servo_gains_are_the_dynamic_plants() -> None:
     knobs, rigid = Knobs(), load_model()
     plant, kin = build_plant(knobs), Kinematics(rigid)
     gains = design_gains(plant, rigid, kin.q_home, knobs)
-    inertia = (gains.kv / (2.0 * knobs["servo_damping_ratio"])) ** 2 / gains.kp
     np.testing.assert_allclose(row("kp"), gains.kp, rtol=0, atol=0.5)
     np.testing.assert_allclose(row("kv"), gains.kv, rtol=0, atol=0.5)
-    np.testing.assert_allclose(row("J"), inertia, rtol=2e-3)
-    np.testing.assert_allclose(row("bandwidth"), np.sqrt(gains.kp / inertia) / (2 * np.pi), rtol=0, atol=0.05)
+    np.testing.assert_allclose(row("J"), gains.inertia, rtol=2e-3)
+    np.testing.assert_allclose(row("first mode"), gains.mode_hz, rtol=0, atol=0.05)
+    np.testing.assert_allclose(row("position-loop"), gains.position_hz, rtol=0, atol=0.005)
+    # the rule, in its own terms: position loop at half the mode, velocity loop 4 zeta^2 above it, damping zeta
+    zeta = knobs["servo_damping_ratio"]
+    np.testing.assert_allclose(gains.position_hz, 0.5 * gains.mode_hz, rtol=1e-12)
+    np.testing.assert_allclose(gains.kv / gains.inertia, 4 * zeta**2 * 2 * np.pi * gains.position_hz, rtol=1e-12)
+    np.testing.assert_allclose(gains.kv / (2.0 * np.sqrt(gains.kp * gains.inertia)), zeta, rtol=1e-12)
     friction = re.search(r"motion: ([\d.]+), ([\d.]+), ([\d.]+) N·m on joints 2, 3, 5", doc)
     assert friction is not None
     shipped = rigid.dof_frictionloss[load_robot().addresses(rigid).dof][[1, 2, 4]]

@@ -4,16 +4,30 @@ A Stäubli CS8C closes position and velocity loops on the motor encoders (the li
 velocity and torque feed-forward from its trajectory generator, which interpolates the programmed path every
 4 ms. Here, per joint and per servo tick (one MuJoCo step):
 
-    tau = kp (q_sp - q_m) + kv (dq_sp - dq_m) + ki * integral(q_sp - q_m) + g(q_sp),
+    tau = kp (q_sp - q_m) + kv (dq_sp - dq_m) + ki * integral(q_sp - q_m) + g(q_sp) + J ddq_sp,
 
-with q_m the motor-side hinge, q_sp the motor set-point and g the gravity torque at the commanded pose
-(feed-forward). kp and kv are those of a MuJoCo position servo on the motor hinge (its kv term is integrated
-implicitly); the integral, velocity and gravity terms enter through `ctrl`. Gains: the servo is as stiff as the
-gear, kp = r K_q (r = `servo_stiffness_ratio`, default 1), critically damped on the inertia J = motor armature +
-the rigid arm's mass-matrix diagonal at the start pose, kv = 2 zeta sqrt(kp J), and ki = kp 2 pi f_i (zeta = 2, f_i = 10 Hz: the least
-replay gap at 2 m/min of the settings tried).
-With the shipped K_q the position-loop bandwidths sqrt(kp/J)/2 pi come out at 12-24 Hz for joints 1-3 and
-50-80 Hz for the wrist: a CS8C-class controller, whose wrist loops are faster than the arm's.
+with q_m the motor-side hinge, q_sp the motor set-point, g the gravity torque at the commanded pose and J ddq_sp
+the inertia torque of the set-point (torque feed-forward, on the same diagonal J the gains are designed on).
+kp and kv are those of a MuJoCo position servo on the motor hinge (its kv term is integrated implicitly); the
+integral, velocity, gravity and inertia terms enter through `ctrl`.
+
+Gains from a stated design rule, a cascade tuned as a drive's autotune tunes it, not from any replay:
+
+* the joint's first structural mode f_s = sqrt(K_q/J)/2 pi, the link on its gear spring (J = motor armature +
+  the rigid arm's mass-matrix diagonal at the start pose);
+* position-loop bandwidth f_p = r f_s, r = `servo_bandwidth_over_mode` (0.5: an octave below the first
+  mechanical resonance, within the 5-20 Hz usual for the main axes of industrial arms);
+* the velocity loop and the position integrator from f_p and the damping factor zeta (`servo_damping_ratio`,
+  0.8) by Rockwell Automation's single-knob tuning rules (publication MOTION-RM003I-EN-P, Feb 2018, pp. 259-260,
+  "System Bandwidth", Position Loop operation: velocity-loop bandwidth = 4 zeta^2 x position-loop bandwidth,
+  position integrator bandwidth = 0.25/zeta^2 x position-loop bandwidth; damping factor default 0.8,
+  1784-UM003A-EN-P p. 124): w_v = 4 zeta^2 w_p, w_pi = w_p / (4 zeta^2);
+* the cascade written as one PID: velocity command w_p (e + w_pi integral(e)) + dq_sp, torque J w_v times the
+  velocity error, so kv = J w_v, kp = kv w_p, ki = kp w_pi. The closed loop J s^2 + kv s + kp has natural
+  frequency 2 zeta w_p and damping ratio zeta.
+
+With the shipped K_q the position-loop bandwidths come out at 6-12 Hz for joints 1-3 and 24-40 Hz for the
+wrist, kp = 0.64 K_q on every joint (docs/dynamic-plant.md's table, held by tests/test_plant.py).
 
 Set-points are taught under gravity, as the twin teaches them: the motor set-point is
 q_sp = q_ik + g(q_ik)/K_q + sign(g) b/2, so the unloaded robot (gear spring wound up by gravity, dead band
@@ -40,11 +54,20 @@ class ServoGains:
         kp: Proportional gain [N·m/rad], shape (dof,).
         kv: Velocity gain [N·m·s/rad], shape (dof,).
         ki: Integral gain [N·m/(rad s)], shape (dof,).
+        inertia: Inertia J the gains were designed on [kg m²], shape (dof,).
+        mode_hz: First structural mode sqrt(K_q/J)/2 pi of each joint [Hz], shape (dof,).
     """
 
     kp: np.ndarray
     kv: np.ndarray
     ki: np.ndarray
+    inertia: np.ndarray
+    mode_hz: np.ndarray
+
+    @property
+    def position_hz(self) -> np.ndarray:
+        """Position-loop bandwidth kp/kv/2 pi [Hz], shape (dof,)."""
+        return self.kp / self.kv / (2.0 * np.pi)
 
 
 def gravity_torques(rigid: mujoco.MjModel, q: np.ndarray, robot: RobotDescription) -> np.ndarray:
@@ -64,7 +87,7 @@ def gravity_torques(rigid: mujoco.MjModel, q: np.ndarray, robot: RobotDescriptio
 
 
 def design_gains(plant: Plant, rigid: mujoco.MjModel, q0: np.ndarray, knobs: Knobs) -> ServoGains:
-    """Gains from the bandwidth knobs and the arm's inertia at `q0` [rad]."""
+    """Gains by the design rule (module docstring) from the arm's inertia at `q0` [rad] and the gear's K_q."""
     arm = plant.robot.addresses(rigid)
     data = mujoco.MjData(rigid)
     data.qpos[arm.qpos] = q0
@@ -73,12 +96,13 @@ def design_gains(plant: Plant, rigid: mujoco.MjModel, q0: np.ndarray, knobs: Kno
     mujoco.mj_fullM(rigid, data, mass)
     rigid_arm = rigid.dof_armature[arm.dof]
     inertia = plant.motor_armature + np.diag(mass)[arm.dof] - rigid_arm
-    kp = knobs["servo_stiffness_ratio"] * plant.k_q
-    return ServoGains(
-        kp=kp,
-        kv=2.0 * knobs["servo_damping_ratio"] * np.sqrt(kp * inertia),
-        ki=kp * 2.0 * np.pi * knobs["servo_integral_hz"],
-    )
+    mode_hz = np.sqrt(plant.k_q / inertia) / (2.0 * np.pi)
+    zeta2 = knobs["servo_damping_ratio"] ** 2
+    w_p = 2.0 * np.pi * knobs["servo_bandwidth_over_mode"] * mode_hz
+    w_v = 4.0 * zeta2 * w_p
+    kv = inertia * w_v
+    kp = kv * w_p
+    return ServoGains(kp=kp, kv=kv, ki=kp * w_p / (4.0 * zeta2), inertia=inertia, mode_hz=mode_hz)
 
 
 def _moving_average(values: np.ndarray, width: int) -> np.ndarray:
@@ -123,6 +147,14 @@ def servo_setpoints(
     dq_servo = np.gradient(q_servo, t_servo_s, axis=0)
     g_servo = np.column_stack([np.interp(t_servo_s, t_cmd_s, g_ik[:, j]) for j in range(plant.dof)])
     return q_servo, dq_servo, g_servo
+
+
+def setpoint_acceleration(dq_servo: np.ndarray, t_servo_s: np.ndarray, period_s: float) -> np.ndarray:
+    """Set-point acceleration [rad/s²], (m, dof), averaged over one trajectory period (the rate of a piecewise
+    linear set-point steps at each trajectory point), for the torque feed-forward J·q̈_sp."""
+    dt = float(t_servo_s[1] - t_servo_s[0]) if len(t_servo_s) > 1 else period_s
+    ddq = np.gradient(dq_servo, t_servo_s, axis=0) if len(t_servo_s) > 1 else np.zeros_like(dq_servo)
+    return _moving_average(ddq, round(period_s / dt) | 1)
 
 
 def rest_state(plant: Plant, q_link: np.ndarray, g: np.ndarray) -> np.ndarray:

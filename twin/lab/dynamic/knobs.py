@@ -74,17 +74,16 @@ KNOBS: dict[str, KnobSpec] = {
         1e-3, 1e-3, "s", "MuJoCo timestep (implicitfast); the servo runs once per step", 1e-4, 2e-3
     ),
     # ---- controller
-    "servo_stiffness_ratio": KnobSpec(
-        1.0,
-        1.0,
+    "servo_bandwidth_over_mode": KnobSpec(
+        0.5,
+        0.5,
         "-",
-        "position-loop gain kp over the gear stiffness K_q (servo as stiff as the gear)",
+        "position-loop bandwidth over the joint's first structural mode sqrt(K_q/J)/2pi (design rule)",
         0.05,
-        20.0,
+        2.0,
     ),
-    "servo_damping_ratio": KnobSpec(2.0, 2.0, "-", "damping ratio of the position loop", 0.1, 5.0),
-    "servo_integral_hz": KnobSpec(
-        10.0, 10.0, "Hz", "integral corner of the PID (removes the static process load)", 0.0, 20.0
+    "servo_damping_ratio": KnobSpec(
+        0.8, 0.8, "-", "damping factor of the cascade (Rockwell's default 0.8; sets the loop ratios)", 0.3, 2.0
     ),
     "trajectory_period_s": KnobSpec(
         0.004, 0.004, "s", "trajectory-generator cycle (CS8C: 4 ms), linear in between", 1e-3, 0.05

@@ -13,8 +13,8 @@ Written apart from the twin's measurement model. Each sensor samples the physica
   a cross-talk matrix (off-diagonals +/- c), a bias on each axis, white noise, quantisation, and finally
   turned into the sheet frame with the sensor's orientation.
 
-* part profile: the formed groove bottom after unclamping (elastic recovery of `twin.process.springback`, from
-  the force the tool last carried at each x), scanned every 0.5 mm over +/- 45 mm with white noise.
+* part profile: the formed groove bottom after unclamping (the plant's own springback, `twin.lab.dynamic.sheet`),
+  scanned every 0.5 mm over +/- 45 mm with white noise.
 
 The stamps are uniform on the shared clock from t = 0, so the run format's rate and clock checks hold.
 One `numpy` generator, seeded by the caller, draws the tracker noise, then the force noise, then the profile's.
@@ -27,9 +27,8 @@ import numpy as np
 from twin.base.signals import interp_rows
 from twin.lab.dynamic.knobs import Knobs
 from twin.lab.dynamic.simulate import DynamicLog
-from twin.process.field import K_UNLOAD_N_PER_M, TOOL_RADIUS_M
 from twin.process.part_surface import surface_points
-from twin.process.springback import scanned_profile, unloaded_profile
+from twin.process.springback import scanned_profile
 
 GRAVITY_M_PER_S2 = 9.81
 _REG_TRANSLATION_AXIS = np.array([1.0, -1.0, 1.0]) / np.sqrt(3.0)
@@ -98,16 +97,9 @@ def ft_reading(
 
 
 def profile_scan(log: DynamicLog, knobs: Knobs, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
-    """The part after unclamping, scanned: x [m] and groove bottom z [m] along the centre line."""
-    z_after = unloaded_profile(
-        log.formed_x_m,
-        log.formed_z_m,
-        log.p_tip_sheet_m[:, 0],
-        log.f_sheet_n[:, 2],
-        k_unload_n_per_m=K_UNLOAD_N_PER_M,
-        radius_m=TOOL_RADIUS_M,
-    )
-    x_m, z_m = scanned_profile(log.formed_x_m, z_after)
+    """The part after unclamping (the plant's own springback, `twin.lab.dynamic.sheet`), scanned: x [m] and
+    groove bottom z [m] along the centre line."""
+    x_m, z_m = scanned_profile(log.formed_x_m, log.unloaded_z_m)
     return x_m, z_m + rng.normal(0.0, 1e-3 * knobs["profile_noise_mm"], z_m.shape)
 
 

@@ -27,13 +27,14 @@ from twin.lab.dynamic.controller import (
     gravity_torques,
     rest_state,
     servo_setpoints,
+    setpoint_acceleration,
 )
 from twin.lab.dynamic.knobs import Knobs
 from twin.lab.dynamic.plant import Plant, build_plant
+from twin.lab.dynamic.sheet import PlantSheet
 from twin.process.description import Process
-from twin.process.force_field import ForceField
-from twin.process.force_models import build_force_field
-from twin.process.part_surface import formed_surface
+from twin.process.part_bottom import with_floating_bottom
+from twin.process.part_surface import FORMED_BELOW_M
 from twin.process.path import label_passes
 from twin.process.placement import Placement
 from twin.robot.kinematics import Kinematics, load_model
@@ -59,11 +60,13 @@ class DynamicLog:
         q_motor_error: Motor set-point minus motor angle [rad], shape (m, dof).
         formed_x_m: Grid of the sheet's formed profile [m], shape (g,).
         formed_z_m: Loaded, formed groove bottom at the end of the run [m], shape (g,).
+        unloaded_z_m: The same section after unclamping (the plant's springback) [m], shape (g,).
         q_play: Where the teeth sit in the dead band, q_gear - dz(q_gear) [rad], shape (m, dof): +/- b/2 on a
             flank, in between while floating (0 for joints without a dead band).
         wall_s: Wall time of the stepping [s].
-        formed_surface: (x_m, y_m, z_m grid) of the part after unclamping where the force model keeps a 2-D
-            surface (the height-map ISF model), else None.
+        formed_surface: (x_m, y_m, z_m grid) of the part after unclamping where the declared process is scanned
+            in 3-D (any force model but the groove's `table`: the thesis's cell scanned only a profile), else
+            None.
         R_world_sheet: Orientation of the sheet frame in the world (the placement's yaw) [-], shape (3, 3).
     """
 
@@ -77,6 +80,7 @@ class DynamicLog:
     q_play: np.ndarray
     formed_x_m: np.ndarray
     formed_z_m: np.ndarray
+    unloaded_z_m: np.ndarray
     wall_s: float
     formed_surface: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
     R_world_sheet: np.ndarray = field(default_factory=lambda: np.eye(3))
@@ -99,8 +103,8 @@ def simulate(
         t_cmd_s: Commanded times [s], shape (n,), from 0, increasing.
         p_cmd_sheet_m: Commanded tool tip, sheet frame [m], shape (n, 3).
         knobs: Plant and controller knobs.
-        process: The sheet, tool, force model and FE history (`twin.process.force_models` builds the field); default
-            the thesis's.
+        process: The sheet and tool the plant's own sheet model forms (`twin.lab.dynamic.sheet`); default the
+            thesis's. Its force model and FE history are the twin's and are not used here.
         plant: A plant built for `knobs` (built when None, for the default robot).
         progress: Stream for a progress line every 10 % (None: quiet).
         tip_force_n: A force on the tool tip, world frame [N], instead of the sheet (load tests); it rises
@@ -116,9 +120,10 @@ def simulate(
         raise InputError(f"expected increasing t (n,) and p (n, 3), n >= 2; got {t_cmd.shape}, {p_cmd.shape}")
     plant = plant or build_plant(knobs)
     plan = _plan(plant, knobs, t_cmd, p_cmd, placement or Placement())
-    field = build_force_field(process or Process())
-    field.reset()
-    return _step(plant, plan, field, knobs, _settled(plant, plan), tip_force_n, progress)
+    process = process or Process()
+    sheet = PlantSheet(process, 1e-3 * knobs["friction_reversal_mm"])
+    scanned = process.force_model != "table"
+    return _step(plant, plan, sheet, scanned, _settled(plant, plan), tip_force_n, progress)
 
 
 class _Plan(NamedTuple):
@@ -150,10 +155,11 @@ def _plan(plant: Plant, knobs: Knobs, t_cmd: np.ndarray, p_cmd: np.ndarray, plac
     n_tick = int(np.floor(t_cmd[-1] / dt + 1e-9)) + 1
     t_tick = dt * np.arange(n_tick)
     q_sp, dq_sp, g_ff = servo_setpoints(t_cmd, q_ik, g_ik, plant, knobs, t_tick)
+    tau_ff = g_ff + gains.inertia * setpoint_acceleration(dq_sp, t_tick, knobs["trajectory_period_s"])
     pass_cmd, dir_cmd = label_passes(p_cmd[:, 0], deadband_m=PASS_DEADBAND_M)
     idx = np.minimum(np.searchsorted(t_cmd, t_tick, side="left"), len(t_cmd) - 1)
     return _Plan(
-        t_tick, q_sp, q_sp + (gains.kv * dq_sp + g_ff) / gains.kp, gains.ki / gains.kp,
+        t_tick, q_sp, q_sp + (gains.kv * dq_sp + tau_ff) / gains.kp, gains.ki / gains.kp,
         [int(v) for v in pass_cmd[idx]], [int(v) for v in dir_cmd[idx]], origin, R_ws,
         rest_state(plant, q_ik[0], g_ik[0]), q_sp[0] + g_ff[0] / gains.kp,
     )
@@ -191,13 +197,12 @@ class _Logs(NamedTuple):
 
 
 def _step(
-    plant: Plant, plan: _Plan, field: ForceField, knobs: Knobs, d: mujoco.MjData, tip_force_n: np.ndarray | None,
+    plant: Plant, plan: _Plan, sheet: PlantSheet, scanned: bool, d: mujoco.MjData, tip_force_n: np.ndarray | None,
     progress: TextIO | None,
 ) -> DynamicLog:
     """Step the plant through every tick against the sheet (or the load), and log what happened."""
-    m, (t_tick, _, _, _, passes, dirs, origin, R_ws, _, _) = plant.model, plan
+    m, (t_tick, _, _, _, _, dirs, origin, R_ws, _, _) = plant.model, plan
     dt = m.opt.timestep
-    flips_with_command = field.tangential_from_command  # its in-plane force follows the real travel here
     band = plant.dead_band_joints
     band_qpos, band_dof, half_band = plant.link_qpos[band], plant.link_dof[band], plant.backlash_rad[band] / 2.0
     tip, xipos, R_ft = d.site_xpos[plant.tcp_site], d.xipos[plant.tool_body], d.site_xmat[plant.ft_site]
@@ -205,9 +210,7 @@ def _step(
     motor_qpos, link_qpos = plant.motor_qpos, plant.link_qpos
     n_tick = len(t_tick)
     log, integral = _Logs.empty(n_tick, plant.dof), np.zeros(plant.dof)
-    # tangential (friction and ploughing) force: follows the real travel, reversing over `friction_reversal_mm`
-    slip, slip_gain = float(dirs[0]), 2.0 / (1e-3 * knobs["friction_reversal_mm"])
-    x_prev = float(R_ws[:, 0] @ (tip - origin))
+    sheet.start((tip - origin) @ R_ws, dirs[0])
     step_report = max(1, n_tick // 10)
     start = time.perf_counter()
     for k in range(n_tick):
@@ -217,11 +220,7 @@ def _step(
         d.ctrl[:] = plan.ctrl_ff[k] + plan.ki_over_kp * integral
         p = (tip - origin) @ R_ws  # sheet frame
         if tip_force_n is None:
-            f = field.force(p, passes[k], dirs[k])
-            if flips_with_command:
-                slip = min(1.0, max(-1.0, slip + slip_gain * (float(p[0]) - x_prev)))
-                x_prev = float(p[0])
-                f[0] *= slip * dirs[k]
+            f = sheet.force(p)
             f_world = R_ws @ f
         else:
             f_world = f = tip_force_n * min(1.0, t_tick[k] / LOAD_RAMP_S)
@@ -237,18 +236,23 @@ def _step(
         mujoco.mj_step2(m, d)  # forces, the F/T sensor at the state logged above, integration
         log.ft[k], log.R[k] = ft, R_ft
         if tip_force_n is None:
-            field.advance(p, passes[k])
+            sheet.advance(p)
         if not np.isfinite(d.qpos[0]):
             raise InputError(f"the dynamic plant diverged at t = {t_tick[k]:.4f} s (timestep {dt} s)")
         if progress is not None and (k + 1) % step_report == 0:
             print(f"  dynamic plant: {t_tick[k]:6.2f} / {t_tick[-1]:.2f} s simulated, "
                   f"{time.perf_counter() - start:5.1f} s wall", file=progress)
+    wall = time.perf_counter() - start
+    x_m, z_loaded = sheet.section()
+    _, z_unloaded = sheet.unloaded_section()
+    surface = None
+    if scanned:  # the unsupported bottom inside the last contour hangs from the wall, down with it
+        bottom = with_floating_bottom(sheet.x_m, sheet.y_m, sheet.unloaded_surface(), log.p, FORMED_BELOW_M)
+        surface = (sheet.x_m.copy(), sheet.y_m.copy(), bottom)
     return DynamicLog(
         t_s=t_tick, p_tip_sheet_m=log.p, f_sheet_n=log.f, f_ft_local_n=log.ft, R_world_ft=log.R.reshape(n_tick, 3, 3),
-        q_link=log.q, q_motor_error=log.e, q_play=log.b,
-        formed_x_m=np.asarray(field.x_grid_m, dtype=float).copy(),
-        formed_z_m=np.asarray(field.formed_z_m, dtype=float).copy(),
-        wall_s=time.perf_counter() - start, formed_surface=formed_surface(field), R_world_sheet=R_ws,
+        q_link=log.q, q_motor_error=log.e, q_play=log.b, formed_x_m=x_m, formed_z_m=z_loaded,
+        unloaded_z_m=z_unloaded, wall_s=wall, formed_surface=surface, R_world_sheet=R_ws,
     )
 
 

@@ -1,0 +1,107 @@
+"""The dynamic plant's own sheet (twin/lab/dynamic/sheet.py): its force on a rigid path, against published
+measurements, and its independence from the twin's force models."""
+
+from __future__ import annotations
+
+import ast
+import itertools
+import math
+import re
+import tomllib
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import twin
+from twin.lab.dynamic.sheet import PlantSheet, voce_mpa, voce_tensile_strength_mpa
+from twin.process.description import Process
+from twin.process.path import groove_path
+from twin.process.shapes import PartSpec, part_path
+
+ROOT = Path(twin.__file__).resolve().parent
+DOC = ROOT.parent / "docs" / "dynamic-plant.md"
+#: The twin's process models: the plant's sheet must not reach them (its force, history, fit and springback).
+TWIN_PROCESS = ("force_models", "force_field", "field", "isf_force", "isf_params", "isf_calibration", "aerens",
+                "fe_history", "forces", "tool_friction", "heightmap", "sliding", "pass_tables", "formed_profile")
+TWIN_NAMES = ("SheetForceField", "default_force_history", "unloaded_profile", "build_force_field", "K_UNLOAD_N_PER_M")
+
+
+def _rigid(path_xyz: np.ndarray, process: Process) -> np.ndarray:
+    """The sheet's force [N] along a path driven rigidly (no robot), (n, 3)."""
+    sheet = PlantSheet(process, 5e-5)
+    sheet.start(path_xyz[0], 1)
+    out = np.empty((len(path_xyz), 3))
+    for i, p in enumerate(path_xyz):
+        out[i] = sheet.force(p)
+        sheet.advance(p)
+    return out
+
+
+def test_the_plant_sheet_imports_none_of_the_twins_process_models() -> None:
+    offenders = []
+    for file in sorted((ROOT / "lab" / "dynamic").glob("*.py")):
+        tree = ast.parse(file.read_text(encoding="utf-8"))
+        for node in ast.walk(tree):
+            if isinstance(node, ast.ImportFrom) and node.module:
+                if node.module.startswith("twin.process.") and node.module.split(".")[-1] in TWIN_PROCESS:
+                    offenders.append(f"{file.name}: {node.module}")
+                offenders += [f"{file.name}: {a.name}" for a in node.names if a.name in TWIN_NAMES]
+    assert not offenders, offenders
+
+
+def test_the_flow_curve_is_the_thesis_voce_law() -> None:
+    # thesis Eq. 1.3 at its own points, and its engineering R_m by the necking condition (~288 MPa)
+    assert float(voce_mpa(0.0)) == pytest.approx(130.2)
+    assert float(voce_mpa(1.0)) == pytest.approx(130.2 + 300.37 * math.sqrt(1.0 - math.exp(-3.94)))
+    assert voce_tensile_strength_mpa() == pytest.approx(288.0, abs=3.0)
+
+
+def test_the_steady_cone_force_against_numisheet_bm3_measured() -> None:
+    """Predicted, not fitted: the published case's sheet and tool, a 45 deg cone, the rigid steady force."""
+    cases = tomllib.loads((ROOT / "data" / "force_measurements.toml").read_text(encoding="utf-8"))["cases"]
+    bm3 = next(c for c in cases if c["key"] == "BM3 cone")
+    process = Process(tensile_strength_mpa=bm3["tensile_strength_mpa"], thickness_m=1e-3 * bm3["thickness_mm"],
+                      tool_radius_m=0.5e-3 * bm3["tool_diameter_mm"], force_model="isf")
+    path = part_path(PartSpec(shape="cone", top_half_width_m=0.062, depth_m=0.02, wall_angle_deg=45.0,
+                              step_down_m=1e-3 * bm3["step_down_mm"]))
+    f = _rigid(path.p_sheet_m, process)
+    steady = float(np.mean(f[2 * len(f) // 3 :, 2]))
+    assert steady == pytest.approx(1151.0, abs=5.0)  # the documented value
+    assert abs(steady / bm3["fz_steady_n"] - 1.0) < 0.3  # -25 % against the measured mean (1 525 N)
+    assert "1 151 N (-25 %)" in DOC.read_text(encoding="utf-8")
+
+
+def test_a_cone_wall_pulls_up_and_the_wrap_pushes_the_tool_inwards() -> None:
+    path = part_path(PartSpec())  # the thesis's sheet, a 45 deg cone 40 mm deep
+    f = _rigid(path.p_sheet_m, Process(force_model="isf"))
+    tail = slice(2 * len(f) // 3, None)
+    p = path.p_sheet_m[tail]
+    radial_out = (f[tail, 0] * p[:, 0] + f[tail, 1] * p[:, 1]) / np.hypot(p[:, 0], p[:, 1])
+    fz = float(np.mean(f[tail, 2]))
+    assert fz == pytest.approx(1162.0, abs=5.0)
+    # one strip wrapping the tool from a 45 deg wall to a flat bottom: inwards by tan(22.5 deg) of F_z
+    assert float(np.mean(-radial_out)) == pytest.approx(math.tan(math.radians(22.5)) * fz, rel=0.01)
+    doc = DOC.read_text(encoding="utf-8")
+    assert "1 162 N, radial\n  482 N inwards" in doc or re.search(r"1 162 N, radial\s+482 N inwards", doc)
+
+
+def test_the_groove_force_builds_up_with_depth_to_the_documented_peak() -> None:
+    path = groove_path()
+    f = _rigid(path.p_sheet_m, Process())
+    depth = -path.p_sheet_m[:, 2]
+    at = [float(np.max(f[(depth > d - 0.3e-3) & (depth < d + 0.3e-3), 2])) for d in (1e-3, 3e-3, 5e-3, 7e-3)]
+    assert all(b > a for a, b in itertools.pairwise(at))  # depth build-up
+    np.testing.assert_allclose(at, [97, 742, 1632, 2279], atol=1.0)  # as docs/dynamic-plant.md states them
+    assert float(np.max(f[:, 2])) == pytest.approx(2640.0, abs=5.0)
+    doc = DOC.read_text(encoding="utf-8")
+    assert "2.64 kN" in doc and re.search(r"97, 742, 1 632, 2 279 N at 1, 3, 5, 7 mm deep", doc)
+
+
+def test_springback_is_the_membrane_stress_relaxed_by_hookes_law() -> None:
+    sheet = PlantSheet(Process(), 5e-5)
+    alpha = math.radians(45.0)
+    eps = 2.0 / math.sqrt(3.0) * math.log(1.0 / math.cos(alpha))
+    sigma_phi = 2.0 / math.sqrt(3.0) * sheet.scale * float(voce_mpa(eps)) * 1e6
+    assert sheet.springback_m(0.01, alpha) == pytest.approx(0.01 * sigma_phi * (1 - 0.33**2) / 71e9)
+    assert sheet.springback_m(-0.01, alpha) == 0.0

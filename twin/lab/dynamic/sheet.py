@@ -1,0 +1,229 @@
+"""The dynamic plant's own sheet: a membrane force on its own formed surface, and its own springback.
+
+Nothing here comes from the twin's force models (no FE history, no fitted field, not Aerens's formula): the
+plant forms its own sheet from its own material law, in a form the twin does not have.
+
+* **Formed surface**: a 2-D grid (0.5 mm) of the lower envelope of the tool sphere along the real tool-tip path
+  (`advance`), the sheet's loaded shape under the tool (pure geometry; the sheet's sag between contours is not
+  modelled).
+* **Force: membrane equilibrium across the tool** (the membrane analysis of SPIF: Silva, Skjoedt, Martins,
+  Bay, "Revisiting the fundamentals of single point incremental forming by means of membrane analysis", Int J
+  Mach Tools Manuf 48 (2008) 73-83: the deforming sheet carries a meridional membrane force sigma_phi t per
+  unit width in plane strain). The sheet wraps the tool across its travel, from the formed surface on its left
+  to the one on its right; each side leaves the tool at its angle alpha_s, the larger of atan(rise_s / R), rise_s
+  the formed surface one tool radius R to that side above the tip (0 on flat sheet, so the force builds up with
+  depth to the tool's own flank angle, 45 deg), and the slope of the formed surface from R to 2R (a wall formed
+  by earlier contours: a cone's wall angle). A side the tool never pressed (read 1.2 R across), across from one
+  it did, is an unsupported bottom (a cone's inside, hanging from the wall): the same strip runs on from the
+  wall, flat (alpha 0, the wall's N and w), one membrane strip wrapped around the tool (its horizontal pull is
+  then tan(alpha/2) of F_up, inwards). Each side pulls with N_s = sigma_phi(alpha_s) t_s over its contact length
+  along the travel, w_s = R sin alpha_s (the front of the sphere against a wall tangent at alpha_s): the force on
+  the tool
+
+      F_up = w_l N_l sin alpha_l + w_r N_r sin alpha_r,   F_left = w_l N_l cos alpha_l - w_r N_r cos alpha_r,
+
+  and Coulomb friction against the travel, -mu F_up (mu the process's declared tool friction). The wall
+  thickness follows the sine law t_s = t0 cos alpha_s (t = t0 sin(90 deg - alpha), Jeswiet, Micari, Hirt,
+  Bramley, Duflou, Allwood, "Asymmetric single point incremental forming of sheet metal", CIRP Annals 54/2
+  (2005) 623-649), the strain is the plane-strain thinning eps = (2/sqrt 3) ln(t0/t_s) and sigma_phi =
+  (2/sqrt 3) sigma(eps) (von Mises, plane strain). The combination is written here; it is not a published
+  formula with published constants, and it was not fitted to anything.
+* **Material**: the flow curve measured for the thesis's AA5086-H111 (thesis Eq. 1.3, Voce with m = 1/2:
+  sigma = 130.2 + 300.37 (1 - exp(-3.94 eps))^0.5 MPa), scaled by the declared R_m over the law's own
+  engineering R_m (necking: d sigma / d eps = sigma), so a stronger declared sheet forms harder (the twin's force
+  models use R_m alone, not this law); E = 71 GPa
+  (SubsTech, "Wrought aluminum-magnesium alloy 5086"), nu = 0.33 (ASM/MatWeb, "Aluminum 5086-H116").
+* **Contact**: the step met one radius ahead of the tip, dz; below 0 the force falls linearly to zero over the
+  sheet's elastic recovery there (`springback_m`, at least `MIN_RECOVERY_M`): a tool that rose above the
+  surface ahead leaves the sheet. Above it the force does not depend on dz (a membrane force).
+* **Travel**: a 2-D slip state follows the real tip, turning over `reversal_m` of travel (the knob
+  `friction_reversal_mm`): friction and the sides need the tool to move.
+* **Springback** (after unclamping): the formed wall's membrane stress relaxes elastically; a wall of slant
+  length D / sin alpha shortens by its plane-strain elastic strain sigma_phi (1 - nu^2) / E, so a point at depth
+  D rises by D sigma_phi(alpha) (1 - nu^2) / E, alpha the local slope (Hooke's law on the membrane stress above;
+  a local elastic recovery under the tool is not modelled).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from twin.process.description import Process
+
+#: Thesis Eq. 1.3: the measured AA5086-H111 flow curve, sigma = S0 + Q (1 - exp(-B eps))^M [MPa].
+VOCE_S0_MPA, VOCE_Q_MPA, VOCE_B, VOCE_M = 130.2, 300.37, 3.94, 0.5
+#: Young's modulus [Pa] (SubsTech 5086) and Poisson's ratio [-] (ASM/MatWeb 5086-H116).
+YOUNGS_MODULUS_PA, POISSON_RATIO = 71.0e9, 0.33
+GRID_SPACING_M = 5e-4  # formed-surface grid [m]
+HALF_SIZE_M = 0.12  # the grid covers +/- this around the sheet origin [m]
+MIN_RECOVERY_M = 0.01e-3  # least elastic follow of the sheet behind a rising tool [m]
+FORMED_READ = 1.2  # a side is read as formed or not this many tool radii across the travel (past its own track)
+MAX_ANGLE_RAD = math.radians(70.0)  # a side steeper than this is a step, read as this angle
+_PLANE = 2.0 / math.sqrt(3.0)
+
+
+def voce_mpa(eps: np.ndarray | float) -> np.ndarray:
+    """The thesis's AA5086-H111 flow stress [MPa] at true plastic strain `eps` [-]."""
+    e = np.maximum(np.asarray(eps, dtype=float), 0.0)
+    return VOCE_S0_MPA + VOCE_Q_MPA * (1.0 - np.exp(-VOCE_B * e)) ** VOCE_M
+
+
+def voce_tensile_strength_mpa() -> float:
+    """The Voce law's engineering tensile strength [MPa]: sigma exp(-eps) at necking, d sigma/d eps = sigma."""
+    eps = np.linspace(1e-4, 1.0, 20001)
+    return float(np.max(voce_mpa(eps) * np.exp(-eps)))
+
+
+class PlantSheet:
+    """The plant's sheet (module docstring): formed surface, membrane force, springback.
+
+    Args:
+        process: The declared sheet and tool: thickness, tool radius, tool friction and R_m (which scales the
+            thesis's flow curve).
+        reversal_m: Tool travel over which the friction and the sides turn with the travel [m].
+    """
+
+    def __init__(self, process: Process, reversal_m: float) -> None:
+        self.radius = float(process.tool_radius_m)
+        self.t0 = float(process.thickness_m)
+        self.mu = float(process.tool_friction)
+        self.scale = float(process.tensile_strength_mpa) / voce_tensile_strength_mpa()
+        self.slip_gain = 2.0 / reversal_m
+        n = round(2 * HALF_SIZE_M / GRID_SPACING_M) + 1
+        self.x_m = np.linspace(-HALF_SIZE_M, HALF_SIZE_M, n)
+        self.y_m = self.x_m.copy()
+        half = math.ceil(self.radius / GRID_SPACING_M) + 1
+        self._offsets = GRID_SPACING_M * np.arange(-half, half + 1)
+        self.reset()
+
+    def reset(self) -> None:
+        """A flat sheet, the tool at rest along +x."""
+        self.z_m = np.zeros((len(self.y_m), len(self.x_m)))
+        self.pressed = np.zeros(self.z_m.shape, dtype=bool)
+        self.slip = np.array([1.0, 0.0])
+        self.travel = np.array([1.0, 0.0])
+        self._last: np.ndarray | None = None
+
+    def start(self, p_sheet_m: np.ndarray, direction: float) -> None:
+        """Where the tool starts [m] and the direction along x it starts to travel (+1 or -1)."""
+        self._last = np.asarray(p_sheet_m, dtype=float)[:2].copy()
+        self.slip = np.array([float(direction), 0.0])
+        self.travel = self.slip.copy()
+
+    def height(self, x: float, y: float) -> float:
+        """Formed (loaded) surface at (x, y) [m], bilinear; 0 off the grid."""
+        fx = (x + HALF_SIZE_M) / GRID_SPACING_M
+        fy = (y + HALF_SIZE_M) / GRID_SPACING_M
+        ix, iy = math.floor(fx), math.floor(fy)
+        if ix < 0 or iy < 0 or ix >= len(self.x_m) - 1 or iy >= len(self.y_m) - 1:
+            return 0.0
+        u, v = fx - ix, fy - iy
+        z = self.z_m
+        low = z[iy, ix] * (1 - u) + z[iy, ix + 1] * u
+        high = z[iy + 1, ix] * (1 - u) + z[iy + 1, ix + 1] * u
+        return float(low * (1 - v) + high * v)
+
+    def formed(self, x: float, y: float) -> bool:
+        """Whether the tool sphere has pressed the grid node nearest (x, y)."""
+        ix = round((x + HALF_SIZE_M) / GRID_SPACING_M)
+        iy = round((y + HALF_SIZE_M) / GRID_SPACING_M)
+        if ix < 0 or iy < 0 or ix >= len(self.x_m) or iy >= len(self.y_m):
+            return False
+        return bool(self.pressed[iy, ix])
+
+    def membrane_n_per_m(self, alpha: float) -> float:
+        """Membrane force per unit width sigma_phi t of a side leaving the tool at `alpha` [rad], in [N/m]."""
+        c = math.cos(alpha)
+        eps = _PLANE * math.log(1.0 / c)
+        return _PLANE * self.scale * float(voce_mpa(eps)) * 1e6 * self.t0 * c
+
+    def springback_m(self, depth_m: float, alpha: float) -> float:
+        """Elastic rise [m] of a point at depth `depth_m` [m] on a wall of slope `alpha` [rad]."""
+        c = math.cos(alpha)
+        sigma_phi = _PLANE * self.scale * float(voce_mpa(_PLANE * math.log(1.0 / c))) * 1e6
+        return max(depth_m, 0.0) * sigma_phi * (1.0 - POISSON_RATIO**2) / YOUNGS_MODULUS_PA
+
+    def force(self, p_sheet_m: np.ndarray) -> np.ndarray:
+        """Force of the sheet on the tool [N], (3,), sheet frame, at tip `p_sheet_m` [m]; pure."""
+        x, y, z = (float(v) for v in p_sheet_m)
+        r = self.radius
+        tx, ty = float(self.travel[0]), float(self.travel[1])
+        alpha = [min(self._side_angle(x, y, z, sx, sy), MAX_ANGLE_RAD) for sx, sy in ((-ty, tx), (ty, -tx))]
+        met = self.height(x + r * tx, y + r * ty) - z  # the step the tool meets one radius ahead
+        n = [self.membrane_n_per_m(a) for a in alpha]
+        w = [r * math.sin(a) for a in alpha]  # front contact along the travel
+        far = FORMED_READ * r  # beyond the tool's own track
+        formed = [self.formed(x - far * ty, y + far * tx), self.formed(x + far * ty, y - far * tx)]
+        for s, o in ((0, 1), (1, 0)):
+            if formed[o] and not formed[s]:  # an unsupported bottom: the strip from the wall runs on, flat
+                alpha[s], n[s], w[s] = 0.0, n[o], w[o]
+        up = w[0] * n[0] * math.sin(alpha[0]) + w[1] * n[1] * math.sin(alpha[1])
+        left = w[0] * n[0] * math.cos(alpha[0]) - w[1] * n[1] * math.cos(alpha[1])
+        recovery = max(self.springback_m(-z, max(alpha)), MIN_RECOVERY_M)
+        contact = min(1.0, max(0.0, 1.0 + met / recovery))
+        if contact <= 0.0:
+            return np.zeros(3)
+        friction = -self.mu * up * self.slip
+        return contact * np.array([friction[0] - left * ty, friction[1] + left * tx, up])
+
+    def _side_angle(self, x: float, y: float, z: float, sx: float, sy: float) -> float:
+        """Angle [rad] at which the sheet leaves the tool towards (sx, sy): the larger of the chord from the tip to
+        the surface one radius away and the surface's own slope from one to two radii away (a formed wall)."""
+        r = self.radius
+        h1 = self.height(x + r * sx, y + r * sy)
+        h2 = self.height(x + 2.0 * r * sx, y + 2.0 * r * sy)
+        return max(math.atan2(max(h1 - z, 0.0), r), math.atan2(max(h2 - h1, 0.0), r))
+
+    def advance(self, p_sheet_m: np.ndarray) -> None:
+        """Commit: the tool tip passed through `p_sheet_m` [m]: the surface under the sphere, the travel state."""
+        p = np.asarray(p_sheet_m, dtype=float)
+        if self._last is not None:
+            self.slip = self.slip + self.slip_gain * (p[:2] - self._last)
+            norm = float(np.hypot(*self.slip))
+            if norm > 1.0:
+                self.slip, norm = self.slip / norm, 1.0
+            if norm > 0.1:
+                self.travel = self.slip / norm
+        self._last = p[:2].copy()
+        self._press(p)
+
+    def _press(self, p: np.ndarray) -> None:
+        """Lower the grid to the tool sphere's underside around the tip."""
+        ix = round((p[0] + HALF_SIZE_M) / GRID_SPACING_M)
+        iy = round((p[1] + HALF_SIZE_M) / GRID_SPACING_M)
+        k = len(self._offsets) // 2
+        x0, x1 = max(ix - k, 0), min(ix + k + 1, len(self.x_m))
+        y0, y1 = max(iy - k, 0), min(iy + k + 1, len(self.y_m))
+        if x0 >= x1 or y0 >= y1:
+            return
+        dx = self.x_m[x0:x1] - p[0]
+        dy = self.y_m[y0:y1] - p[1]
+        r2 = dy[:, None] ** 2 + dx[None, :] ** 2
+        inside = r2 < self.radius**2
+        under = p[2] + self.radius - np.sqrt(np.where(inside, self.radius**2 - r2, 0.0))
+        patch = self.z_m[y0:y1, x0:x1]
+        np.minimum(patch, np.where(inside, under, np.inf), out=patch)
+        self.pressed[y0:y1, x0:x1] |= inside
+
+    def section(self) -> tuple[np.ndarray, np.ndarray]:
+        """The loaded surface along y = 0: x [m], z [m]."""
+        return self.x_m.copy(), self._row(self.z_m)
+
+    def unloaded_surface(self) -> np.ndarray:
+        """The surface after unclamping [m], (ny, nx): each point risen by its springback, never above 0."""
+        gy, gx = np.gradient(self.z_m, GRID_SPACING_M)
+        alpha = np.minimum(np.arctan(np.hypot(gx, gy)), MAX_ANGLE_RAD)
+        cos = np.cos(alpha)
+        sigma_phi = _PLANE * self.scale * voce_mpa(_PLANE * np.log(1.0 / cos)) * 1e6
+        rise = -self.z_m * sigma_phi * (1.0 - POISSON_RATIO**2) / YOUNGS_MODULUS_PA
+        return np.minimum(self.z_m + rise, 0.0)
+
+    def unloaded_section(self) -> tuple[np.ndarray, np.ndarray]:
+        """The surface after unclamping along y = 0: x [m], z [m]."""
+        return self.x_m.copy(), self._row(self.unloaded_surface())
+
+    def _row(self, z: np.ndarray) -> np.ndarray:
+        iy = round(HALF_SIZE_M / GRID_SPACING_M)
+        return z[iy].copy()
