@@ -5,7 +5,9 @@ Modules: `info`, `path`, `fe_history`, `identify`, `calibrate`, `reproduce`, `fo
 one per command; `_common` holds the options several commands share (the FE history, the force model, the declared
 process, the placement) and the twin they make (`spec_from_arguments`).
 
-Each command module defines `HELP` (one line), `add_arguments(parser)` and `run(args) -> int`.
+Each command module defines `HELP` (one line), `add_arguments(parser)` and `run(args) -> int`. Before a command runs,
+its outputs (the options in `OUTPUT_OPTIONS`) pass `twin.base.outputs.check_outputs` against every option naming an
+existing file or folder: an output never replaces an input or another output.
 Commands that report numbers take `--json FILE` (`-` for stdout) and print a short human summary. A `TwinError`
 ends the command with its message and exit code 2; a warning (e.g. an effect read under a name used before) is
 printed as a note, a model used outside its published range (`ExtrapolationWarning`) as a warning.
@@ -18,8 +20,22 @@ import importlib
 import sys
 import warnings
 from collections.abc import Sequence
+from importlib import metadata
+from pathlib import Path
 
+from twin.base.outputs import check_outputs
 from twin.errors import AssumptionWarning, ExtrapolationWarning, TwinError
+
+# the options that write; every other option (or positional) naming an existing path is an input
+OUTPUT_OPTIONS = ("--out", "--json", "--gcode-out", "--stl-out", "--write-model", "--model-out", "--report", "--work",
+                  "--markdown", "--figure", "--readme", "--rrd")
+# (command, option) whose folder is replaced as a whole (a run directory written by renames)
+REPLACED_FOLDERS = {("lab", "--out"), ("import", "--out")}
+EXIT_CODES = """exit codes:
+  0  done
+  1  done, and the result failed the check it reports (`check`: a gain away from 1)
+  2  refused: a bad option or input file (the message names it and what was expected), an output that would
+     replace an input, or an output that cannot be written; nothing is written"""
 
 # command name -> module under twin.cli (imported lazily so `--help` stays fast)
 COMMANDS: dict[str, str] = {
@@ -50,7 +66,10 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="tx200-twin",
         description="MuJoCo digital twin of a compliant Staubli TX200 forming a groove in sheet metal.",
+        epilog=EXIT_CODES,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
+    parser.add_argument("--version", action="version", version=f"%(prog)s {_version()}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     for name, module_name in COMMANDS.items():
         module = importlib.import_module(f"twin.cli.{module_name}")
@@ -58,6 +77,31 @@ def build_parser() -> argparse.ArgumentParser:
         module.add_arguments(command)
         command.set_defaults(_run=module.run)
     return parser
+
+
+def _version() -> str:
+    try:
+        return metadata.version("tx200-twin")
+    except metadata.PackageNotFoundError:
+        return "unknown (not installed)"
+
+
+def check_command_outputs(parser: argparse.ArgumentParser, args: argparse.Namespace) -> None:
+    """`check_outputs` for a parsed command line: its `OUTPUT_OPTIONS` against every other path it names."""
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    inputs: list[tuple[str, str | Path]] = []
+    outputs: list[tuple[str, str | Path]] = []
+    for action in sub.choices[args.command]._actions:
+        value = getattr(args, action.dest, None)
+        if action.dest in ("help", "_run") or action.choices is not None or not isinstance(value, str | Path):
+            continue
+        name = action.option_strings[-1] if action.option_strings else str(action.metavar or action.dest).upper()
+        if name in OUTPUT_OPTIONS:
+            outputs.append((name, value))
+        elif Path(value).exists() or Path(value).is_symlink():
+            inputs.append((name, value))
+    replaced = {option for command, option in REPLACED_FOLDERS if command == args.command}
+    check_outputs(inputs, outputs, replaced=replaced)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -69,9 +113,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         warnings.simplefilter("always", ExtrapolationWarning)
         warnings.simplefilter("always", AssumptionWarning)
         try:
+            check_command_outputs(parser, args)
             return int(args._run(args))
         except TwinError as exc:
             print(f"tx200-twin {args.command}: error: {exc}", file=sys.stderr)
+            return 2
+        except OSError as exc:  # a file system refusal no reader or writer foresaw: named, not a traceback
+            print(f"tx200-twin {args.command}: error: {exc.filename}: {exc.strerror or exc}", file=sys.stderr)
             return 2
         finally:
             for note in dict.fromkeys(str(w.message) for w in caught

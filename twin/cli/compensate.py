@@ -31,6 +31,7 @@ from twin.cli._common import (
     ideal_from_arguments,
     spec_from_arguments,
 )
+from twin.cli._types import count, finite
 from twin.errors import DataFileError, InputError
 from twin.process.force_models import build_force_field
 from twin.process.forces import ForceHistory
@@ -55,19 +56,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_robot_argument(parser)
     add_placement_arguments(parser, "sheet placement (the twin's)")
     parser.add_argument(
-        "--tol-mm", type=float, default=1e3 * TWIN_TOL_M, help="--method twin: stop below this |residual| [mm]"
+        "--tol-mm", type=finite, default=1e3 * TWIN_TOL_M, help="--method twin: stop below this |residual| [mm]"
     )
-    parser.add_argument("--max-iter", type=int, default=TWIN_MAX_ITER, help="--method twin: iteration limit")
+    parser.add_argument("--max-iter", type=count, default=TWIN_MAX_ITER, help="--method twin: iteration limit")
     part = parser.add_argument_group("the formed part to the design (--method twin, a height-map force model)")
     part.add_argument("--target-stl", type=Path, metavar="DESIGN",
                       help="design surface (STL, PLY or OBJ; sheet frame, mm, tool side, z = 0 at the sheet's top): "
                       "compensate so that the twin's part after unclamping lies on it, springback included")
-    part.add_argument("--part-iterations", type=int, default=2, help="outer iterations on the part (default 2)")
+    part.add_argument("--part-iterations", type=count, default=2, help="outer iterations on the part (default 2)")
     part.add_argument("--learn-from", type=Path, metavar="RUN",
                       help="the last part's run (its command and part scan): the next command from its measured "
                       "deviation from the design")
-    part.add_argument("--learn-gain", type=float, default=1.0, help="learning gain (0, 1] (default 1)")
-    part.add_argument("--learn-smoothing-mm", type=float, default=2.0, help="smoothing along the path (default 2)")
+    part.add_argument("--learn-gain", type=finite, default=1.0, help="learning gain (0, 1] (default 1)")
+    part.add_argument("--learn-smoothing-mm", type=finite, default=2.0, help="smoothing along the path (default 2)")
     parser.add_argument("--out", type=Path, required=True, help="compensated path, commanded.csv format")
     parser.add_argument("--json", help="write the numbers to FILE ('-' for stdout)")
 

@@ -18,6 +18,8 @@ import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
+from twin.base.csvio import make_folder
+from twin.base.outputs import plain_mode, write_failure
 from twin.errors import InputError, ModelError
 from twin.process.placement import Placement
 from twin.robot.description import load_robot
@@ -134,7 +136,7 @@ def record_runs(
     ideal = None if ideal_sheet_m is None else checked_points("ideal_sheet_m", ideal_sheet_m)
     prefixes = [f"{name}/" if name else "" for name in names]
     target = Path(path)
-    target.parent.mkdir(parents=True, exist_ok=True)
+    make_folder(target.parent)
     tmp = target.parent / f".{target.name}.{os.getpid()}.{uuid.uuid4().hex}.tmp"
     rec = rr.RecordingStream(application_id, send_properties=False)
     try:
@@ -143,10 +145,13 @@ def record_runs(
             log_replay(rec, prefix, run, replay, ideal, twin_model, origin, R_base_sheet)
         rec.flush()
         rec.disconnect()
+        plain_mode(tmp)
         os.replace(tmp, target)
-    except BaseException:
+    except BaseException as exc:
         rec.disconnect()
         tmp.unlink(missing_ok=True)
+        if isinstance(exc, OSError):
+            raise write_failure(target, exc) from None
         raise
     return target
 
