@@ -3,7 +3,8 @@
 Modules: `info`, `path`, `fe_history`, `identify`, `calibrate`, `reproduce`, `force_validation`, `lab`, `replay`,
 `compensate`, `check`, `bench`, `sweep`, `discrepancy`, `demo`, `import_run` (`import`), `export`, `materials` and `robots`,
 one per command; `_common` holds the options several commands share (the FE history, the force model, the declared
-process, the placement) and the twin they make (`spec_from_arguments`).
+process, the placement) and the twin they make (`spec_from_arguments`); `_types` the argparse types with plausible
+ranges (seeds, counts, lengths, feeds).
 
 Each command module defines `HELP` (one line), `add_arguments(parser)` and `run(args) -> int`. Before a command runs,
 its outputs (the options in `OUTPUT_OPTIONS`) pass `twin.base.outputs.check_outputs` against every option naming an
@@ -23,11 +24,13 @@ from collections.abc import Sequence
 from importlib import metadata
 from pathlib import Path
 
+import numpy as np
+
 from twin.base.outputs import check_outputs
 from twin.errors import AssumptionWarning, ExtrapolationWarning, TwinError
 
 # the options that write; every other option (or positional) naming an existing path is an input
-OUTPUT_OPTIONS = ("--out", "--json", "--gcode-out", "--stl-out", "--write-model", "--model-out", "--report", "--work",
+OUTPUT_OPTIONS = ("--out", "--json", "--gcode-out", "--stl-out", "--design-stl", "--write-model", "--model-out", "--report", "--work",
                   "--markdown", "--figure", "--readme", "--rrd")
 # (command, option) whose folder is replaced as a whole (a run directory written by renames)
 REPLACED_FOLDERS = {("lab", "--out"), ("import", "--out")}
@@ -108,7 +111,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the `tx200-twin` console script."""
     parser = build_parser()
     args = parser.parse_args(argv)
-    with warnings.catch_warnings(record=True) as caught:
+    with warnings.catch_warnings(record=True) as caught, np.printoptions(legacy="1.25"):  # 3.96, not np.float64(3.96)
         warnings.simplefilter("always", FutureWarning)
         warnings.simplefilter("always", ExtrapolationWarning)
         warnings.simplefilter("always", AssumptionWarning)

@@ -73,6 +73,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", help="write the numbers to FILE ('-' for stdout)")
 
 
+SYMMETRY_TOLERANCE = 0.25  # |K - K^T| / max|K| allowed: Method 2 on a noisy lab run fits up to ~0.15
+
+
 def _stiffness(path: Path) -> np.ndarray:
     payload = read_json(path)
     if "k_r_n_per_mm" not in payload:
@@ -80,6 +83,16 @@ def _stiffness(path: Path) -> np.ndarray:
     k = np.asarray(payload["k_r_n_per_mm"], dtype=float)
     if k.shape not in ((2, 2), (3, 3)):
         raise DataFileError(path, f"k_r_n_per_mm has shape {k.shape}, expected 2x2 (x-z) or 3x3 [N/mm]")
+    if not np.all(np.isfinite(k)):
+        raise DataFileError(path, f"k_r_n_per_mm holds {k.tolist()}: expected finite numbers [N/mm]")
+    asymmetry = float(np.max(np.abs(k - k.T))) / max(float(np.max(np.abs(k))), 1e-300)
+    if asymmetry > SYMMETRY_TOLERANCE:
+        raise DataFileError(path, f"k_r_n_per_mm is not symmetric: max |K - K^T| is {asymmetry:.3g} of max |K|, "
+                                  f"expected a stiffness matrix symmetric within {SYMMETRY_TOLERANCE:g}")
+    smallest = float(np.linalg.eigvalsh(0.5 * (k + k.T))[0])
+    if smallest <= 0.0:
+        raise DataFileError(path, f"k_r_n_per_mm is not positive definite (smallest eigenvalue {smallest:.4g} N/mm): "
+                                  "a stiffness pushes back; expected all eigenvalues > 0")
     return 1e3 * k
 
 
