@@ -67,8 +67,23 @@ def _is_dir(path: str | Path) -> bool:
         return False
 
 
+def _check_writable(option: str, out: str | Path, folder: bool) -> None:
+    """InputError unless `out` can be created: not a folder where a file is expected, under a writable folder."""
+    path = Path(out)
+    if not folder and _is_dir(path):
+        raise InputError(f"{option} {out} is a folder; expected a file name")
+    parent = path.parent
+    while not os.path.lexists(parent) and parent != parent.parent:
+        parent = parent.parent
+    if not _is_dir(parent):
+        raise InputError(f"{option} {out}: {parent} is a file, not a folder; expected a path in a folder")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise InputError(f"{option} {out}: the folder {parent} is not writable; expected a writable location")
+
+
 def check_outputs(
-    inputs: Sequence[Named], outputs: Sequence[Named], *, replaced: Collection[str] = ()
+    inputs: Sequence[Named], outputs: Sequence[Named], *, replaced: Collection[str] = (),
+    folders: Collection[str] | None = None,
 ) -> None:
     """Refuse outputs that would write over an input or over each other.
 
@@ -76,15 +91,20 @@ def check_outputs(
         inputs: (option as the user typed it, or a positional's name; path) of every input file or folder.
         outputs: (option; path) of every output; `-` (standard output) is skipped.
         replaced: The options among `outputs` whose folder is replaced as a whole (a run directory).
+        folders: The options among `outputs` that are folders; given, every output is also checked to be
+            creatable (a file name that is not a folder, under a writable folder) before anything is written.
 
     Raises:
         InputError: An output is an input, an existing file inside an input folder, a replaced folder holding an
-            input, or the same path as another output; the message names both options and paths.
+            input, the same path as another output, or (with `folders`) cannot be written; the message names the
+            options and paths.
     """
     seen: list[Named] = []
     for option, out in outputs:
         if str(out) == "-":
             continue
+        if folders is not None:
+            _check_writable(option, out, option in folders)
         for source, given in inputs:
             if _same(out, given):
                 raise InputError(f"{option} {out} is the input {source} {given}: an output never replaces an "

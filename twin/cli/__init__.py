@@ -34,6 +34,9 @@ OUTPUT_OPTIONS = ("--out", "--json", "--gcode-out", "--stl-out", "--design-stl",
                   "--markdown", "--figure", "--readme", "--rrd")
 # (command, option) whose folder is replaced as a whole (a run directory written by renames)
 REPLACED_FOLDERS = {("lab", "--out"), ("import", "--out")}
+# (command, option) that names a folder (the rest name files)
+FOLDER_OUTPUTS = {*REPLACED_FOLDERS, ("demo", "--out"), ("reproduce", "--work"), ("discrepancy", "--report"),
+                  ("export", "--out")}
 EXIT_CODES = """exit codes:
   0  done
   1  done, and the result failed the check it reports (`check`: a gain away from 1)
@@ -104,7 +107,8 @@ def check_command_outputs(parser: argparse.ArgumentParser, args: argparse.Namesp
         elif Path(value).exists() or Path(value).is_symlink():
             inputs.append((name, value))
     replaced = {option for command, option in REPLACED_FOLDERS if command == args.command}
-    check_outputs(inputs, outputs, replaced=replaced)
+    folders = {option for command, option in FOLDER_OUTPUTS if command == args.command}
+    check_outputs(inputs, outputs, replaced=replaced, folders=folders)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
