@@ -137,7 +137,8 @@ def read_target_mesh(path: str | Path) -> trimesh.Trimesh:
     if not path.is_file():
         raise DataFileError(path, "no such target mesh file")
     try:
-        mesh = trimesh.load(path, force="mesh")
+        with np.errstate(all="ignore"):  # a non-finite vertex is refused below, not warned about on the way
+            mesh = trimesh.load(path, force="mesh")
     except Exception as exc:
         raise DataFileError(path, f"not a mesh file ({type(exc).__name__}: {str(exc)[:80]}); expected a binary or "
                                   "ASCII STL in millimetres") from None
