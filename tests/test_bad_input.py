@@ -58,7 +58,7 @@ CASES: dict[str, Case] = {
                        ("--wall-angle-deg 95", "(0, 90)")),
     "cone-closes": Case(["path", "--shape", "cone", "--out", "p.csv", "--top-width-mm", "20", "--depth-mm", "60"],
                         {}, ("--top-width-mm", "must exceed")),
-    "thickness-zero": Case(["path", "--out", "p.csv", "--thickness-mm", "0"], {}, ("--thickness-mm", "> 0")),
+    "thickness-zero": Case(["path", "--out", "p.csv", "--thickness-mm", "0"], {}, ("--thickness-mm = 0.0", "> 0")),
     "tool-smaller": Case(["path", "--out", "p.csv", "--thickness-mm", "2", "--tool-radius-mm", "1"], {},
                          ("--tool-radius-mm 1", "--thickness-mm 2", "expected tool radius > thickness")),
     "material": Case(["path", "--out", "p.csv", "--material", "unobtainium"], {},

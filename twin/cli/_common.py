@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from twin.cli._types import finite, length_mm
+from twin.cli._types import finite
 from twin.errors import InputError
 from twin.process.description import Process
 from twin.process.force_models import FORCE_MODELS, auto_force_model, force_model
@@ -201,8 +201,8 @@ def add_process_arguments(parser: argparse.ArgumentParser) -> Any:
         "material_file, thickness_mm, tool_radius_mm, tool_friction, force_model)"
     )
     group.add_argument("--material", metavar="NAME", help="sheet material of the library (`tx200-twin materials`)")
-    group.add_argument("--thickness-mm", type=length_mm, metavar="T", help="sheet thickness [mm]")
-    group.add_argument("--tool-radius-mm", type=length_mm, metavar="R", help="tool radius [mm], larger than the thickness")
+    group.add_argument("--thickness-mm", type=finite, metavar="T", help="sheet thickness [mm]")
+    group.add_argument("--tool-radius-mm", type=finite, metavar="R", help="tool radius [mm], larger than the thickness")
     return group
 
 

@@ -134,7 +134,7 @@ class Effects:
                 raise InputError(f"effect {name} = {value!r}, expected a finite number [{spec.unit}]")
             lo, hi = spec.bounds
             if not lo <= number <= hi:
-                raise InputError(f"effect {name} = {number:g}, expected within [{lo:g}, {hi:g}] [{spec.unit}] (the "
+                raise InputError(f"effect {name} = {number!r}, expected within [{lo:g}, {hi:g}] [{spec.unit}] (the "
                                  "plausible range of a real cell's effect)")
             if number != spec.neutral:
                 clean[name] = number
