@@ -17,6 +17,7 @@ import pytest
 
 from twin.base.csvio import swap_in_directory, temporary_folder, write_json, write_table
 from twin.cli import OUTPUT_OPTIONS, build_parser, main
+from twin.errors import DataFileError
 
 RUN = {"RUN/meta.json": "{}\n", "RUN/commanded.csv": "t_s,x_mm,y_mm,z_mm\n0,0,0,0\n"}
 PATH_CSV = {"p.csv": "t_s,x_mm,y_mm,z_mm\n0,0,0,0\n1,1,0,0\n"}
@@ -149,3 +150,16 @@ def test_atomic_outputs_take_the_umask_mode(mask: int, tmp_path: Path) -> None:
         assert file.stat().st_mode & 0o777 == plain.stat().st_mode & 0o777 == 0o666 & ~mask
     for made in (tmp_path / "new", tmp_path / "swapped"):
         assert made.stat().st_mode & 0o777 == plain_folder.stat().st_mode & 0o777 == 0o777 & ~mask
+
+
+def test_a_failed_write_names_the_target_not_the_temporary(tmp_path: Path) -> None:
+    (tmp_path / "f").write_text("a file where a folder should be")
+    for write in (lambda target: write_table(target, {"x_mm": np.arange(2.0)}),
+                  lambda target: write_json(target, {"a": 1})):
+        target = tmp_path / "f" / "out.csv"
+        with pytest.raises(DataFileError) as info:
+            write(target)
+        assert info.value.path == target and ".tmp" not in str(info.value) and "expected a writable" in str(info.value)
+    with pytest.raises(DataFileError, match="is a folder; expected a file name"):
+        write_json(tmp_path, {"a": 1})
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["f"]

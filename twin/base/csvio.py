@@ -178,7 +178,7 @@ def _atomic_write_text(path: Path, text: str | bytes, protect: Sequence[str | Pa
     if path.is_dir():
         raise DataFileError(path, "is a folder; expected a file name to write")
     try:
-        make_folder(path.parent)
+        path.parent.mkdir(parents=True, exist_ok=True)
         fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     except OSError as exc:
         raise write_failure(path, exc) from None

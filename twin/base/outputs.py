@@ -34,6 +34,8 @@ def plain_mode(path: str | Path, *, directory: bool = False) -> None:
 def write_failure(target: str | Path, exc: OSError) -> DataFileError:
     """The `DataFileError` of a failed write, naming the target and the system's reason."""
     reason = exc.strerror or type(exc).__name__
+    if isinstance(exc, FileExistsError | NotADirectoryError):
+        reason = "a folder on its path is a file"
     return DataFileError(target, f"cannot write it ({reason}); expected a writable location")
 
 

@@ -138,8 +138,8 @@ def read_si_table(
         for name, spelling in typed.items()
     }
     for name, spelling in typed.items():
-        far = np.flatnonzero(np.abs(values[name]) > LARGEST_LENGTH_M) if is_length(name) else []
-        if len(far):
+        far = np.flatnonzero(np.abs(values[name]) > LARGEST_LENGTH_M)
+        if is_length(name) and len(far):
             raise UnitsError(path, f"column '{spelling}' holds {raw[spelling][far[0]]:g}: expected a length within "
                                    f"{LARGEST_LENGTH_M:g} m of the sheet origin", int(far[0]) + 1)
     return SITable(path, values, typed, {name: raw[spelling] for name, spelling in typed.items()})
