@@ -80,7 +80,7 @@ def part_study(out: Path, path_args: list[str], plants: tuple[str, ...] = ("quas
          str(out / "cmd_path.csv"))
     _cli("compensate", "--method", "twin", "--ideal", str(ideal), "--force-model", "isf", "--target-stl", str(design),
          "--out", str(out / "cmd_part.csv"), "--json", str(out / "part.json"), "--figure", str(out / "twin_stages.png"),
-         "--rerun", str(out / "twin_stages.rrd"))
+         "--rrd", str(out / "twin_stages.rrd"))
     mesh = read_target_mesh(design)
     summary: dict[str, Any] = {"path": path_args, "twin_predicted_rms_mm": [
         round(e["part"], 4) for e in json.loads((out / "part.json").read_text())["predicted_surface_rms_mm_per_iteration"]]}

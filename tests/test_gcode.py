@@ -75,7 +75,7 @@ def test_bad_gcode_names_the_file_and_line(tmp_path, text, line, what):
 
 
 def test_missing_file_and_bad_options_are_refused(tmp_path):
-    with pytest.raises(DataFileError, match="cannot read G-code"):
+    with pytest.raises(DataFileError, match="file not found; expected a G-code program"):
         read_gcode(tmp_path / "absent.nc")
     with pytest.raises(InputError, match="spacing_m"):
         parse_gcode("G1 X1 F1\nG1 X2\n", spacing_m=0.0)

@@ -90,7 +90,7 @@ def test_the_options_are_checked(tmp_path: Path, cone, capsys: pytest.CaptureFix
     assert "--figure" in capsys.readouterr().err and not (tmp_path / "f.png").exists()
     assert main(["compensate", "--method", "twin", "--ideal", str(ideal), "--target-stl", str(stl),
                  "--force-model", "isf", "--out", str(tmp_path / "part.csv"), "--json", "-",
-                 "--figure", str(tmp_path / "maps.png"), "--rerun", str(tmp_path / "part.rrd")]) == 0
+                 "--figure", str(tmp_path / "maps.png"), "--rrd", str(tmp_path / "part.rrd")]) == 0
     summary = json.loads(capsys.readouterr().out)
     rms = summary["predicted_surface_rms_mm_per_iteration"]
     assert rms[-1]["part"] < rms[0]["part"] / 3

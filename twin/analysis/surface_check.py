@@ -137,11 +137,15 @@ def read_target_mesh(path: str | Path) -> trimesh.Trimesh:
     if not path.is_file():
         raise DataFileError(path, "no such target mesh file")
     try:
-        mesh = trimesh.load(path, force="mesh")
+        with np.errstate(all="ignore"):  # a non-finite vertex is refused below, not warned about on the way
+            mesh = trimesh.load(path, force="mesh")
     except Exception as exc:
-        raise DataFileError(path, f"not a mesh trimesh can read: {exc}") from None
+        raise DataFileError(path, f"not a mesh file ({type(exc).__name__}: {str(exc)[:80]}); expected a binary or "
+                                  "ASCII STL in millimetres") from None
     if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
-        raise DataFileError(path, "holds no triangles")
+        raise DataFileError(path, "holds no triangles; expected an STL of the part in millimetres")
+    if not np.all(np.isfinite(mesh.vertices)):
+        raise DataFileError(path, "holds a vertex that is not a finite number; expected an STL in millimetres")
     span_mm = float(np.max(mesh.extents))
     if span_mm < 1.0:
         raise DataFileError(path, f"spans {span_mm:.3g} units: expected millimetres (a part spans > 1 mm)")

@@ -1,6 +1,7 @@
 """Base: utilities every stage uses.
 
-Modules: `csvio` (atomic CSV/JSON I/O with precise errors), `units` (length columns read by their declared unit,
+Modules: `csvio` (atomic CSV/JSON I/O with precise errors), `outputs` (outputs never over inputs, the umask's
+modes, write failures named), `units` (length columns read by their declared unit,
 `_mm` or `_m`), `signals` (interpolation of sampled signals, sample clocks), `resources` (the lookup of shipped
 models and data) and `lazy` (a package's public names, imported on first use).
 

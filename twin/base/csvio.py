@@ -21,23 +21,54 @@ from typing import Any
 
 import numpy as np
 
+from twin.base.outputs import check_outputs, plain_mode, write_failure
 from twin.errors import DataFileError, InputError
 
 
 def _content_lines(path: Path, required: Sequence[str], *, first_only: bool = False) -> list[str]:
     """The lines of a CSV that are neither blank nor `#` comments (only the header with `first_only`)."""
-    if not path.is_file():
-        raise DataFileError(path, "file not found")
     lines: list[str] = []
-    with path.open(newline="") as handle:
-        for line in handle:
-            if line.strip() and not line.lstrip().startswith("#"):
-                lines.append(line)
-                if first_only:
-                    break
+    for line in read_text(path, "a CSV file").splitlines(keepends=True):
+        if line.strip() and not line.lstrip().startswith("#"):
+            lines.append(line)
+            if first_only:
+                break
     if not lines:
         raise DataFileError(path, f"file is empty; expected a header with columns {list(required)}")
     return lines
+
+
+def read_text(path: str | Path, expected: str = "a text file", encoding: str = "utf-8-sig") -> str:
+    """A text file's contents (UTF-8 by default, a leading BOM dropped), every failure as a `DataFileError`.
+
+    Args:
+        path: The file.
+        expected: What the file should be, for the messages (e.g. "a CSV file").
+        encoding: A declared encoding (e.g. "latin-1").
+
+    Raises:
+        DataFileError: Missing, a folder, unreadable, or not in `encoding` (naming the line and the byte).
+    """
+    path = Path(path)
+    if path.is_dir():
+        raise DataFileError(path, f"is a folder; expected {expected}")
+    if not path.is_file():
+        raise DataFileError(path, f"file not found; expected {expected}")
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        raise DataFileError(path, f"cannot read it ({exc.strerror or type(exc).__name__})") from None
+    try:
+        return data.decode(encoding)
+    except UnicodeDecodeError as exc:
+        line = data[: exc.start].count(b"\n") + 1
+        name = "UTF-8" if encoding.lower().replace("_", "-") in ("utf-8", "utf-8-sig", "utf8") else encoding
+        raise DataFileError(
+            path, f"line {line}: byte {data[exc.start:exc.start + 1]!r} is not {name}; expected {expected} in {name} "
+            "(an import mapping declares another encoding with e.g. `encoding = \"latin-1\"`)"
+        ) from None
+    except LookupError:
+        raise InputError(f"unknown encoding {encoding!r}; expected one Python knows, e.g. 'utf-8', 'latin-1'") from None
 
 
 def read_header(path: str | Path, required: Sequence[str] = ()) -> list[str]:
@@ -135,17 +166,24 @@ def write_bytes(path: str | Path, data: bytes, *, protect: Sequence[str | Path] 
 
 def check_not_an_input(path: str | Path, protect: Sequence[str | Path]) -> None:
     """InputError when the output `path` is one of the `protect`ed input files (an input is never overwritten)."""
-    for other in protect:
-        if Path(other).resolve() == Path(path).resolve():
-            raise InputError(f"refusing to overwrite input file {path}: choose another output path")
+    try:
+        check_outputs([("", other) for other in protect], [("", path)])
+    except InputError as exc:
+        raise InputError(f"refusing to overwrite input file {path} ({exc}); choose another output path") from None
 
 
 def _atomic_write_text(path: Path, text: str | bytes, protect: Sequence[str | Path]) -> None:
     path = Path(path)
     check_not_an_input(path, protect)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    if path.is_dir():
+        raise DataFileError(path, "is a folder; expected a file name to write")
     try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    except OSError as exc:
+        raise write_failure(path, exc) from None
+    try:
+        plain_mode(tmp_name)
         if isinstance(text, bytes):
             with os.fdopen(fd, "wb") as binary:
                 binary.write(text)
@@ -153,10 +191,31 @@ def _atomic_write_text(path: Path, text: str | bytes, protect: Sequence[str | Pa
             with os.fdopen(fd, "w", newline="") as handle:
                 handle.write(text)
         os.replace(tmp_name, path)
-    except BaseException:
+    except BaseException as exc:
         if os.path.exists(tmp_name):
             os.unlink(tmp_name)
+        if isinstance(exc, OSError):
+            raise write_failure(path, exc) from None
         raise
+
+
+def make_folder(path: str | Path) -> Path:
+    """`mkdir -p` of an output folder, a failure as a `DataFileError` naming it."""
+    try:
+        Path(path).mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise write_failure(path, exc) from None
+    return Path(path)
+
+
+def temporary_folder(target: str | Path) -> Path:
+    """A new hidden sibling folder of `target` to write it in (then `swap_in_directory`); failures name `target`."""
+    target = Path(target)
+    make_folder(target.parent)
+    try:
+        return Path(tempfile.mkdtemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent))
+    except OSError as exc:
+        raise write_failure(target, exc) from None
 
 
 def swap_in_directory(tmp: Path, target: Path) -> None:
@@ -165,13 +224,17 @@ def swap_in_directory(tmp: Path, target: Path) -> None:
     An existing `target` is first renamed aside into a temporary sibling and removed only once `tmp` stands in
     its place.
     """
-    if target.exists():
-        old = Path(tempfile.mkdtemp(prefix=f".{target.name}.", suffix=".old", dir=target.parent))
-        os.replace(target, old / "previous")
-        os.replace(tmp, target)
-        shutil.rmtree(old, ignore_errors=True)
-    else:
-        os.replace(tmp, target)
+    try:
+        plain_mode(tmp, directory=True)
+        if target.exists():
+            old = Path(tempfile.mkdtemp(prefix=f".{target.name}.", suffix=".old", dir=target.parent))
+            os.replace(target, old / "previous")
+            os.replace(tmp, target)
+            shutil.rmtree(old, ignore_errors=True)
+        else:
+            os.replace(tmp, target)
+    except OSError as exc:
+        raise write_failure(target, exc) from None
 
 
 def write_table(
@@ -250,12 +313,12 @@ def emit_json(target: str | None, payload: Mapping[str, Any], *, protect: Sequen
 def read_json(path: str | Path) -> dict[str, Any]:
     """Read a JSON object, raising DataFileError naming the file on any problem."""
     path = Path(path)
-    if not path.is_file():
-        raise DataFileError(path, "file not found")
     try:
-        payload = json.loads(path.read_text())
+        payload = json.loads(read_text(path, "a JSON file"))
     except json.JSONDecodeError as exc:
         raise DataFileError(path, f"not valid JSON ({exc.msg} at line {exc.lineno})", exc.lineno) from None
+    except RecursionError:
+        raise DataFileError(path, "not valid JSON (nested too deeply); expected a JSON object") from None
     if not isinstance(payload, dict):
         raise DataFileError(path, f"expected a JSON object, found {type(payload).__name__}")
     return payload

@@ -37,6 +37,7 @@ MM_SUFFIX, M_SUFFIX = "_mm", "_m"
 MIN_PATH_SPEED_MM_S = (
     0.05  # slowest plausible median tool speed [mm/s]: 3 mm/min, 30x under the slowest ISF feed
 )
+LARGEST_LENGTH_M = 100.0  # no cell's path or part lies 100 m from its sheet origin: a larger value is a typo
 MOVING_FRACTION = 0.1  # a sample moves when its speed exceeds this fraction of the 95th-percentile speed [-]
 MAX_METRES_LIKE_COORDINATE_MM = 0.5  # every |coordinate| under this [mm] ...
 MAX_METRES_LIKE_STEP_MM = 0.01  # ... with a median neighbour step under this [mm]: metres under `_mm` names
@@ -136,6 +137,11 @@ def read_si_table(
         name: raw[spelling] * (1e-3 if is_length(name) and spelling.endswith(MM_SUFFIX) else 1.0)
         for name, spelling in typed.items()
     }
+    for name, spelling in typed.items():
+        far = np.flatnonzero(np.abs(values[name]) > LARGEST_LENGTH_M)
+        if is_length(name) and len(far):
+            raise UnitsError(path, f"column '{spelling}' holds {raw[spelling][far[0]]:g}: expected a length within "
+                                   f"{LARGEST_LENGTH_M:g} m of the sheet origin", int(far[0]) + 1)
     return SITable(path, values, typed, {name: raw[spelling] for name, spelling in typed.items()})
 
 

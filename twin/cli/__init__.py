@@ -3,9 +3,12 @@
 Modules: `info`, `path`, `fe_history`, `identify`, `calibrate`, `reproduce`, `force_validation`, `lab`, `replay`,
 `compensate`, `check`, `bench`, `sweep`, `discrepancy`, `demo`, `import_run` (`import`), `export`, `materials` and `robots`,
 one per command; `_common` holds the options several commands share (the FE history, the force model, the declared
-process, the placement) and the twin they make (`spec_from_arguments`).
+process, the placement) and the twin they make (`spec_from_arguments`); `_types` the argparse types with plausible
+ranges (seeds, counts, lengths, feeds).
 
-Each command module defines `HELP` (one line), `add_arguments(parser)` and `run(args) -> int`.
+Each command module defines `HELP` (one line), `add_arguments(parser)` and `run(args) -> int`. Before a command runs,
+its outputs (the options in `OUTPUT_OPTIONS`) pass `twin.base.outputs.check_outputs` against every option naming an
+existing file or folder: an output never replaces an input or another output.
 Commands that report numbers take `--json FILE` (`-` for stdout) and print a short human summary. A `TwinError`
 ends the command with its message and exit code 2; a warning (e.g. an effect read under a name used before) is
 printed as a note, a model used outside its published range (`ExtrapolationWarning`) as a warning.
@@ -18,8 +21,27 @@ import importlib
 import sys
 import warnings
 from collections.abc import Sequence
+from importlib import metadata
+from pathlib import Path
 
+import numpy as np
+
+from twin.base.outputs import check_outputs
 from twin.errors import AssumptionWarning, ExtrapolationWarning, TwinError
+
+# the options that write; every other option (or positional) naming an existing path is an input
+OUTPUT_OPTIONS = ("--out", "--json", "--gcode-out", "--stl-out", "--design-stl", "--write-model", "--model-out", "--report", "--work",
+                  "--markdown", "--figure", "--readme", "--rrd")
+# (command, option) whose folder is replaced as a whole (a run directory written by renames)
+REPLACED_FOLDERS = {("lab", "--out"), ("import", "--out")}
+# (command, option) that names a folder (the rest name files)
+FOLDER_OUTPUTS = {*REPLACED_FOLDERS, ("demo", "--out"), ("reproduce", "--work"), ("discrepancy", "--report"),
+                  ("export", "--out")}
+EXIT_CODES = """exit codes:
+  0  done
+  1  done, and the result failed the check it reports (`check`: a gain away from 1)
+  2  refused: a bad option or input file (the message names it and what was expected), an output that would
+     replace an input, or an output that cannot be written; nothing is written"""
 
 # command name -> module under twin.cli (imported lazily so `--help` stays fast)
 COMMANDS: dict[str, str] = {
@@ -50,7 +72,10 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="tx200-twin",
         description="MuJoCo digital twin of a compliant Staubli TX200 forming a groove in sheet metal.",
+        epilog=EXIT_CODES,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
+    parser.add_argument("--version", action="version", version=f"%(prog)s {_version()}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     for name, module_name in COMMANDS.items():
         module = importlib.import_module(f"twin.cli.{module_name}")
@@ -60,18 +85,48 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _version() -> str:
+    try:
+        return metadata.version("tx200-twin")
+    except metadata.PackageNotFoundError:
+        return "unknown (not installed)"
+
+
+def check_command_outputs(parser: argparse.ArgumentParser, args: argparse.Namespace) -> None:
+    """`check_outputs` for a parsed command line: its `OUTPUT_OPTIONS` against every other path it names."""
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    inputs: list[tuple[str, str | Path]] = []
+    outputs: list[tuple[str, str | Path]] = []
+    for action in sub.choices[args.command]._actions:
+        value = getattr(args, action.dest, None)
+        if action.dest in ("help", "_run") or action.choices is not None or not isinstance(value, str | Path):
+            continue
+        name = action.option_strings[-1] if action.option_strings else str(action.metavar or action.dest).upper()
+        if name in OUTPUT_OPTIONS:
+            outputs.append((name, value))
+        elif Path(value).exists() or Path(value).is_symlink():
+            inputs.append((name, value))
+    replaced = {option for command, option in REPLACED_FOLDERS if command == args.command}
+    folders = {option for command, option in FOLDER_OUTPUTS if command == args.command}
+    check_outputs(inputs, outputs, replaced=replaced, folders=folders)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the `tx200-twin` console script."""
     parser = build_parser()
     args = parser.parse_args(argv)
-    with warnings.catch_warnings(record=True) as caught:
+    with warnings.catch_warnings(record=True) as caught, np.printoptions(legacy="1.25"):  # 3.96, not np.float64(3.96)
         warnings.simplefilter("always", FutureWarning)
         warnings.simplefilter("always", ExtrapolationWarning)
         warnings.simplefilter("always", AssumptionWarning)
         try:
+            check_command_outputs(parser, args)
             return int(args._run(args))
         except TwinError as exc:
             print(f"tx200-twin {args.command}: error: {exc}", file=sys.stderr)
+            return 2
+        except OSError as exc:  # a file system refusal no reader or writer foresaw: named, not a traceback
+            print(f"tx200-twin {args.command}: error: {exc.filename}: {exc.strerror or exc}", file=sys.stderr)
             return 2
         finally:
             for note in dict.fromkeys(str(w.message) for w in caught

@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from twin.cli._types import finite
 from twin.errors import InputError
 from twin.process.description import Process
 from twin.process.force_models import FORCE_MODELS, auto_force_model, force_model
@@ -200,8 +201,8 @@ def add_process_arguments(parser: argparse.ArgumentParser) -> Any:
         "material_file, thickness_mm, tool_radius_mm, tool_friction, force_model)"
     )
     group.add_argument("--material", metavar="NAME", help="sheet material of the library (`tx200-twin materials`)")
-    group.add_argument("--thickness-mm", type=float, metavar="T", help="sheet thickness [mm]")
-    group.add_argument("--tool-radius-mm", type=float, metavar="R", help="tool radius [mm], larger than the thickness")
+    group.add_argument("--thickness-mm", type=finite, metavar="T", help="sheet thickness [mm]")
+    group.add_argument("--tool-radius-mm", type=finite, metavar="R", help="tool radius [mm], larger than the thickness")
     return group
 
 
@@ -274,12 +275,12 @@ def add_placement_arguments(parser: argparse.ArgumentParser | Any, title: str = 
     place = parser.add_argument_group(title)
     place.add_argument(
         "--origin-mm",
-        type=float,
+        type=finite,
         nargs=3,
         metavar=("X", "Y", "Z"),
         help="sheet origin in the robot base frame [mm] (default: the cell's sheet_origin)",
     )
-    place.add_argument("--yaw-deg", type=float, default=0.0, help="sheet yaw about the base z axis [deg] (default 0)")
+    place.add_argument("--yaw-deg", type=finite, default=0.0, help="sheet yaw about the base z axis [deg] (default 0)")
     return place
 
 

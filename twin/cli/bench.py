@@ -9,6 +9,7 @@ from pathlib import Path
 from twin.apps.bench import format_table, run_benchmarks
 from twin.apps.readme import SPEED_BLOCK, speed_table
 from twin.base.csvio import emit_json
+from twin.cli._types import seed
 
 HELP = "Benchmark replay, analytic floor, lab, identify, compensate, discrepancy and the force field."
 
@@ -22,7 +23,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--samples", type=int, help="only the first N commanded samples of the groove (quick smoke run)"
     )
-    parser.add_argument("--seed", type=int, default=0, help="seed of the lab run's noise (default 0)")
+    parser.add_argument("--seed", type=seed, default=0, help="seed of the lab run's noise (default 0)")
     parser.add_argument("--readme", type=Path, help="also write the speed table into FILE's generated block")
 
 

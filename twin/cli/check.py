@@ -23,6 +23,7 @@ from twin.analysis.surface_check import (
 )
 from twin.base.csvio import emit_json
 from twin.cli._common import add_ideal_argument, ideal_from_arguments
+from twin.cli._types import finite
 from twin.errors import InputError
 from twin.runs.format import Run
 from twin.runs.read import read_run
@@ -61,11 +62,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="registration: the flat sheet fixes height and tilts (sheet, default), or a best fit of all points",
     )
     parser.add_argument(
-        "--fit-rms-mm", type=float, default=MAX_RMS_M * 1e3,
+        "--fit-rms-mm", type=finite, default=MAX_RMS_M * 1e3,
         help=f"refuse a registered scan whose best-fit rms exceeds this (default {MAX_RMS_M * 1e3:g}) [mm]",
     )
     parser.add_argument(
-        "--fit-fraction", type=float, default=MIN_INLIER_FRACTION,
+        "--fit-fraction", type=finite, default=MIN_INLIER_FRACTION,
         help=f"... or with fewer of its points within {INLIER_M * 1e3:g} mm (default {MIN_INLIER_FRACTION:g})",
     )
     parser.add_argument("--figure", type=Path, metavar="PNG", help="with --target-stl: the deviation map")

@@ -32,6 +32,7 @@ from twin.cli._common import (
     ideal_from_arguments,
     spec_from_arguments,
 )
+from twin.cli._types import count, finite
 from twin.errors import DataFileError, InputError
 from twin.process.force_models import build_force_field
 from twin.process.forces import ForceHistory
@@ -56,26 +57,29 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_robot_argument(parser)
     add_placement_arguments(parser, "sheet placement (the twin's)")
     parser.add_argument(
-        "--tol-mm", type=float, default=1e3 * TWIN_TOL_M, help="--method twin: stop below this |residual| [mm]"
+        "--tol-mm", type=finite, default=1e3 * TWIN_TOL_M, help="--method twin: stop below this |residual| [mm]"
     )
-    parser.add_argument("--max-iter", type=int, default=TWIN_MAX_ITER, help="--method twin: iteration limit")
+    parser.add_argument("--max-iter", type=count, default=TWIN_MAX_ITER, help="--method twin: iteration limit")
     part = parser.add_argument_group("the formed part to the design (--method twin, a height-map force model)")
     part.add_argument("--target-stl", type=Path, metavar="DESIGN",
                       help="design surface (STL, PLY or OBJ; sheet frame, mm, tool side, z = 0 at the sheet's top): "
                       "compensate so that the twin's part after unclamping lies on it, springback included")
-    part.add_argument("--part-iterations", type=int, default=2, help="outer iterations on the part (default 2)")
+    part.add_argument("--part-iterations", type=count, default=2, help="outer iterations on the part (default 2)")
     part.add_argument("--learn-from", type=Path, metavar="RUN",
                       help="the last part's run (its command and part scan): the next command from its measured "
                       "deviation from the design")
-    part.add_argument("--learn-gain", type=float, default=1.0, help="learning gain (0, 1] (default 1)")
-    part.add_argument("--learn-smoothing-mm", type=float, default=2.0, help="smoothing along the path (default 2)")
+    part.add_argument("--learn-gain", type=finite, default=1.0, help="learning gain (0, 1] (default 1)")
+    part.add_argument("--learn-smoothing-mm", type=finite, default=2.0, help="smoothing along the path (default 2)")
     part.add_argument("--figure", type=Path, metavar="PNG",
                       help="deviation maps from the design: the twin's predicted part at each iteration "
                       "(with --learn-from: the last part's scan)")
-    part.add_argument("--rerun", type=Path, metavar="RRD",
+    part.add_argument("--rrd", type=Path, metavar="RRD",
                       help="rerun recording: the design, and each iteration's surface coloured by its deviation")
     parser.add_argument("--out", type=Path, required=True, help="compensated path, commanded.csv format")
     parser.add_argument("--json", help="write the numbers to FILE ('-' for stdout)")
+
+
+SYMMETRY_TOLERANCE = 0.25  # |K - K^T| / max|K| allowed: Method 2 on a noisy lab run fits up to ~0.15
 
 
 def _stiffness(path: Path) -> np.ndarray:
@@ -85,6 +89,16 @@ def _stiffness(path: Path) -> np.ndarray:
     k = np.asarray(payload["k_r_n_per_mm"], dtype=float)
     if k.shape not in ((2, 2), (3, 3)):
         raise DataFileError(path, f"k_r_n_per_mm has shape {k.shape}, expected 2x2 (x-z) or 3x3 [N/mm]")
+    if not np.all(np.isfinite(k)):
+        raise DataFileError(path, f"k_r_n_per_mm holds {k.tolist()}: expected finite numbers [N/mm]")
+    asymmetry = float(np.max(np.abs(k - k.T))) / max(float(np.max(np.abs(k))), 1e-300)
+    if asymmetry > SYMMETRY_TOLERANCE:
+        raise DataFileError(path, f"k_r_n_per_mm is not symmetric: max |K - K^T| is {asymmetry:.3g} of max |K|, "
+                                  f"expected a stiffness matrix symmetric within {SYMMETRY_TOLERANCE:g}")
+    smallest = float(np.linalg.eigvalsh(0.5 * (k + k.T))[0])
+    if smallest <= 0.0:
+        raise DataFileError(path, f"k_r_n_per_mm is not positive definite (smallest eigenvalue {smallest:.4g} N/mm): "
+                                  "a stiffness pushes back; expected all eigenvalues > 0")
     return 1e3 * k
 
 
@@ -132,10 +146,10 @@ def _part(args: argparse.Namespace) -> int:
 
         title = f"{Path(args.target_stl).name}: " + ("the last part's scan" if args.learn_from else "the twin's part")
         summary["figure"] = str(plot_part_stages(args.figure, stages, title=title, protect=protect))
-    if args.rerun is not None:
+    if args.rrd is not None:
         from twin.viz.part_recording import record_part
 
-        summary["rerun"] = str(record_part(args.rerun, design, stages, protect=protect))
+        summary["rrd"] = str(record_part(args.rrd, design, stages, protect=protect))
     print(f"compensate ({summary['method']}): -> {args.out}", file=sys.stderr if args.json == "-" else sys.stdout)
     emit_json(args.json, summary, protect=protect)
     return 0
@@ -145,7 +159,7 @@ def run(args: argparse.Namespace) -> int:
     """Compensate."""
     if args.target_stl is not None:
         return _part(args)
-    for option, value in (("--learn-from", args.learn_from), ("--figure", args.figure), ("--rerun", args.rerun)):
+    for option, value in (("--learn-from", args.learn_from), ("--figure", args.figure), ("--rrd", args.rrd)):
         if value is not None:
             raise InputError(f"{option} needs --target-stl DESIGN (the surface the part is measured against); "
                              f"got {option} {value} without it")

@@ -24,6 +24,7 @@ from twin.cli._common import (
     placement_from,
     tool_path,
 )
+from twin.cli._types import seed
 from twin.errors import InputError
 from twin.lab.cnc import run_cnc
 from twin.lab.virtual import load_test, run_lab
@@ -59,7 +60,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--set", action="append", metavar="NAME=VALUE", help="dynamic plant knob, repeatable (docs/dynamic-plant.md lists them)"
     )
     parser.add_argument("--neutral", action="store_true", help="dynamic plant: start from the neutral knobs")
-    parser.add_argument("--seed", type=int, required=True, help="seed of the lab's noise")
+    parser.add_argument("--seed", type=seed, required=True, help="seed of the lab's noise")
     add_force_model_argument(parser)
     add_process_arguments(parser)
     add_robot_argument(parser)

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import re
 import sys
 import warnings
 from pathlib import Path
@@ -28,7 +29,8 @@ from twin.cli._common import (
     placement_from,
     process_from_arguments,
 )
-from twin.errors import ExtrapolationWarning
+from twin.cli._types import count, feed_mm_s, finite, length_mm
+from twin.errors import ExtrapolationWarning, InputError
 from twin.process.aerens import validity_warnings
 from twin.process.description import Process
 from twin.process.gcode import read_gcode, write_gcode
@@ -74,32 +76,32 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="also write the design part as a binary STL [mm]: the sheet's tool-side surface a rigid machine forms "
         "with no springback (the tool sphere's envelope, the bottom lowered), for `check --target-stl --scan`",
     )
-    parser.add_argument("--depth-mm", type=float, help="final depth H (default: groove 10, other parts 40)")
-    parser.add_argument("--feed-mm-s", type=float, default=d.feed_m_per_s * 1e3, help="constant feed [mm/s]")
+    parser.add_argument("--depth-mm", type=length_mm, help="final depth H (default: groove 10, other parts 40)")
+    parser.add_argument("--feed-mm-s", type=feed_mm_s, default=d.feed_m_per_s * 1e3, help="constant feed [mm/s]")
     parser.add_argument(
-        "--spacing-mm", type=float, default=d.spacing_m * 1e3, help="largest sample spacing (G-code: arc chords)"
+        "--spacing-mm", type=length_mm, default=d.spacing_m * 1e3, help="largest sample spacing (G-code: arc chords)"
     )
     groove = parser.add_argument_group("groove")
-    groove.add_argument("--passes", type=int, default=d.passes, help=f"number of passes N (default {d.passes})")
+    groove.add_argument("--passes", type=count, default=d.passes, help=f"number of passes N (default {d.passes})")
     groove.add_argument(
-        "--top-length-mm", type=float, default=d.top_length_m * 1e3, help="groove length L at the surface"
+        "--top-length-mm", type=length_mm, default=d.top_length_m * 1e3, help="groove length L at the surface"
     )
     groove.add_argument(
-        "--bottom-length-mm", type=float, default=d.bottom_length_m * 1e3, help="groove length B at full depth"
+        "--bottom-length-mm", type=length_mm, default=d.bottom_length_m * 1e3, help="groove length B at full depth"
     )
     part = parser.add_argument_group("cone, pyramid, vwa-cone")
     part.add_argument("--mode", choices=MODES, default=p.mode, help="descent (default spiral)")
     part.add_argument(
         "--top-width-mm",
-        type=float,
+        type=length_mm,
         default=2e3 * p.top_half_width_m,
         help="tool-tip contour at the surface: cone diameter or pyramid side (default 120)",
     )
-    part.add_argument("--wall-angle-deg", type=float, default=p.wall_angle_deg, help="wall angle (vwa-cone: top)")
+    part.add_argument("--wall-angle-deg", type=finite, default=p.wall_angle_deg, help="wall angle (vwa-cone: top)")
     part.add_argument(
-        "--wall-angle-end-deg", type=float, default=p.wall_angle_end_deg, help="vwa-cone: wall angle at the bottom"
+        "--wall-angle-end-deg", type=finite, default=p.wall_angle_end_deg, help="vwa-cone: wall angle at the bottom"
     )
-    part.add_argument("--step-down-mm", type=float, default=p.step_down_m * 1e3, help="largest step-down")
+    part.add_argument("--step-down-mm", type=length_mm, default=p.step_down_m * 1e3, help="largest step-down")
     add_process_arguments(parser)
     place = add_placement_arguments(parser, "placement and reach check")
     add_robot_argument(place)
@@ -107,8 +109,51 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", metavar="FILE", help="write the summary as JSON to FILE (- for stdout)")
 
 
+# the spec fields the path options set, for messages that name the option the user typed
+_FIELD_OPTIONS = {"top_length_m": "--top-length-mm", "bottom_length_m": "--bottom-length-mm", "depth_m": "--depth-mm",
+                  "passes": "--passes", "feed_m_per_s": "--feed-mm-s", "spacing_m": "--spacing-mm",
+                  "top_half_width_m": "--top-width-mm (half of it)", "step_down_m": "--step-down-mm",
+                  "wall_angle_deg": "--wall-angle-deg", "wall_angle_end_deg": "--wall-angle-end-deg"}
+
+
+def _check_options(args: argparse.Namespace) -> None:
+    """The options' ranges that involve more than one of them, named as typed (before any SI field sees them)."""
+    if args.gcode is not None:
+        return
+    if args.shape == "groove":
+        if args.passes < 2:
+            raise InputError(f"--passes {args.passes}: expected an integer >= 2")
+        if args.bottom_length_mm >= args.top_length_mm:
+            raise InputError(f"--bottom-length-mm {args.bottom_length_mm:g} must be shorter than --top-length-mm "
+                             f"{args.top_length_mm:g} (the strokes shrink every pass)")
+        if args.spacing_mm > args.bottom_length_mm:
+            raise InputError(f"--spacing-mm {args.spacing_mm:g} exceeds --bottom-length-mm {args.bottom_length_mm:g}; "
+                             "expected a spacing shorter than the last stroke")
+        return
+    for option in ("--wall-angle-deg", "--wall-angle-end-deg"):
+        value = getattr(args, option[2:].replace("-", "_"))
+        if not 0.0 < value < 90.0:
+            raise InputError(f"{option} {value:g}: expected a wall angle in (0, 90) deg")
+
+
+def _option_error(exc: InputError) -> InputError:
+    """A spec's error with its SI field names replaced by the options that set them."""
+    text = str(exc)
+    for field, option in _FIELD_OPTIONS.items():
+        text = re.sub(rf"\b(GrooveSpec\.|PartSpec\.)?{field}\b", option, text)
+    return InputError(text.replace("PartSpec: ", "").replace("GrooveSpec: ", ""))
+
+
 def _build(args: argparse.Namespace) -> tuple[ToolPath, dict[str, Any], str]:
     """The path, its summary and one human line about its geometry."""
+    _check_options(args)
+    try:
+        return _build_checked(args)
+    except InputError as exc:
+        raise _option_error(exc) from None
+
+
+def _build_checked(args: argparse.Namespace) -> tuple[ToolPath, dict[str, Any], str]:
     if args.gcode is not None:
         path = read_gcode(args.gcode, spacing_m=args.spacing_mm / 1e3)
         return path, {"source": str(args.gcode)}, f"from G-code {args.gcode}"

@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 
 from twin.base.csvio import emit_json, write_text
+from twin.cli._types import finite
 from twin.errors import TwinError
 from twin.robot.description import RobotDescription, load_robot, shipped_robots
 from twin.robot.kinematics import Kinematics
@@ -25,7 +26,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Add the `robots` options."""
     parser.add_argument("--file", type=Path, metavar="ROBOT.toml", help="also list a robot description of your own")
     parser.add_argument(
-        "--task-point-mm", type=float, nargs=3, default=TASK_POINT_MM, metavar=("X", "Y", "Z"),
+        "--task-point-mm", type=finite, nargs=3, default=TASK_POINT_MM, metavar=("X", "Y", "Z"),
         help="the common task point, tool down, where each robot's Cartesian compliance is compared [mm, base "
         f"frame] (default {' '.join(f'{v:g}' for v in TASK_POINT_MM)})",
     )

@@ -16,6 +16,7 @@ from twin.cli._common import (
     history_from_arguments,
     ideal_from_arguments,
 )
+from twin.cli._types import count, seed
 from twin.process.description import Process
 from twin.sim.spec import TwinSpec
 
@@ -24,9 +25,9 @@ HELP = "Monte Carlo of K_q / friction / sheet / force-scale uncertainty: distrib
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Add the `sweep` options."""
-    parser.add_argument("--draws", type=int, default=200, help="parameter sets to replay (default 200)")
-    parser.add_argument("--seed", type=int, default=0, help="seed of the draws (default 0)")
-    parser.add_argument("--workers", type=int, help="worker processes (default: every usable core)")
+    parser.add_argument("--draws", type=count, default=200, help="parameter sets to replay (default 200)")
+    parser.add_argument("--seed", type=seed, default=0, help="seed of the draws (default 0)")
+    parser.add_argument("--workers", type=count, help="worker processes (default: every usable core)")
     parser.add_argument(
         "--calibration", type=Path,
         help="calibration JSON with 'parameters' and 'sigma' (tx200-twin calibrate, e.g. docs/calibration.json); "

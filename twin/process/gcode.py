@@ -27,7 +27,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from twin.base.csvio import write_text
+from twin.base.csvio import read_text, write_text
 from twin.errors import DataFileError, InputError
 from twin.process.path import ToolPath
 
@@ -259,11 +259,7 @@ def read_gcode(file: str | Path, **kwargs: float) -> ToolPath:
         DataFileError: Missing or unreadable file, or a block outside the subset (names the line).
     """
     path = Path(file)
-    try:
-        text = path.read_text(encoding="utf-8", errors="strict")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise DataFileError(path, f"cannot read G-code: {exc}") from exc
-    return parse_gcode(text, source=path, **kwargs)
+    return parse_gcode(read_text(path, "a G-code program"), source=path, **kwargs)
 
 
 def write_gcode(path: ToolPath, file: str | Path, *, comment: str = "tx200-twin tool path") -> Path:

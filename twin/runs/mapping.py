@@ -8,6 +8,7 @@ metres, newtons and seconds.
 
 from __future__ import annotations
 
+import codecs
 import math
 import re
 import tomllib
@@ -16,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
+from twin.base.csvio import read_text
 from twin.errors import InputError
 from twin.robot.description import load_robot
 from twin.runs.registration import Registration, fit_rigid, given_transform
@@ -45,6 +47,7 @@ class TableSpec:
         time_column: Time column by name or index, None with `rate_hz` or for the profile.
         time_scale: Factor from the time unit to seconds [s per unit].
         rate_hz: Sample rate when the file has no time column [Hz].
+        encoding: The file's text encoding (`encoding` key; default UTF-8, a BOM dropped).
     """
 
     name: str
@@ -57,6 +60,7 @@ class TableSpec:
     time_column: str | int | None
     time_scale: float
     rate_hz: float | None
+    encoding: str = "utf-8-sig"
 
 
 @dataclass(frozen=True)
@@ -157,6 +161,12 @@ def _table(reader: TomlReader, name: str, columns: tuple[str, ...], units: dict[
     if name != "profile" and (time_column is None) == math.isnan(rate):
         raise reader.error(f"{name}.time", "give either a time column ('time' with 'time_unit') or 'rate_hz'")
     time_scale = reader.unit(f"{name}.time_unit", TIME_UNITS, "s")
+    encoding = reader.get(f"{name}.encoding", "utf-8-sig", kind=str)
+    try:
+        codecs.lookup(encoding)
+    except LookupError:
+        raise reader.error(f"{name}.encoding", f"is {encoding!r}, expected an encoding such as 'utf-8' or "
+                                               "'latin-1'") from None
     return TableSpec(
         name,
         file,
@@ -168,6 +178,7 @@ def _table(reader: TomlReader, name: str, columns: tuple[str, ...], units: dict[
         time_column,
         time_scale,
         None if math.isnan(rate) else rate,
+        encoding,
     )
 
 
@@ -230,6 +241,19 @@ def _registration(r: TomlReader) -> Registration:
         raise r.error("tracker.frame.points_sheet", str(exc), RegistrationError) from None
 
 
+def mapping_keys() -> list[str]:
+    """Every key an import mapping may hold, dotted (docs/import-export.md)."""
+    table = ("file", "delimiter", "decimal", "header_line", "encoding", "unit", "time", "time_unit", "rate_hz")
+    clock = ("clock.offset_s", "clock.method", "clock.max_offset_s")
+    keys = [f"run.{k}" for k in ("scenario", "tool_length_mm", "notes")]
+    for name, columns in (("commanded", "xyz"), ("tracker", "xyz"), ("forces", ("fx", "fy", "fz")), ("profile", "xz")):
+        keys += [f"{name}.{k}" for k in (*table, *columns)]
+    keys += [f"{name}.{k}" for name in ("tracker", "forces") for k in clock]
+    keys += [f"tracker.frame.{k}" for k in ("unit", "T_sheet_tracker", "points_sheet", "points_tracker")]
+    keys += [f"forces.sensor.{k}" for k in ("R_sheet_sensor", "gravity_sheet_m_s2", "com_sensor_mm", "tool_mass_kg")]
+    return keys
+
+
 def load_mapping(path: str | Path) -> ImportMapping:
     """Read and validate an import mapping.
 
@@ -247,13 +271,14 @@ def load_mapping(path: str | Path) -> ImportMapping:
     path = Path(path).resolve()
     if not path.is_file():
         raise MappingError(path, "mapping file not found")
-    text = path.read_text(encoding="utf-8-sig")
+    text = read_text(path, "an import mapping (TOML, UTF-8)")
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         line = re.search(r"line (\d+)", str(exc))
         raise MappingError(path, f"not valid TOML ({exc})", int(line.group(1)) if line else None) from None
     r = TomlReader(path, text, data)
+    r.check_keys(mapping_keys())
     registration = _registration(r)
     R_sensor = r.matrix("forces.sensor.R_sheet_sensor", (3, 3), [[1, 0, 0], [0, 1, 0], [0, 0, 1]])
     assert R_sensor is not None

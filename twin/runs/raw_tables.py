@@ -13,6 +13,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from twin.base.csvio import read_text
 from twin.runs.mapping import MappingError, TableSpec
 
 
@@ -144,6 +145,25 @@ def _checked_times(spec: TableSpec, times: list[float], lines: np.ndarray) -> np
     return t_s
 
 
+LARGEST_FORCE_N = 5e4  # 50 kN: ten times the largest ISF force a robot cell carries (a few kN)
+LARGEST_POSITION_M = 10.0  # 10 m: beyond any cell's tracker volume or robot reach
+
+
+def _check_plausible(spec: TableSpec, values: np.ndarray, lines: np.ndarray) -> None:
+    """MappingError when the declared unit makes the values implausible (N declared as kN, mm as m)."""
+    peak = np.abs(values).max(axis=1) if values.size else np.zeros(0)
+    if not peak.size:
+        return
+    worst = int(np.argmax(peak))
+    limit, unit, what = (LARGEST_FORCE_N, "N", "forces") if spec.name == "forces" else (LARGEST_POSITION_M, "m", "positions")
+    if peak[worst] > limit:
+        raise MappingError(
+            spec.file, f"{what} reach {peak[worst]:.4g} {unit} with the declared `{spec.name}.unit` (scale "
+            f"{spec.scale:g} {unit} per file unit); expected at most {limit:g} {unit}: is the unit right?",
+            int(lines[worst]), f"{spec.name}.unit",
+        )
+
+
 def read_raw_table(spec: TableSpec) -> RawTable:
     """Read one raw export as described by its mapping table.
 
@@ -160,7 +180,7 @@ def read_raw_table(spec: TableSpec) -> RawTable:
         MappingError: Missing column, short row, non-numeric value, fewer than 2 samples, or time not strictly
             increasing; names the file, the line and the column.
     """
-    text = spec.file.read_text(encoding="utf-8-sig")  # a BOM is tolerated
+    text = read_text(spec.file, f"the {spec.name} export", spec.encoding)
     rows = list(csv.reader(text.splitlines(), delimiter=spec.delimiter))
     header, first = _header(spec, rows)
     columns = _column_indices(spec, header)
@@ -169,6 +189,7 @@ def read_raw_table(spec: TableSpec) -> RawTable:
         raise MappingError(spec.file, f"has {len(samples.values)} data row(s), expected at least 2")
     array = np.asarray(samples.values, dtype=float) * spec.scale
     line_array = np.asarray(samples.lines)
+    _check_plausible(spec, array, line_array)
     if spec.name == "profile":
         return RawTable(None, array, line_array)
     if columns.time is None:

@@ -116,7 +116,8 @@ def _read_xyz(path: Path) -> np.ndarray:
 
 def _read_ply(path: Path) -> np.ndarray:
     try:
-        loaded = trimesh.load(path, file_type="ply", process=False)
+        with np.errstate(all="ignore"):  # a non-finite vertex is refused below
+            loaded = trimesh.load(path, file_type="ply", process=False)
     except Exception as exc:
         raise DataFileError(path, f"not a PLY file trimesh can read: {exc}") from None
     vertices = getattr(loaded, "vertices", None)

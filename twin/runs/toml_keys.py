@@ -6,6 +6,7 @@ scanning the text, so every message can say where to look.
 
 from __future__ import annotations
 
+import difflib
 import math
 import re
 from pathlib import Path
@@ -81,6 +82,16 @@ class TomlReader:
     def error(self, dotted: str, message: str, cls: type[MappingError] = MappingError) -> MappingError:
         return cls(self.path, message, key_line(self.text, dotted), dotted)
 
+    def check_keys(self, known: list[str]) -> None:
+        """Refuse a key the schema does not have, naming the closest known one (a misspelling is not ignored)."""
+        tables = {k.rsplit(".", 1)[0] for k in known} | {k.split(".", 1)[0] for k in known}
+        for dotted in _leaves(self.data):
+            if dotted in known:
+                continue
+            close = difflib.get_close_matches(dotted, known + sorted(tables), n=1, cutoff=0.6)
+            hint = f"did you mean '{close[0]}'?" if close else "see docs/import-export.md for the schema"
+            raise self.error(dotted, f"unknown key '{dotted}'; {hint}")
+
     def get(self, dotted: str, default: Any = ..., *, kind: type | tuple[type, ...] | None = None) -> Any:
         node: Any = self.data
         for part in dotted.split("."):
@@ -138,6 +149,15 @@ class TomlReader:
         if array.shape != (3,) or not np.all(np.isfinite(array)):
             raise self.error(dotted, f"is {value!r}, expected 3 finite numbers [x, y, z]")
         return array
+
+
+def _leaves(data: dict[str, Any], prefix: str = "") -> list[str]:
+    """The dotted names of a TOML document's values (tables descended into)."""
+    names: list[str] = []
+    for key, value in data.items():
+        dotted = f"{prefix}{key}"
+        names += _leaves(value, f"{dotted}.") if isinstance(value, dict) else [dotted]
+    return names
 
 
 def as_tuple(kind: type | tuple[type, ...]) -> tuple[type, ...]:

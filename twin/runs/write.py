@@ -9,14 +9,13 @@ from __future__ import annotations
 
 import os
 import shutil
-import tempfile
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from twin.base.csvio import swap_in_directory, write_json, write_table
+from twin.base.csvio import swap_in_directory, temporary_folder, write_json, write_table
 from twin.errors import DataFileError, InputError
 from twin.runs.format import RUN_FORMAT, RUN_FRAME, Run
 from twin.runs.read import read_run
@@ -145,8 +144,7 @@ def write_run(
     """
     target = _checked_target(directory, run, protect, overwrite)
     meta = _checked_meta(run)
-    target.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent))
+    tmp = temporary_folder(target)
     try:
         _write_files(tmp, run, meta, truth)
         _read_back(tmp, run)

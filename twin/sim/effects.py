@@ -134,7 +134,8 @@ class Effects:
                 raise InputError(f"effect {name} = {value!r}, expected a finite number [{spec.unit}]")
             lo, hi = spec.bounds
             if not lo <= number <= hi:
-                raise InputError(f"effect {name} = {number!r}, expected within [{lo:g}, {hi:g}] [{spec.unit}]")
+                raise InputError(f"effect {name} = {number!r}, expected within [{lo:g}, {hi:g}] [{spec.unit}] (the "
+                                 "plausible range of a real cell's effect)")
             if number != spec.neutral:
                 clean[name] = number
         if not (np.isfinite(self.lost_motion_takeup_m) and self.lost_motion_takeup_m > 0):
@@ -231,4 +232,8 @@ def parse_effect_args(items: list[str] | None) -> Effects:
             raise InputError(
                 f"--effect {item!r}: {text!r} is not a number [{EFFECTS[name].unit}]; valid: {listing}"
             ) from None
+        try:
+            Effects({name: values[name]})
+        except InputError as exc:
+            raise InputError(f"--effect {item}: {exc}") from None
     return Effects(values)

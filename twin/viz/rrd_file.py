@@ -1,7 +1,8 @@
 """Writing a rerun recording (`.rrd`) atomically: a temporary file beside the target, then `os.replace`.
 
 One place for every recording the project writes (`recording`, `part_recording`): a failed or interrupted
-recording leaves the target as it was and no temporary file behind.
+recording leaves the target as it was and no temporary file behind; the file gets the umask's permissions, and a
+failed write names the target.
 """
 
 from __future__ import annotations
@@ -13,6 +14,9 @@ from pathlib import Path
 
 import rerun as rr
 import rerun.blueprint as rrb
+
+from twin.base.csvio import make_folder
+from twin.base.outputs import plain_mode, write_failure
 
 
 def save_recording(
@@ -34,7 +38,7 @@ def save_recording(
         The path written.
     """
     target = Path(path)
-    target.parent.mkdir(parents=True, exist_ok=True)
+    make_folder(target.parent)
     tmp = target.parent / f".{target.name}.{os.getpid()}.{uuid.uuid4().hex}.tmp"
     rec = rr.RecordingStream(application_id, send_properties=False)
     try:
@@ -42,9 +46,12 @@ def save_recording(
         log(rec)
         rec.flush()
         rec.disconnect()
+        plain_mode(tmp)
         os.replace(tmp, target)
-    except BaseException:
+    except BaseException as exc:
         rec.disconnect()
         tmp.unlink(missing_ok=True)
+        if isinstance(exc, OSError):
+            raise write_failure(target, exc) from None
         raise
     return target

@@ -22,6 +22,8 @@ import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
+from twin.base.csvio import make_folder
+from twin.base.outputs import plain_mode, write_failure
 from twin.errors import InputError
 
 FIGSIZE_IN = (8.0, 5.0)
@@ -67,13 +69,16 @@ def check_same_length(**arrays: np.ndarray) -> None:
 def save_figure(fig: Figure, path: str | Path) -> Path:
     """Write `fig` as PNG to `path` atomically and release it."""
     target = Path(path)
-    target.parent.mkdir(parents=True, exist_ok=True)
-    tmp_name = target.parent / f".{target.name}.{os.getpid()}.{uuid.uuid4().hex}.tmp"  # umask applies
+    make_folder(target.parent)
+    tmp_name = target.parent / f".{target.name}.{os.getpid()}.{uuid.uuid4().hex}.tmp"
     try:
         fig.savefig(tmp_name, dpi=DPI, format="png")
+        plain_mode(tmp_name)
         os.replace(tmp_name, target)
-    except BaseException:
+    except BaseException as exc:
         tmp_name.unlink(missing_ok=True)
+        if isinstance(exc, OSError):
+            raise write_failure(target, exc) from None
         raise
     finally:
         fig.clear()

@@ -22,13 +22,12 @@ Every file is checked with `twin.apps.export.val3_check` before the folder is mo
 from __future__ import annotations
 
 import shutil
-import tempfile
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 
 from twin.apps.export.program import ProgramPath, euler_xyz_deg, fmt
 from twin.apps.export.val3_check import check_application
-from twin.base.csvio import swap_in_directory
+from twin.base.csvio import swap_in_directory, temporary_folder
 from twin.errors import InputError
 
 XSI = "http://www.w3.org/2001/XMLSchema-instance"
@@ -135,9 +134,7 @@ def write(path: ProgramPath, out: Path, protect: Sequence[Path] = ()) -> list[Pa
         raise InputError(f"{target} exists and is not a folder; a VAL3 application is a folder")
     files = application_files(path)
     check_application(files)
-    target.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent))
-    tmp.chmod(0o755)
+    tmp = temporary_folder(target)
     try:
         for name, text in files.items():
             (tmp / name).write_text(text, encoding="utf-8")
