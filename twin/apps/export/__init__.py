@@ -105,13 +105,13 @@ def export_path(
         raise InputError(f"unknown export format {fmt!r}; expected one of {sorted(FORMATS)}")
     out = Path(out)
     name = out.stem if fmt != "val3" else out.name
+    path = load_program_path(path_csv, cell or default_cell(), name)  # the input first: its errors come first
     if fmt == "val3" and program_name(name) != name:
         raise InputError(
             f"--out {out}: a VAL3 application's folder is its name, and VAL3 names are letters, digits and _, "
             f"starting with a letter, at most 24 characters; {name!r} is not one (expected e.g. "
             f"{out.with_name(program_name(name))})"
         )
-    path = load_program_path(path_csv, cell or default_cell(), name)
     path, feeds = with_moves(path, safe_z_mm, process_feed_mm_s)
     path = replace(path, max_points=max_points)
     if fmt in LANGUAGES:
