@@ -99,6 +99,13 @@ class Family(ABC):
         del theta, covariance
         return None
 
+    @property
+    def evidence(self) -> str:
+        """The stream whose gap the family must explain to be named (`consistency`): `force` for a family of the
+        force sensor, `profile` for one of the part alone, else `position` (the robot's and the tracker's: a
+        robot-side effect shows in the tool tip under the measured forces)."""
+        return "force" if self.needs_forces else "profile" if self.needs_profile else "position"
+
     def applicable(self, ctx: Context) -> bool:
         """Whether the run has the streams this family acts on."""
         return (ctx.has_forces or not self.needs_forces) and (ctx.has_profile or not self.needs_profile)
