@@ -38,7 +38,6 @@ from typing import Any
 
 import numpy as np
 
-from twin.analysis.discrepancy.consistency import CHECKED_STREAMS
 from twin.analysis.discrepancy.search import find_discrepancy
 from twin.lab.virtual import LabSettings, nominal_commanded, run_lab
 from twin.process.description import Process
@@ -372,8 +371,8 @@ def chosen_threshold(development: dict[str, Any]) -> float:
     inside form leaves and the smallest above it that an outside form leaves (among those a family was named for
     and whose evidence stream shows a gap), rounded to one significant digit."""
     def left(row: dict[str, Any]) -> float:
-        return max(row["consistency"]["streams"][s]["structure_left"] for s in CHECKED_STREAMS
-                   if s in row["consistency"]["streams"])
+        return max((row["consistency"]["streams"][s]["structure_left"] for s in row["consistency"]["judged"]),
+                   default=0.0)
     inside = max(left(r) for r in development["rows"] if r["group"] == "inside")
     outside = min(left(r) for r in development["rows"] if r["group"] == "outside" and r["consistency"]
                   and not r["consistency"]["no_gap"] and left(r) > inside)

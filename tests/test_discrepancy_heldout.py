@@ -61,9 +61,9 @@ def test_consistency_flags_a_step_left_and_passes_white_noise() -> None:
     left = {"position": before["position"] - np.column_stack([fitted_drift, 0 * t, 0 * t])}
     white = {"position": rng.normal(0, 0.02, (1000, 3))}
     sigma = {"position": 0.02}
-    assert not consistency.check(before, left, sigma, ["position"]).consistent
-    assert consistency.check(before, white, sigma, ["position"]).consistent
-    assert consistency.check(white, white, sigma, ["position"]).no_gap == ("position",)
+    assert not consistency.check(before, left, sigma, ("position",)).consistent
+    assert consistency.check(before, white, sigma, ("position",)).consistent
+    assert consistency.check(white, white, sigma, ("position",)).no_gap == ("position",)
 
 
 @pytest.mark.slow

@@ -280,7 +280,7 @@ def find_discrepancy(
         explained = 1.0 - excess_over_noise(fitter.stack(remainder), list(sizes.values())) / excess
     checked: dict[str, Any] = {}
     if verdict not in ("none", "unexplained"):
-        outcome = consistency.check(fitter.raw, remainder, sigma, [families[n.name].evidence for n in named])
+        outcome = consistency.check(fitter.raw, remainder, sigma, families[named[0].name].acts_on)
         checked = {"family": verdict, "explained_fraction": float(explained), **outcome.summary()}
         if not outcome.consistent:  # the family does not account for the gap: say so, describe the raw gap
             verdict, effects, remainder, complete, explained = "unexplained", start, dict(fitter.raw), True, 0.0
