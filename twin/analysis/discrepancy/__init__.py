@@ -3,6 +3,7 @@
 Modules, in data-flow order: `residuals` (noise from the data, folds), `context` (the linearised replay),
 `families` (effect families with vector parameters, one registry), `fitting` (joint least squares,
 uncertainties, held-out error), `significance`, `selection` (forward selection, BIC, ambiguity),
-`effect_model` (the named families as the twin's effects, replayed and refitted), `signature` (the remainder in words),
+`effect_model` (the named families as the twin's effects, replayed and refitted), `consistency` (whether
+the named families account for every stream's gap, leaving no structure), `signature` (the remainder in words),
 `search` (the workflow), `summary` (its JSON document). Notes: docs/discrepancy.md.
 """

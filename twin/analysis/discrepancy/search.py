@@ -8,7 +8,10 @@
    Every family that explains a significant held-out share of the gap is named, with its explained fraction,
    parameters and their standard errors. The verdict names the first one when some family explains at least
    MEANINGFUL_SHARE of the excess over noise; otherwise it is `unexplained`: then what the families could
-   take is small against the unexplained rest, and naming it would be a guess.
+   take is small against the unexplained rest, and naming it would be a guess. A family is named only when its
+   evidence is consistent (`consistency`): its own stream shows a gap, and what the named families leave keeps
+   no more than a small share of the tool-tip's or the forces' slow structure; otherwise `unexplained`, and the
+   words say which family would have been named and why not.
 3. Add: families that map onto an effect of the vocabulary (`twin.sim.effects`) are written into the twin's
    effects, which a model file carries to `replay --model`; when all named families do, the twin is replayed
    with them and refitted once (the linearisation is then exact to second order) and the gap after is that
@@ -24,6 +27,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from twin.analysis.discrepancy import consistency
 from twin.analysis.discrepancy.context import Context
 from twin.analysis.discrepancy.effect_model import context, effect_increment, prune, refine
 from twin.analysis.discrepancy.families import FAMILIES, Family
@@ -109,6 +113,7 @@ class DiscrepancyResult:
     confidence: float
     residual_before: dict[str, np.ndarray] = field(repr=False)
     residual_after: dict[str, np.ndarray] = field(repr=False)
+    consistency: dict[str, Any] = field(default_factory=dict)
 
 
 def gap(streams: dict[str, np.ndarray]) -> dict[str, float]:
@@ -273,8 +278,16 @@ def find_discrepancy(
         steps = steps + carried.steps
         verdict = named[0].name
         explained = 1.0 - excess_over_noise(fitter.stack(remainder), list(sizes.values())) / excess
+    checked: dict[str, Any] = {}
+    if verdict not in ("none", "unexplained"):
+        outcome = consistency.check(fitter.raw, remainder, sigma, families[named[0].name].acts_on)
+        checked = {"family": verdict, "explained_fraction": float(explained), **outcome.summary()}
+        if not outcome.consistent:  # the family does not account for the gap: say so, describe the raw gap
+            verdict, effects, remainder, complete, explained = "unexplained", start, dict(fitter.raw), True, 0.0
     found = tuple(n.name for n in named) if verdict not in ("none", "unexplained") else ()
     signature = describe_remainder(ctx, remainder, sigma, found)
+    if checked and not found:
+        signature["words"] += "; " + _not_named(checked)
     return DiscrepancyResult(
         effects=effects, found=found, verdict=verdict, named=tuple(named) if found else (),
         partial=tuple(named) if not found else (), explained_fraction=float(explained),
@@ -282,7 +295,16 @@ def find_discrepancy(
         chi2_after=reduced_chi2(remainder, sigma), gap_before=gap(fitter.raw),
         gap_after=gap(remainder) if found else gap(fitter.raw), noise=noise.summary(),
         confidence=_confidence(steps), residual_before=dict(fitter.raw), residual_after=remainder,
+        consistency=checked,
     )
+
+
+def _not_named(checked: dict[str, Any]) -> str:
+    """Why the first family was not named: the streams whose gap or slow structure it leaves."""
+    why = [f"it leaves {c['structure_left']:.0%} of the {s} stream's slow structure"
+           for s, c in checked["streams"].items() if c["failed"]]
+    why += [f"the {s} stream it acts on shows no gap" for s in checked["no_gap"]]
+    return f"{checked['family']} would explain {checked['explained_fraction']:.0%}, but " + " and ".join(why)
 
 
 def _confidence(steps: tuple[Step, ...]) -> float:

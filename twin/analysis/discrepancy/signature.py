@@ -7,6 +7,8 @@ on the position along the stroke (distance to the stroke ends), a trend in time,
 reversals (the share of the excess over noise within REVERSAL_WINDOW_S of a reversal, against the share of
 time those windows take: a dynamic plant's or a real arm's ringing, a tool sticking). Structures whose
 correlation (or peak share) reaches STRUCTURE_LEVEL are written out; an axis with none is called broadband.
+Every axis also gets its rough spectrum: the shares of its power above the white-noise floor below, within and
+above BANDS_HZ, and the band that holds most of it in its words.
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ SIGNATURE_RMS_FACTOR = 1.3  # rms above this x the noise sigma: the axis carries
 STRUCTURE_LEVEL = 0.5  # |correlation| or spectral share from which a structure is named
 REVERSAL_WINDOW_S = 0.15  # a sample this close to a reversal of the commanded path is "at a reversal" [s]
 REVERSAL_TIME_SHARE_MAX = 0.3  # the windows must be a small part of the run for a concentration to mean anything
+BANDS_HZ = (0.5, 5.0)  # slow (drifts, per-pass shapes), mid (reversals, oscillations), fast (chatter, sampling)
 AXES = "xyz"
 UNITS = {"position": ("mm", 1e3), "force": ("N", 1.0), "profile": ("mm", 1e3)}
 
@@ -42,6 +45,18 @@ def _peak(values: np.ndarray, rate_hz: float) -> tuple[float, float, float]:
     share = float(power[max(k - 1, 1) : k + 2].sum() / power[1:].sum())
     amplitude = float(np.sqrt(2.0) * np.std(x) * np.sqrt(share))
     return float(k * rate_hz / x.size), amplitude, share
+
+
+def _bands(values: np.ndarray, rate_hz: float, sigma: float) -> dict[str, float]:
+    """Shares of the power above the white-noise floor below, within and above BANDS_HZ."""
+    power = np.abs(np.fft.rfft(values - values.mean())) ** 2
+    excess = np.clip(power - values.size * sigma**2, 0.0, None)
+    freq = np.fft.rfftfreq(values.size, 1.0 / rate_hz)
+    edges = (0.0, *BANDS_HZ, np.inf)
+    names = (f"below {BANDS_HZ[0]:g} Hz", f"{BANDS_HZ[0]:g}-{BANDS_HZ[1]:g} Hz", f"above {BANDS_HZ[1]:g} Hz")
+    total = float(excess.sum())
+    return {name: float(excess[(freq >= lo) & (freq < hi)].sum() / total) if total > 0 else 0.0
+            for name, lo, hi in zip(names, edges[:-1], edges[1:], strict=True)}
 
 
 def _reversal_times(ctx: Context) -> np.ndarray:
@@ -85,7 +100,7 @@ def _axis_signature(
     }
     t_rev = _reversal_times(ctx)
     rev_share, rev_time, rev_rms = _reversal_share(values, t, sigma, t_rev)
-    out.update(reversal_share=rev_share, reversal_time_share=rev_time)
+    out.update(reversal_share=rev_share, reversal_time_share=rev_time, bands=_bands(values, rate, sigma))
     half_flip = 0.5 * (np.mean(values[direction > 0]) - np.mean(values[direction < 0])) if np.any(
         direction < 0) and np.any(direction > 0) else 0.0
     words = []
@@ -107,6 +122,9 @@ def _axis_signature(
         )
     if not words:
         words.append(f"broadband, {out['rms']:.3g} {unit} rms against {factor * sigma:.3g} {unit} noise")
+    band = max(out["bands"], key=out["bands"].get)
+    if out["bands"][band] > 0:
+        words.append(f"{out['bands'][band]:.0%} of its excess power {band}")
     out["words"] = f"{stream} {AXES[axis]}: " + "; ".join(words)
     return out
 

@@ -31,6 +31,7 @@ def result_summary(result: DiscrepancyResult) -> dict[str, Any]:
         "explained_fraction": result.explained_fraction,
         "significant_share": ROUND_SHARE,
         "remainder": result.remainder,
+        "consistency": result.consistency,
         "ambiguities": [
             {"named": n.name, "ambiguous_with": list(n.ambiguous_with)} for n in result.named if n.ambiguous_with
         ],

@@ -66,6 +66,10 @@ class Family(ABC):
             (d0 at w = 0, d1 at w = 1); the fitter caches both bases.
         effect: The effect of the vocabulary (`twin.sim.effects.EFFECTS`) the family maps onto, or None: what a
             model file carries of it (`to_effect`).
+        acts_on: The streams whose gap the family must explain to be named (`consistency`), its evidence first:
+            a robot-side family the tool tip and the forces (its change reaches both through the loaded robot;
+            the default), a force-sensor family the forces, a tracker family the tool tip, a part family the
+            profile.
     """
 
     name: ClassVar[str] = ""
@@ -79,6 +83,7 @@ class Family(ABC):
     linear: ClassVar[bool] = True
     bilinear: ClassVar[bool] = False
     effect: ClassVar[str | None] = None
+    acts_on: ClassVar[tuple[str, ...]] = ("position", "force")
 
     @abstractmethod
     def delta(self, ctx: Context, theta: np.ndarray) -> Delta:

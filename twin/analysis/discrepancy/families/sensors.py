@@ -22,6 +22,7 @@ class ForceSensorBias(Family):
     scale = (10.0, 10.0, 10.0)
     description = "constant offset of the force sensor on each axis"
     needs_forces = True
+    acts_on = ("force",)
 
     def delta(self, ctx: Context, theta: np.ndarray) -> Delta:
         """Every force sample shifted by theta [N]."""
@@ -40,6 +41,7 @@ class ForceSensorCrosstalk(Family):
     scale = (0.01,) * 6
     description = "each force axis reads a fraction of the other axes"
     needs_forces = True
+    acts_on = ("force",)
     PAIRS = ((0, 1), (0, 2), (1, 0), (1, 2), (2, 0), (2, 1))
 
     def delta(self, ctx: Context, theta: np.ndarray) -> Delta:
@@ -62,6 +64,7 @@ class StreamTimeOffset(Family):
     scale = (0.01, 1e-3)
     description = "force-sensor clock ahead of the tracker by an offset plus a rate error"
     needs_forces = True
+    acts_on = ("force",)
     linear = False
     effect = "stream_time_offset"
 

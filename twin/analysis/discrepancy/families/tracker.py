@@ -20,6 +20,7 @@ class TrackerDrift(Family):
     scale = (0.005, 0.005, 0.005)
     description = "linear drift of the tracker reading with time"
     effect = "tracker_drift"
+    acts_on = ("position",)
 
     def delta(self, ctx: Context, theta: np.ndarray) -> Delta:
         """Position change (t - t0) x rate."""
@@ -45,6 +46,7 @@ class TrackerRegistration(Family):
     bounds = ((-50.0,) * 3 + (-20.0,) * 3, (50.0,) * 3 + (20.0,) * 3)
     scale = (0.1,) * 3 + (0.01,) * 3
     description = "small rotation and translation of the tracker frame"
+    acts_on = ("position",)
 
     def delta(self, ctx: Context, theta: np.ndarray) -> Delta:
         """Position change w x (p - centroid) + shift, rotation about the centroid of the predicted path."""
@@ -64,6 +66,7 @@ class SheetSpringback(Family):
     scale = (0.01,)
     description = "fraction of the formed depth recovered after unclamping"
     needs_profile = True
+    acts_on = ("profile",)
     effect = "sheet_springback"
 
     def delta(self, ctx: Context, theta: np.ndarray) -> Delta:
