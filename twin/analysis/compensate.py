@@ -21,13 +21,16 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from twin.errors import CompensationError, IdentificationError, InputError
 from twin.process.path import label_passes
-from twin.sim.quasi_static import Twin
 from twin.sim.spec import TwinSpec
+
+if TYPE_CHECKING:  # the twin (MuJoCo, numba) loads when a spec is built
+    from twin.sim.quasi_static import Twin
 
 TWIN_TOL_M = 2e-6  # 1/10 of the tracker noise
 TWIN_MAX_ITER = 20

@@ -5,7 +5,6 @@ from __future__ import annotations
 import argparse
 import sys
 
-from twin.analysis.calibration.fit import PARAMETERS, calibrate
 from twin.base.csvio import emit_json
 
 HELP = "Calibrate K_q, joint friction and the sheet's sensitivities to the thesis's measured numbers."
@@ -19,6 +18,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the least-squares calibration (about 1–4 minutes on 2 cores) and report it."""
+    from twin.analysis.calibration.fit import PARAMETERS, calibrate
+
     out = sys.stderr if args.json == "-" else sys.stdout
 
     def progress(count: int, cost: float) -> None:

@@ -9,7 +9,6 @@ from typing import Any
 
 import numpy as np
 
-from twin.analysis.check import diagnose_gain
 from twin.analysis.compensate import (
     TWIN_MAX_ITER,
     TWIN_TOL_M,
@@ -142,6 +141,8 @@ def _part(args: argparse.Namespace) -> int:
 
 def run(args: argparse.Namespace) -> int:
     """Compensate."""
+    from twin.analysis.check import diagnose_gain  # the check loads the twin
+
     if args.target_stl is not None:
         return _part(args)
     for option, value in (("--learn-from", args.learn_from), ("--figure", args.figure), ("--rerun", args.rerun)):
@@ -206,6 +207,8 @@ def _compensate(
 
 def _report(args: argparse.Namespace, summary: dict[str, Any], converged: bool) -> None:
     """The human summary (on stderr when the JSON goes to stdout)."""
+    from twin.analysis.check import diagnose_gain
+
     out = sys.stderr if args.json == "-" else sys.stdout  # keep stdout pure JSON for `--json -`
     gain = summary["gain"]
     print(

@@ -51,7 +51,6 @@ import numpy as np
 from twin.errors import InputError, ModelError, SingularityError, UnreachableError
 from twin.robot.description import DhTable, RobotDescription, load_robot
 from twin.robot.dh import dh_transforms
-from twin.robot.kinematics import Kinematics
 
 #: The vendors' definitions (S/T bits, cf1/cf4/cf6, shoulder/elbow/wrist) are those of six-axis arms.
 ARM_AXES = 6
@@ -240,6 +239,8 @@ def path_configurations(
         InputError: The tool orientation is not the twin's, or the configuration changes along the path.
         UnreachableError, SingularityError: A point the robot cannot reach (the message names the path).
     """
+    from twin.robot.kinematics import Kinematics  # MuJoCo: only when a program is made
+
     kin = Kinematics(robot=robot)
     gap = float(np.linalg.norm(np.asarray(R_base_tool, dtype=float) - kin.R_tool_down))  # = 2√2 sin(angle / 2)
     turn = math.degrees(2.0 * math.asin(min(1.0, gap / (2.0 * math.sqrt(2.0)))))
