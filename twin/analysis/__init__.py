@@ -1,7 +1,8 @@
 """Analysis: what is done with runs, on the twin of a `TwinSpec`.
 
 Modules: `replay` (a run replayed on the twin, with the gap), `identify/` (K_R by Methods 1 and 2, K_q from K_R
-or by rollouts), `compensate` (offline compensation, formula or iterated on the twin, and its gain),
+or by rollouts), `compensate` (offline compensation, formula or iterated on the twin, and its gain), `anderson` (the
+acceleration of that iteration),
 `part_compensation` (the formed part to the design, springback included, and learned from scans), `check` (the
 check of a compensated run), `surface_check` (a part scan against its target or design mesh, by region),
 `scan_registration` (a scanner's point cloud laid on its design by ICP), `discrepancy/` (find,

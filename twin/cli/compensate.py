@@ -54,7 +54,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_robot_argument(parser)
     add_placement_arguments(parser, "sheet placement (the twin's)")
     parser.add_argument(
-        "--tol-mm", type=float, default=1e3 * TWIN_TOL_M, help="--method twin: stop below this |residual| [mm]"
+        "--tol-mm", type=float, default=1e3 * TWIN_TOL_M, help="--method twin: stop when the rms residual is within this [mm]"
     )
     parser.add_argument("--max-iter", type=int, default=TWIN_MAX_ITER, help="--method twin: iteration limit")
     part = parser.add_argument_group("the formed part to the design (--method twin, a height-map force model)")
