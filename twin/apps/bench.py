@@ -95,7 +95,7 @@ def run_benchmarks(
     out["cli_help_over_numpy"] = out["cli_startup"]["help_over_numpy"]
     # the twin compensation of a cone on the ISF model: Ø 80 mm, 20 mm deep (a Ø 20 mm, 2 mm deep one for a smoke run)
     width_m, depth_m = (80e-3, 20e-3) if samples is None else (20e-3, 2e-3)
-    out["compensation"] = compensation_cost(width_m, depth_m)
+    out["compensation"] = compensation_cost(width_m, depth_m, repeats)
     out["compensation_over_simulation"] = out["compensation"]["over_simulation"]
     out["machine"] = machine_info()
     return out
