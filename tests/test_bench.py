@@ -107,6 +107,16 @@ def test_bench_reports_the_speed_ratios_of_issue_18(result: dict) -> None:
     assert growth["1x"]["over_1x"] == 1.0 and "cost vs path length" in format_table(result)
 
 
+def test_bench_reports_the_ratios_of_issue_30(result: dict) -> None:
+    """`--help` over `import numpy`, and the cone's twin compensation over one simulation, from this one run."""
+    startup = result["cli_startup"]
+    assert result["cli_help_over_numpy"] == pytest.approx(startup["help_s"] / startup["numpy_s"])
+    comp = result["compensation"]
+    assert comp["converged"] and 1 <= comp["simulations"] <= 4 and comp["residual_rms_mm"] <= 0.01
+    assert result["compensation_over_simulation"] == pytest.approx(comp["compensate_s"] / comp["simulate_s"])
+    assert "--help" in format_table(result) and "cone twin compensation" in format_table(result)
+
+
 def test_resampled_path_keeps_every_original_sample() -> None:
     from twin.apps.bench_speed import resample
 

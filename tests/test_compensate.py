@@ -128,7 +128,7 @@ def test_twin_compensation_converges_below_tolerance(short_compensation: Compens
     assert comp.predicted_residual_m is not None
     assert np.max(np.abs(comp.predicted_residual_m)) < TWIN_TOL_M
     assert len(comp.history_m) == comp.iterations
-    assert comp.history_m[-1] < 1e-3 * comp.history_m[0]  # from ~mm to below 2 um
+    assert comp.history_m[-1] < 1e-3 * comp.history_m[0]  # from ~mm to well below the tolerance
     print(
         f"\nfirst pass: twin iterations {comp.iterations}, rms residual per iteration [mm] "
         f"{[round(1e3 * h, 5) for h in comp.history_m]}"
@@ -158,5 +158,5 @@ def test_twin_compensation_gain_is_near_one_with_the_twin_compliance(
 
 def test_twin_compensation_raises_when_iterations_run_out(twin: Twin, short_path: ToolPath) -> None:
     # the first pass converges in 2 iterations (0.24 mm, then 8e-5 mm rms); one is not enough
-    with pytest.raises(CompensationError, match=r"did not reach 0\.002 mm in 1 iterations"):
+    with pytest.raises(CompensationError, match=r"did not reach 0\.01 mm rms in 1 iterations"):
         compensate_twin(short_path.t_s, short_path.p_sheet_m, twin, max_iter=1)

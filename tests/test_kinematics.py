@@ -122,6 +122,17 @@ def test_ik_path_is_fast_and_continuous(kin: Kinematics) -> None:
     np.testing.assert_allclose(p_end, P[-1], atol=1e-9)
 
 
+def test_ik_path_seeded_by_a_nearby_path_solves_the_same_points(kin: Kinematics) -> None:
+    o = kin.p_base_sheet_origin
+    n = 200
+    P = o + np.column_stack([np.linspace(-0.03, 0.03, n), np.zeros(n), np.linspace(0.0, -0.01, n)])
+    moved = P + np.array([0.4e-3, -0.2e-3, -1.5e-3])  # a compensation moves the command by about a millimetre
+    Q = kin.ik_path(moved, q_near=kin.ik_path(P))
+    np.testing.assert_allclose(Q, kin.ik_path(moved), atol=1e-9)
+    with pytest.raises(InputError, match=r"q_near has shape \(3, 6\), expected \(200, 6\)"):
+        kin.ik_path(moved, q_near=np.zeros((3, 6)))
+
+
 def test_ik_raises_unreachable_for_far_target(kin: Kinematics) -> None:
     with pytest.raises(UnreachableError, match="did not converge"):
         kin.ik(kin.p_base_sheet_origin + np.array([5.0, 0.0, 0.0]))

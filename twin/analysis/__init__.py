@@ -1,10 +1,12 @@
 """Analysis: what is done with runs, on the twin of a `TwinSpec`.
 
 Modules: `replay` (a run replayed on the twin, with the gap), `identify/` (K_R by Methods 1 and 2, K_q from K_R
-or by rollouts), `compensate` (offline compensation, formula or iterated on the twin, and its gain),
+or by rollouts), `compensate` (offline compensation, formula or iterated on the twin, and its gain), `anderson` (the
+acceleration of that iteration),
 `part_compensation` (the formed part to the design, springback included, and learned from scans),
 `compensation_record` (what a compensation used, carried with its command into its runs), `check` (the check of a
-compensated run), `gain_cause` (a gain's cause, from that record and the measured forces), `surface_check` (a part scan against its target or design mesh, by region),
+compensated run), `gain_cause` (a gain's cause, from that record and the measured forces), `surface_check` (a part
+scan against its target or design mesh, by region),
 `scan_registration` (a scanner's point cloud laid on its design by ICP), `discrepancy/` (find,
 name, add and shrink what the twin is missing) and `calibration/` (the twin's free parameters fitted to the
 thesis's measurements). The analysis never imports a lab: what the twin knows lives in the twin's stages.

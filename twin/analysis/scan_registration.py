@@ -39,10 +39,9 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
-import trimesh
-from scipy.spatial.transform import Rotation
 
 from twin.analysis.surface_check import (
     COMPARE_BELOW_M,
@@ -52,6 +51,9 @@ from twin.analysis.surface_check import (
     signed_distance,
 )
 from twin.errors import InputError
+
+if TYPE_CHECKING:  # trimesh and scipy load when a scan is registered
+    import trimesh
 
 INLIER_M = 2e-3  # a scan point fits when it lies this close to the design [m]
 MIN_INLIER_FRACTION = 0.98  # share of the points over the design that must fit [-]
@@ -94,6 +96,8 @@ class ScanRegistration:
     @property
     def rotation_deg(self) -> np.ndarray:
         """The rotation as extrinsic x, y, z angles [deg] (3,)."""
+        from scipy.spatial.transform import Rotation
+
         return np.asarray(Rotation.from_matrix(self.T_design_scan[:3, :3]).as_euler("xyz", degrees=True))
 
     @property
@@ -152,6 +156,8 @@ def _solve(J: np.ndarray, r: np.ndarray, columns: Sequence[int]) -> tuple[np.nda
 
 def _icp(scan: np.ndarray, index: DesignIndex, T0: np.ndarray, iterations: int, datum: str) -> _Fit:
     """Point-to-plane trimmed ICP from `T0` (module docstring)."""
+    from scipy.spatial.transform import Rotation
+
     T, used, done = T0.copy(), datum, 0
     free: list[str] = []
     for done in range(1, iterations + 1):  # noqa: B007 (reported)
@@ -202,6 +208,7 @@ def _score(scan: np.ndarray, index: DesignIndex, T: np.ndarray, iterations: int,
 
 def _principal_starts(scan: np.ndarray, design: trimesh.Trimesh) -> list[np.ndarray]:
     """Coarse starts: centroids together, principal axes on the design's, `COARSE_SPINS` spins, both sides up."""
+    from scipy.spatial.transform import Rotation
 
     def frame(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         centre = points.mean(axis=0)

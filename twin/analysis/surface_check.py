@@ -18,12 +18,17 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-import trimesh
-from scipy.spatial import cKDTree
 
+from twin.base.lazy import lazy_module
 from twin.errors import DataFileError, InputError
+
+if TYPE_CHECKING:
+    import trimesh
+else:  # trimesh and scipy load when a surface is first compared
+    trimesh = lazy_module("trimesh")
 
 COMPARE_BELOW_M = 1e-4  # the part is compared where the target lies this far below the flat sheet [m]
 EDGE_M = 1e-3  # scan points this close to the target mesh's border (in x, y) are not compared [m]
@@ -169,6 +174,8 @@ class DesignIndex:
         keep = fine.area_faces > 0.0
         self.centres = np.asarray(fine.triangles_center[keep])
         self.normals = np.asarray(fine.face_normals[keep])
+        from scipy.spatial import cKDTree
+
         self.tree = cKDTree(self.centres)
         self.formed = self.centres[:, 2] < -COMPARE_BELOW_M
         self.formed_xy = cKDTree(self.centres[self.formed, :2]) if self.formed.any() else None

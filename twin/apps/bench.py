@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 
 from twin.apps.analytic_replay import AnalyticReplay, analytic_replay
-from twin.apps.bench_speed import mujoco_call_floor, path_growth
+from twin.apps.bench_speed import cli_startup, compensation_cost, mujoco_call_floor, path_growth
 from twin.apps.machine import machine_info
 from twin.apps.sweep import run_sweep, usable_cores
 from twin.errors import InputError
@@ -91,6 +91,12 @@ def run_benchmarks(
     _bench_dynamic(out, t_s, p_cmd, seed, repeats)
     _bench_discrepancy(out, run, t_s, p_cmd, seed)
     _bench_gcode(out, repeats)
+    out["cli_startup"] = cli_startup(max(3, repeats))
+    out["cli_help_over_numpy"] = out["cli_startup"]["help_over_numpy"]
+    # the twin compensation of a cone on the ISF model: Ø 80 mm, 20 mm deep (a Ø 20 mm, 2 mm deep one for a smoke run)
+    width_m, depth_m = (80e-3, 20e-3) if samples is None else (20e-3, 2e-3)
+    out["compensation"] = compensation_cost(width_m, depth_m, repeats)
+    out["compensation_over_simulation"] = out["compensation"]["over_simulation"]
     out["machine"] = machine_info()
     return out
 
@@ -261,6 +267,8 @@ TABLE_ROWS: tuple[tuple[str, str, str], ...] = (
     ("cone_simulate_python_loop_s", "  the same, Python loop", "s"),
     ("cone_realtime_factor", "  real-time factor (27 s of machining)", "x"),
     ("gcode_load_s", "G-code import, ~100k moves", "s"),
+    ("cli_help_over_numpy", "`tx200-twin --help` / import numpy", "x"),
+    ("compensation_over_simulation", "cone twin compensation / one simulate", "x"),
 )
 
 

@@ -7,10 +7,15 @@
   floor is the overhead of everything else (field, Newton algebra, Python).
 * `path_growth`: `Twin.simulate` of the groove resampled 1x, 4x, 16x as densely (the same geometry with k
   times the samples, since the force history has a fixed number of passes): the cost must grow linearly.
+* `cli_startup`: `tx200-twin --help` over `python -c "import numpy"`, each a fresh interpreter, interleaved
+  (a load on the machine weighs on both alike), median of the runs.
 """
 
 from __future__ import annotations
 
+import statistics
+import subprocess
+import sys
 import time
 
 import mujoco
@@ -116,3 +121,71 @@ def path_growth(
         base = wall if base is None else base
         out[f"{k}x"] = {"samples": len(t), "s": wall, "us_per_sample": 1e6 * wall / len(t), "over_1x": wall / base}
     return out
+
+
+#: `tx200-twin --help` in a fresh interpreter, as the console script runs it (argparse exits after the help).
+CLI_HELP = "import sys; from twin.cli import main; sys.argv[0] = 'tx200-twin'; main(['--help'])"
+
+
+def cli_startup(repeats: int = 5) -> dict[str, float]:
+    """Wall time of `tx200-twin --help` and of `python -c "import numpy"`, interleaved, medians [s] and ratio [-].
+
+    Args:
+        repeats: Runs of each (>= 1).
+    """
+    if repeats < 1:
+        raise InputError(f"repeats = {repeats!r}: expected >= 1")
+    times: dict[str, list[float]] = {"help": [], "numpy": []}
+    for _ in range(repeats):
+        for key, code in (("numpy", "import numpy"), ("help", CLI_HELP)):
+            start = time.perf_counter()
+            subprocess.run([sys.executable, "-c", code], check=True, stdout=subprocess.DEVNULL)
+            times[key].append(time.perf_counter() - start)
+    help_s, numpy_s = statistics.median(times["help"]), statistics.median(times["numpy"])
+    return {"help_s": help_s, "numpy_s": numpy_s, "help_over_numpy": help_s / numpy_s}
+
+
+def compensation_cost(top_width_m: float, depth_m: float, repeats: int = 3) -> dict[str, float | int | bool]:
+    """`compensate_twin` of a 45° cone on the ISF model against one `Twin.simulate` of it, medians of `repeats`.
+
+    Each repeat shifts the cone by a further nanometre, so no step reuses an IK solved before (a twin keeps the
+    IK of the paths it last simulated); both run on warm twins.
+
+    Args:
+        top_width_m: The cone's top diameter [m].
+        depth_m: Its depth [m].
+        repeats: Timed runs of each (>= 1).
+
+    Returns:
+        samples, simulations (iterations), converged, the final rms and largest residual [mm], compensate_s and
+        simulate_s [s] (one simulation of the path, its IK included), and their ratio `over_simulation` [-]
+        (the issue's target: at most 4).
+    """
+    from twin.analysis.compensate import compensate_twin
+    from twin.process.description import Process
+    from twin.process.shapes import PartSpec, part_path
+    from twin.sim.spec import TwinSpec
+
+    if repeats < 1:
+        raise InputError(f"repeats = {repeats!r}: expected >= 1")
+    cone = part_path(PartSpec(depth_m=depth_m, top_half_width_m=top_width_m / 2.0))
+    twin = TwinSpec(process=Process(force_model="isf")).build()
+    twin.simulate(cone.t_s[:50], cone.p_sheet_m[:50])  # compile and warm the loop outside the timings
+    times: dict[str, list[float]] = {"simulate": [], "compensate": []}
+    for k in range(1, repeats + 1):
+        p = cone.p_sheet_m + 1e-9 * k
+        start = time.perf_counter()
+        twin.simulate(cone.t_s, p)
+        times["simulate"].append(time.perf_counter() - start)
+        p = p + 0.5e-9
+        start = time.perf_counter()
+        comp = compensate_twin(cone.t_s, p, twin)
+        times["compensate"].append(time.perf_counter() - start)
+    assert comp.predicted_residual_m is not None
+    residual = np.linalg.norm(comp.predicted_residual_m, axis=1)
+    compensate_s, simulate_s = statistics.median(times["compensate"]), statistics.median(times["simulate"])
+    return {
+        "samples": len(cone.t_s), "simulations": comp.iterations, "converged": comp.converged,
+        "residual_rms_mm": 1e3 * float(np.sqrt(np.mean(residual**2))), "residual_max_mm": 1e3 * float(residual.max()),
+        "compensate_s": compensate_s, "simulate_s": simulate_s, "over_simulation": compensate_s / simulate_s,
+    }

@@ -6,7 +6,6 @@ import argparse
 import sys
 from pathlib import Path
 
-from twin.apps.bench import format_table, run_benchmarks
 from twin.apps.readme import SPEED_BLOCK, speed_table
 from twin.base.csvio import emit_json
 from twin.cli._types import seed
@@ -29,6 +28,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the benchmarks."""
+    from twin.apps.bench import format_table, run_benchmarks
+
     result = run_benchmarks(args.repeats, args.samples, seed=args.seed)
     out = sys.stderr if args.json == "-" else sys.stdout  # keep stdout pure JSON for `--json -`
     print(format_table(result), file=out)

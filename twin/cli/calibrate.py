@@ -4,12 +4,12 @@ from __future__ import annotations
 
 import argparse
 import sys
-from typing import TextIO
+from typing import TYPE_CHECKING, TextIO
 
-from twin.analysis.calibration.fit import PARAMETERS, calibrate
-from twin.analysis.calibration.loo import LeaveOneOut, leave_one_out
-from twin.analysis.calibration.targets import TARGETS
 from twin.base.csvio import emit_json
+
+if TYPE_CHECKING:
+    from twin.analysis.calibration.loo import LeaveOneOut
 
 HELP = "Calibrate K_q, joint friction and the sheet's sensitivities to the thesis's measured numbers."
 
@@ -26,6 +26,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the least-squares calibration (about 1–4 minutes on 2 cores) and report it."""
+    from twin.analysis.calibration.fit import PARAMETERS, calibrate
+    from twin.analysis.calibration.targets import TARGETS
+
     out = sys.stderr if args.json == "-" else sys.stdout
 
     def progress(count: int, cost: float) -> None:
@@ -69,6 +72,8 @@ def run(args: argparse.Namespace) -> int:
 
 def _leave_one_out(args: argparse.Namespace, out: TextIO) -> LeaveOneOut:
     """The leave-one-out refits, printed as a table."""
+    from twin.analysis.calibration.loo import leave_one_out
+
     def progress(name: str) -> None:
         if not args.quiet:
             print(f"  leave-one-out: refit without {name}", file=out, flush=True)

@@ -12,7 +12,6 @@ from typing import Any
 
 import numpy as np
 
-from twin.analysis.check import GAIN_TOLERANCE, check_run
 from twin.analysis.scan_registration import DATUMS, INLIER_M, MAX_RMS_M, MIN_INLIER_FRACTION, register_scan
 from twin.analysis.surface_check import (
     REGIONS,
@@ -76,6 +75,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     """Check the run; exit code 1 when a compensated run's gain is off by more than the tolerance (0 for a
     nominal run, whose command is the ideal path)."""
+    from twin.analysis.check import GAIN_TOLERANCE, check_run
+
     needs = [name for name, on in (("--figure", args.figure), ("--scan", args.scan), ("--register", args.register))
              if on]
     if needs and args.target_stl is None:

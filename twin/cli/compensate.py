@@ -9,7 +9,6 @@ from typing import Any
 
 import numpy as np
 
-from twin.analysis.check import diagnose_gain
 from twin.analysis.compensate import (
     TWIN_MAX_ITER,
     TWIN_TOL_M,
@@ -57,7 +56,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_robot_argument(parser)
     add_placement_arguments(parser, "sheet placement (the twin's)")
     parser.add_argument(
-        "--tol-mm", type=finite, default=1e3 * TWIN_TOL_M, help="--method twin: stop below this |residual| [mm]"
+        "--tol-mm", type=finite, default=1e3 * TWIN_TOL_M, help="--method twin: stop when the rms residual is within this [mm]"
     )
     parser.add_argument("--max-iter", type=count, default=TWIN_MAX_ITER, help="--method twin: iteration limit")
     part = parser.add_argument_group("the formed part to the design (--method twin, a height-map force model)")
@@ -157,6 +156,8 @@ def _part(args: argparse.Namespace) -> int:
 
 def run(args: argparse.Namespace) -> int:
     """Compensate."""
+    from twin.analysis.check import diagnose_gain  # the check loads the twin
+
     if args.target_stl is not None:
         return _part(args)
     for option, value in (("--learn-from", args.learn_from), ("--figure", args.figure), ("--rrd", args.rrd)):

@@ -5,7 +5,6 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from twin.apps.demo import run_demo
 from twin.apps.readme import DEMO_BLOCK, demo_table
 
 HELP = (
@@ -21,6 +20,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the demo."""
+    from twin.apps.demo import run_demo
+
     report = run_demo(args.out)
     if args.readme is not None:
         DEMO_BLOCK.update(args.readme, demo_table(report))

@@ -6,8 +6,6 @@ import argparse
 import sys
 from pathlib import Path
 
-from twin.analysis.discrepancy.search import find_discrepancy
-from twin.analysis.discrepancy.summary import result_summary
 from twin.base.csvio import emit_json
 from twin.cli._common import (
     add_force_model_argument,
@@ -43,6 +41,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the workflow."""
+    from twin.analysis.discrepancy.search import find_discrepancy
+    from twin.analysis.discrepancy.summary import result_summary
+
     measured = read_run(args.run_dir)
     declared, _ = history_from_arguments(args)
     spec = spec_from_arguments(args, measured.commanded.values, run=measured, history=declared)

@@ -8,7 +8,6 @@ import numpy as np
 
 from twin.base.csvio import emit_json
 from twin.cli._common import add_robot_argument, command_robot
-from twin.robot.kinematics import Kinematics
 
 HELP = "Show the model: joint stiffness K_q, tool tip and compliance at home, sheet origin."
 
@@ -23,6 +22,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Print the summary (or JSON to stdout with `--json -`) and return 0."""
+    from twin.robot.kinematics import Kinematics  # MuJoCo: only when the command runs
+
     kin = Kinematics(robot=command_robot(args))
     path = kin.robot.model_path()
     p_home, _ = kin.fk(kin.q_home)

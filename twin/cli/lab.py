@@ -26,8 +26,6 @@ from twin.cli._common import (
 )
 from twin.cli._types import seed
 from twin.errors import InputError
-from twin.lab.cnc import run_cnc
-from twin.lab.virtual import load_test, run_lab
 from twin.process.description import Process
 from twin.process.placement import Placement
 from twin.process.process_file import process_record
@@ -108,6 +106,8 @@ def run(args: argparse.Namespace) -> int:
     t_s, p_cmd = commanded.t_s, commanded.values
     spec = TwinSpec(robot=command_robot(args), process=command_process(args, Process(), p_cmd), placement=placement,
                     effects=effects)
+    from twin.lab.virtual import run_lab
+
     run_, truth = run_lab(t_s, p_cmd, scenario=args.scenario, seed=args.seed, spec=spec)
     record = read_record(args.commanded) if args.commanded is not None else None
     if record is not None:  # what the compensation used travels with the run, for `check`
@@ -138,6 +138,8 @@ def run(args: argparse.Namespace) -> int:
 
 def _run_load_test(args: argparse.Namespace, spec: TwinSpec, out: TextIO) -> int:
     """Thesis Method 1's load cases (Table 4.2) at home, the deflections measured: a CSV for `identify --method 1`."""
+    from twin.lab.virtual import load_test
+
     loads, deflections = load_test(THESIS_TABLE_4_2_LOADS_N, seed=args.seed, spec=spec)
     columns = {"fx_n": loads[:, 0], "fy_n": loads[:, 1], "fz_n": loads[:, 2]}
     columns |= {f"d{a}_mm": 1e3 * deflections[:, i] for i, a in enumerate("xyz")}
@@ -156,6 +158,8 @@ def _run_cnc(args: argparse.Namespace, *, effects_given: bool, out: TextIO) -> i
     commanded, protect = lab_commanded(args.scenario, args.commanded)
     path = tool_path(commanded)
     process = command_process(args, Process(), path.p_sheet_m)
+    from twin.lab.cnc import run_cnc
+
     run_, truth = run_cnc(seed=args.seed, path=path, process=process)
     write_run(args.out, run_, truth=truth, overwrite=args.overwrite, protect=protect)
     assert run_.part_profile is not None and run_.forces is not None

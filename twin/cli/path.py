@@ -15,10 +15,9 @@ import re
 import sys
 import warnings
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import trimesh
 
 from twin.base.csvio import emit_json, write_bytes
 from twin.cli._common import (
@@ -35,18 +34,13 @@ from twin.process.aerens import validity_warnings
 from twin.process.description import Process
 from twin.process.gcode import read_gcode, write_gcode
 from twin.process.isf_params import params_for, steady_fz_n
-from twin.process.part_surface import (
-    DESIGN_MARGIN_M,
-    cropped_surface,
-    design_part_surface,
-    heightmap_mesh,
-    target_part_surface,
-)
 from twin.process.path import GrooveSpec, ToolPath, groove_path, write_path_csv
 from twin.process.placement import check_reach
 from twin.process.process_file import process_record
 from twin.process.shapes import MODES, SHAPES, PartSpec, part_path
-from twin.robot.kinematics import Kinematics
+
+if TYPE_CHECKING:  # trimesh, MuJoCo and the part surfaces load only where the command uses them
+    import trimesh
 
 HELP = (
     "Write an ideal tool path (sheet frame) as CSV t_s, x_mm, y_mm, z_mm, pass, direction: the groove, a cone, "
@@ -214,6 +208,8 @@ def run(args: argparse.Namespace) -> int:
     if "step_down_mm" in payload:  # a cone, pyramid or variable-wall-angle cone: its steady axial force
         line += _steady_force(process, payload)
     if not args.no_reach_check:
+        from twin.robot.kinematics import Kinematics
+
         robot = command_robot(args)
         reach = check_reach(path, placement_from(args), Kinematics(robot=robot))
         payload["reach"] = {
@@ -227,6 +223,14 @@ def run(args: argparse.Namespace) -> int:
     params = params_for(process)
     if args.gcode_out is not None:
         write_gcode(path, args.gcode_out)
+    if args.stl_out is not None or args.design_stl is not None:
+        from twin.process.part_surface import (
+            DESIGN_MARGIN_M,
+            cropped_surface,
+            design_part_surface,
+            heightmap_mesh,
+            target_part_surface,
+        )
     if args.stl_out is not None:
         payload["stl_faces"] = _write_stl(args, heightmap_mesh(*cropped_surface(*target_part_surface(path, params))))
         payload["stl_out"] = str(args.stl_out)

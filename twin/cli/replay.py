@@ -6,7 +6,6 @@ import argparse
 import sys
 from pathlib import Path
 
-from twin.analysis.replay import replay
 from twin.base.csvio import emit_json
 from twin.cli._common import (
     add_force_model_argument,
@@ -35,6 +34,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Replay the run."""
+    from twin.analysis.replay import replay
+
     measured = read_run(args.run_dir)
     spec = spec_from_arguments(args, measured.commanded.values, run=measured)
     twin = spec.build()

@@ -13,7 +13,6 @@ from twin.base.csvio import emit_json, write_text
 from twin.cli._types import finite
 from twin.errors import TwinError
 from twin.robot.description import RobotDescription, load_robot, shipped_robots
-from twin.robot.kinematics import Kinematics
 
 #: The common task point of the compliance comparison [mm, base frame]: in front of every shipped robot, at table
 #: height, tool down.
@@ -71,6 +70,8 @@ def compliance_at(robot: RobotDescription, p_base_m: np.ndarray, steps: int = 40
     Raises:
         UnreachableError, SingularityError: The point (or the way to it) is out of reach or near-singular.
     """
+    from twin.robot.kinematics import Kinematics  # MuJoCo: only when the command runs
+
     kin = Kinematics(robot=robot)
     start, _ = kin.fk(kin.q_home)
     q = kin.q_home
@@ -81,6 +82,8 @@ def compliance_at(robot: RobotDescription, p_base_m: np.ndarray, steps: int = 40
 
 def record(robot: RobotDescription, task_point_mm: Any = TASK_POINT_MM) -> dict[str, Any]:
     """One robot as the listing shows it (lengths [mm], angles [deg], stiffness [N·m/rad], compliance [mm/kN])."""
+    from twin.robot.kinematics import Kinematics  # MuJoCo: only when the command runs
+
     sheet = robot.datasheet
     try:
         compliance: Any = compliance_at(robot, 1e-3 * np.asarray(task_point_mm, dtype=float)).round(4).tolist()

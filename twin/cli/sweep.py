@@ -7,8 +7,6 @@ import sys
 import time
 from pathlib import Path
 
-from twin.apps.sweep import run_sweep
-from twin.apps.sweep_figure import sweep_figure
 from twin.base.csvio import emit_json
 from twin.cli._common import (
     add_history_arguments,
@@ -42,6 +40,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the sweep with a progress bar on stderr."""
+    from twin.apps.sweep import run_sweep
+    from twin.apps.sweep_figure import sweep_figure
+
     history, _ = history_from_arguments(args)
     ideal = ideal_from_arguments(args)
     start = time.perf_counter()

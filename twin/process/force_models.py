@@ -24,7 +24,6 @@ from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from twin.errors import ExtrapolationWarning, InputError
 from twin.process.aerens import validity_warnings
@@ -128,6 +127,8 @@ def follows_history(history: ForceHistory, process: Process, p_sheet_m: np.ndarr
         process: The process (unused: the domain is the history's).
         p_sheet_m: The commanded path, sheet frame [m], shape (n, 3).
     """
+    from scipy.spatial import cKDTree
+
     del process
     if len(p_sheet_m) == 0 or float(np.max(np.abs(p_sheet_m[:, 1]))) > TABLE_SECTION_HALF_WIDTH_M:
         return False

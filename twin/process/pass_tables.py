@@ -11,7 +11,6 @@ import math
 from dataclasses import dataclass, replace
 
 import numpy as np
-from scipy.interpolate import PchipInterpolator
 
 from twin.errors import InputError
 from twin.process.forces import ForceHistory
@@ -105,6 +104,8 @@ def build_pass_tables(history: ForceHistory, profile: FormedProfile, *, deadband
     Raises:
         InputError: A pass with fewer than 2 distinct x samples.
     """
+    from scipy.interpolate import PchipInterpolator  # scipy costs a second to import; only fitting needs it
+
     x, z = history.p_sheet_m[:, 0], history.p_sheet_m[:, 2]
     fx, fz = history.f_sheet_n[:, 0], history.f_sheet_n[:, 2]
     pass_index, direction = history.pass_labels(deadband_m)

@@ -18,13 +18,15 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from twin.errors import DataFileError, InputError, SingularityError, UnreachableError
 from twin.process.path import ToolPath
-from twin.robot.kinematics import Kinematics
+
+if TYPE_CHECKING:  # MuJoCo loads only when a placement is checked
+    from twin.robot.kinematics import Kinematics
 
 
 @dataclass(frozen=True)
@@ -128,6 +130,8 @@ def check_reach(
         UnreachableError: A sample is out of reach or outside a joint range (names the first such sample).
         SingularityError: A sample's solution has |det J| below `kinematics.det_j_min` (names it).
     """
+    from twin.robot.kinematics import Kinematics
+
     kin = Kinematics() if kinematics is None else kinematics
     P = (placement or Placement()).to_base(path.p_sheet_m, kin)
     try:

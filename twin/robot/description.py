@@ -18,13 +18,15 @@ import tomllib
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple
 
-import mujoco
 import numpy as np
 
 from twin.base.resources import models_dir
 from twin.errors import AssumptionWarning, InputError, ModelError
+
+if TYPE_CHECKING:  # a description is data: MuJoCo loads with the model it describes
+    import mujoco
 
 ROBOT_FORMAT = "tx200-twin-robot/1"
 DEFAULT_ROBOT = "tx200"

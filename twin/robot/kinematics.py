@@ -219,12 +219,16 @@ class Kinematics:
             )
         return q, J
 
-    def ik_path(self, P_base_tcp: np.ndarray, q_seed: np.ndarray | None = None) -> np.ndarray:
+    def ik_path(
+        self, P_base_tcp: np.ndarray, q_seed: np.ndarray | None = None, *, q_near: np.ndarray | None = None
+    ) -> np.ndarray:
         """IK along a path, each point warm-started from the previous solution.
 
         Args:
             P_base_tcp: Tool-tip positions in the base frame (n, 3) [m].
             q_seed: Seed of the first point (dof,) [rad]; None uses `q_home`.
+            q_near: A solution of a nearby path (n, dof) [rad] (the path before a small change, e.g. the last
+                command of a compensation): it seeds every point, so a few Newton steps suffice.
 
         Returns:
             Q of shape (n, dof) [rad].
@@ -237,7 +241,10 @@ class Kinematics:
             bad = P[int(np.argmin(finite))]
             raise InputError(f"p_base_tcp must be 3 finite coordinates [m], got {bad}")
         q0 = self.q_home.copy() if q_seed is None else self._check_q(q_seed).copy()
-        Q = self._ik_batch(P, q0)
+        near = None if q_near is None else np.asarray(q_near, dtype=float)
+        if near is not None and near.shape != (P.shape[0], self.dof):
+            raise InputError(f"q_near has shape {near.shape}, expected {(P.shape[0], self.dof)}")
+        Q = self._ik_batch(P, q0 if near is None else near)
         return Q if Q is not None else self._ik_sequential(P, q0)
 
     def _ik_sequential(self, P: np.ndarray, q: np.ndarray) -> np.ndarray:
@@ -267,7 +274,7 @@ class Kinematics:
         n = P.shape[0]
         if not self._chain.supported or n < 2:
             return None
-        Q = np.broadcast_to(q_seed, (n, self.dof)).copy()
+        Q = np.broadcast_to(q_seed, (n, self.dof)).copy()  # one seed, or one per point
         J_final = np.empty((n, 6, self.dof))
         R_tT = self.R_tool_down.T
         active = np.arange(n)

@@ -20,7 +20,6 @@ import math
 from pathlib import Path
 
 import numpy as np
-import trimesh
 
 from twin.base.csvio import read_header, read_table
 from twin.base.units import read_si_table
@@ -115,6 +114,8 @@ def _read_xyz(path: Path) -> np.ndarray:
 
 
 def _read_ply(path: Path) -> np.ndarray:
+    import trimesh  # scipy with it: only for a PLY file
+
     try:
         with np.errstate(all="ignore"):  # a non-finite vertex is refused below
             loaded = trimesh.load(path, file_type="ply", process=False)

@@ -31,7 +31,6 @@ from twin.apps.export.reach import path_joint_angles
 from twin.errors import InputError
 from twin.process.placement import Placement
 from twin.robot.description import DEFAULT_ROBOT, RobotDescription, robot_record
-from twin.robot.kinematics import Kinematics
 from twin.runs.read import read_commanded_csv
 
 POSITION_DECIMALS = 4  # mm: 0.1 µm, below the tracker's 0.02 mm noise
@@ -125,6 +124,8 @@ def default_cell(
             twin's orientation in the base (`Kinematics.R_tool_down`), written in the turned sheet frame.
         robot: The robot; None: the default robot.
     """
+    from twin.robot.kinematics import Kinematics  # MuJoCo: only when a program is made
+
     kin = Kinematics(robot=robot)
     place = placement or Placement()
     R_base_sheet = place.R_base_sheet

@@ -13,12 +13,15 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from twin.errors import InputError, SingularityError, UnreachableError
 from twin.robot.description import RobotDescription
-from twin.robot.kinematics import Kinematics
+
+if TYPE_CHECKING:
+    from twin.robot.kinematics import Kinematics
 
 
 def first_unreachable(kin: Kinematics, p_base_tcp_m: np.ndarray) -> tuple[int, str]:
@@ -106,6 +109,8 @@ def path_joint_angles(
         InputError: The tool orientation is not the twin's.
         UnreachableError, SingularityError: A point out of reach (`solve_reach`).
     """
+    from twin.robot.kinematics import Kinematics  # MuJoCo: only when a program is made
+
     kin = Kinematics(robot=robot)
     gap = float(np.linalg.norm(np.asarray(R_base_tool, dtype=float) - kin.R_tool_down))  # = 2√2 sin(angle / 2)
     turn = math.degrees(2.0 * math.asin(min(1.0, gap / (2.0 * math.sqrt(2.0)))))
