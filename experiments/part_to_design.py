@@ -3,12 +3,12 @@ path-compensated, part-compensated, and one and two learning iterations from the
 
 The plant's sheet is 20 % stronger than declared and springs back more: the quasi-static lab hides
 `force_scale=1.2` and `sheet_springback=0.05` (5 % more of the depth lost on unclamping); the dynamic plant forms
-with R_m 1.2 x 275 MPa and a 25 % softer elastic unloading (k_unload x 0.75) while its runs record the declared
-process (the twin is told nothing). Each number is the scan (`part_scan.csv`) against the design, normal to it,
+its own sheet (`twin.lab.dynamic.sheet`: its own force model and springback) with R_m 1.2 x 275 MPa while its runs
+record the declared process (the twin is told nothing). Each number is the scan (`part_scan.csv`) against the design, normal to it,
 rms over the formed part and its rim (`twin.analysis.part_compensation.part_stats`). Both compensations are made
 twice: with the declared sheet, and with the sheet's forces identified from the nominal part's F/T stream
-(`identify --forces RUN --write-model`; the springback stays the declared one: forces do not show it). Figures and rerun recordings
-in OUT: `twin_stages.png|.rrd` (the twin's predicted part at each part-compensation iteration) and
+(`identify --forces RUN --write-model`; the springback stays the declared one: forces do not show it). Figures
+and rerun recordings in OUT: `twin_stages.png|.rrd` (the twin's predicted part at each part-compensation iteration) and
 `<plant>_stages.png|.rrd` (the scan of each formed part: nominal, path-, part-compensated, each learning iteration).
 
 Run: `.venv/bin/python experiments/part_to_design.py OUT [--shape cone|pyramid] [--width-mm 80 --depth-mm 20]
@@ -31,15 +31,13 @@ from twin.cli import main as cli
 from twin.lab.dynamic.knobs import Knobs
 from twin.lab.dynamic.run import run_dynamic_lab
 from twin.process.description import Process
-from twin.process.field import K_UNLOAD_N_PER_M
 from twin.runs.read import read_commanded_csv, read_run
 from twin.runs.write import write_run
 from twin.viz.part_recording import record_part
 from twin.viz.surface_figures import plot_part_stages
 
 HIDDEN_QS = ["--effect", "force_scale=1.2", "--effect", "sheet_springback=0.05"]
-PLANT_PROCESS = Process(tensile_strength_mpa=1.2 * 275.0, force_model="isf",
-                        force_fit=(("k_unload_n_per_m", 0.75 * K_UNLOAD_N_PER_M),))
+PLANT_PROCESS = Process(tensile_strength_mpa=1.2 * 275.0, force_model="isf")
 
 
 def _cli(*argv: str) -> None:

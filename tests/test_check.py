@@ -238,6 +238,11 @@ def test_cli_compensate_lab_check_names_the_half_history_loaded_as_full(
     print(f"\n{payload['diagnosis']}")
     assert payload["cause"] == "half_history_as_full" and payload["force_scale"] == pytest.approx(0.5, abs=0.06)
     assert "loaded as full" in captured.err
+    dynamic = tmp_path / "dynamic"  # the dynamic plant's run carries the record too
+    assert main(["lab", "--plant", "dynamic", "--scenario", "compensated", "--commanded", str(cmd), "--seed", "3",
+                 "--out", str(dynamic)]) == 0
+    assert json.loads((dynamic / "meta.json").read_text())["compensation"] == json.loads(
+        (run_dir / "meta.json").read_text())["compensation"]
 
 
 def test_cli_check_on_a_run_without_forces_exits_2_naming_forces_csv(

@@ -196,5 +196,7 @@ def _run_dynamic(args: argparse.Namespace, placement: Placement) -> int:
     if args.scenario != "loadtest":
         commanded, _ = lab_commanded(args.scenario, args.commanded)
         process = command_process(args, process, commanded.values)
+    record = read_record(args.commanded) if args.commanded is not None else None
     return run_dynamic_command(args, loads_n=THESIS_TABLE_4_2_LOADS_N, process=process, placement=placement,
-                               robot=command_robot(args))
+                               robot=command_robot(args),
+                               meta=None if record is None else {"compensation": record.to_json()})

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from dataclasses import replace
 from typing import Any, TextIO
 
 import numpy as np
@@ -31,6 +32,7 @@ def _run_load_test(
         knobs: The plant's knobs.
         out: Where the one-line report goes.
         robot: The robot (None: the default robot).
+        meta: Entries added to the run's meta (e.g. the command's compensation record, for `check`).
 
     Returns:
         The exit status (0).
@@ -82,6 +84,7 @@ def run_dynamic_command(
     process: Process | None = None,
     placement: Placement | None = None,
     robot: RobotDescription | None = None,
+    meta: dict[str, Any] | None = None,
 ) -> int:
     """Run `args.scenario` (nominal, compensated or loadtest) on the dynamic plant.
 
@@ -91,6 +94,7 @@ def run_dynamic_command(
         process: The sheet, tool and force model for the commanded path (None: the thesis's, the table field).
         placement: Where the sheet lies in the cell (None: the cell's `sheet_origin`, yaw 0).
         robot: The robot (None: the default robot).
+        meta: Entries added to the run's meta (e.g. the command's compensation record, for `check`).
 
     Returns:
         The exit status (0).
@@ -113,6 +117,8 @@ def run_dynamic_command(
         robot=robot,
     )
     truth["force_model"] = (process or Process()).force_model
+    if meta:
+        run = replace(run, meta={**run.meta, **meta})
     write_run(args.out, run, truth=truth, overwrite=args.overwrite, protect=protect)
     summary = _run_summary(args, knobs, run, p_cmd, log.wall_s)
     print(
