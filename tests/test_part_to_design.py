@@ -40,13 +40,18 @@ def test_a_cone_on_both_plants_learns_to_within_0_1_mm(tmp_path: Path) -> None:
     summary = study.part_study(tmp_path, ["--shape", "cone", "--top-width-mm", "40", "--depth-mm", "5"])
     print(f"\n{summary}")
     assert summary["twin_predicted_rms_mm"][-1] < summary["twin_predicted_rms_mm"][0] / 3
-    for plant in ("quasi-static", "dynamic"):
-        assert _all(summary, plant, "part-compensated") < _all(summary, plant, "path-compensated")
+    for plant in ("quasi-static", "dynamic"):  # the scans learn what the twin does not know, on both plants
         assert _all(summary, plant, "learn 2") < 0.1
-        # with the forces identified from the nominal part, the part compensation removes two thirds and more
-        assert _all(summary, plant, "part-compensated, identified forces") < _all(summary, plant, "path-compensated") / 3
-        assert (_all(summary, plant, "part-compensated, identified forces")
-                < _all(summary, plant, "path-compensated, identified forces") / 3)
+        assert _all(summary, plant, "learn 2") < _all(summary, plant, "path-compensated") / 2
+    # the quasi-static lab springs back as the twin's model does, 5 % more: the twin's part compensation helps, and
+    # with the forces identified from the nominal part it removes two thirds and more
+    qs = "quasi-static"
+    assert _all(summary, qs, "part-compensated") < _all(summary, qs, "path-compensated")
+    assert _all(summary, qs, "part-compensated, identified forces") < _all(summary, qs, "path-compensated") / 3
+    assert (_all(summary, qs, "part-compensated, identified forces")
+            < _all(summary, qs, "path-compensated, identified forces") / 3)
+    # the dynamic plant's own sheet springs back far less than the twin predicts: the part compensation over-forms
+    assert _all(summary, "dynamic", "part-compensated") > _all(summary, "dynamic", "path-compensated")
     documented = (Path(__file__).resolve().parent.parent / "docs" / "any-part.md").read_text()
     table = documented.split("<!-- part-to-design table")[1].split("\n\n")[0].splitlines()[1:]
     assert _numbers(table) == pytest.approx(_numbers(study.stage_table(summary).splitlines()), abs=0.005)
