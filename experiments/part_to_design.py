@@ -1,7 +1,7 @@
 """The formed part against its design, on both plants, with the plant's sheet other than the twin's: nominal,
 path-compensated, part-compensated, and one and two learning iterations from the scans.
 
-The plant's sheet is 20 % stronger than declared and springs back more: the quasi-static lab hides
+The plant's sheet is 20 % stronger than declared and springs back otherwise: the quasi-static lab hides
 `force_scale=1.2` and `sheet_springback=0.05` (5 % more of the depth lost on unclamping); the dynamic plant forms
 its own sheet (`twin.lab.dynamic.sheet`: its own force model and springback) with R_m 1.2 x 275 MPa while its runs
 record the declared process (the twin is told nothing). Each number is the scan (`part_scan.csv`) against the design, normal to it,
