@@ -52,3 +52,22 @@ def test_help_lists_every_command_and_the_public_api_is_still_there(capsys: pyte
     import twin
 
     assert callable(twin.compensate_twin) and callable(twin.replay)
+
+
+def test_version_names_the_installed_package_and_exits_0(capsys: pytest.CaptureFixture[str]) -> None:
+    from importlib import metadata
+
+    from twin.cli import main
+
+    with pytest.raises(SystemExit) as stop:
+        main(["--version"])
+    assert stop.value.code == 0
+    assert capsys.readouterr().out == f"tx200-twin {metadata.version('tx200-twin')}\n"
+    assert "importlib.metadata" not in _loaded_after_names("from twin.cli import build_parser; build_parser()")
+
+
+def _loaded_after_names(code: str) -> list[str]:
+    """Every module a fresh interpreter holds after `code`."""
+    done = subprocess.run([sys.executable, "-c", f"import sys\n{code}\nprint(sorted(sys.modules))"],
+                          capture_output=True, text=True, check=True)
+    return list(ast.literal_eval(done.stdout.strip().splitlines()[-1]))
