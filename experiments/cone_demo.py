@@ -3,7 +3,7 @@
 Every step is a `tx200-twin` command, as a user types it:
 
     path --shape cone --depth-mm 40 --top-width-mm 120 --step-down-mm 0.5 --out cone.csv --stl-out cone.stl
-    compensate --method twin --ideal cone.csv --tol-mm 0.1 --max-iter 12 --out cone_cmd.csv
+    compensate --method twin --ideal cone.csv --tol-mm 0.01 --max-iter 12 --out cone_cmd.csv
     lab [--plant dynamic --neutral] --scenario nominal|compensated --commanded ... --out runs/...
     check RUN --ideal cone.csv --target-stl cone.stl --figure RUN.png
     replay runs/dynamic_compensated --rrd cone.rrd
@@ -51,7 +51,7 @@ def cone_demo(out: Path, depth_mm: float = 40.0, top_width_mm: float = 120.0, st
                "--stl-out", str(stl))
     timings["path + STL"] = time.perf_counter() - began
     began = time.perf_counter()
-    comp = run("compensate", "--method", "twin", "--ideal", str(ideal), "--tol-mm", "0.1", "--max-iter", "12",
+    comp = run("compensate", "--method", "twin", "--ideal", str(ideal), "--tol-mm", "0.01", "--max-iter", "12",
                "--out", str(cmd))
     timings["twin compensation"] = time.perf_counter() - began
     rows = {}
