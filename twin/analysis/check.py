@@ -89,10 +89,11 @@ class CheckResult:
 NOMINAL_TOL_M = 1e-6
 #: The command's correction from the ideal path that a gain and a direction-flipping offset of the run's own
 #: compliance times its forces leave unexplained may reach this fraction of the run's deflection (rms) ...
-MISMATCH_FRACTION = 0.5
+MISMATCH_FRACTION = 0.75
 #: ... or this much [m], before the paths are said not to match. On the lab's groove runs compensated with
-#: force scales 0, 1 and 2 the unexplained part is 0.00-0.22 mm (<= 0.10 of the ~2 mm deflection); the groove
-#: shifted by 3 mm leaves 2.6 mm, a cone path 63 mm (tests/test_check_mismatch.py).
+#: force scales 0, 1 and 2 the unexplained part stays under 0.15 of the ~2 mm deflection; the groove shifted by
+#: 3 mm leaves 2-3 mm, a cone path over 30 mm (tests/test_check_mismatch.py). The dynamic plant's runs leave
+#: more (its timing is re-planned), hence the margin.
 MISMATCH_FLOOR_M = 0.5e-3
 
 
