@@ -153,11 +153,11 @@ def test_force_onset_finds_the_sensor_clock_and_the_position_gap_holds(
     print(f"\nforce_onset clock: offset error {1e3 * (clock['offset_s'] - SENSOR_OFFSET_S):+.1f} ms, force gap "
           f"{back['force_rms_n']:.1f} N (explicit offset {clean_replay.metrics['force_rms_n']:.1f} N)")
     assert back["force_rms_n"] < 2.0 * clean_replay.metrics["force_rms_n"]
-    # docs/import-export.md's "Measured": σ and how early, then the force gap, explicit offset -> force_onset
-    sigma_ms, early_ms = quoted("import-export.md", "the sensor offset comes out with σ ≈", 2)
+    # docs/import-export.md's "Measured": σ and how late, then the force gap, explicit offset -> force_onset
+    sigma_ms, late_ms = quoted("import-export.md", "the sensor offset comes out with σ ≈", 2)
     sigma_ms.check(1e3 * clock["sigma_s"])
-    early_ms.check(1e3 * (SENSOR_OFFSET_S - clock["offset_s"]))
-    explicit, onset = quoted("import-export.md", "the force gap of the replay grows from", 2)
+    late_ms.check(1e3 * (clock["offset_s"] - SENSOR_OFFSET_S))
+    explicit, onset = quoted("import-export.md", "the force gap of the replay goes from", 2)
     explicit.check(clean_replay.metrics["force_rms_n"])
     onset.check(back["force_rms_n"])
 

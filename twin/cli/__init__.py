@@ -9,6 +9,9 @@ ranges (seeds, counts, lengths, feeds).
 Each command module defines `HELP` (one line), `add_arguments(parser)` and `run(args) -> int`. Before a command runs,
 its outputs (the options in `OUTPUT_OPTIONS`) pass `twin.base.outputs.check_outputs` against every option naming an
 existing file or folder: an output never replaces an input or another output.
+Every sub-parser's help shows each option's default (`DefaultsFormatter`, where the help does not already say it),
+and path options get one metavar scheme (`uniform_metavars`): RUN for a run folder, DIR for a folder, FILE for a
+file (unless the module names a more specific one, e.g. PNG or FILE.toml).
 Commands that report numbers take `--json FILE` (`-` for stdout) and print a short human summary. A `TwinError`
 ends the command with its message and exit code 2; a warning (e.g. an effect read under a name used before) is
 printed as a note, a model used outside its published range (`ExtrapolationWarning`) as a warning.
@@ -66,6 +69,40 @@ COMMANDS: dict[str, str] = {
 }
 
 
+def _shown(value: object) -> str:
+    """A default as `--help` shows it: floats with `:g`, sequences space-separated."""
+    if isinstance(value, list | tuple):
+        return " ".join(_shown(v) for v in value)
+    return f"{value:g}" if isinstance(value, float) else str(value)
+
+
+class DefaultsFormatter(argparse.RawDescriptionHelpFormatter):
+    """Appends `(default: X)` to an option's help unless it already mentions its default (or has none)."""
+
+    def _get_help_string(self, action: argparse.Action) -> str | None:
+        text = action.help or ""
+        default = action.default
+        if default in (None, False, argparse.SUPPRESS) or "default" in text.lower() or action.nargs == 0:
+            return text
+        if not action.option_strings and action.nargs not in ("?", "*"):
+            return text
+        return f"{text} (default: {_shown(default).replace('%', '%%')})"
+
+
+def uniform_metavars(command: str, parser: argparse.ArgumentParser) -> None:
+    """Give each path option without a metavar RUN (run folder), DIR (folder) or FILE."""
+    for action in parser._actions:
+        if action.metavar is not None or action.choices is not None or action.nargs not in (None, "?"):
+            continue
+        option = action.option_strings[-1] if action.option_strings else ""
+        if action.dest == "run_dir" or option in ("--run", "--learn-from") or (command, option) in REPLACED_FOLDERS:
+            action.metavar = "RUN"
+        elif (command, option) in FOLDER_OUTPUTS:
+            action.metavar = "DIR"
+        elif action.type is Path or option == "--json":
+            action.metavar = "FILE"
+
+
 def build_parser() -> argparse.ArgumentParser:
     """Build the top-level parser with one sub-parser per command."""
     parser = argparse.ArgumentParser(
@@ -78,8 +115,9 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     for name, module_name in COMMANDS.items():
         module = importlib.import_module(f"twin.cli.{module_name}")
-        command = sub.add_parser(name, help=module.HELP, description=module.HELP)
+        command = sub.add_parser(name, help=module.HELP, description=module.HELP, formatter_class=DefaultsFormatter)
         module.add_arguments(command)
+        uniform_metavars(name, command)
         command.set_defaults(_run=module.run)
     return parser
 
@@ -108,7 +146,7 @@ def check_command_outputs(parser: argparse.ArgumentParser, args: argparse.Namesp
         value = getattr(args, action.dest, None)
         if action.dest in ("help", "_run") or action.choices is not None or not isinstance(value, str | Path):
             continue
-        name = action.option_strings[-1] if action.option_strings else str(action.metavar or action.dest).upper()
+        name = action.option_strings[-1] if action.option_strings else action.dest.upper()
         if name in OUTPUT_OPTIONS:
             outputs.append((name, value))
         elif Path(value).exists() or Path(value).is_symlink():

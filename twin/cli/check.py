@@ -85,7 +85,8 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("--scan-units gives the units of --scan FILE; the run's part_scan.csv declares its own")
     ideal = ideal_from_arguments(args)
     measured = read_run(args.run_dir)
-    result = check_run(measured, ideal.t_s, ideal.p_sheet_m)
+    name = f"--ideal {args.ideal}" if args.ideal is not None else "the default ideal path (the groove; --ideal FILE)"
+    result = check_run(measured, ideal.t_s, ideal.p_sheet_m, name)
     summary = {"run": args.run_dir, **result.summary()}
     line = (
         f"check {args.run_dir}: residual rms {summary['residual_rms_mm']:.3f} mm, "

@@ -48,7 +48,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--run",
         type=Path,
-        metavar="RUN_DIR",
+        metavar="RUN",
         help="a run (tx200-twin-run/1) the program is for: its robot and its meta.json tool_length_m",
     )
     parser.add_argument(
@@ -61,13 +61,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "robot model's tool body mass)",
     )
     parser.add_argument(
-        "--safe-height-mm", type=float, metavar="Z",
+        "--safe-height-mm", type=float, metavar="MM",
         help="approach and retract height, sheet frame z [mm]: the program moves (joint move) above the first point, "
         f"down onto the path and back up at the end (default: the sheet top z = 0 or the path's highest point, "
         f"whichever is higher, + {SAFE_MARGIN_MM:g} mm)",
     )
     parser.add_argument(
-        "--feed-mm-s", type=float, metavar="V",
+        "--feed-mm-s", type=float, metavar="MM_S",
         help=f"the process feed [mm/s]; a path move faster than {FEED_TOLERANCE:g}x it is programmed at it "
         "(default: the median of the path's feeds)",
     )

@@ -6,7 +6,10 @@ at a known time. The search cross-correlates the two around the kink: for each t
 `m(t) = a + b·r(t - τ)` by least squares over a fixed window of stream samples (m: measured magnitude,
 r: reference from the commanded path, zero before the path starts) and keeps the τ of the smallest residual,
 refined by a parabola. Its standard uncertainty is `σ_τ = sqrt(σ² / c)`, with `σ²` the residual variance and
-`c` the parabola's curvature of the sum of squares (Δ SSE = σ² at one standard deviation).
+`c` the parabola's curvature of the sum of squares (Δ SSE = σ² at one standard deviation). The onset fit
+inflates it for correlated residuals (model error: `(1 + ρ) / (1 - ρ)` with ρ the residuals' lag-1
+autocorrelation). A vector stream (the tracker) is fitted per axis with one shared τ: the magnitude of a
+noisy displacement is biased upwards near zero, which put the kink late by up to 15 σ (issue #29).
 """
 
 from __future__ import annotations
@@ -87,21 +90,56 @@ def best_lag(
     Returns:
         (τ [s], its standard uncertainty σ_τ [s]; inf when the residual has no curvature).
     """
-    n = len(t_s)
-    sse = np.empty(taus.size)
-    for i, tau in enumerate(taus):
-        r = np.interp(t_s - tau, t_ref_s, reference)
-        A = np.column_stack([np.ones(n), r])
-        coef, *_ = np.linalg.lstsq(A, measured, rcond=None)
-        sse[i] = float(np.sum((measured - A @ coef) ** 2))
+    tau, sigma, _ = _lag_fit(t_s, measured, t_ref_s, reference, taus)
+    return tau, sigma
+
+
+def _residuals(
+    t_s: np.ndarray, measured: np.ndarray, t_ref_s: np.ndarray, reference: np.ndarray, tau: float
+) -> np.ndarray:
+    """Residuals of `measured[:, j] ≈ a_j + b_j·reference[:, j](t - τ)` per column, shape (n, k)."""
+    out = np.empty_like(measured)
+    for j in range(measured.shape[1]):
+        A = np.column_stack([np.ones(len(t_s)), np.interp(t_s - tau, t_ref_s, reference[:, j])])
+        coef, *_ = np.linalg.lstsq(A, measured[:, j], rcond=None)
+        out[:, j] = measured[:, j] - A @ coef
+    return out
+
+
+def _lag_fit(
+    t_s: np.ndarray, measured: np.ndarray, t_ref_s: np.ndarray, reference: np.ndarray, taus: np.ndarray
+) -> tuple[float, float, np.ndarray]:
+    """`best_lag` for 1-D or (n, k) signals (one τ shared by the columns); also returns the residuals at τ."""
+    m = measured.reshape(len(t_s), -1)
+    r = reference.reshape(len(t_ref_s), -1)
+    sse = np.array([float(np.sum(_residuals(t_s, m, t_ref_s, r, tau) ** 2)) for tau in taus])
     step = float(taus[1] - taus[0])
     k = int(np.clip(np.argmin(sse), 1, taus.size - 2))
     y0, y1, y2 = sse[k - 1], sse[k], sse[k + 1]
     curvature = (y0 - 2.0 * y1 + y2) / step**2 / 2.0  # SSE ≈ SSE* + c (τ - τ*)²
     shift = 0.0 if curvature <= 0 else float(np.clip((y0 - y2) / (4.0 * curvature * step), -step, step))
-    variance = float(sse.min()) / max(n - 3, 1)
+    variance = float(sse.min()) / max(m.size - 3 * m.shape[1], 1)
     sigma = float(np.sqrt(variance / curvature)) if curvature > 0 else float("inf")
-    return float(taus[k] + shift), sigma
+    tau = float(taus[k] + shift)
+    return tau, sigma, _residuals(t_s, m, t_ref_s, r, tau)
+
+
+def honest_sigma(sigma_s: float, residuals: np.ndarray) -> float:
+    """The onset fit's σ made to cover model error seen as correlated residuals [s].
+
+    Args:
+        sigma_s: Statistical σ of the lag fit (white residuals assumed) [s].
+        residuals: The fit's residuals at the best lag, shape (n,) or (n, k).
+
+    Returns:
+        `sigma_s sqrt((1 + ρ) / (1 - ρ))`, ρ in [0, 0.95] the residuals' mean lag-1
+        autocorrelation over the columns (an AR(1) effective sample count).
+    """
+    res = residuals.reshape(len(residuals), -1)
+    num = float(np.sum(res[1:] * res[:-1]))
+    den = float(np.sum(res * res))
+    rho = float(np.clip(num / den, 0.0, 0.95)) if den > 0 else 0.0
+    return float(sigma_s * np.sqrt((1.0 + rho) / (1.0 - rho)))
 
 
 def sliding_reference(p_ref_m: np.ndarray) -> np.ndarray:
@@ -180,14 +218,15 @@ def onset_offset(
 
     Args:
         t_stream_s: Stream sample times on its own clock, strictly increasing, shape (n,) [s].
-        measured: Magnitude measured by the stream (|F| [N] or displacement [m]), shape (n,).
+        measured: Magnitude measured by the stream (|F| [N]), shape (n,), or its positions [m], shape (n, 3).
         t_ref_s: Commanded path times on the shared clock (from 0), shape (m,) [s].
-        reference: The commanded counterpart (depth [m] or displacement [m]), zero at the start, shape (m,).
+        reference: The commanded counterpart: depth [m], zero at the start, shape (m,), or positions [m],
+            shape (m, 3).
         max_offset_s: Largest acceptable |offset| [s].
         method: Label recorded in the result.
 
     Returns:
-        The offset and its standard uncertainty.
+        The offset and its standard uncertainty (`honest_sigma`).
 
     Raises:
         InputError: No quiet lead-in, no onset, too few samples in the window, or |offset| > max_offset_s.
@@ -198,8 +237,14 @@ def onset_offset(
     ref = np.asarray(reference, dtype=float)
     if t.size < 4 * LEAD_IN_SAMPLES:
         raise InputError(f"{t.size} stream samples; the onset search needs at least {4 * LEAD_IN_SAMPLES}")
+    fitted = m
+    if m.ndim == 2:  # a vector stream: onset on the displacement's magnitude, fit per axis
+        fitted, m = m, np.linalg.norm(m - np.median(m[:LEAD_IN_SAMPLES], axis=0), axis=1)
+        r_dist = np.linalg.norm(ref - ref[0], axis=1)
+    else:
+        r_dist = ref - ref[0]
     t_on, _ = _onset(t, m)
-    rise = np.flatnonzero(ref - ref[0] > ONSET_RANGE_FRACTION * (np.percentile(ref, 95) - ref[0]))
+    rise = np.flatnonzero(r_dist > ONSET_RANGE_FRACTION * (np.percentile(r_dist, 95)))
     if rise.size == 0:
         raise InputError("the commanded reference never rises: no onset to align with")
     t_ref_on = float(t_ref[rise[0]])
@@ -208,7 +253,9 @@ def onset_offset(
     n = int(window.sum())
     if n < 8:
         raise InputError(f"{n} samples within {WINDOW_S} s of the onset; need at least 8")
-    tau, sigma = best_lag(t[window], m[window], t_ref, ref, tau0 + np.arange(-0.5, 0.5, step_of(t)))
+    taus = tau0 + np.arange(-0.5, 0.5, step_of(t))
+    tau, sigma, residuals = _lag_fit(t[window], fitted[window], t_ref, ref, taus)
+    sigma = honest_sigma(sigma, residuals) if np.isfinite(sigma) else sigma
     if abs(tau) > max_offset_s:
         raise InputError(
             f"the onset gives a clock offset of {tau:.4g} s, more than max_offset_s {max_offset_s:g} s"

@@ -17,7 +17,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from twin.errors import InputError
-from twin.runs.clock import LEAD_IN_SAMPLES, ClockFit, check_overlap, onset_offset, refine_on_reversals
+from twin.runs.clock import ClockFit, check_overlap, onset_offset, refine_on_reversals
 from twin.runs.format import RUN_FORMAT, Run, Stream
 from twin.runs.gravity import contact_force_sheet
 from twin.runs.mapping import ClockSpec, ImportMapping, load_mapping
@@ -56,9 +56,8 @@ def _align(
     if spec.method == "force_onset":
         reference = np.maximum(0.0, p_cmd[0, 2] - p_cmd[:, 2])  # depth below the start [m]
         magnitude = np.linalg.norm(signal, axis=1)
-    else:
-        reference = np.linalg.norm(p_cmd - p_cmd[0], axis=1)  # distance travelled from the start [m]
-        magnitude = np.linalg.norm(signal - np.median(signal[:LEAD_IN_SAMPLES], axis=0), axis=1)
+    else:  # positions, fitted per axis with one shared lag
+        reference, magnitude = p_cmd, signal
     try:
         fit = onset_offset(
             table.t_s, magnitude, commanded.t_s, reference, max_offset_s=spec.max_offset_s, method=spec.method
