@@ -30,14 +30,12 @@ def test_each_robot_goes_through_the_whole_pipeline(name: str, tmp_path: Path) -
     compensated = summary["quasi-static/compensated_rms_mm"]
     assert compensated < 0.1 and summary["quasi-static/nominal_rms_mm"] > 8 * compensated
     # the dynamic plant forms its own sheet (twin/lab/dynamic/sheet.py), not the twin's: the twin's compensation
-    # helps there, but does not reach the noise (measured 0.40 / 0.89 / 0.76 mm rms from 0.60 / 0.93 / 1.06 mm for
-    # the TX200, KR 210 and IRB 6640)
+    # helps there, but does not reach the noise (the test prints the numbers)
     assert summary["dynamic/compensated_rms_mm"] < summary["dynamic/nominal_rms_mm"]
     assert summary["method1_compliance_error"] < 0.2  # joint friction biases a load test from rest (thesis §4.1.3)
     assert summary["method2_rollout_kq_max_error"] < 0.02
-    # the stronger sheet on that plant mixes with the plant's own force model: `discrepancy` says `unexplained`
-    # (TX200, KR 210) or a force scale (IRB 6640, 0.69: the plant's sheet pulls less than the twin's model), never a
-    # robot-side or sensor family
+    # the stronger sheet on that plant mixes with the plant's own force model: `discrepancy` says `unexplained` or a
+    # force scale (the plant's sheet against the twin's model), never a robot-side or sensor family
     found = summary["discrepancy"]
     assert found["named"] in ("unexplained", "force_scale")
     if found["named"] == "force_scale":
