@@ -75,18 +75,28 @@ class HeightMap:
         self.z_met_m = np.zeros((ny, nx))
         self.owner_met = np.full((ny, nx), -1, dtype=np.int64)  # index into the track, -1: never formed
         self._track: list[tuple[float, float, float, float, int]] = []  # (x, y, z, f_z, parent)
+        self._restored: np.ndarray | None = None  # the track `restore` took over, rows made on demand (`_rows`)
         self._s = 0.0  # tool travel so far [m]
         self._queue: deque[tuple[float, int, slice, slice, np.ndarray]] = deque()
         self._half_window = math.ceil(self.radius / self.h)
         self._templates: dict[tuple[int, int], np.ndarray] = {}
+        self._template_stack: np.ndarray | None = None
 
     def reset(self) -> None:
         """Back to a flat, unformed sheet."""
         self.z_met_m.fill(0.0)
         self.owner_met.fill(-1)
         self._track.clear()
+        self._restored = None
         self._s = 0.0
         self._queue.clear()
+
+    def _rows(self) -> list[tuple[float, float, float, float, int]]:
+        """The track as rows (x, y, z, f_z, parent), made from a restored track on first use."""
+        if self._restored is not None:
+            self._track[:] = [(x, y, z, f, int(p)) for x, y, z, f, p in self._restored.tolist()]
+            self._restored = None
+        return self._track
 
     @property
     def half_window(self) -> int:
@@ -96,12 +106,15 @@ class HeightMap:
     @property
     def is_fresh(self) -> bool:
         """No commit yet (flat, or reset)."""
-        return not self._track and not self._queue
+        return not self._track and self._restored is None and not self._queue
 
     def templates(self) -> np.ndarray:
-        """Every snapped sphere template, [bu, bv] for a tip at cell offset (bu, bv)/`SUBSTEPS` (S+1, S+1, w, w)."""
-        return np.array([[self._template(bu / SUBSTEPS, bv / SUBSTEPS) for bv in range(SUBSTEPS + 1)]
-                         for bu in range(SUBSTEPS + 1)])
+        """Every snapped sphere template, [bu, bv] for a tip at cell offset (bu, bv)/`SUBSTEPS` (S+1, S+1, w, w)
+        (made once, shared: not to be written)."""
+        if self._template_stack is None:
+            self._template_stack = np.array([[self._template(bu / SUBSTEPS, bv / SUBSTEPS)
+                                              for bv in range(SUBSTEPS + 1)] for bu in range(SUBSTEPS + 1)])
+        return self._template_stack
 
     def restore(self, track: np.ndarray, travel_m: float, pending_from: int) -> None:
         """Take over the commits of a loop that lowered `z_met_m`/`owner_met` itself (the compiled replay).
@@ -111,7 +124,8 @@ class HeightMap:
             travel_m: Tool travel after the last commit [m].
             pending_from: First commit not yet in the met surface (still within the lag).
         """
-        self._track[:] = [(float(t[0]), float(t[1]), float(t[2]), float(t[3]), int(t[4])) for t in track]
+        self._track.clear()
+        self._restored = np.array(track[:, :5], dtype=float) if len(track) else None
         self._s = float(travel_m)
         self._queue.clear()
         for i in range(pending_from, len(track)):
@@ -122,6 +136,8 @@ class HeightMap:
     @property
     def track_m(self) -> np.ndarray:
         """Committed tool-tip positions (n, 3) [m] (a copy)."""
+        if self._restored is not None:
+            return self._restored[:, :3].copy()
         return np.array([row[:3] for row in self._track]).reshape(-1, 3)
 
     @property
@@ -136,7 +152,7 @@ class HeightMap:
     def owner_point(self, index: int) -> tuple[float, float, float, float, int]:
         """(x, y, z, f_z, parent) of commit `index` [m, N, -]: parent is the commit that had formed the met
         surface under it when it was made (-1: flat sheet)."""
-        return self._track[index]
+        return self._rows()[index]
 
     def commit(
         self, p_sheet_m: np.ndarray | tuple[float, float, float], f_z_n: float = 0.0, parent: int | None = None
@@ -149,7 +165,7 @@ class HeightMap:
             parent: `met_owner` at the tip, if the caller has it already (None: looked up).
         """
         x, y, z = float(p_sheet_m[0]), float(p_sheet_m[1]), float(p_sheet_m[2])
-        track = self._track
+        track = self._rows()
         if track:
             last = track[-1]
             self._s += math.sqrt((x - last[0]) ** 2 + (y - last[1]) ** 2 + (z - last[2]) ** 2)
@@ -231,7 +247,8 @@ class HeightMap:
         self.flush()
         formed = self.owner_met >= 0
         recovery = np.zeros_like(self.z_met_m)
-        f_z = np.array([row[3] for row in self._track] or [0.0])
+        rows = self._restored
+        f_z = rows[:, 3] if rows is not None else np.array([row[3] for row in self._track] or [0.0])
         recovery[formed] = np.maximum(f_z[self.owner_met[formed]], 0.0) / k_unload_n_per_m
         return np.minimum(self.z_met_m + recovery, 0.0)
 

@@ -149,16 +149,16 @@ def _fz(M: IsfArrays, x: float, y: float, z: float) -> tuple:
 
 
 @njit(cache=True)
-def _travel(M: IsfArrays, x: float, y: float, jac: np.ndarray) -> tuple:
-    """`IsfForceField._travel` (`twin.process.sliding.sliding_direction`): (vx, vy, has a Jacobian), ∂v/∂(x, y)
-    into `jac` (2, 2)."""
+def _travel(M: IsfArrays, x: float, y: float) -> tuple:
+    """`IsfForceField._travel` (`twin.process.sliding.sliding_direction`): (vx, vy, has a Jacobian, ∂vx/∂x,
+    ∂vx/∂y, ∂vy/∂x, ∂vy/∂y)."""
     st = M.state
     if st[HAS_LAST] == 0.0:
-        return st[DIR_X], st[DIR_Y], False
+        return st[DIR_X], st[DIR_Y], False, 0.0, 0.0, 0.0, 0.0
     dx, dy = x - st[LAST_X], y - st[LAST_Y]
     length = math.hypot(dx, dy)
     if length < 1e-9:
-        return st[DIR_X], st[DIR_Y], False
+        return st[DIR_X], st[DIR_Y], False, 0.0, 0.0, 0.0, 0.0
     ex, ey = dx / length, dy / length
     qx, qy = st[DIR_X], st[DIR_Y]
     c = qx * ex + qy * ey
@@ -180,19 +180,15 @@ def _travel(M: IsfArrays, x: float, y: float, jac: np.ndarray) -> tuple:
     vx, vy = w * qx + (1.0 - w) * ex, w * qy + (1.0 - w) * ey
     dw = -w / L
     g = (1.0 - w) / length
-    jac[0, 0] = (qx - ex) * dw * ex + w * dqxx + g * pxx
-    jac[0, 1] = (qx - ex) * dw * ey + w * dqxy + g * pxy
-    jac[1, 0] = (qy - ey) * dw * ex + w * dqyx + g * pxy
-    jac[1, 1] = (qy - ey) * dw * ey + w * dqyy + g * pyy
-    return vx, vy, True
+    return (vx, vy, True, (qx - ex) * dw * ex + w * dqxx + g * pxx, (qx - ex) * dw * ey + w * dqxy + g * pxy,
+            (qy - ey) * dw * ex + w * dqyx + g * pxy, (qy - ey) * dw * ey + w * dqyy + g * pyy)
 
 
 @njit(cache=True)
 def isf_eval(M: IsfArrays, x: float, y: float, z: float, f: np.ndarray, S: np.ndarray) -> None:
     """`IsfForceField.force_and_stiffness`: the force into `f` (3,) [N] and ∂f/∂p into `S` (3, 3) [N/m]."""
     fz, gx, gy, gz = _fz(M, x, y, z)
-    jac = np.empty((2, 2))
-    vx, vy, has_jac = _travel(M, x, y, jac)
+    vx, vy, has_jac, j00, j01, j10, j11 = _travel(M, x, y)
     mu, mr = M.prm[5], M.prm[11] * M.state[SIDE]  # `IsfForceField._in_plane`: A = [[-μ_t, σμ_r], [-σμ_r, -μ_t]]
     axx, axy, ayx, ayy = -mu, mr, -mr, -mu
     ax, ay = axx * vx + axy * vy, ayx * vx + ayy * vy
@@ -200,9 +196,10 @@ def isf_eval(M: IsfArrays, x: float, y: float, z: float, f: np.ndarray, S: np.nd
     S[1, 0], S[1, 1], S[1, 2] = ay * gx, ay * gy, ay * gz
     S[2, 0], S[2, 1], S[2, 2] = gx, gy, gz
     if has_jac:
-        for r in range(2):
-            for c in range(2):
-                S[r, c] += fz * ((axx if r == 0 else ayx) * jac[0, c] + (axy if r == 0 else ayy) * jac[1, c])
+        S[0, 0] += fz * (axx * j00 + axy * j10)
+        S[0, 1] += fz * (axx * j01 + axy * j11)
+        S[1, 0] += fz * (ayx * j00 + ayy * j10)
+        S[1, 1] += fz * (ayx * j01 + ayy * j11)
     f[0], f[1], f[2] = ax * fz, ay * fz, fz
 
 
@@ -225,13 +222,22 @@ def _lower_commit(M: IsfArrays, index: int) -> None:
     iu, iv = math.floor(u), math.floor(v)
     bu, bv = _round_half_even((u - iu) * sub), _round_half_even((v - iv) * sub)
     ix0, iy0 = iu - m, iv - m
-    tpl = M.templates[bu, bv]
+    tpl, tz = M.templates[bu, bv], t[TZ]
+    c0, c1 = max(ix0, 0), min(ix0 + 2 * m + 2, nx)
     for r in range(max(iy0, 0), min(iy0 + 2 * m + 2, ny)):
-        for c in range(max(ix0, 0), min(ix0 + 2 * m + 2, nx)):
-            cap = tpl[r - iy0, c - ix0] + t[TZ]
-            if cap < M.z_met[r, c]:
-                M.z_met[r, c] = cap
-                M.owner[r, c] = index
+        _lower_row(M.z_met[r, c0:c1], M.owner[r, c0:c1], tpl[r - iy0, c0 - ix0 : c1 - ix0], tz, index)
+
+
+@njit(cache=True, inline="always")
+def _lower_row(z: np.ndarray, owner: np.ndarray, template: np.ndarray, tz: float, index: int) -> None:
+    """One row of `_lower_commit`: z <- min(z, template + tz), owner `index` where lowered (branch-free, from 0:
+    the compiler vectorizes it)."""
+    for k in range(z.shape[0]):
+        cap = template[k] + tz
+        old = z[k]
+        lower = cap < old
+        z[k] = cap if lower else old
+        owner[k] = index if lower else owner[k]
 
 
 @njit(cache=True)
@@ -264,8 +270,7 @@ def isf_advance(M: IsfArrays, x: float, y: float, z: float) -> None:
     """`IsfForceField.advance` (f_z the model's at the tip) with `HeightMap.commit`."""
     st = M.state
     f_z = _fz(M, x, y, z)[0]
-    jac = np.empty((2, 2))
-    vx, vy, _ = _travel(M, x, y, jac)
+    vx, vy = _travel(M, x, y)[:2]
     st[DIR_X], st[DIR_Y] = vx, vy
     step = 0.0
     if st[HAS_LAST] != 0.0:
