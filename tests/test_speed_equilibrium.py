@@ -5,9 +5,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from twin.process.description import Process
+from twin.process.isf_force import IsfForceField
 from twin.process.pass_tables import lerp_slope, lerp_slope3
 from twin.process.path import groove_path
-from twin.sim.equilibrium import EquilibriumSolver
+from twin.process.shapes import PartSpec, part_path
+from twin.sim.equilibrium import NEWTON_TOL_RAD, EquilibriumSolver
 from twin.sim.quasi_static import Twin
 from twin.sim.spec import TwinSpec
 
@@ -50,6 +53,30 @@ def test_predicted_set_matches_on_a_seeded_jittered_command(monkeypatch: pytest.
     p_cmd = path.p_sheet_m[keep] + rng.normal(0.0, 2e-5, (int(keep.sum()), 3)) * np.array([1.0, 0.0, 1.0])
     fast, reference = _both(Twin(), path.t_s[keep], p_cmd, monkeypatch)
     np.testing.assert_allclose(fast.p_sheet_m, reference.p_sheet_m, rtol=0.0, atol=P_TOL_M)
+
+
+@pytest.mark.parametrize(
+    "part",
+    [PartSpec(depth_m=5e-3, top_half_width_m=20e-3), PartSpec(shape="pyramid", depth_m=4e-3, top_half_width_m=20e-3)],
+    ids=["cone", "pyramid"],
+)
+def test_the_isf_models_extrapolated_start_reaches_the_held_links_equilibria(
+    part: PartSpec, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The ISF model's `extrapolated_start`: the held-links start's tool tips and forces to the Newton tolerance
+    (a joint step of NEWTON_TOL_RAD over the arm's lever of under 1 m: another equilibrium branch would be
+    millimetres away), with at most 60 % of its Newton iterations."""
+    twin = TwinSpec(process=Process(force_model="isf")).build()
+    assert twin.joint_friction.any() and twin.field.extrapolated_start
+    path = part_path(part)
+    fast = twin.simulate(path.t_s, path.p_sheet_m)
+    with monkeypatch.context() as patch:
+        patch.setattr(IsfForceField, "extrapolated_start", False)
+        held = twin.simulate(path.t_s, path.p_sheet_m, q_ik=fast.q_ik)
+    tol_m = NEWTON_TOL_RAD * 1.0
+    np.testing.assert_allclose(fast.p_sheet_m, held.p_sheet_m, rtol=0.0, atol=tol_m)
+    np.testing.assert_allclose(fast.f_sheet_n, held.f_sheet_n, rtol=0.0, atol=tol_m * 1.4e6)  # 1.4 kN/mm, above
+    assert fast.iterations.sum() <= 0.6 * held.iterations.sum()
 
 
 def test_three_table_lookup_is_bit_identical_to_three_single_lookups() -> None:

@@ -15,7 +15,12 @@ What a model declares (class attributes), so that no stage looks at its type:
   it in the tool's sliding friction (`twin.process.tool_friction`), which makes the force follow the tool's
   real travel at reversals;
 * `steps_between_passes`: its force steps from one pass to the next (per-pass tables): streams are not
-  interpolated across a pass change (`twin.sim.result.SimResult.force_at`).
+  interpolated across a pass change (`twin.sim.result.SimResult.force_at`);
+* `extrapolated_start`: the twin's Newton solve may start every joint, the frictional ones too, from the
+  deflection extrapolated along the pass instead of holding the frictional links where they were
+  (`twin.sim.equilibrium.EquilibriumSolver.solve`): about half the iterations, declared by a model whose
+  equilibria that start reaches (`tests/test_speed_equilibrium.py`); the groove's table field does not (near
+  its end walls that start lands on another equilibrium branch).
 
 Its scalar forming state is a typed record (`FieldState` subclasses), read with `state` and set with `restore`
 by a loop that advanced the model itself (the compiled replay).
@@ -51,6 +56,7 @@ class ForceField(ABC):
     compiled_kernel: ClassVar[str | None] = None
     tangential_from_command: ClassVar[bool] = False
     steps_between_passes: ClassVar[bool] = False
+    extrapolated_start: ClassVar[bool] = False
     radius: float
     k_unload: float
 

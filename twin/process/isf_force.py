@@ -96,6 +96,7 @@ class IsfForceField(ForceField):
     """
 
     compiled_kernel = "isf"
+    extrapolated_start = True
 
     def __init__(self, params: IsfForceParams | None = None, half_size_m: tuple[float, float] = (0.12, 0.12)) -> None:
         self.params = p = params or IsfForceParams()

@@ -189,6 +189,7 @@ class EquilibriumSolver:
         h_const: np.ndarray,
         sheet: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]],
         e_prev: np.ndarray,
+        hold: bool = True,
     ) -> Equilibrium:
         """Equilibrium with joint friction: stick/slip per joint, found by an active set.
 
@@ -200,12 +201,16 @@ class EquilibriumSolver:
         at most). With `predict_active_set` (default) the first set is the one the start point asks for, with
         every frictional link held where it was (the point the all-stuck round would restart from): one round
         instead of two on the groove (3.0 instead of 5.0 Newton iterations per sample), the same equilibria.
-        Starting the Newton iteration from the extrapolated deflection instead would save another 1.5
-        iterations, but near the end walls of pass 9 it lands on another equilibrium branch 0.9 mm away.
+        With `hold` False (a force model that declares `extrapolated_start`, the ISF model) the frictional
+        joints start from the extrapolated deflection too and the set is chosen there: about 1.9 instead of
+        3.6 iterations per sample on a cone; on the groove's table field that start lands on another
+        equilibrium branch 0.9 mm away near the end walls of pass 9, so that field holds the links.
 
         Args:
             q, q_ref, k_diag, h_const, sheet: As for `_newton`.
             e_prev: Spring stretch q_ref - q_link_prev that keeps each link where it was [rad], shape (nv,).
+            hold: With `predict_active_set`, start the frictional joints where their links are held (False: from
+                `q`, the extrapolated start).
 
         Returns:
             The equilibrium; iterations summed over the rounds.
@@ -220,7 +225,8 @@ class EquilibriumSolver:
         choose = None
         if self.predict_active_set:  # the set is chosen where every frictional joint still holds its link
             choose = tau_f
-            q = np.where(frictional, q_ref - e_prev, q)
+            if hold:
+                q = np.where(frictional, q_ref - e_prev, q)
         for _ in range(FRICTION_MAX_ROUNDS):
             q, k, jac, s, demand, stuck, tau_fr = self._newton(
                 q, q_ref, k_diag, h_const, sheet, (stuck, e_prev, tau_fr), choose

@@ -64,6 +64,7 @@ def python_loop(
     deflection_q = np.zeros(m.nq)
     deflection_prev = np.zeros(m.nq)
     qvel_view[:] = 0.0
+    hold = not field.extrapolated_start
     for i in range(n):
         pi, di = passes[i], dirs[i]
         q_nominal = q_nominal_all[i]
@@ -87,7 +88,7 @@ def python_loop(
             sheet: SheetModel, q: np.ndarray = q, q_ref: np.ndarray = q_ref, e_prev: np.ndarray = q_ref - q_link
         ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
             nonlocal iterations
-            q_eq, k_eq, jac, stiffness = solver.solve(q, q_ref, k_diag, h_const, sheet, e_prev)
+            q_eq, k_eq, jac, stiffness = solver.solve(q, q_ref, k_diag, h_const, sheet, e_prev, hold)
             iterations += k_eq
             qpos_view[:] = q_eq
             mujoco.mj_kinematics(m, d)

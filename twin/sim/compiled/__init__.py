@@ -117,7 +117,8 @@ def compiled_replay(
         passes, dirs: Pass (1..N of the field's history) and direction (+1/-1) per sample.
         origin, R_base_sheet: The sheet frame in the base [m] (None: the base axes).
         k_diag, h_const: Joint springs [N·m/rad], shape (nv,), and K + dg/dq [N·m/rad], shape (nv, nv).
-        predict_active_set: As `EquilibriumSolver.predict_active_set`.
+        predict_active_set: As `EquilibriumSolver.predict_active_set` (the links held unless the field declares
+            `extrapolated_start`).
         data: The model's data, for the check against MuJoCo (qpos and kinematics overwritten); None: no check.
 
     Returns:
@@ -144,6 +145,7 @@ def compiled_replay(
         np.ascontiguousarray(q_nominal, dtype=float), passes,
         np.asarray(dirs, dtype=np.int64), np.asarray(k_diag, dtype=float),
         np.ascontiguousarray(h_const, dtype=float), model.dof_frictionloss.copy(), bool(predict_active_set),
+        not field.extrapolated_start,
         friction, float(gain), qpos, p_out, p_unloaded, f_out, iters, jac, stiffness, state, work_arrays(nv),
     )
     if isf is not None and isinstance(inner, IsfForceField):

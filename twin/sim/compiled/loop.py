@@ -129,8 +129,8 @@ def _newton(
 def _equilibrium(
     C: ChainArrays, F: FieldArrays, M: IsfArrays, kind: int, cur: int, mode: int, slip: float, x_prev: float, gain: float,
     pass_index: int, direction: int, q: np.ndarray, q_ref: np.ndarray, k_diag: np.ndarray,
-    h_const: np.ndarray, e_prev: np.ndarray, tau_f: np.ndarray, predict: bool, jac: np.ndarray, S: np.ndarray,
-    W: Work,
+    h_const: np.ndarray, e_prev: np.ndarray, tau_f: np.ndarray, predict: bool, hold: bool, jac: np.ndarray,
+    S: np.ndarray, W: Work,
 ) -> tuple:
     """`EquilibriumSolver.solve` (q in place). Returns (iterations, status, stick stiffness [N/m])."""
     nv = q.shape[0]
@@ -145,7 +145,7 @@ def _equilibrium(
     if not frictional:
         return _newton(C, F, M, kind, cur, mode, slip, x_prev, gain, pass_index, direction, q, q_ref, k_diag,
                        h_const, NO, stuck, e_prev, tau_fr, NO, tau_f, jac, S, W)
-    if predict:
+    if predict and hold:
         for j in range(nv):
             if tau_f[j] > 0.0:
                 q[j] = q_ref[j] - e_prev[j]
@@ -181,13 +181,14 @@ def _equilibrium(
 @njit(cache=True)
 def replay_loop(
     C: ChainArrays, F: FieldArrays, M: IsfArrays, kind: int, q_nominal: np.ndarray, passes: np.ndarray, dirs: np.ndarray,
-    k_diag: np.ndarray, h_const: np.ndarray, tau_f: np.ndarray, predict: bool,
+    k_diag: np.ndarray, h_const: np.ndarray, tau_f: np.ndarray, predict: bool, hold: bool,
     friction: bool, gain: float, qpos_out: np.ndarray, p_out: np.ndarray, p_unloaded: np.ndarray,
     f_out: np.ndarray, iters: np.ndarray, jac_out: np.ndarray, s_out: np.ndarray, state: np.ndarray, W: Work,
 ) -> tuple:
     """`Twin.simulate`'s per-sample loop over every sample, outputs in the `*_out` arrays.
 
     Args:
+        hold: `EquilibriumSolver.solve`'s `hold` (False: the force model's `extrapolated_start`).
         friction: The tool's sliding friction (`SlidingFriction` of reversal travel 2 / `gain` [m]) wraps the field.
         state: Out: (current pass, slip state, last tip x [m], first direction) after the last sample.
 
@@ -229,7 +230,7 @@ def replay_loop(
         if not friction or i == 0:
             q_try[:] = q
             k, status, stick = _equilibrium(C, F, M, kind, cur, ZERO, slip, x_prev, gain, pi, di, q_try, q_ref, k_diag,
-                                            h_const, e_prev, tau_f, predict, jac, S, W)
+                                            h_const, e_prev, tau_f, predict, hold, jac, S, W)
             total += k
             if status != 0:
                 return status, i
@@ -244,7 +245,7 @@ def replay_loop(
                 sign = di if attempt == 0 else -di
                 q_try[:] = q
                 k, status, stick = _equilibrium(C, F, M, kind, cur, mode, slip, x_prev, gain, pi, sign, q_try, q_ref,
-                                                k_diag, h_const, e_prev, tau_f, predict, jac, S, W)
+                                                k_diag, h_const, e_prev, tau_f, predict, hold, jac, S, W)
                 total += k
                 if status != 0:
                     return status, i
