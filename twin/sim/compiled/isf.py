@@ -185,8 +185,12 @@ def _travel(M: IsfArrays, x: float, y: float) -> tuple:
 
 
 @njit(cache=True)
-def isf_eval(M: IsfArrays, x: float, y: float, z: float, f: np.ndarray, S: np.ndarray) -> None:
-    """`IsfForceField.force_and_stiffness`: the force into `f` (3,) [N] and ∂f/∂p into `S` (3, 3) [N/m]."""
+def isf_eval(M: IsfArrays, x: float, y: float, z: float, f: np.ndarray, S: np.ndarray) -> tuple:
+    """`IsfForceField.force_and_stiffness`: the force into `f` (3,) [N] and ∂f/∂p into `S` (3, 3) [N/m].
+
+    Returns:
+        The sliding direction (vx, vy) at the tip [-] (what `isf_advance_from` takes).
+    """
     fz, gx, gy, gz = _fz(M, x, y, z)
     vx, vy, has_jac, j00, j01, j10, j11 = _travel(M, x, y)
     mu, mr = M.prm[5], M.prm[11] * M.state[SIDE]  # `IsfForceField._in_plane`: A = [[-μ_t, σμ_r], [-σμ_r, -μ_t]]
@@ -201,6 +205,7 @@ def isf_eval(M: IsfArrays, x: float, y: float, z: float, f: np.ndarray, S: np.nd
         S[1, 0] += fz * (ayx * j00 + ayy * j10)
         S[1, 1] += fz * (ayx * j01 + ayy * j11)
     f[0], f[1], f[2] = ax * fz, ay * fz, fz
+    return vx, vy
 
 
 @njit(cache=True)
@@ -268,9 +273,15 @@ def _wall_angle(M: IsfArrays, owner: int, x: float, y: float, z: float) -> tuple
 @njit(cache=True)
 def isf_advance(M: IsfArrays, x: float, y: float, z: float) -> None:
     """`IsfForceField.advance` (f_z the model's at the tip) with `HeightMap.commit`."""
-    st = M.state
-    f_z = _fz(M, x, y, z)[0]
     vx, vy = _travel(M, x, y)[:2]
+    isf_advance_from(M, x, y, z, _fz(M, x, y, z)[0], vx, vy)
+
+
+@njit(cache=True)
+def isf_advance_from(M: IsfArrays, x: float, y: float, z: float, f_z: float, vx: float, vy: float) -> None:
+    """`isf_advance` with the model's f_z [N] and sliding direction (vx, vy) at the tip, from an `isf_eval` there
+    in the same state."""
+    st = M.state
     st[DIR_X], st[DIR_Y] = vx, vy
     step = 0.0
     if st[HAS_LAST] != 0.0:

@@ -24,7 +24,7 @@ from numba import njit
 
 from twin.sim.compiled.chain import ChainArrays, chain_eval
 from twin.sim.compiled.field import FieldArrays, field_advance, field_eval, field_force
-from twin.sim.compiled.isf import IsfArrays, isf_advance, isf_eval
+from twin.sim.compiled.isf import IsfArrays, isf_advance_from, isf_eval
 from twin.sim.compiled.work import Work, solve_linear
 
 NEWTON_TOL_RAD = 1e-7
@@ -209,7 +209,7 @@ def replay_loop(
     q = np.empty(nv)
     q_try = np.empty(nv)
     f_eq, S_eq = np.empty(3), np.empty((3, 3))
-    fy = 0.0
+    fy, vx, vy = 0.0, 0.0, 0.0
     cur, ZERO, ONE = np.int64(0), np.int64(0), np.int64(1)  # typed, not literal: one compiled version each
     slip, x_prev, first_dir = 0.0, 0.0, 0
     for i in range(n):
@@ -235,7 +235,7 @@ def replay_loop(
             if status != 0:
                 return status, i
             stick = 0.0
-            chain_eval(C, q_try, p, jac_nom, g_nom)
+            chain_eval(C, q_try, p, jac_nom, g_nom, True)
             if i == 0:
                 first_dir = di
         else:
@@ -251,14 +251,14 @@ def replay_loop(
                     return status, i
                 if mode == 0:
                     stick = 0.0
-                chain_eval(C, q_try, p, jac_nom, g_nom)
+                chain_eval(C, q_try, p, jac_nom, g_nom, True)
                 u = slip + gain * (p[0] - x_prev)
                 if (regime == 0.0 and -1.0 <= u <= 1.0) or (regime != 0.0 and u * regime >= 1.0):
                     break
         x, z = p[0], p[2]
         # the force at the equilibrium (not in the band: the slip state clipped)
         if kind == 1:
-            isf_eval(M, x, p[1], z, f_eq, S_eq)
+            vx, vy = isf_eval(M, x, p[1], z, f_eq, S_eq)
             fx, fy, fz = f_eq[0], f_eq[1], f_eq[2]
         elif friction and i > 0:
             s = slip + gain * (x - x_prev)
@@ -283,7 +283,7 @@ def replay_loop(
             slip = float(first_dir) if i == 0 else min(1.0, max(-1.0, slip + gain * (x - x_prev)))
             x_prev = x
         if kind == 1:
-            isf_advance(M, x, p[1], z)
+            isf_advance_from(M, x, p[1], z, f_eq[2], vx, vy)
         else:
             cur = field_advance(F, cur, x, z, pi)
         for j in range(nv):
