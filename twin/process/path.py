@@ -227,25 +227,29 @@ def label_passes(x_m: np.ndarray, *, deadband_m: float = 1e-6) -> tuple[np.ndarr
     if x.ndim != 1 or not np.all(np.isfinite(x)):
         raise InputError(f"x_m must be a finite 1-D array, got shape {x.shape}")
     n = len(x)
+    xs = x.tolist()  # Python floats: the scan below reads one at a time
     boundaries: list[int] = []
     d = 0
     first = 1
     ext_i = 0
+    ext_x = xs[0]
     for i in range(1, n):
+        xi = xs[i]
         if d == 0:
-            if abs(x[i] - x[0]) > deadband_m:
-                d = first = 1 if x[i] > x[0] else -1
-                ext_i = i
+            if abs(xi - xs[0]) > deadband_m:
+                d = first = 1 if xi > xs[0] else -1
+                ext_i, ext_x = i, xi
             continue
-        if d * (x[i] - x[ext_i]) > 0.0:
-            ext_i = i
-        elif d * (x[ext_i] - x[i]) > deadband_m:
+        if d * (xi - ext_x) > 0.0:
+            ext_i, ext_x = i, xi
+        elif d * (ext_x - xi) > deadband_m:
             boundaries.append(ext_i)
             d = -d
             ext_i = ext_i + 1 + int(np.argmax(d * x[ext_i + 1 : i + 1]))
-    pass_index = np.ones(n, dtype=int)
-    for b in boundaries:
-        pass_index[b + 1 :] += 1
+            ext_x = xs[ext_i]
+    starts = np.zeros(n, dtype=int)
+    starts[np.asarray(boundaries, dtype=int) + 1] = 1  # boundaries are distinct and below n - 1
+    pass_index = 1 + np.cumsum(starts)
     direction = np.where(pass_index % 2 == 1, first, -first).astype(int)
     return pass_index, direction
 

@@ -27,6 +27,7 @@ from twin.robot.kinematics import Kinematics
 from twin.robot.model import build_model, lost_joint_name, lost_motion_schedule
 from twin.robot.stiffness import joint_stiffness, set_joint_stiffness
 from twin.sim.compiled import compiled_replay
+from twin.sim.compiled.work import tip_gains
 from twin.sim.equilibrium import EquilibriumSolver
 from twin.sim.ft_sensor import flange_sensor_forces
 from twin.sim.python_loop import python_loop
@@ -210,9 +211,9 @@ class Twin:
         q_nominal_all[:, self._lost_qpos] = self._lost_motion_references(p_cmd, direction, q_ik)
         h_const = np.diag(k_diag) + grad_g  # the Newton matrix without the sheet term
         out = self._loop(q_nominal_all, pass_index, direction, k_diag, h_const)
-        jac_last, s_last = out.jac, out.stiffness
-        compliance = (jac_last * (1.0 / k_diag)) @ jac_last.transpose(0, 2, 1)
-        tip_gain = np.linalg.inv(np.eye(3) - compliance @ s_last)
+        tip_gain = np.empty((len(t_s), 3, 3))  # (I - J K⁻¹ Jᵀ S)⁻¹ per sample
+        if not tip_gains(out.jac, np.ascontiguousarray(k_diag, dtype=float), out.stiffness, tip_gain):
+            raise np.linalg.LinAlgError("singular tool-tip gain I - J K⁻¹ Jᵀ S")
         formed_x, formed_z = self.field.x_grid_m, self.field.formed_z_m
         return SimResult(
             t_s=t_s,

@@ -61,3 +61,48 @@ def solve_linear(h: np.ndarray, r: np.ndarray, out: np.ndarray) -> bool:
             acc -= h[row, s] * out[s]
         out[row] = acc / h[row, row]
     return True
+
+
+@njit(cache=True)
+def tip_gains(jac: np.ndarray, k_diag: np.ndarray, stiffness: np.ndarray, out: np.ndarray) -> bool:
+    """The tool tip's gain per sample, out = (I - J K⁻¹ Jᵀ S)⁻¹ (3×3 adjugate over determinant).
+
+    Args:
+        jac: Tool-tip Jacobians [m/rad], shape (n, 3, nv).
+        k_diag: Joint springs [N·m/rad], shape (nv,).
+        stiffness: The sheet's df/dp per sample [N/m], shape (n, 3, 3).
+        out: Out: d p_tip / d p_cmd [-], shape (n, 3, 3).
+
+    Returns:
+        False if a matrix is singular (`out` then incomplete).
+    """
+    nv = k_diag.shape[0]
+    inv_k = 1.0 / k_diag
+    c = np.empty((3, 3))
+    a = np.empty((3, 3))
+    for i in range(jac.shape[0]):
+        J, S = jac[i], stiffness[i]
+        for r in range(3):
+            for s in range(3):
+                acc = 0.0
+                for j in range(nv):
+                    acc += J[r, j] * inv_k[j] * J[s, j]
+                c[r, s] = acc
+        for r in range(3):
+            for s in range(3):
+                a[r, s] = (1.0 if r == s else 0.0) - (c[r, 0] * S[0, s] + c[r, 1] * S[1, s] + c[r, 2] * S[2, s])
+        c00 = a[1, 1] * a[2, 2] - a[1, 2] * a[2, 1]
+        c01 = a[1, 2] * a[2, 0] - a[1, 0] * a[2, 2]
+        c02 = a[1, 0] * a[2, 1] - a[1, 1] * a[2, 0]
+        det = a[0, 0] * c00 + a[0, 1] * c01 + a[0, 2] * c02
+        if det == 0.0 or not np.isfinite(det):
+            return False
+        g, d = out[i], 1.0 / det
+        g[0, 0], g[1, 0], g[2, 0] = c00 * d, c01 * d, c02 * d
+        g[0, 1] = (a[0, 2] * a[2, 1] - a[0, 1] * a[2, 2]) * d
+        g[1, 1] = (a[0, 0] * a[2, 2] - a[0, 2] * a[2, 0]) * d
+        g[2, 1] = (a[0, 1] * a[2, 0] - a[0, 0] * a[2, 1]) * d
+        g[0, 2] = (a[0, 1] * a[1, 2] - a[0, 2] * a[1, 1]) * d
+        g[1, 2] = (a[0, 2] * a[1, 0] - a[0, 0] * a[1, 2]) * d
+        g[2, 2] = (a[0, 0] * a[1, 1] - a[0, 1] * a[1, 0]) * d
+    return True
