@@ -117,6 +117,21 @@ def test_bench_reports_the_ratios_of_issue_30(result: dict) -> None:
     assert "--help" in format_table(result) and "cone twin compensation" in format_table(result)
 
 
+def test_bench_reports_the_isf_cones_of_issue_30(result: dict) -> None:
+    """Three cones on the ISF model (the smoke run's small ones), their real-time factors and the cost growth."""
+    growth = result["isf_cone_growth"]
+    assert list(growth) == ["20mm", "30mm", "40mm"]
+    a, b, c = growth.values()
+    assert 0 < a["samples"] < b["samples"] < c["samples"]
+    for cone in (a, b, c):
+        assert cone["realtime_factor"] == pytest.approx(cone["machining_s"] / cone["s"])
+        assert 1.0 <= cone["iterations_per_sample"] <= 2.5  # the ISF model's extrapolated start
+    assert result["isf_160_realtime_factor"] == c["realtime_factor"]
+    per_sample = [(y["s"] - x["s"]) / (y["samples"] - x["samples"]) for x, y in ((a, b), (b, c))]
+    assert result["isf_growth_ratio"] == pytest.approx(per_sample[1] / per_sample[0])
+    assert "Ø160 cone on the ISF model" in format_table(result)
+
+
 def test_resampled_path_keeps_every_original_sample() -> None:
     from twin.apps.bench_speed import resample
 

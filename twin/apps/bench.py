@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 
 from twin.apps.analytic_replay import AnalyticReplay, analytic_replay
-from twin.apps.bench_speed import cli_startup, compensation_cost, mujoco_call_floor, path_growth
+from twin.apps.bench_speed import cli_startup, isf_cone_benchmarks, mujoco_call_floor, path_growth
 from twin.apps.machine import machine_info
 from twin.apps.sweep import run_sweep, usable_cores
 from twin.errors import InputError
@@ -93,10 +93,7 @@ def run_benchmarks(
     _bench_gcode(out, repeats)
     out["cli_startup"] = cli_startup(max(3, repeats))
     out["cli_help_over_numpy"] = out["cli_startup"]["help_over_numpy"]
-    # the twin compensation of a cone on the ISF model: Ø 80 mm, 20 mm deep (a Ø 20 mm, 2 mm deep one for a smoke run)
-    width_m, depth_m = (80e-3, 20e-3) if samples is None else (20e-3, 2e-3)
-    out["compensation"] = compensation_cost(width_m, depth_m, repeats)
-    out["compensation_over_simulation"] = out["compensation"]["over_simulation"]
+    out.update(isf_cone_benchmarks(repeats, smoke=samples is not None))  # cones on the ISF model, Ø 40 to 160 mm
     out["machine"] = machine_info()
     return out
 
@@ -268,7 +265,9 @@ TABLE_ROWS: tuple[tuple[str, str, str], ...] = (
     ("cone_realtime_factor", "  real-time factor (27 s of machining)", "x"),
     ("gcode_load_s", "G-code import, ~100k moves", "s"),
     ("cli_help_over_numpy", "`tx200-twin --help` / import numpy", "x"),
-    ("compensation_over_simulation", "cone twin compensation / one simulate", "x"),
+    ("isf_160_realtime_factor", "Ø160 cone on the ISF model, real time", "x"),
+    ("isf_growth_ratio", "  cost/added sample, 80-160 / 40-80", "x"),
+    ("compensation_over_simulation", "Ø160 cone twin compensation / simulate", "x"),
 )
 
 

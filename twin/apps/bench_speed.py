@@ -9,6 +9,8 @@
   times the samples, since the force history has a fixed number of passes): the cost must grow linearly.
 * `cli_startup`: `tx200-twin --help` over `python -c "import numpy"`, each a fresh interpreter, interleaved
   (a load on the machine weighs on both alike), median of the runs.
+* `isf_cone_benchmarks`: `Twin.simulate` of 45° cones on the ISF model (Ø 40, 80, 160 mm), the cost per added
+  sample from one to the next, and `compensation_cost`, the largest cone's twin compensation.
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ import statistics
 import subprocess
 import sys
 import time
+from typing import Any
 
 import mujoco
 import numpy as np
@@ -145,7 +148,83 @@ def cli_startup(repeats: int = 5) -> dict[str, float]:
     return {"help_s": help_s, "numpy_s": numpy_s, "help_over_numpy": help_s / numpy_s}
 
 
-def compensation_cost(top_width_m: float, depth_m: float, repeats: int = 3) -> dict[str, float | int | bool]:
+#: The cones of `isf_cone_benchmarks` (top diameter, depth [m]), and the small ones of a smoke run.
+ISF_CONES = ((40e-3, 5e-3), (80e-3, 20e-3), (160e-3, 40e-3))
+ISF_SMOKE_CONES = ((20e-3, 2e-3), (30e-3, 3e-3), (40e-3, 5e-3))
+
+
+def isf_cone_growth(
+    twin: Twin, cones: tuple[tuple[float, float], ...] = ISF_CONES, repeats: int = 3
+) -> dict[str, dict[str, float]]:
+    """Best-of-`repeats` wall time of `twin.simulate` of 45° cones, their IK given, the cones interleaved.
+
+    Args:
+        twin: A twin on the ISF model.
+        cones: (top diameter, depth) per cone [m].
+        repeats: Timed rounds over every cone (>= 1).
+
+    Returns:
+        Per cone ("40mm", ...): samples, machining [s], wall time [s], µs per sample, real-time factor [-] and
+        Newton iterations per sample.
+    """
+    from twin.process.shapes import PartSpec, part_path
+
+    if repeats < 1:
+        raise InputError(f"repeats = {repeats!r}: expected >= 1")
+    paths = {f"{1e3 * width:.0f}mm": part_path(PartSpec(depth_m=depth, top_half_width_m=width / 2.0))
+             for width, depth in cones}
+    q_ik = {key: twin.simulate(path.t_s, path.p_sheet_m).q_ik for key, path in paths.items()}  # compiles too
+    wall = dict.fromkeys(paths, float("inf"))
+    for _ in range(repeats):  # interleaved: a load on the machine weighs on every cone alike
+        for key, path in paths.items():
+            start = time.perf_counter()
+            twin.simulate(path.t_s, path.p_sheet_m, q_ik=q_ik[key])
+            wall[key] = min(wall[key], time.perf_counter() - start)
+    out = {}
+    for key, path in paths.items():
+        n, machining = len(path.t_s), float(path.t_s[-1] - path.t_s[0])
+        iterations = twin.simulate(path.t_s, path.p_sheet_m, q_ik=q_ik[key]).iterations
+        out[key] = {"samples": n, "machining_s": machining, "s": wall[key], "us_per_sample": 1e6 * wall[key] / n,
+                    "realtime_factor": machining / wall[key], "iterations_per_sample": float(np.mean(iterations))}
+    return out
+
+
+def added_sample_ratio(growth: dict[str, dict[str, float]]) -> float:
+    """The cost of each added sample from the second to the last cone over that from the first to the second
+    (fixed costs cancel) [-]."""
+    a, b, c = (growth[key] for key in list(growth)[:2] + list(growth)[-1:])
+    return ((c["s"] - b["s"]) / (c["samples"] - b["samples"])) / ((b["s"] - a["s"]) / (b["samples"] - a["samples"]))
+
+
+def isf_cone_benchmarks(repeats: int, smoke: bool = False) -> dict[str, Any]:
+    """The ISF model at full part size: `isf_cone_growth` of `ISF_CONES` and `compensation_cost` of the largest.
+
+    Args:
+        repeats: Timed rounds of the replays (at least 3); the compensation takes at most 2 (each a
+            simulation and a compensation of the largest cone).
+        smoke: The small `ISF_SMOKE_CONES` instead (a quick check of the keys).
+
+    Returns:
+        `isf_cone_growth`, `isf_160_realtime_factor` (the largest cone's), `isf_growth_ratio`
+        (`added_sample_ratio`; the issue's target: at most 1.5), `compensation` and `compensation_over_simulation`
+        (the largest cone's; the target: at most 4).
+    """
+    from twin.process.description import Process
+    from twin.sim.spec import TwinSpec
+
+    cones = ISF_SMOKE_CONES if smoke else ISF_CONES
+    twin = TwinSpec(process=Process(force_model="isf")).build()
+    growth = isf_cone_growth(twin, cones, max(3, repeats))
+    largest = growth[list(growth)[-1]]
+    compensation = compensation_cost(*cones[-1], min(2, repeats), twin=twin)
+    return {"isf_cone_growth": growth, "isf_160_realtime_factor": largest["realtime_factor"],
+            "isf_growth_ratio": added_sample_ratio(growth), "compensation": compensation,
+            "compensation_over_simulation": compensation["over_simulation"]}
+
+
+def compensation_cost(
+    top_width_m: float, depth_m: float, repeats: int = 3, twin: Twin | None = None
+) -> dict[str, float | int | bool]:
     """`compensate_twin` of a 45° cone on the ISF model against one `Twin.simulate` of it, medians of `repeats`.
 
     Each repeat shifts the cone by a further nanometre, so no step reuses an IK solved before (a twin keeps the
@@ -155,6 +234,7 @@ def compensation_cost(top_width_m: float, depth_m: float, repeats: int = 3) -> d
         top_width_m: The cone's top diameter [m].
         depth_m: Its depth [m].
         repeats: Timed runs of each (>= 1).
+        twin: A twin on the ISF model; None builds one.
 
     Returns:
         samples, simulations (iterations), converged, the final rms and largest residual [mm], compensate_s and
@@ -169,7 +249,7 @@ def compensation_cost(top_width_m: float, depth_m: float, repeats: int = 3) -> d
     if repeats < 1:
         raise InputError(f"repeats = {repeats!r}: expected >= 1")
     cone = part_path(PartSpec(depth_m=depth_m, top_half_width_m=top_width_m / 2.0))
-    twin = TwinSpec(process=Process(force_model="isf")).build()
+    twin = twin or TwinSpec(process=Process(force_model="isf")).build()
     twin.simulate(cone.t_s[:50], cone.p_sheet_m[:50])  # compile and warm the loop outside the timings
     times: dict[str, list[float]] = {"simulate": [], "compensate": []}
     for k in range(1, repeats + 1):
