@@ -7,7 +7,8 @@ acceleration of that iteration),
 `compensation_record` (what a compensation used, carried with its command into its runs), `check` (the check of a
 compensated run), `gain_cause` (a gain's cause, from that record and the measured forces), `surface_check` (a part
 scan against its target or design mesh, by region),
-`scan_registration` (a scanner's point cloud laid on its design by ICP), `discrepancy/` (find,
+`scan_registration` (a scanner's point cloud laid on its design by ICP), `placement_search` (where to put the
+sheet for the least predicted error of a part) with its screen and confirmation in `placement_screen`, `discrepancy/` (find,
 name, add and shrink what the twin is missing) and `calibration/` (the twin's free parameters fitted to the
 thesis's measurements). The analysis never imports a lab: what the twin knows lives in the twin's stages.
 

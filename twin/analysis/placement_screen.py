@@ -26,7 +26,7 @@ ideal path. Both run as jobs of `twin.base.jobs.Jobs` (module-level functions; t
 from __future__ import annotations
 
 __all__ = ["STATUSES", "ConfirmSetup", "ScreenSetup", "confirm_one", "placement_of", "prepare_screen",
-           "screen_chunk", "screen_rows"]
+           "screen_chunk", "screen_rows", "seeded_reach"]
 
 import math
 from typing import TYPE_CHECKING, NamedTuple
@@ -35,7 +35,7 @@ import numpy as np
 
 from twin.errors import SingularityError, UnreachableError
 from twin.process.path import ToolPath
-from twin.process.placement import Placement, check_reach
+from twin.process.placement import Placement, ReachReport, check_reach
 from twin.robot.description import RobotDescription
 from twin.sim.spec import TwinSpec
 
@@ -158,21 +158,26 @@ def screen_chunk(state: tuple[Kinematics, ScreenSetup], rows: np.ndarray) -> np.
     return screen_rows(kinematics, setup, rows)
 
 
+def seeded_reach(path: ToolPath, placement: Placement, kinematics: Kinematics) -> ReachReport:
+    """`check_reach` along the whole path, its IK seeded by the IK of `SEED_SAMPLES` samples (interpolated):
+    a few Newton steps a sample instead of a solve from `q_home` (the same solutions)."""
+    P = placement.to_base(path.p_sheet_m, kinematics)
+    sub = np.unique(np.linspace(0, len(P) - 1, min(len(P), SEED_SAMPLES)).round().astype(int))
+    coarse = kinematics.ik_points(P[sub], kinematics.q_home)
+    near = None
+    if coarse is not None and coarse[1].all():
+        near = np.column_stack([np.interp(np.arange(len(P)), sub, q) for q in coarse[0].T])
+    return check_reach(path, placement, kinematics, q_near=near)
+
+
 def confirm_one(setup: ConfirmSetup, row: np.ndarray) -> np.ndarray:
     """A confirmation job: the twin at the candidate's placement; returns one row of `COLUMNS` (its error from
     `Twin.simulate`, or the reason the whole path is infeasible there)."""
     placement = placement_of(row)
     twin = setup.spec.replace(placement=placement).build()
     path = setup.path
-    kin = twin.kinematics
-    P = placement.to_base(path.p_sheet_m, kin)
-    sub = np.unique(np.linspace(0, len(P) - 1, min(len(P), SEED_SAMPLES)).round().astype(int))
-    coarse = kin.ik_points(P[sub], kin.q_home)  # seeds the whole path's IK: a few Newton steps a sample
-    near = None
-    if coarse is not None and coarse[1].all():
-        near = np.column_stack([np.interp(np.arange(len(P)), sub, q) for q in coarse[0].T])
     try:
-        reach = check_reach(path, placement, kin, q_near=near)
+        reach = seeded_reach(path, placement, twin.kinematics)
     except UnreachableError:
         return _infeasible("unreachable")
     except SingularityError:

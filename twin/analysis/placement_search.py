@@ -17,7 +17,7 @@ simulated too. The jobs run on `twin.base.jobs.Jobs`: every core, or a Dask clus
 
 from __future__ import annotations
 
-__all__ = ["PlacementSearch", "SearchBox", "candidate_rows", "search_placement"]
+__all__ = ["PlacementSearch", "SearchBox", "candidate_rows", "describe", "search_placement"]
 
 import math
 import time
@@ -36,6 +36,7 @@ from twin.analysis.placement_screen import (
     prepare_screen,
     screen_chunk,
     screen_rows,
+    seeded_reach,
 )
 from twin.base.jobs import Jobs
 from twin.errors import InputError
@@ -201,25 +202,26 @@ def search_placement(
         raise InputError(f"joint_margin_rad = {joint_margin_rad!r}: expected an angle >= 0 [rad]")
     spec, box = spec or TwinSpec(), box or SearchBox()
     start = time.perf_counter()
-    twin = spec.build()
-    sim = twin.simulate(path.t_s, path.p_sheet_m)
-    norm = np.linalg.norm(sim.p_sheet_m - path.p_sheet_m, axis=1)
-    kin = twin.kinematics
-    q_margin = float(np.minimum(sim.q_ik - kin.q_min, kin.q_max - sim.q_ik).min())
-    default_simulated = np.array([math.sqrt(float(np.mean(norm**2))), float(norm.max()), 0.0, q_margin,
-                                  float(np.abs(np.linalg.det(kin.jacobians(sim.q_ik))).min())])
-    default_row = np.array([*spec.placement.origin_in(kin), spec.placement.yaw_rad])
-    idx = _subsample(len(path.t_s), screen_samples)
-    setup = ScreenSetup(spec.robot, twin.joint_stiffness, path.p_sheet_m[idx], sim.f_sheet_n[idx], joint_margin_rad)
-    default_screened = screen_rows(kin, setup, default_row[None])[0]
-    rows = candidate_rows(default_row, box, candidates, seed)
-    timings = {"default": time.perf_counter() - start}
-    with Jobs(workers, scheduler) as jobs:
+    with Jobs(workers, scheduler) as jobs:  # a bad scheduler address is refused before any work
+        twin = spec.build()
+        kin = twin.kinematics
+        reach = seeded_reach(path, spec.placement, kin)
+        sim = twin.simulate(path.t_s, path.p_sheet_m, q_ik=reach.q_rad)
+        norm = np.linalg.norm(sim.p_sheet_m - path.p_sheet_m, axis=1)
+        default_simulated = np.array([math.sqrt(float(np.mean(norm**2))), float(norm.max()), 0.0,
+                                      float(reach.joint_margin_rad.min()), reach.min_abs_det_j])
+        default_row = np.array([*spec.placement.origin_in(kin), spec.placement.yaw_rad])
+        idx = _subsample(len(path.t_s), screen_samples)
+        setup = ScreenSetup(spec.robot, twin.joint_stiffness, path.p_sheet_m[idx], sim.f_sheet_n[idx],
+                            joint_margin_rad)
+        default_screened = screen_rows(kin, setup, default_row[None])[0]
+        rows = candidate_rows(default_row, box, candidates, seed)
+        timings = {"default": time.perf_counter() - start}
         t0 = time.perf_counter()
         n_chunks = min(len(rows), max(4 * jobs.workers, math.ceil(len(rows) / 32)))
-        chunks = np.array_split(rows, n_chunks)
         report = None if progress is None else (lambda done, total: progress("screen", done, total))
-        screened = np.vstack(jobs.map(screen_chunk, chunks, setup, prepare=prepare_screen, progress=report))
+        screened = np.vstack(jobs.map(screen_chunk, np.array_split(rows, n_chunks), setup, prepare=prepare_screen,
+                                      progress=report))
         timings["screen"] = time.perf_counter() - t0
         feasible = np.flatnonzero(screened[:, 2] == 0)
         chosen = feasible[np.argsort(screened[feasible, 0], kind="stable")][:confirm]

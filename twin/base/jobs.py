@@ -135,7 +135,7 @@ class Jobs:
         shared = client.scatter([setup], broadcast=True, hash=False)[0]  # a list: one future, not one per element
         futures = [client.submit(_run, job, prepare, token, shared, i, item, pure=False)
                    for i, item in enumerate(items)]
-        for done, future in enumerate(dask_completed(futures), start=1):
+        for done, future in enumerate(dask_completed(futures, loop=client.loop), start=1):
             i, value = future.result()
             out[i] = value
             if progress is not None:
