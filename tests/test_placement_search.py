@@ -68,7 +68,7 @@ def test_infeasible_candidates_are_counted_and_never_confirmed(cone: ToolPath, s
     assert counts["unreachable"] > 0 and sum(counts.values()) == int(np.sum(codes > 0))
     assert np.all(np.isnan(result.screened[codes > 0, 0])) and np.all(result.screened[codes == 0, 0] > 0)
     assert set(result.confirmed_index) == set(np.flatnonzero(codes == 0))  # all the feasible, nothing else
-    far = np.r_[result.default_row[:3] + [3.0, 0.0, 0.0], 0.0]  # 3 m further out: out of reach
+    far = np.r_[result.default_row[:3] + np.array([3.0, 0.0, 0.0]), 0.0]  # 3 m further out: out of reach
     twin = spec.build()
     setup = ScreenSetup(spec.robot, twin.joint_stiffness, cone.p_sheet_m[::8], np.zeros((len(cone.p_sheet_m[::8]), 3)),
                         math.radians(5.0))

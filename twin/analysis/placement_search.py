@@ -6,8 +6,8 @@ where the sheet sits in the cell.
 
 Candidates are a seeded Latin hypercube (`scipy.stats.qmc.LatinHypercube`) over a box around the twin's own
 placement (`SearchBox`): by default ±300 mm in x (toward and away from the robot), ±400 mm in y, ±100 mm in z and
-the full turn of yaw. The box is what a fixture table near the cell's own could be moved by: it stays inside the
-shipped robots' reach from the cell's sheet origin, and candidates outside the reach, too close to a joint limit
+the full turn of yaw. The box is what a fixture table near the cell's own could be moved by, wide enough that the
+robot's pose, and so its compliance, changes across it; candidates outside the reach, too close to a joint limit
 (`joint_margin_rad`) or to a singularity (the robot's |det J| threshold) are skipped and counted by reason.
 
 Each candidate is screened by the linear compliance model of `twin.analysis.placement_screen` (what it neglects

@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 
 from twin.apps.analytic_replay import AnalyticReplay, analytic_replay
+from twin.apps.bench_place import place_cost
 from twin.apps.bench_speed import cli_startup, compensation_cost, mujoco_call_floor, path_growth
 from twin.apps.machine import machine_info
 from twin.apps.sweep import run_sweep, usable_cores
@@ -97,6 +98,9 @@ def run_benchmarks(
     width_m, depth_m = (80e-3, 20e-3) if samples is None else (20e-3, 2e-3)
     out["compensation"] = compensation_cost(width_m, depth_m, repeats)
     out["compensation_over_simulation"] = out["compensation"]["over_simulation"]
+    out["placement"] = place_cost(width_m, depth_m, min(repeats, 3), candidates=512 if samples is None else 64)
+    out["place_over_simulation"] = out["placement"]["over_simulation"]
+    out["place_best_over_default_rms"] = out["placement"]["best_over_default_rms"]
     out["machine"] = machine_info()
     return out
 
@@ -269,6 +273,8 @@ TABLE_ROWS: tuple[tuple[str, str, str], ...] = (
     ("gcode_load_s", "G-code import, ~100k moves", "s"),
     ("cli_help_over_numpy", "`tx200-twin --help` / import numpy", "x"),
     ("compensation_over_simulation", "cone twin compensation / one simulate", "x"),
+    ("place_over_simulation", "cone placement search / one simulate", "x"),
+    ("place_best_over_default_rms", "  best placement's rms / default's", "x"),
 )
 
 

@@ -310,7 +310,7 @@ class Kinematics:
             step = np.max(np.abs(dq), axis=1)
             dq *= np.where(step > 0.2, 0.2 / np.maximum(step, 1e-300), 1.0)[:, None]
             Q[active] += dq
-        ok &= np.all((self.q_min - 1e-12 <= Q) & (Q <= self.q_max + 1e-12), axis=1)
+        ok &= ~np.any((self.q_min - 1e-12 > Q) | (self.q_max + 1e-12 < Q), axis=1)
         ok[ok] &= np.abs(np.linalg.det(J_final[ok])) >= self.det_j_min
         return Q, ok
 
