@@ -18,6 +18,9 @@ Takes runs and a twin; gives stiffnesses, compensated paths, gains, verdicts and
 from twin.base.lazy import lazy_exports
 
 __all__, __getattr__, __dir__ = lazy_exports(__name__, {
+    "PlacementSearch": "twin.analysis.placement_search",
+    "SearchBox": "twin.analysis.placement_search",
+    "search_placement": "twin.analysis.placement_search",
     "ReplayResult": "twin.analysis.replay",
     "replay": "twin.analysis.replay",
     "replay_metrics": "twin.analysis.replay",

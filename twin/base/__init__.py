@@ -23,4 +23,5 @@ __all__, __getattr__, __dir__ = lazy_exports(__name__, {
     "uniform_times": "twin.base.signals",
     "models_dir": "twin.base.resources",
     "data_file": "twin.base.resources",
+    "Jobs": "twin.base.jobs",
 })
