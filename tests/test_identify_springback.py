@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from doc_numbers import quoted
 
 from twin.analysis.identify.springback import fit_springback
 from twin.cli import main
@@ -66,6 +67,9 @@ def test_the_springback_constants_are_found_from_a_scan(cone) -> None:
     run = Run(None, {}, Stream(path.t_s, path.p_sheet_m), Stream(path.t_s, path.p_sheet_m), part_scan=scan)
     fit = fit_springback(run, spec, design)
     found = dict(fit.springback_fit)
+    doc = quoted("any-part.md", "fitted from its scan | recovery_scale", 2)
+    doc[0].check(found["recovery_scale"], slack=2.0)
+    doc[1].check(found["depth_ratio"], slack=2.0)
     assert found["recovery_scale"] == pytest.approx(HIDDEN_RECOVERY, rel=0.01)
     assert found["depth_ratio"] == pytest.approx(1.0 - HIDDEN_LIFT, abs=0.001)
     assert fit.rms_before_m > 0.2e-3 and fit.rms_after_m < 0.03e-3 and fit.points > 500
