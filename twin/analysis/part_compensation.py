@@ -83,7 +83,8 @@ def design_heights(design: trimesh.Trimesh, x_m: np.ndarray, y_m: np.ndarray) ->
     directions = np.tile([0.0, 0.0, -1.0], (len(x), 1))
     hits, rays, _ = design.ray.intersects_location(origins, directions, multiple_hits=False)
     z = np.full(len(x), np.nan)
-    z[rays] = hits[:, 2]
+    if len(rays):  # no hit at all comes back as an empty 1-D array
+        z[rays] = np.reshape(hits, (-1, 3))[:, 2]
     return z.reshape(np.shape(x_m))
 
 

@@ -36,7 +36,7 @@ from twin.analysis.part_compensation import design_heights
 from twin.errors import InputError
 
 #: The grid the design is sampled on to rest the tool on it [m].
-GRID_M = 0.25e-3
+GRID_M = 0.5e-3
 _CHUNK = 2000
 
 
