@@ -37,6 +37,10 @@ from twin.errors import InputError
 
 #: The grid the design is sampled on to rest the tool on it [m].
 GRID_M = 0.5e-3
+#: Where the error is read: at the surface each sample formed, or (the law before) under the tip's own x-y.
+LEARN_AT = ("formed", "tip")
+#: The tip law reads the scan points within this x-y distance of the tip [m].
+TIP_REACH_M = 1.5e-3
 _CHUNK = 2000
 
 
@@ -93,7 +97,7 @@ def forming_samples(tips_m: np.ndarray, points_xy_m: np.ndarray, radius_m: float
 
 def learn_from_scan(
     command_m: np.ndarray, scan_m: np.ndarray, design: trimesh.Trimesh, *, gain: float = 1.0,
-    smoothing_m: float = 2e-3, tool_radius_m: float = 7.5e-3,
+    smoothing_m: float = 2e-3, tool_radius_m: float = 7.5e-3, at: str = "formed",
 ) -> LearnedCommand:
     """The next part's command from the last part's scan (module docstring).
 
@@ -104,26 +108,31 @@ def learn_from_scan(
         gain: Learning gain [-], (0, 1].
         smoothing_m: Gaussian smoothing along the path [m], > 0.
         tool_radius_m: The tool's radius [m], > 0.
+        at: One of `LEARN_AT`: "formed" (this module's law) or "tip" (the law before it, for comparison: each
+            sample takes the error under its own x-y, the inverse-distance mean of the scan points within
+            `TIP_REACH_M`; samples with none are held).
 
     Raises:
-        InputError: A gain, smoothing or radius out of range, or no scan point over the design.
+        InputError: A gain, smoothing, radius or `at` out of range, or no scan point over the design.
     """
-    if not (0.0 < gain <= 1.0 and smoothing_m > 0.0 and tool_radius_m > 0.0):
+    if not (0.0 < gain <= 1.0 and smoothing_m > 0.0 and tool_radius_m > 0.0) or at not in LEARN_AT:
         raise InputError(f"learning gain {gain} must be in (0, 1], smoothing {1e3 * smoothing_m:g} mm and tool "
-                         f"radius {1e3 * tool_radius_m:g} mm > 0")
+                         f"radius {1e3 * tool_radius_m:g} mm > 0, and the error read at {at!r} one of {LEARN_AT}")
     command = np.asarray(command_m, dtype=float)
     scan = np.asarray(scan_m, dtype=float)
     error = scan[:, 2] - design_heights(design, scan[:, 0], scan[:, 1])
     seen = np.isfinite(error)
     if not seen.any():
         raise InputError(f"none of the scan's {len(scan)} points lies over the design: nothing to learn from")
-    tips = np.column_stack([command[:, :2], resting_tips(design, command[:, :2], tool_radius_m)])
-    owner = forming_samples(tips, scan[seen, :2], tool_radius_m)
     n = len(command)
-    total = np.bincount(owner, weights=error[seen], minlength=n)
-    count = np.bincount(owner, minlength=n).astype(float)
     steps = np.linalg.norm(np.diff(command, axis=0), axis=1)
     sigma = smoothing_m / max(float(np.median(steps)) if len(steps) else 0.0, 1e-9)
+    if at == "tip":
+        return _tip_law(command, scan[seen], error[seen], gain, sigma)
+    tips = np.column_stack([command[:, :2], resting_tips(design, command[:, :2], tool_radius_m)])
+    owner = forming_samples(tips, scan[seen, :2], tool_radius_m)
+    total = np.bincount(owner, weights=error[seen], minlength=n)
+    count = np.bincount(owner, minlength=n).astype(float)
     weight = gaussian_filter1d(count, sigma)
     measured = np.where(weight > 1e-3, gaussian_filter1d(total, sigma) / np.maximum(weight, 1e-12), np.nan)
     known = np.flatnonzero(np.isfinite(measured))
@@ -131,3 +140,15 @@ def learn_from_scan(
     out = command.copy()
     out[:, 2] -= gain * filled
     return LearnedCommand(out, measured, count)
+
+
+def _tip_law(command: np.ndarray, scan: np.ndarray, error: np.ndarray, gain: float, sigma: float) -> LearnedCommand:
+    """The law before this module's: the error under each sample's own x-y (`learn_from_scan`, at="tip")."""
+    distance, index = cKDTree(scan[:, :2]).query(command[:, :2], k=4)
+    weights = np.where(distance < TIP_REACH_M, 1.0 / np.maximum(distance, 1e-6), 0.0)
+    total = weights.sum(axis=1)
+    measured = np.where(total > 0, (weights * error[index]).sum(axis=1) / np.maximum(total, 1e-12), np.nan)
+    smooth = gaussian_filter1d(np.nan_to_num(measured), sigma)
+    out = command.copy()
+    out[:, 2] -= gain * np.where(np.isfinite(measured), smooth, 0.0)
+    return LearnedCommand(out, measured, (total > 0).astype(float))

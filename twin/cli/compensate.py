@@ -68,6 +68,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                       help="the last part's run (its command, part scan and tool radius): the next command moved "
                       "along z by the scan's error of the surface each sample formed (the tool resting on the "
                       "design: on a wall, its contact, not the tip's x-y)")
+    part.add_argument("--learn-at", choices=("formed", "tip"), default="formed",
+                      help="where each sample's error is read: the surface it formed, or (the law before, for "
+                      "comparison) under its own tip's x-y (default formed)")
     part.add_argument("--learn-gain", type=finite, default=1.0, help="learning gain (0, 1] (default 1)")
     part.add_argument("--learn-smoothing-mm", type=finite, default=2.0,
                       help="Gaussian smoothing of the learned error along the path, > 0 (default 2)")
@@ -124,12 +127,12 @@ def _part(args: argparse.Namespace) -> int:
                             region_deviation(last.part_scan, design))]
         radius = run_process(last.meta, Process(), Path(args.learn_from) / "meta.json").tool_radius_m
         learned = learn_from_scan(last.commanded.values, last.part_scan, design, gain=args.learn_gain,
-                                  smoothing_m=1e-3 * args.learn_smoothing_mm, tool_radius_m=radius)
+                                  smoothing_m=1e-3 * args.learn_smoothing_mm, tool_radius_m=radius, at=args.learn_at)
         command, measured, t_s = learned.command_m, learned.measured_m, last.commanded.t_s
         seen = np.isfinite(measured)
         summary: dict[str, Any] = {
             "method": "learn", "out": args.out, "learned_from": args.learn_from, "gain": args.learn_gain,
-            "smoothing_mm": args.learn_smoothing_mm, "tool_radius_mm": 1e3 * radius,
+            "smoothing_mm": args.learn_smoothing_mm, "at": args.learn_at, "tool_radius_mm": 1e3 * radius,
             "samples_forming_scanned_points": int((learned.formed_points > 0).sum()),
             "samples_seen": int(seen.sum()), "samples": len(seen),
             "measured_error_rms_mm": 1e3 * float(np.sqrt(np.mean(measured[seen] ** 2))) if seen.any() else None,
