@@ -102,7 +102,7 @@ def test_learning_at_the_forming_samples_converges_where_the_tip_law_stalls(cone
     command = old = path
     new_rms, old_rms = [], []
     for _ in range(2):
-        command = learn_from_scan(command, plant(command), design, smoothing_m=2e-3, tool_radius_m=R).command_m
+        command = learn_from_scan(command, plant(command), design, tool_radius_m=R, at="formed").command_m
         old = tip_law(old, plant(old), design)
         new_rms.append(wall_rms(plant(command), design))
         old_rms.append(wall_rms(plant(old), design))
@@ -120,12 +120,14 @@ def test_a_uniform_rise_moves_the_command_by_the_gain_times_it(cone) -> None:
     path, design = cone
     X, Y = np.meshgrid(AXIS, AXIS)
     scan = np.column_stack([X.ravel(), Y.ravel(), (envelope(path) + 0.3e-3).ravel()])
-    result = learn_from_scan(path, scan, design, gain=0.5)
+    result = learn_from_scan(path, scan, design, gain=0.5, at="formed")
     np.testing.assert_allclose(path[:, 2] - result.command_m[:, 2], 0.15e-3, atol=0.01e-3)
     assert np.isfinite(result.measured_m).mean() > 0.95 and result.formed_points.sum() > 0
-    tip = learn_from_scan(path, scan, design, gain=0.5, at="tip")  # the law before, kept for comparison
+    tip = learn_from_scan(path, scan, design, gain=0.5)  # the first law, the default
     np.testing.assert_allclose(path[:, 2] - tip.command_m[:, 2], 0.15e-3, atol=0.01e-3)
+    with pytest.raises(InputError, match="'under'"):
+        learn_from_scan(path, scan, design, at="under")
     with pytest.raises(InputError, match=r"gain 1\.5"):
         learn_from_scan(path, scan, design, gain=1.5)
     with pytest.raises(InputError, match="none of the scan"):
-        learn_from_scan(path, scan + np.array([1.0, 0.0, 0.0]), design)
+        learn_from_scan(path, scan + np.array([1.0, 0.0, 0.0]), design, at="formed")

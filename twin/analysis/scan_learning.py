@@ -1,8 +1,9 @@
-"""Learning the next part's command from the last part's scan, at the points each sample formed.
+"""Learning the next part's command from the last part's scan: under each tip, or at the points it formed.
 
 A spatial iterative-learning update (P-type): the next command is the last one moved along z by `gain` times the
-scan's vertical error (scan z minus design z, at the scan point's x-y) **of the surface that sample formed**,
-smoothed along the path. Which sample formed which point is read off the design, not off the tool tip's own x-y:
+scan's vertical error (scan z minus design z, at the scan point's x-y), smoothed along the path. Two laws:
+`at="tip"` (the first, the default) reads it under each sample's own tip x-y; `at="formed"` reads the error **of
+the surface that sample formed**, which sample formed which point read off the design:
 
 * **The tool at rest on the design.** A sample's tool sphere (radius R, the tool vertical) rests on the design
   above the sample's x-y: its tip height is the highest `z_design(q) + sqrt(R^2 - |q - xy|^2) - R` over the design
@@ -18,9 +19,10 @@ smoothed along the path. Which sample formed which point is read off the design,
   A vertical move of the tool moves the surface it forms by the same vertical amount, so the vertical error is
   the move, on walls and flats alike.
 
-The law before this one read the error under the tip's own x-y: on the independent dynamic plant's Ø80 mm,
-20 mm deep cone its updates landed 5.3 mm of depth away from the contours that formed the error, and two
-iterations stalled at 0.44-0.47 mm rms (docs/any-part.md). Held fixed: x-y, timing.
+On a wall the tip law's updates land 5.3 mm of depth (with R = 7.5 mm) away from the contours that formed the
+error it reads; where the error rings with depth (the independent dynamic plant's Ø80 mm cone) it stalls, where
+the plant moves less than the command (the quasi-static lab on shallow parts) that misplacement happens to give
+the deep bottom's larger error to the wall (docs/any-part.md). Held fixed: x-y, timing.
 """
 
 from __future__ import annotations
@@ -38,7 +40,7 @@ from twin.errors import InputError
 #: The grid the design is sampled on to rest the tool on it [m].
 GRID_M = 0.5e-3
 #: Where the error is read: at the surface each sample formed, or (the law before) under the tip's own x-y.
-LEARN_AT = ("formed", "tip")
+LEARN_AT = ("tip", "formed")
 #: The tip law reads the scan points within this x-y distance of the tip [m].
 TIP_REACH_M = 1.5e-3
 _CHUNK = 2000
@@ -97,7 +99,7 @@ def forming_samples(tips_m: np.ndarray, points_xy_m: np.ndarray, radius_m: float
 
 def learn_from_scan(
     command_m: np.ndarray, scan_m: np.ndarray, design: trimesh.Trimesh, *, gain: float = 1.0,
-    smoothing_m: float = 2e-3, tool_radius_m: float = 7.5e-3, at: str = "formed",
+    smoothing_m: float = 2e-3, tool_radius_m: float = 7.5e-3, at: str = "tip",
 ) -> LearnedCommand:
     """The next part's command from the last part's scan (module docstring).
 
@@ -108,9 +110,9 @@ def learn_from_scan(
         gain: Learning gain [-], (0, 1].
         smoothing_m: Gaussian smoothing along the path [m], > 0.
         tool_radius_m: The tool's radius [m], > 0.
-        at: One of `LEARN_AT`: "formed" (this module's law) or "tip" (the law before it, for comparison: each
-            sample takes the error under its own x-y, the inverse-distance mean of the scan points within
-            `TIP_REACH_M`; samples with none are held).
+        at: One of `LEARN_AT`: "tip" (the first law: each sample takes the error under its own x-y, the
+            inverse-distance mean of the scan points within `TIP_REACH_M`, smoothed; samples with none are held)
+            or "formed" (the error of the surface the sample formed, module docstring).
 
     Raises:
         InputError: A gain, smoothing, radius or `at` out of range, or no scan point over the design.
@@ -143,7 +145,7 @@ def learn_from_scan(
 
 
 def _tip_law(command: np.ndarray, scan: np.ndarray, error: np.ndarray, gain: float, sigma: float) -> LearnedCommand:
-    """The law before this module's: the error under each sample's own x-y (`learn_from_scan`, at="tip")."""
+    """The first law: the error under each sample's own x-y (`learn_from_scan`, at="tip")."""
     distance, index = cKDTree(scan[:, :2]).query(command[:, :2], k=4)
     weights = np.where(distance < TIP_REACH_M, 1.0 / np.maximum(distance, 1e-6), 0.0)
     total = weights.sum(axis=1)

@@ -66,11 +66,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     part.add_argument("--part-iterations", type=count, default=2, help="outer iterations on the part (default 2)")
     part.add_argument("--learn-from", type=Path, metavar="RUN",
                       help="the last part's run (its command, part scan and tool radius): the next command moved "
-                      "along z by the scan's error of the surface each sample formed (the tool resting on the "
-                      "design: on a wall, its contact, not the tip's x-y)")
-    part.add_argument("--learn-at", choices=("formed", "tip"), default="formed",
-                      help="where each sample's error is read: the surface it formed, or (the law before, for "
-                      "comparison) under its own tip's x-y (default formed)")
+                      "along z by the scan's error at each sample (--learn-at)")
+    part.add_argument("--learn-at", choices=("tip", "formed"), default="tip",
+                      help="where each sample's error is read: under its own tip's x-y, or on the surface it "
+                      "formed (the tool resting on the design: on a wall, its contact) (default tip)")
     part.add_argument("--learn-gain", type=finite, default=1.0, help="learning gain (0, 1] (default 1)")
     part.add_argument("--learn-smoothing-mm", type=finite, default=2.0,
                       help="Gaussian smoothing of the learned error along the path, > 0 (default 2)")
