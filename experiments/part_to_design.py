@@ -15,7 +15,7 @@ and rerun recordings in OUT: `twin_stages.png|.rrd` (the twin's predicted part a
 `<plant>_stages.png|.rrd` (the scan of each formed part: nominal, path-, part-compensated, each learning iteration).
 
 Run: `.venv/bin/python experiments/part_to_design.py OUT [--shape cone|pyramid] [--width-mm 80 --depth-mm 20]
-[--plants quasi-static,dynamic] [--learn 2]`. Prints a JSON summary.
+[--plants quasi-static,dynamic] [--learn 2] [--learn-at tip|formed]`. Prints a JSON summary.
 """
 
 from __future__ import annotations
@@ -91,8 +91,9 @@ def _identified_springback(out: Path, plant: str, ideal: Path, design: Path, for
 
 
 def part_study(out: Path, path_args: list[str], plants: tuple[str, ...] = ("quasi-static", "dynamic"),
-               learn: int = 2) -> dict[str, Any]:
-    """The study for one part (`path_args`: the `tx200-twin path` options that make it) in `out`."""
+               learn: int = 2, learn_at: str = "tip") -> dict[str, Any]:
+    """The study for one part (`path_args`: the `tx200-twin path` options that make it) in `out`; `learn_at`:
+    `compensate --learn-at`."""
     out.mkdir(parents=True, exist_ok=True)
     ideal, design = out / "ideal.csv", out / "design.stl"
     _cli("path", *path_args, "--out", str(ideal), "--no-reach-check", "--design-stl", str(design))
@@ -126,7 +127,7 @@ def part_study(out: Path, path_args: list[str], plants: tuple[str, ...] = ("quas
         for k in range(1, learn + 1):
             nxt = out / f"{plant}_cmd_learn{k}.csv"
             _cli("compensate", "--method", "twin", "--ideal", str(ideal), "--target-stl", str(design),
-                 "--learn-from", str(last), "--out", str(nxt))
+                 "--learn-from", str(last), "--learn-at", learn_at, "--out", str(nxt))
             last = _lab(plant, nxt, out / f"{plant}_learn{k}", seed=1 + k)
             scans[f"learn {k}"] = _scan(last, index)
         stages = [PartStage(f"scan: {name}", "scanned", deviation) for name, deviation in scans.items()]
@@ -158,10 +159,11 @@ def main() -> None:
     parser.add_argument("--depth-mm", type=float, default=20.0)
     parser.add_argument("--plants", default="quasi-static,dynamic")
     parser.add_argument("--learn", type=int, default=2)
+    parser.add_argument("--learn-at", choices=("tip", "formed"), default="tip")
     args = parser.parse_args()
     path_args = (["--gcode", str(args.gcode)] if args.gcode is not None else
                  ["--shape", args.shape, "--top-width-mm", f"{args.width_mm:g}", "--depth-mm", f"{args.depth_mm:g}"])
-    summary = part_study(args.out, path_args, tuple(args.plants.split(",")), args.learn)
+    summary = part_study(args.out, path_args, tuple(args.plants.split(",")), args.learn, args.learn_at)
     json.dump(summary, sys.stdout, indent=1)
     print()
     print(stage_table(summary), file=sys.stderr)

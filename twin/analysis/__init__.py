@@ -3,7 +3,8 @@
 Modules: `replay` (a run replayed on the twin, with the gap), `identify/` (K_R by Methods 1 and 2, K_q from K_R
 or by rollouts), `compensate` (offline compensation, formula or iterated on the twin, and its gain), `anderson` (the
 acceleration of that iteration),
-`part_compensation` (the formed part to the design, springback included, and learned from scans),
+`part_compensation` (the formed part to the design, springback included), `scan_learning` (the next part's
+command learned from the last part's scan, at the points each sample formed),
 `compensation_record` (what a compensation used, carried with its command into its runs), `check` (the check of a
 compensated run), `gain_cause` (a gain's cause, from that record and the measured forces), `surface_check` (a part
 scan against its target or design mesh, by region),
