@@ -7,12 +7,15 @@ its own sheet (`twin.lab.dynamic.sheet`: its own force model and springback) wit
 record the declared process (the twin is told nothing). Each number is the scan (`part_scan.csv`) against the design, normal to it,
 rms over the formed part and its rim (`twin.analysis.part_compensation.part_stats`). Both compensations are made
 twice: with the declared sheet, and with the sheet's forces identified from the nominal part's F/T stream
-(`identify --forces RUN --write-model`; the springback stays the declared one: forces do not show it). Figures
+(`identify --forces RUN --write-model`; the springback stays the declared one: forces do not show it), and
+with the springback then identified from the nominal part's scan too (`identify --springback RUN --design DESIGN`:
+two global constants of the twin's springback model, fitted, not learned point by point; path compensation does
+not use the springback, so its command repeats the identified-forces one). Figures
 and rerun recordings in OUT: `twin_stages.png|.rrd` (the twin's predicted part at each part-compensation iteration) and
 `<plant>_stages.png|.rrd` (the scan of each formed part: nominal, path-, part-compensated, each learning iteration).
 
 Run: `.venv/bin/python experiments/part_to_design.py OUT [--shape cone|pyramid] [--width-mm 80 --depth-mm 20]
-[--plants quasi-static,dynamic] [--learn 2]`. Prints a JSON summary.
+[--plants quasi-static,dynamic] [--learn 2] [--learn-at tip|formed]`. Prints a JSON summary.
 """
 
 from __future__ import annotations
@@ -68,9 +71,29 @@ def _scan(run: Path, design: DesignIndex) -> RegionDeviation:
     return region_deviation(scan, design)
 
 
+def _identified_springback(out: Path, plant: str, ideal: Path, design: Path, forces: Path,
+                           scans: dict[str, RegionDeviation], index: DesignIndex) -> dict[str, Any]:
+    """The springback identified from the nominal part's scan (`identify --springback`, on top of the identified
+    forces), then both compensations with that model: model identification, two global constants, no learning."""
+    model, report = out / f"{plant}_identified_springback.json", out / f"{plant}_identified_springback_fit.json"
+    _cli("identify", "--springback", str(out / f"{plant}_nominal"), "--design", str(design), "--model", str(forces),
+         "--write-model", str(model), "--json", str(report))
+    for name, extra in (("path-compensated, identified forces and springback", []),
+                        ("part-compensated, identified forces and springback", ["--target-stl", str(design)])):
+        stem = name.split(",")[0]
+        command = out / f"{plant}_cmd_{stem}_identified_springback.csv"
+        _cli("compensate", "--method", "twin", "--ideal", str(ideal), "--model", str(model), *extra,
+             "--out", str(command))
+        scans[name] = _scan(_lab(plant, command, out / f"{plant}_{stem}_identified_springback", seed=1), index)
+    fit = json.loads(report.read_text())
+    return {"springback_fit": fit["springback_fit"], "force_fit": fit["force_fit_used"],
+            "scan_rms_mm": [round(fit["scan_rms_before_mm"], 4), round(fit["scan_rms_after_mm"], 4)]}
+
+
 def part_study(out: Path, path_args: list[str], plants: tuple[str, ...] = ("quasi-static", "dynamic"),
-               learn: int = 2) -> dict[str, Any]:
-    """The study for one part (`path_args`: the `tx200-twin path` options that make it) in `out`."""
+               learn: int = 2, learn_at: str = "tip") -> dict[str, Any]:
+    """The study for one part (`path_args`: the `tx200-twin path` options that make it) in `out`; `learn_at`:
+    `compensate --learn-at`."""
     out.mkdir(parents=True, exist_ok=True)
     ideal, design = out / "ideal.csv", out / "design.stl"
     _cli("path", *path_args, "--out", str(ideal), "--no-reach-check", "--design-stl", str(design))
@@ -98,11 +121,13 @@ def part_study(out: Path, path_args: list[str], plants: tuple[str, ...] = ("quas
             _cli("compensate", "--method", "twin", "--ideal", str(ideal), "--model", str(model), *extra,
                  "--out", str(command))
             scans[name] = _scan(_lab(plant, command, out / f"{plant}_{name.split(',')[0]}_identified", seed=1), index)
+        summary.setdefault("identified", {})[plant] = _identified_springback(out, plant, ideal, design, model, scans,
+                                                                              index)
         last = out / f"{plant}_part-compensated"
         for k in range(1, learn + 1):
             nxt = out / f"{plant}_cmd_learn{k}.csv"
             _cli("compensate", "--method", "twin", "--ideal", str(ideal), "--target-stl", str(design),
-                 "--learn-from", str(last), "--out", str(nxt))
+                 "--learn-from", str(last), "--learn-at", learn_at, "--out", str(nxt))
             last = _lab(plant, nxt, out / f"{plant}_learn{k}", seed=1 + k)
             scans[f"learn {k}"] = _scan(last, index)
         stages = [PartStage(f"scan: {name}", "scanned", deviation) for name, deviation in scans.items()]
@@ -134,10 +159,11 @@ def main() -> None:
     parser.add_argument("--depth-mm", type=float, default=20.0)
     parser.add_argument("--plants", default="quasi-static,dynamic")
     parser.add_argument("--learn", type=int, default=2)
+    parser.add_argument("--learn-at", choices=("tip", "formed"), default="tip")
     args = parser.parse_args()
     path_args = (["--gcode", str(args.gcode)] if args.gcode is not None else
                  ["--shape", args.shape, "--top-width-mm", f"{args.width_mm:g}", "--depth-mm", f"{args.depth_mm:g}"])
-    summary = part_study(args.out, path_args, tuple(args.plants.split(",")), args.learn)
+    summary = part_study(args.out, path_args, tuple(args.plants.split(",")), args.learn, args.learn_at)
     json.dump(summary, sys.stdout, indent=1)
     print()
     print(stage_table(summary), file=sys.stderr)

@@ -115,6 +115,12 @@ def test_bench_reports_the_ratios_of_issue_30(result: dict) -> None:
     assert comp["converged"] and 1 <= comp["simulations"] <= 4 and comp["residual_rms_mm"] <= 0.01
     assert result["compensation_over_simulation"] == pytest.approx(comp["compensate_s"] / comp["simulate_s"])
     assert "--help" in format_table(result) and "cone twin compensation" in format_table(result)
+    place = result["placement"]
+    assert result["place_over_simulation"] == pytest.approx(place["place_s"] / place["simulate_s"])
+    assert place["candidates"] == 64 and 0 < place["feasible"] <= 64
+    assert result["place_best_over_default_rms"] == pytest.approx(
+        place["best_simulated_rms_mm"] / place["default_simulated_rms_mm"])
+    assert "cone placement search" in format_table(result)
 
 
 def test_bench_reports_the_isf_cones_of_issue_30(result: dict) -> None:

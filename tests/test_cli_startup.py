@@ -1,5 +1,5 @@
 """`tx200-twin` starts without the heavy libraries: building the parser and parsing a light command's options
-import none of MuJoCo, numba, scipy, matplotlib or rerun (each in a fresh interpreter; no timings here, the
+import none of MuJoCo, numba, scipy, matplotlib, rerun or Dask (each in a fresh interpreter; no timings here, the
 ratio to `import numpy` is in `tx200-twin bench`)."""
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ import sys
 
 import pytest
 
-HEAVY = ("mujoco", "numba", "scipy", "matplotlib", "rerun")
+HEAVY = ("mujoco", "numba", "scipy", "matplotlib", "rerun", "dask", "distributed")
 
 
 def _loaded_after(code: str) -> list[str]:
@@ -35,6 +35,7 @@ def test_building_the_parser_imports_no_heavy_library() -> None:
     ["export", "c.csv", "--format", "csv", "--out", "c_out.csv"],
     ["import", "--mapping", "cell/mapping.toml", "--out", "runs/cell1"],
     ["compensate", "--method", "twin", "--ideal", "c.csv", "--out", "x.csv"],
+    ["place", "--ideal", "c.csv", "--scheduler", "tcp://127.0.0.1:8786", "--json", "p.json"],
 ])
 def test_parsing_a_command_imports_no_heavy_library(argv: list[str]) -> None:
     code = f"from twin.cli import build_parser; args = build_parser().parse_args({argv!r}); assert args._run"

@@ -64,6 +64,10 @@ CASES: dict[str, list[tuple[list[str], dict[str, str], str]]] = {
         (["--ideal", "i.csv", "--json", "i.csv"], {"i.csv": "t_s\n"}, "--json i.csv"),
         (["--figure", "f.png", "--json", "f.png"], {}, "--json f.png"),
     ],
+    "place": [
+        (["--ideal", "i.csv", "--json", "i.csv"], {"i.csv": "t_s\n"}, "--json i.csv"),
+        (["--ideal", "i.csv", "--figure", "m.png", "--json", "m.png"], {"i.csv": "t_s\n"}, "--json m.png"),
+    ],
     "discrepancy": [
         (["RUN", "--model-out", "RUN/meta.json"], RUN, "--model-out RUN/meta.json"),
         (["RUN", "--report", "RUN"], RUN, "--report RUN"),

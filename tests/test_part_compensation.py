@@ -11,7 +11,8 @@ import pytest
 import trimesh
 from rerun.chunk import RrdReader
 
-from twin.analysis.part_compensation import compensate_part, design_heights, learn_from_scan, part_error
+from twin.analysis.part_compensation import compensate_part, design_heights, part_error
+from twin.analysis.scan_learning import learn_from_scan
 from twin.cli import main
 from twin.process.description import Process
 from twin.process.isf_force import IsfForceField
@@ -59,7 +60,7 @@ def test_a_scan_above_the_design_moves_the_next_command_down_by_the_gap(cone) ->
     error = part_error(scan, design)  # normal to the design: 0.3 mm on the bottom, 0.3 cos α on the wall
     assert error["bottom"]["mean_mm"] == pytest.approx(0.3, rel=0.05)
     assert 0.3 * np.cos(np.radians(45.0)) * 0.98 < error["wall"]["mean_mm"] < 0.3  # 45° walls and their bends
-    command, measured = learn_from_scan(path.p_sheet_m, scan, design, gain=0.5, smoothing_m=0.0)
+    command, measured, _ = learn_from_scan(path.p_sheet_m, scan, design, gain=0.5)
     seen = np.isfinite(measured)
     assert seen.mean() > 0.95
     np.testing.assert_allclose(measured[seen], 0.3e-3, atol=0.02e-3)

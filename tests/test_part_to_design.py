@@ -50,8 +50,18 @@ def test_a_cone_on_both_plants_learns_to_within_0_1_mm(tmp_path: Path) -> None:
     assert _all(summary, qs, "part-compensated, identified forces") < _all(summary, qs, "path-compensated") / 3
     assert (_all(summary, qs, "part-compensated, identified forces")
             < _all(summary, qs, "path-compensated, identified forces") / 3)
-    # the dynamic plant's own sheet springs back far less than the twin predicts: the part compensation over-forms
+    # with the springback identified from the nominal part's scan as well, a third and less
+    both = ", identified forces and springback"
+    assert _all(summary, qs, f"part-compensated{both}") < _all(summary, qs, f"path-compensated{both}") / 3
+    assert summary["identified"][qs]["springback_fit"]["depth_ratio"] == pytest.approx(0.95, abs=0.01)  # lab: 0.95
+    # the dynamic plant's own sheet springs back far less than the twin predicts: the part compensation over-forms,
+    # unless the springback is identified from the nominal scan
     assert _all(summary, "dynamic", "part-compensated") > _all(summary, "dynamic", "path-compensated")
+    assert _all(summary, "dynamic", f"part-compensated{both}") < _all(summary, "dynamic", f"path-compensated{both}")
+    assert summary["identified"]["dynamic"]["springback_fit"]["recovery_scale"] < 0.5
+    found = quoted("any-part.md", "Identified\n(recovery_scale, depth_ratio):", 4)
+    for k, (plant, name) in enumerate((p, n) for p in (qs, "dynamic") for n in ("recovery_scale", "depth_ratio")):
+        found[k].check(summary["identified"][plant]["springback_fit"][name])
     documented = (Path(__file__).resolve().parent.parent / "docs" / "any-part.md").read_text()
     table = documented.split("<!-- part-to-design table")[1].split("\n\n")[0].splitlines()[1:]
     assert _numbers(table) == pytest.approx(_numbers(study.stage_table(summary).splitlines()), abs=0.005)

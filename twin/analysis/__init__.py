@@ -3,11 +3,13 @@
 Modules: `replay` (a run replayed on the twin, with the gap), `identify/` (K_R by Methods 1 and 2, K_q from K_R
 or by rollouts), `compensate` (offline compensation, formula or iterated on the twin, and its gain), `anderson` (the
 acceleration of that iteration),
-`part_compensation` (the formed part to the design, springback included, and learned from scans),
+`part_compensation` (the formed part to the design, springback included), `scan_learning` (the next part's
+command learned from the last part's scan, at the points each sample formed),
 `compensation_record` (what a compensation used, carried with its command into its runs), `check` (the check of a
 compensated run), `gain_cause` (a gain's cause, from that record and the measured forces), `surface_check` (a part
 scan against its target or design mesh, by region),
-`scan_registration` (a scanner's point cloud laid on its design by ICP), `discrepancy/` (find,
+`scan_registration` (a scanner's point cloud laid on its design by ICP), `placement_search` (where to put the
+sheet for the least predicted error of a part) with its screen and confirmation in `placement_screen`, `discrepancy/` (find,
 name, add and shrink what the twin is missing) and `calibration/` (the twin's free parameters fitted to the
 thesis's measurements). The analysis never imports a lab: what the twin knows lives in the twin's stages.
 
@@ -17,6 +19,9 @@ Takes runs and a twin; gives stiffnesses, compensated paths, gains, verdicts and
 from twin.base.lazy import lazy_exports
 
 __all__, __getattr__, __dir__ = lazy_exports(__name__, {
+    "PlacementSearch": "twin.analysis.placement_search",
+    "SearchBox": "twin.analysis.placement_search",
+    "search_placement": "twin.analysis.placement_search",
     "ReplayResult": "twin.analysis.replay",
     "replay": "twin.analysis.replay",
     "replay_metrics": "twin.analysis.replay",

@@ -9,11 +9,8 @@ bottom of `twin.process.part_bottom`), so it misses the drawing by about that re
   robot's deflection is compensated again for the new target; `iterations` times. Held fixed: x-y of every sample,
   the timing. The design is a surface z_design(x, y) in the sheet frame (the tool-side sheet surface, z = 0 at the
   unformed sheet's top), from an STL or from the path itself (`design_heights`).
-* **Learning from a scan** (`learn_from_scan`, part to part): the next part's command is the previous command moved
-  along z by `gain` times the measured surface error at each sample (the scan against the design, at the sample's
-  x-y, smoothed along the path over `smoothing_m`): a spatial iterative-learning update (P-type, gain 1 by
-  default), so that the second part improves where the twin is wrong. Held fixed: x-y, timing, samples where the
-  scan has no point within `SCAN_REACH_M`.
+* **Learning from a scan** (part to part, `twin.analysis.scan_learning`): the next part's command moved along z by
+  the scan's error of the surface each sample formed, where the twin is wrong.
 
 Surface errors are normal to the design, per region of it, as `check --target-stl` reports them
 (`twin.analysis.surface_check.region_deviation`: wall, bottom, rim, sheet), and for the part itself (`part`: its
@@ -27,8 +24,6 @@ from typing import NamedTuple
 
 import numpy as np
 import trimesh
-from scipy.ndimage import gaussian_filter1d
-from scipy.spatial import cKDTree
 
 from twin.analysis.compensate import Compensation, compensate_twin
 from twin.analysis.surface_check import REGIONS, DesignIndex, RegionDeviation, region_deviation
@@ -39,8 +34,6 @@ from twin.sim.quasi_static import Twin
 
 #: The regions of the design that are the part (the rest is flat sheet).
 PART_REGIONS = ("wall", "bottom", "rim")
-#: A path sample learns only from scan points within this x-y distance [m].
-SCAN_REACH_M = 1.5e-3
 #: What a stage's surface is: the twin's part after unclamping, or a formed part's scan.
 STAGE_KINDS = ("predicted", "scanned")
 
@@ -90,7 +83,8 @@ def design_heights(design: trimesh.Trimesh, x_m: np.ndarray, y_m: np.ndarray) ->
     directions = np.tile([0.0, 0.0, -1.0], (len(x), 1))
     hits, rays, _ = design.ray.intersects_location(origins, directions, multiple_hits=False)
     z = np.full(len(x), np.nan)
-    z[rays] = hits[:, 2]
+    if len(rays):  # no hit at all comes back as an empty 1-D array
+        z[rays] = np.reshape(hits, (-1, 3))[:, 2]
     return z.reshape(np.shape(x_m))
 
 
@@ -158,39 +152,3 @@ def compensate_part(
         target = replace(target, p_sheet_m=p)
         comp = compensate_twin(target.t_s, target.p_sheet_m, twin, tol_m=tol_m)
     return PartCompensation(target, comp, deviations)
-
-
-def learn_from_scan(
-    command_m: np.ndarray, scan_m: np.ndarray, design: trimesh.Trimesh, *, gain: float = 1.0,
-    smoothing_m: float = 2e-3,
-) -> tuple[np.ndarray, np.ndarray]:
-    """The next part's command from the last part's scan (module docstring).
-
-    Args:
-        command_m: The last part's command, sheet frame [m], shape (n, 3).
-        scan_m: Its scan in the sheet frame (registered), shape (m, 3) [m].
-        design: The design surface [m].
-        gain: Learning gain [-] (0, 1].
-        smoothing_m: Gaussian smoothing of the error along the path [m] (0: none).
-
-    Returns:
-        (the next command (n, 3) [m], the measured vertical error at each sample (n,) [m], NaN where unseen).
-    """
-    if not 0.0 < gain <= 1.0:
-        raise InputError(f"learning gain {gain} must be in (0, 1]")
-    scan = np.asarray(scan_m, dtype=float)
-    error = scan[:, 2] - design_heights(design, scan[:, 0], scan[:, 1])
-    keep = np.isfinite(error)
-    tree = cKDTree(scan[keep, :2])
-    distance, index = tree.query(command_m[:, :2], k=4)
-    weights = np.where(distance < SCAN_REACH_M, 1.0 / np.maximum(distance, 1e-6), 0.0)
-    total = weights.sum(axis=1)
-    measured = np.where(total > 0, (weights * error[keep][index]).sum(axis=1) / np.maximum(total, 1e-12), np.nan)
-    steps = np.r_[0.0, np.linalg.norm(np.diff(command_m, axis=0), axis=1)]
-    sigma = smoothing_m / max(float(np.median(steps[1:])), 1e-9) if smoothing_m > 0 else 0.0
-    filled = np.nan_to_num(measured)
-    smooth = gaussian_filter1d(filled, sigma) if sigma > 0 else filled
-    update = np.where(np.isfinite(measured), smooth, 0.0)
-    out = np.asarray(command_m, dtype=float).copy()
-    out[:, 2] -= gain * update
-    return out, measured

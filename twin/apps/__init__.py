@@ -3,7 +3,8 @@
 Modules: `demo` (the thesis story) and its `report`, `reproduction` (the thesis-vs-twin table),
 `force_validation` (the force model against the published measurements of `force_data`, and the springback
 against a published part's section, `springback_validation`), `bench`,
-`bench_speed` and `machine` (the speed ratios and the machine they ran on), `analytic_replay` (the replay with
+`bench_speed`, `bench_place` (the placement search's cost) and `machine` (the speed ratios and the machine they
+ran on), `analytic_replay` (the replay with
 the linear model, the physical floor), `sweep` (a Monte Carlo of the compensated groove) with its `uncertainty`
 and `sweep_figure`, `readme` (the README's generated tables) and `export/` (robot programs from a path).
 

@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 
 from twin.apps.analytic_replay import AnalyticReplay, analytic_replay
+from twin.apps.bench_place import place_cost
 from twin.apps.bench_speed import cli_startup, isf_cone_benchmarks, mujoco_call_floor, path_growth
 from twin.apps.machine import machine_info
 from twin.apps.sweep import run_sweep, usable_cores
@@ -94,6 +95,11 @@ def run_benchmarks(
     out["cli_startup"] = cli_startup(max(3, repeats))
     out["cli_help_over_numpy"] = out["cli_startup"]["help_over_numpy"]
     out.update(isf_cone_benchmarks(repeats, smoke=samples is not None))  # cones on the ISF model, Ø 40 to 160 mm
+    # the placement search of a cone on the ISF model: Ø 80 mm, 20 mm deep (a Ø 20 mm, 2 mm deep one for a smoke run)
+    width_m, depth_m = (80e-3, 20e-3) if samples is None else (20e-3, 2e-3)
+    out["placement"] = place_cost(width_m, depth_m, min(repeats, 3), candidates=512 if samples is None else 64)
+    out["place_over_simulation"] = out["placement"]["over_simulation"]
+    out["place_best_over_default_rms"] = out["placement"]["best_over_default_rms"]
     out["machine"] = machine_info()
     return out
 
@@ -268,6 +274,8 @@ TABLE_ROWS: tuple[tuple[str, str, str], ...] = (
     ("isf_160_realtime_factor", "Ø160 cone on the ISF model, real time", "x"),
     ("isf_growth_ratio", "  cost/added sample, 80-160 / 40-80", "x"),
     ("compensation_over_simulation", "Ø160 cone twin compensation / simulate", "x"),
+    ("place_over_simulation", "cone placement search / one simulate", "x"),
+    ("place_best_over_default_rms", "  best placement's rms / default's", "x"),
 )
 
 

@@ -8,18 +8,18 @@ compensated command on a twin with those values; the residual is the simulated t
 
 Means and σ: `twin.apps.uncertainty` (a calibration file, or the model's values with default relative σ).
 
-The draws are made in the parent from one seed, so the result does not depend on the number of workers; they
-run on all cores (`concurrent.futures.ProcessPoolExecutor`), one ready twin per worker process.
+The draws are made in the parent from one seed, so the result does not depend on the number of workers or
+where they run; they run on all cores, or with `scheduler` on a Dask distributed cluster (`twin.base.jobs.Jobs`),
+one ready twin per worker.
 """
 
 from __future__ import annotations
 
-__all__ = ["PARAMETERS", "SweepResult", "Uncertainty", "model_uncertainty", "replay_draw", "run_sweep"]
+__all__ = ["PARAMETERS", "SweepResult", "Uncertainty", "model_uncertainty", "replay_draw", "run_sweep",
+           "usable_cores"]
 
-import os
 import time
 from collections.abc import Callable
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 
 from twin.apps.uncertainty import PARAMETERS, Draw, Uncertainty, load_uncertainty, model_uncertainty
+from twin.base.jobs import Jobs, usable_cores
 from twin.errors import InputError
 from twin.process.field import SheetForceField
 from twin.process.pass_tables import PassTable, scaled_tables
@@ -46,7 +47,7 @@ class SweepResult:
         mean_z_m: Mean z residual per draw (positive: too shallow) [m], shape (n,).
         nominal_rms_m: The same RMS with the nominal model (the compensation's own prediction) [m].
         wall_s: Wall time of the draws (compensation excluded) [s].
-        workers: Worker processes used.
+        workers: Workers used (local processes, or the Dask cluster's worker threads).
         compensate_s: Wall time of the compensation [s].
         uncertainty: Means and σ used.
     """
@@ -98,21 +99,14 @@ class SweepResult:
         }
 
 
-def usable_cores() -> int:
-    """Cores this process may run on (its CPU affinity where the OS has one)."""
-    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
-
-
 # ------------------------------------------------------------------ worker side
-_WORKER: dict[str, Any] = {}
-
-
-def _init_worker(spec: TwinSpec, t_s: np.ndarray, p_cmd: np.ndarray, q_ik: np.ndarray,
-                 p_ideal: np.ndarray) -> None:
+def _prepare_worker(setup: tuple[TwinSpec, np.ndarray, np.ndarray, np.ndarray, np.ndarray]) -> dict[str, Any]:
+    """A worker's ready twin and the shared arrays (once per worker)."""
+    spec, t_s, p_cmd, q_ik, p_ideal = setup
     twin = spec.build()
     sheet = twin.sheet_field
     assert isinstance(sheet, SheetForceField)  # `model_uncertainty` refused another force model
-    _WORKER.update(twin=twin, t_s=t_s, p_cmd=p_cmd, q_ik=q_ik, p_ideal=p_ideal, tables=sheet.pass_tables)
+    return {"twin": twin, "t_s": t_s, "p_cmd": p_cmd, "q_ik": q_ik, "p_ideal": p_ideal, "tables": sheet.pass_tables}
 
 
 def replay_draw(twin: Twin, values: np.ndarray, t_s: np.ndarray, p_cmd: np.ndarray,
@@ -144,13 +138,13 @@ def _residual_stats(p_sim: np.ndarray, p_ideal: np.ndarray) -> tuple[float, floa
     return float(np.sqrt(np.mean(norm**2))), float(norm.max()), float(residual[:, 2].mean())
 
 
-def _run_chunk(start: int, values: np.ndarray) -> tuple[int, np.ndarray]:
-    w = _WORKER
+def _run_chunk(w: dict[str, Any], values: np.ndarray) -> np.ndarray:
+    """A job: replay a chunk of draws; (rms, max, mean z) of each residual [m], shape (k, 3)."""
     out = np.empty((len(values), 3))
     for i, row in enumerate(values):
         p = replay_draw(w["twin"], row, w["t_s"], w["p_cmd"], w["q_ik"], w["tables"])
         out[i] = _residual_stats(p, w["p_ideal"])
-    return start, out
+    return out
 
 
 def run_sweep(
@@ -165,6 +159,7 @@ def run_sweep(
     compensate: bool = True,
     chunk: int | None = None,
     progress: Callable[[int, int], None] | None = None,
+    scheduler: str | None = None,
 ) -> SweepResult:
     """Monte Carlo of the compensated (or plain) groove over the model's uncertainty.
 
@@ -172,79 +167,45 @@ def run_sweep(
         draws: Number of parameter sets.
         spec: The nominal twin (its force model must be the table field); default the thesis's cell.
         seed: Seed of the draws.
-        workers: Worker processes; default every core this process may use.
+        workers: Worker processes; default every core this process may use (ignored with `scheduler`).
         uncertainty: Means and σ; default `load_uncertainty(calibration, nominal twin)`.
         calibration: Calibration JSON file (`parameters`, `sigma`), used when `uncertainty` is None.
         path: Ideal path; default the thesis groove.
         compensate: True: replay the twin-compensated command; False: the ideal path itself.
         chunk: Draws per task sent to a worker; default about a quarter of each worker's share, at most 8.
         progress: Called with (draws done, draws) as chunks complete.
+        scheduler: Address of a Dask distributed scheduler to replay the draws on; None: local.
 
     Returns:
-        The distribution.
+        The distribution (the same for the same seed wherever it ran).
+
+    Raises:
+        InputError: Bad `workers` or `chunk`, or no Dask scheduler answers at `scheduler`.
     """
     from twin.analysis.compensate import compensate_twin  # analysis runs before apps: an allowed import
 
     spec = spec or TwinSpec()
     path = path if path is not None else groove_path()
-    if workers is None:
-        workers = usable_cores()
-    if chunk is None:
-        chunk = max(1, min(8, draws // (4 * workers)))
-    if workers < 1 or chunk < 1:
+    if (workers is not None and workers < 1) or (chunk is not None and chunk < 1):
         raise InputError(f"workers = {workers!r}, chunk = {chunk!r}: expected >= 1")
-    nominal = spec.build()
-    uncertainty = uncertainty or load_uncertainty(calibration, nominal)
-    values = uncertainty.draw(draws, seed)
-    t_s, p_ideal = path.t_s, path.p_sheet_m
-    start = time.perf_counter()
-    p_cmd = compensate_twin(t_s, p_ideal, nominal).p_cmd_sheet_m if compensate else p_ideal
-    sim = nominal.simulate(t_s, p_cmd)
-    compensate_s = time.perf_counter() - start
-    nominal_rms = _residual_stats(sim.p_sheet_m, p_ideal)[0]
-    start = time.perf_counter()
-    stats = _run_draws(values, (spec, t_s, p_cmd, sim.q_ik, p_ideal), workers, chunk, progress)
-    wall = time.perf_counter() - start
+    with Jobs(workers, scheduler) as jobs:  # a bad scheduler address is refused before any work
+        nominal = spec.build()
+        uncertainty = uncertainty or load_uncertainty(calibration, nominal)
+        values = uncertainty.draw(draws, seed)
+        t_s, p_ideal = path.t_s, path.p_sheet_m
+        start = time.perf_counter()
+        p_cmd = compensate_twin(t_s, p_ideal, nominal).p_cmd_sheet_m if compensate else p_ideal
+        sim = nominal.simulate(t_s, p_cmd)
+        compensate_s = time.perf_counter() - start
+        nominal_rms = _residual_stats(sim.p_sheet_m, p_ideal)[0]
+        workers = jobs.workers
+        if chunk is None:
+            chunk = max(1, min(8, draws // (4 * workers)))
+        start = time.perf_counter()
+        chunks = [values[i : i + chunk] for i in range(0, draws, chunk)]
+        report = None if progress is None else (lambda done, _n: progress(min(draws, done * chunk), draws))
+        stats = np.concatenate(jobs.map(_run_chunk, chunks, (spec, t_s, p_cmd, sim.q_ik, p_ideal),
+                                        prepare=_prepare_worker, progress=report))
+        wall = time.perf_counter() - start
     return SweepResult(values, stats[:, 0], stats[:, 1], stats[:, 2], nominal_rms, wall, workers, compensate_s,
                        uncertainty)
-
-
-def _run_draws(
-    values: np.ndarray,
-    init: tuple[TwinSpec, np.ndarray, np.ndarray, np.ndarray, np.ndarray],
-    workers: int,
-    chunk: int,
-    progress: Callable[[int, int], None] | None,
-) -> np.ndarray:
-    """Replay every draw in chunks, in this process (one worker) or on a process pool.
-
-    Args:
-        values: The draws, shape (n, len(PARAMETERS)).
-        init: The workers' spec, times, command, its rigid IK and the ideal path (`_init_worker`).
-        workers: Worker processes.
-        chunk: Draws per task.
-        progress: Called with (draws done, draws) as chunks complete.
-
-    Returns:
-        (rms, max, mean z) of each draw's residual [m], shape (n, 3).
-    """
-    draws = len(values)
-    stats = np.empty((draws, 3))
-    done = 0
-    if workers == 1:
-        _init_worker(*init)
-        for i in range(0, draws, chunk):
-            stats[i : i + chunk] = _run_chunk(i, values[i : i + chunk])[1]
-            done = min(draws, i + chunk)
-            if progress is not None:
-                progress(done, draws)
-        return stats
-    with ProcessPoolExecutor(max_workers=workers, initializer=_init_worker, initargs=init) as pool:
-        futures = [pool.submit(_run_chunk, i, values[i : i + chunk]) for i in range(0, draws, chunk)]
-        for future in as_completed(futures):
-            i, out = future.result()
-            stats[i : i + len(out)] = out
-            done += len(out)
-            if progress is not None:
-                progress(done, draws)
-    return stats

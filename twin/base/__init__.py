@@ -3,7 +3,8 @@
 Modules: `csvio` (atomic CSV/JSON I/O with precise errors), `outputs` (outputs never over inputs, the umask's
 modes, write failures named), `units` (length columns read by their declared unit,
 `_mm` or `_m`), `signals` (interpolation of sampled signals, sample clocks), `resources` (the lookup of shipped
-models and data) and `lazy` (a package's public names, imported on first use).
+models and data), `lazy` (a package's public names, imported on first use) and `jobs` (independent jobs on this
+process, every core, or a Dask cluster).
 
 Takes files and arrays; gives validated arrays and paths. Imports nothing of the project but `twin.errors`.
 """
@@ -22,4 +23,5 @@ __all__, __getattr__, __dir__ = lazy_exports(__name__, {
     "uniform_times": "twin.base.signals",
     "models_dir": "twin.base.resources",
     "data_file": "twin.base.resources",
+    "Jobs": "twin.base.jobs",
 })

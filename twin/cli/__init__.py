@@ -1,7 +1,7 @@
 """Command line `tx200-twin`: one module per command in this package, listed in COMMANDS.
 
 Modules: `info`, `path`, `fe_history`, `identify`, `calibrate`, `reproduce`, `force_validation`, `lab`, `replay`,
-`compensate`, `check`, `bench`, `sweep`, `discrepancy`, `demo`, `import_run` (`import`), `export`, `materials` and `robots`,
+`compensate`, `check`, `bench`, `sweep`, `place`, `discrepancy`, `demo`, `import_run` (`import`), `export`, `materials` and `robots`,
 one per command; `_common` holds the options several commands share (the FE history, the force model, the declared
 process, the placement) and the twin they make (`spec_from_arguments`); `_types` the argparse types with plausible
 ranges (seeds, counts, lengths, feeds).
@@ -60,6 +60,7 @@ COMMANDS: dict[str, str] = {
     "check": "check",
     "bench": "bench",
     "sweep": "sweep",
+    "place": "place",
     "discrepancy": "discrepancy",
     "demo": "demo",
     "import": "import_run",

@@ -288,3 +288,12 @@ def placement_from(args: argparse.Namespace) -> Placement:
     """The `Placement` of `--origin-mm` / `--yaw-deg`."""
     origin = None if args.origin_mm is None else (args.origin_mm[0] / 1e3, args.origin_mm[1] / 1e3, args.origin_mm[2] / 1e3)
     return Placement(origin_base_m=origin, yaw_rad=math.radians(args.yaw_deg))
+
+
+def add_scheduler_argument(parser: argparse.ArgumentParser) -> None:
+    """Add `--scheduler ADDRESS` (a Dask distributed scheduler to run the command's jobs on)."""
+    parser.add_argument(
+        "--scheduler", metavar="ADDRESS",
+        help="run the jobs on the Dask distributed cluster of this scheduler (e.g. tcp://HOST:8786; its workers "
+        "need tx200-twin installed); default: local processes on every usable core (--workers)",
+    )

@@ -65,10 +65,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                       "compensate so that the twin's part after unclamping lies on it, springback included")
     part.add_argument("--part-iterations", type=count, default=2, help="outer iterations on the part (default 2)")
     part.add_argument("--learn-from", type=Path, metavar="RUN",
-                      help="the last part's run (its command and part scan): the next command from its measured "
-                      "deviation from the design")
+                      help="the last part's run (its command, part scan and tool radius): the next command moved "
+                      "along z by the scan's error at each sample (--learn-at)")
+    part.add_argument("--learn-at", choices=("tip", "formed"), default="tip",
+                      help="where each sample's error is read: under its own tip's x-y, or on the surface it "
+                      "formed (the tool resting on the design: on a wall, its contact) (default tip)")
     part.add_argument("--learn-gain", type=finite, default=1.0, help="learning gain (0, 1] (default 1)")
-    part.add_argument("--learn-smoothing-mm", type=finite, default=2.0, help="smoothing along the path (default 2)")
+    part.add_argument("--learn-smoothing-mm", type=finite, default=2.0,
+                      help="Gaussian smoothing of the learned error along the path, > 0 (default 2)")
     part.add_argument("--figure", type=Path, metavar="PNG",
                       help="deviation maps from the design: the twin's predicted part at each iteration "
                       "(with --learn-from: the last part's scan)")
@@ -103,8 +107,11 @@ def _stiffness(path: Path) -> np.ndarray:
 
 def _part(args: argparse.Namespace) -> int:
     """`--target-stl`: the part to the design, on the twin, or learned from the last part's scan."""
-    from twin.analysis.part_compensation import PartStage, compensate_part, learn_from_scan
+    from twin.analysis.part_compensation import PartStage, compensate_part
+    from twin.analysis.scan_learning import learn_from_scan
     from twin.analysis.surface_check import read_target_mesh, region_deviation
+    from twin.process.description import Process
+    from twin.runs.format import run_process
     from twin.runs.read import read_run
 
     if args.method != "twin":
@@ -117,13 +124,16 @@ def _part(args: argparse.Namespace) -> int:
             raise InputError(f"--learn-from {args.learn_from}: the run has no part_scan.csv to learn from")
         stages = [PartStage(f"scan of {Path(args.learn_from).name}", "scanned",
                             region_deviation(last.part_scan, design))]
-        command, measured = learn_from_scan(last.commanded.values, last.part_scan, design, gain=args.learn_gain,
-                                            smoothing_m=1e-3 * args.learn_smoothing_mm)
-        t_s = last.commanded.t_s
+        radius = run_process(last.meta, Process(), Path(args.learn_from) / "meta.json").tool_radius_m
+        learned = learn_from_scan(last.commanded.values, last.part_scan, design, gain=args.learn_gain,
+                                  smoothing_m=1e-3 * args.learn_smoothing_mm, tool_radius_m=radius, at=args.learn_at)
+        command, measured, t_s = learned.command_m, learned.measured_m, last.commanded.t_s
         seen = np.isfinite(measured)
         summary: dict[str, Any] = {
             "method": "learn", "out": args.out, "learned_from": args.learn_from, "gain": args.learn_gain,
-            "smoothing_mm": args.learn_smoothing_mm, "samples_seen": int(seen.sum()), "samples": len(seen),
+            "smoothing_mm": args.learn_smoothing_mm, "at": args.learn_at, "tool_radius_mm": 1e3 * radius,
+            "samples_forming_scanned_points": int((learned.formed_points > 0).sum()),
+            "samples_seen": int(seen.sum()), "samples": len(seen),
             "measured_error_rms_mm": 1e3 * float(np.sqrt(np.mean(measured[seen] ** 2))) if seen.any() else None,
         }
     else:

@@ -19,7 +19,8 @@ from twin.cli._common import (
 )
 from twin.errors import InputError
 
-HELP = "Identify K_R (Method 1: load cases; Method 2: a run), the joint stiffness K_q, or the sheet's forces."
+HELP = ("Identify K_R (Method 1: load cases; Method 2: a run), the joint stiffness K_q, the sheet's forces, or the "
+        "part's springback.")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -44,7 +45,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="fit the sheet force model's level and shape to this run's measured forces (the process its meta.json "
         "records, or --process/--material ...); --write-model puts the fit into a twin model file",
     )
-    parser.add_argument("--model", type=Path, help="--forces: start from this twin model file (its process)")
+    parser.add_argument(
+        "--springback",
+        type=Path,
+        metavar="RUN",
+        help="fit the springback (a factor on the elastic recovery F/k_unload and the depth ratio kept) to this run's "
+        "part scan against --design, the twin replaying its command (isf model); --write-model puts the fit into a "
+        "twin model file (with --model's forces, e.g. from --forces on the same run)",
+    )
+    parser.add_argument("--design", type=Path, metavar="DESIGN", help="--springback: the part's design surface (STL)")
+    parser.add_argument("--model", type=Path, help="--forces, --springback: start from this twin model file")
     add_force_model_argument(parser)
     add_process_arguments(parser)
     add_robot_argument(parser)
@@ -163,8 +173,54 @@ def _forces(args: argparse.Namespace) -> int:
     return 0
 
 
+def _springback(args: argparse.Namespace) -> int:
+    """`--springback RUN --design DESIGN`: the springback constants fitted to a run's part scan."""
+    from twin.analysis.identify.springback import fit_springback
+    from twin.analysis.surface_check import read_target_mesh
+    from twin.cli._common import spec_from_arguments
+    from twin.runs.read import read_run
+    from twin.sim.model_file import write_model_file
+
+    if args.run_dir is not None or args.loads is not None or args.forces is not None:
+        raise InputError("--springback RUN takes no other run directory, no --loads and no --forces (run --forces "
+                         "first and pass its --write-model file as --model)")
+    if args.design is None:
+        raise InputError("--springback RUN needs --design DESIGN (the part's design surface, e.g. path --design-stl)")
+    measured = read_run(args.springback, require_forces=False)
+    if measured.part_scan is None:
+        raise InputError(f"--springback {args.springback}: the run has no part_scan.csv (a scan of the formed part "
+                         "is what shows its springback)")
+    spec = spec_from_arguments(args, measured.commanded.values, run=measured)
+    fit = fit_springback(measured, spec, read_target_mesh(args.design))
+    payload: dict[str, object] = {
+        "run": args.springback, "design": args.design, "force_model": spec.process.force_model,
+        "force_fit_used": dict(spec.process.force_fit), "springback_fit": dict(fit.springback_fit),
+        "scan_rms_before_mm": 1e3 * fit.rms_before_m, "scan_rms_after_mm": 1e3 * fit.rms_after_m,
+        "points": fit.points, "evaluations": fit.evaluations, **fit.registration.summary_mm(),
+    }
+    if args.write_model is not None:
+        process = replace(spec.process, force_fit=tuple((dict(spec.process.force_fit) | dict(fit.springback_fit))
+                                                        .items()))
+        payload["model_written"] = write_model_file(
+            args.write_model, spec.replace(process=process), note=f"springback fitted to the scan of {args.springback}",
+            protect=[args.springback, args.design],
+        )
+    values = ", ".join(f"{k} {v:.4g}" for k, v in fit.springback_fit)
+    print(
+        f"identify --springback {args.springback} ({fit.points} scan points): {values}; scan against the twin's part "
+        f"{1e3 * fit.rms_before_m:.3f} mm -> {1e3 * fit.rms_after_m:.3f} mm rms",
+        file=sys.stderr if args.json == "-" else sys.stdout,
+    )
+    emit_json(args.json, payload, protect=[args.springback, args.design])
+    return 0
+
+
 def run(args: argparse.Namespace) -> int:
     """Run the identification and report it."""
+    if getattr(args, "springback", None) is not None:
+        return _springback(args)
+    if getattr(args, "design", None) is not None:
+        raise InputError("--design DESIGN goes with --springback RUN")
     if getattr(args, "forces", None) is not None:
         return _forces(args)
     if args.method == 2:

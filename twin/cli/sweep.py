@@ -11,6 +11,7 @@ from twin.base.csvio import emit_json
 from twin.cli._common import (
     add_history_arguments,
     add_ideal_argument,
+    add_scheduler_argument,
     history_from_arguments,
     ideal_from_arguments,
 )
@@ -26,6 +27,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--draws", type=count, default=200, help="parameter sets to replay (default 200)")
     parser.add_argument("--seed", type=seed, default=0, help="seed of the draws (default 0)")
     parser.add_argument("--workers", type=count, help="worker processes (default: every usable core)")
+    add_scheduler_argument(parser)
     parser.add_argument(
         "--calibration", type=Path,
         help="calibration JSON with 'parameters' and 'sigma' (tx200-twin calibrate, e.g. docs/calibration.json); "
@@ -55,6 +57,7 @@ def run(args: argparse.Namespace) -> int:
     result = run_sweep(
         args.draws, spec=TwinSpec(process=Process(history=history)), seed=args.seed, workers=args.workers,
         calibration=args.calibration, path=ideal, compensate=not args.uncompensated, progress=progress,
+        scheduler=args.scheduler,
     )
     summary = result.summary()
     if args.figure is not None:

@@ -50,6 +50,10 @@ class IsfForceParams:
         k_unload_n_per_m: Elastic unloading stiffness of the formed sheet [N/m] (`twin.process.field`).
         scale: Factor on Fz and F_xy [-] (1: the process's published level; a real cell's forces may differ,
             `twin.analysis.identify`).
+        recovery_scale: Factor on the part's elastic recovery F/k_unload after unclamping [-] (1: the model's; it
+            leaves the forces alone; identified from a scan, `twin.analysis.identify.springback`).
+        depth_ratio: The part's depth after unclamping over its depth with that recovery [-] (1: no further loss;
+            0.95: 5 % of the depth springs back; identified from a scan likewise).
         spacing_m: Height-map grid spacing [m].
     """
 
@@ -65,6 +69,8 @@ class IsfForceParams:
     k_unload_n_per_m: float = K_UNLOAD_N_PER_M
     scale: float = 1.0
     spacing_m: float = 0.5e-3
+    recovery_scale: float = 1.0
+    depth_ratio: float = 1.0
 
     def __post_init__(self) -> None:
         for name, value in vars(self).items():

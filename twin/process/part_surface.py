@@ -12,6 +12,8 @@ after unclamping, e.g. a fringe-projection scanner) and compared with the target
 * `formed_surface(field)`: the surface a force field with a height map (`IsfForceField`) has formed, after
   the tool has left, its unsupported bottom lowered with the last contour (`twin.process.part_bottom`); None for
   a field without one (the groove's table field keeps a centre line only).
+* `springback_surface(field, recovery_scale, depth_ratio)`: the same with the springback's two constants given
+  (`formed_surface` takes them from the field's `IsfForceParams`; `identify --springback` fits them to a scan).
 * `surface_points(...)`: grid nodes of a surface over the formed region and a margin, every `spacing_m`:
   what a scan gives (the labs add their own scanner noise).
 * `heightmap_mesh(...)`: a triangulated surface (`trimesh.Trimesh`), e.g. to write the target as an STL.
@@ -49,11 +51,32 @@ def formed_surface(field: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray] | No
     height_map = getattr(field, "map", None)
     if height_map is None or not hasattr(field, "k_unload"):
         return None
+    params = getattr(field, "params", None)
+    return springback_surface(field, getattr(params, "recovery_scale", 1.0), getattr(params, "depth_ratio", 1.0))
+
+
+def springback_surface(
+    field: Any, recovery_scale: float = 1.0, depth_ratio: float = 1.0
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The surface a height-map field has formed, after unclamping, with given springback constants [m]:
+
+        z_after = depth_ratio · min(z_loaded + recovery_scale · F_z/k_unload, 0)
+
+    (the unsupported bottom hanging from the last contour before the depth ratio applies).
+
+    Args:
+        field: A sheet force field with a height map (`map`, `k_unload`).
+        recovery_scale: Factor on the elastic recovery F_z/k_unload [-] (> 0).
+        depth_ratio: Depth after unclamping over the depth with that recovery [-] (> 0).
+    """
+    if not (recovery_scale > 0 and depth_ratio > 0):
+        raise InputError(f"recovery_scale {recovery_scale!r} and depth_ratio {depth_ratio!r}: expected numbers > 0")
+    height_map = field.map
     x, y = np.asarray(height_map.x_m, dtype=float), np.asarray(height_map.y_m, dtype=float)
-    z = height_map.unloaded_z_m(field.k_unload)
+    z = height_map.unloaded_z_m(field.k_unload / recovery_scale)
     if len(height_map.track_m) >= 3:  # the unsupported bottom inside the last contour moves down with it
         z = with_floating_bottom(x, y, z, height_map.track_m, FORMED_BELOW_M)
-    return x, y, z
+    return x, y, depth_ratio * z
 
 
 def target_part_surface(

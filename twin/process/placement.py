@@ -117,7 +117,8 @@ class ReachReport:
 
 
 def check_reach(
-    path: ToolPath, placement: Placement | None = None, kinematics: Kinematics | None = None
+    path: ToolPath, placement: Placement | None = None, kinematics: Kinematics | None = None,
+    *, q_near: np.ndarray | None = None,
 ) -> ReachReport:
     """Solve the IK along the whole path and report its margins.
 
@@ -125,6 +126,7 @@ def check_reach(
         path: Tool-tip path in the sheet frame.
         placement: Sheet placement; None for the default (cell sheet origin, yaw 0).
         kinematics: Robot kinematics; None loads the cell scene.
+        q_near: Joint angles near the solution at every sample (n, dof) [rad] to seed the IK (`Kinematics.ik_path`).
 
     Raises:
         UnreachableError: A sample is out of reach or outside a joint range (names the first such sample).
@@ -135,7 +137,7 @@ def check_reach(
     kin = Kinematics() if kinematics is None else kinematics
     P = (placement or Placement()).to_base(path.p_sheet_m, kin)
     try:
-        Q = kin.ik_path(P)
+        Q = kin.ik_path(P, q_near=q_near)
     except (UnreachableError, SingularityError) as exc:
         raise _first_bad_sample(kin, P, path) from exc
     dets = np.abs(np.linalg.det(kin.jacobians(Q)))

@@ -264,18 +264,31 @@ class Kinematics:
             Q[i] = q
         return Q
 
-    def _ik_batch(self, P: np.ndarray, q_seed: np.ndarray, max_iter: int = 30) -> np.ndarray | None:
-        """The same damped Newton for all points at once (numpy kinematics), seeded from `q_seed`.
-
-        Returns None, so that the caller solves point by point (which also raises the precise error), when
-        the chain is not supported, a point does not converge, leaves the joint ranges or is near-singular,
-        or consecutive solutions jump by more than 0.1 rad (a different IK branch than the warm-started one).
-        """
-        n = P.shape[0]
-        if not self._chain.supported or n < 2:
+    def _ik_batch(self, P: np.ndarray, q_seed: np.ndarray) -> np.ndarray | None:
+        """`ik_points`, or None (the caller then solves point by point, raising the precise error) when a point
+        fails or consecutive solutions jump by more than 0.1 rad (another branch than the warm-started one)."""
+        solved = self.ik_points(P, q_seed) if P.shape[0] >= 2 else None
+        if solved is None or not solved[1].all() or np.max(np.abs(np.diff(solved[0], axis=0))) > 0.1:
             return None
+        return solved[0]
+
+    def ik_points(
+        self, P_base_tcp: np.ndarray, q_seed: np.ndarray, max_iter: int = 30
+    ) -> tuple[np.ndarray, np.ndarray] | None:
+        """The damped Newton of `ik` for independent points at once (numpy kinematics), each from its seed.
+
+        Args: P_base_tcp (n, 3) [m] in the base frame; q_seed one seed (dof,) or one per point (n, dof) [rad].
+
+        Returns:
+            The solutions (n, dof) [rad] and whether each converged inside the joint ranges with |det J| >=
+            `det_j_min` (n,); None when the chain is not supported (then use `ik_path` or `ik`).
+        """
+        P = np.asarray(P_base_tcp, dtype=float)
+        if not self._chain.supported:
+            return None
+        n = P.shape[0]
         Q = np.broadcast_to(q_seed, (n, self.dof)).copy()  # one seed, or one per point
-        J_final = np.empty((n, 6, self.dof))
+        J_final, ok = np.empty((n, 6, self.dof)), np.zeros(n, dtype=bool)
         R_tT = self.R_tool_down.T
         active = np.arange(n)
         for _ in range(max_iter):
@@ -287,7 +300,7 @@ class Kinematics:
                 return None
             e = np.concatenate([P[active] - p, log], axis=1)
             converged = (np.sum(e[:, :3] ** 2, axis=1) < 1e-24) & (np.sum(e[:, 3:] ** 2, axis=1) < 1e-24)
-            J_final[active[converged]] = J[converged]
+            J_final[active[converged]], ok[active[converged]] = J[converged], True
             keep = ~converged
             active, e, J = active[keep], e[keep], J[keep]
             if active.size == 0:
@@ -297,15 +310,9 @@ class Kinematics:
             step = np.max(np.abs(dq), axis=1)
             dq *= np.where(step > 0.2, 0.2 / np.maximum(step, 1e-300), 1.0)[:, None]
             Q[active] += dq
-        if active.size:
-            return None
-        if np.any((self.q_min - 1e-12 > Q) | (self.q_max + 1e-12 < Q)):
-            return None
-        if np.any(np.abs(np.linalg.det(J_final)) < self.det_j_min):
-            return None
-        if np.max(np.abs(np.diff(Q, axis=0))) > 0.1:
-            return None
-        return Q
+        ok &= ~np.any((self.q_min - 1e-12 > Q) | (self.q_max + 1e-12 < Q), axis=1)
+        ok[ok] &= np.abs(np.linalg.det(J_final[ok])) >= self.det_j_min
+        return Q, ok
 
     def jacobians(self, Q: np.ndarray) -> np.ndarray:
         """`jacobian` at many configurations, (n, 6, dof) [m/rad; 1] (vectorised when the chain allows).

@@ -3,7 +3,7 @@
 Modules: `path_figures`, `deflection_figures`, `stiffness_figures` and `surface_figures` (matplotlib PNG on the
 shared `style`), `recording` (rerun recordings of runs and replays), with the layers of one replay in
 `recording_layers` and the robot in `recording_robot`; `part_recording` (a part's stages on the way to its
-design); `rrd_file` (every recording written atomically).
+design); `rrd_file` (every recording written atomically); `placement_figure` (a placement search's error map).
 
 Takes runs and analysis results; gives PNG files and `.rrd` recordings.
 """
