@@ -37,7 +37,7 @@ def _scanned_part(path, spec: TwinSpec, seed: int) -> tuple[np.ndarray, object]:
     twin.simulate(path.t_s, path.p_sheet_m)
     hm, k = twin.sheet_field.map, twin.sheet_field.k_unload
     hm.flush()
-    f_z = np.array([row[3] for row in hm._track])
+    f_z = hm.commit_f_z_n
     z = hm.z_met_m.copy()
     owned = hm.owner_met >= 0
     z[owned] = np.minimum(z[owned] + HIDDEN_RECOVERY * np.maximum(f_z[hm.owner_met[owned]], 0.0) / k, 0.0)

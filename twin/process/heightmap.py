@@ -141,6 +141,13 @@ class HeightMap:
         return np.array([row[:3] for row in self._track]).reshape(-1, 3)
 
     @property
+    def commit_f_z_n(self) -> np.ndarray:
+        """The tool's vertical force at each commit (n,) [N] (a copy)."""
+        if self._restored is not None:
+            return self._restored[:, 3].copy()
+        return np.array([row[3] for row in self._track], dtype=float)
+
+    @property
     def z_loaded_m(self) -> np.ndarray:
         """Loaded surface, every commit (the met surface and the commits still in the lag) [m], (ny, nx)."""
         z = self.z_met_m.copy()
@@ -247,8 +254,7 @@ class HeightMap:
         self.flush()
         formed = self.owner_met >= 0
         recovery = np.zeros_like(self.z_met_m)
-        rows = self._restored
-        f_z = rows[:, 3] if rows is not None else np.array([row[3] for row in self._track] or [0.0])
+        f_z = self.commit_f_z_n if (self._restored is not None or self._track) else np.zeros(1)
         recovery[formed] = np.maximum(f_z[self.owner_met[formed]], 0.0) / k_unload_n_per_m
         return np.minimum(self.z_met_m + recovery, 0.0)
 
