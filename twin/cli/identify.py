@@ -138,7 +138,7 @@ def _method2(args: argparse.Namespace) -> int:
 
 def _forces(args: argparse.Namespace) -> int:
     """`--forces RUN`: the force model fitted to a run's measured forces."""
-    from twin.analysis.identify.forces import fit_forces
+    from twin.analysis.identify.forces import FITTED, WINDOW_S, fit_forces
     from twin.cli._common import spec_from_arguments
     from twin.runs.read import read_run
     from twin.sim.model_file import write_model_file
@@ -156,7 +156,10 @@ def _forces(args: argparse.Namespace) -> int:
         "force_rms_before_n": fit.rms_before_n,
         "force_rms_after_n": fit.rms_after_n,
         "samples": fit.samples,
+        "window_s": WINDOW_S,
+        "windows": fit.windows,
         "evaluations": fit.evaluations,
+        "at_bound": list(fit.at_bound),
     }
     if args.write_model is not None:
         fitted = spec.replace(process=replace(spec.process, force_fit=fit.force_fit))
@@ -166,9 +169,14 @@ def _forces(args: argparse.Namespace) -> int:
     values = ", ".join(f"{k} {v:.4g}" for k, v in fit.force_fit)
     print(
         f"identify --forces {args.forces} ({spec.process.force_model} model, {fit.samples} samples): {values}; force "
-        f"rms {fit.rms_before_n:.1f} N -> {fit.rms_after_n:.1f} N",
+        f"rms {fit.rms_before_n:.1f} N -> {fit.rms_after_n:.1f} N ({fit.windows} windows of {WINDOW_S:g} s)",
         file=sys.stderr if args.json == "-" else sys.stdout,
     )
+    bounds = {name: (low, high) for name, low, high in FITTED[spec.process.force_model]}
+    for name in fit.at_bound:
+        print(f"warning: {name} ended on its bound {bounds[name]} (its value is the bound's, not the cell's): the "
+              f"{spec.process.force_model} model cannot take this run's force history; force rms left "
+              f"{fit.rms_after_n:.1f} N", file=sys.stderr)
     emit_json(args.json, payload, protect=[args.forces])
     return 0
 
