@@ -105,3 +105,43 @@ def test_springback_is_the_membrane_stress_relaxed_by_hookes_law() -> None:
     sigma_phi = 2.0 / math.sqrt(3.0) * sheet.scale * float(voce_mpa(eps)) * 1e6
     assert sheet.springback_m(0.01, alpha) == pytest.approx(0.01 * sigma_phi * (1 - 0.33**2) / 71e9)
     assert sheet.springback_m(-0.01, alpha) == 0.0
+
+
+def _wall_sheet(step_m: float, tracks: int) -> PlantSheet:
+    """A 45 deg wall written here: straight tracks along x, each `step_m` further across (+y) and deeper."""
+    sheet = PlantSheet(Process(tensile_strength_mpa=330.0), 5e-5)
+    for k in range(tracks):
+        sign = 1 if k % 2 == 0 else -1
+        xs = sign * np.arange(-0.04, 0.04, 5e-4)
+        sheet.start(np.array([xs[0], k * step_m, -k * step_m]), sign)
+        for x in xs:
+            sheet.advance(np.array([x, k * step_m, -k * step_m]))
+    return sheet
+
+
+def test_a_tip_jitter_finer_than_the_grid_does_not_swing_the_wall_force() -> None:
+    """The side angles are geometry: a tip that jitters 0.05 mm across the wall every 1 ms tick while it travels
+    33 mm/s along it (a servo-rate vibration faster than the feed) must see the force of the surface it sits on,
+    within the force at the jitter's two extremes. Before the heading turned over HEADING_TURN_M, the sides were
+    read across the tick's own velocity and the vertical force swung by hundreds of N (the dynamic plant's chatter
+    on the 80 mm cone, CHANGELOG)."""
+    step, tracks, jitter = 5e-4, 21, 5e-5
+    n = 800
+    x = -0.02 + 33e-6 * np.arange(n)
+    y0, z0 = tracks * step, -tracks * step
+
+    def fz(offset_y: np.ndarray) -> np.ndarray:
+        sheet = _wall_sheet(step, tracks)
+        path = np.column_stack([x, y0 + offset_y, np.full(n, z0)])
+        sheet.start(path[0], 1)
+        out = np.empty(n)
+        for i, p in enumerate(path):
+            out[i] = sheet.force(p)[2]
+            sheet.advance(p)
+        return out[200:]
+
+    jittered = fz(jitter * (-1.0) ** np.arange(n))
+    high, low = fz(np.full(n, jitter)), fz(np.full(n, -jitter))
+    lo, hi = min(high.min(), low.min()), max(high.max(), low.max())
+    assert lo > 500.0  # the tool presses the wall
+    assert lo - 0.02 * lo <= jittered.min() and jittered.max() <= hi + 0.02 * hi, (jittered.min(), jittered.max(), lo, hi)

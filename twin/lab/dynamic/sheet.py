@@ -37,7 +37,12 @@ plant forms its own sheet from its own material law, in a form the twin does not
   sheet's elastic recovery there (`springback_m`, at least `MIN_RECOVERY_M`): a tool that rose above the
   surface ahead leaves the sheet. Above it the force does not depend on dz (a membrane force).
 * **Travel**: a 2-D slip state follows the real tip, turning over `reversal_m` of travel (the knob
-  `friction_reversal_mm`): friction and the sides need the tool to move.
+  `friction_reversal_mm`): friction acts against it, so it needs the tool to move. The heading, across which the
+  sides are read and along which the step ahead is met, is a second such state turning over `HEADING_TURN_M`
+  (two grid cells, or `reversal_m` if longer): the sides are the formed surface's geometry, which the grid does
+  not resolve below its spacing, not the direction of one servo tick's motion. Read across the tick's own
+  velocity, a servo-rate vibration faster than the feed flipped the sides every tick and the force fed energy
+  into the vibration (a chatter on the 80 mm cone; tests/test_plant_sheet.py's jitter test).
 * **Springback** (after unclamping): the formed wall's membrane stress relaxes elastically; a wall of slant
   length D / sin alpha shortens by its plane-strain elastic strain sigma_phi (1 - nu^2) / E, so a point at depth
   D rises by D sigma_phi(alpha) (1 - nu^2) / E, alpha the local slope (Hooke's law on the membrane stress above;
@@ -61,6 +66,7 @@ HALF_SIZE_M = 0.12  # the grid covers +/- this around the sheet origin [m]
 MIN_RECOVERY_M = 0.01e-3  # least elastic follow of the sheet behind a rising tool [m]
 FORMED_READ = 1.2  # a side is read as formed or not this many tool radii across the travel (past its own track)
 MAX_ANGLE_RAD = math.radians(70.0)  # a side steeper than this is a step, read as this angle
+HEADING_TURN_M = 2 * GRID_SPACING_M  # travel over which the heading (sides, step ahead) turns [m]
 _PLANE = 2.0 / math.sqrt(3.0)
 
 
@@ -91,6 +97,7 @@ class PlantSheet:
         self.mu = float(process.tool_friction)
         self.scale = float(process.tensile_strength_mpa) / voce_tensile_strength_mpa()
         self.slip_gain = 2.0 / reversal_m
+        self.heading_gain = 2.0 / max(HEADING_TURN_M, reversal_m)
         n = round(2 * HALF_SIZE_M / GRID_SPACING_M) + 1
         self.x_m = np.linspace(-HALF_SIZE_M, HALF_SIZE_M, n)
         self.y_m = self.x_m.copy()
@@ -103,13 +110,15 @@ class PlantSheet:
         self.z_m = np.zeros((len(self.y_m), len(self.x_m)))
         self.pressed = np.zeros(self.z_m.shape, dtype=bool)
         self.slip = np.array([1.0, 0.0])
-        self.travel = np.array([1.0, 0.0])
+        self.heading = self.slip.copy()
+        self.travel = self.slip.copy()
         self._last: np.ndarray | None = None
 
     def start(self, p_sheet_m: np.ndarray, direction: float) -> None:
         """Where the tool starts [m] and the direction along x it starts to travel (+1 or -1)."""
         self._last = np.asarray(p_sheet_m, dtype=float)[:2].copy()
         self.slip = np.array([float(direction), 0.0])
+        self.heading = self.slip.copy()
         self.travel = self.slip.copy()
 
     def height(self, x: float, y: float) -> float:
@@ -180,12 +189,11 @@ class PlantSheet:
         """Commit: the tool tip passed through `p_sheet_m` [m]: the surface under the sphere, the travel state."""
         p = np.asarray(p_sheet_m, dtype=float)
         if self._last is not None:
-            self.slip = self.slip + self.slip_gain * (p[:2] - self._last)
-            norm = float(np.hypot(*self.slip))
-            if norm > 1.0:
-                self.slip, norm = self.slip / norm, 1.0
+            self.slip = _turned(self.slip, self.slip_gain * (p[:2] - self._last))
+            self.heading = _turned(self.heading, self.heading_gain * (p[:2] - self._last))
+            norm = float(np.hypot(*self.heading))
             if norm > 0.1:
-                self.travel = self.slip / norm
+                self.travel = self.heading / norm
         self._last = p[:2].copy()
         self._press(p)
 
@@ -227,3 +235,10 @@ class PlantSheet:
     def _row(self, z: np.ndarray) -> np.ndarray:
         iy = round(HALF_SIZE_M / GRID_SPACING_M)
         return z[iy].copy()
+
+
+def _turned(state: np.ndarray, push: np.ndarray) -> np.ndarray:
+    """A direction state pushed by `push` (gain x the tip's step), held to norm <= 1."""
+    out = state + push
+    norm = float(np.hypot(*out))
+    return out / norm if norm > 1.0 else out
