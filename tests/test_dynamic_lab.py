@@ -102,7 +102,7 @@ def test_dead_band_on_joint2_stays_closed_on_the_gravity_flank(tmp_path, neutral
 
 
 @pytest.mark.xfail(strict=True, reason="its 1.3x FE history no longer reaches the independent plant, and the "
-                   "force-model gap (1.1 mm) hides the dead band's: to be re-derived with a stronger declared sheet")
+                   "force-model gap hides the dead band's: to be re-derived with a stronger declared sheet")
 def test_dead_band_on_joint2_opens_once_the_sheet_outweighs_gravity_on_joint2():
     """With 1.3x the FE forces (a thicker or harder sheet) the sheet's torque on joint 2 reaches gravity's."""
     history = default_force_history()
