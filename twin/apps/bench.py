@@ -30,7 +30,8 @@ from twin.apps.analytic_replay import AnalyticReplay, analytic_replay
 from twin.apps.bench_place import place_cost
 from twin.apps.bench_speed import cli_startup, isf_cone_benchmarks, mujoco_call_floor, path_growth
 from twin.apps.machine import machine_info
-from twin.apps.sweep import run_sweep, usable_cores
+from twin.apps.sweep import run_sweep
+from twin.base.jobs import usable_cores
 from twin.errors import InputError
 from twin.process.path import ToolPath, label_passes
 from twin.runs.format import Run
