@@ -15,7 +15,7 @@ and rerun recordings in OUT: `twin_stages.png|.rrd` (the twin's predicted part a
 `<plant>_stages.png|.rrd` (the scan of each formed part: nominal, path-, part-compensated, each learning iteration).
 
 Run: `.venv/bin/python experiments/part_to_design.py OUT [--shape cone|pyramid] [--width-mm 80 --depth-mm 20]
-[--plants quasi-static,dynamic] [--learn 2] [--learn-at tip|formed]`. Prints a JSON summary.
+[--plants quasi-static,dynamic] [--learn 2] [--learn-at twin|formed|tip]`. Prints a JSON summary.
 """
 
 from __future__ import annotations
@@ -91,7 +91,7 @@ def _identified_springback(out: Path, plant: str, ideal: Path, design: Path, for
 
 
 def part_study(out: Path, path_args: list[str], plants: tuple[str, ...] = ("quasi-static", "dynamic"),
-               learn: int = 2, learn_at: str = "tip") -> dict[str, Any]:
+               learn: int = 2, learn_at: str = "twin") -> dict[str, Any]:
     """The study for one part (`path_args`: the `tx200-twin path` options that make it) in `out`; `learn_at`:
     `compensate --learn-at`."""
     out.mkdir(parents=True, exist_ok=True)
@@ -121,13 +121,18 @@ def part_study(out: Path, path_args: list[str], plants: tuple[str, ...] = ("quas
             _cli("compensate", "--method", "twin", "--ideal", str(ideal), "--model", str(model), *extra,
                  "--out", str(command))
             scans[name] = _scan(_lab(plant, command, out / f"{plant}_{name.split(',')[0]}_identified", seed=1), index)
-        summary.setdefault("identified", {})[plant] = _identified_springback(out, plant, ideal, design, model, scans,
-                                                                              index)
-        last = out / f"{plant}_part-compensated"
+        # Learning starts from the best the twin alone could do: the part compensated with the identified model.
+        last, identified = out / f"{plant}_part-compensated_identified_springback", out / f"{plant}_identified_springback.json"
+        try:
+            summary.setdefault("identified", {})[plant] = _identified_springback(out, plant, ideal, design, model,
+                                                                                  scans, index)
+        except SystemExit as refused:  # identify refuses a scan that does not fit the design: say so, go on
+            summary["identified"][plant] = {"springback_refused": str(refused)}
+            last, identified = out / f"{plant}_part-compensated_identified", model
         for k in range(1, learn + 1):
             nxt = out / f"{plant}_cmd_learn{k}.csv"
-            _cli("compensate", "--method", "twin", "--ideal", str(ideal), "--target-stl", str(design),
-                 "--learn-from", str(last), "--learn-at", learn_at, "--out", str(nxt))
+            _cli("compensate", "--method", "twin", "--ideal", str(ideal), "--model", str(identified), "--target-stl",
+                 str(design), "--learn-from", str(last), "--learn-at", learn_at, "--out", str(nxt))
             last = _lab(plant, nxt, out / f"{plant}_learn{k}", seed=1 + k)
             scans[f"learn {k}"] = _scan(last, index)
         stages = [PartStage(f"scan: {name}", "scanned", deviation) for name, deviation in scans.items()]
@@ -146,7 +151,8 @@ def stage_table(summary: dict[str, Any]) -> str:
     lines = ["| stage | " + " | ".join(f"{p} plant, part rms [mm]" for p in plants) + " |",
              "|---|" + "---|" * len(plants)]
     for stage in summary[plants[0]]:
-        lines.append(f"| {stage} | " + " | ".join(f"{summary[p][stage]['rms_mm']['part']:.3f}" for p in plants) + " |")
+        lines.append(f"| {stage} | " + " | ".join(f"{summary[p][stage]['rms_mm']['part']:.3f}" if stage in summary[p]
+                                                  else "refused" for p in plants) + " |")
     return "\n".join(lines) + "\n"
 
 
@@ -159,7 +165,7 @@ def main() -> None:
     parser.add_argument("--depth-mm", type=float, default=20.0)
     parser.add_argument("--plants", default="quasi-static,dynamic")
     parser.add_argument("--learn", type=int, default=2)
-    parser.add_argument("--learn-at", choices=("tip", "formed"), default="tip")
+    parser.add_argument("--learn-at", choices=("twin", "formed", "tip"), default="twin")
     args = parser.parse_args()
     path_args = (["--gcode", str(args.gcode)] if args.gcode is not None else
                  ["--shape", args.shape, "--top-width-mm", f"{args.width_mm:g}", "--depth-mm", f"{args.depth_mm:g}"])

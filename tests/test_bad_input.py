@@ -84,6 +84,10 @@ CASES: dict[str, Case] = {
                                 {"h.csv": "x\n"}, ("--history h.csv", "--symmetry half|full")),
     "learn-without-stl": Case(["compensate", "--method", "twin", "--learn-from", "RUN", "--out", "c.csv"],
                               {"@run": []}, ("--learn-from", "--target-stl")),
+    "learn-twin-without-ideal": Case(["compensate", "--method", "twin", "--target-stl", "d.stl", "--learn-from", "RUN",
+                                      "--out", "c.csv"], {"@run": []}, ("--learn-at twin needs --ideal",)),
+    "learn-gain-out-of-range": Case(["compensate", "--method", "twin", "--target-stl", "d.stl", "--learn-from", "RUN",
+                                     "--learn-gain", "1.5", "--out", "c.csv"], {"@run": []}, ("--learn-gain 1.5",)),
     # outputs: never over an input or another output, never where they cannot be written
     "json-over-meta": Case(["replay", "RUN", "--json", "RUN/meta.json"], {"@run": []},
                            ("--json RUN/meta.json", "input folder RUN_DIR RUN")),

@@ -1,6 +1,6 @@
 """The formed part against its design on both plants, whose sheet is 20 % stronger than declared and springs back
-more (`experiments/part_to_design.py`): path-compensated, part-compensated, then learned from the scans. Slow:
-`make test-slow`. The note's Ø 80 mm cone numbers come from the script itself (`--width-mm 80 --depth-mm 20`)."""
+otherwise (`experiments/part_to_design.py`): path-compensated, part-compensated, then learned from the scans: the
+issue's Ø 80 mm cone, a pyramid and a G-code part. Slow: `make test-slow`; they hold docs/any-part.md's tables."""
 
 from __future__ import annotations
 
@@ -28,45 +28,70 @@ def stadium_gcode(levels: int = 8, step_mm: float = 0.5, half_length_mm: float =
 
 
 def _numbers(lines: list[str]) -> list[float]:
-    return [float(cell) for line in lines[2:] for cell in line.strip("|").split("|")[1:]]
+    """The cells after each row's stage name (nan for a stage a plant refused)."""
+    cells = [cell.strip() for line in lines[2:] for cell in line.strip("|").split("|")[1:]]
+    return [float("nan") if cell == "refused" else float(cell) for cell in cells]
+
+
+def _documented(anchor: str) -> list[float]:
+    """The numbers of the table after `<!-- anchor` in docs/any-part.md."""
+    documented = (Path(__file__).resolve().parent.parent / "docs" / "any-part.md").read_text()
+    return _numbers(documented.split(f"<!-- {anchor}")[1].split("\n\n")[0].splitlines()[1:])
 
 
 def _all(summary: dict, plant: str, row: str) -> float:
     return summary[plant][row]["rms_mm"]["part"]
 
 
-@pytest.mark.slow
-def test_a_cone_on_both_plants_learns_to_within_0_1_mm(tmp_path: Path) -> None:
-    summary = study.part_study(tmp_path, ["--shape", "cone", "--top-width-mm", "40", "--depth-mm", "5"])
+@pytest.fixture(scope="module")
+def cone80(tmp_path_factory: pytest.TempPathFactory) -> tuple[dict, Path]:
+    """The issue's part: a 45° cone, Ø 80 mm, 20 mm deep, on both plants (about 10 min on 2 cores)."""
+    out = tmp_path_factory.mktemp("cone80")
+    summary = study.part_study(out, ["--shape", "cone", "--top-width-mm", "80", "--depth-mm", "20"])
     print(f"\n{summary}")
-    assert summary["twin_predicted_rms_mm"][-1] < summary["twin_predicted_rms_mm"][0] / 3
+    return summary, out
+
+
+@pytest.mark.slow
+def test_the_cone_on_both_plants_learns_to_within_0_1_mm(cone80: tuple[dict, Path]) -> None:
+    summary, out = cone80
+    assert summary["twin_predicted_rms_mm"][-1] < summary["twin_predicted_rms_mm"][0] / 10
     for plant in ("quasi-static", "dynamic"):  # the scans learn what the twin does not know, on both plants
         assert _all(summary, plant, "learn 2") < 0.1
-        assert _all(summary, plant, "learn 2") < _all(summary, plant, "path-compensated") / 2
+        assert _all(summary, plant, "learn 2") < _all(summary, plant, "path-compensated") / 3
     # the quasi-static lab springs back as the twin's model does, 5 % more: the twin's part compensation helps, and
-    # with the forces identified from the nominal part it removes two thirds and more
-    qs = "quasi-static"
+    # with the forces identified from the nominal part and the springback from its scan it removes nearly all
+    qs, both = "quasi-static", ", identified forces and springback"
     assert _all(summary, qs, "part-compensated") < _all(summary, qs, "path-compensated")
-    assert _all(summary, qs, "part-compensated, identified forces") < _all(summary, qs, "path-compensated") / 3
-    assert (_all(summary, qs, "part-compensated, identified forces")
-            < _all(summary, qs, "path-compensated, identified forces") / 3)
-    # with the springback identified from the nominal part's scan as well, a third and less
-    both = ", identified forces and springback"
-    assert _all(summary, qs, f"part-compensated{both}") < _all(summary, qs, f"path-compensated{both}") / 3
+    assert _all(summary, qs, "part-compensated, identified forces") < _all(summary, qs, "path-compensated") / 2
+    assert _all(summary, qs, f"part-compensated{both}") < _all(summary, qs, "path-compensated") / 3
+    assert _all(summary, qs, f"part-compensated{both}") < 0.1
     assert summary["identified"][qs]["springback_fit"]["depth_ratio"] == pytest.approx(0.95, abs=0.01)  # lab: 0.95
     # the dynamic plant's own sheet springs back far less than the twin predicts: the part compensation over-forms,
     # unless the springback is identified from the nominal scan
-    assert _all(summary, "dynamic", "part-compensated") > _all(summary, "dynamic", "path-compensated")
-    assert _all(summary, "dynamic", f"part-compensated{both}") < _all(summary, "dynamic", f"path-compensated{both}")
-    assert summary["identified"]["dynamic"]["springback_fit"]["recovery_scale"] < 0.5
+    dyn = "dynamic"
+    assert _all(summary, dyn, "part-compensated") > _all(summary, dyn, "path-compensated")
+    assert _all(summary, dyn, f"part-compensated{both}") < _all(summary, dyn, "path-compensated") / 1.5
+    assert summary["identified"][dyn]["springback_fit"]["recovery_scale"] < 0.5
+    for found, rms in zip(quoted("any-part.md", "On the Ø 80 mm cone below the twin's predicted part goes", 3),
+                          summary["twin_predicted_rms_mm"], strict=True):
+        found.check(rms)
     found = quoted("any-part.md", "Identified\n(recovery_scale, depth_ratio):", 4)
-    for k, (plant, name) in enumerate((p, n) for p in (qs, "dynamic") for n in ("recovery_scale", "depth_ratio")):
+    for k, (plant, name) in enumerate((p, n) for p in (qs, dyn) for n in ("recovery_scale", "depth_ratio")):
         found[k].check(summary["identified"][plant]["springback_fit"][name])
-    documented = (Path(__file__).resolve().parent.parent / "docs" / "any-part.md").read_text()
-    table = documented.split("<!-- part-to-design table")[1].split("\n\n")[0].splitlines()[1:]
-    assert _numbers(table) == pytest.approx(_numbers(study.stage_table(summary).splitlines()), abs=0.005)
+    assert _documented("part-to-design table") == pytest.approx(_numbers(study.stage_table(summary).splitlines()),
+                                                                abs=0.005, nan_ok=True)
     for stem in ("twin_stages", "quasi-static_stages", "dynamic_stages"):  # the maps and recordings of each stage
-        assert (tmp_path / f"{stem}.png").stat().st_size > 20_000 and (tmp_path / f"{stem}.rrd").stat().st_size > 10_000
+        assert (out / f"{stem}.png").stat().st_size > 20_000 and (out / f"{stem}.rrd").stat().st_size > 10_000
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason="the dynamic plant's wall departs from the twin's by a ring the twin has no "
+                   "form of (not its forces: an identified force-depth curve did not remove it); only the scans do")
+def test_on_the_dynamic_plant_the_twin_alone_removes_two_thirds(cone80: tuple[dict, Path]) -> None:
+    summary, _ = cone80
+    both = ", identified forces and springback"
+    assert _all(summary, "dynamic", f"part-compensated{both}") < _all(summary, "dynamic", "path-compensated") / 3
 
 
 @pytest.mark.slow
@@ -78,11 +103,13 @@ def test_a_pyramid_and_a_gcode_part_improve_in_one_iteration(part: str, tmp_path
         args = ["--gcode", str(program)]
     else:
         args = ["--shape", "pyramid", "--top-width-mm", "40", "--depth-mm", "4"]
-    summary = study.part_study(tmp_path / "study", args, plants=("quasi-static",), learn=1)
+    summary = study.part_study(tmp_path / "study", args, learn=1)
     print(f"\n{part}: {summary}")
-    assert _all(summary, "quasi-static", "part-compensated") < _all(summary, "quasi-static", "path-compensated")
-    assert _all(summary, "quasi-static", "learn 1") < 0.5 * _all(summary, "quasi-static", "part-compensated")
-    # docs/any-part.md: path-compensated, part, learn 1; pyramid / G-code each
-    doc = quoted("any-part.md", "a pyramid and a G-code stadium pocket improve from", 6)
-    for k, row in enumerate(("path-compensated", "part-compensated", "learn 1")):
-        doc[2 * k + (0 if part == "pyramid" else 1)].check(_all(summary, "quasi-static", row))
+    qs, dyn = "quasi-static", "dynamic"  # thresholds set after a first run of both parts (not blind)
+    assert _all(summary, qs, "part-compensated") < _all(summary, qs, "path-compensated")
+    assert _all(summary, qs, "learn 1") < min(_all(summary, qs, "path-compensated") / 3,
+                                              _all(summary, qs, "part-compensated") / 2)
+    # the dynamic plant: path compensation forms these shallow parts worse than none; one learning iteration less
+    assert _all(summary, dyn, "learn 1") < min(_all(summary, dyn, "nominal"), _all(summary, dyn, "path-compensated"))
+    assert _documented(f"{part} table") == pytest.approx(_numbers(study.stage_table(summary).splitlines()),
+                                                         abs=0.005, nan_ok=True)

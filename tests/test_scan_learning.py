@@ -9,8 +9,8 @@ import pytest
 from doc_numbers import quoted
 from scipy.interpolate import RegularGridInterpolator
 
-from twin.analysis.part_compensation import design_heights
 from twin.analysis.scan_learning import forming_samples, learn_from_scan, resting_tips
+from twin.analysis.surface_check import design_heights
 from twin.errors import InputError
 from twin.process.part_surface import heightmap_mesh
 

@@ -5,12 +5,13 @@ springs back when it is unclamped (the elastic recovery F/k_unload of `twin.proc
 bottom of `twin.process.part_bottom`), so it misses the drawing by about that recovery. Two loops close the gap:
 
 * **Part compensation** (`compensate_part`, on the twin): the target tool path is moved, each sample along z, by the
-  twin's predicted surface error there (the part after unclamping, minus the design, at the sample's x-y), and the
-  robot's deflection is compensated again for the new target; `iterations` times. Held fixed: x-y of every sample,
+  twin's predicted surface error of the surface that sample formed (the part after unclamping, minus the design,
+  read as `twin.analysis.scan_learning.learn_from_scan(at="formed")` reads a scan), and the robot's deflection is
+  compensated again for the new target; `iterations` times. Held fixed: x-y of every sample,
   the timing. The design is a surface z_design(x, y) in the sheet frame (the tool-side sheet surface, z = 0 at the
   unformed sheet's top), from an STL or from the path itself (`design_heights`).
-* **Learning from a scan** (part to part, `twin.analysis.scan_learning`): the next part's command moved along z by
-  the scan's error of the surface each sample formed, where the twin is wrong.
+* **Learning from a scan** (part to part, `twin.analysis.scan_learning`): the last part's miss of the twin's
+  prediction, held as the twin's error (`discrepancy`), or the last command moved by the scan's error.
 
 Surface errors are normal to the design, per region of it, as `check --target-stl` reports them
 (`twin.analysis.surface_check.region_deviation`: wall, bottom, rim, sheet), and for the part itself (`part`: its
@@ -19,6 +20,7 @@ wall, bottom and rim together, `part_error`).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import replace
 from typing import NamedTuple
 
@@ -26,7 +28,13 @@ import numpy as np
 import trimesh
 
 from twin.analysis.compensate import Compensation, compensate_twin
-from twin.analysis.surface_check import REGIONS, DesignIndex, RegionDeviation, region_deviation
+from twin.analysis.scan_learning import learn_from_scan
+from twin.analysis.surface_check import (
+    REGIONS,
+    DesignIndex,
+    RegionDeviation,
+    region_deviation,
+)
 from twin.errors import InputError
 from twin.process.part_surface import formed_surface, surface_points
 from twin.process.path import ToolPath
@@ -75,19 +83,6 @@ class PartCompensation(NamedTuple):
         return [PartStage(f"twin, iteration {k}", "predicted", d) for k, d in enumerate(self.deviations)]
 
 
-def design_heights(design: trimesh.Trimesh, x_m: np.ndarray, y_m: np.ndarray) -> np.ndarray:
-    """z of the design surface above each (x, y) [m] (the highest hit of a vertical ray; NaN off the design)."""
-    x, y = np.ravel(x_m), np.ravel(y_m)
-    top = float(design.bounds[1, 2]) + 1.0
-    origins = np.column_stack([x, y, np.full(len(x), top)])
-    directions = np.tile([0.0, 0.0, -1.0], (len(x), 1))
-    hits, rays, _ = design.ray.intersects_location(origins, directions, multiple_hits=False)
-    z = np.full(len(x), np.nan)
-    if len(rays):  # no hit at all comes back as an empty 1-D array
-        z[rays] = np.reshape(hits, (-1, 3))[:, 2]
-    return z.reshape(np.shape(x_m))
-
-
 def part_error(points_m: np.ndarray, design: trimesh.Trimesh | DesignIndex) -> dict[str, dict[str, float]]:
     """Normal deviation of surface points from the design [mm] per region (`region_deviation`), and `part`: the
     wall, bottom and rim together (rms, max |.|, mean, points)."""
@@ -113,16 +108,9 @@ def predicted_surface(twin: Twin, t_s: np.ndarray, command_m: np.ndarray) -> tup
     return surface
 
 
-def _heights_at(surface: tuple[np.ndarray, np.ndarray, np.ndarray], p_m: np.ndarray) -> np.ndarray:
-    from scipy.interpolate import RegularGridInterpolator
-
-    x, y, z = surface
-    return np.asarray(RegularGridInterpolator((y, x), z, bounds_error=False, fill_value=np.nan)(p_m[:, [1, 0]]))
-
-
 def compensate_part(
     ideal: ToolPath, twin: Twin, design: trimesh.Trimesh, *, iterations: int = 3, tol_m: float = 10e-6,
-    gain: float = 1.0,
+    gain: float = 1.0, discrepancy: Callable[[np.ndarray], np.ndarray] | None = None,
 ) -> PartCompensation:
     """Move the target path until the twin's formed part after unclamping lies on the design (module docstring).
 
@@ -133,6 +121,10 @@ def compensate_part(
         iterations: Outer iterations (each one a twin compensation).
         tol_m: The twin compensation's tolerance [m].
         gain: Fraction of the predicted error moved per iteration [-].
+        discrepancy: A formed part's vertical miss of the twin's prediction, learned from a scan (the real part's z
+            minus the twin's at x-y (n, 2) [m] -> (n,) [m], `twin.analysis.scan_learning.twin_discrepancy`): the
+            twin's part is then aimed at the design minus it, and each iteration's reported part is the twin's
+            plus it (what the cell is expected to form). None: the twin is taken as right.
     """
     if not 0.0 < gain <= 1.0 or iterations < 1:
         raise InputError(f"gain {gain} must be in (0, 1] and iterations {iterations} >= 1")
@@ -142,13 +134,14 @@ def compensate_part(
     comp = compensate_twin(ideal.t_s, ideal.p_sheet_m, twin, tol_m=tol_m)
     for _ in range(iterations + 1):
         surface = predicted_surface(twin, target.t_s, comp.p_cmd_sheet_m)
-        deviations.append(region_deviation(surface_points(*surface), index))
+        points = surface_points(*surface)
+        if discrepancy is not None:
+            points[:, 2] += np.nan_to_num(discrepancy(points[:, :2]))
+        deviations.append(region_deviation(points, index))
         if len(deviations) == iterations + 1:
             break
-        gap = _heights_at(surface, target.p_sheet_m) - design_heights(design, target.p_sheet_m[:, 0],
-                                                                      target.p_sheet_m[:, 1])
-        p = target.p_sheet_m.copy()
-        p[:, 2] -= gain * np.nan_to_num(gap)
+        p = learn_from_scan(target.p_sheet_m, points, design, gain=gain, tool_radius_m=twin.spec.process.tool_radius_m,
+                            at="formed").command_m
         target = replace(target, p_sheet_m=p)
         comp = compensate_twin(target.t_s, target.p_sheet_m, twin, tol_m=tol_m)
     return PartCompensation(target, comp, deviations)

@@ -1,32 +1,43 @@
-"""Learning the next part's command from the last part's scan: under each tip, or at the points it formed.
+"""Learning the next part's command from the last part's scan: against the twin, at the points each sample formed,
+or under each tip.
 
-A spatial iterative-learning update (P-type): the next command is the last one moved along z by `gain` times the
-scan's vertical error (scan z minus design z, at the scan point's x-y), smoothed along the path. Two laws:
-`at="tip"` (the first, the default) reads it under each sample's own tip x-y; `at="formed"` reads the error **of
-the surface that sample formed**, which sample formed which point read off the design:
+Three laws (`LEARN_AT`):
 
-* **The tool at rest on the design.** A sample's tool sphere (radius R, the tool vertical) rests on the design
-  above the sample's x-y: its tip height is the highest `z_design(q) + sqrt(R^2 - |q - xy|^2) - R` over the design
-  points q within R in x-y (`resting_tips`, on a grid of `GRID_M`). On a wall of slope alpha the sphere touches it
-  R sin(alpha) outside the tip and R (1 - cos alpha) above it: on a 45 deg cone with R = 7.5 mm the surface under
-  a tip's own x-y lies 3.1 mm below the tip and was formed by the contours 5.3 mm deeper.
-* **Who formed a point.** Each scan point belongs to the sample whose sphere's underside is lowest over it among
-  the samples within R in x-y (the lower envelope the sheet takes, `forming_samples`); a point no sphere reaches
-  (the unsupported bottom inside the last contour, which hangs from it) to the sample nearest in x-y.
-* **The update.** Each sample's error is the mean error of the points it formed, smoothed along the path by a
-  Gaussian of `smoothing_m` over the counts (a sample that formed no scanned point takes its neighbours' along
-  the path); a sample no point maps to within the smoothing takes the error of the path's nearest seen sample.
-  A vertical move of the tool moves the surface it forms by the same vertical amount, so the vertical error is
-  the move, on walls and flats alike.
+* **twin** (`twin_discrepancy`, the CLI's default): the twin replays the last part's command; the scan's vertical
+  miss of the twin's predicted part (scan z minus the twin's at the scan point's x-y, Gaussian-weighted over x-y)
+  is the twin's error, held fixed from part to part, and the twin's part compensation
+  (`twin.analysis.part_compensation.compensate_part(discrepancy=...)`) aims its part at the design minus it. The
+  twin carries which contour forms which point and how the part answers a change of the command (the robot's
+  deflection and the sheet's force and springback rise with the depth commanded); the scan carries what the twin
+  does not know. Where the cell answers otherwise than the twin the held miss is off by the difference, and the
+  next part corrects it.
+* **formed** and **tip** (`learn_from_scan`, P-type spatial iterative learning): the last command moved along z by
+  `gain` times the scan's vertical error (scan z minus design z, at the scan point's x-y), smoothed along the path;
+  the part is taken to move as the command does. `at="tip"` reads it under each sample's own tip x-y; `at="formed"`
+  reads the error **of the surface that sample formed**, which sample formed which point read off the design:
 
-On a wall the tip law's updates land 5.3 mm of depth (with R = 7.5 mm) away from the contours that formed the
-error it reads; where the error rings with depth (the independent dynamic plant's Ø80 mm cone) it stalls, where
-the plant moves less than the command (the quasi-static lab on shallow parts) that misplacement happens to give
-the deep bottom's larger error to the wall (docs/any-part.md). Held fixed: x-y, timing.
+  * *The tool at rest on the design.* A sample's tool sphere (radius R, the tool vertical) rests on the design
+    above the sample's x-y: its tip height is the highest `z_design(q) + sqrt(R^2 - |q - xy|^2) - R` over the
+    design points q within R in x-y (`resting_tips`, on a grid of `GRID_M`). On a wall of slope alpha the sphere
+    touches it R sin(alpha) outside the tip and R (1 - cos alpha) above it: on a 45 deg cone with R = 7.5 mm the
+    surface under a tip's own x-y lies 3.1 mm below the tip and was formed by the contours 5.3 mm deeper.
+  * *Who formed a point.* Each scan point belongs to the sample whose sphere's underside is lowest over it among
+    the samples within R in x-y (the lower envelope the sheet takes, `forming_samples`); a point no sphere reaches
+    (the unsupported bottom inside the last contour, which hangs from it) to the sample nearest in x-y.
+  * *The update.* Each sample's error is the mean error of the points it formed, smoothed along the path by a
+    Gaussian of `smoothing_m` over the counts (a sample that formed no scanned point takes its neighbours' along
+    the path); a sample no point maps to within the smoothing takes the error of the path's nearest seen sample.
+
+  On a wall the tip law's updates land 5.3 mm of depth (with R = 7.5 mm) away from the contours that formed the
+  error it reads; where the error rings with depth it stalls. The part compensation reads the twin's predicted
+  error the `formed` way.
+
+Held fixed by all three: x-y of the path, timing.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import NamedTuple
 
 import numpy as np
@@ -34,13 +45,14 @@ import trimesh
 from scipy.ndimage import gaussian_filter1d
 from scipy.spatial import cKDTree
 
-from twin.analysis.part_compensation import design_heights
+from twin.analysis.surface_check import design_heights, surface_heights
 from twin.errors import InputError
 
 #: The grid the design is sampled on to rest the tool on it [m].
 GRID_M = 0.5e-3
-#: Where the error is read: at the surface each sample formed, or (the law before) under the tip's own x-y.
-LEARN_AT = ("tip", "formed")
+#: Where the error is read: against the twin's own prediction of the last part, at the surface each sample formed,
+#: or under the tip's own x-y.
+LEARN_AT = ("twin", "formed", "tip")
 #: The tip law reads the scan points within this x-y distance of the tip [m].
 TIP_REACH_M = 1.5e-3
 _CHUNK = 2000
@@ -117,9 +129,10 @@ def learn_from_scan(
     Raises:
         InputError: A gain, smoothing, radius or `at` out of range, or no scan point over the design.
     """
-    if not (0.0 < gain <= 1.0 and smoothing_m > 0.0 and tool_radius_m > 0.0) or at not in LEARN_AT:
+    laws = ("tip", "formed")  # the twin law learns a field for `compensate_part` (`twin_discrepancy`)
+    if not (0.0 < gain <= 1.0 and smoothing_m > 0.0 and tool_radius_m > 0.0) or at not in laws:
         raise InputError(f"learning gain {gain} must be in (0, 1], smoothing {1e3 * smoothing_m:g} mm and tool "
-                         f"radius {1e3 * tool_radius_m:g} mm > 0, and the error read at {at!r} one of {LEARN_AT}")
+                         f"radius {1e3 * tool_radius_m:g} mm > 0, and the error read at {at!r} one of {laws}")
     command = np.asarray(command_m, dtype=float)
     scan = np.asarray(scan_m, dtype=float)
     error = scan[:, 2] - design_heights(design, scan[:, 0], scan[:, 1])
@@ -142,6 +155,50 @@ def learn_from_scan(
     out = command.copy()
     out[:, 2] -= gain * filled
     return LearnedCommand(out, measured, count)
+
+
+def twin_discrepancy(
+    scan_m: np.ndarray, predicted: tuple[np.ndarray, np.ndarray, np.ndarray], smoothing_m: float = 2e-3,
+) -> Callable[[np.ndarray], np.ndarray]:
+    """The last part's vertical miss of the twin's prediction, as a field over x-y (the `twin` law).
+
+    Args:
+        scan_m: The last part's scan in the sheet frame (registered) [m] (m, 3).
+        predicted: The twin's part after unclamping for the same command (x, y, z grid,
+            `twin.analysis.part_compensation.predicted_surface`) [m].
+        smoothing_m: Gaussian width over x-y of the field [m], > 0.
+
+    Returns:
+        A function of x-y points (n, 2) [m]: the Gaussian-weighted mean of scan z minus the twin's z over the scan
+        points within 3 widths [m] (n,); NaN where none lies that close.
+
+    Raises:
+        InputError: A width out of range, or no scan point over the twin's surface.
+    """
+    if not smoothing_m > 0.0:
+        raise InputError(f"learning smoothing {1e3 * smoothing_m:g} mm: expected > 0")
+    scan = np.asarray(scan_m, dtype=float)
+    miss = scan[:, 2] - surface_heights(predicted, scan)
+    seen = np.isfinite(miss)
+    if not seen.any():
+        raise InputError(f"none of the scan's {len(scan)} points lies over the twin's part: nothing to learn from")
+    tree, values = cKDTree(scan[seen, :2]), miss[seen]
+    reach = 3.0 * smoothing_m
+
+    def field(xy_m: np.ndarray) -> np.ndarray:
+        xy = np.asarray(xy_m, dtype=float)
+        out = np.full(len(xy), np.nan)
+        for s in range(0, len(xy), _CHUNK):
+            distance, index = tree.query(xy[s : s + _CHUNK], k=min(64, len(values)), distance_upper_bound=reach)
+            distance, index = np.atleast_2d(distance), np.atleast_2d(index)
+            near = np.isfinite(distance)
+            w = np.where(near, np.exp(-0.5 * (np.where(near, distance, 0.0) / smoothing_m) ** 2), 0.0)
+            v = values[np.where(near, index, 0)]
+            total = w.sum(axis=1)
+            out[s : s + _CHUNK] = np.where(total > 0, (w * v).sum(axis=1) / np.maximum(total, 1e-300), np.nan)
+        return out
+
+    return field
 
 
 def _tip_law(command: np.ndarray, scan: np.ndarray, error: np.ndarray, gain: float, sigma: float) -> LearnedCommand:

@@ -67,12 +67,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     part.add_argument("--learn-from", type=Path, metavar="RUN",
                       help="the last part's run (its command, part scan and tool radius): the next command moved "
                       "along z by the scan's error at each sample (--learn-at)")
-    part.add_argument("--learn-at", choices=("tip", "formed"), default="tip",
-                      help="where each sample's error is read: under its own tip's x-y, or on the surface it "
-                      "formed (the tool resting on the design: on a wall, its contact) (default tip)")
+    part.add_argument("--learn-at", choices=("twin", "formed", "tip"), default="twin",
+                      help="how the scan's error is learned: twin, as the part's miss of the twin's prediction, "
+                      "with the next command the twin's part compensation to the design minus that miss (needs "
+                      "--ideal); formed, the command moved by the error of the surface each sample formed (the "
+                      "tool resting on the design); tip, by the error under its own tip's x-y (default twin)")
     part.add_argument("--learn-gain", type=finite, default=1.0, help="learning gain (0, 1] (default 1)")
     part.add_argument("--learn-smoothing-mm", type=finite, default=2.0,
-                      help="Gaussian smoothing of the learned error along the path, > 0 (default 2)")
+                      help="Gaussian smoothing of the learned error, along the path (tip, formed) or over x-y "
+                      "(twin), > 0 (default 2)")
     part.add_argument("--figure", type=Path, metavar="PNG",
                       help="deviation maps from the design: the twin's predicted part at each iteration "
                       "(with --learn-from: the last part's scan)")
@@ -107,8 +110,8 @@ def _stiffness(path: Path) -> np.ndarray:
 
 def _part(args: argparse.Namespace) -> int:
     """`--target-stl`: the part to the design, on the twin, or learned from the last part's scan."""
-    from twin.analysis.part_compensation import PartStage, compensate_part
-    from twin.analysis.scan_learning import learn_from_scan
+    from twin.analysis.part_compensation import PartStage, compensate_part, predicted_surface
+    from twin.analysis.scan_learning import learn_from_scan, twin_discrepancy
     from twin.analysis.surface_check import read_target_mesh, region_deviation
     from twin.process.description import Process
     from twin.runs.format import run_process
@@ -116,9 +119,36 @@ def _part(args: argparse.Namespace) -> int:
 
     if args.method != "twin":
         raise InputError("--target-stl needs --method twin (the twin predicts the part after unclamping)")
+    if args.learn_from is not None and not (0.0 < args.learn_gain <= 1.0 and args.learn_smoothing_mm > 0.0):
+        raise InputError(f"--learn-gain {args.learn_gain:g} must be in (0, 1] and --learn-smoothing-mm "
+                         f"{args.learn_smoothing_mm:g} > 0")
+    if args.learn_from is not None and args.learn_at == "twin" and args.ideal is None:
+        raise InputError("--learn-at twin needs --ideal PART.csv (the part's tool path: the twin's part "
+                         "compensation keeps its x-y), or --learn-at formed|tip (the last command moved)")
     design = read_target_mesh(args.target_stl)
     protect = [p for p in (args.target_stl, args.ideal, args.learn_from, args.model) if p is not None]
-    if args.learn_from is not None:
+    if args.learn_from is not None and args.learn_at == "twin":
+        last = read_run(args.learn_from)
+        if last.part_scan is None:
+            raise InputError(f"--learn-from {args.learn_from}: the run has no part_scan.csv to learn from")
+        ideal = ideal_from_arguments(args)
+        twin = spec_from_arguments(args, ideal.p_sheet_m).build()
+        field = twin_discrepancy(last.part_scan, predicted_surface(twin, last.commanded.t_s, last.commanded.values),
+                                 1e-3 * args.learn_smoothing_mm)
+        result = compensate_part(ideal, twin, design, iterations=args.part_iterations, tol_m=1e-3 * args.tol_mm,
+                                 discrepancy=lambda xy: args.learn_gain * field(xy))
+        command, t_s = result.compensation.p_cmd_sheet_m, ideal.t_s
+        stages = [PartStage(f"scan of {Path(args.learn_from).name}", "scanned",
+                            region_deviation(last.part_scan, design)), *result.stages()]
+        miss = field(last.part_scan[:, :2])
+        summary: dict[str, Any] = {
+            "method": "learn", "out": args.out, "learned_from": args.learn_from, "gain": args.learn_gain,
+            "smoothing_mm": args.learn_smoothing_mm, "at": "twin", "iterations": args.part_iterations,
+            "twin_miss_rms_mm": 1e3 * float(np.sqrt(np.nanmean(miss**2))),
+            "predicted_surface_rms_mm_per_iteration": [{region: stats["rms_mm"] for region, stats in e.items()}
+                                                      for e in result.error_per_iteration],
+        }
+    elif args.learn_from is not None:
         last = read_run(args.learn_from)
         if last.part_scan is None:
             raise InputError(f"--learn-from {args.learn_from}: the run has no part_scan.csv to learn from")
@@ -129,7 +159,7 @@ def _part(args: argparse.Namespace) -> int:
                                   smoothing_m=1e-3 * args.learn_smoothing_mm, tool_radius_m=radius, at=args.learn_at)
         command, measured, t_s = learned.command_m, learned.measured_m, last.commanded.t_s
         seen = np.isfinite(measured)
-        summary: dict[str, Any] = {
+        summary = {
             "method": "learn", "out": args.out, "learned_from": args.learn_from, "gain": args.learn_gain,
             "smoothing_mm": args.learn_smoothing_mm, "at": args.learn_at, "tool_radius_mm": 1e3 * radius,
             "samples_forming_scanned_points": int((learned.formed_points > 0).sum()),
