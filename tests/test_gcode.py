@@ -14,12 +14,24 @@ from twin.process.shapes import PartSpec, part_path
 
 def test_linear_moves_absolute_and_incremental_in_mm_and_inches():
     text = "%\nN10 G21 G90 (mm, absolute)\nG0 X10 Y0 Z5\nG1 Z0 F600 ; 10 mm/s\nX20\nG91 Y5\nG20 G1 Z-0.1\nM30\n"
-    path = parse_gcode(text)
+    path = parse_gcode(text, spacing_m=0.1)  # steps up to 100 mm: every line one step
     expected_mm = [[10, 0, 5], [10, 0, 0], [20, 0, 0], [20, 5, 0], [20, 5, -2.54]]
     np.testing.assert_allclose(path.p_sheet_m * 1e3, expected_mm, atol=1e-12)
     # G1 at F600 mm/min = 10 mm/s; in G20 the modal F600 stays 10 mm/s (F is converted when it is set)
     np.testing.assert_allclose(np.diff(path.t_s), [0.5, 1.0, 0.5, 0.254], rtol=1e-12)
     assert path.t_s[0] == 0.0
+
+
+def test_a_long_line_is_divided_into_steps_no_longer_than_the_spacing_at_the_feed():
+    """A CAM program's 20 mm G1 line: the twin forms the sheet at the samples, so the line is sampled as the
+    controller runs it (the first move's start is unknown: it stays one step)."""
+    path = parse_gcode("G21 G90\nG1 X10 Y-15 Z-1 F600\nG1 X-10\n", spacing_m=0.5e-3)
+    p = path.p_sheet_m * 1e3
+    assert len(p) == 41
+    np.testing.assert_allclose(p[:, 0], np.linspace(10.0, -10.0, 41), atol=1e-12)
+    np.testing.assert_allclose(p[:, 1:], np.tile([-15.0, -1.0], (41, 1)), atol=1e-12)
+    np.testing.assert_allclose(np.diff(path.t_s), 0.05, rtol=1e-12)  # 0.5 mm at 10 mm/s
+    assert len(parse_gcode("G1 X3 Y4 Z0 F600\nG1 X3 Y4 Z-1\n")) == 3  # 1 mm down in two 0.5 mm steps
 
 
 def test_g20_feed_is_in_inches_per_minute():
@@ -84,13 +96,13 @@ def test_missing_file_and_bad_options_are_refused(tmp_path):
 
 
 def test_dwell_adds_time_and_zero_length_moves_add_no_sample():
-    path = parse_gcode("G1 X0 Y0 Z0 F600\nG4 P2.5\nG1 X10\nG1 X10\n")
+    path = parse_gcode("G1 X0 Y0 Z0 F600\nG4 P2.5\nG1 X10\nG1 X10\n", spacing_m=0.02)
     assert len(path) == 3
     np.testing.assert_allclose(path.t_s, [0.0, 2.5, 3.5])
 
 
 def test_write_then_read_round_trips_a_spiral_pyramid(tmp_path):
     path = part_path(PartSpec(shape="pyramid", top_half_width_m=0.03, depth_m=0.01, step_down_m=1e-3, spacing_m=1e-3))
-    back = read_gcode(write_gcode(path, tmp_path / "pyr.nc"))
+    back = read_gcode(write_gcode(path, tmp_path / "pyr.nc"), spacing_m=2e-3)  # its 1 mm steps kept
     np.testing.assert_allclose(back.p_sheet_m, path.p_sheet_m, atol=5.1e-8)  # 4 decimals of a millimetre
     np.testing.assert_allclose(back.t_s, path.t_s, rtol=1e-4)

@@ -109,7 +109,11 @@ def test_a_pyramid_and_a_gcode_part_improve_in_one_iteration(part: str, tmp_path
     assert _all(summary, qs, "part-compensated") < _all(summary, qs, "path-compensated")
     assert _all(summary, qs, "learn 1") < min(_all(summary, qs, "path-compensated") / 3,
                                               _all(summary, qs, "part-compensated") / 2)
-    # the dynamic plant: path compensation forms these shallow parts worse than none; one learning iteration less
+    # the dynamic plant: the pyramid's corners are beyond the twin's force model, yet one learning iteration is its
+    # best stage
     assert _all(summary, dyn, "learn 1") < min(_all(summary, dyn, "nominal"), _all(summary, dyn, "path-compensated"))
+    if part == "gcode":  # the stadium as the cone: the identified model removes two thirds and more
+        both = ", identified forces and springback"
+        assert _all(summary, dyn, f"part-compensated{both}") < _all(summary, dyn, "path-compensated") / 2.5
     assert _documented(f"{part} table") == pytest.approx(_numbers(study.stage_table(summary).splitlines()),
                                                          abs=0.005, nan_ok=True)

@@ -136,7 +136,8 @@ def test_path_command_writes_a_cone_and_its_gcode_and_reimports_it(tmp_path, cap
     assert "reachable" in capsys.readouterr().out
     table = read_table(out, ("t_s", "x_mm", "z_mm", "pass"))
     assert table["pass"].max() == 5 and table["z_mm"].min() == pytest.approx(-10.0, abs=1e-5)
-    assert main(["path", "--gcode", str(nc), "--out", str(tmp_path / "back.csv"), "--no-reach-check"]) == 0
+    assert main(["path", "--gcode", str(nc), "--out", str(tmp_path / "back.csv"), "--no-reach-check",
+                 "--spacing-mm", "2.5"]) == 0  # its 2 mm steps kept as they are
     back = read_table(tmp_path / "back.csv", ("t_s", "x_mm", "z_mm"))
     np.testing.assert_allclose(back["x_mm"], table["x_mm"], atol=1e-4)
     np.testing.assert_allclose(back["t_s"], table["t_s"], rtol=1e-4, atol=1e-3)

@@ -73,7 +73,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--depth-mm", type=length_mm, help="final depth H (default: groove 10, other parts 40)")
     parser.add_argument("--feed-mm-s", type=feed_mm_s, default=d.feed_m_per_s * 1e3, help="constant feed [mm/s]")
     parser.add_argument(
-        "--spacing-mm", type=length_mm, default=d.spacing_m * 1e3, help="largest sample spacing (G-code: arc chords)"
+        "--spacing-mm", type=length_mm, default=d.spacing_m * 1e3, help="largest sample spacing (G-code: the chords of arcs and the pieces of lines)"
     )
     groove = parser.add_argument_group("groove")
     groove.add_argument("--passes", type=count, default=d.passes, help=f"number of passes N (default {d.passes})")

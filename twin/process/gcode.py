@@ -4,7 +4,9 @@ Read subset (RS-274 words, one block per line):
 
 * motion G0 (rapid, at `rapid_m_per_s`), G1 (linear, at the modal feed F), G2/G3 (clockwise / counter-clockwise
   arcs in the XY plane, centre by I/J offsets from the start point or by radius R, optional helical Z),
-  linearised into chords no longer than `spacing_m` and no farther than `chord_tol_m` from the arc; G4 dwell
+  linearised into chords no longer than `spacing_m` and no farther than `chord_tol_m` from the arc, a line
+  divided into equal steps no longer than `spacing_m` (as the controller interpolates it: the twin forms the
+  sheet at the samples, so a 20 mm G1 line kept as one step would form nothing between its ends); G4 dwell
   (P seconds) adds time without motion;
 * modal state: G90/G91 absolute/incremental coordinates, G20/G21 inches/millimetres, F feed in units per
   minute (G94), the last motion mode applies to blocks with coordinates only;
@@ -168,9 +170,13 @@ class _BlockReader:
             prev = np.vstack([start[None, :], chunk[:-1]])
             self.points.extend(chunk.tolist())
             self.durations.extend((np.linalg.norm(chunk - prev, axis=1) / speed).tolist())
-        else:
+        else:  # the controller interpolates a line: steps no longer than the spacing (the first starts unknown)
+            length = math.dist(pos, target)
+            pieces = 1 if len(self.points) == 1 else max(1, math.ceil(length / self.spacing_mm - 1e-9))
+            for k in range(1, pieces):
+                self.points.append([a + (b - a) * k / pieces for a, b in zip(pos, target, strict=True)])
             self.points.append(target)
-            self.durations.append(math.dist(pos, target) / speed)
+            self.durations.extend([length / pieces / speed] * pieces)
         self.pos = target
 
     def _arc_chunk(
@@ -220,7 +226,7 @@ def parse_gcode(
     Args:
         text: The program.
         source: File name used in error messages.
-        spacing_m: Largest chord of a linearised arc [m] (linear moves are kept as they are).
+        spacing_m: Largest step of the sampled path [m]: the chords of an arc, the pieces of a line.
         chord_tol_m: Largest distance between an arc and its chords [m].
         rapid_m_per_s: Speed of G0 moves [m/s].
 
