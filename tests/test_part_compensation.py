@@ -140,6 +140,10 @@ def test_the_options_are_checked(tmp_path: Path, cone, capsys: pytest.CaptureFix
     assert rms[-1]["part"] < rms[0]["part"] / 2
     assert (tmp_path / "next.csv").read_text().startswith("t_s,x_mm,y_mm,z_mm")
     _check_recording(tmp_path / "next.rrd", stages=len(rms), scanned=1)
+    assert main(["compensate", "--method", "twin", "--target-stl", str(stl), "--learn-from", str(run), "--learn-at",
+                 "formed", "--out", str(tmp_path / "formed.csv"), "--json", "-"]) == 0  # the command moved, no twin
+    formed = json.loads(capsys.readouterr().out)
+    assert formed["at"] == "formed" and formed["samples_seen"] > 0.8 * formed["samples"]
 
 
 def _check_recording(path: Path, stages: int, scanned: int = 0) -> None:

@@ -29,12 +29,7 @@ import trimesh
 
 from twin.analysis.compensate import Compensation, compensate_twin
 from twin.analysis.scan_learning import learn_from_scan
-from twin.analysis.surface_check import (
-    REGIONS,
-    DesignIndex,
-    RegionDeviation,
-    region_deviation,
-)
+from twin.analysis.surface_check import REGIONS, DesignIndex, RegionDeviation, region_deviation
 from twin.errors import InputError
 from twin.process.part_surface import formed_surface, surface_points
 from twin.process.path import ToolPath

@@ -65,8 +65,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                       "compensate so that the twin's part after unclamping lies on it, springback included")
     part.add_argument("--part-iterations", type=count, default=2, help="outer iterations on the part (default 2)")
     part.add_argument("--learn-from", type=Path, metavar="RUN",
-                      help="the last part's run (its command, part scan and tool radius): the next command moved "
-                      "along z by the scan's error at each sample (--learn-at)")
+                      help="the last part's run (its command, part scan and tool radius): the next command learned "
+                      "from its scan (--learn-at)")
     part.add_argument("--learn-at", choices=("twin", "formed", "tip"), default="twin",
                       help="how the scan's error is learned: twin, as the part's miss of the twin's prediction, "
                       "with the next command the twin's part compensation to the design minus that miss (needs "
@@ -127,20 +127,22 @@ def _part(args: argparse.Namespace) -> int:
                          "compensation keeps its x-y), or --learn-at formed|tip (the last command moved)")
     design = read_target_mesh(args.target_stl)
     protect = [p for p in (args.target_stl, args.ideal, args.learn_from, args.model) if p is not None]
-    if args.learn_from is not None and args.learn_at == "twin":
+    if args.learn_from is not None:
         last = read_run(args.learn_from)
         if last.part_scan is None:
             raise InputError(f"--learn-from {args.learn_from}: the run has no part_scan.csv to learn from")
+        scan = last.part_scan
+        scanned = PartStage(f"scan of {Path(args.learn_from).name}", "scanned", region_deviation(scan, design))
+    if args.learn_from is not None and args.learn_at == "twin":
         ideal = ideal_from_arguments(args)
         twin = spec_from_arguments(args, ideal.p_sheet_m).build()
-        field = twin_discrepancy(last.part_scan, predicted_surface(twin, last.commanded.t_s, last.commanded.values),
+        field = twin_discrepancy(scan, predicted_surface(twin, last.commanded.t_s, last.commanded.values),
                                  1e-3 * args.learn_smoothing_mm)
         result = compensate_part(ideal, twin, design, iterations=args.part_iterations, tol_m=1e-3 * args.tol_mm,
                                  discrepancy=lambda xy: args.learn_gain * field(xy))
         command, t_s = result.compensation.p_cmd_sheet_m, ideal.t_s
-        stages = [PartStage(f"scan of {Path(args.learn_from).name}", "scanned",
-                            region_deviation(last.part_scan, design)), *result.stages()]
-        miss = field(last.part_scan[:, :2])
+        stages = [scanned, *result.stages()]
+        miss = field(scan[:, :2])
         summary: dict[str, Any] = {
             "method": "learn", "out": args.out, "learned_from": args.learn_from, "gain": args.learn_gain,
             "smoothing_mm": args.learn_smoothing_mm, "at": "twin", "iterations": args.part_iterations,
@@ -149,13 +151,9 @@ def _part(args: argparse.Namespace) -> int:
                                                       for e in result.error_per_iteration],
         }
     elif args.learn_from is not None:
-        last = read_run(args.learn_from)
-        if last.part_scan is None:
-            raise InputError(f"--learn-from {args.learn_from}: the run has no part_scan.csv to learn from")
-        stages = [PartStage(f"scan of {Path(args.learn_from).name}", "scanned",
-                            region_deviation(last.part_scan, design))]
+        stages = [scanned]
         radius = run_process(last.meta, Process(), Path(args.learn_from) / "meta.json").tool_radius_m
-        learned = learn_from_scan(last.commanded.values, last.part_scan, design, gain=args.learn_gain,
+        learned = learn_from_scan(last.commanded.values, scan, design, gain=args.learn_gain,
                                   smoothing_m=1e-3 * args.learn_smoothing_mm, tool_radius_m=radius, at=args.learn_at)
         command, measured, t_s = learned.command_m, learned.measured_m, last.commanded.t_s
         seen = np.isfinite(measured)
