@@ -43,7 +43,7 @@ def cone():
 
 def test_the_twins_part_lands_on_the_design(cone) -> None:
     """Measured: path-compensated 0.490 mm rms (the springback), part-compensated 0.039 then 0.007 mm (each
-    sample's error read on the surface it formed; under its tip, the second iteration stalled at 0.033)."""
+    sample's error read on the surface it formed)."""
     path, design = cone
     twin = TwinSpec(process=Process(force_model="isf")).build()
     result = compensate_part(path, twin, design, iterations=2)
@@ -73,7 +73,7 @@ def test_the_twin_law_learns_a_miss_the_twin_has_no_form_of(cone) -> None:
     """A plant written here: the twin's part, 0.1 mm higher where formed and 0.2 mm sin(π depth / 5 mm) higher on the
     wall, and 1.5 times as sensitive as the twin to a change of the command (it forms half as much again of the
     twin's change from the first part's). The law reads the miss of the twin's prediction and aims the twin's part
-    at the design minus it. Measured: 0.178, 0.107, 0.053 mm rms (the stationary miss alone: 0.178, 0.040)."""
+    at the design minus it. Measured: 0.178, 0.107, 0.053 mm rms."""
     path, design = cone
     twin = TwinSpec(process=Process(force_model="isf")).build()
     first = compensate_part(path, twin, design, iterations=1).compensation.p_cmd_sheet_m
