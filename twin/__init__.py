@@ -50,6 +50,7 @@ __all__, __getattr__, __dir__ = lazy_exports(__name__, {
     "run_dynamic_lab": "twin.lab.dynamic.run",
     # analysis
     "replay": "twin.analysis.replay",
+    "learn": "twin.analysis.learn",
     "compensate_twin": "twin.analysis.compensate",
     "compensate_formula": "twin.analysis.compensate",
     "check_run": "twin.analysis.check",

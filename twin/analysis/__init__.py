@@ -9,7 +9,8 @@ command learned from the last part's scan, at the points each sample formed),
 compensated run), `gain_cause` (a gain's cause, from that record and the measured forces), `surface_check` (a part
 scan against its target or design mesh, by region),
 `scan_registration` (a scanner's point cloud laid on its design by ICP), `placement_search` (where to put the
-sheet for the least predicted error of a part) with its screen and confirmation in `placement_screen`, `discrepancy/` (find,
+sheet for the least predicted error of a part) with its screen and confirmation in `placement_screen`, `learn/` (a twin of a cell it
+did not build: its robot and sheet learned from the cell's nominal runs), `discrepancy/` (find,
 name, add and shrink what the twin is missing) and `calibration/` (the twin's free parameters fitted to the
 thesis's measurements). The analysis never imports a lab: what the twin knows lives in the twin's stages.
 
@@ -22,6 +23,9 @@ __all__, __getattr__, __dir__ = lazy_exports(__name__, {
     "PlacementSearch": "twin.analysis.placement_search",
     "SearchBox": "twin.analysis.placement_search",
     "search_placement": "twin.analysis.placement_search",
+    "LearnResult": "twin.analysis.learn",
+    "learn": "twin.analysis.learn",
+    "split_gap": "twin.analysis.learn.split",
     "ReplayResult": "twin.analysis.replay",
     "replay": "twin.analysis.replay",
     "replay_metrics": "twin.analysis.replay",

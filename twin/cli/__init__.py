@@ -1,6 +1,6 @@
 """Command line `tx200-twin`: one module per command in this package, listed in COMMANDS.
 
-Modules: `info`, `path`, `fe_history`, `identify`, `calibrate`, `reproduce`, `force_validation`, `lab`, `replay`,
+Modules: `info`, `path`, `fe_history`, `identify`, `calibrate`, `reproduce`, `force_validation`, `lab`, `replay`, `learn`,
 `compensate`, `check`, `bench`, `sweep`, `place`, `discrepancy`, `demo`, `import_run` (`import`), `export`, `materials` and `robots`,
 one per command; `_common` holds the options several commands share (the FE history, the force model, the declared
 process, the placement) and the twin they make (`spec_from_arguments`); `_types` the argparse types with plausible
@@ -56,6 +56,7 @@ COMMANDS: dict[str, str] = {
     "force-validation": "force_validation",
     "lab": "lab",
     "replay": "replay",
+    "learn": "learn",
     "compensate": "compensate",
     "check": "check",
     "bench": "bench",

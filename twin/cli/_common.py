@@ -107,14 +107,18 @@ def force_model_for(
     p_sheet_m: Any,
     meta: Mapping[str, Any] | None = None,
     declared: str | None = None,
+    fitted: str | None = None,
 ) -> str:
     """The force model of `--force-model`: a named one, or for `auto` the one a process file declares
-    (`declared`), else the one a run's `meta.json` records, else the first registered model that applies to the
-    path (`twin.process.force_models.auto_force_model`)."""
+    (`declared`), else the one a model file fitted to its cell (`fitted`: `learn`, `identify --forces`), else the
+    one a run's `meta.json` records, else the first registered model that applies to the path
+    (`twin.process.force_models.auto_force_model`)."""
     if args.force_model != "auto":
         return str(force_model(args.force_model).name)
     if declared is not None:
         return declared
+    if fitted is not None:
+        return fitted
     recorded = None if meta is None else meta.get("force_model")
     if isinstance(recorded, str) and recorded in FORCE_MODELS:
         return recorded
@@ -147,7 +151,8 @@ def spec_from_arguments(
     if run is not None and "process" in run.meta:
         process = run_process(run.meta, process, (run.directory or Path(".")) / "meta.json")
         name = "the run's recorded process"
-    process = command_process(args, process, p_sheet_m, None if run is None else run.meta, name)
+    fitted = base.process.force_model if model is not None and base.process.force_fit else None
+    process = command_process(args, process, p_sheet_m, None if run is None else run.meta, name, fitted)
     if run is not None:
         placement = run_placement(run.meta)
     elif getattr(args, "origin_mm", None) is not None or getattr(args, "yaw_deg", 0.0) != 0.0:
@@ -245,13 +250,14 @@ def command_process(
     p_sheet_m: Any,
     meta: Mapping[str, Any] | None = None,
     base_name: str | None = None,
+    fitted: str | None = None,
 ) -> Process:
     """The process a command runs: `base` (a model file's, a run's; `base_name` says which, for messages), the
     declared process over it (`process_from_arguments`), and its force model (`force_model_for`: `--force-model`,
     else the process file's, else a run's recorded one, else the first that applies to the path)."""
     declaration = process_declaration(args)
     process = declaration.applied_to(base, base_name)
-    chosen = force_model_for(args, process, p_sheet_m, meta, declared=declaration.force_model)
+    chosen = force_model_for(args, process, p_sheet_m, meta, declared=declaration.force_model, fitted=fitted)
     if chosen == "table" and _differs_from_history(process):
         print(
             f"note: the 'table' force model plays back the FE history's forces; the declared sheet "

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
+from typing import Any
 
 from twin.base.csvio import emit_json
 from twin.cli._common import (
@@ -36,6 +37,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--report", type=Path, help="write figures of the residual before/after into this folder"
     )
+    parser.add_argument("--no-learn", action="store_true",
+                        help="when no family explains the gap, do not learn the robot and the sheet from the run")
+    parser.add_argument("--held-out", type=Path, metavar="RUN",
+                        help="another run of the same cell, not learned from: the gap before -> after on it")
     parser.add_argument("--json", help="write the findings to FILE ('-' for stdout)")
 
 
@@ -53,8 +58,17 @@ def run(args: argparse.Namespace) -> int:
         **result_summary(result),
         "process": {**process_record(spec.process), "force_model": spec.process.force_model},
     }
-    protect = [p for p in (args.run_dir, args.model, args.history, args.process) if p is not None]
-    if args.model_out is not None:
+    protect = [p for p in (args.run_dir, args.model, args.history, args.process, args.held_out) if p is not None]
+    learned = None
+    if result.verdict == "unexplained" and measured.forces is not None and not args.no_learn:
+        learned = _learn(args, measured, spec.replace(effects=result.effects))
+        summary["learned"] = learned
+    if args.model_out is not None and learned is not None:
+        write_model_file(args.model_out, learned.pop("spec"), protect=protect,
+                         note=f"tx200-twin discrepancy on {args.run_dir}: unexplained by the families; robot and "
+                         "sheet learned from the run (fitted)")
+        summary["model_out"] = args.model_out
+    elif args.model_out is not None:
         write_model_file(
             args.model_out,
             spec.replace(effects=result.effects),
@@ -88,5 +102,35 @@ def run(args: argparse.Namespace) -> int:
         f"left: {result.remainder['words']}",
         file=out,
     )
+    if learned is not None:
+        learned.pop("spec", None)
+        print("  no family explains it; learned from the run (fitted):", file=out)
+        for sentence in learned["named"]:
+            print(f"  - {sentence}", file=out)
+        for label, key in (("this run (fitted)", "run"), ("held-out run (predicted)", "held_out")):
+            if key in learned:
+                g = learned[key]
+                print(f"  gap on {label}: {g['before_mm']:.3f} -> {g['after_mm']:.3f} mm, {g['before_n']:.0f} -> "
+                      f"{g['after_n']:.0f} N", file=out)
     emit_json(args.json, summary, protect=protect)
     return 0
+
+
+def _learn(args: argparse.Namespace, measured: Any, spec: Any) -> dict[str, Any]:
+    """Learn the robot and the sheet from the run; the sentences naming them and the gaps before and after."""
+    from twin.analysis.learn import learn
+    from twin.analysis.learn.signatures import robot_sentences, sheet_sentences
+    from twin.analysis.replay import replay
+
+    result = learn([measured], spec)
+    named = sheet_sentences(measured, spec) + robot_sentences(result, spec.build().joint_friction)
+    before, after = result.before[0], result.after[0]
+    out: dict[str, Any] = {"spec": result.spec, "named": named, "run": {
+        "before_mm": before.position_rms_mm, "after_mm": after.position_rms_mm,
+        "before_n": before.force_rms_n, "after_n": after.force_rms_n}}
+    if args.held_out is not None:
+        other = read_run(args.held_out)
+        b, a = replay(other, spec).metrics, replay(other, result.spec).metrics
+        out["held_out"] = {"before_mm": b["position_rms_mm"], "after_mm": a["position_rms_mm"],
+                           "before_n": b.get("force_rms_n", float("nan")), "after_n": a.get("force_rms_n", float("nan"))}
+    return out

@@ -13,6 +13,7 @@ from twin.cli._common import (
     add_robot_argument,
     spec_from_arguments,
 )
+from twin.errors import InputError
 from twin.process.process_file import process_record
 from twin.runs.read import read_run
 
@@ -28,6 +29,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_force_model_argument(parser)
     add_process_arguments(parser)
     add_robot_argument(parser)
+    parser.add_argument("--forces", choices=("twin", "measured"), default="twin",
+                        help="measured: also drive the twin's robot by the run's F/T stream and split the gap into "
+                        "the robot's part and the sheet's part")
     parser.add_argument("--json", help="write the metrics to FILE ('-' for stdout)")
     parser.add_argument("--rrd", type=Path, help="also save a rerun recording of the replay to FILE")
 
@@ -51,6 +55,16 @@ def run(args: argparse.Namespace) -> int:
         f"{1e3 * spec.process.thickness_m:g} mm, {spec.process.force_model} model",
         file=out,
     )
+    if args.forces == "measured":
+        from twin.analysis.learn.split import split_gap
+
+        if measured.forces is None:
+            raise InputError(f"run {args.run_dir} has no forces.csv: --forces measured needs the F/T stream")
+        split = split_gap(measured, twin, result)
+        m = {**m, "robot_gap_rms_mm": split.robot_rms_mm, "sheet_gap_rms_mm": split.sheet_rms_mm}
+        print(f"  split: the robot's part (the twin's robot driven by the measured forces) {split.robot_rms_mm:.3f} "
+              f"mm rms; the sheet's part (what the twin's forces move the tip by) {split.sheet_rms_mm:.3f} mm rms",
+              file=out)
     if args.rrd is not None:
         from twin.viz.recording import record_replay
 

@@ -8,7 +8,8 @@ Modules: `description` (the process as data: material, thickness, tool, friction
 models: name -> builder), `field` (the groove's per-pass table force field, on the formed profile of
 `formed_profile` and the per-pass tables of `pass_tables`), `aerens` (the published steady axial force with the
 scallop height), `isf_force` (the height-map ISF model on `heightmap`, with the sliding direction of `sliding`),
-its constants `isf_params` and its fit to the groove `isf_calibration`, `tool_friction` (the tool's
+its constants `isf_params` and its fit to the groove `isf_calibration`, `learned_force` (that model with membrane
+terms learned from a cell's F/T stream), `tool_friction` (the tool's
 sliding friction at reversals), `forces` (loading FE histories with a declared symmetry) and `fe_history` (the
 stand-in generator), `path` (the groove U_ID, pass labels), `shapes` (cones, pyramids), `gcode` (CAM programs),
 `placement` (the sheet in the robot base, reach), `springback` (the part after unclamping, a rigid machine's

@@ -78,8 +78,9 @@ class Process:
             raise InputError(f"Process.friction_reversal_m = {self.friction_reversal_m!r}: expected > 0 [m] or None")
         for item in self.force_fit:
             if not (isinstance(item, tuple) and len(item) == 2 and isinstance(item[0], str)
-                    and isinstance(item[1], int | float) and math.isfinite(item[1]) and item[1] > 0):
-                raise InputError(f"Process.force_fit item {item!r}: expected (name, finite value > 0)")
+                    and isinstance(item[1], int | float) and math.isfinite(item[1])):
+                raise InputError(f"Process.force_fit item {item!r}: expected (name, finite value); the model's "
+                                 "builder checks its own ranges")
         if not self.material or not self.force_model:
             raise InputError(f"Process: material {self.material!r} and force_model {self.force_model!r} must be named")
 

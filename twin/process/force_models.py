@@ -33,6 +33,7 @@ from twin.process.force_field import ForceField
 from twin.process.forces import ForceHistory
 from twin.process.isf_force import IsfForceField
 from twin.process.isf_params import params_for
+from twin.process.learned_force import WEIGHT_KEYS, LearnedForceField, LearnedWeights
 from twin.process.path import label_passes
 
 #: The table field is a section of the sheet along y = 0 (`twin.process.field`): it applies to commands within
@@ -149,6 +150,8 @@ def _table(history: ForceHistory, process: Process) -> ForceField:
     if set(fit) - {"scale"}:
         raise InputError(f"the table force model takes only 'scale' from Process.force_fit; got {sorted(fit)}")
     if "scale" in fit:
+        if not fit["scale"] > 0:
+            raise InputError(f"the table force model's scale {fit['scale']!r}: expected a number > 0")
         history = replace(history, f_sheet_n=fit["scale"] * history.f_sheet_n)
     return SheetForceField(history, tool_radius_m=process.tool_radius_m)
 
@@ -168,10 +171,25 @@ def _isf(history: ForceHistory, process: Process) -> ForceField:
     return IsfForceField(params_for(process, scale=scale, **fit))
 
 
+def _learned(history: ForceHistory, process: Process) -> ForceField:
+    for sentence in validity_warnings(process.thickness_m, process.tool_radius_m):
+        warnings.warn(sentence, ExtrapolationWarning, stacklevel=3)
+    fit = dict(process.force_fit)
+    ratio = history_ratio(history, process.force_history())
+    weights = {key: ratio * fit.pop(key) if key != "prior_weight" else fit.pop(key)
+               for key in WEIGHT_KEYS if key in fit}
+    fit["scale"] = ratio * fit.get("scale", 1.0)  # the prior's level: the prior weight multiplies it
+    return LearnedForceField(params_for(process, **fit), LearnedWeights(**weights))
+
+
 register_force_model(ForceModel(
     "table", "the per-pass field of the groove's FE history (the history's own path and commands near it)",
     _table, follows_history,
 ))
 register_force_model(ForceModel(
     "isf", "the height-map ISF model at the process's published force level (any part and path)", _isf,
+))
+register_force_model(ForceModel(
+    "learned", "the ISF model with membrane terms learned from a cell's F/T stream (`tx200-twin learn`)",
+    _learned, lambda _h, process, _p: any(key in dict(process.force_fit) for key in WEIGHT_KEYS),
 ))

@@ -42,6 +42,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 
@@ -95,7 +96,7 @@ class IsfForceField(ForceField):
         half_size_m: Half-extent (x, y) of the modelled sheet [m].
     """
 
-    compiled_kernel = "isf"
+    compiled_kernel: ClassVar[str | None] = "isf"
     extrapolated_start = True
 
     def __init__(self, params: IsfForceParams | None = None, half_size_m: tuple[float, float] = (0.12, 0.12)) -> None:
@@ -233,21 +234,25 @@ class IsfForceField(ForceField):
             return f0 * build, 0.0, f0
         return f0 * build + prm.k_unload_n_per_m * dh, prm.k_unload_n_per_m, f0  # lifted: elastic unloading
 
-    def _fz(self, x: float, y: float, z: float) -> tuple[float, float, float, float]:
-        """(Fz, dFz/dx, dFz/dy, dFz/dz) at the tool tip [N, N/m]."""
+    def _fz_linear(self, x: float, y: float, z: float) -> tuple[float, float, float, float]:
+        """(the unsoftened Fz, its gradient in x, y, z) at the tool tip [N, N/m]; `_fz` keeps it >= 0."""
         s, sx, sy = self.map.met_height(x, y)
         d0 = self.params.build_up_m
         e = math.exp(-max(-z, 0.0) / d0)
         dbuild_dz = -e / d0 if z < 0.0 else 0.0
         lin, dlin_ddh, f0 = self._fz_of(s - z, self._alpha, 1.0 - e)
-        dlin_dz = -dlin_ddh + f0 * dbuild_dz
+        return lin, dlin_ddh * sx, dlin_ddh * sy, -dlin_ddh + f0 * dbuild_dz
+
+    def _fz(self, x: float, y: float, z: float) -> tuple[float, float, float, float]:
+        """(Fz, dFz/dx, dFz/dy, dFz/dz) at the tool tip [N, N/m]: `_fz_linear` through a softplus."""
+        lin, gx, gy, gz = self._fz_linear(x, y, z)
         w = _SOFTPLUS_N
         if lin > 30.0 * w:
             fz, slope = lin, 1.0
         else:
             ex = math.exp(lin / w)
             fz, slope = w * math.log1p(ex), ex / (1.0 + ex)
-        return fz, slope * dlin_ddh * sx, slope * dlin_ddh * sy, slope * dlin_dz
+        return fz, slope * gx, slope * gy, slope * gz
 
     def _travel(self, x: float, y: float, jacobian: bool = True) -> tuple[float, float, np.ndarray | None]:
         """Travel direction v including the step from the last committed tip to (x, y), and ∂v/∂(x, y)

@@ -1,0 +1,143 @@
+"""Learn a cell the twin did not build (the dynamic plant), then compensate the next part with what it learned.
+
+For each plant variant: nominal runs with seeds 1 (learned from) and 2 (held out); the untaught twin's and the
+learned twin's replay gaps on seed 2; each twin's compensation (`compensate --method twin`) formed on the plant
+with seed 3, and its residual (`check`). The learned twin learns from seed 1's run only, through `tx200-twin
+learn`; nothing here reads the plant's truth, knobs or code on the twin's side. Writes OUT/learn_cell.json and
+OUT/learn_cell.md (the table in docs/learning.md):
+
+    .venv/bin/python experiments/learn_cell.py OUT [--variants groove-neutral,...]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from contextlib import redirect_stdout
+from io import StringIO
+from pathlib import Path
+from typing import Any
+
+from twin.cli import main as cli
+from twin.lab.dynamic.knobs import Knobs
+from twin.lab.dynamic.run import run_dynamic_lab
+from twin.process.description import Process
+from twin.runs.read import read_commanded_csv
+from twin.runs.write import write_run
+
+#: name -> (robot, path arguments, plant knob arguments, R_m factor of the plant's sheet over the declared one)
+VARIANTS: dict[str, tuple[str, list[str], list[str], float]] = {
+    "groove-neutral": ("tx200", ["--shape", "groove"], ["--neutral"], 1.0),
+    "groove-default": ("tx200", ["--shape", "groove"], [], 1.0),
+    "groove-stronger": ("tx200", ["--shape", "groove"], ["--neutral"], 1.3),
+    "groove-backlash": ("tx200", ["--shape", "groove"], ["--neutral", "--set", "backlash_j3_mrad=0.3"], 1.0),
+    "cone-kr210": ("kr210", ["--shape", "cone", "--top-width-mm", "60", "--depth-mm", "10"], ["--neutral"], 1.0),
+}
+#: Cross-part: learned from the cone variant's nominal run, compensating this part.
+PYRAMID = ["--shape", "pyramid", "--top-width-mm", "40", "--depth-mm", "6"]
+
+
+def _cli(*argv: str) -> None:
+    with redirect_stdout(StringIO()):
+        code = cli(list(argv))
+    if code != 0:
+        raise SystemExit(f"`tx200-twin {' '.join(argv)}` exited with {code}")
+
+
+def _json(*argv: str) -> dict[str, Any]:
+    out = StringIO()
+    with redirect_stdout(out):
+        code = cli([*argv, "--json", "-"])
+    if code not in (0, 1):
+        raise SystemExit(f"`tx200-twin {' '.join(argv)}` exited with {code}")
+    return dict(json.loads(out.getvalue()))
+
+
+def _lab(robot: str, knobs: list[str], strength: float, command: Path, out: Path, seed: int,
+         scenario: str = "nominal") -> Path:
+    """Form `command` on the plant; a sheet stronger than declared goes through the API (the CLI records the
+    process it forms, so the twin would read it)."""
+    if strength == 1.0:
+        _cli("lab", "--plant", "dynamic", *knobs, "--scenario", scenario, "--commanded", str(command), "--seed",
+             str(seed), "--robot", robot, "--out", str(out))
+        return out
+    cmd = read_commanded_csv(command)
+    values = dict(item.split("=") for item in knobs[knobs.index("--set") + 1::2]) if "--set" in knobs else {}
+    plant_knobs = Knobs({k: float(v) for k, v in values.items()}, neutral="--neutral" in knobs)
+    run, truth, _ = run_dynamic_lab(cmd.t_s, cmd.values, scenario=scenario, knobs=plant_knobs, seed=seed,
+                                    process=Process(tensile_strength_mpa=strength * 275.0), declared=Process(),
+                                    robot=robot)
+    write_run(out, run, truth=truth)
+    return out
+
+
+def variant_study(out: Path, name: str) -> dict[str, Any]:
+    """One variant's row (module docstring)."""
+    robot, path_args, knobs, strength = VARIANTS[name]
+    out.mkdir(parents=True, exist_ok=True)
+    ideal = out / "ideal.csv"
+    _cli("path", *path_args, "--robot", robot, "--out", str(ideal))
+    runs = {seed: _lab(robot, knobs, strength, ideal, out / f"nominal{seed}", seed) for seed in (1, 2)}
+    model = out / "learned.json"
+    learned = _json("learn", str(runs[1]), "--write-model", str(model))
+    row: dict[str, Any] = {"variant": name, "robot": robot,
+                           "nominal": _json("check", str(runs[1]), "--ideal", str(ideal)),
+                           "replay_untaught": _json("replay", str(runs[2]), "--forces", "measured"),
+                           "replay_learned": _json("replay", str(runs[2]), "--model", str(model), "--forces",
+                                                   "measured"),
+                           "learn": learned}
+    targets = [("", ideal, path_args)]
+    if name == "cone-kr210":
+        pyramid = out / "pyramid.csv"
+        _cli("path", *PYRAMID, "--robot", robot, "--out", str(pyramid))
+        targets.append(("pyramid_", pyramid, PYRAMID))
+        pyr_nominal = _lab(robot, knobs, strength, pyramid, out / "pyramid_nominal", 3)
+        row["pyramid_nominal"] = _json("check", str(pyr_nominal), "--ideal", str(pyramid))
+        row["pyramid_replay_untaught"] = _json("replay", str(pyr_nominal), "--forces", "measured")
+        row["pyramid_replay_learned"] = _json("replay", str(pyr_nominal), "--model", str(model), "--forces",
+                                              "measured")
+    for prefix, target, _ in targets:
+        for twin, extra in (("untaught", ["--robot", robot]), ("learned", ["--model", str(model)])):
+            command = out / f"{prefix}{twin}.csv"
+            _cli("compensate", "--method", "twin", *extra, "--ideal", str(target), "--out", str(command))
+            formed = _lab(robot, knobs, strength, command, out / f"{prefix}{twin}_formed", 3, "compensated")
+            row[f"{prefix}{twin}"] = _json("check", str(formed), "--ideal", str(target))
+    return row
+
+
+def table(rows: list[dict[str, Any]]) -> str:
+    """The markdown table of the study."""
+    lines = ["| variant | nominal residual | untaught twin: replay gap / compensated | learned twin: replay gap "
+             "(predicted) / compensated |", "|---|---|---|---|"]
+    for r in rows:
+        def res(key: str) -> str:
+            return f"{r[key]['residual_rms_mm']:.3f} mm (max {r[key]['residual_max_mm']:.2f})"
+
+        def gap(key: str) -> str:
+            return f"{r[key]['position_rms_mm']:.3f} mm / {r[key]['force_rms_n']:.0f} N"
+
+        lines.append(f"| {r['variant']} | {res('nominal')} | {gap('replay_untaught')}; {res('untaught')} | "
+                     f"{gap('replay_learned')}; {res('learned')} |")
+        if "pyramid_nominal" in r:
+            lines.append(f"| {r['variant']} -> pyramid (never formed) | {res('pyramid_nominal')} | "
+                         f"{gap('pyramid_replay_untaught')}; {res('pyramid_untaught')} | "
+                         f"{gap('pyramid_replay_learned')}; {res('pyramid_learned')} |")
+    return "\n".join(lines) + "\n"
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("out", type=Path)
+    parser.add_argument("--variants", default=",".join(VARIANTS))
+    args = parser.parse_args()
+    rows = []
+    for name in args.variants.split(","):
+        rows.append(variant_study(args.out / name, name))
+        print(table(rows[-1:]).splitlines()[-1], flush=True)
+    (args.out / "learn_cell.json").write_text(json.dumps(rows, indent=1, default=str))
+    (args.out / "learn_cell.md").write_text(table(rows))
+    print(table(rows))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,106 @@
+"""`learn` on the dynamic plant, a cell the twin did not build (its own servo, gears, friction and sheet).
+
+The plant's code is never used here beyond making runs with `tx200-twin lab`, and `learn` reads only the runs'
+streams. Learned from seed 1's nominal groove, the twin is judged on seed 2's (another run, never learned from);
+the thresholds are the issue's targets (#37), set before any run was learned.
+"""
+
+from __future__ import annotations
+
+import ast
+import json
+import shutil
+from pathlib import Path
+
+import pytest
+
+from twin.analysis.learn import learn
+from twin.analysis.replay import replay
+from twin.cli import main
+from twin.runs.read import read_run
+
+LEARN_DIR = Path(__file__).resolve().parent.parent / "twin" / "analysis" / "learn"
+
+
+@pytest.fixture(scope="module")
+def plant_runs(tmp_path_factory: pytest.TempPathFactory) -> dict[int, Path]:
+    """Nominal groove runs of the dynamic plant (neutral knobs), seeds 1 and 2."""
+    root = tmp_path_factory.mktemp("plant")
+    runs = {}
+    for seed in (1, 2):
+        out = root / f"groove{seed}"
+        assert main(["lab", "--plant", "dynamic", "--neutral", "--scenario", "nominal", "--seed", str(seed),
+                     "--out", str(out)]) == 0
+        runs[seed] = out
+    return runs
+
+
+@pytest.fixture(scope="module")
+def learned(plant_runs: dict[int, Path]):
+    return learn([read_run(plant_runs[1])])
+
+
+def test_the_learned_twin_replays_a_run_it_never_saw(plant_runs: dict[int, Path], learned) -> None:
+    before = replay(read_run(plant_runs[2])).metrics
+    after = replay(read_run(plant_runs[2]), learned.spec).metrics
+    assert before["position_rms_mm"] > 0.5  # the untaught twin's gap (0.80 mm in #37)
+    assert after["position_rms_mm"] <= 0.15
+    assert after["force_rms_n"] <= 0.25 * before["force_rms_n"]
+    assert learned.spec.process.force_model == "learned"
+    assert learned.robot.observable[1] and learned.robot.observable[2]  # the groove loads joints 2 and 3
+
+
+@pytest.mark.xfail(strict=True, reason="#37's 80 N force target: the learned sheet leaves the force spikes at "
+                   "the groove's reversals (the plant's stops) and the passes' start")
+def test_the_learned_force_gap_meets_the_issue_target(plant_runs: dict[int, Path], learned) -> None:
+    assert replay(read_run(plant_runs[2]), learned.spec).metrics["force_rms_n"] <= 80.0
+
+
+def test_learn_never_reads_the_plants_truth(plant_runs: dict[int, Path], learned, tmp_path: Path) -> None:
+    copy = tmp_path / "run"
+    shutil.copytree(plant_runs[1], copy)
+    (copy / "truth.json").write_text("not json: learn must not open this file")
+    again = learn([read_run(copy)])
+    assert again.spec == learned.spec
+    (copy / "truth.json").unlink()
+    assert learn([read_run(copy)]).spec == learned.spec
+    for path in LEARN_DIR.glob("*.py"):
+        tree = ast.parse(path.read_text())
+        imported = [n.module for n in ast.walk(tree) if isinstance(n, ast.ImportFrom) and n.module]
+        assert not [m for m in imported if m.startswith("twin.lab")], path
+        assert "truth" not in path.read_text().replace("`truth.json`", ""), path
+
+
+def test_cli_learn_writes_a_model_replay_takes(plant_runs: dict[int, Path], tmp_path: Path,
+                                              capsys: pytest.CaptureFixture[str]) -> None:
+    model, report = tmp_path / "cell.json", tmp_path / "learn.json"
+    assert main(["learn", str(plant_runs[1]), str(plant_runs[2]), "--write-model", str(model),
+                 "--json", str(report)]) == 0
+    out = capsys.readouterr().out
+    assert "left out" in out and "(fitted" in out and "(predicted" in out
+    data = json.loads(report.read_text())
+    assert len(data["held_out_predicted"]) == 2
+    assert all(g["position_rms_mm"] <= 0.15 for g in data["held_out_predicted"])
+    replayed = tmp_path / "replay.json"
+    assert main(["replay", str(plant_runs[2]), "--model", str(model), "--forces", "measured",
+                 "--json", str(replayed)]) == 0
+    metrics = json.loads(replayed.read_text())
+    assert metrics["process"]["force_model"] == "learned"
+    assert metrics["robot_gap_rms_mm"] < 0.2 and metrics["sheet_gap_rms_mm"] < 0.2
+
+
+def test_the_untaught_gap_is_the_sheets(plant_runs: dict[int, Path], tmp_path: Path) -> None:
+    out = tmp_path / "r.json"
+    assert main(["replay", str(plant_runs[2]), "--forces", "measured", "--json", str(out)]) == 0
+    metrics = json.loads(out.read_text())
+    assert metrics["sheet_gap_rms_mm"] > 3 * metrics["robot_gap_rms_mm"]
+
+
+def test_learn_refuses_a_run_without_forces(plant_runs: dict[int, Path], tmp_path: Path,
+                                            capsys: pytest.CaptureFixture[str]) -> None:
+    copy = tmp_path / "run"
+    shutil.copytree(plant_runs[1], copy)
+    (copy / "forces.csv").unlink()
+    assert main(["learn", str(copy), "--write-model", str(tmp_path / "m.json")]) == 2
+    assert "forces.csv" in capsys.readouterr().err
+    assert not (tmp_path / "m.json").exists()

@@ -1,0 +1,112 @@
+"""Learn the cell: from one or more nominal runs of a cell the twin did not build, a twin of that cell.
+
+`learn` fits the robot (`twin.analysis.learn.robot`: effective joint stiffness, joint friction, servo lag,
+tracker offset) and the sheet (`twin.analysis.learn.sheet`: the `learned` force model's weights and in-plane
+ratios) and returns the twin's spec with them, which `twin.sim.model_file.write_model_file` saves. It reports,
+per run, the replay gap before and after (the twin's own simulation of the run's command: what compensation
+relies on), and given several runs, the gap on each run left out of its own learning (`held_out`): what a user
+should expect on the next part. It reads the runs' commanded paths, trackers and forces only; `truth.json`,
+the plant's knobs and its code never (a test holds it to that).
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from pathlib import Path
+from typing import NamedTuple
+
+import numpy as np
+
+from twin.analysis.learn.robot import RobotFit, fit_robot
+from twin.analysis.learn.sheet import SheetFit, fit_sheet
+from twin.analysis.replay import replay
+from twin.errors import InputError
+from twin.process.description import Process
+from twin.process.force_models import FORCE_MODELS, auto_force_model
+from twin.runs.format import Run, run_placement, run_process, run_robot
+from twin.sim.spec import TwinSpec
+
+
+class Gap(NamedTuple):
+    """A run's replay gap [mm, N]."""
+
+    run: str
+    position_rms_mm: float
+    force_rms_n: float
+
+
+class LearnResult(NamedTuple):
+    """`learn`'s result.
+
+    Attributes:
+        spec: The learned twin (the input spec with the learned K_q, friction and force model).
+        robot: The robot's fit.
+        sheet: The sheet's fit.
+        before: Per run, the replay gap of the input spec.
+        after: Per run, the replay gap of the learned spec, on the runs it learned from (fitted).
+        held_out: Per run, the gap of a spec learned from the other runs only (predicted; empty for one run).
+    """
+
+    spec: TwinSpec
+    robot: RobotFit
+    sheet: SheetFit
+    before: tuple[Gap, ...]
+    after: tuple[Gap, ...]
+    held_out: tuple[Gap, ...]
+
+
+def learned_spec(runs: list[Run], spec: TwinSpec) -> tuple[TwinSpec, RobotFit, SheetFit]:
+    """The spec with the robot and the sheet learned from `runs` (no gaps computed)."""
+    base = spec.replace(placement=run_placement(runs[0].meta))
+    robot = fit_robot(runs, replace(base, process=replace(base.process, force_model="isf")).build())
+    sheet = fit_sheet(runs, base.process)
+    twin_friction = np.asarray(base.build().joint_friction if base.joint_friction is None else base.joint_friction)
+    friction = np.where(robot.observable, robot.friction_nm, twin_friction)
+    process = replace(base.process, force_model="learned", force_fit=sheet.force_fit)
+    learned = base.replace(process=process, joint_stiffness_nm_per_rad=tuple(float(k) for k in robot.k_q_nm_per_rad),
+                           joint_friction_nm=tuple(float(f) for f in friction))
+    return learned.replace(placement=spec.placement), robot, sheet
+
+
+def learn(runs: list[Run], spec: TwinSpec | None = None) -> LearnResult:
+    """Learn the cell's robot and sheet from its runs (module docstring).
+
+    Args:
+        runs: Nominal runs of the cell, each with tracker and F/T streams, made by one robot at one placement.
+        spec: The declared twin (robot, process: the priors); None: the first run's robot in its cell.
+
+    Raises:
+        InputError: No run, runs of different robots or placements, or runs without forces.
+    """
+    if not runs:
+        raise InputError("learn needs at least one run")
+    robot = run_robot(runs[0].meta)
+    placement = run_placement(runs[0].meta)
+    for run in runs[1:]:
+        if run_robot(run.meta).source != robot.source or run_placement(run.meta) != placement:
+            raise InputError(f"run {run.directory} was made by another robot or at another placement than "
+                             f"{runs[0].directory}: learn from one cell's runs at a time")
+    spec = (spec or TwinSpec(robot=robot, process=declared_process(runs[0]))).replace(placement=placement)
+    learned, robot_fit, sheet_fit = learned_spec(runs, spec)
+    before = tuple(_gap(run, spec) for run in runs)
+    after = tuple(_gap(run, learned) for run in runs)
+    held: list[Gap] = []
+    if len(runs) > 1:
+        for k, run in enumerate(runs):
+            others = [r for i, r in enumerate(runs) if i != k]
+            held.append(_gap(run, learned_spec(others, spec)[0]))
+    return LearnResult(learned, robot_fit, sheet_fit, before, after, tuple(held))
+
+
+def declared_process(run: Run) -> Process:
+    """The process a run records (`meta.json`), with the force model it records, else the first that applies."""
+    process = run_process(run.meta, Process(), (run.directory or Path(".")) / "meta.json")
+    recorded = run.meta.get("force_model")
+    name = recorded if isinstance(recorded, str) and recorded in FORCE_MODELS else auto_force_model(
+        process, run.commanded.values)
+    return replace(process, force_model=name)
+
+
+def _gap(run: Run, spec: TwinSpec) -> Gap:
+    metrics = replay(run, spec.replace(placement=run_placement(run.meta))).metrics
+    return Gap(str(run.directory), float(metrics["position_rms_mm"]), float(metrics.get("force_rms_n", np.nan)))

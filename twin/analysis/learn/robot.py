@@ -1,0 +1,178 @@
+"""The robot learned from a cell's runs: the compliance of every joint a run excites, and the servo's lag.
+
+Driven by the measured forces, a compliant arm's tool tip leaves the unloaded one by
+δp(t) = Σ_j c_j · J_j(q) · (J_j(q)ᵀ F(t)) (J_j the tool tip's translational Jacobian column of joint j, c_j its
+compliance [rad/(N·m)]): linear in the c_j, whatever the part and whatever the robot. The tracker gives δp
+(its reading minus the twin's unloaded tool tip), the F/T sensor F. So the c_j come from one regularised least
+squares over the runs, each pulled towards the robot's prior 1/K_q with a prior spread of `PRIOR_SPREAD` (a
+Gaussian prior; the posterior's standard deviations are the uncertainties). A joint whose posterior spread is
+not below `OBSERVABLE_RATIO` of its prior spread is one the runs cannot observe: it is named and held at its
+prior. What a real arm adds to the gear spring shows in the fit: a servo of finite stiffness makes the
+joint softer than its gear (the fitted K_q is the arm's effective one at the process's frequencies, gear and
+servo in series), and a servo that lags lets the deflection follow the force late: the force is passed through a
+first-order lag τ, chosen on a grid by the least residual (`LAGS_S`). A constant tracker offset per axis is
+fitted beside them (a registration error of the tracker frame). The quasi-static twin takes the effective K_q;
+τ is reported (what an online compensator must lead by). `truth.json` is never read.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from twin.base.signals import interp_rows
+from twin.errors import InputError
+from twin.runs.format import Run
+from twin.sim.quasi_static import Twin
+
+#: Prior spread of each joint's compliance, relative to its prior 1/K_q [-].
+PRIOR_SPREAD = 1.0
+#: Prior spread of each joint's friction torque [N·m].
+FRICTION_SPREAD_NM = 1000.0
+#: A joint is observable where its posterior spread is below this fraction of its prior spread.
+OBSERVABLE_RATIO = 0.5
+#: Joint speed below which the friction's sign turns smoothly (tanh) [rad/s].
+SPEED_SMOOTHING_RAD_S = 2e-4
+#: Servo lags tried [s].
+LAGS_S = (0.0, 0.005, 0.01, 0.02, 0.03, 0.05, 0.075, 0.1, 0.15)
+
+
+class RobotRows(NamedTuple):
+    """One run's regression rows at its tracker samples (deflection and per-joint columns, sheet frame)."""
+
+    deflection_m: np.ndarray  # (m, 3) tracker minus the twin's unloaded tool tip [m]
+    t_s: np.ndarray  # (m,) tracker times [s]
+    force_t_s: np.ndarray  # (k,) sensor times [s]
+    force_n: np.ndarray  # (k, 3) measured force, sheet frame [N]
+    lever: np.ndarray  # (m, dof, 3, 3) per joint J_j J_jᵀ, sheet frame [m²/rad²]
+    friction: np.ndarray  # (m, 3, dof) per joint -J_j·s_j, s_j the smoothed sign of the joint's speed [m/rad]
+
+
+class RobotFit(NamedTuple):
+    """`fit_robot`'s result (fitted, from the runs' own data).
+
+    Attributes:
+        k_q_nm_per_rad: Effective joint stiffness, (dof,) [N·m/rad]: fitted where observable, the prior elsewhere.
+        std_nm_per_rad: Its standard deviation (dof,) [N·m/rad] (the prior's spread where unobservable).
+        prior_nm_per_rad: The robot's prior K_q (dof,) [N·m/rad].
+        observable: Whether the runs observe each joint (dof,).
+        lag_s: The servo lag τ that fits best [s].
+        friction_nm: Coulomb friction of each joint against its motion, (dof,) [N·m] (0 where unobservable).
+        offset_mm: Fitted constant tracker offset per axis, sheet frame [mm].
+        rms_prior_mm: Per run, RMS of the tracker minus the twin's tool tip driven by the measured forces, prior
+            K_q, no lag, no friction: the robot's part of the replay gap [mm].
+        rms_after_mm: The same with the learned K_q, lag and offset [mm].
+    """
+
+    k_q_nm_per_rad: np.ndarray
+    std_nm_per_rad: np.ndarray
+    prior_nm_per_rad: np.ndarray
+    observable: np.ndarray
+    lag_s: float
+    friction_nm: np.ndarray
+    offset_mm: np.ndarray
+    rms_prior_mm: tuple[float, ...]
+    rms_after_mm: tuple[float, ...]
+
+
+def robot_rows(run: Run, twin: Twin) -> RobotRows:
+    """The twin's unloaded tool tip and per-joint levers along the run's command, at its tracker times."""
+    if run.forces is None or len(run.forces.t_s) < 10:
+        raise InputError(f"run {run.directory}: learning the robot needs forces.csv (the F/T sensor on)")
+    q_ik = twin._ik_path(run.commanded.values)
+    t = run.tracker.t_s
+    # the twin teaches its set-points under gravity (as a controller does): its unloaded tip is the command
+    unloaded = interp_rows(t, run.commanded.t_s, run.commanded.values)
+    q = interp_rows(t, run.commanded.t_s, q_ik)
+    J = twin.kinematics.jacobians(q)[:, :3, :]  # base frame
+    J_sheet = np.einsum("ki,nkj->nij", twin.R_base_sheet, J)  # R^T J: sheet frame, (n, 3, dof)
+    lever = np.einsum("nij,nkj->njik", J_sheet, J_sheet)
+    speed = np.gradient(q_ik, run.commanded.t_s, axis=0)
+    sign = np.tanh(interp_rows(t, run.commanded.t_s, speed) / SPEED_SMOOTHING_RAD_S)
+    return RobotRows(run.tracker.values - unloaded, t, run.forces.t_s, run.forces.values, lever,
+                     -J_sheet * sign[:, None, :])
+
+
+def lagged(t_s: np.ndarray, values: np.ndarray, lag_s: float) -> np.ndarray:
+    """First-order lag of sampled channels (exact for a signal held between samples) [units of `values`]."""
+    if lag_s <= 0.0:
+        return values
+    out = np.empty_like(values)
+    out[0] = values[0]
+    decay = np.exp(-np.diff(t_s) / lag_s)
+    for i in range(1, len(t_s)):  # bounded: one pass over the sensor's samples
+        out[i] = decay[i - 1] * out[i - 1] + (1.0 - decay[i - 1]) * values[i - 1]
+    return out
+
+
+def design(rows: RobotRows, lag_s: float) -> np.ndarray:
+    """(3m, dof) columns of each joint's compliance for the stacked deflection (x of all samples, then y, z)."""
+    force = interp_rows(rows.t_s, rows.force_t_s, lagged(rows.force_t_s, rows.force_n, lag_s))
+    cols = np.einsum("njik,nk->nji", rows.lever, force)  # (m, dof, 3)
+    return cols.transpose(2, 0, 1).reshape(-1, cols.shape[1])
+
+
+def _solve(runs: list[RobotRows], lag_s: float, c0: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+    """(coefficients, posterior covariance, RSS) of the regularised fit. Coefficients: the compliances c (dof),
+    the friction deflections c_j·τ_f,j (dof) [rad], a tracker offset per run and axis [m]."""
+    dof = len(c0)
+    blocks, ys = [], []
+    for k, rows in enumerate(runs):
+        m = len(rows.t_s)
+        extra = np.zeros((3 * m, 3 * len(runs)))
+        for a in range(3):
+            extra[a * m:(a + 1) * m, 3 * k + a] = 1.0
+        friction = rows.friction.transpose(1, 0, 2).reshape(-1, dof)
+        blocks.append(np.hstack([design(rows, lag_s), friction, extra]))
+        ys.append(rows.deflection_m.T.reshape(-1))
+    X, y = np.vstack(blocks), np.concatenate(ys)
+    # the noise level from an unregularised solve, floored at 10 µm
+    sigma = max(float(np.std(y - X @ np.linalg.lstsq(X, y, rcond=1e-10)[0])), 1e-5)
+    prior_precision = np.concatenate([1.0 / (PRIOR_SPREAD * c0) ** 2, 1.0 / (FRICTION_SPREAD_NM * c0) ** 2,
+                                      np.full(3 * len(runs), 1e-12)])
+    A = X.T @ X / sigma**2 + np.diag(prior_precision)
+    b = X.T @ y / sigma**2 + prior_precision * np.concatenate([c0, np.zeros(dof + 3 * len(runs))])
+    cov = np.linalg.inv(A)
+    coef = cov @ b
+    return coef, cov, float(np.sum((y - X @ coef) ** 2))
+
+
+def predicted_deflection(rows: RobotRows, fit: RobotFit, offset_m: np.ndarray) -> np.ndarray:
+    """The learned robot's tool-tip deflection under the measured forces at the tracker's times [m], (m, 3)."""
+    m = len(rows.t_s)
+    c = 1.0 / fit.k_q_nm_per_rad
+    spring = (design(rows, fit.lag_s) @ c).reshape(3, m).T
+    return spring + np.einsum("nij,j->ni", rows.friction, c * fit.friction_nm) + offset_m
+
+
+def fit_robot(runs: list[Run], twin: Twin) -> RobotFit:
+    """Learn the effective joint compliances, the servo lag and the tracker offset from runs (module docstring).
+
+    Args:
+        runs: Runs with tracker and force streams, made by the twin's robot at the twin's placement.
+        twin: The twin (its robot's K_q is the prior).
+    """
+    rows = [robot_rows(run, twin) for run in runs]
+    k0 = twin.joint_stiffness
+    c0 = 1.0 / k0
+    best = min(LAGS_S, key=lambda lag: _solve(rows, lag, c0)[2])
+    coef, cov, _ = _solve(rows, best, c0)
+    dof = len(c0)
+    c, c_std = coef[:dof], np.sqrt(np.diag(cov)[:dof])
+    observable = c_std < OBSERVABLE_RATIO * PRIOR_SPREAD * c0
+    c = np.where(observable & (c > 0.05 * c0), c, np.where(observable, 0.05 * c0, c0))
+    k = 1.0 / c
+    k_std = np.where(observable, c_std / c**2, PRIOR_SPREAD * k0)
+    friction = np.where(observable, np.maximum(coef[dof:2 * dof], 0.0) / c, 0.0)
+    offsets = coef[2 * dof:].reshape(len(rows), 3)
+    fit = RobotFit(k, k_std, k0, observable, float(best), friction, 1e3 * offsets.mean(axis=0), (), ())
+    prior = fit._replace(k_q_nm_per_rad=k0, lag_s=0.0, friction_nm=np.zeros(dof))
+    prior_rms = tuple(_rms_mm(r.deflection_m - predicted_deflection(r, prior, np.zeros(3))) for r in rows)
+    after_rms = tuple(_rms_mm(r.deflection_m - predicted_deflection(r, fit, off))
+                      for r, off in zip(rows, offsets, strict=True))
+    return fit._replace(rms_prior_mm=prior_rms, rms_after_mm=after_rms)
+
+
+def _rms_mm(error_m: np.ndarray) -> float:
+    return 1e3 * float(np.sqrt(np.mean(np.sum(error_m**2, axis=1))))
