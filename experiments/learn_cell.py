@@ -102,13 +102,27 @@ def variant_study(out: Path, name: str) -> dict[str, Any]:
             _cli("compensate", "--method", "twin", *extra, "--ideal", str(target), "--out", str(command))
             formed = _lab(robot, knobs, strength, command, out / f"{prefix}{twin}_formed", 3, "compensated")
             row[f"{prefix}{twin}"] = _json("check", str(formed), "--ideal", str(target))
+            row[f"{prefix}{twin}"]["less_tracker_offset_mm"] = _less_offset(
+                formed, target, learned["robot"]["tracker_offset_mm"])
     return row
+
+
+def _less_offset(run_dir: Path, ideal: Path, offset_mm: list[float]) -> float:
+    """RMS residual [mm] once the tracker offset `learn` found is taken off the tracker's reading."""
+    import numpy as np
+
+    from twin.analysis.check import check_run
+    from twin.runs.read import read_run
+
+    cmd = read_commanded_csv(ideal)
+    residual = check_run(read_run(run_dir), cmd.t_s, cmd.values).residual_m - 1e-3 * np.asarray(offset_mm)
+    return 1e3 * float(np.sqrt(np.mean(np.sum(residual**2, axis=1))))
 
 
 def table(rows: list[dict[str, Any]]) -> str:
     """The markdown table of the study."""
-    lines = ["| variant | nominal residual | untaught twin: replay gap / compensated | learned twin: replay gap "
-             "(predicted) / compensated |", "|---|---|---|---|"]
+    lines = ["| variant | nominal residual | untaught twin: replay gap; compensated | learned twin: replay gap "
+             "(predicted); compensated | the same less the tracker offset `learn` found |", "|---|---|---|---|---|"]
     for r in rows:
         def res(key: str) -> str:
             return f"{r[key]['residual_rms_mm']:.3f} mm (max {r[key]['residual_max_mm']:.2f})"
@@ -117,11 +131,12 @@ def table(rows: list[dict[str, Any]]) -> str:
             return f"{r[key]['position_rms_mm']:.3f} mm / {r[key]['force_rms_n']:.0f} N"
 
         lines.append(f"| {r['variant']} | {res('nominal')} | {gap('replay_untaught')}; {res('untaught')} | "
-                     f"{gap('replay_learned')}; {res('learned')} |")
+                     f"{gap('replay_learned')}; {res('learned')} | {r['learned']['less_tracker_offset_mm']:.3f} mm |")
         if "pyramid_nominal" in r:
             lines.append(f"| {r['variant']} -> pyramid (never formed) | {res('pyramid_nominal')} | "
                          f"{gap('pyramid_replay_untaught')}; {res('pyramid_untaught')} | "
-                         f"{gap('pyramid_replay_learned')}; {res('pyramid_learned')} |")
+                         f"{gap('pyramid_replay_learned')}; {res('pyramid_learned')} | "
+                         f"{r['pyramid_learned']['less_tracker_offset_mm']:.3f} mm |")
     return "\n".join(lines) + "\n"
 
 
@@ -129,6 +144,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("out", type=Path)
     parser.add_argument("--variants", default=",".join(VARIANTS))
+    parser.add_argument("--doc", type=Path, help="write the table into this page between its learn-table markers")
     args = parser.parse_args()
     rows = []
     for name in args.variants.split(","):
@@ -137,6 +153,12 @@ def main() -> None:
     (args.out / "learn_cell.json").write_text(json.dumps(rows, indent=1, default=str))
     (args.out / "learn_cell.md").write_text(table(rows))
     print(table(rows))
+    if args.doc is not None:
+        text = args.doc.read_text()
+        begin = text.index("<!-- learn-table:begin")
+        begin = text.index("\n", begin) + 1
+        end = text.index("<!-- learn-table:end")
+        args.doc.write_text(text[:begin] + table(rows) + text[end:])
 
 
 if __name__ == "__main__":

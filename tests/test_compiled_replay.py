@@ -263,3 +263,19 @@ def test_the_isf_model_at_reversals_replays_compiled_to_the_python_loops_equilib
         # is below 25 % of its straight-run value (0.8 of it without the release), a sample later it opposes the
         # new travel
         assert abs(fx[r + 1]) < 0.25 * abs(fx[r - 1]) and np.sign(fx[r + 2]) == -np.sign(fx[r - 1])
+
+
+def test_the_learned_force_model_replays_compiled_to_the_python_loops_equilibria() -> None:
+    """The `learned` model (the ISF model with membrane terms learned from a cell) runs in the ISF kernel with its
+    terms: a cone and the groove's first passes give the Python loop's tips and forces."""
+    from twin.process.path import GrooveSpec, groove_path
+    from twin.process.shapes import PartSpec, part_path
+
+    fit = (("prior_weight", -0.1), ("side_membrane_n", 2200.0), ("side_cubic_n", 1300.0),
+           ("ahead_membrane_n", 100.0), ("mu_eff", 0.1), ("mu_radial", 0.05))
+    twin = TwinSpec(process=Process(force_model="learned", force_fit=fit)).build()
+    for path in (part_path(PartSpec(depth_m=3e-3, top_half_width_m=15e-3)),
+                 groove_path(GrooveSpec(passes=3, depth_m=0.003, bottom_length_m=0.068))):
+        fast, reference = _both(twin, path.t_s, path.p_sheet_m)
+        _assert_same(fast, reference, gain_from=2)
+        assert np.max(fast.f_sheet_n[:, 2]) > 300.0

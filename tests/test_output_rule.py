@@ -46,6 +46,10 @@ CASES: dict[str, list[tuple[list[str], dict[str, str], str]]] = {
          {"D/c.csv": "t_s,x_mm,y_mm,z_mm\n"}, "--out D"),
         (["--scenario", "nominal", "--seed", "1", "--out", "o", "--json", "o"], {}, "--json o"),
     ],
+    "learn": [
+        (["RUN", "--write-model", "RUN/meta.json"], RUN, "--write-model RUN/meta.json"),
+        (["RUN", "--write-model", "m.json", "--json", "m.json"], RUN, "--json m.json"),
+    ],
     "replay": [
         (["RUN", "--json", "RUN/meta.json"], RUN, "--json RUN/meta.json"),
         (["RUN", "--rrd", "RUN/commanded.csv"], RUN, "--rrd RUN/commanded.csv"),

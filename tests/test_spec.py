@@ -45,7 +45,7 @@ def test_a_spec_names_its_robot_by_name_or_path_and_refuses_an_unknown_one() -> 
         ({"joint_stiffness_nm_per_rad": (1e6,) * 5}, r"joint stiffness must be 6 finite values > 0 \[N·m/rad\], one per "
          r"joint of tx200 \(joint1, joint2, joint3, joint4, joint5, joint6\)"),
         ({"joint_friction_nm": (0.0, -1.0, 0.0, 0.0, 0.0, 0.0)}, r"joint friction must be 6 finite values >= 0"),
-        ({"process": Process(force_model="fem")}, r"unknown force model 'fem'; registered: \['isf', 'table'\]"),
+        ({"process": Process(force_model="fem")}, r"unknown force model 'fem'; registered: \['isf', 'learned', 'table'\]"),
         ({"effects": {"force_scale": 2.0}}, r"TwinSpec.effects = .*expected a Effects"),
     ],
 )

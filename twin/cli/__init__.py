@@ -146,13 +146,17 @@ def check_command_outputs(parser: argparse.ArgumentParser, args: argparse.Namesp
     outputs: list[tuple[str, str | Path]] = []
     for action in sub.choices[args.command]._actions:
         value = getattr(args, action.dest, None)
-        if action.dest in ("help", "_run") or action.choices is not None or not isinstance(value, str | Path):
+        values = value if isinstance(value, list) else [value]  # `nargs` positionals (`learn RUN [RUN ...]`)
+        if action.dest in ("help", "_run") or action.choices is not None:
             continue
         name = action.option_strings[-1] if action.option_strings else action.dest.upper()
-        if name in OUTPUT_OPTIONS:
-            outputs.append((name, value))
-        elif Path(value).exists() or Path(value).is_symlink():
-            inputs.append((name, value))
+        for item in values:
+            if not isinstance(item, str | Path):
+                continue
+            if name in OUTPUT_OPTIONS:
+                outputs.append((name, item))
+            elif Path(item).exists() or Path(item).is_symlink():
+                inputs.append((name, item))
     replaced = {option for command, option in REPLACED_FOLDERS if command == args.command}
     folders = {option for command, option in FOLDER_OUTPUTS if command == args.command}
     check_outputs(inputs, outputs, replaced=replaced, folders=folders)

@@ -15,7 +15,8 @@ hardening). With w = 1 and the rest 0 it is the ISF model itself (its prior); wh
 fits from a run's F/T stream is marked fitted wherever it is reported. Every feature reads the formed surface,
 so the learned force carries from one part shape to another (learned on a cone, used on a pyramid).
 
-The model runs in the twin's Python loop (no compiled kernel of its own: `ForceField.kernel()` is None for it).
+Its compiled kernel is the ISF model's (`twin.sim.compiled.isf`), which adds these terms where the model
+carries them; `tests/test_compiled_replay.py` holds the two loops together.
 """
 
 from __future__ import annotations
@@ -80,7 +81,7 @@ def _membrane(s: float, radius: float) -> tuple[float, float, float, float]:
 
 
 class LearnedForceField(IsfForceField):
-    """The ISF model with learned membrane terms (module docstring); no compiled kernel.
+    """The ISF model with learned membrane terms (module docstring); compiled kernel `isf`.
 
     Args:
         params: ISF model constants (level, in-plane ratios, ...), possibly fitted too.
@@ -88,7 +89,7 @@ class LearnedForceField(IsfForceField):
         half_size_m: Half-extent (x, y) of the modelled sheet [m].
     """
 
-    compiled_kernel: ClassVar[str | None] = None
+    compiled_kernel: ClassVar[str | None] = "isf"
 
     def __init__(self, params: IsfForceParams | None = None, weights: LearnedWeights | None = None,
                  half_size_m: tuple[float, float] = (0.12, 0.12)) -> None:

@@ -32,7 +32,7 @@ from twin.sim.compiled.work import work_arrays
 from twin.sim.result import LoopOutput
 
 #: The numba kernel modules (their sources together key the kernel cache).
-KERNEL_SOURCES = ("chain.py", "field.py", "isf.py", "loop.py", "work.py")
+KERNEL_SOURCES = ("chain.py", "field.py", "isf.py", "isf_map.py", "learned.py", "loop.py", "work.py")
 
 
 def drop_stale_kernels(here: Path = Path(__file__).parent) -> bool:

@@ -14,32 +14,38 @@ the track entries from `state[Q_HEAD]` on, as the Python map's queue holds them.
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
 
 import numpy as np
 from numba import njit
 
-from twin.process import isf_force, sliding
+from twin.process import isf_force, learned_force, sliding
 from twin.process.heightmap import SUBSTEPS
 from twin.process.isf_force import IsfForceField, IsfMotion
-
-# state slots
-DIR_X, DIR_Y, HAS_LAST, LAST_X, LAST_Y, LAST_Z, ALPHA, COUNT, Q_HEAD, TRAVEL, SIDE = range(11)
-# track columns: x, y, z, f_z, parent, travel at the commit, has a patch on the grid
-TX, TY, TZ, TF, TP, TS, TW = range(7)
-
-
-class IsfArrays(NamedTuple):
-    """An `IsfForceField` and its height map as flat arrays."""
-
-    z_met: np.ndarray  # (ny, nx) met surface [m] (the Python map's array)
-    owner: np.ndarray  # (ny, nx) owner commit, -1 never formed (the Python map's array)
-    templates: np.ndarray  # (S+1, S+1, w, w) R - sqrt(R² - ρ²) per snapped sub-cell offset, inf outside [m]
-    track: np.ndarray  # (capacity, 7) commits
-    grid: np.ndarray  # (x0, y0, h, nx, ny, half window, lag, substeps)
-    prm: np.ndarray  # (base, α_max, D0, Δz_min, k_unload, μ_t, L_f, alpha length, wall baseline, max layers, L_r,
-    #                   μ_r, least wall run, R)
-    state: np.ndarray  # (11,) see the slots above
+from twin.process.learned_force import LearnedForceField
+from twin.sim.compiled.isf_map import (
+    ALPHA,
+    COUNT,
+    DIR_X,
+    DIR_Y,
+    HAS_LAST,
+    LAST_X,
+    LAST_Y,
+    LAST_Z,
+    Q_HEAD,
+    SIDE,
+    TF,
+    TP,
+    TRAVEL,
+    TS,
+    TW,
+    TX,
+    TY,
+    TZ,
+    IsfArrays,
+    met_height,
+    met_owner,
+)
+from twin.sim.compiled.learned import learned_terms
 
 
 def isf_arrays(field: IsfForceField, capacity: int) -> IsfArrays | None:
@@ -54,6 +60,7 @@ def isf_arrays(field: IsfForceField, capacity: int) -> IsfArrays | None:
         field.base_fz_n, p.wall_angle_max_deg, p.build_up_m, p.step_min_m, p.k_unload_n_per_m, p.mu_eff,
         p.direction_length_m, isf_force.ALPHA_LENGTH_M, isf_force.WALL_BASELINE_M, float(isf_force.WALL_MAX_LAYERS),
         sliding.RELEASE_LENGTH_M, p.mu_radial, isf_force.WALL_RUN_MIN_M, p.tool_radius_m,
+        *_learned_prm(field),
     ])
     state = np.zeros(11)
     state[ALPHA] = motion.wall_angle_deg
@@ -64,10 +71,17 @@ def isf_arrays(field: IsfForceField, capacity: int) -> IsfArrays | None:
     )
 
 
+def _learned_prm(field: IsfForceField) -> list[float]:
+    """The learned terms' slots of `prm` (`twin.process.learned_force`): a flag, the weights, reach and cap."""
+    if isinstance(field, LearnedForceField):
+        return [1.0, *field.weights.as_array(), learned_force.REACH, learned_force.CAP]
+    return [0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 1.0]
+
+
 def idle_isf_arrays() -> IsfArrays:
     """A placeholder of the right types for a replay on the table field (never read)."""
     return IsfArrays(np.zeros((2, 2)), np.full((2, 2), -1, dtype=np.int64), np.zeros((1, 1, 1, 1)), np.zeros((1, 7)),
-                     np.zeros(8), np.zeros(14), np.zeros(11))
+                     np.zeros(8), np.zeros(21), np.zeros(11))
 
 
 def write_back(field: IsfForceField, arrays: IsfArrays) -> None:
@@ -79,30 +93,6 @@ def write_back(field: IsfForceField, arrays: IsfArrays) -> None:
     step = math.dist(tuple(track[count - 2, :3]), tuple(track[count - 1, :3])) if count >= 2 else 0.0
     field.restore(IsfMotion((float(st[DIR_X]), float(st[DIR_Y])), last, float(st[ALPHA]), step,
                             float(st[SIDE])))
-
-
-@njit(cache=True)
-def _met_height(M: IsfArrays, x: float, y: float) -> tuple:
-    """`HeightMap.met_height`: bilinear value and slopes, clamped at the grid edge."""
-    x0, y0, h, nx, ny = M.grid[0], M.grid[1], M.grid[2], int(M.grid[3]), int(M.grid[4])
-    u = min(max((x - x0) / h, 0.0), nx - 1.000000001)
-    v = min(max((y - y0) / h, 0.0), ny - 1.000000001)
-    i, j = int(u), int(v)
-    fu, fv = u - i, v - j
-    t = M.z_met
-    a, b, c, d = t[j, i], t[j, i + 1], t[j + 1, i], t[j + 1, i + 1]
-    value = (a * (1 - fu) + b * fu) * (1 - fv) + (c * (1 - fu) + d * fu) * fv
-    return value, ((b - a) * (1 - fv) + (d - c) * fv) / h, ((c - a) * (1 - fu) + (d - b) * fu) / h
-
-
-@njit(cache=True)
-def _met_owner(M: IsfArrays, x: float, y: float) -> int:
-    x0, y0, h, nx, ny = M.grid[0], M.grid[1], M.grid[2], int(M.grid[3]), int(M.grid[4])
-    ix = int((x - x0) / h + 0.5)
-    iy = int((y - y0) / h + 0.5)
-    if 0 <= ix < nx and 0 <= iy < ny and x >= x0 and y >= y0:
-        return M.owner[iy, ix]
-    return -1
 
 
 @njit(cache=True)
@@ -119,7 +109,7 @@ def _scallop(radius: float, dz: float, sin_a: float) -> tuple:
 def _fz(M: IsfArrays, x: float, y: float, z: float) -> tuple:
     """`IsfForceField._fz`: (Fz, dFz/dx, dFz/dy, dFz/dz) [N, N/m]."""
     base, D0, dmin, k_unload, radius = M.prm[0], M.prm[2], M.prm[3], M.prm[4], M.prm[13]
-    s, sx, sy = _met_height(M, x, y)
+    s, sx, sy = met_height(M, x, y)
     dh = s - z
     alpha = M.state[ALPHA]
     depth = max(-z, 0.0)
@@ -138,14 +128,16 @@ def _fz(M: IsfArrays, x: float, y: float, z: float) -> tuple:
     else:
         f0 = g * (1e3 * _scallop(radius, dmin, sin_a)[0]) ** 0.09
         lin, dlin_ddh = f0 * build + k_unload * dh, k_unload
-    dlin_dz = -dlin_ddh + f0 * dbuild_dz
+    gx, gy, gz = dlin_ddh * sx, dlin_ddh * sy, -dlin_ddh + f0 * dbuild_dz
+    if M.prm[14] != 0.0:
+        lin, gx, gy, gz = learned_terms(M, x, y, z, lin, gx, gy, gz)
     w = 5.0  # the softplus width of `twin.process.isf_force`
     if lin > 30.0 * w:
         fz, slope = lin, 1.0
     else:
         ex = math.exp(lin / w)
         fz, slope = w * math.log1p(ex), ex / (1.0 + ex)
-    return fz, slope * dlin_ddh * sx, slope * dlin_ddh * sy, slope * dlin_dz
+    return fz, slope * gx, slope * gy, slope * gz
 
 
 @njit(cache=True)
@@ -287,7 +279,7 @@ def isf_advance_from(M: IsfArrays, x: float, y: float, z: float, f_z: float, vx:
     if st[HAS_LAST] != 0.0:
         step = math.sqrt((x - st[LAST_X]) ** 2 + (y - st[LAST_Y]) ** 2 + (z - st[LAST_Z]) ** 2)
     st[HAS_LAST], st[LAST_X], st[LAST_Y], st[LAST_Z] = 1.0, x, y, z
-    owner = _met_owner(M, x, y)
+    owner = met_owner(M, x, y)
     alpha, nx, ny = _wall_angle(M, owner, x, y, z)
     if not math.isnan(alpha):
         speed = math.hypot(vx, vy)
