@@ -123,19 +123,19 @@ def table(rows: list[dict[str, Any]]) -> str:
     """The markdown table of the study."""
     lines = ["| variant | nominal residual | untaught twin: replay gap; compensated | learned twin: replay gap "
              "(predicted); compensated | the same less the tracker offset `learn` found |", "|---|---|---|---|---|"]
+    def res(r: dict[str, Any], key: str) -> str:
+        return f"{r[key]['residual_rms_mm']:.3f} mm (max {r[key]['residual_max_mm']:.2f})"
+
+    def gap(r: dict[str, Any], key: str) -> str:
+        return f"{r[key]['position_rms_mm']:.3f} mm / {r[key]['force_rms_n']:.0f} N"
+
     for r in rows:
-        def res(key: str) -> str:
-            return f"{r[key]['residual_rms_mm']:.3f} mm (max {r[key]['residual_max_mm']:.2f})"
-
-        def gap(key: str) -> str:
-            return f"{r[key]['position_rms_mm']:.3f} mm / {r[key]['force_rms_n']:.0f} N"
-
-        lines.append(f"| {r['variant']} | {res('nominal')} | {gap('replay_untaught')}; {res('untaught')} | "
-                     f"{gap('replay_learned')}; {res('learned')} | {r['learned']['less_tracker_offset_mm']:.3f} mm |")
+        lines.append(f"| {r['variant']} | {res(r, 'nominal')} | {gap(r, 'replay_untaught')}; {res(r, 'untaught')} | "
+                     f"{gap(r, 'replay_learned')}; {res(r, 'learned')} | {r['learned']['less_tracker_offset_mm']:.3f} mm |")
         if "pyramid_nominal" in r:
-            lines.append(f"| {r['variant']} -> pyramid (never formed) | {res('pyramid_nominal')} | "
-                         f"{gap('pyramid_replay_untaught')}; {res('pyramid_untaught')} | "
-                         f"{gap('pyramid_replay_learned')}; {res('pyramid_learned')} | "
+            lines.append(f"| {r['variant']} -> pyramid (never formed) | {res(r, 'pyramid_nominal')} | "
+                         f"{gap(r, 'pyramid_replay_untaught')}; {res(r, 'pyramid_untaught')} | "
+                         f"{gap(r, 'pyramid_replay_learned')}; {res(r, 'pyramid_learned')} | "
                          f"{r['pyramid_learned']['less_tracker_offset_mm']:.3f} mm |")
     return "\n".join(lines) + "\n"
 
