@@ -63,8 +63,7 @@ def summary_lines(result: Any) -> list[str]:
     lines = [
         f"learned from {len(result.before)} run(s) (fitted: K_q, friction and the sheet come from these runs)",
         f"  robot: K_q [kN·m/rad] {'; '.join(joints)}",
-        f"  robot: joint friction [N·m] {friction}; servo lag {1e3 * robot.lag_s:.0f} ms (not used by the "
-        f"quasi-static twin); tracker offset ({', '.join(f'{v:.3f}' for v in robot.offset_mm)}) mm (not a robot "
+        f"  robot: joint friction [N·m] {friction}; {_servo_words(robot)}; tracker offset ({', '.join(f'{v:.3f}' for v in robot.offset_mm)}) mm (not a robot "
         "effect: a registration error of the tracker)",
         "  robot's part of the gap (the twin's robot driven by the measured forces): "
         + ", ".join(f"{a:.3f} -> {b:.3f} mm" for a, b in zip(robot.rms_prior_mm, robot.rms_after_mm, strict=True)),
@@ -84,6 +83,15 @@ def summary_lines(result: Any) -> list[str]:
     return lines
 
 
+def _servo_words(robot: Any) -> str:
+    if robot.servo is None:
+        return "no servo transient seen"
+    share = ", ".join(f"j{j + 1} {cs * k:.2f}" for j, (cs, k) in enumerate(
+        zip(robot.servo.compliance_rad_per_nm, robot.k_q_nm_per_rad, strict=True)) if cs != 0)
+    return (f"servo transient over {1e3 * robot.servo.time_constant_s:.0f} ms, its compliance over the joint's "
+            f"{share} (negative: the deflection lags the force)")
+
+
 def payload(result: Any) -> dict[str, Any]:
     """The `--json` document."""
     robot, sheet = result.robot, result.sheet
@@ -95,7 +103,10 @@ def payload(result: Any) -> dict[str, Any]:
         "robot": {
             "k_q_nm_per_rad": robot.k_q_nm_per_rad, "k_q_std_nm_per_rad": robot.std_nm_per_rad,
             "prior_k_q_nm_per_rad": robot.prior_nm_per_rad, "observable": np.asarray(robot.observable).tolist(),
-            "friction_nm": robot.friction_nm, "servo_lag_s": robot.lag_s, "tracker_offset_mm": robot.offset_mm,
+            "friction_nm": robot.friction_nm, "tracker_offset_mm": robot.offset_mm,
+            "servo": None if robot.servo is None else {
+                "compliance_rad_per_nm": list(robot.servo.compliance_rad_per_nm),
+                "time_constant_s": robot.servo.time_constant_s},
             "gap_measured_forces_prior_mm": list(robot.rms_prior_mm),
             "gap_measured_forces_learned_mm": list(robot.rms_after_mm),
         },

@@ -10,7 +10,8 @@ read with `--model`:
                  "history": null | {"file": ..., "symmetry": "half", "unchecked_symmetry": false}},
      "placement": {"origin_base_mm": null, "yaw_deg": 0.0},
      "effects": {"lost_motion": 0.15}, "units": {"lost_motion": "mrad"}, "lost_motion_takeup_mm": 2.0,
-     "joint_stiffness_nm_per_rad": [...], "joint_friction_nm": [...], "note": "..."}
+     "joint_stiffness_nm_per_rad": [...], "joint_friction_nm": [...],
+     "servo": {"compliance_rad_per_nm": [...], "time_constant_s": ...} (learned by `learn`), "note": "..."}
 
 Every key but `format` may be left out (the default cell's value); a `material` of the library
 (`tx200-twin materials`) without `tensile_strength_mpa` takes the library's R_m, any other material (a user's)
@@ -34,6 +35,7 @@ from twin.process.placement import Placement
 from twin.process.process_file import RECORD_KEYS, process_from_record
 from twin.robot.description import load_robot, shipped_robots
 from twin.sim.effects import EFFECTS, LOST_MOTION_TAKEUP_M, Effects
+from twin.sim.servo import ServoTransient
 from twin.sim.spec import TwinSpec
 
 MODEL_FORMAT = "tx200-twin-model/2"
@@ -71,6 +73,9 @@ def model_payload(spec: TwinSpec, note: str = "") -> dict[str, Any]:
         payload["joint_stiffness_nm_per_rad"] = spec.joint_stiffness
     if spec.joint_friction is not None:
         payload["joint_friction_nm"] = spec.joint_friction
+    if spec.servo is not None:
+        payload["servo"] = {"compliance_rad_per_nm": list(spec.servo.compliance_rad_per_nm),
+                            "time_constant_s": spec.servo.time_constant_s}
     return payload
 
 
@@ -107,6 +112,7 @@ def read_model_file(path: str | Path) -> TwinSpec:
             effects=effects,
             joint_stiffness_nm_per_rad=payload.get("joint_stiffness_nm_per_rad"),
             joint_friction_nm=payload.get("joint_friction_nm"),
+            servo=_servo(path, payload.get("servo")),
         )
     except DataFileError:
         raise
@@ -143,6 +149,16 @@ def _process(path: Path, entry: Any) -> Process:
         history=loaded,
         force_fit=_force_fit(path, entry.get("force_fit")),
     )
+
+
+def _servo(path: Path, entry: Any) -> ServoTransient | None:
+    """The `servo` object (`twin.sim.servo`), or None."""
+    if entry is None:
+        return None
+    if not isinstance(entry, Mapping) or set(entry) != {"compliance_rad_per_nm", "time_constant_s"}:
+        raise DataFileError(path, f"servo = {entry!r}: expected an object with compliance_rad_per_nm (a list, one "
+                            "per arm joint) and time_constant_s")
+    return ServoTransient(tuple(entry["compliance_rad_per_nm"]), float(entry["time_constant_s"]))
 
 
 def _force_fit(path: Path, entry: Any) -> tuple[tuple[str, float], ...]:

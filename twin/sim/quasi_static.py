@@ -215,11 +215,16 @@ class Twin:
         if not tip_gains(out.jac, np.ascontiguousarray(k_diag, dtype=float), out.stiffness, tip_gain):
             raise np.linalg.LinAlgError("singular tool-tip gain I - J K⁻¹ Jᵀ S")
         formed_x, formed_z = self.field.x_grid_m, self.field.formed_z_m
+        p_sheet = out.p_sheet_m
+        if self.spec.servo is not None:  # the servo's transient, after the quasi-static solve (`twin.sim.servo`)
+            J = self.kinematics.jacobians(q_ik)[:, :3, :]
+            J_sheet = np.einsum("ki,nkj->nij", self.R_base_sheet, J)
+            p_sheet = p_sheet + self.spec.servo.deflection_m(t_s, out.f_sheet_n, J_sheet)
         return SimResult(
             t_s=t_s,
             p_cmd_sheet_m=p_cmd,
             p_unloaded_sheet_m=out.p_unloaded_sheet_m,
-            p_sheet_m=out.p_sheet_m,
+            p_sheet_m=p_sheet,
             f_sheet_n=out.f_sheet_n,
             qpos=out.qpos,
             q_ik=q_ik,

@@ -2,8 +2,8 @@
 
 A spec holds the robot (`twin.robot.description`), the process (sheet, tool, force model and its FE history,
 `twin.process.description`), the sheet's placement in the robot base, the effects the twin knows
-(`twin.sim.effects`) and overrides of the joint springs K_q and the joint friction (None: the robot model's
-own). Every stage that simulates takes a spec (or a twin built from one); the model file is its saved form
+(`twin.sim.effects`), overrides of the joint springs K_q and the joint friction (None: the robot model's
+own) and the servo's transient compliance where one was learned. Every stage that simulates takes a spec (or a twin built from one); the model file is its saved form
 (`twin.sim.model_file`). Defaults are the thesis's cell: the TX200, the groove's table force field, the cell's
 sheet origin.
 """
@@ -23,6 +23,7 @@ from twin.process.force_models import force_model
 from twin.process.placement import Placement
 from twin.robot.description import RobotDescription, load_robot
 from twin.sim.effects import Effects
+from twin.sim.servo import ServoTransient
 
 if TYPE_CHECKING:
     from twin.sim.quasi_static import Twin
@@ -39,6 +40,7 @@ class TwinSpec:
         effects: Effects the twin carries.
         joint_stiffness_nm_per_rad: K_q per arm joint [N·m/rad]; None: the robot model's.
         joint_friction_nm: Coulomb friction per arm joint [N·m]; None: the robot model's.
+        servo: The servo's transient compliance (`twin.sim.servo`), learned from a cell; None: none.
     """
 
     robot: RobotDescription = field(default_factory=load_robot)
@@ -47,6 +49,7 @@ class TwinSpec:
     effects: Effects = field(default_factory=Effects)
     joint_stiffness_nm_per_rad: tuple[float, ...] | None = None
     joint_friction_nm: tuple[float, ...] | None = None
+    servo: ServoTransient | None = None
 
     def __post_init__(self) -> None:
         robot = load_robot(self.robot) if isinstance(self.robot, str | Path) else self.robot
@@ -57,6 +60,9 @@ class TwinSpec:
             if not isinstance(getattr(self, name), kind):
                 raise InputError(f"TwinSpec.{name} = {getattr(self, name)!r}: expected a {kind.__name__}")
         force_model(self.process.force_model)  # registered (the error lists the models)
+        if self.servo is not None and (not isinstance(self.servo, ServoTransient)
+                                       or len(self.servo.compliance_rad_per_nm) != robot.dof):
+            raise InputError(f"TwinSpec.servo = {self.servo!r}: expected a ServoTransient with {robot.dof} joints")
         object.__setattr__(self, "robot", robot)
         for name, what, unit, positive in (
             ("joint_stiffness_nm_per_rad", "joint stiffness", "N·m/rad", True),

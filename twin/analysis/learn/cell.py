@@ -1,6 +1,6 @@
 """Learn the cell: from one or more nominal runs of a cell the twin did not build, a twin of that cell.
 
-`learn` fits the robot (`twin.analysis.learn.robot`: effective joint stiffness, joint friction, servo lag,
+`learn` fits the robot (`twin.analysis.learn.robot`: joint stiffness, joint friction, the servo's transient,
 tracker offset) and the sheet (`twin.analysis.learn.sheet`: the `learned` force model's weights and in-plane
 ratios) and returns the twin's spec with them, which `twin.sim.model_file.write_model_file` saves. It reports,
 per run, the replay gap before and after (the twin's own simulation of the run's command: what compensation
@@ -64,7 +64,7 @@ def learned_spec(runs: list[Run], spec: TwinSpec) -> tuple[TwinSpec, RobotFit, S
     friction = np.where(robot.observable, robot.friction_nm, twin_friction)
     process = replace(base.process, force_model="learned", force_fit=sheet.force_fit)
     learned = base.replace(process=process, joint_stiffness_nm_per_rad=tuple(float(k) for k in robot.k_q_nm_per_rad),
-                           joint_friction_nm=tuple(float(f) for f in friction))
+                           joint_friction_nm=tuple(float(f) for f in friction), servo=robot.servo)
     return learned.replace(placement=spec.placement), robot, sheet
 
 

@@ -1,4 +1,4 @@
-"""The robot learned from a cell's runs: the compliance of every joint a run excites, and the servo's lag.
+"""The robot learned from a cell's runs: the compliance of every joint a run excites, its friction, its servo.
 
 Driven by the measured forces, a compliant arm's tool tip leaves the unloaded one by
 δp(t) = Σ_j c_j · J_j(q) · (J_j(q)ᵀ F(t)) (J_j the tool tip's translational Jacobian column of joint j, c_j its
@@ -7,12 +7,11 @@ compliance [rad/(N·m)]): linear in the c_j, whatever the part and whatever the 
 squares over the runs, each pulled towards the robot's prior 1/K_q with a prior spread of `PRIOR_SPREAD` (a
 Gaussian prior; the posterior's standard deviations are the uncertainties). A joint whose posterior spread is
 not below `OBSERVABLE_RATIO` of its prior spread is one the runs cannot observe: it is named and held at its
-prior. What a real arm adds to the gear spring shows in the fit: a servo of finite stiffness makes the
-joint softer than its gear (the fitted K_q is the arm's effective one at the process's frequencies, gear and
-servo in series), and a servo that lags lets the deflection follow the force late: the force is passed through a
-first-order lag τ, chosen on a grid by the least residual (`LAGS_S`). A constant tracker offset per axis is
-fitted beside them (a registration error of the tracker frame). The quasi-static twin takes the effective K_q;
-τ is reported (what an online compensator must lead by). `truth.json` is never read.
+prior. Beside the gear spring the same solve fits what a real arm adds: each joint's Coulomb friction against
+its motion (a deflection J_j·c_j·τ_f,j that flips with the sign of the joint's speed), the servo's transient
+compliance c_s,j on the force's high-pass F − lag_τ(F) (`twin.sim.servo`: the position loop gives way while the
+force changes and recovers over τ, picked on a grid by the least residual), and a constant tracker offset per
+axis (a registration error of the tracker frame: reported, not put into the twin). `truth.json` is never read.
 """
 
 from __future__ import annotations
@@ -25,6 +24,7 @@ from twin.base.signals import interp_rows
 from twin.errors import InputError
 from twin.runs.format import Run
 from twin.sim.quasi_static import Twin
+from twin.sim.servo import ServoTransient, lagged
 
 #: Prior spread of each joint's compliance, relative to its prior 1/K_q [-].
 PRIOR_SPREAD = 1.0
@@ -34,8 +34,8 @@ FRICTION_SPREAD_NM = 1000.0
 OBSERVABLE_RATIO = 0.5
 #: Joint speed below which the friction's sign turns smoothly (tanh) [rad/s].
 SPEED_SMOOTHING_RAD_S = 2e-4
-#: Servo lags tried [s].
-LAGS_S = (0.0, 0.005, 0.01, 0.02, 0.03, 0.05, 0.075, 0.1, 0.15)
+#: Servo time constants tried [s].
+SERVO_TIME_CONSTANTS_S = (0.01, 0.02, 0.03, 0.05, 0.075, 0.1, 0.15, 0.2, 0.3)
 
 
 class RobotRows(NamedTuple):
@@ -57,19 +57,19 @@ class RobotFit(NamedTuple):
         std_nm_per_rad: Its standard deviation (dof,) [N·m/rad] (the prior's spread where unobservable).
         prior_nm_per_rad: The robot's prior K_q (dof,) [N·m/rad].
         observable: Whether the runs observe each joint (dof,).
-        lag_s: The servo lag τ that fits best [s].
+        servo: The servo's transient compliance and time constant (`twin.sim.servo`), None where none is seen.
         friction_nm: Coulomb friction of each joint against its motion, (dof,) [N·m] (0 where unobservable).
         offset_mm: Fitted constant tracker offset per axis, sheet frame [mm].
-        rms_prior_mm: Per run, RMS of the tracker minus the twin's tool tip driven by the measured forces, prior
-            K_q, no lag, no friction: the robot's part of the replay gap [mm].
-        rms_after_mm: The same with the learned K_q, lag and offset [mm].
+        rms_prior_mm: Per run, RMS of the tracker minus the twin's tool tip driven by the measured forces, with the
+            twin's own K_q, friction and servo: the robot's part of the replay gap [mm].
+        rms_after_mm: The same with the learned K_q, friction, servo and tracker offset [mm].
     """
 
     k_q_nm_per_rad: np.ndarray
     std_nm_per_rad: np.ndarray
     prior_nm_per_rad: np.ndarray
     observable: np.ndarray
-    lag_s: float
+    servo: ServoTransient | None
     friction_nm: np.ndarray
     offset_mm: np.ndarray
     rms_prior_mm: tuple[float, ...]
@@ -94,28 +94,18 @@ def robot_rows(run: Run, twin: Twin) -> RobotRows:
                      -J_sheet * sign[:, None, :])
 
 
-def lagged(t_s: np.ndarray, values: np.ndarray, lag_s: float) -> np.ndarray:
-    """First-order lag of sampled channels (exact for a signal held between samples) [units of `values`]."""
-    if lag_s <= 0.0:
-        return values
-    out = np.empty_like(values)
-    out[0] = values[0]
-    decay = np.exp(-np.diff(t_s) / lag_s)
-    for i in range(1, len(t_s)):  # bounded: one pass over the sensor's samples
-        out[i] = decay[i - 1] * out[i - 1] + (1.0 - decay[i - 1]) * values[i - 1]
-    return out
-
-
-def design(rows: RobotRows, lag_s: float) -> np.ndarray:
-    """(3m, dof) columns of each joint's compliance for the stacked deflection (x of all samples, then y, z)."""
-    force = interp_rows(rows.t_s, rows.force_t_s, lagged(rows.force_t_s, rows.force_n, lag_s))
-    cols = np.einsum("njik,nk->nji", rows.lever, force)  # (m, dof, 3)
+def design(rows: RobotRows, servo_s: float = 0.0) -> np.ndarray:
+    """(3m, dof) columns of each joint's compliance for the stacked deflection (x of all samples, then y, z): of
+    the measured force, or with `servo_s` > 0 of its high-pass F − lag(F) (the servo's transient)."""
+    force = rows.force_n if servo_s <= 0.0 else rows.force_n - lagged(rows.force_t_s, rows.force_n, servo_s)
+    cols = np.einsum("njik,nk->nji", rows.lever, interp_rows(rows.t_s, rows.force_t_s, force))  # (m, dof, 3)
     return cols.transpose(2, 0, 1).reshape(-1, cols.shape[1])
 
 
-def _solve(runs: list[RobotRows], lag_s: float, c0: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+def _solve(runs: list[RobotRows], servo_s: float, c0: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
     """(coefficients, posterior covariance, RSS) of the regularised fit. Coefficients: the compliances c (dof),
-    the friction deflections c_j·τ_f,j (dof) [rad], a tracker offset per run and axis [m]."""
+    the friction deflections c_j·τ_f,j (dof) [rad], the servo's transient compliances c_s (dof), a tracker offset
+    per run and axis [m]."""
     dof = len(c0)
     blocks, ys = [], []
     for k, rows in enumerate(runs):
@@ -124,15 +114,15 @@ def _solve(runs: list[RobotRows], lag_s: float, c0: np.ndarray) -> tuple[np.ndar
         for a in range(3):
             extra[a * m:(a + 1) * m, 3 * k + a] = 1.0
         friction = rows.friction.transpose(1, 0, 2).reshape(-1, dof)
-        blocks.append(np.hstack([design(rows, lag_s), friction, extra]))
+        blocks.append(np.hstack([design(rows), friction, design(rows, servo_s), extra]))
         ys.append(rows.deflection_m.T.reshape(-1))
     X, y = np.vstack(blocks), np.concatenate(ys)
     # the noise level from an unregularised solve, floored at 10 µm
     sigma = max(float(np.std(y - X @ np.linalg.lstsq(X, y, rcond=1e-10)[0])), 1e-5)
     prior_precision = np.concatenate([1.0 / (PRIOR_SPREAD * c0) ** 2, 1.0 / (FRICTION_SPREAD_NM * c0) ** 2,
-                                      np.full(3 * len(runs), 1e-12)])
+                                      1.0 / (PRIOR_SPREAD * c0) ** 2, np.full(3 * len(runs), 1e-12)])
     A = X.T @ X / sigma**2 + np.diag(prior_precision)
-    b = X.T @ y / sigma**2 + prior_precision * np.concatenate([c0, np.zeros(dof + 3 * len(runs))])
+    b = X.T @ y / sigma**2 + prior_precision * np.concatenate([c0, np.zeros(2 * dof + 3 * len(runs))])
     cov = np.linalg.inv(A)
     coef = cov @ b
     return coef, cov, float(np.sum((y - X @ coef) ** 2))
@@ -142,8 +132,10 @@ def predicted_deflection(rows: RobotRows, fit: RobotFit, offset_m: np.ndarray) -
     """The learned robot's tool-tip deflection under the measured forces at the tracker's times [m], (m, 3)."""
     m = len(rows.t_s)
     c = 1.0 / fit.k_q_nm_per_rad
-    spring = (design(rows, fit.lag_s) @ c).reshape(3, m).T
-    return spring + np.einsum("nij,j->ni", rows.friction, c * fit.friction_nm) + offset_m
+    spring = (design(rows) @ c).reshape(3, m).T
+    servo = 0.0 if fit.servo is None else (design(rows, fit.servo.time_constant_s)
+                                           @ np.asarray(fit.servo.compliance_rad_per_nm)).reshape(3, m).T
+    return spring + servo + np.einsum("nij,j->ni", rows.friction, c * fit.friction_nm) + offset_m
 
 
 def fit_robot(runs: list[Run], twin: Twin) -> RobotFit:
@@ -156,7 +148,7 @@ def fit_robot(runs: list[Run], twin: Twin) -> RobotFit:
     rows = [robot_rows(run, twin) for run in runs]
     k0 = twin.joint_stiffness
     c0 = 1.0 / k0
-    best = min(LAGS_S, key=lambda lag: _solve(rows, lag, c0)[2])
+    best = min(SERVO_TIME_CONSTANTS_S, key=lambda tau: _solve(rows, tau, c0)[2])
     coef, cov, _ = _solve(rows, best, c0)
     dof = len(c0)
     c, c_std = coef[:dof], np.sqrt(np.diag(cov)[:dof])
@@ -165,9 +157,11 @@ def fit_robot(runs: list[Run], twin: Twin) -> RobotFit:
     k = 1.0 / c
     k_std = np.where(observable, c_std / c**2, PRIOR_SPREAD * k0)
     friction = np.where(observable, np.maximum(coef[dof:2 * dof], 0.0) / c, 0.0)
-    offsets = coef[2 * dof:].reshape(len(rows), 3)
-    fit = RobotFit(k, k_std, k0, observable, float(best), friction, 1e3 * offsets.mean(axis=0), (), ())
-    prior = fit._replace(k_q_nm_per_rad=k0, lag_s=0.0, friction_nm=np.zeros(dof))
+    servo_c = np.where(observable, coef[2 * dof:3 * dof], 0.0)
+    servo = ServoTransient(tuple(float(v) for v in servo_c), float(best)) if np.any(servo_c != 0) else None
+    offsets = coef[3 * dof:].reshape(len(rows), 3)
+    fit = RobotFit(k, k_std, k0, observable, servo, friction, 1e3 * offsets.mean(axis=0), (), ())
+    prior = fit._replace(k_q_nm_per_rad=k0, servo=twin.spec.servo, friction_nm=twin.joint_friction)
     prior_rms = tuple(_rms_mm(r.deflection_m - predicted_deflection(r, prior, np.zeros(3))) for r in rows)
     after_rms = tuple(_rms_mm(r.deflection_m - predicted_deflection(r, fit, off))
                       for r, off in zip(rows, offsets, strict=True))

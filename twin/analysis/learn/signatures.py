@@ -61,9 +61,13 @@ def robot_sentences(result: LearnResult, prior_friction_nm: np.ndarray) -> list[
     unseen = [str(j + 1) for j, seen in enumerate(robot.observable) if not seen]
     if unseen:
         words.append(f"joint(s) {', '.join(unseen)}: not observed by the run(s), held at their priors")
-    if robot.lag_s > 0:
-        words.append(f"the deflection follows the force {1e3 * robot.lag_s:.0f} ms late (a servo lag; the "
-                     "quasi-static twin does not take it)")
+    if robot.servo is not None:
+        seen = [f"joint {j + 1} {100 * cs / c:.0f} %" for j, (cs, c, ok) in enumerate(zip(
+            robot.servo.compliance_rad_per_nm, 1.0 / robot.k_q_nm_per_rad, robot.observable, strict=True))
+            if ok and cs != 0]
+        words.append(f"the servo gives way while the force changes and recovers over "
+                     f"{1e3 * robot.servo.time_constant_s:.0f} ms: its transient compliance is "
+                     f"{', '.join(seen)} of the joint's (negative: the deflection lags the force)")
     if float(np.linalg.norm(robot.offset_mm)) > 0.05:
         words.append(f"the tracker reads ({', '.join(f'{v:.2f}' for v in robot.offset_mm)}) mm off the tool "
                      "(a registration error of the tracker: not learned into the twin)")

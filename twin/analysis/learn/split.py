@@ -1,7 +1,8 @@
 """A run's replay gap split into the robot's part and the sheet's part.
 
-The twin's robot driven by the run's own measured forces (its compliance J·K_q⁻¹·Jᵀ at the commanded pose and
-its joint friction against the joints' motion, `twin.analysis.learn.robot`) leaves the robot's part of the gap:
+The twin's robot driven by the run's own measured forces (its compliance J·K_q⁻¹·Jᵀ at the commanded pose, its
+joint friction against the joints' motion and its servo's transient where it has one,
+`twin.analysis.learn.robot`) leaves the robot's part of the gap:
 what compliance, servo, backlash and friction the twin gets wrong. The difference between that tool tip and the
 one the twin predicts with its own forces is the sheet's part: where the forces the twin assumes move the tool
 elsewhere than the forces the cell measured.
@@ -37,8 +38,8 @@ def measured_force_tip(run: Run, twin: Twin) -> np.ndarray:
     """The twin's tool tip at the tracker's times driven by the run's measured forces, sheet frame [m]."""
     rows = robot_rows(run, twin)
     dof = len(twin.joint_stiffness)
-    own = RobotFit(twin.joint_stiffness, np.zeros(dof), twin.joint_stiffness, np.ones(dof, dtype=bool), 0.0,
-                   twin.joint_friction, np.zeros(3), (), ())
+    own = RobotFit(twin.joint_stiffness, np.zeros(dof), twin.joint_stiffness, np.ones(dof, dtype=bool),
+                   twin.spec.servo, twin.joint_friction, np.zeros(3), (), ())
     return run.tracker.values - rows.deflection_m + predicted_deflection(rows, own, np.zeros(3))
 
 
