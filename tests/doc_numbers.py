@@ -48,3 +48,30 @@ def quoted(doc: str, anchor: str, count: int) -> list[Quoted]:
         decimals = len(s.split(".")[1]) if "." in s else 0
         out.append(Quoted(float(s), 10.0 ** -decimals))
     return out
+
+
+#: How far a machine's floating point (BLAS kernel, thread count) may move a generated page's number: 2 % of it or
+#: two units of its last printed digit, whichever is larger. One rule for every generated page; its words must
+#: agree exactly.
+PAGE_REL_TOL = 0.02
+PAGE_DIGITS_TOL = 2.0
+
+
+def page_differences(expected: str, actual: str) -> list[str]:
+    """Where two renderings of a generated page differ beyond what floating point explains: words that differ,
+    or numbers further apart than `PAGE_REL_TOL` / `PAGE_DIGITS_TOL` (empty: the same page)."""
+    split = re.compile(r"((?<![\w.])[-+]?\d+(?:\.\d+)?)")
+    a, b = split.split(expected), split.split(actual)
+    if len(a) != len(b):
+        return [f"the pages have {len(a) // 2} and {len(b) // 2} numbers"]
+    out = []
+    for i, (x, y) in enumerate(zip(a, b, strict=True)):
+        if i % 2 == 0:
+            if x != y:
+                out.append(f"text {x[-40:]!r} -> {y[-40:]!r}")
+            continue
+        decimals = len(x.split(".")[1]) if "." in x else 0
+        tol = max(PAGE_REL_TOL * abs(float(x)), PAGE_DIGITS_TOL * 10.0**-decimals)
+        if abs(float(x) - float(y)) > tol:
+            out.append(f"{x} -> {y} (beyond {tol:g}) after {a[i - 1][-40:]!r}")
+    return out

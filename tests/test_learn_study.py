@@ -9,6 +9,7 @@ import re
 from pathlib import Path
 
 import pytest
+from doc_numbers import quoted
 
 _SPEC = importlib.util.spec_from_file_location(
     "learn_cell", Path(__file__).resolve().parent.parent / "experiments" / "learn_cell.py")
@@ -35,3 +36,5 @@ def test_the_pages_groove_row_is_the_one_a_fresh_run_writes(tmp_path: Path) -> N
     learned = row["learned"]["residual_rms_mm"]
     untaught = row["untaught"]["residual_rms_mm"]
     assert learned < 0.25 * untaught  # the learned twin's compensation removes most of what the untaught leaves
+    quoted("learning.md", "the groove's learned compensation leaves", 1)[0].check(
+        row["learned"]["away_from_stops_mm"], slack=3)

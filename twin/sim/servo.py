@@ -51,7 +51,7 @@ class ServoTransient:
         values = tuple(float(v) for v in self.compliance_rad_per_nm)
         if not values or not all(math.isfinite(v) for v in values):
             raise InputError(f"ServoTransient.compliance_rad_per_nm = {self.compliance_rad_per_nm!r}: expected "
-                             "finite numbers, one per arm joint")
+                             "finite numbers, one for each of the arm's joints")
         if not (math.isfinite(self.time_constant_s) and 0 < self.time_constant_s <= 10.0):
             raise InputError(f"ServoTransient.time_constant_s = {self.time_constant_s!r}: expected (0, 10] s")
         object.__setattr__(self, "compliance_rad_per_nm", values)
