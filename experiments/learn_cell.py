@@ -32,6 +32,7 @@ VARIANTS: dict[str, tuple[str, list[str], list[str], float]] = {
     "groove-stronger": ("tx200", ["--shape", "groove"], ["--neutral"], 1.3),
     "groove-backlash": ("tx200", ["--shape", "groove"], ["--neutral", "--set", "backlash_j3_mrad=0.3"], 1.0),
     "cone-kr210": ("kr210", ["--shape", "cone", "--top-width-mm", "60", "--depth-mm", "10"], ["--neutral"], 1.0),
+    "cone-tx200": ("tx200", ["--shape", "cone", "--top-width-mm", "60", "--depth-mm", "10"], ["--neutral"], 1.0),
 }
 #: Cross-part: learned from the cone variant's nominal run, compensating this part.
 PYRAMID = ["--shape", "pyramid", "--top-width-mm", "40", "--depth-mm", "6"]
@@ -87,7 +88,7 @@ def variant_study(out: Path, name: str) -> dict[str, Any]:
                                                    "measured"),
                            "learn": learned}
     targets = [("", ideal, path_args)]
-    if name == "cone-kr210":
+    if name.startswith("cone-"):
         pyramid = out / "pyramid.csv"
         _cli("path", *PYRAMID, "--robot", robot, "--out", str(pyramid))
         targets.append(("pyramid_", pyramid, PYRAMID))

@@ -111,3 +111,16 @@ def test_learn_refuses_a_run_without_forces(plant_runs: dict[int, Path], tmp_pat
     assert main(["learn", str(copy), "--write-model", str(tmp_path / "m.json")]) == 2
     assert "forces.csv" in capsys.readouterr().err
     assert not (tmp_path / "m.json").exists()
+
+
+def test_the_springback_learned_from_the_profile_predicts_another_runs_part(plant_runs: dict[int, Path],
+                                                                             learned) -> None:
+    from twin.analysis.learn.cell import replay_gap
+    from twin.sim.spec import TwinSpec
+
+    assert learned.springback is not None  # the plant's runs carry the groove's profile
+    run = read_run(plant_runs[2])
+    untaught = replay_gap(run, TwinSpec())
+    taught = replay_gap(run, learned.spec)
+    assert taught.profile_rms_mm < 0.5 * untaught.profile_rms_mm
+    assert dict(learned.spec.process.force_fit)["recovery_scale"] == learned.springback.recovery_scale

@@ -119,11 +119,12 @@ def run(args: argparse.Namespace) -> int:
 def _learn(args: argparse.Namespace, measured: Any, spec: Any) -> dict[str, Any]:
     """Learn the robot and the sheet from the run; the sentences naming them and the gaps before and after."""
     from twin.analysis.learn import learn
-    from twin.analysis.learn.signatures import robot_sentences, sheet_sentences
+    from twin.analysis.learn.signatures import robot_sentences, sheet_sentences, springback_sentences
     from twin.analysis.replay import replay
 
     result = learn([measured], spec)
-    named = sheet_sentences(measured, spec) + robot_sentences(result, spec.build().joint_friction)
+    named = (sheet_sentences(measured, spec) + springback_sentences(result)
+             + robot_sentences(result, spec.build().joint_friction))
     before, after = result.before[0], result.after[0]
     out: dict[str, Any] = {"spec": result.spec, "named": named, "run": {
         "before_mm": before.position_rms_mm, "after_mm": after.position_rms_mm,

@@ -55,13 +55,18 @@ def summary_lines(result: Any) -> list[str]:
     joints = []
     for j, (k, s, k0, seen) in enumerate(zip(robot.k_q_nm_per_rad, robot.std_nm_per_rad, robot.prior_nm_per_rad,
                                               robot.observable, strict=True)):
-        joints.append(f"j{j + 1} {k / 1e3:.0f} ± {s / 1e3:.0f} ({100 * (k0 / k - 1):+.0f} % compliance)" if seen
-                      else f"j{j + 1} {k0 / 1e3:.0f} (prior: not observed)")
+        if not seen:
+            joints.append(f"j{j + 1} {k0 / 1e3:.0f} (prior: not observed)")
+        elif s > 0.5 * k:  # its compliance is not told from 0: a lower bound
+            joints.append(f"j{j + 1} > {k / (1 + 2 * s / k) / 1e3:.0f} (stiffer than the run resolves)")
+        else:
+            joints.append(f"j{j + 1} {k / 1e3:.0f} ± {s / 1e3:.0f} ({100 * (k0 / k - 1):+.0f} % compliance)")
     friction = ", ".join(f"j{j + 1} {f:.0f}" for j, f in enumerate(robot.friction_nm) if f > 0) or "none"
     fit = dict(sheet.force_fit)
     std = dict(sheet.std)
     lines = [
-        f"learned from {len(result.before)} run(s) (fitted: K_q, friction and the sheet come from these runs)",
+        f"learned from {len(result.before)} run(s) (fitted: the robot, the sheet and its springback come from these "
+        "runs)",
         f"  robot: K_q [kN·m/rad] {'; '.join(joints)}",
         f"  robot: joint friction [N·m] {friction}; {_servo_words(robot)}; tracker offset ({', '.join(f'{v:.3f}' for v in robot.offset_mm)}) mm (not a robot "
         "effect: a registration error of the tracker)",
@@ -74,13 +79,26 @@ def summary_lines(result: Any) -> list[str]:
         "  sheet's force along the measured tip: "
         + ", ".join(f"{a:.0f} -> {b:.0f} N" for a, b in zip(sheet.rms_before_n, sheet.rms_after_n, strict=True)),
     ]
+    spring = result.springback
+    if spring is not None:
+        bound = f" (at its bound: {', '.join(spring.at_bound)})" if spring.at_bound else ""
+        lines.append(f"  springback (from the part profiles): recovery {spring.recovery_scale:.3f} x the model's "
+                     f"F/k_unload, depth kept {spring.depth_ratio:.3f}{bound}; profile "
+                     + ", ".join(f"{a:.3f} -> {b:.3f} mm" for a, b in zip(spring.rms_before_mm, spring.rms_after_mm,
+                                                                           strict=True)))
+    else:
+        lines.append("  springback: no part profile in the runs (a 3-D scan: `identify --springback RUN --design "
+                     "STL`)")
     for before, after in zip(result.before, result.after, strict=True):
-        lines.append(f"  replay {before.run}: {before.position_rms_mm:.3f} mm / {before.force_rms_n:.0f} N -> "
-                     f"{after.position_rms_mm:.3f} mm / {after.force_rms_n:.0f} N (fitted)")
+        lines.append(f"  replay {before.run}: {_gap(before)} -> {_gap(after)} (fitted)")
     for held in result.held_out:
-        lines.append(f"  left out {held.run}: {held.position_rms_mm:.3f} mm / {held.force_rms_n:.0f} N "
-                     "(predicted: learned from the other runs)")
+        lines.append(f"  left out {held.run}: {_gap(held)} (predicted: learned from the other runs)")
     return lines
+
+
+def _gap(gap: Any) -> str:
+    profile = "" if np.isnan(gap.profile_rms_mm) else f", profile {gap.profile_rms_mm:.3f} mm"
+    return f"{gap.position_rms_mm:.3f} mm / {gap.force_rms_n:.0f} N{profile}"
 
 
 def _servo_words(robot: Any) -> str:
@@ -113,5 +131,6 @@ def payload(result: Any) -> dict[str, Any]:
         "sheet": {"force_model": "learned", "force_fit": dict(sheet.force_fit), "std": dict(sheet.std),
                   "force_rms_before_n": list(sheet.rms_before_n), "force_rms_after_n": list(sheet.rms_after_n),
                   "samples": sheet.samples},
+        "springback": None if result.springback is None else result.springback._asdict(),
         "before": gaps(result.before), "after_fitted": gaps(result.after), "held_out_predicted": gaps(result.held_out),
     }

@@ -44,17 +44,20 @@ def predict_part_profile(twin: Twin, result: SimResult, effects: Effects) -> tup
     """Groove centre line after unclamping [m].
 
     The loaded, formed bottom recovers elastically by the force the tool last carried there over the sheet's
-    unloading stiffness (`twin.process.springback`, the twin's force model's own stiffness and tool); the
-    `sheet_springback` effect then takes away a further fraction of the depth.
+    unloading stiffness (`twin.process.springback`, the twin's force model's own stiffness and tool), scaled by
+    the model's `recovery_scale` and `depth_ratio` where it has them (1: none); the `sheet_springback` effect
+    then takes away a further fraction of the depth.
     """
     sheet = twin.sheet_field
+    params = getattr(sheet, "params", None)  # a model's own springback constants (`identify --springback`, `learn`)
+    recovery_scale, depth_ratio = getattr(params, "recovery_scale", 1.0), getattr(params, "depth_ratio", 1.0)
     z_after = unloaded_profile(
         result.formed_x_m,
         result.formed_z_m,
         result.p_sheet_m[:, 0],
         result.f_sheet_n[:, 2],
-        k_unload_n_per_m=sheet.k_unload,
+        k_unload_n_per_m=sheet.k_unload / recovery_scale,
         radius_m=sheet.radius,
     )
-    x_m, z_m = scanned_profile(result.formed_x_m, z_after)
+    x_m, z_m = scanned_profile(result.formed_x_m, depth_ratio * z_after)
     return x_m, z_m * (1.0 - effects.springback_ratio)

@@ -19,20 +19,23 @@ import numpy as np
 
 from twin.analysis.learn.robot import RobotFit, fit_robot
 from twin.analysis.learn.sheet import SheetFit, fit_sheet
+from twin.analysis.learn.springback import SpringbackFit, fit_springback
 from twin.analysis.replay import replay
 from twin.errors import InputError
 from twin.process.description import Process
 from twin.process.force_models import FORCE_MODELS, auto_force_model
 from twin.runs.format import Run, run_placement, run_process, run_robot
+from twin.sim.measure import predict_part_profile
 from twin.sim.spec import TwinSpec
 
 
 class Gap(NamedTuple):
-    """A run's replay gap [mm, N]."""
+    """A run's replay gap [mm, N]: tool tip, force, and the part's profile (nan without one)."""
 
     run: str
     position_rms_mm: float
     force_rms_n: float
+    profile_rms_mm: float = float("nan")
 
 
 class LearnResult(NamedTuple):
@@ -42,6 +45,7 @@ class LearnResult(NamedTuple):
         spec: The learned twin (the input spec with the learned K_q, friction and force model).
         robot: The robot's fit.
         sheet: The sheet's fit.
+        springback: The springback's fit from the runs' part profiles, None where they have none.
         before: Per run, the replay gap of the input spec.
         after: Per run, the replay gap of the learned spec, on the runs it learned from (fitted).
         held_out: Per run, the gap of a spec learned from the other runs only (predicted; empty for one run).
@@ -50,13 +54,14 @@ class LearnResult(NamedTuple):
     spec: TwinSpec
     robot: RobotFit
     sheet: SheetFit
+    springback: SpringbackFit | None
     before: tuple[Gap, ...]
     after: tuple[Gap, ...]
     held_out: tuple[Gap, ...]
 
 
-def learned_spec(runs: list[Run], spec: TwinSpec) -> tuple[TwinSpec, RobotFit, SheetFit]:
-    """The spec with the robot and the sheet learned from `runs` (no gaps computed)."""
+def learned_spec(runs: list[Run], spec: TwinSpec) -> tuple[TwinSpec, RobotFit, SheetFit, SpringbackFit | None]:
+    """The spec with the robot, the sheet and its springback learned from `runs` (no gaps computed)."""
     base = spec.replace(placement=run_placement(runs[0].meta))
     robot = fit_robot(runs, replace(base, process=replace(base.process, force_model="isf")).build())
     sheet = fit_sheet(runs, base.process)
@@ -65,7 +70,12 @@ def learned_spec(runs: list[Run], spec: TwinSpec) -> tuple[TwinSpec, RobotFit, S
     process = replace(base.process, force_model="learned", force_fit=sheet.force_fit)
     learned = base.replace(process=process, joint_stiffness_nm_per_rad=tuple(float(k) for k in robot.k_q_nm_per_rad),
                            joint_friction_nm=tuple(float(f) for f in friction), servo=robot.servo)
-    return learned.replace(placement=spec.placement), robot, sheet
+    springback = fit_springback(runs, learned)
+    if springback is not None:
+        fit = (*sheet.force_fit, ("recovery_scale", springback.recovery_scale),
+               ("depth_ratio", springback.depth_ratio))
+        learned = learned.replace(process=replace(process, force_fit=fit))
+    return learned.replace(placement=spec.placement), robot, sheet, springback
 
 
 def learn(runs: list[Run], spec: TwinSpec | None = None) -> LearnResult:
@@ -87,15 +97,15 @@ def learn(runs: list[Run], spec: TwinSpec | None = None) -> LearnResult:
             raise InputError(f"run {run.directory} was made by another robot or at another placement than "
                              f"{runs[0].directory}: learn from one cell's runs at a time")
     spec = (spec or TwinSpec(robot=robot, process=declared_process(runs[0]))).replace(placement=placement)
-    learned, robot_fit, sheet_fit = learned_spec(runs, spec)
-    before = tuple(_gap(run, spec) for run in runs)
-    after = tuple(_gap(run, learned) for run in runs)
+    learned, robot_fit, sheet_fit, springback_fit = learned_spec(runs, spec)
+    before = tuple(replay_gap(run, spec) for run in runs)
+    after = tuple(replay_gap(run, learned) for run in runs)
     held: list[Gap] = []
     if len(runs) > 1:
         for k, run in enumerate(runs):
             others = [r for i, r in enumerate(runs) if i != k]
-            held.append(_gap(run, learned_spec(others, spec)[0]))
-    return LearnResult(learned, robot_fit, sheet_fit, before, after, tuple(held))
+            held.append(replay_gap(run, learned_spec(others, spec)[0]))
+    return LearnResult(learned, robot_fit, sheet_fit, springback_fit, before, after, tuple(held))
 
 
 def declared_process(run: Run) -> Process:
@@ -107,6 +117,14 @@ def declared_process(run: Run) -> Process:
     return replace(process, force_model=name)
 
 
-def _gap(run: Run, spec: TwinSpec) -> Gap:
-    metrics = replay(run, spec.replace(placement=run_placement(run.meta))).metrics
-    return Gap(str(run.directory), float(metrics["position_rms_mm"]), float(metrics.get("force_rms_n", np.nan)))
+def replay_gap(run: Run, spec: TwinSpec) -> Gap:
+    """The run replayed on `spec` (at the run's placement): tool tip, force and profile gaps."""
+    twin = spec.replace(placement=run_placement(run.meta)).build()
+    replayed = replay(run, twin)
+    metrics = replayed.metrics
+    profile = float("nan")
+    if run.part_profile is not None:
+        x, z = predict_part_profile(twin, replayed.sim, twin.effects)
+        profile = 1e3 * float(np.sqrt(np.mean((np.interp(run.part_profile[0], x, z) - run.part_profile[1]) ** 2)))
+    return Gap(str(run.directory), float(metrics["position_rms_mm"]), float(metrics.get("force_rms_n", np.nan)),
+               profile)

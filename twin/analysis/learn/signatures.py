@@ -44,6 +44,17 @@ def sheet_sentences(run: Run, prior: TwinSpec) -> list[str]:
     ]
 
 
+def springback_sentences(result: LearnResult) -> list[str]:
+    """How far the part springs back against the model, where the runs had a part profile."""
+    spring = result.springback
+    if spring is None:
+        return []
+    return [f"the part springs back {spring.recovery_scale:.2f} x the model's elastic recovery and keeps "
+            f"{100 * spring.depth_ratio:.1f} % of its depth (profile gap "
+            + ", ".join(f"{a:.2f} -> {b:.2f} mm" for a, b in zip(spring.rms_before_mm, spring.rms_after_mm,
+                                                                   strict=True)) + ")"]
+
+
 def robot_sentences(result: LearnResult, prior_friction_nm: np.ndarray) -> list[str]:
     """The joints that changed, the friction, the lag and the tracker offset learned."""
     robot = result.robot
