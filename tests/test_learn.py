@@ -124,3 +124,19 @@ def test_the_springback_learned_from_the_profile_predicts_another_runs_part(plan
     taught = replay_gap(run, learned.spec)
     assert taught.profile_rms_mm < 0.5 * untaught.profile_rms_mm
     assert dict(learned.spec.process.force_fit)["recovery_scale"] == learned.springback.recovery_scale
+
+
+def test_discrepancy_learns_what_no_family_explains_and_shows_it_on_another_run(
+        plant_runs: dict[int, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    model, report = tmp_path / "cell.json", tmp_path / "d.json"
+    assert main(["discrepancy", str(plant_runs[1]), "--held-out", str(plant_runs[2]), "--model-out", str(model),
+                 "--json", str(report)]) == 0
+    out = capsys.readouterr().out
+    data = json.loads(report.read_text())
+    assert data["effect"] == "unexplained" or "unexplained" in out
+    learned = data["learned"]
+    assert any(s.startswith("the sheet pushes") and "less" in s for s in learned["named"])  # the plant's is softer
+    assert any("against the travel" in s for s in learned["named"])
+    held = learned["held_out"]
+    assert held["after_mm"] < 0.25 * held["before_mm"] and held["after_n"] < 0.25 * held["before_n"]
+    assert json.loads(model.read_text())["process"]["force_model"] == "learned"
