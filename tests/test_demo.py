@@ -6,7 +6,7 @@ import json
 from pathlib import Path
 
 import pytest
-from doc_numbers import page_differences
+from doc_numbers import page_differences, quoted
 from rerun.chunk import RrdReader
 
 from twin.cli import main
@@ -40,7 +40,9 @@ def test_demo_writes_report_figures_and_runs_without_truth_leaking(demo_dir: Pat
 
 def test_demo_tells_the_thesis_story(demo_dir: Path) -> None:
     report = json.loads((demo_dir / "report.json").read_text())
-    assert 1.0 <= report["nominal"]["deflection_max_mm"] <= 4.0  # 3.25: calibrated, 1.7 mm/kN along x
+    # the README's number (calibrated, 1.7 mm/kN along x), within what floating point moves it
+    documented = quoted("README.md", "largest deviation, measured − commanded |", 1)[0]
+    documented.check(report["nominal"]["deflection_max_mm"], slack=5)
     assert report["thesis_compensation"]["gain"] == pytest.approx(0.5, abs=0.02)
     assert report["check_thesis"]["gain"] == pytest.approx(0.5, abs=0.15)
     assert "half" in report["check_thesis"]["diagnosis"]

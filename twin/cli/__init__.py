@@ -109,7 +109,8 @@ def build_parser() -> argparse.ArgumentParser:
     """Build the top-level parser with one sub-parser per command."""
     parser = argparse.ArgumentParser(
         prog="tx200-twin",
-        description="MuJoCo digital twin of a compliant Staubli TX200 forming a groove in sheet metal.",
+        description="MuJoCo digital twin of a compliant robot forming sheet metal incrementally (ISF): any part, "
+        "any robot; replay, learn, identify, compensate, check.",
         epilog=EXIT_CODES,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
