@@ -51,6 +51,21 @@ def test_read_table_raises_naming_file_and_row(tmp_path: Path, text: str, match:
     assert str(path) in str(info.value)
 
 
+def test_the_plain_and_the_row_by_row_reading_give_the_same_numbers(tmp_path: Path) -> None:
+    """A plain numeric CSV is parsed at once; one with a quoted field, spaces or a short comment row by row: the
+    same values either way, bit for bit."""
+    rng = np.random.default_rng(3)
+    rows = [f"{t:.6f},{x:.4f}, {y:.9e} ,7" for t, x, y in rng.normal(size=(200, 3))]
+    plain = read_table(_write(tmp_path / "plain.csv", "t_s,x_mm,y_mm,k\n" + "\n".join(rows) + "\n"),
+                       ("t_s", "x_mm", "y_mm"))
+    quoted = read_table(_write(tmp_path / "quoted.csv", 't_s,x_mm,y_mm,k\n' + "\n".join(rows[:-1])
+                               + "\n" + rows[-1].replace(",7", ',"7"') + "\n"), ("t_s", "x_mm", "y_mm"))
+    for name in ("t_s", "x_mm", "y_mm"):
+        np.testing.assert_array_equal(plain[name], quoted[name])
+        np.testing.assert_array_equal(plain[name], [float(r.split(",")[("t_s", "x_mm", "y_mm").index(name)])
+                                                    for r in rows])
+
+
 def test_read_table_raises_on_missing_file_and_too_few_rows(tmp_path: Path) -> None:
     with pytest.raises(DataFileError, match="file not found"):
         read_table(tmp_path / "none.csv", ("t_s",))
