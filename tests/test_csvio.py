@@ -9,15 +9,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from twin.base.csvio import (
-    check_monotonic,
-    emit_json,
-    read_header,
-    read_json,
-    read_table,
-    write_json,
-    write_table,
-)
+from twin.base.csvio import check_monotonic, read_header, read_table, write_table
+from twin.base.jsonio import emit_json, read_json, write_json
 from twin.errors import DataFileError, InputError
 
 

@@ -21,7 +21,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from twin.analysis.surface_check import read_target_mesh
-from twin.base.csvio import read_json, read_table
+from twin.base.csvio import read_table
+from twin.base.jsonio import read_json
 from twin.cli import main
 from twin.errors import TwinError
 from twin.process.gcode import parse_gcode, read_gcode

@@ -15,7 +15,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from twin.base.csvio import swap_in_directory, temporary_folder, write_json, write_table
+from twin.base.csvio import swap_in_directory, temporary_folder, write_table
+from twin.base.jsonio import write_json
 from twin.cli import OUTPUT_OPTIONS, build_parser, main
 from twin.errors import DataFileError
 

@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from twin.base.csvio import read_json, write_json
+from twin.base.jsonio import read_json, write_json
 from twin.errors import DataFileError
 
 SYMMETRIES = ("half", "full")

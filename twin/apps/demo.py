@@ -37,7 +37,7 @@ from twin.analysis.identify.cartesian import (
 from twin.analysis.identify.method2 import Method2Result, method2
 from twin.analysis.replay import ReplayResult, replay
 from twin.apps.report import write_report
-from twin.base.csvio import write_json
+from twin.base.jsonio import write_json
 from twin.base.resources import data_file
 from twin.lab.virtual import load_test, run_lab
 from twin.process.description import Process

@@ -15,7 +15,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from twin.base.csvio import read_json
+from twin.base.jsonio import read_json
 from twin.errors import InputError
 from twin.process.field import SheetForceField
 from twin.robot.description import load_robot

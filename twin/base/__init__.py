@@ -1,6 +1,6 @@
 """Base: utilities every stage uses.
 
-Modules: `csvio` (atomic CSV/JSON I/O with precise errors), `outputs` (outputs never over inputs, the umask's
+Modules: `csvio` (atomic CSV and text I/O with precise errors), `jsonio` (strict JSON documents, `--json`), `outputs` (outputs never over inputs, the umask's
 modes, write failures named), `units` (length columns read by their declared unit,
 `_mm` or `_m`), `signals` (interpolation of sampled signals, sample clocks), `resources` (the lookup of shipped
 models and data), `lazy` (a package's public names, imported on first use) and `jobs` (independent jobs on this
@@ -13,11 +13,11 @@ from twin.base.lazy import lazy_exports
 
 __all__, __getattr__, __dir__ = lazy_exports(__name__, {
     "read_table": "twin.base.csvio",
-    "read_json": "twin.base.csvio",
+    "read_json": "twin.base.jsonio",
     "write_table": "twin.base.csvio",
-    "write_json": "twin.base.csvio",
+    "write_json": "twin.base.jsonio",
     "write_text": "twin.base.csvio",
-    "emit_json": "twin.base.csvio",
+    "emit_json": "twin.base.jsonio",
     "read_si_table": "twin.base.units",
     "interp_rows": "twin.base.signals",
     "uniform_times": "twin.base.signals",

@@ -1,4 +1,4 @@
-"""Validated CSV reading and atomic writing, shared by every file format of the project.
+"""Validated CSV reading and atomic writing, shared by every file format of the project (JSON: `jsonio`).
 
 Readers name the file and the 1-based data row of the first bad value; writers write to a temporary
 file beside the target and rename it, so a crash never leaves half a file, and they refuse to write
@@ -9,15 +9,12 @@ from __future__ import annotations
 
 import csv
 import io
-import json
 import math
 import os
 import shutil
-import sys
 import tempfile
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
@@ -295,50 +292,3 @@ def write_table(
         out.write(",".join(format(value, spec) for value, spec in zip(row, specs, strict=True)) + "\n")
     _atomic_write_text(Path(path), out.getvalue(), protect)
     return Path(path)
-
-
-def _jsonable(value: Any) -> Any:
-    """Convert numpy values, paths and non-finite floats (-> null, strict JSON) for `json.dumps`."""
-    if isinstance(value, np.ndarray):
-        return _jsonable(value.tolist())
-    if isinstance(value, np.generic):
-        return _jsonable(value.item())
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    if isinstance(value, Path):
-        return str(value)
-    if isinstance(value, Mapping):
-        return {str(k): _jsonable(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [_jsonable(v) for v in value]
-    return value
-
-
-def write_json(path: str | Path, payload: Mapping[str, Any], *, protect: Sequence[str | Path] = ()) -> Path:
-    """Write a JSON document atomically (numpy arrays and scalars are converted)."""
-    _atomic_write_text(Path(path), json.dumps(_jsonable(payload), indent=2, allow_nan=False) + "\n", protect)
-    return Path(path)
-
-
-def emit_json(target: str | None, payload: Mapping[str, Any], *, protect: Sequence[str | Path] = ()) -> None:
-    """Write `payload` for a CLI `--json` option: `-` prints to stdout, a path writes a file, None skips."""
-    if target is None:
-        return
-    if target == "-":
-        sys.stdout.write(json.dumps(_jsonable(payload), indent=2, allow_nan=False) + "\n")
-    else:
-        write_json(target, payload, protect=protect)
-
-
-def read_json(path: str | Path) -> dict[str, Any]:
-    """Read a JSON object, raising DataFileError naming the file on any problem."""
-    path = Path(path)
-    try:
-        payload = json.loads(read_text(path, "a JSON file"))
-    except json.JSONDecodeError as exc:
-        raise DataFileError(path, f"not valid JSON ({exc.msg} at line {exc.lineno})", exc.lineno) from None
-    except RecursionError:
-        raise DataFileError(path, "not valid JSON (nested too deeply); expected a JSON object") from None
-    if not isinstance(payload, dict):
-        raise DataFileError(path, f"expected a JSON object, found {type(payload).__name__}")
-    return payload

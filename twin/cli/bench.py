@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 
 from twin.apps.readme import SPEED_BLOCK, speed_table
-from twin.base.csvio import emit_json
+from twin.base.jsonio import emit_json
 from twin.cli._types import seed
 
 HELP = "Benchmark replay, analytic floor, lab, identify, compensate, discrepancy and the force field."

@@ -6,7 +6,7 @@ import argparse
 import sys
 from typing import TYPE_CHECKING, TextIO
 
-from twin.base.csvio import emit_json
+from twin.base.jsonio import emit_json
 
 if TYPE_CHECKING:
     from twin.analysis.calibration.loo import LeaveOneOut

@@ -20,7 +20,7 @@ from twin.analysis.surface_check import (
     region_deviation,
     surface_deviation,
 )
-from twin.base.csvio import emit_json
+from twin.base.jsonio import emit_json
 from twin.cli._common import add_ideal_argument, ideal_from_arguments
 from twin.cli._types import finite
 from twin.errors import InputError

@@ -19,7 +19,8 @@ from twin.analysis.compensate import (
     gain_of,
 )
 from twin.analysis.compensation_record import CompensationRecord, write_record
-from twin.base.csvio import emit_json, read_json, write_table
+from twin.base.csvio import write_table
+from twin.base.jsonio import emit_json, read_json
 from twin.cli._common import (
     add_force_model_argument,
     add_history_arguments,

@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from twin.base.csvio import emit_json
+from twin.base.jsonio import emit_json
 from twin.cli._common import (
     add_force_model_argument,
     add_history_arguments,

@@ -20,7 +20,7 @@ from twin.apps.export import FORMATS, LANGUAGES, export_path, robot_format
 from twin.apps.export.motion import FEED_TOLERANCE, SAFE_MARGIN_MM
 from twin.apps.export.parts import LIMITS
 from twin.apps.export.program import default_cell
-from twin.base.csvio import emit_json
+from twin.base.jsonio import emit_json
 from twin.cli._common import add_placement_arguments, add_robot_argument, command_robot, placement_from
 from twin.errors import InputError
 from twin.robot.description import load_robot

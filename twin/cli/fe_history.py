@@ -6,7 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from twin.base.csvio import emit_json
+from twin.base.jsonio import emit_json
 from twin.process.fe_history import write_history
 from twin.process.forces import load_force_history
 

@@ -21,7 +21,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     """Validate, print the table, write it where asked."""
     from twin.apps.force_validation import markdown, validate_forces
-    from twin.base.csvio import emit_json, write_text
+    from twin.base.csvio import write_text
+    from twin.base.jsonio import emit_json
 
     result = validate_forces(seed=args.seed)
     text = markdown(result)

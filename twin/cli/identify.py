@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from twin.analysis.identify.cartesian import fit_kr_load_cases, load_cases_csv
-from twin.base.csvio import emit_json
+from twin.base.jsonio import emit_json
 from twin.cli._common import (
     add_force_model_argument,
     add_process_arguments,

@@ -6,7 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from twin.base.csvio import emit_json
+from twin.base.jsonio import emit_json
 from twin.runs.importer import import_to_directory
 
 HELP = "Import raw cell exports (tracker, force sensor, robot path) described by a TOML mapping into a run."

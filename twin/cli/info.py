@@ -6,7 +6,7 @@ import argparse
 
 import numpy as np
 
-from twin.base.csvio import emit_json
+from twin.base.jsonio import emit_json
 from twin.cli._common import add_robot_argument, command_robot
 
 HELP = "Show the model: joint stiffness K_q, tool tip and compliance at home, sheet origin."

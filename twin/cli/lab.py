@@ -12,7 +12,8 @@ import numpy as np
 
 from twin.analysis.compensation_record import read_record
 from twin.analysis.identify.cartesian import THESIS_TABLE_4_2_LOADS_N
-from twin.base.csvio import emit_json, write_table
+from twin.base.csvio import write_table
+from twin.base.jsonio import emit_json
 from twin.base.signals import interp_rows
 from twin.cli._common import (
     add_force_model_argument,

@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from twin.base.csvio import emit_json
+from twin.base.jsonio import emit_json
 from twin.runs.read import read_run
 
 HELP = "Learn the cell's robot (joint compliance, friction, servo lag) and sheet (forces) from its nominal runs."

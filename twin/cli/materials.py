@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from twin.base.csvio import emit_json
+from twin.base.jsonio import emit_json
 from twin.process.material_file import read_material_library
 from twin.process.materials import Material, MaterialLibrary, library_path, shipped_library
 

@@ -19,7 +19,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from twin.base.csvio import emit_json, write_bytes
+from twin.base.csvio import write_bytes
+from twin.base.jsonio import emit_json
 from twin.cli._common import (
     add_placement_arguments,
     add_process_arguments,

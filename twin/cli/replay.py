@@ -6,7 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from twin.base.csvio import emit_json
+from twin.base.jsonio import emit_json
 from twin.cli._common import (
     add_force_model_argument,
     add_process_arguments,

@@ -14,7 +14,8 @@ from typing import Any
 import numpy as np
 
 from twin.apps.reproduction import COMMANDS, loo_markdown, loo_records, markdown, rows
-from twin.base.csvio import emit_json, read_json, write_text
+from twin.base.csvio import write_text
+from twin.base.jsonio import emit_json, read_json
 from twin.base.resources import data_file
 from twin.errors import DataFileError, InputError
 

@@ -9,7 +9,8 @@ from typing import Any
 
 import numpy as np
 
-from twin.base.csvio import emit_json, write_text
+from twin.base.csvio import write_text
+from twin.base.jsonio import emit_json
 from twin.cli._types import finite
 from twin.errors import TwinError
 from twin.robot.description import RobotDescription, load_robot, shipped_robots

@@ -7,7 +7,7 @@ import sys
 import time
 from pathlib import Path
 
-from twin.base.csvio import emit_json
+from twin.base.jsonio import emit_json
 from twin.cli._common import (
     add_history_arguments,
     add_ideal_argument,

@@ -17,7 +17,8 @@ from typing import Any
 
 import numpy as np
 
-from twin.base.csvio import check_monotonic, read_json
+from twin.base.csvio import check_monotonic
+from twin.base.jsonio import read_json
 from twin.base.units import SITable, check_path_speed, check_point_spacing, read_si_table
 from twin.errors import DataFileError, InputError, RunFormatError, UnitsError
 from twin.process.path import groove_path

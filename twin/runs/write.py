@@ -15,7 +15,8 @@ from typing import Any
 
 import numpy as np
 
-from twin.base.csvio import swap_in_directory, temporary_folder, write_json, write_table
+from twin.base.csvio import swap_in_directory, temporary_folder, write_table
+from twin.base.jsonio import write_json
 from twin.errors import DataFileError, InputError
 from twin.runs.format import RUN_FORMAT, RUN_FRAME, Run
 from twin.runs.read import read_run

@@ -27,7 +27,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-from twin.base.csvio import read_json, write_json
+from twin.base.jsonio import read_json, write_json
 from twin.errors import DataFileError, InputError, ModelError
 from twin.process.description import Process
 from twin.process.forces import load_force_history

@@ -18,7 +18,8 @@ from pathlib import Path
 import numpy as np
 
 from twin.apps.export.program import POSITION_DECIMALS, ProgramPath, euler_xyz_deg
-from twin.base.csvio import write_json, write_table
+from twin.base.csvio import write_table
+from twin.base.jsonio import write_json
 
 
 def sidecar(out: Path) -> Path:

@@ -9,7 +9,8 @@ from typing import Any, TextIO
 
 import numpy as np
 
-from twin.base.csvio import emit_json, write_table
+from twin.base.csvio import write_table
+from twin.base.jsonio import emit_json
 from twin.base.signals import interp_rows
 from twin.lab.dynamic.knobs import Knobs, parse_set_args
 from twin.lab.dynamic.run import dynamic_load_test, run_dynamic_lab
