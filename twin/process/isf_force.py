@@ -264,6 +264,11 @@ class IsfForceField(ForceField):
             jacobian,
         )
 
+    def sliding_direction(self, p_sheet_m: np.ndarray) -> tuple[float, float]:
+        """The sliding direction (vx, vy) the in-plane force acts against at a tip position [-]; pure."""
+        vx, vy, _ = self._travel(float(p_sheet_m[0]), float(p_sheet_m[1]), jacobian=False)
+        return vx, vy
+
     def force_and_stiffness(
         self, p_sheet_m: np.ndarray, pass_index: int = 0, direction: int = 1
     ) -> tuple[np.ndarray, np.ndarray]:

@@ -167,6 +167,10 @@ class Twin:
         self._ik_memo = [(p_cmd.copy(), q_ik.copy()), *self._ik_memo[: IK_MEMO_PATHS - 1]]
         return q_ik
 
+    def ik_path(self, p_cmd_sheet_m: np.ndarray) -> np.ndarray:
+        """The rigid IK of a commanded path in the sheet frame [rad], (n, dof) (the last few paths' kept)."""
+        return self._ik_path(np.asarray(p_cmd_sheet_m, dtype=float))
+
     def _full_qpos(self, q_arm: np.ndarray) -> np.ndarray:
         qpos = np.zeros(self.model.nq)
         qpos[self._arm_qpos] = q_arm

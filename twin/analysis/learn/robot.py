@@ -80,7 +80,7 @@ def robot_rows(run: Run, twin: Twin) -> RobotRows:
     """The twin's unloaded tool tip and per-joint levers along the run's command, at its tracker times."""
     if run.forces is None or len(run.forces.t_s) < 10:
         raise InputError(f"run {run.directory}: learning the robot needs forces.csv (the F/T sensor on)")
-    q_ik = twin._ik_path(run.commanded.values)
+    q_ik = twin.ik_path(run.commanded.values)
     t = run.tracker.t_s
     # the twin teaches its set-points under gravity (as a controller does): its unloaded tip is the command
     unloaded = interp_rows(t, run.commanded.t_s, run.commanded.values)

@@ -71,8 +71,7 @@ def sheet_rows(run: Run, process: Process) -> SheetRows:
     terms, travel, side = np.empty((n, 4)), np.empty((n, 2)), np.empty(n)
     for i, p in enumerate(path.p_sheet_m):
         terms[i] = field.features(p)[0]
-        vx, vy, _ = field._travel(float(p[0]), float(p[1]), jacobian=False)
-        travel[i] = vx, vy
+        travel[i] = field.sliding_direction(p)
         side[i] = field.state.wall_side
         field.advance(p)
     t_f = run.forces.t_s
