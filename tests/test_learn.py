@@ -140,3 +140,21 @@ def test_discrepancy_learns_what_no_family_explains_and_shows_it_on_another_run(
     held = learned["held_out"]
     assert held["after_mm"] < 0.25 * held["before_mm"] and held["after_n"] < 0.25 * held["before_n"]
     assert json.loads(model.read_text())["process"]["force_model"] == "learned"
+
+
+def test_learn_refuses_runs_that_cannot_teach_it(plant_runs: dict[int, Path], tmp_path: Path,
+                                                 capsys: pytest.CaptureFixture[str]) -> None:
+    silent = tmp_path / "silent"
+    shutil.copytree(plant_runs[1], silent)
+    lines = (silent / "forces.csv").read_text().splitlines()
+    (silent / "forces.csv").write_text("\n".join([lines[0], *(f"{line.split(',')[0]},0,0,0" for line in lines[1:])])
+                                       + "\n")
+    assert main(["learn", str(silent)]) == 2
+    assert "no forming contact" in capsys.readouterr().err
+    moved = tmp_path / "moved"
+    shutil.copytree(plant_runs[2], moved)
+    meta = json.loads((moved / "meta.json").read_text())
+    meta["placement"] = {"origin_base_mm": [1700.0, 50.0, 500.0], "yaw_deg": 10.0}
+    (moved / "meta.json").write_text(json.dumps(meta))
+    assert main(["learn", str(plant_runs[1]), str(moved)]) == 2
+    assert "another placement" in capsys.readouterr().err

@@ -27,6 +27,8 @@ from twin.runs.format import Run
 
 #: Fewest force samples a run must give.
 MIN_SAMPLES = 50
+#: A run's measured force peaking below this fraction of what the declared sheet predicts is a silent sensor.
+SILENT_SENSOR = 0.05
 
 
 class SheetRows(NamedTuple):
@@ -109,13 +111,19 @@ def fit_sheet(runs: list[Run], process: Process) -> SheetFit:
         InputError: A run without enough force samples, or the terms leave the weights undetermined.
     """
     rows = [sheet_rows(run, process) for run in runs]
+    for run, r in zip(runs, rows, strict=True):
+        measured_peak = float(np.max(np.linalg.norm(r.measured_n, axis=1)))
+        prior_peak = float(np.max(np.abs(r.terms[:, 0])))
+        if measured_peak < SILENT_SENSOR * prior_peak:
+            raise InputError(f"run {run.directory}: its F/T stream peaks at {measured_peak:.1f} N where the declared "
+                             f"sheet would push {prior_peak:.0f} N along its path: no forming contact in the "
+                             "sensor's data (a sensor not connected, or not tared on?)")
     terms = np.vstack([r.terms for r in rows])
     measured = np.vstack([r.measured_n for r in rows])
     if np.linalg.matrix_rank(terms) < terms.shape[1]:
-        raise InputError("the runs do not determine the sheet's terms (no forming contact?): "
+        raise InputError("the runs do not determine the sheet's terms (no forming contact in the path?): "
                          f"rank {np.linalg.matrix_rank(terms)} of {terms.shape[1]}")
     weights, w_std = _lstsq(terms, measured[:, 2])
-    fz = np.concatenate([np.maximum(r.terms @ weights, 0.0) for r in rows])
     plane = np.vstack([in_plane_columns(r, np.maximum(r.terms @ weights, 0.0)) for r in rows])
     fxy = np.concatenate([np.concatenate([r.measured_n[:, 0], r.measured_n[:, 1]]) for r in rows])
     mu, mu_std = _lstsq(plane, fxy)
@@ -126,7 +134,6 @@ def fit_sheet(runs: list[Run], process: Process) -> SheetFit:
     learned = replace(process, force_model="learned", force_fit=fit)
     before = [_rms_along(run, process) for run in runs]
     after = [_rms_along(run, learned) for run in runs]
-    del fz
     return SheetFit(fit, tuple((k, float(v)) for k, v in zip(keys, (*w_std, *mu_std), strict=True)),
                     tuple(before), tuple(after), len(measured))
 
