@@ -12,7 +12,8 @@ import numpy as np
 from twin.base.jsonio import emit_json
 from twin.runs.read import read_run
 
-HELP = "Learn the cell's robot (joint compliance, friction, servo lag) and sheet (forces) from its nominal runs."
+HELP = ("Learn the cell's robot (joint compliance, friction, servo transient) and sheet (forces, springback) from "
+        "its nominal runs.")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -23,7 +24,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--model", type=Path, help="the declared twin (model file) whose robot and process are the "
                         "priors (default: the runs' recorded robot and process)")
     parser.add_argument("--write-model", type=Path, help="write the learned twin to FILE (a model file that "
-                        "`replay`, `compensate`, `check`, `discrepancy` and `place` take with --model)")
+                        "`replay`, `compensate`, `discrepancy` and `place` take with --model)")
     parser.add_argument("--json", help="write what was learned and the gaps to FILE ('-' for stdout)")
 
 
