@@ -145,3 +145,34 @@ def test_a_tip_jitter_finer_than_the_grid_does_not_swing_the_wall_force() -> Non
     lo, hi = min(high.min(), low.min()), max(high.max(), low.max())
     assert lo > 500.0  # the tool presses the wall
     assert lo - 0.02 * lo <= jittered.min() and jittered.max() <= hi + 0.02 * hi, (jittered.min(), jittered.max(), lo, hi)
+
+
+def test_the_compiled_sheet_is_the_python_sheet() -> None:
+    """The per-tick kernels (`sheet_kernels`) against the Python reference, on a rigid cone (both sides of its
+    wall, its unsupported bottom) and on the groove's reversals: the same forces and surfaces to a few units in the
+    last place (the flow curve's exponential is the C library's there, numpy's here); their constants agree."""
+    from twin.lab.dynamic import sheet as python_sheet
+    from twin.lab.dynamic import sheet_kernels
+
+    for name in ("VOCE_S0_MPA", "VOCE_Q_MPA", "VOCE_B", "VOCE_M", "YOUNGS_MODULUS_PA", "POISSON_RATIO",
+                 "GRID_SPACING_M", "HALF_SIZE_M", "MIN_RECOVERY_M", "FORMED_READ", "MAX_ANGLE_RAD"):
+        assert getattr(sheet_kernels, name) == getattr(python_sheet, name), name
+    groove = groove_path().p_sheet_m[:400]
+    cone = part_path(PartSpec(top_half_width_m=0.02, depth_m=4e-3)).p_sheet_m
+    for path in (groove, cone):
+        runs = []
+        for compiled in (True, False):
+            sheet = PlantSheet(Process(), 5e-5)
+            sheet.compiled = compiled
+            sheet.start(path[0], 1)
+            forces = np.empty((len(path), 3))
+            for i, p in enumerate(path):
+                forces[i] = sheet.force(p)
+                sheet.advance(p)
+            runs.append((forces, sheet.z_m.copy(), sheet.pressed.copy(), sheet.travel.copy()))
+        (f1, z1, p1, t1), (f2, z2, p2, t2) = runs
+        assert np.max(np.abs(f1)) > 100.0
+        np.testing.assert_allclose(f1, f2, rtol=1e-12, atol=1e-9)
+        np.testing.assert_array_equal(z1, z2)
+        np.testing.assert_array_equal(p1, p2)
+        np.testing.assert_allclose(t1, t2, rtol=0.0, atol=1e-15)

@@ -55,6 +55,7 @@ import math
 
 import numpy as np
 
+from twin.lab.dynamic import sheet_kernels as kernels
 from twin.process.description import Process
 
 #: Thesis Eq. 1.3: the measured AA5086-H111 flow curve, sigma = S0 + Q (1 - exp(-B eps))^M [MPa].
@@ -83,13 +84,18 @@ def voce_tensile_strength_mpa() -> float:
 
 
 class PlantSheet:
-    """The plant's sheet (module docstring): formed surface, membrane force, springback.
+    """The plant's sheet (module docstring): formed surface, membrane force, springback. Its per-tick `force` and
+    `advance` run compiled (`twin.lab.dynamic.sheet_kernels`); `force_reference` and `advance_reference` are the
+    same in Python, and `compiled = False` runs them.
 
     Args:
         process: The declared sheet and tool: thickness, tool radius, tool friction and R_m (which scales the
             thesis's flow curve).
         reversal_m: Tool travel over which the friction and the sides turn with the travel [m].
     """
+
+    #: Run `force` and `advance` compiled (False: the Python reference).
+    compiled: bool = True
 
     def __init__(self, process: Process, reversal_m: float) -> None:
         self.radius = float(process.tool_radius_m)
@@ -156,6 +162,16 @@ class PlantSheet:
 
     def force(self, p_sheet_m: np.ndarray) -> np.ndarray:
         """Force of the sheet on the tool [N], (3,), sheet frame, at tip `p_sheet_m` [m]; pure."""
+        if self.compiled:
+            out = np.empty(3)
+            x, y, z = p_sheet_m
+            kernels.force(self.z_m, self.pressed, self.radius, self.t0, self.scale, self.mu, self.travel, self.slip,
+                          float(x), float(y), float(z), out)
+            return out
+        return self.force_reference(p_sheet_m)
+
+    def force_reference(self, p_sheet_m: np.ndarray) -> np.ndarray:
+        """`force` in Python, operation for operation what the compiled kernel does."""
         x, y, z = (float(v) for v in p_sheet_m)
         r = self.radius
         tx, ty = float(self.travel[0]), float(self.travel[1])
@@ -187,6 +203,22 @@ class PlantSheet:
 
     def advance(self, p_sheet_m: np.ndarray) -> None:
         """Commit: the tool tip passed through `p_sheet_m` [m]: the surface under the sphere, the travel state."""
+        if not self.compiled:
+            self.advance_reference(p_sheet_m)
+            return
+        x, y, z = (float(v) for v in p_sheet_m)
+        if self._last is not None:
+            dx, dy = x - float(self._last[0]), y - float(self._last[1])
+            kernels.turned(self.slip, self.slip_gain, dx, dy)
+            kernels.turned(self.heading, self.heading_gain, dx, dy)
+            norm = float(np.hypot(*self.heading))
+            if norm > 0.1:
+                self.travel = self.heading / norm
+        self._last = np.array([x, y])
+        kernels.press(self.z_m, self.pressed, self.x_m, self.y_m, self.radius, len(self._offsets) // 2, x, y, z)
+
+    def advance_reference(self, p_sheet_m: np.ndarray) -> None:
+        """`advance` in Python, operation for operation what the compiled kernels do."""
         p = np.asarray(p_sheet_m, dtype=float)
         if self._last is not None:
             self.slip = _turned(self.slip, self.slip_gain * (p[:2] - self._last))

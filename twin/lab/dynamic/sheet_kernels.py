@@ -1,0 +1,140 @@
+"""The dynamic plant's sheet in compiled code: `PlantSheet.force` and `advance` for every servo tick.
+
+Operation for operation the Python methods of `twin.lab.dynamic.sheet` (kept as the reference;
+`tests/test_plant_sheet.py` holds the two together), on the sheet's own arrays: the formed surface `z`
+(ny, nx) and `pressed`, and the travel states as arrays (2,). The flow curve's exponential and power are the
+C library's here and numpy's there: the two agree to a unit in the last place.
+"""
+
+# mypy: disable-error-code="arg-type, assignment, return-value"
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+# the sheet's constants (`twin.lab.dynamic.sheet`), repeated for the compiled code; a test compares them
+VOCE_S0_MPA, VOCE_Q_MPA, VOCE_B, VOCE_M = 130.2, 300.37, 3.94, 0.5
+YOUNGS_MODULUS_PA, POISSON_RATIO = 71.0e9, 0.33
+GRID_SPACING_M = 5e-4
+HALF_SIZE_M = 0.12
+MIN_RECOVERY_M = 0.01e-3
+FORMED_READ = 1.2
+MAX_ANGLE_RAD = math.radians(70.0)
+PLANE = 2.0 / math.sqrt(3.0)
+
+
+@njit(cache=True)
+def voce(eps: float) -> float:
+    """`voce_mpa` of one strain [MPa]."""
+    e = max(eps, 0.0)
+    return VOCE_S0_MPA + VOCE_Q_MPA * (1.0 - math.exp(-VOCE_B * e)) ** VOCE_M
+
+
+@njit(cache=True)
+def height(z: np.ndarray, x: float, y: float) -> float:
+    """`PlantSheet.height`."""
+    fx = (x + HALF_SIZE_M) / GRID_SPACING_M
+    fy = (y + HALF_SIZE_M) / GRID_SPACING_M
+    ix, iy = math.floor(fx), math.floor(fy)
+    if ix < 0 or iy < 0 or ix >= z.shape[1] - 1 or iy >= z.shape[0] - 1:
+        return 0.0
+    u, v = fx - ix, fy - iy
+    low = z[iy, ix] * (1 - u) + z[iy, ix + 1] * u
+    high = z[iy + 1, ix] * (1 - u) + z[iy + 1, ix + 1] * u
+    return low * (1 - v) + high * v
+
+
+@njit(cache=True)
+def formed(pressed: np.ndarray, x: float, y: float) -> bool:
+    """`PlantSheet.formed` (Python's `round`: half to even, as `np.rint`)."""
+    ix = int(np.rint((x + HALF_SIZE_M) / GRID_SPACING_M))
+    iy = int(np.rint((y + HALF_SIZE_M) / GRID_SPACING_M))
+    if ix < 0 or iy < 0 or ix >= pressed.shape[1] or iy >= pressed.shape[0]:
+        return False
+    return pressed[iy, ix]
+
+
+@njit(cache=True)
+def membrane(scale: float, t0: float, alpha: float) -> float:
+    """`PlantSheet.membrane_n_per_m`."""
+    c = math.cos(alpha)
+    eps = PLANE * math.log(1.0 / c)
+    return PLANE * scale * voce(eps) * 1e6 * t0 * c
+
+
+@njit(cache=True)
+def springback(scale: float, depth: float, alpha: float) -> float:
+    """`PlantSheet.springback_m`."""
+    c = math.cos(alpha)
+    sigma_phi = PLANE * scale * voce(PLANE * math.log(1.0 / c)) * 1e6
+    return max(depth, 0.0) * sigma_phi * (1.0 - POISSON_RATIO**2) / YOUNGS_MODULUS_PA
+
+
+@njit(cache=True)
+def side_angle(z: np.ndarray, r: float, x: float, y: float, zt: float, sx: float, sy: float) -> float:
+    """`PlantSheet._side_angle`."""
+    h1 = height(z, x + r * sx, y + r * sy)
+    h2 = height(z, x + 2.0 * r * sx, y + 2.0 * r * sy)
+    return max(math.atan2(max(h1 - zt, 0.0), r), math.atan2(max(h2 - h1, 0.0), r))
+
+
+@njit(cache=True)
+def force(z: np.ndarray, pressed: np.ndarray, r: float, t0: float, scale: float, mu: float, travel: np.ndarray,
+          slip: np.ndarray, x: float, y: float, zt: float, out: np.ndarray) -> None:
+    """`PlantSheet.force` into `out` (3,) [N]."""
+    tx, ty = travel[0], travel[1]
+    a0 = min(side_angle(z, r, x, y, zt, -ty, tx), MAX_ANGLE_RAD)
+    a1 = min(side_angle(z, r, x, y, zt, ty, -tx), MAX_ANGLE_RAD)
+    met = height(z, x + r * tx, y + r * ty) - zt
+    n0, n1 = membrane(scale, t0, a0), membrane(scale, t0, a1)
+    w0, w1 = r * math.sin(a0), r * math.sin(a1)
+    far = FORMED_READ * r
+    f0 = formed(pressed, x - far * ty, y + far * tx)
+    f1 = formed(pressed, x + far * ty, y - far * tx)
+    if f1 and not f0:  # an unsupported bottom: the strip from the wall runs on, flat
+        a0, n0, w0 = 0.0, n1, w1
+    elif f0 and not f1:
+        a1, n1, w1 = 0.0, n0, w0
+    up = w0 * n0 * math.sin(a0) + w1 * n1 * math.sin(a1)
+    left = w0 * n0 * math.cos(a0) - w1 * n1 * math.cos(a1)
+    recovery = max(springback(scale, -zt, max(a0, a1)), MIN_RECOVERY_M)
+    contact = min(1.0, max(0.0, 1.0 + met / recovery))
+    if contact <= 0.0:
+        out[0], out[1], out[2] = 0.0, 0.0, 0.0
+        return
+    fx, fy = -mu * up * slip[0], -mu * up * slip[1]
+    out[0], out[1], out[2] = contact * (fx - left * ty), contact * (fy + left * tx), contact * up
+
+
+@njit(cache=True)
+def turned(state: np.ndarray, gain: float, dx: float, dy: float) -> None:
+    """`_turned` in place: the state pushed by gain x the step, held to norm <= 1."""
+    ox, oy = state[0] + gain * dx, state[1] + gain * dy
+    norm = math.hypot(ox, oy)
+    if norm > 1.0:
+        ox, oy = ox / norm, oy / norm
+    state[0], state[1] = ox, oy
+
+
+@njit(cache=True)
+def press(z: np.ndarray, pressed: np.ndarray, x_m: np.ndarray, y_m: np.ndarray, r: float, half: int, x: float,
+          y: float, zt: float) -> None:
+    """`PlantSheet._press`: the grid (nodes `x_m`, `y_m`) lowered to the tool sphere's underside around the tip."""
+    ix = int(np.rint((x + HALF_SIZE_M) / GRID_SPACING_M))
+    iy = int(np.rint((y + HALF_SIZE_M) / GRID_SPACING_M))
+    ny, nx = z.shape
+    x0, x1 = max(ix - half, 0), min(ix + half + 1, nx)
+    y0, y1 = max(iy - half, 0), min(iy + half + 1, ny)
+    r2max = r * r
+    for j in range(y0, y1):
+        dy = y_m[j] - y
+        for i in range(x0, x1):
+            dx = x_m[i] - x
+            r2 = dy * dy + dx * dx
+            if r2 < r2max:
+                under = zt + r - math.sqrt(r2max - r2)
+                if under < z[j, i]:
+                    z[j, i] = under
+                pressed[j, i] = True
