@@ -89,6 +89,11 @@ def tool_path(stream: Stream) -> ToolPath:
     return ToolPath(t_s=stream.t_s, p_sheet_m=stream.values, pass_index=pass_index, direction=direction)
 
 
+def add_json_argument(parser: argparse.ArgumentParser | Any, what: str) -> None:
+    """Add `--json FILE` (the command's numbers as a JSON document; `-`: stdout, the summary then on stderr)."""
+    parser.add_argument("--json", metavar="FILE", help=f"write {what} as JSON to FILE ('-' for stdout)")
+
+
 def add_force_model_argument(parser: argparse.ArgumentParser) -> None:
     """Add `--force-model auto|<registered model>` (the sheet force model of the twin or lab)."""
     listing = "; ".join(f"'{m.name}': {m.description}" for m in FORCE_MODELS.values())

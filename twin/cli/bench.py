@@ -8,6 +8,7 @@ from pathlib import Path
 
 from twin.apps.readme import SPEED_BLOCK, speed_table
 from twin.base.jsonio import emit_json
+from twin.cli._common import add_json_argument
 from twin.cli._types import seed
 
 HELP = "Benchmark replay, analytic floor, lab, identify, compensate, discrepancy and the force field."
@@ -15,7 +16,7 @@ HELP = "Benchmark replay, analytic floor, lab, identify, compensate, discrepancy
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Add the `bench` options."""
-    parser.add_argument("--json", help="write the results to FILE ('-' for stdout)")
+    add_json_argument(parser, "the results")
     parser.add_argument(
         "--repeats", type=int, default=5, help="repeats per timed step, median reported (default 5)"
     )

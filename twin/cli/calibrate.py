@@ -7,6 +7,7 @@ import sys
 from typing import TYPE_CHECKING, TextIO
 
 from twin.base.jsonio import emit_json
+from twin.cli._common import add_json_argument
 
 if TYPE_CHECKING:
     from twin.analysis.calibration.loo import LeaveOneOut
@@ -16,7 +17,7 @@ HELP = "Calibrate K_q, joint friction and the sheet's sensitivities to the thesi
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Add `--json FILE` (`-` for stdout) and `--quiet`."""
-    parser.add_argument("--json", metavar="FILE", help="write the calibration as JSON ('-' = stdout)")
+    add_json_argument(parser, "the calibration")
     parser.add_argument("--quiet", action="store_true", help="no progress output")
     parser.add_argument(
         "--loo", action="store_true",

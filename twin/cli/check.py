@@ -21,7 +21,7 @@ from twin.analysis.surface_check import (
     surface_deviation,
 )
 from twin.base.jsonio import emit_json
-from twin.cli._common import add_ideal_argument, ideal_from_arguments
+from twin.cli._common import add_ideal_argument, add_json_argument, ideal_from_arguments
 from twin.cli._types import finite
 from twin.errors import InputError
 from twin.runs.format import Run
@@ -69,7 +69,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help=f"... or with fewer of its points within {INLIER_M * 1e3:g} mm (default {MIN_INLIER_FRACTION:g})",
     )
     parser.add_argument("--figure", type=Path, metavar="PNG", help="with --target-stl: the deviation map")
-    parser.add_argument("--json", help="write the numbers to FILE ('-' for stdout)")
+    add_json_argument(parser, "the numbers")
 
 
 def run(args: argparse.Namespace) -> int:

@@ -25,6 +25,7 @@ from twin.cli._common import (
     add_force_model_argument,
     add_history_arguments,
     add_ideal_argument,
+    add_json_argument,
     add_placement_arguments,
     add_process_arguments,
     add_robot_argument,
@@ -83,7 +84,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     part.add_argument("--rrd", type=Path, metavar="RRD",
                       help="rerun recording: the design, and each iteration's surface coloured by its deviation")
     parser.add_argument("--out", type=Path, required=True, help="compensated path, commanded.csv format")
-    parser.add_argument("--json", help="write the numbers to FILE ('-' for stdout)")
+    add_json_argument(parser, "the numbers")
 
 
 SYMMETRY_TOLERANCE = 0.25  # |K - K^T| / max|K| allowed: Method 2 on a noisy lab run fits up to ~0.15

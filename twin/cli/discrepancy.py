@@ -11,6 +11,7 @@ from twin.base.jsonio import emit_json
 from twin.cli._common import (
     add_force_model_argument,
     add_history_arguments,
+    add_json_argument,
     add_process_arguments,
     add_robot_argument,
     history_from_arguments,
@@ -41,7 +42,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="when no family explains the gap, do not learn the robot and the sheet from the run")
     parser.add_argument("--held-out", type=Path, metavar="RUN",
                         help="another run of the same cell, not learned from: the gap before -> after on it")
-    parser.add_argument("--json", help="write the findings to FILE ('-' for stdout)")
+    add_json_argument(parser, "the findings")
 
 
 def run(args: argparse.Namespace) -> int:

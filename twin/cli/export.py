@@ -21,7 +21,13 @@ from twin.apps.export.motion import FEED_TOLERANCE, SAFE_MARGIN_MM
 from twin.apps.export.parts import LIMITS
 from twin.apps.export.program import default_cell
 from twin.base.jsonio import emit_json
-from twin.cli._common import add_placement_arguments, add_robot_argument, command_robot, placement_from
+from twin.cli._common import (
+    add_json_argument,
+    add_placement_arguments,
+    add_robot_argument,
+    command_robot,
+    placement_from,
+)
 from twin.errors import InputError
 from twin.robot.description import load_robot
 from twin.runs.format import Run, run_robot
@@ -77,7 +83,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         f"{LIMITS['krl']}, RAPID {LIMITS['rapid']}, as RoboDK's posts)",
     )
     add_placement_arguments(parser, "sheet placement (the program's sheet frame)")
-    parser.add_argument("--json", metavar="FILE", help="write a summary as JSON to FILE (- for stdout)")
+    add_json_argument(parser, "a summary")
 
 
 def _run_tool_mass_kg(recorded: Run | None) -> float | None:

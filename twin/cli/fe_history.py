@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 
 from twin.base.jsonio import emit_json
+from twin.cli._common import add_json_argument
 from twin.process.fe_history import write_history
 from twin.process.forces import load_force_history
 
@@ -16,7 +17,7 @@ HELP = "Regenerate the stand-in half-symmetric FE force history (1311 samples) t
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Add the command's options."""
     parser.add_argument("--out", type=Path, required=True, help="output CSV file")
-    parser.add_argument("--json", metavar="FILE", help="write the summary as JSON to FILE (- for stdout)")
+    add_json_argument(parser, "the summary")
 
 
 def run(args: argparse.Namespace) -> int:

@@ -6,6 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from twin.cli._common import add_json_argument
 from twin.cli._types import seed
 
 HELP = "Form every published ISF force measurement's part on the rigid machine; tabulate measured vs model."
@@ -14,7 +15,7 @@ HELP = "Form every published ISF force measurement's part on the rigid machine; 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Add the `force-validation` options."""
     parser.add_argument("--markdown", type=Path, help="write the page (docs/force-validation.md) to FILE")
-    parser.add_argument("--json", help="write the rows as JSON to FILE ('-' for stdout)")
+    add_json_argument(parser, "the rows")
     parser.add_argument("--seed", type=seed, default=1, help="seed of the rigid machine's sensor noise (default 1)")
 
 

@@ -13,6 +13,7 @@ from twin.analysis.identify.cartesian import fit_kr_load_cases, load_cases_csv
 from twin.base.jsonio import emit_json
 from twin.cli._common import (
     add_force_model_argument,
+    add_json_argument,
     add_process_arguments,
     add_robot_argument,
     command_robot,
@@ -58,7 +59,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_force_model_argument(parser)
     add_process_arguments(parser)
     add_robot_argument(parser)
-    parser.add_argument("--json", metavar="FILE", help="write the result as JSON to FILE (- for stdout)")
+    add_json_argument(parser, "the result")
     parser.add_argument(
         "--write-model",
         type=Path,

@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 
 from twin.base.jsonio import emit_json
+from twin.cli._common import add_json_argument
 from twin.runs.importer import import_to_directory
 
 HELP = "Import raw cell exports (tracker, force sensor, robot path) described by a TOML mapping into a run."
@@ -21,9 +22,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--overwrite", action="store_true", help="replace an existing non-empty run directory"
     )
-    parser.add_argument(
-        "--json", metavar="FILE", help="write the import report as JSON to FILE (- for stdout)"
-    )
+    add_json_argument(parser, "the import report")
 
 
 def run(args: argparse.Namespace) -> int:

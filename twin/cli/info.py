@@ -7,7 +7,7 @@ import argparse
 import numpy as np
 
 from twin.base.jsonio import emit_json
-from twin.cli._common import add_robot_argument, command_robot
+from twin.cli._common import add_json_argument, add_robot_argument, command_robot
 
 HELP = "Show the model: joint stiffness K_q, tool tip and compliance at home, sheet origin."
 
@@ -15,9 +15,7 @@ HELP = "Show the model: joint stiffness K_q, tool tip and compliance at home, sh
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Add `--robot` and `--json FILE` (`-` for stdout)."""
     add_robot_argument(parser)
-    parser.add_argument(
-        "--json", metavar="FILE", default=None, help="write the numbers as JSON ('-' = stdout)"
-    )
+    add_json_argument(parser, "the numbers")
 
 
 def run(args: argparse.Namespace) -> int:

@@ -17,6 +17,7 @@ from twin.base.jsonio import emit_json
 from twin.base.signals import interp_rows
 from twin.cli._common import (
     add_force_model_argument,
+    add_json_argument,
     add_placement_arguments,
     add_process_arguments,
     add_robot_argument,
@@ -66,7 +67,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_placement_arguments(parser, "sheet placement (nominal and compensated runs; recorded in meta.json)")
     parser.add_argument("--out", type=Path, required=True, help="run directory (loadtest: a CSV file)")
     parser.add_argument("--overwrite", action="store_true", help="replace an existing output")
-    parser.add_argument("--json", help="write a summary JSON to FILE ('-' for stdout)")
+    add_json_argument(parser, "a summary")
 
 
 def _check_out(out: Path, overwrite: bool) -> None:

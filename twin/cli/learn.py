@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 
 from twin.base.jsonio import emit_json
+from twin.cli._common import add_json_argument
 from twin.runs.read import read_run
 
 HELP = ("Learn the cell's robot (joint compliance, friction, servo transient) and sheet (forces, springback) from "
@@ -25,7 +26,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         "priors (default: the runs' recorded robot and process)")
     parser.add_argument("--write-model", type=Path, help="write the learned twin to FILE (a model file that "
                         "`replay`, `compensate`, `discrepancy` and `place` take with --model)")
-    parser.add_argument("--json", help="write what was learned and the gaps to FILE ('-' for stdout)")
+    add_json_argument(parser, "what was learned and the gaps")
 
 
 def run(args: argparse.Namespace) -> int:

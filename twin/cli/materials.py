@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import Any
 
 from twin.base.jsonio import emit_json
+from twin.cli._common import add_json_argument
 from twin.process.material_file import read_material_library
 from twin.process.materials import Material, MaterialLibrary, library_path, shipped_library
 
@@ -28,7 +29,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--file", type=Path, metavar="FILE.toml", help="list a materials file of your own (same format as the library)"
     )
-    parser.add_argument("--json", help="write the materials and the bibliography to FILE ('-' for stdout)")
+    add_json_argument(parser, "the materials and the bibliography")
 
 
 def run(args: argparse.Namespace) -> int:

@@ -22,6 +22,7 @@ import numpy as np
 from twin.base.csvio import write_bytes
 from twin.base.jsonio import emit_json
 from twin.cli._common import (
+    add_json_argument,
     add_placement_arguments,
     add_process_arguments,
     add_robot_argument,
@@ -101,7 +102,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     place = add_placement_arguments(parser, "placement and reach check")
     add_robot_argument(place)
     place.add_argument("--no-reach-check", action="store_true", help="skip the IK check along the path")
-    parser.add_argument("--json", metavar="FILE", help="write the summary as JSON to FILE (- for stdout)")
+    add_json_argument(parser, "the summary")
 
 
 # the spec fields the path options set, for messages that name the option the user typed

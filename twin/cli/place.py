@@ -12,6 +12,7 @@ from twin.base.jsonio import emit_json
 from twin.cli._common import (
     add_force_model_argument,
     add_ideal_argument,
+    add_json_argument,
     add_process_arguments,
     add_robot_argument,
     add_scheduler_argument,
@@ -43,7 +44,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--workers", type=count, help="worker processes (default: every usable core)")
     add_scheduler_argument(parser)
     parser.add_argument("--figure", type=Path, metavar="PNG", help="write the map of the screened error to FILE")
-    parser.add_argument("--json", help="write the results to FILE ('-' for stdout)")
+    add_json_argument(parser, "the results")
 
 
 def run(args: argparse.Namespace) -> int:

@@ -9,6 +9,7 @@ from pathlib import Path
 from twin.base.jsonio import emit_json
 from twin.cli._common import (
     add_force_model_argument,
+    add_json_argument,
     add_process_arguments,
     add_robot_argument,
     spec_from_arguments,
@@ -32,7 +33,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--forces", choices=("twin", "measured"), default="twin",
                         help="measured: also drive the twin's robot by the run's F/T stream and split the gap into "
                         "the robot's part and the sheet's part")
-    parser.add_argument("--json", help="write the metrics to FILE ('-' for stdout)")
+    add_json_argument(parser, "the metrics")
     parser.add_argument("--rrd", type=Path, help="also save a rerun recording of the replay to FILE")
 
 

@@ -17,6 +17,7 @@ from twin.apps.reproduction import COMMANDS, loo_markdown, loo_records, markdown
 from twin.base.csvio import write_text
 from twin.base.jsonio import emit_json, read_json
 from twin.base.resources import data_file
+from twin.cli._common import add_json_argument
 from twin.errors import DataFileError, InputError
 
 HELP = "Reproduce the thesis's numbers with the twin's own commands; write the table (Markdown)."
@@ -97,7 +98,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="a `tx200-twin calibrate --loo --json FILE` output (e.g. docs/calibration.json): mark the fitted rows "
         "with their leave-one-out predictions",
     )
-    parser.add_argument("--json", help="write the rows as JSON to FILE ('-' for stdout)")
+    add_json_argument(parser, "the rows")
 
 
 def run_commands(work: Path) -> dict[str, dict[str, Any]]:

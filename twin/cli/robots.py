@@ -11,6 +11,7 @@ import numpy as np
 
 from twin.base.csvio import write_text
 from twin.base.jsonio import emit_json
+from twin.cli._common import add_json_argument
 from twin.cli._types import finite
 from twin.errors import TwinError
 from twin.robot.description import RobotDescription, load_robot, shipped_robots
@@ -31,7 +32,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         f"frame] (default {' '.join(f'{v:g}' for v in TASK_POINT_MM)})",
     )
     parser.add_argument("--markdown", type=Path, help="write the comparison page (docs/robots.md) to FILE")
-    parser.add_argument("--json", help="write the robots to FILE ('-' for stdout)")
+    add_json_argument(parser, "the robots")
 
 
 def markdown(records: list[dict[str, Any]]) -> str:

@@ -11,6 +11,7 @@ from twin.base.jsonio import emit_json
 from twin.cli._common import (
     add_history_arguments,
     add_ideal_argument,
+    add_json_argument,
     add_scheduler_argument,
     history_from_arguments,
     ideal_from_arguments,
@@ -37,7 +38,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_history_arguments(parser)
     add_ideal_argument(parser)
     parser.add_argument("--figure", type=Path, help="write the distribution figure (PNG) to FILE")
-    parser.add_argument("--json", help="write the results to FILE ('-' for stdout)")
+    add_json_argument(parser, "the results")
 
 
 def run(args: argparse.Namespace) -> int:
