@@ -158,3 +158,17 @@ def test_learn_refuses_runs_that_cannot_teach_it(plant_runs: dict[int, Path], tm
     (moved / "meta.json").write_text(json.dumps(meta))
     assert main(["learn", str(plant_runs[1]), str(moved)]) == 2
     assert "another placement" in capsys.readouterr().err
+
+
+def test_discrepancy_stands_when_the_run_cannot_teach_the_twin(plant_runs: dict[int, Path], tmp_path: Path,
+                                                               monkeypatch: pytest.MonkeyPatch) -> None:
+    import twin.analysis.learn as learning
+    from twin.errors import InputError
+
+    def refuse(*_args: object, **_kwargs: object) -> None:
+        raise InputError("a silent F/T stream")
+
+    monkeypatch.setattr(learning, "learn", refuse)
+    report = tmp_path / "d.json"
+    assert main(["discrepancy", str(plant_runs[1]), "--json", str(report)]) == 0
+    assert json.loads(report.read_text())["learned"] == {"refused": "a silent F/T stream"}

@@ -17,6 +17,7 @@ from twin.cli._common import (
     history_from_arguments,
     spec_from_arguments,
 )
+from twin.errors import InputError
 from twin.process.process_file import process_record
 from twin.runs.read import read_run
 from twin.sim.model_file import write_model_file
@@ -62,8 +63,12 @@ def run(args: argparse.Namespace) -> int:
     protect = [p for p in (args.run_dir, args.model, args.history, args.process, args.held_out) if p is not None]
     learned = None
     if result.verdict == "unexplained" and measured.forces is not None and not args.no_learn:
-        learned = _learn(args, measured, spec.replace(effects=result.effects))
-        summary["learned"] = learned
+        try:
+            learned = _learn(args, measured, spec.replace(effects=result.effects))
+            summary["learned"] = learned
+        except InputError as exc:  # the run cannot teach the twin (a silent sensor, ...): the search still stands
+            summary["learned"] = {"refused": str(exc)}
+            print(f"note: no family explains the gap, and the run cannot teach the twin: {exc}", file=sys.stderr)
     if args.model_out is not None and learned is not None:
         write_model_file(args.model_out, learned.pop("spec"), protect=protect,
                          note=f"tx200-twin discrepancy on {args.run_dir}: unexplained by the families; robot and "
