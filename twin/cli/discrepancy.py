@@ -125,19 +125,17 @@ def run(args: argparse.Namespace) -> int:
 def _learn(args: argparse.Namespace, measured: Any, spec: Any) -> dict[str, Any]:
     """Learn the robot and the sheet from the run; the sentences naming them and the gaps before and after."""
     from twin.analysis.learn import learn
+    from twin.analysis.learn.cell import replay_gap
     from twin.analysis.learn.signatures import robot_sentences, sheet_sentences, springback_sentences
-    from twin.analysis.replay import replay
+
+    def gaps(before: Any, after: Any) -> dict[str, float]:
+        return {"before_mm": before.position_rms_mm, "after_mm": after.position_rms_mm,
+                "before_n": before.force_rms_n, "after_n": after.force_rms_n}
 
     result = learn([measured], spec)
-    named = (sheet_sentences(measured, spec) + springback_sentences(result)
-             + robot_sentences(result, spec.build().joint_friction))
-    before, after = result.before[0], result.after[0]
-    out: dict[str, Any] = {"spec": result.spec, "named": named, "run": {
-        "before_mm": before.position_rms_mm, "after_mm": after.position_rms_mm,
-        "before_n": before.force_rms_n, "after_n": after.force_rms_n}}
+    named = sheet_sentences(measured, spec) + springback_sentences(result) + robot_sentences(result)
+    out: dict[str, Any] = {"spec": result.spec, "named": named, "run": gaps(result.before[0], result.after[0])}
     if args.held_out is not None:
         other = read_run(args.held_out)
-        b, a = replay(other, spec).metrics, replay(other, result.spec).metrics
-        out["held_out"] = {"before_mm": b["position_rms_mm"], "after_mm": a["position_rms_mm"],
-                           "before_n": b.get("force_rms_n", float("nan")), "after_n": a.get("force_rms_n", float("nan"))}
+        out["held_out"] = gaps(replay_gap(other, spec), replay_gap(other, result.spec))
     return out

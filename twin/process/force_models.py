@@ -191,5 +191,5 @@ register_force_model(ForceModel(
 ))
 register_force_model(ForceModel(
     "learned", "the ISF model with membrane terms learned from a cell's F/T stream (`tx200-twin learn`)",
-    _learned, lambda _h, process, _p: any(key in dict(process.force_fit) for key in WEIGHT_KEYS),
+    _learned, lambda _h, _process, _p: False,  # never from a path alone: it needs a cell's fitted weights
 ))

@@ -76,7 +76,8 @@ def measured_tip_path(run: Run, window_s: float = 0.0) -> ToolPath:
     cmd, tracker = run.commanded, run.tracker
     deflection = tracker.values - interp_rows(tracker.t_s, cmd.t_s, cmd.values)
     p = cmd.values + interp_rows(cmd.t_s, tracker.t_s, moving_mean(tracker.t_s, deflection, window_s))
-    passes, direction = label_passes(p[:, 0])
+    # the passes are the command's: a tip that jitters at a reversal would otherwise start a pass of its own
+    passes, direction = label_passes(cmd.values[:, 0])
     return ToolPath(t_s=cmd.t_s, p_sheet_m=p, pass_index=passes, direction=direction)
 
 

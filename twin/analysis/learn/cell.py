@@ -65,8 +65,7 @@ def learned_spec(runs: list[Run], spec: TwinSpec) -> tuple[TwinSpec, RobotFit, S
     base = spec.replace(placement=run_placement(runs[0].meta))
     robot = fit_robot(runs, replace(base, process=replace(base.process, force_model="isf")).build())
     sheet = fit_sheet(runs, base.process)
-    twin_friction = np.asarray(base.build().joint_friction if base.joint_friction is None else base.joint_friction)
-    friction = np.where(robot.observable, robot.friction_nm, twin_friction)
+    friction = np.where(robot.observable, robot.friction_nm, robot.prior_friction_nm)
     process = replace(base.process, force_model="learned", force_fit=sheet.force_fit)
     learned = base.replace(process=process, joint_stiffness_nm_per_rad=tuple(float(k) for k in robot.k_q_nm_per_rad),
                            joint_friction_nm=tuple(float(f) for f in friction), servo=robot.servo)

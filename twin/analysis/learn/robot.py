@@ -56,6 +56,7 @@ class RobotFit(NamedTuple):
         k_q_nm_per_rad: Effective joint stiffness, (dof,) [N·m/rad]: fitted where observable, the prior elsewhere.
         std_nm_per_rad: Its standard deviation (dof,) [N·m/rad] (the prior's spread where unobservable).
         prior_nm_per_rad: The robot's prior K_q (dof,) [N·m/rad].
+        prior_friction_nm: The twin's joint friction before learning (dof,) [N·m].
         observable: Whether the runs observe each joint (dof,).
         servo: The servo's transient compliance and time constant (`twin.sim.servo`), None where none is seen.
         friction_nm: Coulomb friction of each joint against its motion, (dof,) [N·m] (0 where unobservable).
@@ -68,6 +69,7 @@ class RobotFit(NamedTuple):
     k_q_nm_per_rad: np.ndarray
     std_nm_per_rad: np.ndarray
     prior_nm_per_rad: np.ndarray
+    prior_friction_nm: np.ndarray
     observable: np.ndarray
     servo: ServoTransient | None
     friction_nm: np.ndarray
@@ -160,13 +162,14 @@ def fit_robot(runs: list[Run], twin: Twin) -> RobotFit:
     servo_c = np.where(observable, coef[2 * dof:3 * dof], 0.0)
     servo = ServoTransient(tuple(float(v) for v in servo_c), float(best)) if np.any(servo_c != 0) else None
     offsets = coef[3 * dof:].reshape(len(rows), 3)
-    fit = RobotFit(k, k_std, k0, observable, servo, friction, 1e3 * offsets.mean(axis=0), (), ())
+    fit = RobotFit(k, k_std, k0, twin.joint_friction, observable, servo, friction, 1e3 * offsets.mean(axis=0), (), ())
     prior = fit._replace(k_q_nm_per_rad=k0, servo=twin.spec.servo, friction_nm=twin.joint_friction)
-    prior_rms = tuple(_rms_mm(r.deflection_m - predicted_deflection(r, prior, np.zeros(3))) for r in rows)
-    after_rms = tuple(_rms_mm(r.deflection_m - predicted_deflection(r, fit, off))
+    prior_rms = tuple(rms_norm_mm(r.deflection_m - predicted_deflection(r, prior, np.zeros(3))) for r in rows)
+    after_rms = tuple(rms_norm_mm(r.deflection_m - predicted_deflection(r, fit, off))
                       for r, off in zip(rows, offsets, strict=True))
     return fit._replace(rms_prior_mm=prior_rms, rms_after_mm=after_rms)
 
 
-def _rms_mm(error_m: np.ndarray) -> float:
+def rms_norm_mm(error_m: np.ndarray) -> float:
+    """RMS over the samples of the norm of a tool-tip error (n, 3) [m], in [mm]."""
     return 1e3 * float(np.sqrt(np.mean(np.sum(error_m**2, axis=1))))

@@ -18,6 +18,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from twin.analysis.identify.forces import measured_tip_path
 from twin.base.signals import interp_rows
 from twin.errors import InputError
 from twin.process.description import Process
@@ -60,8 +61,6 @@ class SheetFit(NamedTuple):
 
 def sheet_rows(run: Run, process: Process) -> SheetRows:
     """Drive the prior `learned` model along the run's measured tip and take its terms at the sensor's times."""
-    from twin.analysis.identify.forces import measured_tip_path
-
     if run.forces is None or len(run.forces.t_s) < MIN_SAMPLES:
         raise InputError(f"run {run.directory}: learning the sheet needs forces.csv with at least {MIN_SAMPLES} "
                          "samples (a run formed with the F/T sensor on)")
@@ -140,8 +139,6 @@ def fit_sheet(runs: list[Run], process: Process) -> SheetFit:
 
 def _rms_along(run: Run, process: Process) -> float:
     """RMS of the measured minus the model's force along the run's measured tip, at the sensor's times [N]."""
-    from twin.analysis.identify.forces import measured_tip_path
-
     assert run.forces is not None
     path = measured_tip_path(run, 0.0)
     model = build_force_field(process).rigid_forces(path)

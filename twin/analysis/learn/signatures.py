@@ -55,7 +55,7 @@ def springback_sentences(result: LearnResult) -> list[str]:
                                                                    strict=True)) + ")"]
 
 
-def robot_sentences(result: LearnResult, prior_friction_nm: np.ndarray) -> list[str]:
+def robot_sentences(result: LearnResult) -> list[str]:
     """The joints that changed, the friction, the lag and the tracker offset learned."""
     robot = result.robot
     words = []
@@ -66,7 +66,8 @@ def robot_sentences(result: LearnResult, prior_friction_nm: np.ndarray) -> list[
             words.append(f"joint {j + 1} is {100 * abs(change):.0f} % {'softer' if change > 0 else 'stiffer'} than "
                          f"its K_q prior at the process's frequencies (gear and servo in series: K_q,eff "
                          f"{k / 1e3:.0f} kN·m/rad, prior {k0 / 1e3:.0f})")
-    for j, (f, f0, seen) in enumerate(zip(robot.friction_nm, prior_friction_nm, robot.observable, strict=True)):
+    for j, (f, f0, seen) in enumerate(zip(robot.friction_nm, robot.prior_friction_nm, robot.observable,
+                                          strict=True)):
         if seen and abs(f - f0) >= max(0.25 * f0, 20.0):
             words.append(f"joint {j + 1} carries {f:.0f} N·m of friction against its motion (the twin had {f0:.0f})")
     unseen = [str(j + 1) for j, seen in enumerate(robot.observable) if not seen]

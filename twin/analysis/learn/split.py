@@ -14,7 +14,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from twin.analysis.learn.robot import RobotFit, predicted_deflection, robot_rows
+from twin.analysis.learn.robot import RobotFit, predicted_deflection, rms_norm_mm, robot_rows
 from twin.analysis.replay import ReplayResult
 from twin.runs.format import Run
 from twin.sim.quasi_static import Twin
@@ -26,29 +26,22 @@ class GapSplit(NamedTuple):
     Attributes:
         robot_rms_mm: RMS of the tracker minus the twin's robot driven by the measured forces.
         sheet_rms_mm: RMS of the twin's predicted tip minus that tip (what the twin's forces add).
-        total_rms_mm: The replay's position gap (the twin with its own forces).
     """
 
     robot_rms_mm: float
     sheet_rms_mm: float
-    total_rms_mm: float
 
 
 def measured_force_tip(run: Run, twin: Twin) -> np.ndarray:
     """The twin's tool tip at the tracker's times driven by the run's measured forces, sheet frame [m]."""
     rows = robot_rows(run, twin)
     dof = len(twin.joint_stiffness)
-    own = RobotFit(twin.joint_stiffness, np.zeros(dof), twin.joint_stiffness, np.ones(dof, dtype=bool),
-                   twin.spec.servo, twin.joint_friction, np.zeros(3), (), ())
+    own = RobotFit(twin.joint_stiffness, np.zeros(dof), twin.joint_stiffness, twin.joint_friction,
+                   np.ones(dof, dtype=bool), twin.spec.servo, twin.joint_friction, np.zeros(3), (), ())
     return run.tracker.values - rows.deflection_m + predicted_deflection(rows, own, np.zeros(3))
 
 
 def split_gap(run: Run, twin: Twin, replayed: ReplayResult) -> GapSplit:
     """Split `replayed`'s position gap (module docstring); `twin` is the one that replayed the run."""
     tip = measured_force_tip(run, twin)
-    return GapSplit(_rms_mm(run.tracker.values - tip), _rms_mm(replayed.tracker_pred_m - tip),
-                    float(replayed.metrics["position_rms_mm"]))
-
-
-def _rms_mm(error_m: np.ndarray) -> float:
-    return 1e3 * float(np.sqrt(np.mean(np.sum(error_m**2, axis=1))))
+    return GapSplit(rms_norm_mm(run.tracker.values - tip), rms_norm_mm(replayed.tracker_pred_m - tip))
