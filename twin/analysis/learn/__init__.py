@@ -1,9 +1,10 @@
 """Learning the cell: a twin of a cell it did not build, from that cell's nominal runs.
 
-Modules: `robot` (effective joint stiffness, friction, servo lag: from the measured forces and tool positions),
-`sheet` (the `learned` force model's weights: from the F/T stream), `cell` (`learn`: both, the learned spec and
-the replay gap before, after and on a run left out), `split` (a run's replay gap split into the robot's part and
-the sheet's part, the twin's robot driven by the measured forces).
+Modules: `robot` (joint stiffness, friction, the servo's transient and the tracker's offset: from the measured
+forces and tool positions), `sheet` (the `learned` force model's weights: from the F/T stream), `springback` (two
+springback constants: from the runs' part profiles), `cell` (`learn`: all of them, the learned spec and the
+replay gap before, after and on a run left out), `split` (a run's replay gap split into the robot's part and the
+sheet's part, the twin's robot driven by the measured forces), `signatures` (what was learned, in words).
 """
 
 from twin.analysis.learn.cell import Gap, LearnResult, learn, learned_spec
