@@ -23,8 +23,8 @@ import numpy as np
 
 from twin.analysis.compensate import compensate_twin
 from twin.process.description import Process
-from twin.process.isf_force import IsfForceField
-from twin.process.shapes import PartSpec, part_path
+from twin.process.force.isf import IsfForceField
+from twin.process.toolpath.shapes import PartSpec, part_path
 from twin.sim.spec import TwinSpec
 
 

@@ -1,6 +1,6 @@
 """How much the stand-in FE history's Fx taper costs the ISF model along the groove.
 
-The shipped stand-in (`twin.process.fe_history`) tapers Fx over the arc length *since* the last reversal
+The shipped stand-in (`twin.process.fe.generator`) tapers Fx over the arc length *since* the last reversal
 (causal). The alternative, `fx_taper="nearest"`, tapers over the arc length to the *nearest* reversal, so before
 the tool reverses as well as after, which no causal model can follow. This script reports the ISF
 model's Fx and Fz errors against both, with the constants fitted to the shipped stand-in (`calibrate_isf`: the
@@ -18,10 +18,10 @@ from pathlib import Path
 import numpy as np
 
 from twin.base.csvio import write_table
-from twin.process.fe_history import generate_history
-from twin.process.forces import load_force_history
-from twin.process.isf_calibration import calibrate_isf, groove_errors
-from twin.process.isf_params import IsfForceParams
+from twin.process.fe.generator import generate_history
+from twin.process.fe.load import load_force_history
+from twin.process.force.isf_calibration import calibrate_isf, groove_errors
+from twin.process.force.isf_params import IsfForceParams
 
 NEAR_BEFORE, NEAR_AFTER = 3, 5  # samples around each reversal counted as "at the reversal"
 

@@ -15,7 +15,7 @@ import pytest
 from twin.analysis.replay import ReplayResult, replay
 from twin.cli import main
 from twin.lab.virtual import nominal_commanded
-from twin.process.path import groove_path
+from twin.process.toolpath.groove import groove_path
 from twin.runs.format import Run
 from twin.runs.read import read_run
 from twin.sim.quasi_static import Twin

@@ -33,8 +33,8 @@ from scipy.spatial.transform import Rotation
 from twin.analysis.discrepancy.search import find_discrepancy
 from twin.lab.virtual import LabSettings, nominal_commanded, run_lab
 from twin.process.description import Process
-from twin.process.forces import ForceHistory, default_force_history
-from twin.process.path import label_passes
+from twin.process.fe.load import ForceHistory, default_force_history
+from twin.process.toolpath.groove import label_passes
 from twin.runs.format import Run, Stream
 from twin.sim.quasi_static import PASS_DEADBAND_M, Twin
 from twin.sim.result import SimResult

@@ -41,7 +41,7 @@ import numpy as np
 from twin.analysis.discrepancy.search import find_discrepancy
 from twin.lab.virtual import LabSettings, nominal_commanded, run_lab
 from twin.process.description import Process
-from twin.process.forces import default_force_history
+from twin.process.fe.load import default_force_history
 from twin.runs.format import Run, Stream
 from twin.sim.quasi_static import Twin
 from twin.sim.spec import TwinSpec

@@ -11,7 +11,7 @@ from twin.analysis.replay import replay
 from twin.apps.bench import analytic_replay, format_table, run_benchmarks
 from twin.cli import main
 from twin.errors import InputError
-from twin.process.path import groove_path
+from twin.process.toolpath.groove import groove_path
 from twin.runs.format import Run, Stream
 from twin.sim.spec import TwinSpec
 

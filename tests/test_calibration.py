@@ -27,7 +27,7 @@ from twin.analysis.identify.cartesian import (
 )
 from twin.cli import main
 from twin.errors import InputError
-from twin.process.springback import last_contact_force, unloaded_profile
+from twin.process.part.springback import last_contact_force, unloaded_profile
 from twin.runs.read import read_run
 from twin.sim.quasi_static import Twin
 from twin.sim.spec import TwinSpec

@@ -21,9 +21,9 @@ from twin.analysis.compensation_record import CompensationRecord
 from twin.cli import COMMANDS, main
 from twin.errors import IdentificationError, RunFormatError
 from twin.lab.virtual import run_lab
-from twin.process.field import SheetForceField
-from twin.process.forces import default_force_history
-from twin.process.path import ToolPath, groove_path
+from twin.process.fe.load import default_force_history
+from twin.process.force.table import SheetForceField
+from twin.process.toolpath.groove import ToolPath, groove_path
 from twin.runs.format import Run, Stream
 from twin.runs.write import write_run
 from twin.sim.quasi_static import Twin

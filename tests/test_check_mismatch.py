@@ -16,10 +16,10 @@ from twin.analysis.check import PathMismatchError, check_run
 from twin.analysis.compensate import compensate_formula
 from twin.cli import main
 from twin.lab.virtual import run_lab
-from twin.process.field import SheetForceField
-from twin.process.forces import default_force_history
-from twin.process.path import ToolPath, groove_path, write_path_csv
-from twin.process.shapes import part_path
+from twin.process.fe.load import default_force_history
+from twin.process.force.table import SheetForceField
+from twin.process.toolpath.groove import ToolPath, groove_path, write_path_csv
+from twin.process.toolpath.shapes import part_path
 from twin.runs.format import Run
 from twin.runs.write import write_run
 from twin.sim.quasi_static import Twin

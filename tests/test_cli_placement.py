@@ -13,7 +13,7 @@ from doc_numbers import quoted
 from twin.analysis.replay import replay
 from twin.cli import main
 from twin.errors import InputError, RunFormatError
-from twin.process.placement import Placement
+from twin.process.toolpath.placement import Placement
 from twin.runs.format import run_placement
 from twin.runs.read import read_run
 from twin.sim.quasi_static import Twin

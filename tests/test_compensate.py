@@ -18,9 +18,9 @@ from twin.analysis.compensate import (
     gain_of,
 )
 from twin.errors import CompensationError, InputError
-from twin.process.field import SheetForceField
-from twin.process.forces import default_force_history
-from twin.process.path import ToolPath, groove_path
+from twin.process.fe.load import default_force_history
+from twin.process.force.table import SheetForceField
+from twin.process.toolpath.groove import ToolPath, groove_path
 from twin.sim.quasi_static import Twin
 
 XZ = np.ix_([0, 2], [0, 2])

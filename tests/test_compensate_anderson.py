@@ -10,7 +10,7 @@ from twin.analysis.anderson import Anderson
 from twin.analysis.compensate import TWIN_TOL_M, compensate_twin
 from twin.errors import CompensationError, InputError
 from twin.process.description import Process
-from twin.process.shapes import PartSpec, part_path
+from twin.process.toolpath.shapes import PartSpec, part_path
 from twin.sim.spec import TwinSpec
 
 

@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 
 from twin.process.description import Process
-from twin.process.field import SheetForceField
-from twin.process.forces import default_force_history
-from twin.process.isf_force import IsfForceField
-from twin.process.path import groove_path
-from twin.process.placement import Placement
+from twin.process.fe.load import default_force_history
+from twin.process.force.isf import IsfForceField
+from twin.process.force.table import SheetForceField
+from twin.process.toolpath.groove import groove_path
+from twin.process.toolpath.placement import Placement
 from twin.sim.compiled import compiled_replay
 from twin.sim.compiled.chain import chain_arrays, chain_eval
 from twin.sim.effects import Effects
@@ -216,8 +216,8 @@ def test_an_edited_kernel_source_drops_every_cached_kernel(tmp_path: Path) -> No
 def test_the_height_map_isf_model_replays_compiled_to_the_python_loops_equilibria() -> None:
     """A cone on the ISF model (any part): same tips and forces, and the field is left as the Python loop leaves
     it (track, pending commits, travel direction, wall angle), so the part's surface after the run is the same."""
-    from twin.process.part_surface import formed_surface
-    from twin.process.shapes import PartSpec, part_path
+    from twin.process.part.surface import formed_surface
+    from twin.process.toolpath.shapes import PartSpec, part_path
 
     path = part_path(PartSpec(depth_m=3e-3, top_half_width_m=15e-3))
     twin = TwinSpec(process=Process(force_model="isf")).build()
@@ -250,8 +250,8 @@ def test_the_height_map_isf_model_replays_compiled_to_the_python_loops_equilibri
 
 def test_the_isf_model_at_reversals_replays_compiled_to_the_python_loops_equilibria() -> None:
     """The groove's first three passes on the ISF model: at each reversal the sliding direction is released
-    (`twin.process.sliding`), a branch a cone never takes; compiled and Python loops find the same tips and forces."""
-    from twin.process.path import GrooveSpec, groove_path
+    (`twin.process.force.sliding`), a branch a cone never takes; compiled and Python loops find the same tips and forces."""
+    from twin.process.toolpath.groove import GrooveSpec, groove_path
 
     path = groove_path(GrooveSpec(passes=3, depth_m=0.003, bottom_length_m=0.068))
     fast, reference = _both(TwinSpec(process=Process(force_model="isf")).build(), path.t_s, path.p_sheet_m)
@@ -268,8 +268,8 @@ def test_the_isf_model_at_reversals_replays_compiled_to_the_python_loops_equilib
 def test_the_learned_force_model_replays_compiled_to_the_python_loops_equilibria() -> None:
     """The `learned` model (the ISF model with membrane terms learned from a cell) runs in the ISF kernel with its
     terms: a cone and the groove's first passes give the Python loop's tips and forces."""
-    from twin.process.path import GrooveSpec, groove_path
-    from twin.process.shapes import PartSpec, part_path
+    from twin.process.toolpath.groove import GrooveSpec, groove_path
+    from twin.process.toolpath.shapes import PartSpec, part_path
 
     fit = (("prior_weight", -0.1), ("side_membrane_n", 2200.0), ("side_cubic_n", 1300.0),
            ("ahead_membrane_n", 100.0), ("mu_eff", 0.1), ("mu_radial", 0.05))

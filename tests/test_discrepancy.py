@@ -26,8 +26,8 @@ from twin.analysis.discrepancy.summary import result_summary
 from twin.base.resources import data_file
 from twin.lab.virtual import LabSettings, run_lab
 from twin.process.description import Process
-from twin.process.forces import ForceHistory, load_force_history
-from twin.process.path import label_passes
+from twin.process.fe.load import ForceHistory, load_force_history
+from twin.process.toolpath.groove import label_passes
 from twin.runs.format import Run, Stream
 from twin.sim.effects import EFFECTS, Effects
 from twin.sim.quasi_static import PASS_DEADBAND_M

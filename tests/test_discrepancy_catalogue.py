@@ -29,7 +29,7 @@ from twin.analysis.discrepancy.search import find_discrepancy
 NAMED_RATE = 0.95  # the right family named first
 EXPLAINED = 0.70  # share of the excess over noise the named families explain, where named
 # Share of the named runs that must reach EXPLAINED: all of them (min 0.89). From commit 770d28d (joint friction,
-# field) until the twin's tool stuck on the sheet at reversals (twin.process.tool_friction), two clamp-force
+# field) until the twin's tool stuck on the sheet at reversals (twin.process.force.tool_friction), two clamp-force
 # rises stayed at 0.59: their remainder was at the reversals, where the twin's force flipped in one sample.
 EXPLAINED_RATE = 1.0
 FAST_SEEDS = (1, 2, 44, 57, 64)  # direction-dependent compliance, lost motion, a combination, made-up, clean

@@ -22,8 +22,8 @@ from twin.lab.dynamic.knobs import KNOBS, Knobs, parse_set_args
 from twin.lab.dynamic.run import dynamic_load_test, run_dynamic_lab
 from twin.lab.dynamic.sweep import breaking_feed, feed_sweep, sweep_table
 from twin.process.description import Process
-from twin.process.forces import default_force_history
-from twin.process.path import GrooveSpec, groove_path
+from twin.process.fe.load import default_force_history
+from twin.process.toolpath.groove import GrooveSpec, groove_path
 from twin.runs.read import read_run
 from twin.runs.write import write_run
 from twin.sim.spec import TwinSpec

@@ -23,7 +23,7 @@ from twin.apps.export.configuration import (
 from twin.apps.export.program import default_cell
 from twin.cli import main
 from twin.errors import InputError, ModelError
-from twin.process.path import GrooveSpec, groove_path, write_path_csv
+from twin.process.toolpath.groove import GrooveSpec, groove_path, write_path_csv
 from twin.robot.description import load_robot
 from twin.robot.kinematics import Kinematics
 from twin.runs.format import Run, run_meta

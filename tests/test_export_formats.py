@@ -16,7 +16,7 @@ from twin.apps.export.program import CellSetup, default_cell, euler_xyz_deg, eul
 from twin.apps.export.val3_check import check_application
 from twin.cli import main
 from twin.errors import InputError, TwinError
-from twin.process.path import GrooveSpec, groove_path, write_path_csv
+from twin.process.toolpath.groove import GrooveSpec, groove_path, write_path_csv
 from twin.runs.read import read_commanded_csv
 
 POSITION_TOL_MM = 0.5e-4 + 1e-9  # 4 decimals
@@ -283,7 +283,7 @@ def test_default_cell_puts_the_tool_down(cell: CellSetup) -> None:
 def test_a_turned_sheet_frame_puts_every_format_on_the_twins_pose(path_csv: Path, tmp_path: Path) -> None:
     """Placement yaw 30°: each format's sheet frame times its point pose is the pose the twin's IK solves for
     (tool tip origin + Rz(30°)·p, tool axes `Kinematics.R_tool_down` in the base)."""
-    from twin.process.placement import Placement
+    from twin.process.toolpath.placement import Placement
     from twin.robot.kinematics import Kinematics
 
     placement = Placement(origin_base_m=(1.5, 0.1, 0.2), yaw_rad=np.radians(30.0))

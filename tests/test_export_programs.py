@@ -16,7 +16,7 @@ import pytest
 from doc_numbers import quoted
 
 from twin.cli import main
-from twin.process.path import GrooveSpec, groove_path, write_path_csv
+from twin.process.toolpath.groove import GrooveSpec, groove_path, write_path_csv
 from twin.runs.format import Run, run_meta
 from twin.runs.read import read_commanded_csv
 from twin.runs.write import write_run

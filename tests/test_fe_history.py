@@ -1,4 +1,4 @@
-"""Tests of the stand-in FE force history generator and the shipped file (twin/process/fe_history.py)."""
+"""Tests of the stand-in FE force history generator and the shipped file (twin/process/fe/generator.py)."""
 
 from __future__ import annotations
 
@@ -11,9 +11,9 @@ from twin.base.csvio import read_table
 from twin.base.resources import data_file
 from twin.cli import main
 from twin.errors import InputError
-from twin.process.fe_history import FE_SAMPLES, generate_history, stand_in_level_n, write_history
-from twin.process.forces import load_force_history
-from twin.process.path import groove_path, label_passes, resample_by_arc_length
+from twin.process.fe.generator import FE_SAMPLES, generate_history, stand_in_level_n, write_history
+from twin.process.fe.load import load_force_history
+from twin.process.toolpath.groove import groove_path, label_passes, resample_by_arc_length
 
 COLUMNS = ("s_mm", "x_mm", "z_mm", "fx_half_n", "fy_sym_n", "fz_half_n")
 

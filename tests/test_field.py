@@ -1,4 +1,4 @@
-"""Tests of the stateful sheet force field (twin/process/field.py)."""
+"""Tests of the stateful sheet force field (twin/process/force/table.py)."""
 
 from __future__ import annotations
 
@@ -10,9 +10,9 @@ import pytest
 from doc_numbers import quoted
 
 from twin.errors import InputError
-from twin.process.field import K_LOAD_N_PER_M, K_UNLOAD_N_PER_M, SheetForceField
-from twin.process.forces import default_force_history
-from twin.process.path import ToolPath, groove_path
+from twin.process.fe.load import default_force_history
+from twin.process.force.table import K_LOAD_N_PER_M, K_UNLOAD_N_PER_M, SheetForceField
+from twin.process.toolpath.groove import ToolPath, groove_path
 
 UP = np.array([0.0, 0.0, 1.0])
 
@@ -155,7 +155,7 @@ def test_rigid_run_forms_the_planned_groove(field):
     assert formed.min() == pytest.approx(-10e-3, abs=1e-6)
     assert float(np.interp(0.0, x, formed)) == pytest.approx(-9.5e-3, abs=1e-5)  # last pass at mid-stroke
     assert np.all(formed[np.abs(x) > 0.035 + 7.5e-3] == 0.0)
-    # springback after unloading: twin/process/springback.py, tested in tests/test_calibration.py
+    # springback after unloading: twin/process/part/springback.py, tested in tests/test_calibration.py
 
 
 def test_state_forgives_a_steady_offset_but_the_stateless_field_does_not(history):

@@ -17,10 +17,10 @@ import pytest
 
 from twin.cli import main
 from twin.process.description import Process
-from twin.process.force_field import ForceField
-from twin.process.force_models import FORCE_MODELS, ForceModel, register_force_model, unregister_force_model
-from twin.process.forces import ForceHistory
-from twin.process.path import groove_path
+from twin.process.fe.load import ForceHistory
+from twin.process.force.base import ForceField
+from twin.process.force.registry import FORCE_MODELS, ForceModel, register_force_model, unregister_force_model
+from twin.process.toolpath.groove import groove_path
 from twin.sim.spec import TwinSpec
 
 TOY_K_N_PER_M = 1.2e5  # 1.2 kN at the groove's 10 mm
@@ -129,7 +129,7 @@ def test_a_name_the_registry_does_not_know_is_refused(capsys: pytest.CaptureFixt
 
 
 def test_the_compiled_kernel_is_chosen_by_the_declared_capability(twin_nominal: object) -> None:
-    from twin.process.field import SheetForceField
+    from twin.process.force.table import SheetForceField
 
     class Subclass(SheetForceField):  # a subclass may change the physics: it declares no kernel of its own
         pass

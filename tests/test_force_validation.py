@@ -15,10 +15,10 @@ from twin.apps.force_validation import TOLERANCE, fit_build_up, markdown, valida
 from twin.cli import main
 from twin.errors import DataFileError
 from twin.process.description import Process
-from twin.process.force_models import build_force_field
-from twin.process.isf_params import IsfForceParams, steady_fz_n
-from twin.process.materials import material
-from twin.process.shapes import PartSpec, part_path
+from twin.process.force.isf_params import IsfForceParams, steady_fz_n
+from twin.process.force.registry import build_force_field
+from twin.process.material.library import material
+from twin.process.toolpath.shapes import PartSpec, part_path
 
 DOC = Path(__file__).resolve().parent.parent / "docs" / "force-validation.md"
 

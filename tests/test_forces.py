@@ -1,4 +1,4 @@
-"""Tests of the FE force-history loader (twin/process/forces.py): the symmetry declaration and bad files."""
+"""Tests of the FE force-history loader (twin/process/fe/load.py): the symmetry declaration and bad files."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import pytest
 from twin.base.csvio import read_table
 from twin.base.resources import data_file
 from twin.errors import DataFileError, SymmetryError, UnitsError
-from twin.process.forces import default_force_history, load_force_history
+from twin.process.fe.load import default_force_history, load_force_history
 
 SHIPPED = data_file("fe_force_history.csv")
 

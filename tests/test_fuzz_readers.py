@@ -25,7 +25,7 @@ from twin.base.csvio import read_table
 from twin.base.jsonio import read_json
 from twin.cli import main
 from twin.errors import TwinError
-from twin.process.gcode import parse_gcode, read_gcode
+from twin.process.toolpath.gcode import parse_gcode, read_gcode
 from twin.runs.mapping import TableSpec, load_mapping, mapping_keys
 from twin.runs.raw_tables import read_raw_table
 from twin.runs.read import read_commanded_csv, read_run

@@ -31,9 +31,9 @@ from twin.base.resources import data_file
 from twin.errors import SymmetryError
 from twin.lab.virtual import load_test, run_lab
 from twin.process.description import Process
-from twin.process.field import SheetForceField
-from twin.process.forces import ForceHistory, default_force_history, load_force_history
-from twin.process.path import ToolPath, groove_path
+from twin.process.fe.load import ForceHistory, default_force_history, load_force_history
+from twin.process.force.table import SheetForceField
+from twin.process.toolpath.groove import ToolPath, groove_path
 from twin.sim.spec import TwinSpec
 
 GAIN_TOL = 0.02

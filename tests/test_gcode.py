@@ -1,4 +1,4 @@
-"""Tests of the G-code import/export (twin/process/gcode.py)."""
+"""Tests of the G-code import/export (twin/process/toolpath/gcode.py)."""
 
 from __future__ import annotations
 
@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from twin.errors import DataFileError, InputError
-from twin.process.gcode import parse_gcode, read_gcode, write_gcode
-from twin.process.shapes import PartSpec, part_path
+from twin.process.toolpath.gcode import parse_gcode, read_gcode, write_gcode
+from twin.process.toolpath.shapes import PartSpec, part_path
 
 
 def test_linear_moves_absolute_and_incremental_in_mm_and_inches():

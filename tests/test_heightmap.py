@@ -1,4 +1,4 @@
-"""Tests of the formed-surface height map (twin/process/heightmap.py)."""
+"""Tests of the formed-surface height map (twin/process/part/heightmap.py)."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from twin.errors import InputError
-from twin.process.heightmap import SUBSTEPS, HeightMap
+from twin.process.part.heightmap import SUBSTEPS, HeightMap
 
 R = 7.5e-3
 

@@ -21,9 +21,9 @@ from twin.analysis.identify.forces import fit_forces
 from twin.base.signals import interp_rows
 from twin.cli import main
 from twin.process.description import Process
-from twin.process.force_models import build_force_field
-from twin.process.path import ToolPath
-from twin.process.shapes import PartSpec, part_path
+from twin.process.force.registry import build_force_field
+from twin.process.toolpath.groove import ToolPath
+from twin.process.toolpath.shapes import PartSpec, part_path
 from twin.runs.format import Run, Stream, run_meta
 from twin.runs.write import write_run
 

@@ -14,9 +14,9 @@ from twin.analysis.identify.springback import fit_springback
 from twin.cli import main
 from twin.errors import InputError
 from twin.process.description import Process
-from twin.process.part_bottom import with_floating_bottom
-from twin.process.part_surface import FORMED_BELOW_M, design_part_surface, heightmap_mesh, surface_points
-from twin.process.shapes import PartSpec, part_path
+from twin.process.part.bottom import with_floating_bottom
+from twin.process.part.surface import FORMED_BELOW_M, design_part_surface, heightmap_mesh, surface_points
+from twin.process.toolpath.shapes import PartSpec, part_path
 from twin.runs.format import Run, Stream, run_meta
 from twin.runs.write import write_run
 from twin.sim.spec import TwinSpec

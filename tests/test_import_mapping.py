@@ -13,7 +13,7 @@ import pytest
 
 from twin.cli import main
 from twin.errors import InputError
-from twin.process.path import groove_path
+from twin.process.toolpath.groove import groove_path
 from twin.runs.clock import onset_offset
 from twin.runs.gravity import contact_force_sheet, sensor_reading
 from twin.runs.importer import import_run

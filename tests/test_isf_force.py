@@ -1,4 +1,4 @@
-"""Tests of the ISF height-map force model (twin/process/isf_force.py), its constants (isf_params.py), the
+"""Tests of the ISF height-map force model (twin/process/force/isf.py), its constants (isf_params.py), the
 published formula (aerens.py) and the fit to the groove (isf_calibration.py). The reference formula is recomputed
 here from the paper's statement, independently of the model: Aerens, Eyckens, Van Bael, Duflou, Int J Adv Manuf
 Technol 46 (2010) 969-982, Eq. 30, with Δh the scallop height and α in degrees."""
@@ -17,13 +17,13 @@ from twin.analysis.compensate import compensate_twin
 from twin.base.csvio import write_table
 from twin.errors import ExtrapolationWarning, InputError
 from twin.process.description import Process
-from twin.process.fe_history import generate_history
-from twin.process.force_models import build_force_field
-from twin.process.forces import default_force_history, load_force_history
-from twin.process.isf_calibration import calibrate_isf, groove_errors
-from twin.process.isf_force import IsfForceField
-from twin.process.isf_params import IsfForceParams, params_for, steady_fz_n
-from twin.process.shapes import PartSpec, part_path
+from twin.process.fe.generator import generate_history
+from twin.process.fe.load import default_force_history, load_force_history
+from twin.process.force.isf import IsfForceField
+from twin.process.force.isf_calibration import calibrate_isf, groove_errors
+from twin.process.force.isf_params import IsfForceParams, params_for, steady_fz_n
+from twin.process.force.registry import build_force_field
+from twin.process.toolpath.shapes import PartSpec, part_path
 from twin.sim.quasi_static import Twin
 from twin.sim.spec import TwinSpec
 

@@ -10,9 +10,9 @@ import pytest
 
 from twin.errors import InputError
 from twin.process.description import Process
-from twin.process.force_models import build_force_field
-from twin.process.learned_force import LearnedForceField, LearnedWeights
-from twin.process.shapes import PartSpec, part_path
+from twin.process.force.learned import LearnedForceField, LearnedWeights
+from twin.process.force.registry import build_force_field
+from twin.process.toolpath.shapes import PartSpec, part_path
 from twin.sim.model_file import read_model_file, write_model_file
 from twin.sim.spec import TwinSpec
 

@@ -7,8 +7,8 @@ import pytest
 
 from twin.analysis.replay import ReplayResult
 from twin.base.signals import uniform_times
-from twin.process.field import K_UNLOAD_N_PER_M
-from twin.process.springback import PROFILE_HALF_SPAN_M, PROFILE_SPACING_M
+from twin.process.force.table import K_UNLOAD_N_PER_M
+from twin.process.part.springback import PROFILE_HALF_SPAN_M, PROFILE_SPACING_M
 from twin.sim.effects import TRACKER_DRIFT_DIRECTION, Effects
 from twin.sim.measure import predict_forces, predict_part_profile, predict_tracker
 from twin.sim.quasi_static import Twin

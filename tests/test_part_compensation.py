@@ -16,10 +16,10 @@ from twin.analysis.scan_learning import learn_from_scan, twin_discrepancy
 from twin.analysis.surface_check import design_heights, surface_heights
 from twin.cli import main
 from twin.process.description import Process
-from twin.process.isf_force import IsfForceField
-from twin.process.part_bottom import with_floating_bottom
-from twin.process.part_surface import FORMED_BELOW_M, cropped_surface, heightmap_mesh, surface_points
-from twin.process.shapes import PartSpec, part_path
+from twin.process.force.isf import IsfForceField
+from twin.process.part.bottom import with_floating_bottom
+from twin.process.part.surface import FORMED_BELOW_M, cropped_surface, heightmap_mesh, surface_points
+from twin.process.toolpath.shapes import PartSpec, part_path
 from twin.sim.spec import TwinSpec
 
 CONE = PartSpec(shape="cone", top_half_width_m=0.02, depth_m=0.005)

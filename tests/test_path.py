@@ -1,4 +1,4 @@
-"""Tests of the ideal groove path (twin/process/path.py)."""
+"""Tests of the ideal groove path (twin/process/toolpath/groove.py)."""
 
 from __future__ import annotations
 
@@ -12,7 +12,13 @@ from hypothesis import strategies as st
 from twin.base.csvio import read_table
 from twin.cli import main
 from twin.errors import InputError
-from twin.process.path import GrooveSpec, groove_path, label_passes, resample_by_arc_length, write_path_csv
+from twin.process.toolpath.groove import (
+    GrooveSpec,
+    groove_path,
+    label_passes,
+    resample_by_arc_length,
+    write_path_csv,
+)
 
 
 def _pass_ends(path, spec):

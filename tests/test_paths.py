@@ -1,5 +1,5 @@
-"""Tests of the ISF test-part paths (twin/process/shapes.py), the placement and reach check
-(twin/process/placement.py) and `tx200-twin path --shape/--gcode`."""
+"""Tests of the ISF test-part paths (twin/process/toolpath/shapes.py), the placement and reach check
+(twin/process/toolpath/placement.py) and `tx200-twin path --shape/--gcode`."""
 
 from __future__ import annotations
 
@@ -11,8 +11,8 @@ import pytest
 from twin.base.csvio import read_table
 from twin.cli import main
 from twin.errors import InputError, UnreachableError
-from twin.process.placement import Placement, check_reach
-from twin.process.shapes import PartSpec, part_path
+from twin.process.toolpath.placement import Placement, check_reach
+from twin.process.toolpath.shapes import PartSpec, part_path
 from twin.robot.kinematics import Kinematics
 
 SMALL = {"top_half_width_m": 0.03, "depth_m": 0.01, "step_down_m": 1e-3, "spacing_m": 1e-3}

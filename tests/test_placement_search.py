@@ -17,8 +17,8 @@ from twin.analysis.placement_search import SearchBox, candidate_rows, search_pla
 from twin.base.csvio import write_table
 from twin.cli import main
 from twin.process.description import Process
-from twin.process.path import ToolPath, groove_path
-from twin.process.shapes import PartSpec, part_path
+from twin.process.toolpath.groove import ToolPath, groove_path
+from twin.process.toolpath.shapes import PartSpec, part_path
 from twin.sim.spec import TwinSpec
 
 

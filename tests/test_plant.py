@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from twin.errors import InputError, ModelError
-from twin.process.path import label_passes
+from twin.process.toolpath.groove import label_passes
 from twin.robot.description import load_robot
 from twin.robot.model import LOST_MOTION_STIFFNESS_NM_PER_RAD, build_model, lost_motion_schedule
 from twin.sim.effects import Effects

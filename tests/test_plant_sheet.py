@@ -16,8 +16,8 @@ import pytest
 import twin
 from twin.lab.dynamic.sheet import PlantSheet, voce_mpa, voce_tensile_strength_mpa
 from twin.process.description import Process
-from twin.process.path import groove_path
-from twin.process.shapes import PartSpec, part_path
+from twin.process.toolpath.groove import groove_path
+from twin.process.toolpath.shapes import PartSpec, part_path
 
 ROOT = Path(twin.__file__).resolve().parent
 DOC = ROOT.parent / "docs" / "dynamic-plant.md"

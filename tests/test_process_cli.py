@@ -14,10 +14,10 @@ from twin.base.csvio import write_table
 from twin.cli import main
 from twin.errors import DataFileError, InputError
 from twin.process.description import Process
-from twin.process.isf_params import steady_fz_n
-from twin.process.materials import material
-from twin.process.path import groove_path
+from twin.process.force.isf_params import steady_fz_n
+from twin.process.material.library import material
 from twin.process.process_file import process_for, read_process_file
+from twin.process.toolpath.groove import groove_path
 from twin.runs.format import run_process
 from twin.sim.model_file import read_model_file, write_model_file
 from twin.sim.spec import TwinSpec

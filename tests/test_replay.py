@@ -14,7 +14,7 @@ from twin.analysis.replay import ReplayResult, replay, replay_metrics
 from twin.cli import main
 from twin.errors import InputError
 from twin.lab.virtual import run_lab
-from twin.process.placement import Placement
+from twin.process.toolpath.placement import Placement
 from twin.runs.format import Run, Stream, run_placement
 from twin.sim.effects import Effects
 from twin.sim.measure import predict_part_profile

@@ -15,8 +15,8 @@ from twin.lab.dynamic.knobs import Knobs
 from twin.lab.dynamic.plant import build_plant
 from twin.lab.dynamic.simulate import simulate
 from twin.process.description import Process
-from twin.process.placement import check_reach
-from twin.process.shapes import PartSpec, part_path
+from twin.process.toolpath.placement import check_reach
+from twin.process.toolpath.shapes import PartSpec, part_path
 from twin.robot.description import load_robot, shipped_robots
 from twin.robot.dh import dh_fk
 from twin.robot.kinematics import Kinematics, load_model

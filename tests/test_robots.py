@@ -18,8 +18,8 @@ from twin.errors import InputError
 from twin.lab.dynamic.knobs import Knobs
 from twin.lab.dynamic.plant import build_plant
 from twin.process.description import Process
-from twin.process.placement import check_reach
-from twin.process.shapes import PartSpec, part_path
+from twin.process.toolpath.placement import check_reach
+from twin.process.toolpath.shapes import PartSpec, part_path
 from twin.robot.description import load_robot, shipped_robots
 from twin.robot.dh import dh_fk, dh_jacobian
 from twin.robot.kinematics import Kinematics

@@ -12,7 +12,7 @@ from scipy.interpolate import RegularGridInterpolator
 from twin.analysis.scan_learning import forming_samples, learn_from_scan, resting_tips
 from twin.analysis.surface_check import design_heights
 from twin.errors import InputError
-from twin.process.part_surface import heightmap_mesh
+from twin.process.part.surface import heightmap_mesh
 
 R = 7.5e-3  # tool radius [m]
 AXIS = np.arange(-0.026, 0.02605, 0.5e-3)  # the plant's surface grid [m]

@@ -1,5 +1,5 @@
 """Scans in: the design surface (`path --design-stl`), scan files, their registration to the design and the
-deviations by region (twin.process.part_surface, twin.runs.scan_file, twin.analysis.scan_registration,
+deviations by region (twin.process.part.surface, twin.runs.scan_file, twin.analysis.scan_registration,
 twin.analysis.surface_check, `check --scan`)."""
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ from twin.analysis.scan_registration import register_scan
 from twin.analysis.surface_check import REGIONS, DesignIndex, region_deviation
 from twin.cli import main
 from twin.errors import DataFileError, InputError, UnitsError
-from twin.process.part_surface import (
+from twin.process.part.surface import (
     DESIGN_MARGIN_M,
     cropped_surface,
     design_part_surface,
@@ -26,7 +26,7 @@ from twin.process.part_surface import (
     surface_points,
     target_part_surface,
 )
-from twin.process.shapes import PartSpec, part_path
+from twin.process.toolpath.shapes import PartSpec, part_path
 from twin.runs.scan_file import read_scan
 
 CONE = PartSpec(shape="cone", top_half_width_m=0.02, depth_m=0.005)

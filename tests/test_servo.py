@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from twin.errors import InputError
-from twin.process.path import GrooveSpec, groove_path
+from twin.process.toolpath.groove import GrooveSpec, groove_path
 from twin.sim.model_file import read_model_file, write_model_file
 from twin.sim.servo import ServoTransient
 from twin.sim.spec import TwinSpec

@@ -1,4 +1,4 @@
-"""Tests of the sliding direction of the ISF model's in-plane force (twin/process/sliding.py) and of the
+"""Tests of the sliding direction of the ISF model's in-plane force (twin/process/force/sliding.py) and of the
 groove history's turns put back between samples (ForceHistory.turns, isf_calibration.history_drive)."""
 
 from __future__ import annotations
@@ -8,10 +8,10 @@ import math
 import numpy as np
 import pytest
 
-from twin.process.forces import default_force_history
-from twin.process.isf_calibration import history_drive
-from twin.process.path import groove_path
-from twin.process.sliding import RELEASE_LENGTH_M, sliding_direction
+from twin.process.fe.load import default_force_history
+from twin.process.force.isf_calibration import history_drive
+from twin.process.force.sliding import RELEASE_LENGTH_M, sliding_direction
+from twin.process.toolpath.groove import groove_path
 
 L_F = 1e-3
 

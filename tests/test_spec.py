@@ -12,9 +12,9 @@ import pytest
 
 from twin.errors import DataFileError, InputError, ModelError
 from twin.process.description import Process
-from twin.process.forces import load_force_history
-from twin.process.path import groove_path
-from twin.process.placement import Placement
+from twin.process.fe.load import load_force_history
+from twin.process.toolpath.groove import groove_path
+from twin.process.toolpath.placement import Placement
 from twin.robot.description import load_robot
 from twin.sim.effects import Effects
 from twin.sim.model_file import MODEL_FORMAT, read_model_file, write_model_file

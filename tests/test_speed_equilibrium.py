@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 
 from twin.process.description import Process
-from twin.process.isf_force import IsfForceField
-from twin.process.pass_tables import lerp_slope, lerp_slope3
-from twin.process.path import groove_path
-from twin.process.shapes import PartSpec, part_path
+from twin.process.force.isf import IsfForceField
+from twin.process.force.pass_tables import lerp_slope, lerp_slope3
+from twin.process.toolpath.groove import groove_path
+from twin.process.toolpath.shapes import PartSpec, part_path
 from twin.sim.equilibrium import NEWTON_TOL_RAD, EquilibriumSolver
 from twin.sim.quasi_static import Twin
 from twin.sim.spec import TwinSpec

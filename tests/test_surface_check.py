@@ -10,9 +10,9 @@ import pytest
 
 from twin.analysis.surface_check import read_target_mesh, surface_deviation
 from twin.errors import DataFileError, InputError
-from twin.process.part_bottom import with_floating_bottom
-from twin.process.part_surface import heightmap_mesh, surface_points, target_part_surface
-from twin.process.shapes import PartSpec, part_path
+from twin.process.part.bottom import with_floating_bottom
+from twin.process.part.surface import heightmap_mesh, surface_points, target_part_surface
+from twin.process.toolpath.shapes import PartSpec, part_path
 from twin.runs.format import Run, Stream
 from twin.runs.read import read_run
 from twin.runs.write import write_run

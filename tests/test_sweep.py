@@ -11,7 +11,7 @@ from twin.apps.sweep import PARAMETERS, Uncertainty, model_uncertainty, run_swee
 from twin.base.csvio import write_table
 from twin.cli import main
 from twin.errors import InputError
-from twin.process.path import ToolPath, groove_path
+from twin.process.toolpath.groove import ToolPath, groove_path
 from twin.sim.quasi_static import Twin
 
 
@@ -94,9 +94,9 @@ def test_scaled_pass_tables_equal_a_refit_of_the_scaled_history() -> None:
     """The sweep rescales the history's tables per draw instead of refitting them (PCHIP is homogeneous)."""
     from dataclasses import replace
 
-    from twin.process.field import SheetForceField
-    from twin.process.forces import default_force_history
-    from twin.process.pass_tables import scaled_tables
+    from twin.process.fe.load import default_force_history
+    from twin.process.force.pass_tables import scaled_tables
+    from twin.process.force.table import SheetForceField
 
     history = default_force_history()
     base = SheetForceField(history).pass_tables

@@ -7,9 +7,9 @@ import pytest
 
 from twin.errors import InputError
 from twin.process.description import Process
-from twin.process.field import SheetForceField
-from twin.process.forces import default_force_history
-from twin.process.tool_friction import REVERSAL_M, SlidingFriction
+from twin.process.fe.load import default_force_history
+from twin.process.force.table import SheetForceField
+from twin.process.force.tool_friction import REVERSAL_M, SlidingFriction
 from twin.sim.quasi_static import Twin
 from twin.sim.spec import TwinSpec
 

@@ -17,7 +17,7 @@ from twin.base.units import (
 )
 from twin.cli import main
 from twin.errors import DataFileError, UnitsError
-from twin.process.forces import load_force_history
+from twin.process.fe.load import load_force_history
 from twin.runs.format import Run, Stream
 from twin.runs.read import read_commanded_csv, read_run
 from twin.runs.write import write_run

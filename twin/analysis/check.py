@@ -24,7 +24,7 @@ from twin.analysis.gain_cause import GAIN_TOLERANCE, name_cause
 from twin.analysis.identify.cartesian import fit_compliance
 from twin.base.signals import interp_rows
 from twin.errors import IdentificationError, InputError, RunFormatError
-from twin.process.path import label_passes
+from twin.process.toolpath.groove import label_passes
 from twin.runs.format import Run, resample
 from twin.sim.quasi_static import PASS_DEADBAND_M
 

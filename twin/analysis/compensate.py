@@ -30,7 +30,7 @@ import numpy as np
 
 from twin.analysis.anderson import Anderson
 from twin.errors import CompensationError, IdentificationError, InputError
-from twin.process.path import label_passes
+from twin.process.toolpath.groove import label_passes
 from twin.sim.spec import TwinSpec
 
 if TYPE_CHECKING:  # the twin (MuJoCo, numba) loads when a spec is built

@@ -1,8 +1,8 @@
 """The formed part compensated to the design: springback included, and learned from scans.
 
 A path compensation (`twin.analysis.compensate.compensate_twin`) makes the tool tip follow the path; the part then
-springs back when it is unclamped (the elastic recovery F/k_unload of `twin.process.heightmap`, the unsupported
-bottom of `twin.process.part_bottom`), so it misses the drawing by about that recovery. Two loops close the gap:
+springs back when it is unclamped (the elastic recovery F/k_unload of `twin.process.part.heightmap`, the unsupported
+bottom of `twin.process.part.bottom`), so it misses the drawing by about that recovery. Two loops close the gap:
 
 * **Part compensation** (`compensate_part`, on the twin): the target tool path is moved, each sample along z, by the
   twin's predicted surface error of the surface that sample formed (the part after unclamping, minus the design,
@@ -31,8 +31,8 @@ from twin.analysis.compensate import Compensation, compensate_twin
 from twin.analysis.scan_learning import learn_from_scan
 from twin.analysis.surface_check import REGIONS, DesignIndex, RegionDeviation, region_deviation
 from twin.errors import InputError
-from twin.process.part_surface import formed_surface, surface_points
-from twin.process.path import ToolPath
+from twin.process.part.surface import formed_surface, surface_points
+from twin.process.toolpath.groove import ToolPath
 from twin.sim.quasi_static import Twin
 
 #: The regions of the design that are the part (the rest is flat sheet).

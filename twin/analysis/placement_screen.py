@@ -1,7 +1,7 @@
 """The placement search's two models of a part's error at a candidate placement: a fast screen and the twin.
 
 A candidate is one row [x, y, z, yaw] [m, m, m, rad]: the sheet origin in the base frame and the sheet's yaw
-(`twin.process.placement.Placement`; the sheet stays horizontal, the tool vertical).
+(`twin.process.toolpath.placement.Placement`; the sheet stays horizontal, the tool vertical).
 
 **Screen** (`screen_chunk`): the part is simulated ONCE, at the cell's default placement, for the force the sheet
 exerts on the tool along the path, in the sheet frame F_sheet. For a candidate, the IK is solved along a subsample
@@ -34,8 +34,8 @@ from typing import TYPE_CHECKING, NamedTuple
 import numpy as np
 
 from twin.errors import SingularityError, UnreachableError
-from twin.process.path import ToolPath
-from twin.process.placement import Placement, ReachReport, check_reach
+from twin.process.toolpath.groove import ToolPath
+from twin.process.toolpath.placement import Placement, ReachReport, check_reach
 from twin.robot.description import RobotDescription
 from twin.sim.spec import TwinSpec
 

@@ -40,7 +40,7 @@ from twin.analysis.placement_screen import (
 )
 from twin.base.jobs import Jobs
 from twin.errors import InputError
-from twin.process.path import ToolPath
+from twin.process.toolpath.groove import ToolPath
 from twin.sim.spec import TwinSpec
 
 #: Path samples the screen solves the IK at (evenly spread in time).

@@ -13,10 +13,10 @@ from scipy.linalg.lapack import dgesv
 from twin.base.signals import interp_rows
 from twin.errors import InputError
 from twin.process.description import Process
-from twin.process.force_field import ForceField
-from twin.process.forces import ForceHistory
-from twin.process.path import label_passes
-from twin.process.tool_friction import SheetModel, solve_sample
+from twin.process.fe.load import ForceHistory
+from twin.process.force.base import ForceField
+from twin.process.force.tool_friction import SheetModel, solve_sample
+from twin.process.toolpath.groove import label_passes
 from twin.runs.format import Run
 from twin.sim.quasi_static import PASS_DEADBAND_M, Twin
 from twin.sim.spec import TwinSpec

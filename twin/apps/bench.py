@@ -33,7 +33,7 @@ from twin.apps.machine import machine_info
 from twin.apps.sweep import run_sweep
 from twin.base.jobs import usable_cores
 from twin.errors import InputError
-from twin.process.path import ToolPath, label_passes
+from twin.process.toolpath.groove import ToolPath, label_passes
 from twin.runs.format import Run
 from twin.sim.quasi_static import PASS_DEADBAND_M, Twin
 from twin.sim.result import SimResult
@@ -167,10 +167,10 @@ def _bench_analysis(
 def _bench_force_models(out: dict[str, Any], t_s: np.ndarray, p_cmd: np.ndarray, repeats: int) -> None:
     """The table field and the ISF height-map field along the path, and a cone on the ISF model (any part)."""
     from twin.process.description import Process
-    from twin.process.field import SheetForceField
-    from twin.process.forces import default_force_history
-    from twin.process.isf_force import IsfForceField
-    from twin.process.shapes import PartSpec, part_path
+    from twin.process.fe.load import default_force_history
+    from twin.process.force.isf import IsfForceField
+    from twin.process.force.table import SheetForceField
+    from twin.process.toolpath.shapes import PartSpec, part_path
 
     pass_index, direction = label_passes(p_cmd[:, 0], deadband_m=PASS_DEADBAND_M)
     path = ToolPath(t_s=t_s, p_sheet_m=p_cmd, pass_index=pass_index, direction=direction)
@@ -235,8 +235,8 @@ def _bench_discrepancy(out: dict[str, Any], run: Run, t_s: np.ndarray, p_cmd: np
 
 def _bench_gcode(out: dict[str, Any], repeats: int) -> None:
     """G-code import: a 101,840-move spiral 45° cone, 120 mm across, 40 mm deep, read back."""
-    from twin.process.gcode import read_gcode, write_gcode
-    from twin.process.shapes import PartSpec, part_path
+    from twin.process.toolpath.gcode import read_gcode, write_gcode
+    from twin.process.toolpath.shapes import PartSpec, part_path
 
     with tempfile.TemporaryDirectory(prefix="tx200-bench-gcode-") as tmp:
         program = write_gcode(part_path(PartSpec(step_down_m=0.3e-3)), Path(tmp) / "cone.nc")

@@ -16,7 +16,7 @@ from typing import Any
 from twin.analysis.placement_search import search_placement
 from twin.errors import InputError
 from twin.process.description import Process
-from twin.process.shapes import PartSpec, part_path
+from twin.process.toolpath.shapes import PartSpec, part_path
 from twin.sim.spec import TwinSpec
 
 

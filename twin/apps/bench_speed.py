@@ -167,7 +167,7 @@ def isf_cone_growth(
         Per cone ("40mm", ...): samples, machining [s], wall time [s], µs per sample, real-time factor [-] and
         Newton iterations per sample.
     """
-    from twin.process.shapes import PartSpec, part_path
+    from twin.process.toolpath.shapes import PartSpec, part_path
 
     if repeats < 1:
         raise InputError(f"repeats = {repeats!r}: expected >= 1")
@@ -243,7 +243,7 @@ def compensation_cost(
     """
     from twin.analysis.compensate import compensate_twin
     from twin.process.description import Process
-    from twin.process.shapes import PartSpec, part_path
+    from twin.process.toolpath.shapes import PartSpec, part_path
     from twin.sim.spec import TwinSpec
 
     if repeats < 1:

@@ -41,9 +41,9 @@ from twin.base.jsonio import write_json
 from twin.base.resources import data_file
 from twin.lab.virtual import load_test, run_lab
 from twin.process.description import Process
-from twin.process.field import SheetForceField
-from twin.process.forces import default_force_history, load_force_history
-from twin.process.path import groove_path
+from twin.process.fe.load import default_force_history, load_force_history
+from twin.process.force.table import SheetForceField
+from twin.process.toolpath.groove import groove_path
 from twin.runs.format import Run
 from twin.runs.read import read_run
 from twin.runs.write import write_run

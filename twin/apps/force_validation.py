@@ -26,12 +26,12 @@ from twin.apps.springback_validation import ProfileResult, bm3_profile, profile_
 from twin.base.signals import interp_rows
 from twin.errors import ExtrapolationWarning
 from twin.lab.cnc import run_cnc
-from twin.process.aerens import aerens_fz_n, validity_warnings
 from twin.process.description import Process
-from twin.process.isf_params import IsfForceParams, steady_fz_n
-from twin.process.materials import material
-from twin.process.path import ToolPath, groove_path
-from twin.process.shapes import PartSpec, part_path
+from twin.process.force.aerens import aerens_fz_n, validity_warnings
+from twin.process.force.isf_params import IsfForceParams, steady_fz_n
+from twin.process.material.library import material
+from twin.process.toolpath.groove import ToolPath, groove_path
+from twin.process.toolpath.shapes import PartSpec, part_path
 
 #: A prediction within this fraction of the measurement is inside.
 TOLERANCE = 0.20
@@ -240,7 +240,7 @@ def markdown(validation: Validation) -> str:
         "",
         f"Fz(D) = F_s·(1 − exp(−D/D0)) fitted to the window means of the BM3 cone ({b.where}): **D0 = "
         f"{1e3 * fit.depth_m:.2f} mm**, F_s = {fit.fz_steady_n:.0f} N, rms misfit {fit.rms_n:.0f} N. Depths: {b.derived}. "
-        f"The model uses D0 = {1e3 * IsfForceParams().build_up_m:.2f} mm (`twin.process.isf_params`).",
+        f"The model uses D0 = {1e3 * IsfForceParams().build_up_m:.2f} mm (`twin.process.force.isf_params`).",
         "",
         "| depth [mm] | measured mean Fz [N] |",
         "|---|---|",

@@ -14,7 +14,7 @@ from twin.analysis.discrepancy.search import DiscrepancyResult
 from twin.analysis.replay import ReplayResult
 from twin.base.csvio import write_text
 from twin.errors import RunFormatError
-from twin.process.path import ToolPath
+from twin.process.toolpath.groove import ToolPath
 from twin.runs.format import Run, resample
 from twin.viz.deflection_figures import plot_deflection_by_pass, plot_residual_before_after
 from twin.viz.path_figures import plot_forces, plot_path_xz

@@ -15,7 +15,7 @@ from twin.base.resources import data_file
 from twin.errors import ExtrapolationWarning
 from twin.lab.cnc import run_cnc
 from twin.process.description import Process
-from twin.process.shapes import PartSpec, part_path
+from twin.process.toolpath.shapes import PartSpec, part_path
 
 
 @dataclass(frozen=True)

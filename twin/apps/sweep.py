@@ -29,9 +29,9 @@ import numpy as np
 from twin.apps.uncertainty import PARAMETERS, Draw, Uncertainty, load_uncertainty, model_uncertainty
 from twin.base.jobs import Jobs, usable_cores
 from twin.errors import InputError
-from twin.process.field import SheetForceField
-from twin.process.pass_tables import PassTable, scaled_tables
-from twin.process.path import ToolPath, groove_path
+from twin.process.force.pass_tables import PassTable, scaled_tables
+from twin.process.force.table import SheetForceField
+from twin.process.toolpath.groove import ToolPath, groove_path
 from twin.sim.quasi_static import Twin
 from twin.sim.spec import TwinSpec
 

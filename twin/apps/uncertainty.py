@@ -17,7 +17,7 @@ import numpy as np
 
 from twin.base.jsonio import read_json
 from twin.errors import InputError
-from twin.process.field import SheetForceField
+from twin.process.force.table import SheetForceField
 from twin.robot.description import load_robot
 from twin.sim.quasi_static import Twin
 

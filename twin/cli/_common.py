@@ -17,12 +17,12 @@ import numpy as np
 from twin.cli._types import finite
 from twin.errors import InputError
 from twin.process.description import Process
-from twin.process.force_models import FORCE_MODELS, auto_force_model, force_model
-from twin.process.forces import ForceHistory, default_force_history, load_force_history
-from twin.process.materials import material
-from twin.process.path import ToolPath, groove_path, label_passes
-from twin.process.placement import Placement
+from twin.process.fe.load import ForceHistory, default_force_history, load_force_history
+from twin.process.force.registry import FORCE_MODELS, auto_force_model, force_model
+from twin.process.material.library import material
 from twin.process.process_file import ProcessDeclaration, positive, read_process_declaration
+from twin.process.toolpath.groove import ToolPath, groove_path, label_passes
+from twin.process.toolpath.placement import Placement
 from twin.robot.description import DEFAULT_ROBOT, RobotDescription, load_robot, shipped_robots
 from twin.runs.format import Run, Stream, run_placement, run_process, run_robot
 from twin.runs.read import read_commanded_csv
@@ -117,7 +117,7 @@ def force_model_for(
     """The force model of `--force-model`: a named one, or for `auto` the one a process file declares
     (`declared`), else the one a model file fitted to its cell (`fitted`: `learn`, `identify --forces`), else the
     one a run's `meta.json` records, else the first registered model that applies to the path
-    (`twin.process.force_models.auto_force_model`)."""
+    (`twin.process.force.registry.auto_force_model`)."""
     if args.force_model != "auto":
         return str(force_model(args.force_model).name)
     if declared is not None:

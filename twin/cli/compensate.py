@@ -35,10 +35,10 @@ from twin.cli._common import (
 )
 from twin.cli._types import count, finite
 from twin.errors import DataFileError, InputError
-from twin.process.force_models import build_force_field
-from twin.process.forces import ForceHistory
-from twin.process.path import ToolPath
+from twin.process.fe.load import ForceHistory
+from twin.process.force.registry import build_force_field
 from twin.process.process_file import process_record
+from twin.process.toolpath.groove import ToolPath
 from twin.sim.spec import TwinSpec
 
 HELP = "Compensate the ideal path offline (Eq. 4.28 formula, or iterating the twin) and write the command."

@@ -1,4 +1,4 @@
-"""`tx200-twin fe-history`: regenerate the stand-in FE force history CSV (see twin.process.fe_history)."""
+"""`tx200-twin fe-history`: regenerate the stand-in FE force history CSV (see twin.process.fe.generator)."""
 
 from __future__ import annotations
 
@@ -8,8 +8,8 @@ from pathlib import Path
 
 from twin.base.jsonio import emit_json
 from twin.cli._common import add_json_argument
-from twin.process.fe_history import write_history
-from twin.process.forces import load_force_history
+from twin.process.fe.generator import write_history
+from twin.process.fe.load import load_force_history
 
 HELP = "Regenerate the stand-in half-symmetric FE force history (1311 samples) to --out."
 

@@ -29,8 +29,8 @@ from twin.cli._common import (
 from twin.cli._types import seed
 from twin.errors import InputError
 from twin.process.description import Process
-from twin.process.placement import Placement
 from twin.process.process_file import process_record
+from twin.process.toolpath.placement import Placement
 from twin.runs.read import lab_commanded
 from twin.runs.write import write_run
 from twin.sim.effects import EFFECTS, parse_effect_args

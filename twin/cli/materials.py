@@ -9,8 +9,8 @@ from typing import Any
 
 from twin.base.jsonio import emit_json
 from twin.cli._common import add_json_argument
-from twin.process.material_file import read_material_library
-from twin.process.materials import Material, MaterialLibrary, library_path, shipped_library
+from twin.process.material.file import read_material_library
+from twin.process.material.library import Material, MaterialLibrary, library_path, shipped_library
 
 HELP = "List the sheet materials (R_m, R_p0.2, E, ν, ρ, hardening law), each number's source and the bibliography."
 

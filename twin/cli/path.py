@@ -1,10 +1,10 @@
 """`tx200-twin path`: write an ideal tool path U_ID as CSV — the thesis groove (§1.2.3, Table 2.3), a cone,
-pyramid or variable-wall-angle cone (`twin.process.shapes`), or a G-code program (`twin.process.gcode`) —
-after checking that the robot reaches every sample at the given placement (`twin.process.placement`). The declared
+pyramid or variable-wall-angle cone (`twin.process.toolpath.shapes`), or a G-code program (`twin.process.toolpath.gcode`) —
+after checking that the robot reaches every sample at the given placement (`twin.process.toolpath.placement`). The declared
 process (`--process`, `--material`, `--thickness-mm`, `--tool-radius-mm`) is reported, shapes the target part of
 `--stl-out` (the tool's radius, the sheet's springback) and the design part of `--design-stl` (the tool's radius,
 no springback) and, for a cone, pyramid or variable-wall-angle cone, gives
-the predicted steady axial force of the ISF model (`twin.process.isf_params.steady_fz_n`, Aerens et al.'s formula;
+the predicted steady axial force of the ISF model (`twin.process.force.isf_params.steady_fz_n`, Aerens et al.'s formula;
 a warning where the process or the part lies outside the formula's experiments)."""
 
 from __future__ import annotations
@@ -32,14 +32,14 @@ from twin.cli._common import (
 )
 from twin.cli._types import count, feed_mm_s, finite, length_mm
 from twin.errors import ExtrapolationWarning, InputError
-from twin.process.aerens import validity_warnings
 from twin.process.description import Process
-from twin.process.gcode import read_gcode, write_gcode
-from twin.process.isf_params import params_for, steady_fz_n
-from twin.process.path import GrooveSpec, ToolPath, groove_path, write_path_csv
-from twin.process.placement import check_reach
+from twin.process.force.aerens import validity_warnings
+from twin.process.force.isf_params import params_for, steady_fz_n
 from twin.process.process_file import process_record
-from twin.process.shapes import MODES, SHAPES, PartSpec, part_path
+from twin.process.toolpath.gcode import read_gcode, write_gcode
+from twin.process.toolpath.groove import GrooveSpec, ToolPath, groove_path, write_path_csv
+from twin.process.toolpath.placement import check_reach
+from twin.process.toolpath.shapes import MODES, SHAPES, PartSpec, part_path
 
 if TYPE_CHECKING:  # trimesh, MuJoCo and the part surfaces load only where the command uses them
     import trimesh
@@ -226,7 +226,7 @@ def run(args: argparse.Namespace) -> int:
     if args.gcode_out is not None:
         write_gcode(path, args.gcode_out)
     if args.stl_out is not None or args.design_stl is not None:
-        from twin.process.part_surface import (
+        from twin.process.part.surface import (
             DESIGN_MARGIN_M,
             cropped_surface,
             design_part_surface,

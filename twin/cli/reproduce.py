@@ -68,7 +68,7 @@ def doc_header() -> str:
     from twin.analysis.calibration.targets import TARGETS
     from twin.analysis.identify.cartesian import THESIS_CR1_MM_PER_KN
     from twin.analysis.identify.default_stiffness import thesis_stiffness_fit
-    from twin.process.field import K_LOAD_N_PER_M, K_UNLOAD_N_PER_M
+    from twin.process.force.table import K_LOAD_N_PER_M, K_UNLOAD_N_PER_M
     from twin.sim.quasi_static import Twin
 
     twin = Twin()

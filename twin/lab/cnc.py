@@ -4,7 +4,7 @@ The FAMUP MCX500 (accuracy 15 µm) follows the ideal path exactly, so the tool i
 sheet's forces are those of the field driven rigidly (the FE history's own forces, with the field's state).
 The force sensor samples at 10 Hz on the CNC (§2.3, 30 Hz on the robot); the machine's position is recorded at
 50 Hz with its 15 µm accuracy as white noise; the part is scanned after unclamping, its depth set by the
-sheet's elastic recovery (`twin.process.springback`; the thesis measured 8.7 mm of the 10 mm target, §2.3.1):
+sheet's elastic recovery (`twin.process.part.springback`; the thesis measured 8.7 mm of the 10 mm target, §2.3.1):
 the section y = 0 as a profile and, where the force model keeps a surface (any part), a scan of that surface.
 The run records the process it was formed with (`meta.json`'s `process`).
 """
@@ -18,10 +18,10 @@ import numpy as np
 
 from twin.base.signals import interp_rows, uniform_times
 from twin.process.description import Process
-from twin.process.force_models import build_force_field
-from twin.process.part_surface import formed_surface, surface_points
-from twin.process.path import ToolPath, groove_path
-from twin.process.springback import form_rigidly, scanned_profile
+from twin.process.force.registry import build_force_field
+from twin.process.part.springback import form_rigidly, scanned_profile
+from twin.process.part.surface import formed_surface, surface_points
+from twin.process.toolpath.groove import ToolPath, groove_path
 from twin.robot.description import load_robot
 from twin.runs.format import Run, Stream, run_meta
 

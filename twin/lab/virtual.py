@@ -16,8 +16,8 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from twin.base.signals import uniform_times
-from twin.process.part_surface import formed_surface, surface_points
-from twin.process.path import groove_path
+from twin.process.part.surface import formed_surface, surface_points
+from twin.process.toolpath.groove import groove_path
 from twin.robot.description import robot_record
 from twin.runs.format import Run, Stream, run_meta
 from twin.sim.measure import predict_forces, predict_part_profile, predict_tracker

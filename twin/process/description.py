@@ -2,7 +2,7 @@
 
 A `Process` declares what the user's cell forms with: the sheet's material and its tensile strength, its
 thickness, the tool radius, the tool-sheet friction, the travel over which the tool's sliding friction
-reverses, the force model (a name of the registry `twin.process.force_models`) and the FE force history that
+reverses, the force model (a name of the registry `twin.process.force.registry`) and the FE force history that
 model is fitted to. The defaults are the thesis's cell: AA5086-H111, 1 mm, a Ø 15 mm tool, friction 0.1
 (§1.2.1-1.2.2, §2.2, §2.4.2), the per-pass table field fitted to the shipped stand-in history.
 
@@ -17,12 +17,12 @@ import math
 from dataclasses import dataclass
 
 from twin.errors import InputError
-from twin.process.field import TOOL_RADIUS_M
-from twin.process.forces import ForceHistory, default_force_history
-from twin.process.tool_friction import REVERSAL_M
+from twin.process.fe.load import ForceHistory, default_force_history
+from twin.process.force.table import TOOL_RADIUS_M
+from twin.process.force.tool_friction import REVERSAL_M
 
 #: The thesis's sheet: AA5086-H111 (§1.2.1). Its tensile strength R_m is the handbook value the stand-in history
-#: uses; the thesis's Voce law necks at an engineering R_m of about 288 MPa (within 5 %, `twin.process.isf_force`).
+#: uses; the thesis's Voce law necks at an engineering R_m of about 288 MPa (within 5 %, `twin.process.force.isf`).
 DEFAULT_MATERIAL = "AA5086-H111"
 DEFAULT_TENSILE_STRENGTH_MPA = 275.0
 #: Coulomb friction between tool and sheet, the thesis's FE value (§2.4.2) [-].
@@ -40,9 +40,9 @@ class Process:
         tool_radius_m: Tool radius R [m].
         tool_friction: Coulomb friction coefficient between tool and sheet [-].
         friction_reversal_m: Tool travel over which the sheet's tangential force reverses at a reversal [m]
-            (`twin.process.tool_friction`), for models whose in-plane force flips with the command; None: it
+            (`twin.process.force.tool_friction`), for models whose in-plane force flips with the command; None: it
             flips with the commanded direction.
-        force_model: Name of the force model (`twin.process.force_models.FORCE_MODELS`).
+        force_model: Name of the force model (`twin.process.force.registry.FORCE_MODELS`).
         history: The FE force history the force model is fitted to; None: the shipped stand-in (a half model,
             doubled on load).
         force_fit: Force-model constants learned from the cell (`identify --forces`), (name, value) pairs that

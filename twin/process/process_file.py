@@ -3,7 +3,7 @@
     format = "tx200-twin-process/1"
     material = "AA1050-O"             # a library name (`tx200-twin materials`), one of material_file's,
                                       # or an inline table { name = "...", tensile_strength_mpa = ..., ... }
-    material_file = "materials.toml"  # optional: the user's materials (`twin.process.material_file`), relative to
+    material_file = "materials.toml"  # optional: the user's materials (`twin.process.material.file`), relative to
                                       # this file
     thickness_mm = 1.5                # sheet thickness t [mm]
     tool_radius_mm = 7.5              # tool radius R [mm], larger than t
@@ -27,8 +27,8 @@ from typing import Any
 
 from twin.errors import DataFileError, InputError
 from twin.process.description import Process
-from twin.process.material_file import material_from_table, read_material_library, read_toml
-from twin.process.materials import Material, material, number_problem, shipped_library
+from twin.process.material.file import material_from_table, read_material_library, read_toml
+from twin.process.material.library import Material, material, number_problem, shipped_library
 
 PROCESS_FORMAT = "tx200-twin-process/1"
 PROCESS_KEYS = ("format", "material", "material_file", "thickness_mm", "tool_radius_mm", "tool_friction", "force_model")
@@ -213,7 +213,7 @@ def friction(value: Any, key: str) -> float:
 
 def registered_force_model(name: Any, key: str) -> str:
     """A registered force model's name (InputError naming `key` and listing the registered models)."""
-    from twin.process.force_models import FORCE_MODELS
+    from twin.process.force.registry import FORCE_MODELS
 
     if not isinstance(name, str) or name not in FORCE_MODELS:
         raise InputError(f"{key} = {name!r}: expected 'auto' or a registered force model {sorted(FORCE_MODELS)}")

@@ -19,8 +19,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from twin.errors import InputError
-from twin.process.isf_params import IsfForceParams
-from twin.process.sliding import RELEASE_LENGTH_M, sliding_direction
+from twin.process.force.isf_params import IsfForceParams
+from twin.process.force.sliding import RELEASE_LENGTH_M, sliding_direction
 
 REFINE_MAX_WINDOWS = 6  # the reversal fit moves its window up to this many times to enclose the minimum
 ONSET_NOISE_FACTOR = 6.0  # onset: first sample above baseline + 6 noise sigmas (and 2 % of the range)
@@ -143,7 +143,7 @@ def honest_sigma(sigma_s: float, residuals: np.ndarray) -> float:
 
 
 def sliding_reference(p_ref_m: np.ndarray) -> np.ndarray:
-    """The x component of the tool's sliding direction along a commanded path (`twin.process.sliding`, with the
+    """The x component of the tool's sliding direction along a commanded path (`twin.process.force.sliding`, with the
     ISF model's calibrated build-up length): +-1 on straight runs, through zero at each reversal and back to
     full over ~1 mm of travel, as the sheet's in-plane force does; shape (n,)."""
     turn = IsfForceParams().direction_length_m

@@ -5,9 +5,9 @@ A run is a directory holding:
 - `meta.json`: `{"format": "tx200-twin-run/1", "frame": "sheet", "scenario": str, "tool_length_m": float,
   "tracker_rate_hz": float, "sensor_rate_hz": float, ...}` plus free keys (`"notes"`, ...). `sensor_rate_hz`
   is required only when `forces.csv` is present. Optional `robot` (its name), `force_model` (the sheet's force
-  model, `twin.process.force_models`), `process` (`{"material", "tensile_strength_mpa", "thickness_mm",
+  model, `twin.process.force.registry`), `process` (`{"material", "tensile_strength_mpa", "thickness_mm",
   "tool_radius_mm", "tool_friction"}`, `twin.process.process_file.process_record`; absent: the thesis's process)
-  and `placement` (`twin.process.placement.Placement.to_json`). Never the lab's hidden truth.
+  and `placement` (`twin.process.toolpath.placement.Placement.to_json`). Never the lab's hidden truth.
 - `commanded.csv`: `t_s, x_mm, y_mm, z_mm`: the tool-tip path sent to the robot, sheet frame.
 - `tracker.csv`: `t_s, x_mm, y_mm, z_mm`: the measured tool tip, sheet frame, at the tracker rate.
 - `forces.csv`: `t_s, fx_n, fy_n, fz_n`: force exerted BY THE SHEET ON THE TOOL, sheet frame (Fz > 0 while
@@ -37,8 +37,8 @@ import numpy as np
 from twin.base.signals import interp_rows
 from twin.errors import DataFileError, InputError, ModelError, RunFormatError
 from twin.process.description import Process
-from twin.process.placement import Placement
 from twin.process.process_file import process_from_record, process_record
+from twin.process.toolpath.placement import Placement
 from twin.robot.description import RobotDescription, load_robot
 
 RUN_FORMAT = "tx200-twin-run/1"
@@ -202,7 +202,7 @@ def run_meta(
         tool_length_m: Flange to tool tip of the robot's tool [m].
         placement: The sheet's placement in the robot base; recorded unless it is the cell's own.
         robot: The robot's name, recorded when given.
-        force_model: The sheet's force model (`twin.process.force_models`), recorded when given.
+        force_model: The sheet's force model (`twin.process.force.registry`), recorded when given.
         process: The sheet and tool the run formed with (`process_record`), recorded when given.
     """
     extra: dict[str, Any] = {} if placement is None or placement.is_default else {"placement": placement.to_json()}

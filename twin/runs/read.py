@@ -21,7 +21,7 @@ from twin.base.csvio import check_monotonic
 from twin.base.jsonio import read_json
 from twin.base.units import SITable, check_path_speed, check_point_spacing, read_si_table
 from twin.errors import DataFileError, InputError, RunFormatError, UnitsError
-from twin.process.path import groove_path
+from twin.process.toolpath.groove import groove_path
 from twin.runs.format import (
     CLOCK_TOLERANCE_S,
     FORCE_COLUMNS,

@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from twin.base.signals import interp_rows
-from twin.process.springback import scanned_profile, unloaded_profile
+from twin.process.part.springback import scanned_profile, unloaded_profile
 from twin.sim.effects import Effects
 from twin.sim.result import SimResult
 
@@ -44,7 +44,7 @@ def predict_part_profile(twin: Twin, result: SimResult, effects: Effects) -> tup
     """Groove centre line after unclamping [m].
 
     The loaded, formed bottom recovers elastically by the force the tool last carried there over the sheet's
-    unloading stiffness (`twin.process.springback`, the twin's force model's own stiffness and tool), scaled by
+    unloading stiffness (`twin.process.part.springback`, the twin's force model's own stiffness and tool), scaled by
     the model's `recovery_scale` and `depth_ratio` where it has them (1: none); the `sheet_springback` effect
     then takes away a further fraction of the depth.
     """

@@ -30,9 +30,9 @@ from typing import Any
 from twin.base.jsonio import read_json, write_json
 from twin.errors import DataFileError, InputError, ModelError
 from twin.process.description import Process
-from twin.process.forces import load_force_history
-from twin.process.placement import Placement
+from twin.process.fe.load import load_force_history
 from twin.process.process_file import RECORD_KEYS, process_from_record
+from twin.process.toolpath.placement import Placement
 from twin.robot.description import load_robot, shipped_robots
 from twin.sim.effects import EFFECTS, LOST_MOTION_TAKEUP_M, Effects
 from twin.sim.servo import ServoTransient

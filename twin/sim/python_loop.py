@@ -3,7 +3,7 @@
 The reference of the compiled loop (`twin.sim.compiled`), and the loop for what that one does not express
 (a force model without a compiled kernel; a robot model that is not a chain of hinges). Per sample: the unloaded pose's gravity (`mj_rne`), the set-points q_ref = q_ik + K⁻¹ g, the start point
 extrapolated from the pass's last two deflections, the equilibrium by regimes of the tool's sliding friction
-(`twin.process.tool_friction.solve_sample`) with joint friction (`twin.sim.equilibrium`), then the force at the
+(`twin.process.force.tool_friction.solve_sample`) with joint friction (`twin.sim.equilibrium`), then the force at the
 equilibrium and the field's advance.
 """
 
@@ -12,8 +12,8 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
-from twin.process.force_field import ForceField
-from twin.process.tool_friction import SheetModel, SlidingFriction, solve_sample
+from twin.process.force.base import ForceField
+from twin.process.force.tool_friction import SheetModel, SlidingFriction, solve_sample
 from twin.sim.equilibrium import EquilibriumSolver
 from twin.sim.result import LoopOutput
 

@@ -19,10 +19,10 @@ import mujoco
 import numpy as np
 
 from twin.errors import InputError
-from twin.process.force_field import ForceField
-from twin.process.force_models import build_force_field
-from twin.process.path import label_passes
-from twin.process.tool_friction import SlidingFriction
+from twin.process.force.base import ForceField
+from twin.process.force.registry import build_force_field
+from twin.process.force.tool_friction import SlidingFriction
+from twin.process.toolpath.groove import label_passes
 from twin.robot.kinematics import Kinematics
 from twin.robot.model import build_model, lost_joint_name, lost_motion_schedule
 from twin.robot.stiffness import joint_stiffness, set_joint_stiffness
@@ -46,9 +46,9 @@ class Twin:
 
     The robot model carries the spec's robot-side effects (`twin.robot.model.build_model`); the controller's
     kinematics (IK) use the nominal robot. The force field is the process's force model
-    (`twin.process.force_models`) fitted to the FE history, scaled by the `force_scale` effect (the sheet's
+    (`twin.process.force.registry`) fitted to the FE history, scaled by the `force_scale` effect (the sheet's
     penetration sensitivity, a property of the sheet, is not scaled); a model whose in-plane force flips with
-    the commanded direction is wrapped in the tool's sliding friction (`twin.process.tool_friction`). Paths, tool
+    the commanded direction is wrapped in the tool's sliding friction (`twin.process.force.tool_friction`). Paths, tool
     tips and forces are in the sheet frame, placed by the spec's placement.
 
     Args:

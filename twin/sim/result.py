@@ -28,7 +28,7 @@ class SimResult:
         iterations: Newton iterations per sample, shape (n,).
         tip_gain: d p_tcp / d p_cmd at each equilibrium, (I + C S)^-1 with C the robot's Cartesian compliance
             and S = -df/dp the sheet's stiffness [-], shape (n, 3, 3); for a tool sticking on the sheet at a
-            reversal, S is that of the sliding tool (`twin.process.tool_friction`).
+            reversal, S is that of the sliding tool (`twin.process.force.tool_friction`).
         force_steps: The field's force steps from one pass to the next (the per-pass table field), so forces
             are not interpolated across a pass change (`force_at`).
     """

@@ -19,8 +19,8 @@ import numpy as np
 
 from twin.errors import InputError
 from twin.process.description import Process
-from twin.process.force_models import force_model
-from twin.process.placement import Placement
+from twin.process.force.registry import force_model
+from twin.process.toolpath.placement import Placement
 from twin.robot.description import RobotDescription, load_robot
 from twin.sim.effects import Effects
 from twin.sim.servo import ServoTransient

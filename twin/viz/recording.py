@@ -17,7 +17,7 @@ import rerun as rr
 import rerun.blueprint as rrb
 
 from twin.errors import InputError, ModelError
-from twin.process.placement import Placement
+from twin.process.toolpath.placement import Placement
 from twin.robot.description import load_robot
 from twin.robot.model import build_model
 from twin.viz.recording_layers import checked_points, log_replay

@@ -34,9 +34,9 @@ from scipy.optimize import least_squares
 
 from twin.analysis.calibration.targets import TARGETS, TwinMeasurements, measure_twin
 from twin.process.description import Process
-from twin.process.field import K_LOAD_N_PER_M, K_UNLOAD_N_PER_M, SheetForceField
-from twin.process.forces import ForceHistory, default_force_history
-from twin.process.path import groove_path
+from twin.process.fe.load import ForceHistory, default_force_history
+from twin.process.force.table import K_LOAD_N_PER_M, K_UNLOAD_N_PER_M, SheetForceField
+from twin.process.toolpath.groove import groove_path
 from twin.robot.description import load_robot
 from twin.sim.quasi_static import Twin
 from twin.sim.spec import TwinSpec

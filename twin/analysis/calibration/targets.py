@@ -38,9 +38,9 @@ from twin.analysis.identify.cartesian import (
 from twin.analysis.identify.method2 import method2
 from twin.base.signals import interp_rows, uniform_times
 from twin.errors import InputError
-from twin.process.field import SheetForceField
-from twin.process.path import ToolPath
-from twin.process.springback import form_rigidly
+from twin.process.force.table import SheetForceField
+from twin.process.part.springback import form_rigidly
+from twin.process.toolpath.groove import ToolPath
 from twin.runs.format import Run, Stream
 from twin.sim.quasi_static import Twin
 

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from twin.process.path import label_passes
+from twin.process.toolpath.groove import label_passes
 from twin.runs.format import Run, run_placement
 from twin.sim.effects import Effects
 from twin.sim.measure import predict_forces, predict_part_profile, predict_tracker

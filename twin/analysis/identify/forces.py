@@ -32,8 +32,8 @@ from scipy.optimize import least_squares
 from twin.base.signals import interp_rows
 from twin.errors import InputError
 from twin.process.description import Process
-from twin.process.force_models import build_force_field
-from twin.process.path import ToolPath, label_passes
+from twin.process.force.registry import build_force_field
+from twin.process.toolpath.groove import ToolPath, label_passes
 from twin.runs.format import Run
 
 #: Window over which measured and model forces are averaged, and the tracker's deflection too [s] (0: compare

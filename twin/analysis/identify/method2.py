@@ -17,8 +17,8 @@ from twin.analysis.identify.cartesian import fit_compliance, fit_kr_from_run
 from twin.base.signals import interp_rows
 from twin.errors import IdentificationError, RunFormatError
 from twin.process.description import Process
-from twin.process.force_models import build_force_field
-from twin.process.path import ToolPath, label_passes
+from twin.process.force.registry import build_force_field
+from twin.process.toolpath.groove import ToolPath, label_passes
 from twin.runs.format import Run, resample
 from twin.sim.quasi_static import PASS_DEADBAND_M
 

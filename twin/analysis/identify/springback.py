@@ -11,7 +11,7 @@ springback it does not know (the dynamic plant's Ø 80 mm cone: 1.0 mm rms), so 
 looser than `check`'s (`REGISTRATION_RMS_M`); the scan is registered again to the part the fit found and fitted
 again (`PASSES`), and a fit that leaves more than `MAX_FIT_RMS_M` rms is refused (another part). The
 design classes the points (wall, bottom, rim). Two constants of the model's springback
-(`twin.process.part_surface.springback_surface`) are fitted by least squares:
+(`twin.process.part.surface.springback_surface`) are fitted by least squares:
 
     z_after = depth_ratio · min(z_loaded + recovery_scale · F_z/k_unload, 0)
 
@@ -38,7 +38,7 @@ from scipy.optimize import least_squares
 from twin.analysis.scan_registration import ScanRegistration, register_scan
 from twin.analysis.surface_check import REGIONS, DesignIndex, region_deviation
 from twin.errors import InputError
-from twin.process.part_surface import DESIGN_MARGIN_M, cropped_surface, heightmap_mesh, springback_surface
+from twin.process.part.surface import DESIGN_MARGIN_M, cropped_surface, heightmap_mesh, springback_surface
 from twin.runs.format import Run
 from twin.sim.spec import TwinSpec
 

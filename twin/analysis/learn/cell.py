@@ -23,7 +23,7 @@ from twin.analysis.learn.springback import SpringbackFit, fit_springback
 from twin.analysis.replay import replay
 from twin.errors import InputError
 from twin.process.description import Process
-from twin.process.force_models import FORCE_MODELS, auto_force_model
+from twin.process.force.registry import FORCE_MODELS, auto_force_model
 from twin.runs.format import Run, run_placement, run_process, run_robot
 from twin.sim.measure import predict_part_profile
 from twin.sim.spec import TwinSpec

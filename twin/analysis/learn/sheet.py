@@ -3,7 +3,7 @@
 Each run's measured tool tip (its commanded path moved by the tracker's deflection,
 `twin.analysis.identify.forces.measured_tip_path`) drives a `LearnedForceField` from a flat sheet; at every
 sample it gives the terms its axial force is a weighted sum of (the ISF model's own force and the membrane terms
-of the formed surface around the tool, `twin.process.learned_force`). The model is linear in its weights, so
+of the formed surface around the tool, `twin.process.force.learned`). The model is linear in its weights, so
 they come from one least-squares solve against the measured Fz (the terms interpolated to the sensor's times),
 and the in-plane ratios μ_t, μ_r from a second one against the measured Fx, Fy with the fitted Fz. Their
 standard errors are the least-squares ones (white residuals assumed: the residuals of a real run are
@@ -22,8 +22,8 @@ from twin.analysis.identify.forces import measured_tip_path
 from twin.base.signals import interp_rows
 from twin.errors import InputError
 from twin.process.description import Process
-from twin.process.force_models import build_force_field
-from twin.process.learned_force import WEIGHT_KEYS, LearnedForceField
+from twin.process.force.learned import WEIGHT_KEYS, LearnedForceField
+from twin.process.force.registry import build_force_field
 from twin.runs.format import Run
 
 #: Fewest force samples a run must give.

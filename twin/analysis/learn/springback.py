@@ -6,7 +6,7 @@ command; its loaded section z_loaded(x) and the force each point last carried gi
 
     z_after(x) = depth_ratio · min(z_loaded(x) + recovery_scale · F_z,last(x) / k_unload, 0)
 
-(`twin.process.springback`, the model's elastic recovery), and the two constants are fitted by least squares to
+(`twin.process.part.springback`, the model's elastic recovery), and the two constants are fitted by least squares to
 the measured profile over the formed points (deeper than `FORMED_BELOW_M`). A run with a 3-D part scan instead
 needs its design to be registered: `identify --springback RUN --design STL` fits the same two constants there.
 `truth.json` is never read.
@@ -19,7 +19,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy.optimize import least_squares
 
-from twin.process.springback import last_contact_force
+from twin.process.part.springback import last_contact_force
 from twin.runs.format import Run, run_placement
 from twin.sim.spec import TwinSpec
 

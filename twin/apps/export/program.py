@@ -5,7 +5,7 @@ with the run format's reader. Each point's feed is the speed of the straight mov
 (|Δp| / Δt of the path's own time stamps). The tool is the robot's ISF tool (`RobotDescription`): straight,
 `tool_length_mm` along the flange z axis, pointing down while forming; the sheet frame's origin in the robot
 base frame comes from the cell model (`Kinematics.p_base_sheet_origin`, axes parallel to the base) or from a placement
-(`twin.process.placement.Placement`: an origin and a yaw about the base z axis, which each format writes as the
+(`twin.process.toolpath.placement.Placement`: an origin and a yaw about the base z axis, which each format writes as the
 sheet frame's rotation rz / A / quaternion / G68). The tool length is the robot's, or a run's (`CellSetup`).
 
 A robot program also carries the arm configuration (`with_configuration`): the robot's IK along the path in the
@@ -29,7 +29,7 @@ import numpy as np
 from twin.apps.export.configuration import RobotConfiguration, path_configurations
 from twin.apps.export.reach import path_joint_angles
 from twin.errors import InputError
-from twin.process.placement import Placement
+from twin.process.toolpath.placement import Placement
 from twin.robot.description import DEFAULT_ROBOT, RobotDescription, robot_record
 from twin.runs.read import read_commanded_csv
 

@@ -15,7 +15,7 @@ from twin.base.signals import interp_rows
 from twin.lab.dynamic.knobs import Knobs, parse_set_args
 from twin.lab.dynamic.run import dynamic_load_test, run_dynamic_lab
 from twin.process.description import Process
-from twin.process.placement import Placement
+from twin.process.toolpath.placement import Placement
 from twin.robot.description import RobotDescription
 from twin.runs.format import Run
 from twin.runs.read import lab_commanded

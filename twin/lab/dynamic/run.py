@@ -19,8 +19,8 @@ from twin.lab.dynamic.sensors import ft_reading, part_scan, profile_scan, tracke
 from twin.lab.dynamic.simulate import DynamicLog, simulate
 from twin.lab.dynamic.trajectory import retime_with_stops
 from twin.process.description import Process
-from twin.process.placement import Placement
 from twin.process.process_file import process_record
+from twin.process.toolpath.placement import Placement
 from twin.robot.description import RobotDescription, robot_record
 from twin.robot.kinematics import Kinematics, load_model
 from twin.runs.format import Run, Stream, run_meta

@@ -27,8 +27,8 @@ import numpy as np
 from twin.base.signals import interp_rows
 from twin.lab.dynamic.knobs import Knobs
 from twin.lab.dynamic.simulate import DynamicLog
-from twin.process.part_surface import surface_points
-from twin.process.springback import scanned_profile
+from twin.process.part.springback import scanned_profile
+from twin.process.part.surface import surface_points
 
 GRAVITY_M_PER_S2 = 9.81
 _REG_TRANSLATION_AXIS = np.array([1.0, -1.0, 1.0]) / np.sqrt(3.0)

@@ -2,7 +2,7 @@
 
 Each servo tick (one `mj_step`): the controller writes its set-point, integral and feed-forward into the
 position servos; the sheet's force at the real tool tip (the process's force model,
-`twin.process.force_models`, fitted to the FE history, advanced along the real tool path) is applied at the tip
+`twin.process.force.registry`, fitted to the FE history, advanced along the real tool path) is applied at the tip
 through `xfrc_applied` on the tool body (moment carried to its centre of mass); for a model whose in-plane force
 flips with the commanded direction, that part follows the real travel of the tip, reversing linearly over
 `friction_reversal_mm` of travel after a reversal (friction and ploughing need the tool to move into the new
@@ -33,10 +33,10 @@ from twin.lab.dynamic.knobs import Knobs
 from twin.lab.dynamic.plant import Plant, build_plant
 from twin.lab.dynamic.sheet import PlantSheet
 from twin.process.description import Process
-from twin.process.part_bottom import with_floating_bottom
-from twin.process.part_surface import FORMED_BELOW_M
-from twin.process.path import label_passes
-from twin.process.placement import Placement
+from twin.process.part.bottom import with_floating_bottom
+from twin.process.part.surface import FORMED_BELOW_M
+from twin.process.toolpath.groove import label_passes
+from twin.process.toolpath.placement import Placement
 from twin.robot.kinematics import Kinematics, load_model
 
 PASS_DEADBAND_M = (

@@ -21,7 +21,7 @@ import numpy as np
 
 from twin.lab.dynamic.knobs import Knobs
 from twin.lab.dynamic.run import run_dynamic_lab
-from twin.process.path import GrooveSpec, groove_path
+from twin.process.toolpath.groove import GrooveSpec, groove_path
 from twin.runs.format import Run
 
 DEFAULT_FEEDS_M_PER_MIN = (0.5, 2.0, 5.0, 10.0, 20.0)

@@ -20,10 +20,10 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from twin.process.field import SheetForceField, TableState
-from twin.process.force_field import ForceField
-from twin.process.isf_force import IsfForceField
-from twin.process.tool_friction import SlidingFriction, SlipState
+from twin.process.force.base import ForceField
+from twin.process.force.isf import IsfForceField
+from twin.process.force.table import SheetForceField, TableState
+from twin.process.force.tool_friction import SlidingFriction, SlipState
 from twin.sim.compiled.chain import chain_arrays
 from twin.sim.compiled.field import FieldArrays, field_arrays, idle_field_arrays
 from twin.sim.compiled.isf import IsfArrays, idle_isf_arrays, isf_arrays, write_back

@@ -2,9 +2,9 @@
 # (numba kernels: the numpy scalars they pass, typed non-literal on purpose, are not the annotated builtins)
 """The table sheet force field and the tool's sliding friction, in compiled code for the replay loop.
 
-Mirrors, operation for operation, `twin.process.field.SheetForceField` (`_evaluate`, `force`, `advance`),
-`twin.process.formed_profile.FormedProfile.commit` and the sliding state of
-`twin.process.tool_friction.SlidingFriction`; `tests/test_compiled_replay.py` holds them together. The field's
+Mirrors, operation for operation, `twin.process.force.table.SheetForceField` (`_evaluate`, `force`, `advance`),
+`twin.process.part.formed_profile.FormedProfile.commit` and the sliding state of
+`twin.process.force.tool_friction.SlidingFriction`; `tests/test_compiled_replay.py` holds them together. The field's
 profile arrays are the Python field's own, changed in place, so after a compiled replay the Python field holds
 the same formed surface.
 """
@@ -17,7 +17,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from twin.process.field import SOFTPLUS_N, SheetForceField
+from twin.process.force.table import SOFTPLUS_N, SheetForceField
 
 
 class FieldArrays(NamedTuple):

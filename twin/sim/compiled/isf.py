@@ -1,7 +1,7 @@
 """The height-map ISF force model in compiled code for the replay loop (any part: cones, pyramids, G-code).
 
-Mirrors `twin.process.isf_force.IsfForceField` (`force_and_stiffness`, `force`, `advance`) and its
-`twin.process.heightmap.HeightMap` (met surface with its lag, owners, track, envelope templates) operation for
+Mirrors `twin.process.force.isf.IsfForceField` (`force_and_stiffness`, `force`, `advance`) and its
+`twin.process.part.heightmap.HeightMap` (met surface with its lag, owners, track, envelope templates) operation for
 operation; `tests/test_compiled_replay.py` holds the replays together. The map's surface and owner arrays are
 the Python map's own, changed in place; `write_back` returns the rest of the state (track, travel, pending
 commits, travel direction, wall angle) to the Python objects after a replay.
@@ -18,10 +18,12 @@ import math
 import numpy as np
 from numba import njit
 
-from twin.process import isf_force, learned_force, sliding
-from twin.process.heightmap import SUBSTEPS
-from twin.process.isf_force import IsfForceField, IsfMotion
-from twin.process.learned_force import LearnedForceField
+from twin.process.force import isf as isf_force
+from twin.process.force import learned as learned_force
+from twin.process.force import sliding
+from twin.process.force.isf import IsfForceField, IsfMotion
+from twin.process.force.learned import LearnedForceField
+from twin.process.part.heightmap import SUBSTEPS
 from twin.sim.compiled.isf_map import (
     ALPHA,
     COUNT,
@@ -72,7 +74,7 @@ def isf_arrays(field: IsfForceField, capacity: int) -> IsfArrays | None:
 
 
 def _learned_prm(field: IsfForceField) -> list[float]:
-    """The learned terms' slots of `prm` (`twin.process.learned_force`): a flag, the weights, reach and cap."""
+    """The learned terms' slots of `prm` (`twin.process.force.learned`): a flag, the weights, reach and cap."""
     if isinstance(field, LearnedForceField):
         return [1.0, *field.weights.as_array(), learned_force.REACH, learned_force.CAP]
     return [0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 1.0]
@@ -97,7 +99,7 @@ def write_back(field: IsfForceField, arrays: IsfArrays) -> None:
 
 @njit(cache=True)
 def _scallop(radius: float, dz: float, sin_a: float) -> tuple:
-    """`twin.process.aerens.scallop_height_m` and its derivative in the engagement, as `IsfForceField._fz_of`."""
+    """`twin.process.force.aerens.scallop_height_m` and its derivative in the engagement, as `IsfForceField._fz_of`."""
     half = 0.5 * dz / sin_a if sin_a > 0.0 else math.inf
     if half < 0.999 * radius:
         root = math.sqrt(radius * radius - half * half)
@@ -131,7 +133,7 @@ def _fz(M: IsfArrays, x: float, y: float, z: float) -> tuple:
     gx, gy, gz = dlin_ddh * sx, dlin_ddh * sy, -dlin_ddh + f0 * dbuild_dz
     if M.prm[14] != 0.0:
         lin, gx, gy, gz = learned_terms(M, x, y, z, lin, gx, gy, gz)
-    w = 5.0  # the softplus width of `twin.process.isf_force`
+    w = 5.0  # the softplus width of `twin.process.force.isf`
     if lin > 30.0 * w:
         fz, slope = lin, 1.0
     else:
@@ -142,7 +144,7 @@ def _fz(M: IsfArrays, x: float, y: float, z: float) -> tuple:
 
 @njit(cache=True)
 def _travel(M: IsfArrays, x: float, y: float) -> tuple:
-    """`IsfForceField._travel` (`twin.process.sliding.sliding_direction`): (vx, vy, has a Jacobian, ∂vx/∂x,
+    """`IsfForceField._travel` (`twin.process.force.sliding.sliding_direction`): (vx, vy, has a Jacobian, ∂vx/∂x,
     ∂vx/∂y, ∂vy/∂x, ∂vy/∂y)."""
     st = M.state
     if st[HAS_LAST] == 0.0:

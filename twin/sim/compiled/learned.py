@@ -1,4 +1,4 @@
-"""The `learned` force model's membrane terms in compiled code (`twin.process.learned_force`), for the ISF kernel.
+"""The `learned` force model's membrane terms in compiled code (`twin.process.force.learned`), for the ISF kernel.
 
 Mirrors `LearnedForceField.features` and `_fz_linear` operation for operation; `tests/test_compiled_replay.py`
 holds the two loops together.
@@ -16,7 +16,7 @@ from twin.sim.compiled.isf_map import DIR_X, DIR_Y, IsfArrays, met_height
 
 @njit(cache=True)
 def _membrane(s: float, radius: float, cap: float) -> tuple:
-    """`twin.process.learned_force._membrane`: (m(u), dm/ds, u³, d(u³)/ds)."""
+    """`twin.process.force.learned._membrane`: (m(u), dm/ds, u³, d(u³)/ds)."""
     if s <= 0.0:
         return 0.0, 0.0, 0.0, 0.0
     if s >= cap * radius:

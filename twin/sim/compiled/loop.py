@@ -3,7 +3,7 @@
 """The twin's per-sample replay loop in compiled code: equilibrium, joint friction, tool stick, field.
 
 One compiled call runs what `Twin.simulate`'s Python loop does sample by sample, with the same algorithm and
-the same decisions (`twin.sim.equilibrium.EquilibriumSolver`, `twin.process.tool_friction.solve_sample`):
+the same decisions (`twin.sim.equilibrium.EquilibriumSolver`, `twin.process.force.tool_friction.solve_sample`):
 
 * per sample, the unloaded pose's gravity, the set-points q_ref = q_ik + K⁻¹ g, the start point extrapolated
   from the pass's last two deflections;

@@ -1,6 +1,6 @@
 """The sliding direction of the tool on the sheet, implicit in its step: the in-plane force of the ISF model.
 
-The ISF force model (`twin.process.isf_force`) puts its in-plane force along -v, v the filtered direction in
+The ISF force model (`twin.process.force.isf`) puts its in-plane force along -v, v the filtered direction in
 which the tool slides over the sheet. From the held direction v_prev and a step (dx, dy) of length ℓ from the
 last committed tip, with e = (dx, dy)/ℓ:
 

@@ -5,10 +5,10 @@ Every stage that needs the sheet's force builds it here, by the name the process
 and model files, and the compiled loop's kernel (a capability the model declares, `ForceField.compiled_kernel`)
 all come from the model, never from its type. Shipped models:
 
-* `table`: the per-pass field of the groove's FE history (`twin.process.field.SheetForceField`): exact along the
+* `table`: the per-pass field of the groove's FE history (`twin.process.force.table.SheetForceField`): exact along the
   history's own path, for the groove and commands near it;
-* `isf`: the height-map ISF model (`twin.process.isf_force.IsfForceField`) at the process's own force level
-  (Aerens et al.'s formula for its material, sheet and tool, `twin.process.isf_params.params_for`): any part and
+* `isf`: the height-map ISF model (`twin.process.force.isf.IsfForceField`) at the process's own force level
+  (Aerens et al.'s formula for its material, sheet and tool, `twin.process.force.isf_params.params_for`): any part and
   path. The FE history sets no level of its own; a history given beside the process's (scaled by the
   `force_scale` effect, or a reference export read with another symmetry) scales the level by the ratio of the
   two histories' mean Fz. Outside the formula's published range it warns (`twin.errors.ExtrapolationWarning`).
@@ -26,17 +26,17 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from twin.errors import ExtrapolationWarning, InputError
-from twin.process.aerens import validity_warnings
 from twin.process.description import Process
-from twin.process.field import SheetForceField
-from twin.process.force_field import ForceField
-from twin.process.forces import ForceHistory
-from twin.process.isf_force import IsfForceField
-from twin.process.isf_params import params_for
-from twin.process.learned_force import WEIGHT_KEYS, LearnedForceField, LearnedWeights
-from twin.process.path import label_passes
+from twin.process.fe.load import ForceHistory
+from twin.process.force.aerens import validity_warnings
+from twin.process.force.base import ForceField
+from twin.process.force.isf import IsfForceField
+from twin.process.force.isf_params import params_for
+from twin.process.force.learned import WEIGHT_KEYS, LearnedForceField, LearnedWeights
+from twin.process.force.table import SheetForceField
+from twin.process.toolpath.groove import label_passes
 
-#: The table field is a section of the sheet along y = 0 (`twin.process.field`): it applies to commands within
+#: The table field is a section of the sheet along y = 0 (`twin.process.force.table`): it applies to commands within
 #: this distance of that section [m].
 TABLE_SECTION_HALF_WIDTH_M = 1e-3
 #: ... and within this distance, in x-z, of the history's own samples of the same pass [m] (a compensated

@@ -1,11 +1,11 @@
-"""The constants of the height-map ISF force model (`twin.process.isf_force`) and where each comes from.
+"""The constants of the height-map ISF force model (`twin.process.force.isf`) and where each comes from.
 
 * From the process: R_m, t and R (`params_for`): the force level is the user's material, sheet and tool through
-  Aerens et al.'s formula (`twin.process.aerens`), never refitted to an FE history.
+  Aerens et al.'s formula (`twin.process.force.aerens`), never refitted to an FE history.
 * From the geometry of the groove: the wall-angle cap α_max = 63.43°, the groove's end walls (atan 2).
 * From published measurements: the build-up depth D0 (`BUILD_UP_SOURCE`) and the in-plane ratios μ_t, μ_r
   (`MU_SOURCE`).
-* Fitted to the groove's stand-in FE history (our own data, `twin.process.isf_calibration`): the direction
+* Fitted to the groove's stand-in FE history (our own data, `twin.process.force.isf_calibration`): the direction
   length L_f and the plateau engagement Δz_min, which shape the groove's reversals and shallow passes.
 """
 
@@ -15,9 +15,9 @@ import math
 from dataclasses import dataclass, replace
 
 from twin.errors import InputError
-from twin.process.aerens import AERENS_COEFFICIENT, EXPONENT_THICKNESS, EXPONENT_TOOL, aerens_fz_n
 from twin.process.description import Process
-from twin.process.field import K_UNLOAD_N_PER_M, TOOL_RADIUS_M
+from twin.process.force.aerens import AERENS_COEFFICIENT, EXPONENT_THICKNESS, EXPONENT_TOOL, aerens_fz_n
+from twin.process.force.table import K_UNLOAD_N_PER_M, TOOL_RADIUS_M
 
 #: Where the build-up depth comes from (fitted by `twin.apps.force_validation.fit_build_up`, guarded by a test).
 BUILD_UP_SOURCE = (
@@ -34,7 +34,7 @@ MU_SOURCE = (
 @dataclass(frozen=True)
 class IsfForceParams:
     """Constants of the ISF force model (defaults: thesis material and tool; calibrated values, see
-    `twin.process.isf_calibration` and docs/any-part.md).
+    `twin.process.force.isf_calibration` and docs/any-part.md).
 
     Attributes:
         tensile_strength_mpa: R_m of the sheet [MPa].
@@ -47,7 +47,7 @@ class IsfForceParams:
         direction_length_m: Length L_f over which the sliding direction turns and builds up [m] (fitted to the
             groove's stand-in history: our own data).
         step_min_m: Engagement Δz_min below which the force stays at its Δz_min value [m] (fitted likewise).
-        k_unload_n_per_m: Elastic unloading stiffness of the formed sheet [N/m] (`twin.process.field`).
+        k_unload_n_per_m: Elastic unloading stiffness of the formed sheet [N/m] (`twin.process.force.table`).
         scale: Factor on Fz and F_xy [-] (1: the process's published level; a real cell's forces may differ,
             `twin.analysis.identify`).
         recovery_scale: Factor on the part's elastic recovery F/k_unload after unclamping [-] (1: the model's; it

@@ -1,10 +1,10 @@
 """Sheet materials: the shipped library, each number with its source, and a user's own materials.
 
 A `Material` holds what a process needs of a sheet (its tensile strength R_m) and what a force model may use
-(0.2 % proof strength, Young's modulus, Poisson's ratio, density, a hardening law, `twin.process.hardening`);
+(0.2 % proof strength, Young's modulus, Poisson's ratio, density, a hardening law, `twin.process.material.hardening`);
 only R_m is required. Every number of the shipped library (`models/materials/library.toml`) names the entry of
 the file's bibliography (`[sources]`) it comes from; a number without a source is left out (None), never
-guessed. A user's materials file has the same format (`twin.process.material_file`).
+guessed. A user's materials file has the same format (`twin.process.material.file`).
 
 Names are looked up as people write them: case, spaces, hyphens and dots do not matter, nor the prefixes `AA`
 and `EN AW` of aluminium alloys ("AA5086-H111", "5086-H111", "EN AW-5086-H111", "AA 5086 H111" are one
@@ -22,7 +22,7 @@ from pathlib import Path
 from typing import Any
 
 from twin.errors import InputError
-from twin.process.hardening import PA_SUSPECT_MPA, HardeningLaw
+from twin.process.material.hardening import PA_SUSPECT_MPA, HardeningLaw
 
 #: The numbers of a material, each with its unit in the name; `tensile_strength_mpa` is required.
 NUMBER_FIELDS = ("tensile_strength_mpa", "yield_strength_mpa", "youngs_modulus_gpa", "poisson_ratio", "density_kg_m3")
@@ -194,7 +194,7 @@ def library_path() -> Path:
 @functools.cache
 def shipped_library() -> MaterialLibrary:
     """The shipped library, every number with its source (read once)."""
-    from twin.process.material_file import read_material_library
+    from twin.process.material.file import read_material_library
 
     return read_material_library(library_path(), require_sources=True)
 

@@ -16,7 +16,7 @@ Read subset (RS-274 words, one block per line):
 
 Coordinates are the tool tip in the sheet frame; axes not yet set are 0. The path starts (t = 0) at the end
 of the first move (where the tool was before it is unknown); zero-length moves add no sample. `pass_index` is 1 and
-`direction` +1 throughout: G-code carries no pass structure (`twin.process.path.label_passes` infers it for
+`direction` +1 throughout: G-code carries no pass structure (`twin.process.toolpath.groove.label_passes` infers it for
 groove-like paths).
 """
 
@@ -31,7 +31,7 @@ import numpy as np
 
 from twin.base.csvio import read_text, write_text
 from twin.errors import DataFileError, InputError
-from twin.process.path import ToolPath
+from twin.process.toolpath.groove import ToolPath
 
 _WORD = re.compile(r"([A-Za-z])\s*([-+]?(?:\d+\.?\d*|\.\d+))")
 _COMMENT = re.compile(r"\([^)]*\)|;.*$")

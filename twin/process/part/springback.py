@@ -19,8 +19,8 @@ import math
 import numpy as np
 
 from twin.errors import InputError
-from twin.process.force_field import ForceField
-from twin.process.path import ToolPath
+from twin.process.force.base import ForceField
+from twin.process.toolpath.groove import ToolPath
 
 #: A part-profile scan reads x in [-45, 45] mm (the 70 mm groove and a margin) every 0.5 mm [m].
 PROFILE_HALF_SPAN_M = 0.045

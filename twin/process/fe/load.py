@@ -31,7 +31,7 @@ from twin.base.csvio import check_monotonic
 from twin.base.resources import data_file
 from twin.base.units import SITable, check_point_spacing, read_si_table
 from twin.errors import DataFileError, SymmetryError
-from twin.process.path import ToolPath, label_passes
+from twin.process.toolpath.groove import ToolPath, label_passes
 
 HALF_COLUMNS = ("fx_half_n", "fz_half_n")
 FULL_COLUMNS = ("fx_n", "fz_n")

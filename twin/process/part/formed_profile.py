@@ -2,7 +2,7 @@
 
 Along the groove centre line (y = 0, sheet frame): formed_z(x) = min(formed_z(x), z_t + R - sqrt(R² - (x - x_t)²))
 for |x - x_t| < R, R the tool radius (§2.2); initially 0 (flat sheet). A snapshot of the profile, taken when a
-pass starts, is the surface the tool meets ahead of it (`twin.process.field.SheetForceField`).
+pass starts, is the surface the tool meets ahead of it (`twin.process.force.table.SheetForceField`).
 """
 
 from __future__ import annotations

@@ -24,7 +24,7 @@ state held at +-1: the old model, one solve away from reversals), then inside th
 linear in x), then sliding the other way; the first whose solution lies in its own regime is the one.
 
 The wrapped field must flip only the sign of Fx with the direction: the models that declare
-`tangential_from_command` (`twin.process.force_field`; the table `SheetForceField` does).
+`tangential_from_command` (`twin.process.force.base`; the table `SheetForceField` does).
 """
 
 from __future__ import annotations
@@ -37,10 +37,10 @@ from typing import TYPE_CHECKING, TypeVar
 import numpy as np
 
 from twin.errors import InputError
-from twin.process.force_field import FieldState, ForceField
+from twin.process.force.base import FieldState, ForceField
 
 if TYPE_CHECKING:
-    from twin.process.heightmap import HeightMap
+    from twin.process.part.heightmap import HeightMap
 
 T = TypeVar("T")
 #: Tip position in the sheet frame [m] -> (force of the sheet on the tool [N], its gradient [N/m]).

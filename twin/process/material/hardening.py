@@ -5,7 +5,7 @@ Three laws, each with its named parameters (stresses in MPa, strains dimensionle
 * `hollomon`: σ = K·ε^n (`k_mpa`, `n`);
 * `swift`: σ = K·(ε0 + ε)^n (`k_mpa`, `eps0`, `n`);
 * `voce`: σ = σ0 + Q·(1 - exp(-b·ε))^m (`sigma0_mpa`, `q_mpa`, `b`, optional `m`, default 1: Voce's law; the
-  thesis's AA5086-H111 law has m = 1/2, `twin.process.isf_force`).
+  thesis's AA5086-H111 law has m = 1/2, `twin.process.force.isf`).
 
 A law is data (`models/materials/library.toml`, a user's materials file): `HardeningLaw.from_mapping` validates
 a table and names the offending key.

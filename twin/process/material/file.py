@@ -32,8 +32,8 @@ from pathlib import Path
 from typing import Any
 
 from twin.errors import DataFileError, InputError
-from twin.process.hardening import HardeningLaw
-from twin.process.materials import (
+from twin.process.material.hardening import HardeningLaw
+from twin.process.material.library import (
     NUMBER_FIELDS,
     SOURCED_FIELDS,
     Material,
@@ -90,7 +90,7 @@ def read_material_library(path: str | Path, *, require_sources: bool = False) ->
         raise DataFileError(path, f"unknown key(s) {unknown}; a materials file has format, [sources], [materials.NAME]")
     sources = _sources(path, data.get("sources", {}))
     if not require_sources:  # a user's file may cite the library's sources
-        from twin.process.materials import shipped_library
+        from twin.process.material.library import shipped_library
 
         sources = {**shipped_library().sources, **sources}
     tables = data.get("materials")

@@ -17,7 +17,7 @@ Two surfaces are kept:
   the tool is forming (their envelope passes within micrometres of the tool tip).
 
 Elastic recovery: when the tool leaves, a cell springs back by the elastic deflection its owner's contact
-caused, f_z/k_unload (k_unload the sheet's unloading stiffness, `twin.process.field.K_UNLOAD_N_PER_M`), never
+caused, f_z/k_unload (k_unload the sheet's unloading stiffness, `twin.process.force.table.K_UNLOAD_N_PER_M`), never
 above the flat sheet (`unloaded_z_m`). Commits outside the grid are clipped (the sheet is clamped there).
 """
 

@@ -1,6 +1,6 @@
 """The sheet's force learned from a cell: the height-map ISF model with a membrane correction fitted to a run.
 
-A real cell's sheet need not push as Aerens's formula says (`twin.process.isf_force`): its level, how it builds
+A real cell's sheet need not push as Aerens's formula says (`twin.process.force.isf`): its level, how it builds
 up with depth and how it depends on the surface around the tool are the cell's own. This model keeps the ISF
 model's height map, wall angle, sliding direction and in-plane law, and writes its unsoftened axial force as
 
@@ -28,8 +28,8 @@ from typing import ClassVar
 import numpy as np
 
 from twin.errors import InputError
-from twin.process.isf_force import IsfForceField
-from twin.process.isf_params import IsfForceParams
+from twin.process.force.isf import IsfForceField
+from twin.process.force.isf_params import IsfForceParams
 
 
 @dataclass(frozen=True)

@@ -13,8 +13,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from twin.errors import InputError
-from twin.process.forces import ForceHistory
-from twin.process.formed_profile import FormedProfile
+from twin.process.fe.load import ForceHistory
+from twin.process.part.formed_profile import FormedProfile
 
 
 @dataclass(frozen=True)

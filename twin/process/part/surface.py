@@ -4,13 +4,13 @@ A forming lab checks a part the way a CAD check does: the part is scanned (a poi
 after unclamping, e.g. a fringe-projection scanner) and compared with the target geometry (an STL). Here:
 
 * `target_part_surface(path)`: the part a rigid machine forms along the ideal path, after elastic recovery:
-  the height-map ISF model (`twin.process.isf_force`) driven along the path without deflection. It is the
+  the height-map ISF model (`twin.process.force.isf`) driven along the path without deflection. It is the
   target for a check of the *forming*, as the ideal path is for the tool path.
 * `design_part_surface(path)`: the part as CAD gives it: the sheet's tool-side surface a rigid machine forms
-  along the path with no springback, the lower envelope of the tool sphere (`twin.process.heightmap`) with the
-  unsupported bottom lowered (`twin.process.part_bottom`). The reference of a check of a scanned part.
+  along the path with no springback, the lower envelope of the tool sphere (`twin.process.part.heightmap`) with the
+  unsupported bottom lowered (`twin.process.part.bottom`). The reference of a check of a scanned part.
 * `formed_surface(field)`: the surface a force field with a height map (`IsfForceField`) has formed, after
-  the tool has left, its unsupported bottom lowered with the last contour (`twin.process.part_bottom`); None for
+  the tool has left, its unsupported bottom lowered with the last contour (`twin.process.part.bottom`); None for
   a field without one (the groove's table field keeps a centre line only).
 * `springback_surface(field, recovery_scale, depth_ratio)`: the same with the springback's two constants given
   (`formed_surface` takes them from the field's `IsfForceParams`; `identify --springback` fits them to a scan).
@@ -27,11 +27,11 @@ import numpy as np
 import trimesh
 
 from twin.errors import InputError
-from twin.process.heightmap import HeightMap
-from twin.process.isf_force import IsfForceField
-from twin.process.isf_params import IsfForceParams
-from twin.process.part_bottom import with_floating_bottom
-from twin.process.path import ToolPath
+from twin.process.force.isf import IsfForceField
+from twin.process.force.isf_params import IsfForceParams
+from twin.process.part.bottom import with_floating_bottom
+from twin.process.part.heightmap import HeightMap
+from twin.process.toolpath.groove import ToolPath
 
 SCAN_SPACING_M = 1e-3  # a scan's point spacing [m]
 FORMED_BELOW_M = 5e-5  # a node counts as formed when it lies this far below the flat sheet [m]

@@ -1,6 +1,6 @@
 """A general ISF force model on the formed-surface height map: the force on the tool for any part and path.
 
-State: `twin.process.heightmap.HeightMap` (2-D, 0.5 mm grid, lower envelope of the tool sphere, elastic
+State: `twin.process.part.heightmap.HeightMap` (2-D, 0.5 mm grid, lower envelope of the tool sphere, elastic
 recovery), driven by `advance`. At a tool-tip position p = (x, y, z) in the sheet frame, from the *met* surface
 S (the surface formed before the tool got here):
 
@@ -15,7 +15,7 @@ S (the surface formed before the tool got here):
   starting at α_max (first contact) and keeping it over sheet never formed. The horizontal direction n from the
   tip to that layer is the wall the tool presses (outwards on a cone);
 * forming (Δz > Δz_min): Aerens et al.'s steady-state axial force with the scallop height of the engagement
-  (`twin.process.aerens`: IJAMT 46, 2010, Eq. 30) times a build-up with depth,
+  (`twin.process.force.aerens`: IJAMT 46, 2010, Eq. 30) times a build-up with depth,
 
       Fz = 0.0716 · R_m · t^1.57 · d_t^0.41 · h(Δz, α)^0.09 · α · cos α · B(D)      [N; MPa, mm, deg]
 
@@ -26,7 +26,7 @@ S (the surface formed before the tool got here):
 * elastic (Δz < 0, the tool has risen from the surface it meets): Fz(Δz_min) + k_unload·Δz, continuous,
   falling to zero by the sheet's elastic recovery; a softplus (5 N) keeps Fz >= 0 and smooth;
 * in-plane force, two parts: tangential, against the sliding, -μ_t·Fz·v, v the sliding direction implicit in
-  the queried position (`twin.process.sliding`: it turns over L_f of travel, |v| = 1 on a straight run; a tool
+  the queried position (`twin.process.force.sliding`: it turns over L_f of travel, |v| = 1 on a straight run; a tool
   that reverses leaves the wall it was pushing, so v is released over 0.05 mm and the force builds up against
   the new travel as 1 - exp(-u/L_f)); radial, across the travel away from the wall, -μ_r·Fz·σ·L·v, L the
   quarter turn to the left and σ the held side of the wall (+1 left of the travel, -1 right: the part of n
@@ -47,12 +47,12 @@ from typing import ClassVar
 import numpy as np
 
 from twin.errors import InputError
-from twin.process.aerens import EXPONENT_SCALLOP, scallop_height_m
-from twin.process.field import SOFTPLUS_N
-from twin.process.force_field import FieldState, ForceField
-from twin.process.heightmap import HeightMap
-from twin.process.isf_params import IsfForceParams, material_fz_n
-from twin.process.sliding import RELEASE_LENGTH_M, sliding_direction
+from twin.process.force.aerens import EXPONENT_SCALLOP, scallop_height_m
+from twin.process.force.base import FieldState, ForceField
+from twin.process.force.isf_params import IsfForceParams, material_fz_n
+from twin.process.force.sliding import RELEASE_LENGTH_M, sliding_direction
+from twin.process.force.table import SOFTPLUS_N
+from twin.process.part.heightmap import HeightMap
 
 _SOFTPLUS_N = SOFTPLUS_N
 #: Height over which the wall angle is read from the layers above the tool [m], and the most layers walked.
@@ -256,7 +256,7 @@ class IsfForceField(ForceField):
 
     def _travel(self, x: float, y: float, jacobian: bool = True) -> tuple[float, float, np.ndarray | None]:
         """Travel direction v including the step from the last committed tip to (x, y), and ∂v/∂(x, y)
-        (`twin.process.sliding.sliding_direction`); v_prev where the tool has not moved (Jacobian None)."""
+        (`twin.process.force.sliding.sliding_direction`); v_prev where the tool has not moved (Jacobian None)."""
         if self._last is None:
             return self._dir[0], self._dir[1], None
         return sliding_direction(

@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from twin.errors import DataFileError, InputError, SingularityError, UnreachableError
-from twin.process.path import ToolPath
+from twin.process.toolpath.groove import ToolPath
 
 if TYPE_CHECKING:  # MuJoCo loads only when a placement is checked
     from twin.robot.kinematics import Kinematics

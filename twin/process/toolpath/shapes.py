@@ -1,6 +1,6 @@
 """Tool paths of the standard ISF test parts besides the groove: cone, pyramid, variable-wall-angle cone.
 
-Frame and convention as `twin.process.path`: sheet frame (origin at the centre of the sheet's top surface, z
+Frame and convention as `twin.process.toolpath.groove`: sheet frame (origin at the centre of the sheet's top surface, z
 up), positions are the tool tip. A part is a stack of closed contours of one shape (circle or square) whose
 half-width w(d) shrinks with the depth d >= 0 below the sheet; the contour through the tool tip at depth d has
 the wall angle α(d) (from the sheet plane), dw/dd = -cot α(d). The offset surface of a cone is a cone of the
@@ -32,7 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from twin.errors import InputError
-from twin.process.path import ToolPath
+from twin.process.toolpath.groove import ToolPath
 
 SHAPES = ("cone", "pyramid", "vwa-cone")
 MODES = ("spiral", "z-level")

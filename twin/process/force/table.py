@@ -5,7 +5,7 @@ path, so the twin needs the force at other tool positions, and that force depend
 formed. The model (all lengths in the sheet frame, along the groove centre line y = 0):
 
 * State: `formed_z_m(x)`, the loaded groove-bottom profile, the lower envelope of the tool sphere over every
-  committed position (`advance`; `twin.process.formed_profile`), initially 0 (flat sheet); the current pass
+  committed position (`advance`; `twin.process.part.formed_profile`), initially 0 (flat sheet); the current pass
   and a snapshot of the profile taken when that pass started: the surface the tool meets ahead of it.
 * Reference depth: δ = z_ref(x) - z_tool, with z_ref the profile formed before the queried pass started
   (the snapshot when `pass_index` is the current pass, else the profile formed so far). δ_plan(x, pass) is
@@ -26,7 +26,7 @@ formed. The model (all lengths in the sheet frame, along the groove centre line 
 Sensitivities (dFz/dz = -k; calibrated, see `twin.analysis.calibrate` and models/README.md):
 
 * k_unload: elastic unloading of the formed sheet. It also sets the springback of the part when the tool
-  leaves (`twin.process.springback`): the thesis's CNC test formed 8.7 mm of the 10 mm target (§2.3.1).
+  leaves (`twin.process.part.springback`): the thesis's CNC test formed 8.7 mm of the 10 mm target (§2.3.1).
 * k_load: pressing deeper or shallower while forming; the prior reads Aerens's exponent 0.09 on the step-down,
   dFz/dΔz ≈ 0.09·Fz/Δz = 0.09·1.7 kN / 1 mm ≈ 0.15 kN/mm (with the scallop height as published, twice that on
   a wall of fixed angle; the calibration fits k_load to the thesis's tests, models/README.md).
@@ -48,13 +48,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from twin.errors import InputError
-from twin.process.force_field import FieldState, ForceField
-from twin.process.forces import ForceHistory
-from twin.process.formed_profile import FormedProfile
-from twin.process.pass_tables import PassTable, build_pass_tables
-from twin.process.pass_tables import lerp as _lerp
-from twin.process.pass_tables import lerp_slope as _lerp_slope
-from twin.process.pass_tables import lerp_slope3 as _lerp_slope3
+from twin.process.fe.load import ForceHistory
+from twin.process.force.base import FieldState, ForceField
+from twin.process.force.pass_tables import PassTable, build_pass_tables
+from twin.process.force.pass_tables import lerp as _lerp
+from twin.process.force.pass_tables import lerp_slope as _lerp_slope
+from twin.process.force.pass_tables import lerp_slope3 as _lerp_slope3
+from twin.process.part.formed_profile import FormedProfile
 
 #: Elastic unloading stiffness of the formed sheet [N/m]: calibrated (`tx200-twin calibrate`) to the CNC test's
 #: springback, 8.7 mm formed of the 10 mm target (§2.3.1), 1.43 ± 0.29 kN/mm.
@@ -80,7 +80,7 @@ class SheetForceField(ForceField):
     """Force exerted by the sheet on the tool as a function of tool position, pass and forming history.
 
     Declares the compiled kernel `table`; its Fx flips with the commanded direction (the twin wraps it in the
-    tool's sliding friction) and its force steps from pass to pass (`twin.process.force_field`).
+    tool's sliding friction) and its force steps from pass to pass (`twin.process.force.base`).
     """
 
     compiled_kernel = "table"

@@ -1,7 +1,7 @@
 """The force-model seam: what a model of the sheet's force on the tool gives the twin, the labs and the analysis.
 
 A force field is the sheet's reaction at any tool position, with the forming state it keeps (what earlier passes
-formed). Every force model is a `ForceField`; the registry (`twin.process.force_models`) builds one by name from
+formed). Every force model is a `ForceField`; the registry (`twin.process.force.registry`) builds one by name from
 an FE force history and the declared process. The twin's Newton solve asks `force_and_stiffness` at trial tool
 positions (pure), commits each equilibrium with `advance`, and starts a run with `reset`.
 
@@ -12,7 +12,7 @@ What a model declares (class attributes), so that no stage looks at its type:
   not inherited (`kernel()`): a subclass may change the physics, so it runs in Python unless it declares the
   kernel again;
 * `tangential_from_command`: its in-plane force flips with the commanded travel direction, so the twin wraps
-  it in the tool's sliding friction (`twin.process.tool_friction`), which makes the force follow the tool's
+  it in the tool's sliding friction (`twin.process.force.tool_friction`), which makes the force follow the tool's
   real travel at reversals;
 * `steps_between_passes`: its force steps from one pass to the next (per-pass tables): streams are not
   interpolated across a pass change (`twin.sim.result.SimResult.force_at`);
@@ -34,10 +34,10 @@ from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 
-from twin.process.path import ToolPath
+from twin.process.toolpath.groove import ToolPath
 
 if TYPE_CHECKING:
-    from twin.process.heightmap import HeightMap
+    from twin.process.part.heightmap import HeightMap
 
 
 @dataclass(frozen=True)
@@ -103,7 +103,7 @@ class ForceField(ABC):
 
     @property
     def height_map(self) -> HeightMap | None:
-        """The 2-D formed surface, for models that keep one (`twin.process.heightmap`); None otherwise."""
+        """The 2-D formed surface, for models that keep one (`twin.process.part.heightmap`); None otherwise."""
         return None
 
     @property

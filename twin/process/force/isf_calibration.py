@@ -1,11 +1,11 @@
-"""Calibration of the ISF force model (`twin.process.isf_force`) on an FE force history along the groove.
+"""Calibration of the ISF force model (`twin.process.force.isf`) on an FE force history along the groove.
 
 The history becomes calibration data: the model is driven rigidly along the history's tool path
 (`IsfForceField.rigid_forces`) and four constants are fitted by least squares to Fz and Fx, each normalised by
 its peak: the groove factor (the history's force level over the general formula's on this groove, `scale`), the
 in-plane ratio μ_t, the travel-direction filter length L_f and the plateau engagement Δz_min. These are a fit
 to our own stand-in data, not a validation; only L_f and Δz_min are kept as the model's constants
-(`twin.process.isf_params`). Aerens's coefficient and exponents, R_m, t and R stay as published, the wall-angle
+(`twin.process.force.isf_params`). Aerens's coefficient and exponents, R_m, t and R stay as published, the wall-angle
 cap is the groove's geometry and the build-up depth a fit to published depth curves: the model's steady forces
 on any part are the process's, and the groove factor says where the groove's zig-zag sits against them
 (docs/forces.md).
@@ -25,10 +25,10 @@ from dataclasses import dataclass, replace
 import numpy as np
 from scipy.optimize import least_squares
 
-from twin.process.forces import ForceHistory
-from twin.process.isf_force import IsfForceField
-from twin.process.isf_params import IsfForceParams
-from twin.process.path import ToolPath, label_passes
+from twin.process.fe.load import ForceHistory
+from twin.process.force.isf import IsfForceField
+from twin.process.force.isf_params import IsfForceParams
+from twin.process.toolpath.groove import ToolPath, label_passes
 
 #: Miss [-] of a reconstructed corner's legs at the next sample, over the arc length between the samples.
 _TURN_TOLERANCE = 0.05

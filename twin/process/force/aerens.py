@@ -133,6 +133,6 @@ def validity_warnings(
         if value is not None and not rng.low <= value <= rng.high:
             out.append(
                 f"{rng.name} {value:g} {rng.unit} lies outside {rng.low:g}-{rng.high:g} {rng.unit}, the declared range "
-                "of Aerens et al.'s force formula (twin.process.aerens): the axial force is extrapolated"
+                "of Aerens et al.'s force formula (twin.process.force.aerens): the axial force is extrapolated"
             )
     return out

@@ -16,7 +16,7 @@ this symmetric layout):
 Samples: every segment (pass or turn) is cut into equal pieces no longer than `spacing_m`, and every corner is
 a sample, so the 20 corners (start, reversals, turn ends, end) are exact. Turn samples belong to the pass they
 lead into (they already move in its direction); the reversal point itself ends its pass. The FE history
-stand-in (`twin.process.fe_history`) instead uses 1311 equal arc-length samples of the same geometry
+stand-in (`twin.process.fe.generator`) instead uses 1311 equal arc-length samples of the same geometry
 (`resample_by_arc_length`), the count of the thesis's ABAQUS export (§2.2.2).
 """
 
