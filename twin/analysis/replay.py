@@ -6,9 +6,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from twin.analysis.resolve import resolve_robot, spec_for_run
 from twin.base.signals import interp_rows
 from twin.errors import InputError, RunFormatError
-from twin.runs.format import Run, run_placement, run_robot
+from twin.runs.format import Run, run_placement
 from twin.sim.measure import predict_forces, predict_tracker
 from twin.sim.quasi_static import Twin
 from twin.sim.result import SimResult
@@ -78,19 +79,13 @@ def replay(run: Run, twin: Twin | TwinSpec | None = None) -> ReplayResult:
     """
     if len(run.commanded.t_s) < 2:
         raise RunFormatError("commanded.csv", "needs at least 2 samples to replay")
-    placement = run_placement(run.meta)
-    robot = run_robot(run.meta)
-    twin_robot = twin.robot if twin is not None else robot
-    if twin_robot.source != robot.source:
-        raise InputError(f"the run was made with robot {robot.name!r} ({robot.source}); the twin is a "
-                         f"{twin_robot.name!r} ({twin_robot.source}): replay it on the run's robot")
     if isinstance(twin, Twin):
-        if twin.placement != placement:
-            raise InputError(
-                f"the twin passed has the sheet placement {twin.placement}, but the run was made at {placement}"
-            )
+        resolve_robot(twin.robot, None, run, label="the twin")
+        if twin.placement != run_placement(run.meta):
+            raise InputError(f"the twin passed has the sheet placement {twin.placement}, but the run was made at "
+                             f"{run_placement(run.meta)}")
     else:
-        twin = (twin or TwinSpec(robot=robot)).replace(placement=placement).build()
+        twin = spec_for_run(run, twin).build()
     effects = twin.effects
     sim = twin.simulate(run.commanded.t_s, run.commanded.values)
     tracker = predict_tracker(sim, run.tracker.t_s, effects)

@@ -6,7 +6,8 @@ against a published part's section, `springback_validation`), `bench`,
 `bench_speed`, `bench_place` (the placement search's cost) and `machine` (the speed ratios and the machine they
 ran on), `analytic_replay` (the replay with
 the linear model, the physical floor), `sweep` (a Monte Carlo of the compensated groove) with its `uncertainty`
-and `sweep_figure`, `readme` (the README's generated tables) and `export/` (robot programs from a path).
+and `sweep_figure`, `readme` (the README's generated tables), `export/` (robot programs from a path) and `tasks/` (each command
+as a typed request and report, callable from Python).
 
 Takes an output folder; gives reports, figures, recordings, programs and benchmark ratios.
 """

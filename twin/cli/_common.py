@@ -7,26 +7,24 @@ from __future__ import annotations
 import argparse
 import math
 import sys
-from collections.abc import Mapping
-from dataclasses import replace
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
+from twin.analysis.resolve import resolve_process, resolve_robot, resolve_spec
+from twin.apps.tasks.base import Report
+from twin.base.jsonio import emit_json
 from twin.cli._types import finite
 from twin.errors import InputError
 from twin.process.description import Process
 from twin.process.fe.load import ForceHistory, default_force_history, load_force_history
-from twin.process.force.registry import FORCE_MODELS, auto_force_model, force_model
-from twin.process.material.library import material
-from twin.process.process_file import ProcessDeclaration, positive, read_process_declaration
+from twin.process.force.registry import FORCE_MODELS
+from twin.process.process_file import ProcessDeclaration, declare_process
 from twin.process.toolpath.groove import ToolPath, groove_path, label_passes
 from twin.process.toolpath.placement import Placement
-from twin.robot.description import DEFAULT_ROBOT, RobotDescription, load_robot, shipped_robots
-from twin.runs.format import Run, Stream, run_placement, run_process, run_robot
+from twin.robot.description import DEFAULT_ROBOT, RobotDescription, shipped_robots
+from twin.runs.format import Run, Stream
 from twin.runs.read import read_commanded_csv
-from twin.sim.model_file import read_model_file
 from twin.sim.spec import TwinSpec
 
 
@@ -106,30 +104,6 @@ def add_force_model_argument(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def force_model_for(
-    args: argparse.Namespace,
-    process: Process,
-    p_sheet_m: Any,
-    meta: Mapping[str, Any] | None = None,
-    declared: str | None = None,
-    fitted: str | None = None,
-) -> str:
-    """The force model of `--force-model`: a named one, or for `auto` the one a process file declares
-    (`declared`), else the one a model file fitted to its cell (`fitted`: `learn`, `identify --forces`), else the
-    one a run's `meta.json` records, else the first registered model that applies to the path
-    (`twin.process.force.registry.auto_force_model`)."""
-    if args.force_model != "auto":
-        return str(force_model(args.force_model).name)
-    if declared is not None:
-        return declared
-    if fitted is not None:
-        return fitted
-    recorded = None if meta is None else meta.get("force_model")
-    if isinstance(recorded, str) and recorded in FORCE_MODELS:
-        return recorded
-    return auto_force_model(process, np.asarray(p_sheet_m, dtype=float))
-
-
 def spec_from_arguments(
     args: argparse.Namespace,
     p_sheet_m: Any,
@@ -137,34 +111,14 @@ def spec_from_arguments(
     run: Run | None = None,
     history: ForceHistory | None = None,
 ) -> TwinSpec:
-    """The twin of a command: the model file of `--model` (or the default cell), with the FE history, the process
-    (the model file's, under a run's recorded one, under `--process`, under the flags: `command_process`), the
-    force model (`force_model_for`) and the placement (a run's own, else `--origin-mm`/`--yaw-deg` where the
-    command has them, else the model file's).
-
-    Args:
-        args: The parsed options (`model`, `force_model`, and the placement options where present).
-        p_sheet_m: The commanded or ideal path the twin will drive, sheet frame [m], shape (n, 3).
-        run: The run the twin replays (its placement and recorded force model), or None.
-        history: The FE history (as declared) when the command takes one; None: the model file's or the shipped.
-    """
-    model = getattr(args, "model", None)
-    base = read_model_file(model) if model is not None else TwinSpec()
-    base = base.replace(robot=command_robot(args, base.robot if model is not None else None, run))
-    process = base.process if history is None else replace(base.process, history=history)
-    name = "the model file's process" if model is not None else None
-    if run is not None and "process" in run.meta:
-        process = run_process(run.meta, process, (run.directory or Path(".")) / "meta.json")
-        name = "the run's recorded process"
-    fitted = base.process.force_model if model is not None and base.process.force_fit else None
-    process = command_process(args, process, p_sheet_m, None if run is None else run.meta, name, fitted)
-    if run is not None:
-        placement = run_placement(run.meta)
-    elif getattr(args, "origin_mm", None) is not None or getattr(args, "yaw_deg", 0.0) != 0.0:
-        placement = placement_from(args)
-    else:
-        placement = base.placement
-    return base.replace(process=process, placement=placement)
+    """The twin of a command (`twin.analysis.resolve.resolve_spec`) from its options: `--model`, `--robot`,
+    the process options, `--force-model` and the placement options, where the command has them."""
+    given = getattr(args, "origin_mm", None) is not None or getattr(args, "yaw_deg", 0.0) != 0.0
+    return resolve_spec(
+        model=getattr(args, "model", None), robot=getattr(args, "robot", None), run=run,
+        declaration=process_declaration(args), force_model_name=getattr(args, "force_model", "auto"),
+        placement=placement_from(args) if given else None, history=history, p_sheet_m=p_sheet_m, note=note,
+    )
 
 
 def add_robot_argument(parser: argparse.ArgumentParser | Any) -> None:
@@ -181,23 +135,8 @@ def add_robot_argument(parser: argparse.ArgumentParser | Any) -> None:
 def command_robot(
     args: argparse.Namespace, model_robot: RobotDescription | None = None, run: Run | None = None
 ) -> RobotDescription:
-    """The robot of a command: a run's recorded one (which `--robot` and a model file must match), else
-    `--robot`, else the model file's, else the default.
-
-    Raises:
-        InputError: `--robot` or the model file names another robot than the run was made with.
-        ModelError: An unknown robot name or a bad description file.
-    """
-    given = getattr(args, "robot", None)
-    chosen = load_robot(given) if given is not None else None
-    if run is not None:
-        recorded = run_robot(run.meta, (run.directory or Path(".")) / "meta.json")
-        for what, other in (("--robot", chosen), ("the model file", model_robot)):
-            if other is not None and other.source != recorded.source:
-                raise InputError(f"{what} gives robot {other.name!r}, but the run {run.directory} was made with "
-                                 f"{recorded.name!r}: a twin of another robot cannot replay it")
-        return recorded
-    return chosen or model_robot or load_robot()
+    """The robot of a command (`twin.analysis.resolve.resolve_robot` of `--robot`)."""
+    return resolve_robot(getattr(args, "robot", None), model_robot, run)
 
 
 def add_process_arguments(parser: argparse.ArgumentParser) -> Any:
@@ -217,68 +156,18 @@ def add_process_arguments(parser: argparse.ArgumentParser) -> Any:
 
 
 def process_declaration(args: argparse.Namespace) -> ProcessDeclaration:
-    """What `--process` and the flags declare (the flags over the file); nothing for a command without them.
-
-    Raises:
-        InputError: An unknown `--material`, a length that is not > 0 (naming the option).
-        DataFileError: A bad process file (naming the file and the key).
-    """
-    file = getattr(args, "process", None)
-    declared = ProcessDeclaration() if file is None else read_process_declaration(file)
-    flags: dict[str, Any] = {}
-    origins: dict[str, str] = {}
-    if getattr(args, "material", None) is not None:
-        try:
-            flags["material"] = material(args.material)
-        except InputError as exc:
-            raise InputError(f"--material {args.material}: {exc}") from None
-    for option, name in (("--thickness-mm", "thickness_m"), ("--tool-radius-mm", "tool_radius_m")):
-        value = getattr(args, option.lstrip("-").replace("-", "_"), None)
-        if value is not None:
-            flags[name] = positive(option, value) / 1e3
-            origins[name] = f"{option} {value:g}"
-    return ProcessDeclaration(**flags, origins=tuple(origins.items())).over(declared)
-
-
-def process_from_arguments(args: argparse.Namespace, base: Process) -> Process:
-    """`base` with what `--process` and the flags declare (`process_declaration`); the force model as declared.
-
-    Raises:
-        InputError: A bad flag, or a tool not larger than the sheet is thick (naming where each came from).
-    """
-    return process_declaration(args).applied_to(base)
+    """What `--process` and the flags declare (`twin.process.process_file.declare_process`); nothing for a
+    command without them."""
+    return declare_process(getattr(args, "process", None), getattr(args, "material", None),
+                           getattr(args, "thickness_mm", None), getattr(args, "tool_radius_mm", None))
 
 
 def command_process(
-    args: argparse.Namespace,
-    base: Process,
-    p_sheet_m: Any,
-    meta: Mapping[str, Any] | None = None,
-    base_name: str | None = None,
-    fitted: str | None = None,
+    args: argparse.Namespace, base: Process, p_sheet_m: Any, meta: Mapping[str, Any] | None = None
 ) -> Process:
-    """The process a command runs: `base` (a model file's, a run's; `base_name` says which, for messages), the
-    declared process over it (`process_from_arguments`), and its force model (`force_model_for`: `--force-model`,
-    else the process file's, else a run's recorded one, else the first that applies to the path)."""
-    declaration = process_declaration(args)
-    process = declaration.applied_to(base, base_name)
-    chosen = force_model_for(args, process, p_sheet_m, meta, declared=declaration.force_model, fitted=fitted)
-    if chosen == "table" and _differs_from_history(process):
-        print(
-            f"note: the 'table' force model plays back the FE history's forces; the declared sheet "
-            f"({process.material}, R_m {process.tensile_strength_mpa:g} MPa, {1e3 * process.thickness_m:g} mm) is "
-            "recorded but does not change them",
-            file=sys.stderr,
-        )
-    return replace(process, force_model=chosen)
-
-
-def _differs_from_history(process: Process) -> bool:
-    """Whether the process's sheet is not the thesis's, whose forces the shipped FE history holds."""
-    default = Process()
-    return process.history is None and (
-        process.tensile_strength_mpa != default.tensile_strength_mpa or process.thickness_m != default.thickness_m
-    )
+    """The process a command runs (`twin.analysis.resolve.resolve_process` of its options)."""
+    return resolve_process(base, process_declaration(args), getattr(args, "force_model", "auto"), p_sheet_m,
+                           meta, note=note)
 
 
 def add_placement_arguments(parser: argparse.ArgumentParser | Any, title: str = "sheet placement") -> Any:
@@ -308,3 +197,19 @@ def add_scheduler_argument(parser: argparse.ArgumentParser) -> None:
         help="run the jobs on the Dask distributed cluster of this scheduler (e.g. tcp://HOST:8786; its workers "
         "need tx200-twin installed); default: local processes on every usable core (--workers)",
     )
+
+
+def finish(args: argparse.Namespace, report: Report, protect: Sequence[str | Path | None] = ()) -> int:
+    """Print a task's report (stdout; stderr when `--json -` keeps stdout for the JSON), write its `--json`, and
+    return its exit code. `protect`: the inputs the JSON must not replace (None entries skipped)."""
+    json_target = getattr(args, "json", None)
+    out = sys.stderr if json_target == "-" else sys.stdout
+    for line in report.lines():
+        print(line, file=out)
+    emit_json(json_target, report.record(), protect=[p for p in protect if p is not None])
+    return report.exit_code
+
+
+def note(text: str) -> None:
+    """A task's `Note` on the command line: stderr."""
+    print(text, file=sys.stderr)

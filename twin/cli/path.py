@@ -28,7 +28,7 @@ from twin.cli._common import (
     add_robot_argument,
     command_robot,
     placement_from,
-    process_from_arguments,
+    process_declaration,
 )
 from twin.cli._types import count, feed_mm_s, finite, length_mm
 from twin.errors import ExtrapolationWarning, InputError
@@ -205,7 +205,7 @@ def _build_checked(args: argparse.Namespace) -> tuple[ToolPath, dict[str, Any], 
 
 def run(args: argparse.Namespace) -> int:
     """Build or import the path, check its reach, write it and print a summary."""
-    process = process_from_arguments(args, Process())
+    process = process_declaration(args).applied_to(Process())
     path, payload, line = _build(args)
     if "step_down_mm" in payload:  # a cone, pyramid or variable-wall-angle cone: its steady axial force
         line += _steady_force(process, payload)

@@ -138,6 +138,35 @@ def read_process_declaration(path: str | Path) -> ProcessDeclaration:
     return ProcessDeclaration(**values, origins=tuple(origins.items()))
 
 
+def declare_process(
+    file: str | Path | None = None,
+    material_name: str | None = None,
+    thickness_mm: float | None = None,
+    tool_radius_mm: float | None = None,
+) -> ProcessDeclaration:
+    """What a user declares: a process file, and values given one by one over it (the CLI's `--material`,
+    `--thickness-mm`, `--tool-radius-mm`, named so in messages).
+
+    Raises:
+        InputError: An unknown material, a length that is not > 0 (naming the option).
+        DataFileError: A bad process file (naming the file and the key).
+    """
+    declared = ProcessDeclaration() if file is None else read_process_declaration(file)
+    flags: dict[str, Any] = {}
+    origins: dict[str, str] = {}
+    if material_name is not None:
+        try:
+            flags["material"] = material(material_name)
+        except InputError as exc:
+            raise InputError(f"--material {material_name}: {exc}") from None
+    for option, name, value in (("--thickness-mm", "thickness_m", thickness_mm),
+                                ("--tool-radius-mm", "tool_radius_m", tool_radius_mm)):
+        if value is not None:
+            flags[name] = positive(option, value) / 1e3
+            origins[name] = f"{option} {value:g}"
+    return ProcessDeclaration(**flags, origins=tuple(origins.items())).over(declared)
+
+
 def _material(path: Path, data: Mapping[str, Any]) -> Material:
     """The process file's `material`: a name (of `material_file` or the library) or an inline table."""
     user: dict[str, Material] = {}

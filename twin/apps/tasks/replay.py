@@ -1,0 +1,119 @@
+"""`replay`: a run's commanded path simulated on the twin, and the gap to its measurements."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from twin.analysis.replay import ReplayResult, replay
+from twin.analysis.resolve import AUTO, resolve_spec
+from twin.apps.tasks.base import Note, Report, silent
+from twin.errors import InputError
+from twin.process.process_file import ProcessDeclaration, process_record
+from twin.runs.read import read_run
+from twin.sim.spec import TwinSpec
+
+FORCES = ("twin", "measured")
+
+
+@dataclass(frozen=True)
+class ReplayRequest:
+    """What to replay.
+
+    Attributes:
+        run_dir: A tx200-twin-run/1 folder.
+        model: A model file (`learn --write-model`, `discrepancy --model-out`), or None for the default cell.
+        declaration: The process declared over the model's and the run's (a process file, flags).
+        force_model: A registered force model, or "auto" (`twin.analysis.resolve.choose_force_model`).
+        robot: A robot name or description file; it must be the run's.
+        forces: "twin": the twin's own forces; "measured": also drive the twin's robot by the run's F/T stream
+            and split the gap into the robot's part and the sheet's.
+        rrd: A rerun recording to write, or None.
+    """
+
+    run_dir: Path
+    model: Path | None = None
+    declaration: ProcessDeclaration = field(default_factory=ProcessDeclaration)
+    force_model: str = AUTO
+    robot: str | Path | None = None
+    forces: str = "twin"
+    rrd: Path | None = None
+
+    def __post_init__(self) -> None:
+        if self.forces not in FORCES:
+            raise InputError(f"forces {self.forces!r}: expected one of {', '.join(FORCES)}")
+
+
+@dataclass(frozen=True)
+class ReplayReport(Report):
+    """A replay and its gap.
+
+    Attributes:
+        run_dir: The run replayed.
+        spec: The twin it was replayed on.
+        result: The prediction and its metrics (`twin.analysis.replay.replay_metrics`).
+        robot_gap_rms_mm: With forces="measured": the robot's part of the gap [mm rms], else None.
+        sheet_gap_rms_mm: With forces="measured": the sheet's part [mm rms], else None.
+    """
+
+    run_dir: Path
+    spec: TwinSpec
+    result: ReplayResult
+    robot_gap_rms_mm: float | None = None
+    sheet_gap_rms_mm: float | None = None
+
+    def metrics(self) -> dict[str, Any]:
+        """The replay's metrics, with the split when there is one."""
+        m: dict[str, Any] = dict(self.result.metrics)
+        if self.robot_gap_rms_mm is not None:
+            m.update(robot_gap_rms_mm=self.robot_gap_rms_mm, sheet_gap_rms_mm=self.sheet_gap_rms_mm)
+        return m
+
+    def lines(self) -> list[str]:
+        m, process = self.result.metrics, self.spec.process
+        lines = [
+            f"replay {self.run_dir}: {m['samples']} tracker samples; "
+            f"position gap rms {m['position_rms_mm']:.3f} mm (max {m['position_max_mm']:.3f}); "
+            f"force gap rms {m.get('force_rms_n', float('nan')):.1f} N "
+            f"(max {m.get('force_max_n', float('nan')):.1f}); "
+            f"measured deflection max {m['deflection_max_mm']:.2f} mm; process {process.material}, "
+            f"{1e3 * process.thickness_m:g} mm, {process.force_model} model"
+        ]
+        if self.robot_gap_rms_mm is not None:
+            lines.append(f"  split: the robot's part (the twin's robot driven by the measured forces) "
+                         f"{self.robot_gap_rms_mm:.3f} mm rms; the sheet's part (what the twin's forces move the "
+                         f"tip by) {self.sheet_gap_rms_mm:.3f} mm rms")
+        return lines
+
+    def record(self) -> dict[str, Any]:
+        process = {**process_record(self.spec.process), "force_model": self.spec.process.force_model}
+        return {"run": self.run_dir, **self.metrics(), "process": process}
+
+
+def replay_task(request: ReplayRequest, note: Note = silent) -> ReplayReport:
+    """Replay a run on the twin its request resolves to (`twin.analysis.resolve.resolve_spec`).
+
+    Raises:
+        InputError: Another robot than the run's, forces="measured" on a run without forces.csv.
+        RunFormatError: A bad run folder (naming the file and row).
+    """
+    measured = read_run(request.run_dir)
+    spec = resolve_spec(model=request.model, robot=request.robot, run=measured, declaration=request.declaration,
+                        force_model_name=request.force_model, note=note)
+    twin = spec.build()
+    result = replay(measured, twin)
+    split = None
+    if request.forces == "measured":
+        from twin.analysis.learn.split import split_gap
+
+        if measured.forces is None:
+            raise InputError(f"run {request.run_dir} has no forces.csv: --forces measured needs the F/T stream")
+        split = split_gap(measured, twin, result)
+    if request.rrd is not None:
+        from twin.viz.recording import record_replay
+
+        record_replay(request.rrd, measured, result, twin_model=twin.model, placement=twin.placement)
+        note(f"rerun recording -> {request.rrd}")
+    return ReplayReport(request.run_dir, spec, result, None if split is None else split.robot_rms_mm,
+                        None if split is None else split.sheet_rms_mm)
