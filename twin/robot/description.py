@@ -42,6 +42,8 @@ class DhTable:
         d_m, a_m: Offsets [m], one per joint.
         alpha_rad, offset_rad: Twists and joint-angle offsets [rad], one per joint.
         source: Where the table comes from.
+        geometry: True: the table is the robot's geometry, and the MJCF's link offsets are set from it when the
+            model compiles (`twin.robot.model.dh_geometry`); False: the table only cross-checks the MJCF.
     """
 
     d_m: tuple[float, ...]
@@ -49,6 +51,7 @@ class DhTable:
     alpha_rad: tuple[float, ...]
     offset_rad: tuple[float, ...]
     source: str
+    geometry: bool = False
 
 
 @dataclass(frozen=True)

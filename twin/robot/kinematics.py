@@ -17,6 +17,7 @@ from scipy.linalg.lapack import dgesv
 from twin.errors import InputError, ModelError, SingularityError, UnreachableError
 from twin.robot.chain_fk import ChainFK, rotation_log_batch
 from twin.robot.description import RobotDescription, load_robot
+from twin.robot.model import robot_spec
 
 __all__ = ["Kinematics", "load_model"]
 
@@ -34,10 +35,13 @@ def load_model(
     Raises:
         ModelError: If the file is missing or does not compile.
     """
-    xml = Path(path) if path is not None else load_robot(robot).model_path(scene)
+    description = load_robot(robot) if path is None else None
+    xml = Path(path) if path is not None else description.model_path(scene)  # type: ignore[union-attr]
     if not xml.is_file():
         raise ModelError(f"model file not found: {xml} (expected an MJCF file such as models/tx200.xml)")
     try:
+        if description is not None and description.dh is not None and description.dh.geometry:
+            return robot_spec(xml, description).compile()
         return mujoco.MjModel.from_xml_path(str(xml))
     except ValueError as exc:
         raise ModelError(f"model {xml} does not compile: {exc}") from exc

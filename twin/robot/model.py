@@ -16,6 +16,7 @@ effects that change the compiled robot into an augmented MJCF (the effect vocabu
 from __future__ import annotations
 
 import copy
+import math
 from pathlib import Path
 
 import mujoco
@@ -62,22 +63,77 @@ def build_model(
     description = load_robot(robot)
     path = description.model_path(scene)
     # a recalibrated model file is recompiled; a missing one reaches the compile, which names it
-    stamps = tuple(p.stat().st_mtime_ns if p.is_file() else -1 for p in (path, description.mjcf))
-    key = (str(path), stamps, float(tool_offset_m), bool(lost_motion) and bool(description.lost_motion_joints))
+    stamps = tuple(p.stat().st_mtime_ns if p.is_file() else -1 for p in (path, description.mjcf, description.source))
+    # the description is in the key: two robot files may share an MJCF and set its geometry differently
+    key = (str(path), str(description.source), stamps, float(tool_offset_m),
+           bool(lost_motion) and bool(description.lost_motion_joints))
     if key not in _COMPILED:
-        _COMPILED[key] = _compile(path, description, float(tool_offset_m), key[3])
+        _COMPILED[key] = _compile(path, description, float(tool_offset_m), key[4])
     return copy.copy(_COMPILED[key])
 
 
-_COMPILED: dict[tuple[str, tuple[int, ...], float, bool], mujoco.MjModel] = {}
+_COMPILED: dict[tuple[str, str, tuple[int, ...], float, bool], mujoco.MjModel] = {}
 
 
-def _compile(path: Path, robot: RobotDescription, tool_offset_m: float, lost_motion: bool) -> mujoco.MjModel:
-    """Compile `path` with the model-changing effects (`build_model`)."""
+def robot_spec(path: Path, robot: RobotDescription) -> mujoco.MjSpec:
+    """The MJCF `path` of `robot` as an editable spec, its link offsets set from the robot file's DH table where
+    the file says the table is the geometry (`dh_geometry`).
+
+    Raises:
+        ModelError: The file does not parse, or lacks a joint or site the robot file names.
+    """
     try:
         spec = mujoco.MjSpec.from_file(str(path))
     except Exception as exc:  # mujoco raises ValueError with the parser's message
         raise ModelError(f"cannot load {path}: {exc}") from exc
+    if robot.dh is not None and robot.dh.geometry:
+        dh_geometry(spec, robot)
+    return spec
+
+
+def dh_geometry(spec: mujoco.MjSpec, robot: RobotDescription) -> None:
+    """Set the MJCF's link offsets from the robot file's DH table (its `[dh] geometry = true`).
+
+    The MJCF follows the convention of models/README.md: body link_i is DH frame i-1 turned by Rot_z(offset_i),
+    so its pose in link_{i-1} is Trans_z(d_{i-1}) Trans_x(a_{i-1}) Rot_x(alpha_{i-1}) Rot_z(offset_i), and the
+    flange site sits at (a_n, 0, d_n) on the last link. What hangs at the flange (the F/T sensor and tool bodies,
+    sites at the flange) moves with it. So one MJCF serves two published tables of the same arm (the TX200's
+    thesis table and the community description differ in a1, d1 and d6).
+
+    Raises:
+        ModelError: The MJCF lacks a joint or the flange site the robot file names.
+    """
+    assert robot.dh is not None
+    dh = robot.dh
+    links = []
+    for name in robot.joints:
+        joint = spec.joint(name)
+        if joint is None:
+            raise ModelError(f"{robot.mjcf} has no joint {name!r}, which {robot.source} names")
+        links.append(joint.parent)
+    for i in range(1, len(links)):
+        links[i].pos = [dh.a_m[i - 1], 0.0, dh.d_m[i - 1]]
+        links[i].quat = _quat_x_then_z(dh.alpha_rad[i - 1], dh.offset_rad[i])
+    flange = spec.site(robot.flange_site)
+    if flange is None:
+        raise ModelError(f"{robot.mjcf} has no site {robot.flange_site!r}, which {robot.source} names")
+    old = np.array(flange.pos, dtype=float)
+    new = np.array([dh.a_m[-1], 0.0, dh.d_m[-1]])
+    for element in [*links[-1].sites, *links[-1].bodies]:
+        if np.allclose(element.pos, old, atol=1e-12):
+            element.pos = element.pos + (new - old)
+
+
+def _quat_x_then_z(alpha_rad: float, theta_rad: float) -> list[float]:
+    """Quaternion (w, x, y, z) of Rot_x(alpha) Rot_z(theta)."""
+    ca, sa = math.cos(alpha_rad / 2), math.sin(alpha_rad / 2)
+    ct, st = math.cos(theta_rad / 2), math.sin(theta_rad / 2)
+    return [ca * ct, sa * ct, -sa * st, ca * st]
+
+
+def _compile(path: Path, robot: RobotDescription, tool_offset_m: float, lost_motion: bool) -> mujoco.MjModel:
+    """Compile `path` with the model-changing effects (`build_model`)."""
+    spec = robot_spec(path, robot)
     if tool_offset_m != 0.0:
         tcp = spec.site(robot.tool_site)
         if tcp is None:

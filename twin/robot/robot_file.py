@@ -174,9 +174,13 @@ def _dh(path: Path, table: Any, dof: int) -> DhTable | None:
         raise ModelError(f"{path}: [dh] needs d_m, a_m, alpha_deg and offset_deg lists of numbers ({exc})") from None
     if any(len(v) != dof for v in rows.values()):
         raise ModelError(f"{path}: [dh] rows must have one entry per joint ({dof})")
+    geometry = table.get("geometry", False)
+    if not isinstance(geometry, bool):
+        raise ModelError(f"{path}: [dh] geometry = {geometry!r}: expected true (the table sets the MJCF's link "
+                         "offsets) or false (it only cross-checks them)")
     return DhTable(
         tuple(rows["d_m"]), tuple(rows["a_m"]), tuple(float(np.deg2rad(v)) for v in rows["alpha_deg"]),
-        tuple(float(np.deg2rad(v)) for v in rows["offset_deg"]), str(table.get("source", "")),
+        tuple(float(np.deg2rad(v)) for v in rows["offset_deg"]), str(table.get("source", "")), geometry,
     )
 
 
