@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
+from twin.base.registry import Registry
 from twin.base.resources import models_dir
 from twin.errors import AssumptionWarning, InputError, ModelError
 
@@ -228,6 +229,20 @@ _CACHE: dict[str, tuple[tuple[int, int], RobotDescription]] = {}
 _SHIPPED: dict[tuple[str, int], dict[str, Path]] = {}
 
 
+#: Robots a user registered by name in this session (`register_robot`), found before the shipped ones.
+ROBOTS: Registry[RobotDescription] = Registry("robot", error=ModelError)
+
+
+def register_robot(robot: str | Path | RobotDescription) -> RobotDescription:
+    """Register a robot (a description file, a URDF/MJCF, or a description) under its name, so that
+    `load_robot(name)` and `--robot NAME` find it.
+
+    Raises:
+        InputError: Its name is already registered. ModelError: a bad file.
+    """
+    return ROBOTS.register(load_robot(robot))
+
+
 def shipped_robots() -> dict[str, Path]:
     """Name -> description file of every robot shipped in the models folder (`*.toml`, `*/robot.toml`)."""
     folder = models_dir()
@@ -257,6 +272,8 @@ def load_robot(robot: str | Path | RobotDescription | None = None) -> RobotDescr
         return robot
     if robot is None or (isinstance(robot, str) and not robot.endswith(".toml") and "/" not in robot):
         name = DEFAULT_ROBOT if robot is None else robot
+        if name in ROBOTS:
+            return ROBOTS[name]
         shipped = shipped_robots()
         if name not in shipped:
             raise ModelError(f"unknown robot {name!r}; shipped robots: {sorted(shipped)} (or a path to a .toml file)")

@@ -23,18 +23,29 @@ from __future__ import annotations
 
 import math
 import warnings
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Literal
 
 import numpy as np
 
+from twin.base.registry import Registry
 from twin.errors import InputError
 
 #: Direction of the lab's tracker drift in the sheet frame (thermal drift of the camera bar, mostly vertical).
 TRACKER_DRIFT_DIRECTION = np.array([0.6, 0.0, 0.8])
 #: Travel after a reversal over which lost motion is taken up [m].
 LOST_MOTION_TAKEUP_M = 0.002
+
+
+#: (time since the run's start [s], simulated tip [m], value [unit]) -> reading added [m] (`EffectSpec.tracker`).
+TrackerAction = Callable[[np.ndarray, np.ndarray, float], np.ndarray]
+
+
+def _tracker_drift(t_s: np.ndarray, p_sheet_m: np.ndarray, value_mm_per_s: float) -> np.ndarray:
+    """The drift of `tracker_drift`: (t - t0) x rate along `TRACKER_DRIFT_DIRECTION` [m]."""
+    del p_sheet_m
+    return np.outer(t_s, 1e-3 * value_mm_per_s * TRACKER_DRIFT_DIRECTION)
 
 
 @dataclass(frozen=True)
@@ -52,6 +63,9 @@ class EffectSpec:
         compose: How an increment joins a known value: `add`, `scale` (multiplies) or `fraction` (1 - (1-a)(1-b)).
         key_suffix: Suffix of its parameter key in reports (`lost_motion_mrad`).
         simulated: It changes the twin's simulation (a new replay), not only what its sensors report.
+        tracker: For an effect on the tracker's reading: (time since the run's start [s], shape (m,); simulated
+            tip, sheet frame [m], shape (m, 3); value [unit]) -> what it adds to the reading [m], shape (m, 3).
+            `twin.sim.measure.predict_tracker` applies it; None: the effect does not touch the tracker.
     """
 
     name: str
@@ -64,6 +78,7 @@ class EffectSpec:
     compose: Literal["add", "scale", "fraction"] = "add"
     key_suffix: str = ""
     simulated: bool = False
+    tracker: TrackerAction | None = None
 
     @property
     def key(self) -> str:
@@ -71,24 +86,32 @@ class EffectSpec:
         return f"{self.name}_{self.key_suffix}"
 
 
-EFFECTS: dict[str, EffectSpec] = {
-    spec.name: spec
-    for spec in (
-        EffectSpec("lost_motion", "mrad", 0.0, (-20.0, 20.0), "robot",
-                   "lost motion of the lost-motion joints that flips with the travel direction", 0.02,
-                   key_suffix="mrad", simulated=True),
-        EffectSpec("force_scale", "-", 1.0, (0.0, 100.0), "sheet", "real sheet forces = k x the FE force history",
-                   0.02, "scale", "ratio", simulated=True),
-        EffectSpec("stream_time_offset", "s", 0.0, (-math.inf, math.inf), "sensor",
-                   "force-sensor clock ahead of the tracker clock by tau", 0.005, key_suffix="s"),
-        EffectSpec("tracker_drift", "mm/s", 0.0, (-math.inf, math.inf), "tracker",
-                   "linear drift of the tracker reading with time", 0.002, key_suffix="mm_per_s"),
-        EffectSpec("tool_length_offset", "mm", 0.0, (-math.inf, math.inf), "robot",
-                   "real tool tip further along the tool axis than nominal", 0.05, key_suffix="mm", simulated=True),
-        EffectSpec("sheet_springback", "-", 0.0, (0.0, 0.99), "sheet",
-                   "fraction of the formed depth recovered after unclamping", 0.01, "fraction", "ratio"),
-    )
-}
+#: The effect vocabulary (`twin.base.registry.Registry`): `register_effect` adds one.
+EFFECTS: Registry[EffectSpec] = Registry("effect")
+for _spec in (
+    EffectSpec("lost_motion", "mrad", 0.0, (-20.0, 20.0), "robot",
+               "lost motion of the lost-motion joints that flips with the travel direction", 0.02,
+               key_suffix="mrad", simulated=True),
+    EffectSpec("force_scale", "-", 1.0, (0.0, 100.0), "sheet", "real sheet forces = k x the FE force history",
+               0.02, "scale", "ratio", simulated=True),
+    EffectSpec("stream_time_offset", "s", 0.0, (-math.inf, math.inf), "sensor",
+               "force-sensor clock ahead of the tracker clock by tau", 0.005, key_suffix="s"),
+    EffectSpec("tracker_drift", "mm/s", 0.0, (-math.inf, math.inf), "tracker",
+               "linear drift of the tracker reading with time", 0.002, key_suffix="mm_per_s", tracker=_tracker_drift),
+    EffectSpec("tool_length_offset", "mm", 0.0, (-math.inf, math.inf), "robot",
+               "real tool tip further along the tool axis than nominal", 0.05, key_suffix="mm", simulated=True),
+    EffectSpec("sheet_springback", "-", 0.0, (0.0, 0.99), "sheet",
+               "fraction of the formed depth recovered after unclamping", 0.01, "fraction", "ratio"),
+):
+    EFFECTS.register(_spec)
+
+
+def register_effect(spec: EffectSpec) -> EffectSpec:
+    """Add an effect to the vocabulary (a measurement effect acts through its hook, e.g. `tracker`; a family
+    with `effect = spec.name` lets the discrepancy search find it)."""
+    return EFFECTS.register(spec)
+
+
 #: Names read before, and the effect each is now.
 RENAMED: dict[str, str] = {"direction_dependent_compliance": "lost_motion", "tcp_offset": "tool_length_offset"}
 

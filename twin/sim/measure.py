@@ -12,7 +12,7 @@ import numpy as np
 
 from twin.base.signals import interp_rows
 from twin.process.part.springback import scanned_profile, unloaded_profile
-from twin.sim.effects import Effects
+from twin.sim.effects import EFFECTS, Effects
 from twin.sim.result import SimResult
 
 if TYPE_CHECKING:
@@ -22,11 +22,17 @@ if TYPE_CHECKING:
 def predict_tracker(result: SimResult, t_s: np.ndarray, effects: Effects) -> np.ndarray:
     """Tool tip the tracker reports at `t_s`, sheet frame [m], shape (m, 3) (no noise).
 
-    The simulated tip is interpolated linearly in time and the effect `tracker_drift` is added.
+    The simulated tip is interpolated linearly in time, and every effect on the tracker adds its reading
+    (`EffectSpec.tracker`, e.g. `tracker_drift`).
     """
     t_s = np.asarray(t_s, dtype=float)
     tip = interp_rows(t_s, result.t_s, result.p_sheet_m)
-    return tip + np.outer(t_s - result.t_s[0], effects.tracker_drift_m_per_s)
+    reading = tip.copy()
+    for name, value in effects.values.items():
+        action = EFFECTS[name].tracker
+        if action is not None:
+            reading += action(t_s - result.t_s[0], tip, value)
+    return reading
 
 
 def predict_forces(twin: Twin, result: SimResult, t_s: np.ndarray, effects: Effects) -> np.ndarray:

@@ -11,7 +11,7 @@ main program calls (`parts`). A robot program carries the arm configuration of t
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import replace
 from pathlib import Path
 from typing import NamedTuple
@@ -27,20 +27,69 @@ from twin.apps.export.program import (
     program_name,
     with_configuration,
 )
+from twin.base.registry import Registry
 from twin.errors import InputError
 from twin.robot.description import RobotDescription
 
 Writer = Callable[[ProgramPath, Path, Sequence[Path]], list[Path]]
 
-FORMATS: dict[str, Writer] = {
-    "val3": val3.write,
-    "krl": krl.write,
-    "rapid": rapid.write,
-    "gcode": gcode.write,
-    "csv": points_csv.write,
-}
+
+class ExportFormat(NamedTuple):
+    """One export format.
+
+    Attributes:
+        name: The `--format` choice.
+        write: Writes the program of a `ProgramPath` to an output stem, never over the protected inputs; returns
+            the files written.
+        language: The controller language it is (`RobotDescription.language`), or None (G-code, a point list):
+            a language's program carries the arm configuration.
+    """
+
+    name: str
+    write: Writer
+    language: str | None = None
+
+
+#: The export formats, by name (`twin.base.registry.Registry`).
+EXPORT_FORMATS: Registry[ExportFormat] = Registry("export format")
+for _format in (ExportFormat("val3", val3.write, "VAL3"), ExportFormat("krl", krl.write, "KRL"),
+                ExportFormat("rapid", rapid.write, "RAPID"), ExportFormat("gcode", gcode.write),
+                ExportFormat("csv", points_csv.write)):
+    EXPORT_FORMATS.register(_format)
+
+
+class _Writers(Mapping[str, Writer]):
+    """Format name -> writer, over the registry (what `FORMATS` was)."""
+
+    def __getitem__(self, name: str) -> Writer:
+        return EXPORT_FORMATS[name].write
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(EXPORT_FORMATS)
+
+    def __len__(self) -> int:
+        return len(EXPORT_FORMATS)
+
+
+class _Languages(Mapping[str, str]):
+    """Format name -> controller language, for the formats that are one (what `LANGUAGES` was)."""
+
+    def __getitem__(self, name: str) -> str:
+        language = EXPORT_FORMATS[name].language
+        if language is None:
+            raise KeyError(name)
+        return language
+
+    def __iter__(self) -> Iterator[str]:
+        return (name for name, fmt in EXPORT_FORMATS.items() if fmt.language is not None)
+
+    def __len__(self) -> int:
+        return sum(1 for _ in self)
+
+
+FORMATS: Mapping[str, Writer] = _Writers()
 #: The formats that are a controller's language (`RobotDescription.language`): they carry the arm configuration.
-LANGUAGES: dict[str, str] = {"val3": "VAL3", "krl": "KRL", "rapid": "RAPID"}
+LANGUAGES: Mapping[str, str] = _Languages()
 
 
 def robot_format(robot: RobotDescription) -> str:

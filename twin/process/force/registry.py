@@ -25,6 +25,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from twin.base.registry import Registry
 from twin.errors import ExtrapolationWarning, InputError
 from twin.process.description import Process
 from twin.process.fe.load import ForceHistory
@@ -66,20 +67,18 @@ class ForceModel:
     applies: Applies | None = None
 
 
-FORCE_MODELS: dict[str, ForceModel] = {}
+#: The force models, by name (`twin.base.registry.Registry`); "auto" is reserved for the CLI's choice.
+FORCE_MODELS: Registry[ForceModel] = Registry("force model", reserved=("auto",))
 
 
 def register_force_model(model: ForceModel) -> ForceModel:
     """Add `model` to the registry (names are unique)."""
-    if not model.name or model.name in FORCE_MODELS or model.name == "auto":
-        raise InputError(f"force model name {model.name!r} is empty, reserved or already registered")
-    FORCE_MODELS[model.name] = model
-    return model
+    return FORCE_MODELS.register(model)
 
 
 def unregister_force_model(name: str) -> None:
     """Remove a registered model (a test's own)."""
-    FORCE_MODELS.pop(name, None)
+    FORCE_MODELS.unregister(name)
 
 
 def force_model(name: str) -> ForceModel:
@@ -88,9 +87,7 @@ def force_model(name: str) -> ForceModel:
     Raises:
         InputError: Unknown name (the message lists the registered ones).
     """
-    if name not in FORCE_MODELS:
-        raise InputError(f"unknown force model {name!r}; registered: {sorted(FORCE_MODELS)}")
-    return FORCE_MODELS[name]
+    return FORCE_MODELS.get_named(name)
 
 
 def build_force_field(process: Process, history: ForceHistory | None = None) -> ForceField:

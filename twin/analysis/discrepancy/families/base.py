@@ -31,6 +31,7 @@ from typing import ClassVar
 import numpy as np
 
 from twin.analysis.discrepancy.context import Context
+from twin.base.registry import Registry
 from twin.sim.effects import EFFECTS
 
 
@@ -109,17 +110,16 @@ class Family(ABC):
         return (ctx.has_forces or not self.needs_forces) and (ctx.has_profile or not self.needs_profile)
 
 
-FAMILIES: dict[str, Family] = {}
+#: The discrepancy families, by name (`twin.base.registry.Registry`).
+FAMILIES: Registry[Family] = Registry("discrepancy family")
 
 
 def register(cls: type[Family]) -> type[Family]:
     """Class decorator: add one instance of a family to `FAMILIES` (names must be unique)."""
-    if not cls.name or cls.name in FAMILIES:
-        raise ValueError(f"family name {cls.name!r} is empty or already registered")
     if cls.effect is not None and cls.effect not in EFFECTS:
         raise ValueError(f"family {cls.name}: effect {cls.effect!r} is not one of {sorted(EFFECTS)}")
     n = len(cls.parameters)
     if not (len(cls.neutral) == len(cls.scale) == len(cls.bounds[0]) == len(cls.bounds[1]) == n):
         raise ValueError(f"family {cls.name}: parameters, neutral, scale and bounds differ in length")
-    FAMILIES[cls.name] = cls()
+    FAMILIES.register(cls())
     return cls
