@@ -31,6 +31,7 @@ lint: $(STAMP)
 bench: $(STAMP)
 	$(BIN)/python -m compileall -q twin  # the bytecode a wheel install has: startup is measured as users meet it
 	$(BIN)/tx200-twin bench --json benchmarks/results.json --readme README.md
+	$(BIN)/python -m twin.apps.bench_suite benchmarks/suite.json  # the suite's own time (make test's command)
 
 clean:
 	rm -rf out .pytest_cache .mypy_cache .ruff_cache

@@ -150,3 +150,14 @@ def test_resampled_path_keeps_every_original_sample() -> None:
     np.testing.assert_allclose(p4[6], [2.0, 2.0, 2.0])  # halfway between samples 1 and 2
     with pytest.raises(InputError):
         resample(t, p, 0)
+
+
+def test_the_suite_timer_reads_pytests_closing_line() -> None:
+    from twin.apps.bench_suite import parse_summary
+    from twin.errors import InputError
+
+    got = parse_summary("1172 passed, 1 skipped, 9 xfailed, 11 warnings in 126.85s (0:02:06)")
+    assert got == {"counts": {"passed": 1172, "skipped": 1, "xfailed": 9}, "pytest_s": 126.85}
+    assert parse_summary("2 failed, 3 passed, 1 error in 4.0s")["counts"] == {"failed": 2, "passed": 3, "error": 1}
+    with pytest.raises(InputError, match="not a pytest summary"):
+        parse_summary("collected 12 items")

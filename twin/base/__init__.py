@@ -3,7 +3,8 @@
 Modules: `csvio` (atomic CSV and text I/O with precise errors), `jsonio` (strict JSON documents, `--json`), `outputs` (outputs never over inputs, the umask's
 modes, write failures named), `units` (length columns read by their declared unit,
 `_mm` or `_m`), `signals` (interpolation of sampled signals, sample clocks), `resources` (the lookup of shipped
-models and data), `lazy` (a package's public names, imported on first use) and `jobs` (independent jobs on this
+models and data), `lazy` (a package's public names, imported on first use), `registry` (the one kind of registry of
+every extension point) and `jobs` (independent jobs on this
 process, every core, or a Dask cluster).
 
 Takes files and arrays; gives validated arrays and paths. Imports nothing of the project but `twin.errors`.

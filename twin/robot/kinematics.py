@@ -17,7 +17,7 @@ from scipy.linalg.lapack import dgesv
 from twin.errors import InputError, ModelError, SingularityError, UnreachableError
 from twin.robot.chain_fk import ChainFK, rotation_log_batch
 from twin.robot.description import RobotDescription, load_robot
-from twin.robot.model import robot_spec
+from twin.robot.model import compile_mjcf
 
 __all__ = ["Kinematics", "load_model"]
 
@@ -40,9 +40,7 @@ def load_model(
     if not xml.is_file():
         raise ModelError(f"model file not found: {xml} (expected an MJCF file such as models/tx200.xml)")
     try:
-        if description is not None and description.dh is not None and description.dh.geometry:
-            return robot_spec(xml, description).compile()
-        return mujoco.MjModel.from_xml_path(str(xml))
+        return compile_mjcf(xml, description)
     except ValueError as exc:
         raise ModelError(f"model {xml} does not compile: {exc}") from exc
 

@@ -91,6 +91,17 @@ def robot_spec(path: Path, robot: RobotDescription) -> mujoco.MjSpec:
     return spec
 
 
+def compile_mjcf(path: Path, robot: RobotDescription | None = None) -> mujoco.MjModel:
+    """Compile an MJCF file as it is, or as `robot`'s file sets its geometry (`robot_spec`).
+
+    Raises:
+        ValueError: MuJoCo's, when the file does not compile. ModelError: a joint or site the robot names is missing.
+    """
+    if robot is not None and robot.dh is not None and robot.dh.geometry:
+        return robot_spec(path, robot).compile()
+    return mujoco.MjModel.from_xml_path(str(path))
+
+
 def dh_geometry(spec: mujoco.MjSpec, robot: RobotDescription) -> None:
     """Set the MJCF's link offsets from the robot file's DH table (its `[dh] geometry = true`).
 

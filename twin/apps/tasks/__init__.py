@@ -10,5 +10,6 @@ returning the result. The CLI (`twin/cli/`) only parses options into the request
     report = replay_task(ReplayRequest(run_dir=Path("runs/cell1"), forces="measured"))
     print(report.record()["robot_gap_rms_mm"])
 
-Modules: `base` (the `Report` base), and one per command (`replay`, ...).
+Modules: `base` (the `Report` base), and one per command (`replay`, `identify` with `identify_sheet`, `calibrate`,
+`reproduce`, ...).
 """
