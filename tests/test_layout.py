@@ -261,3 +261,22 @@ def test_the_public_api_resolves() -> None:
     assert len(twin.__all__) < 60
     for name in twin.__all__:
         assert getattr(twin, name) is not None, name
+
+
+CLI_MAX_LINES = 1800
+CLI_MAX_FUNCTION_LINES = 40
+
+
+def test_the_cli_is_thin() -> None:
+    """twin/cli only parses options and prints reports: the work lives in the stages (`twin/apps/tasks/`)."""
+    files = sorted((PACKAGE_DIR / "cli").glob("*.py"))
+    total = sum(len(f.read_text().splitlines()) for f in files)
+    assert total <= CLI_MAX_LINES, f"twin/cli has {total} lines; move work into a task (twin/apps/tasks/)"
+    long = []
+    for f in files:
+        for node in ast.walk(ast.parse(f.read_text())):
+            if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
+                length = (node.end_lineno or node.lineno) - node.lineno + 1
+                if length > CLI_MAX_FUNCTION_LINES:
+                    long.append(f"{f.name}:{node.lineno} {node.name} ({length} lines)")
+    assert long == [], f"functions over {CLI_MAX_FUNCTION_LINES} lines in twin/cli: {long}"

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from doc_numbers import quoted
 
 import twin
 from twin.lab.dynamic.sheet import PlantSheet, voce_mpa, voce_tensile_strength_mpa
@@ -67,9 +68,10 @@ def test_the_steady_cone_force_against_numisheet_bm3_measured() -> None:
                               step_down_m=1e-3 * bm3["step_down_mm"]))
     f = _rigid(path.p_sheet_m, process)
     steady = float(np.mean(f[2 * len(f) // 3 :, 2]))
-    assert steady == pytest.approx(1151.0, abs=5.0)  # the documented value
     assert abs(steady / bm3["fz_steady_n"] - 1.0) < 0.3  # -25 % against the measured mean (1 525 N)
-    assert "1 151 N (-25 %)" in DOC.read_text(encoding="utf-8")
+    documented, share = quoted("dynamic-plant.md", "`twin/data/force_measurements.toml`) is", 2)
+    documented.check(steady, slack=5.0)  # the page's number, within 5 N of a machine's floating point
+    assert share.value == pytest.approx(100.0 * (documented.value / bm3["fz_steady_n"] - 1.0), abs=0.6)
 
 
 def test_a_cone_wall_pulls_up_and_the_wrap_pushes_the_tool_inwards() -> None:
