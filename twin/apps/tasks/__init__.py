@@ -11,5 +11,6 @@ returning the result. The CLI (`twin/cli/`) only parses options into the request
     print(report.record()["robot_gap_rms_mm"])
 
 Modules: `base` (the `Report` base), and one per command (`replay`, `identify` with `identify_sheet`, `calibrate`,
-`reproduce`, `compensate` with `compensate_part`, `check`, `place`, ...).
+`reproduce`, `compensate` with `compensate_part`, `check`, `place`, `path`, `lab` with `lab_dynamic`,
+`export`, ...).
 """

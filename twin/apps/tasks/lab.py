@@ -1,0 +1,278 @@
+"""`lab`: a measured run made on the virtual lab (`twin.lab.virtual`: the twin with hidden effects, noise and its
+own sensor chain), the thesis's rigid-machine CNC validation (`twin.lab.cnc`), or a Method 1 load-test file (the
+load cases of thesis Table 4.2 held at home); the dynamic MuJoCo plant's runs are `twin.apps.tasks.lab_dynamic`'s.
+The robot and the declared process resolve as for every task (`twin.analysis.resolve`); a compensated path's
+record (`twin.analysis.compensation_record`) travels with the run, for `check`."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from twin.analysis.compensation_record import CompensationRecord, read_record
+from twin.analysis.identify.cartesian import THESIS_TABLE_4_2_LOADS_N
+from twin.analysis.resolve import AUTO, resolve_process, resolve_robot, resolve_spec
+from twin.apps.tasks.base import Note, Report, silent
+from twin.base.csvio import write_table
+from twin.base.signals import interp_rows
+from twin.errors import InputError
+from twin.process.description import Process
+from twin.process.process_file import ProcessDeclaration, process_record
+from twin.process.toolpath.groove import ToolPath, label_passes
+from twin.process.toolpath.placement import Placement
+from twin.runs.read import lab_commanded
+from twin.runs.write import write_run
+from twin.sim.effects import Effects, parse_effect_args
+from twin.sim.spec import TwinSpec
+
+SCENARIOS = ("nominal", "compensated", "loadtest", "cnc")
+PLANTS = ("quasi-static", "dynamic")
+
+
+@dataclass(frozen=True)
+class LabRequest:
+    """What to run on the lab.
+
+    Attributes:
+        scenario: "nominal", "compensated" (needs `commanded`), "loadtest" (a CSV of load cases, no sheet) or
+            "cnc" (the rigid machine).
+        out: The run folder to write (loadtest: a CSV file).
+        seed: The seed of the lab's noise.
+        commanded: A commanded.csv-format path, or None for the groove.
+        effects: Hidden effects of the quasi-static plant, "NAME=VALUE" each (`twin.sim.effects.EFFECTS`).
+        plant: "quasi-static" (the twin plus hidden effects) or "dynamic" (a MuJoCo mj_step plant).
+        knobs: Dynamic plant knobs, "NAME=VALUE" each (`twin.lab.dynamic.knobs`).
+        neutral: Dynamic plant: start from the neutral knobs.
+        force_model: A registered force model, or "auto" (`twin.analysis.resolve.choose_force_model`).
+        declaration: The declared process (a process file, flags); not for the load test.
+        robot: A robot name or description file; None: the default robot.
+        placement: The sheet frame in the robot base (nominal and compensated runs; recorded in meta.json).
+        overwrite: Replace an existing output.
+    """
+
+    scenario: str
+    out: Path
+    seed: int
+    commanded: Path | None = None
+    effects: tuple[str, ...] = ()
+    plant: str = "quasi-static"
+    knobs: tuple[str, ...] = ()
+    neutral: bool = False
+    force_model: str = AUTO
+    declaration: ProcessDeclaration = field(default_factory=ProcessDeclaration)
+    robot: str | Path | None = None
+    placement: Placement = field(default_factory=Placement)
+    overwrite: bool = False
+
+    def __post_init__(self) -> None:
+        for option, value, valid in (("--scenario", self.scenario, SCENARIOS), ("--plant", self.plant, PLANTS)):
+            if value not in valid:
+                raise InputError(f"{option} {value!r}: expected one of {', '.join(valid)}")
+        if not self.placement.is_default and self.scenario in ("loadtest", "cnc"):
+            raise InputError(
+                f"--origin-mm/--yaw-deg place the sheet for nominal and compensated runs; --scenario {self.scenario} "
+                "keeps the cell's sheet_origin, yaw 0"
+            )
+        if self.scenario == "loadtest" and self.declaration != ProcessDeclaration():
+            raise InputError(
+                "--scenario loadtest loads the tool at home, with no sheet: --process, --material, --thickness-mm and "
+                "--tool-radius-mm apply to the runs that form one (nominal, compensated, cnc)"
+            )
+        if self.plant == "dynamic":
+            if self.effects:
+                raise InputError("--plant dynamic takes no --effect: its effects are physical knobs, set with "
+                                 "--set NAME=VALUE")
+            if self.scenario == "cnc":
+                raise InputError("--scenario cnc is the rigid machine; it does not apply to --plant dynamic (a robot)")
+            return
+        if self.knobs or self.neutral:
+            raise InputError("--set and --neutral are knobs of --plant dynamic; the quasi-static lab takes --effect")
+        parse_effect_args(list(self.effects))
+        if self.scenario == "cnc" and self.effects:
+            raise InputError("--scenario cnc is the rigid machine: robot effects (--effect) do not apply")
+
+
+@dataclass(frozen=True)
+class LoadTestReport(Report):
+    """A Method 1 load-test file written (`identify --method 1`).
+
+    Attributes:
+        out: The CSV written (fx_n, fy_n, fz_n [N], dx_mm, dy_mm, dz_mm [mm]).
+        cases: The load cases.
+        plant: "quasi-static" or "dynamic".
+    """
+
+    out: Path
+    cases: int
+    plant: str = "quasi-static"
+
+    def lines(self) -> list[str]:
+        if self.plant == "dynamic":
+            return [f"lab loadtest (dynamic plant): {self.cases} load cases at home -> {self.out}"]
+        return [f"lab loadtest: {self.cases} load cases at home (thesis Table 4.2) -> {self.out}"]
+
+    def record(self) -> dict[str, Any]:
+        plant = {"plant": "dynamic"} if self.plant == "dynamic" else {}
+        return {"scenario": "loadtest", **plant, "out": self.out, "cases": self.cases}
+
+
+@dataclass(frozen=True)
+class LabRunReport(Report):
+    """A nominal or compensated run made on the quasi-static lab.
+
+    Attributes:
+        scenario: "nominal" or "compensated".
+        out: The run folder written.
+        seed: The seed of the lab's noise.
+        tracker_samples: Tracker samples measured.
+        force_samples: F/T samples measured.
+        deviation_max_mm: The largest |measured - commanded| tip position [mm].
+        peak_force_n: The largest |F| measured [N].
+        peak_fz_n: The largest Fz measured [N].
+        process: The process the run formed.
+    """
+
+    scenario: str
+    out: Path
+    seed: int
+    tracker_samples: int
+    force_samples: int
+    deviation_max_mm: float
+    peak_force_n: float
+    peak_fz_n: float
+    process: Process
+
+    def lines(self) -> list[str]:
+        return [f"lab {self.scenario}: {self.tracker_samples} tracker / {self.force_samples} force samples, "
+                f"max |measured - commanded| {self.deviation_max_mm:.2f} mm, peak |F| {self.peak_force_n:.0f} N "
+                f"-> {self.out}"]
+
+    def record(self) -> dict[str, Any]:
+        return {"scenario": self.scenario, "out": self.out, "seed": self.seed, "tracker_samples": self.tracker_samples,
+                "force_samples": self.force_samples, "measured_deviation_max_mm": self.deviation_max_mm,
+                "peak_force_n": self.peak_force_n, "peak_fz_n": self.peak_fz_n,
+                "process": {**process_record(self.process), "force_model": self.process.force_model}}
+
+
+@dataclass(frozen=True)
+class CncReport(Report):
+    """The rigid machine's run (thesis §2.3).
+
+    Attributes:
+        out: The run folder written.
+        seed: The seed of the noise.
+        force_samples: F/T samples measured (10 Hz).
+        peak_fz_n: The largest Fz measured [N].
+        formed_depth_mm: The part's depth after springback [mm].
+        process: The process the run formed.
+    """
+
+    out: Path
+    seed: int
+    force_samples: int
+    peak_fz_n: float
+    formed_depth_mm: float
+    process: Process
+
+    def lines(self) -> list[str]:
+        process = self.process
+        return [f"lab cnc: rigid machine, {self.force_samples} force samples at 10 Hz, peak Fz {self.peak_fz_n:.0f} N, "
+                f"formed depth after springback {self.formed_depth_mm:.2f} mm ({process.material}, "
+                f"{1e3 * process.thickness_m:g} mm, {process.force_model} model) -> {self.out}"]
+
+    def record(self) -> dict[str, Any]:
+        return {"scenario": "cnc", "out": self.out, "seed": self.seed, "force_samples": self.force_samples,
+                "peak_fz_n": self.peak_fz_n, "formed_depth_mm": self.formed_depth_mm,
+                "process": {**process_record(self.process), "force_model": self.process.force_model}}
+
+
+def lab_task(request: LabRequest, note: Note = silent) -> Report:
+    """Run the request's scenario on its plant and write the run (or the load-test file).
+
+    Returns:
+        A `LoadTestReport`, `LabRunReport`, `CncReport` or (dynamic plant) `DynamicRunReport`.
+
+    Raises:
+        InputError: An existing output without `overwrite`, "compensated" without `commanded`, a bad declaration.
+        RunFormatError: A bad commanded path (naming the file and row).
+    """
+    if request.plant == "dynamic":
+        from twin.apps.tasks.lab_dynamic import dynamic_lab_task
+
+        return dynamic_lab_task(request, note)
+    effects = parse_effect_args(list(request.effects))
+    check_out(request.out, request.overwrite)
+    if request.scenario == "loadtest":
+        from twin.lab.virtual import load_test
+
+        spec = TwinSpec(robot=resolve_robot(request.robot), effects=effects)
+        loads, deflections = load_test(THESIS_TABLE_4_2_LOADS_N, seed=request.seed, spec=spec)
+        write_load_cases(request.out, loads, deflections)
+        return LoadTestReport(request.out, len(loads))
+    if request.scenario == "cnc":
+        return _cnc(request, note)
+    return _run(request, effects, note)
+
+
+def check_out(out: Path, overwrite: bool) -> None:
+    """Refuse an existing output before any simulation is spent on it."""
+    if overwrite or not out.exists():
+        return
+    if out.is_dir() and not any(out.iterdir()):
+        return
+    raise InputError(f"{out} exists; pass --overwrite to replace it or choose another --out")
+
+
+def compensation_record(request: LabRequest) -> CompensationRecord | None:
+    """The compensation record beside the request's commanded path, or None."""
+    return read_record(request.commanded) if request.commanded is not None else None
+
+
+def write_load_cases(out: Path, loads_n: np.ndarray, deflections_m: np.ndarray) -> None:
+    """Write a load test's cases, base frame: loads [N] (m, 3) and the measured deflections [m] (m, 3) as mm."""
+    columns = {"fx_n": loads_n[:, 0], "fy_n": loads_n[:, 1], "fz_n": loads_n[:, 2]}
+    columns |= {f"d{a}_mm": 1e3 * deflections_m[:, i] for i, a in enumerate("xyz")}
+    write_table(out, columns, formats={name: (".1f" if name.startswith("f") else ".5f") for name in columns})
+
+
+def _run(request: LabRequest, effects: Effects, note: Note) -> LabRunReport:
+    """A nominal or compensated run on the quasi-static lab."""
+    commanded, protect = lab_commanded(request.scenario, request.commanded)
+    t_s, p_cmd = commanded.t_s, commanded.values
+    spec = resolve_spec(robot=request.robot, declaration=request.declaration, force_model_name=request.force_model,
+                        placement=request.placement, p_sheet_m=p_cmd, note=note).replace(effects=effects)
+    from twin.lab.virtual import run_lab
+
+    run, truth = run_lab(t_s, p_cmd, scenario=request.scenario, seed=request.seed, spec=spec)
+    record = compensation_record(request)
+    if record is not None:  # what the compensation used travels with the run, for `check`
+        run = replace(run, meta={**run.meta, "compensation": record.to_json()})
+    write_run(request.out, run, truth=truth, overwrite=request.overwrite, protect=protect)
+    deviation = np.max(np.linalg.norm(run.tracker.values - interp_rows(run.tracker.t_s, t_s, p_cmd), axis=1))
+    forces = run.forces
+    return LabRunReport(
+        request.scenario, request.out, request.seed, len(run.tracker.t_s),
+        len(forces.t_s) if forces is not None else 0, 1e3 * float(deviation),
+        float(np.max(np.linalg.norm(forces.values, axis=1))) if forces else 0.0,
+        float(np.max(forces.values[:, 2])) if forces else 0.0, spec.process,
+    )
+
+
+def _cnc(request: LabRequest, note: Note) -> CncReport:
+    """The thesis's CNC validation (§2.3) on a rigid machine: the groove, or any commanded path, formed with the
+    declared process; forces at 10 Hz, the part after springback (the y = 0 section, and a scan of the surface
+    where the force model keeps one)."""
+    commanded, protect = lab_commanded(request.scenario, request.commanded)
+    pass_index, direction = label_passes(commanded.values[:, 0])
+    path = ToolPath(t_s=commanded.t_s, p_sheet_m=commanded.values, pass_index=pass_index, direction=direction)
+    process = resolve_process(Process(), request.declaration, request.force_model, path.p_sheet_m, note=note)
+    from twin.lab.cnc import run_cnc
+
+    run, truth = run_cnc(seed=request.seed, path=path, process=process)
+    write_run(request.out, run, truth=truth, overwrite=request.overwrite, protect=protect)
+    assert run.part_profile is not None and run.forces is not None
+    return CncReport(request.out, request.seed, len(run.forces.t_s), float(np.max(run.forces.values[:, 2])),
+                     -1e3 * float(np.min(run.part_profile[1])), process)

@@ -1,0 +1,120 @@
+"""`lab --plant dynamic`: a measured run (or a Method 1 load-test file) made on the dynamic plant
+(`twin.lab.dynamic`: MuJoCo's mj_step with the robot's joint friction, gear play and servo loops, its own sheet and
+sensor chain), its effects set as physical knobs (`twin.lab.dynamic.knobs`); the request is `twin.apps.tasks.lab`'s,
+and its progress goes to the task's `Note`."""
+
+from __future__ import annotations
+
+import io
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from twin.analysis.identify.cartesian import THESIS_TABLE_4_2_LOADS_N
+from twin.analysis.resolve import resolve_process, resolve_robot
+from twin.apps.tasks.base import Note, Report, silent
+from twin.apps.tasks.lab import LabRequest, LoadTestReport, check_out, compensation_record, write_load_cases
+from twin.base.signals import interp_rows
+from twin.lab.dynamic.knobs import parse_set_args
+from twin.lab.dynamic.run import dynamic_load_test, run_dynamic_lab
+from twin.process.description import Process
+from twin.runs.read import lab_commanded
+from twin.runs.write import write_run
+
+
+@dataclass(frozen=True)
+class DynamicRunReport(Report):
+    """A nominal or compensated run made on the dynamic plant.
+
+    Attributes:
+        scenario: "nominal" or "compensated".
+        out: The run folder written.
+        seed: The seed of the tracker's noise.
+        knobs_changed: The knobs that differ from their neutral values.
+        tracker_samples: Tracker samples measured.
+        force_samples: F/T samples measured.
+        deviation_max_mm: The largest |measured - commanded| tip position [mm].
+        peak_force_n: The largest |F| measured [N].
+        steps: The servo ticks simulated.
+        wall_s: Wall time of the simulation [s].
+    """
+
+    scenario: str
+    out: Path
+    seed: int
+    knobs_changed: dict[str, float]
+    tracker_samples: int
+    force_samples: int
+    deviation_max_mm: float
+    peak_force_n: float
+    steps: int
+    wall_s: float
+
+    def lines(self) -> list[str]:
+        return [f"lab {self.scenario} (dynamic plant, {self.steps} steps in {self.wall_s:.1f} s): "
+                f"{self.tracker_samples} tracker / {self.force_samples} force samples, "
+                f"max |measured - commanded| {self.deviation_max_mm:.2f} mm, "
+                f"peak |F| {self.peak_force_n:.0f} N -> {self.out}"]
+
+    def record(self) -> dict[str, Any]:
+        return {"scenario": self.scenario, "plant": "dynamic", "out": self.out, "seed": self.seed,
+                "knobs_changed_from_neutral": self.knobs_changed, "tracker_samples": self.tracker_samples,
+                "force_samples": self.force_samples, "measured_deviation_max_mm": self.deviation_max_mm,
+                "peak_force_n": self.peak_force_n, "simulation_wall_s": self.wall_s}
+
+
+def dynamic_lab_task(request: LabRequest, note: Note = silent) -> Report:
+    """Run the request's scenario (nominal, compensated or loadtest) on the dynamic plant and write it.
+
+    Returns:
+        A `LoadTestReport` or a `DynamicRunReport`.
+
+    Raises:
+        InputError: An existing output without `overwrite`, "compensated" without `commanded`, a bad knob, a bad
+            declaration, a plant that diverged.
+    """
+    check_out(request.out, request.overwrite)
+    process = Process()
+    if request.scenario != "loadtest":
+        commanded, protect = lab_commanded(request.scenario, request.commanded)
+        process = resolve_process(process, request.declaration, request.force_model, commanded.values, note=note)
+    record = compensation_record(request)
+    robot = resolve_robot(request.robot)
+    knobs = parse_set_args(request.knobs, neutral=request.neutral)
+    if request.scenario == "loadtest":
+        loads, deflections = dynamic_load_test(THESIS_TABLE_4_2_LOADS_N, knobs=knobs, seed=request.seed, robot=robot)
+        write_load_cases(request.out, loads, deflections)
+        return LoadTestReport(request.out, len(loads), plant="dynamic")
+    p_cmd = commanded.values
+    run, truth, log = run_dynamic_lab(
+        commanded.t_s, p_cmd, scenario=request.scenario, knobs=knobs, seed=request.seed, progress=_NoteStream(note),
+        process=process, placement=request.placement, robot=robot,
+    )
+    truth["force_model"] = process.force_model
+    if record is not None:  # what the compensation used travels with the run, for `check`
+        run = replace(run, meta={**run.meta, "compensation": record.to_json()})
+    write_run(request.out, run, truth=truth, overwrite=request.overwrite, protect=protect)
+    deviation = run.tracker.values - interp_rows(run.tracker.t_s, run.commanded.t_s, p_cmd)
+    assert run.forces is not None
+    return DynamicRunReport(
+        request.scenario, request.out, request.seed, knobs.changed(), len(run.tracker.t_s), len(run.forces.t_s),
+        1e3 * float(np.max(np.linalg.norm(deviation, axis=1))),
+        float(np.max(np.linalg.norm(run.forces.values, axis=1))), log.t_s.size, log.wall_s,
+    )
+
+
+class _NoteStream(io.StringIO):
+    """A text stream that says each whole line written to it as a `Note` (the plant's progress)."""
+
+    def __init__(self, note: Note) -> None:
+        super().__init__()
+        self._note = note
+        self._pending = ""
+
+    def write(self, text: str) -> int:
+        *done, self._pending = (self._pending + text).split("\n")
+        for line in done:
+            self._note(line)
+        return len(text)
