@@ -207,3 +207,26 @@ def lost_motion_schedule(
     # the level moves from the previous direction (-d) to the new one (+d) linearly: -d + 2 d ramp
     level = np.where(ramp >= 1.0, direction, direction * (2.0 * ramp - 1.0))
     return -lost_motion_rad * level[:, None] * np.asarray(dx_dq_sign, dtype=float)[None, :]
+
+
+def load_model(
+    scene: bool = True, path: str | Path | None = None, robot: str | Path | RobotDescription | None = None
+) -> mujoco.MjModel:
+    """Load a robot's cell scene (default) or its robot-only MJCF.
+
+    Args:
+        scene: True for the robot's scene (`cell/scene.xml`), False for its robot-only MJCF.
+        path: Explicit MJCF file; overrides `scene`.
+        robot: The robot (`twin.robot.description.load_robot`); None: the default robot.
+
+    Raises:
+        ModelError: If the file is missing or does not compile.
+    """
+    description = load_robot(robot) if path is None else None
+    xml = Path(path) if path is not None else description.model_path(scene)  # type: ignore[union-attr]
+    if not xml.is_file():
+        raise ModelError(f"model file not found: {xml} (expected an MJCF file such as models/tx200.xml)")
+    try:
+        return compile_mjcf(xml, description)
+    except ValueError as exc:
+        raise ModelError(f"model {xml} does not compile: {exc}") from exc
