@@ -20,14 +20,19 @@ from twin.analysis.discrepancy.search import find_discrepancy
 from twin.analysis.replay import replay
 from twin.apps.export import EXPORT_FORMATS, ExportFormat, export_path
 from twin.apps.export.program import ProgramPath
+from twin.apps.tasks.base import Report
+from twin.apps.tasks.lab import LAB_PLANTS, LabPlant, LabRequest
 from twin.cli import main
+from twin.errors import InputError
 from twin.lab.virtual import run_lab
 from twin.process.description import Process
 from twin.process.force.base import ForceField
 from twin.process.force.registry import ForceModel, register_force_model, unregister_force_model
 from twin.process.toolpath.groove import groove_path, write_path_csv
 from twin.robot.description import ROBOTS, load_robot, register_robot
-from twin.runs.format import Stream
+from twin.runs.format import Run, Stream, run_meta
+from twin.runs.read import read_run
+from twin.runs.write import write_run
 from twin.sim.effects import EFFECTS, Effects, EffectSpec, register_effect
 from twin.sim.spec import TwinSpec
 
@@ -180,6 +185,51 @@ def test_a_registered_export_format_writes_through_the_api_and_the_cli(xyz_forma
     assert exported.files == [tmp_path / "a.xyz"]
     assert main(["export", str(tmp_path / "groove.csv"), "--format", xyz_format, "--out", str(tmp_path / "b.xyz")]) == 0
     assert (tmp_path / "b.xyz").is_file()
+
+
+# --- a lab plant ----------------------------------------------------------------------------------------------
+
+def _check_rigid(request: LabRequest) -> None:
+    if request.effects or request.knobs or request.scenario != "nominal":
+        raise InputError("--plant toy-rigid runs a nominal scenario and hides nothing")
+
+
+class RigidReport(Report):
+    def __init__(self, out: Path) -> None:
+        self.out = out
+
+    def lines(self) -> list[str]:
+        return [f"toy rigid lab -> {self.out}"]
+
+    def record(self) -> dict[str, object]:
+        return {"out": str(self.out)}
+
+
+def _run_rigid(request: LabRequest, note) -> RigidReport:
+    """A perfectly rigid robot whose tracker reads the command at 50 Hz, its F/T nothing: no deflection, no noise."""
+    ideal = groove_path()
+    t_s = np.arange(ideal.t_s[0], ideal.t_s[-1], 0.02)
+    tip = np.column_stack([np.interp(t_s, ideal.t_s, ideal.p_sheet_m[:, k]) for k in range(3)])
+    meta = run_meta(scenario="nominal", source="toy rigid lab", tracker_rate_hz=50.0, sensor_rate_hz=50.0,
+                    seed=request.seed, tool_length_m=load_robot().tool_length_m)
+    write_run(request.out, Run(None, meta, Stream(ideal.t_s, ideal.p_sheet_m), Stream(t_s, tip),
+                               Stream(t_s, np.zeros_like(tip))))  # its F/T reads nothing
+    return RigidReport(request.out)
+
+
+@pytest.fixture
+def rigid_lab() -> Iterator[str]:
+    LAB_PLANTS.register(LabPlant("toy-rigid", "a rigid robot, no forces", _check_rigid, _run_rigid))
+    yield "toy-rigid"
+    LAB_PLANTS.unregister("toy-rigid")
+
+
+def test_a_registered_lab_plant_writes_a_run_the_twin_replays(rigid_lab: str, tmp_path: Path) -> None:
+    assert main(["lab", "--scenario", "nominal", "--plant", rigid_lab, "--seed", "1", "--out", str(tmp_path / "r")]) == 0
+    gap = replay(read_run(tmp_path / "r")).metrics
+    # the twin bends under its forces where the rigid toy did not: the gap is the twin's own deflection (mm)
+    assert 0.5 < gap["position_max_mm"] < 5.0
+    assert main(["lab", "--scenario", "cnc", "--plant", rigid_lab, "--seed", "1", "--out", str(tmp_path / "c")]) == 2
 
 
 def test_a_name_is_registered_once() -> None:

@@ -33,9 +33,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--effect", action="append", metavar="NAME=VALUE", help=f"hidden effect, repeatable: {effect_list}"
     )
     parser.add_argument(
-        "--plant", choices=("quasi-static", "dynamic"), default="quasi-static",
+        "--plant", metavar="NAME", default="quasi-static",
         help="quasi-static: the twin plus hidden effects (default); dynamic: a MuJoCo mj_step plant "
-        "(docs/dynamic-plant.md)",
+        "(docs/dynamic-plant.md); or a plant registered in twin.apps.tasks.lab.LAB_PLANTS",
     )
     parser.add_argument(
         "--set", action="append", metavar="NAME=VALUE", help="dynamic plant knob, repeatable (docs/dynamic-plant.md lists them)"

@@ -6,9 +6,10 @@ record (`twin.analysis.compensation_record`) travels with the run, for `check`."
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -17,6 +18,7 @@ from twin.analysis.identify.cartesian import THESIS_TABLE_4_2_LOADS_N
 from twin.analysis.resolve import AUTO, resolve_process, resolve_robot, resolve_spec
 from twin.apps.tasks.base import Note, Report, silent
 from twin.base.csvio import write_table
+from twin.base.registry import Registry
 from twin.base.signals import interp_rows
 from twin.errors import InputError
 from twin.process.description import Process
@@ -29,7 +31,6 @@ from twin.sim.effects import Effects, parse_effect_args
 from twin.sim.spec import TwinSpec
 
 SCENARIOS = ("nominal", "compensated", "loadtest", "cnc")
-PLANTS = ("quasi-static", "dynamic")
 
 
 @dataclass(frozen=True)
@@ -68,7 +69,8 @@ class LabRequest:
     overwrite: bool = False
 
     def __post_init__(self) -> None:
-        for option, value, valid in (("--scenario", self.scenario, SCENARIOS), ("--plant", self.plant, PLANTS)):
+        for option, value, valid in (("--scenario", self.scenario, SCENARIOS), ("--plant", self.plant,
+                                                                                 tuple(LAB_PLANTS))):
             if value not in valid:
                 raise InputError(f"{option} {value!r}: expected one of {', '.join(valid)}")
         if not self.placement.is_default and self.scenario in ("loadtest", "cnc"):
@@ -81,18 +83,46 @@ class LabRequest:
                 "--scenario loadtest loads the tool at home, with no sheet: --process, --material, --thickness-mm and "
                 "--tool-radius-mm apply to the runs that form one (nominal, compensated, cnc)"
             )
-        if self.plant == "dynamic":
-            if self.effects:
-                raise InputError("--plant dynamic takes no --effect: its effects are physical knobs, set with "
-                                 "--set NAME=VALUE")
-            if self.scenario == "cnc":
-                raise InputError("--scenario cnc is the rigid machine; it does not apply to --plant dynamic (a robot)")
-            return
-        if self.knobs or self.neutral:
-            raise InputError("--set and --neutral are knobs of --plant dynamic; the quasi-static lab takes --effect")
-        parse_effect_args(list(self.effects))
-        if self.scenario == "cnc" and self.effects:
-            raise InputError("--scenario cnc is the rigid machine: robot effects (--effect) do not apply")
+        LAB_PLANTS[self.plant].check(self)
+
+
+class LabPlant(NamedTuple):
+    """A plant the lab runs (`--plant NAME`): the extension point of the labs.
+
+    Attributes:
+        name: The `--plant` choice.
+        description: One line, for messages.
+        check: Refuses a request the plant cannot run (raises `InputError`, naming the option), before any file
+            is read.
+        run: Runs the request's scenario and writes the run; returns the report.
+    """
+
+    name: str
+    description: str
+    check: Callable[[LabRequest], None]
+    run: Callable[[LabRequest, Note], Report]
+
+
+def _check_quasi_static(request: LabRequest) -> None:
+    if request.knobs or request.neutral:
+        raise InputError("--set and --neutral are knobs of --plant dynamic; the quasi-static lab takes --effect")
+    parse_effect_args(list(request.effects))
+    if request.scenario == "cnc" and request.effects:
+        raise InputError("--scenario cnc is the rigid machine: robot effects (--effect) do not apply")
+
+
+def _check_dynamic(request: LabRequest) -> None:
+    if request.effects:
+        raise InputError("--plant dynamic takes no --effect: its effects are physical knobs, set with "
+                         "--set NAME=VALUE")
+    if request.scenario == "cnc":
+        raise InputError("--scenario cnc is the rigid machine; it does not apply to --plant dynamic (a robot)")
+
+
+def _run_dynamic(request: LabRequest, note: Note) -> Report:
+    from twin.apps.tasks.lab_dynamic import dynamic_lab_task
+
+    return dynamic_lab_task(request, note)
 
 
 @dataclass(frozen=True)
@@ -199,10 +229,11 @@ def lab_task(request: LabRequest, note: Note = silent) -> Report:
         InputError: An existing output without `overwrite`, "compensated" without `commanded`, a bad declaration.
         RunFormatError: A bad commanded path (naming the file and row).
     """
-    if request.plant == "dynamic":
-        from twin.apps.tasks.lab_dynamic import dynamic_lab_task
+    return LAB_PLANTS.get_named(request.plant).run(request, note)
 
-        return dynamic_lab_task(request, note)
+
+def _run_quasi_static(request: LabRequest, note: Note) -> Report:
+    """The quasi-static lab: the twin with hidden effects (`twin.lab.virtual`), or the rigid CNC machine."""
     effects = parse_effect_args(list(request.effects))
     check_out(request.out, request.overwrite)
     if request.scenario == "loadtest":
@@ -276,3 +307,11 @@ def _cnc(request: LabRequest, note: Note) -> CncReport:
     assert run.part_profile is not None and run.forces is not None
     return CncReport(request.out, request.seed, len(run.forces.t_s), float(np.max(run.forces.values[:, 2])),
                      -1e3 * float(np.min(run.part_profile[1])), process)
+
+
+#: The lab's plants, by name (`twin.base.registry.Registry`): `LAB_PLANTS.register(LabPlant(...))` adds one.
+LAB_PLANTS: Registry[LabPlant] = Registry("lab plant")
+LAB_PLANTS.register(LabPlant("quasi-static", "the twin plus hidden effects, noise and its sensor chain",
+                             _check_quasi_static, _run_quasi_static))
+LAB_PLANTS.register(LabPlant("dynamic", "a MuJoCo mj_step plant with its own servo, gears, friction and sheet",
+                             _check_dynamic, _run_dynamic))
