@@ -18,10 +18,10 @@ from twin.cli import main
 from twin.lab.virtual import run_lab
 from twin.process.fe.load import default_force_history
 from twin.process.force.table import SheetForceField
-from twin.process.toolpath.groove import ToolPath, groove_path, write_path_csv
+from twin.process.toolpath.groove import ToolPath, groove_path
 from twin.process.toolpath.shapes import part_path
 from twin.runs.format import Run
-from twin.runs.write import write_run
+from twin.runs.write import write_path_csv, write_run
 from twin.sim.quasi_static import Twin
 
 SHIFT_M = np.array([3e-3, 0.0, 0.0])

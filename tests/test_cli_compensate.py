@@ -17,8 +17,9 @@ import pytest
 from twin.base.resources import data_file
 from twin.cli import COMMANDS, main
 from twin.cli import compensate as command
-from twin.process.toolpath.groove import ToolPath, groove_path, write_path_csv
+from twin.process.toolpath.groove import ToolPath, groove_path
 from twin.runs.read import read_commanded_csv
+from twin.runs.write import write_path_csv
 
 HISTORY = data_file("fe_force_history.csv")  # the shipped half-symmetric export (fx_half_n, fz_half_n)
 

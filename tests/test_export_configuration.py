@@ -23,12 +23,12 @@ from twin.apps.export.configuration import (
 from twin.apps.export.program import default_cell
 from twin.cli import main
 from twin.errors import InputError, ModelError
-from twin.process.toolpath.groove import GrooveSpec, groove_path, write_path_csv
+from twin.process.toolpath.groove import GrooveSpec, groove_path
 from twin.robot.description import load_robot
 from twin.robot.kinematics import Kinematics
 from twin.runs.format import Run, run_meta
 from twin.runs.read import read_commanded_csv
-from twin.runs.write import write_run
+from twin.runs.write import write_path_csv, write_run
 
 
 def _config(q_deg: list[float]) -> RobotConfiguration:

@@ -16,8 +16,9 @@ from twin.apps.export.program import CellSetup, default_cell, euler_xyz_deg, eul
 from twin.apps.export.val3_check import check_application
 from twin.cli import main
 from twin.errors import InputError, TwinError
-from twin.process.toolpath.groove import GrooveSpec, groove_path, write_path_csv
+from twin.process.toolpath.groove import GrooveSpec, groove_path
 from twin.runs.read import read_commanded_csv
+from twin.runs.write import write_path_csv
 
 POSITION_TOL_MM = 0.5e-4 + 1e-9  # 4 decimals
 FAST_FEED_MM_S = 2 * 2000.0 / 60.0  # the fixture's pass 2: twice the groove's 2 m/min

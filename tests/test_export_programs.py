@@ -16,10 +16,10 @@ import pytest
 from doc_numbers import quoted
 
 from twin.cli import main
-from twin.process.toolpath.groove import GrooveSpec, groove_path, write_path_csv
+from twin.process.toolpath.groove import GrooveSpec, groove_path
 from twin.runs.format import Run, run_meta
 from twin.runs.read import read_commanded_csv
-from twin.runs.write import write_run
+from twin.runs.write import write_path_csv, write_run
 
 PROCESS_FEED_MM_S = 2000.0 / 60.0  # the groove's feed, 2 m/min (thesis §1.2.3)
 

@@ -28,11 +28,11 @@ from twin.lab.virtual import run_lab
 from twin.process.description import Process
 from twin.process.force.base import ForceField
 from twin.process.force.registry import ForceModel, register_force_model, unregister_force_model
-from twin.process.toolpath.groove import groove_path, write_path_csv
+from twin.process.toolpath.groove import groove_path
 from twin.robot.description import ROBOTS, load_robot, register_robot
 from twin.runs.format import Run, Stream, run_meta
 from twin.runs.read import read_run
-from twin.runs.write import write_run
+from twin.runs.write import write_path_csv, write_run
 from twin.sim.effects import EFFECTS, Effects, EffectSpec, register_effect
 from twin.sim.spec import TwinSpec
 

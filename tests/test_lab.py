@@ -11,10 +11,10 @@ import pytest
 from twin.analysis.identify.cartesian import THESIS_TABLE_4_2_LOADS_N, load_cases_csv
 from twin.cli import main
 from twin.lab.virtual import LabSettings, load_test, run_lab
-from twin.process.toolpath.groove import ToolPath, groove_path, write_path_csv
+from twin.process.toolpath.groove import ToolPath, groove_path
 from twin.runs.format import RUN_FORMAT, Run
 from twin.runs.read import read_run
-from twin.runs.write import write_run
+from twin.runs.write import write_path_csv, write_run
 from twin.sim.effects import EFFECTS, Effects
 from twin.sim.quasi_static import Twin
 from twin.sim.spec import TwinSpec

@@ -57,7 +57,6 @@ __all__, __getattr__, __dir__ = lazy_exports(__name__, {
     "GrooveSpec": "twin.process.toolpath.groove",
     "groove_path": "twin.process.toolpath.groove",
     "label_passes": "twin.process.toolpath.groove",
-    "write_path_csv": "twin.process.toolpath.groove",
     "PartSpec": "twin.process.toolpath.shapes",
     "part_path": "twin.process.toolpath.shapes",
     "parse_gcode": "twin.process.toolpath.gcode",

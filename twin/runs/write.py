@@ -18,7 +18,8 @@ import numpy as np
 from twin.base.csvio import swap_in_directory, temporary_folder, write_table
 from twin.base.jsonio import write_json
 from twin.errors import DataFileError, InputError
-from twin.runs.format import RUN_FORMAT, RUN_FRAME, Run
+from twin.process.toolpath.groove import ToolPath
+from twin.runs.format import RUN_FORMAT, RUN_FRAME, Run, Stream
 from twin.runs.read import read_run
 
 
@@ -74,12 +75,7 @@ def _write_files(tmp: Path, run: Run, meta: Mapping[str, Any], truth: Mapping[st
     """
     write_json(tmp / "meta.json", meta)
     for name, stream in (("commanded.csv", run.commanded), ("tracker.csv", run.tracker)):
-        mm = stream.values * 1e3
-        write_table(
-            tmp / name,
-            {"t_s": stream.t_s, "x_mm": mm[:, 0], "y_mm": mm[:, 1], "z_mm": mm[:, 2]},
-            formats={"t_s": ".6f", "x_mm": ".4f", "y_mm": ".4f", "z_mm": ".4f"},
-        )
+        write_path_csv(stream, tmp / name)
     if run.forces is not None:
         f = run.forces.values
         write_table(
@@ -154,3 +150,24 @@ def write_run(
         shutil.rmtree(tmp, ignore_errors=True)
         raise
     return target
+
+
+#: The one precision of every path CSV (a run's commanded and tracker files, ideal and compensated paths): 1 µs
+#: and 0.1 µm, below any tracker's noise and any controller's resolution.
+PATH_FORMATS = {"t_s": ".6f", "x_mm": ".4f", "y_mm": ".4f", "z_mm": ".4f"}
+
+
+def write_path_csv(path: ToolPath | Stream, file: str | Path, *, protect: Sequence[str | Path] = ()) -> Path:
+    """Write a tool path as CSV `t_s, x_mm, y_mm, z_mm` (sheet frame; a `ToolPath` adds its `pass` and
+    `direction` labels), atomically, never over `protect`. The one writer of the format
+    `twin.runs.read.read_commanded_csv` reads (`--ideal`, `--commanded`, a run's commanded.csv and tracker.csv).
+
+    Returns:
+        The file written.
+    """
+    p_mm = 1e3 * np.asarray(path.p_sheet_m if isinstance(path, ToolPath) else path.values, dtype=float)
+    columns: dict[str, Any] = {"t_s": path.t_s, "x_mm": p_mm[:, 0], "y_mm": p_mm[:, 1], "z_mm": p_mm[:, 2]}
+    if isinstance(path, ToolPath):
+        columns.update(pass_=np.asarray(path.pass_index, dtype=int), direction=np.asarray(path.direction, dtype=int))
+        columns["pass"] = columns.pop("pass_")
+    return write_table(file, columns, formats=PATH_FORMATS, protect=protect)

@@ -25,7 +25,6 @@ from twin.analysis.compensation_record import CompensationRecord, write_record
 from twin.analysis.resolve import AUTO, resolve_spec
 from twin.apps.tasks.base import Note, Report, silent
 from twin.apps.tasks.inputs import HistoryDeclaration, ideal_path
-from twin.base.csvio import write_table
 from twin.base.jsonio import read_json
 from twin.errors import DataFileError, InputError
 from twin.process.fe.load import ForceHistory
@@ -33,6 +32,8 @@ from twin.process.force.registry import build_force_field
 from twin.process.process_file import ProcessDeclaration, process_record
 from twin.process.toolpath.groove import ToolPath
 from twin.process.toolpath.placement import Placement
+from twin.runs.format import Stream
+from twin.runs.write import write_path_csv
 from twin.sim.spec import TwinSpec
 
 METHODS = ("formula", "twin")
@@ -264,8 +265,5 @@ def read_stiffness(path: Path) -> np.ndarray:
 
 
 def write_command(out: Path, t_s: np.ndarray, p_cmd_sheet_m: np.ndarray, protect: list[Path]) -> None:
-    """Write a command in the commanded.csv format (t_s, x_mm, y_mm, z_mm), never over `protect`."""
-    write_table(
-        out, {"t_s": t_s, **{f"{a}_mm": 1e3 * p_cmd_sheet_m[:, i] for i, a in enumerate("xyz")}},
-        formats={"t_s": ".6f", "x_mm": ".4f", "y_mm": ".4f", "z_mm": ".4f"}, protect=protect,
-    )
+    """Write a command in the path CSV format (`twin.runs.write.write_path_csv`), never over `protect`."""
+    write_path_csv(Stream(np.asarray(t_s, dtype=float), np.asarray(p_cmd_sheet_m, dtype=float)), out, protect=protect)

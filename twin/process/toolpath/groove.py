@@ -24,11 +24,9 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
-from twin.base.csvio import write_table
 from twin.base.signals import interp_rows
 from twin.errors import InputError
 
@@ -252,25 +250,3 @@ def label_passes(x_m: np.ndarray, *, deadband_m: float = 1e-6) -> tuple[np.ndarr
     pass_index = 1 + np.cumsum(starts)
     direction = np.where(pass_index % 2 == 1, first, -first).astype(int)
     return pass_index, direction
-
-
-def write_path_csv(path: ToolPath, file: str | Path) -> Path:
-    """Write a path as CSV with columns t_s, x_mm, y_mm, z_mm, pass, direction (atomic).
-
-    Args:
-        path: The path.
-        file: Output CSV.
-    """
-    p_mm = path.p_sheet_m * 1000.0
-    return write_table(
-        file,
-        {
-            "t_s": path.t_s,
-            "x_mm": p_mm[:, 0],
-            "y_mm": p_mm[:, 1],
-            "z_mm": p_mm[:, 2],
-            "pass": np.asarray(path.pass_index, dtype=int),
-            "direction": np.asarray(path.direction, dtype=int),
-        },
-        formats={"t_s": ".5f", "x_mm": ".5f", "y_mm": ".5f", "z_mm": ".5f"},
-    )
