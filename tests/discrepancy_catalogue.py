@@ -78,7 +78,7 @@ class _Base:
 
     def __init__(self, seed: int, noise_level: float) -> None:
         t, p = nominal_commanded()
-        settings = LabSettings(tracker_noise_m=2e-5 * noise_level, force_noise_n=5.0 * noise_level,
+        settings = LabSettings(tracker_noise_m=2e-5 * noise_level, ft_noise_n=5.0 * noise_level,
                                profile_noise_m=2e-5 * noise_level)
         self.run, _ = run_lab(t, p, scenario="nominal", seed=seed, settings=settings)
         self.sigma = {"position": 2e-5 * noise_level, "force": 5.0 * noise_level, "profile": 2e-5 * noise_level}

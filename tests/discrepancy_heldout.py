@@ -75,7 +75,7 @@ class Base:
         self.noise_level = float(rng.choice(NOISE_LEVELS))
         self.sigma = {k: v * self.noise_level for k, v in NOISE.items()}
         t, p = nominal_commanded()
-        settings = LabSettings(tracker_noise_m=self.sigma["position"], force_noise_n=self.sigma["force"],
+        settings = LabSettings(tracker_noise_m=self.sigma["position"], ft_noise_n=self.sigma["force"],
                                profile_noise_m=self.sigma["profile"])
         self.run, _ = run_lab(t, p, scenario="nominal", seed=seed, settings=settings)
         self.twin = Twin()

@@ -36,7 +36,7 @@ from twin.sim.spec import TwinSpec
 SETTINGS = LabSettings()
 NOISE_GAP = {  # gap of a perfect twin: the norm of the sensor noise (see module docstring)
     "position_rms_mm": math.sqrt(3.0) * 1e3 * SETTINGS.tracker_noise_m,
-    "force_rms_n": math.sqrt(3.0) * SETTINGS.force_noise_n,
+    "force_rms_n": math.sqrt(3.0) * SETTINGS.ft_noise_n,
     "profile_rms_mm": 1e3 * SETTINGS.profile_noise_m,
 }
 PARAMETER_TOLERANCE = 0.15  # of the effect's deviation from its neutral value

@@ -48,7 +48,7 @@ def test_different_seed_gives_different_noise_only(
     settings = LabSettings()
     # the difference of two independent noise draws: sqrt(2) sigma per axis, within 20 %
     assert np.std(tracker_diff) == pytest.approx(np.sqrt(2) * settings.tracker_noise_m, rel=0.2)
-    assert np.std(force_diff) == pytest.approx(np.sqrt(2) * settings.force_noise_n, rel=0.2)
+    assert np.std(force_diff) == pytest.approx(np.sqrt(2) * settings.ft_noise_n, rel=0.2)
     np.testing.assert_allclose(other.commanded.values, clean_run.commanded.values, atol=1e-7)
 
 

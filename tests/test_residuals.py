@@ -48,7 +48,7 @@ def test_second_difference_noise_is_nan_for_too_few_samples() -> None:
 def test_estimate_noise_recovers_the_lab_sensor_noise(clean_run: Run) -> None:
     noise = estimate_noise(clean_run)
     assert noise.position_m == pytest.approx(SETTINGS.tracker_noise_m, rel=0.10)
-    assert noise.force_n == pytest.approx(SETTINGS.force_noise_n, rel=0.10)
+    assert noise.force_n == pytest.approx(SETTINGS.ft_noise_n, rel=0.10)
     # the profile has only 181 points and the groove walls' curvature: a looser bound
     assert noise.profile_m == pytest.approx(SETTINGS.profile_noise_m, rel=0.40)
     summary = noise.summary()

@@ -31,17 +31,17 @@ class CncSettings:
     """Rates and noise of the CNC test.
 
     Attributes:
-        position_rate_hz: Machine position recording rate [Hz].
-        sensor_rate_hz: Force sensor rate on the CNC [Hz] (thesis §2.3: 10 Hz).
-        position_noise_m: Machine accuracy as white noise per axis [m] (FAMUP MCX500: 15 µm).
-        force_noise_n: Force sensor white noise per axis [N].
+        tracker_rate_hz: Machine position recording rate [Hz] (the run's tracker.csv, as for the labs).
+        ft_rate_hz: Force sensor rate on the CNC [Hz] (thesis §2.3: 10 Hz).
+        tracker_noise_m: Machine accuracy as white noise per axis [m] (FAMUP MCX500: 15 µm).
+        ft_noise_n: Force sensor white noise per axis [N].
         profile_noise_m: Part-profile scan white noise [m].
     """
 
-    position_rate_hz: float = 50.0
-    sensor_rate_hz: float = 10.0
-    position_noise_m: float = 15e-6
-    force_noise_n: float = 5.0
+    tracker_rate_hz: float = 50.0
+    ft_rate_hz: float = 10.0
+    tracker_noise_m: float = 15e-6
+    ft_noise_n: float = 5.0
     profile_noise_m: float = 2e-5
 
 
@@ -70,12 +70,12 @@ def run_cnc(
     forces, z_after = form_rigidly(path, field)
     rng = np.random.default_rng(seed)
     t_end = float(path.t_s[-1])
-    t_pos = uniform_times(t_end, settings.position_rate_hz)
-    t_sensor = uniform_times(t_end, settings.sensor_rate_hz)
+    t_pos = uniform_times(t_end, settings.tracker_rate_hz)
+    t_sensor = uniform_times(t_end, settings.ft_rate_hz)
     position = interp_rows(t_pos, path.t_s, path.p_sheet_m)
-    position = position + rng.normal(0.0, settings.position_noise_m, position.shape)
+    position = position + rng.normal(0.0, settings.tracker_noise_m, position.shape)
     f_sensor = interp_rows(t_sensor, path.t_s, forces)
-    f_sensor = f_sensor + rng.normal(0.0, settings.force_noise_n, f_sensor.shape)
+    f_sensor = f_sensor + rng.normal(0.0, settings.ft_noise_n, f_sensor.shape)
     x_profile, z_profile = scanned_profile(field.x_grid_m, z_after)
     z_profile = z_profile + rng.normal(0.0, settings.profile_noise_m, z_profile.shape)
     scan = None  # where the force model keeps a 2-D surface (any part, not the groove's table field)
@@ -86,8 +86,8 @@ def run_cnc(
     meta = run_meta(
         scenario="cnc",
         source="tx200-twin virtual lab: rigid CNC (FAMUP MCX500 class, thesis sec. 2.3)",
-        tracker_rate_hz=settings.position_rate_hz,
-        sensor_rate_hz=settings.sensor_rate_hz,
+        tracker_rate_hz=settings.tracker_rate_hz,
+        sensor_rate_hz=settings.ft_rate_hz,
         seed=seed,
         tool_length_m=load_robot().tool_length_m,
         force_model=process.force_model,

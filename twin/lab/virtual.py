@@ -32,16 +32,16 @@ class LabSettings:
 
     Attributes:
         tracker_rate_hz: Optical tracker rate [Hz] (thesis sec. 3.2.1: 50 Hz).
-        sensor_rate_hz: Force sensor rate [Hz] (thesis sec. 3.3: 30 Hz in the robot tests).
+        ft_rate_hz: Force/torque sensor rate [Hz] (thesis sec. 3.3: 30 Hz in the robot tests).
         tracker_noise_m: Tracker white noise per axis [m].
-        force_noise_n: Force sensor white noise per axis [N].
+        ft_noise_n: Force sensor white noise per axis [N].
         profile_noise_m: Part-profile scan white noise [m].
     """
 
     tracker_rate_hz: float = 50.0
-    sensor_rate_hz: float = 30.0
+    ft_rate_hz: float = 30.0
     tracker_noise_m: float = 2e-5
-    force_noise_n: float = 5.0
+    ft_noise_n: float = 5.0
     profile_noise_m: float = 2e-5
 
 
@@ -84,7 +84,7 @@ def run_lab(
         scenario=scenario,
         source="tx200-twin virtual lab",
         tracker_rate_hz=settings.tracker_rate_hz,
-        sensor_rate_hz=settings.sensor_rate_hz,
+        sensor_rate_hz=settings.ft_rate_hz,
         seed=seed,
         tool_length_m=spec.robot.tool_length_m,
         placement=spec.placement,
@@ -123,11 +123,11 @@ def _measure(twin: Twin, result: SimResult, settings: LabSettings, rng: np.rando
     effects = twin.effects
     t_end = float(result.t_s[-1])
     t_tracker = uniform_times(t_end, settings.tracker_rate_hz)
-    t_sensor = uniform_times(t_end, settings.sensor_rate_hz)
+    t_sensor = uniform_times(t_end, settings.ft_rate_hz)
     tracker = predict_tracker(result, t_tracker, effects)
     tracker = tracker + rng.normal(0.0, settings.tracker_noise_m, tracker.shape)
     forces = predict_forces(twin, result, t_sensor, effects)
-    forces = forces + rng.normal(0.0, settings.force_noise_n, forces.shape)
+    forces = forces + rng.normal(0.0, settings.ft_noise_n, forces.shape)
     x_profile, z_profile = predict_part_profile(twin, result, effects)
     z_profile = z_profile + rng.normal(0.0, settings.profile_noise_m, z_profile.shape)
     scan = None  # a 2-D scan of the part where the force model keeps a surface (any part, not the groove table)
