@@ -59,7 +59,7 @@ class Registry(MutableMapping[str, T], Generic[T]):
             The registry's error (`InputError` by default): unknown name, naming the registered ones.
         """
         if name not in self._parts:
-            raise self._error(f"unknown {self.kind} {name!r}; registered: {', '.join(self._parts)}")
+            raise self._error(f"unknown {self.kind} {name!r}; registered: {sorted(self._parts)}")
         return self._parts[name]
 
     def __getitem__(self, name: str) -> T:

@@ -2,9 +2,9 @@
 
 Modules: `info`, `path`, `fe_history`, `identify`, `calibrate`, `reproduce`, `force_validation`, `lab`, `replay`, `learn`,
 `compensate`, `check`, `bench`, `sweep`, `place`, `discrepancy`, `demo`, `import_run` (`import`), `export`, `materials` and `robots`,
-one per command; `_common` holds the options several commands share (the FE history, the force model, the declared
-process, the placement) and the twin they make (`spec_from_arguments`); `_types` the argparse types with plausible
-ranges (seeds, counts, lengths, feeds).
+one per command, each over its task (`twin/apps/tasks/`: a typed request, a report); `_common` holds the options
+several commands share (the FE history, the force model, the declared process, the placement, `--json`) and
+`finish`; `_types` the argparse types with plausible ranges (seeds, counts, lengths, feeds).
 
 Each command module defines `HELP` (one line), `add_arguments(parser)` and `run(args) -> int`. Before a command runs,
 its outputs (the options in `OUTPUT_OPTIONS`) pass `twin.base.outputs.check_outputs` against every option naming an

@@ -1,31 +1,25 @@
-"""Options shared by several commands: the FE force history and its symmetry declaration, the ideal path, the
-sheet force model, the declared process (`--process`, `--material`, `--thickness-mm`, `--tool-radius-mm`), the
-sheet's placement and the twin they make (`spec_from_arguments`)."""
+"""Options shared by several commands, and how a command ends: the FE force history and its symmetry declaration,
+the ideal path, the sheet force model, the robot, the declared process (`--process`, `--material`,
+`--thickness-mm`, `--tool-radius-mm`: `process_declaration`), the sheet's placement, the scheduler, `--json`; and
+`finish` (a task's report printed, its JSON written, its exit code). Which twin a command runs is not decided
+here: its task calls `twin.analysis.resolve.resolve_spec`."""
 
 from __future__ import annotations
 
 import argparse
 import math
 import sys
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from twin.analysis.resolve import resolve_process, resolve_robot, resolve_spec
 from twin.apps.tasks.base import Report
 from twin.base.jsonio import emit_json
 from twin.cli._types import finite
-from twin.errors import InputError
-from twin.process.description import Process
-from twin.process.fe.load import ForceHistory, default_force_history, load_force_history
 from twin.process.force.registry import FORCE_MODELS
 from twin.process.process_file import ProcessDeclaration, declare_process
-from twin.process.toolpath.groove import ToolPath, groove_path, label_passes
 from twin.process.toolpath.placement import Placement
-from twin.robot.description import DEFAULT_ROBOT, RobotDescription, shipped_robots
-from twin.runs.format import Run, Stream
-from twin.runs.read import read_commanded_csv
-from twin.sim.spec import TwinSpec
+from twin.robot.description import DEFAULT_ROBOT, shipped_robots
 
 
 def add_history_arguments(parser: argparse.ArgumentParser) -> None:
@@ -43,48 +37,11 @@ def add_history_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def history_from_arguments(args: argparse.Namespace) -> tuple[ForceHistory, ForceHistory]:
-    """The history as declared, and the physical reference (symmetry implied by the column names).
-
-    Returns:
-        (declared, reference): equal unless `--unchecked-symmetry` let a contradicting declaration through.
-    """
-    if args.history is None:
-        if args.symmetry is not None:
-            raise InputError("--symmetry is only meaningful with --history FILE")
-        history = default_force_history()
-        return history, history
-    if args.symmetry is None:
-        raise InputError(
-            f"--history {args.history} needs --symmetry half|full: a half-symmetric FE model's forces must be "
-            "doubled (thesis sec. 2.2); forgetting it broke the thesis's compensated run (sec. 5.1)"
-        )
-    declared = load_force_history(
-        args.history, symmetry=args.symmetry, trust_columns=not args.unchecked_symmetry
-    )
-    if declared.column_symmetry == declared.symmetry:
-        return declared, declared
-    return declared, load_force_history(args.history, symmetry=declared.column_symmetry)
-
-
 def add_ideal_argument(parser: argparse.ArgumentParser) -> None:
     """Add `--ideal FILE` (the ideal path U_ID; default: the thesis groove)."""
     parser.add_argument(
         "--ideal", type=Path, help="ideal path U_ID as CSV t_s,x_mm,y_mm,z_mm (default: the groove)"
     )
-
-
-def ideal_from_arguments(args: argparse.Namespace) -> ToolPath:
-    """The ideal path U_ID from `--ideal` or the default groove."""
-    if args.ideal is None:
-        return groove_path()
-    return tool_path(read_commanded_csv(args.ideal))
-
-
-def tool_path(stream: Stream) -> ToolPath:
-    """A commanded or ideal path read from a file as a `ToolPath`, its passes labelled by its x reversals."""
-    pass_index, direction = label_passes(stream.values[:, 0])
-    return ToolPath(t_s=stream.t_s, p_sheet_m=stream.values, pass_index=pass_index, direction=direction)
 
 
 def add_json_argument(parser: argparse.ArgumentParser | Any, what: str) -> None:
@@ -104,23 +61,6 @@ def add_force_model_argument(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def spec_from_arguments(
-    args: argparse.Namespace,
-    p_sheet_m: Any,
-    *,
-    run: Run | None = None,
-    history: ForceHistory | None = None,
-) -> TwinSpec:
-    """The twin of a command (`twin.analysis.resolve.resolve_spec`) from its options: `--model`, `--robot`,
-    the process options, `--force-model` and the placement options, where the command has them."""
-    given = getattr(args, "origin_mm", None) is not None or getattr(args, "yaw_deg", 0.0) != 0.0
-    return resolve_spec(
-        model=getattr(args, "model", None), robot=getattr(args, "robot", None), run=run,
-        declaration=process_declaration(args), force_model_name=getattr(args, "force_model", "auto"),
-        placement=placement_from(args) if given else None, history=history, p_sheet_m=p_sheet_m, note=note,
-    )
-
-
 def add_robot_argument(parser: argparse.ArgumentParser | Any) -> None:
     """Add `--robot NAME|PATH` (a shipped robot, `tx200-twin robots`, or a robot description file)."""
     parser.add_argument(
@@ -130,13 +70,6 @@ def add_robot_argument(parser: argparse.ArgumentParser | Any) -> None:
         "tx200-twin-robot/1 description file; default: a run's recorded robot, else the model file's, else "
         f"{DEFAULT_ROBOT}",
     )
-
-
-def command_robot(
-    args: argparse.Namespace, model_robot: RobotDescription | None = None, run: Run | None = None
-) -> RobotDescription:
-    """The robot of a command (`twin.analysis.resolve.resolve_robot` of `--robot`)."""
-    return resolve_robot(getattr(args, "robot", None), model_robot, run)
 
 
 def add_process_arguments(parser: argparse.ArgumentParser) -> Any:
@@ -160,14 +93,6 @@ def process_declaration(args: argparse.Namespace) -> ProcessDeclaration:
     command without them."""
     return declare_process(getattr(args, "process", None), getattr(args, "material", None),
                            getattr(args, "thickness_mm", None), getattr(args, "tool_radius_mm", None))
-
-
-def command_process(
-    args: argparse.Namespace, base: Process, p_sheet_m: Any, meta: Mapping[str, Any] | None = None
-) -> Process:
-    """The process a command runs (`twin.analysis.resolve.resolve_process` of its options)."""
-    return resolve_process(base, process_declaration(args), getattr(args, "force_model", "auto"), p_sheet_m,
-                           meta, note=note)
 
 
 def add_placement_arguments(parser: argparse.ArgumentParser | Any, title: str = "sheet placement") -> Any:

@@ -7,7 +7,7 @@ import argparse
 import numpy as np
 
 from twin.base.jsonio import emit_json
-from twin.cli._common import add_json_argument, add_robot_argument, command_robot
+from twin.cli._common import add_json_argument, add_robot_argument
 
 HELP = "Show the model: joint stiffness K_q, tool tip and compliance at home, sheet origin."
 
@@ -20,9 +20,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Print the summary (or JSON to stdout with `--json -`) and return 0."""
+    from twin.analysis.resolve import resolve_robot
     from twin.robot.kinematics import Kinematics  # MuJoCo: only when the command runs
 
-    kin = Kinematics(robot=command_robot(args))
+    kin = Kinematics(robot=resolve_robot(args.robot))
     path = kin.robot.model_path()
     p_home, _ = kin.fk(kin.q_home)
     compliance_mm_per_kn = kin.compliance(kin.q_home) * 1e6  # [m/N] -> [mm/kN]

@@ -1,24 +1,20 @@
-"""`tx200-twin sweep`: Monte Carlo of the model's uncertainty -> distribution of the compensated residual."""
+"""`tx200-twin sweep`: Monte Carlo of the model's uncertainty -> distribution of the compensated residual
+(`twin.apps.tasks.sweep`)."""
 
 from __future__ import annotations
 
 import argparse
 import sys
-import time
 from pathlib import Path
 
-from twin.base.jsonio import emit_json
 from twin.cli._common import (
     add_history_arguments,
     add_ideal_argument,
     add_json_argument,
     add_scheduler_argument,
-    history_from_arguments,
-    ideal_from_arguments,
+    finish,
 )
 from twin.cli._types import count, seed
-from twin.process.description import Process
-from twin.sim.spec import TwinSpec
 
 HELP = "Monte Carlo of K_q / friction / sheet / force-scale uncertainty: distribution of the compensated residual."
 
@@ -43,33 +39,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the sweep with a progress bar on stderr."""
-    from twin.apps.sweep import run_sweep
-    from twin.apps.sweep_figure import sweep_figure
+    from twin.apps.tasks.inputs import HistoryDeclaration
+    from twin.apps.tasks.sweep import SweepRequest, sweep_task
 
-    history, _ = history_from_arguments(args)
-    ideal = ideal_from_arguments(args)
-    start = time.perf_counter()
+    history = HistoryDeclaration(args.history, args.symmetry, args.unchecked_symmetry)
+    request = SweepRequest(args.draws, args.seed, args.workers, args.scheduler, args.calibration,
+                           args.uncompensated, history, args.ideal, args.figure)
+    report = sweep_task(request, note=_bar)
+    return finish(args, report, protect=(args.calibration, args.history, args.ideal))
 
-    def progress(done: int, total: int) -> None:
-        filled = round(30 * done / total)
-        print(f"\rsweep [{'#' * filled}{'.' * (30 - filled)}] {done}/{total} draws, "
-              f"{time.perf_counter() - start:.1f} s", end="\n" if done == total else "", file=sys.stderr, flush=True)
 
-    result = run_sweep(
-        args.draws, spec=TwinSpec(process=Process(history=history)), seed=args.seed, workers=args.workers,
-        calibration=args.calibration, path=ideal, compensate=not args.uncompensated, progress=progress,
-        scheduler=args.scheduler,
-    )
-    summary = result.summary()
-    if args.figure is not None:
-        summary["figure"] = str(sweep_figure(result, args.figure))
-    rms = summary["rms_mm"]
-    print(
-        f"sweep: {summary['draws']} draws on {summary['workers']} workers in {summary['wall_s']:.1f} s "
-        f"({summary['replays_per_s_per_core']:.1f} replays/s/core); RMS residual median {rms['p50']:.4f} mm "
-        f"(5-95 %: {rms['p5']:.4f}-{rms['p95']:.4f} mm, nominal model {summary['nominal_rms_mm']:.4f} mm)",
-        file=sys.stderr if args.json == "-" else sys.stdout,
-    )
-    protect = [p for p in (args.calibration, args.history, args.ideal) if p is not None]
-    emit_json(args.json, summary, protect=protect)
-    return 0
+def _bar(text: str) -> None:
+    """Write the progress bar's text as is (it redraws itself with a carriage return) to stderr."""
+    print(text, end="", file=sys.stderr, flush=True)

@@ -12,5 +12,6 @@ returning the result. The CLI (`twin/cli/`) only parses options into the request
 
 Modules: `base` (the `Report` base), and one per command (`replay`, `identify` with `identify_sheet`, `calibrate`,
 `reproduce`, `compensate` with `compensate_part`, `check`, `place`, `path`, `lab` with `lab_dynamic`,
-`export`, ...).
+`export`, `learn`, `discrepancy`, `sweep`, `robots`, `materials`, ...); `inputs` holds what several tasks
+declare alike (the FE history with its symmetry, the ideal path).
 """

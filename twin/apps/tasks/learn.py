@@ -1,0 +1,174 @@
+"""`learn`: a twin of a cell it did not build, from that cell's nominal runs (`twin.analysis.learn.learn`): the
+robot's joint stiffness K_q, joint friction, servo transient and the tracker's offset, the sheet's `learned` force
+model and its springback, each replay gap before and after (fitted) and on a run left out (predicted); optionally
+the learned twin saved as a model file that `replay`, `compensate`, `discrepancy` and `place` take.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from twin.analysis.learn import Gap, LearnResult, RobotFit, learn
+from twin.apps.tasks.base import Note, Report, silent
+from twin.errors import InputError
+from twin.runs.read import read_run
+from twin.sim.model_file import read_model_file, write_model_file
+
+
+@dataclass(frozen=True)
+class LearnRequest:
+    """What to learn from.
+
+    Attributes:
+        runs: Nominal runs of one cell (tracker and F/T streams), one robot at one placement; with two or more,
+            each is also replayed on a twin learned from the others.
+        model: The declared twin (a model file) whose robot and process are the priors, or None for the runs'
+            recorded robot and process.
+        write_model: Where to write the learned twin (a model file), or None.
+    """
+
+    runs: tuple[Path, ...]
+    model: Path | None = None
+    write_model: Path | None = None
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "runs", tuple(self.runs))
+        if not self.runs:
+            raise InputError(f"runs {self.runs!r}: expected one run folder or more")
+
+
+@dataclass(frozen=True)
+class LearnReport(Report):
+    """What was learned, and the gaps.
+
+    Attributes:
+        result: The learned twin, the robot's, sheet's and springback's fits and the replay gaps.
+        model_file: The model file written, or None.
+    """
+
+    result: LearnResult
+    model_file: Path | None = None
+
+    def lines(self) -> list[str]:
+        """What was learned, for the screen."""
+        result = self.result
+        robot, sheet = result.robot, result.sheet
+        fit, std = dict(sheet.force_fit), dict(sheet.std)
+        friction = ", ".join(f"j{j + 1} {f:.0f}" for j, f in enumerate(robot.friction_nm) if f > 0) or "none"
+        lines = [
+            f"learned from {len(result.before)} run(s) (fitted: the robot, the sheet and its springback come from "
+            "these runs)",
+            f"  robot: K_q [kN·m/rad] {'; '.join(_stiffness_words(robot))}",
+            f"  robot: joint friction [N·m] {friction}; {_servo_words(robot)}; tracker offset "
+            f"({', '.join(f'{v:.3f}' for v in robot.offset_mm)}) mm (not a robot effect: a registration error of "
+            "the tracker)",
+            "  robot's part of the gap (the twin's robot driven by the measured forces): "
+            + ", ".join(f"{a:.3f} -> {b:.3f} mm" for a, b in zip(robot.rms_prior_mm, robot.rms_after_mm, strict=True)),
+            f"  sheet ('learned' force model): prior weight {fit['prior_weight']:.3f} ± {std['prior_weight']:.3f}, "
+            f"side membrane {fit['side_membrane_n']:.0f} ± {std['side_membrane_n']:.0f} N, side cubic "
+            f"{fit['side_cubic_n']:.0f} ± {std['side_cubic_n']:.0f} N, ahead {fit['ahead_membrane_n']:.0f} ± "
+            f"{std['ahead_membrane_n']:.0f} N, mu_t {fit['mu_eff']:.3f}, mu_r {fit['mu_radial']:.3f}",
+            "  sheet's force along the measured tip: "
+            + ", ".join(f"{a:.0f} -> {b:.0f} N" for a, b in zip(sheet.rms_before_n, sheet.rms_after_n, strict=True)),
+            _springback_words(result),
+        ]
+        for before, after in zip(result.before, result.after, strict=True):
+            lines.append(f"  replay {before.run}: {_gap(before)} -> {_gap(after)} (fitted)")
+        for held in result.held_out:
+            lines.append(f"  left out {held.run}: {_gap(held)} (predicted: learned from the other runs)")
+        if self.model_file is not None:
+            lines.append(f"-> {self.model_file}")
+        return lines
+
+    def record(self) -> dict[str, Any]:
+        """The robot's and the sheet's fits, the springback's, and the gaps before, after and held out."""
+        result = self.result
+        robot, sheet = result.robot, result.sheet
+
+        def gaps(items: Any) -> list[dict[str, Any]]:
+            return [g._asdict() for g in items]
+
+        return {
+            "robot": {
+                "k_q_nm_per_rad": robot.k_q_nm_per_rad, "k_q_std_nm_per_rad": robot.std_nm_per_rad,
+                "prior_k_q_nm_per_rad": robot.prior_nm_per_rad, "observable": np.asarray(robot.observable).tolist(),
+                "friction_nm": robot.friction_nm, "tracker_offset_mm": robot.offset_mm,
+                "servo": None if robot.servo is None else {
+                    "compliance_rad_per_nm": list(robot.servo.compliance_rad_per_nm),
+                    "time_constant_s": robot.servo.time_constant_s},
+                "gap_measured_forces_prior_mm": list(robot.rms_prior_mm),
+                "gap_measured_forces_learned_mm": list(robot.rms_after_mm),
+            },
+            "sheet": {"force_model": "learned", "force_fit": dict(sheet.force_fit), "std": dict(sheet.std),
+                      "force_rms_before_n": list(sheet.rms_before_n), "force_rms_after_n": list(sheet.rms_after_n),
+                      "samples": sheet.samples},
+            "springback": None if result.springback is None else result.springback._asdict(),
+            "before": gaps(result.before), "after_fitted": gaps(result.after),
+            "held_out_predicted": gaps(result.held_out),
+        }
+
+
+def learn_task(request: LearnRequest, note: Note = silent) -> LearnReport:
+    """Learn the cell from its runs, and write the learned twin if asked.
+
+    Raises:
+        InputError: Runs of different robots or placements, runs without forces or forming contact.
+        RunFormatError: A bad run folder (naming the file and row).
+    """
+    runs = [read_run(path) for path in request.runs]
+    prior = read_model_file(request.model) if request.model is not None else None
+    result = learn(runs, prior)
+    if request.write_model is not None:
+        names = ", ".join(str(p) for p in request.runs)
+        write_model_file(request.write_model, result.spec,
+                         protect=[*request.runs, *([request.model] if request.model is not None else [])],
+                         note=f"learned by `tx200-twin learn` from {names}: K_q, joint friction and the sheet's "
+                         "force model are fitted to those runs")
+    return LearnReport(result, request.write_model)
+
+
+def _stiffness_words(robot: RobotFit) -> list[str]:
+    """Each joint's learned K_q [kN·m/rad]: with its spread and change of compliance, a lower bound, or the prior."""
+    joints = []
+    for j, (k, s, k0, seen) in enumerate(zip(robot.k_q_nm_per_rad, robot.std_nm_per_rad, robot.prior_nm_per_rad,
+                                              robot.observable, strict=True)):
+        if not seen:
+            joints.append(f"j{j + 1} {k0 / 1e3:.0f} (prior: not observed)")
+        elif s > 0.5 * k:  # its compliance is not told from 0: a lower bound
+            joints.append(f"j{j + 1} > {k / (1 + 2 * s / k) / 1e3:.0f} (stiffer than the run resolves)")
+        else:
+            joints.append(f"j{j + 1} {k / 1e3:.0f} ± {s / 1e3:.0f} ({100 * (k0 / k - 1):+.0f} % compliance)")
+    return joints
+
+
+def _springback_words(result: LearnResult) -> str:
+    """The springback learned from the part profiles, or why none was."""
+    spring = result.springback
+    if spring is None:
+        return ("  springback: no part profile in the runs (a 3-D scan: `identify --springback RUN --design "
+                "STL`)")
+    bound = f" (at its bound: {', '.join(spring.at_bound)})" if spring.at_bound else ""
+    return (f"  springback (from the part profiles): recovery {spring.recovery_scale:.3f} x the model's "
+            f"F/k_unload, depth kept {spring.depth_ratio:.3f}{bound}; profile "
+            + ", ".join(f"{a:.3f} -> {b:.3f} mm" for a, b in zip(spring.rms_before_mm, spring.rms_after_mm,
+                                                                  strict=True)))
+
+
+def _gap(gap: Gap) -> str:
+    """A replay gap: tool tip [mm] / force [N], and the part's profile [mm] where there is one."""
+    profile = "" if np.isnan(gap.profile_rms_mm) else f", profile {gap.profile_rms_mm:.3f} mm"
+    return f"{gap.position_rms_mm:.3f} mm / {gap.force_rms_n:.0f} N{profile}"
+
+
+def _servo_words(robot: RobotFit) -> str:
+    """The servo transient learned, its compliance as a share of each joint's."""
+    if robot.servo is None:
+        return "no servo transient seen"
+    share = ", ".join(f"j{j + 1} {cs * k:.2f}" for j, (cs, k) in enumerate(
+        zip(robot.servo.compliance_rad_per_nm, robot.k_q_nm_per_rad, strict=True)) if cs != 0)
+    return (f"servo transient over {1e3 * robot.servo.time_constant_s:.0f} ms, its compliance over the joint's "
+            f"{share} (negative: the deflection lags the force)")
