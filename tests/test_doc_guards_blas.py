@@ -1,0 +1,42 @@
+"""The doc guards hold under another floating-point set-up than the suite's own.
+
+Machines of our kind differ in their BLAS kernel (`OPENBLAS_CORETYPE` is set on some) and in its threads; a
+documented number that moves in its third digit between them must not fail a test. The suite runs with the
+machine's own BLAS (threads = cores); this test runs the guards of the generated pages and of README's demo table
+again in a child process with one BLAS thread and an older kernel (x86: Prescott, SSE3; arm: ARMV8), so every
+`make test` checks them under two set-ups (the tolerances: `tests/doc_numbers.py`).
+"""
+
+from __future__ import annotations
+
+import os
+import platform
+import subprocess
+import sys
+from pathlib import Path
+
+TESTS = Path(__file__).resolve().parent
+GUARDS = (
+    "test_doc_numbers.py",
+    "test_force_validation.py::test_the_page_is_the_one_a_fresh_run_writes",
+    "test_force_validation.py::test_the_springback_section_stands_beside_the_published_one",
+    "test_robots.py::test_the_robots_page_is_the_one_a_fresh_run_writes",
+    "test_demo.py::test_the_readme_demo_table_is_the_one_the_demo_gives",
+    "test_plant_sheet.py::test_the_steady_cone_force_against_numisheet_bm3_measured",
+)
+
+
+def _other_kernel() -> str:
+    return "ARMV8" if platform.machine().lower() in ("aarch64", "arm64") else "Prescott"
+
+
+def test_the_doc_guards_pass_with_one_blas_thread_and_another_kernel(tmp_path: Path) -> None:
+    env = {**os.environ, "OPENBLAS_NUM_THREADS": "1", "OPENBLAS_CORETYPE": _other_kernel(),
+           "PYTHONDONTWRITEBYTECODE": "1"}
+    done = subprocess.run(
+        [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "-p", "no:randomly", "-n", "0",
+         "--basetemp", str(tmp_path / "t"), *(str(TESTS / g) for g in GUARDS)],
+        cwd=TESTS.parent, env=env, capture_output=True, text=True, timeout=600, check=False,
+    )
+    assert done.returncode == 0, f"doc guards under {env['OPENBLAS_CORETYPE']}, 1 thread:\n{done.stdout[-3000:]}"
+    assert " passed" in done.stdout.splitlines()[-1] and "failed" not in done.stdout.splitlines()[-1]
