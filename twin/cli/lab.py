@@ -41,6 +41,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--set", action="append", metavar="NAME=VALUE", help="dynamic plant knob, repeatable (docs/dynamic-plant.md lists them)"
     )
     parser.add_argument("--neutral", action="store_true", help="dynamic plant: start from the neutral knobs")
+    parser.add_argument("--online", action="store_true", help="dynamic plant: its controller compensates online "
+                        "each 4 ms cycle with the twin's compensator on the plant's F/T stream (docs/online.md)")
+    parser.add_argument("--model", type=Path, help="with --online: the compensator's twin (a `learn`ed model file)")
     parser.add_argument("--seed", type=seed, required=True, help="seed of the lab's noise")
     add_force_model_argument(parser)
     add_process_arguments(parser)
@@ -58,6 +61,6 @@ def run(args: argparse.Namespace) -> int:
     request = LabRequest(
         args.scenario, args.out, args.seed, args.commanded, tuple(args.effect or ()), args.plant,
         tuple(args.set or ()), args.neutral, args.force_model, process_declaration(args), args.robot,
-        placement_from(args), args.overwrite,
+        placement_from(args), args.overwrite, args.online, args.model,
     )
-    return finish(args, lab_task(request, note), protect=(args.commanded, args.process))
+    return finish(args, lab_task(request, note), protect=(args.commanded, args.process, args.model))

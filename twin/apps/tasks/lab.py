@@ -52,6 +52,9 @@ class LabRequest:
         robot: A robot name or description file; None: the default robot.
         placement: The sheet frame in the robot base (nominal and compensated runs; recorded in meta.json).
         overwrite: Replace an existing output.
+        online: The dynamic plant's controller compensates online each 4 ms cycle with the twin's compensator
+            (`twin.sim.online`), on the plant's own F/T stream.
+        model: The model file the online compensator's twin is (a `learn`ed one); None: the default twin.
     """
 
     scenario: str
@@ -67,6 +70,8 @@ class LabRequest:
     robot: str | Path | None = None
     placement: Placement = field(default_factory=Placement)
     overwrite: bool = False
+    online: bool = False
+    model: Path | None = None
 
     def __post_init__(self) -> None:
         for option, value, valid in (("--scenario", self.scenario, SCENARIOS), ("--plant", self.plant,
@@ -104,6 +109,8 @@ class LabPlant(NamedTuple):
 
 
 def _check_quasi_static(request: LabRequest) -> None:
+    if request.online or request.model is not None:
+        raise InputError("--online and --model run the twin's compensator in a controller: they need --plant dynamic")
     if request.knobs or request.neutral:
         raise InputError("--set and --neutral are knobs of --plant dynamic; the quasi-static lab takes --effect")
     parse_effect_args(list(request.effects))
@@ -117,6 +124,10 @@ def _check_dynamic(request: LabRequest) -> None:
                          "--set NAME=VALUE")
     if request.scenario == "cnc":
         raise InputError("--scenario cnc is the rigid machine; it does not apply to --plant dynamic (a robot)")
+    if (request.online or request.model is not None) and request.scenario == "loadtest":
+        raise InputError("--online compensates a forming run; --scenario loadtest holds loads at home")
+    if request.model is not None and not request.online:
+        raise InputError("--model is the online compensator's twin: give --online with it")
 
 
 def _run_dynamic(request: LabRequest, note: Note) -> Report:

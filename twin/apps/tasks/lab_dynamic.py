@@ -13,11 +13,13 @@ from typing import Any
 import numpy as np
 
 from twin.analysis.identify.cartesian import THESIS_TABLE_4_2_LOADS_N
-from twin.analysis.resolve import resolve_process, resolve_robot
+from twin.analysis.resolve import resolve_process, resolve_robot, resolve_spec
 from twin.apps.tasks.base import Note, Report, silent
 from twin.apps.tasks.lab import LabRequest, LoadTestReport, check_out, compensation_record, write_load_cases
+from twin.base.csvio import write_table
 from twin.base.signals import interp_rows
 from twin.lab.dynamic.knobs import parse_set_args
+from twin.lab.dynamic.online import OnlineLog
 from twin.lab.dynamic.run import dynamic_load_test, run_dynamic_lab
 from twin.process.description import Process
 from twin.runs.read import lab_commanded
@@ -51,18 +53,26 @@ class DynamicRunReport(Report):
     peak_force_n: float
     steps: int
     wall_s: float
+    online: dict[str, float] | None = None
 
     def lines(self) -> list[str]:
-        return [f"lab {self.scenario} (dynamic plant, {self.steps} steps in {self.wall_s:.1f} s): "
-                f"{self.tracker_samples} tracker / {self.force_samples} force samples, "
-                f"max |measured - commanded| {self.deviation_max_mm:.2f} mm, "
-                f"peak |F| {self.peak_force_n:.0f} N -> {self.out}"]
+        lines = [f"lab {self.scenario} (dynamic plant, {self.steps} steps in {self.wall_s:.1f} s): "
+                 f"{self.tracker_samples} tracker / {self.force_samples} force samples, "
+                 f"max |measured - commanded| {self.deviation_max_mm:.2f} mm, "
+                 f"peak |F| {self.peak_force_n:.0f} N -> {self.out}"]
+        if self.online is not None:
+            o = self.online
+            lines.append(f"  online: {o['cycles']:.0f} cycles, correction up to {o['correction_max_mm']:.2f} mm, "
+                         f"compute p50 {o['compute_p50_us']:.1f} / p99 {o['compute_p99_us']:.1f} / max "
+                         f"{o['compute_max_us']:.0f} µs per cycle")
+        return lines
 
     def record(self) -> dict[str, Any]:
+        online = {} if self.online is None else {"online": self.online}
         return {"scenario": self.scenario, "plant": "dynamic", "out": self.out, "seed": self.seed,
                 "knobs_changed_from_neutral": self.knobs_changed, "tracker_samples": self.tracker_samples,
                 "force_samples": self.force_samples, "measured_deviation_max_mm": self.deviation_max_mm,
-                "peak_force_n": self.peak_force_n, "simulation_wall_s": self.wall_s}
+                "peak_force_n": self.peak_force_n, "simulation_wall_s": self.wall_s, **online}
 
 
 def dynamic_lab_task(request: LabRequest, note: Note = silent) -> Report:
@@ -88,21 +98,61 @@ def dynamic_lab_task(request: LabRequest, note: Note = silent) -> Report:
         write_load_cases(request.out, loads, deflections)
         return LoadTestReport(request.out, len(loads), plant="dynamic")
     p_cmd = commanded.values
+    compensator = None
+    if request.online:  # the twin beside the controller, at the run's placement
+        from twin.sim.online import OnlineCompensator
+
+        spec = resolve_spec(model=request.model, robot=robot, placement=request.placement, p_sheet_m=p_cmd)
+        compensator = OnlineCompensator(spec)
     run, truth, log = run_dynamic_lab(
         commanded.t_s, p_cmd, scenario=request.scenario, knobs=knobs, seed=request.seed, progress=_NoteStream(note),
-        process=process, placement=request.placement, robot=robot,
+        process=process, placement=request.placement, robot=robot, corrector=compensator,
     )
     truth["force_model"] = process.force_model
     if record is not None:  # what the compensation used travels with the run, for `check`
         run = replace(run, meta={**run.meta, "compensation": record.to_json()})
+    if compensator is not None:
+        run = replace(run, meta={**run.meta, "online": online_record(compensator, request.model)})
     write_run(request.out, run, truth=truth, overwrite=request.overwrite, protect=protect)
+    if log.online is not None:
+        write_online_log(request.out / ONLINE_LOG, log.online)
     deviation = run.tracker.values - interp_rows(run.tracker.t_s, run.commanded.t_s, p_cmd)
     assert run.forces is not None
     return DynamicRunReport(
         request.scenario, request.out, request.seed, knobs.changed(), len(run.tracker.t_s), len(run.forces.t_s),
         1e3 * float(np.max(np.linalg.norm(deviation, axis=1))),
         float(np.max(np.linalg.norm(run.forces.values, axis=1))), log.t_s.size, log.wall_s,
+        None if log.online is None else online_summary(log.online),
     )
+
+
+#: What the online compensator did, each cycle, beside the run's files (not part of the run format).
+ONLINE_LOG = "online.csv"
+
+
+def online_record(compensator: Any, model: Path | None) -> dict[str, Any]:
+    """The meta.json entry of an online run: the compensator's settings and its twin."""
+    from dataclasses import asdict
+
+    return {"settings": asdict(compensator.settings), "model": None if model is None else str(model),
+            "log": ONLINE_LOG}
+
+
+def write_online_log(path: Path, log: OnlineLog) -> None:
+    """Each cycle: time, correction [mm] (sheet frame), compute time [µs], status code."""
+    write_table(path, {"t_s": log.t_s, "dx_mm": 1e3 * log.correction_m[:, 0], "dy_mm": 1e3 * log.correction_m[:, 1],
+                       "dz_mm": 1e3 * log.correction_m[:, 2], "compute_us": 1e6 * log.compute_s,
+                       "status": log.status},
+                formats={"t_s": ".4f", "dx_mm": ".5f", "dy_mm": ".5f", "dz_mm": ".5f", "compute_us": ".2f"})
+
+
+def online_summary(log: OnlineLog) -> dict[str, float]:
+    """The correction's largest size [mm] and the per-cycle compute time's p50, p99 and max [µs]."""
+    compute = 1e6 * log.compute_s[1:]  # the first cycle compiles nothing but warms caches
+    return {"cycles": float(log.t_s.size),
+            "correction_max_mm": 1e3 * float(np.max(np.linalg.norm(log.correction_m, axis=1))),
+            "compute_p50_us": float(np.percentile(compute, 50)), "compute_p99_us": float(np.percentile(compute, 99)),
+            "compute_max_us": float(np.max(compute))}
 
 
 class _NoteStream(io.StringIO):

@@ -14,6 +14,7 @@ import numpy as np
 
 from twin.base.signals import interp_rows
 from twin.lab.dynamic.knobs import Knobs
+from twin.lab.dynamic.online import CycleCorrector
 from twin.lab.dynamic.plant import Plant, build_plant
 from twin.lab.dynamic.sensors import ft_reading, part_scan, profile_scan, tracker_reading
 from twin.lab.dynamic.simulate import DynamicLog, simulate
@@ -40,6 +41,7 @@ def run_dynamic_lab(
     placement: Placement | None = None,
     robot: str | RobotDescription | None = None,
     declared: Process | None = None,
+    corrector: CycleCorrector | None = None,
 ) -> tuple[Run, dict[str, Any], DynamicLog]:
     """Run the commanded path on the dynamic plant and measure it.
 
@@ -56,6 +58,8 @@ def run_dynamic_lab(
         robot: The robot (its model folder builds the plant); None: the default robot.
         declared: The process the run's meta.json records, as a cell's user declared it (a sheet other than the
             one formed, which truth.json then records); None: the process formed with.
+        corrector: An online corrector the controller calls each cycle (`simulate.simulate`); its F/T samples'
+            noise is seeded by [seed, 1]. None: none.
 
     Returns:
         The run (not yet written), the truth record for `truth.json`, and the physical log.
@@ -64,7 +68,8 @@ def run_dynamic_lab(
     process = process or Process()
     # the controller's trajectory generator stops at sharp corners: its timing is the run's commanded stream
     t_s = retime_with_stops(t_s, p_cmd_sheet_m, knobs["trajectory_accel_mps2"])
-    log = simulate(t_s, p_cmd_sheet_m, knobs, process=process, plant=plant, progress=progress, placement=placement)
+    log = simulate(t_s, p_cmd_sheet_m, knobs, process=process, plant=plant, progress=progress, placement=placement,
+                   corrector=corrector, online_seed=int(np.random.SeedSequence([seed, 1]).generate_state(1)[0]))
     rng = np.random.default_rng(seed)
     t_tracker, tracker = tracker_reading(log, knobs, rng)
     t_ft, forces = ft_reading(log, knobs, rng, plant.tool_mass_kg)

@@ -22,18 +22,22 @@ One `numpy` generator, seeded by the caller, draws the tracker noise, then the f
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from twin.base.signals import interp_rows
 from twin.lab.dynamic.knobs import Knobs
-from twin.lab.dynamic.simulate import DynamicLog
 from twin.process.part.springback import scanned_profile
 from twin.process.part.surface import surface_points
+
+if TYPE_CHECKING:
+    from twin.lab.dynamic.simulate import DynamicLog
 
 GRAVITY_M_PER_S2 = 9.81
 _REG_TRANSLATION_AXIS = np.array([1.0, -1.0, 1.0]) / np.sqrt(3.0)
 _REG_ROTATION_AXIS = np.array([1.0, 1.0, 1.0]) / np.sqrt(3.0)
-_CROSSTALK_PATTERN = np.array([[0.0, 1.0, -1.0], [-1.0, 0.0, 1.0], [1.0, -1.0, 0.0]])
+CROSSTALK_PATTERN = np.array([[0.0, 1.0, -1.0], [-1.0, 0.0, 1.0], [1.0, -1.0, 0.0]])
 
 
 def stamp_times(t_end_s: float, rate_hz: float) -> np.ndarray:
@@ -47,7 +51,7 @@ def physical_times(stamps_s: np.ndarray, *, latency_s: float, offset_s: float, s
     return (np.asarray(stamps_s) - offset_s) / (1.0 + 1e-6 * skew_ppm) - latency_s
 
 
-def _quantise(values: np.ndarray, quantum: float) -> np.ndarray:
+def quantise(values: np.ndarray, quantum: float) -> np.ndarray:
     return values if quantum <= 0.0 else quantum * np.round(values / quantum)
 
 
@@ -70,7 +74,7 @@ def tracker_reading(log: DynamicLog, knobs: Knobs, rng: np.random.Generator) -> 
     R_reg = _rotation(_REG_ROTATION_AXIS, 1e-3 * knobs["tracker_reg_mrad"])
     tip = tip @ R_reg.T + 1e-3 * knobs["tracker_reg_mm"] * _REG_TRANSLATION_AXIS
     tip = tip + rng.normal(0.0, 1e-3 * knobs["tracker_noise_mm"], tip.shape)
-    return stamps, _quantise(tip, 1e-3 * knobs["tracker_quantum_mm"])
+    return stamps, quantise(tip, 1e-3 * knobs["tracker_quantum_mm"])
 
 
 def ft_reading(
@@ -89,10 +93,10 @@ def ft_reading(
     weight_world = np.array([0.0, 0.0, -GRAVITY_M_PER_S2 * tool_mass_kg])
     weight_local = np.einsum("nji,j->ni", R_world_ft, weight_world)
     f_local = -reading - weight_local  # sheet on tool = -(sensor on tool) - weight, static tare
-    crosstalk = np.eye(3) + knobs["ft_crosstalk"] * _CROSSTALK_PATTERN
+    crosstalk = np.eye(3) + knobs["ft_crosstalk"] * CROSSTALK_PATTERN
     f_local = f_local @ crosstalk.T + knobs["ft_bias_n"]
     f_local = f_local + rng.normal(0.0, knobs["ft_noise_n"], f_local.shape)
-    f_local = _quantise(f_local, knobs["ft_quantum_n"])
+    f_local = quantise(f_local, knobs["ft_quantum_n"])
     return stamps, np.einsum("nij,nj->ni", R_world_ft, f_local) @ log.R_world_sheet  # world, then sheet frame
 
 

@@ -30,6 +30,7 @@ from twin.lab.dynamic.controller import (
     setpoint_acceleration,
 )
 from twin.lab.dynamic.knobs import Knobs
+from twin.lab.dynamic.online import CycleCorrector, OnlineCycle, OnlineFt, OnlineLog
 from twin.lab.dynamic.plant import Plant, build_plant
 from twin.lab.dynamic.sheet import PlantSheet
 from twin.process.description import Process
@@ -68,6 +69,7 @@ class DynamicLog:
             in 3-D (any force model but the groove's `table`: the thesis's cell scanned only a profile), else
             None.
         R_world_sheet: Orientation of the sheet frame in the world (the placement's yaw) [-], shape (3, 3).
+        online: What an online corrector did each cycle, or None.
     """
 
     t_s: np.ndarray
@@ -84,6 +86,7 @@ class DynamicLog:
     wall_s: float
     formed_surface: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
     R_world_sheet: np.ndarray = field(default_factory=lambda: np.eye(3))
+    online: OnlineLog | None = None
 
 
 def simulate(
@@ -96,6 +99,8 @@ def simulate(
     progress: TextIO | None = None,
     tip_force_n: np.ndarray | None = None,
     placement: Placement | None = None,
+    corrector: CycleCorrector | None = None,
+    online_seed: int = 0,
 ) -> DynamicLog:
     """Run the commanded tool-tip path on the dynamic plant.
 
@@ -110,6 +115,10 @@ def simulate(
         tip_force_n: A force on the tool tip, world frame [N], instead of the sheet (load tests); it rises
             linearly over `LOAD_RAMP_S` from t = 0.
         placement: Where the sheet lies in the cell (origin, yaw); None: the cell's `sheet_origin`, yaw 0.
+        corrector: A corrector the controller calls every `cycle_s` with the F/T sensor's newest sample (the
+            plant's own sensor chain, `OnlineFt`) and the motor angles; its Cartesian correction moves the joint
+            set-points through the controller's rigid model, held until the next cycle. None: no correction.
+        online_seed: Seed of the online F/T samples' noise.
 
     Returns:
         The log at every servo tick.
@@ -123,7 +132,12 @@ def simulate(
     process = process or Process()
     sheet = PlantSheet(process, 1e-3 * knobs["friction_reversal_mm"])
     scanned = process.force_model != "table"
-    return _step(plant, plan, sheet, scanned, _settled(plant, plan), tip_force_n, progress)
+    online = None
+    if corrector is not None:
+        ft = OnlineFt(knobs, np.random.default_rng(online_seed), plant.tool_mass_kg, plan.R_ws,
+                      plant.model.opt.timestep)
+        online = (corrector, ft)
+    return _step(plant, plan, sheet, scanned, _settled(plant, plan), tip_force_n, progress, online)
 
 
 class _Plan(NamedTuple):
@@ -139,6 +153,7 @@ class _Plan(NamedTuple):
     R_ws: np.ndarray  # the sheet's axes in the world
     rest_qpos: np.ndarray  # the unloaded arm at rest on the first set-point
     rest_ctrl: np.ndarray  # its servo ctrl (no velocity feed-forward) [rad]
+    kin: Kinematics  # the controller's rigid model (an online correction's joint offsets)
 
 
 def _plan(plant: Plant, knobs: Knobs, t_cmd: np.ndarray, p_cmd: np.ndarray, place: Placement) -> _Plan:
@@ -161,7 +176,7 @@ def _plan(plant: Plant, knobs: Knobs, t_cmd: np.ndarray, p_cmd: np.ndarray, plac
     return _Plan(
         t_tick, q_sp, q_sp + (gains.kv * dq_sp + tau_ff) / gains.kp, gains.ki / gains.kp,
         [int(v) for v in pass_cmd[idx]], [int(v) for v in dir_cmd[idx]], origin, R_ws,
-        rest_state(plant, q_ik[0], g_ik[0]), q_sp[0] + g_ff[0] / gains.kp,
+        rest_state(plant, q_ik[0], g_ik[0]), q_sp[0] + g_ff[0] / gains.kp, kin,
     )
 
 
@@ -199,9 +214,10 @@ class _Logs(NamedTuple):
 def _step(
     plant: Plant, plan: _Plan, sheet: PlantSheet, scanned: bool, d: mujoco.MjData, tip_force_n: np.ndarray | None,
     progress: TextIO | None,
+    online: tuple[CycleCorrector, OnlineFt] | None = None,
 ) -> DynamicLog:
     """Step the plant through every tick against the sheet (or the load), and log what happened."""
-    m, (t_tick, _, _, _, _, dirs, origin, R_ws, _, _) = plant.model, plan
+    m, (t_tick, _, _, _, _, dirs, origin, R_ws, _, _, _) = plant.model, plan
     dt = m.opt.timestep
     band = plant.dead_band_joints
     band_qpos, band_dof, half_band = plant.link_qpos[band], plant.link_dof[band], plant.backlash_rad[band] / 2.0
@@ -212,12 +228,16 @@ def _step(
     log, integral = _Logs.empty(n_tick, plant.dof), np.zeros(plant.dof)
     sheet.start((tip - origin) @ R_ws, dirs[0])
     step_report = max(1, n_tick // 10)
+    cycle = OnlineCycle(online, plan.kin, plan.q_sp, R_ws, dt, n_tick) if online is not None else None
+    dq = np.zeros(plant.dof)
     start = time.perf_counter()
     for k in range(n_tick):
         mujoco.mj_step1(m, d)  # positions and velocities: the tip is current
-        err = plan.q_sp[k] - d.qpos[motor_qpos]
+        if cycle is not None and k % cycle.every == 0:
+            dq = cycle.run(k, t_tick[k], d.qpos[motor_qpos], log.ft, log.R)
+        err = plan.q_sp[k] + dq - d.qpos[motor_qpos]
         integral += err * dt
-        d.ctrl[:] = plan.ctrl_ff[k] + plan.ki_over_kp * integral
+        d.ctrl[:] = plan.ctrl_ff[k] + dq + plan.ki_over_kp * integral
         p = (tip - origin) @ R_ws  # sheet frame
         if tip_force_n is None:
             f = sheet.force(p)
@@ -253,6 +273,7 @@ def _step(
         t_s=t_tick, p_tip_sheet_m=log.p, f_sheet_n=log.f, f_ft_local_n=log.ft, R_world_ft=log.R.reshape(n_tick, 3, 3),
         q_link=log.q, q_motor_error=log.e, q_play=log.b, formed_x_m=x_m, formed_z_m=z_loaded,
         unloaded_z_m=z_unloaded, wall_s=wall, formed_surface=surface, R_world_sheet=R_ws,
+        online=None if cycle is None else cycle.log(),
     )
 
 

@@ -5,6 +5,7 @@ hinges (`chain.chain_arrays`) and the force model declares a kernel (`ForceField
 per-pass `SheetForceField` (bare or inside the tool's `SlidingFriction`), or `isf`, the height-map ISF model
 `IsfForceField` (`isf`); it returns None otherwise and the twin
 runs its Python loop, which calls MuJoCo per Newton iteration. Both give the same equilibria (`tests/test_compiled_replay.py`: ≤ 1e-9 m).
+`online` is the online compensator's cycle (`twin.sim.online`), on the same chain.
 
 The kernels are compiled on their first call and cached in this package's `__pycache__` (numba `cache=True`).
 numba re-validates a cached kernel against its own source file only, not against the files of the kernels it
@@ -32,7 +33,7 @@ from twin.sim.compiled.work import work_arrays
 from twin.sim.result import LoopOutput
 
 #: The numba kernel modules (their sources together key the kernel cache).
-KERNEL_SOURCES = ("chain.py", "field.py", "isf.py", "isf_map.py", "learned.py", "loop.py", "work.py")
+KERNEL_SOURCES = ("chain.py", "field.py", "isf.py", "isf_map.py", "learned.py", "loop.py", "online.py", "work.py")
 
 
 def drop_stale_kernels(here: Path = Path(__file__).parent) -> bool:

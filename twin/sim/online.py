@@ -1,0 +1,161 @@
+"""The online compensator: each controller cycle, the F/T sample and the robot's joints in, a Cartesian correction
+of the tool path out, from the twin's model of the robot.
+
+A cell's F/T sensor measures the sheet's force as it happens; the twin knows what that force does to the tool tip:
+the deflection C(q) F with C(q) = J(q) K_q^-1 J(q)^T, the translational Jacobian of the tool tip at the robot's
+current joints and the twin's joint stiffness (a `learn`ed model's where given), and the lag of its joint friction,
+-sum_j J_j tanh(qdot_j / w0) tau_f,j / K_j (each joint's Coulomb friction tau_f against its motion, its speed from
+the joints of successive cycles). The compensator commands the tip the other way and does what a real signal
+needs:
+
+* **filtering**: a first-order low-pass on the force (`filter_hz`), so sensor noise does not reach the motors;
+* **latency**: the filtered force is predicted forward by the sensor's latency plus the sample's age, from its
+  filtered rate of change (`latency_s`);
+* **spikes**: a sample further than `spike_n` from the filtered force is rejected (counted), as a broken packet;
+  `spike_run` such samples in a row are a real change of level (a contact), and the next one is taken;
+* **limits**: the correction's size (`max_correction_mm`, default 5 mm) and its rate (`max_rate_mm_s`): no
+  correction steps by more than the rate allows in one cycle, whatever the input;
+* **watchdog**: no correction before a first sample (no start without a sensor); a sample older than `stale_s`
+  holds the last correction for `hold_s`, then ramps it out at the rate limit: never a jump.
+
+Every cycle is one compiled call (`twin.sim.compiled.online.online_cycle`) on arrays allocated when the compensator is built: no allocation per
+cycle, bounded work (one chain evaluation, a 3x3 product). `OnlineCompensator.step` returns a view of its own
+correction array; the status of the cycle is one of `STATUS`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields
+
+import numpy as np
+
+from twin.errors import InputError
+from twin.robot.model import build_model
+from twin.sim.compiled.chain import ChainArrays, chain_arrays
+from twin.sim.compiled.online import (
+    CORR,
+    HOLDING,
+    NO_SENSOR,
+    RAMPING,
+    SPIKE,
+    SPIKES,
+    STATE_SIZE,
+    TRACKING,
+    online_cycle,
+)
+from twin.sim.spec import TwinSpec
+
+#: What a cycle did (`OnlineCompensator.step`'s return).
+STATUS = ("no_sensor", "tracking", "spike_rejected", "holding", "ramping_out")
+#: Joint speed below which the friction's sign turns smoothly (tanh), as `learn` fits it [rad/s].
+SPEED_SMOOTHING_RAD_S = 2e-4
+
+
+@dataclass(frozen=True)
+class OnlineSettings:
+    """What the compensator does with a real signal (module docstring).
+
+    Attributes:
+        cycle_s: The controller cycle [s] (KUKA RSI 4 or 12 ms, ABB EGM 4 ms).
+        filter_hz: Cut-off of the force's first-order low-pass [Hz].
+        latency_s: The sensor's latency to predict over [s] (0: none).
+        spike_n: A sample this far from the filtered force is rejected [N].
+        spike_run: At most this many samples in a row are rejected; the next is a new level, taken.
+        max_correction_mm: Largest correction [mm].
+        max_rate_mm_s: Largest rate of change of the correction [mm/s].
+        stale_s: A sample older than this is stale [s].
+        hold_s: A stale correction is held this long before it ramps out [s].
+        gain: Share of the predicted deflection corrected [-] (1: all of it).
+    """
+
+    cycle_s: float = 0.004
+    filter_hz: float = 10.0
+    latency_s: float = 0.0
+    spike_n: float = 1500.0
+    spike_run: int = 2
+    max_correction_mm: float = 5.0
+    max_rate_mm_s: float = 20.0
+    stale_s: float = 0.1
+    hold_s: float = 0.1
+    gain: float = 1.0
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.spike_run, int) and self.spike_run >= 0):
+            raise InputError(f"online setting spike_run = {self.spike_run!r}: expected a whole number >= 0")
+        for f in fields(self):
+            if f.name == "spike_run":
+                continue
+            value = getattr(self, f.name)
+            ok = math.isfinite(value) and (value >= 0.0 if f.name in ("latency_s", "hold_s") else value > 0.0)
+            if not ok:
+                raise InputError(f"online setting {f.name} = {value!r}: expected a finite number "
+                                 f"{'>= 0' if f.name in ('latency_s', 'hold_s') else '> 0'}")
+        if self.gain > 1.5:
+            raise InputError(f"online setting gain = {self.gain!r}: expected at most 1.5 (1: the whole deflection)")
+
+    def params(self) -> np.ndarray:
+        """The settings as the compiled cycle reads them (SI)."""
+        return np.array([self.cycle_s, 2.0 * math.pi * self.filter_hz, self.latency_s, self.spike_n,
+                         1e-3 * self.max_correction_mm, 1e-3 * self.max_rate_mm_s * self.cycle_s, self.stale_s,
+                         self.hold_s, self.gain, float(self.spike_run)])
+
+
+class OnlineCompensator:
+    """The twin's robot beside a controller: `step` once per cycle.
+
+    Args:
+        spec: The twin (its robot, placement and joint stiffness; a learned model file's spec).
+        settings: Filtering, limits and watchdog.
+    """
+
+    def __init__(self, spec: TwinSpec | None = None, settings: OnlineSettings | None = None) -> None:
+        spec = spec or TwinSpec()
+        self.settings = settings or OnlineSettings()
+        twin = spec.build()
+        model = build_model(twin.robot)  # the plain arm: its joints are the controller's
+        if model.nv != twin.robot.dof:
+            raise InputError(f"online compensation needs a plain {twin.robot.dof}-joint arm; {twin.robot.name} "
+                             f"compiles to {model.nv} dofs")
+        chain = chain_arrays(model, model.site(twin.robot.tool_site).id, twin.p_base_sheet_origin, twin.R_base_sheet)
+        if chain is None:
+            raise InputError(f"robot {twin.robot.name}: its chain is not one the compiled compensator evaluates")
+        self._chain: ChainArrays = chain
+        self.dof = twin.robot.dof
+        self.k_inv = 1.0 / np.asarray(twin.joint_stiffness, dtype=float)
+        self.friction_nm = np.asarray(twin.joint_friction, dtype=float)
+        self._params = np.append(self.settings.params(), SPEED_SMOOTHING_RAD_S)
+        self._state = np.zeros(STATE_SIZE)
+        self._q_prev = np.zeros(self.dof)
+        self._p, self._jac, self._g = np.zeros(3), np.zeros((3, self.dof)), np.zeros(self.dof)
+        self.correction_m = self._state[CORR:CORR + 3]  # a view: the correction of the last cycle, sheet frame
+        self.cycle_s = self.settings.cycle_s
+
+    def reset(self) -> None:
+        """Back to the start: no sample seen, no correction."""
+        self._state[:] = 0.0
+        self._q_prev[:] = 0.0
+
+    @property
+    def spikes_rejected(self) -> int:
+        """Samples rejected as spikes so far."""
+        return int(self._state[SPIKES])
+
+    def step(self, t_s: float, sample_t_s: float, f_sheet_n: np.ndarray, q_rad: np.ndarray) -> int:
+        """One controller cycle.
+
+        Args:
+            t_s: Now, on the controller's clock [s].
+            sample_t_s: Stamp of the newest F/T sample [s] (the same as last cycle's: no new sample; NaN: none yet).
+            f_sheet_n: That sample: the force of the sheet on the tool, sheet frame [N], shape (3,).
+            q_rad: The robot's joints now [rad], shape (dof,).
+
+        Returns:
+            The cycle's status (`STATUS`); the correction is in `correction_m` [m], sheet frame: add it to the
+            commanded tool tip.
+        """
+        return int(online_cycle(self._chain, self._params, self.k_inv, self.friction_nm, self._state, self._q_prev,
+                          float(t_s), float(sample_t_s), f_sheet_n, q_rad, self._p, self._jac, self._g))
+
+
+__all__ = ["HOLDING", "NO_SENSOR", "RAMPING", "SPIKE", "STATUS", "TRACKING", "OnlineCompensator", "OnlineSettings"]
