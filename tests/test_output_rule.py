@@ -89,6 +89,8 @@ CASES: dict[str, list[tuple[list[str], dict[str, str], str]]] = {
     ],
     "robots": [(["--file", "r.toml", "--markdown", "r.toml"], {"r.toml": "x = 1\n"}, "--markdown r.toml")],
     "materials": [(["--file", "m.toml", "--json", "m.toml"], {"m.toml": "x = 1\n"}, "--json m.toml")],
+    "online": [(["--serve", "rsi", "--port", "0", "--model", "m.json", "--json", "m.json"], {"m.json": "{}"},
+                "--json m.json")],
 }
 NO_CASE = {"calibrate": "its only path is its one output, --json"}
 

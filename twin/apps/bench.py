@@ -101,6 +101,9 @@ def run_benchmarks(
     out["placement"] = place_cost(width_m, depth_m, min(repeats, 3), candidates=512 if samples is None else 64)
     out["place_over_simulation"] = out["placement"]["over_simulation"]
     out["place_best_over_default_rms"] = out["placement"]["best_over_default_rms"]
+    from twin.apps.bench_online import online_benchmarks  # the online compensator's real-time figures
+
+    out.update(online_benchmarks(smoke=samples is not None))
     out["machine"] = machine_info()
     return out
 

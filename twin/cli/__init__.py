@@ -1,7 +1,7 @@
 """Command line `tx200-twin`: one module per command in this package, listed in COMMANDS.
 
 Modules: `info`, `path`, `fe_history`, `identify`, `calibrate`, `reproduce`, `force_validation`, `lab`, `replay`, `learn`,
-`compensate`, `check`, `bench`, `sweep`, `place`, `discrepancy`, `demo`, `import_run` (`import`), `export`, `materials` and `robots`,
+`compensate`, `check`, `bench`, `sweep`, `place`, `discrepancy`, `demo`, `import_run` (`import`), `export`, `online`, `materials` and `robots`,
 one per command, each over its task (`twin/apps/tasks/`: a typed request, a report); `_common` holds the options
 several commands share (the FE history, the force model, the declared process, the placement, `--json`) and
 `finish`; `_types` the argparse types with plausible ranges (seeds, counts, lengths, feeds).
@@ -66,6 +66,7 @@ COMMANDS: dict[str, str] = {
     "demo": "demo",
     "import": "import_run",
     "export": "export",
+    "online": "online",
     "robots": "robots",
     "materials": "materials",
 }
