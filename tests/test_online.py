@@ -3,6 +3,8 @@ spikes, a sensor that freezes or drops out, size and rate limits), written again
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from doc_numbers import quoted
@@ -149,3 +151,19 @@ def test_online_options_are_checked(tmp_path, capsys, argv, message) -> None:
 
     assert main(["lab", "--scenario", "nominal", "--seed", "1", *argv, "--out", str(tmp_path / "r")]) == 2
     assert message in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_the_study_table_is_what_the_study_gives(tmp_path) -> None:
+    """docs/online.md's groove row, rerun (`experiments/online_study.py`), each number within 0.02 mm."""
+    import sys
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "experiments"))
+    from online_study import variant_study
+
+    row = variant_study(tmp_path / "groove-default", "groove-default")
+    numbers = quoted("online.md", "| groove-default |", 15)
+    cells = ("nominal", "offline_default", "offline_learned", "online_default", "online_learned")
+    measured = [row[c][k] for c in cells for k in ("rms_mm", "max_mm", "less_offset_rms_mm")]
+    for doc, value in zip(numbers, measured, strict=True):
+        doc.check(value, slack=2.0)

@@ -1,0 +1,28 @@
+"""The command line, called from the experiments with its output captured."""
+
+from __future__ import annotations
+
+import json
+from contextlib import redirect_stdout
+from io import StringIO
+from typing import Any
+
+from twin.cli import main
+
+
+def cli(*argv: str) -> None:
+    """Run `tx200-twin ARGV`, quiet; a non-zero exit ends the experiment naming the command."""
+    with redirect_stdout(StringIO()):
+        code = main(list(argv))
+    if code != 0:
+        raise SystemExit(f"`tx200-twin {' '.join(argv)}` exited with {code}")
+
+
+def cli_json(*argv: str) -> dict[str, Any]:
+    """Run `tx200-twin ARGV --json -` and return its document (`check`'s exit 1 included)."""
+    out = StringIO()
+    with redirect_stdout(out):
+        code = main([*argv, "--json", "-"])
+    if code not in (0, 1):
+        raise SystemExit(f"`tx200-twin {' '.join(argv)}` exited with {code}")
+    return dict(json.loads(out.getvalue()))
