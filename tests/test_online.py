@@ -162,8 +162,21 @@ def test_the_study_table_is_what_the_study_gives(tmp_path) -> None:
     from online_study import variant_study
 
     row = variant_study(tmp_path / "groove-default", "groove-default")
-    numbers = quoted("online.md", "| groove-default |", 15)
-    cells = ("nominal", "offline_default", "offline_learned", "online_default", "online_learned")
+    numbers = quoted("online.md", "| groove-default |", 21)
+    cells = ("nominal", "offline_default", "offline_learned", "online_default", "online_learned", "both_default",
+             "both_learned")
     measured = [row[c][k] for c in cells for k in ("rms_mm", "max_mm", "less_offset_rms_mm")]
     for doc, value in zip(numbers, measured, strict=True):
         doc.check(value, slack=2.0)
+
+
+def test_on_top_of_an_offline_command_only_the_unassumed_force_is_corrected(setup) -> None:
+    spec, q, C = setup
+    t_assumed = np.array([0.0, 10.0])
+    comp = OnlineCompensator(spec, OnlineSettings(max_rate_mm_s=1000.0),
+                             assumed=(t_assumed, np.tile(0.8 * F_N, (2, 1))))  # the command assumed 80 %
+    n = 500
+    out, _ = _run(comp, q, np.tile(F_N, (n, 1)), 0.004 * np.arange(n), 0.004)
+    np.testing.assert_allclose(out[-1], -C @ (0.2 * F_N), atol=1e-9)
+    with pytest.raises(InputError, match="assumed forces"):
+        OnlineCompensator(spec, assumed=(np.array([1.0, 0.0]), np.zeros((2, 3))))

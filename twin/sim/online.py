@@ -107,9 +107,14 @@ class OnlineCompensator:
     Args:
         spec: The twin (its robot, placement and joint stiffness; a learned model file's spec).
         settings: Filtering, limits and watchdog.
+        assumed: On top of an offline-compensated command: (times on the controller's clock [s], shape (n,); the
+            force that command assumed, sheet frame [N], shape (n, 3)), as its compensation record holds them. The
+            compensator then corrects only the deflection of the force the command did not assume, and leaves the
+            friction lag to the command (the twin's offline compensation took it). None: a nominal command.
     """
 
-    def __init__(self, spec: TwinSpec | None = None, settings: OnlineSettings | None = None) -> None:
+    def __init__(self, spec: TwinSpec | None = None, settings: OnlineSettings | None = None,
+                 assumed: tuple[np.ndarray, np.ndarray] | None = None) -> None:
         spec = spec or TwinSpec()
         self.settings = settings or OnlineSettings()
         twin = spec.build()
@@ -127,6 +132,13 @@ class OnlineCompensator:
         self._params = np.append(self.settings.params(), SPEED_SMOOTHING_RAD_S)
         self._state = np.zeros(STATE_SIZE)
         self._q_prev = np.zeros(self.dof)
+        self._assumed_t, self._assumed_f = np.zeros(0), np.zeros((0, 3))
+        if assumed is not None:
+            t_a, f_a = np.ascontiguousarray(assumed[0], dtype=float), np.ascontiguousarray(assumed[1], dtype=float)
+            if t_a.ndim != 1 or f_a.shape != (t_a.size, 3) or t_a.size < 2 or np.any(np.diff(t_a) < 0):
+                raise InputError(f"assumed forces: expected increasing times (n,) and forces (n, 3), n >= 2; got "
+                                 f"{t_a.shape} and {f_a.shape}")
+            self._assumed_t, self._assumed_f = t_a, f_a
         self._p, self._jac, self._g = np.zeros(3), np.zeros((3, self.dof)), np.zeros(self.dof)
         self.correction_m = self._state[CORR:CORR + 3]  # a view: the correction of the last cycle, sheet frame
         self.cycle_s = self.settings.cycle_s
@@ -154,7 +166,8 @@ class OnlineCompensator:
             The cycle's status (`STATUS`); the correction is in `correction_m` [m], sheet frame: add it to the
             commanded tool tip.
         """
-        return int(online_cycle(self._chain, self._params, self.k_inv, self.friction_nm, self._state, self._q_prev,
+        return int(online_cycle(self._chain, self._params, self.k_inv, self.friction_nm, self._assumed_t,
+                                self._assumed_f, self._state, self._q_prev,
                           float(t_s), float(sample_t_s), f_sheet_n, q_rad, self._p, self._jac, self._g))
 
 

@@ -103,7 +103,7 @@ def dynamic_lab_task(request: LabRequest, note: Note = silent) -> Report:
         from twin.sim.online import OnlineCompensator
 
         spec = resolve_spec(model=request.model, robot=robot, placement=request.placement, p_sheet_m=p_cmd)
-        compensator = OnlineCompensator(spec)
+        compensator = OnlineCompensator(spec, assumed=assumed_forces(record, commanded, knobs))
     run, truth, log = run_dynamic_lab(
         commanded.t_s, p_cmd, scenario=request.scenario, knobs=knobs, seed=request.seed, progress=_NoteStream(note),
         process=process, placement=request.placement, robot=robot, corrector=compensator,
@@ -124,6 +124,18 @@ def dynamic_lab_task(request: LabRequest, note: Note = silent) -> Report:
         float(np.max(np.linalg.norm(run.forces.values, axis=1))), log.t_s.size, log.wall_s,
         None if log.online is None else online_summary(log.online),
     )
+
+
+def assumed_forces(record: Any, commanded: Any, knobs: Any) -> tuple[np.ndarray, np.ndarray] | None:
+    """The forces an offline-compensated command assumed (its compensation record), on the controller's clock:
+    the plant's trajectory generator re-times the command to stop at sharp corners, and so are they. None for a
+    command without a record."""
+    if record is None:
+        return None
+    from twin.lab.dynamic.trajectory import retime_with_stops
+
+    retimed = retime_with_stops(commanded.t_s, commanded.values, knobs["trajectory_accel_mps2"])
+    return np.interp(record.t_s, commanded.t_s, retimed), np.asarray(record.f_used_n, dtype=float)
 
 
 #: What the online compensator did, each cycle, beside the run's files (not part of the run format).

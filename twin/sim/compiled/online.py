@@ -17,12 +17,12 @@ from twin.sim.compiled.chain import chain_eval
 NO_SENSOR, TRACKING, SPIKE, HOLDING, RAMPING = range(5)
 #: Slots of the state vector: a sample seen, its stamp, spikes rejected, filtered force (3), its rate (3), the
 #: correction (3), spikes in a row, joints seen.
-HAVE, T_LAST, SPIKES, F, DF, CORR, RUN, HAVE_Q = 0, 1, 2, 3, 6, 9, 12, 13
-STATE_SIZE = 14
+HAVE, T_LAST, SPIKES, F, DF, CORR, RUN, HAVE_Q, AT = 0, 1, 2, 3, 6, 9, 12, 13, 14
+STATE_SIZE = 15
 
 
 @njit(cache=True)
-def online_cycle(chain, params, k_inv, friction, state, q_prev, t, sample_t, f, q, p, jac, g):  # type: ignore[no-untyped-def]
+def online_cycle(chain, params, k_inv, friction, assumed_t, assumed_f, state, q_prev, t, sample_t, f, q, p, jac, g):  # type: ignore[no-untyped-def]
     """One cycle on preallocated arrays (`OnlineCompensator.step`); returns the status."""
     omega, latency, spike, max_corr, max_step = params[1], params[2], params[3], params[4], params[5]
     stale, hold, gain, spike_run, w0 = params[6], params[7], params[8], params[9], params[10]
@@ -65,11 +65,24 @@ def online_cycle(chain, params, k_inv, friction, state, q_prev, t, sample_t, f, 
             fp0 = state[F] + state[DF] * ahead
             fp1 = state[F + 1] + state[DF + 1] * ahead
             fp2 = state[F + 2] + state[DF + 2] * ahead
+            n_assumed = assumed_t.shape[0]
+            if n_assumed > 0:  # on top of an offline command: only the force it did not assume
+                i = int(state[AT])
+                while i + 1 < n_assumed - 1 and assumed_t[i + 1] <= t:
+                    i += 1
+                state[AT] = i
+                w = 0.0
+                if n_assumed > 1 and assumed_t[i + 1] > assumed_t[i]:
+                    w = min(max((t - assumed_t[i]) / (assumed_t[i + 1] - assumed_t[i]), 0.0), 1.0)
+                j = min(i + 1, n_assumed - 1)
+                fp0 -= (1.0 - w) * assumed_f[i, 0] + w * assumed_f[j, 0]
+                fp1 -= (1.0 - w) * assumed_f[i, 1] + w * assumed_f[j, 1]
+                fp2 -= (1.0 - w) * assumed_f[i, 2] + w * assumed_f[j, 2]
             # -C F with C = J K^-1 J^T: first w = K^-1 J^T F, then -J w
             d0, d1, d2 = 0.0, 0.0, 0.0
             for j in range(k_inv.shape[0]):
                 w = k_inv[j] * (jac[0, j] * fp0 + jac[1, j] * fp1 + jac[2, j] * fp2)
-                if state[HAVE_Q] != 0.0:  # the friction's lag: -J_j s_j tau_j / K_j
+                if state[HAVE_Q] != 0.0 and n_assumed == 0:  # the friction's lag: -J_j s_j tau_j / K_j
                     w -= k_inv[j] * friction[j] * math.tanh((q[j] - q_prev[j]) / cycle / w0)
                 d0 += jac[0, j] * w
                 d1 += jac[1, j] * w
