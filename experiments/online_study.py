@@ -56,11 +56,15 @@ def _lab(strength: float, command: Path, out: Path, seed: int, scenario: str = "
         assumed = assumed_forces(read_record(command), cmd, Knobs()) if scenario == "compensated" else None
         corrector = OnlineCompensator(read_model_file(online) if isinstance(online, Path) else TwinSpec(),
                                       assumed=assumed)
-    run, truth, _ = run_dynamic_lab(cmd.t_s, cmd.values, scenario=scenario, knobs=Knobs(), seed=seed,
+    run, truth, log = run_dynamic_lab(cmd.t_s, cmd.values, scenario=scenario, knobs=Knobs(), seed=seed,
                                     process=Process(tensile_strength_mpa=strength * 275.0, force_model=model),
                                     declared=Process(force_model=model),
                                     corrector=corrector)
     write_run(out, run, truth=truth, overwrite=True)
+    if log.online is not None:
+        from twin.apps.tasks.lab_dynamic import ONLINE_LOG, write_online_log
+
+        write_online_log(out / ONLINE_LOG, log.online)
     return out
 
 
@@ -100,6 +104,35 @@ def variant_study(out: Path, name: str) -> dict[str, Any]:
     return row
 
 
+def figure(variant_dir: Path, out_png: Path) -> None:
+    """The online correction against the deflection it answers, over the part: the nominal run's measured
+    deviation (tracker minus command) and minus the correction of the online run with the default model."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from twin.base.csvio import read_table
+    from twin.base.signals import interp_rows
+    from twin.runs.read import read_run
+
+    nominal = read_run(variant_dir / "nominal3")
+    deviation = 1e3 * (nominal.tracker.values - interp_rows(nominal.tracker.t_s, nominal.commanded.t_s,
+                                                             nominal.commanded.values))
+    log = read_table(variant_dir / "online_default" / "online.csv", ("t_s", "dx_mm", "dy_mm", "dz_mm"))
+    fig, axes = plt.subplots(3, 1, figsize=(9, 6), sharex=True)
+    for i, (ax, name) in enumerate(zip(axes, "xyz", strict=True)):
+        ax.plot(nominal.tracker.t_s, deviation[:, i], lw=0.8, label="nominal run: measured - commanded")
+        ax.plot(log["t_s"], -log[f"d{name}_mm"], lw=0.8, label="online run: minus its correction")
+        ax.set_ylabel(f"{name} [mm]")
+    axes[0].legend(loc="upper right", fontsize=8)
+    axes[-1].set_xlabel("t [s]")
+    fig.suptitle(f"{variant_dir.name}: the online correction against the deflection (seed 3)")
+    fig.tight_layout()
+    fig.savefig(out_png, dpi=110)
+    plt.close(fig)
+
+
 def table(rows: list[dict[str, Any]]) -> str:
     head = ("| variant | nominal | offline, default | offline, learned | online, default | online, learned | both, "
             "default | both, learned |\n|---|---|---|---|---|---|---|---|\n")
@@ -115,6 +148,7 @@ def main() -> None:
     parser.add_argument("out", type=Path)
     parser.add_argument("--variants", default=",".join(VARIANTS))
     parser.add_argument("--doc", type=Path, help="a page whose online-table markers get the table")
+    parser.add_argument("--figure", type=Path, help="write the groove's correction-against-deflection figure (PNG)")
     args = parser.parse_args()
     rows = [variant_study(args.out / name, name) for name in args.variants.split(",")]
     (args.out / "online_study.json").write_text(json.dumps(rows, indent=1))
@@ -124,6 +158,8 @@ def main() -> None:
         text = args.doc.read_text()
         begin, end = text.index(BEGIN), text.index(END)
         args.doc.write_text(text[: begin + len(BEGIN)] + "\n" + md + text[end:])
+    if args.figure is not None and "groove-default" in args.variants.split(","):
+        figure(args.out / "groove-default", args.figure)
     print(md)
 
 
