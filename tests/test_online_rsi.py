@@ -105,3 +105,26 @@ def test_the_command_serves_and_stops_when_idle(capsys) -> None:
                  "--json", "-"]) == 0
     doc = json.loads(capsys.readouterr().out)
     assert doc["cycles"] == 0 and doc["stopped"] == "idle" and doc["port"] > 0
+
+
+def test_export_online_writes_krl_with_rsi_and_its_ethernet_configuration(tmp_path, capsys) -> None:
+    import xml.etree.ElementTree as ET
+
+    from twin.cli import main
+
+    assert main(["path", "--shape", "groove", "--out", str(tmp_path / "g.csv")]) == 0
+    assert main(["export", str(tmp_path / "g.csv"), "--robot", "kr210", "--online",
+                 "--out", str(tmp_path / "ISF.src")]) == 0
+    src = (tmp_path / "ISF.src").read_text().splitlines()
+    on, off = src.index("ret=RSI_ON(#ABSOLUTE)"), src.index("ret=RSI_OFF()")
+    assert src.index("PTP P_PATH[1]") < src.index('ret=RSI_CREATE("ISF_RSI",CONTID,TRUE)') < on
+    assert on < src.index("  LIN P_PATH[I] C_DIS") < off < len(src) - 1 and src[-1] == "END"
+    assert (tmp_path / "ISF.dat").is_file()
+    root = ET.parse(tmp_path / "ISF_rsi_ethernet.xml").getroot()
+    assert root.findtext("CONFIG/PORT") == "49152" and root.findtext("CONFIG/SENTYPE") == "ImFree"
+    sent = [e.get("TAG") for e in root.iter("ELEMENT") if e.get("INDX") != "INTERNAL" and "RKorr" not in e.get("TAG")]
+    received = [e.get("TAG") for e in root.find("RECEIVE").iter("ELEMENT")]
+    assert sent == ["FT.Fx", "FT.Fy", "FT.Fz"] and received == [f"RKorr.{a}" for a in "XYZABC"]
+    capsys.readouterr()
+    assert main(["export", str(tmp_path / "g.csv"), "--online", "--out", str(tmp_path / "x")]) == 2
+    assert "VAL3" in capsys.readouterr().err

@@ -37,6 +37,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="a run (tx200-twin-run/1) the program is for: its robot and its meta.json tool_length_m")
     _add_program_arguments(parser)
     add_placement_arguments(parser, "sheet placement (the program's sheet frame)")
+    parser.add_argument("--online", action="store_true", help="the program with the twin's online correction on "
+                        "(KUKA: KRL with RSI and its Ethernet configuration, for `tx200-twin online --serve rsi`)")
     add_json_argument(parser, "a summary")
 
 
@@ -75,6 +77,6 @@ def run(args: argparse.Namespace) -> int:
 
     request = ExportRequest(
         args.path_csv, args.out, args.format, args.robot, args.run, args.tool_length_mm, args.tool_mass_kg,
-        args.safe_height_mm, args.feed_mm_s, args.max_points, placement_from(args),
+        args.safe_height_mm, args.feed_mm_s, args.max_points, placement_from(args), args.online,
     )
     return finish(args, export_task(request, note), protect=(args.path_csv, args.run))

@@ -6,7 +6,8 @@ each with the tool and the sheet frame in its header and the feed taken from the
 approaches from a safe height and retracts to it, its feeds limited to the process feed in contact (`motion`);
 every point is checked for reach (`reach`); a program over its controller's size limit is split into parts that a
 main program calls (`parts`). A robot program carries the arm configuration of the robot's IK solution
-(`configuration`); `val3_check` checks the VAL3 application's grammar.
+(`configuration`); `val3_check` checks the VAL3 application's grammar; `krl_rsi` writes KRL with the online
+correction of KUKA RSI switched on, and its Ethernet configuration (`export --online`).
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import NamedTuple
 
-from twin.apps.export import gcode, krl, points_csv, rapid, val3
+from twin.apps.export import gcode, krl, krl_rsi, points_csv, rapid, val3
 from twin.apps.export.motion import FeedSummary, with_moves
 from twin.apps.export.program import (
     CellSetup,
@@ -54,7 +55,7 @@ class ExportFormat(NamedTuple):
 EXPORT_FORMATS: Registry[ExportFormat] = Registry("export format")
 for _format in (ExportFormat("val3", val3.write, "VAL3"), ExportFormat("krl", krl.write, "KRL"),
                 ExportFormat("rapid", rapid.write, "RAPID"), ExportFormat("gcode", gcode.write),
-                ExportFormat("csv", points_csv.write)):
+                ExportFormat("csv", points_csv.write), ExportFormat("krl-rsi", krl_rsi.write, "KRL")):
     EXPORT_FORMATS.register(_format)
 
 
@@ -90,6 +91,22 @@ class _Languages(Mapping[str, str]):
 FORMATS: Mapping[str, Writer] = _Writers()
 #: The formats that are a controller's language (`RobotDescription.language`): they carry the arm configuration.
 LANGUAGES: Mapping[str, str] = _Languages()
+
+
+#: A controller language -> the format of its program with the online correction switched on (`export --online`).
+ONLINE_FORMATS: dict[str, str] = {"KRL": "krl-rsi"}
+
+
+def online_format(robot: RobotDescription) -> str:
+    """The format of a robot's program with the twin's online correction (KUKA: KRL with RSI).
+
+    Raises:
+        InputError: Its language has none yet (VAL3 `alter` and RAPID with EGM are not written yet).
+    """
+    if robot.language not in ONLINE_FORMATS:
+        raise InputError(f"robot {robot.name!r} runs {robot.language!r}: export --online writes "
+                         f"{', '.join(ONLINE_FORMATS)} (KUKA RSI) only; VAL3 alter and ABB EGM are not written yet")
+    return ONLINE_FORMATS[robot.language]
 
 
 def robot_format(robot: RobotDescription) -> str:

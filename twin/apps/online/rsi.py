@@ -31,7 +31,7 @@ _AXES = re.compile(rb"<AIPos\b([^>]*)/>")
 _FT = re.compile(rb"<FT\b([^>]*)/>")
 _ATTR = re.compile(rb'(\w+)\s*=\s*"([^"]*)"')
 #: The answer, its numbers filled in each cycle.
-SEN = ('<Sen Type="ImFree"><EStr>tx200-twin</EStr><RKorr X="{:.4f}" Y="{:.4f}" Z="{:.4f}" A="0.0000" B="0.0000" '
+SEN = ('<Sen Type="ImFree"><RKorr X="{:.4f}" Y="{:.4f}" Z="{:.4f}" A="0.0000" B="0.0000" '
        'C="0.0000"/><IPOC>{}</IPOC></Sen>')
 MAX_PACKET = 4096
 

@@ -15,7 +15,15 @@ from typing import Any
 import numpy as np
 
 from twin.analysis.resolve import resolve_robot
-from twin.apps.export import FORMATS, LANGUAGES, Exported, export_path, robot_format
+from twin.apps.export import (
+    FORMATS,
+    LANGUAGES,
+    ONLINE_FORMATS,
+    Exported,
+    export_path,
+    online_format,
+    robot_format,
+)
 from twin.apps.export.program import default_cell
 from twin.apps.tasks.base import Note, Report, silent
 from twin.errors import InputError
@@ -42,6 +50,8 @@ class ExportRequest:
         safe_height_mm: Approach and retract height, sheet frame z [mm]; None: above the sheet and the path.
         feed_mm_s: The process feed [mm/s]; None: the median of the path's feeds.
         max_points: Points per file before a KRL or RAPID program is split; 0: the format's limit.
+        online: The program with the twin's online correction switched on (KUKA: KRL with RSI and its Ethernet
+            configuration, `twin.apps.export.krl_rsi`), for `tx200-twin online --serve`.
         placement: The program's sheet frame in the robot base.
     """
 
@@ -56,6 +66,7 @@ class ExportRequest:
     feed_mm_s: float | None = None
     max_points: int = 0
     placement: Placement = field(default_factory=Placement)
+    online: bool = False
 
     def __post_init__(self) -> None:
         if self.format is not None and self.format not in FORMATS:
@@ -143,7 +154,9 @@ def export_task(request: ExportRequest, note: Note = silent) -> ExportReport:
                 "tool_length_m is that robot's tool); expected the same robot, or leave out --robot or --run"
             )
     robot = resolve_robot(request.robot, None, recorded)
-    fmt = request.format or robot_format(robot)
+    fmt = request.format or (online_format(robot) if request.online else robot_format(robot))
+    if request.online and fmt not in ONLINE_FORMATS.values():
+        raise InputError(f"--online with --format {fmt}: the online formats are {', '.join(ONLINE_FORMATS.values())}")
     if fmt in LANGUAGES and LANGUAGES[fmt] != robot.language:
         note(f"note: writing {LANGUAGES[fmt]} for robot {robot.name} ({robot.vendor} {robot.model}), whose "
              f"{robot.controller} runs {robot.language}: the program's configuration is {robot.name}'s IK solution")
