@@ -13,12 +13,11 @@ from __future__ import annotations
 
 import argparse
 import json
-from contextlib import redirect_stdout
-from io import StringIO
 from pathlib import Path
 from typing import Any
 
-from twin.cli import main as cli
+from experiments_cli import cli, cli_json
+
 from twin.lab.dynamic.knobs import Knobs
 from twin.lab.dynamic.run import run_dynamic_lab
 from twin.process.description import Process
@@ -38,28 +37,12 @@ VARIANTS: dict[str, tuple[str, list[str], list[str], float]] = {
 PYRAMID = ["--shape", "pyramid", "--top-width-mm", "40", "--depth-mm", "6"]
 
 
-def _cli(*argv: str) -> None:
-    with redirect_stdout(StringIO()):
-        code = cli(list(argv))
-    if code != 0:
-        raise SystemExit(f"`tx200-twin {' '.join(argv)}` exited with {code}")
-
-
-def _json(*argv: str) -> dict[str, Any]:
-    out = StringIO()
-    with redirect_stdout(out):
-        code = cli([*argv, "--json", "-"])
-    if code not in (0, 1):
-        raise SystemExit(f"`tx200-twin {' '.join(argv)}` exited with {code}")
-    return dict(json.loads(out.getvalue()))
-
-
 def _lab(robot: str, knobs: list[str], strength: float, command: Path, out: Path, seed: int,
          scenario: str = "nominal") -> Path:
     """Form `command` on the plant; a sheet stronger than declared goes through the API (the CLI records the
     process it forms, so the twin would read it)."""
     if strength == 1.0:
-        _cli("lab", "--plant", "dynamic", *knobs, "--scenario", scenario, "--commanded", str(command), "--seed",
+        cli("lab", "--plant", "dynamic", *knobs, "--scenario", scenario, "--commanded", str(command), "--seed",
              str(seed), "--robot", robot, "--out", str(out))
         return out
     cmd = read_commanded_csv(command)
@@ -77,32 +60,32 @@ def variant_study(out: Path, name: str) -> dict[str, Any]:
     robot, path_args, knobs, strength = VARIANTS[name]
     out.mkdir(parents=True, exist_ok=True)
     ideal = out / "ideal.csv"
-    _cli("path", *path_args, "--robot", robot, "--out", str(ideal))
+    cli("path", *path_args, "--robot", robot, "--out", str(ideal))
     runs = {seed: _lab(robot, knobs, strength, ideal, out / f"nominal{seed}", seed) for seed in (1, 2)}
     model = out / "learned.json"
-    learned = _json("learn", str(runs[1]), "--write-model", str(model))
+    learned = cli_json("learn", str(runs[1]), "--write-model", str(model))
     row: dict[str, Any] = {"variant": name, "robot": robot,
-                           "nominal": _json("check", str(runs[1]), "--ideal", str(ideal)),
-                           "replay_untaught": _json("replay", str(runs[2]), "--forces", "measured"),
-                           "replay_learned": _json("replay", str(runs[2]), "--model", str(model), "--forces",
+                           "nominal": cli_json("check", str(runs[1]), "--ideal", str(ideal)),
+                           "replay_untaught": cli_json("replay", str(runs[2]), "--forces", "measured"),
+                           "replay_learned": cli_json("replay", str(runs[2]), "--model", str(model), "--forces",
                                                    "measured"),
                            "learn": learned}
     targets = [("", ideal, path_args)]
     if name.startswith("cone-"):
         pyramid = out / "pyramid.csv"
-        _cli("path", *PYRAMID, "--robot", robot, "--out", str(pyramid))
+        cli("path", *PYRAMID, "--robot", robot, "--out", str(pyramid))
         targets.append(("pyramid_", pyramid, PYRAMID))
         pyr_nominal = _lab(robot, knobs, strength, pyramid, out / "pyramid_nominal", 3)
-        row["pyramid_nominal"] = _json("check", str(pyr_nominal), "--ideal", str(pyramid))
-        row["pyramid_replay_untaught"] = _json("replay", str(pyr_nominal), "--forces", "measured")
-        row["pyramid_replay_learned"] = _json("replay", str(pyr_nominal), "--model", str(model), "--forces",
+        row["pyramid_nominal"] = cli_json("check", str(pyr_nominal), "--ideal", str(pyramid))
+        row["pyramid_replay_untaught"] = cli_json("replay", str(pyr_nominal), "--forces", "measured")
+        row["pyramid_replay_learned"] = cli_json("replay", str(pyr_nominal), "--model", str(model), "--forces",
                                               "measured")
     for prefix, target, _ in targets:
         for twin, extra in (("untaught", ["--robot", robot]), ("learned", ["--model", str(model)])):
             command = out / f"{prefix}{twin}.csv"
-            _cli("compensate", "--method", "twin", *extra, "--ideal", str(target), "--out", str(command))
+            cli("compensate", "--method", "twin", *extra, "--ideal", str(target), "--out", str(command))
             formed = _lab(robot, knobs, strength, command, out / f"{prefix}{twin}_formed", 3, "compensated")
-            row[f"{prefix}{twin}"] = _json("check", str(formed), "--ideal", str(target))
+            row[f"{prefix}{twin}"] = cli_json("check", str(formed), "--ideal", str(target))
             row[f"{prefix}{twin}"]["less_tracker_offset_mm"] = _less_offset(
                 formed, target, learned["robot"]["tracker_offset_mm"])
             row[f"{prefix}{twin}"]["away_from_stops_mm"] = _away_from_stops(formed, target)

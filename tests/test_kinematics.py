@@ -12,7 +12,8 @@ from twin.analysis.identify.default_stiffness import thesis_stiffness_fit
 from twin.errors import InputError, ModelError, SingularityError, UnreachableError
 from twin.robot.description import load_robot
 from twin.robot.dh import det_jacobian_thesis, dh_fk
-from twin.robot.kinematics import Kinematics, _rotation_log, load_model
+from twin.robot.kinematics import Kinematics, _rotation_log
+from twin.robot.model import load_model
 
 N_RANDOM = 1000
 HOME_Q_RAD = load_robot().q_home

@@ -6,13 +6,15 @@ from __future__ import annotations
 
 import importlib.util
 import re
+import sys
 from pathlib import Path
 
 import pytest
 from doc_numbers import quoted
 
-_SPEC = importlib.util.spec_from_file_location(
-    "learn_cell", Path(__file__).resolve().parent.parent / "experiments" / "learn_cell.py")
+EXPERIMENTS = Path(__file__).resolve().parent.parent / "experiments"
+sys.path.insert(0, str(EXPERIMENTS))  # the study imports its sibling `experiments_cli`, as when run as a script
+_SPEC = importlib.util.spec_from_file_location("learn_cell", EXPERIMENTS / "learn_cell.py")
 assert _SPEC is not None and _SPEC.loader is not None
 study = importlib.util.module_from_spec(_SPEC)
 _SPEC.loader.exec_module(study)

@@ -15,7 +15,7 @@ from twin.analysis.identify.default_stiffness import thesis_stiffness_fit
 from twin.base.resources import models_dir
 from twin.errors import ModelError
 from twin.robot.description import load_robot
-from twin.robot.kinematics import load_model
+from twin.robot.model import load_model
 
 # Staubli datasheet D181.573.04 joint ranges [deg]
 RANGES_DEG = [(-180, 180), (-120, 120), (-140, 145), (-270, 270), (-120, 120), (-270, 270)]

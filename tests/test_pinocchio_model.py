@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from twin.errors import InputError, ModelError
-from twin.robot.kinematics import Kinematics, load_model
+from twin.robot.kinematics import Kinematics
+from twin.robot.model import load_model
 from twin.robot.pinocchio_model import PinKinematics
 
 

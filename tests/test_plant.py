@@ -136,7 +136,8 @@ def test_the_documented_servo_gains_are_the_dynamic_plants() -> None:
     from twin.lab.dynamic.controller import design_gains
     from twin.lab.dynamic.knobs import Knobs
     from twin.lab.dynamic.plant import build_plant
-    from twin.robot.kinematics import Kinematics, load_model
+    from twin.robot.kinematics import Kinematics
+    from twin.robot.model import load_model
 
     doc = (Path(__file__).resolve().parents[1] / "docs" / "dynamic-plant.md").read_text(encoding="utf-8")
 

@@ -15,7 +15,8 @@ from twin.process.description import Process
 from twin.process.toolpath.placement import check_reach
 from twin.process.toolpath.shapes import PartSpec, part_path
 from twin.robot.description import load_robot, shipped_robots
-from twin.robot.kinematics import Kinematics, load_model
+from twin.robot.kinematics import Kinematics
+from twin.robot.model import load_model
 from twin.sim.spec import TwinSpec
 
 NAME = "irb6640"

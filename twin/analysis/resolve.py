@@ -125,8 +125,8 @@ def resolve_spec(
     if run is not None and "process" in run.meta:
         process = run_process(run.meta, process, (run.directory or Path(".")) / "meta.json")
         name = "the run's recorded process"
-    if p_sheet_m is None:
-        p_sheet_m = run.commanded.values if run is not None else np.zeros((1, 3))
+    if p_sheet_m is None and run is not None:
+        p_sheet_m = run.commanded.values
     fitted = base.process.force_model if given is not None and base.process.force_fit else None
     process = resolve_process(process, declaration, force_model_name, p_sheet_m,
                               None if run is None else run.meta, name, fitted, note)

@@ -115,6 +115,11 @@ def placement_from(args: argparse.Namespace) -> Placement:
     return Placement(origin_base_m=origin, yaw_rad=math.radians(args.yaw_deg))
 
 
+def placement_given(args: argparse.Namespace) -> Placement | None:
+    """The `Placement` of `--origin-mm` / `--yaw-deg` when either was given, else None (the model's or run's)."""
+    return placement_from(args) if args.origin_mm is not None or args.yaw_deg != 0.0 else None
+
+
 def add_scheduler_argument(parser: argparse.ArgumentParser) -> None:
     """Add `--scheduler ADDRESS` (a Dask distributed scheduler to run the command's jobs on)."""
     parser.add_argument(

@@ -17,7 +17,7 @@ from twin.cli._common import (
     add_robot_argument,
     finish,
     note,
-    placement_from,
+    placement_given,
     process_declaration,
 )
 from twin.cli._types import count, finite
@@ -80,11 +80,10 @@ def run(args: argparse.Namespace) -> int:
 
     history = (HistoryDeclaration(args.history, args.symmetry, args.unchecked_symmetry) if args.target_stl is None
                else HistoryDeclaration())  # the part (--target-stl) ignores the FE history
-    placed = args.origin_mm is not None or args.yaw_deg != 0.0
     request = CompensateRequest(
         args.method, args.out, stiffness=args.stiffness, model=args.model, history=history, ideal=args.ideal,
         force_model=args.force_model, declaration=process_declaration(args), robot=args.robot,
-        placement=placement_from(args) if placed else None, tol_mm=args.tol_mm, max_iter=args.max_iter,
+        placement=placement_given(args), tol_mm=args.tol_mm, max_iter=args.max_iter,
         target_stl=args.target_stl, part_iterations=args.part_iterations, learn_from=args.learn_from,
         learn_at=args.learn_at, learn_gain=args.learn_gain, learn_smoothing_mm=args.learn_smoothing_mm,
         figure=args.figure, rrd=args.rrd,

@@ -12,7 +12,7 @@ from twin.cli._common import (
     add_robot_argument,
     finish,
     note,
-    placement_from,
+    placement_given,
 )
 from twin.cli._types import finite
 
@@ -36,7 +36,6 @@ def run(args: argparse.Namespace) -> int:
     """Serve until the bound."""
     from twin.apps.tasks.online import OnlineRequest, online_task
 
-    given = args.origin_mm is not None or args.yaw_deg != 0.0
-    request = OnlineRequest(args.serve, args.port, args.host, args.model, args.robot,
-                            placement_from(args) if given else None, args.cycles, args.idle_timeout_s)
+    request = OnlineRequest(args.serve, args.port, args.host, args.model, args.robot, placement_given(args),
+                            args.cycles, args.idle_timeout_s)
     return finish(args, online_task(request, note), protect=(args.model,))

@@ -23,7 +23,7 @@ __all__, __getattr__, __dir__ = lazy_exports(__name__, {
     "build_model": "twin.robot.model",
     "lost_motion_schedule": "twin.robot.model",
     "Kinematics": "twin.robot.kinematics",
-    "load_model": "twin.robot.kinematics",
+    "load_model": "twin.robot.model",
     "dh_fk": "twin.robot.dh",
     "dh_jacobian": "twin.robot.dh",
     "det_jacobian_thesis": "twin.robot.dh",

@@ -19,7 +19,7 @@ from twin.robot.chain_fk import ChainFK, rotation_log_batch
 from twin.robot.description import RobotDescription, load_robot
 from twin.robot.model import load_model
 
-__all__ = ["Kinematics", "load_model"]
+__all__ = ["Kinematics"]
 
 
 #: Stride of the coarse solve that seeds a long path's batched IK (`Kinematics._coarse_seeds`) [samples].

@@ -17,7 +17,8 @@ import numpy as np
 from scipy.optimize import nnls
 
 from twin.analysis.identify.cartesian import THESIS_KR1_N_PER_MM
-from twin.robot.kinematics import Kinematics, load_model
+from twin.robot.kinematics import Kinematics
+from twin.robot.model import load_model
 
 
 @dataclass(frozen=True)

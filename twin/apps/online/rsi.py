@@ -116,7 +116,6 @@ class RsiServer:
         sign = np.array(robot.controller_sign or (1.0,) * robot.dof)
         offset = np.array(robot.controller_offset_rad or (0.0,) * robot.dof)
         self._sign, self._offset = sign, offset
-        self._R_base_sheet = None
         self._q = np.zeros(robot.dof)
         self._f = np.zeros(3)
         self._c_base_mm = np.zeros(3)

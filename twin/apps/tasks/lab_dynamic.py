@@ -12,18 +12,21 @@ from typing import Any
 
 import numpy as np
 
+from twin.analysis.compensation_record import CompensationRecord
 from twin.analysis.identify.cartesian import THESIS_TABLE_4_2_LOADS_N
 from twin.analysis.resolve import resolve_process, resolve_robot, resolve_spec
 from twin.apps.tasks.base import Note, Report, silent
 from twin.apps.tasks.lab import LabRequest, LoadTestReport, check_out, compensation_record, write_load_cases
 from twin.base.csvio import write_table
 from twin.base.signals import interp_rows
-from twin.lab.dynamic.knobs import parse_set_args
+from twin.lab.dynamic.knobs import Knobs, parse_set_args
 from twin.lab.dynamic.online import OnlineLog
 from twin.lab.dynamic.run import dynamic_load_test, run_dynamic_lab
 from twin.process.description import Process
+from twin.runs.format import Stream
 from twin.runs.read import lab_commanded
 from twin.runs.write import write_run
+from twin.sim.online import OnlineCompensator
 
 
 @dataclass(frozen=True)
@@ -100,8 +103,6 @@ def dynamic_lab_task(request: LabRequest, note: Note = silent) -> Report:
     p_cmd = commanded.values
     compensator = None
     if request.online:  # the twin beside the controller, at the run's placement
-        from twin.sim.online import OnlineCompensator
-
         spec = resolve_spec(model=request.model, robot=robot, placement=request.placement, p_sheet_m=p_cmd)
         compensator = OnlineCompensator(spec, assumed=assumed_forces(record, commanded, knobs))
     run, truth, log = run_dynamic_lab(
@@ -126,7 +127,8 @@ def dynamic_lab_task(request: LabRequest, note: Note = silent) -> Report:
     )
 
 
-def assumed_forces(record: Any, commanded: Any, knobs: Any) -> tuple[np.ndarray, np.ndarray] | None:
+def assumed_forces(record: CompensationRecord | None, commanded: Stream, knobs: Knobs
+                   ) -> tuple[np.ndarray, np.ndarray] | None:
     """The forces an offline-compensated command assumed (its compensation record), on the controller's clock:
     the plant's trajectory generator re-times the command to stop at sharp corners, and so are they. None for a
     command without a record."""
@@ -142,7 +144,7 @@ def assumed_forces(record: Any, commanded: Any, knobs: Any) -> tuple[np.ndarray,
 ONLINE_LOG = "online.csv"
 
 
-def online_record(compensator: Any, model: Path | None) -> dict[str, Any]:
+def online_record(compensator: OnlineCompensator, model: Path | None) -> dict[str, Any]:
     """The meta.json entry of an online run: the compensator's settings and its twin."""
     from dataclasses import asdict
 

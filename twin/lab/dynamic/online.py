@@ -20,7 +20,7 @@ from typing import NamedTuple, Protocol
 import numpy as np
 
 from twin.lab.dynamic.knobs import Knobs
-from twin.lab.dynamic.sensors import CROSSTALK_PATTERN, GRAVITY_M_PER_S2, quantise
+from twin.lab.dynamic.sensors import ft_chain, physical_times
 from twin.robot.kinematics import Kinematics
 
 
@@ -37,12 +37,7 @@ class OnlineFt:
 
     def __init__(self, knobs: Knobs, rng: np.random.Generator, tool_mass_kg: float, R_world_sheet: np.ndarray,
                  dt: float) -> None:
-        self.rate = knobs["ft_rate_hz"]
-        self.latency, self.offset = knobs["ft_latency_s"], knobs["ft_clock_offset_s"]
-        self.skew = 1e-6 * knobs["ft_clock_skew_ppm"]
-        self.crosstalk = np.eye(3) + knobs["ft_crosstalk"] * CROSSTALK_PATTERN
-        self.bias, self.noise, self.quantum = knobs["ft_bias_n"], knobs["ft_noise_n"], knobs["ft_quantum_n"]
-        self.weight_world = np.array([0.0, 0.0, -GRAVITY_M_PER_S2 * tool_mass_kg])
+        self.knobs, self.rate, self.tool_mass_kg = knobs, knobs["ft_rate_hz"], tool_mass_kg
         self.R_world_sheet = np.asarray(R_world_sheet, dtype=float)
         self.rng, self.dt = rng, dt
         self.index, self.stamp, self.value = -1, math.nan, np.full(3, math.nan)
@@ -55,18 +50,19 @@ class OnlineFt:
         if index == self.index:
             return self.stamp, self.value
         stamp = index / self.rate
-        t_phys = (stamp - self.offset) / (1.0 + self.skew) - self.latency
+        knobs = self.knobs
+        t_phys = float(physical_times(np.asarray(stamp), latency_s=knobs["ft_latency_s"],
+                                      offset_s=knobs["ft_clock_offset_s"], skew_ppm=knobs["ft_clock_skew_ppm"]))
         x = min(t_phys / self.dt, k - 1.0)  # only the ticks logged so far
         if x < 0.0:
             return self.stamp, self.value
         i0 = math.floor(x)
         i1, w = min(i0 + 1, k - 1), x - i0
-        reading = (1.0 - w) * ft_log[i0] + w * ft_log[i1]
-        R = ((1.0 - w) * R_log[i0] + w * R_log[i1]).reshape(3, 3)
-        f_local = -reading - R.T @ self.weight_world  # sheet on tool = -(sensor on tool) - weight
-        f_local = self.crosstalk @ f_local + self.bias + self.rng.normal(0.0, self.noise, 3)
-        f_local = quantise(f_local, self.quantum)
-        self.index, self.stamp, self.value = index, stamp, (R @ f_local) @ self.R_world_sheet
+        reading = (1.0 - w) * ft_log[i0:i0 + 1] + w * ft_log[i1:i1 + 1]
+        R = ((1.0 - w) * R_log[i0] + w * R_log[i1]).reshape(1, 3, 3)
+        noise = self.rng.normal(0.0, knobs["ft_noise_n"], (1, 3))
+        force = ft_chain(reading, R, noise, knobs, self.tool_mass_kg, self.R_world_sheet)[0]
+        self.index, self.stamp, self.value = index, stamp, force
         return self.stamp, self.value
 
 

@@ -23,7 +23,8 @@ from twin.process.description import Process
 from twin.process.process_file import process_record
 from twin.process.toolpath.placement import Placement
 from twin.robot.description import RobotDescription, robot_record
-from twin.robot.kinematics import Kinematics, load_model
+from twin.robot.kinematics import Kinematics
+from twin.robot.model import load_model
 from twin.runs.format import Run, Stream, run_meta
 
 LOAD_HOLD_S = 1.5  # each load case (ramped over 0.5 s) is held until this time, then read [s]

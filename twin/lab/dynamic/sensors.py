@@ -37,7 +37,7 @@ if TYPE_CHECKING:
 GRAVITY_M_PER_S2 = 9.81
 _REG_TRANSLATION_AXIS = np.array([1.0, -1.0, 1.0]) / np.sqrt(3.0)
 _REG_ROTATION_AXIS = np.array([1.0, 1.0, 1.0]) / np.sqrt(3.0)
-CROSSTALK_PATTERN = np.array([[0.0, 1.0, -1.0], [-1.0, 0.0, 1.0], [1.0, -1.0, 0.0]])
+_CROSSTALK_PATTERN = np.array([[0.0, 1.0, -1.0], [-1.0, 0.0, 1.0], [1.0, -1.0, 0.0]])
 
 
 def stamp_times(t_end_s: float, rate_hz: float) -> np.ndarray:
@@ -51,7 +51,7 @@ def physical_times(stamps_s: np.ndarray, *, latency_s: float, offset_s: float, s
     return (np.asarray(stamps_s) - offset_s) / (1.0 + 1e-6 * skew_ppm) - latency_s
 
 
-def quantise(values: np.ndarray, quantum: float) -> np.ndarray:
+def _quantise(values: np.ndarray, quantum: float) -> np.ndarray:
     return values if quantum <= 0.0 else quantum * np.round(values / quantum)
 
 
@@ -74,7 +74,7 @@ def tracker_reading(log: DynamicLog, knobs: Knobs, rng: np.random.Generator) -> 
     R_reg = _rotation(_REG_ROTATION_AXIS, 1e-3 * knobs["tracker_reg_mrad"])
     tip = tip @ R_reg.T + 1e-3 * knobs["tracker_reg_mm"] * _REG_TRANSLATION_AXIS
     tip = tip + rng.normal(0.0, 1e-3 * knobs["tracker_noise_mm"], tip.shape)
-    return stamps, quantise(tip, 1e-3 * knobs["tracker_quantum_mm"])
+    return stamps, _quantise(tip, 1e-3 * knobs["tracker_quantum_mm"])
 
 
 def ft_reading(
@@ -90,14 +90,23 @@ def ft_reading(
     )
     reading = interp_rows(t_phys, log.t_s, log.f_ft_local_n)
     R_world_ft = interp_rows(t_phys, log.t_s, log.R_world_ft.reshape(-1, 9)).reshape(-1, 3, 3)
+    noise = rng.normal(0.0, knobs["ft_noise_n"], reading.shape)
+    return stamps, ft_chain(reading, R_world_ft, noise, knobs, tool_mass_kg, log.R_world_sheet)
+
+
+def ft_chain(reading_n: np.ndarray, R_world_ft: np.ndarray, noise_n: np.ndarray, knobs: Knobs, tool_mass_kg: float,
+             R_world_sheet: np.ndarray) -> np.ndarray:
+    """The F/T chain from MuJoCo's `ft_force` to the force of the sheet on the tool, sheet frame [N], (n, 3): the
+    tool's weight tared, the sign flipped, cross-talk, bias, the white noise drawn by the caller, quantisation,
+    the sensor's orientation. Shapes: readings (n, 3), orientations (n, 3, 3), noise (n, 3). The recorded stream
+    (`ft_reading`) and the controller's online samples (`online.OnlineFt`) both go through it."""
     weight_world = np.array([0.0, 0.0, -GRAVITY_M_PER_S2 * tool_mass_kg])
     weight_local = np.einsum("nji,j->ni", R_world_ft, weight_world)
-    f_local = -reading - weight_local  # sheet on tool = -(sensor on tool) - weight, static tare
-    crosstalk = np.eye(3) + knobs["ft_crosstalk"] * CROSSTALK_PATTERN
+    f_local = -reading_n - weight_local  # sheet on tool = -(sensor on tool) - weight, static tare
+    crosstalk = np.eye(3) + knobs["ft_crosstalk"] * _CROSSTALK_PATTERN
     f_local = f_local @ crosstalk.T + knobs["ft_bias_n"]
-    f_local = f_local + rng.normal(0.0, knobs["ft_noise_n"], f_local.shape)
-    f_local = quantise(f_local, knobs["ft_quantum_n"])
-    return stamps, np.einsum("nij,nj->ni", R_world_ft, f_local) @ log.R_world_sheet  # world, then sheet frame
+    f_local = _quantise(f_local + noise_n, knobs["ft_quantum_n"])
+    return np.einsum("nij,nj->ni", R_world_ft, f_local) @ R_world_sheet  # world, then sheet frame
 
 
 def profile_scan(log: DynamicLog, knobs: Knobs, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:

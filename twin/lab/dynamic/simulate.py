@@ -38,7 +38,8 @@ from twin.process.part.bottom import with_floating_bottom
 from twin.process.part.surface import FORMED_BELOW_M
 from twin.process.toolpath.groove import label_passes
 from twin.process.toolpath.placement import Placement
-from twin.robot.kinematics import Kinematics, load_model
+from twin.robot.kinematics import Kinematics
+from twin.robot.model import load_model
 
 PASS_DEADBAND_M = (
     2e-3  # back-travel that declares a reversal of the commanded path [m] (a stroke is >= 61 mm)
