@@ -44,18 +44,20 @@ class ExportFormat(NamedTuple):
             the files written.
         language: The controller language it is (`RobotDescription.language`), or None (G-code, a point list):
             a language's program carries the arm configuration.
+        online: The program switches the twin's online correction on (`export --online`, `online --serve`).
     """
 
     name: str
     write: Writer
     language: str | None = None
+    online: bool = False
 
 
 #: The export formats, by name (`twin.base.registry.Registry`).
 EXPORT_FORMATS: Registry[ExportFormat] = Registry("export format")
 for _format in (ExportFormat("val3", val3.write, "VAL3"), ExportFormat("krl", krl.write, "KRL"),
                 ExportFormat("rapid", rapid.write, "RAPID"), ExportFormat("gcode", gcode.write),
-                ExportFormat("csv", points_csv.write), ExportFormat("krl-rsi", krl_rsi.write, "KRL")):
+                ExportFormat("csv", points_csv.write), ExportFormat("krl-rsi", krl_rsi.write, "KRL", online=True)):
     EXPORT_FORMATS.register(_format)
 
 
@@ -93,20 +95,19 @@ FORMATS: Mapping[str, Writer] = _Writers()
 LANGUAGES: Mapping[str, str] = _Languages()
 
 
-#: A controller language -> the format of its program with the online correction switched on (`export --online`).
-ONLINE_FORMATS: dict[str, str] = {"KRL": "krl-rsi"}
-
-
 def online_format(robot: RobotDescription) -> str:
     """The format of a robot's program with the twin's online correction (KUKA: KRL with RSI).
 
     Raises:
         InputError: Its language has none yet (VAL3 `alter` and RAPID with EGM are not written yet).
     """
-    if robot.language not in ONLINE_FORMATS:
-        raise InputError(f"robot {robot.name!r} runs {robot.language!r}: export --online writes "
-                         f"{', '.join(ONLINE_FORMATS)} (KUKA RSI) only; VAL3 alter and ABB EGM are not written yet")
-    return ONLINE_FORMATS[robot.language]
+    online = [f for f in EXPORT_FORMATS.values() if f.online]
+    for fmt in online:
+        if fmt.language == robot.language:
+            return fmt.name
+    raise InputError(f"robot {robot.name!r} runs {robot.language!r}: export --online writes "
+                     f"{', '.join(f'{f.language} ({f.name})' for f in online)} only; VAL3 alter and ABB EGM are not "
+                     "written yet")
 
 
 def robot_format(robot: RobotDescription) -> str:
@@ -115,9 +116,9 @@ def robot_format(robot: RobotDescription) -> str:
     Raises:
         InputError: No exporter writes the robot's language (names the robot, its language and the formats).
     """
-    for fmt, language in LANGUAGES.items():
-        if language == robot.language:
-            return fmt
+    for fmt in EXPORT_FORMATS.values():
+        if fmt.language == robot.language and not fmt.online:
+            return fmt.name
     raise InputError(
         f"robot {robot.name!r} runs {robot.language!r}, which no exporter writes; expected --format one of "
         f"{sorted(FORMATS)}"

@@ -16,9 +16,9 @@ import numpy as np
 
 from twin.analysis.resolve import resolve_robot
 from twin.apps.export import (
+    EXPORT_FORMATS,
     FORMATS,
     LANGUAGES,
-    ONLINE_FORMATS,
     Exported,
     export_path,
     online_format,
@@ -155,8 +155,9 @@ def export_task(request: ExportRequest, note: Note = silent) -> ExportReport:
             )
     robot = resolve_robot(request.robot, None, recorded)
     fmt = request.format or (online_format(robot) if request.online else robot_format(robot))
-    if request.online and fmt not in ONLINE_FORMATS.values():
-        raise InputError(f"--online with --format {fmt}: the online formats are {', '.join(ONLINE_FORMATS.values())}")
+    if request.online and not EXPORT_FORMATS[fmt].online:
+        online = ", ".join(name for name, f in EXPORT_FORMATS.items() if f.online)
+        raise InputError(f"--online with --format {fmt}: the online formats are {online}")
     if fmt in LANGUAGES and LANGUAGES[fmt] != robot.language:
         note(f"note: writing {LANGUAGES[fmt]} for robot {robot.name} ({robot.vendor} {robot.model}), whose "
              f"{robot.controller} runs {robot.language}: the program's configuration is {robot.name}'s IK solution")
