@@ -126,5 +126,5 @@ def test_export_online_writes_krl_with_rsi_and_its_ethernet_configuration(tmp_pa
     received = [e.get("TAG") for e in root.find("RECEIVE").iter("ELEMENT")]
     assert sent == ["FT.Fx", "FT.Fy", "FT.Fz"] and received == [f"RKorr.{a}" for a in "XYZABC"]
     capsys.readouterr()
-    assert main(["export", str(tmp_path / "g.csv"), "--online", "--out", str(tmp_path / "x")]) == 2
-    assert "VAL3" in capsys.readouterr().err
+    assert main(["export", str(tmp_path / "g.csv"), "--online", "--format", "krl", "--out", str(tmp_path / "x")]) == 2
+    assert "the online formats are krl-rsi, rapid-egm, val3-alter" in capsys.readouterr().err

@@ -38,7 +38,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     _add_program_arguments(parser)
     add_placement_arguments(parser, "sheet placement (the program's sheet frame)")
     parser.add_argument("--online", action="store_true", help="the program with the twin's online correction on "
-                        "(KUKA: KRL with RSI and its Ethernet configuration, for `tx200-twin online --serve rsi`)")
+                        "(KUKA: KRL with RSI and its Ethernet configuration; ABB: RAPID with EGM path correction and "
+                        "its configuration; Stäubli: VAL3 alter moves; for `tx200-twin online --serve`)")
     add_json_argument(parser, "a summary")
 
 

@@ -16,13 +16,25 @@ from twin.cli._common import (
 )
 from twin.cli._types import finite
 
-HELP = "Serve the online compensator over a robot's real-time interface (KUKA RSI on UDP), for a bounded time."
+HELP = ("Serve the online compensator over a robot's real-time interface (KUKA RSI, ABB EGM, Stäubli VAL3 alter), for a bounded time; "
+        "the F/T from the robot's packets or the sensor's RDT stream.")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Add the `online` options."""
-    parser.add_argument("--serve", required=True, choices=("rsi",), help="the interface: KUKA RSI (XML over UDP)")
-    parser.add_argument("--port", type=int, default=49152, help="UDP port to listen on")
+    from twin.apps.tasks.online import INTERFACES
+
+    parser.add_argument("--serve", required=True, choices=tuple(INTERFACES),
+                        help="the interface: rsi (KUKA RSI, XML over UDP), egm (ABB EGM path correction, protobuf "
+                             "over UDP), val3 (Stäubli VAL3 alter, binary frames over TCP)")
+    parser.add_argument("--port", type=int, help="port to listen on (default: the interface's, as the exported "
+                                                 "program's configuration has it: rsi 49152, egm 6510, val3 49153)")
+    parser.add_argument("--ft-rdt", metavar="HOST[:PORT]",
+                        help="read the F/T from the sensor's own stream (ATI Net F/T RDT, UDP 49152) instead of the "
+                             "robot's packets")
+    parser.add_argument("--ft-counts-per-n", type=finite, default=1_000_000.0,
+                        help="the RDT sensor's force calibration [counts/N]")
+    parser.add_argument("--ft-bias", action="store_true", help="zero the RDT sensor first (tool in the air)")
     parser.add_argument("--host", default="127.0.0.1", help="address to bind")
     parser.add_argument("--model", type=Path, help="the compensator's twin: a model file (e.g. from `learn`)")
     parser.add_argument("--cycles", type=int, default=15000, help="most packets to answer (60 s at 4 ms)")
@@ -34,8 +46,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Serve until the bound."""
-    from twin.apps.tasks.online import OnlineRequest, online_task
+    from twin.apps.tasks.online import OnlineRequest, RdtSettings, online_task
 
+    ft = None if args.ft_rdt is None else RdtSettings.parse(args.ft_rdt, args.ft_counts_per_n, args.ft_bias)
     request = OnlineRequest(args.serve, args.port, args.host, args.model, args.robot, placement_given(args),
-                            args.cycles, args.idle_timeout_s)
+                            args.cycles, args.idle_timeout_s, ft)
     return finish(args, online_task(request, note), protect=(args.model,))

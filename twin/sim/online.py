@@ -142,6 +142,9 @@ class OnlineCompensator:
         self._p, self._jac, self._g = np.zeros(3), np.zeros((3, self.dof)), np.zeros(self.dof)
         self.correction_m = self._state[CORR:CORR + 3]  # a view: the correction of the last cycle, sheet frame
         self.cycle_s = self.settings.cycle_s
+        # compile (or load) the compiled cycle now, not in a controller's first cycle; then forget that call
+        self.step(0.0, math.nan, np.zeros(3), np.asarray(twin.robot.q_home_rad, dtype=float))
+        self.reset()
 
     def reset(self) -> None:
         """Back to the start: no sample seen, no correction."""

@@ -6,8 +6,10 @@ each with the tool and the sheet frame in its header and the feed taken from the
 approaches from a safe height and retracts to it, its feeds limited to the process feed in contact (`motion`);
 every point is checked for reach (`reach`); a program over its controller's size limit is split into parts that a
 main program calls (`parts`). A robot program carries the arm configuration of the robot's IK solution
-(`configuration`); `val3_check` checks the VAL3 application's grammar; `krl_rsi` writes KRL with the online
-correction of KUKA RSI switched on, and its Ethernet configuration (`export --online`).
+(`configuration`); `val3_check` (with `val3_data_check`) checks the VAL3 application's grammar; for
+`export --online`, `krl_rsi` writes KRL with the online correction of KUKA RSI switched on and its Ethernet configuration, `rapid_egm` RAPID with ABB EGM
+path correction in the path's moves and its UDP device and motion profile configurations, `val3_alter` the VAL3
+application with `alter` moves and a synchronous task that takes the twin's correction over a socket.
 """
 
 from __future__ import annotations
@@ -17,7 +19,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import NamedTuple
 
-from twin.apps.export import gcode, krl, krl_rsi, points_csv, rapid, val3
+from twin.apps.export import gcode, krl, krl_rsi, points_csv, rapid, rapid_egm, val3, val3_alter
 from twin.apps.export.motion import FeedSummary, with_moves
 from twin.apps.export.program import (
     CellSetup,
@@ -57,7 +59,9 @@ class ExportFormat(NamedTuple):
 EXPORT_FORMATS: Registry[ExportFormat] = Registry("export format")
 for _format in (ExportFormat("val3", val3.write, "VAL3"), ExportFormat("krl", krl.write, "KRL"),
                 ExportFormat("rapid", rapid.write, "RAPID"), ExportFormat("gcode", gcode.write),
-                ExportFormat("csv", points_csv.write), ExportFormat("krl-rsi", krl_rsi.write, "KRL", online=True)):
+                ExportFormat("csv", points_csv.write), ExportFormat("krl-rsi", krl_rsi.write, "KRL", online=True),
+                ExportFormat("rapid-egm", rapid_egm.write, "RAPID", online=True),
+                ExportFormat("val3-alter", val3_alter.write, "VAL3", online=True)):
     EXPORT_FORMATS.register(_format)
 
 
@@ -96,18 +100,19 @@ LANGUAGES: Mapping[str, str] = _Languages()
 
 
 def online_format(robot: RobotDescription) -> str:
-    """The format of a robot's program with the twin's online correction (KUKA: KRL with RSI).
+    """The format of a robot's program with the twin's online correction (KUKA: KRL with RSI; ABB: RAPID with EGM;
+    Stäubli: VAL3 with alter).
 
     Raises:
-        InputError: Its language has none yet (VAL3 `alter` and RAPID with EGM are not written yet).
+        InputError: No online format writes its language (names the robot, its language and those written).
     """
     online = [f for f in EXPORT_FORMATS.values() if f.online]
     for fmt in online:
         if fmt.language == robot.language:
             return fmt.name
     raise InputError(f"robot {robot.name!r} runs {robot.language!r}: export --online writes "
-                     f"{', '.join(f'{f.language} ({f.name})' for f in online)} only; VAL3 alter and ABB EGM are not "
-                     "written yet")
+                     f"{', '.join(f'{f.language} ({f.name})' for f in online)} only; expected a robot that runs "
+                     "one of those")
 
 
 def robot_format(robot: RobotDescription) -> str:
@@ -171,9 +176,10 @@ def export_path(
     if fmt not in FORMATS:
         raise InputError(f"unknown export format {fmt!r}; expected one of {sorted(FORMATS)}")
     out = Path(out)
-    name = out.stem if fmt != "val3" else out.name
+    folder = EXPORT_FORMATS[fmt].language == "VAL3"  # a VAL3 application is a folder named as the application
+    name = out.name if folder else out.stem
     path = load_program_path(path_csv, cell or default_cell(), name)  # the input first: its errors come first
-    if fmt == "val3" and program_name(name) != name:
+    if folder and program_name(name) != name:
         raise InputError(
             f"--out {out}: a VAL3 application's folder is its name, and VAL3 names are letters, digits and _, "
             f"starting with a letter, at most 24 characters; {name!r} is not one (expected e.g. "

@@ -33,8 +33,8 @@ def _vec(values: Iterable[float], decimals: int) -> str:
     return "[" + ",".join(fmt(v, decimals) for v in values) + "]"
 
 
-def _declarations(path: ProgramPath) -> list[str]:
-    """The tool and the work object."""
+def declarations(path: ProgramPath) -> list[str]:
+    """The tool and the work object (global: a split program's parts use them too)."""
     cell = path.cell
     half = math.radians(cell.yaw_deg) / 2.0
     q_sheet = _vec((math.cos(half), 0.0, 0.0, math.sin(half)), QUATERNION_DECIMALS)  # the yaw about the base z
@@ -46,25 +46,42 @@ def _declarations(path: ProgramPath) -> list[str]:
     ]
 
 
-def _motion(path: ProgramPath, proc: str, last: bool, local: str) -> list[str]:
-    """The points, speeds and the procedure `proc` that moves through them."""
-    cell, n = path.cell, len(path.points_mm)
-    q = _vec(quaternion_wxyz(cell.R_sheet_tool), QUATERNION_DECIMALS)
-    confs = [list(c.rapid) for c in path.configurations] or [[0, 0, 0, 0]] * n
-    points = ",\n    ".join(
+def robtargets(path: ProgramPath) -> list[str]:
+    """Each point's `robtarget`: position [mm] in `wSheet`, the tool's orientation, the point's robconf."""
+    q = _vec(quaternion_wxyz(path.cell.R_sheet_tool), QUATERNION_DECIMALS)
+    confs = [list(c.rapid) for c in path.configurations] or [[0, 0, 0, 0]] * len(path.points_mm)
+    return [
         f"[{_vec(p, 4)},{q},[{','.join(map(str, conf))}],[9E9,9E9,9E9,9E9,9E9,9E9]]"
         for p, conf in zip(path.points_mm, confs, strict=True)
-    )
-    speeds = ",\n    ".join(f"[{fmt(v, 3)},500,5000,1000]" for v in path.feed_mm_s)
+    ]
+
+
+def speeddata(feed_mm_s: float) -> str:
+    """The `speeddata` of a move at `feed_mm_s` [mm/s of the TCP]."""
+    return f"[{fmt(feed_mm_s, 3)},500,5000,1000]"
+
+
+def path_data(path: ProgramPath, local: str) -> list[str]:
+    """`nPath`, the points `pPath{n}` and the feeds into them `vPath{n}` (`local`: "" or "LOCAL ")."""
+    n = len(path.points_mm)
+    points = ",\n    ".join(robtargets(path))
+    speeds = ",\n    ".join(speeddata(v) for v in path.feed_mm_s)
+    return [
+        f"  {local}CONST num nPath:={n};",
+        f"  {local}CONST robtarget pPath{{{n}}}:=[\n    {points}];",
+        f"  {local}CONST speeddata vPath{{{n}}}:=[\n    {speeds}];",
+    ]
+
+
+def _motion(path: ProgramPath, proc: str, last: bool, local: str) -> list[str]:
+    """The points, speeds and the procedure `proc` that moves through them."""
     first = (
         [f"    MoveJ pPath{{1}},{APPROACH_SPEED},fine,tIsf\\WObj:=wSheet;", "    FOR i FROM 2 TO nPath - 1 DO"]
         if path.joint_start
         else ["    FOR i FROM 1 TO nPath - 1 DO"]
     )
     return [
-        f"  {local}CONST num nPath:={n};",
-        f"  {local}CONST robtarget pPath{{{n}}}:=[\n    {points}];",
-        f"  {local}CONST speeddata vPath{{{n}}}:=[\n    {speeds}];",
+        *path_data(path, local),
         "",
         f"  PROC {proc}()",
         "    ConfJ \\On;",
@@ -77,7 +94,8 @@ def _motion(path: ProgramPath, proc: str, last: bool, local: str) -> list[str]:
     ]
 
 
-def _about(path: ProgramPath) -> list[str]:
+def about(path: ProgramPath) -> list[str]:
+    """The header comment: where the program came from, its robot and first configuration."""
     config = path.cell.configuration
     return [
         f"  ! tx200-twin export of {path.source.name}: {len(path.points_mm)} points, sheet frame (work object wSheet)",
@@ -85,15 +103,15 @@ def _about(path: ProgramPath) -> list[str]:
     ]
 
 
-def module_files(path: ProgramPath) -> dict[str, str]:
-    """The module `NAME.mod`, and for a split program the parts' modules -> text."""
+def program_files(path: ProgramPath) -> dict[str, str]:
+    """The module `NAME.mod`, and for a split program the parts' modules: file name -> text."""
     pieces = parts(path, "rapid")
     if len(pieces) == 1:
-        lines = [f"MODULE {path.name}", *_about(path), *_declarations(path), *_motion(path, "main", True, ""),
+        lines = [f"MODULE {path.name}", *about(path), *declarations(path), *_motion(path, "main", True, ""),
                  "ENDMODULE"]
         return {f"{path.name}.mod": "\n".join(lines) + "\n"}
     main = [
-        f"MODULE {path.name}", *_about(path), f"  ! {len(pieces)} parts, in order", *_declarations(path), "",
+        f"MODULE {path.name}", *about(path), f"  ! {len(pieces)} parts, in order", *declarations(path), "",
         "  PROC main()", *(f"    {p.name};" for p in pieces), "  ENDPROC", "ENDMODULE",
     ]
     files = {f"{path.name}.mod": "\n".join(main) + "\n"}
@@ -105,12 +123,12 @@ def module_files(path: ProgramPath) -> dict[str, str]:
 
 def module_text(path: ProgramPath) -> str:
     """The main module's text."""
-    return module_files(path)[f"{path.name}.mod"]
+    return program_files(path)[f"{path.name}.mod"]
 
 
 def write(path: ProgramPath, out: Path, protect: Sequence[Path] = ()) -> list[Path]:
     """Write the module, and any parts beside it, atomically (never over an input)."""
     return [
         write_text(Path(out) if name == f"{path.name}.mod" else Path(out).with_name(name), text, protect=protect)
-        for name, text in module_files(path).items()
+        for name, text in program_files(path).items()
     ]

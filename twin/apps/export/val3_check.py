@@ -1,18 +1,25 @@
 """A syntax check of the VAL3 we emit, written from the VAL3 reference manual's grammar for those parts.
 
-Covered (VAL3 reference manual: "Applications", "Programs", "Data", "Movement instructions"):
+Covered (VAL3 reference manual: "Applications", "Programs", "Data", "Movement instructions"; the `alter`, task
+and socket instructions as the public VAL3 drivers write them, `twin.apps.export.val3_alter`):
 
 - files: `.pjx` project naming its `.pgx` programs and `.dtx` data, well-formed XML in the Stäubli
   namespaces; programs `start` and `stop` present;
 - data: identifiers (a letter, then letters, digits or `_`, at most 15 characters), the simple and
-  structured types we use (`num`, `frame`, `tool`, `mdesc`, `pointRx`), arrays of `size` values with keys
-  0..size-1, every field of the type present and numeric, configurations (`shoulder`, `elbow`, `wrist`) from
-  their sets, `fatherId` naming `world[0]`, `flange[0]` or an existing frame/tool element of the right type;
+  structured types we use (`num`, `bool`, `frame`, `tool`, `trsf`, `mdesc`, `pointRx`, `sio`), arrays of `size`
+  values with keys 0..size-1, every field of the type present and numeric (a `bool` `true` or `false`, a `sio` a
+  `link` to a controller socket `Socket\\name` or `UdpSocket\\name`), configurations (`shoulder`, `elbow`,
+  `wrist`) from their sets, `fatherId` naming `world[0]`, `flange[0]` or an existing frame/tool element of the right
+  type; locals of those types or `jointRx`;
 - code: `begin ... end`, one instruction per line, `//` comments, `for v = e to e [step e] ... endFor`,
   `while e ... endWhile`, `if e ... [else ...] endIf`, assignments, calls; expressions with numbers,
-  variables, `a[i]`, `size(a)`, + - * /, comparisons and parentheses; every name declared (data or local);
-  `movej`/`movel(point, tool, mdesc)` with a point (`pointRx`), a tool and a motion descriptor, and
-  `waitEndMove()` without arguments. Keywords are case-sensitive.
+  variables, `a[i]`, fields `a.x` of the structured types, `size(a)`, `abs`, `sqrt`, `herej()`, `sioGet`, `sioSet`,
+  `fromBinary`, + - * /, comparisons and parentheses; every name declared (data or local);
+  `movej`/`movel`/`alterMovel(point, tool, mdesc)` with a point (`pointRx`), a tool and a motion descriptor,
+  `waitEndMove()`, `alterEnd()` without arguments, `alterBegin(frame, mdesc)`, `alter(trsf)`, `delay(e)`,
+  `clearBuffer(sio)`, `sioCtrl(sio, "parameter", e)`, `toBinary(num, e, "format", num)` with a format of the
+  frames we write, and `taskCreateSync "name", e, bool, program()` naming a program of the application other
+  than the one it is in. A string literal is taken only where one of these takes it. Keywords are case-sensitive.
 """
 
 from __future__ import annotations
@@ -21,101 +28,45 @@ import re
 import xml.etree.ElementTree as ET
 from collections.abc import Mapping
 
+from twin.apps.export.val3_data_check import FIELDS, IDENT, LOCAL_FIELDS, check_data, local_name, val3_error
 from twin.errors import InputError
 
-IDENT = re.compile(r"[A-Za-z][A-Za-z0-9_]{0,14}$")
-FIELDS = {
-    "frame": ("x", "y", "z", "rx", "ry", "rz"),
-    "tool": ("x", "y", "z", "rx", "ry", "rz"),
-    "pointRx": ("x", "y", "z", "rx", "ry", "rz"),
-    "mdesc": ("accel", "vel", "decel", "tmax", "rmax", "leave", "reach"),
-    "num": ("value",),
+TOKEN = re.compile(
+    r'\s*(?:(\d+\.\d*|\.\d+|\d+)|([A-Za-z_][A-Za-z0-9_]*)|("[^"]*")|(<=|>=|!=|==|[-+*/()\[\],=<>.]))'
+)
+STRING = re.compile(r'"[^"]*"')
+#: What a call's argument is: a variable (element, field) of a type, "expr" (any expression), "any" (any variable),
+#: "string" (a string literal), "format" (the `fromBinary`/`toBinary` formats of our frames).
+_MOVE = ("pointRx", "tool", "mdesc")
+#: Instructions (statements) -> their arguments.
+PROCEDURES: dict[str, tuple[str, ...]] = {
+    "movej": _MOVE, "movel": _MOVE, "alterMovel": _MOVE,
+    "waitEndMove": (), "resetMotion": (), "stopMove": (), "restartMove": (),
+    "alterBegin": ("frame", "mdesc"), "alterEnd": (), "alter": ("trsf",),
+    "delay": ("expr",), "clearBuffer": ("sio",), "sioCtrl": ("sio", "string", "expr"),
+    "toBinary": ("num", "expr", "format", "num"),
 }
-CONFIG = {
-    "shoulder": {"lefty", "righty", "ssame", "sfree"},
-    "elbow": {"epositive", "enegative", "esame", "efree"},
-    "wrist": {"wpositive", "wnegative", "wsame", "wfree"},
+#: Functions (in expressions) -> their arguments.
+FUNCTIONS: dict[str, tuple[str, ...]] = {
+    "size": ("any",), "abs": ("expr",), "sqrt": ("expr",), "herej": (),
+    "sioGet": ("sio", "num"), "sioSet": ("sio", "num"), "fromBinary": ("num", "expr", "format", "num"),
 }
-BLENDS = {"off", "joint", "Cartesian"}
-TOKEN = re.compile(r"\s*(?:(\d+\.\d*|\.\d+|\d+)|([A-Za-z_][A-Za-z0-9_]*)|(<=|>=|!=|==|[-+*/()\[\],=<>]))")
-MOVES = {"movej": ("pointRx", "tool", "mdesc"), "movel": ("pointRx", "tool", "mdesc")}
-PROCEDURES = {"waitEndMove": 0, "resetMotion": 0, "stopMove": 0, "restartMove": 0}
-FUNCTIONS = {"size": 1, "abs": 1, "sqrt": 1}
-
-
-def _fail(where: str, message: str) -> InputError:
-    return InputError(f"VAL3 {where}: {message}")
-
-
-def _local(tag: str) -> str:
-    return tag.split("}", 1)[-1]
-
-
-def check_data(name: str, text: str) -> dict[str, tuple[str, int]]:
-    """Check a `.dtx` file; returns data name -> (type, size)."""
-    root = ET.fromstring(text)
-    if _local(root.tag) != "Database" or not root.tag.startswith(
-        "{http://www.staubli.com/robotics/VAL3/Data/"
-    ):
-        raise _fail(name, f"root element is {root.tag}, expected Database in the VAL3 Data namespace")
-    declared: dict[str, tuple[str, int]] = {"world": ("frame", 1), "flange": ("tool", 1)}
-    fathers: list[tuple[str, str, str]] = []
-    for data in root.iter():
-        if _local(data.tag) != "Data":
-            continue
-        dname, kind, size = data.get("name", ""), data.get("type", ""), data.get("size", "")
-        if not IDENT.match(dname) or dname in declared:
-            raise _fail(
-                name, f"data name {dname!r} is not a new identifier (letter, then letters/digits/_, <= 15)"
-            )
-        if kind not in FIELDS:
-            raise _fail(name, f"{dname}: type {kind!r} is not one we emit ({sorted(FIELDS)})")
-        if not size.isdigit() or int(size) < 1:
-            raise _fail(name, f"{dname}: size {size!r}, expected a positive integer")
-        values = [v for v in data if _local(v.tag) == "Value"]
-        keys = sorted(int(v.get("key", "-1")) for v in values)
-        if keys != list(range(int(size))):
-            raise _fail(name, f"{dname}: value keys {keys[:5]}..., expected 0..{int(size) - 1}")
-        for value in values:
-            where = f"{dname}[{value.get('key')}]"
-            for field in FIELDS[kind]:
-                try:
-                    float(value.get(field, ""))
-                except ValueError:
-                    raise _fail(
-                        name, f"{where}: field {field}={value.get(field)!r}, expected a number"
-                    ) from None
-            for field, allowed in CONFIG.items():
-                if kind == "pointRx" and value.get(field) not in allowed:
-                    raise _fail(
-                        name, f"{where}: {field}={value.get(field)!r}, expected one of {sorted(allowed)}"
-                    )
-            if kind == "mdesc" and value.get("blend") not in BLENDS:
-                raise _fail(name, f"{where}: blend={value.get('blend')!r}, expected one of {sorted(BLENDS)}")
-            if kind in ("frame", "tool", "pointRx"):
-                fathers.append((where, kind, value.get("fatherId", "")))
-        declared[dname] = (kind, int(size))
-    for where, kind, father in fathers:
-        match = re.fullmatch(r"([A-Za-z][A-Za-z0-9_]*)\[(\d+)\]", father)
-        want = "tool" if kind == "tool" else "frame"
-        if not match or declared.get(match.group(1), ("", 0))[0] != want:
-            raise _fail(name, f"{where}: fatherId {father!r} is not an element of a declared {want}")
-        if int(match.group(2)) >= declared[match.group(1)][1]:
-            raise _fail(name, f"{where}: fatherId {father!r} is out of range")
-    return declared
+#: `fromBinary`/`toBinary` formats: int32 and float32, little-endian (`twin.apps.online.alter_protocol`).
+BINARY_FORMATS = ('"-4l"', '"4.0l"')
 
 
 class _Code:
     """Recursive-descent parser of the program subset; raises on the first error with its line."""
 
-    def __init__(self, program: str, code: str, names: Mapping[str, tuple[str, int]]) -> None:
-        self.program, self.names = program, names
+    def __init__(self, program: str, code: str, names: Mapping[str, tuple[str, int]],
+                 programs: frozenset[str] = frozenset()) -> None:
+        self.program, self.names, self.programs = program, names, programs
         self.lines = [(n, line.split("//", 1)[0].strip()) for n, line in enumerate(code.splitlines(), 1)]
         self.lines = [(n, line) for n, line in self.lines if line]
         self.pos = 0
 
     def error(self, line: int, message: str) -> InputError:
-        return _fail(f"program {self.program}, line {line}", message)
+        return val3_error(f"program {self.program}, line {line}", message)
 
     def parse(self) -> None:
         if not self.lines or self.lines[0][1] != "begin":
@@ -154,8 +105,10 @@ class _Code:
             ended = self.block(("else", closer) if head == "if" else (closer,))
             if ended == "else":
                 self.block((closer,))
-        elif head in MOVES or head in PROCEDURES:
-            self.call(number, tokens)
+        elif head == "taskCreateSync":
+            self.task(number, tokens)
+        elif head in PROCEDURES:
+            self.call(number, tokens, PROCEDURES[head])
         elif "=" in tokens:
             eq = tokens.index("=")
             self.operand(number, tokens[:eq])
@@ -175,18 +128,41 @@ class _Code:
                 break
         return found
 
-    def call(self, number: int, tokens: list[str]) -> None:
+    def task(self, number: int, tokens: list[str]) -> None:
+        """`taskCreateSync "name", period, bOverrun, program()`: a program of the application, not this one."""
+        args = self.split_args(tokens[1:])
+        if len(args) != 4 or len(args[0]) != 1 or not STRING.fullmatch(args[0][0]):
+            raise self.error(number, 'expected taskCreateSync "<name>", <period>, <bool variable>, <program>()')
+        self.expression(number, args[1])
+        if self.operand(number, args[2]) != "bool":
+            raise self.error(number, f"taskCreateSync: {' '.join(args[2])!r} is not a bool (the overrun flag)")
+        if args[3][1:] != ["(", ")"] or args[3][0] not in self.programs or args[3][0] == self.program:
+            raise self.error(number, f"taskCreateSync: {' '.join(args[3])!r} is not another program of the "
+                             f"application called without arguments ({sorted(self.programs)})")
+
+    def call(self, number: int, tokens: list[str], want: tuple[str, ...]) -> None:
         name = tokens[0]
         if tokens[1:2] != ["("] or tokens[-1] != ")":
             raise self.error(number, f"{name} needs (arguments)")
-        args = self.split_args(tokens[2:-1])
-        want = MOVES.get(name)
-        count = len(want) if want else PROCEDURES[name]
-        if len(args) != count:
-            raise self.error(number, f"{name} takes {count} argument(s), got {len(args)}")
-        for arg, kind in zip(args, want or (), strict=False):
-            if self.operand(number, arg) != kind:
-                raise self.error(number, f"{name}: argument {' '.join(arg)!r} is not a {kind}")
+        self.arguments(number, name, self.split_args(tokens[2:-1]), want)
+
+    def arguments(self, number: int, name: str, args: list[list[str]], want: tuple[str, ...]) -> None:
+        """Check a call's arguments against what it takes (`PROCEDURES`, `FUNCTIONS`)."""
+        if len(args) != len(want):
+            raise self.error(number, f"{name} takes {len(want)} argument(s), got {len(args)}")
+        for arg, kind in zip(args, want, strict=True):
+            text = " ".join(arg)
+            if kind in ("string", "format"):
+                if len(arg) != 1 or not STRING.fullmatch(arg[0]):
+                    raise self.error(number, f"{name}: argument {text!r} is not a string literal")
+                if kind == "format" and arg[0] not in BINARY_FORMATS:
+                    raise self.error(number, f"{name}: format {text} is not one of {', '.join(BINARY_FORMATS)}")
+            elif kind == "expr":
+                self.expression(number, arg)
+            elif kind == "any":
+                self.operand(number, arg)
+            elif self.operand(number, arg) != kind:
+                raise self.error(number, f"{name}: argument {text!r} is not a {kind}")
 
     @staticmethod
     def split_args(tokens: list[str]) -> list[list[str]]:
@@ -202,14 +178,22 @@ class _Code:
         return args
 
     def operand(self, number: int, tokens: list[str]) -> str:
-        """A variable or an array element; returns its type."""
+        """A variable, an array element or a field of either; returns its type (a field's: num)."""
+        field = None
+        if len(tokens) > 2 and tokens[-2] == ".":
+            tokens, field = tokens[:-2], tokens[-1]
         if not tokens or tokens[0] not in self.names:
             raise self.error(number, f"{' '.join(tokens)!r} is not a declared variable")
         if len(tokens) > 1:
             if tokens[1] != "[" or tokens[-1] != "]":
                 raise self.error(number, f"expected {tokens[0]}[index]")
             self.expression(number, tokens[2:-1])
-        return self.names[tokens[0]][0]
+        kind = self.names[tokens[0]][0]
+        if field is None:
+            return kind
+        if field not in {**FIELDS, **LOCAL_FIELDS}.get(kind, ()):
+            raise self.error(number, f"{tokens[0]} ({kind}) has no field {field!r}")
+        return "num"
 
     def expression(self, number: int, tokens: list[str]) -> None:
         rest = self.sum(number, tokens)
@@ -224,6 +208,17 @@ class _Code:
             rest = self.factor(number, rest[1:])
         return rest
 
+    @staticmethod
+    def closing(tokens: list[str], start: int) -> int:
+        """The index of the bracket that closes the one at `start`, or -1."""
+        depth = 0
+        for k in range(start, len(tokens)):
+            depth += tokens[k] in ("(", "[")
+            depth -= tokens[k] in (")", "]")
+            if depth == 0:
+                return k
+        return -1
+
     def factor(self, number: int, tokens: list[str]) -> list[str]:
         if not tokens:
             raise self.error(number, "expression ends too early")
@@ -232,28 +227,29 @@ class _Code:
             return rest
         if head == "-":
             return self.factor(number, rest)
-        if head in ("(", "[") or head in FUNCTIONS or head in self.names:
-            close = ")" if head == "(" or head in FUNCTIONS else "]"
-            if head in self.names and (not rest or rest[0] != "["):
-                return rest
+        if head == "(" or head in FUNCTIONS:
             start = 0 if head == "(" else 1
-            depth, k = 0, start
-            for k in range(start, len(tokens)):
-                depth += tokens[k] in ("(", "[")
-                depth -= tokens[k] in (")", "]")
-                if depth == 0:
-                    break
-            if depth != 0 or tokens[k] != close:
+            k = self.closing(tokens, start) if tokens[start:start + 1] == ["("] else -1
+            if k < 0 or tokens[k] != ")":
                 raise self.error(number, f"unbalanced brackets in {' '.join(tokens)!r}")
             inner = self.split_args(tokens[start + 1 : k])
-            if head in FUNCTIONS and len(inner) != FUNCTIONS[head]:
-                raise self.error(number, f"{head} takes {FUNCTIONS[head]} argument(s)")
-            for arg in inner:
-                if head == "size":
-                    self.operand(number, arg)
-                else:
-                    self.expression(number, arg)
+            if head == "(":
+                if len(inner) != 1:
+                    raise self.error(number, f"expected one expression in {' '.join(tokens[: k + 1])!r}")
+                self.expression(number, inner[0])
+            else:
+                self.arguments(number, head, inner, FUNCTIONS[head])
             return tokens[k + 1 :]
+        if head in self.names:
+            end = 1
+            if rest[:1] == ["["]:
+                end = self.closing(tokens, 1) + 1
+                if end == 0 or tokens[end - 1] != "]":
+                    raise self.error(number, f"unbalanced brackets in {' '.join(tokens)!r}")
+            if tokens[end : end + 1] == ["."]:
+                end += 2
+            self.operand(number, tokens[:end])
+            return tokens[end:]
         raise self.error(number, f"unexpected {head!r} in an expression")
 
 
@@ -261,34 +257,43 @@ def check_application(files: Mapping[str, str]) -> None:
     """Check a VAL3 application given as file name -> text; raises InputError naming file, line and rule."""
     pjx = [name for name in files if name.endswith(".pjx")]
     if len(pjx) != 1:
-        raise _fail("application", f"expected one .pjx project file, got {pjx}")
+        raise val3_error("application", f"expected one .pjx project file, got {pjx}")
     project = ET.fromstring(files[pjx[0]])
-    if _local(project.tag) != "Project":
-        raise _fail(pjx[0], f"root element is {project.tag}, expected Project")
-    refs = [e.get("file", "") for e in project.iter() if _local(e.tag) in ("Program", "Data")]
+    if local_name(project.tag) != "Project":
+        raise val3_error(pjx[0], f"root element is {project.tag}, expected Project")
+    refs = [e.get("file", "") for e in project.iter() if local_name(e.tag) in ("Program", "Data")]
     missing = [ref for ref in refs if ref not in files]
     if missing:
-        raise _fail(pjx[0], f"names files that are not in the application: {missing}")
+        raise val3_error(pjx[0], f"names files that are not in the application: {missing}")
     names: dict[str, tuple[str, int]] = {}
     for ref in refs:
         if ref.endswith(".dtx"):
             names |= check_data(ref, files[ref])
-    programs: set[str] = set()
-    for ref in refs:
-        if not ref.endswith(".pgx"):
-            continue
-        root = ET.fromstring(files[ref])
-        for program in (e for e in root.iter() if _local(e.tag) == "Program"):
+    programs = {
+        ref: [e for e in ET.fromstring(files[ref]).iter() if local_name(e.tag) == "Program"]
+        for ref in refs
+        if ref.endswith(".pgx")
+    }
+    listed = [p.get("name", "") for found in programs.values() for p in found]
+    twice = sorted({n for n in listed if listed.count(n) > 1})
+    if twice:
+        raise val3_error("application", f"programs {twice} are defined more than once; expected one of each name")
+    program_names = frozenset(listed)
+    for ref, found in programs.items():
+        for program in found:
             pname = program.get("name", "")
             if not IDENT.match(pname):
-                raise _fail(ref, f"program name {pname!r} is not an identifier")
-            programs.add(pname)
-            local = {
-                e.get("name", ""): (e.get("type", ""), int(e.get("size", "1")))
-                for e in program.iter()
-                if _local(e.tag) in ("Local", "Parameter")
-            }
-            code = next((e.text or "" for e in program.iter() if _local(e.tag) == "Code"), "")
-            _Code(pname, code, {**names, **local}).parse()
-    if not {"start", "stop"} <= programs:
-        raise _fail("application", f"programs {sorted(programs)}; an application needs start and stop")
+                raise val3_error(ref, f"program name {pname!r} is not an identifier")
+            local: dict[str, tuple[str, int]] = {}
+            for e in program.iter():
+                if local_name(e.tag) not in ("Local", "Parameter"):
+                    continue
+                kind = e.get("type", "")
+                if kind not in FIELDS and kind not in LOCAL_FIELDS:
+                    raise val3_error(ref, f"program {pname}: local {e.get('name')!r} of type {kind!r}, expected one "
+                                f"of {sorted({*FIELDS, *LOCAL_FIELDS})}")
+                local[e.get("name", "")] = (kind, int(e.get("size", "1")))
+            code = next((e.text or "" for e in program.iter() if local_name(e.tag) == "Code"), "")
+            _Code(pname, code, {**names, **local}, program_names).parse()
+    if not {"start", "stop"} <= program_names:
+        raise val3_error("application", f"programs {sorted(program_names)}; an application needs start and stop")

@@ -5,7 +5,8 @@ Each interpolation cycle (4 or 12 ms) the controller sends `<Rob Type="KUKA">` w
 axes (`AIPos`, degrees) and `<IPOC>` (its time stamp, ms); the answer must come within the cycle (KUKA RSI; the
 ros-industrial `kuka_rsi_hw_interface` reads the same fields). The F/T sample comes in the robot's packet, as an
 `<FT Fx= Fy= Fz=/>` element the cell's RSI configuration adds from the sensor it reads (sheet frame, N); a packet
-without one is a cycle without a new sample, which the compensator's watchdog handles. `RKorr` X Y Z is the
+without one is a cycle without a new sample, which the compensator's watchdog handles. Or it comes from the
+sensor's own stream (a `ForceSource`, e.g. ATI RDT), read by the server. `RKorr` X Y Z is the
 correction in the robot's base frame [mm], absolute (the RSI object's correction mode `#ABSOLUTE`), A B C zero.
 
 The server's loop is bounded: it stops after `max_cycles` packets, or when no packet came for `idle_timeout_s`.
@@ -14,7 +15,6 @@ It reports the per-cycle compute time (parse, compensate, answer) and the packet
 
 from __future__ import annotations
 
-import math
 import re
 import socket
 import time
@@ -22,6 +22,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from twin.apps.online.cycle import ServedCycle, ServeReport
+from twin.apps.online.source import ForceSource
 from twin.errors import InputError
 from twin.robot.description import RobotDescription
 from twin.sim.online import OnlineCompensator
@@ -77,22 +79,6 @@ def sen_packet(ipoc: int, correction_base_mm: np.ndarray) -> bytes:
     return SEN.format(float(c[0]), float(c[1]), float(c[2]), ipoc).encode()
 
 
-class ServeReport(NamedTuple):
-    """What a served session did.
-
-    Attributes:
-        cycles: Packets answered.
-        unreadable: Packets that were not a readable `<Rob>` (answered with no correction change).
-        compute_us: Per-cycle compute (parse, compensate, answer), shape (cycles,) [µs].
-        stopped: Why the loop ended: "cycles" or "idle".
-    """
-
-    cycles: int
-    unreadable: int
-    compute_us: np.ndarray
-    stopped: str
-
-
 class RsiServer:
     """The twin's side of RSI on a UDP port (`serve`).
 
@@ -101,11 +87,14 @@ class RsiServer:
         robot: The robot (its controller's axis signs and offsets turn `AIPos` into the twin's joints).
         port: UDP port to listen on (0: any free one, see `port`).
         host: Address to bind (tests: 127.0.0.1).
+        force: Where the F/T sample comes from (the sensor's own stream, `twin.apps.online.rdt`); None: the
+            packets' `<FT>` element. With a source, the cycle's clock is the server's (`time.perf_counter`), as
+            its samples are stamped.
     """
 
     def __init__(self, compensator: OnlineCompensator, robot: RobotDescription, port: int = 0,
-                 host: str = "127.0.0.1") -> None:
-        self.compensator, self.robot = compensator, robot
+                 host: str = "127.0.0.1", force: ForceSource | None = None) -> None:
+        self.compensator, self.robot, self.force = compensator, robot, force
         self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         try:
             self.sock.bind((host, port))
@@ -113,12 +102,6 @@ class RsiServer:
             self.sock.close()
             raise InputError(f"cannot listen on {host}:{port} (UDP): {exc.strerror}") from None
         self.port = int(self.sock.getsockname()[1])
-        sign = np.array(robot.controller_sign or (1.0,) * robot.dof)
-        offset = np.array(robot.controller_offset_rad or (0.0,) * robot.dof)
-        self._sign, self._offset = sign, offset
-        self._q = np.zeros(robot.dof)
-        self._f = np.zeros(3)
-        self._c_base_mm = np.zeros(3)
 
     def close(self) -> None:
         """Stop listening."""
@@ -134,12 +117,11 @@ class RsiServer:
         """
         if max_cycles < 1 or not idle_timeout_s > 0:
             raise InputError(f"max_cycles {max_cycles!r} must be >= 1 and idle_timeout_s {idle_timeout_s!r} > 0")
-        R = np.asarray(R_base_sheet, dtype=float)
+        cycle = ServedCycle(self.compensator, self.robot, R_base_sheet)
         compute = np.zeros(max_cycles)
         self.sock.settimeout(idle_timeout_s)
         cycles = unreadable = 0
         stopped = "cycles"
-        stamp = math.nan
         while cycles < max_cycles:
             try:
                 packet, peer = self.sock.recvfrom(MAX_PACKET)
@@ -152,18 +134,17 @@ class RsiServer:
             except InputError:
                 unreadable += 1
                 continue
-            t = 1e-3 * rob.ipoc
-            self._q[:] = rob.axes_deg
-            self._q *= math.pi / 180.0
-            self._q -= self._offset
-            self._q /= self._sign
-            if rob.force_n is not None:
-                self._f[:] = rob.force_n
-                stamp = t
-            self.compensator.step(t, stamp, self._f, self._q)
-            np.dot(R, self.compensator.correction_m, out=self._c_base_mm)
-            self._c_base_mm *= 1e3
-            self.sock.sendto(sen_packet(rob.ipoc, self._c_base_mm), peer)
+            if self.force is not None:
+                t = start
+                self.force.poll()
+                cycle.force_n[:] = self.force.force_n
+                cycle.stamp_s = self.force.stamp_s
+            else:
+                t = 1e-3 * rob.ipoc
+                if rob.force_n is not None:
+                    cycle.force_n[:] = rob.force_n
+                    cycle.stamp_s = t
+            self.sock.sendto(sen_packet(rob.ipoc, cycle.step(t, rob.axes_deg)), peer)
             compute[cycles] = 1e6 * (time.perf_counter() - start)
             cycles += 1
         return ServeReport(cycles, unreadable, compute[:cycles], stopped)

@@ -51,7 +51,9 @@ class ExportRequest:
         feed_mm_s: The process feed [mm/s]; None: the median of the path's feeds.
         max_points: Points per file before a KRL or RAPID program is split; 0: the format's limit.
         online: The program with the twin's online correction switched on (KUKA: KRL with RSI and its Ethernet
-            configuration, `twin.apps.export.krl_rsi`), for `tx200-twin online --serve`.
+            configuration, `twin.apps.export.krl_rsi`; ABB: RAPID with EGM path correction,
+            `twin.apps.export.rapid_egm`; Stäubli: VAL3 `alter` moves, `twin.apps.export.val3_alter`), for
+            `tx200-twin online --serve`.
         placement: The program's sheet frame in the robot base.
     """
 

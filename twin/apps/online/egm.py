@@ -1,0 +1,190 @@
+"""ABB EGM on the twin's side: a UDP server that answers each `EgmRobot` message with an `EgmSensorPathCorr`
+carrying the online compensator's correction of the programmed path.
+
+EGM (Externally Guided Motion, RobotWare option; protobuf over UDP, 4 ms) in path-correction mode: the RAPID
+program moves with `EGMMoveL` after `EGMActMove` (`twin.apps.export.rapid_egm`), the controller streams
+`EgmRobot` (header `seqno`/`tm`, feedback joints [deg] and Cartesian pose [mm, quaternion], the planned pose) and
+takes each `EgmSensorPathCorr` (header `mtype` `MSGTYPE_PATH_CORRECTION`; `pathCorr.pos` [mm] and `age`) as the
+path's current offset. The messages are `abb-robot-client`'s compiled classes of ABB's `egm.proto`.
+
+The offset is in **path coordinates** (RAPID's `CorrWrite`; `abb-robot-client`'s `send_to_robot_path_corr`): x
+along the direction of motion, z the tool's z axis made normal to it, y = z × x. The twin's correction is in the
+robot's base frame; this server turns it into path coordinates from the planned pose of each message: the motion's
+direction from the planned positions of successive messages (the last one kept while the robot stands), the
+tool's z from the planned orientation. Which way ABB's path frame points at a standstill is not documented where
+we could read it; the correction there is sent in the last moving frame. `age` is sent as 1 ms, as
+`abb-robot-client` does. These conventions are read from those sources, not tried on a controller.
+
+The F/T sample comes from a `ForceSource` (the sensor's own stream, `twin.apps.online.rdt`) or, without one, from
+the message's `measuredForce` (ABB Force Control's sensor, its first three values taken as the sheet-frame force
+[N]). The server's loop is bounded as `rsi`'s is.
+"""
+
+from __future__ import annotations
+
+import math
+import socket
+import time
+from typing import Any
+
+import numpy as np
+
+from twin.apps.online.cycle import ServedCycle, ServeReport
+from twin.apps.online.source import ForceSource
+from twin.errors import InputError
+from twin.robot.description import RobotDescription
+from twin.sim.online import OnlineCompensator
+
+MAX_PACKET = 4096
+#: Below this motion between two messages the path direction is kept [mm].
+MIN_STEP_MM = 1e-4
+
+
+def egm_messages() -> Any:
+    """ABB's EGM message classes (`abb_robot_client`'s compiled `egm.proto`), imported on first use."""
+    from abb_robot_client._egm_protobuf import egm_pb2
+
+    return egm_pb2
+
+
+def _z_axis(q: Any, out: np.ndarray) -> None:
+    """The z axis of the unit quaternion (u0 = w, u1..u3 = x y z) into `out`."""
+    w, x, y, z = q.u0, q.u1, q.u2, q.u3
+    out[0] = 2.0 * (x * z + w * y)
+    out[1] = 2.0 * (y * z - w * x)
+    out[2] = 1.0 - 2.0 * (x * x + y * y)
+
+
+class PathFrame:
+    """The path coordinates of the moving tool (module docstring), updated from each planned pose.
+
+    Attributes:
+        axes: Rows x (the motion), y, z (the tool's, normal to the motion), base frame, shape (3, 3).
+    """
+
+    def __init__(self) -> None:
+        self.axes = np.eye(3)
+        self._last: tuple[float, float, float] | None = None
+        self._x = (1.0, 0.0, 0.0)
+        self._z = (0.0, 0.0, -1.0)
+
+    def update(self, pos: Any, orient: Any | None) -> None:
+        """Move the frame to the planned position (mm) and orientation (quaternion or None). Plain floats: a
+        3-vector costs more as an array than as numbers."""
+        px, py, pz = pos.x, pos.y, pos.z
+        if self._last is not None:
+            dx, dy, dz = px - self._last[0], py - self._last[1], pz - self._last[2]
+            length = math.sqrt(dx * dx + dy * dy + dz * dz)
+            if length > MIN_STEP_MM:
+                self._x = (dx / length, dy / length, dz / length)
+        self._last = (px, py, pz)
+        if orient is not None:
+            w, a, b, c = orient.u0, orient.u1, orient.u2, orient.u3
+            self._z = (2.0 * (a * c + w * b), 2.0 * (b * c - w * a), 1.0 - 2.0 * (a * a + b * b))
+        x0, x1, x2 = self._x
+        t0, t1, t2 = self._z
+        along = t0 * x0 + t1 * x1 + t2 * x2
+        z0, z1, z2 = t0 - along * x0, t1 - along * x1, t2 - along * x2  # the tool's z, made normal to the motion
+        norm = math.sqrt(z0 * z0 + z1 * z1 + z2 * z2)
+        if norm < 1e-9:  # moving along the tool's axis: any z normal to the motion
+            z0, z1, z2 = (-x2, 0.0, x0) if abs(x1) < 0.9 else (0.0, x2, -x1)  # x × (0 1 0) or x × (1 0 0)
+            norm = math.sqrt(z0 * z0 + z1 * z1 + z2 * z2)
+        z0, z1, z2 = z0 / norm, z1 / norm, z2 / norm
+        a = self.axes
+        a[0, 0], a[0, 1], a[0, 2] = x0, x1, x2
+        a[1, 0], a[1, 1], a[1, 2] = z1 * x2 - z2 * x1, z2 * x0 - z0 * x2, z0 * x1 - z1 * x0  # y = z × x
+        a[2, 0], a[2, 1], a[2, 2] = z0, z1, z2
+
+
+class EgmServer:
+    """The twin's side of EGM path correction on a UDP port (`serve`).
+
+    Args:
+        compensator: The online compensator (its twin at the cell's placement).
+        robot: The robot (its controller's axis signs and offsets turn the feedback joints into the twin's).
+        port: UDP port to listen on (0: any free one, see `port`).
+        host: Address to bind (tests: 127.0.0.1).
+        force: Where the F/T sample comes from; None: the messages' `measuredForce`.
+    """
+
+    def __init__(self, compensator: OnlineCompensator, robot: RobotDescription, port: int = 0,
+                 host: str = "127.0.0.1", force: ForceSource | None = None) -> None:
+        self.compensator, self.robot, self.force = compensator, robot, force
+        self.pb = egm_messages()
+        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        try:
+            self.sock.bind((host, port))
+        except OSError as exc:
+            self.sock.close()
+            raise InputError(f"cannot listen on {host}:{port} (UDP): {exc.strerror}") from None
+        self.port = int(self.sock.getsockname()[1])
+
+    def close(self) -> None:
+        """Stop listening."""
+        self.sock.close()
+
+    def serve(self, R_base_sheet: np.ndarray, max_cycles: int, idle_timeout_s: float = 1.0) -> ServeReport:
+        """Answer messages until `max_cycles` were answered or none came for `idle_timeout_s`.
+
+        Args:
+            R_base_sheet: The sheet's axes in the robot base.
+            max_cycles: Most messages to answer (a bound: the loop stops by itself).
+            idle_timeout_s: Stop when no message came for this long [s].
+        """
+        if max_cycles < 1 or not idle_timeout_s > 0:
+            raise InputError(f"max_cycles {max_cycles!r} must be >= 1 and idle_timeout_s {idle_timeout_s!r} > 0")
+        pb = self.pb
+        cycle = ServedCycle(self.compensator, self.robot, R_base_sheet)
+        frame = PathFrame()
+        robot_msg, answer = pb.EgmRobot(), pb.EgmSensorPathCorr()
+        answer.header.mtype = pb.EgmHeader.MessageType.Value("MSGTYPE_PATH_CORRECTION")
+        answer.pathCorr.age = 1
+        axes = np.zeros(self.robot.dof)
+        corr_path = np.zeros(3)
+        buffer = bytearray(MAX_PACKET)
+        compute = np.zeros(max_cycles)
+        self.sock.settimeout(idle_timeout_s)
+        cycles = unreadable = 0
+        stopped = "cycles"
+        while cycles < max_cycles:
+            try:
+                n, peer = self.sock.recvfrom_into(buffer)
+            except TimeoutError:
+                stopped = "idle"
+                break
+            start = time.perf_counter()
+            try:
+                robot_msg.ParseFromString(bytes(buffer[:n]))
+                joints = robot_msg.feedBack.joints.joints
+                if len(joints) < self.robot.dof:
+                    raise ValueError("joints")
+            except Exception:  # protobuf's DecodeError, a message without joints
+                unreadable += 1
+                continue
+            for i in range(self.robot.dof):
+                axes[i] = joints[i]
+            t = start if self.force is not None else 1e-3 * robot_msg.header.tm
+            self._take_force(robot_msg, cycle, t)
+            planned = robot_msg.planned.cartesian if robot_msg.planned.HasField("cartesian") else None
+            cartesian = planned if planned is not None else robot_msg.feedBack.cartesian
+            frame.update(cartesian.pos, cartesian.orient if cartesian.HasField("orient") else None)
+            np.dot(frame.axes, cycle.step(t, axes), out=corr_path)
+            answer.header.seqno = cycles + 1
+            answer.header.tm = robot_msg.header.tm
+            answer.pathCorr.pos.x, answer.pathCorr.pos.y, answer.pathCorr.pos.z = corr_path
+            self.sock.sendto(answer.SerializeToString(), peer)
+            compute[cycles] = 1e6 * (time.perf_counter() - start)
+            cycles += 1
+        return ServeReport(cycles, unreadable, compute[:cycles], stopped)
+
+    def _take_force(self, robot_msg: Any, cycle: ServedCycle, t: float) -> None:
+        """The newest F/T sample into the cycle: the force source's, or the message's measured force."""
+        if self.force is not None:
+            self.force.poll()
+            cycle.force_n[:] = self.force.force_n
+            cycle.stamp_s = self.force.stamp_s
+        elif robot_msg.HasField("measuredForce") and len(robot_msg.measuredForce.force) >= 3 and (
+                not robot_msg.measuredForce.HasField("fcActive") or robot_msg.measuredForce.fcActive):
+            force = robot_msg.measuredForce.force
+            cycle.force_n[0], cycle.force_n[1], cycle.force_n[2] = force[0], force[1], force[2]
+            cycle.stamp_s = t

@@ -1,0 +1,151 @@
+"""Stäubli VAL3 `alter` on the twin's side: a TCP server that answers each request of the robot's synchronous
+task with the online compensator's correction, in the frames of `twin.apps.online.alter_protocol`.
+
+The application `export --online` writes for a Stäubli (`twin.apps.export.val3_alter`) runs its path as `alterMovel`
+moves and a synchronous task (`alterTask`, 4 ms) that sends the robot's joints (`herej()`, degrees) with a sequence
+number and applies the twin's answer with `alter()`: the absolute correction in the robot's world/base frame [mm].
+The robot is the TCP client (its `sio` socket `twin`); this server accepts one connection and answers each request
+at once, echoing its sequence number.
+
+A VAL3 cell has no F/T channel in the robot's frame (unlike an RSI diagram), so the F/T sample comes from a
+`ForceSource` on the PC (the sensor's own stream, `twin.apps.online.rdt`), polled once per request; its stamps and
+the cycle's time are both on this process's `time.perf_counter` clock, so the compensator's watchdog compares
+like with like. Without a force source the stamp stays NaN and the compensator corrects nothing (no start without
+a sensor): every answer is zero.
+
+The loop is bounded: it stops after `max_cycles` requests answered, when no request (or no connection) came for
+`idle_timeout_s`, or when the robot closes the connection. A request it cannot read (wrong size is impossible on a
+stream; a wrong magic, a negative sequence number, a joint not finite) is counted unreadable and answered with the
+last correction and the frame's sequence number field (0 when negative). Each cycle reads into, and answers from,
+buffers allocated once; only the frame's unpacking makes a small tuple.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import socket
+import time
+
+import numpy as np
+
+from twin.apps.online.alter_protocol import (
+    ANSWER_BYTES,
+    JOINTS,
+    REQUEST_BYTES,
+    decode_request_into,
+    encode_answer_into,
+    frame_seq,
+)
+from twin.apps.online.cycle import ServedCycle, ServeReport
+from twin.apps.online.source import ForceSource
+from twin.errors import InputError
+from twin.robot.description import RobotDescription
+from twin.sim.online import OnlineCompensator
+
+__all__ = ["ServeReport", "Val3Server"]
+
+
+class Val3Server:
+    """The twin's side of the VAL3 `alter` task on a TCP port (`serve`).
+
+    Args:
+        compensator: The online compensator (its twin at the cell's placement).
+        robot: The robot (its controller's axis signs and offsets turn `herej()`'s joints into the twin's).
+        port: TCP port to listen on (0: any free one, see `port`; the controller's socket connects to
+            `alter_protocol.DEFAULT_PORT` unless configured otherwise).
+        host: Address to bind (tests: 127.0.0.1; a cell: the PC's address on the robot's network).
+        force: Where the F/T sample comes from; None: no sensor, so no correction.
+
+    Raises:
+        InputError: A robot without six joints (the frames carry six), or a port that cannot be listened on.
+    """
+
+    def __init__(self, compensator: OnlineCompensator, robot: RobotDescription, port: int = 0,
+                 host: str = "127.0.0.1", force: ForceSource | None = None) -> None:
+        if robot.dof != JOINTS:
+            raise InputError(f"robot {robot.name!r} has {robot.dof} joints; the VAL3 alter frames carry {JOINTS}")
+        self.compensator, self.robot, self.force = compensator, robot, force
+        self.sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+        try:
+            self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+            self.sock.bind((host, port))
+            self.sock.listen(1)
+        except OSError as exc:
+            self.sock.close()
+            raise InputError(f"cannot listen on {host}:{port} (TCP): {exc.strerror}") from None
+        self.port = int(self.sock.getsockname()[1])
+
+    def close(self) -> None:
+        """Stop listening."""
+        self.sock.close()
+
+    def serve(self, R_base_sheet: np.ndarray, max_cycles: int, idle_timeout_s: float = 1.0) -> ServeReport:
+        """Accept the robot's connection and answer its requests until `max_cycles` were answered, none came for
+        `idle_timeout_s`, or the robot closed the connection.
+
+        Args:
+            R_base_sheet: The sheet's axes in the robot base (the compensator's frame into the base frame that
+                `alterBegin(world, ...)` alters in).
+            max_cycles: Most requests to answer (a bound: the loop stops by itself).
+            idle_timeout_s: Stop when no connection or no request came for this long [s].
+
+        Returns:
+            Requests answered (the unreadable ones among them), per-cycle compute [µs] and why it stopped:
+            "cycles", "idle" or "disconnected".
+        """
+        if max_cycles < 1 or not idle_timeout_s > 0:
+            raise InputError(f"max_cycles {max_cycles!r} must be >= 1 and idle_timeout_s {idle_timeout_s!r} > 0")
+        cycle = ServedCycle(self.compensator, self.robot, R_base_sheet)
+        compute = np.zeros(max_cycles)
+        self.sock.settimeout(idle_timeout_s)
+        try:
+            conn, _ = self.sock.accept()
+        except TimeoutError:
+            return ServeReport(0, 0, compute[:0], "idle")
+        with conn:
+            conn.settimeout(idle_timeout_s)
+            with contextlib.suppress(OSError):  # a socket that cannot take the option still works
+                conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+            cycles, unreadable, stopped = self._answer(conn, cycle, compute, max_cycles)
+        return ServeReport(cycles, unreadable, compute[:cycles], stopped)
+
+    def _answer(self, conn: socket.socket, cycle: ServedCycle, compute: np.ndarray,
+                max_cycles: int) -> tuple[int, int, str]:
+        """The request loop on one connection; returns (answered, unreadable, why it stopped)."""
+        request = bytearray(REQUEST_BYTES)
+        view = memoryview(request)
+        answer = bytearray(ANSWER_BYTES)
+        axes_deg = np.zeros(JOINTS)
+        cycles = unreadable = 0
+        while cycles < max_cycles:
+            got = 0
+            while got < REQUEST_BYTES:  # a stream: a frame may come in pieces
+                try:
+                    n = conn.recv_into(view[got:], REQUEST_BYTES - got)
+                except TimeoutError:
+                    return cycles, unreadable, "idle"
+                except OSError:  # reset by the robot
+                    return cycles, unreadable, "disconnected"
+                if n == 0:
+                    return cycles, unreadable, "disconnected"
+                got += n
+            start = time.perf_counter()
+            try:
+                seq = decode_request_into(request, axes_deg)
+            except InputError:
+                unreadable += 1
+                seq = max(frame_seq(request), 0)
+                encode_answer_into(answer, seq, cycle.correction_base_mm)  # the last correction, unchanged
+            else:
+                if self.force is not None:
+                    self.force.poll()
+                    cycle.force_n[:] = self.force.force_n
+                    cycle.stamp_s = self.force.stamp_s
+                encode_answer_into(answer, seq, cycle.step(time.perf_counter(), axes_deg))
+            try:
+                conn.sendall(answer)
+            except OSError:
+                return cycles, unreadable, "disconnected"
+            compute[cycles] = 1e6 * (time.perf_counter() - start)
+            cycles += 1
+        return cycles, unreadable, "cycles"
