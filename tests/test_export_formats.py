@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from twin.apps.export import FORMATS, export_path
+from twin.apps.export import FORMATS, export_path, krl
 from twin.apps.export.program import CellSetup, default_cell, euler_xyz_deg, euler_zyx_deg, quaternion_wxyz
 from twin.apps.export.val3_check import check_application
 from twin.cli import main
@@ -167,7 +167,11 @@ def test_krl_points_feeds_and_orientation_read_back(
     R = _rz(abc[0, 0]) @ _ry(abc[0, 1]) @ _rx(abc[0, 2])  # KUKA: Rz(A) Ry(B) Rx(C)
     np.testing.assert_allclose(R, cell.R_sheet_tool, atol=1e-6)
     src = next(f for f in exported["krl"] if f.suffix == ".src").read_text()
-    assert "$TOOL=T_ISF" in src and "$BASE=B_SHEET" in src and "LIN P_PATH[I] C_DIS" in src
+    assert all(f"${v}={v}_DATA[1]" in src for v in ("TOOL", "LOAD", "BASE")) and "  SPL P_PATH[3]" in src
+    # the process feed is the fast pass's: the slower passes' moves carry their own feed
+    with_feed = {int(i) for i in re.findall(r"P_PATH\[(\d+)\] WITH \$VEL\.CP=V_PATH\[\1\]", src)}
+    slower = {i + 1 for i in range(1, len(feed)) if abs(feed[i] / FAST_FEED_MM_S - 1.0) > krl.FEED_MATCH}
+    assert with_feed == slower and slower
 
 
 def test_rapid_points_feeds_and_quaternion_read_back(
@@ -179,7 +183,7 @@ def test_rapid_points_feeds_and_quaternion_read_back(
     np.testing.assert_allclose(np.linalg.norm(q, axis=1), 1.0, atol=2e-6)
     np.testing.assert_allclose(np.abs(q[0] @ quaternion_wxyz(cell.R_sheet_tool)), 1.0, atol=1e-6)
     text = exported["rapid"][0].read_text()
-    assert text.count("MODULE") == 2 and "MoveL pPath{i},vPath{i},z0,tIsf\\WObj:=wSheet;" in text
+    assert text.count("MODULE") == 2 and "MoveL pPath{i},vPath{i},zPath,tIsf\\WObj:=wSheet;" in text
     assert "tIsf:=[TRUE,[[0,0,274.9400],[1,0,0,0]],[3.200," in text  # the cell's 3.2 kg tool
 
 
@@ -302,8 +306,8 @@ def test_a_turned_sheet_frame_puts_every_format_on_the_twins_pose(path_csv: Path
     p = p[1:-1]
     np.testing.assert_allclose(p @ R_frame.T + 1e3 * np.array([1.5, 0.1, 0.2]), p_base, atol=2 * POSITION_TOL_MM)
     np.testing.assert_allclose(R_frame @ _rx(r[0, 0]) @ _ry(r[0, 1]) @ _rz(r[0, 2]), kin.R_tool_down, atol=1e-6)
-    krl = next(f for f in export_path(path_csv, "krl", tmp_path / "k", cell=cell).files if f.suffix == ".dat")
-    sheet = _numbers(re.search(r"B_SHEET=\{([^}]*)\}", krl.read_text()).group(1))  # type: ignore[union-attr]
+    krl = next(f for f in export_path(path_csv, "krl", tmp_path / "k", cell=cell).files if f.suffix == ".src")
+    sheet = _numbers(re.search(r"^BASE_DATA\[1\]=\{([^}]*)\}", krl.read_text(), re.M).group(1))  # type: ignore[union-attr]
     assert sheet[3:] == pytest.approx([30.0, 0.0, 0.0])
     rapid = export_path(path_csv, "rapid", tmp_path / "r.mod", cell=cell).files[0].read_text()
     wobj = _numbers(re.search(r"wSheet:=\[FALSE,TRUE,\"\",\[\[([^\]]*)\],\[([^\]]*)\]", rapid).group(2))  # type: ignore[union-attr]

@@ -70,7 +70,8 @@ def test_compensated_groove_approaches_from_above_and_keeps_the_feed_in_contact(
     np.testing.assert_allclose(retract[:2], p[-1, :2], atol=1e-9)
     assert approach[2] == retract[2] >= max(0.0, p[:, 2].max()) + 20.0 - 1e-9  # above the sheet and the path
     src = (work / "groove.src").read_text()
-    assert src.index("PTP P_PATH[1]") < src.index("LIN P_PATH[I]")  # a joint move to the approach only
+    joint = re.findall(r"^PTP (\S+)$", src, re.M)  # joint moves HOME and to the approach only
+    assert joint == ["XHOME_ISF", "P_PATH[1]", "XHOME_ISF"] and src.index("PTP P_PATH[1]") < src.index("SLIN P_PATH[2]")
     contact = feed[2:-1]  # the path's moves; [1]: down onto the path, [-1]: the retract
     assert contact.max() <= 1.5 * PROCESS_FEED_MM_S
     assert feed[1] <= 1.5 * PROCESS_FEED_MM_S and feed[-1] <= 1.5 * PROCESS_FEED_MM_S
@@ -95,18 +96,22 @@ def test_compensated_groove_approaches_from_above_and_keeps_the_feed_in_contact(
 def test_krl_has_the_vendor_structure(short: Path, work: Path) -> None:
     """KRL as RoboDK's KUKA_KRC4.py writes it (github.com/ros-industrial-attic/robodk_postprocessors, 08ec3d3):
     `&ACCESS RVP`/`&REL 1`, `DEF name( )`, the header `;FOLD INI` / `BAS (#INITMOV,0 )` / `;ENDFOLD (INI)` before
-    any motion, `$VEL.CP` (setSpeed, m/s), `$ACC.CP` (setAcceleration), `$APO.CDIS` with `C_DIS` (setZoneData),
-    `END`; the data list `DEFDAT name` ... `ENDDAT`."""
+    any motion, `$VEL.CP` (setSpeed, m/s), `$ACC.CP` (setAcceleration), `$APO.CDIS` (setZoneData), `END`; the data
+    list `DEFDAT name` ... `ENDDAT`; KSS 8's controller data (`$TOOL=TOOL_DATA[1]`, `$LOAD=LOAD_DATA[1]`,
+    `$BASE=BASE_DATA[1]`), a first and last `PTP` HOME and the path as `SPLINE` ... `ENDSPLINE` blocks
+    (`tests/test_program_structure.py` checks the whole program)."""
     assert main(["export", str(short), "--format", "krl", "--out", str(work / "s.src")]) == 0
     src = (work / "s.src").read_text().splitlines()
     assert src[:3] == ["&ACCESS RVP", "&REL 1", "DEF S( )"] and src[-1] == "END"
     fold = src.index(";FOLD INI")
     assert src[fold + 1].strip() == "BAS(#INITMOV,0)" and src[fold + 2].startswith(";ENDFOLD")
-    first_move = next(i for i, line in enumerate(src) if line.lstrip().startswith(("PTP", "LIN")))
-    assert fold < first_move and src[first_move] == "PTP P_PATH[1]"
-    for variable in ("$VEL.CP=", "$ACC.CP=", "$APO.CDIS=", "$TOOL=", "$BASE="):
+    moves = [i for i, line in enumerate(src) if line.lstrip().startswith(("PTP", "LIN", "SLIN", "SPLINE"))]
+    assert fold < moves[0] and [src[i] for i in moves[:2]] == ["PTP XHOME_ISF", "PTP P_PATH[1]"]
+    assert src[moves[-1]] == "PTP XHOME_ISF"
+    for variable in ("$VEL.CP=", "$ACC.CP=", "$APO.CDIS=", "$TOOL=TOOL_DATA[1]", "$BASE=BASE_DATA[1]",
+                     "$LOAD=LOAD_DATA[1]"):
         assert any(line.strip().startswith(variable) for line in src), variable
-    assert any(line.strip().endswith("C_DIS") and line.strip().startswith("LIN") for line in src)
+    assert "SPLINE" in src and "ENDSPLINE" in src and not any(line.startswith("LIN") for line in src)
     dat = (work / "s.dat").read_text().splitlines()
     assert dat[2] == "DEFDAT S PUBLIC" and dat[-1] == "ENDDAT"
 
@@ -122,11 +127,12 @@ def test_rapid_has_the_vendor_structure(short: Path, work: Path) -> None:
     assert any(line.startswith("PERS wobjdata wSheet:=[FALSE,TRUE,") for line in lines)
     proc = lines.index("PROC main()")
     assert lines[proc + 1 : proc + 3] == ["ConfJ \\On;", "ConfL \\Off;"]
-    assert lines[proc + 3] == "MoveJ pPath{1},v100,fine,tIsf\\WObj:=wSheet;"
-    moves = [line for line in lines[proc:] if line.startswith(("MoveJ", "MoveL"))]
-    assert [m.split()[0] for m in moves] == ["MoveJ", "MoveL", "MoveL"]
-    assert all(re.fullmatch(r"Move[JL] \S+,\S+,(z0|fine),tIsf\\WObj:=wSheet;", m) for m in moves)
-    assert moves[-1].endswith(",fine,tIsf\\WObj:=wSheet;") and "ENDPROC" in lines[proc:]
+    assert lines[proc + 3 : proc + 5] == ["MoveAbsJ jHome,v100,fine,tIsf;", "MoveJ pPath{1},v100,fine,tIsf\\WObj:=wSheet;"]
+    moves = [line for line in lines[proc:] if line.startswith(("MoveAbsJ", "MoveJ", "MoveL"))]
+    kinds = [m.split()[0] for m in moves]
+    assert kinds[:2] == ["MoveAbsJ", "MoveJ"] and kinds[-1] == "MoveAbsJ" and set(kinds[2:-1]) == {"MoveL"}
+    assert all(re.fullmatch(r"Move[JL] \S+,\S+,(zPath|fine),tIsf\\WObj:=wSheet;", m) for m in moves[1:-1])
+    assert moves[-2].endswith(",fine,tIsf\\WObj:=wSheet;") and "ENDPROC" in lines[proc:]
 
 
 def test_val3_has_the_vendor_structure_and_its_folder_is_its_name(
@@ -172,13 +178,16 @@ def test_a_program_over_the_limit_is_split_into_parts_a_main_calls(
         np.testing.assert_array_equal(np.vstack([p for p, _ in parts]), _krl(whole / "isf.dat")[0])
         texts = [(split / f"isf_{k}.src").read_text() for k in (1, 2, 3)]
         assert "PTP P_PATH[1]" in texts[0] and not any("PTP" in t for t in texts[1:])
-        assert texts[2].rstrip().endswith("LIN P_PATH[N_PATH]\nEND") and "LIN P_PATH[N_PATH] C_DIS" in texts[0]
+        assert texts[2].rstrip().endswith("SLIN P_PATH[81]\nEND")  # the retract, at rest
+        assert texts[0].rstrip().splitlines()[-2].endswith(" C_SPL")  # part 1 blends into part 2
+        assert re.findall(r"^PTP (\S+)$", main_text, re.M) == ["XHOME_ISF", "XHOME_ISF"]
     else:
         texts = [(split / f"isf_{k}.mod").read_text() for k in (1, 2, 3)]
         counts = [int(re.search(r"nPath:=(\d+);", t).group(1)) for t in texts]  # type: ignore[union-attr]
         assert counts == [100, 100, n - 200] and all("LOCAL CONST robtarget" in t for t in texts)
         assert "MoveJ" in texts[0] and not any("MoveJ" in t for t in texts[1:])
-        assert texts[2].count(",fine,") == 1 and "PERS tooldata tIsf" in main_text
+        assert texts[2].count(",fine,") == 2 and "PERS tooldata tIsf" in main_text  # the path's end, the retract
+        assert main_text.count("MoveAbsJ jHome,") == 2
 
 
 def _far_path(directory: Path) -> Path:

@@ -55,8 +55,10 @@ def test_contact_points_are_alter_moves_between_alter_begin_and_end(app: dict[st
     code = _code(app["start.pgx"])
     n = _points(app)
     moves = [i for i, line in enumerate(code) if re.match(r"(movej|movel|alterMovel)\(", line)]
-    assert [code[i].split("(")[0] for i in moves] == ["movej", "alterMovel", "movel"]
-    approach, alter, retract = moves
+    assert [code[i].split("(")[0] for i in moves] == ["movej", "movej", "alterMovel", "movel", "movej"]
+    home, approach, alter, retract, back = moves
+    assert code[home] == code[back] == "movej(jHome, tIsf, mApproach)" and code[back + 1 :] == [
+        "waitEndMove()", "bAlterRun = false", "end"]  # HOME first and last, the task stopped after it
     assert code[approach] == "movej(pPath[0], tIsf, mApproach)"  # the approach point: a joint move, not altered
     assert code[retract] == "movel(pPath[size(pPath) - 1], tIsf, mPath[size(pPath) - 1])"  # the retract: linear
     loop = re.fullmatch(r"for i = (\d+) to size\(pPath\) - (\d+)", code[alter - 1])

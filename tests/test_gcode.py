@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from twin.errors import DataFileError, InputError
-from twin.process.toolpath.gcode import parse_gcode, read_gcode, write_gcode
+from twin.process.toolpath.gcode import parse_gcode, read_gcode
+from twin.process.toolpath.gcode_write import write_gcode
 from twin.process.toolpath.shapes import PartSpec, part_path
 
 

@@ -117,8 +117,10 @@ def test_export_online_writes_krl_with_rsi_and_its_ethernet_configuration(tmp_pa
                  "--out", str(tmp_path / "ISF.src")]) == 0
     src = (tmp_path / "ISF.src").read_text().splitlines()
     on, off = src.index("ret=RSI_ON(#ABSOLUTE)"), src.index("ret=RSI_OFF()")
-    assert src.index("PTP P_PATH[1]") < src.index('ret=RSI_CREATE("ISF_RSI",CONTID,TRUE)') < on
-    assert on < src.index("  LIN P_PATH[I] C_DIS") < off < len(src) - 1 and src[-1] == "END"
+    assert src.index("PTP XHOME_ISF") < src.index("PTP P_PATH[1]") < src.index('ret=RSI_CREATE("ISF_RSI",CONTID,TRUE)') < on
+    retract = max(i for i, line in enumerate(src) if line.startswith("SLIN P_PATH["))  # the path's last move
+    assert on < src.index("SLIN P_PATH[2]") < src.index("SPLINE") < retract < off  # RSI on over the whole path
+    assert src[off + 4 :] == ["PTP XHOME_ISF", "END"]  # off before the move HOME
     assert (tmp_path / "ISF.dat").is_file()
     root = ET.parse(tmp_path / "ISF_rsi_ethernet.xml").getroot()
     assert root.findtext("CONFIG/PORT") == "49152" and root.findtext("CONFIG/SENTYPE") == "ImFree"

@@ -33,6 +33,8 @@ class CompensationRecord:
         history_symmetry: Symmetry the FE history was loaded with (`half` doubles its forces), or None.
         history_column_symmetry: Symmetry its column names state (`*_half_n` columns: `half`), or None.
         history_file: The history's file, or None.
+        design_file: The design mesh the command was compensated to (`compensate --target-stl`: its part, not
+            its path, is what was asked), or None.
     """
 
     method: str
@@ -41,6 +43,7 @@ class CompensationRecord:
     history_symmetry: str | None = None
     history_column_symmetry: str | None = None
     history_file: str | None = None
+    design_file: str | None = None
 
     def __post_init__(self) -> None:
         t, f = np.asarray(self.t_s, dtype=float), np.asarray(self.f_used_n, dtype=float)
@@ -66,6 +69,7 @@ class CompensationRecord:
             "method": self.method,
             "history": {"file": self.history_file, "symmetry": self.history_symmetry,
                         "column_symmetry": self.history_column_symmetry},
+            **({} if self.design_file is None else {"design": self.design_file}),
             "t_s": np.round(self.t_s, 6).tolist(),
             "f_used_n": np.round(self.f_used_n, 1).tolist(),
         }
@@ -77,7 +81,7 @@ class CompensationRecord:
             history = data.get("history") or {}
             return cls(str(data["method"]), np.asarray(data["t_s"], dtype=float),
                        np.asarray(data["f_used_n"], dtype=float), history.get("symmetry"),
-                       history.get("column_symmetry"), history.get("file"))
+                       history.get("column_symmetry"), history.get("file"), data.get("design"))
         except (KeyError, TypeError, ValueError, AttributeError) as exc:
             raise DataFileError(source, f"compensation record: {exc!r}; expected method, t_s, f_used_n and "
                                 "history {file, symmetry, column_symmetry}") from None

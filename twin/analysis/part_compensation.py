@@ -106,6 +106,7 @@ def predicted_surface(twin: Twin, t_s: np.ndarray, command_m: np.ndarray) -> tup
 def compensate_part(
     ideal: ToolPath, twin: Twin, design: trimesh.Trimesh, *, iterations: int = 3, tol_m: float = 10e-6,
     gain: float = 1.0, discrepancy: Callable[[np.ndarray], np.ndarray] | None = None,
+    progress: Callable[[str], None] | None = None,
 ) -> PartCompensation:
     """Move the target path until the twin's formed part after unclamping lies on the design (module docstring).
 
@@ -120,6 +121,7 @@ def compensate_part(
             minus the twin's at x-y (n, 2) [m] -> (n,) [m], `twin.analysis.scan_learning.twin_discrepancy`): the
             twin's part is then aimed at the design minus it, and each iteration's reported part is the twin's
             plus it (what the cell is expected to form). None: the twin is taken as right.
+        progress: Told of each iteration's predicted part (a line of text), or None.
     """
     if not 0.0 < gain <= 1.0 or iterations < 1:
         raise InputError(f"gain {gain} must be in (0, 1] and iterations {iterations} >= 1")
@@ -133,6 +135,10 @@ def compensate_part(
         if discrepancy is not None:
             points[:, 2] += np.nan_to_num(discrepancy(points[:, :2]))
         deviations.append(region_deviation(points, index))
+        if progress is not None:
+            part = part_stats(deviations[-1])["part"]
+            progress(f"part iteration {len(deviations) - 1}/{iterations}: the twin's part {part['rms_mm']:.3f} mm rms "
+                     f"from the design (mean {part['mean_mm']:+.3f} mm)")
         if len(deviations) == iterations + 1:
             break
         p = learn_from_scan(target.p_sheet_m, points, design, gain=gain, tool_radius_m=twin.spec.process.tool_radius_m,

@@ -133,29 +133,76 @@ def signed_distance(mesh_mm: trimesh.Trimesh, points_m: np.ndarray) -> tuple[np.
 
 
 def read_target_mesh(path: str | Path) -> trimesh.Trimesh:
-    """A target part mesh from an STL (or any mesh file trimesh reads) in millimetres, as metres.
+    """A target or design part mesh from an STL in millimetres, as metres; an STL is read from its bytes
+    (`twin.process.part.stl`), another mesh format by trimesh with the format named (no detection).
 
     Raises:
-        DataFileError: The file is missing, is not a mesh, or is in metres (spans less than 1 mm).
+        DataFileError: The file is missing, is not a mesh, is in metres (spans less than 1 mm), or is not a surface a
+            part can be (`part_surface_problem`); naming the file and what was expected.
     """
     path = Path(path)
     if not path.is_file():
         raise DataFileError(path, "no such target mesh file")
-    try:
-        with np.errstate(all="ignore"):  # a non-finite vertex is refused below, not warned about on the way
-            mesh = trimesh.load(path, force="mesh")
-    except Exception as exc:
-        raise DataFileError(path, f"not a mesh file ({type(exc).__name__}: {str(exc)[:80]}); expected a binary or "
-                                  "ASCII STL in millimetres") from None
-    if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
+    suffix = path.suffix.lower().lstrip(".")
+    if suffix == "stl" or suffix not in _MESH_FORMATS:
+        from twin.process.part.stl import read_stl_triangles
+
+        triangles = read_stl_triangles(path)
+        with np.errstate(all="ignore"):
+            mesh = trimesh.Trimesh(vertices=triangles.reshape(-1, 3), faces=np.arange(3 * len(triangles)).reshape(-1, 3))
+    else:
+        mesh = _other_mesh(path, suffix)
+    if len(mesh.faces) == 0:
         raise DataFileError(path, "holds no triangles; expected an STL of the part in millimetres")
     if not np.all(np.isfinite(mesh.vertices)):
         raise DataFileError(path, "holds a vertex that is not a finite number; expected an STL in millimetres")
     span_mm = float(np.max(mesh.extents))
     if span_mm < 1.0:
         raise DataFileError(path, f"spans {span_mm:.3g} units: expected millimetres (a part spans > 1 mm)")
+    problem = part_surface_problem(mesh)
+    if problem:
+        raise DataFileError(path, f"{problem}; expected the part's surface as `path --design-stl` writes it")
     mesh.apply_scale(1e-3)
     return mesh
+
+
+#: Mesh formats other than STL that `read_target_mesh` hands to trimesh (with the format named).
+_MESH_FORMATS = ("obj", "ply", "off")
+
+
+def _other_mesh(path: Path, suffix: str) -> trimesh.Trimesh:
+    """A .obj/.ply/.off mesh read by trimesh with its format named; a missing optional package is said as such."""
+    try:
+        with np.errstate(all="ignore"):  # a non-finite vertex is refused by the caller, not warned about
+            mesh = trimesh.load(path, file_type=suffix, force="mesh")
+    except ImportError:
+        raise DataFileError(path, f"a .{suffix} mesh this installation cannot read (an optional package trimesh needs "
+                                  "for it is missing); expected a binary or ASCII STL in millimetres") from None
+    except Exception as exc:
+        raise DataFileError(path, f"not a .{suffix} mesh ({type(exc).__name__}: {str(exc)[:80]}); expected a binary "
+                                  "or ASCII STL in millimetres") from None
+    if not isinstance(mesh, trimesh.Trimesh):
+        raise DataFileError(path, "holds no triangles; expected an STL of the part in millimetres")
+    return mesh
+
+
+def part_surface_problem(mesh: trimesh.Trimesh) -> str | None:
+    """Why a mesh cannot be a formed sheet part's surface, or None.
+
+    A sheet part is a surface: every edge lies on one triangle (its border) or two (inside); an edge shared by three
+    or more triangles (fins, T-junctions of separate sheets) is no surface a tool forms, and the signed distance to
+    it has no meaning. A mesh whose triangles all have zero area has no surface at all.
+    """
+    if float(mesh.area) <= 0.0:
+        return "all its triangles have zero area: no surface"
+    edges, counts = np.unique(mesh.edges_sorted, axis=0, return_counts=True)
+    shared = counts > 2
+    if shared.any():
+        first = edges[np.argmax(shared)]
+        a, b = (", ".join(f"{v:.6g}" for v in mesh.vertices[i]) for i in first)
+        return (f"is not a surface a part can be: {int(shared.sum())} edge(s) shared by 3 or more triangles (non-"
+                f"manifold; e.g. ({a}) - ({b}) shared by {int(counts[np.argmax(shared)])})")
+    return None
 
 
 class DesignIndex:

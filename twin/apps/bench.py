@@ -238,7 +238,8 @@ def _bench_discrepancy(out: dict[str, Any], run: Run, t_s: np.ndarray, p_cmd: np
 
 def _bench_gcode(out: dict[str, Any], repeats: int) -> None:
     """G-code import: a 101,840-move spiral 45° cone, 120 mm across, 40 mm deep, read back."""
-    from twin.process.toolpath.gcode import read_gcode, write_gcode
+    from twin.process.toolpath.gcode import read_gcode
+    from twin.process.toolpath.gcode_write import write_gcode
     from twin.process.toolpath.shapes import PartSpec, part_path
 
     with tempfile.TemporaryDirectory(prefix="tx200-bench-gcode-") as tmp:

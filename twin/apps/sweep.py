@@ -15,9 +15,10 @@ one ready twin per worker.
 
 from __future__ import annotations
 
-__all__ = ["PARAMETERS", "SweepResult", "Uncertainty", "model_uncertainty", "replay_draw", "run_sweep",
-           "usable_cores"]
+__all__ = ["MAX_DRAWS", "PARAMETERS", "SweepResult", "Uncertainty", "check_draws", "draw_bytes", "model_uncertainty",
+           "replay_draw", "run_sweep", "usable_cores"]
 
+import os
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
@@ -34,6 +35,42 @@ from twin.process.force.table import SheetForceField
 from twin.process.toolpath.groove import ToolPath, groove_path
 from twin.sim.quasi_static import Twin
 from twin.sim.spec import TwinSpec
+
+MAX_DRAWS = 1_000_000
+"""Most draws a sweep takes: at ~25 ms a replay, a million draws are already ~7 core-hours."""
+MEMORY_SHARE = 0.5
+"""Share of the machine's memory the draws may hold [-]."""
+
+
+def draw_bytes() -> int:
+    """Memory one draw holds until the sweep ends [B]: its parameters and residuals (8 B floats), and the record's
+    Python floats and their JSON text (~32 B each), one per parameter and residual."""
+    return (8 + 32 + 32) * (len(PARAMETERS) + 3)
+
+
+def _machine_bytes() -> int | None:
+    """The machine's physical memory [B], or None where the system does not say."""
+    try:
+        return int(os.sysconf("SC_PHYS_PAGES")) * int(os.sysconf("SC_PAGE_SIZE"))
+    except (AttributeError, OSError, ValueError):
+        return None
+
+
+def check_draws(draws: int) -> None:
+    """Refuse a number of draws before anything is allocated: at most `MAX_DRAWS`, and no more than fit in
+    `MEMORY_SHARE` of the machine's memory at `draw_bytes` each.
+
+    Raises:
+        InputError: Above the limit, naming `--draws`, the value, the limit and the memory it would take.
+    """
+    memory = _machine_bytes()
+    limit = MAX_DRAWS if memory is None else min(MAX_DRAWS, int(MEMORY_SHARE * memory) // draw_bytes())
+    if draws > limit:
+        fits = "" if memory is None else (f" and what fits in {MEMORY_SHARE:.0%} of this machine's "
+                                          f"{memory / 2**30:.0f} GiB")
+        raise InputError(f"--draws {draws}: expected at most {limit} (the sweep's cap of {MAX_DRAWS} draws{fits}; "
+                         f"at ~{draw_bytes()} B a draw, {draws} draws would need ~{draws * draw_bytes() / 2**30:.3g} "
+                         "GiB of memory)")
 
 
 @dataclass(frozen=True)
@@ -180,10 +217,12 @@ def run_sweep(
         The distribution (the same for the same seed wherever it ran).
 
     Raises:
-        InputError: Bad `workers` or `chunk`, or no Dask scheduler answers at `scheduler`.
+        InputError: Bad `workers` or `chunk`, more draws than `check_draws` allows, or no Dask scheduler answers
+            at `scheduler`.
     """
     from twin.analysis.compensate import compensate_twin  # analysis runs before apps: an allowed import
 
+    check_draws(draws)
     spec = spec or TwinSpec()
     path = path if path is not None else groove_path()
     if (workers is not None and workers < 1) or (chunk is not None and chunk < 1):

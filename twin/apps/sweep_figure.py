@@ -22,7 +22,7 @@ def sweep_figure(result: SweepResult, path: str | Path) -> Path:
         ax.hist(values * 1e3, bins=bins, color="tab:blue", alpha=0.8)
         ax.axvline(float(np.median(values)) * 1e3, color="black", lw=1, label="median")
         ax.set_xlabel(label)
-        ax.set_ylabel("draws")
+        ax.set_ylabel("draws [-]")
     axes[0].axvline(result.nominal_rms_m * 1e3, color="tab:green", lw=1, ls="--", label="nominal model")
     axes[0].legend(fontsize=8)
     axes[2].scatter(result.parameters[:, 14], result.rms_m * 1e3, s=6, alpha=0.6)

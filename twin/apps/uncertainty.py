@@ -104,11 +104,16 @@ def model_uncertainty(twin: Twin, calibration: Mapping[str, Any] | None = None, 
         source: Name of the calibration (a path) for the record.
 
     Raises:
-        InputError: A calibration without `parameters`/`sigma`, or with a non-finite, negative or zero-mean value.
+        InputError: A twin whose robot has another number of joints than `PARAMETERS` names, or whose force
+            model is not the table field; a calibration without `parameters`/`sigma`, or with a non-finite,
+            negative or zero-mean value.
     """
     sheet = twin.sheet_field
     if not isinstance(sheet, SheetForceField):
         raise InputError(f"the sweep draws the table field's sensitivities; the twin's force model is {type(sheet).__name__}")
+    if len(twin.joint_stiffness) != _DOF:
+        raise InputError(f"the sweep draws K_q and friction of {_DOF} joints; the twin's robot {twin.robot.name!r} "
+                         f"has {len(twin.joint_stiffness)}")
     mean = Draw(twin.joint_stiffness, twin.joint_friction, sheet.k_unload, sheet.k_load, 1.0).values()
     sigma = Draw(
         np.full(_DOF, DEFAULT_RELATIVE_SIGMA["k_q"]), np.full(_DOF, DEFAULT_RELATIVE_SIGMA["friction"]),

@@ -29,6 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from twin.base.outputs import check_outputs
+from twin.cli._common import apply_cell
 from twin.errors import AssumptionWarning, ExtrapolationWarning, TwinError
 
 # the options that write; every other option (or positional) naming an existing path is an input
@@ -173,6 +174,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         warnings.simplefilter("always", ExtrapolationWarning)
         warnings.simplefilter("always", AssumptionWarning)
         try:
+            apply_cell(args)
             check_command_outputs(parser, args)
             return int(args._run(args))
         except TwinError as exc:

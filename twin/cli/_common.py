@@ -62,7 +62,13 @@ def add_force_model_argument(parser: argparse.ArgumentParser) -> None:
 
 
 def add_robot_argument(parser: argparse.ArgumentParser | Any) -> None:
-    """Add `--robot NAME|PATH` (a shipped robot, `tx200-twin robots`, or a robot description file)."""
+    """Add `--robot NAME|PATH` (a shipped robot, `tx200-twin robots`, or a robot description file) and `--cell
+    CELL.toml` (the user's cell declared once: robot, tool, sheet, process; `apply_cell`)."""
+    parser.add_argument(
+        "--cell", type=Path, metavar="FILE.toml",
+        help="your cell declared once (tx200-twin-cell/1: robot, tool, sheet placement, process); this command's "
+        "own flags override it",
+    )
     parser.add_argument(
         "--robot",
         metavar="NAME|PATH",
@@ -89,10 +95,38 @@ def add_process_arguments(parser: argparse.ArgumentParser) -> Any:
 
 
 def process_declaration(args: argparse.Namespace) -> ProcessDeclaration:
-    """What `--process` and the flags declare (`twin.process.process_file.declare_process`); nothing for a
-    command without them."""
-    return declare_process(getattr(args, "process", None), getattr(args, "material", None),
-                           getattr(args, "thickness_mm", None), getattr(args, "tool_radius_mm", None))
+    """What `--process` and the flags declare (`twin.process.process_file.declare_process`), over a `--cell`'s
+    process; nothing for a command without them."""
+    declared = declare_process(getattr(args, "process", None), getattr(args, "material", None),
+                               getattr(args, "thickness_mm", None), getattr(args, "tool_radius_mm", None))
+    cell = getattr(args, "cell_declaration", None)
+    return declared if cell is None else declared.over(cell.process)
+
+
+def apply_cell(args: argparse.Namespace) -> None:
+    """Lay a `--cell` file under the command's own flags: each option the command has and the user left unset takes
+    the cell's value (robot, sheet origin and yaw, tool length and mass; its process through `process_declaration`).
+    `args.cell_record` is what runs and programs record of it. Nothing for a command without `--cell`."""
+    if getattr(args, "cell", None) is None:
+        return
+    from twin.process.cell_file import read_cell_file
+
+    cell = read_cell_file(args.cell)
+    args.cell_declaration, args.cell_record = cell, cell.record()
+    for name, value in (("robot", cell.robot), ("origin_mm", None if cell.origin_mm is None else list(cell.origin_mm)),
+                        ("tool_length_mm", cell.tool.length_mm), ("tool_mass_kg", cell.tool.mass_kg)):
+        if value is not None and hasattr(args, name) and getattr(args, name) is None:
+            setattr(args, name, value)
+    if cell.yaw_deg is not None and getattr(args, "yaw_deg", None) == 0.0:
+        args.yaw_deg = cell.yaw_deg
+    if cell.tool.length_mm is not None and args.command != "export":
+        from twin.robot.description import load_robot
+
+        robot = load_robot(getattr(args, "robot", None) or cell.robot)
+        if abs(1e3 * robot.tool_length_m - cell.tool.length_mm) > 1.0:
+            note(f"note: {args.cell}: the twin and the labs simulate robot {robot.name}'s modelled tool "
+                 f"({1e3 * robot.tool_length_m:.2f} mm from the flange); the cell's {cell.tool.length_mm:g} mm tool "
+                 "goes into programs (`export`) and records")
 
 
 def add_placement_arguments(parser: argparse.ArgumentParser | Any, title: str = "sheet placement") -> Any:

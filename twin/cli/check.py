@@ -15,8 +15,11 @@ from twin.runs.scan_file import UNITS
 
 HELP = ("Check a run against the ideal path U_ID: residual per pass/direction and the compensation gain, its cause "
         "named from the run's record of what its compensation used (`compensate` writes CMD.compensation.json, "
-        "`lab --commanded CMD.csv` carries it into the run), else unknown. Exit 0: the gain is within tolerance, or "
-        "a nominal run; 1: a compensated run's gain is off; 2: bad input.")
+        "`lab --commanded CMD.csv` carries it into the run), else unknown; with --target-stl, the formed part "
+        "against the mesh. The exit code judges what was asked: with --target-stl the part (0: within "
+        "--part-tolerance-mm of the mesh, 1: outside), without it the path (0: the gain is within tolerance, or a "
+        "nominal run; 1: a compensated run's gain is off); 2: bad input, or a command compensated to a design "
+        "checked without it.")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -32,6 +35,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     _add_scan_arguments(parser)
     parser.add_argument("--figure", type=Path, metavar="PNG", help="with --target-stl: the deviation map")
+    parser.add_argument(
+        "--part-tolerance-mm", type=finite, metavar="T",
+        help="with --target-stl: the part passes when 99 %% of its formed region lies within T of the mesh (the "
+        "drawing's profile tolerance; default 0.2) [mm]",
+    )
     add_json_argument(parser, "the numbers")
 
 
@@ -63,10 +71,9 @@ def _add_scan_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Check the run; exit code 1 when a compensated run's gain is off by more than the tolerance (0 for a
-    nominal run, whose command is the ideal path)."""
+    """Check the run (and its part); the exit code judges the part with a mesh, else the path's gain."""
     from twin.apps.tasks.check import CheckRequest, check_task
 
     request = CheckRequest(args.run_dir, args.ideal, args.target_stl, args.scan, args.scan_units, args.register,
-                           args.datum, args.fit_rms_mm, args.fit_fraction, args.figure)
+                           args.datum, args.fit_rms_mm, args.fit_fraction, args.figure, args.part_tolerance_mm)
     return finish(args, check_task(request, note), protect=(args.run_dir, args.target_stl, args.ideal, args.scan))

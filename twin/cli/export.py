@@ -51,8 +51,8 @@ def _add_program_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--tool-mass-kg", type=float, metavar="KG",
-        help="tool mass for RAPID's tooldata [kg] (default: the run's imported sensor tool_mass_kg, else the "
-        "robot model's tool body mass)",
+        help="tool mass for the program's load data (RAPID tooldata, KRL LOAD_DATA) [kg] (default: the run's "
+        "imported sensor tool_mass_kg, else the robot model's tool body mass)",
     )
     parser.add_argument(
         "--safe-height-mm", type=float, metavar="MM",
@@ -79,5 +79,6 @@ def run(args: argparse.Namespace) -> int:
     request = ExportRequest(
         args.path_csv, args.out, args.format, args.robot, args.run, args.tool_length_mm, args.tool_mass_kg,
         args.safe_height_mm, args.feed_mm_s, args.max_points, placement_from(args), args.online,
+        getattr(args, "cell_record", None),
     )
     return finish(args, export_task(request, note), protect=(args.path_csv, args.run))

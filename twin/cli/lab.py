@@ -61,6 +61,6 @@ def run(args: argparse.Namespace) -> int:
     request = LabRequest(
         args.scenario, args.out, args.seed, args.commanded, tuple(args.effect or ()), args.plant,
         tuple(args.set or ()), args.neutral, args.force_model, process_declaration(args), args.robot,
-        placement_from(args), args.overwrite, args.online, args.model,
+        placement_from(args), args.overwrite, args.online, args.model, getattr(args, "cell_record", None),
     )
     return finish(args, lab_task(request, note), protect=(args.commanded, args.process, args.model))

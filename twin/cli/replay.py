@@ -33,6 +33,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         "the robot's part and the sheet's part")
     add_json_argument(parser, "the metrics")
     parser.add_argument("--rrd", type=Path, help="also save a rerun recording of the replay to FILE")
+    parser.add_argument("--figure", type=Path, metavar="PNG", help="also write a figure of the replay: measured vs "
+                        "simulated tool tip minus the command, on x, y and z [mm] against time [s]")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -40,5 +42,5 @@ def run(args: argparse.Namespace) -> int:
     from twin.apps.tasks.replay import ReplayRequest, replay_task
 
     request = ReplayRequest(args.run_dir, args.model, process_declaration(args), args.force_model, args.robot,
-                            args.forces, args.rrd)
+                            args.forces, args.rrd, args.figure)
     return finish(args, replay_task(request, note), protect=(args.run_dir, args.model, args.process))

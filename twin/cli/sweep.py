@@ -11,8 +11,11 @@ from twin.cli._common import (
     add_history_arguments,
     add_ideal_argument,
     add_json_argument,
+    add_process_arguments,
+    add_robot_argument,
     add_scheduler_argument,
     finish,
+    process_declaration,
 )
 from twin.cli._types import count, seed
 
@@ -21,7 +24,8 @@ HELP = "Monte Carlo of K_q / friction / sheet / force-scale uncertainty: distrib
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Add the `sweep` options."""
-    parser.add_argument("--draws", type=count, default=200, help="parameter sets to replay (default 200)")
+    parser.add_argument("--draws", type=count, default=200, help="parameter sets to replay (default 200; at most a "
+                        "million, and what fits in half the machine's memory: twin.apps.sweep.check_draws)")
     parser.add_argument("--seed", type=seed, default=0, help="seed of the draws (default 0)")
     parser.add_argument("--workers", type=count, help="worker processes (default: every usable core)")
     add_scheduler_argument(parser)
@@ -33,6 +37,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--uncompensated", action="store_true", help="replay the ideal path, not its compensation")
     add_history_arguments(parser)
     add_ideal_argument(parser)
+    parser.add_argument("--model", type=Path, help="twin model file (effects, K_q, process) of the nominal twin; "
+                        "its force model must be the table field")
+    add_process_arguments(parser)
+    add_robot_argument(parser)
     parser.add_argument("--figure", type=Path, help="write the distribution figure (PNG) to FILE")
     add_json_argument(parser, "the results")
 
@@ -44,9 +52,10 @@ def run(args: argparse.Namespace) -> int:
 
     history = HistoryDeclaration(args.history, args.symmetry, args.unchecked_symmetry)
     request = SweepRequest(args.draws, args.seed, args.workers, args.scheduler, args.calibration,
-                           args.uncompensated, history, args.ideal, args.figure)
+                           args.uncompensated, history, args.ideal, args.figure, args.model, args.robot,
+                           process_declaration(args))
     report = sweep_task(request, note=_bar)
-    return finish(args, report, protect=(args.calibration, args.history, args.ideal))
+    return finish(args, report, protect=(args.calibration, args.history, args.ideal, args.model, args.process))
 
 
 def _bar(text: str) -> None:

@@ -1,8 +1,8 @@
 """Process: what the tool does to the sheet, and the declared process every stage receives.
 
 Split by concept: `description` (the process as data: material, thickness, tool, friction, force model and
-history) and `process_file` (the process a user declares in a process file, and its record in runs and model
-files) here; `toolpath/` (the groove, cones and pyramids, G-code, placement and reach), `material/` (the
+history) `process_file` (the process a user declares in a process file, and its record in runs and model
+files) and `cell_file` (a user's cell declared once: robot, tool, sheet placement and process) here; `toolpath/` (the groove, cones and pyramids, G-code, placement and reach), `material/` (the
 library, hardening laws, materials files), `force/` (the `ForceField` seam, its registry and the force models),
 `fe/` (FE force histories with a declared symmetry, and the stand-in generator) and `part/` (the formed sheet and
 part: height map, profile, surface, springback).
@@ -61,7 +61,7 @@ __all__, __getattr__, __dir__ = lazy_exports(__name__, {
     "part_path": "twin.process.toolpath.shapes",
     "parse_gcode": "twin.process.toolpath.gcode",
     "read_gcode": "twin.process.toolpath.gcode",
-    "write_gcode": "twin.process.toolpath.gcode",
+    "write_gcode": "twin.process.toolpath.gcode_write",
     "Placement": "twin.process.toolpath.placement",
     "ReachReport": "twin.process.toolpath.placement",
     "check_reach": "twin.process.toolpath.placement",

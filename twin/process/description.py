@@ -30,6 +30,77 @@ DEFAULT_TOOL_FRICTION = 0.1
 
 
 @dataclass(frozen=True)
+class Plausible:
+    """The range a declared quantity of an ISF cell may take; outside it the value is refused, not warned about.
+
+    Attributes:
+        what: The quantity in words.
+        low: Lowest accepted value, in `unit` (inclusive).
+        high: Highest accepted value, in `unit` (inclusive).
+        unit: The unit the range is given in ("" for a pure number).
+        scale: `unit` per SI unit of the field (1e3 for a length in m shown in mm).
+        why: Why an ISF engineer would not go beyond it.
+    """
+
+    what: str
+    low: float
+    high: float
+    unit: str
+    scale: float
+    why: str
+
+
+#: The accepted range of every declared process and tool quantity (SI field name -> range). The published force
+#: formula's narrower experimental range (`twin.process.force.aerens.VALIDITY`) still only warns; these bound what is
+#: physically an ISF cell at all, so a value outside is a typo or a unit slip (1 um for 1 mm, 15 m for 15 mm).
+PLAUSIBLE: dict[str, Plausible] = {
+    # Sheets formed incrementally run from ~0.1 mm foils (micro-ISF) to ~6 mm plates (thick-plate SPIF, the
+    # forces of which already exceed an industrial robot's payload); 0.5-2 mm is the common range.
+    "thickness_m": Plausible("sheet thickness", 0.1, 6.0, "mm", 1e3,
+                             "ISF forms foils of 0.1 mm to plates of 6 mm"),
+    # Tool tip radii: Ø1 mm pins in micro-ISF to Ø100 mm hemispherical tools on large parts.
+    "tool_radius_m": Plausible("tool radius", 0.5, 50.0, "mm", 1e3,
+                               "ISF tools run from Ø1 mm micro-ISF pins to Ø100 mm hemispheres"),
+    # R_m of what is formed: pure lead and soft polymers (~10-20 MPa) to press-hardening and maraging steels
+    # (~2000 MPa); titanium alloys ~1000 MPa. Below 10 is a unit slip (GPa), above 2500 no sheet metal.
+    "tensile_strength_mpa": Plausible("tensile strength R_m", 10.0, 2500.0, "MPa", 1.0,
+                                      "sheet metals and polymers range from ~10 MPa (lead) to ~2000 MPa (maraging "
+                                      "steel)"),
+    # Coulomb friction tool-sheet: lubricated ISF 0.02-0.2, dry steel on steel up to ~0.8; above 1 is not Coulomb
+    # sliding any more (galling).
+    "tool_friction": Plausible("tool-sheet friction coefficient", 0.0, 1.0, "", 1.0,
+                               "lubricated ISF runs at 0.02-0.2, dry metal on metal below 1"),
+    # Flange to tip: a short pin on a compact spindle (~20 mm) to a long extension for deep parts; beyond 1.5 m the
+    # tool would out-reach the robot's own arm links (the same bounds as a cell file's tool.length_mm).
+    "tool_length_m": Plausible("tool length (flange to tip)", 20.0, 1500.0, "mm", 1e3,
+                               "an ISF tool on a robot flange is 20 mm to 1.5 m long"),
+    # Tool mass with an F/T sensor: a few kg; 500 kg is above every ISF robot's payload (KR 210: 210 kg).
+    "tool_mass_kg": Plausible("tool mass", 0.0, 500.0, "kg", 1.0,
+                              "an ISF tool with its sensor weighs a few kg, far below 500 kg"),
+}
+
+
+def plausibility_problem(name: str, value: float, label: str) -> str | None:
+    """What is wrong with `value` (SI) of the field `name` (`PLAUSIBLE`), or None; `label` says where it was
+    declared (an option as typed, `FILE: key`, `Process.thickness_m`)."""
+    rng = PLAUSIBLE[name]
+    shown = value * rng.scale
+    if rng.low <= shown <= rng.high:
+        return None
+    unit = f" {rng.unit}" if rng.unit else ""
+    return (f"{rng.what} {shown:g}{unit} ({label}) is outside {rng.low:g}..{rng.high:g}{unit}: {rng.why}; expected a "
+            f"value in that range (a unit slip?)")
+
+
+def check_plausible(name: str, value: float, label: str) -> float:
+    """`value` if it lies in the field's `PLAUSIBLE` range, else InputError naming `label`, the value and the range."""
+    problem = plausibility_problem(name, value, label)
+    if problem:
+        raise InputError(problem)
+    return value
+
+
+@dataclass(frozen=True)
 class Process:
     """The declared process (module docstring).
 
@@ -72,6 +143,8 @@ class Process:
             )
         if not (math.isfinite(self.tool_friction) and self.tool_friction >= 0):
             raise InputError(f"Process.tool_friction = {self.tool_friction!r}: expected a finite number >= 0")
+        for name in ("thickness_m", "tool_radius_m", "tensile_strength_mpa", "tool_friction"):
+            check_plausible(name, getattr(self, name), f"Process.{name} = {getattr(self, name)!r}")
         if self.friction_reversal_m is not None and not (
             math.isfinite(self.friction_reversal_m) and self.friction_reversal_m > 0
         ):

@@ -26,7 +26,7 @@ from pathlib import Path
 from typing import Any
 
 from twin.errors import DataFileError, InputError
-from twin.process.description import Process
+from twin.process.description import PLAUSIBLE, Process, check_plausible
 from twin.process.material.file import material_from_table, read_material_library, read_toml
 from twin.process.material.library import Material, material, number_problem, shipped_library
 
@@ -71,7 +71,8 @@ class ProcessDeclaration:
                 process" for the default one.
 
         Raises:
-            InputError: The tool radius is not larger than the sheet thickness (naming where each came from).
+            InputError: The tool radius is not larger than the sheet thickness, or a value outside its physically
+                plausible range (`twin.process.description.PLAUSIBLE`), naming where each came from.
         """
         where = dict(self.origins)
         base_name = base_name or ("the thesis's process" if base == Process() else "the process it applies to")
@@ -83,6 +84,10 @@ class ProcessDeclaration:
                 f"than the sheet thickness {1e3 * thickness:g} mm ({where.get('thickness_m', base_name)}): "
                 "a tool smaller than the sheet is thick; expected tool radius > thickness"
             )
+        for name, value in (("thickness_m", thickness), ("tool_radius_m", radius)):
+            check_plausible(name, value, where.get(name, base_name))
+        if self.tool_friction is not None:
+            check_plausible("tool_friction", self.tool_friction, where.get("tool_friction", "tool_friction"))
         changes: dict[str, Any] = {"thickness_m": thickness, "tool_radius_m": radius}
         if self.material is not None:
             changes |= {"material": self.material.name, "tensile_strength_mpa": self.material.tensile_strength_mpa}
@@ -117,18 +122,24 @@ def read_process_declaration(path: str | Path) -> ProcessDeclaration:
     unknown = sorted(set(data) - set(PROCESS_KEYS))
     if unknown:
         raise DataFileError(path, f"unknown key(s) {unknown}; a process file takes {list(PROCESS_KEYS)}")
+    return declaration_from_table(path, data)
+
+
+def declaration_from_table(path: Path, data: Mapping[str, Any], where: str = "") -> ProcessDeclaration:
+    """What a table of a process file's keys declares (a process file, a cell file's `[process]`); `where` prefixes
+    the keys in messages and origins (e.g. "process.")."""
     origins: dict[str, str] = {}
     values: dict[str, Any] = {}
     try:
         for key, name in (("thickness_mm", "thickness_m"), ("tool_radius_mm", "tool_radius_m")):
             if key in data:
-                values[name] = positive(key, data[key]) / 1e3
-                origins[name] = f"{path}: {key}"
+                values[name] = positive(where + key, data[key]) / 1e3
+                origins[name] = f"{path}: {where}{key}"
         if "tool_friction" in data:
-            values["tool_friction"] = friction(data["tool_friction"], "tool_friction")
-            origins["tool_friction"] = f"{path}: tool_friction"
+            values["tool_friction"] = friction(data["tool_friction"], where + "tool_friction")
+            origins["tool_friction"] = f"{path}: {where}tool_friction"
         if data.get("force_model", "auto") != "auto":
-            values["force_model"] = registered_force_model(data["force_model"], "force_model")
+            values["force_model"] = registered_force_model(data["force_model"], where + "force_model")
     except InputError as exc:
         raise DataFileError(path, str(exc)) from None
     if "material" in data:
@@ -291,4 +302,8 @@ def process_from_record(entry: Any, base: Process, where: str = "process") -> Pr
             changes[name] = positive(f"{where}.{key}", entry[key]) / 1e3
     if "tool_friction" in entry:
         changes["tool_friction"] = friction(entry["tool_friction"], f"{where}.tool_friction")
+    for name, value in changes.items():
+        if name in PLAUSIBLE:
+            key = {"thickness_m": "thickness_mm", "tool_radius_m": "tool_radius_mm"}.get(name, name)
+            check_plausible(name, value, f"{where}.{key}")
     return replace(base, **changes)

@@ -14,6 +14,7 @@ other module names a joint or a TX200 number.
 
 from __future__ import annotations
 
+import os
 import tomllib
 import warnings
 from dataclasses import dataclass
@@ -270,7 +271,8 @@ def load_robot(robot: str | Path | RobotDescription | None = None) -> RobotDescr
     """
     if isinstance(robot, RobotDescription):
         return robot
-    if robot is None or (isinstance(robot, str) and not robot.endswith(".toml") and "/" not in robot):
+    if robot is None or (isinstance(robot, str) and Path(robot).suffix.lower() not in (".toml", ".xml", ".urdf")
+                         and "/" not in robot and os.sep not in robot):
         name = DEFAULT_ROBOT if robot is None else robot
         if name in ROBOTS:
             return ROBOTS[name]

@@ -23,6 +23,7 @@ returned, and `load_robot` warns with each (`AssumptionWarning`).
 from __future__ import annotations
 
 import hashlib
+import json
 import tempfile
 from pathlib import Path
 
@@ -124,10 +125,11 @@ def describe_model_file(path: str | Path) -> tuple[Path, list[str]]:
         f"{path.stem}-{hashlib.sha256(path.read_bytes()).hexdigest()[:12]}")
     folder.mkdir(parents=True, exist_ok=True)
     (folder / "robot.xml").write_text(xml, encoding="utf-8")
-    names = ", ".join(f'"{j.name}"' for j in joints)
+    names = ", ".join(json.dumps(j.name) for j in joints)  # a TOML basic string is a JSON string: quotes escaped
     (folder / "robot.toml").write_text(
-        f'format = "tx200-twin-robot/1"\nname = "{path.stem}"\nvendor = "user"\nmodel = "{path.name}"\n'
-        f'controller = "unknown"\nlanguage = "unknown"\nmjcf = "robot.xml"\n# generated from {path}\n\n'
+        f'format = "tx200-twin-robot/1"\nname = {json.dumps(path.stem)}\nvendor = "user"\n'
+        f'model = {json.dumps(path.name)}\ncontroller = "unknown"\nlanguage = "unknown"\nmjcf = "robot.xml"\n'
+        f'# generated from {json.dumps(str(path))}\n\n'
         f'[frames]\nflange_site = "attachment_site"\ntool_site = "tcp"\nft_site = "ft_site"\n'
         f'ft_force_sensor = "{_force_sensor(spec)}"\nhome_keyframe = "home"\n\n[joints]\nnames = [{names}]\n',
         encoding="utf-8",

@@ -247,6 +247,8 @@ def run_robot(meta: Mapping[str, Any], source: str | Path = "meta.json") -> Robo
     name = meta.get("robot")
     if name is not None and not isinstance(name, str):
         raise RunFormatError(source, f"robot = {name!r}: expected a robot's name or description file")
+    if name is not None and Path(name).suffix and not Path(name).is_absolute():
+        name = str(Path(source).parent / name)  # the run's own copy of a user's robot (`runs.write.ROBOT_COPY`)
     try:
         return load_robot(name)
     except ModelError as exc:

@@ -19,6 +19,7 @@ import numpy as np
 
 from twin.base.csvio import read_text
 from twin.errors import InputError
+from twin.process.description import plausibility_problem
 from twin.robot.description import load_robot
 from twin.runs.registration import Registration, fit_rigid, given_transform
 from twin.runs.toml_keys import ClockError, MappingError, RegistrationError, TomlReader
@@ -292,11 +293,18 @@ def load_mapping(path: str | Path) -> ImportMapping:
     )
     if sensor.tool_mass_kg < 0:
         raise r.error("forces.sensor.tool_mass_kg", f"is {sensor.tool_mass_kg}, expected >= 0 [kg]")
+    problem = plausibility_problem("tool_mass_kg", sensor.tool_mass_kg, "forces.sensor.tool_mass_kg")
+    if problem:
+        raise r.error("forces.sensor.tool_mass_kg", problem)
+    tool_length_m = r.number("run.tool_length_mm", load_robot().tool_length_m * 1e3, positive=True) * 1e-3
+    problem = plausibility_problem("tool_length_m", tool_length_m, "run.tool_length_mm")
+    if problem:
+        raise r.error("run.tool_length_mm", problem)
     has_profile = isinstance(data.get("profile"), dict)
     return ImportMapping(
         path=path,
         scenario=r.get("run.scenario", "imported", kind=str),
-        tool_length_m=r.number("run.tool_length_mm", load_robot().tool_length_m * 1e3, positive=True) * 1e-3,
+        tool_length_m=tool_length_m,
         notes=r.get("run.notes", "", kind=str),
         commanded=_table(r, "commanded", ("x", "y", "z"), LENGTH_UNITS),
         tracker=_table(r, "tracker", ("x", "y", "z"), LENGTH_UNITS),

@@ -7,7 +7,9 @@ after the new directory has been written beside it and read back with `read_run`
 
 from __future__ import annotations
 
+import json
 import os
+import re
 import shutil
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -64,6 +66,35 @@ def _checked_meta(run: Run) -> dict[str, Any]:
     return meta
 
 
+#: Where a run keeps the copy of a user's robot description (`_with_robot_copy`), relative to the run.
+ROBOT_COPY = "robot/robot.toml"
+_FILE_KEY = re.compile(r'^(mjcf|scene)\s*=\s*"[^"]*"', re.MULTILINE)
+
+
+def _with_robot_copy(tmp: Path, meta: Mapping[str, Any]) -> Mapping[str, Any]:
+    """A run made with a user's robot (its meta's `robot` a description file, not a shipped name) carries a copy of
+    that description and its MJCF (and scene) in `robot/`, and names the copy: the run replays on any machine, and
+    after the twin's temporary folder of generated descriptions is cleaned. Meshes the MJCF names stay where its
+    `meshdir` points."""
+    name = meta.get("robot")
+    if not isinstance(name, str) or not Path(name).suffix or not Path(name).is_file():
+        return meta
+    from twin.robot.description import load_robot
+
+    robot = load_robot(name)
+    folder = tmp / Path(ROBOT_COPY).parent
+    folder.mkdir(exist_ok=True)
+    shutil.copyfile(robot.mjcf, folder / "robot.xml")
+    local = {"mjcf": "robot.xml"}
+    if robot.scene is not None and robot.scene != robot.mjcf:
+        shutil.copyfile(robot.scene, folder / "scene.xml")
+        local["scene"] = "scene.xml"
+    text = Path(name).read_text(encoding="utf-8")
+    text = _FILE_KEY.sub(lambda m: f'{m.group(1)} = "{local.get(m.group(1), "robot.xml")}"', text)
+    (tmp / ROBOT_COPY).write_text(text + f"\n# copied by tx200-twin from {json.dumps(name)}\n", encoding="utf-8")
+    return {**meta, "robot": ROBOT_COPY}
+
+
 def _write_files(tmp: Path, run: Run, meta: Mapping[str, Any], truth: Mapping[str, Any] | None) -> None:
     """Write the run's files into `tmp`: positions in mm (4 decimals), forces in N (3), times in s (6).
 
@@ -73,7 +104,7 @@ def _write_files(tmp: Path, run: Run, meta: Mapping[str, Any], truth: Mapping[st
         meta: Contents of meta.json.
         truth: Lab-only hidden truth for truth.json, or None.
     """
-    write_json(tmp / "meta.json", meta)
+    write_json(tmp / "meta.json", _with_robot_copy(tmp, meta))
     for name, stream in (("commanded.csv", run.commanded), ("tracker.csv", run.tracker)):
         write_path_csv(stream, tmp / name)
     if run.forces is not None:

@@ -13,6 +13,7 @@ from twin.base.lazy import lazy_exports
 __all__, __getattr__, __dir__ = lazy_exports(__name__, {
     "plot_path_xz": "twin.viz.path_figures",
     "plot_forces": "twin.viz.path_figures",
+    "plot_replay": "twin.viz.path_figures",
     "plot_deflection_by_pass": "twin.viz.deflection_figures",
     "plot_residual_before_after": "twin.viz.deflection_figures",
     "plot_stiffness_ellipse": "twin.viz.stiffness_figures",

@@ -81,7 +81,8 @@ def plot_deflection_by_pass(
             ax.plot(x[start:stop] * M_TO_MM, d[start:stop, k] * M_TO_MM, style, color=color, lw=1.0)
     axes[0].set_ylabel("x deflection [mm]")
     axes[1].set_ylabel("z deflection [mm]")
-    axes[1].set_xlabel("x [mm]")
+    for ax in axes:
+        ax.set_xlabel("x [mm]")
     axes[0].set_title(title)
     handles = [
         Line2D([], [], color="gray", ls="-", label="+x travel"),
@@ -89,7 +90,7 @@ def plot_deflection_by_pass(
     ]
     fig.legend(handles=handles, loc="outside lower center", ncols=2, fontsize=8)
     bar = fig.colorbar(ScalarMappable(norm=norm, cmap=cmap), ax=axes, ticks=unique, pad=0.01)
-    bar.set_label("pass")
+    bar.set_label("pass [-]")
     return save_figure(fig, path)
 
 
@@ -136,6 +137,7 @@ def plot_residual_before_after(
     ax_z.axhline(0.0, color="black", lw=0.6)
     ax_norm.set_ylabel("|residual| [mm]")
     ax_z.set_ylabel("z residual [mm]")
+    ax_norm.set_xlabel("time [s]")
     ax_z.set_xlabel("time [s]")
     ax_norm.set_title(title)
     ax_norm.legend(**LEGEND_OUTSIDE)

@@ -1,5 +1,6 @@
-"""Figures of the tool path in x-z (ideal, commanded, measured, with the vertical error) and of the forming
-forces against time, in the style of the thesis's Figs 3.10-3.11 and 5.1-5.2 (`twin.viz.style`).
+"""Figures of the tool path in x-z (ideal, commanded, measured, with the vertical error), of the forming forces
+against time, in the style of the thesis's Figs 3.10-3.11 and 5.1-5.2 (`twin.viz.style`), and of a replay: the
+measured and the simulated tool tip's deviation from the command on each axis x, y, z against time.
 """
 
 from __future__ import annotations
@@ -15,6 +16,8 @@ from twin.viz.style import (
     COLOR_COMMANDED,
     COLOR_IDEAL,
     COLOR_MEASURED,
+    COLOR_SIMULATED,
+    FIGSIZE_IN,
     LEGEND_OUTSIDE,
     M_TO_MM,
     check_same_length,
@@ -118,6 +121,7 @@ def _plot_paths(ax: Axes, paths: _XzPaths, title: str) -> None:
         lw=0.9,
         label="measured",
     )
+    ax.set_xlabel("x [mm]")
     ax.set_ylabel("z [mm]")
     ax.set_title(title)
     ax.legend(**LEGEND_OUTSIDE)
@@ -235,7 +239,54 @@ def plot_forces(
         if ideal is not None:
             ax.plot(ideal[0], ideal[1][:, k], "--", color=COLOR_IDEAL, lw=1.0, label=f"{name} ideal (FE)")
         ax.set_ylabel(f"{name} [N]")
+        ax.set_xlabel("time [s]")
         ax.legend(**LEGEND_OUTSIDE)
     axes[0].set_title(title)
-    axes[-1].set_xlabel("time [s]")
+    return save_figure(fig, path)
+
+
+def plot_replay(
+    path: str | Path,
+    t_s: object,
+    p_measured_sheet_m: object,
+    p_simulated_sheet_m: object,
+    p_commanded_sheet_m: object,
+    *,
+    title: str = "Replay: measured vs simulated tool tip, minus the command",
+) -> Path:
+    """A replay per axis: the measured and the simulated (twin) tool tip minus the commanded one, x, y and z
+    [mm] against time [s], one panel each, with the rms gap of each axis in its legend.
+
+    Args:
+        path: PNG file to write (atomically).
+        t_s: Sample times (the tracker's) [s], shape (n,).
+        p_measured_sheet_m: Measured tool tip, sheet frame [m], shape (n, 3).
+        p_simulated_sheet_m: The twin's predicted tool tip at the same times [m], shape (n, 3).
+        p_commanded_sheet_m: The commanded tool tip at the same times [m], shape (n, 3).
+        title: Figure title.
+
+    Returns:
+        The path written.
+
+    Raises:
+        InputError: Bad or mismatched shapes, non-finite values.
+    """
+    t = checked_array("t_s", t_s, 1)
+    measured = checked_array("p_measured_sheet_m", p_measured_sheet_m, 2, (3,))
+    simulated = checked_array("p_simulated_sheet_m", p_simulated_sheet_m, 2, (3,))
+    commanded = checked_array("p_commanded_sheet_m", p_commanded_sheet_m, 2, (3,))
+    check_same_length(t_s=t, p_measured_sheet_m=measured, p_simulated_sheet_m=simulated,
+                      p_commanded_sheet_m=commanded)
+    fig, axes = new_figure(3)
+    fig.set_size_inches(FIGSIZE_IN[0], 1.4 * FIGSIZE_IN[1])
+    for k, (ax, axis) in enumerate(zip(axes, "xyz", strict=True)):
+        gap_mm = M_TO_MM * float(np.sqrt(np.mean((measured[:, k] - simulated[:, k]) ** 2)))
+        ax.plot(t, M_TO_MM * (measured[:, k] - commanded[:, k]), "-", color=COLOR_MEASURED, lw=0.9,
+                label="measured")
+        ax.plot(t, M_TO_MM * (simulated[:, k] - commanded[:, k]), "-", color=COLOR_SIMULATED, lw=0.9,
+                label=f"simulated (gap rms {gap_mm:.3f} mm)")
+        ax.set_ylabel(f"{axis} - commanded [mm]")
+        ax.set_xlabel("time [s]")
+        ax.legend(**LEGEND_OUTSIDE)
+    axes[0].set_title(title)
     return save_figure(fig, path)

@@ -35,7 +35,7 @@ def _blueprint(prefixes: Sequence[str]) -> rrb.Blueprint:
     for prefix in prefixes:
         plots = [
             rrb.TimeSeriesView(origin=f"/{prefix}plots/{name}", name=name)
-            for name in ("deflection_x_mm", "deflection_z_mm", "force_x_n", "force_z_n")
+            for name in (*(f"deflection_{axis}_mm" for axis in "xyz"), *(f"force_{axis}_n" for axis in "xyz"))
         ]
         tabs.append(
             rrb.Horizontal(

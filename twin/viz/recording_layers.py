@@ -13,7 +13,7 @@ Per recording (entity prefix `<name>/` when several runs share a file):
   coloured by size (simulated: loaded - unloaded at the unloaded tip; measured: tracker - commanded).
 - `world/force_1mm_per_20N/{simulated,measured}`: force of the sheet on the tool at the tool tip.
 - `world/groove/{formed_loaded,part_profile}`: the formed groove centre line at the end of the run.
-- `plots/{deflection_x_mm,deflection_z_mm,force_x_n,force_z_n}/{measured,predicted,...}`: scalar series.
+- `plots/{deflection_{x,y,z}_mm,force_{x,y,z}_n}/{measured,predicted,...}`: scalar series, every axis.
 - `README`: a markdown note with the scales and the replay metrics.
 
 The recording around them (file, blueprint, several runs): `twin.viz.recording`.
@@ -276,7 +276,7 @@ def _log_groove(
 def _log_plots(
     rec: rr.RecordingStream, plots: str, run: Run, forces_pred_n: np.ndarray | None, streams: _ReplayStreams
 ) -> None:
-    """Log the x and z series of deflection [mm] and force [N], measured against predicted, on `sim_time`."""
+    """Log the x, y and z series of deflection [mm] and force [N], measured against predicted, on `sim_time`."""
     s = streams
     d_meas_mm = M_TO_MM * (s.p_trk_sheet_m - s.p_cmd_at_trk_sheet_m)
     d_pred_mm = M_TO_MM * (s.p_pred_sheet_m - s.p_cmd_at_trk_sheet_m)
@@ -292,7 +292,7 @@ def _log_plots(
         if forces_pred_n is not None:
             f_pred = checked_points("replay.forces_pred_n", forces_pred_n, len(t_f))
             series.append(("force_{}_n/predicted", t_f, f_pred, "predicted", COLORS["predicted"]))
-    for k, axis in ((0, "x"), (2, "z")):
+    for k, axis in enumerate("xyz"):
         for entity, t_s, values, label, color in series:
             _series(rec, f"{plots}/{entity.format(axis)}", t_s, values[:, k], label, color)
 

@@ -32,6 +32,7 @@ M_TO_MM = 1e3
 COLOR_IDEAL = "black"
 COLOR_COMMANDED = "tab:orange"
 COLOR_MEASURED = "tab:blue"
+COLOR_SIMULATED = "tab:green"
 COLOR_BEFORE = "tab:red"
 COLOR_AFTER = "tab:green"
 LEGEND_OUTSIDE = {"loc": "upper left", "bbox_to_anchor": (1.01, 1.0), "fontsize": 8}

@@ -136,6 +136,8 @@ def plot_part_stages(
         drawn = _draw(ax, dev.points_m[:, :2] * M_TO_MM, dev.deviation_m * M_TO_MM, max(limit, 1e-3), dev.region)
         part = part_stats(dev)["part"]
         ax.set_aspect("equal")
+        ax.set_xlabel("x [mm]", fontsize=7)
+        ax.set_ylabel("y [mm]", fontsize=7)
         ax.set_title(f"{stage.name} ({stage.kind})\npart rms {part['rms_mm']:.3f} mm, mean {part['mean_mm']:+.3f} mm",
                      fontsize=7)
         ax.tick_params(labelsize=6)

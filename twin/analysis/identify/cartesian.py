@@ -122,8 +122,9 @@ def fit_kr_load_cases(f_n: np.ndarray, d_m: np.ndarray) -> KrFit:
     return _ols_stiffness(f, d, "Method 1 load set")
 
 
-def fit_kr_from_run(f_n: np.ndarray, d_m: np.ndarray) -> KrFit:
-    """Method 2 (Eqs. 4.18–4.25): 2×2 x–z stiffness from a whole run, exactly as the thesis did.
+def fit_kr_from_run(f_n: np.ndarray, d_m: np.ndarray, axes: tuple[int, ...] = (0, 2)) -> KrFit:
+    """Method 2 (Eqs. 4.18–4.25): the x–z stiffness from a whole run, exactly as the thesis did (2×2), or over
+    other axes of (n, 3) inputs (all three for a part whose forces span y too).
 
     The thesis regresses FORCE on DEFLECTION: for each force row, ΔU_NTᵀ·[k_xx, k_xz]ᵀ = F_IDxᵀ (Eq. 4.22),
     solved with the Moore–Penrose inverse (Eqs. 4.24–4.25). Here with `numpy.linalg.lstsq` (same solution,
@@ -132,14 +133,20 @@ def fit_kr_from_run(f_n: np.ndarray, d_m: np.ndarray) -> KrFit:
 
     Args:
         f_n: Forces (ideal F_ID or measured), shape (n, 2) as (x, z) or (n, 3) as (x, y, z) [N].
-        d_m: Deflections ΔU = U_ideal − U_measured, same shape [m]. From (n, 3) inputs x and z are used.
+        d_m: Deflections ΔU = U_ideal − U_measured, same shape [m].
+        axes: From (n, 3) inputs, the axes fitted (0: x, 1: y, 2: z): x and z by default, (0, 1, 2) for all.
 
     Returns:
-        The 2×2 fit, rows (Fx, Fz), columns (ΔUx, ΔUz) [N/m].
+        The k×k fit over `axes` (2×2 rows (Fx, Fz), columns (ΔUx, ΔUz) by default) [N/m].
+
+    Raises:
+        InputError: Bad shapes, or `axes` not 2 or 3 distinct axes of 0, 1, 2.
     """
     f, d = _pair(f_n, d_m, (2, 3))
+    if len(set(axes)) != len(axes) or len(axes) not in (2, 3) or not set(axes) <= {0, 1, 2}:
+        raise InputError(f"axes {axes!r}: expected 2 or 3 distinct axes of 0 (x), 1 (y), 2 (z)")
     if f.shape[1] == 3:
-        f, d = f[:, [0, 2]], d[:, [0, 2]]
+        f, d = f[:, list(axes)], d[:, list(axes)]
     return _ols_stiffness(f, d, "Method 2 run data")
 
 

@@ -89,10 +89,10 @@ def learn(runs: list[Run], spec: TwinSpec | None = None) -> LearnResult:
     """
     if not runs:
         raise InputError("learn needs at least one run")
-    robot = run_robot(runs[0].meta)
+    robot = run_robot(runs[0].meta, (runs[0].directory or Path(".")) / "meta.json")
     placement = run_placement(runs[0].meta)
     for run in runs[1:]:
-        if run_robot(run.meta).source != robot.source or run_placement(run.meta) != placement:
+        if run_robot(run.meta, (run.directory or Path(".")) / "meta.json").source != robot.source or run_placement(run.meta) != placement:
             raise InputError(f"run {run.directory} was made by another robot or at another placement than "
                              f"{runs[0].directory}: learn from one cell's runs at a time")
     spec = (spec or TwinSpec(robot=robot, process=declared_process(runs[0]))).replace(placement=placement)

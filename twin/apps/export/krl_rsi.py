@@ -2,9 +2,13 @@
 Ethernet configuration that connects the controller to `tx200-twin online --serve rsi`.
 
 The program is `twin.apps.export.krl`'s, with the RSI calls of the ros-industrial `kuka_rsi_hw_interface`
-programs around its motion: after the joint move to the approach point, `RSI_CREATE` of the context `ISF_RSI` and
-`RSI_ON(#ABSOLUTE)` (each correction replaces the last, as the server sends them); after the last move
-`RSI_OFF()`; a failing call halts. A split program switches RSI on in its main program, around the parts' calls.
+programs around its path: after the joint move to the approach point (`PTP P_PATH[1]`), `RSI_CREATE` of the context
+`ISF_RSI` and `RSI_ON(#ABSOLUTE)` (each correction replaces the last, as the server sends them); after the retract,
+the path's last move, `RSI_OFF()`, before the joint move HOME; a failing call halts. The moves HOME are never
+corrected. A split program switches RSI on in its first part, after the approach, and off at the end of its last
+part, after the retract (each part that calls RSI declares `ret`). That RSI corrects the path's spline motions
+(`SPLINE` blocks, `SLIN`) as it does `LIN`s is assumed, from KUKA's RSI manuals as recalled: check it with the
+controller's RSI version before a first run.
 `NAME_rsi_ethernet.xml` is the ETHERNET object's configuration (the layout of that repository's
 `ros_rsi_ethernet.xml`): the controller sends its actual pose, axes, late-packet count and the F/T sensor's
 forces (the object's inputs 1-3, `<FT Fx Fy Fz>`, N, sheet frame) and receives `RKorr` X Y Z A B C (outputs 1-6,
@@ -62,17 +66,23 @@ def ethernet_config(host: str = "192.168.1.2", port: int = DEFAULT_PORT) -> str:
 
 
 def program_files(path: ProgramPath) -> dict[str, str]:
-    """The `krl` files with RSI switched on around the motion of the main program, and the Ethernet config."""
+    """The `krl` files with RSI switched on around the path (module docstring), and the Ethernet configuration."""
     files = krl.program_files(path)
-    main = f"{path.name}.src"
-    lines = files[main].splitlines()
-    at = lines.index("PTP P_PATH[1]") + 1 if "PTP P_PATH[1]" in lines else lines.index(krl.INI[-1]) + 1
-    lines[at:at] = RSI_ON
-    end = len(lines) - 1 - lines[::-1].index("END")
-    lines[end:end] = RSI_OFF
-    declare = next(i for i, line in enumerate(lines) if line.startswith("DEF ")) + 1
-    lines[declare:declare] = ["DECL INT ret", "DECL INT CONTID"]
-    files[main] = "\n".join(lines) + "\n"
+    sources = [name for name in files if name.endswith(".src")]
+    approach = "PTP P_PATH[1]"
+    on = next(name for name in sources if approach in files[name].splitlines())
+    off = sources[-1]  # the whole program, or the last part: the one with the retract
+    lines = {name: files[name].splitlines() for name in dict.fromkeys((on, off))}
+    at = lines[on].index(approach) + 1
+    lines[on][at:at] = RSI_ON
+    last = lines[off]
+    end = len(last) - 1 - last[::-1].index("END")
+    at = end - 1 if last[end - 1] == f"PTP {krl.HOME}" else end  # after the retract, before the move HOME
+    last[at:at] = RSI_OFF
+    for name, text in lines.items():
+        declare = next(i for i, line in enumerate(text) if line.startswith("DEF ")) + 1
+        text[declare:declare] = ["DECL INT ret"] + (["DECL INT CONTID"] if name == on else [])
+        files[name] = "\n".join(text) + "\n"
     files[f"{path.name}_rsi_ethernet.xml"] = ethernet_config()
     return files
 

@@ -16,6 +16,12 @@ process feed while in contact, and a linear retract.
 
 `FeedSummary` reports the process feed, the fastest programmed move in contact, the path's own fastest, how many
 moves were slowed and how much longer the program runs than the path's time stamps.
+
+- **Corners**: a point where the path turns by more than `CORNER_DEG` between the move into it and the move out of
+  it (`corners`) is one the robot stops on in every language (KRL ends its spline block there, RAPID moves to it
+  `fine`); elsewhere the controller blends from move to move within `CHORD_TOL_MM` of the points. The twin's
+  smooth paths turn by at most ~3° per point (the cone spiral 1.0°, the compensated groove 2.6° outside its
+  reversals); their real corners turn by 90° (down onto the path, up from it) or ~150-180° (a groove's reversals).
 """
 
 from __future__ import annotations
@@ -33,6 +39,11 @@ from twin.errors import InputError
 SAFE_MARGIN_MM = 20.0
 #: A move in contact may be this much faster than the process feed before it is slowed to it.
 FEED_TOLERANCE = 1.05
+#: A point where the path turns by more than this is a corner the robot stops on [deg] (module docstring).
+CORNER_DEG = 10.0
+#: How far a controller's blending may take the tool from the path's points [mm]: the tracker's noise, below which a
+#: deviation is not measured.
+CHORD_TOL_MM = 0.02
 
 
 class FeedSummary(NamedTuple):
@@ -122,5 +133,35 @@ def with_moves(
         points_mm=np.vstack([approach, p, retract]),
         feed_mm_s=np.concatenate([[process, process], programmed, [process]]),
         approach=True,
+        process_feed_mm_s=process,
     )
     return program, summary
+
+
+def turn_angles_deg(points_mm: np.ndarray) -> np.ndarray:
+    """The angle the path turns by at each point, between the move into it and the move out of it [deg].
+
+    Args:
+        points_mm: The program's points, shape (n, 3) [mm].
+
+    Returns:
+        Shape (n,): 0 at the first and the last point (no move on one side).
+    """
+    step = np.diff(np.asarray(points_mm, dtype=float), axis=0)
+    unit = step / np.maximum(np.linalg.norm(step, axis=1, keepdims=True), 1e-12)
+    cos = np.clip(np.sum(unit[1:] * unit[:-1], axis=1), -1.0, 1.0)
+    return np.concatenate([[0.0], np.degrees(np.arccos(cos)), [0.0]])
+
+
+def corners(points_mm: np.ndarray) -> np.ndarray:
+    """Whether the robot stops at each point: a turn over `CORNER_DEG`, and the last point (the program's end).
+
+    Args:
+        points_mm: The program's points, shape (n, 3) [mm].
+
+    Returns:
+        Booleans, shape (n,).
+    """
+    stop = turn_angles_deg(points_mm) > CORNER_DEG
+    stop[-1] = True
+    return stop

@@ -30,7 +30,7 @@ from twin.apps.export.configuration import RobotConfiguration, path_configuratio
 from twin.apps.export.reach import path_joint_angles
 from twin.errors import InputError
 from twin.process.toolpath.placement import Placement
-from twin.robot.description import DEFAULT_ROBOT, RobotDescription, robot_record
+from twin.robot.description import DEFAULT_ROBOT, RobotDescription, load_robot, robot_record
 from twin.runs.read import read_commanded_csv
 
 POSITION_DECIMALS = 4  # mm: 0.1 µm, below the tracker's 0.02 mm noise
@@ -51,6 +51,7 @@ class CellSetup:
         yaw_deg: Rotation of the sheet frame about the base z axis [deg] (0: axes parallel to the base).
         robot: The robot the program is for (a shipped robot's name or a description file).
         configuration: The arm configuration at the program's first point (`with_configuration`), or None.
+        cog_mm: The tool's centre of gravity in the flange frame [mm] as declared (a `--cell` file's), or None.
     """
 
     p_base_sheet_mm: np.ndarray
@@ -60,6 +61,7 @@ class CellSetup:
     yaw_deg: float = 0.0
     robot: str = DEFAULT_ROBOT
     configuration: RobotConfiguration | None = None
+    cog_mm: tuple[float, float, float] | None = None
 
     def __post_init__(self) -> None:
         for name, option in (("tool_length_mm", "--tool-length-mm"), ("tool_mass_kg", "--tool-mass-kg")):
@@ -71,6 +73,19 @@ class CellSetup:
     def R_base_sheet(self) -> np.ndarray:
         """The sheet frame's axes in the robot base (the yaw about the base z axis)."""
         return Placement(yaw_rad=math.radians(self.yaw_deg)).R_base_sheet
+
+    @property
+    def tool_cog_mm(self) -> np.ndarray:
+        """The tool's centre of gravity in the flange frame [mm]: as declared (`cog_mm`), else half way down the
+        tool along the flange z.
+
+        Without a declaration the twin knows the tool's length and mass but not how the mass is spread; a straight
+        ISF tool of uniform section has its centre of gravity half way along it. Every program's load data (RAPID
+        `tooldata`, KRL `LOAD_DATA`) takes it from here, so that the formats agree.
+        """
+        if self.cog_mm is not None:
+            return np.array(self.cog_mm, dtype=float)
+        return np.array([0.0, 0.0, self.tool_length_mm / 2.0])
 
 
 @dataclass(frozen=True)
@@ -88,6 +103,8 @@ class ProgramPath:
             the path CSV's data row r is then point r (else point r - 1).
         joint_start: The first point is reached by a joint move (False: a later part of a split program).
         max_points: Points per file or module before a program is split (`parts`); 0: the format's limit.
+        process_feed_mm_s: The process feed (`motion.with_moves`) [mm/s]; 0: not given, the median of the feeds
+            (`process_feed`).
     """
 
     name: str
@@ -99,6 +116,12 @@ class ProgramPath:
     approach: bool = False
     joint_start: bool = True
     max_points: int = 0
+    process_feed_mm_s: float = 0.0
+
+    @property
+    def process_feed(self) -> float:
+        """The process feed [mm/s]: the one `motion.with_moves` chose, else the median of the point feeds."""
+        return self.process_feed_mm_s or float(np.median(self.feed_mm_s))
 
     def label(self, i: int) -> str:
         """Point `i` as the user knows it: `row R` of the path CSV, or the approach / retract point."""
@@ -176,6 +199,17 @@ def check_reach(path: ProgramPath) -> None:
         cell.robot, p_base_m, cell.R_base_sheet @ cell.R_sheet_tool, cell.tool_length_mm * 1e-3, str(path.source),
         path.label,
     )
+
+
+def home_axes_deg(cell: CellSetup) -> np.ndarray:
+    """The cell robot's home as its controller's axis values A1..A6 / J1..J6 [deg].
+
+    The home keyframe of the robot's model (`RobotDescription.q_home_rad`, the pose the twin starts from and the
+    IK is seeded at), turned into the controller's axis values (`RobotDescription.controller_angles`): every
+    program starts and ends there with a joint move (KRL `PTP`, RAPID `MoveAbsJ`, VAL3 `movej`).
+    """
+    robot = load_robot(cell.robot)
+    return np.round(np.degrees(robot.controller_angles(robot.q_home)), POSITION_DECIMALS) + 0.0  # + 0.0: no -0.0
 
 
 def program_name(text: str) -> str:

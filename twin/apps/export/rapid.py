@@ -1,18 +1,31 @@
-"""ABB RAPID module `NAME.mod`: tool, work object, the points as `robtarget`s and the moves through them.
+"""ABB RAPID module `NAME.mod`: tool, work object, home, the points as `robtarget`s and the moves through them.
 
 Structure as the open post-processors write it (RoboDK's `ABB_RAPID_IRC5.py`: `MODULE`, `PERS tooldata`, `PERS
 wobjdata`, a `PROC` starting with `ConfJ \\On; ConfL \\Off;`, `MoveJ`/`MoveL ... \\WObj:=`, `ENDPROC`,
-`ENDMODULE`). `tIsf` (`tooldata`: flange to tool tip, the tool's mass with its centre of gravity half way down
-the tool), `wSheet` (`wobjdata`: the sheet frame in the robot base), `pPath{n}` (`robtarget`, in `wSheet`) and
-`vPath{n}` (`speeddata`, TCP speed = the programmed feed [mm/s]); `main` sets `ConfJ \\On; ConfL \\Off;` (the
-joint move goes to the written configuration, the linear moves keep it), moves `MoveJ` to the approach point
-(`twin.apps.export.motion`), then `MoveL` down onto the path and through it with zone `z0`, and a last `MoveL`
-(the retract) to `fine`. Each robtarget's robconf [cf1, cf4, cf6, cfx] is that point's IK solution
-(`twin.apps.export.configuration`). Orientations are unit quaternions [q1, q2, q3, q4] = [w, x, y, z].
+`ENDMODULE`). `tIsf` (`tooldata`: flange to tool tip, the tool's mass with its centre of gravity
+`CellSetup.tool_cog_mm`, half way down the tool), `wSheet` (`wobjdata`: the sheet frame in the robot base), `jHome`
+(`jointtarget`: the robot's home keyframe in controller axis values, `program.home_axes_deg`, degrees; external
+axes 9E9), `zPath` (`zonedata`, `zone_mm`), `pPath{n}` (`robtarget`, in `wSheet`) and `vPath{n}` (`speeddata`,
+TCP speed = the programmed feed [mm/s]). `main` sets `ConfJ \\On; ConfL \\Off;` (the joint move goes to the
+written configuration, the linear moves keep it), moves `MoveAbsJ jHome` (HOME), `MoveJ` to the approach point
+(`twin.apps.export.motion`), then `MoveL` down onto the path and through it, the retract, and `MoveAbsJ jHome`
+again: HOME is the first and the last move.
+
+Zones: a point where the path turns by more than `motion.CORNER_DEG` (`motion.corners`: the bottom of the move
+down onto the path, the top of the path's last move, a groove's reversals) and the retract are reached `fine`, the
+robot at rest on them as the path asks; the others with `zPath`, whose radius is chosen from the chord tolerance
+`motion.CHORD_TOL_MM`: a corner path of radius r across a turn θ passes the point at r·sin(θ/2)/2 (the middle of
+the parabola between the two points at distance r from it), so r = 2·tol / sin(θ/2) for the largest turn among the
+blended points, at most `ZONE_MAX_MM` (ABB's z1; the controller itself halves a zone longer than half a move). The
+blended moves run in `FOR` loops; a `fine` point is its own `MoveL`. Each robtarget's robconf [cf1, cf4, cf6, cfx]
+is that point's IK solution (`twin.apps.export.configuration`). Orientations are unit quaternions [q1, q2, q3, q4]
+= [w, x, y, z]. Checked against public RAPID (read, not copied): `CONST zonedata zPrecisa := [FALSE,0.3,0.3,0.3,
+0.03,0.3,0.03]` (z0's values) and `CONST jointtarget jHome:=[[0,0,0,0,30,0],[9E9,9E9,9E9,9E9,9E9,9E9]];` with
+`MoveAbsJ jHome,v200,fine,tool0;` in RAPID examples on GitHub.
 
 A program over the RAPID limit (`twin.apps.export.parts`) is written as modules `NAME_1.mod`, ... each with a
-procedure `NAME_k` and its own `LOCAL` data, and a main module `NAME.mod` holding the tool and work object and a
-`main` that calls `NAME_1;`, `NAME_2;`, ... in order.
+procedure `NAME_k` and its own `LOCAL` data, and a main module `NAME.mod` holding the tool, the work object, the
+home and the zone and a `main` that moves HOME, calls `NAME_1;`, `NAME_2;`, ... in order and moves HOME again.
 """
 
 from __future__ import annotations
@@ -21,12 +34,20 @@ import math
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 
+import numpy as np
+
+from twin.apps.export.motion import CHORD_TOL_MM, corners, turn_angles_deg
 from twin.apps.export.parts import parts
-from twin.apps.export.program import ProgramPath, fmt, quaternion_wxyz
+from twin.apps.export.program import ProgramPath, fmt, home_axes_deg, quaternion_wxyz
 from twin.base.csvio import write_text
 
 QUATERNION_DECIMALS = 6
-APPROACH_SPEED = "v100"  # the joint move to the approach point [mm/s of the TCP]
+APPROACH_SPEED = "v100"  # the joint moves HOME and to the approach point [mm/s of the TCP]
+#: The largest zone of the blended moves [mm]: ABB's z1 (module docstring).
+ZONE_MAX_MM = 1.0
+#: The zone of the blended moves and HOME's jointtarget.
+ZONE = "zPath"
+HOME = "jHome"
 
 
 def _vec(values: Iterable[float], decimals: int) -> str:
@@ -34,16 +55,40 @@ def _vec(values: Iterable[float], decimals: int) -> str:
 
 
 def declarations(path: ProgramPath) -> list[str]:
-    """The tool and the work object (global: a split program's parts use them too)."""
+    """The tool, the work object and the home (global: a split program's parts use them too)."""
     cell = path.cell
     half = math.radians(cell.yaw_deg) / 2.0
     q_sheet = _vec((math.cos(half), 0.0, 0.0, math.sin(half)), QUATERNION_DECIMALS)  # the yaw about the base z
     return [
         f"  PERS tooldata tIsf:=[TRUE,[[0,0,{fmt(cell.tool_length_mm)}],[1,0,0,0]],"
-        f"[{fmt(cell.tool_mass_kg, 3)},[0,0,{fmt(cell.tool_length_mm / 2)}],[1,0,0,0],0,0,0]];",
+        f"[{fmt(cell.tool_mass_kg, 3)},{_vec(cell.tool_cog_mm, 4)},[1,0,0,0],0,0,0]];",
         f'  PERS wobjdata wSheet:=[FALSE,TRUE,"",[{_vec(cell.p_base_sheet_mm, 4)},{q_sheet}],'
         "[[0,0,0],[1,0,0,0]]];",
+        f"  CONST jointtarget {HOME}:=[{_vec(home_axes_deg(cell), 4)},[9E9,9E9,9E9,9E9,9E9,9E9]];",
     ]
+
+
+def home_move() -> str:
+    """The joint move HOME (`jHome`), at rest."""
+    return f"    MoveAbsJ {HOME},{APPROACH_SPEED},fine,tIsf;"
+
+
+def zone_mm(path: ProgramPath) -> float:
+    """The radius of `zPath` [mm]: the largest whose corner path keeps every blended point within the chord
+    tolerance (module docstring)."""
+    points = path.points_mm
+    blended = ~corners(points)
+    blended[:2] = False  # the approach (MoveJ, fine) and the first move's own start
+    turn = float(np.max(turn_angles_deg(points)[blended], initial=0.0))
+    sine = math.sin(math.radians(turn) / 2.0)
+    return ZONE_MAX_MM if sine <= 0.0 else min(ZONE_MAX_MM, 2.0 * CHORD_TOL_MM / sine)
+
+
+def zone_declaration(path: ProgramPath) -> str:
+    """`zPath` as z-zones are written: pzone_tcp = pzone_ori = pzone_eax = zone_leax = r [mm], zone_ori = zone_reax
+    = r / 10 [deg]."""
+    r = zone_mm(path)
+    return f"  CONST zonedata {ZONE}:=[FALSE,{fmt(r)},{fmt(r)},{fmt(r)},{fmt(r / 10)},{fmt(r)},{fmt(r / 10)}];"
 
 
 def robtargets(path: ProgramPath) -> list[str]:
@@ -73,23 +118,42 @@ def path_data(path: ProgramPath, local: str) -> list[str]:
     ]
 
 
-def _motion(path: ProgramPath, proc: str, last: bool, local: str) -> list[str]:
-    """The points, speeds and the procedure `proc` that moves through them."""
-    first = (
-        [f"    MoveJ pPath{{1}},{APPROACH_SPEED},fine,tIsf\\WObj:=wSheet;", "    FOR i FROM 2 TO nPath - 1 DO"]
-        if path.joint_start
-        else ["    FOR i FROM 1 TO nPath - 1 DO"]
-    )
+def _moves(first: int, count: int, stop: np.ndarray) -> list[str]:
+    """The `MoveL`s to points `first`..`count - 1` (0-based, of one procedure): a point the robot stops on is its
+    own move to `fine`, the others run in `FOR` loops with `zPath`."""
+    lines: list[str] = []
+    j = first
+    while j < count:
+        if stop[j]:
+            lines.append(f"    MoveL pPath{{{j + 1}}},vPath{{{j + 1}}},fine,tIsf\\WObj:=wSheet;")
+            j += 1
+            continue
+        end = j
+        while end + 1 < count and not stop[end + 1]:
+            end += 1
+        if end == j:
+            lines.append(f"    MoveL pPath{{{j + 1}}},vPath{{{j + 1}}},{ZONE},tIsf\\WObj:=wSheet;")
+        else:
+            lines += [f"    FOR i FROM {j + 1} TO {end + 1} DO",
+                      f"      MoveL pPath{{i}},vPath{{i}},{ZONE},tIsf\\WObj:=wSheet;", "    ENDFOR"]
+        j = end + 1
+    return lines
+
+
+def _motion(path: ProgramPath, proc: str, stop: np.ndarray, local: str, home: bool) -> list[str]:
+    """The points, speeds and the procedure `proc` that moves through them (`stop`: per point, reached `fine`);
+    `home`: it starts and ends with the move HOME."""
+    first = [f"    MoveJ pPath{{1}},{APPROACH_SPEED},fine,tIsf\\WObj:=wSheet;"] if path.joint_start else []
     return [
         *path_data(path, local),
         "",
         f"  PROC {proc}()",
         "    ConfJ \\On;",
         "    ConfL \\Off;",
+        *([home_move()] if home else []),
         *first,
-        "      MoveL pPath{i},vPath{i},z0,tIsf\\WObj:=wSheet;",
-        "    ENDFOR",
-        f"    MoveL pPath{{nPath}},vPath{{nPath}},{'fine' if last else 'z0'},tIsf\\WObj:=wSheet;",
+        *_moves(1 if path.joint_start else 0, len(path.points_mm), stop),
+        *([home_move()] if home else []),
         "  ENDPROC",
     ]
 
@@ -106,18 +170,24 @@ def about(path: ProgramPath) -> list[str]:
 def program_files(path: ProgramPath) -> dict[str, str]:
     """The module `NAME.mod`, and for a split program the parts' modules: file name -> text."""
     pieces = parts(path, "rapid")
+    stop = corners(path.points_mm)
+    data = [*declarations(path), zone_declaration(path)]
     if len(pieces) == 1:
-        lines = [f"MODULE {path.name}", *about(path), *declarations(path), *_motion(path, "main", True, ""),
+        lines = [f"MODULE {path.name}", *about(path), *data, *_motion(path, "main", stop, "", home=True),
                  "ENDMODULE"]
         return {f"{path.name}.mod": "\n".join(lines) + "\n"}
     main = [
-        f"MODULE {path.name}", *about(path), f"  ! {len(pieces)} parts, in order", *declarations(path), "",
-        "  PROC main()", *(f"    {p.name};" for p in pieces), "  ENDPROC", "ENDMODULE",
+        f"MODULE {path.name}", *about(path), f"  ! {len(pieces)} parts, in order", *data, "",
+        "  PROC main()", "    ConfJ \\On;", "    ConfL \\Off;", home_move(), *(f"    {p.name};" for p in pieces),
+        home_move(), "  ENDPROC", "ENDMODULE",
     ]
     files = {f"{path.name}.mod": "\n".join(main) + "\n"}
-    for k, piece in enumerate(pieces):
-        body = _motion(piece, piece.name, k == len(pieces) - 1, "LOCAL ")
+    start = 0
+    for piece in pieces:
+        n = len(piece.points_mm)
+        body = _motion(piece, piece.name, stop[start:start + n], "LOCAL ", home=False)
         files[f"{piece.name}.mod"] = "\n".join([f"MODULE {piece.name}", *body, "ENDMODULE"]) + "\n"
+        start += n
     return files
 
 

@@ -4,16 +4,18 @@ path's moves, and the two controller configurations that connect it to `tx200-tw
 Externally Guided Motion (EGM, RobotWare option 3124-1) in its path-correction mode: the program's linear moves
 are `EGMMoveL`, and while they run the controller streams its state over UDP to the PC and adds the offset the PC
 answers with (in EGM's path coordinates, which the server turns its base-frame correction into). The program is
-`twin.apps.export.rapid`'s data and tool, moved like this:
+`twin.apps.export.rapid`'s data, tool and home, moved like this:
 
-- `MoveJ` to the approach point `pApproach`, a normal joint move: no correction before the tool is over the path;
+- `MoveAbsJ jHome` (HOME, as `rapid`'s first and last move), then `MoveJ` to the approach point `pApproach`, a
+  normal joint move: no correction before the tool is over the path;
 - `EGMReset egmID; EGMGetId egmID;` (a fresh identity, whatever an aborted run left),
   `EGMSetupUC ROB_1,egmID,"pathCorr","UCdevice"\\PathCorr\\APTR;` (the UDP device and the motion profile below;
   `\\APTR`: the correction applies at the tool tip, where the twin computes it) and
   `EGMActMove egmID,tIsf.tframe\\SampleRate:=4;` (the sensor frame is the tool frame; 4 ms, the twin's cycle);
 - the path's points `pPath{1..nPath}` (the path CSV's data rows 1..n, in order) as `EGMMoveL egmID,...,z0,...`
   with speeds `vPath{n}`, the last one `fine`: the corrected path ends at rest;
-- `EGMStop egmID,EGM_STOP_HOLD;` then the retract `MoveL pRetract,vRetract,fine,...`, uncorrected.
+- `EGMStop egmID,EGM_STOP_HOLD;` then the retract `MoveL pRetract,vRetract,fine,...`, uncorrected, and
+  `MoveAbsJ jHome`. The corrected moves keep their `z0` zone (not `rapid`'s `zPath` and `fine` corners).
 
 No `egm_minmax` is declared: convergence limits belong to the guidance modes (`EGMActJoint`/`EGMActPose` with
 `EGMRunJoint`/`EGMRunPose`); a path correction ends with its moves. A program over the RAPID limit
@@ -138,11 +140,11 @@ def _main(path: ProgramPath, body: list[str], data: list[str], note: list[str]) 
         f"  ! EGM path correction in the path's moves (tx200-twin online --serve egm, UDP port {DEFAULT_PORT}): "
         f"device {DEVICE} in {path.name}_egm_sio.cfg, profile {PROFILE} in {path.name}_egm_moc.cfg",
         *rapid.declarations(path), f"  VAR egmident {EGM_ID};", *_ends(path), *data, "",
-        "  PROC main()", "    ConfJ \\On;", "    ConfL \\Off;",
+        "  PROC main()", "    ConfJ \\On;", "    ConfL \\Off;", rapid.home_move(),
         f"    MoveJ pApproach,{rapid.APPROACH_SPEED},fine,tIsf\\WObj:=wSheet;",
         *EGM_ON, *body, *EGM_OFF,
         "    MoveL pRetract,vRetract,fine,tIsf\\WObj:=wSheet;",
-        "  ENDPROC", "ENDMODULE",
+        rapid.home_move(), "  ENDPROC", "ENDMODULE",
     ]
     return "\n".join(lines) + "\n"
 

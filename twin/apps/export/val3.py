@@ -4,13 +4,16 @@ A VAL3 application is a folder of XML files (VAL3 reference manual, "Application
 `NAME.pjx`, the global data `NAME.dtx`, and one `.pgx` file per program. We write:
 
 - `NAME.dtx`: the frame `fSheet` (sheet origin in the robot base, child of `world`), the tool `tIsf`
-  (child of `flange`), the points `pPath[n]` (`pointRx`, children of `fSheet`: the approach point above the path,
+  (child of `flange`), the home `jHome` (`jointRx`: the robot's home keyframe in controller axis values
+  `j1`..`j6` [deg], `program.home_axes_deg`; the layout of the `jPark` datum RoboDK's Stäubli post writes), the
+  points `pPath[n]` (`pointRx`, children of `fSheet`: the approach point above the path,
   the path, the retract point, `twin.apps.export.motion`; the first carries the shoulder,
   elbow and wrist of the robot's IK solution, `twin.apps.export.configuration`, which the `movej` to it goes to;
   the others `ssame`/`esame`/`wsame`, as a `movel` cannot change them), one `mdesc` per point
   `mPath[n]` whose Cartesian speed `tmax` is the path's feed, and `mApproach` for the first move;
-- `start.pgx`: `movej` to the approach point, `movel(pPath[i], tIsf, mPath[i])` down onto the path, through it
-  and up to the retract point, `waitEndMove()`;
+- `start.pgx`: `movej(jHome, tIsf, mApproach)` (HOME), `movej` to the approach point, `movel(pPath[i], tIsf,
+  mPath[i])` down onto the path, through it and up to the retract point, `waitEndMove()` (which also ends the last
+  move's blending), `movej(jHome, tIsf, mApproach)` and `waitEndMove()`: HOME is the first and the last move;
 - `stop.pgx`: empty.
 
 The folder is the application's name: a name VAL3 does not take (`my prog-1`) is refused by `export_path` with
@@ -25,7 +28,7 @@ import shutil
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 
-from twin.apps.export.program import ProgramPath, euler_xyz_deg, fmt
+from twin.apps.export.program import ProgramPath, euler_xyz_deg, fmt, home_axes_deg
 from twin.apps.export.val3_check import check_application
 from twin.base.csvio import swap_in_directory, temporary_folder
 from twin.errors import InputError
@@ -39,11 +42,14 @@ APPROACH_VEL_PERCENT = 10
 
 START_CODE = """begin
   // {name}: {n} points of {source}, sheet frame fSheet, tool tIsf, robot {robot}
+  movej(jHome, tIsf, mApproach)
   movej(pPath[0], tIsf, mApproach)
   waitEndMove()
   for i = 1 to size(pPath) - 1
     movel(pPath[i], tIsf, mPath[i])
   endFor
+  waitEndMove()
+  movej(jHome, tIsf, mApproach)
   waitEndMove()
 end"""
 
@@ -60,6 +66,12 @@ def _pose(xyz: Iterable[float], rxyz: Iterable[float]) -> str:
     return " ".join(
         f'{k}="{fmt(v)}"' for k, v in zip(("x", "y", "z", "rx", "ry", "rz"), [*xyz, *rxyz], strict=True)
     )
+
+
+def home_datum(path: ProgramPath) -> str:
+    """`jHome`: the robot's home as axis values j1..j6 [deg] (a `jointRx`)."""
+    axes = " ".join(f'j{i}="{fmt(v)}"' for i, v in enumerate(home_axes_deg(path.cell), start=1))
+    return _data("jHome", "jointRx", [axes])
 
 
 def application_files(path: ProgramPath) -> dict[str, str]:
@@ -86,6 +98,7 @@ def application_files(path: ProgramPath) -> dict[str, str]:
                 f'{_pose((0, 0, cell.tool_length_mm), (0, 0, 0))} fatherId="flange[0]" ioLink="valve1" open="0" close="0"'
             ],
         ),
+        home_datum(path),
         _data("mApproach", "mdesc", [approach]),
         _data("mPath", "mdesc", mdesc),
         _data("pPath", "pointRx", points),

@@ -1,12 +1,12 @@
 """Stäubli VAL3 with the twin's online correction (`export --online` for a VAL3 robot): the `val3` application
 whose path moves are `alter` moves, corrected each 4 ms from `tx200-twin online` over a socket.
 
-The application is `twin.apps.export.val3`'s (same `fSheet`, `tIsf`, `pPath`, `mPath`, `mApproach`), and:
+The application is `twin.apps.export.val3`'s (same `fSheet`, `tIsf`, `jHome`, `pPath`, `mPath`, `mApproach`), and:
 
-- `start.pgx`: `movej` to the approach point, `waitEndMove()`; `taskCreateSync "alterTask", 0.004, bAlterOver,
-  alterTask()`; `alterBegin(world, mPath[1])`; every path point (the descent onto the sheet and the path: the
-  contact part) an `alterMovel(pPath[i], tIsf, mPath[i])`; `waitEndMove()`, `alterEnd()`; the retract a plain
-  `movel`; the task told to stop (`bAlterRun = false`).
+- `start.pgx`: `movej` HOME (`jHome`) and to the approach point, `waitEndMove()`; `taskCreateSync "alterTask",
+  0.004, bAlterOver, alterTask()`; `alterBegin(world, mPath[1])`; every path point (the descent onto the sheet and
+  the path: the contact part) an `alterMovel(pPath[i], tIsf, mPath[i])`; `waitEndMove()`, `alterEnd()`; the
+  retract a plain `movel`, then `movej` HOME; the task told to stop (`bAlterRun = false`).
 - `alterTask.pgx`, the synchronous task (4 ms): each cycle it takes the twin's answers waiting on the socket `siTwin`
   (byte by byte, as a frame may come in pieces, at most four frames a cycle), keeps the newest one whose magic
   and sequence number pass (`twin.apps.online.alter_protocol`: newer than the last applied, not newer than the
@@ -88,6 +88,7 @@ START_CODE = """begin
   nAlterHeld = 0
   nAlterBad = 0
   nTwinErr = 0
+  movej(jHome, tIsf, mApproach)
   movej(pPath[0], tIsf, mApproach)
   waitEndMove()
   taskCreateSync "{task}", {cycle_s:g}, bAlterOver, {task}()
@@ -100,6 +101,8 @@ START_CODE = """begin
   bAlterOn = false
   alterEnd()
   movel(pPath[size(pPath) - 1], tIsf, mPath[size(pPath) - 1])
+  waitEndMove()
+  movej(jHome, tIsf, mApproach)
   waitEndMove()
   bAlterRun = false
 end"""

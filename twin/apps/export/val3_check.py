@@ -6,20 +6,21 @@ and socket instructions as the public VAL3 drivers write them, `twin.apps.export
 - files: `.pjx` project naming its `.pgx` programs and `.dtx` data, well-formed XML in the Stäubli
   namespaces; programs `start` and `stop` present;
 - data: identifiers (a letter, then letters, digits or `_`, at most 15 characters), the simple and
-  structured types we use (`num`, `bool`, `frame`, `tool`, `trsf`, `mdesc`, `pointRx`, `sio`), arrays of `size`
-  values with keys 0..size-1, every field of the type present and numeric (a `bool` `true` or `false`, a `sio` a
-  `link` to a controller socket `Socket\\name` or `UdpSocket\\name`), configurations (`shoulder`, `elbow`,
-  `wrist`) from their sets, `fatherId` naming `world[0]`, `flange[0]` or an existing frame/tool element of the right
-  type; locals of those types or `jointRx`;
+  structured types we use (`num`, `bool`, `frame`, `tool`, `trsf`, `mdesc`, `pointRx`, `jointRx`, `sio`), arrays
+  of `size` values with keys 0..size-1, every field of the type present and numeric (a `bool` `true` or `false`, a
+  `sio` a `link` to a controller socket `Socket\\name` or `UdpSocket\\name`), configurations (`shoulder`,
+  `elbow`, `wrist`) from their sets, `fatherId` naming `world[0]`, `flange[0]` or an existing frame/tool element of
+  the right type; locals of those types;
 - code: `begin ... end`, one instruction per line, `//` comments, `for v = e to e [step e] ... endFor`,
   `while e ... endWhile`, `if e ... [else ...] endIf`, assignments, calls; expressions with numbers,
   variables, `a[i]`, fields `a.x` of the structured types, `size(a)`, `abs`, `sqrt`, `herej()`, `sioGet`, `sioSet`,
   `fromBinary`, + - * /, comparisons and parentheses; every name declared (data or local);
-  `movej`/`movel`/`alterMovel(point, tool, mdesc)` with a point (`pointRx`), a tool and a motion descriptor,
-  `waitEndMove()`, `alterEnd()` without arguments, `alterBegin(frame, mdesc)`, `alter(trsf)`, `delay(e)`,
-  `clearBuffer(sio)`, `sioCtrl(sio, "parameter", e)`, `toBinary(num, e, "format", num)` with a format of the
-  frames we write, and `taskCreateSync "name", e, bool, program()` naming a program of the application other
-  than the one it is in. A string literal is taken only where one of these takes it. Keywords are case-sensitive.
+  `movel`/`alterMovel(point, tool, mdesc)` with a point (`pointRx`), a tool and a motion descriptor, `movej` the
+  same or with axis values (`jointRx`: a home) for its point, `waitEndMove()`, `alterEnd()` without arguments,
+  `alterBegin(frame, mdesc)`, `alter(trsf)`, `delay(e)`, `clearBuffer(sio)`, `sioCtrl(sio, "parameter", e)`,
+  `toBinary(num, e, "format", num)` with a format of the frames we write, and `taskCreateSync "name", e, bool,
+  program()` naming a program of the application other than the one it is in. A string literal is taken only where
+  one of these takes it. Keywords are case-sensitive.
 """
 
 from __future__ import annotations
@@ -28,19 +29,20 @@ import re
 import xml.etree.ElementTree as ET
 from collections.abc import Mapping
 
-from twin.apps.export.val3_data_check import FIELDS, IDENT, LOCAL_FIELDS, check_data, local_name, val3_error
+from twin.apps.export.val3_data_check import FIELDS, IDENT, check_data, local_name, val3_error
 from twin.errors import InputError
 
 TOKEN = re.compile(
     r'\s*(?:(\d+\.\d*|\.\d+|\d+)|([A-Za-z_][A-Za-z0-9_]*)|("[^"]*")|(<=|>=|!=|==|[-+*/()\[\],=<>.]))'
 )
 STRING = re.compile(r'"[^"]*"')
-#: What a call's argument is: a variable (element, field) of a type, "expr" (any expression), "any" (any variable),
-#: "string" (a string literal), "format" (the `fromBinary`/`toBinary` formats of our frames).
+#: What a call's argument is: a variable (element, field) of a type or of one of the types joined by `|`, "expr"
+#: (any expression), "any" (any variable), "string" (a string literal), "format" (the `fromBinary`/`toBinary`
+#: formats of our frames).
 _MOVE = ("pointRx", "tool", "mdesc")
 #: Instructions (statements) -> their arguments.
 PROCEDURES: dict[str, tuple[str, ...]] = {
-    "movej": _MOVE, "movel": _MOVE, "alterMovel": _MOVE,
+    "movej": ("pointRx|jointRx", "tool", "mdesc"), "movel": _MOVE, "alterMovel": _MOVE,
     "waitEndMove": (), "resetMotion": (), "stopMove": (), "restartMove": (),
     "alterBegin": ("frame", "mdesc"), "alterEnd": (), "alter": ("trsf",),
     "delay": ("expr",), "clearBuffer": ("sio",), "sioCtrl": ("sio", "string", "expr"),
@@ -161,8 +163,8 @@ class _Code:
                 self.expression(number, arg)
             elif kind == "any":
                 self.operand(number, arg)
-            elif self.operand(number, arg) != kind:
-                raise self.error(number, f"{name}: argument {text!r} is not a {kind}")
+            elif self.operand(number, arg) not in kind.split("|"):
+                raise self.error(number, f"{name}: argument {text!r} is not a {' or '.join(kind.split('|'))}")
 
     @staticmethod
     def split_args(tokens: list[str]) -> list[list[str]]:
@@ -191,7 +193,7 @@ class _Code:
         kind = self.names[tokens[0]][0]
         if field is None:
             return kind
-        if field not in {**FIELDS, **LOCAL_FIELDS}.get(kind, ()):
+        if field not in FIELDS.get(kind, ()):
             raise self.error(number, f"{tokens[0]} ({kind}) has no field {field!r}")
         return "num"
 
@@ -289,9 +291,9 @@ def check_application(files: Mapping[str, str]) -> None:
                 if local_name(e.tag) not in ("Local", "Parameter"):
                     continue
                 kind = e.get("type", "")
-                if kind not in FIELDS and kind not in LOCAL_FIELDS:
+                if kind not in FIELDS:
                     raise val3_error(ref, f"program {pname}: local {e.get('name')!r} of type {kind!r}, expected one "
-                                f"of {sorted({*FIELDS, *LOCAL_FIELDS})}")
+                                f"of {sorted(FIELDS)}")
                 local[e.get("name", "")] = (kind, int(e.get("size", "1")))
             code = next((e.text or "" for e in program.iter() if local_name(e.tag) == "Code"), "")
             _Code(pname, code, {**names, **local}, program_names).parse()

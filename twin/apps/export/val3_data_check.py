@@ -19,9 +19,8 @@ FIELDS = {
     "num": ("value",),
     "bool": (),  # its value is true or false
     "sio": (),  # its value is a link to a controller socket
+    "jointRx": ("j1", "j2", "j3", "j4", "j5", "j6"),  # axis values [deg]: a home, a `herej()` local
 }
-#: Types of locals only (not written as data): their fields.
-LOCAL_FIELDS = {"jointRx": ("j1", "j2", "j3", "j4", "j5", "j6")}
 SIO_LINK = re.compile(r"(Socket|UdpSocket)\\[A-Za-z][A-Za-z0-9_]*")
 CONFIG = {
     "shoulder": {"lefty", "righty", "ssame", "sfree"},

@@ -3,10 +3,18 @@ compensation gain, the gain's cause named from the run's record of what its comp
 (`twin.analysis.check`); with a design or target mesh, the formed part against it: the run's `part_scan.csv` or a
 scanner's point cloud (`twin.runs.scan_file`) registered to the mesh (`twin.analysis.scan_registration`), its
 deviations over the formed region and by region of the design (`twin.analysis.surface_check`).
+
+What it judges (its exit code) is what was asked. With a mesh, the part: it passes when its deviation from the
+mesh is within `part_tolerance_mm` (`PART_QUANTILE` of |deviation| over the formed region, so that one stray scan
+point does not fail a part), whatever the path did: a springback-compensated command leaves the ideal path on
+purpose. Without one, the path: a compensated run's gain within `GAIN_TOLERANCE`. A run whose command was
+compensated to a design (its compensation record names the design) is refused without a mesh: its path is not
+meant to follow the ideal one, and judging it would fail a good part.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -14,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from twin.analysis.check import GAIN_TOLERANCE, CheckResult, check_run
+from twin.analysis.compensation_record import run_record
 from twin.analysis.scan_registration import (
     DATUMS,
     MAX_RMS_M,
@@ -33,9 +42,16 @@ from twin.analysis.surface_check import (
 from twin.apps.tasks.base import Note, Report, silent
 from twin.apps.tasks.inputs import ideal_path
 from twin.errors import InputError
+from twin.process.part.match import check_same_part
 from twin.runs.format import Run
 from twin.runs.read import read_run
 from twin.runs.scan_file import UNITS, read_scan
+
+#: The part's default profile tolerance [mm]: ours, chosen before any part was measured against it (a sheet-metal
+#: drawing's general tolerance is of this order); a drawing's own is given with `--part-tolerance-mm`.
+DEFAULT_PART_TOLERANCE_MM = 0.2
+#: The share of the formed region's points that must lie within the tolerance (a scan's stray points aside).
+PART_QUANTILE = 0.99
 
 
 @dataclass(frozen=True)
@@ -54,6 +70,8 @@ class CheckRequest:
         fit_rms_mm: Refuse a registered scan whose best-fit rms exceeds this [mm].
         fit_fraction: ... or with a smaller share of its points fitting [-].
         figure: With `target_stl`: the deviation map to write (PNG), or None.
+        part_tolerance_mm: With `target_stl`: the part passes when `PART_QUANTILE` of its |deviation| from the
+            mesh is within this [mm] (the drawing's profile tolerance; `DEFAULT_PART_TOLERANCE_MM` is ours).
     """
 
     run_dir: Path
@@ -66,10 +84,14 @@ class CheckRequest:
     fit_rms_mm: float = MAX_RMS_M * 1e3
     fit_fraction: float = MIN_INLIER_FRACTION
     figure: Path | None = None
+    part_tolerance_mm: float | None = None
 
     def __post_init__(self) -> None:
-        needs = [name for name, on in (("--figure", self.figure), ("--scan", self.scan), ("--register", self.register))
-                 if on]
+        needs = [name for name, on in (("--figure", self.figure), ("--scan", self.scan), ("--register", self.register),
+                                       ("--part-tolerance-mm", self.part_tolerance_mm is not None)) if on]
+        tol = self.part_tolerance_mm
+        if tol is not None and not (math.isfinite(tol) and 0.0 < tol <= 10.0):
+            raise InputError(f"--part-tolerance-mm {tol!r}: expected the part's profile tolerance, > 0 and <= 10 mm")
         if needs and self.target_stl is None:
             raise InputError(f"{', '.join(needs)} compare(s) the part with a mesh: it needs --target-stl FILE")
         if self.scan_units is not None and self.scan is None:
@@ -98,6 +120,23 @@ class SurfaceCheck:
     deviation: SurfaceDeviation
     regions: RegionDeviation
     figure: Path | None = None
+    tolerance_mm: float = DEFAULT_PART_TOLERANCE_MM
+
+    @property
+    def quantile_mm(self) -> float:
+        """`PART_QUANTILE` of |deviation| over the formed region [mm]."""
+        return float(1e3 * np.quantile(np.abs(self.deviation.deviation_m), PART_QUANTILE))
+
+    @property
+    def within(self) -> bool:
+        """The part is within its tolerance of the mesh."""
+        return self.quantile_mm <= self.tolerance_mm
+
+    def verdict(self) -> str:
+        """The judgement's words."""
+        word = "within" if self.within else "OUTSIDE"
+        return (f"judged: the part against {self.target.name}: {100 * PART_QUANTILE:g} % of its points within "
+                f"{self.quantile_mm:.3f} mm, {word} the tolerance {self.tolerance_mm:g} mm")
 
     def text(self) -> str:
         """What the summary line says of it, from its leading "; "."""
@@ -119,7 +158,9 @@ class SurfaceCheck:
     def record(self) -> dict[str, Any]:
         """Its numbers, under the keys of `check --json` [mm]."""
         registered = {} if self.registration is None else self.registration.summary_mm()
-        record = {**registered, **self.deviation.summary_mm(), "surface_regions": self.regions.stats_mm()}
+        record = {**registered, **self.deviation.summary_mm(), "surface_regions": self.regions.stats_mm(),
+                  "part_quantile_mm": self.quantile_mm, "part_tolerance_mm": self.tolerance_mm,
+                  "part_within_tolerance": self.within}
         return record if self.figure is None else {**record, "figure": self.figure}
 
 
@@ -141,16 +182,28 @@ class CheckReport(Report):
         m = self.result.summary()
         line = (f"check {self.run_dir}: residual rms {m['residual_rms_mm']:.3f} mm, max {m['residual_max_mm']:.3f} mm; "
                 f"{self.result.diagnosis}")
-        return [line if self.surface is None else line + self.surface.text()]
+        if self.surface is None:
+            judged = ("judged: the path (a nominal run: nothing to judge)" if self.result.nominal else
+                      f"judged: the path's gain {self.result.gain:.3f}, "
+                      f"{'within' if self.exit_code == 0 else 'OUTSIDE'} 1 +- {GAIN_TOLERANCE:g}")
+            return [line, judged]
+        return [line + self.surface.text(), self.surface.verdict()]
 
     def record(self) -> dict[str, Any]:
         surface = {} if self.surface is None else self.surface.record()
-        return {"run": self.run_dir, **self.result.summary(), **surface}
+        return {"run": self.run_dir, **self.result.summary(), **surface, "judged": self.judged}
+
+    @property
+    def judged(self) -> str:
+        """What the exit code judges: "part" (against the mesh) or "path" (the compensation's gain)."""
+        return "path" if self.surface is None else "part"
 
     @property
     def exit_code(self) -> int:
-        """1 when a compensated run's gain is off by more than `GAIN_TOLERANCE` (0 for a nominal run, whose
-        command is the ideal path)."""
+        """With a mesh: 1 when the part is outside its tolerance of it. Without: 1 when a compensated run's gain is
+        off by more than `GAIN_TOLERANCE` (0 for a nominal run, whose command is the ideal path)."""
+        if self.surface is not None:
+            return 0 if self.surface.within else 1
         return 0 if self.result.nominal or abs(self.result.gain - 1.0) <= GAIN_TOLERANCE else 1
 
 
@@ -164,6 +217,12 @@ def check_task(request: CheckRequest, note: Note = silent) -> CheckReport:
     """
     ideal = ideal_path(request.ideal)
     measured = read_run(request.run_dir)
+    record = run_record(measured.meta, Path(request.run_dir) / "meta.json")
+    if request.target_stl is None and record is not None and record.design_file is not None:
+        raise InputError(
+            f"{request.run_dir}: its command was compensated to the design {record.design_file} (compensate "
+            "--target-stl): its path leaves the ideal path on purpose, so its gain is no verdict; judge the part "
+            f"with --target-stl {record.design_file}")
     name = (f"--ideal {request.ideal}" if request.ideal is not None
             else "the default ideal path (the groove; --ideal FILE)")
     result = check_run(measured, ideal.t_s, ideal.p_sheet_m, name)
@@ -183,11 +242,14 @@ def _surface(request: CheckRequest, target: Path, measured: Run) -> SurfaceCheck
     else:
         points, source = np.asarray(measured.part_scan), "part_scan.csv"
     index = DesignIndex(read_target_mesh(target))
+    of_run = f"the command of {request.run_dir}"
+    check_same_part(measured.commanded.values, index.mesh, f"--target-stl {target}", path_what=of_run)
     registration = None
     if request.scan is not None or request.register:
         registration = register_scan(points, index, datum=request.datum, max_rms_m=request.fit_rms_mm / 1e3,
                                      min_inlier_fraction=request.fit_fraction)
         points = registration.apply(points)
+    check_same_part(measured.commanded.values, points, f"the scan {source}", path_what=of_run)
     deviation = surface_deviation(points, index.mesh)
     regions = region_deviation(points, index)
     figure = None
@@ -197,4 +259,5 @@ def _surface(request: CheckRequest, target: Path, measured: Run) -> SurfaceCheck
         protect = [p for p in (request.run_dir, target, request.ideal, request.scan) if p is not None]
         figure = plot_surface_deviation(request.figure, deviation, regions=regions, registration=registration,
                                         protect=protect)
-    return SurfaceCheck(source, target, registration, deviation, regions, figure)
+    tolerance = DEFAULT_PART_TOLERANCE_MM if request.part_tolerance_mm is None else request.part_tolerance_mm
+    return SurfaceCheck(source, target, registration, deviation, regions, figure, tolerance)

@@ -13,7 +13,14 @@ from typing import Any
 import numpy as np
 import trimesh
 
-from twin.analysis.part_compensation import PartCompensation, PartStage, compensate_part, predicted_surface
+from twin.analysis.compensation_record import CompensationRecord, write_record
+from twin.analysis.part_compensation import (
+    PartCompensation,
+    PartStage,
+    compensate_part,
+    part_stats,
+    predicted_surface,
+)
 from twin.analysis.scan_learning import learn_from_scan, twin_discrepancy
 from twin.analysis.surface_check import read_target_mesh, region_deviation
 from twin.apps.tasks.base import Note, Report, silent
@@ -21,6 +28,8 @@ from twin.apps.tasks.compensate import CompensateRequest, write_command
 from twin.apps.tasks.inputs import ideal_path
 from twin.errors import InputError
 from twin.process.description import Process
+from twin.process.force.registry import build_force_field
+from twin.process.part.match import check_same_part
 from twin.runs.format import Run, run_process
 from twin.runs.read import read_run
 
@@ -49,6 +58,7 @@ class PartReport(Report):
     numbers: dict[str, Any]
     figure: str | None = None
     rrd: str | None = None
+    record_file: str | None = None
 
     @property
     def method(self) -> str:
@@ -56,10 +66,16 @@ class PartReport(Report):
         return "part" if self.request.learn_from is None else "learn"
 
     def lines(self) -> list[str]:
-        return [f"compensate ({self.method}): -> {self.request.out}"]
+        last = self.stages[-1]
+        part = part_stats(last.deviation)["part"]
+        return [f"compensate ({self.method}) to {Path(str(self.request.target_stl)).name}: {last.name}: the part "
+                f"{part['rms_mm']:.3f} mm rms, max {part['max_mm']:.3f} mm, mean {part['mean_mm']:+.3f} mm from the "
+                f"design ({len(self.stages)} stages) -> {self.request.out}"
+                + ("" if self.record_file is None else f", {self.record_file}")]
 
     def record(self) -> dict[str, Any]:
-        outputs = {name: path for name, path in (("figure", self.figure), ("rrd", self.rrd)) if path is not None}
+        outputs = {name: path for name, path in (("figure", self.figure), ("rrd", self.rrd),
+                                                 ("record", self.record_file)) if path is not None}
         return {"method": self.method, "out": self.request.out, **self.numbers, **outputs}
 
 
@@ -67,7 +83,8 @@ def compensate_part_task(request: CompensateRequest, note: Note = silent) -> Par
     """Compensate the part to `request.target_stl` and write the command (and the figure, the recording).
 
     Raises:
-        InputError: A run without part_scan.csv to learn from, a force model that keeps no surface.
+        InputError: A run without part_scan.csv to learn from, a force model that keeps no surface, a design or a
+            scan of another part than the path's (`twin.process.part.match`).
         DataFileError: A bad design, run or path file (naming the file).
     """
     assert request.target_stl is not None
@@ -75,20 +92,26 @@ def compensate_part_task(request: CompensateRequest, note: Note = silent) -> Par
     protect = request.inputs()
     if request.learn_from is None:
         ideal = ideal_path(request.ideal)
-        result = compensate_part(ideal, request.spec(ideal.p_sheet_m, note=note).build(), design,
-                                 iterations=request.part_iterations, tol_m=1e-3 * request.tol_mm)
+        spec = request.spec(ideal.p_sheet_m, note=note)
+        check_same_part(ideal.p_sheet_m, design, f"--target-stl {request.target_stl}", path_what=(
+            "the default ideal path (the groove; --ideal FILE)" if request.ideal is None else f"--ideal {request.ideal}"),
+            tool_radius_m=spec.process.tool_radius_m)
+        result = compensate_part(ideal, spec.build(), design,
+                                 iterations=request.part_iterations, tol_m=1e-3 * request.tol_mm, progress=note)
         found: Found = (ideal.t_s, result.compensation.p_cmd_sheet_m, result.stages(),
                         {"iterations": request.part_iterations, **_surface_rms(result)})
     else:
         last = read_run(request.learn_from)
         if last.part_scan is None:
             raise InputError(f"--learn-from {request.learn_from}: the run has no part_scan.csv to learn from")
+        _check_last_part(request, design, last)
         scanned = PartStage(f"scan of {Path(request.learn_from).name}", "scanned",
                             region_deviation(last.part_scan, design))
         learn = _learn_on_twin if request.learn_at == "twin" else _learn_from_scan
         found = learn(request, design, last, scanned, note)
     t_s, command, stages, numbers = found
     write_command(request.out, t_s, command, protect)
+    record_file = write_record(request.out, _record(request, t_s))
     figure = rrd = None
     if request.figure is not None:
         from twin.viz.surface_figures import plot_part_stages
@@ -100,7 +123,29 @@ def compensate_part_task(request: CompensateRequest, note: Note = silent) -> Par
         from twin.viz.part_recording import record_part
 
         rrd = str(record_part(request.rrd, design, stages, protect=protect))
-    return PartReport(request, t_s, command, stages, numbers, figure, rrd)
+    return PartReport(request, t_s, command, stages, numbers, figure, rrd, str(record_file))
+
+
+def _check_last_part(request: CompensateRequest, design: trimesh.Trimesh, last: Run) -> None:
+    """Refuse a design or a last part's scan of another part than the last run's command formed
+    (`twin.process.part.match`)."""
+    assert last.part_scan is not None and request.learn_from is not None
+    radius = run_process(last.meta, Process(), Path(request.learn_from) / "meta.json").tool_radius_m
+    ran = f"the command of --learn-from {request.learn_from}"
+    check_same_part(last.commanded.values, design, f"--target-stl {request.target_stl}", path_what=ran,
+                    tool_radius_m=radius)
+    check_same_part(last.commanded.values, last.part_scan, f"the scan {Path(request.learn_from) / 'part_scan.csv'}",
+                    path_what=ran, tool_radius_m=radius)
+
+
+def _record(request: CompensateRequest, t_s: np.ndarray) -> CompensationRecord:
+    """What the part's command assumed, for `check`: the design it was compensated to (so that its path is not
+    judged against the ideal one) and the twin's forces along the ideal path at the command's times."""
+    ideal = ideal_path(request.ideal)
+    forces = build_force_field(request.spec(ideal.p_sheet_m).process).rigid_forces(ideal)
+    if len(forces) != len(t_s):
+        forces = np.column_stack([np.interp(t_s, ideal.t_s, forces[:, i]) for i in range(3)])
+    return CompensationRecord("twin", t_s, forces, design_file=str(request.target_stl))
 
 
 def _learned(request: CompensateRequest, at: str) -> dict[str, Any]:

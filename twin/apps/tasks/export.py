@@ -8,6 +8,7 @@ programmed move in contact and the arm configuration; the warnings (moves slowed
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -27,6 +28,7 @@ from twin.apps.export import (
 from twin.apps.export.program import default_cell
 from twin.apps.tasks.base import Note, Report, silent
 from twin.errors import InputError
+from twin.process.description import check_plausible
 from twin.process.toolpath.placement import Placement
 from twin.robot.description import RobotDescription, load_robot
 from twin.runs.format import Run, run_robot
@@ -55,6 +57,8 @@ class ExportRequest:
             `twin.apps.export.rapid_egm`; Stäubli: VAL3 `alter` moves, `twin.apps.export.val3_alter`), for
             `tx200-twin online --serve`.
         placement: The program's sheet frame in the robot base.
+        cell: The `--cell` file's record (its tool and sheet are in the flags already), which the report names as
+            where the tool and base came from, or None.
     """
 
     path_csv: Path
@@ -69,6 +73,7 @@ class ExportRequest:
     max_points: int = 0
     placement: Placement = field(default_factory=Placement)
     online: bool = False
+    cell: Mapping[str, Any] | None = None
 
     def __post_init__(self) -> None:
         if self.format is not None and self.format not in FORMATS:
@@ -77,6 +82,10 @@ class ExportRequest:
                               ("--feed-mm-s", self.feed_mm_s)):
             if value is not None and not (math.isfinite(value) and value > 0):
                 raise InputError(f"{option} {value:g}: expected a finite number > 0")
+        if self.tool_length_mm is not None:
+            check_plausible("tool_length_m", self.tool_length_mm / 1e3, f"--tool-length-mm {self.tool_length_mm:g}")
+        if self.tool_mass_kg is not None:
+            check_plausible("tool_mass_kg", self.tool_mass_kg, f"--tool-mass-kg {self.tool_mass_kg:g}")
 
 
 @dataclass(frozen=True)
@@ -94,6 +103,14 @@ class ExportReport(Report):
     format: str
     robot: RobotDescription
     exported: Exported
+    cell: Mapping[str, Any] | None = None
+
+    @property
+    def origin(self) -> str:
+        """Where the program's tool and base came from."""
+        if self.cell is not None:
+            return f"the cell {self.cell['name']} ({self.cell['file']}) under the command's flags"
+        return f"robot {self.robot.name}'s model and scene under the command's flags"
 
     def lines(self) -> list[str]:
         path, files, feeds = self.exported
@@ -104,7 +121,8 @@ class ExportReport(Report):
             f"{len(path.points_mm)} points (approach and retract at z = {feeds.safe_z_mm:.2f} mm), process feed "
             f"{feeds.process_mm_s:.2f} mm/s, max feed in contact {feeds.max_in_contact_mm_s:.2f} mm/s (path "
             f"{feeds.path_max_in_contact_mm_s:.2f}), tool {path.cell.tool_length_mm:.2f} mm "
-            f"{path.cell.tool_mass_kg:.3g} kg{configured}; wrote {', '.join(str(f) for f in files)}"
+            f"{path.cell.tool_mass_kg:.3g} kg{configured}; tool and base from {self.origin}; wrote "
+            f"{', '.join(str(f) for f in files)}"
         ]
 
     def record(self) -> dict[str, Any]:
@@ -131,6 +149,8 @@ class ExportReport(Report):
             "sheet_origin_in_base_mm": path.cell.p_base_sheet_mm.tolist(),
             "tool_length_mm": path.cell.tool_length_mm,
             "tool_mass_kg": path.cell.tool_mass_kg,
+            "tool_and_base_from": self.origin,
+            "cell": self.cell,
             "configuration": None if config is None else {
                 "program": config.text(LANGUAGES.get(self.format, "")),
                 "description": config.describe(),
@@ -165,15 +185,20 @@ def export_task(request: ExportRequest, note: Note = silent) -> ExportReport:
              f"{robot.controller} runs {robot.language}: the program's configuration is {robot.name}'s IK solution")
     mass = request.tool_mass_kg if request.tool_mass_kg is not None else _run_tool_mass_kg(recorded)
     cell = default_cell(mass, request.placement, robot)
+    if request.cell is not None and request.cell.get("tool", {}).get("cog_mm") is not None:
+        cell = replace(cell, cog_mm=tuple(request.cell["tool"]["cog_mm"]))
     if request.tool_length_mm is not None:
         cell = replace(cell, tool_length_mm=request.tool_length_mm)
     elif recorded is not None:
-        cell = replace(cell, tool_length_mm=1e3 * float(recorded.meta["tool_length_m"]))
+        length_m = float(recorded.meta["tool_length_m"])
+        check_plausible("tool_length_m", length_m, f"{Path(request.run or '.') / 'meta.json'}: tool_length_m "
+                        f"{length_m:g} m")
+        cell = replace(cell, tool_length_mm=1e3 * length_m)
     exported = export_path(request.path_csv, fmt, request.out, cell=cell, safe_z_mm=request.safe_height_mm,
                            process_feed_mm_s=request.feed_mm_s, max_points=request.max_points)
     for warning in exported.feeds.warnings():
         note(f"warning: {warning}")
-    return ExportReport(request.path_csv, fmt, robot, exported)
+    return ExportReport(request.path_csv, fmt, robot, exported, request.cell)
 
 
 def _run_tool_mass_kg(recorded: Run | None) -> float | None:

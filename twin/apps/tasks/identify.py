@@ -13,7 +13,7 @@ import numpy as np
 
 from twin.analysis.identify.cartesian import KrFit, fit_kr_load_cases, load_cases_csv
 from twin.analysis.identify.joint import KqFit
-from twin.analysis.identify.method2 import Method2Result, method2
+from twin.analysis.identify.method2 import MIN_FORCE_SPAN, Method2Result, method2
 from twin.analysis.identify.rollouts import (
     KqRolloutFit,
     kq_from_run,
@@ -94,9 +94,14 @@ def _conflict(request: IdentifyRequest) -> str | None:
     return None
 
 
-def _matrix_lines(matrix: np.ndarray) -> list[str]:
+def _matrix_lines(matrix: np.ndarray, decimals: int = 2) -> list[str]:
     """A matrix as indented rows of fixed-width numbers."""
-    return ["    [" + ", ".join(f"{value:10.2f}" for value in row) + "]" for row in matrix]
+    return ["    [" + ", ".join(f"{value:10.{decimals}f}" for value in row) + "]" for row in matrix]
+
+
+def _axes_label(names: list[str]) -> str:
+    """'rows Fx, Fz; columns dUx, dUz' for the axes `names`."""
+    return f"rows {', '.join('F' + n for n in names)}; columns {', '.join('dU' + n for n in names)}"
 
 
 @dataclass(frozen=True)
@@ -124,12 +129,19 @@ class Method1Report(Report):
         """C_R x-z with y held (thesis Eq. 4.27a): the inverse of K_R's x-z sub-block [mm/kN], shape (2, 2)."""
         return 1e3 * np.linalg.inv(self.fit.k_r_n_per_mm[np.ix_([0, 2], [0, 2])])
 
+    @property
+    def c_r_mm_per_kn(self) -> np.ndarray:
+        """C_R = inv(K_R), every axis (y free) [mm/kN], shape (3, 3)."""
+        return 1e3 * np.linalg.inv(self.fit.k_r_n_per_mm)
+
     def lines(self) -> list[str]:
         fit = self.fit
         return [
             f"Method 1: {self.cases} load case(s) from {self.loads}",
             "K_R [N/mm] (rows Fx, Fy, Fz; columns dUx, dUy, dUz):",
             *_matrix_lines(fit.k_r_n_per_mm),
+            "C_R = inv(K_R) [mm/kN] (rows dUx, dUy, dUz; columns Fx, Fy, Fz):",
+            *_matrix_lines(self.c_r_mm_per_kn, 4),
             "C_R x-z, y held (thesis Eq. 4.27a) [mm/kN]:",
             *_matrix_lines(self.c_r_xz_mm_per_kn),
             f"residuals [N]: {', '.join(f'{r:.2f}' for r in fit.residuals_n)}",
@@ -142,7 +154,8 @@ class Method1Report(Report):
     def record(self) -> dict[str, Any]:
         payload: dict[str, Any] = {
             "method": 1, "loads": str(self.loads), "k_r_n_per_mm": self.fit.k_r_n_per_mm,
-            "c_r_xz_y_held_mm_per_kn": self.c_r_xz_mm_per_kn, "rows": ["fx", "fy", "fz"],
+            "c_r_mm_per_kn": self.c_r_mm_per_kn, "c_r_xz_y_held_mm_per_kn": self.c_r_xz_mm_per_kn,
+            "axes": ["x", "y", "z"], "rows": ["fx", "fy", "fz"],
             "columns": ["dux", "duy", "duz"], "residuals_n": self.fit.residuals_n,
             "condition_number": self.fit.condition_number, "rank": self.fit.rank,
             "joint_stiffness_nm_per_rad": self.k_q_nm_per_rad, "joint_observable": self.joint.observable,
@@ -161,8 +174,8 @@ class Method2Report(Report):
 
     Attributes:
         run_dir: The run.
-        result: Method 2's fits (ideal and measured forces) [N/m, m/N].
-        c_twin_m_per_n: The twin's compliance at home, x-z block in the run's sheet frame [m/N], shape (2, 2).
+        result: Method 2's fits (ideal and measured forces) [N/m, m/N], over the axes the run supports.
+        c_twin_m_per_n: The twin's compliance at home in the run's sheet frame, every axis [m/N], shape (3, 3).
         rollout: K_q fitted to the run by twin replays.
         joints: The robot's joint names.
         model_written: The model file written, or None.
@@ -175,32 +188,47 @@ class Method2Report(Report):
     joints: tuple[str, ...]
     model_written: Path | None = None
 
+    @property
+    def c_twin_fitted_m_per_n(self) -> np.ndarray:
+        """The twin's compliance over the fitted axes [m/N], shape (k, k)."""
+        return self.c_twin_m_per_n[np.ix_(self.result.axes, self.result.axes)]
+
     def _off_twin(self, c_m_per_n: np.ndarray) -> float:
-        """How far a compliance is off the twin's, relative [-]."""
-        return float(np.linalg.norm(c_m_per_n - self.c_twin_m_per_n) / np.linalg.norm(self.c_twin_m_per_n))
+        """How far a compliance (over the fitted axes) is off the twin's, relative [-]."""
+        twin = self.c_twin_fitted_m_per_n
+        return float(np.linalg.norm(c_m_per_n - twin) / np.linalg.norm(twin))
 
     def lines(self) -> list[str]:
         r = self.result
+        names = r.axis_names
+        block = "-".join(names)
+        why = ("" if len(names) == 3 else f" (the run's forces do not span y: smallest/largest singular value "
+               f"{r.force_span:.3f} < {MIN_FORCE_SPAN:g}; no y row or column is fitted)")
         return [
-            f"identify method 2 on {self.run_dir} ({r.samples} samples): "
-            f"K_R (ideal forces, thesis) [N/mm] = {np.round(1e-3 * r.k_r_ideal_n_per_m, 1).tolist()}; "
-            f"K_R (measured forces) = {np.round(1e-3 * r.k_r_measured_n_per_m, 1).tolist()}; "
-            f"compliance from measured forces off the twin's x-z block by "
+            f"identify method 2 on {self.run_dir} ({r.samples} samples): the {block} block{why}",
+            f"K_R (ideal forces, thesis) [N/mm] ({_axes_label(names)}):",
+            *_matrix_lines(1e-3 * r.k_r_ideal_n_per_m),
+            "K_R (measured forces) [N/mm]:",
+            *_matrix_lines(1e-3 * r.k_r_measured_n_per_m),
+            f"compliance from measured forces off the twin's {block} block by "
             f"{100 * self._off_twin(r.c_measured_m_per_n):.2f} %, from ideal forces by "
-            f"{100 * self._off_twin(r.c_ideal_m_per_n):.2f} %; sheet force fell by {100 * r.force_drop:.1f} % rms"
+            f"{100 * self._off_twin(r.c_ideal_m_per_n):.2f} %; sheet force fell by {100 * r.force_drop:.1f} % rms",
         ]
 
     def record(self) -> dict[str, Any]:
         r, rollout = self.result, self.rollout
         fitted = ", ".join(name for name, ok in zip(self.joints, rollout.fitted, strict=True) if ok)
         payload: dict[str, Any] = {
-            "method": 2, "run": self.run_dir, "samples": r.samples,
+            "method": 2, "run": self.run_dir, "samples": r.samples, "axes": r.axis_names,
+            "force_span": r.force_span,
             "k_r_n_per_mm": 1e-3 * r.k_r_ideal_n_per_m,
             "c_r_mm_per_kn": 1e6 * np.linalg.inv(r.k_r_ideal_n_per_m),  # thesis Eq. 4.27b: inv(K_R(2))
             "k_r_measured_forces_n_per_mm": 1e-3 * r.k_r_measured_n_per_m,
             "compliance_ideal_forces_mm_per_kn": 1e6 * r.c_ideal_m_per_n,
             "compliance_measured_forces_mm_per_kn": 1e6 * r.c_measured_m_per_n,
-            "twin_compliance_xz_mm_per_kn": 1e6 * self.c_twin_m_per_n,
+            "twin_compliance_xz_mm_per_kn": 1e6 * self.c_twin_m_per_n[np.ix_([0, 2], [0, 2])],
+            "twin_compliance_mm_per_kn": 1e6 * self.c_twin_m_per_n,
+            "twin_compliance_fitted_axes_mm_per_kn": 1e6 * self.c_twin_fitted_m_per_n,
             "relative_error_measured_vs_twin": self._off_twin(r.c_measured_m_per_n),
             "relative_bias_ideal_vs_twin": self._off_twin(r.c_ideal_m_per_n),
             "force_drop_rms_ratio": r.force_drop,
@@ -227,7 +255,7 @@ def identify_task(request: IdentifyRequest, note: Note = silent) -> Report:
         return springback_task(request, note)
     if request.forces is not None:
         return forces_task(request, note)
-    return _method2(request) if request.method == 2 else _method1(request)
+    return _method2(request, note) if request.method == 2 else _method1(request)
 
 
 def _method1(request: IdentifyRequest) -> Method1Report:
@@ -245,10 +273,13 @@ def _method1(request: IdentifyRequest) -> Method1Report:
     return Method1Report(request.loads, len(f_n), fit, joint, k_q, written)
 
 
-def _method2(request: IdentifyRequest) -> Method2Report:
-    """Method 2 on the request's run (its recorded process and force model), and K_q by rollouts."""
+def _method2(request: IdentifyRequest, note: Note = silent) -> Method2Report:
+    """Method 2 on the request's run (its recorded process and force model), and K_q by rollouts; each stage said
+    as it starts (the rollouts replay the run a few dozen times)."""
     assert request.run_dir is not None  # checked by the request
     measured = read_run(request.run_dir)
+    note(f"identify: Method 2 on {request.run_dir} ({len(measured.tracker.t_s)} tracker samples): K_R from the "
+         "measured and the ideal forces")
     robot = resolve_robot(request.robot, None, measured)
     process = run_process(measured.meta, Process())
     recorded_model = measured.meta.get("force_model")
@@ -258,7 +289,8 @@ def _method2(request: IdentifyRequest) -> Method2Report:
     spec = TwinSpec(robot=robot, process=process, placement=run_placement(measured.meta))
     twin = spec.build()
     R = twin.R_base_sheet  # the twin's compliance at home, in the run's sheet frame
-    c_twin = (R.T @ twin.kinematics.compliance(twin.kinematics.q_home) @ R)[np.ix_([0, 2], [0, 2])]
+    c_twin = R.T @ twin.kinematics.compliance(twin.kinematics.q_home) @ R
+    note("identify: K_q by least squares over twin replays of the run (rollouts)")
     rollout = kq_from_run(measured, spec)
     written = None
     if request.write_model is not None:

@@ -18,6 +18,7 @@ from twin.analysis.surface_check import read_target_mesh
 from twin.apps.tasks.base import Note, Report, silent
 from twin.errors import InputError
 from twin.process.description import Process
+from twin.process.part.match import check_same_part
 from twin.runs.format import Run
 from twin.runs.read import read_run
 from twin.sim.model_file import write_model_file
@@ -144,7 +145,8 @@ def springback_task(request: IdentifyRequest, note: Note = silent) -> Springback
     """Fit the springback to the part scan of `request.springback` against `request.design`.
 
     Raises:
-        InputError: A run without part_scan.csv, another robot than the run's, a bad declaration.
+        InputError: A run without part_scan.csv, another robot than the run's, a bad declaration, a design or scan of
+            another part than the run's command formed (`twin.process.part.match`).
         RunFormatError, DataFileError: A bad run folder or design file (naming it).
     """
     assert request.springback is not None and request.design is not None
@@ -153,7 +155,14 @@ def springback_task(request: IdentifyRequest, note: Note = silent) -> Springback
         raise InputError(f"--springback {request.springback}: the run has no part_scan.csv (a scan of the formed "
                          "part is what shows its springback)")
     spec = _spec(request, measured, note)
-    fit = fit_springback(measured, spec, read_target_mesh(request.design))
+    design = read_target_mesh(request.design)
+    ran = f"the command of --springback {request.springback}"
+    check_same_part(measured.commanded.values, design, f"--design {request.design}", path_what=ran,
+                    tool_radius_m=spec.process.tool_radius_m)
+    check_same_part(measured.commanded.values, measured.part_scan,
+                    f"the scan {Path(request.springback) / 'part_scan.csv'}", path_what=ran,
+                    tool_radius_m=spec.process.tool_radius_m)
+    fit = fit_springback(measured, spec, design)
     written = None
     if request.write_model is not None:
         force_fit = tuple((dict(spec.process.force_fit) | dict(fit.springback_fit)).items())

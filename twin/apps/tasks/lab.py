@@ -6,7 +6,7 @@ record (`twin.analysis.compensation_record`) travels with the run, for `check`."
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, NamedTuple
@@ -15,7 +15,7 @@ import numpy as np
 
 from twin.analysis.compensation_record import CompensationRecord, read_record
 from twin.analysis.identify.cartesian import THESIS_TABLE_4_2_LOADS_N
-from twin.analysis.resolve import AUTO, resolve_process, resolve_robot, resolve_spec
+from twin.analysis.resolve import AUTO, resolve_robot, resolve_spec
 from twin.apps.tasks.base import Note, Report, silent
 from twin.base.csvio import write_table
 from twin.base.registry import Registry
@@ -23,8 +23,8 @@ from twin.base.signals import interp_rows
 from twin.errors import InputError
 from twin.process.description import Process
 from twin.process.process_file import ProcessDeclaration, process_record
-from twin.process.toolpath.groove import ToolPath, label_passes
 from twin.process.toolpath.placement import Placement
+from twin.runs.format import Run
 from twin.runs.read import lab_commanded
 from twin.runs.write import write_run
 from twin.sim.effects import Effects, parse_effect_args
@@ -55,6 +55,8 @@ class LabRequest:
         online: The dynamic plant's controller compensates online each 4 ms cycle with the twin's compensator
             (`twin.sim.online`), on the plant's own F/T stream.
         model: The model file the online compensator's twin is (a `learn`ed one); None: the default twin.
+        cell: The `--cell` file's record (`twin.process.cell_file.CellDeclaration.record`), which the run keeps in
+            its meta.json, or None.
     """
 
     scenario: str
@@ -72,6 +74,7 @@ class LabRequest:
     overwrite: bool = False
     online: bool = False
     model: Path | None = None
+    cell: Mapping[str, Any] | None = None
 
     def __post_init__(self) -> None:
         for option, value, valid in (("--scenario", self.scenario, SCENARIOS), ("--plant", self.plant,
@@ -198,43 +201,11 @@ class LabRunReport(Report):
                 "process": {**process_record(self.process), "force_model": self.process.force_model}}
 
 
-@dataclass(frozen=True)
-class CncReport(Report):
-    """The rigid machine's run (thesis §2.3).
-
-    Attributes:
-        out: The run folder written.
-        seed: The seed of the noise.
-        force_samples: F/T samples measured (10 Hz).
-        peak_fz_n: The largest Fz measured [N].
-        formed_depth_mm: The part's depth after springback [mm].
-        process: The process the run formed.
-    """
-
-    out: Path
-    seed: int
-    force_samples: int
-    peak_fz_n: float
-    formed_depth_mm: float
-    process: Process
-
-    def lines(self) -> list[str]:
-        process = self.process
-        return [f"lab cnc: rigid machine, {self.force_samples} force samples at 10 Hz, peak Fz {self.peak_fz_n:.0f} N, "
-                f"formed depth after springback {self.formed_depth_mm:.2f} mm ({process.material}, "
-                f"{1e3 * process.thickness_m:g} mm, {process.force_model} model) -> {self.out}"]
-
-    def record(self) -> dict[str, Any]:
-        return {"scenario": "cnc", "out": self.out, "seed": self.seed, "force_samples": self.force_samples,
-                "peak_fz_n": self.peak_fz_n, "formed_depth_mm": self.formed_depth_mm,
-                "process": {**process_record(self.process), "force_model": self.process.force_model}}
-
-
 def lab_task(request: LabRequest, note: Note = silent) -> Report:
     """Run the request's scenario on its plant and write the run (or the load-test file).
 
     Returns:
-        A `LoadTestReport`, `LabRunReport`, `CncReport` or (dynamic plant) `DynamicRunReport`.
+        A `LoadTestReport`, `LabRunReport`, `lab_cnc.CncReport` or (dynamic plant) `DynamicRunReport`.
 
     Raises:
         InputError: An existing output without `overwrite`, "compensated" without `commanded`, a bad declaration.
@@ -255,7 +226,9 @@ def _run_quasi_static(request: LabRequest, note: Note) -> Report:
         write_load_cases(request.out, loads, deflections)
         return LoadTestReport(request.out, len(loads))
     if request.scenario == "cnc":
-        return _cnc(request, note)
+        from twin.apps.tasks.lab_cnc import cnc_task
+
+        return cnc_task(request, note)
     return _run(request, effects, note)
 
 
@@ -266,6 +239,15 @@ def check_out(out: Path, overwrite: bool) -> None:
     if out.is_dir() and not any(out.iterdir()):
         return
     raise InputError(f"{out} exists; pass --overwrite to replace it or choose another --out")
+
+
+def with_records(run: Run, request: LabRequest) -> Run:
+    """The run with what travels with it in its meta: the command's compensation record (for `check`) and the cell
+    it was made in."""
+    record = compensation_record(request)
+    meta = {**run.meta, **({} if record is None else {"compensation": record.to_json()}),
+            **({} if request.cell is None else {"cell": dict(request.cell)})}
+    return replace(run, meta=meta)
 
 
 def compensation_record(request: LabRequest) -> CompensationRecord | None:
@@ -289,9 +271,7 @@ def _run(request: LabRequest, effects: Effects, note: Note) -> LabRunReport:
     from twin.lab.virtual import run_lab
 
     run, truth = run_lab(t_s, p_cmd, scenario=request.scenario, seed=request.seed, spec=spec)
-    record = compensation_record(request)
-    if record is not None:  # what the compensation used travels with the run, for `check`
-        run = replace(run, meta={**run.meta, "compensation": record.to_json()})
+    run = with_records(run, request)
     write_run(request.out, run, truth=truth, overwrite=request.overwrite, protect=protect)
     deviation = np.max(np.linalg.norm(run.tracker.values - interp_rows(run.tracker.t_s, t_s, p_cmd), axis=1))
     forces = run.forces
@@ -301,23 +281,6 @@ def _run(request: LabRequest, effects: Effects, note: Note) -> LabRunReport:
         float(np.max(np.linalg.norm(forces.values, axis=1))) if forces else 0.0,
         float(np.max(forces.values[:, 2])) if forces else 0.0, spec.process,
     )
-
-
-def _cnc(request: LabRequest, note: Note) -> CncReport:
-    """The thesis's CNC validation (§2.3) on a rigid machine: the groove, or any commanded path, formed with the
-    declared process; forces at 10 Hz, the part after springback (the y = 0 section, and a scan of the surface
-    where the force model keeps one)."""
-    commanded, protect = lab_commanded(request.scenario, request.commanded)
-    pass_index, direction = label_passes(commanded.values[:, 0])
-    path = ToolPath(t_s=commanded.t_s, p_sheet_m=commanded.values, pass_index=pass_index, direction=direction)
-    process = resolve_process(Process(), request.declaration, request.force_model, path.p_sheet_m, note=note)
-    from twin.lab.cnc import run_cnc
-
-    run, truth = run_cnc(seed=request.seed, path=path, process=process)
-    write_run(request.out, run, truth=truth, overwrite=request.overwrite, protect=protect)
-    assert run.part_profile is not None and run.forces is not None
-    return CncReport(request.out, request.seed, len(run.forces.t_s), float(np.max(run.forces.values[:, 2])),
-                     -1e3 * float(np.min(run.part_profile[1])), process)
 
 
 #: The lab's plants, by name (`twin.base.registry.Registry`): `LAB_PLANTS.register(LabPlant(...))` adds one.

@@ -16,7 +16,14 @@ from twin.analysis.compensation_record import CompensationRecord
 from twin.analysis.identify.cartesian import THESIS_TABLE_4_2_LOADS_N
 from twin.analysis.resolve import resolve_process, resolve_robot, resolve_spec
 from twin.apps.tasks.base import Note, Report, silent
-from twin.apps.tasks.lab import LabRequest, LoadTestReport, check_out, compensation_record, write_load_cases
+from twin.apps.tasks.lab import (
+    LabRequest,
+    LoadTestReport,
+    check_out,
+    compensation_record,
+    with_records,
+    write_load_cases,
+)
 from twin.base.csvio import write_table
 from twin.base.signals import interp_rows
 from twin.lab.dynamic.knobs import Knobs, parse_set_args
@@ -110,8 +117,7 @@ def dynamic_lab_task(request: LabRequest, note: Note = silent) -> Report:
         process=process, placement=request.placement, robot=robot, corrector=compensator,
     )
     truth["force_model"] = process.force_model
-    if record is not None:  # what the compensation used travels with the run, for `check`
-        run = replace(run, meta={**run.meta, "compensation": record.to_json()})
+    run = with_records(run, request)  # the compensation record (for `check`) and the cell travel with the run
     if compensator is not None:
         run = replace(run, meta={**run.meta, "online": online_record(compensator, request.model)})
     write_run(request.out, run, truth=truth, overwrite=request.overwrite, protect=protect)

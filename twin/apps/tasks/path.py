@@ -25,7 +25,8 @@ from twin.process.description import Process
 from twin.process.force.aerens import validity_warnings
 from twin.process.force.isf_params import params_for, steady_fz_n
 from twin.process.process_file import ProcessDeclaration, process_record
-from twin.process.toolpath.gcode import read_gcode, write_gcode
+from twin.process.toolpath.gcode import read_gcode
+from twin.process.toolpath.gcode_write import write_gcode
 from twin.process.toolpath.groove import GrooveSpec, ToolPath, groove_path
 from twin.process.toolpath.placement import Placement, check_reach
 from twin.process.toolpath.shapes import MODES, SHAPES, PartSpec, part_path

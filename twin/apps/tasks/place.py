@@ -16,6 +16,7 @@ from twin.analysis.placement_search import PlacementSearch, SearchBox, describe,
 from twin.analysis.resolve import AUTO, resolve_spec
 from twin.apps.tasks.base import Note, Report, silent
 from twin.apps.tasks.inputs import ideal_path
+from twin.base.jobs import scheduler_address
 from twin.errors import InputError
 from twin.process.process_file import ProcessDeclaration
 
@@ -64,6 +65,8 @@ class PlaceRequest:
             raise InputError(f"--box-mm {' '.join(f'{v:g}' for v in self.box_mm)} --yaw-range-deg "
                              f"{self.yaw_range_deg:g} --joint-margin-deg {self.joint_margin_deg:g}: expected "
                              "half-widths >= 0 mm, a yaw half-range in [0, 180] deg and a margin >= 0 deg")
+        if self.scheduler is not None:
+            scheduler_address(self.scheduler)  # its form, before any work; `Jobs` connects later
         if self.confirm > self.candidates:
             raise InputError(f"--confirm {self.confirm} > --candidates {self.candidates}: expected at most the "
                              "candidates")
@@ -116,7 +119,8 @@ def place_task(request: PlaceRequest, note: Note = silent, *, progress: Progress
         progress: Called with (stage, done, total) as the jobs complete (the CLI: a progress line), or None.
 
     Raises:
-        InputError: A bad scheduler address, a bad declaration (naming the option).
+        InputError: A bad scheduler address, a bad declaration (naming the option); no candidate placement
+            reaches the part along its whole path (saying what was tried).
         UnreachableError, SingularityError: The path is not feasible at the default placement.
         DataFileError: A bad path or model file (naming the file).
     """
@@ -128,12 +132,31 @@ def place_task(request: PlaceRequest, note: Note = silent, *, progress: Progress
         joint_margin_rad=math.radians(request.joint_margin_deg), workers=request.workers,
         scheduler=request.scheduler, progress=progress,
     )
+    if result.best is None:  # nothing written: no JSON, no figure
+        raise _no_placement(request, result)
     figure = None
     if request.figure is not None:
         from twin.viz.placement_figure import placement_figure
 
         figure = str(placement_figure(result, request.figure))
     return PlaceReport(result, figure)
+
+
+def _no_placement(request: PlaceRequest, result: PlacementSearch) -> InputError:
+    """The error of a search that found no feasible placement: what was tried and why each candidate failed."""
+    summary = result.summary()
+    skipped = ", ".join(f"{k} {v}" for k, v in summary["infeasible"].items() if v) or "none"
+    confirmed = [c["simulated_status"] for c in summary["confirmed"]]
+    after = (f"; the {len(confirmed)} best confirmed by the twin failed along the whole path "
+             f"({', '.join(dict.fromkeys(confirmed))})" if confirmed else "")
+    part = "the groove" if request.ideal is None else f"--ideal {request.ideal}"
+    return InputError(
+        f"no placement reaches the part ({part}): {summary['feasible']} of {summary['candidates']} candidates "
+        f"feasible (skipped: {skipped}){after}; tried --candidates {request.candidates} --seed {request.seed} in "
+        f"--box-mm {' '.join(f'{v:g}' for v in request.box_mm)} --yaw-range-deg {request.yaw_range_deg:g} around "
+        f"{describe(result.default_row)} with --joint-margin-deg {request.joint_margin_deg:g}; expected a part the "
+        "robot reaches: widen --box-mm or --yaw-range-deg, lower --joint-margin-deg, draw more --candidates, or "
+        "centre the search elsewhere (a --model with another placement)")
 
 
 def _mm(value: float | None) -> str:

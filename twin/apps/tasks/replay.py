@@ -1,4 +1,5 @@
-"""`replay`: a run's commanded path simulated on the twin, and the gap to its measurements."""
+"""`replay`: a run's commanded path simulated on the twin, and the gap to its measurements; optionally its
+figure (measured vs simulated on each axis x, y, z) and its rerun recording."""
 
 from __future__ import annotations
 
@@ -9,6 +10,8 @@ from typing import Any
 from twin.analysis.replay import ReplayResult, replay
 from twin.analysis.resolve import AUTO, resolve_spec
 from twin.apps.tasks.base import Note, Report, silent
+from twin.base.csvio import check_not_an_input
+from twin.base.signals import interp_rows
 from twin.errors import InputError
 from twin.process.process_file import ProcessDeclaration, process_record
 from twin.runs.read import read_run
@@ -30,6 +33,8 @@ class ReplayRequest:
         forces: "twin": the twin's own forces; "measured": also drive the twin's robot by the run's F/T stream
             and split the gap into the robot's part and the sheet's.
         rrd: A rerun recording to write, or None.
+        figure: A figure to write (PNG): the measured and the simulated tool tip minus the commanded one on each
+            axis x, y, z [mm] against time [s]; never over an input; or None.
     """
 
     run_dir: Path
@@ -39,10 +44,15 @@ class ReplayRequest:
     robot: str | Path | None = None
     forces: str = "twin"
     rrd: Path | None = None
+    figure: Path | None = None
 
     def __post_init__(self) -> None:
         if self.forces not in FORCES:
             raise InputError(f"forces {self.forces!r}: expected one of {', '.join(FORCES)}")
+        inputs = [p for p in (self.run_dir, self.model) if p is not None]
+        for output in (self.figure, self.rrd):
+            if output is not None:
+                check_not_an_input(output, inputs)
 
 
 @dataclass(frozen=True)
@@ -55,6 +65,7 @@ class ReplayReport(Report):
         result: The prediction and its metrics (`twin.analysis.replay.replay_metrics`).
         robot_gap_rms_mm: With forces="measured": the robot's part of the gap [mm rms], else None.
         sheet_gap_rms_mm: With forces="measured": the sheet's part [mm rms], else None.
+        figure: The figure written, or None.
     """
 
     run_dir: Path
@@ -62,6 +73,7 @@ class ReplayReport(Report):
     result: ReplayResult
     robot_gap_rms_mm: float | None = None
     sheet_gap_rms_mm: float | None = None
+    figure: Path | None = None
 
     def metrics(self) -> dict[str, Any]:
         """The replay's metrics, with the split when there is one."""
@@ -88,7 +100,8 @@ class ReplayReport(Report):
 
     def record(self) -> dict[str, Any]:
         process = {**process_record(self.spec.process), "force_model": self.spec.process.force_model}
-        return {"run": self.run_dir, **self.metrics(), "process": process}
+        figure = {} if self.figure is None else {"figure": self.figure}
+        return {"run": self.run_dir, **self.metrics(), "process": process, **figure}
 
 
 def replay_task(request: ReplayRequest, note: Note = silent) -> ReplayReport:
@@ -115,5 +128,14 @@ def replay_task(request: ReplayRequest, note: Note = silent) -> ReplayReport:
 
         record_replay(request.rrd, measured, result, twin_model=twin.model, placement=twin.placement)
         note(f"rerun recording -> {request.rrd}")
+    figure = None
+    if request.figure is not None:
+        from twin.viz.path_figures import plot_replay
+
+        tracker, commanded = measured.tracker, measured.commanded
+        figure = plot_replay(request.figure, tracker.t_s, tracker.values, result.tracker_pred_m,
+                             interp_rows(tracker.t_s, commanded.t_s, commanded.values),
+                             title=f"replay of {request.run_dir}: measured vs simulated tool tip, minus the command")
+        note(f"figure -> {figure}")
     return ReplayReport(request.run_dir, spec, result, None if split is None else split.robot_rms_mm,
-                        None if split is None else split.sheet_rms_mm)
+                        None if split is None else split.sheet_rms_mm, figure)

@@ -26,6 +26,18 @@ from twin.process.material.hardening import PA_SUSPECT_MPA, HardeningLaw
 
 #: The numbers of a material, each with its unit in the name; `tensile_strength_mpa` is required.
 NUMBER_FIELDS = ("tensile_strength_mpa", "yield_strength_mpa", "youngs_modulus_gpa", "poisson_ratio", "density_kg_m3")
+#: The range each number of a material may take (low, high, why), in the field's unit: what sheet metals (and the
+#: polymers ISF also forms) have. Outside it a number is refused as a typo or a unit slip, never used.
+PLAUSIBLE_NUMBERS: dict[str, tuple[float, float, str]] = {
+    # pure lead (~12-17 MPa) and soft polymers to maraging and press-hardened steels (~2000 MPa)
+    "tensile_strength_mpa": (10.0, 2500.0, "what sheet metals have: ~12 MPa (lead) to ~2000 MPa (maraging steel)"),
+    # R_p0.2 of annealed lead (~5 MPa) and pure aluminium 1050-O (~25 MPa) up to the same strongest steels
+    "yield_strength_mpa": (5.0, 2500.0, "what sheet metals have: ~5 MPa (lead) to ~2000 MPa (maraging steel)"),
+    # polymers (~1-3 GPa), magnesium 45 GPa, steels 210 GPa, tungsten 411 GPa
+    "youngs_modulus_gpa": (0.5, 450.0, "from polymers (~1 GPa) to tungsten (411 GPa)"),
+    # polymers (~900 kg/m³), magnesium 1740, steel 7850, tungsten 19300, osmium 22590
+    "density_kg_m3": (500.0, 23000.0, "from polymers (~900 kg/m³) to osmium (22590 kg/m³)"),
+}
 #: What may carry a source: the numbers and the hardening law.
 SOURCED_FIELDS = (*NUMBER_FIELDS, "hardening")
 #: Prefixes of an aluminium alloy's designation that do not change the material (after normalising).
@@ -140,6 +152,9 @@ def number_problem(name: str, value: Any) -> str | None:
         return "looks like MPa or Pa; expected GPa"
     if name == "density_kg_m3" and value < 100.0:
         return "looks like g/cm³; expected kg/m³"
+    low, high, why = PLAUSIBLE_NUMBERS.get(name, (0.0, math.inf, ""))
+    if not low <= value <= high:
+        return f"outside {low:g}..{high:g}, {why}; expected a value in that range"
     return None
 
 

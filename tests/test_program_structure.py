@@ -1,0 +1,494 @@
+"""Programs a robot programmer loads unchanged (twin/apps/export: krl.py, krl_rsi.py, rapid.py, val3.py): one
+structural checker per language, run on a cone exported for the robot that speaks it (`tx200-twin path --shape cone
+--top-width-mm 60 --depth-mm 15`, then `export --robot kr210 | irb6640 | tx200`).
+
+- **KRL** (KUKA KR210): the files are read as the controller runs them, the main `.src` with its part calls
+  expanded: `DEF`/`END` once per `.src`, `DEFDAT`/`ENDDAT` per `.dat`; every name a statement uses declared in its
+  own `.src` or `.dat` (or the controller's: `TOOL_DATA`, `BASE_DATA`, `LOAD_DATA`, `BAS`, RSI's functions) or a
+  part it calls; `SPLINE`/`ENDSPLINE` balanced, not nested, holding only `SPL` segments, at most
+  `krl.SPLINE_SEGMENTS` each; `TOOL_DATA[1]`, `LOAD_DATA[1]`, `BASE_DATA[1]` assigned from the cell and `$TOOL`,
+  `$LOAD`, `$BASE` set from them before the first motion; the first and the last motion `PTP XHOME_ISF`, the
+  robot's home in controller axes; every Cartesian move at `$VEL.CP` = the process feed in m/s; every point of the
+  program (approach, path, retract) a target, in order, once; the robot at rest only on a corner of the path
+  (`motion.corners`); and the advance run fed: at most `MAX_BLOCKS_PER_S` motion statements start in any second
+  of the path at its programmed feeds.
+
+  Why statements, and why 20 a second: a KR C4 interprets a few motion statements ahead of the robot ($ADVANCE =
+  3) and plans each before the robot reaches it. A SPLINE block is planned as one motion, as a whole, so it counts
+  once however many segments it holds; the user's program of single 0.5 mm `LIN` blocks at 34 mm/s asked for ~70
+  statements a second and starved it. 20 a second leaves each statement 50 ms of motion, several of the
+  controller's 12 ms interpolation cycles, which the user's KSS programmers keep LIN blocks above (feed / 20 mm
+  = 1.7 mm at 34 mm/s); the spline program is far below it (the cone: ~0.5 a second).
+- **RAPID** (ABB IRB 6640): `MODULE`/`PROC`/`FOR` balanced and `main` run with its calls and loops expanded (the
+  interpreter of `tests/test_export_rapid_egm.py`); `tooldata` with a mass > 0 and its centre of gravity set
+  (`CellSetup.tool_cog_mm`); `MoveAbsJ jHome` the first and the last move, `jHome` the robot's home; every
+  `robtarget` moved to, in order, once; `fine` only on a corner or at the end, and the `zPath` zone's corner path
+  within `motion.CHORD_TOL_MM` of every blended point.
+- **VAL3** (Stäubli TX200): `val3_check` passes; `movej(jHome, ...)` the first and the last move, `jHome` the
+  robot's home; the path's `mdesc` blend Cartesian with leave and reach.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pytest
+from doc_numbers import quoted
+from test_export_rapid_egm import Program as RapidProgram
+
+from twin.apps.export import krl, rapid
+from twin.apps.export.motion import CHORD_TOL_MM, CORNER_DEG, turn_angles_deg, with_moves
+from twin.apps.export.program import CellSetup, ProgramPath, default_cell, home_axes_deg, load_program_path
+from twin.apps.export.val3_check import check_application
+from twin.cli import main
+from twin.errors import InputError
+
+#: Motion statements that may start within one second of the path at its programmed feeds (module docstring).
+MAX_BLOCKS_PER_S = 20.0
+POSITION_TOL_MM = 0.5e-4 + 1e-9  # the programs' 4 decimals
+ROBOTS = {"kr210": "krl", "irb6640": "rapid", "tx200": "val3"}
+#: Names KRL takes from the controller (`$config.dat`, `BAS`, the RSI package) rather than the program.
+KRL_GLOBALS = {"TOOL_DATA", "BASE_DATA", "LOAD_DATA", "BAS", "RSI_CREATE", "RSI_ON", "RSI_OFF", "RSIOK"}
+KRL_KEYWORDS = {"DEF", "END", "DECL", "INT", "REAL", "POS", "E6AXIS", "PTP", "SLIN", "SPL", "SPLINE", "ENDSPLINE",
+                "WITH", "C_SPL", "IF", "THEN", "ENDIF", "HALT", "TRUE", "FALSE", "DEFDAT", "ENDDAT", "PUBLIC"}
+
+
+@pytest.fixture(scope="module")
+def cone_csv(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The cone of the user's report, as `tx200-twin path` writes it (11 521 points)."""
+    out = tmp_path_factory.mktemp("cone") / "cone.csv"
+    assert main(["path", "--shape", "cone", "--top-width-mm", "60", "--depth-mm", "15", "--out", str(out)]) == 0
+    return out
+
+
+@pytest.fixture(scope="module")
+def groove_csv(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The groove: its reversals are corners the robot stops on."""
+    out = tmp_path_factory.mktemp("groove") / "groove.csv"
+    assert main(["path", "--shape", "groove", "--out", str(out)]) == 0
+    return out
+
+
+def _expected(path_csv: Path, robot: str) -> ProgramPath:
+    """The program's points and feeds as `export` makes them (approach, path, retract), and the robot's cell."""
+    return with_moves(load_program_path(path_csv, default_cell(robot=robot), "expected"))[0]
+
+
+def _export(path_csv: Path, robot: str, out: Path, *extra: str) -> dict[str, str]:
+    """`tx200-twin export PATH --robot ROBOT --out OUT`: the files written, name -> text."""
+    assert main(["export", str(path_csv), "--robot", robot, "--out", str(out), *extra]) == 0
+    folder = out if out.is_dir() else out.parent
+    return {f.name: f.read_text(encoding="utf-8") for f in sorted(folder.iterdir()) if f.is_file()}
+
+
+# ----------------------------------------------------------------------------------------------------------- KRL
+
+
+def _strip(line: str) -> str:
+    """A KRL line without its comment (from `;`; the programs' strings hold none) and the blanks around it."""
+    return line.split(";", 1)[0].strip()
+
+
+def _numbers(literal: str) -> dict[str, float]:
+    """The top-level numeric fields of a KRL aggregate `{X 1.0,Y 2.0,...}` (nested ones left out)."""
+    flat = re.sub(r"\{[^{}]*\}", "", literal[1:-1]) if literal.count("{") > 1 else literal[1:-1]
+    return {k: float(v) for k, v in re.findall(r"([A-Z][A-Z0-9]*) (-?[\d.]+)", flat)}
+
+
+@dataclass
+class KrlModule:
+    """One `.src`/`.dat` pair: its statements (DEF .. END, comments out), declared names and data values."""
+
+    name: str
+    body: list[str]
+    declared: set[str]
+    data: dict[str, object]
+
+
+def _read_dat(name: str, text: str) -> tuple[set[str], dict[str, object]]:
+    """A data list's declarations and values: REAL -> float, aggregate -> its fields, array -> index -> value."""
+    lines = [_strip(line) for line in text.splitlines()]
+    lines = [line for line in lines if line and not line.startswith("&")]
+    assert lines[0] == f"DEFDAT {name} PUBLIC" and lines[-1] == "ENDDAT", f"{name}.dat: DEFDAT ... ENDDAT"
+    declared: set[str] = set()
+    data: dict[str, object] = {}
+    for line in lines[1:-1]:
+        decl = re.fullmatch(r"DECL (\w+) (\w+)(?:\[(\d+)\])?(?:=(.*))?", line)
+        if decl:
+            kind, var, size, value = decl.groups()
+            assert var not in declared, f"{name}.dat declares {var} twice"
+            declared.add(var)
+            data[var] = {} if size else (float(value) if kind == "REAL" else _numbers(value) if value else None)
+            continue
+        item = re.fullmatch(r"(\w+)\[(\d+)\]=(.*)", line)
+        assert item and item.group(1) in declared, f"{name}.dat: {line!r} assigns an undeclared array"
+        array = data[item.group(1)]
+        assert isinstance(array, dict)
+        array[int(item.group(2))] = float(item.group(3)) if item.group(3)[0] != "{" else _numbers(item.group(3))
+    return declared, data
+
+
+def _read_krl(files: dict[str, str]) -> dict[str, KrlModule]:
+    """Each `.src` with its `.dat`: `DEF NAME( )` ... `END` once, the name the file's."""
+    modules = {}
+    for file, text in files.items():
+        if not file.endswith(".src"):
+            continue
+        name = file[:-4].upper()
+        lines = [_strip(line) for line in text.splitlines()]
+        lines = [line for line in lines if line and not line.startswith("&")]
+        defs = [i for i, line in enumerate(lines) if line.startswith("DEF ")]
+        assert defs == [0] and lines[0] == f"DEF {name}( )", f"{file}: one DEF {name}( ), first"
+        assert lines.count("END") == 1 and lines[-1] == "END", f"{file}: one END, last"
+        declared, data = _read_dat(name, files[file[:-4] + ".dat"])
+        for line in lines[1:-1]:
+            local = re.fullmatch(r"DECL \w+ (\w+)", line)
+            if local:
+                assert local.group(1) not in declared, f"{file} declares {local.group(1)} twice"
+                declared.add(local.group(1))
+        modules[name] = KrlModule(name, lines[1:-1], declared, data)
+    return modules
+
+
+def _check_names(modules: dict[str, KrlModule]) -> None:
+    """Every name a statement uses is declared in its module, the controller's, a keyword or a module called."""
+    for module in modules.values():
+        for line in module.body:
+            text = re.sub(r'"[^"]*"', "", line)
+            while "{" in text:
+                text = re.sub(r"\{[^{}]*\}", "", text)
+            text = re.sub(r"[$#]\w+(\.\w+)?", "", text)
+            for name in re.findall(r"[A-Za-z_]\w*", text):
+                known = name in KRL_KEYWORDS or name in KRL_GLOBALS or name in module.declared or name in modules
+                assert known, f"{module.name}.src: {name!r} in {line!r} is declared nowhere"
+
+
+@dataclass
+class KrlMove:
+    """One motion as the controller runs it."""
+
+    kind: str  # PTP, SLIN, SPL
+    target: str
+    module: str
+    value: dict[str, float]  # the target's fields (X..C or A1..E6)
+    vel_m_s: float | None  # $VEL.CP for a Cartesian move
+    statement: int  # the motion statement it belongs to (a SPLINE block or a single motion)
+    rests: bool  # the robot is at rest at its end (a statement's last move without C_SPL)
+
+
+class KrlRun:
+    """The program run from its main `.src`: the moves in order and what was set before the first one."""
+
+    def __init__(self, files: dict[str, str]) -> None:
+        self.modules = _read_krl(files)
+        _check_names(self.modules)
+        self.moves: list[KrlMove] = []
+        self.assigned: dict[str, str] = {}  # TOOL_DATA[1], $TOOL, ... -> value, as set before the first move
+        self.vel: float | None = None
+        self.statements = 0
+        main_name = next(f for f in files if f.endswith(".src"))[:-4].upper()
+        self._run(self.modules[main_name], set())
+
+    def _value(self, module: KrlModule, ref: str) -> object:
+        found = re.fullmatch(r"(\w+)(?:\[(\d+)\])?", ref)
+        assert found and found.group(1) in module.data, f"{module.name}: {ref} is not in its data list"
+        value = module.data[found.group(1)]
+        if found.group(2) is not None:
+            assert isinstance(value, dict) and int(found.group(2)) in value, f"{module.name}: {ref} has no value"
+            return value[int(found.group(2))]
+        return value
+
+    def _move(self, module: KrlModule, line: str, kind: str, statement: int, last: bool) -> None:
+        found = re.fullmatch(rf"{kind} (\w+(?:\[\d+\])?)(?: WITH \$VEL\.CP=(\w+(?:\[\d+\])?))?( C_SPL)?", line)
+        assert found, f"{module.name}: {line!r} is not a {kind} this program writes"
+        target, vel, blend = found.groups()
+        value = self._value(module, target)
+        assert isinstance(value, dict), f"{module.name}: {target} is not a position"
+        speed = None
+        if kind != "PTP":
+            speed = float(self._value(module, vel)) if vel else self.vel  # type: ignore[arg-type]
+            assert speed is not None, f"{module.name}: {line!r} runs before $VEL.CP is set"
+        rests = last and not blend
+        self.moves.append(KrlMove(kind, target, module.name, value, speed, statement, rests))
+
+    def _run(self, module: KrlModule, calling: set[str]) -> None:
+        assert module.name not in calling, f"{module.name} calls itself"
+        body = [line for line in module.body if not line.startswith("DECL ")]
+        i = 0
+        while i < len(body):
+            line = body[i]
+            if line in ("SPLINE",):
+                end = next((k for k in range(i + 1, len(body)) if body[k].startswith(("ENDSPLINE", "SPLINE"))), None)
+                assert end is not None and body[end].startswith("ENDSPLINE"), f"{module.name}: SPLINE not closed"
+                assert body[end] in ("ENDSPLINE", "ENDSPLINE C_SPL"), f"{module.name}: {body[end]!r}"
+                segments = body[i + 1 : end]
+                assert 2 <= len(segments) <= krl.SPLINE_SEGMENTS, f"{module.name}: a block of {len(segments)}"
+                self.statements += 1
+                for k, segment in enumerate(segments):
+                    assert segment.startswith("SPL "), f"{module.name}: {segment!r} inside a SPLINE block"
+                    self._move(module, segment + (" C_SPL" if body[end].endswith("C_SPL") else ""), "SPL",
+                               self.statements, k == len(segments) - 1)
+                i = end + 1
+                continue
+            assert not line.startswith(("ENDSPLINE", "SPL ")), f"{module.name}: {line!r} outside a SPLINE block"
+            head = line.split()[0]
+            if head in ("PTP", "SLIN"):
+                self.statements += 1
+                self._move(module, line, head, self.statements, True)
+            elif re.fullmatch(r"\w+\( \)", line):
+                called = line[:-3]
+                assert called in self.modules, f"{module.name} calls {called}, which is no file of the program"
+                self._run(self.modules[called], calling | {module.name})
+            elif line == "$VEL.CP=V_PROC":
+                self.vel = float(self._value(module, "V_PROC"))  # type: ignore[arg-type]
+            elif "=" in line and not line.startswith(("IF", "ret=")):
+                var, value = line.split("=", 1)
+                if not self.moves:
+                    self.assigned[var] = value
+            i += 1
+
+    def check_tool_load_base(self, cell: CellSetup) -> None:
+        """TOOL_DATA[1], LOAD_DATA[1], BASE_DATA[1] from the cell, then $TOOL, $LOAD, $BASE from them, before the
+        first move."""
+        order = list(self.assigned)
+        for sys_var, data in (("$TOOL", "TOOL_DATA[1]"), ("$LOAD", "LOAD_DATA[1]"), ("$BASE", "BASE_DATA[1]")):
+            assert data in self.assigned and self.assigned.get(sys_var) == data, f"{sys_var}={data} before a move"
+            assert order.index(data) < order.index(sys_var), f"{data} assigned after {sys_var} reads it"
+        tool = _numbers(self.assigned["TOOL_DATA[1]"])
+        assert [tool[k] for k in "XYZABC"] == pytest.approx([0, 0, cell.tool_length_mm, 0, 0, 0], abs=1e-4)
+        load = self.assigned["LOAD_DATA[1]"]
+        mass = float(re.fullmatch(r"\{M ([\d.]+),CM (\{[^}]*\}),J \{X ([\d.]+),Y ([\d.]+),Z ([\d.]+)\}\}",
+                                  load).group(1))  # type: ignore[union-attr]
+        cog = _numbers(re.search(r"CM (\{[^}]*\})", load).group(1))  # type: ignore[union-attr]
+        assert mass == pytest.approx(cell.tool_mass_kg, abs=1e-3) and mass > 0
+        assert [cog[k] for k in "XYZ"] == pytest.approx(cell.tool_cog_mm, abs=1e-4) and cog["Z"] > 0
+        base = _numbers(self.assigned["BASE_DATA[1]"])
+        assert [base[k] for k in "XYZ"] == pytest.approx(cell.p_base_sheet_mm, abs=1e-4)
+        assert [base[k] for k in "ABC"] == pytest.approx([cell.yaw_deg, 0, 0], abs=1e-4)
+
+    def check_path(self, expected: ProgramPath) -> tuple[int, float]:
+        """HOME first and last; every point a target, in order, once; $VEL.CP the process feed; rests on corners;
+        the advance run fed. Returns the motion statements on the path and its duration at its feeds [s]."""
+        home, last = self.moves[0], self.moves[-1]
+        assert (home.kind, home.target) == (last.kind, last.target) == ("PTP", krl.HOME), "HOME first and last"
+        axes = [home.value[f"A{i}"] for i in range(1, 7)]
+        assert axes == pytest.approx(home_axes_deg(expected.cell), abs=1e-4)
+        assert all(home.value[f"E{i}"] == 0.0 for i in range(1, 7))
+        path = self.moves[1:-1]
+        assert all(m.target != krl.HOME for m in path) and path[0].kind == "PTP"
+        assert {m.kind for m in path[1:]} <= {"SLIN", "SPL"}, "one joint move: to the approach point"
+        xyz = np.array([[m.value[k] for k in "XYZ"] for m in path])
+        np.testing.assert_allclose(xyz, expected.points_mm, atol=POSITION_TOL_MM)  # all points, in order, once
+        process = expected.process_feed * 1e-3
+        vel = np.array([m.vel_m_s for m in path[1:]], dtype=float)
+        np.testing.assert_allclose(vel, process, atol=0.5e-7)  # $VEL.CP the process feed [m/s], 7 decimals
+        turn = turn_angles_deg(expected.points_mm)
+        for k, move in enumerate(path[1:], start=1):  # move k reaches point k
+            corner = turn[k] > CORNER_DEG or k == len(path) - 1
+            assert move.rests == corner, (f"point {k + 1}: the robot {'stops' if move.rests else 'does not stop'} "
+                                          f"there, where the path turns by {turn[k]:.2f} deg")
+        steps = np.linalg.norm(np.diff(xyz, axis=0), axis=1) * 1e-3  # [m]; move k reaches point k
+        t_end = np.cumsum(steps / vel)  # when each move ends, at its programmed feed [s]
+        starts = np.concatenate([[0.0], t_end[:-1]])
+        begin: dict[int, float] = {}
+        for k, move in enumerate(path[1:]):
+            begin.setdefault(move.statement, float(starts[k]))
+        first = np.sort(np.array(list(begin.values())))
+        window = max(int(np.searchsorted(first, s + 1.0, side="left")) - i for i, s in enumerate(first))
+        assert window <= MAX_BLOCKS_PER_S, f"{window} motion statements within 1 s (the bound: {MAX_BLOCKS_PER_S:g})"
+        print(f"\nKRL: {len(first)} motion statements over {t_end[-1]:.1f} s of path ({len(first) / t_end[-1]:.2f}/s, "
+              f"at most {window} in any second), {len(path)} points, $VEL.CP {process:.7f} m/s")
+        return len(first), float(t_end[-1])
+
+
+def check_krl(files: dict[str, str], expected: ProgramPath) -> tuple[KrlRun, int, float]:
+    """The KRL rules (module docstring); returns the run, its motion statements on the path and the path's
+    duration at its feeds [s]."""
+    run = KrlRun(files)
+    run.check_tool_load_base(expected.cell)
+    statements, duration = run.check_path(expected)
+    return run, statements, duration
+
+
+@pytest.mark.parametrize("shape", ["cone", "groove"])
+def test_krl_for_the_kr210_loads_unchanged_and_runs_at_the_process_feed(
+    shape: str, cone_csv: Path, groove_csv: Path, tmp_path: Path
+) -> None:
+    path_csv = cone_csv if shape == "cone" else groove_csv
+    files = _export(path_csv, "kr210", tmp_path / "ISF.src")
+    expected = _expected(path_csv, "kr210")
+    run, statements, duration = check_krl(files, expected)
+    if shape == "cone":  # 11 523 points: split into parts the main program calls, the path in spline blocks
+        assert len([f for f in files if f.endswith(".src")]) > 2
+        assert sum(m.kind == "SPL" for m in run.moves) > 0.99 * len(expected.points_mm)
+        # one LIN per point, as before, against the spline blocks: the rate docs/import-export.md quotes
+        per_point = (len(expected.points_mm) - 1) / duration
+        quoted("import-export.md", "instead of one `LIN` per point (about", 1)[0].check(per_point)
+        assert per_point > 4 * MAX_BLOCKS_PER_S and statements / duration < 1.0
+    else:  # the groove's 9 reversals: the only stops in contact besides the path's ends
+        rests = [m for m in run.moves[2:-2] if m.rests]
+        assert len(rests) == 1 + 9 + 1  # the bottom of the move down onto the path, the reversals, the path's end
+
+
+def test_krl_with_rsi_switches_it_on_after_the_approach_and_off_after_the_path(cone_csv: Path, tmp_path: Path) -> None:
+    """The split cone with `--online`: RSI on in the first part after `PTP P_PATH[1]`, off at the end of the last
+    part after the retract; the moves HOME are never corrected."""
+    files = _export(cone_csv, "kr210", tmp_path / "ISF.src", "--online")
+    check_krl({k: v for k, v in files.items() if k.endswith((".src", ".dat"))}, _expected(cone_csv, "kr210"))
+    sources = [name for name in files if name.endswith(".src")]
+    main_src, first, last = (files[n].splitlines() for n in ("ISF.src", "ISF_1.src", sources[-1]))
+    assert not any("RSI" in line for line in main_src)  # HOME, then the parts, then HOME: uncorrected
+    on = first.index("ret=RSI_ON(#ABSOLUTE)")
+    assert first.index("PTP P_PATH[1]") < first.index('ret=RSI_CREATE("ISF_RSI",CONTID,TRUE)') < on
+    assert on < first.index("SLIN P_PATH[2]")
+    off = last.index("ret=RSI_OFF()")
+    assert re.fullmatch(r"SLIN P_PATH\[\d+\]", last[off - 1]) and last[off + 4 :] == ["END"]
+    assert "DECL INT ret" in last and "DECL INT ret" in first and "DECL INT CONTID" in first
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "pattern"),
+    [
+        ("$LOAD=LOAD_DATA[1]\n", "", r"\$LOAD=LOAD_DATA\[1\] before a move"),
+        ("ENDSPLINE C_SPL\n", "", r"SPLINE not closed|inside a SPLINE block"),
+        ("$VEL.CP=V_PROC\n", "$VEL.CP=V_FAST\n", r"'V_FAST'.*declared nowhere"),
+        ("PTP XHOME_ISF\nEND", "END", r"HOME first and last"),
+        ("  SPL P_PATH[5]\n", "", r"Not equal to tolerance|shapes"),
+    ],
+)
+def test_the_krl_checker_refuses_what_a_controller_would(
+    cone_csv: Path, tmp_path: Path, old: str, new: str, pattern: str
+) -> None:
+    """The checker is strict: a load not set, a block left open, an undeclared name, no HOME at the end, a point
+    left out."""
+    files = _export(cone_csv, "kr210", tmp_path / "ISF.src")
+    name = next(n for n in files if n.endswith(".src") and old in files[n])
+    files[name] = files[name].replace(old, new, 1)
+    with pytest.raises(AssertionError, match=pattern):
+        check_krl(files, _expected(cone_csv, "kr210"))
+
+
+# --------------------------------------------------------------------------------------------------------- RAPID
+
+
+def check_rapid(files: dict[str, str], expected: ProgramPath) -> RapidProgram:
+    """The RAPID rules (module docstring); returns the program run."""
+    program = RapidProgram(files)  # MODULE/PROC/FOR balanced, statements terminated, main run
+    text = "\n".join(files.values())
+    cell = expected.cell
+    tool = re.search(r"PERS tooldata tIsf:=\[TRUE,\[\[([^\]]*)\],\[[^\]]*\]\],\[([\d.]+),\[([^\]]*)\],", text)
+    assert tool, "tooldata tIsf with its load"
+    assert [float(v) for v in tool.group(1).split(",")] == pytest.approx([0, 0, cell.tool_length_mm])
+    mass, cog = float(tool.group(2)), [float(v) for v in tool.group(3).split(",")]
+    assert mass == pytest.approx(cell.tool_mass_kg) and mass > 0
+    assert cog == pytest.approx(cell.tool_cog_mm, abs=1e-4) and cog[2] > 0
+    home = re.search(r"CONST jointtarget jHome:=\[\[([^\]]*)\],\[9E9,9E9,9E9,9E9,9E9,9E9\]\];", text)
+    assert home and [float(v) for v in home.group(1).split(",")] == pytest.approx(home_axes_deg(cell), abs=1e-4)
+    moves = [s for s in program.steps if s.kind in ("MoveAbsJ", "MoveJ", "MoveL")]
+    assert moves[0].kind == moves[-1].kind == "MoveAbsJ" and moves[0].args[0] == moves[-1].args[0] == "jHome"
+    assert [s.kind for s in moves[1:-1]] == ["MoveJ"] + ["MoveL"] * (len(moves) - 3)
+    targets = sum(len(m.data["pPath"]) for m in program.modules if "pPath" in m.data)  # type: ignore[arg-type]
+    assert targets == len(moves) - 2 == len(expected.points_mm)  # every robtarget used, once
+    np.testing.assert_allclose([s.point for s in moves[1:-1]], expected.points_mm, atol=POSITION_TOL_MM)
+    zone = re.search(r"CONST zonedata zPath:=\[FALSE,([\d.]+),", text)
+    assert zone
+    r = float(zone.group(1))
+    turn = turn_angles_deg(expected.points_mm)
+    steps = np.linalg.norm(np.diff(expected.points_mm, axis=0), axis=1)
+    for k, move in enumerate(moves[2:-1], start=1):  # move k reaches point k
+        corner = turn[k] > CORNER_DEG or k == len(expected.points_mm) - 1
+        assert move.zone == ("fine" if corner else "zPath"), f"point {k + 1}: {move.zone}, turn {turn[k]:.2f} deg"
+        if not corner:  # the controller shortens a zone to half the shorter of the two moves
+            r_k = min(r, steps[k - 1] / 2, steps[k] / 2)
+            assert r_k * math.sin(math.radians(turn[k]) / 2) / 2 <= CHORD_TOL_MM + 1e-9, f"point {k + 1}"
+    return program
+
+
+def test_rapid_for_the_irb6640_loads_unchanged(cone_csv: Path, tmp_path: Path) -> None:
+    files = _export(cone_csv, "irb6640", tmp_path / "ISF.mod")
+    expected = _expected(cone_csv, "irb6640")
+    check_rapid(files, expected)
+    assert rapid.zone_mm(expected) == rapid.ZONE_MAX_MM  # the cone turns by 1° per point at most: z1
+
+
+def test_rapid_stops_on_the_grooves_corners_only(groove_csv: Path, tmp_path: Path) -> None:
+    files = _export(groove_csv, "irb6640", tmp_path / "ISF.mod")
+    program = check_rapid(files, _expected(groove_csv, "irb6640"))
+    fine = [s for s in program.steps if s.kind == "MoveL" and s.zone == "fine"]
+    assert len(fine) == 1 + 9 + 2  # the bottom of the descent, the 9 reversals, the path's last point, the retract
+
+
+# ---------------------------------------------------------------------------------------------------------- VAL3
+
+
+def _val3_code(pgx: str) -> list[str]:
+    code = ET.fromstring(pgx).find(".//{*}Code")
+    text = "" if code is None or code.text is None else code.text
+    return [line.split("//", 1)[0].strip() for line in text.splitlines() if line.split("//", 1)[0].strip()]
+
+
+def check_val3(files: dict[str, str], expected: ProgramPath) -> None:
+    """The VAL3 rules (module docstring)."""
+    check_application(files)
+    moves = [line for line in _val3_code(files["start.pgx"]) if re.match(r"(movej|movel|alterMovel)\(", line)]
+    assert moves[0] == moves[-1] == "movej(jHome, tIsf, mApproach)" and moves[1] == "movej(pPath[0], tIsf, mApproach)"
+    dtx = ET.fromstring(next(text for name, text in files.items() if name.endswith(".dtx")))
+    data = {d.get("name"): d for d in dtx.iter() if d.tag.endswith("Data")}
+    assert data["jHome"].get("type") == "jointRx"
+    (home,) = list(data["jHome"])
+    axes = [float(home.get(f"j{i}", "nan")) for i in range(1, 7)]
+    assert axes == pytest.approx(home_axes_deg(expected.cell), abs=1e-4)
+    blends = {(v.get("blend"), float(v.get("leave", "0")) > 0, float(v.get("reach", "0")) > 0) for v in data["mPath"]}
+    assert blends == {("Cartesian", True, True)}
+    assert int(data["pPath"].get("size", "0")) == len(expected.points_mm)
+
+
+@pytest.mark.parametrize("online", [False, True])
+def test_val3_for_the_tx200_passes_the_checker_and_moves_home(
+    cone_csv: Path, tmp_path: Path, online: bool
+) -> None:
+    files = _export(cone_csv, "tx200", tmp_path / "ISF", *(["--online"] if online else []))
+    check_val3(files, _expected(cone_csv, "tx200"))
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "pattern"),
+    [
+        ("movel(pPath[i], tIsf, mPath[i])", "movel(jHome, tIsf, mPath[i])", r"not a pointRx"),
+        ('type="jointRx" size="1">\n      <Value key="0" j1=', 'type="jointRx" size="1">\n      <Value key="0" j0=',
+         r"field j1=None, expected a number"),
+        ("movej(jHome, tIsf, mApproach)", "movej(jHome, mApproach, tIsf)", r"not a tool"),
+    ],
+)
+def test_the_val3_checker_takes_a_jointrx_home_strictly(
+    cone_csv: Path, tmp_path: Path, old: str, new: str, pattern: str
+) -> None:
+    """`movej` takes a `jointRx` (the home), `movel` does not; a `jointRx` datum has j1..j6."""
+    files = _export(cone_csv, "tx200", tmp_path / "ISF")
+    name = next(n for n, text in files.items() if old in text)
+    files[name] = files[name].replace(old, new, 1)
+    with pytest.raises(InputError, match=pattern):
+        check_application(files)
+
+
+# ---------------------------------------------------------------------------------------------------------- docs
+
+
+def test_the_numbers_docs_quote_are_the_exporters() -> None:
+    """docs/import-export.md's program structure: the spline block size, the corner angle, the chord tolerance and
+    RAPID's largest zone, read from the page."""
+    (segments,) = quoted("import-export.md", "`SPLINE` ... `ENDSPLINE` blocks of at most", 1)
+    segments.check(krl.SPLINE_SEGMENTS)
+    (corner,) = quoted("import-export.md", "where the path turns by more than", 1)
+    corner.check(CORNER_DEG)
+    (tol,) = quoted("import-export.md", "blends within the chord tolerance of", 1)
+    tol.check(CHORD_TOL_MM)
+    (zone,) = quoted("import-export.md", "`zPath`, at most", 1)
+    zone.check(rapid.ZONE_MAX_MM)
+    (bound,) = quoted("import-export.md", "for KRL at most", 1)
+    bound.check(MAX_BLOCKS_PER_S)

@@ -1,0 +1,190 @@
+"""A user's cell, declared once: the robot, its tool, where the sheet lies and the process (`--cell CELL.toml`).
+
+    format = "tx200-twin-cell/1"
+    name = "kr210-cell"                 # optional: the cell's name, as programs and runs record it
+    robot = "kr210"                     # a shipped robot (`tx200-twin robots`) or a robot description file,
+                                        # relative to this file
+    [tool]                              # the tool on the flange (its tip along the flange z axis)
+    length_mm = 250.0                   # flange to tool tip [mm]
+    radius_mm = 5.0                     # the forming tool's tip radius [mm] (the process's tool radius)
+    mass_kg = 3.5                       # the tool's mass, F/T sensor included [kg]
+    cog_mm = [0.0, 0.0, 110.0]          # its centre of gravity in the flange frame [mm]
+    [sheet]                             # the sheet frame in the robot base
+    origin_mm = [1600.0, 0.0, 450.0]    # its origin [mm]
+    yaw_deg = 0.0                       # its turn about the base z axis [deg]
+    [process]                           # a process file's keys (`twin.process.process_file`), format aside
+    material = "AA5754-O"
+    thickness_mm = 1.0
+
+Every key but `format` may be left out: it keeps what the command would take without the cell (the robot's own
+tool and sheet origin, the thesis's process). A command's own flags override the cell (`--robot`, `--origin-mm`,
+`--yaw-deg`, `--material`, `--thickness-mm`, `--tool-radius-mm`, `--process`, `--tool-length-mm`,
+`--tool-mass-kg`): the cell is what a user would otherwise type on every command. Each value is checked here, with
+the file and the key named: a length must be a number in its range (a tool of 15 m or a sheet of 1 µm is no ISF
+cell).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from twin.errors import DataFileError
+from twin.process.material.file import read_toml
+from twin.process.process_file import PROCESS_KEYS, ProcessDeclaration, declaration_from_table
+
+CELL_FORMAT = "tx200-twin-cell/1"
+CELL_KEYS = ("format", "name", "robot", "tool", "sheet", "process")
+TOOL_KEYS = ("length_mm", "radius_mm", "mass_kg", "cog_mm")
+SHEET_KEYS = ("origin_mm", "yaw_deg")
+#: What a cell's tool may be (an ISF tool on an industrial robot's flange): flange to tip [mm], mass [kg].
+TOOL_LENGTH_RANGE_MM = (20.0, 1500.0)
+TOOL_MASS_RANGE_KG = (0.0, 500.0)
+#: How far a sheet origin may lie from the robot base [mm] (the largest industrial robots reach about 4 m).
+ORIGIN_RANGE_MM = 5000.0
+
+
+@dataclass(frozen=True)
+class ToolDeclaration:
+    """The cell's tool; None: not declared (the robot model's).
+
+    Attributes:
+        length_mm: Flange to tool tip [mm].
+        mass_kg: Mass hanging at the flange [kg].
+        cog_mm: Its centre of gravity in the flange frame [mm].
+    """
+
+    length_mm: float | None = None
+    mass_kg: float | None = None
+    cog_mm: tuple[float, float, float] | None = None
+
+
+@dataclass(frozen=True)
+class CellDeclaration:
+    """A cell file (module docstring).
+
+    Attributes:
+        source: The file.
+        name: The cell's name (default: the file's stem).
+        robot: A shipped robot's name or a description file (absolute), or None.
+        tool: The tool.
+        origin_mm: The sheet origin in the robot base [mm], or None.
+        yaw_deg: The sheet's yaw [deg], or None.
+        process: What its `[process]` declares (the tool radius included).
+    """
+
+    source: Path
+    name: str
+    robot: str | None = None
+    tool: ToolDeclaration = field(default_factory=ToolDeclaration)
+    origin_mm: tuple[float, float, float] | None = None
+    yaw_deg: float | None = None
+    process: ProcessDeclaration = field(default_factory=ProcessDeclaration)
+
+    def record(self) -> dict[str, Any]:
+        """What runs, model files and programs record of the cell (JSON-ready, millimetres as in the file)."""
+        tool = {k: v for k, v in (("length_mm", self.tool.length_mm), ("mass_kg", self.tool.mass_kg),
+                                  ("cog_mm", None if self.tool.cog_mm is None else list(self.tool.cog_mm)))
+                if v is not None}
+        sheet = {k: v for k, v in (("origin_mm", None if self.origin_mm is None else list(self.origin_mm)),
+                                   ("yaw_deg", self.yaw_deg)) if v is not None}
+        return {"file": str(self.source.resolve()), "name": self.name, "robot": self.robot, "tool": tool, "sheet": sheet,
+                "process": dict(self.process.origins)}
+
+
+def read_cell_file(path: str | Path) -> CellDeclaration:
+    """Read and check a cell file (module docstring).
+
+    Raises:
+        DataFileError: Not a cell file, an unknown key, a value of the wrong kind or out of its range (naming the file
+            and the key as written).
+    """
+    path = Path(path)
+    data = read_toml(path)
+    if data.get("format") != CELL_FORMAT:
+        raise DataFileError(path, f"format = {data.get('format')!r}: expected {CELL_FORMAT!r}")
+    _known(path, data, CELL_KEYS, "a cell file")
+    name = data.get("name", path.stem)
+    if not isinstance(name, str) or not name.strip():
+        raise DataFileError(path, f"name = {name!r}: expected the cell's name")
+    tool = _table(path, data, "tool")
+    return CellDeclaration(path, name, _robot(path, data.get("robot")), _tool(path, tool),
+                           *_sheet(path, _table(path, data, "sheet")),
+                           _process(path, _table(path, data, "process"), tool.get("radius_mm")))
+
+
+def _table(path: Path, data: Mapping[str, Any], key: str) -> Mapping[str, Any]:
+    table = data.get(key, {})
+    if not isinstance(table, Mapping):
+        raise DataFileError(path, f"{key} = {table!r}: expected a table [{key}]")
+    return table
+
+
+def _known(path: Path, table: Mapping[str, Any], keys: tuple[str, ...], what: str, where: str = "") -> None:
+    unknown = sorted(set(table) - set(keys))
+    if unknown:
+        raise DataFileError(path, f"unknown key(s) {[where + k for k in unknown]}; {what} takes {list(keys)}")
+
+
+def _robot(path: Path, robot: Any) -> str | None:
+    """A shipped robot's name as it is; a file (it has a suffix) relative to the cell file, which must exist."""
+    if robot is None:
+        return None
+    if not isinstance(robot, str) or not robot.strip():
+        raise DataFileError(path, f"robot = {robot!r}: expected a shipped robot's name or a description file")
+    if Path(robot).suffix:
+        file = Path(robot) if Path(robot).is_absolute() else path.parent / robot
+        if not file.is_file():
+            raise DataFileError(path, f"robot = {robot!r}: no such file {file}")
+        return str(file.resolve())
+    return robot
+
+
+def _number(path: Path, key: str, value: Any, low: float, high: float, unit: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+        raise DataFileError(path, f"{key} = {value!r}: expected a number [{unit}]")
+    if not low <= value <= high:
+        raise DataFileError(path, f"{key} = {value!r}: expected {low:g} to {high:g} {unit} (an ISF cell's)")
+    return float(value)
+
+
+def _vector(path: Path, key: str, value: Any, bound: float) -> tuple[float, float, float]:
+    if not isinstance(value, list) or len(value) != 3:
+        raise DataFileError(path, f"{key} = {value!r}: expected three numbers [mm]")
+    x, y, z = (_number(path, key, v, -bound, bound, "mm") for v in value)
+    return x, y, z
+
+
+def _tool(path: Path, table: Mapping[str, Any]) -> ToolDeclaration:
+    _known(path, table, TOOL_KEYS, "[tool]", "tool.")
+    length = None if "length_mm" not in table else _number(path, "tool.length_mm", table["length_mm"],
+                                                              *TOOL_LENGTH_RANGE_MM, "mm")
+    mass = None if "mass_kg" not in table else _number(path, "tool.mass_kg", table["mass_kg"], *TOOL_MASS_RANGE_KG,
+                                                       "kg")
+    cog = None if "cog_mm" not in table else _vector(path, "tool.cog_mm", table["cog_mm"], TOOL_LENGTH_RANGE_MM[1])
+    return ToolDeclaration(length, mass, cog)
+
+
+def _sheet(path: Path, table: Mapping[str, Any]) -> tuple[tuple[float, float, float] | None, float | None]:
+    _known(path, table, SHEET_KEYS, "[sheet]", "sheet.")
+    origin = None if "origin_mm" not in table else _vector(path, "sheet.origin_mm", table["origin_mm"],
+                                                           ORIGIN_RANGE_MM)
+    yaw = None if "yaw_deg" not in table else _number(path, "sheet.yaw_deg", table["yaw_deg"], -360.0, 360.0, "deg")
+    return origin, yaw
+
+
+def _process(path: Path, table: Mapping[str, Any], radius_mm: Any) -> ProcessDeclaration:
+    """The `[process]` table, with `[tool] radius_mm` as its tool radius (the tool's radius is the process's)."""
+    keys = tuple(k for k in PROCESS_KEYS if k != "format")
+    _known(path, table, keys, "[process]", "process.")
+    declared = declaration_from_table(path, table, "process.")
+    if radius_mm is None:
+        return declared
+    if "tool_radius_mm" in table:
+        raise DataFileError(path, "tool.radius_mm and process.tool_radius_mm both give the tool's radius; keep one")
+    radius = _number(path, "tool.radius_mm", radius_mm, 0.5, 100.0, "mm")
+    return ProcessDeclaration(tool_radius_m=radius / 1e3,
+                              origins=(("tool_radius_m", f"{path}: tool.radius_mm"),)).over(declared)
