@@ -139,13 +139,18 @@ def write(path: ProgramPath, out: Path, protect: Sequence[Path] = ()) -> list[Pa
     Returns:
         The files written.
     """
+    return write_application(application_files(path), out, protect)
+
+
+def write_application(files: dict[str, str], out: Path, protect: Sequence[Path] = ()) -> list[Path]:
+    """Write an application's files (name -> text) as the folder `out`: checked with `check_application` first,
+    built beside it and swapped into place, never over an input (`protect`); the one writer of VAL3 folders."""
     target = Path(out).resolve()
     for other in protect:
         if Path(other).resolve() == target or Path(other).resolve().is_relative_to(target):
             raise InputError(f"refusing to write {target}: it holds the input {other}; choose another folder")
     if target.exists() and not target.is_dir():
         raise InputError(f"{target} exists and is not a folder; a VAL3 application is a folder")
-    files = application_files(path)
     check_application(files)
     tmp = temporary_folder(target)
     try:

@@ -50,13 +50,11 @@ A VAL3 application is not split (`parts`): the path is data walked by a loop.
 
 from __future__ import annotations
 
-import shutil
 from collections.abc import Sequence
 from pathlib import Path
 
 from twin.apps.export import val3
 from twin.apps.export.program import ProgramPath
-from twin.apps.export.val3_check import check_application
 from twin.apps.online.alter_protocol import (
     ANSWER_BYTES,
     CYCLE_S,
@@ -67,7 +65,6 @@ from twin.apps.online.alter_protocol import (
     VAL3_FLOAT32,
     VAL3_INT32,
 )
-from twin.base.csvio import swap_in_directory, temporary_folder
 from twin.errors import InputError
 
 #: The synchronous task's program and name.
@@ -277,20 +274,4 @@ def write(path: ProgramPath, out: Path, protect: Sequence[Path] = ()) -> list[Pa
     Returns:
         The files written.
     """
-    target = Path(out).resolve()
-    for other in protect:
-        if Path(other).resolve() == target or Path(other).resolve().is_relative_to(target):
-            raise InputError(f"refusing to write {target}: it holds the input {other}; choose another folder")
-    if target.exists() and not target.is_dir():
-        raise InputError(f"{target} exists and is not a folder; a VAL3 application is a folder")
-    files = application_files(path)
-    check_application(files)
-    tmp = temporary_folder(target)
-    try:
-        for name, text in files.items():
-            (tmp / name).write_text(text, encoding="utf-8")
-        swap_in_directory(tmp, target)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
-    return [target / name for name in files]
+    return val3.write_application(application_files(path), out, protect)

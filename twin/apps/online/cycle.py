@@ -8,10 +8,12 @@ arrays are allocated once, here, so a cycle allocates nothing of its own.
 from __future__ import annotations
 
 import math
+import socket
 from typing import NamedTuple, Protocol
 
 import numpy as np
 
+from twin.errors import InputError
 from twin.robot.description import RobotDescription
 from twin.sim.online import OnlineCompensator
 
@@ -30,6 +32,21 @@ class ServeReport(NamedTuple):
     unreadable: int
     compute_us: np.ndarray
     stopped: str
+
+
+def udp_socket(host: str, port: int) -> tuple[socket.socket, int]:
+    """A UDP socket bound to `host`:`port` (0: any free port) and the port it got.
+
+    Raises:
+        InputError: The address cannot be bound (naming it and why).
+    """
+    sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    try:
+        sock.bind((host, port))
+    except OSError as exc:
+        sock.close()
+        raise InputError(f"cannot listen on {host}:{port} (UDP): {exc.strerror}") from None
+    return sock, int(sock.getsockname()[1])
 
 
 class Server(Protocol):

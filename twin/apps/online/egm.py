@@ -23,13 +23,12 @@ the message's `measuredForce` (ABB Force Control's sensor, its first three value
 from __future__ import annotations
 
 import math
-import socket
 import time
 from typing import Any
 
 import numpy as np
 
-from twin.apps.online.cycle import ServedCycle, ServeReport
+from twin.apps.online.cycle import ServedCycle, ServeReport, udp_socket
 from twin.apps.online.source import ForceSource
 from twin.errors import InputError
 from twin.robot.description import RobotDescription
@@ -111,13 +110,7 @@ class EgmServer:
                  host: str = "127.0.0.1", force: ForceSource | None = None) -> None:
         self.compensator, self.robot, self.force = compensator, robot, force
         self.pb = egm_messages()
-        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-        try:
-            self.sock.bind((host, port))
-        except OSError as exc:
-            self.sock.close()
-            raise InputError(f"cannot listen on {host}:{port} (UDP): {exc.strerror}") from None
-        self.port = int(self.sock.getsockname()[1])
+        self.sock, self.port = udp_socket(host, port)
 
     def close(self) -> None:
         """Stop listening."""

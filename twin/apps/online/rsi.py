@@ -16,13 +16,12 @@ It reports the per-cycle compute time (parse, compensate, answer) and the packet
 from __future__ import annotations
 
 import re
-import socket
 import time
 from typing import NamedTuple
 
 import numpy as np
 
-from twin.apps.online.cycle import ServedCycle, ServeReport
+from twin.apps.online.cycle import ServedCycle, ServeReport, udp_socket
 from twin.apps.online.source import ForceSource
 from twin.errors import InputError
 from twin.robot.description import RobotDescription
@@ -95,13 +94,7 @@ class RsiServer:
     def __init__(self, compensator: OnlineCompensator, robot: RobotDescription, port: int = 0,
                  host: str = "127.0.0.1", force: ForceSource | None = None) -> None:
         self.compensator, self.robot, self.force = compensator, robot, force
-        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-        try:
-            self.sock.bind((host, port))
-        except OSError as exc:
-            self.sock.close()
-            raise InputError(f"cannot listen on {host}:{port} (UDP): {exc.strerror}") from None
-        self.port = int(self.sock.getsockname()[1])
+        self.sock, self.port = udp_socket(host, port)
 
     def close(self) -> None:
         """Stop listening."""

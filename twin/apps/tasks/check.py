@@ -226,12 +226,13 @@ def check_task(request: CheckRequest, note: Note = silent) -> CheckReport:
     name = (f"--ideal {request.ideal}" if request.ideal is not None
             else "the default ideal path (the groove; --ideal FILE)")
     result = check_run(measured, ideal.t_s, ideal.p_sheet_m, name)
-    surface = None if request.target_stl is None else _surface(request, request.target_stl, measured)
+    surface = None if request.target_stl is None else _surface(request, request.target_stl, measured, ideal.p_sheet_m)
     return CheckReport(request.run_dir, result, surface)
 
 
-def _surface(request: CheckRequest, target: Path, measured: Run) -> SurfaceCheck:
-    """The CAD-like check: the scan (registered if asked) against the mesh."""
+def _surface(request: CheckRequest, target: Path, measured: Run, ideal_m: np.ndarray) -> SurfaceCheck:
+    """The CAD-like check: the scan (registered if asked) against the mesh, both first checked to be the ideal
+    path's part (not the run's command: a springback-compensated one runs deeper on purpose)."""
     if request.scan is not None:
         points, source = read_scan(request.scan, request.scan_units), request.scan.name
     elif measured.part_scan is None:
@@ -242,14 +243,14 @@ def _surface(request: CheckRequest, target: Path, measured: Run) -> SurfaceCheck
     else:
         points, source = np.asarray(measured.part_scan), "part_scan.csv"
     index = DesignIndex(read_target_mesh(target))
-    of_run = f"the command of {request.run_dir}"
-    check_same_part(measured.commanded.values, index.mesh, f"--target-stl {target}", path_what=of_run)
+    of_run = "the default ideal path (the groove)" if request.ideal is None else f"--ideal {request.ideal}"
+    check_same_part(ideal_m, index.mesh, f"--target-stl {target}", path_what=of_run)
     registration = None
     if request.scan is not None or request.register:
         registration = register_scan(points, index, datum=request.datum, max_rms_m=request.fit_rms_mm / 1e3,
                                      min_inlier_fraction=request.fit_fraction)
         points = registration.apply(points)
-    check_same_part(measured.commanded.values, points, f"the scan {source}", path_what=of_run)
+    check_same_part(ideal_m, points, f"the scan {source}", path_what=of_run)
     deviation = surface_deviation(points, index.mesh)
     regions = region_deviation(points, index)
     figure = None

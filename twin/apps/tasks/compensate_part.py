@@ -30,6 +30,7 @@ from twin.errors import InputError
 from twin.process.description import Process
 from twin.process.force.registry import build_force_field
 from twin.process.part.match import check_same_part
+from twin.process.toolpath.groove import ToolPath, label_passes
 from twin.runs.format import Run, run_process
 from twin.runs.read import read_run
 
@@ -111,7 +112,7 @@ def compensate_part_task(request: CompensateRequest, note: Note = silent) -> Par
         found = learn(request, design, last, scanned, note)
     t_s, command, stages, numbers = found
     write_command(request.out, t_s, command, protect)
-    record_file = write_record(request.out, _record(request, t_s))
+    record_file = write_record(request.out, _record(request, t_s, command))
     figure = rrd = None
     if request.figure is not None:
         from twin.viz.surface_figures import plot_part_stages
@@ -127,24 +128,24 @@ def compensate_part_task(request: CompensateRequest, note: Note = silent) -> Par
 
 
 def _check_last_part(request: CompensateRequest, design: trimesh.Trimesh, last: Run) -> None:
-    """Refuse a design or a last part's scan of another part than the last run's command formed
-    (`twin.process.part.match`)."""
+    """Refuse a design or a last part's scan of another part than the ideal path's (`twin.process.part.match`)."""
     assert last.part_scan is not None and request.learn_from is not None
     radius = run_process(last.meta, Process(), Path(request.learn_from) / "meta.json").tool_radius_m
-    ran = f"the command of --learn-from {request.learn_from}"
-    check_same_part(last.commanded.values, design, f"--target-stl {request.target_stl}", path_what=ran,
+    # the ideal path (a springback-compensated command runs deeper than its part on purpose), else the run's command
+    path = last.commanded.values if request.ideal is None else ideal_path(request.ideal).p_sheet_m
+    named = f"the command of --learn-from {request.learn_from}" if request.ideal is None else f"--ideal {request.ideal}"
+    check_same_part(path, design, f"--target-stl {request.target_stl}", path_what=named,
                     tool_radius_m=radius)
-    check_same_part(last.commanded.values, last.part_scan, f"the scan {Path(request.learn_from) / 'part_scan.csv'}",
-                    path_what=ran, tool_radius_m=radius)
+    check_same_part(path, last.part_scan, f"the scan {Path(request.learn_from) / 'part_scan.csv'}",
+                    path_what=named, tool_radius_m=radius)
 
 
-def _record(request: CompensateRequest, t_s: np.ndarray) -> CompensationRecord:
+def _record(request: CompensateRequest, t_s: np.ndarray, command_m: np.ndarray) -> CompensationRecord:
     """What the part's command assumed, for `check`: the design it was compensated to (so that its path is not
-    judged against the ideal one) and the twin's forces along the ideal path at the command's times."""
-    ideal = ideal_path(request.ideal)
-    forces = build_force_field(request.spec(ideal.p_sheet_m).process).rigid_forces(ideal)
-    if len(forces) != len(t_s):
-        forces = np.column_stack([np.interp(t_s, ideal.t_s, forces[:, i]) for i in range(3)])
+    judged against the ideal one) and the twin's forces along the command written (sheet frame [N])."""
+    passes, direction = label_passes(command_m[:, 0])
+    path = ToolPath(t_s=t_s, p_sheet_m=command_m, pass_index=passes, direction=direction)
+    forces = build_force_field(request.spec(command_m).process).rigid_forces(path)
     return CompensationRecord("twin", t_s, forces, design_file=str(request.target_stl))
 
 
