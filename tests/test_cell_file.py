@@ -26,6 +26,9 @@ yaw_deg = 0.0
 [process]
 material = "AA5754-O"
 thickness_mm = 1.0
+[sensors]
+tracker_rate_hz = 100.0
+ft_rate_hz = 50.0
 """
 
 
@@ -55,6 +58,7 @@ def test_a_cell_file_is_read_with_every_part(tmp_path: Path) -> None:
     (("thickness_mm = 1.0", "thickness_mm = 1.0\ntool_radius_mm = 6.0"), "both give the tool's radius"),
     (('robot = "kr210"', 'robot = "mine.xml"'), "no such file"),
     (("[process]", "[process]\nstrength = 3"), "unknown key(s) ['process.strength']"),
+    (("ft_rate_hz = 50.0", "ft_rate_hz = 0.0"), "sensors.ft_rate_hz = 0.0: expected 1 to 10000 Hz"),
 ])
 def test_a_bad_cell_file_is_refused_naming_the_file_and_the_key(tmp_path: Path, change: tuple[str, str],
                                                                 message: str, capsys: pytest.CaptureFixture[str]) -> None:
@@ -79,6 +83,8 @@ def test_the_cell_is_laid_under_the_flags_and_recorded(tmp_path: Path, capsys: p
     assert meta["robot"] == "kr210" and meta["placement"]["origin_base_mm"] == [1700.0, 0.0, 450.0]
     assert meta["process"]["material"] == "AA1050-O"  # the flag wins over the cell
     assert meta["process"]["tool_radius_mm"] == 5.0 and meta["cell"]["name"] == "kr210-cone"
+    tracker = (tmp_path / "run" / "tracker.csv").read_text().splitlines()
+    assert float(tracker[2].split(",")[0]) == pytest.approx(0.01)  # the cell's 100 Hz tracker
     capsys.readouterr()
     assert main(["export", str(path), "--cell", str(cell), "--origin-mm", "1650", "0", "450",
                  "--out", str(tmp_path / "ISF.src"), "--json", "-"]) == 0

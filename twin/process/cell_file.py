@@ -15,6 +15,11 @@
     [process]                           # a process file's keys (`twin.process.process_file`), format aside
     material = "AA5754-O"
     thickness_mm = 1.0
+    [sensors]                           # the cell's measuring chain, as the quasi-static lab samples it
+    tracker_rate_hz = 50.0              # the tracker's rate [Hz] and white noise per axis [mm]
+    tracker_noise_mm = 0.02
+    ft_rate_hz = 30.0                   # the F/T sensor's rate [Hz] and white noise per axis [N]
+    ft_noise_n = 5.0
 
 Every key but `format` may be left out: it keeps what the command would take without the cell (the robot's own
 tool and sheet origin, the thesis's process). A command's own flags override the cell (`--robot`, `--origin-mm`,
@@ -37,7 +42,11 @@ from twin.process.material.file import read_toml
 from twin.process.process_file import PROCESS_KEYS, ProcessDeclaration, declaration_from_table
 
 CELL_FORMAT = "tx200-twin-cell/1"
-CELL_KEYS = ("format", "name", "robot", "tool", "sheet", "process")
+CELL_KEYS = ("format", "name", "robot", "tool", "sheet", "process", "sensors")
+#: The `[sensors]` keys and their ranges: rates of the trackers and F/T sensors cells use, noise up to ten times
+#: the thesis's (its Krypton tracker 0.02 mm, its F/T 5 N in the twin's lab).
+SENSOR_RANGES = {"tracker_rate_hz": (1.0, 2000.0, "Hz"), "ft_rate_hz": (1.0, 10000.0, "Hz"),
+                 "tracker_noise_mm": (0.0, 1.0, "mm"), "ft_noise_n": (0.0, 200.0, "N")}
 TOOL_KEYS = ("length_mm", "radius_mm", "mass_kg", "cog_mm")
 SHEET_KEYS = ("origin_mm", "yaw_deg")
 #: What a cell's tool may be (an ISF tool on an industrial robot's flange): flange to tip [mm], mass [kg].
@@ -74,6 +83,7 @@ class CellDeclaration:
         origin_mm: The sheet origin in the robot base [mm], or None.
         yaw_deg: The sheet's yaw [deg], or None.
         process: What its `[process]` declares (the tool radius included).
+        sensors: Its `[sensors]` values, by key (`SENSOR_RANGES`).
     """
 
     source: Path
@@ -83,6 +93,7 @@ class CellDeclaration:
     origin_mm: tuple[float, float, float] | None = None
     yaw_deg: float | None = None
     process: ProcessDeclaration = field(default_factory=ProcessDeclaration)
+    sensors: Mapping[str, float] = field(default_factory=dict)
 
     def record(self) -> dict[str, Any]:
         """What runs, model files and programs record of the cell (JSON-ready, millimetres as in the file)."""
@@ -92,7 +103,7 @@ class CellDeclaration:
         sheet = {k: v for k, v in (("origin_mm", None if self.origin_mm is None else list(self.origin_mm)),
                                    ("yaw_deg", self.yaw_deg)) if v is not None}
         return {"file": str(self.source.resolve()), "name": self.name, "robot": self.robot, "tool": tool, "sheet": sheet,
-                "process": dict(self.process.origins)}
+                "process": dict(self.process.origins), "sensors": dict(self.sensors)}
 
 
 def read_cell_file(path: str | Path) -> CellDeclaration:
@@ -113,7 +124,8 @@ def read_cell_file(path: str | Path) -> CellDeclaration:
     tool = _table(path, data, "tool")
     return CellDeclaration(path, name, _robot(path, data.get("robot")), _tool(path, tool),
                            *_sheet(path, _table(path, data, "sheet")),
-                           _process(path, _table(path, data, "process"), tool.get("radius_mm")))
+                           _process(path, _table(path, data, "process"), tool.get("radius_mm")),
+                           _sensors(path, _table(path, data, "sensors")))
 
 
 def _table(path: Path, data: Mapping[str, Any], key: str) -> Mapping[str, Any]:
@@ -188,3 +200,8 @@ def _process(path: Path, table: Mapping[str, Any], radius_mm: Any) -> ProcessDec
     radius = _number(path, "tool.radius_mm", radius_mm, 0.5, 100.0, "mm")
     return ProcessDeclaration(tool_radius_m=radius / 1e3,
                               origins=(("tool_radius_m", f"{path}: tool.radius_mm"),)).over(declared)
+
+
+def _sensors(path: Path, table: Mapping[str, Any]) -> dict[str, float]:
+    _known(path, table, tuple(SENSOR_RANGES), "[sensors]", "sensors.")
+    return {key: _number(path, f"sensors.{key}", value, *SENSOR_RANGES[key]) for key, value in table.items()}

@@ -241,6 +241,17 @@ def check_out(out: Path, overwrite: bool) -> None:
     raise InputError(f"{out} exists; pass --overwrite to replace it or choose another --out")
 
 
+def lab_settings(cell: Mapping[str, Any] | None) -> Any:
+    """The quasi-static lab's sensors: a `--cell`'s `[sensors]` over the lab's defaults."""
+    from twin.lab.virtual import LabSettings  # MuJoCo: only when a lab runs
+
+    sensors = {} if cell is None else dict(cell.get("sensors") or {})
+    for key in ("tracker_noise_mm",):
+        if key in sensors:
+            sensors[key.replace("_mm", "_m")] = 1e-3 * sensors.pop(key)
+    return LabSettings(**sensors)
+
+
 def with_records(run: Run, request: LabRequest) -> Run:
     """The run with what travels with it in its meta: the command's compensation record (for `check`) and the cell
     it was made in."""
@@ -270,7 +281,8 @@ def _run(request: LabRequest, effects: Effects, note: Note) -> LabRunReport:
                         placement=request.placement, p_sheet_m=p_cmd, note=note).replace(effects=effects)
     from twin.lab.virtual import run_lab
 
-    run, truth = run_lab(t_s, p_cmd, scenario=request.scenario, seed=request.seed, spec=spec)
+    run, truth = run_lab(t_s, p_cmd, scenario=request.scenario, seed=request.seed, spec=spec,
+                         settings=lab_settings(request.cell))
     run = with_records(run, request)
     write_run(request.out, run, truth=truth, overwrite=request.overwrite, protect=protect)
     deviation = np.max(np.linalg.norm(run.tracker.values - interp_rows(run.tracker.t_s, t_s, p_cmd), axis=1))
