@@ -248,7 +248,7 @@ def test_the_command_refuses_a_bad_sensor_address(capsys) -> None:
     assert main(["online", "--serve", "egm", "--ft-rdt", "sensor:99999"]) == 2
     err = capsys.readouterr().err
     assert "--ft-rdt 'sensor:99999'" in err and "Traceback" not in err
-    assert main(["online", "--serve", "egm", "--ft-rdt", "10.0.0.1", "--ft-counts-per-n", "0"]) == 2
+    assert main(["online", "--serve", "egm", "--ft-rdt", "127.0.0.2", "--ft-counts-per-n", "0"]) == 2
     assert "--ft-counts-per-n" in capsys.readouterr().err
 
 

@@ -35,6 +35,23 @@ def _content_lines(path: Path, required: Sequence[str], *, first_only: bool = Fa
     return lines
 
 
+def read_bytes(path: str | Path, expected: str) -> bytes:
+    """A file's bytes.
+
+    Raises:
+        DataFileError: Missing, a folder or unreadable (naming the file and `expected`).
+    """
+    path = Path(path)
+    if path.is_dir():
+        raise DataFileError(path, f"is a folder; expected {expected}")
+    if not path.is_file():
+        raise DataFileError(path, f"file not found; expected {expected}")
+    try:
+        return path.read_bytes()
+    except OSError as exc:
+        raise DataFileError(path, f"cannot read it ({exc.strerror or type(exc).__name__})") from None
+
+
 def read_text(path: str | Path, expected: str = "a text file", encoding: str = "utf-8-sig") -> str:
     """A text file's contents (UTF-8 by default, a leading BOM dropped), every failure as a `DataFileError`.
 
@@ -47,14 +64,7 @@ def read_text(path: str | Path, expected: str = "a text file", encoding: str = "
         DataFileError: Missing, a folder, unreadable, or not in `encoding` (naming the line and the byte).
     """
     path = Path(path)
-    if path.is_dir():
-        raise DataFileError(path, f"is a folder; expected {expected}")
-    if not path.is_file():
-        raise DataFileError(path, f"file not found; expected {expected}")
-    try:
-        data = path.read_bytes()
-    except OSError as exc:
-        raise DataFileError(path, f"cannot read it ({exc.strerror or type(exc).__name__})") from None
+    data = read_bytes(path, expected)
     try:
         return data.decode(encoding)
     except UnicodeDecodeError as exc:

@@ -38,6 +38,7 @@ from pathlib import Path
 from typing import Any
 
 from twin.errors import DataFileError
+from twin.process.description import PLAUSIBLE
 from twin.process.material.file import read_toml
 from twin.process.process_file import PROCESS_KEYS, ProcessDeclaration, declaration_from_table
 
@@ -49,9 +50,10 @@ SENSOR_RANGES = {"tracker_rate_hz": (1.0, 2000.0, "Hz"), "ft_rate_hz": (1.0, 100
                  "tracker_noise_mm": (0.0, 1.0, "mm"), "ft_noise_n": (0.0, 200.0, "N")}
 TOOL_KEYS = ("length_mm", "radius_mm", "mass_kg", "cog_mm")
 SHEET_KEYS = ("origin_mm", "yaw_deg")
-#: What a cell's tool may be (an ISF tool on an industrial robot's flange): flange to tip [mm], mass [kg].
-TOOL_LENGTH_RANGE_MM = (20.0, 1500.0)
-TOOL_MASS_RANGE_KG = (0.0, 500.0)
+#: What a cell's tool may be: the process's plausible ranges (`twin.process.description.PLAUSIBLE`), one rule.
+TOOL_LENGTH_RANGE_MM = (PLAUSIBLE["tool_length_m"].low, PLAUSIBLE["tool_length_m"].high)
+TOOL_MASS_RANGE_KG = (PLAUSIBLE["tool_mass_kg"].low, PLAUSIBLE["tool_mass_kg"].high)
+TOOL_RADIUS_RANGE_MM = (PLAUSIBLE["tool_radius_m"].low, PLAUSIBLE["tool_radius_m"].high)
 #: How far a sheet origin may lie from the robot base [mm] (the largest industrial robots reach about 4 m).
 ORIGIN_RANGE_MM = 5000.0
 
@@ -197,7 +199,7 @@ def _process(path: Path, table: Mapping[str, Any], radius_mm: Any) -> ProcessDec
         return declared
     if "tool_radius_mm" in table:
         raise DataFileError(path, "tool.radius_mm and process.tool_radius_mm both give the tool's radius; keep one")
-    radius = _number(path, "tool.radius_mm", radius_mm, 0.5, 100.0, "mm")
+    radius = _number(path, "tool.radius_mm", radius_mm, *TOOL_RADIUS_RANGE_MM, "mm")
     return ProcessDeclaration(tool_radius_m=radius / 1e3,
                               origins=(("tool_radius_m", f"{path}: tool.radius_mm"),)).over(declared)
 

@@ -71,7 +71,7 @@ PLAUSIBLE: dict[str, Plausible] = {
     "tool_friction": Plausible("tool-sheet friction coefficient", 0.0, 1.0, "", 1.0,
                                "lubricated ISF runs at 0.02-0.2, dry metal on metal below 1"),
     # Flange to tip: a short pin on a compact spindle (~20 mm) to a long extension for deep parts; beyond 1.5 m the
-    # tool would out-reach the robot's own arm links (the same bounds as a cell file's tool.length_mm).
+    # tool would out-reach the robot's own arm links (a cell file's tool takes these bounds).
     "tool_length_m": Plausible("tool length (flange to tip)", 20.0, 1500.0, "mm", 1e3,
                                "an ISF tool on a robot flange is 20 mm to 1.5 m long"),
     # Tool mass with an F/T sensor: a few kg; 500 kg is above every ISF robot's payload (KR 210: 210 kg).

@@ -9,10 +9,13 @@ from __future__ import annotations
 
 import math
 import socket
+import time
+from collections.abc import Callable
 from typing import NamedTuple, Protocol
 
 import numpy as np
 
+from twin.apps.online.source import ForceSource
 from twin.errors import InputError
 from twin.robot.description import RobotDescription
 from twin.sim.online import OnlineCompensator
@@ -34,6 +37,10 @@ class ServeReport(NamedTuple):
     stopped: str
 
 
+#: The largest packet a UDP server reads [bytes] (an RSI or EGM packet is a few hundred).
+MAX_PACKET = 4096
+
+
 def udp_socket(host: str, port: int) -> tuple[socket.socket, int]:
     """A UDP socket bound to `host`:`port` (0: any free port) and the port it got.
 
@@ -47,6 +54,41 @@ def udp_socket(host: str, port: int) -> tuple[socket.socket, int]:
         sock.close()
         raise InputError(f"cannot listen on {host}:{port} (UDP): {exc.strerror}") from None
     return sock, int(sock.getsockname()[1])
+
+
+def check_bounds(max_cycles: int, idle_timeout_s: float) -> None:
+    """Every server's loop is bounded: at least one cycle, a positive idle timeout.
+
+    Raises:
+        InputError: Either is not (naming both).
+    """
+    if max_cycles < 1 or not idle_timeout_s > 0:
+        raise InputError(f"max_cycles {max_cycles!r} must be >= 1 and idle_timeout_s {idle_timeout_s!r} > 0")
+
+
+def serve_udp(sock: socket.socket, max_cycles: int, idle_timeout_s: float,
+              answer: Callable[[bytes, float], bytes | None]) -> ServeReport:
+    """The loop of a UDP interface: each packet to `answer(packet, t_received)` (the time on `time.perf_counter`
+    [s]), its reply sent back to the sender; None: the packet was unreadable (counted, not answered). Stops after
+    `max_cycles` replies or when no packet came for `idle_timeout_s` [s]."""
+    check_bounds(max_cycles, idle_timeout_s)
+    compute = np.zeros(max_cycles)
+    sock.settimeout(idle_timeout_s)
+    cycles = unreadable = 0
+    while cycles < max_cycles:
+        try:
+            packet, peer = sock.recvfrom(MAX_PACKET)
+        except TimeoutError:
+            return ServeReport(cycles, unreadable, compute[:cycles], "idle")
+        start = time.perf_counter()
+        reply = answer(packet, start)
+        if reply is None:
+            unreadable += 1
+            continue
+        sock.sendto(reply, peer)
+        compute[cycles] = 1e6 * (time.perf_counter() - start)
+        cycles += 1
+    return ServeReport(cycles, unreadable, compute, "cycles")
 
 
 class Server(Protocol):
@@ -81,6 +123,12 @@ class ServedCycle:
         self.force_n = np.zeros(3)
         self.stamp_s = math.nan
         self.correction_base_mm = np.zeros(3)
+
+    def take(self, source: ForceSource) -> None:
+        """The force source's newest sample (stamped on `time.perf_counter`) into `force_n` and `stamp_s`."""
+        source.poll()
+        self.force_n[:] = source.force_n
+        self.stamp_s = source.stamp_s
 
     def step(self, t_s: float, axes_deg: np.ndarray | tuple[float, ...]) -> np.ndarray:
         """One cycle: the controller's axes [deg] at time `t_s` [s], with the F/T sample last put in `force_n`

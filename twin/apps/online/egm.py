@@ -23,18 +23,15 @@ the message's `measuredForce` (ABB Force Control's sensor, its first three value
 from __future__ import annotations
 
 import math
-import time
 from typing import Any
 
 import numpy as np
 
-from twin.apps.online.cycle import ServedCycle, ServeReport, udp_socket
+from twin.apps.online.cycle import ServedCycle, ServeReport, serve_udp, udp_socket
 from twin.apps.online.source import ForceSource
-from twin.errors import InputError
 from twin.robot.description import RobotDescription
 from twin.sim.online import OnlineCompensator
 
-MAX_PACKET = 4096
 #: Below this motion between two messages the path direction is kept [mm].
 MIN_STEP_MM = 1e-4
 
@@ -124,58 +121,42 @@ class EgmServer:
             max_cycles: Most messages to answer (a bound: the loop stops by itself).
             idle_timeout_s: Stop when no message came for this long [s].
         """
-        if max_cycles < 1 or not idle_timeout_s > 0:
-            raise InputError(f"max_cycles {max_cycles!r} must be >= 1 and idle_timeout_s {idle_timeout_s!r} > 0")
         pb = self.pb
         cycle = ServedCycle(self.compensator, self.robot, R_base_sheet)
         frame = PathFrame()
-        robot_msg, answer = pb.EgmRobot(), pb.EgmSensorPathCorr()
-        answer.header.mtype = pb.EgmHeader.MessageType.Value("MSGTYPE_PATH_CORRECTION")
-        answer.pathCorr.age = 1
+        robot_msg, reply = pb.EgmRobot(), pb.EgmSensorPathCorr()
+        reply.header.mtype = pb.EgmHeader.MessageType.Value("MSGTYPE_PATH_CORRECTION")
+        reply.pathCorr.age = 1
         axes = np.zeros(self.robot.dof)
         corr_path = np.zeros(3)
-        buffer = bytearray(MAX_PACKET)
-        compute = np.zeros(max_cycles)
-        self.sock.settimeout(idle_timeout_s)
-        cycles = unreadable = 0
-        stopped = "cycles"
-        while cycles < max_cycles:
+
+        def answer(packet: bytes, received_s: float) -> bytes | None:
             try:
-                n, peer = self.sock.recvfrom_into(buffer)
-            except TimeoutError:
-                stopped = "idle"
-                break
-            start = time.perf_counter()
-            try:
-                robot_msg.ParseFromString(bytes(buffer[:n]))
+                robot_msg.ParseFromString(packet)
                 joints = robot_msg.feedBack.joints.joints
                 if len(joints) < self.robot.dof:
                     raise ValueError("joints")
             except Exception:  # protobuf's DecodeError, a message without joints
-                unreadable += 1
-                continue
+                return None
             for i in range(self.robot.dof):
                 axes[i] = joints[i]
-            t = start if self.force is not None else 1e-3 * robot_msg.header.tm
+            t = received_s if self.force is not None else 1e-3 * robot_msg.header.tm
             self._take_force(robot_msg, cycle, t)
             planned = robot_msg.planned.cartesian if robot_msg.planned.HasField("cartesian") else None
             cartesian = planned if planned is not None else robot_msg.feedBack.cartesian
             frame.update(cartesian.pos, cartesian.orient if cartesian.HasField("orient") else None)
             np.dot(frame.axes, cycle.step(t, axes), out=corr_path)
-            answer.header.seqno = cycles + 1
-            answer.header.tm = robot_msg.header.tm
-            answer.pathCorr.pos.x, answer.pathCorr.pos.y, answer.pathCorr.pos.z = corr_path
-            self.sock.sendto(answer.SerializeToString(), peer)
-            compute[cycles] = 1e6 * (time.perf_counter() - start)
-            cycles += 1
-        return ServeReport(cycles, unreadable, compute[:cycles], stopped)
+            reply.header.seqno += 1
+            reply.header.tm = robot_msg.header.tm
+            reply.pathCorr.pos.x, reply.pathCorr.pos.y, reply.pathCorr.pos.z = corr_path
+            return reply.SerializeToString()
+
+        return serve_udp(self.sock, max_cycles, idle_timeout_s, answer)
 
     def _take_force(self, robot_msg: Any, cycle: ServedCycle, t: float) -> None:
         """The newest F/T sample into the cycle: the force source's, or the message's measured force."""
         if self.force is not None:
-            self.force.poll()
-            cycle.force_n[:] = self.force.force_n
-            cycle.stamp_s = self.force.stamp_s
+            cycle.take(self.force)
         elif robot_msg.HasField("measuredForce") and len(robot_msg.measuredForce.force) >= 3 and (
                 not robot_msg.measuredForce.HasField("fcActive") or robot_msg.measuredForce.fcActive):
             force = robot_msg.measuredForce.force

@@ -68,7 +68,8 @@ class RdtSource:
         offset_sheet_n: Subtracted from every force (e.g. the tool's weight, when the sensor is not biased), sheet
             frame [N].
         bias: Ask the sensor to zero itself (`SET_BIAS`) before streaming: do it with the tool in the air.
-        bind_host: The local address to read from.
+        bind_host: The local address to read from; None: the one the system routes to the sensor (connecting a UDP
+            socket binds it there: a sensor on 127.0.0.1 is read on the loopback only).
 
     Attributes:
         force_n: The newest force, sheet frame [N].
@@ -79,7 +80,7 @@ class RdtSource:
 
     def __init__(self, host: str, port: int = RDT_PORT, *, counts_per_n: float = DEFAULT_COUNTS_PER_N,
                  R_sheet_sensor: np.ndarray | None = None, offset_sheet_n: np.ndarray | None = None,
-                 bias: bool = False, bind_host: str = "0.0.0.0") -> None:
+                 bias: bool = False, bind_host: str | None = None) -> None:
         if not (math.isfinite(counts_per_n) and counts_per_n > 0):
             raise InputError(f"RDT counts per N {counts_per_n!r}: expected a positive number (the sensor's "
                              "calibration, e.g. 1000000)")
@@ -90,15 +91,15 @@ class RdtSource:
         self.offset_sheet_n = np.zeros(3) if offset_sheet_n is None else np.asarray(offset_sheet_n, dtype=float)
         self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         try:
-            self.sock.bind((bind_host, 0))
+            if bind_host is not None:
+                self.sock.bind((bind_host, 0))
             self.sock.connect((host, port))
         except OSError as exc:
             self.sock.close()
             raise InputError(f"cannot reach the F/T sensor at {host}:{port} (UDP): {exc.strerror}") from None
         self.sock.setblocking(False)
         self._buffer = bytearray(RECORD_BYTES)
-        header = np.frombuffer(self._buffer, dtype=">u4", count=3)
-        self._header = header
+        self._header = np.frombuffer(self._buffer, dtype=">u4", count=3)  # RDT sequence, F/T sequence, status
         self._counts = np.frombuffer(self._buffer, dtype=">i4", count=3, offset=12)  # Fx Fy Fz
         self._counts_f = np.zeros(3)
         self.force_n = np.zeros(3)

@@ -16,12 +16,11 @@ It reports the per-cycle compute time (parse, compensate, answer) and the packet
 from __future__ import annotations
 
 import re
-import time
 from typing import NamedTuple
 
 import numpy as np
 
-from twin.apps.online.cycle import ServedCycle, ServeReport, udp_socket
+from twin.apps.online.cycle import ServedCycle, ServeReport, serve_udp, udp_socket
 from twin.apps.online.source import ForceSource
 from twin.errors import InputError
 from twin.robot.description import RobotDescription
@@ -34,7 +33,6 @@ _ATTR = re.compile(rb'(\w+)\s*=\s*"([^"]*)"')
 #: The answer, its numbers filled in each cycle.
 SEN = ('<Sen Type="ImFree"><RKorr X="{:.4f}" Y="{:.4f}" Z="{:.4f}" A="0.0000" B="0.0000" '
        'C="0.0000"/><IPOC>{}</IPOC></Sen>')
-MAX_PACKET = 4096
 
 
 class RobPacket(NamedTuple):
@@ -108,36 +106,21 @@ class RsiServer:
             max_cycles: Most packets to answer (a bound: the loop stops by itself).
             idle_timeout_s: Stop when no packet came for this long [s].
         """
-        if max_cycles < 1 or not idle_timeout_s > 0:
-            raise InputError(f"max_cycles {max_cycles!r} must be >= 1 and idle_timeout_s {idle_timeout_s!r} > 0")
         cycle = ServedCycle(self.compensator, self.robot, R_base_sheet)
-        compute = np.zeros(max_cycles)
-        self.sock.settimeout(idle_timeout_s)
-        cycles = unreadable = 0
-        stopped = "cycles"
-        while cycles < max_cycles:
-            try:
-                packet, peer = self.sock.recvfrom(MAX_PACKET)
-            except TimeoutError:
-                stopped = "idle"
-                break
-            start = time.perf_counter()
+
+        def answer(packet: bytes, received_s: float) -> bytes | None:
             try:
                 rob = parse_rob(packet, self.robot.dof)
             except InputError:
-                unreadable += 1
-                continue
+                return None
             if self.force is not None:
-                t = start
-                self.force.poll()
-                cycle.force_n[:] = self.force.force_n
-                cycle.stamp_s = self.force.stamp_s
+                t = received_s
+                cycle.take(self.force)
             else:
                 t = 1e-3 * rob.ipoc
                 if rob.force_n is not None:
                     cycle.force_n[:] = rob.force_n
                     cycle.stamp_s = t
-            self.sock.sendto(sen_packet(rob.ipoc, cycle.step(t, rob.axes_deg)), peer)
-            compute[cycles] = 1e6 * (time.perf_counter() - start)
-            cycles += 1
-        return ServeReport(cycles, unreadable, compute[:cycles], stopped)
+            return sen_packet(rob.ipoc, cycle.step(t, rob.axes_deg))
+
+        return serve_udp(self.sock, max_cycles, idle_timeout_s, answer)

@@ -36,7 +36,7 @@ from twin.apps.online.alter_protocol import (
     encode_answer_into,
     frame_seq,
 )
-from twin.apps.online.cycle import ServedCycle, ServeReport
+from twin.apps.online.cycle import ServedCycle, ServeReport, check_bounds
 from twin.apps.online.source import ForceSource
 from twin.errors import InputError
 from twin.robot.description import RobotDescription
@@ -93,8 +93,7 @@ class Val3Server:
             Requests answered (the unreadable ones among them), per-cycle compute [µs] and why it stopped:
             "cycles", "idle" or "disconnected".
         """
-        if max_cycles < 1 or not idle_timeout_s > 0:
-            raise InputError(f"max_cycles {max_cycles!r} must be >= 1 and idle_timeout_s {idle_timeout_s!r} > 0")
+        check_bounds(max_cycles, idle_timeout_s)
         cycle = ServedCycle(self.compensator, self.robot, R_base_sheet)
         compute = np.zeros(max_cycles)
         self.sock.settimeout(idle_timeout_s)
@@ -138,9 +137,7 @@ class Val3Server:
                 encode_answer_into(answer, seq, cycle.correction_base_mm)  # the last correction, unchanged
             else:
                 if self.force is not None:
-                    self.force.poll()
-                    cycle.force_n[:] = self.force.force_n
-                    cycle.stamp_s = self.force.stamp_s
+                    cycle.take(self.force)
                 encode_answer_into(answer, seq, cycle.step(time.perf_counter(), axes_deg))
             try:
                 conn.sendall(answer)

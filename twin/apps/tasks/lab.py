@@ -246,9 +246,8 @@ def lab_settings(cell: Mapping[str, Any] | None) -> Any:
     from twin.lab.virtual import LabSettings  # MuJoCo: only when a lab runs
 
     sensors = {} if cell is None else dict(cell.get("sensors") or {})
-    for key in ("tracker_noise_mm",):
-        if key in sensors:
-            sensors[key.replace("_mm", "_m")] = 1e-3 * sensors.pop(key)
+    if "tracker_noise_mm" in sensors:  # the cell file's millimetres, the lab's metres
+        sensors["tracker_noise_m"] = 1e-3 * sensors.pop("tracker_noise_mm")
     return LabSettings(**sensors)
 
 

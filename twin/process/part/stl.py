@@ -13,9 +13,11 @@ from pathlib import Path
 
 import numpy as np
 
+from twin.base.csvio import read_bytes
 from twin.errors import DataFileError
 
-_EXPECTED = "expected an STL (binary or ASCII) of the part in millimetres"
+_WHAT = "an STL (binary or ASCII) of the part in millimetres"
+_EXPECTED = f"expected {_WHAT}"
 #: The largest coordinate an STL may hold [file units, mm]: 100 m, beyond any part a robot forms.
 MAX_COORDINATE = 1e5
 _BINARY = np.dtype([("normal", "<f4", (3,)), ("vertices", "<f4", (3, 3)), ("attribute", "<u2")])
@@ -29,12 +31,7 @@ def read_stl_triangles(path: str | Path) -> np.ndarray:
             line number named), or neither (naming the file and what was expected).
     """
     path = Path(path)
-    if not path.is_file():
-        raise DataFileError(path, f"no such file; {_EXPECTED}")
-    try:
-        data = path.read_bytes()
-    except OSError as exc:
-        raise DataFileError(path, f"cannot be read ({exc.strerror or exc}); {_EXPECTED}") from None
+    data = read_bytes(path, _WHAT)
     if not data.strip():
         raise DataFileError(path, f"is empty (no triangles); {_EXPECTED}")
     if len(data) >= 84:
