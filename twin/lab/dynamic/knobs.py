@@ -70,6 +70,14 @@ KNOBS: dict[str, KnobSpec] = {
         0.01,
         10.0,
     ),
+    "sheet_law": KnobSpec(
+        1.0,
+        1.0,
+        "-",
+        "the plant's sheet law: 1 membrane across the tool (sheet.py), 2 contact patch (sheet_patch.py)",
+        1.0,
+        2.0,
+    ),
     "timestep_s": KnobSpec(
         1e-3, 1e-3, "s", "MuJoCo timestep (implicitfast); the servo runs once per step", 1e-4, 2e-3
     ),
@@ -129,6 +137,10 @@ KNOBS: dict[str, KnobSpec] = {
 }
 
 
+#: Knobs that choose among alternatives: whole numbers only.
+INTEGER_KNOBS = frozenset({"sheet_law"})
+
+
 class Knobs:
     """A full set of knob values [the units of `KNOBS`].
 
@@ -177,6 +189,8 @@ def _checked(name: str, value: float | str) -> float:
         raise InputError(
             f"knob {name} = {value!r} [{spec.unit}]: expected a finite value in [{spec.minimum:g}, {spec.maximum:g}]"
         )
+    if name in INTEGER_KNOBS and number != round(number):
+        raise InputError(f"knob {name} = {value!r}: expected a whole number in [{spec.minimum:g}, {spec.maximum:g}]")
     return number
 
 

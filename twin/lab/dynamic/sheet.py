@@ -92,12 +92,14 @@ class PlantSheet:
         process: The declared sheet and tool: thickness, tool radius, tool friction and R_m (which scales the
             thesis's flow curve).
         reversal_m: Tool travel over which the friction and the sides turn with the travel [m].
+        timestep_s: The plant's servo tick, between two `advance` calls [s].
     """
 
     #: Run `force` and `advance` compiled (False: the Python reference).
     compiled: bool = True
 
-    def __init__(self, process: Process, reversal_m: float) -> None:
+    def __init__(self, process: Process, reversal_m: float, timestep_s: float = 1e-3) -> None:
+        self.timestep_s = float(timestep_s)
         self.radius = float(process.tool_radius_m)
         self.t0 = float(process.thickness_m)
         self.mu = float(process.tool_friction)

@@ -32,7 +32,7 @@ from twin.lab.dynamic.controller import (
 from twin.lab.dynamic.knobs import Knobs
 from twin.lab.dynamic.online import CycleCorrector, OnlineCycle, OnlineFt, OnlineLog
 from twin.lab.dynamic.plant import Plant, build_plant
-from twin.lab.dynamic.sheet import PlantSheet
+from twin.lab.dynamic.sheet_laws import SheetLaw, make_sheet
 from twin.process.description import Process
 from twin.process.part.bottom import with_floating_bottom
 from twin.process.part.surface import FORMED_BELOW_M
@@ -131,7 +131,7 @@ def simulate(
     plant = plant or build_plant(knobs)
     plan = _plan(plant, knobs, t_cmd, p_cmd, placement or Placement())
     process = process or Process()
-    sheet = PlantSheet(process, 1e-3 * knobs["friction_reversal_mm"])
+    sheet = make_sheet(knobs, process)
     scanned = process.force_model != "table"
     online = None
     if corrector is not None:
@@ -213,7 +213,7 @@ class _Logs(NamedTuple):
 
 
 def _step(
-    plant: Plant, plan: _Plan, sheet: PlantSheet, scanned: bool, d: mujoco.MjData, tip_force_n: np.ndarray | None,
+    plant: Plant, plan: _Plan, sheet: SheetLaw, scanned: bool, d: mujoco.MjData, tip_force_n: np.ndarray | None,
     progress: TextIO | None,
     online: tuple[CycleCorrector, OnlineFt] | None = None,
 ) -> DynamicLog:
