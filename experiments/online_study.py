@@ -6,7 +6,8 @@ from its ideal path (nominal), from the twin's offline compensation of it (`comp
 learned model), and from its ideal path with the controller compensating online (`--online`, default or learned
 model). Each residual is `check`'s (tracker minus ideal, rms and max), and again with the tracker offset `learn`
 found taken off, over the whole run and away from the path's reversals (0.1 s either side); and "both": the offline command with the controller compensating online only the force that
-command did not assume (its compensation record's forces, on the controller's clock).
+command did not assume (its compensation record's forces, looked up by where along the command the
+controller's joints are: not the plant's own re-timing, which a PC beside a controller does not know).
 Writes OUT/online_study.json and OUT/online_study.md, and with `--doc` the table between the online-table markers
 of that page (docs/online.md; `tests/test_online.py::test_the_study_table_is_what_the_study_gives`, slow, reruns a
 row):
@@ -55,7 +56,7 @@ def _lab(strength: float, command: Path, out: Path, seed: int, scenario: str = "
         from twin.analysis.compensation_record import read_record
         from twin.apps.tasks.lab_dynamic import assumed_forces
 
-        assumed = assumed_forces(read_record(command), cmd, Knobs()) if scenario == "compensated" else None
+        assumed = assumed_forces(read_record(command), cmd) if scenario == "compensated" else None
         corrector = OnlineCompensator(read_model_file(online) if isinstance(online, Path) else TwinSpec(),
                                       assumed=assumed)
     run, truth, log = run_dynamic_lab(cmd.t_s, cmd.values, scenario=scenario, knobs=Knobs(), seed=seed,

@@ -11,7 +11,17 @@ from doc_numbers import quoted
 
 from twin.errors import InputError
 from twin.robot.kinematics import Kinematics
-from twin.sim.online import HOLDING, NO_SENSOR, RAMPING, SPIKE, TRACKING, OnlineCompensator, OnlineSettings
+from twin.sim.compiled.online import AT, MAX_ADVANCE, OFFSET_TAU_S, STATE_SIZE, progress
+from twin.sim.online import (
+    HOLDING,
+    NO_SENSOR,
+    RAMPING,
+    SPIKE,
+    TRACKING,
+    AssumedForces,
+    OnlineCompensator,
+    OnlineSettings,
+)
 from twin.sim.spec import TwinSpec
 
 F_N = np.array([300.0, -100.0, 1800.0])  # a forming force of the groove's size, sheet on tool, sheet frame
@@ -171,13 +181,62 @@ def test_the_study_table_is_what_the_study_gives(tmp_path) -> None:
         doc.check(value, slack=2.0)
 
 
+def _tip(spec: TwinSpec, q: np.ndarray) -> np.ndarray:
+    """The twin's tool tip at q, sheet frame [m] (what the compensator matches to the command)."""
+    twin = spec.build()
+    kin = Kinematics(robot=twin.robot)
+    return twin.R_base_sheet.T @ (kin.fk(q)[0] - twin.p_base_sheet_origin)
+
+
 def test_on_top_of_an_offline_command_only_the_unassumed_force_is_corrected(setup) -> None:
     spec, q, C = setup
-    t_assumed = np.array([0.0, 10.0])
+    tip = _tip(spec, q)
+    path = tip + np.outer(np.linspace(-1.0, 1.0, 5), [0.01, 0.0, 0.0])  # a straight command through the robot's tip
     comp = OnlineCompensator(spec, OnlineSettings(max_rate_mm_s=1000.0),
-                             assumed=(t_assumed, np.tile(0.8 * F_N, (2, 1))))  # the command assumed 80 %
+                             assumed=AssumedForces(path, np.tile(0.8 * F_N, (5, 1))))  # it assumed 80 %
     n = 500
     out, _ = _run(comp, q, np.tile(F_N, (n, 1)), 0.004 * np.arange(n), 0.004)
     np.testing.assert_allclose(out[-1], -C @ (0.2 * F_N), atol=1e-9)
     with pytest.raises(InputError, match="assumed forces"):
-        OnlineCompensator(spec, assumed=(np.array([1.0, 0.0]), np.zeros((2, 3))))
+        OnlineCompensator(spec, assumed=(np.zeros(2), np.zeros((2, 3))))  # times, as before: not positions
+    with pytest.raises(InputError, match="assumed forces"):
+        OnlineCompensator(spec, assumed=(np.full((2, 3), np.nan), np.zeros((2, 3))))
+
+
+def test_the_assumed_force_is_looked_up_where_the_robot_is_not_when(setup) -> None:
+    """A controller stops at corners by its own rules: the PC beside it knows where the joints are, not when the
+    controller reaches a command sample. Whatever the clock says, the force assumed where the robot is (at the
+    command's start here) is the one taken off."""
+    spec, q, C = setup
+    path = _tip(spec, q) + np.outer([0.0, 1.0, 2.0, 3.0], [0.01, 0.0, 0.0])  # the command starts at the robot
+    assumed = np.array([0.5 * F_N, 0.5 * F_N, 0.0 * F_N, 0.0 * F_N])  # only there it assumed a force
+    comp = OnlineCompensator(spec, OnlineSettings(max_rate_mm_s=1000.0), assumed=(path, assumed))
+    n = 500
+    out, _ = _run(comp, q, np.tile(F_N, (n, 1)), 1e3 + 0.004 * np.arange(n), 0.004)  # a clock far past the command
+    np.testing.assert_allclose(out[-1], -C @ (0.5 * F_N), atol=1e-9)
+
+
+@pytest.mark.parametrize("offset_mm", [0.0, 2.0])
+def test_the_progress_along_a_command_goes_forward_over_its_return_and_its_dwells(offset_mm: float) -> None:
+    """The progress index: a groove-like pass out and back 0.5 mm lower, a dwell at the turn; a robot that walks
+    it is matched to the outbound pass until the turn, then to the return, and no cycle moves it more than
+    `MAX_ADVANCE` segments; also when the twin's kinematics put the robot 2 mm off the command (more than the
+    passes are apart)."""
+    x = np.linspace(0.0, 0.05, 51)
+    out_pass = np.column_stack([x, np.zeros_like(x), np.zeros_like(x)])
+    back = np.column_stack([x[::-1], np.zeros_like(x), np.full_like(x, -5e-4)])
+    path = np.vstack([out_pass, np.repeat(out_pass[-1:], 3, axis=0), back])  # a dwell (repeated samples) at the turn
+    walked = np.vstack([out_pass, back]) + np.array([0.3, 0.0, 1.0]) * 1e-3 * offset_mm
+    state = np.zeros(STATE_SIZE)
+    seen = []
+    for point in walked:
+        before = int(state[AT])
+        s = progress(path, state, *point, 1.0 - np.exp(-0.004 / OFFSET_TAU_S))
+        assert 0.0 <= s <= 1.0 and 0 <= int(state[AT]) - before <= MAX_ADVANCE
+        seen.append(int(state[AT]))
+    assert seen == sorted(seen)  # only forward
+    assert seen[40] < 51 and seen[-1] >= 54 + 40  # out: on the outbound segments; back: on the return's
+    state[:] = 0.0
+    progress(path, state, *path[0], 0.0)
+    progress(path, state, *path[-1], 0.0)  # far along at once (after a dropout): a bounded walk
+    assert int(state[AT]) <= MAX_ADVANCE

@@ -18,15 +18,17 @@ needs:
 * **watchdog**: no correction before a first sample (no start without a sensor); a sample older than `stale_s`
   holds the last correction for `hold_s`, then ramps it out at the rate limit: never a jump.
 
-Every cycle is one compiled call (`twin.sim.compiled.online.online_cycle`) on arrays allocated when the compensator is built: no allocation per
-cycle, bounded work (one chain evaluation, a 3x3 product). `OnlineCompensator.step` returns a view of its own
-correction array; the status of the cycle is one of `STATUS`.
+Every cycle is one compiled call (`twin.sim.compiled.online.online_cycle`) on arrays allocated when the compensator
+is built: no allocation per cycle, bounded work (one chain evaluation, a 3x3 product; on top of an offline command,
+a few segments' walk along it). `OnlineCompensator.step` returns a view of its own correction array; the status
+of the cycle is one of `STATUS`.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, fields
+from typing import NamedTuple
 
 import numpy as np
 
@@ -48,6 +50,20 @@ from twin.sim.spec import TwinSpec
 
 #: What a cycle did (`OnlineCompensator.step`'s return).
 STATUS = ("no_sensor", "tracking", "spike_rejected", "holding", "ramping_out")
+
+
+class AssumedForces(NamedTuple):
+    """What an offline-compensated command assumed, as the compensator looks it up: by position along the command.
+
+    Attributes:
+        p_sheet_m: The command's tool tips, in order, sheet frame [m], shape (n, 3).
+        f_sheet_n: The force of the sheet on the tool the command assumed at each, sheet frame [N], shape (n, 3).
+    """
+
+    p_sheet_m: np.ndarray
+    f_sheet_n: np.ndarray
+
+
 #: Joint speed below which the friction's sign turns smoothly (tanh), as `learn` fits it [rad/s].
 SPEED_SMOOTHING_RAD_S = 2e-4
 
@@ -107,14 +123,17 @@ class OnlineCompensator:
     Args:
         spec: The twin (its robot, placement and joint stiffness; a learned model file's spec).
         settings: Filtering, limits and watchdog.
-        assumed: On top of an offline-compensated command: (times on the controller's clock [s], shape (n,); the
-            force that command assumed, sheet frame [N], shape (n, 3)), as its compensation record holds them. The
-            compensator then corrects only the deflection of the force the command did not assume, and leaves the
-            friction lag to the command (the twin's offline compensation took it). None: a nominal command.
+        assumed: On top of an offline-compensated command: (the command's tool tips, sheet frame [m], shape
+            (n, 3); the force that command assumed at each, sheet frame [N], shape (n, 3)), as the command and its
+            compensation record hold them (`AssumedForces`). The compensator then corrects only the deflection of
+            the force the command did not assume, and leaves the friction lag to the command (the twin's offline
+            compensation took it). The force is looked up by where along the command the robot's reported joints
+            are, not by time: the controller re-times a command (stops at corners) by rules a PC beside it does
+            not know (`twin.sim.compiled.online`). None: a nominal command.
     """
 
     def __init__(self, spec: TwinSpec | None = None, settings: OnlineSettings | None = None,
-                 assumed: tuple[np.ndarray, np.ndarray] | None = None) -> None:
+                 assumed: AssumedForces | tuple[np.ndarray, np.ndarray] | None = None) -> None:
         spec = spec or TwinSpec()
         self.settings = settings or OnlineSettings()
         twin = spec.build()
@@ -132,13 +151,14 @@ class OnlineCompensator:
         self._params = np.append(self.settings.params(), SPEED_SMOOTHING_RAD_S)
         self._state = np.zeros(STATE_SIZE)
         self._q_prev = np.zeros(self.dof)
-        self._assumed_t, self._assumed_f = np.zeros(0), np.zeros((0, 3))
+        self._assumed_p, self._assumed_f = np.zeros((0, 3)), np.zeros((0, 3))
         if assumed is not None:
-            t_a, f_a = np.ascontiguousarray(assumed[0], dtype=float), np.ascontiguousarray(assumed[1], dtype=float)
-            if t_a.ndim != 1 or f_a.shape != (t_a.size, 3) or t_a.size < 2 or np.any(np.diff(t_a) < 0):
-                raise InputError(f"assumed forces: expected increasing times (n,) and forces (n, 3), n >= 2; got "
-                                 f"{t_a.shape} and {f_a.shape}")
-            self._assumed_t, self._assumed_f = t_a, f_a
+            p_a, f_a = np.ascontiguousarray(assumed[0], dtype=float), np.ascontiguousarray(assumed[1], dtype=float)
+            if (p_a.ndim != 2 or p_a.shape[1:] != (3,) or f_a.shape != p_a.shape or p_a.shape[0] < 2
+                    or not (np.all(np.isfinite(p_a)) and np.all(np.isfinite(f_a)))):
+                raise InputError(f"assumed forces: expected the command's tool tips (n, 3) [m] and the forces it "
+                                 f"assumed (n, 3) [N], finite, n >= 2; got {p_a.shape} and {f_a.shape}")
+            self._assumed_p, self._assumed_f = p_a, f_a
         self._p, self._jac, self._g = np.zeros(3), np.zeros((3, self.dof)), np.zeros(self.dof)
         self.correction_m = self._state[CORR:CORR + 3]  # a view: the correction of the last cycle, sheet frame
         self.cycle_s = self.settings.cycle_s
@@ -169,9 +189,9 @@ class OnlineCompensator:
             The cycle's status (`STATUS`); the correction is in `correction_m` [m], sheet frame: add it to the
             commanded tool tip.
         """
-        return int(online_cycle(self._chain, self._params, self.k_inv, self.friction_nm, self._assumed_t,
+        return int(online_cycle(self._chain, self._params, self.k_inv, self.friction_nm, self._assumed_p,
                                 self._assumed_f, self._state, self._q_prev,
                           float(t_s), float(sample_t_s), f_sheet_n, q_rad, self._p, self._jac, self._g))
 
 
-__all__ = ["HOLDING", "NO_SENSOR", "RAMPING", "SPIKE", "STATUS", "TRACKING", "OnlineCompensator", "OnlineSettings"]
+__all__ = ["HOLDING", "NO_SENSOR", "RAMPING", "SPIKE", "STATUS", "TRACKING", "AssumedForces", "OnlineCompensator", "OnlineSettings"]

@@ -26,14 +26,14 @@ from twin.apps.tasks.lab import (
 )
 from twin.base.csvio import write_table
 from twin.base.signals import interp_rows
-from twin.lab.dynamic.knobs import Knobs, parse_set_args
+from twin.lab.dynamic.knobs import parse_set_args
 from twin.lab.dynamic.online import OnlineLog
 from twin.lab.dynamic.run import dynamic_load_test, run_dynamic_lab
 from twin.process.description import Process
 from twin.runs.format import Stream
 from twin.runs.read import lab_commanded
 from twin.runs.write import write_run
-from twin.sim.online import OnlineCompensator
+from twin.sim.online import AssumedForces, OnlineCompensator
 
 
 @dataclass(frozen=True)
@@ -111,7 +111,7 @@ def dynamic_lab_task(request: LabRequest, note: Note = silent) -> Report:
     compensator = None
     if request.online:  # the twin beside the controller, at the run's placement
         spec = resolve_spec(model=request.model, robot=robot, placement=request.placement, p_sheet_m=p_cmd)
-        compensator = OnlineCompensator(spec, assumed=assumed_forces(record, commanded, knobs))
+        compensator = OnlineCompensator(spec, assumed=assumed_forces(record, commanded))
     run, truth, log = run_dynamic_lab(
         commanded.t_s, p_cmd, scenario=request.scenario, knobs=knobs, seed=request.seed, progress=_NoteStream(note),
         process=process, placement=request.placement, robot=robot, corrector=compensator,
@@ -133,17 +133,19 @@ def dynamic_lab_task(request: LabRequest, note: Note = silent) -> Report:
     )
 
 
-def assumed_forces(record: CompensationRecord | None, commanded: Stream, knobs: Knobs
-                   ) -> tuple[np.ndarray, np.ndarray] | None:
-    """The forces an offline-compensated command assumed (its compensation record), on the controller's clock:
-    the plant's trajectory generator re-times the command to stop at sharp corners, and so are they. None for a
-    command without a record."""
+def assumed_forces(record: CompensationRecord | None, commanded: Stream) -> AssumedForces | None:
+    """The forces an offline-compensated command assumed (its compensation record), each at its command sample's
+    tool tip: the online compensator looks them up by where along the command the controller's joints are.
+
+    Only what the PC beside a controller has: the command and its record. The plant's controller re-times the
+    command (it stops at sharp corners) by its own rules; the compensator does not take them from the plant.
+
+    Returns:
+        The tips [m] and forces [N] (`AssumedForces`), sheet frame; None for a command without a record.
+    """
     if record is None:
         return None
-    from twin.lab.dynamic.trajectory import retime_with_stops
-
-    retimed = retime_with_stops(commanded.t_s, commanded.values, knobs["trajectory_accel_mps2"])
-    return np.interp(record.t_s, commanded.t_s, retimed), np.asarray(record.f_used_n, dtype=float)
+    return AssumedForces(interp_rows(record.t_s, commanded.t_s, commanded.values), record.f_used_n)
 
 
 #: What the online compensator did, each cycle, beside the run's files (not part of the run format).

@@ -1,8 +1,17 @@
 """The online compensator's cycle, compiled (`twin.sim.online.OnlineCompensator.step`).
 
 One call per controller cycle on arrays allocated once: the filtered force and its rate, the watchdog's clock,
-the spike count and run, the correction, the joints of the last cycle (`state`, slots below). The chain is the
-twin's (`chain.chain_eval`), so this file is one of the kernel sources whose change drops the cached kernels.
+the spike count and run, the correction, the joints of the last cycle, the progress along an offline command
+(`state`, slots below). The chain is the twin's (`chain.chain_eval`), so this file is one of the kernel sources
+whose change drops the cached kernels.
+
+On top of an offline command the force that command assumed is looked up by *position* along it, not by time: a
+controller re-times its path (it stops at sharp corners, ramps its speed) by rules the PC beside it does not know,
+but it reports its joints every cycle, and the twin's forward kinematics of them, less the correction the
+compensator itself added, less a slowly followed offset (the twin's kinematic error), is where along the command
+the robot is (`progress`). The progress is one segment index that only moves forward, a few segments per cycle at
+most (`MAX_ADVANCE`): bounded work, and a path that comes back over itself (a groove's passes) is not mistaken for
+its return.
 """
 
 from __future__ import annotations
@@ -16,14 +25,80 @@ from twin.sim.compiled.chain import chain_eval
 #: Status codes of a cycle (`twin.sim.online.STATUS` names them).
 NO_SENSOR, TRACKING, SPIKE, HOLDING, RAMPING = range(5)
 #: Slots of the state vector: a sample seen, its stamp, spikes rejected, filtered force (3), its rate (3), the
-#: correction (3), spikes in a row, joints seen.
-HAVE, T_LAST, SPIKES, F, DF, CORR, RUN, HAVE_Q, AT = 0, 1, 2, 3, 6, 9, 12, 13, 14
-STATE_SIZE = 15
+#: correction (3), spikes in a row, joints seen, the segment along an offline command, the offset of the reported
+#: tip from that command (3), that progress started.
+HAVE, T_LAST, SPIKES, F, DF, CORR, RUN, HAVE_Q, AT, OFFSET, HAVE_AT = 0, 1, 2, 3, 6, 9, 12, 13, 14, 15, 18
+STATE_SIZE = 19
+#: Time constant of the offset of the reported tip from the command, across the path [s]: slow against a pass's
+#: step to the next (a groove's 0.5 mm down at a turn, in ~0.1 s), fast against the twin's kinematic error, which
+#: changes over the workspace (mm over tens of mm).
+OFFSET_TAU_S = 1.0
+#: Most command segments the progress along an offline command moves in one cycle (bounded work per cycle: a
+#: command sampled at 1 ms at 0.5 m/s moves ~2 segments in a 4 ms cycle).
+MAX_ADVANCE = 32
 
 
 @njit(cache=True)
-def online_cycle(chain, params, k_inv, friction, assumed_t, assumed_f, state, q_prev, t, sample_t, f, q, p, jac, g):  # type: ignore[no-untyped-def]
-    """One cycle on preallocated arrays (`OnlineCompensator.step`); returns the status."""
+def _segment(path, i, x0, x1, x2):  # type: ignore[no-untyped-def]
+    """Where along segment i of `path` (points i, i+1) the point x is nearest: (fraction in [0, 1], squared
+    distance [m^2])."""
+    a0, a1, a2 = path[i, 0], path[i, 1], path[i, 2]
+    d0, d1, d2 = path[i + 1, 0] - a0, path[i + 1, 1] - a1, path[i + 1, 2] - a2
+    length2 = d0 * d0 + d1 * d1 + d2 * d2
+    s = 0.0
+    if length2 > 0.0:
+        s = min(max(((x0 - a0) * d0 + (x1 - a1) * d1 + (x2 - a2) * d2) / length2, 0.0), 1.0)
+    e0, e1, e2 = x0 - a0 - s * d0, x1 - a1 - s * d1, x2 - a2 - s * d2
+    return s, e0 * e0 + e1 * e1 + e2 * e2
+
+
+@njit(cache=True)
+def progress(path, state, x0, x1, x2, alpha):  # type: ignore[no-untyped-def]
+    """Move the progress along `path` ((n, 3), n >= 2) to the reported tip x; returns the fraction along the
+    segment it stops on (the segment is in `state[AT]`).
+
+    The twin's forward kinematics of the reported joints is not the command: the twin's model of the robot and its
+    placement are off by millimetres, more than a groove's passes are apart. So x less an offset is matched: the
+    offset starts as x less the command's first tip (a controller starts a command where it begins) and follows,
+    low-passed by `alpha` per cycle, only the part of the mismatch across the path (along it, it would drift the
+    progress). From the segment in `state[AT]` the progress moves forward to the next segment while that one is at
+    least as near, at most `MAX_ADVANCE` of them. Ties go forward: a dwell's repeated samples (segments of no
+    length) are passed, and of a pass that comes back exactly over itself the return is taken at most one segment
+    early (the same place either way)."""
+    if state[HAVE_AT] == 0.0:
+        state[OFFSET], state[OFFSET + 1], state[OFFSET + 2] = x0 - path[0, 0], x1 - path[0, 1], x2 - path[0, 2]
+        state[AT], state[HAVE_AT] = 0.0, 1.0
+    y0, y1, y2 = x0 - state[OFFSET], x1 - state[OFFSET + 1], x2 - state[OFFSET + 2]
+    last = path.shape[0] - 2
+    i = min(int(state[AT]), last)
+    s, d = _segment(path, i, y0, y1, y2)
+    for _ in range(MAX_ADVANCE):
+        if i >= last:
+            break
+        s_next, d_next = _segment(path, i + 1, y0, y1, y2)
+        if d_next > d:
+            break
+        i, s, d = i + 1, s_next, d_next
+    state[AT] = i
+    # the mismatch across the segment only
+    u0, u1, u2 = path[i + 1, 0] - path[i, 0], path[i + 1, 1] - path[i, 1], path[i + 1, 2] - path[i, 2]
+    r0, r1, r2 = y0 - path[i, 0] - s * u0, y1 - path[i, 1] - s * u1, y2 - path[i, 2] - s * u2
+    length2 = u0 * u0 + u1 * u1 + u2 * u2
+    if length2 > 0.0:
+        along = (r0 * u0 + r1 * u1 + r2 * u2) / length2
+        r0, r1, r2 = r0 - along * u0, r1 - along * u1, r2 - along * u2
+    state[OFFSET] += alpha * r0
+    state[OFFSET + 1] += alpha * r1
+    state[OFFSET + 2] += alpha * r2
+    return s
+
+
+@njit(cache=True)
+def online_cycle(chain, params, k_inv, friction, assumed_p, assumed_f, state, q_prev, t, sample_t, f, q, p, jac, g):  # type: ignore[no-untyped-def]
+    """One cycle on preallocated arrays (`OnlineCompensator.step`); returns the status.
+
+    `assumed_p`, `assumed_f`: an offline command's tool tips (sheet frame [m], (n, 3)) and the force it assumed at
+    each ([N], (n, 3)); n = 0: a nominal command."""
     omega, latency, spike, max_corr, max_step = params[1], params[2], params[3], params[4], params[5]
     stale, hold, gain, spike_run, w0 = params[6], params[7], params[8], params[9], params[10]
     cycle = params[0]
@@ -54,6 +129,14 @@ def online_cycle(chain, params, k_inv, friction, assumed_t, assumed_f, state, q_
                     state[F + i] += step
                     state[DF + i] += alpha * (step / dt - state[DF + i])
                 state[T_LAST] = sample_t
+    n_assumed = assumed_p.shape[0]
+    w_at, i_at = 0.0, 0
+    if n_assumed > 0:  # on top of an offline command: where along it the robot is, every cycle (no gap to catch up)
+        chain_eval(chain, q, p, jac, g, False)
+        # the commanded tip the joints report, less the correction this compensator added to it
+        w_at = progress(assumed_p, state, p[0] - state[CORR], p[1] - state[CORR + 1], p[2] - state[CORR + 2],
+                        1.0 - math.exp(-cycle / OFFSET_TAU_S))
+        i_at = int(state[AT])
     target0, target1, target2 = 0.0, 0.0, 0.0
     if state[HAVE] == 0.0:
         status = NO_SENSOR
@@ -61,23 +144,15 @@ def online_cycle(chain, params, k_inv, friction, assumed_t, assumed_f, state, q_
         age = t - state[T_LAST]
         if age <= stale:
             ahead = latency + max(age, 0.0)
-            chain_eval(chain, q, p, jac, g, False)
+            if n_assumed == 0:
+                chain_eval(chain, q, p, jac, g, False)
             fp0 = state[F] + state[DF] * ahead
             fp1 = state[F + 1] + state[DF + 1] * ahead
             fp2 = state[F + 2] + state[DF + 2] * ahead
-            n_assumed = assumed_t.shape[0]
-            if n_assumed > 0:  # on top of an offline command: only the force it did not assume
-                i = int(state[AT])
-                while i + 1 < n_assumed - 1 and assumed_t[i + 1] <= t:
-                    i += 1
-                state[AT] = i
-                w = 0.0
-                if n_assumed > 1 and assumed_t[i + 1] > assumed_t[i]:
-                    w = min(max((t - assumed_t[i]) / (assumed_t[i + 1] - assumed_t[i]), 0.0), 1.0)
-                j = min(i + 1, n_assumed - 1)
-                fp0 -= (1.0 - w) * assumed_f[i, 0] + w * assumed_f[j, 0]
-                fp1 -= (1.0 - w) * assumed_f[i, 1] + w * assumed_f[j, 1]
-                fp2 -= (1.0 - w) * assumed_f[i, 2] + w * assumed_f[j, 2]
+            if n_assumed > 0:  # only the force the command did not assume, there
+                fp0 -= (1.0 - w_at) * assumed_f[i_at, 0] + w_at * assumed_f[i_at + 1, 0]
+                fp1 -= (1.0 - w_at) * assumed_f[i_at, 1] + w_at * assumed_f[i_at + 1, 1]
+                fp2 -= (1.0 - w_at) * assumed_f[i_at, 2] + w_at * assumed_f[i_at + 1, 2]
             # -C F with C = J K^-1 J^T: first w = K^-1 J^T F, then -J w
             d0, d1, d2 = 0.0, 0.0, 0.0
             for j in range(k_inv.shape[0]):
