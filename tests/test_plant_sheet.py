@@ -151,17 +151,20 @@ def test_a_tip_jitter_finer_than_the_grid_does_not_swing_the_wall_force() -> Non
 
 def test_the_compiled_sheet_is_the_python_sheet() -> None:
     """The per-tick kernels (`sheet_kernels`) against the Python reference, on a rigid cone (both sides of its
-    wall, its unsupported bottom) and on the groove's reversals: the same forces and surfaces to a few units in the
-    last place (the flow curve's exponential is the C library's there, numpy's here); their constants agree."""
+    wall, its unsupported bottom), on a pyramid's corners (the formed fractions, the hanging far read) and on the
+    groove's reversals: the same forces and surfaces to a few units in the last place (the flow curve's
+    exponential is the C library's there, numpy's here); their constants agree."""
     from twin.lab.dynamic import sheet as python_sheet
     from twin.lab.dynamic import sheet_kernels
 
     for name in ("VOCE_S0_MPA", "VOCE_Q_MPA", "VOCE_B", "VOCE_M", "YOUNGS_MODULUS_PA", "POISSON_RATIO",
-                 "GRID_SPACING_M", "HALF_SIZE_M", "MIN_RECOVERY_M", "FORMED_READ", "MAX_ANGLE_RAD"):
+                 "GRID_SPACING_M", "HALF_SIZE_M", "MIN_RECOVERY_M", "FORMED_READ", "FORMED_PATCH", "FORMED_TRACK",
+                 "FORMED_GAIN", "HUNT_CROSSLEY_ALPHA_S_PER_M", "MAX_ANGLE_RAD"):
         assert getattr(sheet_kernels, name) == getattr(python_sheet, name), name
     groove = groove_path().p_sheet_m[:400]
     cone = part_path(PartSpec(top_half_width_m=0.02, depth_m=4e-3)).p_sheet_m
-    for path in (groove, cone):
+    pyramid = part_path(PartSpec(shape="pyramid", top_half_width_m=0.02, depth_m=3e-3)).p_sheet_m
+    for path in (groove, cone, pyramid):
         runs = []
         for compiled in (True, False):
             sheet = PlantSheet(Process(), 5e-5)

@@ -9,22 +9,41 @@ plant forms its own sheet from its own material law, in a form the twin does not
 * **Force: membrane equilibrium across the tool** (the membrane analysis of SPIF: Silva, Skjoedt, Martins,
   Bay, "Revisiting the fundamentals of single point incremental forming by means of membrane analysis", Int J
   Mach Tools Manuf 48 (2008) 73-83: the deforming sheet carries a meridional membrane force sigma_phi t per
-  unit width in plane strain). The sheet wraps the tool across its travel, from the formed surface on its left
-  to the one on its right; each side leaves the tool at its angle alpha_s, the larger of atan(rise_s / R), rise_s
-  the formed surface one tool radius R to that side above the tip (0 on flat sheet, so the force builds up with
-  depth to the tool's own flank angle, 45 deg), and the slope of the formed surface from R to 2R (a wall formed
-  by earlier contours: a cone's wall angle). A side the tool never pressed (read 1.2 R across), across from one
-  it did, is an unsupported bottom (a cone's inside, hanging from the wall): the same strip runs on from the
-  wall, flat (alpha 0, the wall's N and w), one membrane strip wrapped around the tool (its horizontal pull is
-  then tan(alpha/2) of F_up, inwards). Each side pulls with N_s = sigma_phi(alpha_s) t_s over its contact length
-  along the travel, w_s = R sin alpha_s (the front of the sphere against a wall tangent at alpha_s): the force on
-  the tool
+  unit width in plane strain). One membrane strip wraps the tool across its travel, from the formed surface on
+  its left to the one on its right; each side leaves the tool at its angle alpha_s, the larger of the chord
+  atan(rise_s / R), rise_s the formed surface one tool radius R to that side above the tip (0 on flat sheet, so
+  the force builds up with depth to the tool's own flank angle, 45 deg), and the slope of the formed surface from
+  R to 2R (a wall formed by earlier contours: a cone's wall angle), at most `MAX_ANGLE_RAD`. One strip over a
+  tool that does not hold it along its length carries one tension on both sides: N = sigma_phi(alpha) t(alpha)
+  and the front contact along the travel w = R sin alpha (the front of the sphere against a wall tangent at
+  alpha) are the steeper side's, alpha = max(alpha_l, alpha_r): the force on the tool
 
-      F_up = w_l N_l sin alpha_l + w_r N_r sin alpha_r,   F_left = w_l N_l cos alpha_l - w_r N_r cos alpha_r,
+      F_up = w N (sin alpha_l + sin alpha_r),   F_left = w N (cos alpha_l - cos alpha_r),
 
-  and Coulomb friction against the travel, -mu F_up (mu the process's declared tool friction). The wall
-  thickness follows the sine law t_s = t0 cos alpha_s (t = t0 sin(90 deg - alpha), Jeswiet, Micari, Hirt,
-  Bramley, Duflou, Allwood, "Asymmetric single point incremental forming of sheet metal", CIRP Annals 54/2
+  and Coulomb friction against the travel, -mu F_up (mu the process's declared tool friction). The lateral pull
+  is towards the flatter side, and it grows as the tool moves towards the steeper one (the chord there rises), so
+  a wall does not pull the tool into itself (the lateral stiffness along a pyramid's and a cone's path, corners
+  included: tests/test_plant_corner.py). (Before, each side pulled with its own N_s and w_s: a
+  wall across from a formed, flat floor pulled the tool into itself with w N cos alpha, harder the closer it came,
+  a negative lateral stiffness of up to ~230 N/mm near a pyramid's corners.)
+  *Unsupported bottom*: a side the tool never pressed, across from one it did, is the bottom hanging from the
+  wall (a cone's inside; its grid height 0 is not where that sheet is): the strip runs on from the wall flat
+  (alpha 0; its horizontal pull is then tan(alpha/2) of F_up, inwards). Which side is formed is read as a
+  fraction, not a node: `formed_fraction`, the share of the grid pressed over a disc of radius
+  FORMED_PATCH R (a smooth bump weight, so continuous in position), centred FORMED_READ R to each side of the
+  committed tip (`advance`; past the tool's own track, which fills about a fifth of either disc); side s is a
+  bottom by b_s = FORMED_GAIN (phi_other - phi_s - FORMED_TRACK) clipped to [0, 1] (a difference of a few
+  per cent, a stray press such as a lead-in, is no wall) and its angle is (1 - b_s) alpha_s. The same test with
+  the disc at 2R drops a side's slope reading where that read lands on the hanging bottom (near a pyramid's
+  corner the near disc is on the adjacent side's track, formed, the far read on the bottom: a wall that is not
+  there). The fractions, and the wall's slope from R to 2R, are read from the committed tip: which side hangs
+  from which, and the wall formed beside the track, are the sheet's state along the track, not a servo tick's
+  sub-grid excursion (read from the tip itself, a wall whose slope flattens away from the tool pulled it in).
+  Before, one grid node read 1.2 R across decided it, and near every pyramid corner that node landed on the
+  adjacent side's footprint: the in-plane force jumped by up to ~750 N between 0.1 mm steps of a rigid path and
+  the plant chattered at every corner (issue #45).
+  The wall thickness follows the sine law t_s = t0 cos alpha_s (t = t0 sin(90 deg - alpha), Jeswiet, Micari,
+  Hirt, Bramley, Duflou, Allwood, "Asymmetric single point incremental forming of sheet metal", CIRP Annals 54/2
   (2005) 623-649), the strain is the plane-strain thinning eps = (2/sqrt 3) ln(t0/t_s) and sigma_phi =
   (2/sqrt 3) sigma(eps) (von Mises, plane strain). The combination is written here; it is not a published
   formula with published constants, and it was not fitted to anything.
@@ -33,9 +52,21 @@ plant forms its own sheet from its own material law, in a form the twin does not
   engineering R_m (necking: d sigma / d eps = sigma), so a stronger declared sheet forms harder (the twin's force
   models use R_m alone, not this law); E = 71 GPa
   (SubsTech, "Wrought aluminum-magnesium alloy 5086"), nu = 0.33 (ASM/MatWeb, "Aluminum 5086-H116").
-* **Contact**: the step met one radius ahead of the tip, dz; below 0 the force falls linearly to zero over the
-  sheet's elastic recovery there (`springback_m`, at least `MIN_RECOVERY_M`): a tool that rose above the
-  surface ahead leaves the sheet. Above it the force does not depend on dz (a membrane force).
+* **Contact: elastic unloading, with the contact's damping.** The step met one radius ahead of the tip, dz; the
+  sheet follows a tool that rises above it elastically by its recovery there (`springback_m`, at least
+  `MIN_RECOVERY_M`), so the elastic penetration is e = dz + recovery and the sheet's unloading stiffness is
+  k = F / recovery (F the membrane force above): the force is k e, up to F (e >= recovery: the sheet flows, the
+  force does not depend on dz, a membrane force), and 0 once e <= 0 (the tool left the sheet). The unloading is
+  damped as a Hunt-Crossley contact (K. H. Hunt, F. R. E. Crossley, "Coefficient of restitution interpreted as
+  damping in vibroimpact", J Appl Mech 42 (1975) 440-445): k e (1 + 3/2 alpha_hc de/dt), the damping in proportion
+  to the elastic force (none at first touch, no pull on a leaving tool), with alpha_hc = 0.2 s/m, inside the
+  0.08-0.32 s/m Hunt and Crossley derived from impacts of steel, bronze and ivory (quoted by Marhefka, Orin, "A
+  compliant contact model with nonlinear damping for simulation of robotic systems", IEEE Trans SMC-A 29 (1999)
+  566-572; restitution 1 - alpha_hc v). Not measured for this aluminium (whose bulk loss factor, ~1e-4 in
+  Cremer, Heckl, "Structure-borne sound", would damp less still); small either way: at a tip speed of 10 mm/s it
+  changes the elastic force by 0.3 %. The rate de/dt is the tip's descent since the committed tick over the
+  plant's servo tick `timestep_s` (the sheet is stepped once per tick, `force` then `advance`; the surface
+  ahead is taken as still over a tick).
 * **Travel**: a 2-D slip state follows the real tip, turning over `reversal_m` of travel (the knob
   `friction_reversal_mm`): friction acts against it, so it needs the tool to move. The heading, across which the
   sides are read and along which the step ahead is met, is a second such state turning over `HEADING_TURN_M`
@@ -65,7 +96,11 @@ YOUNGS_MODULUS_PA, POISSON_RATIO = 71.0e9, 0.33
 GRID_SPACING_M = 5e-4  # formed-surface grid [m]
 HALF_SIZE_M = 0.12  # the grid covers +/- this around the sheet origin [m]
 MIN_RECOVERY_M = 0.01e-3  # least elastic follow of the sheet behind a rising tool [m]
-FORMED_READ = 1.2  # a side is read as formed or not this many tool radii across the travel (past its own track)
+FORMED_READ = 1.2  # a side's formed fraction is read around this many tool radii across the travel
+FORMED_PATCH = 0.6  # over a disc of this many tool radii around it (0.6 R to 1.8 R across the travel)
+FORMED_TRACK = 0.05  # a difference in formed fraction below this is no wall across (a stray press, a lead-in) [-]
+FORMED_GAIN = 2.0  # a bottom by this times the difference past it (fully one at FORMED_TRACK + 1 / FORMED_GAIN)
+HUNT_CROSSLEY_ALPHA_S_PER_M = 0.2  # contact damping of the elastic unloading [s/m] (module docstring)
 MAX_ANGLE_RAD = math.radians(70.0)  # a side steeper than this is a step, read as this angle
 HEADING_TURN_M = 2 * GRID_SPACING_M  # travel over which the heading (sides, step ahead) turns [m]
 _PLANE = 2.0 / math.sqrt(3.0)
@@ -124,7 +159,7 @@ class PlantSheet:
 
     def start(self, p_sheet_m: np.ndarray, direction: float) -> None:
         """Where the tool starts [m] and the direction along x it starts to travel (+1 or -1)."""
-        self._last = np.asarray(p_sheet_m, dtype=float)[:2].copy()
+        self._last = np.asarray(p_sheet_m, dtype=float)[:3].copy()
         self.slip = np.array([float(direction), 0.0])
         self.heading = self.slip.copy()
         self.travel = self.slip.copy()
@@ -141,14 +176,6 @@ class PlantSheet:
         low = z[iy, ix] * (1 - u) + z[iy, ix + 1] * u
         high = z[iy + 1, ix] * (1 - u) + z[iy + 1, ix + 1] * u
         return float(low * (1 - v) + high * v)
-
-    def formed(self, x: float, y: float) -> bool:
-        """Whether the tool sphere has pressed the grid node nearest (x, y)."""
-        ix = round((x + HALF_SIZE_M) / GRID_SPACING_M)
-        iy = round((y + HALF_SIZE_M) / GRID_SPACING_M)
-        if ix < 0 or iy < 0 or ix >= len(self.x_m) or iy >= len(self.y_m):
-            return False
-        return bool(self.pressed[iy, ix])
 
     def membrane_n_per_m(self, alpha: float) -> float:
         """Membrane force per unit width sigma_phi t of a side leaving the tool at `alpha` [rad], in [N/m]."""
@@ -167,8 +194,9 @@ class PlantSheet:
         if self.compiled:
             out = np.empty(3)
             x, y, z = p_sheet_m
+            last = np.array([x, y, z], dtype=float) if self._last is None else self._last
             kernels.force(self.z_m, self.pressed, self.radius, self.t0, self.scale, self.mu, self.travel, self.slip,
-                          float(x), float(y), float(z), out)
+                          last, self.timestep_s, float(x), float(y), float(z), out)
             return out
         return self.force_reference(p_sheet_m)
 
@@ -177,31 +205,62 @@ class PlantSheet:
         x, y, z = (float(v) for v in p_sheet_m)
         r = self.radius
         tx, ty = float(self.travel[0]), float(self.travel[1])
-        alpha = [min(self._side_angle(x, y, z, sx, sy), MAX_ANGLE_RAD) for sx, sy in ((-ty, tx), (ty, -tx))]
+        sides = ((-ty, tx), (ty, -tx))  # left, right of the travel
         met = self.height(x + r * tx, y + r * ty) - z  # the step the tool meets one radius ahead
-        n = [self.membrane_n_per_m(a) for a in alpha]
-        w = [r * math.sin(a) for a in alpha]  # front contact along the travel
-        far = FORMED_READ * r  # beyond the tool's own track
-        formed = [self.formed(x - far * ty, y + far * tx), self.formed(x + far * ty, y - far * tx)]
+        # the sides' formed fractions next to the committed tip's own track (near) and under the wall read (far)
+        cx, cy, cz = (x, y, z) if self._last is None else (float(v) for v in self._last)
+        near = [self.formed_fraction(cx + FORMED_READ * r * sx, cy + FORMED_READ * r * sy) for sx, sy in sides]
+        far = [self.formed_fraction(cx + 2.0 * r * sx, cy + 2.0 * r * sy) for sx, sy in sides]
+        alpha = [0.0, 0.0]
         for s, o in ((0, 1), (1, 0)):
-            if formed[o] and not formed[s]:  # an unsupported bottom: the strip from the wall runs on, flat
-                alpha[s], n[s], w[s] = 0.0, n[o], w[o]
-        up = w[0] * n[0] * math.sin(alpha[0]) + w[1] * n[1] * math.sin(alpha[1])
-        left = w[0] * n[0] * math.cos(alpha[0]) - w[1] * n[1] * math.cos(alpha[1])
-        recovery = max(self.springback_m(-z, max(alpha)), MIN_RECOVERY_M)
-        contact = min(1.0, max(0.0, 1.0 + met / recovery))
+            chord, slope = self._side_angles(x, y, z, *sides[s], cx, cy)
+            # its slope read lands on the hanging bottom; the side is an unsupported bottom itself, flat
+            hanging = min(1.0, max(0.0, FORMED_GAIN * (near[o] - far[s] - FORMED_TRACK)))
+            bottom = min(1.0, max(0.0, FORMED_GAIN * (near[o] - near[s] - FORMED_TRACK)))
+            alpha[s] = (1.0 - bottom) * min(max(chord, (1.0 - hanging) * slope), MAX_ANGLE_RAD)
+        steep = max(alpha)  # one strip wraps the tool: one tension, the steeper side's, and its front contact
+        n, w = self.membrane_n_per_m(steep), r * math.sin(steep)
+        up = w * n * (math.sin(alpha[0]) + math.sin(alpha[1]))
+        left = w * n * (math.cos(alpha[0]) - math.cos(alpha[1]))
+        recovery = max(self.springback_m(-z, steep), MIN_RECOVERY_M)
+        elastic = (met + recovery) / recovery  # elastic penetration over the recovery (1: the sheet flows)
+        rate = (cz - z) / self.timestep_s  # the penetration rate, the tip's descent since the committed tick [m/s]
+        contact = min(1.0, max(0.0, elastic * (1.0 + 1.5 * HUNT_CROSSLEY_ALPHA_S_PER_M * rate)))
         if contact <= 0.0:
             return np.zeros(3)
         friction = -self.mu * up * self.slip
         return contact * np.array([friction[0] - left * ty, friction[1] + left * tx, up])
 
-    def _side_angle(self, x: float, y: float, z: float, sx: float, sy: float) -> float:
-        """Angle [rad] at which the sheet leaves the tool towards (sx, sy): the larger of the chord from the tip to
-        the surface one radius away and the surface's own slope from one to two radii away (a formed wall)."""
+    def formed_fraction(self, x: float, y: float) -> float:
+        """The share [-] of the grid the tool sphere has pressed around (x, y) [m], weighted by the smooth bump
+        (1 - (d / rho)^2)^2 over the disc d < rho = FORMED_PATCH R: continuous in (x, y); 0 off the grid."""
+        rho = FORMED_PATCH * self.radius
+        i0 = max(math.ceil((x - rho + HALF_SIZE_M) / GRID_SPACING_M), 0)
+        i1 = min(math.floor((x + rho + HALF_SIZE_M) / GRID_SPACING_M), len(self.x_m) - 1)
+        j0 = max(math.ceil((y - rho + HALF_SIZE_M) / GRID_SPACING_M), 0)
+        j1 = min(math.floor((y + rho + HALF_SIZE_M) / GRID_SPACING_M), len(self.y_m) - 1)
+        total = pressed = 0.0
+        for j in range(j0, j1 + 1):
+            dy = (j * GRID_SPACING_M - HALF_SIZE_M - y) / rho
+            for i in range(i0, i1 + 1):
+                dx = (i * GRID_SPACING_M - HALF_SIZE_M - x) / rho
+                q = 1.0 - dx * dx - dy * dy
+                if q > 0.0:
+                    total += q * q
+                    if self.pressed[j, i]:
+                        pressed += q * q
+        return pressed / total if total > 0.0 else 0.0
+
+    def _side_angles(self, x: float, y: float, z: float, sx: float, sy: float, cx: float, cy: float
+                     ) -> tuple[float, float]:
+        """Angles [rad] at which the sheet leaves the tool at (x, y, z) towards (sx, sy): the chord from the tip to
+        the surface one radius away, and the surface's own slope from one to two radii away from the committed tip
+        (cx, cy) (a formed wall beside the track); 0 where falling."""
         r = self.radius
         h1 = self.height(x + r * sx, y + r * sy)
-        h2 = self.height(x + 2.0 * r * sx, y + 2.0 * r * sy)
-        return max(math.atan2(max(h1 - z, 0.0), r), math.atan2(max(h2 - h1, 0.0), r))
+        w1 = self.height(cx + r * sx, cy + r * sy)
+        w2 = self.height(cx + 2.0 * r * sx, cy + 2.0 * r * sy)
+        return math.atan2(max(h1 - z, 0.0), r), math.atan2(max(w2 - w1, 0.0), r)
 
     def advance(self, p_sheet_m: np.ndarray) -> None:
         """Commit: the tool tip passed through `p_sheet_m` [m]: the surface under the sphere, the travel state."""
@@ -216,19 +275,19 @@ class PlantSheet:
             norm = float(np.hypot(*self.heading))
             if norm > 0.1:
                 self.travel = self.heading / norm
-        self._last = np.array([x, y])
+        self._last = np.array([x, y, z])
         kernels.press(self.z_m, self.pressed, self.x_m, self.y_m, self.radius, len(self._offsets) // 2, x, y, z)
 
     def advance_reference(self, p_sheet_m: np.ndarray) -> None:
         """`advance` in Python, operation for operation what the compiled kernels do."""
         p = np.asarray(p_sheet_m, dtype=float)
         if self._last is not None:
-            self.slip = _turned(self.slip, self.slip_gain * (p[:2] - self._last))
-            self.heading = _turned(self.heading, self.heading_gain * (p[:2] - self._last))
+            self.slip = _turned(self.slip, self.slip_gain * (p[:2] - self._last[:2]))
+            self.heading = _turned(self.heading, self.heading_gain * (p[:2] - self._last[:2]))
             norm = float(np.hypot(*self.heading))
             if norm > 0.1:
                 self.travel = self.heading / norm
-        self._last = p[:2].copy()
+        self._last = p[:3].copy()
         self._press(p)
 
     def _press(self, p: np.ndarray) -> None:

@@ -21,6 +21,10 @@ GRID_SPACING_M = 5e-4
 HALF_SIZE_M = 0.12
 MIN_RECOVERY_M = 0.01e-3
 FORMED_READ = 1.2
+FORMED_PATCH = 0.6
+FORMED_TRACK = 0.05
+FORMED_GAIN = 2.0
+HUNT_CROSSLEY_ALPHA_S_PER_M = 0.2
 MAX_ANGLE_RAD = math.radians(70.0)
 PLANE = 2.0 / math.sqrt(3.0)
 
@@ -47,13 +51,24 @@ def height(z: np.ndarray, x: float, y: float) -> float:
 
 
 @njit(cache=True)
-def formed(pressed: np.ndarray, x: float, y: float) -> bool:
-    """`PlantSheet.formed` (Python's `round`: half to even, as `np.rint`)."""
-    ix = int(np.rint((x + HALF_SIZE_M) / GRID_SPACING_M))
-    iy = int(np.rint((y + HALF_SIZE_M) / GRID_SPACING_M))
-    if ix < 0 or iy < 0 or ix >= pressed.shape[1] or iy >= pressed.shape[0]:
-        return False
-    return pressed[iy, ix]
+def formed_fraction(pressed: np.ndarray, rho: float, x: float, y: float) -> float:
+    """`PlantSheet.formed_fraction` over the disc of radius `rho` [m]."""
+    i0 = max(math.ceil((x - rho + HALF_SIZE_M) / GRID_SPACING_M), 0)
+    i1 = min(math.floor((x + rho + HALF_SIZE_M) / GRID_SPACING_M), pressed.shape[1] - 1)
+    j0 = max(math.ceil((y - rho + HALF_SIZE_M) / GRID_SPACING_M), 0)
+    j1 = min(math.floor((y + rho + HALF_SIZE_M) / GRID_SPACING_M), pressed.shape[0] - 1)
+    total = 0.0
+    hit = 0.0
+    for j in range(j0, j1 + 1):
+        dy = (j * GRID_SPACING_M - HALF_SIZE_M - y) / rho
+        for i in range(i0, i1 + 1):
+            dx = (i * GRID_SPACING_M - HALF_SIZE_M - x) / rho
+            q = 1.0 - dx * dx - dy * dy
+            if q > 0.0:
+                total += q * q
+                if pressed[j, i]:
+                    hit += q * q
+    return hit / total if total > 0.0 else 0.0
 
 
 @njit(cache=True)
@@ -73,34 +88,42 @@ def springback(scale: float, depth: float, alpha: float) -> float:
 
 
 @njit(cache=True)
-def side_angle(z: np.ndarray, r: float, x: float, y: float, zt: float, sx: float, sy: float) -> float:
-    """`PlantSheet._side_angle`."""
+def side_angle(z: np.ndarray, pressed: np.ndarray, r: float, cx: float, cy: float, near_o: float, x: float,
+               y: float, zt: float, sx: float, sy: float) -> float:
+    """One side's angle in `PlantSheet.force_reference`: its chord and slope (`PlantSheet._side_angles`), the
+    slope dropped where its far read is the hanging bottom, flattened where the side is a bottom."""
     h1 = height(z, x + r * sx, y + r * sy)
-    h2 = height(z, x + 2.0 * r * sx, y + 2.0 * r * sy)
-    return max(math.atan2(max(h1 - zt, 0.0), r), math.atan2(max(h2 - h1, 0.0), r))
+    w1 = height(z, cx + r * sx, cy + r * sy)
+    w2 = height(z, cx + 2.0 * r * sx, cy + 2.0 * r * sy)
+    chord, slope = math.atan2(max(h1 - zt, 0.0), r), math.atan2(max(w2 - w1, 0.0), r)
+    rho = FORMED_PATCH * r
+    near_s = formed_fraction(pressed, rho, cx + FORMED_READ * r * sx, cy + FORMED_READ * r * sy)
+    far_s = formed_fraction(pressed, rho, cx + 2.0 * r * sx, cy + 2.0 * r * sy)
+    hanging = min(1.0, max(0.0, FORMED_GAIN * (near_o - far_s - FORMED_TRACK)))
+    bottom = min(1.0, max(0.0, FORMED_GAIN * (near_o - near_s - FORMED_TRACK)))
+    return (1.0 - bottom) * min(max(chord, (1.0 - hanging) * slope), MAX_ANGLE_RAD)
 
 
 @njit(cache=True)
 def force(z: np.ndarray, pressed: np.ndarray, r: float, t0: float, scale: float, mu: float, travel: np.ndarray,
-          slip: np.ndarray, x: float, y: float, zt: float, out: np.ndarray) -> None:
-    """`PlantSheet.force` into `out` (3,) [N]."""
+          slip: np.ndarray, last: np.ndarray, dt: float, x: float, y: float, zt: float, out: np.ndarray) -> None:
+    """`PlantSheet.force` into `out` (3,) [N]; `last` (3,) the committed tip [m]."""
     tx, ty = travel[0], travel[1]
-    a0 = min(side_angle(z, r, x, y, zt, -ty, tx), MAX_ANGLE_RAD)
-    a1 = min(side_angle(z, r, x, y, zt, ty, -tx), MAX_ANGLE_RAD)
     met = height(z, x + r * tx, y + r * ty) - zt
-    n0, n1 = membrane(scale, t0, a0), membrane(scale, t0, a1)
-    w0, w1 = r * math.sin(a0), r * math.sin(a1)
-    far = FORMED_READ * r
-    f0 = formed(pressed, x - far * ty, y + far * tx)
-    f1 = formed(pressed, x + far * ty, y - far * tx)
-    if f1 and not f0:  # an unsupported bottom: the strip from the wall runs on, flat
-        a0, n0, w0 = 0.0, n1, w1
-    elif f0 and not f1:
-        a1, n1, w1 = 0.0, n0, w0
-    up = w0 * n0 * math.sin(a0) + w1 * n1 * math.sin(a1)
-    left = w0 * n0 * math.cos(a0) - w1 * n1 * math.cos(a1)
-    recovery = max(springback(scale, -zt, max(a0, a1)), MIN_RECOVERY_M)
-    contact = min(1.0, max(0.0, 1.0 + met / recovery))
+    cx, cy, cz = last[0], last[1], last[2]
+    rho = FORMED_PATCH * r
+    near0 = formed_fraction(pressed, rho, cx - FORMED_READ * r * ty, cy + FORMED_READ * r * tx)
+    near1 = formed_fraction(pressed, rho, cx + FORMED_READ * r * ty, cy - FORMED_READ * r * tx)
+    a0 = side_angle(z, pressed, r, cx, cy, near1, x, y, zt, -ty, tx)
+    a1 = side_angle(z, pressed, r, cx, cy, near0, x, y, zt, ty, -tx)
+    steep = max(a0, a1)  # one strip: the steeper side's tension and front contact
+    n, w = membrane(scale, t0, steep), r * math.sin(steep)
+    up = w * n * (math.sin(a0) + math.sin(a1))
+    left = w * n * (math.cos(a0) - math.cos(a1))
+    recovery = max(springback(scale, -zt, steep), MIN_RECOVERY_M)
+    elastic = (met + recovery) / recovery
+    rate = (cz - zt) / dt
+    contact = min(1.0, max(0.0, elastic * (1.0 + 1.5 * HUNT_CROSSLEY_ALPHA_S_PER_M * rate)))
     if contact <= 0.0:
         out[0], out[1], out[2] = 0.0, 0.0, 0.0
         return
