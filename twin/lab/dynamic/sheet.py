@@ -62,7 +62,7 @@ plant forms its own sheet from its own material law, in a form the twin does not
   to the elastic force (none at first touch, no pull on a leaving tool), with alpha_hc = 0.2 s/m, inside the
   0.08-0.32 s/m Hunt and Crossley derived from impacts of steel, bronze and ivory (quoted by Marhefka, Orin, "A
   compliant contact model with nonlinear damping for simulation of robotic systems", IEEE Trans SMC-A 29 (1999)
-  566-572; restitution 1 - alpha_hc v). Not measured for this aluminium (whose bulk loss factor, ~1e-4 in
+  566-572; restitution 1 - alpha_hc v; the range as remembered from that paper, not re-read here). Not measured for this aluminium (whose bulk loss factor, ~1e-4 in
   Cremer, Heckl, "Structure-borne sound", would damp less still); small either way: at a tip speed of 10 mm/s it
   changes the elastic force by 0.3 %. The rate de/dt is the tip's descent since the committed tick over the
   plant's servo tick `timestep_s` (the sheet is stepped once per tick, `force` then `advance`; the surface
