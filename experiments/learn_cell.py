@@ -55,9 +55,11 @@ def _lab(robot: str, knobs: list[str], strength: float, command: Path, out: Path
     return out
 
 
-def variant_study(out: Path, name: str) -> dict[str, Any]:
-    """One variant's row (module docstring)."""
+def variant_study(out: Path, name: str, plant_set: tuple[str, ...] = ()) -> dict[str, Any]:
+    """One variant's row (module docstring); `plant_set`: plant knobs NAME=VALUE added to every run's (the sheet
+    law, say)."""
     robot, path_args, knobs, strength = VARIANTS[name]
+    knobs = [*knobs, *(arg for item in plant_set for arg in ("--set", item))]
     out.mkdir(parents=True, exist_ok=True)
     ideal = out / "ideal.csv"
     cli("path", *path_args, "--robot", robot, "--out", str(ideal))
@@ -151,19 +153,22 @@ def main() -> None:
     parser.add_argument("out", type=Path)
     parser.add_argument("--variants", default=",".join(VARIANTS))
     parser.add_argument("--doc", type=Path, help="write the table into this page between its learn-table markers")
+    parser.add_argument("--marker", default="learn-table", help="the page's markers (default learn-table)")
+    parser.add_argument("--plant-set", action="append", default=[], metavar="NAME=VALUE",
+                        help="a plant knob for every run (repeat), e.g. sheet_law=2")
     args = parser.parse_args()
     rows = []
     for name in args.variants.split(","):
-        rows.append(variant_study(args.out / name, name))
+        rows.append(variant_study(args.out / name, name, tuple(args.plant_set)))
         print(table(rows[-1:]).splitlines()[-1], flush=True)
     (args.out / "learn_cell.json").write_text(json.dumps(rows, indent=1, default=str))
     (args.out / "learn_cell.md").write_text(table(rows))
     print(table(rows))
     if args.doc is not None:
         text = args.doc.read_text()
-        begin = text.index("<!-- learn-table:begin")
+        begin = text.index(f"<!-- {args.marker}:begin")
         begin = text.index("\n", begin) + 1
-        end = text.index("<!-- learn-table:end")
+        end = text.index(f"<!-- {args.marker}:end")
         args.doc.write_text(text[:begin] + table(rows) + text[end:])
 
 
