@@ -26,8 +26,9 @@ Gains from a stated design rule, a cascade tuned as a drive's autotune tunes it,
   velocity error, so kv = J w_v, kp = kv w_p, ki = kp w_pi. The closed loop J s^2 + kv s + kp has natural
   frequency 2 zeta w_p and damping ratio zeta.
 
-With the shipped K_q the position-loop bandwidths come out at 6-12 Hz for joints 1-3 and 24-40 Hz for the
-wrist, kp = 0.64 K_q on every joint (docs/dynamic-plant.md's table, held by tests/test_plant.py).
+With the plant's own K_q (`plant_robots.py`) the TX200's position-loop bandwidths come out at 6-12 Hz for
+joints 1-3 and 26-38 Hz for the wrist, kp = 0.64 K_q on every joint (docs/dynamic-plant.md's table, held by
+tests/test_plant.py).
 
 Set-points are taught under gravity, as the twin teaches them: the motor set-point is
 q_sp = q_ik + g(q_ik)/K_q + sign(g) b/2, so the unloaded robot (gear spring wound up by gravity, dead band

@@ -4,6 +4,27 @@ Every physical or sensor parameter the dynamic lab can change is a knob with a u
 CS8C-class cell with a laser tracker and an ATI Omega160 plausibly has) and a neutral value (the knob switched
 off: no backlash, no friction, perfect clocks, no registration error, no bias). Noise levels are the same in
 both (noise is not an effect; a test compares gaps with it). `Knobs.as_dict()` is what `truth.json` records.
+
+The gear stiffness is the plant's own (`plant_robots.py`); `gear_stiffness_j<i>_scale` multiply it (1: the
+plant's table, not the twin's prior).
+
+Controller and integrator ranges admit only stable runs. Measured on every shipped robot with the plant's own
+K_q (full tx200 groove, kr210 pyramid, irb6640 40 mm cone, 6 mm deep; stable = no blow-up and the tip's fast
+oscillation, tip minus its 50 ms moving average, below 0.2 mm rms), at every corner of the box
+`servo_damping_ratio` {0.7, 2} x `servo_bandwidth_over_mode` {0.35, 1} x all six gear scales {0.2, 5, and
+alternating 0.2/5 both ways}, at the 1 ms step (and, at some of those corners, `gear_armature_frac` {0.001, 1},
+`timestep_s` 1e-4 and `sheet_law` 2): the tip stays within 0.4-12 mm of the command (the larger numbers the quasi-static deflection of
+gears 5x softer under the forming force), fast oscillation 0.01-0.16 mm rms. Limits, with the margin found:
+
+* `servo_damping_ratio` >= 0.7: the cascade diverges at 0.5 (irb6640 1.5 m off; the kr210 too, 2.5 m, with the
+  plant's sheet as it was at the start of this measurement), rings at 0.52-0.55 (up to 7 mm, 0.25 mm rms), and
+  is still stable at 0.55 at every corner above.
+* `servo_bandwidth_over_mode` in [0.35, 1]: above the first mode the design rule no longer holds, and with the
+  stiffest gears (scale 5) it diverges at 2 with zeta 0.7 (kr210, irb6640) and at 1 with a 2 ms step (irb6640);
+  at 1 ms it is stable up to 1.4 at every corner. Below 0.35 the loop is too slow to follow the path (0.25:
+  5-10 mm lag; 0.05: 30-60 mm), not unstable.
+* `timestep_s` <= 1 ms: the servo's kp term and the gear springs are explicit; at 2 ms the stiffest gears with
+  a fast loop diverge (scale 5, bandwidth 1: irb6640; scale 3, bandwidth 1.2), at 1.5 ms they do not.
 """
 
 from __future__ import annotations
@@ -38,11 +59,20 @@ class KnobSpec:
 
 
 _BACKLASH_DOC = "dead band (full free play) of the gear of joint {j}: no gear torque inside it"
+_STIFFNESS_DOC = (
+    "scale on the plant's own gear stiffness K_q of joint {j} (plant_robots.py's table, not the twin's prior)"
+)
+#: Range of the gear-stiffness scales [-]: every shipped robot stays stable over it (module docstring).
+GEAR_STIFFNESS_SCALE_RANGE = (0.2, 5.0)
 
 KNOBS: dict[str, KnobSpec] = {
     # ---- plant
     **{
         f"backlash_j{j}_mrad": KnobSpec(0.0, 0.0, "mrad", _BACKLASH_DOC.format(j=j), 0.0, 10.0)
+        for j in range(1, load_robot().dof + 1)
+    },
+    **{
+        f"gear_stiffness_j{j}_scale": KnobSpec(1.0, 1.0, "-", _STIFFNESS_DOC.format(j=j), *GEAR_STIFFNESS_SCALE_RANGE)
         for j in range(1, load_robot().dof + 1)
     },
     "link_friction_scale": KnobSpec(
@@ -79,19 +109,29 @@ KNOBS: dict[str, KnobSpec] = {
         2.0,
     ),
     "timestep_s": KnobSpec(
-        1e-3, 1e-3, "s", "MuJoCo timestep (implicitfast); the servo runs once per step", 1e-4, 2e-3
+        1e-3,
+        1e-3,
+        "s",
+        "MuJoCo timestep (implicitfast); the servo runs once per step (2 ms: stiff gears diverge, knobs.py)",
+        1e-4,
+        1e-3,
     ),
     # ---- controller
     "servo_bandwidth_over_mode": KnobSpec(
         0.5,
         0.5,
         "-",
-        "position-loop bandwidth over the joint's first structural mode sqrt(K_q/J)/2pi (design rule)",
-        0.05,
-        2.0,
+        "position-loop bandwidth over the joint's first structural mode sqrt(K_q/J)/2pi (design rule; stable range, knobs.py)",
+        0.35,
+        1.0,
     ),
     "servo_damping_ratio": KnobSpec(
-        0.8, 0.8, "-", "damping factor of the cascade (Rockwell's default 0.8; sets the loop ratios)", 0.3, 2.0
+        0.8,
+        0.8,
+        "-",
+        "damping factor of the cascade (Rockwell's default 0.8; sets the loop ratios; 0.5 diverges, knobs.py)",
+        0.7,
+        2.0,
     ),
     "trajectory_period_s": KnobSpec(
         0.004, 0.004, "s", "trajectory-generator cycle (CS8C: 4 ms), linear in between", 1e-3, 0.05
@@ -167,6 +207,10 @@ class Knobs:
     def backlash_rad(self, dof: int) -> list[float]:
         """Dead band of the first `dof` joints [rad] (knobs `backlash_j<i>_mrad`, numbered from 1)."""
         return [1e-3 * self._values.get(f"backlash_j{j}_mrad", 0.0) for j in range(1, dof + 1)]
+
+    def gear_stiffness_scales(self, dof: int) -> list[float]:
+        """Scales on the plant's gear stiffness of the first `dof` joints [-] (knobs `gear_stiffness_j<i>_scale`)."""
+        return [self._values.get(f"gear_stiffness_j{j}_scale", 1.0) for j in range(1, dof + 1)]
 
     def as_dict(self) -> dict[str, float]:
         """All values by name (what `truth.json` records)."""

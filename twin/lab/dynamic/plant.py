@@ -1,7 +1,8 @@
 """The dynamic plant's MuJoCo model: each arm joint as a motor side and a gear (spring with a dead band).
 
-Built with `mujoco.MjSpec` from the robot's cell scene (`RobotDescription.scene`), so K_q, masses, armature,
-damping and friction follow the model file. Each link body gets two hinges on the same axis and point:
+Built with `mujoco.MjSpec` from the robot's cell scene (`RobotDescription.scene`), so masses, armature, damping
+time and friction follow the model file; the gear stiffness K_q does not (the plant's own, `plant_robots.py`).
+Each link body gets two hinges on the same axis and point:
 
 * `<joint>_motor`: the motor side. Armature = the shipped joint's armature (reflected rotor inertia),
   `damping` = viscous friction and `frictionloss` = Coulomb friction of the motor and gearbox input (knobs).
@@ -9,12 +10,14 @@ damping and friction follow the model file. Each link body gets two hinges on th
   position servo (force = kp (ctrl - q) - kv q_dot) whose kv term `implicitfast` integrates implicitly; the
   controller (`controller.py`) writes its set-point, integral and feed-forward into `ctrl`.
 * `<joint>` (the shipped hinge): the gear, link angle minus motor angle. Its torque is the gear's
-  torsional spring K_q,i (read from the joint's position actuator's gain, the twin's joint spring) acting
-  through a dead band
+  torsional spring K_q,i, the PLANT'S OWN (`plant_robots.py`: an absolute table per shipped robot, 0.72-1.38x
+  the twin's prior joint by joint, times the knobs `gear_stiffness_j<i>_scale`; not the joint's
+  position-actuator gain, which is the twin's prior) acting through a dead band
   of width b: tau = -K_q dz(q_gear), dz(x) = sign(x) max(|x| - b/2, 0): no torque while the teeth float in the
   gap, the spring once they touch either flank. With b = 0 it is MuJoCo's own joint `stiffness`; with b > 0
   the simulation loop applies it each step (`gear_torques` into `qfrc_applied`), like the native spring an
-  explicit force. Damping = the shipped joint damping (0.01 K_q), armature `gear_armature_frac` of the motor's.
+  explicit force. Damping = the plant's K_q times the shipped model's damping time (damping / gain, 0.01 s),
+  armature `gear_armature_frac` of the motor's.
 
 Why not a limited "play" hinge between motor and spring (MuJoCo's modelling-guide pattern): the node between
 the two hinges then carries only armature, the limit is a soft constraint whose stiffness is about
@@ -40,6 +43,7 @@ import numpy as np
 
 from twin.errors import ModelError
 from twin.lab.dynamic.knobs import Knobs
+from twin.lab.dynamic.plant_robots import plant_gear_stiffness
 from twin.robot.description import RobotDescription, load_robot
 
 # MuJoCo's dry friction is a soft constraint: with the default impedance (d = 0.9) the light wrist slides at a
@@ -55,7 +59,8 @@ class Plant:
     Attributes:
         model: Compiled model.
         robot: The robot it was built from.
-        k_q: Gear stiffness K_q of the arm joints [N·m/rad] (from the shipped actuator gains), shape (dof,).
+        k_q: Gear stiffness K_q of the arm joints [N·m/rad], the plant's own (`plant_robots.py`) times the
+            knobs' scales, shape (dof,).
         backlash_rad: Dead band of the arm joints [rad], shape (dof,).
         motor_qpos, motor_dof: qpos / dof addresses of the motor hinges, shape (dof,).
         link_qpos: qpos addresses of the gear hinges (the shipped joints), shape (dof,).
@@ -65,6 +70,8 @@ class Plant:
         tcp_site, ft_site, tool_body, ft_sensor_adr: Ids, and the address of the F/T force sensor's data.
         tool_mass_kg: Mass below the F/T sensor [kg].
         p_base_sheet_origin: Sheet origin in the base (world) frame [m].
+        stiffness_table: Name of the plant's K_q table (`plant:<robot>` or the assumption for another robot).
+        stiffness_source: Where that table comes from, in words.
     """
 
     model: mujoco.MjModel
@@ -83,6 +90,8 @@ class Plant:
     ft_sensor_adr: int
     tool_mass_kg: float
     p_base_sheet_origin: np.ndarray
+    stiffness_table: str = ""
+    stiffness_source: str = ""
 
     @property
     def dof(self) -> int:
@@ -108,7 +117,8 @@ class Plant:
 def _shipped_parameters(
     spec: mujoco.MjSpec, robot: RobotDescription
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """K_q [N·m/rad], joint damping [N·m·s/rad], armature [kg m^2] and joint friction [N·m] of the shipped model."""
+    """K_q [N·m/rad], joint damping [N·m·s/rad], armature [kg m^2] and joint friction [N·m] of the shipped model
+    (its K_q is the twin's prior: the plant uses it only for a robot it has no table for)."""
     model = spec.compile()
     arm = robot.addresses(model)
     k_q = model.actuator_gainprm[arm.actuator, 0].copy()
@@ -124,8 +134,8 @@ def _shipped_parameters(
 class _Shipped(NamedTuple):
     """The shipped model's joint parameters, per arm joint."""
 
-    k_q: np.ndarray  # gear stiffness K_q [N·m/rad]
-    damping: np.ndarray  # joint damping [N·m·s/rad]
+    k_q: np.ndarray  # gear stiffness K_q [N·m/rad]: the plant's own (`plant_robots.py`) times the knobs' scales
+    damping: np.ndarray  # gear damping [N·m·s/rad]: the plant's K_q times the model's damping time
     armature: np.ndarray  # armature [kg m^2]
     friction: np.ndarray  # joint friction [N·m]
 
@@ -134,7 +144,7 @@ def build_plant(knobs: Knobs, robot: str | RobotDescription | None = None) -> Pl
     """Build and compile the dynamic plant for these knobs.
 
     Args:
-        knobs: Plant knobs (dead bands, friction, armature, timestep).
+        knobs: Plant knobs (gear-stiffness scales, dead bands, friction, armature, timestep).
         robot: The robot; None: the default robot.
 
     Raises:
@@ -144,9 +154,14 @@ def build_plant(knobs: Knobs, robot: str | RobotDescription | None = None) -> Pl
     path = robot.model_path(scene=True)
     try:
         spec = mujoco.MjSpec.from_file(str(path))
-        shipped = _Shipped(*_shipped_parameters(spec, robot))
+        model_k_q, model_damping, armature, friction = _shipped_parameters(spec, robot)
     except Exception as exc:
         raise ModelError(f"cannot build the dynamic plant from {path}: {exc}") from exc
+    own = plant_gear_stiffness(robot, model_k_q)
+    k_q = own.k_q * np.array(knobs.gear_stiffness_scales(robot.dof))
+    # the gear's damping keeps the model's damping time (damping / K_q, 0.01 s in the shipped files) on the plant's K_q
+    damping_time_s = np.divide(model_damping, model_k_q, out=np.zeros_like(model_damping), where=model_k_q > 0.0)
+    shipped = _Shipped(k_q, damping_time_s * k_q, armature, friction)
     spec.option.timestep = knobs["timestep_s"]
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
     spec.option.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT
@@ -189,6 +204,8 @@ def build_plant(knobs: Knobs, robot: str | RobotDescription | None = None) -> Pl
         p_base_sheet_origin=(
             data.site(robot.sheet_site).xpos.copy() if robot.sheet_site is not None else data.site_xpos[tcp].copy()
         ),
+        stiffness_table=own.table,
+        stiffness_source=own.source,
     )
 
 

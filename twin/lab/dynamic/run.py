@@ -3,7 +3,8 @@
 Scenarios as in the quasi-static lab: `nominal` (the groove U_ID) and `compensated` (a commanded path from
 a file) give runs; `loadtest` gives thesis Method 1 load cases at `home`, each held on the dynamic plant until
 it settles and read by the tracker loaded and unloaded. `truth.json` records every knob, the seed, the plant's
-K_q and dead bands, the servo gains' inputs and a few physical numbers of the run (which no reader opens).
+absolute K_q (its own table times the knobs' scales) with the table's name and source, the dead bands, the servo
+gains' inputs and a few physical numbers of the run (which no reader opens).
 """
 
 from __future__ import annotations
@@ -114,6 +115,8 @@ def truth_record(
         "knobs_changed_from_neutral": knobs.changed(),
         "seed": seed,
         "joint_stiffness_nm_per_rad": plant.k_q.tolist(),
+        "joint_stiffness_table": plant.stiffness_table,
+        "joint_stiffness_source": plant.stiffness_source,
         "backlash_rad": plant.backlash_rad.tolist(),
         "timestep_s": float(plant.model.opt.timestep),
         "max_deviation_mm": 1e3 * float(np.max(np.linalg.norm(log.p_tip_sheet_m - p_cmd, axis=1))),
