@@ -156,7 +156,7 @@ def test_home_compliance(kin) -> None:
 def test_dynamic_plant_builds_and_runs(robot, cone) -> None:
     plant = build_plant(Knobs(neutral=True), robot=NAME)
     assert plant.robot.name == NAME
-    np.testing.assert_array_equal(plant.k_q, PRIORS)
+    assert np.sum(np.abs(plant.k_q / np.asarray(PRIORS) - 1.0) >= 0.1) >= 3  # the plant's own robot, not the prior
     np.testing.assert_allclose(plant.p_base_sheet_origin, Kinematics(robot=robot).fk(robot.q_home)[0], atol=1e-9)
     n = int(np.searchsorted(cone.t_s, 1.0))
     log = simulate(cone.t_s[:n], cone.p_sheet_m[:n], Knobs(neutral=True), process=Process(force_model="isf"),

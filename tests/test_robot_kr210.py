@@ -163,7 +163,8 @@ def test_the_dynamic_plant_builds_from_the_folder_and_runs(cone) -> None:
     knobs = Knobs(neutral=True)
     plant = build_plant(knobs, robot=ROBOT)
     assert plant.robot.name == ROBOT
-    np.testing.assert_array_equal(plant.k_q, [p.k_nm_per_rad for p in plant.robot.stiffness_priors])
+    prior = np.array([p.k_nm_per_rad for p in plant.robot.stiffness_priors])
+    assert np.sum(np.abs(plant.k_q / prior - 1.0) >= 0.1) >= 3  # the plant's own robot, not the prior
     n = len(cone.t_s) // 16
     log = simulate(cone.t_s[:n], cone.p_sheet_m[:n], knobs, plant=plant)
     assert np.all(np.isfinite(log.p_tip_sheet_m))
