@@ -155,10 +155,11 @@ def test_the_compiled_sheet_is_the_python_sheet() -> None:
     groove's reversals: the same forces and surfaces to a few units in the last place (the flow curve's
     exponential is the C library's there, numpy's here); their constants agree."""
     from twin.lab.dynamic import sheet as python_sheet
-    from twin.lab.dynamic import sheet_kernels
+    from twin.lab.dynamic import sheet_kernels, sheet_material
 
-    for name in ("VOCE_S0_MPA", "VOCE_Q_MPA", "VOCE_B", "VOCE_M", "YOUNGS_MODULUS_PA", "POISSON_RATIO",
-                 "GRID_SPACING_M", "HALF_SIZE_M", "MIN_RECOVERY_M", "FORMED_READ", "FORMED_PATCH", "FORMED_TRACK",
+    for name in ("VOCE_S0_MPA", "VOCE_Q_MPA", "VOCE_B", "VOCE_M", "YOUNGS_MODULUS_PA", "POISSON_RATIO"):
+        assert getattr(sheet_kernels, name) == getattr(sheet_material, name), name
+    for name in ("GRID_SPACING_M", "HALF_SIZE_M", "MIN_RECOVERY_M", "FORMED_READ", "FORMED_PATCH", "FORMED_TRACK",
                  "FORMED_GAIN", "HUNT_CROSSLEY_ALPHA_S_PER_M", "MAX_ANGLE_RAD"):
         assert getattr(sheet_kernels, name) == getattr(python_sheet, name), name
     groove = groove_path().p_sheet_m[:400]

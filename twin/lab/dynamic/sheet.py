@@ -87,12 +87,14 @@ import math
 import numpy as np
 
 from twin.lab.dynamic import sheet_kernels as kernels
+from twin.lab.dynamic.sheet_material import (
+    POISSON_RATIO,
+    YOUNGS_MODULUS_PA,
+    voce_mpa,
+    voce_tensile_strength_mpa,
+)
 from twin.process.description import Process
 
-#: Thesis Eq. 1.3: the measured AA5086-H111 flow curve, sigma = S0 + Q (1 - exp(-B eps))^M [MPa].
-VOCE_S0_MPA, VOCE_Q_MPA, VOCE_B, VOCE_M = 130.2, 300.37, 3.94, 0.5
-#: Young's modulus [Pa] (SubsTech 5086) and Poisson's ratio [-] (ASM/MatWeb 5086-H116).
-YOUNGS_MODULUS_PA, POISSON_RATIO = 71.0e9, 0.33
 GRID_SPACING_M = 5e-4  # formed-surface grid [m]
 HALF_SIZE_M = 0.12  # the grid covers +/- this around the sheet origin [m]
 MIN_RECOVERY_M = 0.01e-3  # least elastic follow of the sheet behind a rising tool [m]
@@ -104,18 +106,6 @@ HUNT_CROSSLEY_ALPHA_S_PER_M = 0.2  # contact damping of the elastic unloading [s
 MAX_ANGLE_RAD = math.radians(70.0)  # a side steeper than this is a step, read as this angle
 HEADING_TURN_M = 2 * GRID_SPACING_M  # travel over which the heading (sides, step ahead) turns [m]
 _PLANE = 2.0 / math.sqrt(3.0)
-
-
-def voce_mpa(eps: np.ndarray | float) -> np.ndarray:
-    """The thesis's AA5086-H111 flow stress [MPa] at true plastic strain `eps` [-]."""
-    e = np.maximum(np.asarray(eps, dtype=float), 0.0)
-    return VOCE_S0_MPA + VOCE_Q_MPA * (1.0 - np.exp(-VOCE_B * e)) ** VOCE_M
-
-
-def voce_tensile_strength_mpa() -> float:
-    """The Voce law's engineering tensile strength [MPa]: sigma exp(-eps) at necking, d sigma/d eps = sigma."""
-    eps = np.linspace(1e-4, 1.0, 20001)
-    return float(np.max(voce_mpa(eps) * np.exp(-eps)))
 
 
 class PlantSheet:
