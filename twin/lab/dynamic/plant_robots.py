@@ -14,7 +14,7 @@ How far off, and the source of the spread (what was read, and what was not):
   stiffness identification of a heavy Kuka robot with a low-cost clamped end-effector procedure" (ICINCO 2014,
   KUKA KR500, joints 1-2 by two methods): found, only their abstracts read; their tables of identified values
   were NOT read here, so no number below is taken from them.
-* What was read (`/work/shared/outside-references.md`, `models/*/robot.toml`): a KUKA KR500's joint stiffness
+* What was read (the project's `shared/outside-references.md`, `models/*/robot.toml`): a KUKA KR500's joint stiffness
   from EMA, diag(2.3, 8.6, 2.8, 3.0, 0.2, 0.9)e6 N·m/rad (a public robot-milling model's constants, secondary,
   dynamic stiffness), against the TX200's values calibrated to the thesis's load test, (2.24, 1.91, 1.25, 0.50,
   0.24, 0.50)e6 N·m/rad. Two heavy 6R robots identified two ways differ per joint by factors 0.8 (joint 5) to
