@@ -169,30 +169,34 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the `tx200-twin` console script."""
     parser = build_parser()
     args = parser.parse_args(argv)
-    with warnings.catch_warnings(record=True) as caught, np.printoptions(legacy="1.25"):  # 3.96, not np.float64(3.96)
-        warnings.simplefilter("always", FutureWarning)
-        warnings.simplefilter("always", ExtrapolationWarning)
-        warnings.simplefilter("always", AssumptionWarning)
-        try:
-            apply_cell(args)
-            check_command_outputs(parser, args)
-            return int(args._run(args))
-        except TwinError as exc:
-            print(f"tx200-twin {args.command}: error: {exc}", file=sys.stderr)
-            return 2
-        except OSError as exc:  # a file system refusal no reader or writer foresaw: named, not a traceback
-            print(f"tx200-twin {args.command}: error: {exc.filename}: {exc.strerror or exc}", file=sys.stderr)
-            return 2
-        finally:
-            for note in dict.fromkeys(str(w.message) for w in caught
-                                      if issubclass(w.category, (FutureWarning, AssumptionWarning))):
-                print(f"tx200-twin {args.command}: note: {note}", file=sys.stderr)
-            for note in dict.fromkeys(str(w.message) for w in caught if issubclass(w.category, ExtrapolationWarning)):
-                print(f"tx200-twin {args.command}: warning: {note}", file=sys.stderr)
-            for w in caught:
-                if not issubclass(w.category, (FutureWarning, ExtrapolationWarning, AssumptionWarning)):
-                    warnings.showwarning(w.message, w.category, w.filename, w.lineno)
-
+    others: list[warnings.WarningMessage] = []  # shown once the recording has ended (re-shown inside, each was
+    try:  # recorded again into the list being read: a command with a warning of another kind never ended)
+        with warnings.catch_warnings(record=True) as caught, np.printoptions(legacy="1.25"):  # 3.96, not np.float64(3.96)
+            warnings.simplefilter("always", FutureWarning)
+            warnings.simplefilter("always", ExtrapolationWarning)
+            warnings.simplefilter("always", AssumptionWarning)
+            try:
+                apply_cell(args)
+                check_command_outputs(parser, args)
+                return int(args._run(args))
+            except TwinError as exc:
+                print(f"tx200-twin {args.command}: error: {exc}", file=sys.stderr)
+                return 2
+            except OSError as exc:  # a file system refusal no reader or writer foresaw: named, not a traceback
+                print(f"tx200-twin {args.command}: error: {exc.filename}: {exc.strerror or exc}", file=sys.stderr)
+                return 2
+            finally:
+                for note in dict.fromkeys(str(w.message) for w in caught
+                                          if issubclass(w.category, (FutureWarning, AssumptionWarning))):
+                    print(f"tx200-twin {args.command}: note: {note}", file=sys.stderr)
+                for note in dict.fromkeys(str(w.message) for w in caught
+                                          if issubclass(w.category, ExtrapolationWarning)):
+                    print(f"tx200-twin {args.command}: warning: {note}", file=sys.stderr)
+                others = [w for w in caught
+                          if not issubclass(w.category, (FutureWarning, ExtrapolationWarning, AssumptionWarning))]
+    finally:
+        for w in others:
+            warnings.showwarning(w.message, w.category, w.filename, w.lineno)
 
 if __name__ == "__main__":
     sys.exit(main())
