@@ -85,7 +85,9 @@ def test_cli_learn_writes_a_model_replay_takes(plant_runs: dict[int, Path], tmp_
                  "--json", str(report)]) == 0
     out = capsys.readouterr().out
     assert "left out" in out and "(fitted" in out and "(predicted" in out
+    assert "fitted for robot tx200 (" in out and "(the runs' placement), tool " in out  # #46: which robot it fitted
     data = json.loads(report.read_text())
+    assert data["fitted_for"]["robot"] == "tx200" and data["fitted_for"]["tool_length_mm"] > 0
     assert len(data["held_out_predicted"]) == 2
     assert all(g["position_rms_mm"] <= 0.15 for g in data["held_out_predicted"])
     replayed = tmp_path / "replay.json"

@@ -5,12 +5,20 @@ twin?": a run's recorded robot and placement win (a twin of another robot cannot
 fact of the run), the declared process goes over the model file's or the run's, and the force model is the one
 named, else the process file's, else the one a model file fitted to its cell, else the run's recorded one, else
 the first registered model that applies to the path. The rule lives here once; `replay` and the CLI call it.
+
+Where the sheet lies and which tool is on the flange (`resolve_placement`, `resolve_tool`) follow one precedence,
+each value on its own (`PRECEDENCE`): an explicit flag > the run's record > the cell file > the model file > the
+robot's defaults. An explicit flag is one the user typed (`--yaw-deg 0` included), not a default nor a value the
+cell file filled in (`twin.cli._common.apply_cell`). A run records a placement (`meta.json`'s `placement`; absent:
+the robot's default sheet origin, yaw 0) and a tool (its `cell` record's tool, else `tool_length_m` and an import's
+sensor `tool_mass_kg`).
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
-from dataclasses import replace
+import math
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -28,6 +36,131 @@ from twin.sim.model_file import read_model_file
 from twin.sim.spec import TwinSpec
 
 AUTO = "auto"
+#: Who wins for the sheet's placement and the tool, first to last (module docstring; docs/process.md's cell section).
+PRECEDENCE = ("flag", "run", "cell", "model", "robot default")
+
+
+@dataclass(frozen=True)
+class Chosen:
+    """A value and where it came from (`PRECEDENCE`'s layer, in words: "--origin-mm", "the run runs/n1", ...)."""
+
+    value: Any
+    source: str
+
+
+def first_given(layers: Sequence[tuple[str, bool, Any]], default: Chosen) -> Chosen:
+    """The first layer that gives a value: `layers` are (source in words, given, value), in `PRECEDENCE` order."""
+    for source, given, value in layers:
+        if given:
+            return Chosen(value, source)
+    return default
+
+
+@dataclass(frozen=True)
+class PlacementChoice:
+    """The sheet placement chosen, and where its origin and its yaw came from (in words)."""
+
+    placement: Placement
+    origin_from: str
+    yaw_from: str
+
+
+def resolve_placement(
+    *,
+    origin_mm: Sequence[float] | None = None,
+    yaw_deg: float | None = None,
+    run: Run | None = None,
+    cell: Mapping[str, Any] | None = None,
+    model: Placement | None = None,
+    robot_name: str = "the robot",
+) -> PlacementChoice:
+    """The sheet placement by `PRECEDENCE`, origin and yaw each on its own.
+
+    Args:
+        origin_mm: `--origin-mm` as typed [mm], or None.
+        yaw_deg: `--yaw-deg` as typed [deg] (0 included), or None.
+        run: The run the command is for: its recorded placement (absent: the robot's default origin, yaw 0).
+        cell: A cell file's record (`CellDeclaration.record`: its `sheet` `origin_mm`, `yaw_deg`), or None.
+        model: A model file's placement, or None.
+        robot_name: The robot, for the words of "its default sheet origin".
+    """
+    run_place = None if run is None else run_placement(run.meta, (run.directory or Path(".")) / "meta.json")
+    run_name = None if run is None else f"the run {run.directory}"
+    sheet = {} if cell is None else dict(cell.get("sheet") or {})
+    cell_name = _cell_words(cell)
+    default = Chosen(None, f"robot {robot_name}'s default sheet origin")
+    origin = first_given([
+        ("--origin-mm", origin_mm is not None, None if origin_mm is None else tuple(float(v) / 1e3 for v in origin_mm)),
+        (f"{run_name}" + ("" if run_place is None or run_place.origin_base_m is not None else
+                          f" (robot {robot_name}'s default sheet origin)"), run_place is not None,
+         None if run_place is None else run_place.origin_base_m),
+        (cell_name, sheet.get("origin_mm") is not None,
+         None if sheet.get("origin_mm") is None else tuple(float(v) / 1e3 for v in sheet["origin_mm"])),
+        ("the model file", model is not None and model.origin_base_m is not None, None if model is None else
+         model.origin_base_m),
+    ], default)
+    yaw = first_given([
+        ("--yaw-deg", yaw_deg is not None, None if yaw_deg is None else math.radians(yaw_deg)),
+        (f"{run_name}", run_place is not None, None if run_place is None else run_place.yaw_rad),
+        (cell_name, sheet.get("yaw_deg") is not None, math.radians(float(sheet.get("yaw_deg") or 0.0))),
+        ("the model file", model is not None, None if model is None else model.yaw_rad),
+    ], Chosen(0.0, "the default"))
+    return PlacementChoice(Placement(origin_base_m=origin.value, yaw_rad=float(yaw.value)), origin.source, yaw.source)
+
+
+@dataclass(frozen=True)
+class ToolChoice:
+    """The tool chosen: its length [mm] and mass [kg] (None: the robot model's tool body's), and their sources."""
+
+    length_mm: float
+    mass_kg: float | None
+    length_from: str
+    mass_from: str
+
+
+def resolve_tool(
+    robot: RobotDescription,
+    *,
+    length_mm: float | None = None,
+    mass_kg: float | None = None,
+    run: Run | None = None,
+    cell: Mapping[str, Any] | None = None,
+) -> ToolChoice:
+    """The tool by `PRECEDENCE`, length and mass each on its own: `--tool-length-mm` / `--tool-mass-kg`, else the
+    run's (its `cell` record's tool, else its `tool_length_m` and an import's sensor `tool_mass_kg`), else the
+    cell's `[tool]`, else robot `robot`'s model.
+
+    Raises:
+        InputError: A run's tool length out of the plausible range (naming its meta.json).
+    """
+    from twin.process.description import check_plausible
+
+    meta = {} if run is None else run.meta
+    run_name = "" if run is None else f"the run {run.directory}"
+    run_tool = dict((meta.get("cell") or {}).get("tool") or {})
+    run_length = run_tool.get("length_mm")
+    if run_length is None and "tool_length_m" in meta:
+        run_length = 1e3 * float(meta["tool_length_m"])
+        check_plausible("tool_length_m", run_length / 1e3, f"{(run.directory if run else None) or '.'}/meta.json: "
+                        f"tool_length_m {run_length / 1e3:g} m")
+    run_mass = run_tool.get("mass_kg")
+    if run_mass is None:
+        sensor = meta.get("import", {}).get("sensor", {}).get("tool_mass_kg")
+        run_mass = float(sensor) if isinstance(sensor, int | float) and sensor > 0 else None
+    cell_tool = {} if cell is None else dict(cell.get("tool") or {})
+    cell_name = _cell_words(cell)
+    length = first_given([
+        ("--tool-length-mm", length_mm is not None, length_mm),
+        (run_name, run is not None and run_length is not None, run_length),
+        (cell_name, cell_tool.get("length_mm") is not None, cell_tool.get("length_mm")),
+    ], Chosen(1e3 * robot.tool_length_m, f"robot {robot.name}'s model"))
+    mass = first_given([
+        ("--tool-mass-kg", mass_kg is not None, mass_kg),
+        (run_name, run is not None and run_mass is not None, run_mass),
+        (cell_name, cell_tool.get("mass_kg") is not None, cell_tool.get("mass_kg")),
+    ], Chosen(None, f"robot {robot.name}'s model (its tool body)"))
+    return ToolChoice(float(length.value), None if mass.value is None else float(mass.value), length.source,
+                      mass.source)
 
 
 def choose_force_model(
@@ -88,6 +221,11 @@ def resolve_robot(
     return recorded
 
 
+def _cell_words(cell: Mapping[str, Any] | None) -> str:
+    """A cell file's record in words: "the cell NAME (FILE)"."""
+    return "" if cell is None else f"the cell {cell.get('name')} ({cell.get('file')})"
+
+
 def resolve_spec(
     *,
     model: str | Path | TwinSpec | None = None,
@@ -108,7 +246,8 @@ def resolve_spec(
         run: The run the twin replays or learns from (its robot, placement and recorded process win), or None.
         declaration: The process a user declared (a process file and flags), over the model's or the run's.
         force_model_name: A registered force model, or "auto" (`choose_force_model`).
-        placement: The sheet's placement a user gave; a run's own wins, and None keeps the model's.
+        placement: The sheet's placement a user gave (its origin when set, and its yaw), over the run's and the
+            model's (`resolve_placement`); None: the run's, else the model's.
         history: The FE force history (as declared), or None for the model's or the shipped one.
         p_sheet_m: The path the twin will drive, sheet frame [m], shape (n, 3): what "auto" looks at. None: the
             run's commanded path.
@@ -130,9 +269,13 @@ def resolve_spec(
     fitted = base.process.force_model if given is not None and base.process.force_fit else None
     process = resolve_process(process, declaration, force_model_name, p_sheet_m,
                               None if run is None else run.meta, name, fitted, note)
-    if run is not None:
-        placement = run_placement(run.meta)
-    return base.replace(process=process, placement=placement or base.placement)
+    chosen = resolve_placement(
+        origin_mm=None if placement is None or placement.origin_base_m is None else
+        [1e3 * v for v in placement.origin_base_m],
+        yaw_deg=None if placement is None else math.degrees(placement.yaw_rad),
+        run=run, model=base.placement if given is not None else None, robot_name=base.robot.name,
+    )
+    return base.replace(process=process, placement=chosen.placement)
 
 
 def resolve_process(

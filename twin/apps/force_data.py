@@ -160,7 +160,7 @@ def read_measurements(path: str | Path | None = None) -> Measurements:
     """
     path = Path(path) if path is not None else data_file("force_measurements.toml")
     try:
-        doc = tomllib.loads(path.read_text(encoding="utf-8"))
+        doc = tomllib.loads(path.read_text(encoding="utf-8-sig"))
     except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
         raise DataFileError(path, f"cannot read it as TOML: {exc}") from None
     if doc.get("format") != FORMAT:

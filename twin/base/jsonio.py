@@ -48,11 +48,62 @@ def emit_json(target: str | None, payload: Mapping[str, Any], *, protect: Sequen
         write_json(target, payload, protect=protect)
 
 
+class NonFiniteNumberError(ValueError):
+    """A number in a JSON or TOML document that is not finite (`finite_float`); `text` as written."""
+
+    def __init__(self, text: str) -> None:
+        super().__init__(text)
+        self.text = text
+
+
+def finite_float(text: str) -> float:
+    """A document's number as a float, for `json.loads(parse_float=..., parse_constant=...)` and
+    `tomllib.loads(parse_float=...)`.
+
+    Raises:
+        NonFiniteNumberError: `inf`, `nan`, `Infinity`, `NaN`, or a number too large for a float (`1e999`).
+    """
+    value = float(text)
+    if not math.isfinite(value):
+        raise NonFiniteNumberError(text)
+    return value
+
+
+def non_finite_problem(path: Path, document: Any, number: str) -> DataFileError:
+    """The error of a number `finite_float` refused: the file, the key that holds it (found in `document`, the
+    file parsed without the check), the number as written, and what was expected."""
+    key = _non_finite_key(document, "")
+    where = f"{key} = {number}" if key else f"the number {number}"
+    return DataFileError(path, f"{where} is not finite (infinite, NaN or too large for a 64-bit float); expected "
+                         "a finite number")
+
+
+def _non_finite_key(value: Any, key: str) -> str | None:
+    """The dotted key (`a.b[2]`) of the first non-finite float in a parsed document, or None."""
+    if isinstance(value, float):
+        return None if math.isfinite(value) else (key or "(the document)")
+    if isinstance(value, Mapping):
+        items: Any = ((f"{key}.{k}" if key else str(k), v) for k, v in value.items())
+    elif isinstance(value, list):
+        items = ((f"{key}[{i}]", v) for i, v in enumerate(value))
+    else:
+        return None
+    for name, item in items:
+        found = _non_finite_key(item, name)
+        if found is not None:
+            return found
+    return None
+
+
 def read_json(path: str | Path) -> dict[str, Any]:
-    """Read a JSON object, raising DataFileError naming the file on any problem."""
+    """Read a JSON object, raising DataFileError naming the file on any problem (a number not finite, such as
+    `1e999`, `Infinity` or `NaN`, among them: every file this project writes has null there)."""
     path = Path(path)
+    text = read_text(path, "a JSON file")
     try:
-        payload = json.loads(read_text(path, "a JSON file"))
+        payload = json.loads(text, parse_float=finite_float, parse_constant=finite_float)
+    except NonFiniteNumberError as exc:
+        raise non_finite_problem(path, json.loads(text), exc.text) from None
     except json.JSONDecodeError as exc:
         raise DataFileError(path, f"not valid JSON ({exc.msg} at line {exc.lineno})", exc.lineno) from None
     except RecursionError:

@@ -106,27 +106,44 @@ def process_declaration(args: argparse.Namespace) -> ProcessDeclaration:
 def apply_cell(args: argparse.Namespace) -> None:
     """Lay a `--cell` file under the command's own flags: each option the command has and the user left unset takes
     the cell's value (robot, sheet origin and yaw, tool length and mass; its process through `process_declaration`).
-    `args.cell_record` is what runs and programs record of it. Nothing for a command without `--cell`."""
+    `args.cell_record` is what runs and programs record of it; `args.cell_filled` names the options the cell filled
+    in (`given` tells them from typed ones: `twin.analysis.resolve.PRECEDENCE`, a flag > a run > the cell). A
+    `--robot` that names another robot than the cell's keeps the cell's process but not its sheet and tool (they are
+    the cell robot's), with a note. Nothing for a command without `--cell`."""
     if getattr(args, "cell", None) is None:
         return
     from twin.process.cell_file import read_cell_file
+    from twin.robot.description import load_robot
 
     cell = read_cell_file(args.cell)
     args.cell_declaration, args.cell_record = cell, cell.record()
-    for name, value in (("robot", cell.robot), ("origin_mm", None if cell.origin_mm is None else list(cell.origin_mm)),
-                        ("tool_length_mm", cell.tool.length_mm), ("tool_mass_kg", cell.tool.mass_kg)):
+    values: list[tuple[str, Any]] = [("robot", cell.robot)]
+    typed_robot = getattr(args, "robot", None)
+    if cell.robot is not None and typed_robot is not None and \
+            load_robot(typed_robot).source != load_robot(cell.robot).source:
+        note(f"note: --robot {typed_robot} is not the cell's robot {cell.robot} ({args.cell}): the cell's sheet "
+             "placement and tool are that robot's and are not used; its process is")
+        args.cell_record = {**args.cell_record, "sheet": {}, "tool": {}}
+    else:
+        values += [("origin_mm", None if cell.origin_mm is None else list(cell.origin_mm)), ("yaw_deg", cell.yaw_deg),
+                   ("tool_length_mm", cell.tool.length_mm), ("tool_mass_kg", cell.tool.mass_kg)]
+    filled = set()
+    for name, value in values:
         if value is not None and hasattr(args, name) and getattr(args, name) is None:
             setattr(args, name, value)
-    if cell.yaw_deg is not None and getattr(args, "yaw_deg", None) == 0.0:
-        args.yaw_deg = cell.yaw_deg
-    if cell.tool.length_mm is not None and args.command != "export":
-        from twin.robot.description import load_robot
-
+            filled.add(name)
+    args.cell_filled = frozenset(filled)
+    if cell.tool.length_mm is not None and len(values) > 1 and args.command not in ("export", "import"):
         robot = load_robot(getattr(args, "robot", None) or cell.robot)
         if abs(1e3 * robot.tool_length_m - cell.tool.length_mm) > 1.0:
             note(f"note: {args.cell}: the twin and the labs simulate robot {robot.name}'s modelled tool "
                  f"({1e3 * robot.tool_length_m:.2f} mm from the flange); the cell's {cell.tool.length_mm:g} mm tool "
                  "goes into programs (`export`) and records")
+
+
+def given(args: argparse.Namespace, name: str) -> Any:
+    """Option `name` as the user typed it: None when left out or filled in by `--cell` (`apply_cell`)."""
+    return None if name in getattr(args, "cell_filled", frozenset()) else getattr(args, name, None)
 
 
 def add_placement_arguments(parser: argparse.ArgumentParser | Any, title: str = "sheet placement") -> Any:
@@ -139,19 +156,20 @@ def add_placement_arguments(parser: argparse.ArgumentParser | Any, title: str = 
         metavar=("X", "Y", "Z"),
         help="sheet origin in the robot base frame [mm] (default: the cell's sheet_origin)",
     )
-    place.add_argument("--yaw-deg", type=finite, default=0.0, help="sheet yaw about the base z axis [deg] (default 0)")
+    place.add_argument("--yaw-deg", type=finite, help="sheet yaw about the base z axis [deg] (default: a run's, else "
+                       "the cell's, else 0; an explicit 0 overrides them)")
     return place
 
 
 def placement_from(args: argparse.Namespace) -> Placement:
     """The `Placement` of `--origin-mm` / `--yaw-deg`."""
     origin = None if args.origin_mm is None else (args.origin_mm[0] / 1e3, args.origin_mm[1] / 1e3, args.origin_mm[2] / 1e3)
-    return Placement(origin_base_m=origin, yaw_rad=math.radians(args.yaw_deg))
+    return Placement(origin_base_m=origin, yaw_rad=math.radians(args.yaw_deg or 0.0))
 
 
 def placement_given(args: argparse.Namespace) -> Placement | None:
     """The `Placement` of `--origin-mm` / `--yaw-deg` when either was given, else None (the model's or run's)."""
-    return placement_from(args) if args.origin_mm is not None or args.yaw_deg != 0.0 else None
+    return placement_from(args) if args.origin_mm is not None or args.yaw_deg is not None else None
 
 
 def add_scheduler_argument(parser: argparse.ArgumentParser) -> None:

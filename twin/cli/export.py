@@ -14,8 +14,8 @@ from twin.cli._common import (
     add_placement_arguments,
     add_robot_argument,
     finish,
+    given,
     note,
-    placement_from,
 )
 
 HELP = "Export a (compensated) path CSV as a robot program: Staubli VAL3, KUKA KRL, ABB RAPID, G-code or CSV."
@@ -34,7 +34,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     add_robot_argument(parser)
     parser.add_argument("--run", type=Path, metavar="RUN",
-                        help="a run (tx200-twin-run/1) the program is for: its robot and its meta.json tool_length_m")
+                        help="a run (tx200-twin-run/1) the program is for: its robot, its sheet placement and its tool "
+                        "(meta.json), unless a flag gives them (a flag > the run > --cell > the robot's defaults)")
     _add_program_arguments(parser)
     add_placement_arguments(parser, "sheet placement (the program's sheet frame)")
     parser.add_argument("--online", action="store_true", help="the program with the twin's online correction on "
@@ -76,9 +77,10 @@ def run(args: argparse.Namespace) -> int:
     """Export and print a summary."""
     from twin.apps.tasks.export import ExportRequest, export_task
 
+    origin = given(args, "origin_mm")
     request = ExportRequest(
-        args.path_csv, args.out, args.format, args.robot, args.run, args.tool_length_mm, args.tool_mass_kg,
-        args.safe_height_mm, args.feed_mm_s, args.max_points, placement_from(args), args.online,
-        getattr(args, "cell_record", None),
+        args.path_csv, args.out, args.format, given(args, "robot"), args.run, given(args, "tool_length_mm"),
+        given(args, "tool_mass_kg"), args.safe_height_mm, args.feed_mm_s, args.max_points, args.online,
+        getattr(args, "cell_record", None), None if origin is None else tuple(origin), given(args, "yaw_deg"),
     )
     return finish(args, export_task(request, note), protect=(args.path_csv, args.run))

@@ -1,4 +1,5 @@
-"""`tx200-twin info`: the model's joint stiffness, tool tip at home, home compliance and sheet origin."""
+"""`tx200-twin info`: the model's joint stiffness, tool tip at home, home compliance and sheet origin (a `--cell`'s,
+else the robot's default: `twin.analysis.resolve.resolve_placement`)."""
 
 from __future__ import annotations
 
@@ -20,18 +21,23 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Print the summary (or JSON to stdout with `--json -`) and return 0."""
-    from twin.analysis.resolve import resolve_robot
+    from twin.analysis.resolve import resolve_placement, resolve_robot
     from twin.robot.kinematics import Kinematics  # MuJoCo: only when the command runs
 
     kin = Kinematics(robot=resolve_robot(args.robot))
     path = kin.robot.model_path()
     p_home, _ = kin.fk(kin.q_home)
     compliance_mm_per_kn = kin.compliance(kin.q_home) * 1e6  # [m/N] -> [mm/kN]
+    place = resolve_placement(cell=getattr(args, "cell_record", None), robot_name=kin.robot.name)  # a --cell's sheet
+    origin = place.placement.origin_in(kin)
     payload = {
         "joint_stiffness_nm_per_rad": kin.joint_stiffness.tolist(),
         "tcp_home_m": p_home.tolist(),
         "compliance_home_mm_per_kn": compliance_mm_per_kn.tolist(),
-        "sheet_origin_m": kin.p_base_sheet_origin.tolist(),
+        "sheet_origin_m": origin.tolist(),
+        "sheet_yaw_deg": float(np.degrees(place.placement.yaw_rad)),
+        "sheet_from": {"origin": place.origin_from, "yaw": place.yaw_from},
+        "robot_sheet_origin_m": kin.p_base_sheet_origin.tolist(),
         "model": str(path),
         "robot": kin.robot.name,
     }
@@ -42,7 +48,8 @@ def run(args: argparse.Namespace) -> int:
         print(f"model            {path}")
         print(f"K_q [N m/rad]    {' '.join(f'{k:.4g}' for k in kin.joint_stiffness)}")
         print(f"tcp at home [m]  {p_home}")
-        print(f"sheet origin [m] {kin.p_base_sheet_origin}")
+        print(f"sheet origin [m] {origin} (from {place.origin_from}), yaw {np.degrees(place.placement.yaw_rad):g} "
+              f"deg (from {place.yaw_from})")
         print("compliance at home J K_q^-1 J^T [mm/kN]:")
         for row in compliance_mm_per_kn:
             print(f"  {row}")

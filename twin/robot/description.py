@@ -252,7 +252,7 @@ def shipped_robots() -> dict[str, Path]:
         found: dict[str, Path] = {}
         for path in sorted([*folder.glob("*.toml"), *folder.glob("*/robot.toml")]):
             try:
-                data = tomllib.loads(path.read_text(encoding="utf-8"))
+                data = tomllib.loads(path.read_text(encoding="utf-8-sig"))
             except (OSError, tomllib.TOMLDecodeError):
                 continue
             if data.get("format") == ROBOT_FORMAT and isinstance(data.get("name"), str):

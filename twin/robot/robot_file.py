@@ -16,6 +16,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
+from twin.base.jsonio import NonFiniteNumberError, finite_float, non_finite_problem
 from twin.errors import ModelError
 from twin.robot.description import (
     ROBOT_FORMAT,
@@ -34,8 +35,11 @@ def read_description(path: Path) -> RobotDescription:
         ModelError: A malformed file (naming it and the key) or an MJCF that lacks a part the file names.
     """
     try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except tomllib.TOMLDecodeError as exc:
+        text = path.read_text(encoding="utf-8-sig")  # a byte-order mark (Windows editors) dropped
+        data = tomllib.loads(text, parse_float=finite_float)
+    except NonFiniteNumberError as exc:
+        raise ModelError(str(non_finite_problem(path, tomllib.loads(text), exc.text))) from None
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
         raise ModelError(f"{path}: not valid TOML: {exc}") from None
     if data.get("format") != ROBOT_FORMAT:
         raise ModelError(f"{path}: format is {data.get('format')!r}, expected {ROBOT_FORMAT!r}")

@@ -2,7 +2,7 @@
 
 Modules: `format` (the format, `Stream`, `Run`, `meta.json`), `read` (reading and validation), `write` (atomic
 writing, never over an input), and the importers of real data: `mapping` (an import mapping file, read with
-`toml_keys`), `raw_tables` (vendor exports), `clock` (clock alignment), `registration` (tracker frame to sheet
+`toml_keys`; its tracker frame in `mapping_frame`), `raw_tables` (vendor exports), `clock` (clock alignment), `registration` (tracker frame to sheet
 frame), `gravity` (tool weight removal), `importer` (the import itself) and `scan_file` (a scanner's point cloud
 of the formed part: PLY, XYZ, CSV).
 

@@ -10,7 +10,9 @@ under `import`.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, NamedTuple
 
@@ -200,13 +202,71 @@ def import_run(mapping: ImportMapping) -> ImportResult:
         "sensor_rate_hz": round(1.0 / forces.stream.median_interval_s, 6),
         "notes": mapping.notes,
         "import": report,
+        **_cell_meta(mapping),
     }
     run = Run(None, meta, commanded, tracker.stream, forces.stream, profile)
     return ImportResult(run, report)
 
 
+def _cell_meta(mapping: ImportMapping) -> dict[str, Any]:
+    """What a run records of its cell, as a lab run does: the robot (when named) and the sheet's placement (when
+    not the robot's default)."""
+    from twin.process.toolpath.placement import Placement
+
+    meta: dict[str, Any] = {} if mapping.robot is None else {"robot": mapping.robot}
+    origin, yaw = mapping.placement.get("origin_mm"), mapping.placement.get("yaw_deg")
+    place = Placement(None if origin is None else tuple(float(v) / 1e3 for v in origin),  # type: ignore[arg-type]
+                      math.radians(yaw or 0.0))
+    return meta if place.is_default else {**meta, "placement": place.to_json()}
+
+
+def with_cell(
+    mapping: ImportMapping,
+    robot: str | None = None,
+    origin_mm: Any = None,
+    yaw_deg: float | None = None,
+    cell: Mapping[str, Any] | None = None,
+) -> ImportMapping:
+    """The mapping with the command's `--robot`, `--origin-mm`, `--yaw-deg` and `--cell` (a cell file's record)
+    laid over and under it by `twin.analysis.resolve.PRECEDENCE`: a typed flag > the mapping's `[run]` (the run's
+    record) > the cell > the robot's defaults; its tool length (`run.tool_length_mm`) > the cell's > the robot's.
+
+    Raises:
+        InputError: `--robot` or the cell names another robot than the mapping's `run.robot` (both named).
+    """
+    from twin.robot.description import load_robot
+
+    cell_robot = None if cell is None or robot is not None else cell.get("robot")
+    if mapping.robot is not None:
+        made = load_robot(mapping.robot)
+        for what, other in (("--robot", robot), (f"the cell {(cell or {}).get('file')}", cell_robot)):
+            if other is not None and load_robot(other).source != made.source:
+                raise InputError(f"{what} gives robot {load_robot(other).name!r}, but the mapping {mapping.path} "
+                                 f"says run.robot = {mapping.robot!r} ({made.name!r}); expected the same robot")
+    chosen = robot or mapping.robot or cell_robot
+    sheet = dict((cell or {}).get("sheet") or {})
+    placement = {
+        "origin_mm": next((v for v in (origin_mm, mapping.placement.get("origin_mm"), sheet.get("origin_mm"))
+                           if v is not None), None),
+        "yaw_deg": next((v for v in (yaw_deg, mapping.placement.get("yaw_deg"), sheet.get("yaw_deg"))
+                         if v is not None), None),
+    }
+    length_m = mapping.tool_length_m
+    if not mapping.tool_length_given:
+        cell_length = ((cell or {}).get("tool") or {}).get("length_mm")
+        length_m = 1e-3 * float(cell_length) if cell_length is not None else load_robot(chosen).tool_length_m
+    return replace(mapping, robot=None if chosen is None else str(chosen), placement=placement, tool_length_m=length_m)
+
+
 def import_to_directory(
-    mapping_path: str | Path, out: str | Path, *, overwrite: bool = False
+    mapping_path: str | Path,
+    out: str | Path,
+    *,
+    overwrite: bool = False,
+    robot: str | None = None,
+    origin_mm: Any = None,
+    yaw_deg: float | None = None,
+    cell: Mapping[str, Any] | None = None,
 ) -> ImportResult:
     """Load a mapping, import its raw exports and write the run directory atomically.
 
@@ -214,12 +274,16 @@ def import_to_directory(
         mapping_path: The TOML mapping.
         out: The run directory to write (never one that holds an input).
         overwrite: Replace an existing non-empty directory.
+        robot, origin_mm, yaw_deg, cell: The command's `--robot`, `--origin-mm`, `--yaw-deg` as typed and its
+            `--cell` record (`with_cell`); the run records the robot, the placement and the cell as a lab run does.
 
     Returns:
         The imported run (its `directory` set to `out`) and the import record.
     """
-    mapping = load_mapping(mapping_path)
+    mapping = with_cell(load_mapping(mapping_path), robot, origin_mm, yaw_deg, cell)
     result = import_run(mapping)
+    if cell is not None:
+        result = ImportResult(replace(result.run, meta={**result.run.meta, "cell": dict(cell)}), result.report)
     target = write_run(out, result.run, overwrite=overwrite, protect=mapping.inputs())
     run = Run(
         target,

@@ -12,19 +12,22 @@ import codecs
 import math
 import re
 import tomllib
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from twin.base.csvio import read_text
-from twin.errors import InputError
+from twin.errors import ModelError
 from twin.process.description import plausibility_problem
 from twin.robot.description import load_robot
-from twin.runs.registration import Registration, fit_rigid, given_transform
-from twin.runs.toml_keys import ClockError, MappingError, RegistrationError, TomlReader
+from twin.runs.mapping_frame import LENGTH_UNITS
+from twin.runs.mapping_frame import registration as _registration
+from twin.runs.mapping_frame import rotation as _rotation
+from twin.runs.registration import Registration
+from twin.runs.toml_keys import ClockError, MappingError, TomlReader
 
-LENGTH_UNITS = {"m": 1.0, "mm": 1e-3, "µm": 1e-6, "um": 1e-6}
 FORCE_UNITS = {"N": 1.0, "kN": 1e3}
 TIME_UNITS = {"s": 1.0, "ms": 1e-3, "µs": 1e-6, "us": 1e-6}
 DELIMITERS = {",": ",", ";": ";", "tab": "\t", "\t": "\t"}
@@ -109,6 +112,10 @@ class ImportMapping:
         registration: Tracker-to-sheet transform, given or fitted to reference points (with its residual).
         tracker_clock, forces_clock: Clock alignment of the two measured streams.
         sensor: Force sensor frame and tool weight.
+        robot: `run.robot`: a shipped robot's name or a description file (absolute), or None.
+        placement: `run.origin_mm` / `run.yaw_deg` [mm, deg] as written: {"origin_mm": [x, y, z] or None,
+            "yaw_deg": number or None}.
+        tool_length_given: Whether `run.tool_length_mm` was written (else `tool_length_m` is the robot's).
     """
 
     path: Path
@@ -123,6 +130,9 @@ class ImportMapping:
     tracker_clock: ClockSpec
     forces_clock: ClockSpec
     sensor: SensorSpec
+    robot: str | None = None
+    placement: dict[str, Any] = field(default_factory=dict)
+    tool_length_given: bool = False
 
     def inputs(self) -> list[Path]:
         """Every file the mapping reads (never to be written over)."""
@@ -196,57 +206,11 @@ def _clock(reader: TomlReader, name: str, default_method: str) -> ClockSpec:
     return ClockSpec(method, None if math.isnan(offset) else offset, max_offset)
 
 
-def _rotation(reader: TomlReader, dotted: str, R: np.ndarray) -> np.ndarray:
-    if not np.allclose(R.T @ R, np.eye(3), atol=1e-6) or np.linalg.det(R) < 0:
-        raise reader.error(
-            dotted, f"is not a proper rotation (R^T R = I, det = +1 within 1e-6): {R.tolist()}"
-        )
-    return R
-
-
-def _registration(r: TomlReader) -> Registration:
-    length = r.unit("tracker.frame.unit", LENGTH_UNITS, "mm")
-    T = r.matrix("tracker.frame.T_sheet_tracker", (4, 4), None)
-    p_sheet = r.matrix("tracker.frame.points_sheet", None, None)
-    p_tracker = r.matrix("tracker.frame.points_tracker", None, None)
-    if T is not None:
-        if p_sheet is not None or p_tracker is not None:
-            raise r.error("tracker.frame.T_sheet_tracker", "give either T_sheet_tracker or reference points")
-        T = T.copy()
-        T[:3, 3] *= length
-        try:
-            return given_transform(T)
-        except InputError as exc:
-            raise r.error("tracker.frame.T_sheet_tracker", str(exc), RegistrationError) from None
-    if p_sheet is None or p_tracker is None:
-        raise r.error(
-            "tracker.frame.points_sheet",
-            "the tracker frame needs T_sheet_tracker (4x4) or points_sheet and points_tracker (>= 3 each)",
-            RegistrationError,
-        )
-    if p_sheet.shape != p_tracker.shape:
-        raise r.error(
-            "tracker.frame.points_tracker",
-            f"has {len(p_tracker)} points, points_sheet has {len(p_sheet)}: expected the same points",
-            RegistrationError,
-        )
-    if len(p_sheet) < 3:
-        raise r.error(
-            "tracker.frame.points_sheet",
-            f"has {len(p_sheet)} reference point(s), expected at least 3 (not collinear)",
-            RegistrationError,
-        )
-    try:
-        return fit_rigid(p_tracker * length, p_sheet * length)
-    except InputError as exc:
-        raise r.error("tracker.frame.points_sheet", str(exc), RegistrationError) from None
-
-
 def mapping_keys() -> list[str]:
     """Every key an import mapping may hold, dotted (docs/import-export.md)."""
     table = ("file", "delimiter", "decimal", "header_line", "encoding", "unit", "time", "time_unit", "rate_hz")
     clock = ("clock.offset_s", "clock.method", "clock.max_offset_s")
-    keys = [f"run.{k}" for k in ("scenario", "tool_length_mm", "notes")]
+    keys = [f"run.{k}" for k in ("scenario", "tool_length_mm", "notes", "robot", "origin_mm", "yaw_deg")]
     for name, columns in (("commanded", "xyz"), ("tracker", "xyz"), ("forces", ("fx", "fy", "fz")), ("profile", "xz")):
         keys += [f"{name}.{k}" for k in (*table, *columns)]
     keys += [f"{name}.{k}" for name in ("tracker", "forces") for k in clock]
@@ -296,7 +260,8 @@ def load_mapping(path: str | Path) -> ImportMapping:
     problem = plausibility_problem("tool_mass_kg", sensor.tool_mass_kg, "forces.sensor.tool_mass_kg")
     if problem:
         raise r.error("forces.sensor.tool_mass_kg", problem)
-    tool_length_m = r.number("run.tool_length_mm", load_robot().tool_length_m * 1e3, positive=True) * 1e-3
+    robot = _robot(r, path)
+    tool_length_m = r.number("run.tool_length_mm", load_robot(robot).tool_length_m * 1e3, positive=True) * 1e-3
     problem = plausibility_problem("tool_length_m", tool_length_m, "run.tool_length_mm")
     if problem:
         raise r.error("run.tool_length_mm", problem)
@@ -314,4 +279,22 @@ def load_mapping(path: str | Path) -> ImportMapping:
         tracker_clock=_clock(r, "tracker", "offset"),
         forces_clock=_clock(r, "forces", "offset"),
         sensor=sensor,
+        robot=robot,
+        placement={"origin_mm": None if r.get("run.origin_mm", None) is None else r.vector("run.origin_mm").tolist(),
+                   "yaw_deg": None if r.get("run.yaw_deg", None) is None else r.number("run.yaw_deg")},
+        tool_length_given=r.get("run.tool_length_mm", None) is not None,
     )
+
+
+def _robot(r: TomlReader, path: Path) -> str | None:
+    """`run.robot`: a shipped robot's name, or a description file relative to the mapping (made absolute)."""
+    name = r.get("run.robot", None, kind=str)
+    if name is None:
+        return None
+    if Path(name).suffix and not Path(name).is_absolute():
+        name = str((path.parent / name).resolve())
+    try:
+        load_robot(name)
+    except ModelError as exc:
+        raise r.error("run.robot", f"is {name!r}: {exc}") from None
+    return str(name)

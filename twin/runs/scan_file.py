@@ -93,7 +93,7 @@ def _read_csv(path: Path, units: str | None) -> tuple[np.ndarray, str]:
 
 def _read_xyz(path: Path) -> np.ndarray:
     rows: list[list[float]] = []
-    with path.open(errors="replace") as handle:
+    with path.open(encoding="utf-8-sig", errors="replace") as handle:
         for line_number, line in enumerate(handle, start=1):
             text = line.strip()
             if not text or text.startswith("#"):

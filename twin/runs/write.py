@@ -89,7 +89,7 @@ def _with_robot_copy(tmp: Path, meta: Mapping[str, Any]) -> Mapping[str, Any]:
     if robot.scene is not None and robot.scene != robot.mjcf:
         shutil.copyfile(robot.scene, folder / "scene.xml")
         local["scene"] = "scene.xml"
-    text = Path(name).read_text(encoding="utf-8")
+    text = Path(name).read_text(encoding="utf-8-sig")
     text = _FILE_KEY.sub(lambda m: f'{m.group(1)} = "{local.get(m.group(1), "robot.xml")}"', text)
     (tmp / ROBOT_COPY).write_text(text + f"\n# copied by tx200-twin from {json.dumps(name)}\n", encoding="utf-8")
     return {**meta, "robot": ROBOT_COPY}

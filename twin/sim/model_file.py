@@ -40,6 +40,12 @@ from twin.sim.spec import TwinSpec
 
 MODEL_FORMAT = "tx200-twin-model/2"
 READABLE_FORMATS = ("tx200-twin-model/1", MODEL_FORMAT)
+#: The keys a model file takes (`model_payload` writes them; `units` and `note` are for the reader).
+MODEL_KEYS = ("format", "robot", "process", "placement", "effects", "units", "lost_motion_takeup_mm",
+              "joint_stiffness_nm_per_rad", "joint_friction_nm", "servo", "note")
+#: The keys of its `process` object and of `process.history`.
+PROCESS_KEYS = (*RECORD_KEYS, "friction_reversal_mm", "force_model", "force_fit", "history")
+HISTORY_KEYS = ("file", "symmetry", "unchecked_symmetry")
 
 
 def model_payload(spec: TwinSpec, note: str = "") -> dict[str, Any]:
@@ -101,6 +107,7 @@ def read_model_file(path: str | Path) -> TwinSpec:
     payload = read_json(path)
     if payload.get("format") not in READABLE_FORMATS:
         raise DataFileError(path, f"format is {payload.get('format')!r}, expected one of {list(READABLE_FORMATS)}")
+    _known_keys(path, payload, "", MODEL_KEYS)
     try:
         takeup_mm = payload.get("lost_motion_takeup_mm")
         takeup_m = LOST_MOTION_TAKEUP_M if takeup_mm is None else float(takeup_mm) / 1e3
@@ -126,6 +133,7 @@ def _process(path: Path, entry: Any) -> Process:
         return Process()
     if not isinstance(entry, Mapping):
         raise DataFileError(path, f"process = {entry!r}: expected an object")
+    _known_keys(path, entry, "process.", PROCESS_KEYS)
     defaults = Process()
 
     def metres(key: str, default: float | None) -> float | None:
@@ -136,6 +144,9 @@ def _process(path: Path, entry: Any) -> Process:
     history = entry.get("history")
     loaded = None
     if history is not None:
+        if not isinstance(history, Mapping):
+            raise DataFileError(path, f"process.history = {history!r}: expected null or an object with {list(HISTORY_KEYS)}")
+        _known_keys(path, history, "process.history.", HISTORY_KEYS)
         file = Path(str(history.get("file", "")))
         file = file if file.is_absolute() else path.parent / file
         loaded = load_force_history(
@@ -149,6 +160,15 @@ def _process(path: Path, entry: Any) -> Process:
         history=loaded,
         force_fit=_force_fit(path, entry.get("force_fit")),
     )
+
+
+def _known_keys(path: Path, entry: Mapping[str, Any], prefix: str, keys: Sequence[str]) -> None:
+    """Refuse a key `entry` does not take (a misspelling would otherwise be read as the default), naming it and
+    the keys it takes."""
+    unknown = [key for key in entry if key not in keys]
+    if unknown:
+        raise DataFileError(path, f"unknown key(s) {[prefix + str(k) for k in unknown]}; "
+                            f"{'a model file' if not prefix else prefix.rstrip('.')} takes {list(keys)}")
 
 
 def _servo(path: Path, entry: Any) -> ServoTransient | None:

@@ -13,7 +13,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from pathlib import Path
 
-from twin.apps.export.program import ProgramPath, euler_xyz_deg, fmt
+from twin.apps.export.program import ProgramPath, cell_lines, euler_xyz_deg, fmt
 from twin.base.csvio import write_text
 
 FEED_DECIMALS = 2
@@ -27,6 +27,7 @@ def program_text(path: ProgramPath) -> str:
     lines = [
         "%",
         f"(tx200-twin export of {path.source.name}: {len(path.points_mm)} points, sheet frame)",
+        *(f"({line.replace('(', '[').replace(')', ']')})" for line in cell_lines(cell)),
         f"(work offset G54 = sheet frame origin in the robot base: {origin} mm)",
         f"(tool: length {fmt(cell.tool_length_mm)} mm along the flange z; "
         f"orientation rx {fmt(rx, 3)} ry {fmt(ry, 3)} rz {fmt(rz, 3)} deg)",

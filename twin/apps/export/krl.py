@@ -69,7 +69,7 @@ import numpy as np
 
 from twin.apps.export.motion import corners
 from twin.apps.export.parts import parts
-from twin.apps.export.program import ProgramPath, euler_zyx_deg, fmt, home_axes_deg
+from twin.apps.export.program import ProgramPath, cell_lines, euler_zyx_deg, fmt, home_axes_deg
 from twin.base.csvio import write_text
 
 APPROXIMATION_MM = 0.1  # $APO.CDIS: how far a block blends into the next (C_SPL), below the 0.5 mm point spacing
@@ -186,6 +186,7 @@ def _data(path: ProgramPath, home: bool) -> list[str]:
         f"DEFDAT {name} PUBLIC",
         f"; tx200-twin export of {path.source.name}: {n} points, sheet frame (base {BASE_NO}), tool {TOOL_NO}",
         about,
+        *(f"; {line}" for line in cell_lines(cell)),
         *([f"DECL E6AXIS {HOME}={_axes(home_axes_deg(cell))}"] if home else []),
         f"DECL REAL V_PROC={fmt(path.process_feed * 1e-3, 7)}",
         f"DECL POS P_PATH[{n}]",
@@ -207,13 +208,13 @@ def program_files(path: ProgramPath) -> dict[str, str]:
     stop = corners(path.points_mm)
     name = path.name.upper()
     if len(pieces) == 1:
-        src = [*HEADER, f"DEF {name}( )", *INI, *setup(path), f"PTP {HOME}", *_motion(path, stop), f"PTP {HOME}",
+        src = [*HEADER, f"DEF {name}( )", *(f"; {line}" for line in cell_lines(path.cell)), *INI, *setup(path), f"PTP {HOME}", *_motion(path, stop), f"PTP {HOME}",
                "END"]
         return {f"{path.name}.src": _text(src), f"{path.name}.dat": _text(_data(path, home=True))}
     main_dat = [*HEADER, f"DEFDAT {name} PUBLIC", f"; {len(pieces)} parts of {path.source.name}, in order",
                 f"DECL E6AXIS {HOME}={_axes(home_axes_deg(path.cell))}", "ENDDAT"]
     files = {
-        f"{path.name}.src": _text([*HEADER, f"DEF {name}( )", *INI, *setup(path), f"PTP {HOME}",
+        f"{path.name}.src": _text([*HEADER, f"DEF {name}( )", *(f"; {line}" for line in cell_lines(path.cell)), *INI, *setup(path), f"PTP {HOME}",
                                    *(f"{p.name.upper()}( )" for p in pieces), f"PTP {HOME}", "END"]),
         f"{path.name}.dat": _text(main_dat),
     }

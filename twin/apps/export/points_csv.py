@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from twin.apps.export.program import POSITION_DECIMALS, ProgramPath, euler_xyz_deg
+from twin.apps.export.program import POSITION_DECIMALS, ProgramPath, cell_lines, euler_xyz_deg
 from twin.base.csvio import write_table
 from twin.base.jsonio import write_json
 
@@ -55,6 +55,8 @@ def write(path: ProgramPath, out: Path, protect: Sequence[Path] = ()) -> list[Pa
         "tool_length_mm": cell.tool_length_mm,
         "tool_mass_kg": cell.tool_mass_kg,
         "robot": cell.robot,
+        "sources": dict(cell.sources or {}),
+        "about": cell_lines(cell),
         "rows": "row 1: approach point (joint move); last row: retract point" if path.approach else "path points",
     }
     return [

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import math
 import re
+from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -52,6 +53,8 @@ class CellSetup:
         robot: The robot the program is for (a shipped robot's name or a description file).
         configuration: The arm configuration at the program's first point (`with_configuration`), or None.
         cog_mm: The tool's centre of gravity in the flange frame [mm] as declared (a `--cell` file's), or None.
+        sources: Where the sheet origin, its yaw, the tool length and the tool mass came from, in words (keys
+            "origin", "yaw", "tool_length", "tool_mass"; `twin.analysis.resolve.PRECEDENCE`), or None.
     """
 
     p_base_sheet_mm: np.ndarray
@@ -62,6 +65,7 @@ class CellSetup:
     robot: str = DEFAULT_ROBOT
     configuration: RobotConfiguration | None = None
     cog_mm: tuple[float, float, float] | None = None
+    sources: Mapping[str, str] | None = None
 
     def __post_init__(self) -> None:
         for name, option in (("tool_length_mm", "--tool-length-mm"), ("tool_mass_kg", "--tool-mass-kg")):
@@ -132,6 +136,20 @@ class ProgramPath:
         if i == len(self.points_mm) - 1:
             return f"the retract point (above row {i - 1})"
         return f"row {i}"
+
+
+def cell_lines(cell: CellSetup) -> list[str]:
+    """What each program states on its first comment lines (its language's comment mark before each): the sheet
+    frame in the robot base and the tool the program was written with, and where each came from."""
+    sources = dict(cell.sources or {})
+    x, y, z = (f"{float(v):.4f}".rstrip("0").rstrip(".") for v in cell.p_base_sheet_mm)
+    return [
+        f"sheet frame in the base of robot {cell.robot}: origin ({x}, {y}, {z}) mm "
+        f"(from {sources.get('origin', 'the placement given')}), yaw {cell.yaw_deg:g} deg "
+        f"(from {sources.get('yaw', 'the placement given')})",
+        f"tool: {cell.tool_length_mm:g} mm flange to tip (from {sources.get('tool_length', 'the cell given')}), "
+        f"{cell.tool_mass_kg:g} kg (from {sources.get('tool_mass', 'the cell given')})",
+    ]
 
 
 def default_cell(

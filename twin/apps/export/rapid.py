@@ -38,7 +38,7 @@ import numpy as np
 
 from twin.apps.export.motion import CHORD_TOL_MM, corners, turn_angles_deg
 from twin.apps.export.parts import parts
-from twin.apps.export.program import ProgramPath, fmt, home_axes_deg, quaternion_wxyz
+from twin.apps.export.program import ProgramPath, cell_lines, fmt, home_axes_deg, quaternion_wxyz
 from twin.base.csvio import write_text
 
 QUATERNION_DECIMALS = 6
@@ -164,6 +164,7 @@ def about(path: ProgramPath) -> list[str]:
     return [
         f"  ! tx200-twin export of {path.source.name}: {len(path.points_mm)} points, sheet frame (work object wSheet)",
         f"  ! robot {path.cell.robot}" + (f", first point {config.describe()}" if config is not None else ""),
+        *(f"  ! {line}" for line in cell_lines(path.cell)),
     ]
 
 

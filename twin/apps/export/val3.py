@@ -28,7 +28,7 @@ import shutil
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 
-from twin.apps.export.program import ProgramPath, euler_xyz_deg, fmt, home_axes_deg
+from twin.apps.export.program import ProgramPath, cell_lines, euler_xyz_deg, fmt, home_axes_deg
 from twin.apps.export.val3_check import check_application
 from twin.base.csvio import swap_in_directory, temporary_folder
 from twin.errors import InputError
@@ -42,7 +42,7 @@ APPROACH_VEL_PERCENT = 10
 
 START_CODE = """begin
   // {name}: {n} points of {source}, sheet frame fSheet, tool tIsf, robot {robot}
-  movej(jHome, tIsf, mApproach)
+{about}  movej(jHome, tIsf, mApproach)
   movej(pPath[0], tIsf, mApproach)
   waitEndMove()
   for i = 1 to size(pPath) - 1
@@ -108,7 +108,8 @@ def application_files(path: ProgramPath) -> dict[str, str]:
         + "\n".join(datas)
         + "\n  </Datas>\n</Database>\n"
     )
-    code = START_CODE.format(name=path.name, n=len(path.points_mm), source=path.source.name, robot=cell.robot)
+    code = START_CODE.format(name=path.name, n=len(path.points_mm), source=path.source.name, robot=cell.robot,
+                             about="".join(f"  // {line}\n" for line in cell_lines(cell)))
     start = (
         f'<?xml version="1.0" encoding="utf-8"?>\n<Programs xmlns="{NS_PROGRAM}" xmlns:xsi="{XSI}">\n'
         '  <Program name="start">\n    <Locals>\n'

@@ -54,7 +54,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from twin.apps.export import val3
-from twin.apps.export.program import ProgramPath
+from twin.apps.export.program import ProgramPath, cell_lines
 from twin.apps.online.alter_protocol import (
     ANSWER_BYTES,
     CYCLE_S,
@@ -78,7 +78,7 @@ MAX_ANSWERS_PER_CYCLE = 4
 
 START_CODE = """begin
   // {name}: {n} points of {source}, sheet frame fSheet, tool tIsf, robot {robot}
-  // online correction: {task} (every {cycle_ms:g} ms) sends the joints to the twin (tx200-twin online) on siTwin
+{about}  // online correction: {task} (every {cycle_ms:g} ms) sends the joints to the twin (tx200-twin online) on siTwin
   // and applies its answer with alter(): the path's moves are alterMovel, altered in world
   bAlterOn = false
   bAlterRun = true
@@ -254,6 +254,7 @@ def application_files(path: ProgramPath) -> dict[str, str]:
                                     f'<Program file="stop.pgx" />\n    <Program file="{TASK}.pgx" />', 1)
     cycle_ms = 1e3 * CYCLE_S
     start = START_CODE.format(name=path.name, n=len(path.points_mm), source=path.source.name, robot=path.cell.robot,
+                              about="".join(f"  // {line}\n" for line in cell_lines(path.cell)),
                               task=TASK, cycle_s=CYCLE_S, cycle_ms=cycle_ms)
     files["start.pgx"] = _program("start", start, {"i": ("num", 1)})
     task = TASK_CODE.format(cycle_ms=cycle_ms, request=REQUEST_BYTES, answer=ANSWER_BYTES, magic=MAGIC,

@@ -26,7 +26,8 @@ class ServeReport(NamedTuple):
 
     Attributes:
         cycles: Packets answered.
-        unreadable: Packets that were not readable (answered with no correction change, or not answered).
+        unreadable: Packets that were not readable (answered with no correction change, or not answered), a
+            value not finite (inf, NaN) among them.
         compute_us: Per-cycle compute (read, compensate, answer), shape (cycles,) [µs].
         stopped: Why the loop ended: "cycles", "idle" or "disconnected".
     """
@@ -37,6 +38,9 @@ class ServeReport(NamedTuple):
     stopped: str
 
 
+#: The longest idle timeout a server takes [s] (an hour: a socket's timeout has a platform limit, and a session
+#: that waits longer for its robot waits for nothing).
+MAX_IDLE_TIMEOUT_S = 3600.0
 #: The largest packet a UDP server reads [bytes] (an RSI or EGM packet is a few hundred).
 MAX_PACKET = 4096
 
@@ -57,38 +61,53 @@ def udp_socket(host: str, port: int) -> tuple[socket.socket, int]:
 
 
 def check_bounds(max_cycles: int, idle_timeout_s: float) -> None:
-    """Every server's loop is bounded: at least one cycle, a positive idle timeout.
+    """Every server's loop is bounded: at least one cycle, an idle timeout > 0 and <= `MAX_IDLE_TIMEOUT_S`.
 
     Raises:
         InputError: Either is not (naming both).
     """
-    if max_cycles < 1 or not idle_timeout_s > 0:
-        raise InputError(f"max_cycles {max_cycles!r} must be >= 1 and idle_timeout_s {idle_timeout_s!r} > 0")
+    if max_cycles < 1 or not 0 < idle_timeout_s <= MAX_IDLE_TIMEOUT_S:
+        raise InputError(f"max_cycles {max_cycles!r} must be >= 1 and idle_timeout_s {idle_timeout_s!r} > 0 and <= "
+                         f"{MAX_IDLE_TIMEOUT_S:g}")
 
 
 def serve_udp(sock: socket.socket, max_cycles: int, idle_timeout_s: float,
-              answer: Callable[[bytes, float], bytes | None]) -> ServeReport:
+              answer: Callable[[bytes, float], bytes | None], cycle: ServedCycle | None = None) -> ServeReport:
     """The loop of a UDP interface: each packet to `answer(packet, t_received)` (the time on `time.perf_counter`
     [s]), its reply sent back to the sender; None: the packet was unreadable (counted, not answered). Stops after
-    `max_cycles` replies or when no packet came for `idle_timeout_s` [s]."""
+    `max_cycles` replies or when no packet was answered for `idle_timeout_s` [s] (a stream of unreadable packets
+    does not keep it alive). The packets `cycle` rejected as not finite (`ServedCycle.rejected`) were answered
+    with the held correction; they count among the cycles and the unreadable ones."""
     check_bounds(max_cycles, idle_timeout_s)
     compute = np.zeros(max_cycles)
     sock.settimeout(idle_timeout_s)
     cycles = unreadable = 0
+    last_answer = time.perf_counter()
+    stopped = "cycles"
     while cycles < max_cycles:
         try:
             packet, peer = sock.recvfrom(MAX_PACKET)
         except TimeoutError:
-            return ServeReport(cycles, unreadable, compute[:cycles], "idle")
+            stopped = "idle"
+            break
         start = time.perf_counter()
         reply = answer(packet, start)
         if reply is None:
             unreadable += 1
+            left = idle_timeout_s - (time.perf_counter() - last_answer)
+            if left <= 0.0:
+                stopped = "idle"
+                break
+            sock.settimeout(left)
             continue
         sock.sendto(reply, peer)
-        compute[cycles] = 1e6 * (time.perf_counter() - start)
+        last_answer = time.perf_counter()
+        compute[cycles] = 1e6 * (last_answer - start)
+        if unreadable:
+            sock.settimeout(idle_timeout_s)
         cycles += 1
-    return ServeReport(cycles, unreadable, compute, "cycles")
+    rejected = 0 if cycle is None else cycle.rejected
+    return ServeReport(cycles, unreadable + rejected, compute[:cycles], stopped)
 
 
 class Server(Protocol):
@@ -123,18 +142,44 @@ class ServedCycle:
         self.force_n = np.zeros(3)
         self.stamp_s = math.nan
         self.correction_base_mm = np.zeros(3)
+        self.rejected = 0
 
     def take(self, source: ForceSource) -> None:
-        """The force source's newest sample (stamped on `time.perf_counter`) into `force_n` and `stamp_s`."""
+        """The force source's newest sample (stamped on `time.perf_counter`) into `force_n` and `stamp_s`; a
+        sample not finite is not taken (the last one stays)."""
         source.poll()
-        self.force_n[:] = source.force_n
-        self.stamp_s = source.stamp_s
+        f = source.force_n
+        if math.isfinite(f[0]) and math.isfinite(f[1]) and math.isfinite(f[2]):
+            self.force_n[:] = f
+            self.stamp_s = source.stamp_s
+
+    def put_force(self, fx: float, fy: float, fz: float, stamp_s: float) -> bool:
+        """A packet's F/T sample (sheet frame [N]) measured at `stamp_s` [s] into `force_n` and `stamp_s`.
+
+        Returns:
+            False, and nothing taken, when a value is not finite (inf, NaN, or a number too large for a float):
+            the caller rejects the packet (`hold`).
+        """
+        if not (math.isfinite(fx) and math.isfinite(fy) and math.isfinite(fz) and math.isfinite(stamp_s)):
+            return False
+        self.force_n[0], self.force_n[1], self.force_n[2] = fx, fy, fz
+        self.stamp_s = stamp_s
+        return True
+
+    def hold(self) -> np.ndarray:
+        """A rejected packet's answer: the last correction, unchanged (zero before the first), counted in
+        `rejected`. Returns a view of `correction_base_mm`."""
+        self.rejected += 1
+        return self.correction_base_mm
 
     def step(self, t_s: float, axes_deg: np.ndarray | tuple[float, ...]) -> np.ndarray:
         """One cycle: the controller's axes [deg] at time `t_s` [s], with the F/T sample last put in `force_n`
         (sheet frame [N]) measured at `stamp_s` [s] (NaN: none yet). Returns the correction, base frame [mm]
-        (a view of `correction_base_mm`)."""
+        (a view of `correction_base_mm`). A time or an axis not finite is not given to the compensator (its state
+        would stay NaN): the cycle is rejected and answered with the last correction (`hold`)."""
         self.q_rad[:] = axes_deg
+        if not (math.isfinite(t_s) and math.isfinite(float(self.q_rad.sum()))):
+            return self.hold()
         self.q_rad *= math.pi / 180.0
         self.q_rad -= self._offset
         self.q_rad /= self._sign

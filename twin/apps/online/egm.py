@@ -17,7 +17,8 @@ we could read it; the correction there is sent in the last moving frame. `age` i
 
 The F/T sample comes from a `ForceSource` (the sensor's own stream, `twin.apps.online.rdt`) or, without one, from
 the message's `measuredForce` (ABB Force Control's sensor, its first three values taken as the sheet-frame force
-[N]). The server's loop is bounded as `rsi`'s is.
+[N]). The server's loop is bounded as `rsi`'s is; a message with a joint, a force or a planned pose not finite is
+answered with the last correction and counted unreadable, as there.
 """
 
 from __future__ import annotations
@@ -141,24 +142,38 @@ class EgmServer:
             for i in range(self.robot.dof):
                 axes[i] = joints[i]
             t = received_s if self.force is not None else 1e-3 * robot_msg.header.tm
-            self._take_force(robot_msg, cycle, t)
             planned = robot_msg.planned.cartesian if robot_msg.planned.HasField("cartesian") else None
             cartesian = planned if planned is not None else robot_msg.feedBack.cartesian
-            frame.update(cartesian.pos, cartesian.orient if cartesian.HasField("orient") else None)
-            np.dot(frame.axes, cycle.step(t, axes), out=corr_path)
+            orient = cartesian.orient if cartesian.HasField("orient") else None
+            rejected = cycle.rejected
+            if not (self._take_force(robot_msg, cycle, t) and _finite_pose(cartesian.pos, orient)):
+                cycle.hold()  # a value not finite: the last correction, in the last frame
+            else:
+                frame.update(cartesian.pos, orient)
+                np.dot(frame.axes, cycle.step(t, axes), out=corr_path)
             reply.header.seqno += 1
             reply.header.tm = robot_msg.header.tm
-            reply.pathCorr.pos.x, reply.pathCorr.pos.y, reply.pathCorr.pos.z = corr_path
+            if cycle.rejected == rejected:
+                reply.pathCorr.pos.x, reply.pathCorr.pos.y, reply.pathCorr.pos.z = corr_path
             return reply.SerializeToString()
 
-        return serve_udp(self.sock, max_cycles, idle_timeout_s, answer)
+        return serve_udp(self.sock, max_cycles, idle_timeout_s, answer, cycle)
 
-    def _take_force(self, robot_msg: Any, cycle: ServedCycle, t: float) -> None:
-        """The newest F/T sample into the cycle: the force source's, or the message's measured force."""
+    def _take_force(self, robot_msg: Any, cycle: ServedCycle, t: float) -> bool:
+        """The newest F/T sample into the cycle: the force source's, or the message's measured force; False (nothing
+        taken) when the message's force is not finite."""
         if self.force is not None:
             cycle.take(self.force)
         elif robot_msg.HasField("measuredForce") and len(robot_msg.measuredForce.force) >= 3 and (
                 not robot_msg.measuredForce.HasField("fcActive") or robot_msg.measuredForce.fcActive):
             force = robot_msg.measuredForce.force
-            cycle.force_n[0], cycle.force_n[1], cycle.force_n[2] = force[0], force[1], force[2]
-            cycle.stamp_s = t
+            return cycle.put_force(force[0], force[1], force[2], t)
+        return True
+
+
+def _finite_pose(pos: Any, orient: Any | None) -> bool:
+    """Whether a message's position (and orientation, if any) is finite."""
+    if not (math.isfinite(pos.x) and math.isfinite(pos.y) and math.isfinite(pos.z)):
+        return False
+    return orient is None or (math.isfinite(orient.u0) and math.isfinite(orient.u1) and math.isfinite(orient.u2)
+                              and math.isfinite(orient.u3))

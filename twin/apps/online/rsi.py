@@ -9,8 +9,10 @@ without one is a cycle without a new sample, which the compensator's watchdog ha
 sensor's own stream (a `ForceSource`, e.g. ATI RDT), read by the server. `RKorr` X Y Z is the
 correction in the robot's base frame [mm], absolute (the RSI object's correction mode `#ABSOLUTE`), A B C zero.
 
-The server's loop is bounded: it stops after `max_cycles` packets, or when no packet came for `idle_timeout_s`.
-It reports the per-cycle compute time (parse, compensate, answer) and the packets it could not read.
+The server's loop is bounded: it stops after `max_cycles` packets, or when no packet was answered for
+`idle_timeout_s`. It reports the per-cycle compute time (parse, compensate, answer) and the packets it could not
+read. A packet with an axis or a force not finite (`inf`, `nan`, `1e999`) is answered with the last correction,
+unchanged, and counted unreadable: the compensator never sees it, and the session goes on.
 """
 
 from __future__ import annotations
@@ -118,9 +120,8 @@ class RsiServer:
                 cycle.take(self.force)
             else:
                 t = 1e-3 * rob.ipoc
-                if rob.force_n is not None:
-                    cycle.force_n[:] = rob.force_n
-                    cycle.stamp_s = t
+                if rob.force_n is not None and not cycle.put_force(*rob.force_n, t):
+                    return sen_packet(rob.ipoc, cycle.hold())  # an F/T value not finite: the last correction
             return sen_packet(rob.ipoc, cycle.step(t, rob.axes_deg))
 
-        return serve_udp(self.sock, max_cycles, idle_timeout_s, answer)
+        return serve_udp(self.sock, max_cycles, idle_timeout_s, answer, cycle)

@@ -106,7 +106,7 @@ class Val3Server:
             with contextlib.suppress(OSError):  # a socket that cannot take the option still works
                 conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
             cycles, unreadable, stopped = self._answer(conn, cycle, compute, max_cycles)
-        return ServeReport(cycles, unreadable, compute[:cycles], stopped)
+        return ServeReport(cycles, unreadable + cycle.rejected, compute[:cycles], stopped)
 
     def _answer(self, conn: socket.socket, cycle: ServedCycle, compute: np.ndarray,
                 max_cycles: int) -> tuple[int, int, str]:

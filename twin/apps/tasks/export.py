@@ -1,21 +1,23 @@
 """`export`: a path CSV written as a robot program (Stäubli VAL3, KUKA KRL, ABB RAPID), G-code or a point list
-(`twin.apps.export`). The robot is the request's, else the run's, else the default; the format its own language
-unless the request names another (then a note); the tool length the request's, else the run's `meta.json`
-`tool_length_m`, else the robot's; the tool mass the request's, else the run's import record
-(`import.sensor.tool_mass_kg`), else the robot model's tool body. The report gives the process feed, the fastest
-programmed move in contact and the arm configuration; the warnings (moves slowed to the process feed) are notes."""
+(`twin.apps.export`). The robot, the sheet's placement and the tool follow one precedence, each value on its own
+(`twin.analysis.resolve.PRECEDENCE`): an explicit flag > the run's record > the cell file > the robot's defaults
+(a `--robot` or a cell naming another robot than the run's is refused). The format is the robot's own language
+unless the request names another (then a note). The program's first comment lines state the sheet frame and the
+tool it was written with and where each came from (`twin.apps.export.program.cell_lines`). The report gives the
+process feed, the fastest programmed move in contact and the arm configuration; the warnings (moves slowed to the
+process feed) are notes."""
 
 from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from twin.analysis.resolve import resolve_robot
+from twin.analysis.resolve import resolve_placement, resolve_robot, resolve_tool
 from twin.apps.export import (
     EXPORT_FORMATS,
     FORMATS,
@@ -29,9 +31,8 @@ from twin.apps.export.program import default_cell
 from twin.apps.tasks.base import Note, Report, silent
 from twin.errors import InputError
 from twin.process.description import check_plausible
-from twin.process.toolpath.placement import Placement
 from twin.robot.description import RobotDescription, load_robot
-from twin.runs.format import Run, run_robot
+from twin.runs.format import run_robot
 from twin.runs.read import read_run
 
 
@@ -44,11 +45,12 @@ class ExportRequest:
         out: The program to write: VAL3 application folder, KRL .src (its .dat beside it), RAPID .mod, G-code or
             CSV file.
         format: A key of `FORMATS`; None: the robot's own language.
-        robot: A robot name or description file; None: the run's, else the default robot.
-        run: A run (tx200-twin-run/1) the program is for (its robot, tool length and tool mass), or None.
-        tool_length_mm: Flange to tool tip along the flange z [mm]; None: the run's, else the robot's.
-        tool_mass_kg: Tool mass for RAPID's tooldata [kg]; None: the run's imported sensor's, else the robot
-            model's tool body's.
+        robot: A robot name or description file, as typed; None: the run's, else the cell's, else the default.
+        run: A run (tx200-twin-run/1) the program is for (its robot, placement, tool length and tool mass), or None.
+        tool_length_mm: Flange to tool tip along the flange z [mm], as typed; None: the run's, else the cell's, else
+            the robot's.
+        tool_mass_kg: Tool mass for the program's load data [kg], as typed; None: the run's (its cell's tool, else
+            its imported sensor's), else the cell's, else the robot model's tool body's.
         safe_height_mm: Approach and retract height, sheet frame z [mm]; None: above the sheet and the path.
         feed_mm_s: The process feed [mm/s]; None: the median of the path's feeds.
         max_points: Points per file before a KRL or RAPID program is split; 0: the format's limit.
@@ -56,9 +58,11 @@ class ExportRequest:
             configuration, `twin.apps.export.krl_rsi`; ABB: RAPID with EGM path correction,
             `twin.apps.export.rapid_egm`; Stäubli: VAL3 `alter` moves, `twin.apps.export.val3_alter`), for
             `tx200-twin online --serve`.
-        placement: The program's sheet frame in the robot base.
-        cell: The `--cell` file's record (its tool and sheet are in the flags already), which the report names as
-            where the tool and base came from, or None.
+        origin_mm: The sheet origin in the robot base [mm] as typed (`--origin-mm`); None: the run's, else the
+            cell's, else the robot's default sheet origin.
+        yaw_deg: The sheet's yaw [deg] as typed (`--yaw-deg`, 0 included); None: the run's, else the cell's, else 0.
+        cell: The `--cell` file's record (`CellDeclaration.record`: its robot, tool and sheet, under the typed
+            values and the run's), or None.
     """
 
     path_csv: Path
@@ -71,9 +75,10 @@ class ExportRequest:
     safe_height_mm: float | None = None
     feed_mm_s: float | None = None
     max_points: int = 0
-    placement: Placement = field(default_factory=Placement)
     online: bool = False
     cell: Mapping[str, Any] | None = None
+    origin_mm: tuple[float, float, float] | None = None
+    yaw_deg: float | None = None
 
     def __post_init__(self) -> None:
         if self.format is not None and self.format not in FORMATS:
@@ -108,9 +113,9 @@ class ExportReport(Report):
     @property
     def origin(self) -> str:
         """Where the program's tool and base came from."""
-        if self.cell is not None:
-            return f"the cell {self.cell['name']} ({self.cell['file']}) under the command's flags"
-        return f"robot {self.robot.name}'s model and scene under the command's flags"
+        sources = dict(self.exported.path.cell.sources or {})
+        return (f"sheet origin: {sources.get('origin')}; yaw: {sources.get('yaw')}; tool length: "
+                f"{sources.get('tool_length')}; tool mass: {sources.get('tool_mass')}")
 
     def lines(self) -> list[str]:
         path, files, feeds = self.exported
@@ -168,14 +173,19 @@ def export_task(request: ExportRequest, note: Note = silent) -> ExportReport:
         UnreachableError, SingularityError: A point the robot cannot reach.
     """
     recorded = read_run(request.run, require_forces=False) if request.run is not None else None
-    if recorded is not None and request.robot is not None:
-        given, made = load_robot(request.robot), run_robot(recorded.meta, Path(request.run or ".") / "meta.json")
-        if given.source != made.source:
-            raise InputError(
-                f"--robot gives robot {given.name!r}, but the run {request.run} was made with {made.name!r} (its "
-                "tool_length_m is that robot's tool); expected the same robot, or leave out --robot or --run"
-            )
-    robot = resolve_robot(request.robot, None, recorded)
+    cell_robot = None if request.cell is None else request.cell.get("robot")
+    if recorded is not None:
+        made = run_robot(recorded.meta, Path(request.run or ".") / "meta.json")
+        cell_given = cell_robot if request.robot is None else None  # a typed --robot overrides the cell's
+        for what, name in (("--robot", request.robot), (f"the cell {(request.cell or {}).get('file')}", cell_given)):
+            if name is not None and load_robot(name).source != made.source:
+                raise InputError(
+                    f"{what} gives robot {load_robot(name).name!r}, but the run {request.run} was made with "
+                    f"{made.name!r} (its placement and tool are that robot's); expected the same robot, or leave out "
+                    f"{'--robot' if what == '--robot' else '--cell'} or --run"
+                )
+    robot = resolve_robot(request.robot if request.robot is not None else None if recorded else cell_robot,
+                          None, recorded)
     fmt = request.format or (online_format(robot) if request.online else robot_format(robot))
     if request.online and not EXPORT_FORMATS[fmt].online:
         online = ", ".join(name for name, f in EXPORT_FORMATS.items() if f.online)
@@ -183,27 +193,18 @@ def export_task(request: ExportRequest, note: Note = silent) -> ExportReport:
     if fmt in LANGUAGES and LANGUAGES[fmt] != robot.language:
         note(f"note: writing {LANGUAGES[fmt]} for robot {robot.name} ({robot.vendor} {robot.model}), whose "
              f"{robot.controller} runs {robot.language}: the program's configuration is {robot.name}'s IK solution")
-    mass = request.tool_mass_kg if request.tool_mass_kg is not None else _run_tool_mass_kg(recorded)
-    cell = default_cell(mass, request.placement, robot)
+    place = resolve_placement(origin_mm=request.origin_mm, yaw_deg=request.yaw_deg, run=recorded, cell=request.cell,
+                              robot_name=robot.name)
+    tool = resolve_tool(robot, length_mm=request.tool_length_mm, mass_kg=request.tool_mass_kg, run=recorded,
+                        cell=request.cell)
+    cell = default_cell(tool.mass_kg, place.placement, robot)
+    cell = replace(cell, tool_length_mm=tool.length_mm, sources={
+        "origin": place.origin_from, "yaw": place.yaw_from, "tool_length": tool.length_from,
+        "tool_mass": tool.mass_from})
     if request.cell is not None and request.cell.get("tool", {}).get("cog_mm") is not None:
         cell = replace(cell, cog_mm=tuple(request.cell["tool"]["cog_mm"]))
-    if request.tool_length_mm is not None:
-        cell = replace(cell, tool_length_mm=request.tool_length_mm)
-    elif recorded is not None:
-        length_m = float(recorded.meta["tool_length_m"])
-        check_plausible("tool_length_m", length_m, f"{Path(request.run or '.') / 'meta.json'}: tool_length_m "
-                        f"{length_m:g} m")
-        cell = replace(cell, tool_length_mm=1e3 * length_m)
     exported = export_path(request.path_csv, fmt, request.out, cell=cell, safe_z_mm=request.safe_height_mm,
                            process_feed_mm_s=request.feed_mm_s, max_points=request.max_points)
     for warning in exported.feeds.warnings():
         note(f"warning: {warning}")
     return ExportReport(request.path_csv, fmt, robot, exported, request.cell)
-
-
-def _run_tool_mass_kg(recorded: Run | None) -> float | None:
-    """The tool mass an imported run records (`import.sensor.tool_mass_kg`, the mass below the F/T sensor), if > 0."""
-    if recorded is None:
-        return None
-    mass = recorded.meta.get("import", {}).get("sensor", {}).get("tool_mass_kg")
-    return float(mass) if isinstance(mass, int | float) and mass > 0 else None

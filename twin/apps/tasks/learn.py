@@ -6,6 +6,8 @@ the learned twin saved as a model file that `replay`, `compensate`, `discrepancy
 
 from __future__ import annotations
 
+import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -48,10 +50,24 @@ class LearnReport(Report):
     Attributes:
         result: The learned twin, the robot's, sheet's and springback's fits and the replay gaps.
         model_file: The model file written, or None.
+        run_tool_mm: The tool length the runs record (their `cell` tool, else `tool_length_m`) [mm], or None.
     """
 
     result: LearnResult
     model_file: Path | None = None
+    run_tool_mm: float | None = None
+
+    def fitted_words(self) -> str:
+        """The robot, the sheet placement and the tool the twin was fitted for, in one line."""
+        spec = self.result.spec
+        place = spec.placement
+        origin = (f"robot {spec.robot.name}'s default sheet origin" if place.origin_base_m is None else
+                  "sheet origin (" + ", ".join(f"{1e3 * v:g}" for v in place.origin_base_m) + ") mm")
+        tool = f"tool {1e3 * spec.robot.tool_length_m:.2f} mm (the robot model's)"
+        if self.run_tool_mm is not None and abs(self.run_tool_mm - 1e3 * spec.robot.tool_length_m) > 1e-6:
+            tool += f"; the runs record a {self.run_tool_mm:g} mm tool"
+        return (f"  fitted for robot {spec.robot.name} ({spec.robot.vendor} {spec.robot.model}), {origin}, yaw "
+                f"{math.degrees(place.yaw_rad):g} deg (the runs' placement), {tool}")
 
     def lines(self) -> list[str]:
         """What was learned, for the screen."""
@@ -62,6 +78,7 @@ class LearnReport(Report):
         lines = [
             f"learned from {len(result.before)} run(s) (fitted: the robot, the sheet and its springback come from "
             "these runs)",
+            self.fitted_words(),
             f"  robot: K_q [kN·m/rad] {'; '.join(_stiffness_words(robot))}",
             f"  robot: joint friction [N·m] {friction}; {_servo_words(robot)}; tracker offset "
             f"({', '.join(f'{v:.3f}' for v in robot.offset_mm)}) mm (not a robot effect: a registration error of "
@@ -92,7 +109,10 @@ class LearnReport(Report):
         def gaps(items: Any) -> list[dict[str, Any]]:
             return [g._asdict() for g in items]
 
+        spec = result.spec
         return {
+            "fitted_for": {"robot": spec.robot.name, "placement": spec.placement.to_json(),
+                           "tool_length_mm": 1e3 * spec.robot.tool_length_m, "run_tool_length_mm": self.run_tool_mm},
             "robot": {
                 "k_q_nm_per_rad": robot.k_q_nm_per_rad, "k_q_std_nm_per_rad": robot.std_nm_per_rad,
                 "prior_k_q_nm_per_rad": robot.prior_nm_per_rad, "observable": np.asarray(robot.observable).tolist(),
@@ -128,7 +148,16 @@ def learn_task(request: LearnRequest, note: Note = silent) -> LearnReport:
                          protect=[*request.runs, *([request.model] if request.model is not None else [])],
                          note=f"learned by `tx200-twin learn` from {names}: K_q, joint friction and the sheet's "
                          "force model are fitted to those runs")
-    return LearnReport(result, request.write_model)
+    return LearnReport(result, request.write_model, _run_tool_mm(runs[0].meta))
+
+
+def _run_tool_mm(meta: Mapping[str, Any]) -> float | None:
+    """The tool a run records [mm]: its cell's tool, else its `tool_length_m`."""
+    declared = ((meta.get("cell") or {}).get("tool") or {}).get("length_mm")
+    if isinstance(declared, int | float):
+        return float(declared)
+    length = meta.get("tool_length_m")
+    return 1e3 * float(length) if isinstance(length, int | float) else None
 
 
 def _stiffness_words(robot: RobotFit) -> list[str]:

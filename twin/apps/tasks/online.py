@@ -133,8 +133,13 @@ class OnlineRequest:
                              "force must come from the sensor's own stream (without it nothing would be corrected)")
         if not 0 <= self.port <= 65535:  # type: ignore[operator]
             raise InputError(f"--port {self.port}: expected 0..65535")
-        if self.cycles < 1 or not self.idle_timeout_s > 0:
-            raise InputError(f"--cycles {self.cycles} must be >= 1 and --idle-timeout-s {self.idle_timeout_s} > 0")
+        from twin.apps.online.cycle import MAX_IDLE_TIMEOUT_S
+
+        if self.cycles < 1:
+            raise InputError(f"--cycles {self.cycles}: expected a count of packets >= 1")
+        if not 0 < self.idle_timeout_s <= MAX_IDLE_TIMEOUT_S:
+            raise InputError(f"--idle-timeout-s {self.idle_timeout_s:g}: expected seconds > 0 and <= "
+                             f"{MAX_IDLE_TIMEOUT_S:g}")
 
 
 @dataclass(frozen=True)

@@ -31,6 +31,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+from twin.base.jsonio import NonFiniteNumberError, finite_float, non_finite_problem
 from twin.errors import DataFileError, InputError
 from twin.process.material.hardening import HardeningLaw
 from twin.process.material.library import (
@@ -56,7 +57,10 @@ def read_toml(path: str | Path) -> dict[str, Any]:
     if not path.is_file():
         raise DataFileError(path, "file not found")
     try:
-        return tomllib.loads(path.read_text(encoding="utf-8"))
+        text = path.read_text(encoding="utf-8-sig")  # a byte-order mark (Windows editors) dropped
+        return tomllib.loads(text, parse_float=finite_float)
+    except NonFiniteNumberError as exc:
+        raise non_finite_problem(path, tomllib.loads(text), exc.text) from None
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
         raise DataFileError(path, f"not valid TOML: {exc}") from None
 
