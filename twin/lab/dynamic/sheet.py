@@ -87,6 +87,7 @@ import math
 import numpy as np
 
 from twin.lab.dynamic import sheet_kernels as kernels
+from twin.lab.dynamic.sheet_grid import GRID_SPACING_M, HALF_SIZE_M, GridSheet, turned
 from twin.lab.dynamic.sheet_material import (
     POISSON_RATIO,
     YOUNGS_MODULUS_PA,
@@ -95,8 +96,6 @@ from twin.lab.dynamic.sheet_material import (
 )
 from twin.process.description import Process
 
-GRID_SPACING_M = 5e-4  # formed-surface grid [m]
-HALF_SIZE_M = 0.12  # the grid covers +/- this around the sheet origin [m]
 MIN_RECOVERY_M = 0.01e-3  # least elastic follow of the sheet behind a rising tool [m]
 FORMED_READ = 1.2  # a side's formed fraction is read around this many tool radii across the travel
 FORMED_PATCH = 0.6  # over a disc of this many tool radii around it (0.6 R to 1.8 R across the travel)
@@ -108,7 +107,7 @@ HEADING_TURN_M = 2 * GRID_SPACING_M  # travel over which the heading (sides, ste
 _PLANE = 2.0 / math.sqrt(3.0)
 
 
-class PlantSheet:
+class PlantSheet(GridSheet):
     """The plant's sheet (module docstring): formed surface, membrane force, springback. Its per-tick `force` and
     `advance` run compiled (`twin.lab.dynamic.sheet_kernels`); `force_reference` and `advance_reference` are the
     same in Python, and `compiled = False` runs them.
@@ -124,16 +123,10 @@ class PlantSheet:
     compiled: bool = True
 
     def __init__(self, process: Process, reversal_m: float, timestep_s: float = 1e-3) -> None:
-        self.timestep_s = float(timestep_s)
-        self.radius = float(process.tool_radius_m)
-        self.t0 = float(process.thickness_m)
-        self.mu = float(process.tool_friction)
+        self._grid(process, timestep_s)
         self.scale = float(process.tensile_strength_mpa) / voce_tensile_strength_mpa()
         self.slip_gain = 2.0 / reversal_m
         self.heading_gain = 2.0 / max(HEADING_TURN_M, reversal_m)
-        n = round(2 * HALF_SIZE_M / GRID_SPACING_M) + 1
-        self.x_m = np.linspace(-HALF_SIZE_M, HALF_SIZE_M, n)
-        self.y_m = self.x_m.copy()
         half = math.ceil(self.radius / GRID_SPACING_M) + 1
         self._offsets = GRID_SPACING_M * np.arange(-half, half + 1)
         self.reset()
@@ -153,19 +146,6 @@ class PlantSheet:
         self.slip = np.array([float(direction), 0.0])
         self.heading = self.slip.copy()
         self.travel = self.slip.copy()
-
-    def height(self, x: float, y: float) -> float:
-        """Formed (loaded) surface at (x, y) [m], bilinear; 0 off the grid."""
-        fx = (x + HALF_SIZE_M) / GRID_SPACING_M
-        fy = (y + HALF_SIZE_M) / GRID_SPACING_M
-        ix, iy = math.floor(fx), math.floor(fy)
-        if ix < 0 or iy < 0 or ix >= len(self.x_m) - 1 or iy >= len(self.y_m) - 1:
-            return 0.0
-        u, v = fx - ix, fy - iy
-        z = self.z_m
-        low = z[iy, ix] * (1 - u) + z[iy, ix + 1] * u
-        high = z[iy + 1, ix] * (1 - u) + z[iy + 1, ix + 1] * u
-        return float(low * (1 - v) + high * v)
 
     def membrane_n_per_m(self, alpha: float) -> float:
         """Membrane force per unit width sigma_phi t of a side leaving the tool at `alpha` [rad], in [N/m]."""
@@ -272,8 +252,8 @@ class PlantSheet:
         """`advance` in Python, operation for operation what the compiled kernels do."""
         p = np.asarray(p_sheet_m, dtype=float)
         if self._last is not None:
-            self.slip = _turned(self.slip, self.slip_gain * (p[:2] - self._last[:2]))
-            self.heading = _turned(self.heading, self.heading_gain * (p[:2] - self._last[:2]))
+            self.slip = turned(self.slip, self.slip_gain * (p[:2] - self._last[:2]))
+            self.heading = turned(self.heading, self.heading_gain * (p[:2] - self._last[:2]))
             norm = float(np.hypot(*self.heading))
             if norm > 0.1:
                 self.travel = self.heading / norm
@@ -298,10 +278,6 @@ class PlantSheet:
         np.minimum(patch, np.where(inside, under, np.inf), out=patch)
         self.pressed[y0:y1, x0:x1] |= inside
 
-    def section(self) -> tuple[np.ndarray, np.ndarray]:
-        """The loaded surface along y = 0: x [m], z [m]."""
-        return self.x_m.copy(), self._row(self.z_m)
-
     def unloaded_surface(self) -> np.ndarray:
         """The surface after unclamping [m], (ny, nx): each point risen by its springback, never above 0."""
         gy, gx = np.gradient(self.z_m, GRID_SPACING_M)
@@ -310,18 +286,3 @@ class PlantSheet:
         sigma_phi = _PLANE * self.scale * voce_mpa(_PLANE * np.log(1.0 / cos)) * 1e6
         rise = -self.z_m * sigma_phi * (1.0 - POISSON_RATIO**2) / YOUNGS_MODULUS_PA
         return np.minimum(self.z_m + rise, 0.0)
-
-    def unloaded_section(self) -> tuple[np.ndarray, np.ndarray]:
-        """The surface after unclamping along y = 0: x [m], z [m]."""
-        return self.x_m.copy(), self._row(self.unloaded_surface())
-
-    def _row(self, z: np.ndarray) -> np.ndarray:
-        iy = round(HALF_SIZE_M / GRID_SPACING_M)
-        return z[iy].copy()
-
-
-def _turned(state: np.ndarray, push: np.ndarray) -> np.ndarray:
-    """A direction state pushed by `push` (gain x the tip's step), held to norm <= 1."""
-    out = state + push
-    norm = float(np.hypot(*out))
-    return out / norm if norm > 1.0 else out

@@ -76,6 +76,8 @@ import math
 import numpy as np
 
 from twin.lab.dynamic import sheet_patch_kernels as kernels
+from twin.lab.dynamic.sheet_grid import GRID_SPACING_M, HALF_SIZE_M, GridSheet, turned
+from twin.lab.dynamic.sheet_kernels import turned as turned_in_place  # the travel state turns as law 1's
 from twin.process.description import Process
 
 #: NUMISHEET'93 benchmark aluminium sheet, Swift law sigma = K (eps0 + eps)^n: K [MPa], eps0 [-], n [-].
@@ -83,8 +85,6 @@ SWIFT_K_MPA, SWIFT_EPS0, SWIFT_N = 576.79, 0.01658, 0.3593
 #: Young's modulus [Pa] (SubsTech, "Wrought aluminum-magnesium alloy 5086") and Poisson's ratio [-] (ASM/MatWeb
 #: "Aluminum 5086-H116"): the handbook values law 1 also uses.
 YOUNGS_MODULUS_PA, POISSON_RATIO = 71.0e9, 0.33
-GRID_SPACING_M = 5e-4  # formed-surface grid [m]
-HALF_SIZE_M = 0.12  # the grid covers +/- this around the sheet origin [m]
 DAMPING_TIME_S = 2e-5  # material damping time tau on the penetration rate [s] (module docstring)
 MIN_NORMAL_Z = math.cos(math.radians(70.0))  # least vertical share of the sphere's normal for a node's area [-]
 MAX_SLOPE = math.tan(math.radians(45.0))  # steepest slope read for a node's thinning [-]
@@ -104,7 +104,7 @@ def swift_tensile_strength_mpa() -> float:
     return float(swift_mpa(eps)) * math.exp(-eps)
 
 
-class PatchSheet:
+class PatchSheet(GridSheet):
     """The plant's sheet law 2 (module docstring): contact patch, foundation, yielding, springback. Its per-tick
     `force` and `advance` run compiled (`twin.lab.dynamic.sheet_patch_kernels`); `force_reference` and
     `advance_reference` are the same in Python, and `compiled = False` runs them.
@@ -122,18 +122,12 @@ class PatchSheet:
     compiled: bool = True
 
     def __init__(self, process: Process, reversal_m: float, timestep_s: float = 1e-3) -> None:
-        self.timestep_s = float(timestep_s)
-        self.radius = float(process.tool_radius_m)
-        self.t0 = float(process.thickness_m)
-        self.mu = float(process.tool_friction)
+        self._grid(process, timestep_s)
         self.scale = float(process.tensile_strength_mpa) / swift_tensile_strength_mpa()
         del reversal_m  # law 1's knob; this law's friction turns over `presliding_m`
         self.presliding_m = self._presliding_m()
         self.slip_gain = 1.0 / max(self.presliding_m, 1e-12)  # s = u / delta: each step adds step / delta
         self.rate_gain = DAMPING_TIME_S / self.timestep_s
-        n = round(2 * HALF_SIZE_M / GRID_SPACING_M) + 1
-        self.x_m = np.linspace(-HALF_SIZE_M, HALF_SIZE_M, n)
-        self.y_m = self.x_m.copy()
         self.half = math.ceil(self.radius / GRID_SPACING_M) + 1
         self.reset()
 
@@ -156,19 +150,6 @@ class PatchSheet:
         shear = YOUNGS_MODULUS_PA / (2.0 * (1.0 + POISSON_RATIO))
         cap = float(self.node_law(0.0)[1])
         return 3.0 * math.pi * self.mu * self.radius * cap * (2.0 - POISSON_RATIO) / (16.0 * shear)
-
-    def height(self, x: float, y: float) -> float:
-        """Formed (committed) surface at (x, y) [m], bilinear; 0 off the grid."""
-        fx = (x + HALF_SIZE_M) / GRID_SPACING_M
-        fy = (y + HALF_SIZE_M) / GRID_SPACING_M
-        ix, iy = math.floor(fx), math.floor(fy)
-        if ix < 0 or iy < 0 or ix >= len(self.x_m) - 1 or iy >= len(self.y_m) - 1:
-            return 0.0
-        u, v = fx - ix, fy - iy
-        z = self.z_m
-        low = z[iy, ix] * (1 - u) + z[iy, ix + 1] * u
-        high = z[iy + 1, ix] * (1 - u) + z[iy + 1, ix + 1] * u
-        return float(low * (1 - v) + high * v)
 
     def node_law(self, strain: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
         """Foundation stiffness k [Pa/m] (plate and membrane cap in series) and cap pressure p_cap [Pa] of nodes of
@@ -242,7 +223,7 @@ class PatchSheet:
             self.advance_reference(p_sheet_m)
             return
         x, y, z = (float(v) for v in p_sheet_m)
-        kernels.turned(self.slip, self.slip_gain, x - float(self.last[0]), y - float(self.last[1]))
+        turned_in_place(self.slip, self.slip_gain, x - float(self.last[0]), y - float(self.last[1]))
         kernels.yield_nodes(self.z_m, self.strain, self.yielded, self.x_m, self.y_m, self.radius, self.t0, self.scale,
                             self.half, x, y, z)
         self.last = np.array([x, y, z])
@@ -250,7 +231,7 @@ class PatchSheet:
     def advance_reference(self, p_sheet_m: np.ndarray) -> None:
         """`advance` in Python, operation for operation what the compiled kernels do."""
         p = np.asarray(p_sheet_m, dtype=float)
-        self.slip = _turned(self.slip, self.slip_gain * (p[:2] - self.last[:2]))
+        self.slip = turned(self.slip, self.slip_gain * (p[:2] - self.last[:2]))
         self._yield(p)
         self.last = p[:3].copy()
 
@@ -302,27 +283,8 @@ class PatchSheet:
                     if low < z[j, i] and not free[j, i]:
                         z[j, i] = low
 
-    def section(self) -> tuple[np.ndarray, np.ndarray]:
-        """The loaded surface along y = 0: x [m], z [m]."""
-        return self.x_m.copy(), self._row(self.z_m)
-
     def unloaded_surface(self) -> np.ndarray:
         """The surface after unclamping [m], (ny, nx): each node risen by its elastic penetration at the cap,
         p_cap / k, never above the flat sheet."""
         stiffness, cap = self.node_law(self.strain)
         return np.minimum(self.z_m + cap / stiffness, 0.0)
-
-    def unloaded_section(self) -> tuple[np.ndarray, np.ndarray]:
-        """The surface after unclamping along y = 0: x [m], z [m]."""
-        return self.x_m.copy(), self._row(self.unloaded_surface())
-
-    def _row(self, z: np.ndarray) -> np.ndarray:
-        iy = round(HALF_SIZE_M / GRID_SPACING_M)
-        return z[iy].copy()
-
-
-def _turned(state: np.ndarray, push: np.ndarray) -> np.ndarray:
-    """A direction state pushed by `push` (gain x the tip's step), held to norm <= 1."""
-    out = state + push
-    norm = float(np.hypot(*out))
-    return out / norm if norm > 1.0 else out

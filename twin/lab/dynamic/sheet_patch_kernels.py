@@ -77,16 +77,6 @@ def force(z: np.ndarray, strain: np.ndarray, x_m: np.ndarray, y_m: np.ndarray, r
 
 
 @njit(cache=True)
-def turned(state: np.ndarray, gain: float, dx: float, dy: float) -> None:
-    """`_turned` in place: the state pushed by gain x the step, held to norm <= 1."""
-    ox, oy = state[0] + gain * dx, state[1] + gain * dy
-    norm = math.hypot(ox, oy)
-    if norm > 1.0:
-        ox, oy = ox / norm, oy / norm
-    state[0], state[1] = ox, oy
-
-
-@njit(cache=True)
 def yield_nodes(z: np.ndarray, strain: np.ndarray, yielded: np.ndarray, x_m: np.ndarray, y_m: np.ndarray, r: float,
                 t0: float, scale: float, half: int, x: float, y: float, zt: float) -> None:
     """`PatchSheet._yield`: the nodes pressed past the cap lowered to it, the sheet never yielded hung from them;

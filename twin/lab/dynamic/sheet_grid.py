@@ -1,0 +1,70 @@
+"""What the plant's sheet laws share: the formed-surface grid's layout, its sections, and the travel state.
+
+Each law (`sheet.py`, `sheet_patch.py`) forms its own surface by its own rule on the same 0.5 mm grid; how a section
+is read off it and how a direction state turns with the tip's travel are one piece of code here.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from twin.process.description import Process
+
+GRID_SPACING_M = 5e-4  # formed-surface grid [m]
+HALF_SIZE_M = 0.12  # the grid covers +/- this around the sheet origin [m]
+
+
+class GridSheet:
+    """A sheet on the grid: its loaded surface `z_m` (ny, nx) over nodes `x_m`, `y_m` [m]; a law adds the rest."""
+
+    x_m: np.ndarray
+    y_m: np.ndarray
+    z_m: np.ndarray
+
+    def _grid(self, process: Process, timestep_s: float) -> None:
+        """The declared sheet and tool (thickness, tool radius and friction) [SI] and the grid's nodes."""
+        self.timestep_s = float(timestep_s)
+        self.radius = float(process.tool_radius_m)
+        self.t0 = float(process.thickness_m)
+        self.mu = float(process.tool_friction)
+        n = round(2 * HALF_SIZE_M / GRID_SPACING_M) + 1
+        self.x_m = np.linspace(-HALF_SIZE_M, HALF_SIZE_M, n)
+        self.y_m = self.x_m.copy()
+
+    def height(self, x: float, y: float) -> float:
+        """Formed (loaded) surface at (x, y) [m], bilinear; 0 off the grid."""
+        fx = (x + HALF_SIZE_M) / GRID_SPACING_M
+        fy = (y + HALF_SIZE_M) / GRID_SPACING_M
+        ix, iy = math.floor(fx), math.floor(fy)
+        if ix < 0 or iy < 0 or ix >= len(self.x_m) - 1 or iy >= len(self.y_m) - 1:
+            return 0.0
+        u, v = fx - ix, fy - iy
+        z = self.z_m
+        low = z[iy, ix] * (1 - u) + z[iy, ix + 1] * u
+        high = z[iy + 1, ix] * (1 - u) + z[iy + 1, ix + 1] * u
+        return float(low * (1 - v) + high * v)
+
+    def unloaded_surface(self) -> np.ndarray:
+        """The surface after unclamping [m], (ny, nx) (the law's own springback)."""
+        raise NotImplementedError
+
+    def section(self) -> tuple[np.ndarray, np.ndarray]:
+        """The loaded surface along y = 0: x [m], z [m]."""
+        return self.x_m.copy(), self._row(self.z_m)
+
+    def unloaded_section(self) -> tuple[np.ndarray, np.ndarray]:
+        """The surface after unclamping along y = 0: x [m], z [m]."""
+        return self.x_m.copy(), self._row(self.unloaded_surface())
+
+    def _row(self, z: np.ndarray) -> np.ndarray:
+        iy = round(HALF_SIZE_M / GRID_SPACING_M)
+        return z[iy].copy()
+
+
+def turned(state: np.ndarray, push: np.ndarray) -> np.ndarray:
+    """A direction state pushed by `push` (gain x the tip's step), held to norm <= 1."""
+    out = state + push
+    norm = float(np.hypot(*out))
+    return out / norm if norm > 1.0 else out
