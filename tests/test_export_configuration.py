@@ -158,12 +158,15 @@ def test_tx200_groove_exports_val3_by_default_with_the_ik_configuration(
     assert {(v.get("shoulder"), v.get("elbow"), v.get("wrist")) for v in values[1:]} == {("ssame", "esame", "wsame")}
 
 
-def test_krl_on_the_tx200_prints_a_note_and_writes_status_and_turn(
+def test_krl_on_the_tx200_is_refused_and_the_writer_gives_status_and_turn(
     path_csv: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    assert main(["export", str(path_csv), "--format", "krl", "--out", str(tmp_path / "isf.src")]) == 0
+    # the CLI refuses another maker's language (the writer itself still writes any robot's IK configuration)
+    assert main(["export", str(path_csv), "--format", "krl", "--out", str(tmp_path / "cli.src")]) == 2
     err = capsys.readouterr().err
-    assert "note: writing KRL for robot tx200" in err and "runs VAL3" in err
+    assert "--format krl writes KRL" in err and "'tx200'" in err and "runs 'VAL3'" in err
+    assert not (tmp_path / "cli.src").exists() and not (tmp_path / "cli.dat").exists()
+    export_path(path_csv, "krl", tmp_path / "isf.src", cell=default_cell())
     dat = (tmp_path / "isf.dat").read_text()
     first = re.search(r"^P_PATH\[1\]=\{(.*)\}$", dat, re.M).group(1)  # type: ignore[union-attr]
     assert first.endswith(_ik_configuration(path_csv).krl)

@@ -270,7 +270,8 @@ def test_export_never_writes_over_its_input(path_csv: Path, cell: CellSetup, tmp
 def test_cli_export_writes_the_program_and_rejects_a_bad_path(
     path_csv: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    assert main(["export", str(path_csv), "--format", "krl", "--out", str(tmp_path / "isf.src")]) == 0
+    assert main(["export", str(path_csv), "--format", "krl", "--robot", "kr210", "--out",
+                 str(tmp_path / "isf.src")]) == 0
     assert (tmp_path / "isf.dat").is_file() and "export" in capsys.readouterr().out
     bad = tmp_path / "bad.csv"
     bad.write_text("t_s,x_mm,y_mm,z_mm\n0,0,0,0\n0.1,abc,0,0\n")

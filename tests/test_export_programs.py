@@ -60,7 +60,7 @@ def test_compensated_groove_approaches_from_above_and_keeps_the_feed_in_contact(
     path_feed = np.linalg.norm(np.diff(p, axis=0), axis=1) / np.diff(stream.t_s)
     assert path_feed.max() > 3.0 * PROCESS_FEED_MM_S  # the reversal jumps the program must not copy (148 mm/s)
     capsys.readouterr()
-    assert main(["export", str(compensated), "--format", "krl", "--out", str(work / "groove.src"),
+    assert main(["export", str(compensated), "--format", "krl", "--robot", "kr210", "--out", str(work / "groove.src"),
                  "--json", str(work / "groove.json")]) == 0
     assert "warning:" in capsys.readouterr().err
     points, feed = _krl(work / "groove.dat")
@@ -100,7 +100,7 @@ def test_krl_has_the_vendor_structure(short: Path, work: Path) -> None:
     list `DEFDAT name` ... `ENDDAT`; KSS 8's controller data (`$TOOL=TOOL_DATA[1]`, `$LOAD=LOAD_DATA[1]`,
     `$BASE=BASE_DATA[1]`), a first and last `PTP` HOME and the path as `SPLINE` ... `ENDSPLINE` blocks
     (`tests/test_program_structure.py` checks the whole program)."""
-    assert main(["export", str(short), "--format", "krl", "--out", str(work / "s.src")]) == 0
+    assert main(["export", str(short), "--format", "krl", "--robot", "kr210", "--out", str(work / "s.src")]) == 0
     src = (work / "s.src").read_text().splitlines()
     assert src[:3] == ["&ACCESS RVP", "&REL 1", "DEF S( )"] and src[-1] == "END"
     fold = src.index(";FOLD INI")
@@ -120,7 +120,7 @@ def test_rapid_has_the_vendor_structure(short: Path, work: Path) -> None:
     """RAPID as RoboDK's ABB_RAPID_IRC5.py writes it (robodk_postprocessors, 05c5ca8): `MODULE` ... `ENDMODULE`,
     `PERS tooldata` and `PERS wobjdata`, a `PROC` that starts with `ConfJ \\On;` and `ConfL \\Off;`, moves
     `MoveJ`/`MoveL target,speed,zone,tool\\WObj:=wobj;`, `ENDPROC`."""
-    assert main(["export", str(short), "--format", "rapid", "--out", str(work / "s.mod")]) == 0
+    assert main(["export", str(short), "--format", "rapid", "--robot", "irb6640", "--out", str(work / "s.mod")]) == 0
     lines = [line.strip() for line in (work / "s.mod").read_text().splitlines()]
     assert lines[0] == "MODULE s" and lines[-1] == "ENDMODULE"
     assert any(line.startswith("PERS tooldata tIsf:=[TRUE,") for line in lines)
@@ -163,8 +163,9 @@ def test_a_program_over_the_limit_is_split_into_parts_a_main_calls(
     """281 points (approach, 279, retract) with a limit of 100: parts of 100, 100, 81, called in order."""
     n = len(read_commanded_csv(short).t_s) + 2
     whole, split = work / f"whole_{fmt}", work / f"split_{fmt}"
-    assert main(["export", str(short), "--format", fmt, "--out", str(whole / f"isf{suffix}")]) == 0
-    assert main(["export", str(short), "--format", fmt, "--max-points", "100",
+    robot = {"krl": "kr210", "rapid": "irb6640"}[fmt]  # the maker whose language it is
+    assert main(["export", str(short), "--format", fmt, "--robot", robot, "--out", str(whole / f"isf{suffix}")]) == 0
+    assert main(["export", str(short), "--format", fmt, "--robot", robot, "--max-points", "100",
                  "--out", str(split / f"isf{suffix}")]) == 0
     names = sorted(f.name for f in split.iterdir() if f.suffix == suffix)
     assert names == [f"isf{suffix}", f"isf_1{suffix}", f"isf_2{suffix}", f"isf_3{suffix}"]
@@ -215,12 +216,12 @@ def test_a_point_out_of_reach_is_refused_naming_its_row_and_distance(
 
 
 def _run_with_tool(path_csv: Path, directory: Path, mass_kg: float) -> Path:
-    """A TX200 run along the path whose meta.json records a 300 mm tool and an import with `mass_kg` below the
+    """An IRB 6640 run along the path whose meta.json records a 300 mm tool and an import with `mass_kg` below the
     sensor."""
     stream = read_commanded_csv(path_csv)
     rate = 1.0 / float(np.median(np.diff(stream.t_s)))
     meta = run_meta(scenario="cell", source="test", tracker_rate_hz=rate, sensor_rate_hz=rate, seed=0,
-                    tool_length_m=0.3, robot="tx200")
+                    tool_length_m=0.3, robot="irb6640")
     meta["import"] = {"sensor": {"tool_mass_kg": mass_kg}}
     return write_run(directory, Run(None, meta, stream, stream))
 
@@ -229,30 +230,30 @@ def test_tool_length_and_mass_come_from_the_options_the_run_or_the_robot(
     short: Path, work: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     def tooldata(out: Path, *extra: str) -> list[float]:
-        assert main(["export", str(short), "--format", "rapid", "--out", str(out), *extra]) == 0
+        assert main(["export", str(short), "--format", "rapid", "--robot", "irb6640", "--out", str(out), *extra]) == 0
         found = re.search(r"tIsf:=\[TRUE,\[\[0,0,([\d.]+)\],\[1,0,0,0\]\],\[([\d.]+),", out.read_text())
         assert found
         return [float(found.group(1)), float(found.group(2))]
 
     run_dir = _run_with_tool(short, work / "run_tool", 2.5)
-    assert tooldata(work / "robot.mod") == [274.94, 2.0]  # the TX200 model's tool: 274.94 mm, its body 2 kg
+    assert tooldata(work / "robot.mod") == [274.94, 2.0]  # the IRB 6640 model's tool: 274.94 mm, its body 2 kg
     assert tooldata(work / "run.mod", "--run", str(run_dir)) == [300.0, 2.5]
     assert tooldata(work / "opt.mod", "--run", str(run_dir), "--tool-length-mm", "250",
                     "--tool-mass-kg", "3.1") == [250.0, 3.1]
     for option, value in (("--tool-mass-kg", "-3"), ("--tool-length-mm", "0"), ("--feed-mm-s", "-1")):
         capsys.readouterr()
-        assert main(["export", str(short), "--format", "rapid", "--out", str(work / "bad.mod"), option, value]) == 2
+        assert main(["export", str(short), "--format", "rapid", "--robot", "irb6640", "--out", str(work / "bad.mod"), option, value]) == 2
         assert f"{option} {value}" in capsys.readouterr().err
     assert not (work / "bad.mod").exists()
 
 
 def test_safe_height_option_and_its_refusal(short: Path, work: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    assert main(["export", str(short), "--format", "krl", "--safe-height-mm", "50", "--out",
+    assert main(["export", str(short), "--format", "krl", "--robot", "kr210", "--safe-height-mm", "50", "--out",
                  str(work / "h.src")]) == 0
     points, _ = _krl(work / "h.dat")
     assert points[0, 2] == points[-1, 2] == 50.0
     capsys.readouterr()
-    assert main(["export", str(short), "--format", "krl", "--safe-height-mm", "-5", "--out",
+    assert main(["export", str(short), "--format", "krl", "--robot", "kr210", "--safe-height-mm", "-5", "--out",
                  str(work / "low.src")]) == 2
     err = capsys.readouterr().err
     assert "--safe-height-mm -5" in err and "highest point is at z = 0.000 mm" in err

@@ -1,7 +1,7 @@
 """Analysis: what is done with runs, on the twin of a `TwinSpec`.
 
 Modules: `resolve` (the one rule for which twin a task runs: the run's robot and placement, the declared
-process, the force model), `replay` (a run replayed on the twin, with the gap), `identify/` (K_R by Methods 1 and 2, K_q from K_R
+process, the force model; the tool it simulates in `tool_choice`), `replay` (a run replayed on the twin, with the gap), `identify/` (K_R by Methods 1 and 2, K_q from K_R
 or by rollouts), `compensate` (offline compensation, formula or iterated on the twin, and its gain), `anderson` (the
 acceleration of that iteration),
 `part_compensation` (the formed part to the design, springback included), `scan_learning` (the next part's

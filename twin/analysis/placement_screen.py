@@ -37,6 +37,7 @@ from twin.errors import SingularityError, UnreachableError
 from twin.process.toolpath.groove import ToolPath
 from twin.process.toolpath.placement import Placement, ReachReport, check_reach
 from twin.robot.description import RobotDescription
+from twin.robot.tool import ToolSpec
 from twin.sim.spec import TwinSpec
 
 if TYPE_CHECKING:
@@ -60,6 +61,7 @@ class ScreenSetup(NamedTuple):
         p_sheet_m: The subsampled ideal path, sheet frame (m, 3) [m].
         f_sheet_n: The sheet's force on the tool at those samples, sheet frame (m, 3) [N], from one simulation.
         joint_margin_rad: Smallest distance to a joint limit a feasible candidate keeps [rad].
+        tool: The twin's declared tool (`TwinSpec.tool`); None: the robot model's.
     """
 
     robot: RobotDescription
@@ -67,6 +69,7 @@ class ScreenSetup(NamedTuple):
     p_sheet_m: np.ndarray
     f_sheet_n: np.ndarray
     joint_margin_rad: float
+    tool: ToolSpec | None = None
 
 
 class ConfirmSetup(NamedTuple):
@@ -146,10 +149,13 @@ def screen_rows(kinematics: Kinematics, setup: ScreenSetup, rows: np.ndarray) ->
 
 
 def prepare_screen(setup: ScreenSetup) -> tuple[Kinematics, ScreenSetup]:
-    """A worker's state for screening: the robot's kinematics (loaded once per worker)."""
+    """A worker's state for screening: the robot's kinematics with the twin's tool (loaded once per worker)."""
     from twin.robot.kinematics import Kinematics
+    from twin.robot.model import build_model
 
-    return Kinematics(robot=setup.robot), setup
+    if setup.tool is None:
+        return Kinematics(robot=setup.robot), setup
+    return Kinematics(build_model(setup.robot, tool=setup.tool), robot=setup.robot), setup
 
 
 def screen_chunk(state: tuple[Kinematics, ScreenSetup], rows: np.ndarray) -> np.ndarray:

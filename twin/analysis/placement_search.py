@@ -213,7 +213,7 @@ def search_placement(
         default_row = np.array([*spec.placement.origin_in(kin), spec.placement.yaw_rad])
         idx = _subsample(len(path.t_s), screen_samples)
         setup = ScreenSetup(spec.robot, twin.joint_stiffness, path.p_sheet_m[idx], sim.f_sheet_n[idx],
-                            joint_margin_rad)
+                            joint_margin_rad, spec.tool)
         default_screened = screen_rows(kin, setup, default_row[None])[0]
         rows = candidate_rows(default_row, box, candidates, seed)
         timings = {"default": time.perf_counter() - start}

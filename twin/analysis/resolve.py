@@ -24,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from twin.analysis.tool_choice import resolve_tool_spec
 from twin.errors import InputError
 from twin.process.description import Process
 from twin.process.fe.load import ForceHistory
@@ -237,6 +238,7 @@ def resolve_spec(
     history: ForceHistory | None = None,
     p_sheet_m: Any = None,
     note: Callable[[str], None] | None = None,
+    cell: Mapping[str, Any] | None = None,
 ) -> TwinSpec:
     """The twin a task runs, from what its user gave.
 
@@ -252,6 +254,8 @@ def resolve_spec(
         p_sheet_m: The path the twin will drive, sheet frame [m], shape (n, 3): what "auto" looks at. None: the
             run's commanded path.
         note: Where to say a choice the user may not expect (a table model that ignores a declared sheet).
+        cell: A cell file's record (`CellDeclaration.record`): its tool is simulated (`resolve_tool_spec`: the
+            run's tool, else the cell's, else the model file's, else the robot model's own), or None.
 
     Raises:
         InputError: Another robot than the run's, an unknown force model, a bad declaration (naming its origin).
@@ -275,7 +279,8 @@ def resolve_spec(
         yaw_deg=None if placement is None else math.degrees(placement.yaw_rad),
         run=run, model=base.placement if given is not None else None, robot_name=base.robot.name,
     )
-    return base.replace(process=process, placement=chosen.placement)
+    tool = resolve_tool_spec(base.robot, run=run, cell=cell, model=base.tool if given is not None else None)
+    return base.replace(process=process, placement=chosen.placement, tool=tool)
 
 
 def resolve_process(

@@ -72,10 +72,19 @@ def finite_float(text: str) -> float:
 def non_finite_problem(path: Path, document: Any, number: str) -> DataFileError:
     """The error of a number `finite_float` refused: the file, the key that holds it (found in `document`, the
     file parsed without the check), the number as written, and what was expected."""
-    key = _non_finite_key(document, "")
+    return DataFileError(path, non_finite_message(_non_finite_key(document, ""), number))
+
+
+def non_finite_message(key: str | None, number: str) -> str:
+    """What is wrong with a number `finite_float` refused: its key (or None) = the number as written, and what was
+    expected (the one wording of every JSON and TOML reader)."""
     where = f"{key} = {number}" if key else f"the number {number}"
-    return DataFileError(path, f"{where} is not finite (infinite, NaN or too large for a 64-bit float); expected "
-                         "a finite number")
+    return f"{where} is not finite (infinite, NaN or too large for a 64-bit float); expected a finite number"
+
+
+def non_finite_key(document: Any) -> str | None:
+    """The dotted key (`a.b[2]`) of the first number that is not finite in a parsed document, or None."""
+    return _non_finite_key(document, "")
 
 
 def _non_finite_key(value: Any, key: str) -> str | None:

@@ -86,7 +86,7 @@ def run(args: argparse.Namespace) -> int:
         placement=placement_given(args), tol_mm=args.tol_mm, max_iter=args.max_iter,
         target_stl=args.target_stl, part_iterations=args.part_iterations, learn_from=args.learn_from,
         learn_at=args.learn_at, learn_gain=args.learn_gain, learn_smoothing_mm=args.learn_smoothing_mm,
-        figure=args.figure, rrd=args.rrd,
+        figure=args.figure, rrd=args.rrd, cell=getattr(args, "cell_record", None),
     )
     return finish(args, compensate_task(request, note), protect=(
         args.stiffness, args.model, args.history, args.ideal, args.process, args.target_stl, args.learn_from))

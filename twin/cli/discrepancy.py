@@ -48,6 +48,7 @@ def run(args: argparse.Namespace) -> int:
 
     history = HistoryDeclaration(args.history, args.symmetry, args.unchecked_symmetry)
     request = DiscrepancyRequest(args.run_dir, args.model, history, process_declaration(args), args.force_model,
-                                 args.robot, args.model_out, args.report, not args.no_learn, args.held_out)
+                                 args.robot, args.model_out, args.report, not args.no_learn, args.held_out,
+                                 cell=getattr(args, "cell_record", None))
     return finish(args, discrepancy_task(request, note),
                   protect=(args.run_dir, args.model, args.history, args.process, args.held_out))

@@ -4,6 +4,7 @@ else the robot's default: `twin.analysis.resolve.resolve_placement`)."""
 from __future__ import annotations
 
 import argparse
+from typing import Any
 
 import numpy as np
 
@@ -19,12 +20,23 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_json_argument(parser, "the numbers")
 
 
+def _kinematics(args: argparse.Namespace) -> tuple[Any, Any]:
+    """The robot's kinematics with a `--cell`'s tool (`twin.analysis.tool_choice`), and that tool (None: the model's)."""
+    from twin.analysis.resolve import resolve_robot
+    from twin.analysis.tool_choice import resolve_tool_spec
+    from twin.robot.kinematics import Kinematics  # MuJoCo: only when the command runs
+    from twin.robot.model import build_model
+
+    robot = resolve_robot(args.robot)
+    tool = resolve_tool_spec(robot, cell=getattr(args, "cell_record", None))
+    return (Kinematics(robot=robot) if tool is None else Kinematics(build_model(robot, tool=tool), robot=robot)), tool
+
+
 def run(args: argparse.Namespace) -> int:
     """Print the summary (or JSON to stdout with `--json -`) and return 0."""
-    from twin.analysis.resolve import resolve_placement, resolve_robot
-    from twin.robot.kinematics import Kinematics  # MuJoCo: only when the command runs
+    from twin.analysis.resolve import resolve_placement
 
-    kin = Kinematics(robot=resolve_robot(args.robot))
+    kin, tool = _kinematics(args)
     path = kin.robot.model_path()
     p_home, _ = kin.fk(kin.q_home)
     compliance_mm_per_kn = kin.compliance(kin.q_home) * 1e6  # [m/N] -> [mm/kN]
@@ -40,6 +52,9 @@ def run(args: argparse.Namespace) -> int:
         "robot_sheet_origin_m": kin.p_base_sheet_origin.tolist(),
         "model": str(path),
         "robot": kin.robot.name,
+        "tool": {"length_mm": 1e3 * (kin.robot.tool_length_m if tool is None else tool.length_m),
+                 "mass_kg": None if tool is None else tool.mass_kg,
+                 "from": "the robot model" if tool is None else "the cell"},
     }
     emit_json(args.json, payload)
     if args.json == "-":
@@ -47,6 +62,8 @@ def run(args: argparse.Namespace) -> int:
     with np.printoptions(precision=3, suppress=True):
         print(f"model            {path}")
         print(f"K_q [N m/rad]    {' '.join(f'{k:.4g}' for k in kin.joint_stiffness)}")
+        print(f"tool [mm]        {payload['tool']['length_mm']:.2f} from the flange" + ("" if tool is None or
+              tool.mass_kg is None else f", {tool.mass_kg:g} kg") + f" ({payload['tool']['from']})")
         print(f"tcp at home [m]  {p_home}")
         print(f"sheet origin [m] {origin} (from {place.origin_from}), yaw {np.degrees(place.placement.yaw_rad):g} "
               f"deg (from {place.yaw_from})")

@@ -50,5 +50,6 @@ def run(args: argparse.Namespace) -> int:
 
     ft = None if args.ft_rdt is None else RdtSettings.parse(args.ft_rdt, args.ft_counts_per_n, args.ft_bias)
     request = OnlineRequest(args.serve, args.port, args.host, args.model, args.robot, placement_given(args),
-                            args.cycles, args.idle_timeout_s, ft)
+                            args.cycles, args.idle_timeout_s, ft,
+                            cell=getattr(args, "cell_record", None))
     return finish(args, online_task(request, note), protect=(args.model,))

@@ -54,7 +54,7 @@ def run(args: argparse.Namespace) -> int:
     request = PlaceRequest(
         args.ideal, args.model, args.force_model, process_declaration(args), args.robot, args.candidates,
         args.confirm, args.seed, tuple(args.box_mm), args.yaw_range_deg, args.joint_margin_deg, args.workers,
-        args.scheduler, args.figure,
+        args.scheduler, args.figure, cell=getattr(args, "cell_record", None),
     )
     report = place_task(request, note, progress=_progress())
     return finish(args, report, protect=(args.ideal, args.model, args.process))

@@ -42,5 +42,5 @@ def run(args: argparse.Namespace) -> int:
     from twin.apps.tasks.replay import ReplayRequest, replay_task
 
     request = ReplayRequest(args.run_dir, args.model, process_declaration(args), args.force_model, args.robot,
-                            args.forces, args.rrd, args.figure)
+                            args.forces, args.rrd, args.figure, cell=getattr(args, "cell_record", None))
     return finish(args, replay_task(request, note), protect=(args.run_dir, args.model, args.process))

@@ -53,7 +53,7 @@ def run(args: argparse.Namespace) -> int:
     history = HistoryDeclaration(args.history, args.symmetry, args.unchecked_symmetry)
     request = SweepRequest(args.draws, args.seed, args.workers, args.scheduler, args.calibration,
                            args.uncompensated, history, args.ideal, args.figure, args.model, args.robot,
-                           process_declaration(args))
+                           process_declaration(args), cell=getattr(args, "cell_record", None))
     report = sweep_task(request, note=_bar)
     return finish(args, report, protect=(args.calibration, args.history, args.ideal, args.model, args.process))
 

@@ -77,6 +77,11 @@ PLAUSIBLE: dict[str, Plausible] = {
     # Tool mass with an F/T sensor: a few kg; 500 kg is above every ISF robot's payload (KR 210: 210 kg).
     "tool_mass_kg": Plausible("tool mass", 0.0, 500.0, "kg", 1.0,
                               "an ISF tool with its sensor weighs a few kg, far below 500 kg"),
+    # A force component of a run (its forces.csv, or an import's sensor export in the declared unit): ISF forces
+    # reach a few kN (a robot cell carries no more); 50 kN is ten times that: beyond is a unit slip (mN, a
+    # sensor's raw counts).
+    "force_n": Plausible("force component", -5e4, 5e4, "N", 1.0,
+                         "ISF forces on a robot cell reach a few kN, and 50 kN is ten times that"),
 }
 
 

@@ -4,6 +4,7 @@ Modules: `description` (what the twin knows of a robot: joints, tool, F/T site, 
 priors, vendor and language; `load_robot`), `robot_file` (reading a description file beside its MJCF), `user_model`
 (a user's own URDF or MJCF completed for the twin), `model` (the compiled MJCF with robot-side effects,
 built with MjSpec), `kinematics` (MuJoCo FK, Jacobian, IK with the tool held vertical, Cartesian compliance),
+`tool` (a declared tool on the flange, `ToolSpec`, put on the model in place of the MJCF's own),
 `chain_fk` (vectorised FK of the hinge chain), `dh` (the DH table's FK, the independent check), `pinocchio_model`
 (the Pinocchio cross-check) and `stiffness` (the joint springs K_q).
 
@@ -21,6 +22,7 @@ __all__, __getattr__, __dir__ = lazy_exports(__name__, {
     "load_robot": "twin.robot.description",
     "shipped_robots": "twin.robot.description",
     "build_model": "twin.robot.model",
+    "ToolSpec": "twin.robot.tool",
     "lost_motion_schedule": "twin.robot.model",
     "Kinematics": "twin.robot.kinematics",
     "load_model": "twin.robot.model",

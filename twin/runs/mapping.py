@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from twin.base.csvio import read_text
+from twin.base.jsonio import NonFiniteNumberError, finite_float, non_finite_key, non_finite_message
 from twin.errors import ModelError
 from twin.process.description import plausibility_problem
 from twin.robot.description import load_robot
@@ -26,7 +27,7 @@ from twin.runs.mapping_frame import LENGTH_UNITS
 from twin.runs.mapping_frame import registration as _registration
 from twin.runs.mapping_frame import rotation as _rotation
 from twin.runs.registration import Registration
-from twin.runs.toml_keys import ClockError, MappingError, TomlReader
+from twin.runs.toml_keys import ClockError, MappingError, TomlReader, key_line
 
 FORCE_UNITS = {"N": 1.0, "kN": 1e3}
 TIME_UNITS = {"s": 1.0, "ms": 1e-3, "µs": 1e-6, "us": 1e-6}
@@ -238,7 +239,13 @@ def load_mapping(path: str | Path) -> ImportMapping:
         raise MappingError(path, "mapping file not found")
     text = read_text(path, "an import mapping (TOML, UTF-8)")
     try:
-        data = tomllib.loads(text)
+        try:
+            data = tomllib.loads(text, parse_float=finite_float)
+        except NonFiniteNumberError as exc:  # find its key in the document read without the check
+            key = non_finite_key(tomllib.loads(text))  # (a TOML error after the number is that error)
+            dotted = None if key is None else key.split("[", 1)[0]
+            raise MappingError(path, non_finite_message(key, exc.text), None if dotted is None else
+                               key_line(text, dotted), dotted) from None
     except tomllib.TOMLDecodeError as exc:
         line = re.search(r"line (\d+)", str(exc))
         raise MappingError(path, f"not valid TOML ({exc})", int(line.group(1)) if line else None) from None

@@ -14,6 +14,7 @@ from typing import NamedTuple
 import numpy as np
 
 from twin.base.csvio import read_text
+from twin.process.description import PLAUSIBLE
 from twin.runs.mapping import MappingError, TableSpec
 
 
@@ -145,7 +146,7 @@ def _checked_times(spec: TableSpec, times: list[float], lines: np.ndarray) -> np
     return t_s
 
 
-LARGEST_FORCE_N = 5e4  # 50 kN: ten times the largest ISF force a robot cell carries (a few kN)
+LARGEST_FORCE_N = PLAUSIBLE["force_n"].high  # 50 kN: ten times the largest ISF force a robot cell carries
 LARGEST_POSITION_M = 10.0  # 10 m: beyond any cell's tracker volume or robot reach
 
 

@@ -21,6 +21,7 @@ from twin.base.csvio import check_monotonic
 from twin.base.jsonio import read_json
 from twin.base.units import SITable, check_path_speed, check_point_spacing, read_si_table
 from twin.errors import DataFileError, InputError, RunFormatError, UnitsError
+from twin.process.description import plausibility_problem
 from twin.process.toolpath.groove import groove_path
 from twin.runs.format import (
     CLOCK_TOLERANCE_S,
@@ -103,6 +104,19 @@ def _read_stream(path: Path, columns: Sequence[str], *, check_speed: bool = Fals
     return Stream(table.si(columns[0]), np.column_stack([table.si(name) for name in columns[1:]]))
 
 
+def _check_forces(path: Path, stream: Stream) -> None:
+    """Refuse a force component outside its plausible range (`PLAUSIBLE["force_n"]`: a unit slip such as mN
+    written as N), naming the file, the 1-based data row, the column and the value."""
+    if not stream.values.size:
+        return
+    peak = np.abs(stream.values)
+    row, column = np.unravel_index(int(np.argmax(peak)), peak.shape)
+    name = FORCE_COLUMNS[1 + int(column)]
+    problem = plausibility_problem("force_n", float(stream.values[row, column]), name)
+    if problem:
+        raise RunFormatError(path, problem, int(row) + 1)
+
+
 def _check_rate(path: Path, stream: Stream, key: str, rate_hz: float) -> None:
     measured_hz = 1.0 / stream.median_interval_s
     if abs(measured_hz - rate_hz) > RATE_TOLERANCE * rate_hz:
@@ -171,6 +185,7 @@ def read_run(directory: str | Path, *, require_forces: bool = True) -> Run:
     forces = None
     if has_forces:
         forces = _read_stream(files["forces.csv"], FORCE_COLUMNS)
+        _check_forces(files["forces.csv"], forces)
         _check_rate(files["forces.csv"], forces, "sensor_rate_hz", float(meta["sensor_rate_hz"]))
         _check_clock(files["forces.csv"], forces, float(commanded.t_s[0]))
 

@@ -11,7 +11,9 @@ read with `--model`:
      "placement": {"origin_base_mm": null, "yaw_deg": 0.0},
      "effects": {"lost_motion": 0.15}, "units": {"lost_motion": "mrad"}, "lost_motion_takeup_mm": 2.0,
      "joint_stiffness_nm_per_rad": [...], "joint_friction_nm": [...],
-     "servo": {"compliance_rad_per_nm": [...], "time_constant_s": ...} (learned by `learn`), "note": "..."}
+     "servo": {"compliance_rad_per_nm": [...], "time_constant_s": ...} (learned by `learn`),
+     "tool": {"length_mm": 300.0, "mass_kg": 8.0, "cog_mm": [0, 0, 150]} (the declared tool, `TwinSpec.tool`;
+             absent: the robot model's own), "note": "..."}
 
 Every key but `format` may be left out (the default cell's value); a `material` of the library
 (`tx200-twin materials`) without `tensile_strength_mpa` takes the library's R_m, any other material (a user's)
@@ -29,11 +31,12 @@ from typing import Any
 
 from twin.base.jsonio import read_json, write_json
 from twin.errors import DataFileError, InputError, ModelError
-from twin.process.description import Process
+from twin.process.description import Process, check_plausible
 from twin.process.fe.load import load_force_history
 from twin.process.process_file import RECORD_KEYS, process_from_record
 from twin.process.toolpath.placement import Placement
 from twin.robot.description import load_robot, shipped_robots
+from twin.robot.tool import ToolSpec
 from twin.sim.effects import EFFECTS, LOST_MOTION_TAKEUP_M, Effects
 from twin.sim.servo import ServoTransient
 from twin.sim.spec import TwinSpec
@@ -42,10 +45,12 @@ MODEL_FORMAT = "tx200-twin-model/2"
 READABLE_FORMATS = ("tx200-twin-model/1", MODEL_FORMAT)
 #: The keys a model file takes (`model_payload` writes them; `units` and `note` are for the reader).
 MODEL_KEYS = ("format", "robot", "process", "placement", "effects", "units", "lost_motion_takeup_mm",
-              "joint_stiffness_nm_per_rad", "joint_friction_nm", "servo", "note")
+              "joint_stiffness_nm_per_rad", "joint_friction_nm", "servo", "tool", "note")
 #: The keys of its `process` object and of `process.history`.
 PROCESS_KEYS = (*RECORD_KEYS, "friction_reversal_mm", "force_model", "force_fit", "history")
 HISTORY_KEYS = ("file", "symmetry", "unchecked_symmetry")
+#: The keys of its `tool` object (the cell file's `[tool]`, its radius aside: that is the process's).
+TOOL_KEYS = ("length_mm", "mass_kg", "cog_mm")
 
 
 def model_payload(spec: TwinSpec, note: str = "") -> dict[str, Any]:
@@ -82,6 +87,8 @@ def model_payload(spec: TwinSpec, note: str = "") -> dict[str, Any]:
     if spec.servo is not None:
         payload["servo"] = {"compliance_rad_per_nm": list(spec.servo.compliance_rad_per_nm),
                             "time_constant_s": spec.servo.time_constant_s}
+    if spec.tool is not None:
+        payload["tool"] = spec.tool.to_json()
     return payload
 
 
@@ -120,6 +127,7 @@ def read_model_file(path: str | Path) -> TwinSpec:
             joint_stiffness_nm_per_rad=payload.get("joint_stiffness_nm_per_rad"),
             joint_friction_nm=payload.get("joint_friction_nm"),
             servo=_servo(path, payload.get("servo")),
+            tool=_tool(path, payload.get("tool")),
         )
     except DataFileError:
         raise
@@ -179,6 +187,23 @@ def _servo(path: Path, entry: Any) -> ServoTransient | None:
         raise DataFileError(path, f"servo = {entry!r}: expected an object with compliance_rad_per_nm (a list, one "
                             "per arm joint) and time_constant_s")
     return ServoTransient(tuple(entry["compliance_rad_per_nm"]), float(entry["time_constant_s"]))
+
+
+def _tool(path: Path, entry: Any) -> ToolSpec | None:
+    """The `tool` object (`TwinSpec.tool`), or None."""
+    if entry is None:
+        return None
+    if not isinstance(entry, Mapping) or "length_mm" not in entry:
+        raise DataFileError(path, f"tool = {entry!r}: expected an object with length_mm (and mass_kg, cog_mm)")
+    _known_keys(path, entry, "tool.", TOOL_KEYS)
+    length = check_plausible("tool_length_m", float(entry["length_mm"]) / 1e3, f"{path}: tool.length_mm")
+    mass = entry.get("mass_kg")
+    if mass is not None:
+        check_plausible("tool_mass_kg", float(mass), f"{path}: tool.mass_kg")
+    cog = entry.get("cog_mm")
+    if cog is not None and (not isinstance(cog, Sequence) or isinstance(cog, str)):
+        raise DataFileError(path, f"tool.cog_mm = {cog!r}: expected three numbers [mm]")
+    return ToolSpec.make(length, mass, None if cog is None else [float(v) / 1e3 for v in cog])
 
 
 def _force_fit(path: Path, entry: Any) -> tuple[tuple[str, float], ...]:

@@ -137,7 +137,8 @@ class OnlineCompensator:
         spec = spec or TwinSpec()
         self.settings = settings or OnlineSettings()
         twin = spec.build()
-        model = build_model(twin.robot)  # the plain arm: its joints are the controller's
+        # the plain arm with the declared tool: its joints are the controller's
+        model = build_model(twin.robot, tool=spec.tool)
         if model.nv != twin.robot.dof:
             raise InputError(f"online compensation needs a plain {twin.robot.dof}-joint arm; {twin.robot.name} "
                              f"compiles to {model.nv} dofs")

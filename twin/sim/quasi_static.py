@@ -44,10 +44,10 @@ IK_MEMO_PATHS = 4
 class Twin:
     """Quasi-static compliant-robot twin of the forming cell, built from a `TwinSpec` (`TwinSpec.build()`).
 
-    The robot model carries the spec's robot-side effects (`twin.robot.model.build_model`); the controller's
-    kinematics (IK) use the nominal robot. The force field is the process's force model
-    (`twin.process.force.registry`) fitted to the FE history, scaled by the `force_scale` effect (the sheet's
-    penetration sensitivity, a property of the sheet, is not scaled); a model whose in-plane force flips with
+    The robot model carries the spec's declared tool (`twin.robot.tool`) and robot-side effects
+    (`twin.robot.model.build_model`); the controller's kinematics (IK) use the nominal robot with that tool. The
+    force field is the process's force model (`twin.process.force.registry`) fitted to the FE history, scaled by
+    the `force_scale` effect (the sheet's penetration sensitivity, a property of the sheet, is not scaled); a model whose in-plane force flips with
     the commanded direction is wrapped in the tool's sliding friction (`twin.process.force.tool_friction`). Paths, tool
     tips and forces are in the sheet frame, placed by the spec's placement.
 
@@ -64,9 +64,11 @@ class Twin:
         self.robot, self.effects, self.placement = spec.robot, spec.effects, spec.placement
         self.history = spec.process.force_history()
         effects = self.effects
-        self.model = build_model(self.robot, tool_offset_m=effects.tool_offset_m, lost_motion=effects.lost_motion_rad != 0)
-        # the controller's kinematics (IK) use the nominal robot; a separate model only when effects change it
-        nominal = build_model(self.robot) if effects.changes_model else self.model
+        self.model = build_model(self.robot, tool_offset_m=effects.tool_offset_m,
+                                 lost_motion=effects.lost_motion_rad != 0, tool=spec.tool)
+        # the controller's kinematics (IK) use the nominal robot with the declared tool; a separate model only when
+        # effects change it
+        nominal = build_model(self.robot, tool=spec.tool) if effects.changes_model else self.model
         if spec.joint_stiffness is not None:
             set_joint_stiffness(self.model, spec.joint_stiffness, self.robot)
             if nominal is not self.model:

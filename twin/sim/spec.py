@@ -3,7 +3,8 @@
 A spec holds the robot (`twin.robot.description`), the process (sheet, tool, force model and its FE history,
 `twin.process.description`), the sheet's placement in the robot base, the effects the twin knows
 (`twin.sim.effects`), overrides of the joint springs K_q and the joint friction (None: the robot model's
-own) and the servo's transient compliance where one was learned. Every stage that simulates takes a spec (or a twin built from one); the model file is its saved form
+own), the servo's transient compliance where one was learned and the tool on the flange where one was declared
+(`twin.robot.tool.ToolSpec`; None: the robot model's own). Every stage that simulates takes a spec (or a twin built from one); the model file is its saved form
 (`twin.sim.model_file`). Defaults are the thesis's cell: the TX200, the groove's table force field, the cell's
 sheet origin.
 """
@@ -22,6 +23,7 @@ from twin.process.description import Process
 from twin.process.force.registry import force_model
 from twin.process.toolpath.placement import Placement
 from twin.robot.description import RobotDescription, load_robot
+from twin.robot.tool import ToolSpec
 from twin.sim.effects import Effects
 from twin.sim.servo import ServoTransient
 
@@ -41,6 +43,8 @@ class TwinSpec:
         joint_stiffness_nm_per_rad: K_q per arm joint [N·m/rad]; None: the robot model's.
         joint_friction_nm: Coulomb friction per arm joint [N·m]; None: the robot model's.
         servo: The servo's transient compliance (`twin.sim.servo`), learned from a cell; None: none.
+        tool: The tool on the flange (`twin.robot.tool.ToolSpec`: length, mass, centre of gravity), simulated in
+            place of the robot model's; None: the robot model's own tool.
     """
 
     robot: RobotDescription = field(default_factory=load_robot)
@@ -50,6 +54,7 @@ class TwinSpec:
     joint_stiffness_nm_per_rad: tuple[float, ...] | None = None
     joint_friction_nm: tuple[float, ...] | None = None
     servo: ServoTransient | None = None
+    tool: ToolSpec | None = None
 
     def __post_init__(self) -> None:
         robot = load_robot(self.robot) if isinstance(self.robot, str | Path) else self.robot
@@ -63,6 +68,8 @@ class TwinSpec:
         if self.servo is not None and (not isinstance(self.servo, ServoTransient)
                                        or len(self.servo.compliance_rad_per_nm) != robot.dof):
             raise InputError(f"TwinSpec.servo = {self.servo!r}: expected a ServoTransient with {robot.dof} joints")
+        if self.tool is not None and not isinstance(self.tool, ToolSpec):
+            raise InputError(f"TwinSpec.tool = {self.tool!r}: expected a ToolSpec (ToolSpec.make) or None")
         object.__setattr__(self, "robot", robot)
         for name, what, unit, positive in (
             ("joint_stiffness_nm_per_rad", "joint stiffness", "N·m/rad", True),
@@ -76,6 +83,11 @@ class TwinSpec:
     def replace(self, **changes: Any) -> TwinSpec:
         """A copy with some fields changed (validated again)."""
         return dataclasses.replace(self, **changes)
+
+    @property
+    def tool_length_m(self) -> float:
+        """Flange to tool tip [m]: the declared tool's, else the robot model's."""
+        return self.robot.tool_length_m if self.tool is None else self.tool.length_m
 
     @property
     def joint_stiffness(self) -> np.ndarray | None:

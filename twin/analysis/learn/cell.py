@@ -95,7 +95,17 @@ def learn(runs: list[Run], spec: TwinSpec | None = None) -> LearnResult:
         if run_robot(run.meta, (run.directory or Path(".")) / "meta.json").source != robot.source or run_placement(run.meta) != placement:
             raise InputError(f"run {run.directory} was made by another robot or at another placement than "
                              f"{runs[0].directory}: learn from one cell's runs at a time")
-    spec = (spec or TwinSpec(robot=robot, process=declared_process(runs[0]))).replace(placement=placement)
+    from twin.analysis.tool_choice import (
+        resolve_tool_spec,  # the tool the runs were made with, over the prior's
+    )
+
+    tools = [resolve_tool_spec(robot, run=run, model=None if spec is None else spec.tool) for run in runs]
+    for run, tool in zip(runs[1:], tools[1:], strict=True):
+        if tool != tools[0]:
+            raise InputError(f"run {run.directory} was made with another tool than {runs[0].directory} "
+                             f"({tool} vs {tools[0]}; None: the robot model's): learn from one cell's runs at a time")
+    spec = (spec or TwinSpec(robot=robot, process=declared_process(runs[0]))).replace(placement=placement,
+                                                                                      tool=tools[0])
     learned, robot_fit, sheet_fit, springback_fit = learned_spec(runs, spec)
     before = tuple(replay_gap(run, spec) for run in runs)
     after = tuple(replay_gap(run, learned) for run in runs)

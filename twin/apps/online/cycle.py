@@ -30,12 +30,14 @@ class ServeReport(NamedTuple):
             value not finite (inf, NaN) among them.
         compute_us: Per-cycle compute (read, compensate, answer), shape (cycles,) [µs].
         stopped: Why the loop ended: "cycles", "idle" or "disconnected".
+        refused: Further connections refused while a session ran (a TCP server serves one peer per session).
     """
 
     cycles: int
     unreadable: int
     compute_us: np.ndarray
     stopped: str
+    refused: int = 0
 
 
 #: The longest idle timeout a server takes [s] (an hour: a socket's timeout has a platform limit, and a session

@@ -5,7 +5,8 @@ The application `export --online` writes for a Stäubli (`twin.apps.export.val3_
 moves and a synchronous task (`alterTask`, 4 ms) that sends the robot's joints (`herej()`, degrees) with a sequence
 number and applies the twin's answer with `alter()`: the absolute correction in the robot's world/base frame [mm].
 The robot is the TCP client (its `sio` socket `twin`); this server accepts one connection and answers each request
-at once, echoing its sequence number.
+at once, echoing its sequence number. One peer per session: a further connection while the session runs is closed
+at once (never left waiting for an answer), counted (`ServeReport.refused`) and logged with its address.
 
 A VAL3 cell has no F/T channel in the robot's frame (unlike an RSI diagram), so the F/T sample comes from a
 `ForceSource` on the PC (the sensor's own stream, `twin.apps.online.rdt`), polled once per request; its stamps and
@@ -23,8 +24,11 @@ buffers allocated once; only the frame's unpacking makes a small tuple.
 from __future__ import annotations
 
 import contextlib
+import select
 import socket
+import sys
 import time
+from collections.abc import Callable
 
 import numpy as np
 
@@ -55,16 +59,20 @@ class Val3Server:
             `alter_protocol.DEFAULT_PORT` unless configured otherwise).
         host: Address to bind (tests: 127.0.0.1; a cell: the PC's address on the robot's network).
         force: Where the F/T sample comes from; None: no sensor, so no correction.
+        log: Where the line about a refused second connection goes (default: stderr).
 
     Raises:
         InputError: A robot without six joints (the frames carry six), or a port that cannot be listened on.
     """
 
     def __init__(self, compensator: OnlineCompensator, robot: RobotDescription, port: int = 0,
-                 host: str = "127.0.0.1", force: ForceSource | None = None) -> None:
+                 host: str = "127.0.0.1", force: ForceSource | None = None,
+                 log: Callable[[str], None] | None = None) -> None:
         if robot.dof != JOINTS:
             raise InputError(f"robot {robot.name!r} has {robot.dof} joints; the VAL3 alter frames carry {JOINTS}")
         self.compensator, self.robot, self.force = compensator, robot, force
+        self.log: Callable[[str], None] = log if log is not None else _stderr
+        self.refused = 0
         self.sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
         try:
             self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
@@ -90,26 +98,51 @@ class Val3Server:
             idle_timeout_s: Stop when no connection or no request came for this long [s].
 
         Returns:
-            Requests answered (the unreadable ones among them), per-cycle compute [µs] and why it stopped:
-            "cycles", "idle" or "disconnected".
+            Requests answered (the unreadable ones among them), per-cycle compute [µs], why it stopped:
+            "cycles", "idle" or "disconnected", and the further connections refused meanwhile.
         """
         check_bounds(max_cycles, idle_timeout_s)
         cycle = ServedCycle(self.compensator, self.robot, R_base_sheet)
         compute = np.zeros(max_cycles)
+        self.refused = 0
         self.sock.settimeout(idle_timeout_s)
         try:
-            conn, _ = self.sock.accept()
+            conn, peer = self.sock.accept()
         except TimeoutError:
             return ServeReport(0, 0, compute[:0], "idle")
         with conn:
             conn.settimeout(idle_timeout_s)
             with contextlib.suppress(OSError):  # a socket that cannot take the option still works
                 conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-            cycles, unreadable, stopped = self._answer(conn, cycle, compute, max_cycles)
-        return ServeReport(cycles, unreadable + cycle.rejected, compute[:cycles], stopped)
+            cycles, unreadable, stopped = self._answer(conn, cycle, compute, max_cycles, idle_timeout_s, peer)
+        return ServeReport(cycles, unreadable + cycle.rejected, compute[:cycles], stopped, self.refused)
 
-    def _answer(self, conn: socket.socket, cycle: ServedCycle, compute: np.ndarray,
-                max_cycles: int) -> tuple[int, int, str]:
+    def _refuse(self, peer: object) -> None:
+        """Close a connection that came while a session runs, count it and log a line."""
+        try:
+            extra, address = self.sock.accept()
+        except OSError:  # it went away before it was taken
+            return
+        extra.close()
+        self.refused += 1
+        self.log(f"online val3: refused a second connection from {_address(address)} while the session with "
+                 f"{_address(peer)} runs (one peer per session); {self.refused} refused so far")
+
+    def _wait(self, conn: socket.socket, deadline: float, peer: object) -> bool:
+        """Wait until the robot's connection has bytes (True) or `deadline` passed (False), refusing any further
+        connection meanwhile."""
+        while True:
+            left = deadline - time.perf_counter()
+            if left <= 0.0:
+                return False
+            ready, _, _ = select.select([conn, self.sock], [], [], left)
+            if self.sock in ready:
+                self._refuse(peer)
+            if conn in ready:
+                return True
+
+    def _answer(self, conn: socket.socket, cycle: ServedCycle, compute: np.ndarray, max_cycles: int,
+                idle_timeout_s: float, peer: object) -> tuple[int, int, str]:
         """The request loop on one connection; returns (answered, unreadable, why it stopped)."""
         request = bytearray(REQUEST_BYTES)
         view = memoryview(request)
@@ -118,7 +151,10 @@ class Val3Server:
         cycles = unreadable = 0
         while cycles < max_cycles:
             got = 0
+            deadline = time.perf_counter() + idle_timeout_s
             while got < REQUEST_BYTES:  # a stream: a frame may come in pieces
+                if not self._wait(conn, deadline, peer):
+                    return cycles, unreadable, "idle"
                 try:
                     n = conn.recv_into(view[got:], REQUEST_BYTES - got)
                 except TimeoutError:
@@ -146,3 +182,14 @@ class Val3Server:
             compute[cycles] = 1e6 * (time.perf_counter() - start)
             cycles += 1
         return cycles, unreadable, "cycles"
+
+
+def _stderr(line: str) -> None:
+    print(line, file=sys.stderr, flush=True)
+
+
+def _address(address: object) -> str:
+    """host:port of a peer's address tuple."""
+    if isinstance(address, tuple) and len(address) >= 2:
+        return f"{address[0]}:{address[1]}"
+    return str(address)

@@ -67,6 +67,7 @@ class CompensateRequest:
         learn_smoothing_mm: Gaussian smoothing of the learned error [mm], > 0.
         figure: Deviation maps from the design to write (PNG), or None; with `target_stl` only.
         rrd: A rerun recording of the part's iterations to write, or None; with `target_stl` only.
+        cell: A `--cell` file's record (`CellDeclaration.record`): its tool is the twin's (`resolve_spec`).
     """
 
     method: str
@@ -89,6 +90,7 @@ class CompensateRequest:
     learn_smoothing_mm: float = 2.0
     figure: Path | None = None
     rrd: Path | None = None
+    cell: dict[str, Any] | None = None
 
     def __post_init__(self) -> None:
         for option, value, valid in (("--method", self.method, METHODS), ("--learn-at", self.learn_at, LEARN_AT)):
@@ -122,7 +124,7 @@ class CompensateRequest:
 
     def spec(self, p_sheet_m: np.ndarray, history: ForceHistory | None = None, note: Note = silent) -> TwinSpec:
         """The twin it compensates with (`twin.analysis.resolve.resolve_spec`) for the path `p_sheet_m` [m]."""
-        return resolve_spec(model=self.model, robot=self.robot, declaration=self.declaration,
+        return resolve_spec(cell=self.cell, model=self.model, robot=self.robot, declaration=self.declaration,
                             force_model_name=self.force_model, placement=self.placement, history=history,
                             p_sheet_m=p_sheet_m, note=note)
 

@@ -43,6 +43,7 @@ class DiscrepancyRequest:
         report: A folder for the figure of the residual before and after, or None.
         learn: When no family explains the gap, learn the robot and the sheet from the run.
         held_out: Another run of the same cell, never learned from: the gap before -> after on it, or None.
+        cell: A `--cell` file's record (`CellDeclaration.record`): its tool is the twin's (`resolve_spec`).
     """
 
     run_dir: Path
@@ -55,6 +56,7 @@ class DiscrepancyRequest:
     report: Path | None = None
     learn: bool = True
     held_out: Path | None = None
+    cell: dict[str, Any] | None = None
 
     def __post_init__(self) -> None:
         if self.force_model != AUTO and self.force_model not in FORCE_MODELS:
@@ -159,7 +161,7 @@ def discrepancy_task(request: DiscrepancyRequest, note: Note = silent) -> Discre
     """
     measured = read_run(request.run_dir)
     declared, _ = request.history.load()
-    spec = resolve_spec(model=request.model, robot=request.robot, run=measured, declaration=request.declaration,
+    spec = resolve_spec(cell=request.cell, model=request.model, robot=request.robot, run=measured, declaration=request.declaration,
                         force_model_name=request.force_model, history=declared,
                         p_sheet_m=measured.commanded.values, note=note)
     result = find_discrepancy(measured, spec)

@@ -2,7 +2,8 @@
 (`twin.apps.export`). The robot, the sheet's placement and the tool follow one precedence, each value on its own
 (`twin.analysis.resolve.PRECEDENCE`): an explicit flag > the run's record > the cell file > the robot's defaults
 (a `--robot` or a cell naming another robot than the run's is refused). The format is the robot's own language
-unless the request names another (then a note). The program's first comment lines state the sheet frame and the
+unless the request names another; a robot language not the robot's maker's is refused (G-code and the CSV point
+list are open to every robot). The program's first comment lines state the sheet frame and the
 tool it was written with and where each came from (`twin.apps.export.program.cell_lines`). The report gives the
 process feed, the fastest programmed move in contact and the arm configuration; the warnings (moves slowed to the
 process feed) are notes."""
@@ -164,12 +165,31 @@ class ExportReport(Report):
         }
 
 
+def foreign_language_problem(fmt: str, robot: RobotDescription) -> str:
+    """Why `--format fmt` (a controller language) cannot be written for `robot`: its controller runs another (or
+    none is declared). Names the format, the robot, its language, the formats open to every robot and, for a robot
+    that declares no language the twin writes, what to declare."""
+    language = LANGUAGES[fmt]
+    open_formats = " or ".join(name for name, f in EXPORT_FORMATS.items() if f.language is None and not f.online)
+    own = [name for name, f in EXPORT_FORMATS.items() if f.language == robot.language and not f.online]
+    if own:
+        expected = f"expected --format {' or '.join(own)} (its language) or {open_formats} (open to every robot)"
+    else:
+        expected = (f"expected --format {open_formats} (open to every robot), or a robot description (.toml, "
+                    f"format tx200-twin-robot/1) that declares vendor and language = {language!r} for a "
+                    f"{language} program")
+    return (f"--format {fmt} writes {language}, but robot {robot.name!r} ({robot.vendor} {robot.model}, "
+            f"{robot.controller}) runs {robot.language!r}: a program in another maker's language is refused; "
+            f"{expected}")
+
+
 def export_task(request: ExportRequest, note: Note = silent) -> ExportReport:
-    """Export the path as the request's program; a format not the robot's language and each warning are notes.
+    """Export the path as the request's program; each warning is a note.
 
     Raises:
-        InputError: A robot other than the run's, a bad path, a format the robot's language needs and no exporter
-            writes (`twin.apps.export.export_path` lists the rest).
+        InputError: A robot other than the run's, a bad path, a robot language not the robot's own
+            (`foreign_language_problem`), a format the robot's language needs and no exporter writes
+            (`twin.apps.export.export_path` lists the rest).
         UnreachableError, SingularityError: A point the robot cannot reach.
     """
     recorded = read_run(request.run, require_forces=False) if request.run is not None else None
@@ -191,8 +211,7 @@ def export_task(request: ExportRequest, note: Note = silent) -> ExportReport:
         online = ", ".join(name for name, f in EXPORT_FORMATS.items() if f.online)
         raise InputError(f"--online with --format {fmt}: the online formats are {online}")
     if fmt in LANGUAGES and LANGUAGES[fmt] != robot.language:
-        note(f"note: writing {LANGUAGES[fmt]} for robot {robot.name} ({robot.vendor} {robot.model}), whose "
-             f"{robot.controller} runs {robot.language}: the program's configuration is {robot.name}'s IK solution")
+        raise InputError(foreign_language_problem(fmt, robot))
     place = resolve_placement(origin_mm=request.origin_mm, yaw_deg=request.yaw_deg, run=recorded, cell=request.cell,
                               robot_name=robot.name)
     tool = resolve_tool(robot, length_mm=request.tool_length_mm, mass_kg=request.tool_mass_kg, run=recorded,

@@ -251,11 +251,13 @@ def lab_settings(cell: Mapping[str, Any] | None) -> Any:
     return LabSettings(**sensors)
 
 
-def with_records(run: Run, request: LabRequest) -> Run:
-    """The run with what travels with it in its meta: the command's compensation record (for `check`) and the cell
-    it was made in."""
+def with_records(run: Run, request: LabRequest, tool_length_m: float | None = None) -> Run:
+    """The run with what travels with it in its meta: the command's compensation record (for `check`), the cell
+    it was made in and the tool it was made with (`tool_length_m`, the twin's declared tool's; None: as the lab
+    wrote it)."""
     record = compensation_record(request)
-    meta = {**run.meta, **({} if record is None else {"compensation": record.to_json()}),
+    meta = {**run.meta, **({} if tool_length_m is None else {"tool_length_m": tool_length_m}),
+            **({} if record is None else {"compensation": record.to_json()}),
             **({} if request.cell is None else {"cell": dict(request.cell)})}
     return replace(run, meta=meta)
 
@@ -277,12 +279,13 @@ def _run(request: LabRequest, effects: Effects, note: Note) -> LabRunReport:
     commanded, protect = lab_commanded(request.scenario, request.commanded)
     t_s, p_cmd = commanded.t_s, commanded.values
     spec = resolve_spec(robot=request.robot, declaration=request.declaration, force_model_name=request.force_model,
-                        placement=request.placement, p_sheet_m=p_cmd, note=note).replace(effects=effects)
+                        placement=request.placement, p_sheet_m=p_cmd, note=note,
+                        cell=request.cell).replace(effects=effects)
     from twin.lab.virtual import run_lab
 
     run, truth = run_lab(t_s, p_cmd, scenario=request.scenario, seed=request.seed, spec=spec,
                          settings=lab_settings(request.cell))
-    run = with_records(run, request)
+    run = with_records(run, request, None if spec.tool is None else spec.tool.length_m)
     write_run(request.out, run, truth=truth, overwrite=request.overwrite, protect=protect)
     deviation = np.max(np.linalg.norm(run.tracker.values - interp_rows(run.tracker.t_s, t_s, p_cmd), axis=1))
     forces = run.forces

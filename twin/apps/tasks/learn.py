@@ -63,8 +63,9 @@ class LearnReport(Report):
         place = spec.placement
         origin = (f"robot {spec.robot.name}'s default sheet origin" if place.origin_base_m is None else
                   "sheet origin (" + ", ".join(f"{1e3 * v:g}" for v in place.origin_base_m) + ") mm")
-        tool = f"tool {1e3 * spec.robot.tool_length_m:.2f} mm (the robot model's)"
-        if self.run_tool_mm is not None and abs(self.run_tool_mm - 1e3 * spec.robot.tool_length_m) > 1e-6:
+        tool = f"tool {1e3 * spec.tool_length_m:.2f} mm " + ("(the robot model's)" if spec.tool is None else
+                                                            "(the runs' declared tool)")
+        if self.run_tool_mm is not None and abs(self.run_tool_mm - 1e3 * spec.tool_length_m) > 1e-6:
             tool += f"; the runs record a {self.run_tool_mm:g} mm tool"
         return (f"  fitted for robot {spec.robot.name} ({spec.robot.vendor} {spec.robot.model}), {origin}, yaw "
                 f"{math.degrees(place.yaw_rad):g} deg (the runs' placement), {tool}")
@@ -112,7 +113,7 @@ class LearnReport(Report):
         spec = result.spec
         return {
             "fitted_for": {"robot": spec.robot.name, "placement": spec.placement.to_json(),
-                           "tool_length_mm": 1e3 * spec.robot.tool_length_m, "run_tool_length_mm": self.run_tool_mm},
+                           "tool_length_mm": 1e3 * spec.tool_length_m, "run_tool_length_mm": self.run_tool_mm},
             "robot": {
                 "k_q_nm_per_rad": robot.k_q_nm_per_rad, "k_q_std_nm_per_rad": robot.std_nm_per_rad,
                 "prior_k_q_nm_per_rad": robot.prior_nm_per_rad, "observable": np.asarray(robot.observable).tolist(),

@@ -111,6 +111,7 @@ class OnlineRequest:
         cycles: Most packets to answer.
         idle_timeout_s: Stop when no packet came for this long [s].
         ft: The F/T sensor's own stream; None: the robot's packets carry the force.
+        cell: A `--cell` file's record (`CellDeclaration.record`): its tool is the twin's (`resolve_spec`).
     """
 
     serve: str
@@ -122,6 +123,7 @@ class OnlineRequest:
     cycles: int = 15000
     idle_timeout_s: float = 5.0
     ft: RdtSettings | None = None
+    cell: dict[str, Any] | None = None
 
     def __post_init__(self) -> None:
         if self.serve not in INTERFACES:
@@ -144,7 +146,8 @@ class OnlineRequest:
 
 @dataclass(frozen=True)
 class OnlineReport(Report):
-    """A served session: cycles, unreadable packets, why it stopped, per-cycle compute [µs]."""
+    """A served session: cycles, unreadable packets, why it stopped, per-cycle compute [µs], further connections
+    refused (a TCP interface serves one peer per session)."""
 
     serve: str
     port: int
@@ -153,6 +156,7 @@ class OnlineReport(Report):
     unreadable: int
     stopped: str
     compute_us: np.ndarray
+    refused: int = 0
 
     def _stats(self) -> dict[str, float]:
         c = self.compute_us
@@ -166,11 +170,12 @@ class OnlineReport(Report):
         timing = "" if not s else (f"; compute p50 {s['compute_p50_us']:.0f} / p99 {s['compute_p99_us']:.0f} / max "
                                    f"{s['compute_max_us']:.0f} µs")
         return [f"online {self.serve} on {self.transport} {self.port}: {self.cycles} cycles answered, {self.unreadable} "
-                f"unreadable, stopped by {self.stopped}{timing}"]
+                f"unreadable, stopped by {self.stopped}{timing}"
+                + (f"; {self.refused} further connection(s) refused (one peer per session)" if self.refused else "")]
 
     def record(self) -> dict[str, Any]:
         return {"serve": self.serve, "port": self.port, "transport": self.transport, "cycles": self.cycles, "unreadable": self.unreadable,
-                "stopped": self.stopped, **self._stats()}
+                "stopped": self.stopped, "refused": self.refused, **self._stats()}
 
 
 def online_task(request: OnlineRequest, note: Note = silent) -> OnlineReport:
@@ -183,7 +188,7 @@ def online_task(request: OnlineRequest, note: Note = silent) -> OnlineReport:
     from twin.sim.online import OnlineCompensator
 
     interface = INTERFACES[request.serve]
-    spec = resolve_spec(model=request.model, robot=request.robot, placement=request.placement)
+    spec = resolve_spec(cell=request.cell, model=request.model, robot=request.robot, placement=request.placement)
     twin = spec.build()
     ft = request.ft
     force = None if ft is None else RdtSource(ft.host, ft.port, counts_per_n=ft.counts_per_n, bias=ft.bias)
@@ -199,4 +204,4 @@ def online_task(request: OnlineRequest, note: Note = silent) -> OnlineReport:
         if force is not None:
             force.close()
     return OnlineReport(request.serve, server.port, interface.transport, served.cycles, served.unreadable,
-                        served.stopped, served.compute_us)
+                        served.stopped, served.compute_us, served.refused)

@@ -27,7 +27,14 @@ from twin.process.force.isf_params import params_for, steady_fz_n
 from twin.process.process_file import ProcessDeclaration, process_record
 from twin.process.toolpath.gcode import read_gcode
 from twin.process.toolpath.gcode_write import write_gcode
-from twin.process.toolpath.groove import GrooveSpec, ToolPath, groove_path
+from twin.process.toolpath.groove import (
+    MAX_SAMPLES,
+    GrooveSpec,
+    SampleLimitError,
+    ToolPath,
+    groove_path,
+    min_spacing_m,
+)
 from twin.process.toolpath.placement import Placement, check_reach
 from twin.process.toolpath.shapes import MODES, SHAPES, PartSpec, part_path
 from twin.runs.write import write_path_csv
@@ -231,6 +238,12 @@ def _build(request: PathRequest) -> tuple[ToolPath, dict[str, Any], str]:
         if request.shape == "groove":
             return _groove(request)
         return _part(request)
+    except SampleLimitError as exc:
+        source = "" if request.gcode is None else f" of G-code {request.gcode}"
+        raise InputError(
+            f"--spacing-mm {request.spacing_mm:g} would make {exc.samples:.3g} samples or more{source}; expected "
+            f"at most {MAX_SAMPLES:,} samples: a spacing of at least "
+            f"{1e3 * min_spacing_m(exc.samples, exc.spacing_m):.3g} mm") from None
     except InputError as exc:
         raise _option_error(exc) from None
 

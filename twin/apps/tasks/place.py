@@ -43,6 +43,7 @@ class PlaceRequest:
         workers: Local worker processes, or None for every usable core.
         scheduler: The address of a Dask distributed scheduler to run the jobs on, or None (local processes).
         figure: The map of the screened error to write (PNG), or None.
+        cell: A `--cell` file's record (`CellDeclaration.record`): its tool is the twin's (`resolve_spec`).
     """
 
     ideal: Path | None = None
@@ -59,6 +60,7 @@ class PlaceRequest:
     workers: int | None = None
     scheduler: str | None = None
     figure: Path | None = None
+    cell: dict[str, Any] | None = None
 
     def __post_init__(self) -> None:
         if any(v < 0 for v in self.box_mm) or not 0.0 <= self.yaw_range_deg <= 180.0 or self.joint_margin_deg < 0:
@@ -125,7 +127,7 @@ def place_task(request: PlaceRequest, note: Note = silent, *, progress: Progress
         DataFileError: A bad path or model file (naming the file).
     """
     ideal = ideal_path(request.ideal)
-    spec = resolve_spec(model=request.model, robot=request.robot, declaration=request.declaration,
+    spec = resolve_spec(cell=request.cell, model=request.model, robot=request.robot, declaration=request.declaration,
                         force_model_name=request.force_model, p_sheet_m=ideal.p_sheet_m, note=note)
     result = search_placement(
         ideal, spec, candidates=request.candidates, confirm=request.confirm, seed=request.seed, box=request.box(),

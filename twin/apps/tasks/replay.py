@@ -35,6 +35,7 @@ class ReplayRequest:
         rrd: A rerun recording to write, or None.
         figure: A figure to write (PNG): the measured and the simulated tool tip minus the commanded one on each
             axis x, y, z [mm] against time [s]; never over an input; or None.
+        cell: A `--cell` file's record (`CellDeclaration.record`): its tool is the twin's (`resolve_spec`).
     """
 
     run_dir: Path
@@ -45,6 +46,7 @@ class ReplayRequest:
     forces: str = "twin"
     rrd: Path | None = None
     figure: Path | None = None
+    cell: dict[str, Any] | None = None
 
     def __post_init__(self) -> None:
         if self.forces not in FORCES:
@@ -112,7 +114,7 @@ def replay_task(request: ReplayRequest, note: Note = silent) -> ReplayReport:
         RunFormatError: A bad run folder (naming the file and row).
     """
     measured = read_run(request.run_dir)
-    spec = resolve_spec(model=request.model, robot=request.robot, run=measured, declaration=request.declaration,
+    spec = resolve_spec(cell=request.cell, model=request.model, robot=request.robot, run=measured, declaration=request.declaration,
                         force_model_name=request.force_model, note=note)
     twin = spec.build()
     result = replay(measured, twin)

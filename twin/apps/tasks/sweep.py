@@ -48,6 +48,7 @@ class SweepRequest:
     Raises:
         InputError: A count out of range; more draws than `twin.apps.sweep.check_draws` allows (before any
             allocation).
+        cell: A `--cell` file's record (`CellDeclaration.record`): its tool is the twin's (`resolve_spec`).
     """
 
     draws: int = 200
@@ -62,6 +63,7 @@ class SweepRequest:
     model: Path | None = None
     robot: str | Path | None = None
     declaration: ProcessDeclaration = field(default_factory=ProcessDeclaration)
+    cell: dict[str, Any] | None = None
 
     def __post_init__(self) -> None:
         for name, value, least in (("draws", self.draws, 1), ("seed", self.seed, 0), ("workers", self.workers, 1)):
@@ -75,7 +77,7 @@ class SweepRequest:
         Raises:
             InputError: Its force model is not the table field (the sweep draws the table's sensitivities).
         """
-        spec = resolve_spec(model=self.model, robot=self.robot, declaration=self.declaration,
+        spec = resolve_spec(cell=self.cell, model=self.model, robot=self.robot, declaration=self.declaration,
                             force_model_name=AUTO, history=history, p_sheet_m=p_sheet_m, note=note)
         if spec.process.force_model != "table":
             raise InputError(f"the sweep draws the 'table' force field's sensitivities (k_unload, k_load) and force "

@@ -18,10 +18,9 @@ Read subset (RS-274 words, one block per line):
   cutter compensation G41/G42, other G and M codes, unknown letters, P outside G4/M98, L outside M98, I/J/R outside
   G2/G3, a word given twice in a block, axes in a G4 block.
 
-Coordinates are the tool tip in the sheet frame; axes not yet set are 0. The path starts (t = 0) at the end
-of the first move (where the tool was before it is unknown); zero-length moves add no sample. `pass_index` is 1 and
-`direction` +1 throughout: G-code carries no pass structure (`twin.process.toolpath.groove.label_passes` infers it for
-groove-like paths).
+Coordinates are the tool tip in the sheet frame; axes not yet set are 0. The path starts (t = 0) at the end of the
+first move (where the tool was before it is unknown); zero-length moves add no sample. `pass_index` is 1 and
+`direction` +1 throughout: G-code carries no pass structure (`groove.label_passes` infers it for groove-like paths).
 """
 
 from __future__ import annotations
@@ -36,7 +35,7 @@ from twin.base.csvio import read_text
 from twin.errors import DataFileError, InputError
 from twin.process.toolpath import gcode_programs as programs_
 from twin.process.toolpath.gcode_arcs import arc_points, centre_from_radius
-from twin.process.toolpath.groove import ToolPath
+from twin.process.toolpath.groove import ToolPath, check_samples
 
 _IGNORED_G = {17.0, 40.0, 49.0, 54.0, 80.0, 94.0}
 #: M codes that change nothing on the path: stops, tool rotation, tool change, lubrication.
@@ -240,11 +239,13 @@ class _BlockReader:
         if motion in (2.0, 3.0):
             start, end = np.array(pos), np.array(target)
             chunk = self._arc_chunk(lineno, motion, coords, start, end)
+            check_samples(len(self.points) + len(chunk), self.spacing_mm / 1e3)
             prev = np.vstack([start[None, :], chunk[:-1]])
             self.points.extend(chunk.tolist())
             self.durations.extend((np.linalg.norm(chunk - prev, axis=1) / speed).tolist())
         else:  # the controller interpolates a line: steps no longer than the spacing (the first starts unknown)
             length = math.dist(pos, target)
+            check_samples(len(self.points) + length / self.spacing_mm, self.spacing_mm / 1e3)
             pieces = 1 if len(self.points) == 1 else max(1, math.ceil(length / self.spacing_mm - 1e-9))
             for k in range(1, pieces):
                 self.points.append([a + (b - a) * k / pieces for a, b in zip(pos, target, strict=True)])

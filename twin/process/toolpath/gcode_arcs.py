@@ -7,11 +7,18 @@ import math
 
 import numpy as np
 
+from twin.process.toolpath.groove import MAX_SAMPLES as MAX_ARC_PIECES
+from twin.process.toolpath.groove import SampleLimitError
+
 
 def arc_points(
     start: np.ndarray, end: np.ndarray, centre_xy: np.ndarray, clockwise: bool, spacing: float, tol: float
 ) -> np.ndarray:
-    """Chord end points (k, 3) of an XY arc from `start` to `end` (end included, start excluded) [mm]."""
+    """Chord end points (k, 3) of an XY arc from `start` to `end` (end included, start excluded) [mm].
+
+    Raises:
+        SampleLimitError: A spacing or tolerance that would make more than `MAX_SAMPLES` chords.
+    """
     r0 = start[:2] - centre_xy
     r1 = end[:2] - centre_xy
     radius = float(np.hypot(*r0))
@@ -23,7 +30,10 @@ def arc_points(
         sweep = sweep + 2 * math.pi if sweep <= 1e-12 else sweep
     arc_len = abs(sweep) * radius
     max_angle = 2.0 * math.acos(max(-1.0, 1.0 - tol / radius)) if radius > tol else math.pi
-    pieces = max(1, math.ceil(max(arc_len / spacing, abs(sweep) / max_angle) - 1e-9))
+    count = max(arc_len / spacing, abs(sweep) / max_angle)
+    if not count <= MAX_ARC_PIECES:  # before allocating (the reader counts the whole path's samples)
+        raise SampleLimitError(count, spacing / 1e3)
+    pieces = max(1, math.ceil(count - 1e-9))
     f = np.arange(1, pieces + 1) / pieces
     a = a0 + sweep * f
     pts = np.column_stack([centre_xy[0] + radius * np.cos(a), centre_xy[1] + radius * np.sin(a),

@@ -150,6 +150,35 @@ def _corners(spec: GrooveSpec) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return np.asarray(points), np.asarray(seg_pass), np.asarray(seg_dir)
 
 
+#: The most samples a path generator or reader makes (5 million: about 240 MB of path arrays, a path of 2.5 km at
+#: the 0.5 mm default spacing); a spacing that would make more is refused before anything is allocated.
+MAX_SAMPLES = 5_000_000
+
+
+class SampleLimitError(InputError):
+    """A spacing that would make more than `MAX_SAMPLES` samples (`samples`: the count, at least; `spacing_m`)."""
+
+    def __init__(self, samples: float, spacing_m: float) -> None:
+        self.samples, self.spacing_m = samples, spacing_m
+        super().__init__(f"spacing_m = {spacing_m:g} would make {samples:.3g} samples or more; expected at most "
+                         f"{MAX_SAMPLES:,} samples (a spacing of at least {min_spacing_m(samples, spacing_m):.3g} m)")
+
+
+def min_spacing_m(samples: float, spacing_m: float) -> float:
+    """The spacing [m] that brings `samples` (made at `spacing_m`) down to `MAX_SAMPLES`: a lower bound."""
+    return spacing_m * (samples / MAX_SAMPLES) if math.isfinite(samples) else math.inf
+
+
+def check_samples(samples: float, spacing_m: float) -> None:
+    """Refuse a sample count (a float: length / spacing may overflow) above `MAX_SAMPLES`, before allocating.
+
+    Raises:
+        SampleLimitError: More than `MAX_SAMPLES` samples (or a count that is not a number).
+    """
+    if not samples <= MAX_SAMPLES:
+        raise SampleLimitError(samples, spacing_m)
+
+
 def groove_path(spec: GrooveSpec | None = None) -> ToolPath:
     """Sample the ideal groove path U_ID (construction in the module docstring).
 
@@ -158,9 +187,14 @@ def groove_path(spec: GrooveSpec | None = None) -> ToolPath:
 
     Returns:
         The path, corners included, samples at most `spec.spacing_m` apart.
+
+    Raises:
+        SampleLimitError: A spacing that would make more than `MAX_SAMPLES` samples.
     """
     spec = spec or GrooveSpec()
     corners, seg_pass, seg_dir = _corners(spec)
+    check_samples(len(corners) + float(np.linalg.norm(np.diff(corners, axis=0), axis=1).sum()) / spec.spacing_m,
+                  spec.spacing_m)
     chunks = [corners[:1]]
     passes = [np.array([1])]
     dirs = [np.array([seg_dir[0]])]

@@ -32,7 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from twin.errors import InputError
-from twin.process.toolpath.groove import ToolPath
+from twin.process.toolpath.groove import ToolPath, check_samples
 
 SHAPES = ("cone", "pyramid", "vwa-cone")
 MODES = ("spiral", "z-level")
@@ -132,7 +132,9 @@ def _unit_contour(shape: str) -> Callable[[np.ndarray], np.ndarray]:
 def _per_revolution(spec: PartSpec) -> int:
     perimeter = (8.0 if spec.shape == "pyramid" else 2.0 * math.pi) * spec.top_half_width_m
     step = spec.depth_m / spec.levels
-    n = math.ceil(math.hypot(perimeter, step) / spec.spacing_m - 1e-9)
+    per_level = math.hypot(perimeter, step) / spec.spacing_m
+    check_samples(spec.levels * per_level * (2.0 if spec.mode == "z-level" else 1.0), spec.spacing_m)
+    n = math.ceil(per_level - 1e-9)
     return 8 * math.ceil(n / 8)  # the square's corners sit at u = 1/8, 3/8, 5/8, 7/8
 
 
