@@ -68,3 +68,13 @@ def clean_run(clean_run_dir: Path) -> Run:
 def clean_replay(clean_run: Run, twin_nominal: Twin) -> ReplayResult:
     """The clean run replayed on the nominal twin (its `sim` is the twin's simulation of the groove)."""
     return replay(clean_run, twin=twin_nominal)
+
+
+@pytest.fixture
+def tiny(tmp_path: Path) -> Path:
+    """A four-sample path CSV in tmp_path (`cli_refusal.TINY`)."""
+    from cli_refusal import TINY
+
+    path = tmp_path / "tiny.csv"
+    path.write_text(TINY)
+    return path

@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+from cli_refusal import TINY, refused
 
 from twin.apps.online.rsi import RsiServer
 from twin.base.csvio import read_table
@@ -26,19 +27,9 @@ from twin.sim.servo import ServoTransient
 from twin.sim.spec import TwinSpec
 
 BOM = "\ufeff"
-TINY = "t_s,x_mm,y_mm,z_mm\n0,0,0,0\n0.1,1,0,-0.1\n0.2,2,0,-0.2\n0.3,3,0,-0.3\n"
 PROCESS = 'format = "tx200-twin-process/1"\nthickness_mm = {}\n'
 
 
-def refused(argv: list[str], capsys: pytest.CaptureFixture[str], *needles: str) -> str:
-    """Run the CLI: exit 2, every needle in stderr, no traceback; stderr."""
-    capsys.readouterr()
-    assert main(argv) == 2
-    err = capsys.readouterr().err
-    assert "Traceback" not in err
-    for needle in needles:
-        assert needle in err, (needle, err)
-    return err
 
 
 def _robot_file(tmp_path: Path, text_change: tuple[str, str] = ("", ""), prefix: str = "") -> Path:

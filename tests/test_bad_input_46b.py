@@ -12,6 +12,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from cli_refusal import refused
+from test_online_val3 import _recv
 
 from twin.apps.online import alter_protocol as proto
 from twin.apps.online.cycle import ServeReport
@@ -21,26 +23,6 @@ from twin.errors import RunFormatError
 from twin.robot.description import load_robot
 from twin.sim.online import OnlineCompensator
 from twin.sim.spec import TwinSpec
-
-TINY = "t_s,x_mm,y_mm,z_mm\n0,0,0,0\n0.1,1,0,-0.1\n0.2,2,0,-0.2\n0.3,3,0,-0.3\n"
-
-
-def refused(argv: list[str], capsys: pytest.CaptureFixture[str], *needles: str) -> str:
-    """Run the CLI: exit 2, every needle in stderr, no traceback; stderr."""
-    capsys.readouterr()
-    assert main(argv) == 2
-    err = capsys.readouterr().err
-    assert "Traceback" not in err
-    for needle in needles:
-        assert needle in err, (needle, err)
-    return err
-
-
-@pytest.fixture
-def tiny(tmp_path: Path) -> Path:
-    path = tmp_path / "tiny.csv"
-    path.write_text(TINY)
-    return path
 
 
 # ---------------------------------------------------------------- 1. another maker's robot language
@@ -92,15 +74,6 @@ def test_a_users_own_robot_model_exports_the_open_formats_and_is_told_what_to_de
 
 
 # ---------------------------------------------------------------- 2. a second connection to the VAL3 server
-def _recv(sock: socket.socket, n: int) -> bytes:
-    data = b""
-    while len(data) < n:
-        chunk = sock.recv(n - len(data))
-        assert chunk, "the server closed the connection"
-        data += chunk
-    return data
-
-
 def test_a_second_connection_to_the_val3_server_is_closed_at_once_counted_and_logged() -> None:
     twin = TwinSpec().build()
     lines: list[str] = []

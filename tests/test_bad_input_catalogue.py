@@ -18,31 +18,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from cli_refusal import refused
 
 from twin.cli import main
 from twin.errors import InputError
-
-TINY = "t_s,x_mm,y_mm,z_mm\n0,0,0,0\n0.1,1,0,-0.1\n0.2,2,0,-0.2\n0.3,3,0,-0.3\n"
-
-
-def refused(argv: list[str], capsys: pytest.CaptureFixture[str], *needles: str, never: tuple[Path, ...] = ()) -> str:
-    """Run the CLI: exit 2, every needle in stderr, no traceback, none of `never` written; stderr."""
-    capsys.readouterr()
-    assert main(argv) == 2
-    err = capsys.readouterr().err
-    assert "Traceback" not in err
-    for needle in needles:
-        assert needle in err, (needle, err)
-    for path in never:
-        assert not path.exists(), path
-    return err
-
-
-@pytest.fixture
-def tiny(tmp_path: Path) -> Path:
-    path = tmp_path / "tiny.csv"
-    path.write_text(TINY)
-    return path
 
 
 # ---------------------------------------------------------------- 1. --scheduler

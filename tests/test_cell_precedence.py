@@ -1,4 +1,4 @@
-"""One precedence for the sheet placement and the tool (`twin.analysis.resolve.PRECEDENCE`, issue #46): an
+"""One precedence for the sheet placement and the tool (`twin.analysis.tool_choice.PRECEDENCE`, issue #46): an
 explicit flag > the run's record > the cell file > the robot's defaults; each program states on its first comment
 lines the sheet frame and tool it was written with and where they came from."""
 

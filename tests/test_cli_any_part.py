@@ -56,6 +56,14 @@ def check(run: Path, ideal: Path, capsys: pytest.CaptureFixture[str]) -> dict[st
     return payload
 
 
+def checked(runs: dict[str, Path], plant: str, capsys: pytest.CaptureFixture[str]) -> tuple[dict, dict]:
+    """`check` of the plant's compensated and nominal runs against the ideal path, each printed."""
+    right = check(runs[f"{plant}/compensated"], runs["ideal"], capsys)
+    nominal = check(runs[f"{plant}/nominal"], runs["ideal"], capsys)
+    print(f"\n{plant}: compensated {right['residual_rms_mm']:.3f} mm rms, nominal {nominal['residual_rms_mm']:.3f} mm")
+    return right, nominal
+
+
 # measured (seed 1, 5 mm deep, 40 mm across): rms residual against the ideal path [mm], docs/any-part.md's table
 @pytest.mark.parametrize("plant", ["quasi-static", "dynamic"])
 @pytest.mark.parametrize("part", ["cone_runs", "pyramid_runs"])
@@ -65,10 +73,7 @@ def test_the_any_part_table_is_what_the_runs_give(
     """The page's numbers, guarded on their own: no target assert runs before them."""
     runs = request.getfixturevalue(part)
     shape = part.removesuffix("_runs")
-    right = check(runs[f"{plant}/compensated"], runs["ideal"], capsys)
-    nominal = check(runs[f"{plant}/nominal"], runs["ideal"], capsys)
-    print(f"\n{part} {plant}: compensated {right['residual_rms_mm']:.3f} mm rms, nominal "
-          f"{nominal['residual_rms_mm']:.3f} mm")
+    right, nominal = checked(runs, plant, capsys)
     doc = quoted("any-part.md", "| 45° cone |" if shape == "cone" else "| pyramid |", 4)
     column = 0 if plant == "quasi-static" else 2
     doc[column].check(nominal["residual_rms_mm"])
@@ -92,11 +97,9 @@ def test_a_part_is_compensated_onto_its_path_on_both_plants(
     assert compensation["iterations"] <= (4 if shape == "cone" else 8)
     truth = json.loads((runs[f"{plant}/compensated"] / "truth.json").read_text())
     assert truth["force_model"] == "isf"
-    right = check(runs[f"{plant}/compensated"], runs["ideal"], capsys)
-    nominal = check(runs[f"{plant}/nominal"], runs["ideal"], capsys)
-    print(f"\n{part} {plant}: compensated {right['residual_rms_mm']:.3f} mm rms, "
-          f"nominal {nominal['residual_rms_mm']:.3f} mm; twin prediction {compensation['predicted_residual_rms_mm']:.4f} "
-          f"mm rms after {compensation['iterations']} simulations, converged {compensation['converged']}")
+    right, nominal = checked(runs, plant, capsys)
+    print(f"twin prediction {compensation['predicted_residual_rms_mm']:.4f} mm rms after "
+          f"{compensation['iterations']} simulations, converged {compensation['converged']}")
     assert right["residual_rms_mm"] < 0.1
     assert nominal["residual_rms_mm"] > 8.0 * right["residual_rms_mm"]
     assert right["gain"] == pytest.approx(1.0, abs=0.05)

@@ -6,8 +6,8 @@ fact of the run), the declared process goes over the model file's or the run's, 
 named, else the process file's, else the one a model file fitted to its cell, else the run's recorded one, else
 the first registered model that applies to the path. The rule lives here once; `replay` and the CLI call it.
 
-Where the sheet lies and which tool is on the flange (`resolve_placement`, `resolve_tool`) follow one precedence,
-each value on its own (`PRECEDENCE`): an explicit flag > the run's record > the cell file > the model file > the
+Where the sheet lies (`resolve_placement`) and which tool is on the flange (`twin.analysis.tool_choice`) follow one
+precedence, each value on its own (`PRECEDENCE`): an explicit flag > the run's record > the cell file > the model file > the
 robot's defaults. An explicit flag is one the user typed (`--yaw-deg 0` included), not a default nor a value the
 cell file filled in (`twin.cli._common.apply_cell`). A run records a placement (`meta.json`'s `placement`; absent:
 the robot's default sheet origin, yaw 0) and a tool (its `cell` record's tool, else `tool_length_m` and an import's
@@ -24,7 +24,12 @@ from typing import Any
 
 import numpy as np
 
-from twin.analysis.tool_choice import resolve_tool_spec
+from twin.analysis.tool_choice import (
+    Chosen,
+    cell_words,
+    first_given,
+    resolve_tool_spec,
+)
 from twin.errors import InputError
 from twin.process.description import Process
 from twin.process.fe.load import ForceHistory
@@ -37,26 +42,6 @@ from twin.sim.model_file import read_model_file
 from twin.sim.spec import TwinSpec
 
 AUTO = "auto"
-#: Who wins for the sheet's placement and the tool, first to last (module docstring; docs/process.md's cell section).
-PRECEDENCE = ("flag", "run", "cell", "model", "robot default")
-
-
-@dataclass(frozen=True)
-class Chosen:
-    """A value and where it came from (`PRECEDENCE`'s layer, in words: "--origin-mm", "the run runs/n1", ...)."""
-
-    value: Any
-    source: str
-
-
-def first_given(layers: Sequence[tuple[str, bool, Any]], default: Chosen) -> Chosen:
-    """The first layer that gives a value: `layers` are (source in words, given, value), in `PRECEDENCE` order."""
-    for source, given, value in layers:
-        if given:
-            return Chosen(value, source)
-    return default
-
-
 @dataclass(frozen=True)
 class PlacementChoice:
     """The sheet placement chosen, and where its origin and its yaw came from (in words)."""
@@ -88,7 +73,7 @@ def resolve_placement(
     run_place = None if run is None else run_placement(run.meta, (run.directory or Path(".")) / "meta.json")
     run_name = None if run is None else f"the run {run.directory}"
     sheet = {} if cell is None else dict(cell.get("sheet") or {})
-    cell_name = _cell_words(cell)
+    cell_name = cell_words(cell)
     default = Chosen(None, f"robot {robot_name}'s default sheet origin")
     origin = first_given([
         ("--origin-mm", origin_mm is not None, None if origin_mm is None else tuple(float(v) / 1e3 for v in origin_mm)),
@@ -107,61 +92,6 @@ def resolve_placement(
         ("the model file", model is not None, None if model is None else model.yaw_rad),
     ], Chosen(0.0, "the default"))
     return PlacementChoice(Placement(origin_base_m=origin.value, yaw_rad=float(yaw.value)), origin.source, yaw.source)
-
-
-@dataclass(frozen=True)
-class ToolChoice:
-    """The tool chosen: its length [mm] and mass [kg] (None: the robot model's tool body's), and their sources."""
-
-    length_mm: float
-    mass_kg: float | None
-    length_from: str
-    mass_from: str
-
-
-def resolve_tool(
-    robot: RobotDescription,
-    *,
-    length_mm: float | None = None,
-    mass_kg: float | None = None,
-    run: Run | None = None,
-    cell: Mapping[str, Any] | None = None,
-) -> ToolChoice:
-    """The tool by `PRECEDENCE`, length and mass each on its own: `--tool-length-mm` / `--tool-mass-kg`, else the
-    run's (its `cell` record's tool, else its `tool_length_m` and an import's sensor `tool_mass_kg`), else the
-    cell's `[tool]`, else robot `robot`'s model.
-
-    Raises:
-        InputError: A run's tool length out of the plausible range (naming its meta.json).
-    """
-    from twin.process.description import check_plausible
-
-    meta = {} if run is None else run.meta
-    run_name = "" if run is None else f"the run {run.directory}"
-    run_tool = dict((meta.get("cell") or {}).get("tool") or {})
-    run_length = run_tool.get("length_mm")
-    if run_length is None and "tool_length_m" in meta:
-        run_length = 1e3 * float(meta["tool_length_m"])
-        check_plausible("tool_length_m", run_length / 1e3, f"{(run.directory if run else None) or '.'}/meta.json: "
-                        f"tool_length_m {run_length / 1e3:g} m")
-    run_mass = run_tool.get("mass_kg")
-    if run_mass is None:
-        sensor = meta.get("import", {}).get("sensor", {}).get("tool_mass_kg")
-        run_mass = float(sensor) if isinstance(sensor, int | float) and sensor > 0 else None
-    cell_tool = {} if cell is None else dict(cell.get("tool") or {})
-    cell_name = _cell_words(cell)
-    length = first_given([
-        ("--tool-length-mm", length_mm is not None, length_mm),
-        (run_name, run is not None and run_length is not None, run_length),
-        (cell_name, cell_tool.get("length_mm") is not None, cell_tool.get("length_mm")),
-    ], Chosen(1e3 * robot.tool_length_m, f"robot {robot.name}'s model"))
-    mass = first_given([
-        ("--tool-mass-kg", mass_kg is not None, mass_kg),
-        (run_name, run is not None and run_mass is not None, run_mass),
-        (cell_name, cell_tool.get("mass_kg") is not None, cell_tool.get("mass_kg")),
-    ], Chosen(None, f"robot {robot.name}'s model (its tool body)"))
-    return ToolChoice(float(length.value), None if mass.value is None else float(mass.value), length.source,
-                      mass.source)
 
 
 def choose_force_model(
@@ -220,11 +150,6 @@ def resolve_robot(
             raise InputError(f"{what} gives robot {other.name!r}, but the run {run.directory} was made with "
                              f"{recorded.name!r}: a twin of another robot cannot replay it")
     return recorded
-
-
-def _cell_words(cell: Mapping[str, Any] | None) -> str:
-    """A cell file's record in words: "the cell NAME (FILE)"."""
-    return "" if cell is None else f"the cell {cell.get('name')} ({cell.get('file')})"
 
 
 def resolve_spec(

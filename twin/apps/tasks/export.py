@@ -18,7 +18,8 @@ from typing import Any
 
 import numpy as np
 
-from twin.analysis.resolve import resolve_placement, resolve_robot, resolve_tool
+from twin.analysis.resolve import resolve_placement, resolve_robot
+from twin.analysis.tool_choice import resolve_tool
 from twin.apps.export import (
     EXPORT_FORMATS,
     FORMATS,

@@ -7,6 +7,7 @@ is read off it and how a direction state turns with the tip's travel are one pie
 from __future__ import annotations
 
 import math
+from abc import ABC, abstractmethod
 
 import numpy as np
 
@@ -16,7 +17,7 @@ GRID_SPACING_M = 5e-4  # formed-surface grid [m]
 HALF_SIZE_M = 0.12  # the grid covers +/- this around the sheet origin [m]
 
 
-class GridSheet:
+class GridSheet(ABC):
     """A sheet on the grid: its loaded surface `z_m` (ny, nx) over nodes `x_m`, `y_m` [m]; a law adds the rest."""
 
     x_m: np.ndarray
@@ -46,9 +47,9 @@ class GridSheet:
         high = z[iy + 1, ix] * (1 - u) + z[iy + 1, ix + 1] * u
         return float(low * (1 - v) + high * v)
 
+    @abstractmethod
     def unloaded_surface(self) -> np.ndarray:
-        """The surface after unclamping [m], (ny, nx) (the law's own springback)."""
-        raise NotImplementedError
+        """The surface after unclamping [m], (ny, nx): each law's own springback."""
 
     def section(self) -> tuple[np.ndarray, np.ndarray]:
         """The loaded surface along y = 0: x [m], z [m]."""
