@@ -19,6 +19,7 @@ from twin.process.toolpath.groove import groove_path
 from twin.runs.format import Run
 from twin.runs.read import read_run
 from twin.sim.quasi_static import Twin
+from twin.sim.spec import TwinSpec
 
 CLEAN_SEED = 1
 
@@ -26,7 +27,7 @@ CLEAN_SEED = 1
 @pytest.fixture(scope="session")
 def twin_nominal() -> Twin:
     """The nominal twin (no effects, model stiffness). Shared: do not change its model."""
-    return Twin()
+    return Twin(TwinSpec())
 
 
 @pytest.fixture(scope="session")

@@ -82,7 +82,7 @@ class _Base:
                                profile_noise_m=2e-5 * noise_level)
         self.run, _ = run_lab(t, p, scenario="nominal", seed=seed, settings=settings)
         self.sigma = {"position": 2e-5 * noise_level, "force": 5.0 * noise_level, "profile": 2e-5 * noise_level}
-        self.twin = Twin()
+        self.twin = Twin(TwinSpec())
         self.sim = self.twin.simulate(self.run.commanded.t_s, self.run.commanded.values)
         self.clean = self.streams(self.twin, self.sim)
 
@@ -149,15 +149,15 @@ def _edit(
         soft = (base.sim.direction < 0) == (rng.random() < 0.7)
         # the extra deflection c C f of the soft passes, executed by the robot (the sheet answers it)
         extra = c * base.sim.deflection_sheet_m * soft[:, None]
-        return base.replay(Twin(), run.commanded.values + extra)
+        return base.replay(Twin(TwinSpec()), run.commanded.values + extra)
     if name == "lost_motion":  # one joint of 1-3, pushed into the executed command
         joint = int(rng.integers(0, 3))
         b = size * 2e-4 * rng.uniform(0.5, 1.5) * rng.choice([-1.0, 1.0])
         jac = base.twin.kinematics.jacobians(base.sim.q_ik)[:, :3, joint]
-        return base.replay(Twin(), run.commanded.values + jac * (b * base.level())[:, None])
+        return base.replay(Twin(TwinSpec()), run.commanded.values + jac * (b * base.level())[:, None])
     if name == "tool_length_offset":
         length = size * 2e-4 * rng.uniform(0.5, 1.5) * rng.choice([-1.0, 1.0])
-        return base.replay(Twin(), run.commanded.values + np.array([0.0, 0.0, -length]))
+        return base.replay(Twin(TwinSpec()), run.commanded.values + np.array([0.0, 0.0, -length]))
     if name == "clamp_proximity":  # force rise near the clamped ends, decay 3-8 mm
         decay = rng.uniform(0.003, 0.008)
         a = size * 0.3 * rng.uniform(0.5, 1.5)

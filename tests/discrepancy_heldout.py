@@ -78,7 +78,7 @@ class Base:
         settings = LabSettings(tracker_noise_m=self.sigma["position"], ft_noise_n=self.sigma["force"],
                                profile_noise_m=self.sigma["profile"])
         self.run, _ = run_lab(t, p, scenario="nominal", seed=seed, settings=settings)
-        self.twin = Twin()
+        self.twin = Twin(TwinSpec())
         self.sim = self.twin.simulate(self.run.commanded.t_s, self.run.commanded.values)
         self.clean = self.observe(self.twin, self.sim)
         assert self.run.forces is not None and self.run.part_profile is not None

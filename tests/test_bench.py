@@ -123,6 +123,19 @@ def test_bench_reports_the_ratios_of_issue_30(result: dict) -> None:
     assert "cone placement search" in format_table(result)
 
 
+def test_bench_reports_the_cli_ratios_of_compensate_and_place_over_replay(result: dict) -> None:
+    """Fresh `tx200-twin` processes on one cone: each command's time after its fixed costs over the replay's."""
+    cli = result["cli"]
+    assert cli["samples"] > 2 and cli["rounds"] == 1 and set(cli["commands"]) == {"replay", "compensate", "place"}
+    for key in ("replay", "compensate", "place"):
+        assert cli[f"{key}_s"] > 0.0 and cli[f"{key}_fixed_s"] > 0.0, key
+    replay_work = cli["replay_s"] - cli["replay_fixed_s"]
+    assert result["cli_compensate_over_replay"] == pytest.approx(
+        (cli["compensate_s"] - cli["compensate_fixed_s"]) / replay_work)
+    assert result["cli_place_over_replay"] == pytest.approx((cli["place_s"] - cli["place_fixed_s"]) / replay_work)
+    assert "CLI compensate" in format_table(result) and "CLI place" in format_table(result)
+
+
 def test_bench_reports_the_isf_cones_of_issue_30(result: dict) -> None:
     """Three cones on the ISF model (the smoke run's small ones), their real-time factors and the cost growth."""
     growth = result["isf_cone_growth"]

@@ -73,7 +73,7 @@ def test_no_reciprocal_robot_comes_within_20_percent_of_the_thesis_cr1() -> None
 
 def test_joint_friction_is_what_makes_the_load_test_stiffness_asymmetric() -> None:
     frictionless = TwinSpec(joint_friction_nm=np.zeros(6)).build()
-    calibrated = Twin()
+    calibrated = Twin(TwinSpec())
     asym = []
     for twin in (frictionless, calibrated):
         d = np.array([twin.static_deflection(f) for f in THESIS_TABLE_4_2_LOADS_N])

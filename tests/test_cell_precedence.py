@@ -151,6 +151,14 @@ def test_import_records_the_robot_and_placement_and_export_follows(
     assert meta["robot"] == "irb6640" and meta["placement"] == {"origin_base_mm": [1600.0, 0.0, 500.0],
                                                                 "yaw_deg": pytest.approx(30.0)}
     assert meta["tool_length_m"] == pytest.approx(0.3) and meta["cell"]["name"] == "abb-cell"
+    assert "process" not in meta  # the cell declares no sheet: none recorded (the thesis's is the default)
+    (tmp_path / "c").mkdir()
+    sheet = tmp_path / "sheet.toml"
+    sheet.write_text(CELL + '[process]\nmaterial = "AA5754-O"\nthickness_mm = 1.2\n')
+    plain = _mapping(raw_cell, tmp_path / "c", "[run]\n")
+    assert main(["import", "--mapping", str(plain), "--cell", str(sheet), "--out", str(tmp_path / "imp4")]) == 0
+    process = json.loads((tmp_path / "imp4" / "meta.json").read_text())["process"]  # the cell's sheet, recorded
+    assert process["material"] == "AA5754-O" and process["thickness_mm"] == pytest.approx(1.2)
     assert main(["import", "--mapping", str(mapping), "--robot", "kr210", "--out", str(tmp_path / "imp3")]) == 2
     err = capsys.readouterr().err
     assert "--robot gives robot 'kr210'" in err and "irb6640" in err and not (tmp_path / "imp3").exists()
@@ -162,3 +170,13 @@ def test_a_bad_run_robot_in_a_mapping_is_named(raw_cell: Path, tmp_path: Path,  
     assert main(["import", "--mapping", str(mapping), "--out", str(tmp_path / "r")]) == 2
     err = capsys.readouterr().err
     assert "run.robot" in err and "irb9999" in err and "Traceback" not in err
+
+
+def test_a_mapping_tool_length_over_the_cells_is_said(raw_cell: Path, tmp_path: Path,  # noqa: F811
+                                                      capsys: pytest.CaptureFixture[str]) -> None:
+    cell = tmp_path / "cell.toml"
+    cell.write_text(CELL)
+    mapping = _mapping(raw_cell, tmp_path, "[run]\ntool_length_mm = 274.94\n")  # the example mapping's line, kept
+    assert main(["import", "--mapping", str(mapping), "--cell", str(cell), "--out", str(tmp_path / "imp")]) == 0
+    assert "run.tool_length_mm = 274.94 mm wins over the cell's 300 mm tool" in capsys.readouterr().err
+    assert json.loads((tmp_path / "imp" / "meta.json").read_text())["tool_length_m"] == pytest.approx(0.27494)

@@ -27,6 +27,7 @@ from twin.process.toolpath.groove import ToolPath, groove_path
 from twin.runs.format import Run, Stream
 from twin.runs.write import write_run
 from twin.sim.quasi_static import Twin
+from twin.sim.spec import TwinSpec
 
 
 @pytest.fixture(scope="module")
@@ -37,7 +38,7 @@ def ideal() -> ToolPath:
 @pytest.fixture(scope="module")
 def runs(ideal: ToolPath) -> dict[str, Run]:
     """Lab runs (no hidden effects) of the ideal path compensated with force scale 1, 0.5 and 0."""
-    twin = Twin()
+    twin = Twin(TwinSpec())
     c_home = twin.kinematics.compliance(twin.kinematics.q_home)
     f_physical = SheetForceField(default_force_history()).rigid_forces(ideal)
     out = {}
@@ -102,7 +103,7 @@ def test_the_cause_of_half_a_gain_is_named_from_the_forces_used_and_the_recorded
 def test_right_forces_and_half_the_compliance_is_named_a_compliance_error(
     ideal: ToolPath, runs: dict[str, Run]
 ) -> None:
-    twin = Twin()
+    twin = Twin(TwinSpec())
     f_physical = SheetForceField(default_force_history()).rigid_forces(ideal)
     comp = compensate_formula(ideal.t_s, ideal.p_sheet_m, f_physical, 0.5 * twin.kinematics.compliance(
         twin.kinematics.q_home))
@@ -131,7 +132,7 @@ def test_right_compensation_has_gain_one_and_small_residual(results: dict[str, C
 
 
 def test_fitted_compliance_matches_the_twin_xz_block(results: dict[str, CheckResult]) -> None:
-    twin = Twin()
+    twin = Twin(TwinSpec())
     c_xz = twin.kinematics.compliance(twin.kinematics.q_home)[np.ix_([0, 2], [0, 2])]
     fitted = results["right"].compliance_m_per_n
     assert np.linalg.norm(fitted - c_xz) / np.linalg.norm(c_xz) < 0.05
@@ -219,7 +220,7 @@ def test_cli_compensate_lab_check_names_the_half_history_loaded_as_full(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """The thesis's mistake through the command line: the record travels command -> run -> check."""
-    twin = Twin()
+    twin = Twin(TwinSpec())
     stiffness = tmp_path / "k.json"
     k_xz = np.linalg.inv(twin.kinematics.compliance(twin.kinematics.q_home)[np.ix_([0, 2], [0, 2])])
     stiffness.write_text(json.dumps({"k_r_n_per_mm": (1e-3 * k_xz).tolist()}))
@@ -251,3 +252,16 @@ def test_cli_check_on_a_run_without_forces_exits_2_naming_forces_csv(
     assert main(["check", str(run_dirs["no_forces"])]) == 2
     err = capsys.readouterr().err
     assert "forces.csv" in err and "error" in err
+
+
+@pytest.mark.parametrize("gain", [0.935, 1.07])
+def test_right_forces_never_explain_a_gain_near_one(gain: float) -> None:
+    """A force scale of 1 says the forces are right: a gain within EXPLAINS of 1 is then the compliance's, not
+    "explained by the forces" (the learned cell's compensate said so, issue #46); no history, no symmetry word."""
+    from twin.analysis.gain_cause import name_cause
+
+    t = np.linspace(0.0, 10.0, 200)
+    f = np.column_stack([200.0 * np.sin(t), np.zeros_like(t), -800.0 - 100.0 * np.cos(t)])
+    cause = name_cause(gain, CompensationRecord("twin", t, f), t, f)
+    assert cause.cause == "compliance" and cause.force_scale == pytest.approx(1.0)
+    assert "symmetry" not in cause.text

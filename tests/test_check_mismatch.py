@@ -23,6 +23,7 @@ from twin.process.toolpath.shapes import part_path
 from twin.runs.format import Run
 from twin.runs.write import write_path_csv, write_run
 from twin.sim.quasi_static import Twin
+from twin.sim.spec import TwinSpec
 
 SHIFT_M = np.array([3e-3, 0.0, 0.0])
 
@@ -30,7 +31,7 @@ SHIFT_M = np.array([3e-3, 0.0, 0.0])
 @pytest.fixture(scope="module")
 def runs() -> dict[float, Run]:
     ideal = groove_path()
-    twin = Twin()
+    twin = Twin(TwinSpec())
     c_home = twin.kinematics.compliance(twin.kinematics.q_home)
     f = SheetForceField(default_force_history()).rigid_forces(ideal)
     out = {}

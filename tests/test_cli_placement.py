@@ -17,6 +17,7 @@ from twin.process.toolpath.placement import Placement
 from twin.runs.format import run_placement
 from twin.runs.read import read_run
 from twin.sim.quasi_static import Twin
+from twin.sim.spec import TwinSpec
 
 PLACE = ["--origin-mm", "1550", "-60", "150", "--yaw-deg", "30"]  # cell's sheet_origin: (1467, -4, 424) mm
 
@@ -53,7 +54,7 @@ def test_lab_records_the_placement_and_replay_uses_it(placed: dict[str, Path], c
     gap = json.loads(capsys.readouterr().out)
     assert gap["position_rms_mm"] < 0.05  # the tracker noise: the replay placed the sheet where the lab did
     with pytest.raises(InputError, match="placement"):
-        replay(run, twin=Twin())  # a twin at the cell's placement refuses the run
+        replay(run, twin=Twin(TwinSpec()))  # a twin at the cell's placement refuses the run
     # the discrepancy search replays at the run's placement too: a clean run explains itself (chi² ~ 1)
     assert main(["discrepancy", str(placed["nominal"]), "--force-model", "auto", "--json", "-"]) == 0
     found = json.loads(capsys.readouterr().out)

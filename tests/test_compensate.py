@@ -22,6 +22,7 @@ from twin.process.fe.load import default_force_history
 from twin.process.force.table import SheetForceField
 from twin.process.toolpath.groove import ToolPath, groove_path
 from twin.sim.quasi_static import Twin
+from twin.sim.spec import TwinSpec
 
 XZ = np.ix_([0, 2], [0, 2])
 
@@ -35,7 +36,7 @@ def first_pass() -> ToolPath:
 
 @pytest.fixture(scope="module")
 def twin() -> Twin:
-    return Twin()
+    return Twin(TwinSpec())
 
 
 @pytest.fixture(scope="module")

@@ -81,7 +81,7 @@ def _assert_same(fast: SimResult, reference: SimResult, gain_from: int = 0) -> N
 def test_whole_groove_replays_to_the_python_loops_equilibria(nominal_path: tuple[np.ndarray, np.ndarray]) -> None:
     """Tool stick at the reversals, joint friction, the stateful field: same tips (<= 1e-9 m), same iterations."""
     t_s, p_cmd = nominal_path
-    twin = Twin()
+    twin = Twin(TwinSpec())
     assert twin.joint_friction.any()
     fast, reference = _both(twin, t_s, p_cmd)
     _assert_same(fast, reference)
@@ -105,13 +105,13 @@ def test_compiled_loop_matches_on_every_model_and_field_variant(case: str) -> No
         twin = TwinSpec(process=Process(friction_reversal_m=None)).build()
         twin.set_sheet_field(SheetForceField(twin.history, stateful=False))
     else:  # a compensated-looking command: seeded 20 µm jitter, joints reversing every few samples
-        twin = Twin()
+        twin = Twin(TwinSpec())
         p_cmd += np.random.default_rng(5).normal(0.0, 2e-5, p_cmd.shape) * np.array([1.0, 0.0, 1.0])
     _assert_same(*_both(twin, t_s, p_cmd))
 
 
 def test_other_fields_and_out_of_range_passes_fall_back_to_the_python_loop() -> None:
-    twin = Twin()
+    twin = Twin(TwinSpec())
     path = groove_path()
     q_nom = np.zeros((3, twin.model.nv))
     args = (np.array([1, 1, 1]), np.array([1, 1, 1]), np.zeros(3), np.ones(6), np.eye(6), True)
@@ -131,7 +131,7 @@ def test_other_fields_and_out_of_range_passes_fall_back_to_the_python_loop() -> 
 
 def test_light_sensor_pipeline_reads_what_mj_inverse_reads(nominal_path: tuple[np.ndarray, np.ndarray]) -> None:
     t_s, p_cmd = nominal_path
-    twin = Twin()
+    twin = Twin(TwinSpec())
     sim = twin.simulate(t_s[:400], p_cmd[:400])
     t_sensor = np.linspace(t_s[0], t_s[399], 150)
     light = flange_sensor_forces(twin.model, twin.data, sim, t_sensor, robot=twin.robot)
@@ -147,7 +147,7 @@ def test_a_chain_that_disagrees_with_mujoco_is_caught_and_replayed_in_python(
     import twin.sim.compiled as compiled
 
     t_s, p_cmd = first_pass_path
-    twin = Twin()
+    twin = Twin(TwinSpec())
     reference = twin.simulate(t_s, p_cmd)
     assert twin.last_loop_compiled
 
@@ -167,8 +167,8 @@ def test_a_yawed_and_shifted_sheet_replays_in_its_own_frame(first_pass_path: tup
     """Placement: the unloaded robot lands on the path in the sheet frame, the sensor reads the sheet-frame force,
     both loops agree, and the robot's anisotropic compliance makes the deflection depend on the yaw."""
     t_s, p_cmd = first_pass_path
-    default = Twin().simulate(t_s, p_cmd)
-    origin = Twin().p_base_sheet_origin + np.array([0.05, -0.04, 0.0])
+    default = Twin(TwinSpec()).simulate(t_s, p_cmd)
+    origin = Twin(TwinSpec()).p_base_sheet_origin + np.array([0.05, -0.04, 0.0])
     twin = TwinSpec(placement=Placement(origin_base_m=tuple(origin), yaw_rad=np.pi / 2)).build()
     fast, reference = _both(twin, t_s, p_cmd)
     # the first sample sits on the force table's first node (x = -35 mm): a 1e-16 m rounding difference of the

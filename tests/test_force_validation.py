@@ -17,7 +17,7 @@ from twin.errors import DataFileError
 from twin.process.description import Process
 from twin.process.force.isf_params import IsfForceParams, steady_fz_n
 from twin.process.force.registry import build_force_field
-from twin.process.material.library import material
+from twin.process.material.file import material
 from twin.process.toolpath.shapes import PartSpec, part_path
 
 DOC = Path(__file__).resolve().parent.parent / "docs" / "force-validation.md"

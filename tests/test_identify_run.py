@@ -2,7 +2,7 @@
 `lab --scenario loadtest` -> `identify --method 1 --loads`) and Method 2 from a lab nominal run
 (twin/analysis/identify/method2.py; its CLI is in tests/test_cli_identify_method2.py).
 
-The reference is the twin's exact stiffness at `home`: K = inv(C), C = `Twin().kinematics.compliance(q_home)`.
+The reference is the twin's exact stiffness at `home`: K = inv(C), C = `Twin(TwinSpec()).kinematics.compliance(q_home)`.
 These tests check the identification maths, so the lab's robot here is the purely elastic one (joint friction
 0); what the calibrated robot's friction does to Method 1 and 2 (the thesis's asymmetric K_R(1), a more
 compliant C_R(2)) is tested in tests/test_calibration.py.
@@ -58,7 +58,7 @@ def rel(a: np.ndarray, b: np.ndarray) -> float:
 @pytest.fixture(scope="module")
 def c_twin() -> np.ndarray:
     """The twin's exact Cartesian compliance at home [m/N], (3, 3)."""
-    twin = Twin()
+    twin = Twin(TwinSpec())
     return twin.kinematics.compliance(twin.kinematics.q_home)
 
 

@@ -186,7 +186,7 @@ def test_twin_takes_the_isf_model_on_the_groove(first_pass_path):
     twin_isf = TwinSpec(process=Process(force_model="isf")).build()
     assert isinstance(twin_isf.sheet_field, IsfForceField)
     sim = twin_isf.simulate(t_s, p_cmd)
-    sim_ref = Twin().simulate(t_s, p_cmd)
+    sim_ref = Twin(TwinSpec()).simulate(t_s, p_cmd)
     # on the groove the ISF model has the general formula's level (the table field the stand-in's, 1.69x) and a
     # slower build-up: it presses less and the tool deflects less
     assert np.max(sim.f_sheet_n[:, 2]) < 0.8 * np.max(sim_ref.f_sheet_n[:, 2])

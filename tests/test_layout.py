@@ -35,11 +35,26 @@ def _stage(module: str) -> str | None:
     return parts[1]
 
 
-def _twin_imports(path: Path) -> list[tuple[int, str, list[str]]]:
-    """(line, imported module, imported names) of every `twin` import in a file, lazy ones included."""
+def _type_checking_only(tree: ast.AST) -> set[int]:
+    """ids of the nodes inside `if TYPE_CHECKING:` blocks (imports for annotations, never run)."""
+    inside: set[int] = set()
+    for node in ast.walk(tree):
+        test = node.test if isinstance(node, ast.If) else None
+        if (isinstance(test, ast.Name) and test.id == "TYPE_CHECKING") or (
+                isinstance(test, ast.Attribute) and test.attr == "TYPE_CHECKING"):
+            inside |= {id(inner) for stmt in node.body for inner in ast.walk(stmt)}
+    return inside
+
+
+def _twin_imports(path: Path, *, type_checking: bool = True) -> list[tuple[int, str, list[str]]]:
+    """(line, imported module, imported names) of every `twin` import in a file, lazy ones included
+    (`type_checking=False`: without those of `if TYPE_CHECKING:` blocks)."""
     tree = ast.parse(path.read_text(), filename=str(path))
+    skip = set() if type_checking else _type_checking_only(tree)
     found: list[tuple[int, str, list[str]]] = []
     for node in ast.walk(tree):
+        if id(node) in skip:
+            continue
         if isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
             if node.module == "twin" or node.module.startswith("twin."):
                 names = [alias.name for alias in node.names]
@@ -109,6 +124,88 @@ def test_the_check_catches_an_upward_import_and_a_private_name(tmp_path: Path) -
     assert len(violations) == 2, violations
     assert "upward import" in violations[0]
     assert "private name _private" in violations[1]
+
+
+def _import_graph(files: list[Path]) -> dict[str, set[str]]:
+    """Module -> the package modules it imports when it runs (top-level and lazy; `if TYPE_CHECKING:` left out).
+    `from pkg import name` is an edge to the submodule `pkg.name` where there is one, else to `pkg`."""
+    modules = {_module_name(p) for p in _package_files()} | {_module_name(p) for p in files}
+    graph: dict[str, set[str]] = {}
+    for path in files:
+        edges = graph.setdefault(_module_name(path), set())
+        for _, target, names in _twin_imports(path, type_checking=False):
+            submodules = {f"{target}.{name}" for name in names} & modules
+            edges |= submodules
+            if (not names or len(submodules) < len(names)) and target in modules:
+                edges.add(target)
+    return graph
+
+
+def _import_circles(files: list[Path]) -> list[str]:
+    """One "import circle: a -> b -> a" per strongly connected group of modules of the graph (Tarjan)."""
+    graph = _import_graph(files)
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    groups: list[set[str]] = []
+
+    def visit(module: str) -> None:
+        index[module] = low[module] = len(index)
+        stack.append(module)
+        for target in sorted(graph.get(module, ())):
+            if target not in index:
+                visit(target)
+                low[module] = min(low[module], low[target])
+            elif target in stack:
+                low[module] = min(low[module], index[target])
+        if low[module] == index[module]:
+            group = set()
+            while not group or module not in group:
+                group.add(stack.pop())
+            if len(group) > 1 or module in graph.get(module, ()):
+                groups.append(group)
+
+    for module in sorted(graph):
+        if module not in index:
+            visit(module)
+    return [f"import circle: {' -> '.join(_circle_in(group, graph))}" for group in groups]
+
+
+def _circle_in(group: set[str], graph: dict[str, set[str]]) -> list[str]:
+    """A shortest circle through the first module of a strongly connected group, back to it."""
+    start = min(group)
+    paths = {start: [start]}
+    queue = [start]
+    while queue:
+        module = queue.pop(0)
+        for target in sorted(graph.get(module, set()) & group):
+            if target == start:
+                return [*paths[module], start]
+            if target not in paths:
+                paths[target] = [*paths[module], target]
+                queue.append(target)
+    return sorted(group)  # unreachable for a strongly connected group
+
+
+def test_no_module_imports_itself_round_a_circle() -> None:
+    circles = _import_circles(_package_files())
+    assert circles == [], "\n".join(circles)
+
+
+def test_the_circle_check_catches_a_lazy_circle_and_skips_type_checking() -> None:
+    one, two = PACKAGE_DIR / "robot" / "_circle_probe_a_tmp.py", PACKAGE_DIR / "robot" / "_circle_probe_b_tmp.py"
+    one.write_text("from twin.robot import _circle_probe_b_tmp\n")
+    two.write_text("from typing import TYPE_CHECKING\n\nif TYPE_CHECKING:\n    from twin.robot.dh import dh_fk\n\n\n"
+                   "def f():\n    from twin.robot._circle_probe_a_tmp import g\n")
+    try:
+        circles = _import_circles([one, two])
+        graph = _import_graph([one, two])
+    finally:
+        one.unlink()
+        two.unlink()
+    assert circles == ["import circle: twin.robot._circle_probe_a_tmp -> twin.robot._circle_probe_b_tmp -> "
+                       "twin.robot._circle_probe_a_tmp"], circles
+    assert graph["twin.robot._circle_probe_b_tmp"] == {"twin.robot._circle_probe_a_tmp"}
 
 
 @pytest.mark.parametrize("stage", STAGES)

@@ -14,15 +14,9 @@ from doc_numbers import quoted
 from twin.cli import main
 from twin.errors import DataFileError, InputError
 from twin.process.description import Process
-from twin.process.material.file import read_material_file
+from twin.process.material.file import material, read_material_file, shipped_library, shipped_materials
 from twin.process.material.hardening import HardeningLaw
-from twin.process.material.library import (
-    NUMBER_FIELDS,
-    Material,
-    material,
-    shipped_library,
-    shipped_materials,
-)
+from twin.process.material.library import NUMBER_FIELDS, Material
 
 LIBRARY = ("AA1050-O", "AA3003-O", "AA5086-H111", "AA5754-O", "AA6061-T6", "AA7075-O", "DC01", "DC04", "AISI 304",
            "Ti Grade 2")

@@ -270,6 +270,6 @@ def test_the_command_serves_val3_over_tcp_and_stops_when_idle(capsys) -> None:
     assert main(["online", "--serve", "val3", "--port", "0"]) == 2  # no force: nothing would ever be corrected
     assert "--serve val3 needs --ft-rdt" in capsys.readouterr().err
     assert main(["online", "--serve", "val3", "--port", "0", "--cycles", "5", "--idle-timeout-s", "0.05",
-                 "--ft-rdt", "127.0.0.1:9", "--json", "-"]) == 0
+                 "--start-timeout-s", "0.05", "--ft-rdt", "127.0.0.1:9", "--json", "-"]) == 1  # no robot came
     doc = json.loads(capsys.readouterr().out)
-    assert doc["cycles"] == 0 and doc["stopped"] == "idle" and doc["transport"] == "TCP" and doc["port"] > 0
+    assert doc["cycles"] == 0 and doc["stopped"] == "start_timeout" and doc["transport"] == "TCP" and doc["port"] > 0

@@ -90,10 +90,10 @@ def test_the_server_stops_by_itself_when_no_packet_comes() -> None:
     spec = TwinSpec()
     server = RsiServer(OnlineCompensator(spec), load_robot())
     try:
-        report = server.serve(np.eye(3), 10, idle_timeout_s=0.05)
+        report = server.serve(np.eye(3), 10, idle_timeout_s=0.05, start_timeout_s=0.05)
     finally:
         server.close()
-    assert report.cycles == 0 and report.stopped == "idle"
+    assert report.cycles == 0 and report.stopped == "start_timeout"
 
 
 def test_the_command_serves_and_stops_when_idle(capsys) -> None:
@@ -102,9 +102,10 @@ def test_the_command_serves_and_stops_when_idle(capsys) -> None:
     from twin.cli import main
 
     assert main(["online", "--serve", "rsi", "--port", "0", "--cycles", "5", "--idle-timeout-s", "0.05",
-                 "--json", "-"]) == 0
+                 "--start-timeout-s", "0.05", "--json", "-"]) == 1  # no robot came: a failed session
     doc = json.loads(capsys.readouterr().out)
-    assert doc["cycles"] == 0 and doc["stopped"] == "idle" and doc["port"] > 0
+    assert doc["cycles"] == 0 and doc["stopped"] == "start_timeout" and doc["port"] > 0
+    assert doc["failure"].startswith("no packet answered")
 
 
 def test_export_online_writes_krl_with_rsi_and_its_ethernet_configuration(tmp_path, capsys) -> None:

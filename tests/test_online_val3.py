@@ -193,10 +193,10 @@ def test_the_server_stops_by_itself_when_no_robot_comes() -> None:
     server = Val3Server(OnlineCompensator(TwinSpec()), load_robot())
     try:
         start = time.perf_counter()
-        report = server.serve(np.eye(3), 10, idle_timeout_s=0.05)
+        report = server.serve(np.eye(3), 10, idle_timeout_s=0.05, start_timeout_s=0.05)
     finally:
         server.close()
-    assert report.cycles == 0 and report.stopped == "idle" and time.perf_counter() - start < 5.0
+    assert report.cycles == 0 and report.stopped == "start_timeout" and time.perf_counter() - start < 5.0
     server = Val3Server(OnlineCompensator(TwinSpec()), load_robot())
     try:
         with pytest.raises(InputError, match="max_cycles"):

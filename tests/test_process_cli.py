@@ -15,7 +15,7 @@ from twin.cli import main
 from twin.errors import DataFileError, InputError
 from twin.process.description import Process
 from twin.process.force.isf_params import steady_fz_n
-from twin.process.material.library import material
+from twin.process.material.file import material
 from twin.process.process_file import process_for, read_process_file
 from twin.process.toolpath.groove import groove_path
 from twin.runs.format import run_process

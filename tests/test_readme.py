@@ -22,6 +22,20 @@ def test_the_readme_is_a_short_map_without_history() -> None:
     assert (REPO / "CHANGELOG.md").is_file()
 
 
+def test_the_changelog_is_versioned_with_a_short_unreleased_section() -> None:
+    """History is cut into versions: the newest version heading is the package's, and what is not yet released
+    stays short (issue #46: 113 lines had piled up under Unreleased)."""
+    import tomllib
+
+    changelog = (REPO / "CHANGELOG.md").read_text(encoding="utf-8")
+    sections = re.split(r"^## ", changelog, flags=re.M)[1:]
+    assert sections[0].startswith("Unreleased")
+    assert len(sections[0].splitlines()) <= 40, "cut a version: Unreleased holds more than 40 lines"
+    newest = re.match(r"(\d+\.\d+\.\d+) ", sections[1])
+    version = tomllib.loads((REPO / "pyproject.toml").read_text())["project"]["version"]
+    assert newest is not None and newest.group(1) == version
+
+
 def test_the_readme_speed_table_is_the_one_the_shipped_bench_results_give() -> None:
     results = json.loads((REPO / "benchmarks" / "results.json").read_text())
     assert SPEED_BLOCK.extract(README) == speed_table(results), (

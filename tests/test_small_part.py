@@ -12,6 +12,7 @@ from pathlib import Path
 
 import pytest
 
+from twin.analysis.compensation_record import read_record
 from twin.cli import main
 
 
@@ -74,8 +75,9 @@ def test_a_part_compensated_to_its_design_is_judged_as_a_part(small_cone: Path,
                  "--part-iterations", "1", "--out", str(cmd)]) == 0
     out = capsys.readouterr().out
     assert "the part" in out and "mm rms" in out and "part_cmd.compensation.json" in out  # the result on screen
-    record = json.loads((small_cone / "part_cmd.compensation.json").read_text())
-    assert record["design"] == str(small_cone / "cone.stl") and len(record["f_used_n"]) == len(record["t_s"])
+    record = read_record(cmd)
+    assert record is not None and record.design_file == str(small_cone / "cone.stl")
+    assert record.f_used_n.shape == (len(record.t_s), 3)
     assert main(["lab", "--scenario", "compensated", "--commanded", str(cmd), "--seed", "2", "--out", str(run)]) == 0
     capsys.readouterr()
     assert main(["check", str(run), "--ideal", str(small_cone / "cone.csv")]) == 2

@@ -51,7 +51,7 @@ def test_predicted_set_matches_on_a_seeded_jittered_command(monkeypatch: pytest.
     keep = path.pass_index <= 2
     rng = np.random.default_rng(7)
     p_cmd = path.p_sheet_m[keep] + rng.normal(0.0, 2e-5, (int(keep.sum()), 3)) * np.array([1.0, 0.0, 1.0])
-    fast, reference = _both(Twin(), path.t_s[keep], p_cmd, monkeypatch)
+    fast, reference = _both(Twin(TwinSpec()), path.t_s[keep], p_cmd, monkeypatch)
     np.testing.assert_allclose(fast.p_sheet_m, reference.p_sheet_m, rtol=0.0, atol=P_TOL_M)
 
 

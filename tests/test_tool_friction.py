@@ -67,7 +67,7 @@ def test_twin_tip_holds_at_a_reversal_instead_of_being_pushed_forward():
     x = np.concatenate([np.linspace(-0.03, 0.03, 121), np.linspace(0.0295, -0.03, 120)])
     p_cmd = np.column_stack([x, np.zeros_like(x), np.full_like(x, -1.5e-3)])
     t_s = np.arange(len(x)) * 0.015
-    sticky = Twin().simulate(t_s, p_cmd)
+    sticky = Twin(TwinSpec()).simulate(t_s, p_cmd)
     flipping = TwinSpec(process=Process(friction_reversal_m=None)).build().simulate(t_s, p_cmd)
     k = 121  # the first sample after the reversal: the command moved back 0.5 mm
     back_sticky = sticky.p_sheet_m[k - 1, 0] - sticky.p_sheet_m[k, 0]

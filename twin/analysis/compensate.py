@@ -61,6 +61,8 @@ class Compensation:
         converged: True when the twin iteration's rms residual reached its tolerance; False when it stalled
             above it and returned its best command (the remainder is in `predicted_residual_m`, typically a few
             samples at the reversals, where joint friction flips).
+        predicted_force_n: The sheet's force on the tool the twin predicts along the returned command [N],
+            shape (n, 3) (the simulation that gave `predicted_residual_m`), or None (the formula).
     """
 
     method: str
@@ -71,6 +73,7 @@ class Compensation:
     predicted_residual_m: np.ndarray | None
     history_m: tuple[float, ...] = ()
     converged: bool = True
+    predicted_force_n: np.ndarray | None = None
 
     @property
     def correction_m(self) -> np.ndarray:
@@ -149,7 +152,7 @@ def compensate_twin(
     t = np.asarray(t_s, dtype=float)
     cmd = p_id.copy()
     history: list[float] = []
-    best: tuple[float, np.ndarray, np.ndarray, int] | None = None
+    best: tuple[float, np.ndarray, np.ndarray, np.ndarray] | None = None
     accelerate = Anderson(memory)
     q_ik = None
     for iteration in range(1, max_iter + 1):
@@ -159,9 +162,9 @@ def compensate_twin(
         if progress is not None:
             progress(iteration, history[-1])
         if best is None or history[-1] < best[0]:
-            best = (history[-1], cmd, residual, iteration)
+            best = (history[-1], cmd, residual, sim.f_sheet_n)
         if history[-1] <= tol_m:
-            return Compensation("twin", t, p_id, cmd, iteration, residual, tuple(history))
+            return Compensation("twin", t, p_id, cmd, iteration, residual, tuple(history), True, sim.f_sheet_n)
         bounced = iteration > 2 and history[-1] > 2.0 * min(history)
         if bounced and history[-1] > 0.5 * history[0]:
             raise CompensationError(f"twin compensation diverges: rms residual {history} m")
@@ -169,7 +172,7 @@ def compensate_twin(
             history[:-STALL_ITERATIONS]
         )
         if bounced or stalled:  # bouncing well below the start: the friction flips at the reversals
-            return Compensation("twin", t, p_id, best[1], iteration, best[2], tuple(history), False)
+            return Compensation("twin", t, p_id, best[1], iteration, best[2], tuple(history), False, best[3])
         if iteration > 1 and history[-1] > history[-2]:  # the mixed step went too far: start the memory anew
             accelerate.clear()
         cmd = accelerate.next(cmd, -_trust_region_step(sim.tip_gain, residual))

@@ -87,7 +87,8 @@ def name_cause(
     if scale is None or record is None:
         return GainCause(gain, scale, "unknown", f"{head}; the cause is unknown: the run records no compensation "
                          "(the forces it used, its FE history's symmetry) to compare with its measured forces")
-    if abs(scale - gain) <= max(EXPLAINS, EXPLAINS * abs(gain)):
+    forces_right = abs(scale - 1.0) <= EXPLAINS
+    if abs(scale - gain) <= max(EXPLAINS, EXPLAINS * abs(gain)) and (record.symmetry_mismatch or not forces_right):
         if record.symmetry_mismatch:
             where = "" if record.history_file is None else f" ({record.history_file})"
             return GainCause(gain, scale, "half_history_as_full", (
@@ -98,7 +99,7 @@ def name_cause(
             f"; its history's declared symmetry ({record.history_symmetry}) agrees with its column names")
         return GainCause(gain, scale, "force_scale", f"{head}{used}, which explains it: the forces it assumed "
                          f"are off{sym} (check the force model and the history's level)")
-    if abs(scale - 1.0) <= EXPLAINS:
+    if forces_right:  # a scale of 1 explains no gain: the forces are right, whatever the gain's distance to it
         return GainCause(gain, scale, "compliance", f"{head}{used}: its forces are right, so the compliance it "
                          f"used is off by about {gain:.2f} (check the stiffness)")
     return GainCause(gain, scale, "both", f"{head}{used}, which explains a gain of {scale:.2f}, not {gain:.2f}: "

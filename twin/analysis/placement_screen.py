@@ -36,7 +36,8 @@ import numpy as np
 from twin.errors import SingularityError, UnreachableError
 from twin.process.toolpath.groove import ToolPath
 from twin.process.toolpath.placement import Placement, ReachReport, check_reach
-from twin.robot.description import RobotDescription
+from twin.robot.facts import RobotDescription
+from twin.robot.ik_batch import breaks_branch
 from twin.robot.tool import ToolSpec
 from twin.sim.spec import TwinSpec
 
@@ -48,8 +49,6 @@ STATUSES = ("feasible", "unreachable", "singular", "joint_margin")
 #: Columns of a screened (or confirmed) row: rms and largest error [m], status code, smallest joint margin [rad],
 #: smallest |det J| [m^3].
 COLUMNS = ("rms_m", "max_m", "status", "joint_margin_rad", "min_abs_det_j")
-#: Path samples whose IK seeds the confirmation's IK along the whole path.
-SEED_SAMPLES = 512
 
 
 class ScreenSetup(NamedTuple):
@@ -89,11 +88,9 @@ def _infeasible(status: str) -> np.ndarray:
     return np.array([math.nan, math.nan, float(STATUSES.index(status)), math.nan, math.nan])
 
 
-def _path_ik(kinematics: Kinematics, P: np.ndarray, solved: tuple[np.ndarray, np.ndarray] | None) -> np.ndarray | str:
-    """One candidate's IK along the subsample: the batch's solution where every point converged on one branch
-    (no jump over 0.1 rad, as `Kinematics.ik_path` asks), else `ik_path` itself; or why it is infeasible."""
-    if solved is not None and solved[1].all() and np.max(np.abs(np.diff(solved[0], axis=0))) <= 0.1:
-        return solved[0]
+def _path_ik(kinematics: Kinematics, P: np.ndarray) -> np.ndarray | str:
+    """One candidate's IK along the subsample by `ik_path` (a candidate the batch did not solve), or why it is
+    infeasible."""
     try:
         return kinematics.ik_path(P)
     except UnreachableError:
@@ -107,22 +104,24 @@ def screen_rows(kinematics: Kinematics, setup: ScreenSetup, rows: np.ndarray) ->
 
     The IK of all candidates' subsamples is solved in one batch (`Kinematics.ik_points`, each point seeded at its
     candidate's solution at the subsample's centre, itself from `q_home`); a candidate whose batch solution fails
-    or jumps branch is solved again by `ik_path`, which names the reason.
+    or leaves its branch (`twin.robot.ik_batch.breaks_branch`, checked for all candidates in one batch too) is
+    solved again by `ik_path`, which names the reason.
     """
     rows = np.asarray(rows, dtype=float)
     m = len(setup.p_sheet_m)
     placements = [placement_of(row) for row in rows]
     P = np.concatenate([p.to_base(setup.p_sheet_m, kinematics) for p in placements]).reshape(len(rows), m, 3)
-    solved = None
+    batch, accepted = np.empty((len(rows), m, len(kinematics.q_home))), np.zeros(len(rows), dtype=bool)
     if len(rows):  # each candidate's points seeded at its own solution at the subsample's centre (fewer steps)
         centre = kinematics.ik_points(P.mean(axis=1), kinematics.q_home)
-        if centre is not None:
-            solved = kinematics.ik_points(P.reshape(-1, 3), np.repeat(centre[0], m, axis=0))
+        solved = None if centre is None else kinematics.ik_points(P.reshape(-1, 3), np.repeat(centre[0], m, axis=0))
+        if solved is not None:
+            batch, accepted = solved[0].reshape(batch.shape), np.all(solved[1].reshape(len(rows), m), axis=1)
+            accepted[accepted] = ~breaks_branch(kinematics.ik_points, P[accepted], batch[accepted])
     out = np.empty((len(rows), len(COLUMNS)))
     solutions: dict[int, np.ndarray] = {}
     for i in range(len(rows)):
-        mine = None if solved is None else (solved[0][i * m : (i + 1) * m], solved[1][i * m : (i + 1) * m])
-        Q = _path_ik(kinematics, P[i], mine)
+        Q = batch[i] if accepted[i] else _path_ik(kinematics, P[i])
         if isinstance(Q, str):
             out[i] = _infeasible(Q)
         else:
@@ -165,15 +164,10 @@ def screen_chunk(state: tuple[Kinematics, ScreenSetup], rows: np.ndarray) -> np.
 
 
 def seeded_reach(path: ToolPath, placement: Placement, kinematics: Kinematics) -> ReachReport:
-    """`check_reach` along the whole path, its IK seeded by the IK of `SEED_SAMPLES` samples (interpolated):
-    a few Newton steps a sample instead of a solve from `q_home` (the same solutions)."""
-    P = placement.to_base(path.p_sheet_m, kinematics)
-    sub = np.unique(np.linspace(0, len(P) - 1, min(len(P), SEED_SAMPLES)).round().astype(int))
-    coarse = kinematics.ik_points(P[sub], kinematics.q_home)
-    near = None
-    if coarse is not None and coarse[1].all():
-        near = np.column_stack([np.interp(np.arange(len(P)), sub, q) for q in coarse[0].T])
-    return check_reach(path, placement, kinematics, q_near=near)
+    """`check_reach` along the whole path, its IK seeded by that of every `IK_COARSE_STRIDE`-th sample
+    (`twin.robot.kinematics`, interpolated): a Newton step or two a sample instead of a solve from `q_home` (the
+    same solutions)."""
+    return check_reach(path, placement, kinematics)
 
 
 def confirm_one(setup: ConfirmSetup, row: np.ndarray) -> np.ndarray:

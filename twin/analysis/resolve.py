@@ -36,7 +36,8 @@ from twin.process.fe.load import ForceHistory
 from twin.process.force.registry import FORCE_MODELS, auto_force_model, force_model
 from twin.process.process_file import ProcessDeclaration
 from twin.process.toolpath.placement import Placement
-from twin.robot.description import RobotDescription, load_robot
+from twin.robot.description import load_robot
+from twin.robot.facts import RobotDescription
 from twin.runs.format import Run, run_placement, run_process, run_robot
 from twin.sim.model_file import read_model_file
 from twin.sim.spec import TwinSpec

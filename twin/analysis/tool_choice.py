@@ -1,6 +1,6 @@
 """Which tool is on the flange, by the one precedence (`PRECEDENCE`): an explicit flag > the run's record > the cell
-file > the model file > the robot model's own, length and mass each on its own (the centre of gravity goes with the
-mass). `resolve_tool` is the rule; a program takes its answer as it is (`export`), the twin takes it as the tool it
+file > the model file > the robot model's own, length, mass and bending each on its own (the centre of gravity goes
+with the mass; a shank's bending is its stiffness at the chosen length's tip). `resolve_tool` is the rule; a program takes its answer as it is (`export`), the twin takes it as the tool it
 simulates (`resolve_tool_spec`: `TwinSpec.tool`). The precedence's layers and words (`Chosen`, `first_given`,
 `cell_words`) are shared with the sheet's placement (`twin.analysis.resolve.resolve_placement`).
 """
@@ -11,7 +11,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from twin.robot.description import RobotDescription
+from twin.robot.facts import RobotDescription
 from twin.robot.tool import ToolSpec
 from twin.runs.format import Run
 
@@ -43,13 +43,15 @@ def cell_words(cell: Mapping[str, Any] | None) -> str:
 @dataclass(frozen=True)
 class ToolChoice:
     """The tool chosen: its length [mm], mass [kg] and centre of gravity [mm, flange frame] (None: the robot
-    model's tool body's), and where the length and the mass came from."""
+    model's tool body's), its bending stiffness at the tip [N/mm] (None: rigid), and where each came from."""
 
     length_mm: float
     mass_kg: float | None
     length_from: str
     mass_from: str
     cog_mm: tuple[float, ...] | None = None
+    bending_stiffness_n_per_mm: float | None = None
+    bending_from: str = ""
 
 
 def resolve_tool(
@@ -104,8 +106,31 @@ def resolve_tool(
         ("the model file", model_tool.get("mass_kg") is not None, model_tool),
     ], Chosen({}, f"robot {robot.name}'s model (its tool body)"))
     mass, cog = carrier.value.get("mass_kg"), carrier.value.get("cog_mm")
+    bending = first_given([(source, bool(_bending_keys(tool)), tool) for source, tool in (
+        (run_name, run_tool if run is not None else {}), (cell_name, cell_tool), ("the model file", model_tool))],
+        Chosen({}, "a rigid tool"))
     return ToolChoice(float(length.value), None if mass is None else float(mass), length.source, carrier.source,
-                      None if cog is None else tuple(float(v) for v in cog))
+                      None if cog is None else tuple(float(v) for v in cog),
+                      _tip_stiffness_n_per_mm(bending.value, float(length.value)), bending.source)
+
+
+def _bending_keys(tool: Mapping[str, Any]) -> dict[str, float]:
+    keys = ("diameter_mm", "youngs_modulus_gpa", "bending_stiffness_n_per_mm")
+    return {k: float(tool[k]) for k in keys if tool.get(k) is not None}
+
+
+def _tip_stiffness_n_per_mm(tool: Mapping[str, Any], length_mm: float) -> float | None:
+    """The tool's bending stiffness at its tip [N/mm]: as measured, else its shank's at `length_mm`
+    (`twin.robot.tool_bending.cantilever_tip_stiffness`, E default steel's); None: no bending declared."""
+    from twin.robot.tool_bending import STEEL_YOUNGS_MODULUS_GPA, cantilever_tip_stiffness
+
+    given = _bending_keys(tool)
+    if "bending_stiffness_n_per_mm" in given:
+        return given["bending_stiffness_n_per_mm"]
+    if "diameter_mm" not in given:
+        return None
+    modulus_gpa = given.get("youngs_modulus_gpa", STEEL_YOUNGS_MODULUS_GPA)
+    return cantilever_tip_stiffness(given["diameter_mm"] / 1e3, modulus_gpa * 1e9, length_mm / 1e3) / 1e3
 
 
 def resolve_tool_spec(
@@ -123,7 +148,9 @@ def resolve_tool_spec(
         InputError: A run's tool length out of the plausible range (naming its meta.json).
     """
     tool = resolve_tool(robot, run=run, cell=cell, model=model, sensor_mass=False)
-    if tool.mass_kg is None and abs(tool.length_mm / 1e3 - robot.tool_length_m) < 1e-9:
+    bending = tool.bending_stiffness_n_per_mm
+    if tool.mass_kg is None and bending is None and abs(tool.length_mm / 1e3 - robot.tool_length_m) < 1e-9:
         return None
     return ToolSpec.make(tool.length_mm / 1e3, tool.mass_kg,
-                         None if tool.cog_mm is None else [v / 1e3 for v in tool.cog_mm])
+                         None if tool.cog_mm is None else [v / 1e3 for v in tool.cog_mm],
+                         None if bending is None else 1e3 * bending)

@@ -3,7 +3,8 @@
 Modules: `demo` (the thesis story) and its `report`, `reproduction` (the thesis-vs-twin table),
 `force_validation` (the force model against the published measurements of `force_data`, and the springback
 against a published part's section, `springback_validation`), `bench`,
-`bench_speed`, `bench_place` (the placement search's cost), `bench_suite` (the test suite's own time), `bench_online` (the online compensator's
+`bench_speed`, `bench_place` (the placement search's cost), `bench_cli` (`compensate` and `place` over `replay`,
+fresh CLI processes), `bench_suite` (the test suite's own time), `bench_online` (the online compensator's
 real-time figures) and `machine` (the speed ratios and the machine they
 ran on), `analytic_replay` (the replay with
 the linear model, the physical floor), `sweep` (a Monte Carlo of the compensated groove) with its `uncertainty`

@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 
 from twin.apps.analytic_replay import AnalyticReplay, analytic_replay
+from twin.apps.bench_cli import cli_ratios
 from twin.apps.bench_place import place_cost
 from twin.apps.bench_speed import cli_startup, isf_cone_benchmarks, mujoco_call_floor, path_growth
 from twin.apps.machine import machine_info
@@ -95,6 +96,9 @@ def run_benchmarks(
     _bench_gcode(out, repeats)
     out["cli_startup"] = cli_startup(max(3, repeats))
     out["cli_help_over_numpy"] = out["cli_startup"]["help_over_numpy"]
+    # `compensate --method twin` and `place` over `replay` of a cone, each a fresh CLI process, after fixed costs
+    cone_m = (0.16, 0.04) if samples is None else (0.02, 0.002)
+    out.update(cli_ratios(*cone_m, min(repeats, 3), smoke=samples is not None))
     out.update(isf_cone_benchmarks(repeats, smoke=samples is not None))  # cones on the ISF model, Ø 40 to 160 mm
     # the placement search of a cone on the ISF model: Ø 80 mm, 20 mm deep (a Ø 20 mm, 2 mm deep one for a smoke run)
     width_m, depth_m = (80e-3, 20e-3) if samples is None else (20e-3, 2e-3)
@@ -281,6 +285,8 @@ TABLE_ROWS: tuple[tuple[str, str, str], ...] = (
     ("compensation_over_simulation", "Ø160 cone twin compensation / simulate", "x"),
     ("place_over_simulation", "cone placement search / one simulate", "x"),
     ("place_best_over_default_rms", "  best placement's rms / default's", "x"),
+    ("cli_compensate_over_replay", "CLI compensate (twin) / replay, net", "x"),
+    ("cli_place_over_replay", "CLI place / replay, net", "x"),
 )
 
 

@@ -29,7 +29,7 @@ from twin.lab.cnc import run_cnc
 from twin.process.description import Process
 from twin.process.force.aerens import aerens_fz_n, validity_warnings
 from twin.process.force.isf_params import IsfForceParams, steady_fz_n
-from twin.process.material.library import material
+from twin.process.material.file import material
 from twin.process.toolpath.groove import ToolPath, groove_path
 from twin.process.toolpath.shapes import PartSpec, part_path
 

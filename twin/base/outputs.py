@@ -56,6 +56,16 @@ def _same(a: str | Path, b: str | Path) -> bool:
     return _real(a) == _real(b)
 
 
+def repeated_input(paths: Sequence[str | Path]) -> tuple[str | Path, str | Path] | None:
+    """The first two of `paths` that name one file or folder (links and spellings resolved), or None: an input
+    given twice counts twice (a run learned twice, a run held out from itself)."""
+    for i, a in enumerate(paths):
+        for b in paths[i + 1:]:
+            if _same(a, b):
+                return a, b
+    return None
+
+
 def _inside(child: str | Path, parent: str | Path) -> bool:
     """Whether `child` lies strictly inside the folder `parent` (links resolved)."""
     real_child, real_parent = _real(child), _real(parent)

@@ -4,7 +4,8 @@ Modules: `info`, `path`, `fe_history`, `identify`, `calibrate`, `reproduce`, `fo
 `compensate`, `check`, `bench`, `sweep`, `place`, `discrepancy`, `demo`, `import_run` (`import`), `export`, `online`, `materials` and `robots`,
 one per command, each over its task (`twin/apps/tasks/`: a typed request, a report); `_common` holds the options
 several commands share (the FE history, the force model, the declared process, the placement, `--json`) and
-`finish`; `_types` the argparse types with plausible ranges (seeds, counts, lengths, feeds).
+`finish`; `_types` the argparse types with plausible ranges (seeds, counts, lengths, feeds); `_repeats` refuses a
+single-valued option typed twice (argparse would keep the last in silence).
 
 Each command module defines `HELP` (one line), `add_arguments(parser)` and `run(args) -> int`. Before a command runs,
 its outputs (the options in `OUTPUT_OPTIONS`) pass `twin.base.outputs.check_outputs` against every option naming an
@@ -30,6 +31,7 @@ import numpy as np
 
 from twin.base.outputs import check_outputs
 from twin.cli._common import apply_cell
+from twin.cli._repeats import check_repeated_options
 from twin.errors import AssumptionWarning, ExtrapolationWarning, TwinError
 
 # the options that write; every other option (or positional) naming an existing path is an input
@@ -42,7 +44,8 @@ FOLDER_OUTPUTS = {*REPLACED_FOLDERS, ("demo", "--out"), ("reproduce", "--work"),
                   ("export", "--out")}
 EXIT_CODES = """exit codes:
   0  done
-  1  done, and the result failed the check it reports (`check`: a gain away from 1)
+  1  done, and the result failed the check it reports (`check`: a gain away from 1; `online`: no robot packet
+     answered, or no F/T sample in the session)
   2  refused: a bad option or input file (the message names it and what was expected), an output that would
      replace an input, or an output that cannot be written; nothing is written"""
 
@@ -168,6 +171,7 @@ def check_command_outputs(parser: argparse.ArgumentParser, args: argparse.Namesp
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the `tx200-twin` console script."""
     parser = build_parser()
+    argv = list(sys.argv[1:] if argv is None else argv)
     args = parser.parse_args(argv)
     others: list[warnings.WarningMessage] = []  # shown once the recording has ended (re-shown inside, each was
     try:  # recorded again into the list being read: a command with a warning of another kind never ended)
@@ -176,6 +180,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             warnings.simplefilter("always", ExtrapolationWarning)
             warnings.simplefilter("always", AssumptionWarning)
             try:
+                sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+                check_repeated_options(sub.choices[args.command], argv[argv.index(args.command) + 1:])
                 apply_cell(args)
                 check_command_outputs(parser, args)
                 return int(args._run(args))

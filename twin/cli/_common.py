@@ -123,7 +123,7 @@ def apply_cell(args: argparse.Namespace) -> None:
             load_robot(typed_robot).source != load_robot(cell.robot).source:
         note(f"note: --robot {typed_robot} is not the cell's robot {cell.robot} ({args.cell}): the cell's sheet "
              "placement and tool are that robot's and are not used; its process is")
-        args.cell_record = {**args.cell_record, "sheet": {}, "tool": {}}
+        args.cell_record = {**{k: v for k, v in args.cell_record.items() if k != "ft_sensor"}, "sheet": {}, "tool": {}}
     else:
         values += [("origin_mm", None if cell.origin_mm is None else list(cell.origin_mm)), ("yaw_deg", cell.yaw_deg),
                    ("tool_length_mm", cell.tool.length_mm), ("tool_mass_kg", cell.tool.mass_kg)]
@@ -133,26 +133,6 @@ def apply_cell(args: argparse.Namespace) -> None:
             setattr(args, name, value)
             filled.add(name)
     args.cell_filled = frozenset(filled)
-    if cell.tool.length_mm is not None and len(values) > 1 and not simulates_cell_tool(args):
-        robot = load_robot(getattr(args, "robot", None) or cell.robot)
-        if abs(1e3 * robot.tool_length_m - cell.tool.length_mm) > 1.0:
-            note(f"note: {args.cell}: `{args.command}` simulates robot {robot.name}'s modelled tool "
-                 f"({1e3 * robot.tool_length_m:.2f} mm from the flange); the cell's {cell.tool.length_mm:g} mm tool "
-                 "goes into programs (`export`) and records")
-
-
-#: The commands whose twin simulates a `--cell`'s tool (`twin.analysis.resolve.resolve_spec`'s `cell`); export and
-#: import take it for programs and records.
-CELL_TOOL_COMMANDS = frozenset({"info", "compensate", "replay", "discrepancy", "sweep", "place", "online", "export",
-                                "import"})
-
-
-def simulates_cell_tool(args: argparse.Namespace) -> bool:
-    """Whether the command takes a `--cell`'s tool as it is (`CELL_TOOL_COMMANDS`; the quasi-static lab too, whose
-    plant is the twin; the dynamic lab's plant keeps the robot model's tool)."""
-    if args.command == "lab":
-        return getattr(args, "plant", "quasi-static") == "quasi-static"
-    return args.command in CELL_TOOL_COMMANDS
 
 
 def given(args: argparse.Namespace, name: str) -> Any:

@@ -59,6 +59,7 @@ def run(args: argparse.Namespace) -> int:
 
     given = {name: getattr(args, name, None) for name in ("forces", "springback", "design", "model", "robot")}
     request = IdentifyRequest(args.method, args.loads, args.run_dir, **given, declaration=process_declaration(args),
-                              force_model=getattr(args, "force_model", "auto"), write_model=args.write_model)
+                              force_model=getattr(args, "force_model", "auto"), write_model=args.write_model,
+                              cell=getattr(args, "cell_record", None))
     inputs = (args.loads, args.run_dir, given["forces"], given["springback"], given["design"])
     return finish(args, identify_task(request, note), protect=inputs)

@@ -7,7 +7,13 @@ import sys
 from pathlib import Path
 
 from twin.base.jsonio import emit_json
-from twin.cli._common import add_json_argument, add_placement_arguments, add_robot_argument, given
+from twin.cli._common import (
+    add_json_argument,
+    add_placement_arguments,
+    add_robot_argument,
+    given,
+    process_declaration,
+)
 from twin.robot.description import DEFAULT_ROBOT
 from twin.runs.importer import import_to_directory
 
@@ -33,7 +39,7 @@ def run(args: argparse.Namespace) -> int:
     """Import the run and print what was done."""
     result = import_to_directory(args.mapping, args.out, overwrite=args.overwrite, robot=given(args, "robot"),
                                  origin_mm=given(args, "origin_mm"), yaw_deg=given(args, "yaw_deg"),
-                                 cell=getattr(args, "cell_record", None))
+                                 cell=getattr(args, "cell_record", None), process=process_declaration(args))
     report = result.report
     out = sys.stderr if args.json == "-" else sys.stdout
     reg = report["registration"]

@@ -29,7 +29,32 @@ def _kinematics(args: argparse.Namespace) -> tuple[Any, Any]:
 
     robot = resolve_robot(args.robot)
     tool = resolve_tool_spec(robot, cell=getattr(args, "cell_record", None))
-    return (Kinematics(robot=robot) if tool is None else Kinematics(build_model(robot, tool=tool), robot=robot)), tool
+    return (Kinematics(robot=robot) if tool is None else Kinematics(build_model(robot, tool=tool.rigid), robot=robot)), \
+        tool
+
+
+def _bending_compliance(kin: Any, tool: Any) -> np.ndarray:
+    """The tool's own bending compliance at the tip at home [m/N] (`twin.robot.tool_bending`; zeros: rigid)."""
+    from twin.robot.model import build_model
+    from twin.robot.tool_bending import bending_compliance_at
+
+    if tool is None or tool.bending_stiffness_n_per_m is None:
+        return np.zeros((3, 3))
+    return bending_compliance_at(build_model(kin.robot, tool=tool), kin.robot, kin.q_home)
+
+
+def _tool_record(kin: Any, tool: Any) -> dict[str, Any]:
+    """The tool `info` shows: length [mm], mass [kg], bending stiffness at the tip [N/mm] (declared only)."""
+    bending = None if tool is None else tool.bending_stiffness_n_per_m
+    return {"length_mm": 1e3 * (kin.robot.tool_length_m if tool is None else tool.length_m),
+            "mass_kg": None if tool is None else tool.mass_kg,
+            **({} if bending is None else {"bending_stiffness_n_per_mm": bending / 1e3}),
+            "from": "the robot model" if tool is None else "the cell"}
+
+
+def _bends(tool: Any) -> str:
+    bending = None if tool is None else tool.bending_stiffness_n_per_m
+    return "" if bending is None else f", bends {bending / 1e3:.4g} N/mm at the tip"
 
 
 def run(args: argparse.Namespace) -> int:
@@ -39,7 +64,8 @@ def run(args: argparse.Namespace) -> int:
     kin, tool = _kinematics(args)
     path = kin.robot.model_path()
     p_home, _ = kin.fk(kin.q_home)
-    compliance_mm_per_kn = kin.compliance(kin.q_home) * 1e6  # [m/N] -> [mm/kN]
+    # the joints' J K_q⁻¹ Jᵀ and the tool's own bending [m/N] -> [mm/kN]
+    compliance_mm_per_kn = (kin.compliance(kin.q_home) + _bending_compliance(kin, tool)) * 1e6
     place = resolve_placement(cell=getattr(args, "cell_record", None), robot_name=kin.robot.name)  # a --cell's sheet
     origin = place.placement.origin_in(kin)
     payload = {
@@ -52,9 +78,7 @@ def run(args: argparse.Namespace) -> int:
         "robot_sheet_origin_m": kin.p_base_sheet_origin.tolist(),
         "model": str(path),
         "robot": kin.robot.name,
-        "tool": {"length_mm": 1e3 * (kin.robot.tool_length_m if tool is None else tool.length_m),
-                 "mass_kg": None if tool is None else tool.mass_kg,
-                 "from": "the robot model" if tool is None else "the cell"},
+        "tool": _tool_record(kin, tool),
     }
     emit_json(args.json, payload)
     if args.json == "-":
@@ -63,11 +87,11 @@ def run(args: argparse.Namespace) -> int:
         print(f"model            {path}")
         print(f"K_q [N m/rad]    {' '.join(f'{k:.4g}' for k in kin.joint_stiffness)}")
         print(f"tool [mm]        {payload['tool']['length_mm']:.2f} from the flange" + ("" if tool is None or
-              tool.mass_kg is None else f", {tool.mass_kg:g} kg") + f" ({payload['tool']['from']})")
+              tool.mass_kg is None else f", {tool.mass_kg:g} kg") + _bends(tool) + f" ({payload['tool']['from']})")
         print(f"tcp at home [m]  {p_home}")
         print(f"sheet origin [m] {origin} (from {place.origin_from}), yaw {np.degrees(place.placement.yaw_rad):g} "
               f"deg (from {place.yaw_from})")
-        print("compliance at home J K_q^-1 J^T [mm/kN]:")
+        print("compliance at home J K_q^-1 J^T (+ the tool's bending) [mm/kN]:")
         for row in compliance_mm_per_kn:
             print(f"  {row}")
     return 0

@@ -22,6 +22,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     """List the materials."""
     from twin.apps.tasks.materials import MaterialsRequest, materials_task
-    from twin.process.material.library import library_path
+    from twin.process.material.file import library_path
 
     return finish(args, materials_task(MaterialsRequest(args.file)), protect=(args.file, library_path()))

@@ -38,7 +38,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--host", default="127.0.0.1", help="address to bind")
     parser.add_argument("--model", type=Path, help="the compensator's twin: a model file (e.g. from `learn`)")
     parser.add_argument("--cycles", type=int, default=15000, help="most packets to answer (60 s at 4 ms)")
-    parser.add_argument("--idle-timeout-s", type=finite, default=5.0, help="stop when no packet came this long [s]")
+    parser.add_argument("--start-timeout-s", type=finite, default=60.0,
+                        help="stop when no first packet was answered this long after the start [s] (the robot's "
+                             "program is started after the twin; a session that answered none exits 1)")
+    parser.add_argument("--idle-timeout-s", type=finite, default=5.0,
+                        help="stop when no packet was answered this long after the last one [s]")
+    parser.add_argument("--max-rate-mm-s", type=finite, default=20.0,
+                        help="largest rate of change of the correction [mm/s]: per second of the controller's clock "
+                             "and of this computer's, not per packet (a burst of packets moves it no faster)")
     add_robot_argument(parser)
     add_placement_arguments(parser)
     add_json_argument(parser, "the session's counts and compute times")
@@ -50,6 +57,6 @@ def run(args: argparse.Namespace) -> int:
 
     ft = None if args.ft_rdt is None else RdtSettings.parse(args.ft_rdt, args.ft_counts_per_n, args.ft_bias)
     request = OnlineRequest(args.serve, args.port, args.host, args.model, args.robot, placement_given(args),
-                            args.cycles, args.idle_timeout_s, ft,
-                            cell=getattr(args, "cell_record", None))
+                            args.cycles, args.idle_timeout_s, ft, cell=getattr(args, "cell_record", None),
+                            start_timeout_s=args.start_timeout_s, max_rate_mm_s=args.max_rate_mm_s)
     return finish(args, online_task(request, note), protect=(args.model,))

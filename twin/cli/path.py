@@ -82,5 +82,6 @@ def run(args: argparse.Namespace) -> int:
         args.feed_mm_s, args.spacing_mm, args.passes, args.top_length_mm, args.bottom_length_mm, args.mode,
         args.top_width_mm, args.wall_angle_deg, args.wall_angle_end_deg, args.step_down_mm,
         process_declaration(args), placement_from(args), args.robot, not args.no_reach_check,
+        getattr(args, "cell_record", None),
     )
     return finish(args, path_task(request, note), protect=(args.out,))

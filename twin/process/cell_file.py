@@ -9,6 +9,13 @@
     radius_mm = 5.0                     # the forming tool's tip radius [mm] (the process's tool radius)
     mass_kg = 3.5                       # the tool's mass, F/T sensor included [kg]
     cog_mm = [0.0, 0.0, 110.0]          # its centre of gravity in the flange frame [mm]
+    diameter_mm = 25.0                  # its shank's diameter [mm]: the tool bends as a cantilever clamped at the
+    youngs_modulus_gpa = 210.0          # flange, k = 3EI/L³ at the tip; E [GPa] defaults to steel's 210
+    # bending_stiffness_n_per_mm = 450.0  # or its bending stiffness measured at the tip [N/mm] (not both)
+    [ft_sensor]                         # the F/T sensor's mounting on the flange
+    rotation_deg = 0.0                  # its axes turned about the flange z [deg] (or rpy_deg = [r, p, y]:
+                                        # R = Rz(y) Ry(p) Rx(r), the sensor axes in the flange frame)
+    offset_mm = [0.0, 0.0, 30.0]        # its measuring origin from the flange [mm] (moves torques only)
     [sheet]                             # the sheet frame in the robot base
     origin_mm = [1600.0, 0.0, 450.0]    # its origin [mm]
     yaw_deg = 0.0                       # its turn about the base z axis [deg]
@@ -24,7 +31,9 @@
 Every key but `format` may be left out: it keeps what the command would take without the cell (the robot's own
 tool and sheet origin, the thesis's process). A command's own flags override the cell (`--robot`, `--origin-mm`,
 `--yaw-deg`, `--material`, `--thickness-mm`, `--tool-radius-mm`, `--process`, `--tool-length-mm`,
-`--tool-mass-kg`): the cell is what a user would otherwise type on every command. Each value is checked here, with
+`--tool-mass-kg`): the cell is what a user would otherwise type on every command. Without a bending key the tool
+is rigid (`twin.robot.tool_bending`); without `[ft_sensor]` an import takes the sensor's axes as the sheet's (the
+mapping's default) unless its mapping says (`twin.robot.ft_mount`). Each value is checked here, with
 the file and the key named: a length must be a number in its range (a tool of 15 m or a sheet of 1 µm is no ISF
 cell).
 """
@@ -43,12 +52,19 @@ from twin.process.material.file import read_toml
 from twin.process.process_file import PROCESS_KEYS, ProcessDeclaration, declaration_from_table
 
 CELL_FORMAT = "tx200-twin-cell/1"
-CELL_KEYS = ("format", "name", "robot", "tool", "sheet", "process", "sensors")
+CELL_KEYS = ("format", "name", "robot", "tool", "sheet", "process", "sensors", "ft_sensor")
 #: The `[sensors]` keys and their ranges: rates of the trackers and F/T sensors cells use, noise up to ten times
 #: the thesis's (its Krypton tracker 0.02 mm, its F/T 5 N in the twin's lab).
 SENSOR_RANGES = {"tracker_rate_hz": (1.0, 2000.0, "Hz"), "ft_rate_hz": (1.0, 10000.0, "Hz"),
                  "tracker_noise_mm": (0.0, 1.0, "mm"), "ft_noise_n": (0.0, 200.0, "N")}
-TOOL_KEYS = ("length_mm", "radius_mm", "mass_kg", "cog_mm")
+TOOL_KEYS = ("length_mm", "radius_mm", "mass_kg", "cog_mm", "diameter_mm", "youngs_modulus_gpa",
+             "bending_stiffness_n_per_mm")
+#: The tool's bending (`twin.robot.tool_bending`): a shank of Ø2 mm (a micro-ISF pin) to Ø150 mm; E of polymer
+#: tools (~2 GPa) to cemented carbide (~620 GPa); a measured tip stiffness of a wobbly pin to a stub.
+TOOL_DIAMETER_RANGE_MM = (2.0, 150.0)
+YOUNGS_MODULUS_RANGE_GPA = (1.0, 1000.0)
+BENDING_STIFFNESS_RANGE_N_PER_MM = (1.0, 1.0e7)
+FT_SENSOR_KEYS = ("rotation_deg", "rpy_deg", "offset_mm")
 SHEET_KEYS = ("origin_mm", "yaw_deg")
 #: What a cell's tool may be: the process's plausible ranges (`twin.process.description.PLAUSIBLE`), one rule.
 TOOL_LENGTH_RANGE_MM = (PLAUSIBLE["tool_length_m"].low, PLAUSIBLE["tool_length_m"].high)
@@ -66,11 +82,35 @@ class ToolDeclaration:
         length_mm: Flange to tool tip [mm].
         mass_kg: Mass hanging at the flange [kg].
         cog_mm: Its centre of gravity in the flange frame [mm].
+        diameter_mm: Its shank's diameter [mm] (its bending: a cantilever clamped at the flange).
+        youngs_modulus_gpa: The shank's Young's modulus [GPa] (with a diameter; default steel's).
+        bending_stiffness_n_per_mm: Its bending stiffness measured at the tip [N/mm] (instead of a diameter).
     """
 
     length_mm: float | None = None
     mass_kg: float | None = None
     cog_mm: tuple[float, float, float] | None = None
+    diameter_mm: float | None = None
+    youngs_modulus_gpa: float | None = None
+    bending_stiffness_n_per_mm: float | None = None
+
+    def bending(self) -> dict[str, float]:
+        """The bending keys given, as the cell file has them (what runs and model files record)."""
+        return {k: v for k, v in (("diameter_mm", self.diameter_mm), ("youngs_modulus_gpa", self.youngs_modulus_gpa),
+                                  ("bending_stiffness_n_per_mm", self.bending_stiffness_n_per_mm)) if v is not None}
+
+
+@dataclass(frozen=True)
+class SensorMount:
+    """The F/T sensor's mounting on the flange (`[ft_sensor]`).
+
+    Attributes:
+        rpy_deg: Its axes in the flange frame, R = Rz(yaw) Ry(pitch) Rx(roll) [deg].
+        offset_mm: Its measuring origin from the flange, flange frame [mm].
+    """
+
+    rpy_deg: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    offset_mm: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
 
 @dataclass(frozen=True)
@@ -86,6 +126,7 @@ class CellDeclaration:
         yaw_deg: The sheet's yaw [deg], or None.
         process: What its `[process]` declares (the tool radius included).
         sensors: Its `[sensors]` values, by key (`SENSOR_RANGES`).
+        ft_sensor: Its `[ft_sensor]` mounting; None: not declared (an import's sensor axes are the sheet's).
     """
 
     source: Path
@@ -96,16 +137,19 @@ class CellDeclaration:
     yaw_deg: float | None = None
     process: ProcessDeclaration = field(default_factory=ProcessDeclaration)
     sensors: Mapping[str, float] = field(default_factory=dict)
+    ft_sensor: SensorMount | None = None
 
     def record(self) -> dict[str, Any]:
         """What runs, model files and programs record of the cell (JSON-ready, millimetres as in the file)."""
         tool = {k: v for k, v in (("length_mm", self.tool.length_mm), ("mass_kg", self.tool.mass_kg),
                                   ("cog_mm", None if self.tool.cog_mm is None else list(self.tool.cog_mm)))
-                if v is not None}
+                if v is not None} | self.tool.bending()
         sheet = {k: v for k, v in (("origin_mm", None if self.origin_mm is None else list(self.origin_mm)),
                                    ("yaw_deg", self.yaw_deg)) if v is not None}
         return {"file": str(self.source.resolve()), "name": self.name, "robot": self.robot, "tool": tool, "sheet": sheet,
-                "process": dict(self.process.origins), "sensors": dict(self.sensors)}
+                "process": dict(self.process.origins), "sensors": dict(self.sensors),
+                **({} if self.ft_sensor is None else {"ft_sensor": {"rpy_deg": list(self.ft_sensor.rpy_deg),
+                                                                    "offset_mm": list(self.ft_sensor.offset_mm)}})}
 
 
 def read_cell_file(path: str | Path) -> CellDeclaration:
@@ -127,7 +171,8 @@ def read_cell_file(path: str | Path) -> CellDeclaration:
     return CellDeclaration(path, name, _robot(path, data.get("robot")), _tool(path, tool),
                            *_sheet(path, _table(path, data, "sheet")),
                            _process(path, _table(path, data, "process"), tool.get("radius_mm")),
-                           _sensors(path, _table(path, data, "sensors")))
+                           _sensors(path, _table(path, data, "sensors")),
+                           _ft_sensor(path, data))
 
 
 def _table(path: Path, data: Mapping[str, Any], key: str) -> Mapping[str, Any]:
@@ -179,7 +224,37 @@ def _tool(path: Path, table: Mapping[str, Any]) -> ToolDeclaration:
     mass = None if "mass_kg" not in table else _number(path, "tool.mass_kg", table["mass_kg"], *TOOL_MASS_RANGE_KG,
                                                        "kg")
     cog = None if "cog_mm" not in table else _vector(path, "tool.cog_mm", table["cog_mm"], TOOL_LENGTH_RANGE_MM[1])
-    return ToolDeclaration(length, mass, cog)
+    given = {key: _number(path, f"tool.{key}", table[key], *rng) for key, rng in (
+        ("diameter_mm", (*TOOL_DIAMETER_RANGE_MM, "mm")), ("youngs_modulus_gpa", (*YOUNGS_MODULUS_RANGE_GPA, "GPa")),
+        ("bending_stiffness_n_per_mm", (*BENDING_STIFFNESS_RANGE_N_PER_MM, "N/mm"))) if key in table}
+    if "diameter_mm" in given and "bending_stiffness_n_per_mm" in given:
+        raise DataFileError(path, "tool.diameter_mm and tool.bending_stiffness_n_per_mm both give the tool's bending; "
+                            "keep one (the shank's diameter, or the stiffness measured at the tip)")
+    if "youngs_modulus_gpa" in given and "diameter_mm" not in given:
+        raise DataFileError(path, f"tool.youngs_modulus_gpa = {given['youngs_modulus_gpa']!r} without "
+                            "tool.diameter_mm: the modulus bends a shank of a declared diameter")
+    return ToolDeclaration(length, mass, cog, given.get("diameter_mm"), given.get("youngs_modulus_gpa"),
+                           given.get("bending_stiffness_n_per_mm"))
+
+
+def _ft_sensor(path: Path, data: Mapping[str, Any]) -> SensorMount | None:
+    """The `[ft_sensor]` table: a turn about the flange z or a full rpy, and an offset."""
+    if "ft_sensor" not in data:
+        return None
+    table = _table(path, data, "ft_sensor")
+    _known(path, table, FT_SENSOR_KEYS, "[ft_sensor]", "ft_sensor.")
+    if "rotation_deg" in table and "rpy_deg" in table:
+        raise DataFileError(path, "ft_sensor.rotation_deg and ft_sensor.rpy_deg both turn the sensor; keep one")
+    rpy = (0.0, 0.0, _number(path, "ft_sensor.rotation_deg", table.get("rotation_deg", 0.0), -360.0, 360.0, "deg"))
+    if "rpy_deg" in table:
+        value = table["rpy_deg"]
+        if not isinstance(value, list) or len(value) != 3:
+            raise DataFileError(path, f"ft_sensor.rpy_deg = {value!r}: expected three angles [deg]")
+        r, p, y = (_number(path, "ft_sensor.rpy_deg", v, -360.0, 360.0, "deg") for v in value)
+        rpy = (r, p, y)
+    offset = (0.0, 0.0, 0.0) if "offset_mm" not in table else _vector(path, "ft_sensor.offset_mm", table["offset_mm"],
+                                                                      TOOL_LENGTH_RANGE_MM[1])
+    return SensorMount(rpy, offset)
 
 
 def _sheet(path: Path, table: Mapping[str, Any]) -> tuple[tuple[float, float, float] | None, float | None]:

@@ -27,8 +27,14 @@ from typing import Any
 
 from twin.errors import DataFileError, InputError
 from twin.process.description import PLAUSIBLE, Process, check_plausible
-from twin.process.material.file import material_from_table, read_material_library, read_toml
-from twin.process.material.library import Material, material, number_problem, shipped_library
+from twin.process.material.file import (
+    material,
+    material_from_table,
+    read_material_library,
+    read_toml,
+    shipped_library,
+)
+from twin.process.material.library import Material, number_problem
 
 PROCESS_FORMAT = "tx200-twin-process/1"
 PROCESS_KEYS = ("format", "material", "material_file", "thickness_mm", "tool_radius_mm", "tool_friction", "force_model")

@@ -10,7 +10,8 @@ from __future__ import annotations
 import numpy as np
 
 from twin.errors import InputError, ModelError
-from twin.robot.description import DhTable, load_robot
+from twin.robot.description import load_robot
+from twin.robot.facts import DhTable
 
 
 def _table(dh: DhTable | None) -> DhTable:

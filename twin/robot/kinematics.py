@@ -15,8 +15,10 @@ import numpy as np
 from scipy.linalg.lapack import dgesv
 
 from twin.errors import InputError, ModelError, SingularityError, UnreachableError
-from twin.robot.chain_fk import ChainFK, rotation_log_batch
-from twin.robot.description import RobotDescription, load_robot
+from twin.robot.chain_fk import ChainFK
+from twin.robot.description import load_robot
+from twin.robot.facts import RobotDescription
+from twin.robot.ik_batch import BatchSolution, breaks_branch, solve_points, warm_first_step
 from twin.robot.model import load_model
 
 __all__ = ["Kinematics"]
@@ -80,10 +82,14 @@ class Kinematics:
         self._jacr = np.zeros((3, m.nv))
         self._damping = 1e-10 * np.eye(self.dof)
         self._chain = ChainFK(m, self._tcp_id, self._qadr)
+        self._last_batch: BatchSolution | None = None  # the last path's batch IK (`_ik_batch`)
         self.q_home = self.robot.q_home
         _p_home, R_home = self.fk(self.q_home)
-        x = np.array([R_home[0, 0], R_home[1, 0], 0.0])
-        x /= np.linalg.norm(x)
+        # the tool's heading at home: its x axis in the horizontal (its y where x is vertical, a tool pointing along
+        # the ground at home), else the base's x
+        x = next((v for v in (np.array([R_home[0, i], R_home[1, i], 0.0]) for i in (0, 1))
+                  if np.linalg.norm(v) > 1e-6), np.array([1.0, 0.0, 0.0]))
+        x = x / np.linalg.norm(x)
         z = np.array([0.0, 0.0, -1.0])
         self.R_tool_down = np.column_stack([x, np.cross(z, x), z])
         sites = [m.site(i).name for i in range(m.nsite)]
@@ -248,12 +254,20 @@ class Kinematics:
         return Q
 
     def _ik_batch(self, P: np.ndarray, q_seed: np.ndarray) -> np.ndarray | None:
-        """`ik_points`, or None (the caller then solves point by point, raising the precise error) when a point
-        fails or consecutive solutions jump by more than 0.1 rad (another branch than the warm-started one)."""
-        solved = self.ik_points(P, self._coarse_seeds(P, q_seed)) if P.shape[0] >= 2 else None
-        if solved is None or not solved[1].all() or np.max(np.abs(np.diff(solved[0], axis=0))) > 0.1:
+        """`ik_points` from `_coarse_seeds` (seeds that are the last path's solution take their first step from
+        its Jacobians, `twin.robot.ik_batch.warm_first_step`), or None (the caller then solves point by point,
+        raising the precise error) when a point fails or the solution leaves the branch (`breaks_branch`)."""
+        if P.shape[0] < 2:
             return None
-        return solved[0]
+        first = warm_first_step(self._last_batch, P, q_seed) if q_seed.ndim == 2 else None
+        solved = self._ik_points(P, self._coarse_seeds(P, q_seed), first=first)
+        if solved is None or not solved[1].all():
+            return None
+        Q, _, J = solved
+        if breaks_branch(self.ik_points, P[None], Q[None])[0]:
+            return None
+        self._last_batch = BatchSolution(P.copy(), Q.copy(), J)
+        return Q
 
     def _coarse_seeds(self, P: np.ndarray, q_seed: np.ndarray) -> np.ndarray:
         """Per-point seeds of a long path: the solutions at every `IK_COARSE_STRIDE`-th point (from `q_seed`),
@@ -279,36 +293,23 @@ class Kinematics:
             The solutions (n, dof) [rad] and whether each converged inside the joint ranges with |det J| >=
             `det_j_min` (n,); None when the chain is not supported (then use `ik_path` or `ik`).
         """
-        P = np.asarray(P_base_tcp, dtype=float)
+        solved = self._ik_points(np.asarray(P_base_tcp, dtype=float), q_seed, max_iter)
+        return None if solved is None else (solved[0], solved[1])
+
+    def _ik_points(
+        self, P: np.ndarray, q_seed: np.ndarray, max_iter: int = 30, first: tuple[np.ndarray, np.ndarray] | None = None
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """`ik_points` (`twin.robot.ik_batch.solve_points`, its first step from `first` if given) and the
+        Jacobians at the converged solutions (n, 6, dof)."""
         if not self._chain.supported:
             return None
-        n = P.shape[0]
-        Q = np.broadcast_to(q_seed, (n, self.dof)).copy()  # one seed, or one per point
-        J_final, ok = np.empty((n, 6, self.dof)), np.zeros(n, dtype=bool)
-        R_tT = self.R_tool_down.T
-        active = np.arange(n)
-        for _ in range(max_iter):
-            p, R, J = self._chain(Q[active])
-            # R_t R^T = (R R_t^T)^T, one BLAS call for all points
-            M = (R.reshape(-1, 3) @ R_tT).reshape(-1, 3, 3).transpose(0, 2, 1)
-            log = rotation_log_batch(M)
-            if log is None:
-                return None
-            e = np.concatenate([P[active] - p, log], axis=1)
-            converged = (np.sum(e[:, :3] ** 2, axis=1) < 1e-24) & (np.sum(e[:, 3:] ** 2, axis=1) < 1e-24)
-            J_final[active[converged]], ok[active[converged]] = J[converged], True
-            keep = ~converged
-            active, e, J = active[keep], e[keep], J[keep]
-            if active.size == 0:
-                break
-            Jt = J.transpose(0, 2, 1)
-            dq = np.linalg.solve(Jt @ J + self._damping, (Jt @ e[:, :, None]))[:, :, 0]
-            step = np.max(np.abs(dq), axis=1)
-            dq *= np.where(step > 0.2, 0.2 / np.maximum(step, 1e-300), 1.0)[:, None]
-            Q[active] += dq
+        solved = solve_points(self._chain, self.R_tool_down, self._damping, P, q_seed, max_iter, first)
+        if solved is None:
+            return None
+        Q, ok, J_final = solved
         ok &= ~np.any((self.q_min - 1e-12 > Q) | (self.q_max + 1e-12 < Q), axis=1)
         ok[ok] &= np.abs(np.linalg.det(J_final[ok])) >= self.det_j_min
-        return Q, ok
+        return Q, ok, J_final
 
     def jacobians(self, Q: np.ndarray) -> np.ndarray:
         """`jacobian` at many configurations, (n, 6, dof) [m/rad; 1] (vectorised when the chain allows).

@@ -23,7 +23,8 @@ import mujoco
 import numpy as np
 
 from twin.errors import ModelError
-from twin.robot.description import RobotDescription, load_robot
+from twin.robot.description import load_robot
+from twin.robot.facts import RobotDescription
 from twin.robot.tool import ToolSpec, apply_tool
 
 LOST_MOTION_STIFFNESS_NM_PER_RAD = 1.0e9  # stiff enough that the link-side hinge is a pure offset

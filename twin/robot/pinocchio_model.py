@@ -16,7 +16,8 @@ import numpy as np
 import pinocchio as pin
 
 from twin.errors import InputError, ModelError
-from twin.robot.description import RobotDescription, load_robot
+from twin.robot.description import load_robot
+from twin.robot.facts import RobotDescription
 
 TCP_FRAME = "tcp_composed"
 

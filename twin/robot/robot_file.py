@@ -1,6 +1,6 @@
 """Reading a robot's description file (`tx200-twin-robot/1`, TOML) and the facts derived from its MJCF.
 
-`read_description` parses the file (`twin.robot.description` says what it holds) and compiles the robot MJCF it
+`read_description` parses the file (`twin.robot.facts` says what it holds) and compiles the robot MJCF it
 names once to read the actuators of the arm joints (each joint's one position actuator is its spring K_q), the
 home pose from the keyframe, the joint ranges and the tool tip in the flange frame (to the nanometre), and
 checks that every part the file names exists: an error names the file and what is missing.
@@ -18,7 +18,7 @@ import numpy as np
 
 from twin.base.jsonio import NonFiniteNumberError, finite_float, non_finite_problem
 from twin.errors import ModelError
-from twin.robot.description import (
+from twin.robot.facts import (
     ROBOT_FORMAT,
     TOOL_ROUNDING_DIGITS,
     Datasheet,

@@ -11,7 +11,9 @@ the flange (on the shipped robots through the F/T sensor body). A declared tool 
   included): the tool body carries it at the declared centre of gravity (default: half way along the tool), with
   the inertia of a uniform solid cylinder of the tool's length and `INERTIA_RADIUS_M` about the tool axis; the
   bodies between the flange and the tool body (the F/T sensor's) are made massless, so the gravity load on the
-  joints is the declared tool's. The F/T sensor keeps its frame (its reading is tared, `twin.sim.ft_sensor`).
+  joints is the declared tool's. The F/T sensor keeps its frame (its reading is tared, `twin.sim.ft_sensor`);
+- with a bending stiffness, the tool bends as a cantilever clamped at the flange: its mass and tip hang on two
+  spring hinges at the flange (`twin.robot.tool_bending`), below the F/T sensor.
 
 None (no tool declared) leaves the model exactly as its MJCF is.
 """
@@ -19,7 +21,7 @@ None (no tool declared) leaves the model exactly as its MJCF is.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
@@ -40,17 +42,20 @@ class ToolSpec(NamedTuple):
         length_m: Flange to tool tip along the flange z axis [m].
         mass_kg: All the mass hanging below the flange (tool and F/T sensor) [kg]; None: the robot model's bodies.
         cog_m: Its centre of gravity in the flange frame [m]; None: half way along the tool (with a mass).
+        bending_stiffness_n_per_m: The tool's own bending stiffness at its tip, across its axis [N/m]
+            (`twin.robot.tool_bending`); None: a rigid tool.
     """
 
     length_m: float
     mass_kg: float | None = None
     cog_m: tuple[float, float, float] | None = None
+    bending_stiffness_n_per_m: float | None = None
 
     @classmethod
     def make(cls, length_m: float, mass_kg: float | None = None,
-             cog_m: Sequence[float] | None = None) -> ToolSpec:
+             cog_m: Sequence[float] | None = None, bending_stiffness_n_per_m: float | None = None) -> ToolSpec:
         """A validated tool: a positive finite length, a non-negative finite mass, a finite 3-vector centre of
-        gravity (only with a mass).
+        gravity (only with a mass), a positive finite bending stiffness.
 
         Raises:
             InputError: A value out of these bounds (naming it).
@@ -69,7 +74,17 @@ class ToolSpec(NamedTuple):
             if len(values) != 3:
                 raise InputError(f"ToolSpec.cog_m = {cog_m!r}: expected three numbers [m]")
             cog = (values[0], values[1], values[2])
-        return cls(length, mass, cog)
+        bending = None if bending_stiffness_n_per_m is None else _finite(bending_stiffness_n_per_m,
+                                                                        "bending_stiffness_n_per_m")
+        if bending is not None and bending <= 0.0:
+            raise InputError(f"ToolSpec.bending_stiffness_n_per_m = {bending_stiffness_n_per_m!r}: expected a "
+                             "positive stiffness [N/m]")
+        return cls(length, mass, cog, bending)
+
+    @property
+    def rigid(self) -> ToolSpec:
+        """This tool without its bending: the controller's and the kinematics' nominal tool."""
+        return self._replace(bending_stiffness_n_per_m=None)
 
     @property
     def cog(self) -> np.ndarray:
@@ -83,6 +98,8 @@ class ToolSpec(NamedTuple):
             out["mass_kg"] = self.mass_kg
         if self.cog_m is not None:
             out["cog_mm"] = [round(1e3 * v, 12) for v in self.cog_m]
+        if self.bending_stiffness_n_per_m is not None:
+            out["bending_stiffness_n_per_mm"] = round(self.bending_stiffness_n_per_m / 1e3, 12)
         return out
 
 
@@ -98,8 +115,6 @@ def apply_tool(spec: mujoco.MjSpec, tool: ToolSpec, *, flange_site: str, tool_si
     Raises:
         ModelError: The model lacks the flange or tool site, or the tool body does not hang below the flange's body.
     """
-    import mujoco
-
     flange, tcp = spec.site(flange_site), spec.site(tool_site)
     if flange is None or tcp is None:
         raise ModelError(f"the model has no site {flange_site if flange is None else tool_site!r}: cannot put the "
@@ -130,11 +145,38 @@ def apply_tool(spec: mujoco.MjSpec, tool: ToolSpec, *, flange_site: str, tool_si
         return R.T @ (p_fl + R_fl @ x_flange - p)
 
     tcp.pos = in_tool_body(tool.length_m * axis)
-    if tool.mass_kg is None:
+    if tool.mass_kg is None and tool.bending_stiffness_n_per_m is None:
         return
     if not chain:
-        raise ModelError(f"the tool site {tool_site!r} sits on the flange's own body: a declared tool mass needs a "
-                         "tool body")
+        raise ModelError(f"the tool site {tool_site!r} sits on the flange's own body: a declared tool mass or "
+                         "bending needs a tool body")
+    if tool.mass_kg is not None:
+        _put_mass(tool, chain, R, R_fl, in_tool_body)
+    if tool.bending_stiffness_n_per_m is not None:
+        from twin.robot.tool_bending import add_bending
+
+        # the flange frame in the tool body's frame, the bending about its x and y axes (the tip along its z)
+        R_flange = R.T @ R_fl @ _axis_frame(axis)
+        add_bending(spec, chain[0], tcp, R_flange, in_tool_body(np.zeros(3)), tool.length_m,
+                    tool.bending_stiffness_n_per_m)
+
+
+def _axis_frame(axis: np.ndarray) -> np.ndarray:
+    """A frame in the flange's whose z is the tool axis (the flange's own where the tool lies along its z)."""
+    z = axis / np.linalg.norm(axis)
+    if np.allclose(z, [0.0, 0.0, 1.0], atol=1e-12):
+        return np.eye(3)
+    x = np.cross([0.0, 1.0, 0.0], z) if abs(z[1]) < 0.9 else np.cross(z, [0.0, 0.0, 1.0])
+    x /= np.linalg.norm(x)
+    return np.column_stack([x, np.cross(z, x), z])
+
+
+def _put_mass(tool: ToolSpec, chain: list[mujoco.MjsBody], R: np.ndarray, R_fl: np.ndarray,
+              in_tool_body: Callable[[np.ndarray], np.ndarray]) -> None:
+    """The declared mass into the tool body (`chain[0]`), the bodies between it and the flange massless."""
+    import mujoco
+
+    assert tool.mass_kg is not None
     for b in chain[1:]:  # the bodies between the flange and the tool body: the declared mass includes them
         b.explicitinertial = True
         b.mass, b.ipos, b.inertia = 0.0, [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]

@@ -106,11 +106,14 @@ def describe_model_file(path: str | Path) -> tuple[Path, list[str]]:
     if not any(k.name == "home" for k in spec.keys):
         q = np.array([0.0 if j.range[0] <= 0.0 <= j.range[1] else 0.5 * (j.range[0] + j.range[1]) for j in joints])
         model = spec.compile()
+        qadr = np.array([model.jnt_qposadr[model.joint(j.name).id] for j in joints])
+        turned, q, by = _tool_down(model, qadr, q, model.site(frames["tool"]).id)
         qpos = model.qpos0.copy()
-        for j, value in zip(joints, q, strict=True):
-            qpos[model.jnt_qposadr[model.joint(j.name).id]] = value
+        qpos[qadr] = q
         spec.add_key(name="home", qpos=qpos.tolist(), ctrl=q.tolist())
-        assumed.append(f"no 'home' keyframe{' (a URDF has none)' if urdf else ''}: home is q = "
+        how = "every joint at 0 (or mid-range)" + (
+            "" if turned < 1e-3 else f", turned {turned:.0f} deg by {by} so the tool points down")
+        assumed.append(f"no 'home' keyframe{' (a URDF has none)' if urdf else ''}: home is {how}, q = "
                        f"{np.degrees(q).round(1).tolist()} deg; the sheet origin is the tool tip there")
     try:
         spec.compile()
@@ -135,6 +138,47 @@ def describe_model_file(path: str | Path) -> tuple[Path, list[str]]:
         encoding="utf-8",
     )
     return folder / "robot.toml", assumed
+
+
+def _tool_down(model: mujoco.MjModel, qadr: np.ndarray, q0: np.ndarray,
+               tcp: int) -> tuple[float, np.ndarray, str]:
+    """(the turn [deg], joint angles [rad], what turned) that point the tool tip site's z axis straight down from
+    `q0`: the twin forms with the tool down at home (`Kinematics.R_tool_down`), and a URDF's zero pose often points
+    its tool forward (ROS-Industrial's tool0). Damped least squares on the wrist (the last three joints orient the
+    tool), else on the whole arm, within the joints' limits; `q0` as it is where its tool already points down or
+    neither gets it within 1 deg (the twin then holds the tool down from the home pose's heading, as before).
+    """
+    joint_ids = [j for j in range(model.njnt) if model.jnt_qposadr[j] in set(qadr.tolist())]
+    dofs = np.array([model.jnt_dofadr[j] for j in joint_ids])
+    low, high = model.jnt_range[joint_ids].T
+    data = mujoco.MjData(model)
+    jac = np.zeros((3, model.nv))
+    down = np.array([0.0, 0.0, -1.0])
+
+    def tool_axis(q: np.ndarray) -> np.ndarray:
+        data.qpos[qadr] = q
+        mujoco.mj_kinematics(model, data)
+        return data.site_xmat[tcp].reshape(3, 3)[:, 2].copy()
+
+    if tool_axis(q0) @ down > np.cos(np.radians(1e-3)):
+        return 0.0, q0, "nothing"
+    for moving, by in ((np.arange(ARM_JOINTS - 3, ARM_JOINTS), "the wrist"), (np.arange(ARM_JOINTS), "the arm")):
+        q = q0.astype(float).copy()
+        for _ in range(200):
+            z = tool_axis(q)
+            error = np.cross(z, down)  # the rotation that takes z to down (axis times sine)
+            if z @ down < 0.0 and np.linalg.norm(error) < 1e-6:  # pointing straight up: turn about any axis
+                error = np.cross(z, np.array([1.0, 0.0, 0.0]))
+            if np.linalg.norm(error) < 1e-12 and z @ down > 0.0:
+                break
+            mujoco.mj_comPos(model, data)
+            mujoco.mj_jacSite(model, data, None, jac, tcp)
+            J = jac[:, dofs[moving]]
+            step = J.T @ np.linalg.solve(J @ J.T + 1e-6 * np.eye(3), error)
+            q[moving] = np.clip(q[moving] + np.clip(step, -0.3, 0.3), low[moving], high[moving])
+        if tool_axis(q) @ down > np.cos(np.radians(1.0)):
+            return float(np.degrees(np.linalg.norm(q - q0))), q, by
+    return 0.0, q0, "nothing"
 
 
 def _force_sensor(spec: mujoco.MjSpec) -> str:

@@ -3,8 +3,8 @@
 Modules: `format` (the format, `Stream`, `Run`, `meta.json`), `read` (reading and validation), `write` (atomic
 writing, never over an input), and the importers of real data: `mapping` (an import mapping file, read with
 `toml_keys`; its tracker frame in `mapping_frame`), `raw_tables` (vendor exports), `clock` (clock alignment), `registration` (tracker frame to sheet
-frame), `gravity` (tool weight removal), `importer` (the import itself) and `scan_file` (a scanner's point cloud
-of the formed part: PLY, XYZ, CSV).
+frame), `gravity` (tool weight removal), `importer` (the import itself), `scan_file` (a scanner's point cloud
+of the formed part: PLY, XYZ, CSV) and `contact` (whether a run's F/T stream saw any forming).
 
 Takes run directories and raw cell exports; gives validated `Run` objects.
 """

@@ -39,7 +39,8 @@ from twin.errors import DataFileError, InputError, ModelError, RunFormatError
 from twin.process.description import Process
 from twin.process.process_file import process_from_record, process_record
 from twin.process.toolpath.placement import Placement
-from twin.robot.description import RobotDescription, load_robot
+from twin.robot.description import load_robot
+from twin.robot.facts import RobotDescription
 
 RUN_FORMAT = "tx200-twin-run/1"
 RUN_FRAME = "sheet"

@@ -11,6 +11,7 @@ under `import`.
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -18,7 +19,9 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from twin.errors import InputError
+from twin.errors import AssumptionWarning, InputError
+from twin.process.description import Process
+from twin.process.process_file import ProcessDeclaration, process_record
 from twin.runs.clock import ClockFit, check_overlap, onset_offset, refine_on_reversals
 from twin.runs.format import RUN_FORMAT, Run, Stream
 from twin.runs.gravity import contact_force_sheet
@@ -229,7 +232,9 @@ def with_cell(
 ) -> ImportMapping:
     """The mapping with the command's `--robot`, `--origin-mm`, `--yaw-deg` and `--cell` (a cell file's record)
     laid over and under it by `twin.analysis.resolve.PRECEDENCE`: a typed flag > the mapping's `[run]` (the run's
-    record) > the cell > the robot's defaults; its tool length (`run.tool_length_mm`) > the cell's > the robot's.
+    record) > the cell > the robot's defaults; its tool length (`run.tool_length_mm`) > the cell's > the robot's; the
+    sensor's axes (`forces.sensor.R_sheet_sensor`) > the cell's `[ft_sensor]` mount with the tool held down and the
+    sheet's yaw (`twin.robot.ft_mount.sensor_in_sheet`) > the sheet's axes.
 
     Raises:
         InputError: `--robot` or the cell names another robot than the mapping's `run.robot` (both named).
@@ -252,10 +257,21 @@ def with_cell(
                          if v is not None), None),
     }
     length_m = mapping.tool_length_m
+    cell_length = ((cell or {}).get("tool") or {}).get("length_mm")
     if not mapping.tool_length_given:
-        cell_length = ((cell or {}).get("tool") or {}).get("length_mm")
         length_m = 1e-3 * float(cell_length) if cell_length is not None else load_robot(chosen).tool_length_m
-    return replace(mapping, robot=None if chosen is None else str(chosen), placement=placement, tool_length_m=length_m)
+    elif cell_length is not None and abs(1e3 * length_m - float(cell_length)) > 0.5:  # said: a copied example's?
+        warnings.warn(f"the mapping {mapping.path}'s run.tool_length_mm = {1e3 * length_m:g} mm wins over the cell's "
+                      f"{float(cell_length):g} mm tool (the run's record > the cell); leave it out of the mapping if "
+                      "the cell's tool made the run", AssumptionWarning, stacklevel=2)
+    sensor = mapping.sensor
+    mount = (cell or {}).get("ft_sensor")
+    if mount is not None and not mapping.sensor_rotation_given:
+        from twin.robot.ft_mount import sensor_in_sheet
+
+        sensor = replace(sensor, R_sheet_sensor=sensor_in_sheet(chosen, mount["rpy_deg"], placement["yaw_deg"]))
+    return replace(mapping, robot=None if chosen is None else str(chosen), placement=placement, tool_length_m=length_m,
+                   sensor=sensor)
 
 
 def import_to_directory(
@@ -267,6 +283,7 @@ def import_to_directory(
     origin_mm: Any = None,
     yaw_deg: float | None = None,
     cell: Mapping[str, Any] | None = None,
+    process: ProcessDeclaration | None = None,
 ) -> ImportResult:
     """Load a mapping, import its raw exports and write the run directory atomically.
 
@@ -276,14 +293,19 @@ def import_to_directory(
         overwrite: Replace an existing non-empty directory.
         robot, origin_mm, yaw_deg, cell: The command's `--robot`, `--origin-mm`, `--yaw-deg` as typed and its
             `--cell` record (`with_cell`); the run records the robot, the placement and the cell as a lab run does.
+        process: The sheet and tool declared (a `--cell`'s `[process]`): the run records it as its process (over
+            the thesis's), as a lab run records the process it formed; None or nothing declared: none recorded.
 
     Returns:
         The imported run (its `directory` set to `out`) and the import record.
     """
     mapping = with_cell(load_mapping(mapping_path), robot, origin_mm, yaw_deg, cell)
     result = import_run(mapping)
-    if cell is not None:
-        result = ImportResult(replace(result.run, meta={**result.run.meta, "cell": dict(cell)}), result.report)
+    declared = {} if process is None or not process.origins else {
+        "process": process_record(process.applied_to(Process()))}
+    if cell is not None or declared:
+        cell_meta = {} if cell is None else {"cell": dict(cell)}
+        result = ImportResult(replace(result.run, meta={**result.run.meta, **cell_meta, **declared}), result.report)
     target = write_run(out, result.run, overwrite=overwrite, protect=mapping.inputs())
     run = Run(
         target,

@@ -117,6 +117,8 @@ class ImportMapping:
         placement: `run.origin_mm` / `run.yaw_deg` [mm, deg] as written: {"origin_mm": [x, y, z] or None,
             "yaw_deg": number or None}.
         tool_length_given: Whether `run.tool_length_mm` was written (else `tool_length_m` is the robot's).
+        sensor_rotation_given: Whether `forces.sensor.R_sheet_sensor` was written (else a cell's `[ft_sensor]`
+            mount gives it, `twin.runs.importer.with_cell`, else the sheet's axes).
     """
 
     path: Path
@@ -134,6 +136,7 @@ class ImportMapping:
     robot: str | None = None
     placement: dict[str, Any] = field(default_factory=dict)
     tool_length_given: bool = False
+    sensor_rotation_given: bool = False
 
     def inputs(self) -> list[Path]:
         """Every file the mapping reads (never to be written over)."""
@@ -290,6 +293,7 @@ def load_mapping(path: str | Path) -> ImportMapping:
         placement={"origin_mm": None if r.get("run.origin_mm", None) is None else r.vector("run.origin_mm").tolist(),
                    "yaw_deg": None if r.get("run.yaw_deg", None) is None else r.number("run.yaw_deg")},
         tool_length_given=r.get("run.tool_length_mm", None) is not None,
+        sensor_rotation_given=r.get("forces.sensor.R_sheet_sensor", None) is not None,
     )
 
 

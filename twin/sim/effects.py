@@ -249,6 +249,9 @@ def parse_effect_args(items: list[str] | None) -> Effects:
             name = effect_name(given, "--effect")
         except InputError:
             raise InputError(f"--effect {item!r}: unknown effect {given!r}; valid: {listing}") from None
+        if name in values:
+            raise InputError(f"--effect {name} given twice ({item!r} after {name}={values[name]:g}): give each "
+                             "effect once")
         try:
             values[name] = float(text)
         except ValueError:

@@ -6,7 +6,7 @@ import mujoco
 import numpy as np
 
 from twin.base.signals import interp_rows
-from twin.robot.description import RobotDescription
+from twin.robot.facts import RobotDescription
 from twin.sim.result import SimResult
 
 

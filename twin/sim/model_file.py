@@ -12,8 +12,9 @@ read with `--model`:
      "effects": {"lost_motion": 0.15}, "units": {"lost_motion": "mrad"}, "lost_motion_takeup_mm": 2.0,
      "joint_stiffness_nm_per_rad": [...], "joint_friction_nm": [...],
      "servo": {"compliance_rad_per_nm": [...], "time_constant_s": ...} (learned by `learn`),
-     "tool": {"length_mm": 300.0, "mass_kg": 8.0, "cog_mm": [0, 0, 150]} (the declared tool, `TwinSpec.tool`;
-             absent: the robot model's own), "note": "..."}
+     "tool": {"length_mm": 300.0, "mass_kg": 8.0, "cog_mm": [0, 0, 150], "bending_stiffness_n_per_mm": 450.0}
+             (the declared tool, `TwinSpec.tool`, its bending at the tip optional; absent: the robot model's own),
+     "note": "..."}
 
 Every key but `format` may be left out (the default cell's value); a `material` of the library
 (`tx200-twin materials`) without `tensile_strength_mpa` takes the library's R_m, any other material (a user's)
@@ -24,6 +25,7 @@ warning naming it (`twin.sim.effects.RENAMED`). A history file is named relative
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import replace
 from pathlib import Path
@@ -50,7 +52,7 @@ MODEL_KEYS = ("format", "robot", "process", "placement", "effects", "units", "lo
 PROCESS_KEYS = (*RECORD_KEYS, "friction_reversal_mm", "force_model", "force_fit", "history")
 HISTORY_KEYS = ("file", "symmetry", "unchecked_symmetry")
 #: The keys of its `tool` object (the cell file's `[tool]`, its radius aside: that is the process's).
-TOOL_KEYS = ("length_mm", "mass_kg", "cog_mm")
+TOOL_KEYS = ("length_mm", "mass_kg", "cog_mm", "bending_stiffness_n_per_mm")
 
 
 def model_payload(spec: TwinSpec, note: str = "") -> dict[str, Any]:
@@ -203,7 +205,13 @@ def _tool(path: Path, entry: Any) -> ToolSpec | None:
     cog = entry.get("cog_mm")
     if cog is not None and (not isinstance(cog, Sequence) or isinstance(cog, str)):
         raise DataFileError(path, f"tool.cog_mm = {cog!r}: expected three numbers [mm]")
-    return ToolSpec.make(length, mass, None if cog is None else [float(v) / 1e3 for v in cog])
+    bending = entry.get("bending_stiffness_n_per_mm")
+    if bending is not None and (isinstance(bending, bool) or not isinstance(bending, int | float)
+                                or not 0.0 < bending < math.inf):
+        raise DataFileError(path, f"tool.bending_stiffness_n_per_mm = {bending!r}: expected a positive stiffness "
+                            "[N/mm]")
+    return ToolSpec.make(length, mass, None if cog is None else [float(v) / 1e3 for v in cog],
+                         None if bending is None else 1e3 * float(bending))
 
 
 def _force_fit(path: Path, entry: Any) -> tuple[tuple[str, float], ...]:

@@ -137,8 +137,9 @@ class OnlineCompensator:
         spec = spec or TwinSpec()
         self.settings = settings or OnlineSettings()
         twin = spec.build()
-        # the plain arm with the declared tool: its joints are the controller's
-        model = build_model(twin.robot, tool=spec.tool)
+        # the plain arm with the declared tool, rigid (its bending is not in the online law): its joints are the
+        # controller's
+        model = build_model(twin.robot, tool=None if spec.tool is None else spec.tool.rigid)
         if model.nv != twin.robot.dof:
             raise InputError(f"online compensation needs a plain {twin.robot.dof}-joint arm; {twin.robot.name} "
                              f"compiles to {model.nv} dofs")

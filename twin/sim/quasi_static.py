@@ -14,6 +14,7 @@ surface advances to where the tool really was.
 from __future__ import annotations
 
 from dataclasses import replace
+from typing import TYPE_CHECKING
 
 import mujoco
 import numpy as np
@@ -26,13 +27,16 @@ from twin.process.toolpath.groove import label_passes
 from twin.robot.kinematics import Kinematics
 from twin.robot.model import build_model, lost_joint_name, lost_motion_schedule
 from twin.robot.stiffness import joint_stiffness, set_joint_stiffness
+from twin.robot.tool_bending import bending_dofs
 from twin.sim.compiled import compiled_replay
 from twin.sim.compiled.work import tip_gains
 from twin.sim.equilibrium import EquilibriumSolver
 from twin.sim.ft_sensor import flange_sensor_forces
 from twin.sim.python_loop import python_loop
 from twin.sim.result import LoopOutput, SimResult
-from twin.sim.spec import TwinSpec
+
+if TYPE_CHECKING:  # a spec builds its twin (`TwinSpec.build`); the twin only reads the spec it is given
+    from twin.sim.spec import TwinSpec
 
 # Back-travel that declares a reversal of the commanded path [m]: a compensated command may step back a
 # fraction of a millimetre where the force ramps up, a real reversal travels a whole stroke (>= 61 mm).
@@ -52,23 +56,25 @@ class Twin:
     tips and forces are in the sheet frame, placed by the spec's placement.
 
     Args:
-        spec: The twin's specification; None: the default cell.
+        spec: The twin's specification (`TwinSpec()`: the default cell).
     """
 
     #: Run the per-sample loop compiled (`twin.sim.compiled`) where the model and field allow it; False: the
     #: Python loop, MuJoCo called per Newton iteration (the reference the compiled loop is tested against).
     use_compiled_loop: bool = True
 
-    def __init__(self, spec: TwinSpec | None = None) -> None:
-        self.spec = spec = spec or TwinSpec()
+    def __init__(self, spec: TwinSpec) -> None:
+        self.spec = spec
         self.robot, self.effects, self.placement = spec.robot, spec.effects, spec.placement
         self.history = spec.process.force_history()
         effects = self.effects
         self.model = build_model(self.robot, tool_offset_m=effects.tool_offset_m,
                                  lost_motion=effects.lost_motion_rad != 0, tool=spec.tool)
-        # the controller's kinematics (IK) use the nominal robot with the declared tool; a separate model only when
-        # effects change it
-        nominal = build_model(self.robot, tool=spec.tool) if effects.changes_model else self.model
+        # the controller's kinematics (IK) use the nominal robot with the declared tool, rigid (its bending hinges,
+        # `twin.robot.tool_bending`, are the tool's deflection); a separate model only when effects change it
+        bends = spec.tool is not None and spec.tool.bending_stiffness_n_per_m is not None
+        nominal = build_model(self.robot, tool=None if spec.tool is None else spec.tool.rigid) \
+            if effects.changes_model or bends else self.model
         if spec.joint_stiffness is not None:
             set_joint_stiffness(self.model, spec.joint_stiffness, self.robot)
             if nominal is not self.model:
@@ -87,7 +93,8 @@ class Twin:
         lost = [lost_joint_name(j) for j in self.robot.lost_motion_joints] if effects.lost_motion_rad != 0 else []
         self._lost_dof = np.array([m.jnt_dofadr[m.joint(name).id] for name in lost], dtype=int)
         self._lost_qpos = np.array([m.jnt_qposadr[m.joint(name).id] for name in lost], dtype=int)
-        self._lost_jnt = np.array([m.joint(name).id for name in lost], dtype=int)
+        #: The passive springs beside the arm joints' K_q: the lost-motion hinges and the tool's bending hinges.
+        self._passive_dof = np.concatenate([self._lost_dof, bending_dofs(m)])
         #: Column of each lost-motion joint among the arm joints.
         self._lost_arm = [self.robot.joints.index(j) for j in self.robot.lost_motion_joints]
         self.p_base_sheet_origin = self.placement.origin_in(self.kinematics)
@@ -137,8 +144,8 @@ class Twin:
     def _stiffness_diag(self) -> np.ndarray:
         k = np.zeros(self.model.nv)
         k[self._arm_dof] = self.joint_stiffness
-        if self._lost_dof.size:
-            k[self._lost_dof] = self.model.jnt_stiffness[self._lost_jnt]
+        if self._passive_dof.size:
+            k[self._passive_dof] = self.model.jnt_stiffness[self.model.dof_jntid[self._passive_dof]]
         return k
 
     def _gravity(self, qpos: np.ndarray) -> np.ndarray:

@@ -22,7 +22,8 @@ from twin.errors import InputError
 from twin.process.description import Process
 from twin.process.force.registry import force_model
 from twin.process.toolpath.placement import Placement
-from twin.robot.description import RobotDescription, load_robot
+from twin.robot.description import load_robot
+from twin.robot.facts import RobotDescription
 from twin.robot.tool import ToolSpec
 from twin.sim.effects import Effects
 from twin.sim.servo import ServoTransient

@@ -93,7 +93,7 @@ class Calibration:
     @property
     def joint_stiffness(self) -> np.ndarray:
         """Calibrated K_q of the arm joints [N·m/rad] (those not calibrated as in the model)."""
-        k = Twin().joint_stiffness
+        k = Twin(TwinSpec()).joint_stiffness
         for j, name in zip(_JOINTS, PARAMETERS[: len(_JOINTS)], strict=True):
             k[j] = self.values[name]
         return k

@@ -104,11 +104,15 @@ def design(rows: RobotRows, servo_s: float = 0.0) -> np.ndarray:
     return cols.transpose(2, 0, 1).reshape(-1, cols.shape[1])
 
 
-def _solve(runs: list[RobotRows], servo_s: float, c0: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+def _solve(runs: list[RobotRows], servo_s: float, c0: np.ndarray, free: np.ndarray | None = None,
+           frictionless: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, float]:
     """(coefficients, posterior covariance, RSS) of the regularised fit. Coefficients: the compliances c (dof),
     the friction deflections c_j·τ_f,j (dof) [rad], the servo's transient compliances c_s (dof), a tracker offset
-    per run and axis [m]."""
+    per run and axis [m]. A joint not `free` (default: all free) is held at its prior compliance with no friction
+    and no servo term, a `frictionless` one's friction at 0: their columns leave the fit (variance 0)."""
     dof = len(c0)
+    held = np.zeros(dof, dtype=bool) if free is None else ~np.asarray(free, dtype=bool)
+    no_friction = held | (np.zeros(dof, dtype=bool) if frictionless is None else np.asarray(frictionless, dtype=bool))
     blocks, ys = [], []
     for k, rows in enumerate(runs):
         m = len(rows.t_s)
@@ -119,6 +123,12 @@ def _solve(runs: list[RobotRows], servo_s: float, c0: np.ndarray) -> tuple[np.nd
         blocks.append(np.hstack([design(rows), friction, design(rows, servo_s), extra]))
         ys.append(rows.deflection_m.T.reshape(-1))
     X, y = np.vstack(blocks), np.concatenate(ys)
+    # the held joints' prior deflection is taken out of the data; the held columns out of the fit
+    drop = np.concatenate([held, no_friction, held, np.zeros(3 * len(runs), dtype=bool)])
+    if drop.any():
+        y = y - X[:, :dof][:, held] @ c0[held]
+        X = X.copy()
+        X[:, drop] = 0.0
     # the noise level from an unregularised solve, floored at 10 µm
     sigma = max(float(np.std(y - X @ np.linalg.lstsq(X, y, rcond=1e-10)[0])), 1e-5)
     prior_precision = np.concatenate([1.0 / (PRIOR_SPREAD * c0) ** 2, 1.0 / (FRICTION_SPREAD_NM * c0) ** 2,
@@ -127,7 +137,12 @@ def _solve(runs: list[RobotRows], servo_s: float, c0: np.ndarray) -> tuple[np.nd
     b = X.T @ y / sigma**2 + prior_precision * np.concatenate([c0, np.zeros(2 * dof + 3 * len(runs))])
     cov = np.linalg.inv(A)
     coef = cov @ b
-    return coef, cov, float(np.sum((y - X @ coef) ** 2))
+    rss = float(np.sum((y - X @ coef) ** 2))
+    if drop.any():
+        coef[drop] = 0.0
+        coef[:dof][held] = c0[held]
+        cov = cov * np.outer(~drop, ~drop)
+    return coef, cov, rss
 
 
 def predicted_deflection(rows: RobotRows, fit: RobotFit, offset_m: np.ndarray) -> np.ndarray:
@@ -153,8 +168,16 @@ def fit_robot(runs: list[Run], twin: Twin) -> RobotFit:
     best = min(SERVO_TIME_CONSTANTS_S, key=lambda tau: _solve(rows, tau, c0)[2])
     coef, cov, _ = _solve(rows, best, c0)
     dof = len(c0)
+    observable = np.sqrt(np.diag(cov)[:dof]) < OBSERVABLE_RATIO * PRIOR_SPREAD * c0
+    frictionless = np.zeros(dof, dtype=bool)
+    for _ in range(dof):  # refit with the joints the runs cannot observe held at their prior, friction >= 0
+        frictionless |= coef[dof:2 * dof] < 0.0
+        if observable.all() and not frictionless.any():
+            break
+        coef, cov, _ = _solve(rows, best, c0, observable, frictionless)
+        if np.all(coef[dof:2 * dof] >= 0.0):
+            break
     c, c_std = coef[:dof], np.sqrt(np.diag(cov)[:dof])
-    observable = c_std < OBSERVABLE_RATIO * PRIOR_SPREAD * c0
     c = np.where(observable & (c > 0.05 * c0), c, np.where(observable, 0.05 * c0, c0))
     k = 1.0 / c
     k_std = np.where(observable, c_std / c**2, PRIOR_SPREAD * k0)

@@ -32,7 +32,7 @@ from twin.apps.export.program import (
 )
 from twin.base.registry import Registry
 from twin.errors import InputError
-from twin.robot.description import RobotDescription
+from twin.robot.facts import RobotDescription
 
 Writer = Callable[[ProgramPath, Path, Sequence[Path]], list[Path]]
 

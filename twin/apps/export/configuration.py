@@ -50,8 +50,9 @@ import numpy as np
 
 from twin.apps.export.reach import path_joint_angles
 from twin.errors import InputError, ModelError
-from twin.robot.description import DhTable, RobotDescription, load_robot
+from twin.robot.description import load_robot
 from twin.robot.dh import dh_transforms
+from twin.robot.facts import DhTable, RobotDescription
 
 #: The vendors' definitions (S/T bits, cf1/cf4/cf6, shoulder/elbow/wrist) are those of six-axis arms.
 ARM_AXES = 6

@@ -22,7 +22,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from pathlib import Path
 
-from twin.apps.export import krl
+import twin.apps.export.krl as krl
 from twin.apps.export.program import ProgramPath
 from twin.base.csvio import write_text
 

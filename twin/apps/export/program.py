@@ -31,7 +31,8 @@ from twin.apps.export.configuration import RobotConfiguration, path_configuratio
 from twin.apps.export.reach import path_joint_angles
 from twin.errors import InputError
 from twin.process.toolpath.placement import Placement
-from twin.robot.description import DEFAULT_ROBOT, RobotDescription, load_robot, robot_record
+from twin.robot.description import DEFAULT_ROBOT, load_robot, robot_record
+from twin.robot.facts import RobotDescription
 from twin.runs.read import read_commanded_csv
 
 POSITION_DECIMALS = 4  # mm: 0.1 µm, below the tracker's 0.02 mm noise
@@ -171,7 +172,12 @@ def default_cell(
     place = placement or Placement()
     R_base_sheet = place.R_base_sheet
     if tool_mass_kg is None:
-        tool_mass_kg = float(kin.model.body_subtreemass[kin.model.site(kin.robot.tool_site).bodyid[0]])
+        body = kin.model.site(kin.robot.tool_site).bodyid[0]
+        tool_mass_kg = float(kin.model.body_subtreemass[body])
+        if tool_mass_kg <= 0.0:  # a URDF's tool links often carry no inertial: a program's load data needs one
+            raise InputError(f"robot {kin.robot.name}'s model carries no mass at its tool (body "
+                             f"{kin.model.body(body).name!r}: 0 kg): declare the tool's mass, --tool-mass-kg M or a "
+                             "cell's [tool] mass_kg (the program's load data)")
     return CellSetup(
         place.origin_in(kin) * 1e3,
         R_base_sheet.T @ kin.R_tool_down,

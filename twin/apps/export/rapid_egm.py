@@ -52,7 +52,7 @@ from collections.abc import Sequence
 from dataclasses import replace
 from pathlib import Path
 
-from twin.apps.export import rapid
+import twin.apps.export.rapid as rapid
 from twin.apps.export.parts import parts
 from twin.apps.export.program import ProgramPath
 from twin.base.csvio import write_text

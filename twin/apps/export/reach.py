@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from twin.errors import InputError, SingularityError, UnreachableError
-from twin.robot.description import RobotDescription
+from twin.robot.facts import RobotDescription
 
 if TYPE_CHECKING:
     from twin.robot.kinematics import Kinematics

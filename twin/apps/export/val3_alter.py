@@ -53,7 +53,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from pathlib import Path
 
-from twin.apps.export import val3
+import twin.apps.export.val3 as val3
 from twin.apps.export.program import ProgramPath, cell_lines
 from twin.apps.online.alter_protocol import (
     ANSWER_BYTES,

@@ -41,6 +41,8 @@ from twin.errors import InputError
 
 #: The first int32 of every frame: b"TWA1" little-endian.
 MAGIC = 0x31415754
+#: `MAGIC` as it is on the wire: where a stream out of step finds its next frame.
+MAGIC_BYTES = struct.pack("<i", MAGIC)
 #: Joints in a request.
 JOINTS = 6
 REQUEST = struct.Struct("<ii6f")

@@ -17,8 +17,8 @@ we could read it; the correction there is sent in the last moving frame. `age` i
 
 The F/T sample comes from a `ForceSource` (the sensor's own stream, `twin.apps.online.rdt`) or, without one, from
 the message's `measuredForce` (ABB Force Control's sensor, its first three values taken as the sheet-frame force
-[N]). The server's loop is bounded as `rsi`'s is; a message with a joint, a force or a planned pose not finite is
-answered with the last correction and counted unreadable, as there.
+[N]). The server's loop is bounded, and serves one peer per session, as `rsi`'s does; a message with a joint, a
+force or a planned pose not finite is answered with the last correction and counted unreadable, as there.
 """
 
 from __future__ import annotations
@@ -28,9 +28,9 @@ from typing import Any
 
 import numpy as np
 
-from twin.apps.online.cycle import ServedCycle, ServeReport, serve_udp, udp_socket
+from twin.apps.online.cycle import DEFAULT_START_TIMEOUT_S, ServedCycle, ServeReport, serve_udp, udp_socket
 from twin.apps.online.source import ForceSource
-from twin.robot.description import RobotDescription
+from twin.robot.facts import RobotDescription
 from twin.sim.online import OnlineCompensator
 
 #: Below this motion between two messages the path direction is kept [mm].
@@ -114,13 +114,15 @@ class EgmServer:
         """Stop listening."""
         self.sock.close()
 
-    def serve(self, R_base_sheet: np.ndarray, max_cycles: int, idle_timeout_s: float = 1.0) -> ServeReport:
-        """Answer messages until `max_cycles` were answered or none came for `idle_timeout_s`.
+    def serve(self, R_base_sheet: np.ndarray, max_cycles: int, idle_timeout_s: float = 1.0,
+              start_timeout_s: float = DEFAULT_START_TIMEOUT_S) -> ServeReport:
+        """Answer messages until `max_cycles` were answered or none came for the start or idle timeout.
 
         Args:
             R_base_sheet: The sheet's axes in the robot base.
             max_cycles: Most messages to answer (a bound: the loop stops by itself).
-            idle_timeout_s: Stop when no message came for this long [s].
+            idle_timeout_s: Stop when no message was answered for this long after the last [s].
+            start_timeout_s: Stop when no first message was answered for this long [s].
         """
         pb = self.pb
         cycle = ServedCycle(self.compensator, self.robot, R_base_sheet)
@@ -157,7 +159,7 @@ class EgmServer:
                 reply.pathCorr.pos.x, reply.pathCorr.pos.y, reply.pathCorr.pos.z = corr_path
             return reply.SerializeToString()
 
-        return serve_udp(self.sock, max_cycles, idle_timeout_s, answer, cycle)
+        return serve_udp(self.sock, max_cycles, idle_timeout_s, answer, cycle, start_timeout_s)
 
     def _take_force(self, robot_msg: Any, cycle: ServedCycle, t: float) -> bool:
         """The newest F/T sample into the cycle: the force source's, or the message's measured force; False (nothing

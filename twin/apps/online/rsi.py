@@ -9,10 +9,12 @@ without one is a cycle without a new sample, which the compensator's watchdog ha
 sensor's own stream (a `ForceSource`, e.g. ATI RDT), read by the server. `RKorr` X Y Z is the
 correction in the robot's base frame [mm], absolute (the RSI object's correction mode `#ABSOLUTE`), A B C zero.
 
-The server's loop is bounded: it stops after `max_cycles` packets, or when no packet was answered for
-`idle_timeout_s`. It reports the per-cycle compute time (parse, compensate, answer) and the packets it could not
-read. A packet with an axis or a force not finite (`inf`, `nan`, `1e999`) is answered with the last correction,
-unchanged, and counted unreadable: the compensator never sees it, and the session goes on.
+The server's loop is bounded: it stops after `max_cycles` packets, when no first packet was answered within
+`start_timeout_s`, or when none was answered for `idle_timeout_s` after the last. It answers one peer per session
+(the first whose packet it took) and counts, never answers, any other sender's packets (`twin.apps.online.cycle`).
+It reports the per-cycle compute time (parse, compensate, answer) and the packets it could not read. A packet with
+an axis or a force not finite (`inf`, `nan`, `1e999`) is answered with the last correction, unchanged, and counted
+unreadable: the compensator never sees it, and the session goes on.
 """
 
 from __future__ import annotations
@@ -22,10 +24,10 @@ from typing import NamedTuple
 
 import numpy as np
 
-from twin.apps.online.cycle import ServedCycle, ServeReport, serve_udp, udp_socket
+from twin.apps.online.cycle import DEFAULT_START_TIMEOUT_S, ServedCycle, ServeReport, serve_udp, udp_socket
 from twin.apps.online.source import ForceSource
 from twin.errors import InputError
-from twin.robot.description import RobotDescription
+from twin.robot.facts import RobotDescription
 from twin.sim.online import OnlineCompensator
 
 _IPOC = re.compile(rb"<IPOC>\s*(\d+)\s*</IPOC>")
@@ -100,13 +102,15 @@ class RsiServer:
         """Stop listening."""
         self.sock.close()
 
-    def serve(self, R_base_sheet: np.ndarray, max_cycles: int, idle_timeout_s: float = 1.0) -> ServeReport:
-        """Answer packets until `max_cycles` were answered or none came for `idle_timeout_s`.
+    def serve(self, R_base_sheet: np.ndarray, max_cycles: int, idle_timeout_s: float = 1.0,
+              start_timeout_s: float = DEFAULT_START_TIMEOUT_S) -> ServeReport:
+        """Answer packets until `max_cycles` were answered or none came for the start or idle timeout.
 
         Args:
             R_base_sheet: The sheet's axes in the robot base (the compensator's frame into RSI's base frame).
             max_cycles: Most packets to answer (a bound: the loop stops by itself).
-            idle_timeout_s: Stop when no packet came for this long [s].
+            idle_timeout_s: Stop when no packet was answered for this long after the last [s].
+            start_timeout_s: Stop when no first packet was answered for this long [s].
         """
         cycle = ServedCycle(self.compensator, self.robot, R_base_sheet)
 
@@ -124,4 +128,4 @@ class RsiServer:
                     return sen_packet(rob.ipoc, cycle.hold())  # an F/T value not finite: the last correction
             return sen_packet(rob.ipoc, cycle.step(t, rob.axes_deg))
 
-        return serve_udp(self.sock, max_cycles, idle_timeout_s, answer, cycle)
+        return serve_udp(self.sock, max_cycles, idle_timeout_s, answer, cycle, start_timeout_s)

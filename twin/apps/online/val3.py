@@ -14,11 +14,16 @@ the cycle's time are both on this process's `time.perf_counter` clock, so the co
 like with like. Without a force source the stamp stays NaN and the compensator corrects nothing (no start without
 a sensor): every answer is zero.
 
-The loop is bounded: it stops after `max_cycles` requests answered, when no request (or no connection) came for
-`idle_timeout_s`, or when the robot closes the connection. A request it cannot read (wrong size is impossible on a
-stream; a wrong magic, a negative sequence number, a joint not finite) is counted unreadable and answered with the
-last correction and the frame's sequence number field (0 when negative). Each cycle reads into, and answers from,
-buffers allocated once; only the frame's unpacking makes a small tuple.
+The loop is bounded: it stops after `max_cycles` requests answered, when no connection and first request came
+within `start_timeout_s` ("start_timeout"), when no request came for `idle_timeout_s` after the last answer, or when
+the robot closes the connection. A request it cannot read (a negative sequence number, a joint not finite) is
+counted unreadable and answered with the last correction and the frame's sequence number field (0 when negative).
+A frame that holds `MAGIC` after its first byte is a stream out of step (stray bytes before a frame, a frame cut
+short and the next one begun): the bytes before that magic are dropped unanswered (counted unreadable) and the
+frame read from there, so one bad frame never puts every later one out of step; a wrong magic with none further on
+is answered as unreadable. (A sequence number 826366804 or a joint of 2.8e-9 deg, whose bytes spell "TWA1", would
+read as such a stream: a frame lost, no more.) Each cycle reads into, and answers from, buffers allocated once;
+only the frame's unpacking makes a small tuple (and a resynchronisation, which is rare, one copy).
 """
 
 from __future__ import annotations
@@ -35,15 +40,16 @@ import numpy as np
 from twin.apps.online.alter_protocol import (
     ANSWER_BYTES,
     JOINTS,
+    MAGIC_BYTES,
     REQUEST_BYTES,
     decode_request_into,
     encode_answer_into,
     frame_seq,
 )
-from twin.apps.online.cycle import ServedCycle, ServeReport, check_bounds
+from twin.apps.online.cycle import DEFAULT_START_TIMEOUT_S, ServedCycle, ServeReport, check_bounds
 from twin.apps.online.source import ForceSource
 from twin.errors import InputError
-from twin.robot.description import RobotDescription
+from twin.robot.facts import RobotDescription
 from twin.sim.online import OnlineCompensator
 
 __all__ = ["ServeReport", "Val3Server"]
@@ -87,35 +93,41 @@ class Val3Server:
         """Stop listening."""
         self.sock.close()
 
-    def serve(self, R_base_sheet: np.ndarray, max_cycles: int, idle_timeout_s: float = 1.0) -> ServeReport:
-        """Accept the robot's connection and answer its requests until `max_cycles` were answered, none came for
-        `idle_timeout_s`, or the robot closed the connection.
+    def serve(self, R_base_sheet: np.ndarray, max_cycles: int, idle_timeout_s: float = 1.0,
+              start_timeout_s: float = DEFAULT_START_TIMEOUT_S) -> ServeReport:
+        """Accept the robot's connection and answer its requests until `max_cycles` were answered, no connection
+        and first request came within `start_timeout_s`, none came for `idle_timeout_s` after the last answer, or
+        the robot closed the connection.
 
         Args:
             R_base_sheet: The sheet's axes in the robot base (the compensator's frame into the base frame that
                 `alterBegin(world, ...)` alters in).
             max_cycles: Most requests to answer (a bound: the loop stops by itself).
-            idle_timeout_s: Stop when no connection or no request came for this long [s].
+            idle_timeout_s: Stop when no request came for this long after the last answer [s].
+            start_timeout_s: Stop when no connection and first request came for this long [s].
 
         Returns:
             Requests answered (the unreadable ones among them), per-cycle compute [µs], why it stopped:
-            "cycles", "idle" or "disconnected", and the further connections refused meanwhile.
+            "cycles", "idle", "disconnected" or "start_timeout", and the further connections refused meanwhile.
         """
-        check_bounds(max_cycles, idle_timeout_s)
+        check_bounds(max_cycles, idle_timeout_s, start_timeout_s)
         cycle = ServedCycle(self.compensator, self.robot, R_base_sheet)
         compute = np.zeros(max_cycles)
         self.refused = 0
-        self.sock.settimeout(idle_timeout_s)
+        start_deadline = time.perf_counter() + start_timeout_s
+        self.sock.settimeout(start_timeout_s)
         try:
             conn, peer = self.sock.accept()
         except TimeoutError:
-            return ServeReport(0, 0, compute[:0], "idle")
+            return cycle.report(0, 0, compute[:0], "start_timeout")
         with conn:
-            conn.settimeout(idle_timeout_s)
+            conn.settimeout(max(idle_timeout_s, start_timeout_s))
             with contextlib.suppress(OSError):  # a socket that cannot take the option still works
                 conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-            cycles, unreadable, stopped = self._answer(conn, cycle, compute, max_cycles, idle_timeout_s, peer)
-        return ServeReport(cycles, unreadable + cycle.rejected, compute[:cycles], stopped, self.refused)
+            cycles, unreadable, stopped = self._answer(conn, cycle, compute, max_cycles, idle_timeout_s, peer,
+                                                       start_deadline)
+            self._refuse_waiting(peer)  # none left waiting in the backlog for a session that is over
+        return cycle.report(cycles, unreadable, compute[:cycles], stopped, self.refused)
 
     def _refuse(self, peer: object) -> None:
         """Close a connection that came while a session runs, count it and log a line."""
@@ -127,6 +139,13 @@ class Val3Server:
         self.refused += 1
         self.log(f"online val3: refused a second connection from {_address(address)} while the session with "
                  f"{_address(peer)} runs (one peer per session); {self.refused} refused so far")
+
+    def _refuse_waiting(self, peer: object) -> None:
+        """Refuse every connection already waiting to be accepted (bounded: the listen backlog)."""
+        for _ in range(64):
+            if self.sock.fileno() < 0 or not select.select([self.sock], [], [], 0.0)[0]:
+                return
+            self._refuse(peer)
 
     def _wait(self, conn: socket.socket, deadline: float, peer: object) -> bool:
         """Wait until the robot's connection has bytes (True) or `deadline` passed (False), refusing any further
@@ -142,28 +161,35 @@ class Val3Server:
                 return True
 
     def _answer(self, conn: socket.socket, cycle: ServedCycle, compute: np.ndarray, max_cycles: int,
-                idle_timeout_s: float, peer: object) -> tuple[int, int, str]:
+                idle_timeout_s: float, peer: object, start_deadline: float) -> tuple[int, int, str]:
         """The request loop on one connection; returns (answered, unreadable, why it stopped)."""
         request = bytearray(REQUEST_BYTES)
         view = memoryview(request)
         answer = bytearray(ANSWER_BYTES)
         axes_deg = np.zeros(JOINTS)
-        cycles = unreadable = 0
+        cycles = unreadable = got = 0
         while cycles < max_cycles:
-            got = 0
-            deadline = time.perf_counter() + idle_timeout_s
+            deadline = start_deadline if cycles == 0 else time.perf_counter() + idle_timeout_s
+            silent = "start_timeout" if cycles == 0 else "idle"
             while got < REQUEST_BYTES:  # a stream: a frame may come in pieces
                 if not self._wait(conn, deadline, peer):
-                    return cycles, unreadable, "idle"
+                    return cycles, unreadable, silent
                 try:
                     n = conn.recv_into(view[got:], REQUEST_BYTES - got)
                 except TimeoutError:
-                    return cycles, unreadable, "idle"
+                    return cycles, unreadable, silent
                 except OSError:  # reset by the robot
                     return cycles, unreadable, "disconnected"
                 if n == 0:
                     return cycles, unreadable, "disconnected"
                 got += n
+            at = request.find(MAGIC_BYTES, 1)
+            if at > 0:  # out of step: drop what comes before the next frame's magic, read that frame to its end
+                unreadable += 1
+                request[:REQUEST_BYTES - at] = request[at:]
+                got = REQUEST_BYTES - at
+                continue
+            got = 0
             start = time.perf_counter()
             try:
                 seq = decode_request_into(request, axes_deg)

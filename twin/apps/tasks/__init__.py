@@ -11,7 +11,8 @@ returning the result. The CLI (`twin/cli/`) only parses options into the request
     print(report.record()["robot_gap_rms_mm"])
 
 Modules: `base` (the `Report` base), and one per command (`replay`, `identify` with `identify_sheet`, `calibrate`,
-`reproduce`, `compensate` with `compensate_part`, `check`, `place`, `path`, `lab` with `lab_dynamic`,
+`reproduce`, `compensate` with `compensate_part`, `check`, `place`, `path`, `lab` with `lab_dynamic`, `lab_cnc`
+and `lab_output`,
 `export`, `learn`, `discrepancy`, `sweep`, `robots`, `materials`, ...); `inputs` holds what several tasks
 declare alike (the FE history with its symmetry, the ideal path).
 """

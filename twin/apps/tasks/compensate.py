@@ -205,16 +205,19 @@ def compensate_task(request: CompensateRequest, note: Note = silent) -> Report:
 
         return compensate_part_task(request, note)
     from twin.analysis.check import diagnose_gain  # the check loads the twin
+    from twin.sim.compiled.rigid import rigid_forces  # numba: only when a compensation runs
 
     declared, reference = request.history.load()
     ideal = ideal_path(request.ideal)
     spec = request.spec(ideal.p_sheet_m, declared, note)
-    f_reference = build_force_field(spec.process, reference).rigid_forces(ideal)
+    f_reference = rigid_forces(build_force_field(spec.process, reference), ideal)
     comp, c_r, predicted, f_used = _compensate(request, spec, ideal, declared)
     gain = gain_of(comp, f_reference, c_r)
-    history_file = None if request.history.path is None else str(request.history.path)
-    record = CompensationRecord(request.method, comp.t_s, f_used, declared.symmetry, declared.column_symmetry,
-                                history_file)
+    # an FE history's symmetry is evidence only where its forces were used (the table model; the formula's K_R)
+    uses_history = request.method == "formula" or spec.process.force_model == "table"
+    history_file = None if request.history.path is None or not uses_history else str(request.history.path)
+    record = CompensationRecord(request.method, comp.t_s, f_used, declared.symmetry if uses_history else None,
+                                declared.column_symmetry if uses_history else None, history_file)
     write_command(request.out, comp.t_s, comp.p_cmd_sheet_m, request.inputs())
     record_file = write_record(request.out, record)
     return CompensateReport(request, spec, declared, comp, c_r, predicted, gain,
@@ -231,13 +234,18 @@ def _compensate(
         if request.stiffness is None:  # here, not in the request: a bad ideal path or model is named first
             raise InputError("--method formula needs --stiffness FILE with k_r_n_per_mm (e.g. an identify output)")
         c_r = compliance_from_stiffness(read_stiffness(request.stiffness))
-        f_ideal = build_force_field(spec.process, declared).rigid_forces(ideal)
+        from twin.sim.compiled.rigid import rigid_forces  # the twin above loaded numba
+        f_ideal = rigid_forces(build_force_field(spec.process, declared), ideal)
         comp = compensate_formula(ideal.t_s, ideal.p_sheet_m, f_ideal, c_r)
         return comp, c_r, twin.simulate(comp.t_s, comp.p_cmd_sheet_m).p_sheet_m - ideal.p_sheet_m, f_ideal
     comp = compensate_twin(ideal.t_s, ideal.p_sheet_m, twin, tol_m=1e-3 * request.tol_mm, max_iter=request.max_iter)
-    assert comp.predicted_residual_m is not None
-    f_twin = twin.simulate(comp.t_s, comp.p_cmd_sheet_m).f_sheet_n  # the forces the twin predicts for its command
-    return comp, twin.kinematics.compliance(twin.kinematics.q_home), comp.predicted_residual_m, f_twin
+    assert comp.predicted_residual_m is not None and comp.predicted_force_n is not None
+    # the forces the twin predicts for its command (the simulation that gave its residual)
+    from twin.robot.tool_bending import bending_compliance_at
+
+    q_home = twin.kinematics.q_home  # the joints' compliance and the tool's own bending (`twin.robot.tool_bending`)
+    c_r = twin.kinematics.compliance(q_home) + bending_compliance_at(twin.model, twin.robot, q_home)
+    return comp, c_r, comp.predicted_residual_m, comp.predicted_force_n
 
 
 def read_stiffness(path: Path) -> np.ndarray:

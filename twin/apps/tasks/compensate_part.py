@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import trimesh
@@ -24,15 +24,18 @@ from twin.analysis.part_compensation import (
 from twin.analysis.scan_learning import learn_from_scan, twin_discrepancy
 from twin.analysis.surface_check import read_target_mesh, region_deviation
 from twin.apps.tasks.base import Note, Report, silent
-from twin.apps.tasks.compensate import CompensateRequest, write_command
 from twin.apps.tasks.inputs import ideal_path
 from twin.errors import InputError
 from twin.process.description import Process
 from twin.process.force.registry import build_force_field
 from twin.process.part.match import check_same_part
 from twin.process.toolpath.groove import ToolPath, label_passes
-from twin.runs.format import Run, run_process
+from twin.runs.format import Run, Stream, run_process
 from twin.runs.read import read_run
+from twin.runs.write import write_path_csv
+
+if TYPE_CHECKING:
+    from twin.apps.tasks.compensate import CompensateRequest
 
 Found = tuple[np.ndarray, np.ndarray, list[PartStage], dict[str, Any]]
 """A part command: its times [s] (n,), the command, sheet frame [m] (n, 3), its stages and its numbers."""
@@ -111,7 +114,8 @@ def compensate_part_task(request: CompensateRequest, note: Note = silent) -> Par
         learn = _learn_on_twin if request.learn_at == "twin" else _learn_from_scan
         found = learn(request, design, last, scanned, note)
     t_s, command, stages, numbers = found
-    write_command(request.out, t_s, command, protect)
+    write_path_csv(Stream(np.asarray(t_s, dtype=float), np.asarray(command, dtype=float)), request.out,
+                   protect=protect)  # the command, as `compensate` writes one
     record_file = write_record(request.out, _record(request, t_s, command))
     figure = rrd = None
     if request.figure is not None:

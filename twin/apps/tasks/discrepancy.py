@@ -16,9 +16,11 @@ from twin.analysis.learn.cell import Gap
 from twin.analysis.resolve import AUTO, resolve_spec
 from twin.apps.tasks.base import Note, Report, silent
 from twin.apps.tasks.inputs import HistoryDeclaration
+from twin.base.outputs import repeated_input
 from twin.errors import InputError
 from twin.process.force.registry import FORCE_MODELS
 from twin.process.process_file import ProcessDeclaration, process_record
+from twin.runs.contact import require_forming_contact
 from twin.runs.format import Run
 from twin.runs.read import read_run
 from twin.sim.model_file import write_model_file
@@ -59,6 +61,9 @@ class DiscrepancyRequest:
     cell: dict[str, Any] | None = None
 
     def __post_init__(self) -> None:
+        if self.held_out is not None and repeated_input([self.run_dir, self.held_out]) is not None:
+            raise InputError(f"--held-out {self.held_out} is the run {self.run_dir} itself: a held-out run is "
+                             "another run of the same cell, never learned from")
         if self.force_model != AUTO and self.force_model not in FORCE_MODELS:
             raise InputError(f"force_model {self.force_model!r}: expected 'auto' or a registered force model "
                              f"({', '.join(FORCE_MODELS)})")
@@ -160,6 +165,7 @@ def discrepancy_task(request: DiscrepancyRequest, note: Note = silent) -> Discre
         RunFormatError: A bad run folder (naming the file and row).
     """
     measured = read_run(request.run_dir)
+    require_forming_contact(measured, "`discrepancy`")
     declared, _ = request.history.load()
     spec = resolve_spec(cell=request.cell, model=request.model, robot=request.robot, run=measured, declaration=request.declaration,
                         force_model_name=request.force_model, history=declared,

@@ -33,7 +33,8 @@ from twin.apps.export.program import default_cell
 from twin.apps.tasks.base import Note, Report, silent
 from twin.errors import InputError
 from twin.process.description import check_plausible
-from twin.robot.description import RobotDescription, load_robot
+from twin.robot.description import load_robot
+from twin.robot.facts import RobotDescription
 from twin.runs.format import run_robot
 from twin.runs.read import read_run
 

@@ -5,7 +5,8 @@ sheet instead (`twin.apps.tasks.identify_sheet`). One request says which, and `i
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from collections.abc import Mapping
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -20,12 +21,14 @@ from twin.analysis.identify.rollouts import (
     kq_from_stiffness,
     write_joint_stiffness,
 )
-from twin.analysis.resolve import AUTO, resolve_robot
+from twin.analysis.resolve import AUTO, resolve_process, resolve_robot
+from twin.analysis.tool_choice import resolve_tool_spec
 from twin.apps.tasks.base import Note, Report, silent
 from twin.apps.tasks.identify_sheet import forces_task, springback_task
 from twin.errors import InputError
 from twin.process.description import Process
 from twin.process.process_file import ProcessDeclaration
+from twin.runs.contact import require_forming_contact
 from twin.runs.format import run_placement, run_process
 from twin.runs.read import read_run
 from twin.sim.spec import TwinSpec
@@ -49,6 +52,7 @@ class IdentifyRequest:
         force_model: With `forces` or `springback`: a registered force model, or "auto".
         robot: A robot name or description file (a run's own must match), or None.
         write_model: Where to put the result into the twin (a model file; K_q also as `*.xml` MJCF), or None.
+        cell: A `--cell` file's record: its tool is the twin's (below a run's, `resolve_tool_spec`), or None.
     """
 
     method: int = 1
@@ -62,6 +66,7 @@ class IdentifyRequest:
     force_model: str = AUTO
     robot: str | Path | None = None
     write_model: Path | None = None
+    cell: Mapping[str, Any] | None = None
 
     def __post_init__(self) -> None:
         if self.method not in METHODS:
@@ -263,13 +268,15 @@ def _method1(request: IdentifyRequest) -> Method1Report:
     assert request.loads is not None  # checked by the request
     f_n, d_m = load_cases_csv(request.loads)
     fit = fit_kr_load_cases(f_n, d_m)
-    twin = TwinSpec(robot=resolve_robot(request.robot)).build()
+    robot = resolve_robot(request.robot)
+    # the Jacobian at home is the cell tool's: K_q from K_R depends on the tool's length
+    twin = TwinSpec(robot=robot, tool=resolve_tool_spec(robot, cell=request.cell)).build()
     joint = kq_from_stiffness(twin, fit.k_r_n_per_m)
     k_q = np.where(np.isfinite(joint.k_q_nm_per_rad), joint.k_q_nm_per_rad, twin.joint_stiffness)
     written = None
     if request.write_model is not None:
         written = write_joint_stiffness(request.write_model, k_q, note=f"K_q from Method 1 on {request.loads}",
-                                        spec=TwinSpec(robot=twin.robot))
+                                        spec=TwinSpec(robot=twin.robot, tool=twin.spec.tool))
     return Method1Report(request.loads, len(f_n), fit, joint, k_q, written)
 
 
@@ -280,13 +287,14 @@ def _method2(request: IdentifyRequest, note: Note = silent) -> Method2Report:
     measured = read_run(request.run_dir)
     note(f"identify: Method 2 on {request.run_dir} ({len(measured.tracker.t_s)} tracker samples): K_R from the "
          "measured and the ideal forces")
+    require_forming_contact(measured, "Method 2")
     robot = resolve_robot(request.robot, None, measured)
-    process = run_process(measured.meta, Process())
-    recorded_model = measured.meta.get("force_model")
-    if isinstance(recorded_model, str):
-        process = replace(process, force_model=recorded_model)
+    # the run's recorded process and force model, else the first that applies to its path (a cone is no groove)
+    process = resolve_process(run_process(measured.meta, Process()), request.declaration, request.force_model,
+                              measured.commanded.values, measured.meta, "the run's recorded process", note=note)
     result = method2(measured, process)
-    spec = TwinSpec(robot=robot, process=process, placement=run_placement(measured.meta))
+    spec = TwinSpec(robot=robot, process=process, placement=run_placement(measured.meta),
+                    tool=resolve_tool_spec(robot, run=measured, cell=request.cell))
     twin = spec.build()
     R = twin.R_base_sheet  # the twin's compliance at home, in the run's sheet frame
     c_twin = R.T @ twin.kinematics.compliance(twin.kinematics.q_home) @ R

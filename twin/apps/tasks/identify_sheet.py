@@ -19,6 +19,7 @@ from twin.apps.tasks.base import Note, Report, silent
 from twin.errors import InputError
 from twin.process.description import Process
 from twin.process.part.match import check_same_part
+from twin.runs.contact import require_forming_contact
 from twin.runs.format import Run
 from twin.runs.read import read_run
 from twin.sim.model_file import write_model_file
@@ -114,7 +115,8 @@ class SpringbackReport(Report):
 def _spec(request: IdentifyRequest, measured: Run, note: Note) -> TwinSpec:
     """The twin of a sheet fit: the request's model, robot, process and force model over the run's."""
     return resolve_spec(model=request.model, robot=request.robot, run=measured, declaration=request.declaration,
-                        force_model_name=request.force_model, p_sheet_m=measured.commanded.values, note=note)
+                        force_model_name=request.force_model, p_sheet_m=measured.commanded.values, note=note,
+                        cell=request.cell)
 
 
 def forces_task(request: IdentifyRequest, note: Note = silent) -> ForcesReport:
@@ -126,6 +128,7 @@ def forces_task(request: IdentifyRequest, note: Note = silent) -> ForcesReport:
     """
     assert request.forces is not None
     measured = read_run(request.forces)
+    require_forming_contact(measured, "`identify --forces`")
     spec = _spec(request, measured, note)
     fit = fit_forces(measured, spec.process)
     written = None

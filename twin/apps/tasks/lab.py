@@ -7,24 +7,23 @@ record (`twin.analysis.compensation_record`) travels with the run, for `check`."
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, NamedTuple
 
 import numpy as np
 
-from twin.analysis.compensation_record import CompensationRecord, read_record
 from twin.analysis.identify.cartesian import THESIS_TABLE_4_2_LOADS_N
 from twin.analysis.resolve import AUTO, resolve_robot, resolve_spec
 from twin.apps.tasks.base import Note, Report, silent
-from twin.base.csvio import write_table
+from twin.apps.tasks.lab_cnc import cnc_task
+from twin.apps.tasks.lab_output import LoadTestReport, check_out, with_records, write_load_cases
 from twin.base.registry import Registry
 from twin.base.signals import interp_rows
 from twin.errors import InputError
 from twin.process.description import Process
 from twin.process.process_file import ProcessDeclaration, process_record
 from twin.process.toolpath.placement import Placement
-from twin.runs.format import Run
 from twin.runs.read import lab_commanded
 from twin.runs.write import write_run
 from twin.sim.effects import Effects, parse_effect_args
@@ -134,33 +133,9 @@ def _check_dynamic(request: LabRequest) -> None:
 
 
 def _run_dynamic(request: LabRequest, note: Note) -> Report:
-    from twin.apps.tasks.lab_dynamic import dynamic_lab_task
+    from twin.apps.tasks.lab_dynamic import dynamic_lab_task  # MuJoCo's plant: only when it runs
 
     return dynamic_lab_task(request, note)
-
-
-@dataclass(frozen=True)
-class LoadTestReport(Report):
-    """A Method 1 load-test file written (`identify --method 1`).
-
-    Attributes:
-        out: The CSV written (fx_n, fy_n, fz_n [N], dx_mm, dy_mm, dz_mm [mm]).
-        cases: The load cases.
-        plant: "quasi-static" or "dynamic".
-    """
-
-    out: Path
-    cases: int
-    plant: str = "quasi-static"
-
-    def lines(self) -> list[str]:
-        if self.plant == "dynamic":
-            return [f"lab loadtest (dynamic plant): {self.cases} load cases at home -> {self.out}"]
-        return [f"lab loadtest: {self.cases} load cases at home (thesis Table 4.2) -> {self.out}"]
-
-    def record(self) -> dict[str, Any]:
-        plant = {"plant": "dynamic"} if self.plant == "dynamic" else {}
-        return {"scenario": "loadtest", **plant, "out": self.out, "cases": self.cases}
 
 
 @dataclass(frozen=True)
@@ -226,19 +201,8 @@ def _run_quasi_static(request: LabRequest, note: Note) -> Report:
         write_load_cases(request.out, loads, deflections)
         return LoadTestReport(request.out, len(loads))
     if request.scenario == "cnc":
-        from twin.apps.tasks.lab_cnc import cnc_task
-
         return cnc_task(request, note)
     return _run(request, effects, note)
-
-
-def check_out(out: Path, overwrite: bool) -> None:
-    """Refuse an existing output before any simulation is spent on it."""
-    if overwrite or not out.exists():
-        return
-    if out.is_dir() and not any(out.iterdir()):
-        return
-    raise InputError(f"{out} exists; pass --overwrite to replace it or choose another --out")
 
 
 def lab_settings(cell: Mapping[str, Any] | None) -> Any:
@@ -249,29 +213,6 @@ def lab_settings(cell: Mapping[str, Any] | None) -> Any:
     if "tracker_noise_mm" in sensors:  # the cell file's millimetres, the lab's metres
         sensors["tracker_noise_m"] = 1e-3 * sensors.pop("tracker_noise_mm")
     return LabSettings(**sensors)
-
-
-def with_records(run: Run, request: LabRequest, tool_length_m: float | None = None) -> Run:
-    """The run with what travels with it in its meta: the command's compensation record (for `check`), the cell
-    it was made in and the tool it was made with (`tool_length_m`, the twin's declared tool's; None: as the lab
-    wrote it)."""
-    record = compensation_record(request)
-    meta = {**run.meta, **({} if tool_length_m is None else {"tool_length_m": tool_length_m}),
-            **({} if record is None else {"compensation": record.to_json()}),
-            **({} if request.cell is None else {"cell": dict(request.cell)})}
-    return replace(run, meta=meta)
-
-
-def compensation_record(request: LabRequest) -> CompensationRecord | None:
-    """The compensation record beside the request's commanded path, or None."""
-    return read_record(request.commanded) if request.commanded is not None else None
-
-
-def write_load_cases(out: Path, loads_n: np.ndarray, deflections_m: np.ndarray) -> None:
-    """Write a load test's cases, base frame: loads [N] (m, 3) and the measured deflections [m] (m, 3) as mm."""
-    columns = {"fx_n": loads_n[:, 0], "fy_n": loads_n[:, 1], "fz_n": loads_n[:, 2]}
-    columns |= {f"d{a}_mm": 1e3 * deflections_m[:, i] for i, a in enumerate("xyz")}
-    write_table(out, columns, formats={name: (".1f" if name.startswith("f") else ".5f") for name in columns})
 
 
 def _run(request: LabRequest, effects: Effects, note: Note) -> LabRunReport:

@@ -4,18 +4,21 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from twin.analysis.resolve import resolve_process
 from twin.apps.tasks.base import Note, Report
-from twin.apps.tasks.lab import LabRequest, with_records
+from twin.apps.tasks.lab_output import with_records
 from twin.process.description import Process
 from twin.process.process_file import process_record
 from twin.process.toolpath.groove import ToolPath, label_passes
 from twin.runs.read import lab_commanded
 from twin.runs.write import write_run
+
+if TYPE_CHECKING:
+    from twin.apps.tasks.lab import LabRequest
 
 
 @dataclass(frozen=True)

@@ -6,18 +6,19 @@ and its progress goes to the task's `Note`."""
 from __future__ import annotations
 
 import io
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from twin.analysis.compensation_record import CompensationRecord
 from twin.analysis.identify.cartesian import THESIS_TABLE_4_2_LOADS_N
 from twin.analysis.resolve import resolve_process, resolve_robot, resolve_spec
+from twin.analysis.tool_choice import cell_words, resolve_tool_spec
 from twin.apps.tasks.base import Note, Report, silent
-from twin.apps.tasks.lab import (
-    LabRequest,
+from twin.apps.tasks.lab_output import (
     LoadTestReport,
     check_out,
     compensation_record,
@@ -26,6 +27,7 @@ from twin.apps.tasks.lab import (
 )
 from twin.base.csvio import write_table
 from twin.base.signals import interp_rows
+from twin.errors import InputError
 from twin.lab.dynamic.knobs import parse_set_args
 from twin.lab.dynamic.online import OnlineLog
 from twin.lab.dynamic.run import dynamic_load_test, run_dynamic_lab
@@ -34,6 +36,9 @@ from twin.runs.format import Stream
 from twin.runs.read import lab_commanded
 from twin.runs.write import write_run
 from twin.sim.online import AssumedForces, OnlineCompensator
+
+if TYPE_CHECKING:
+    from twin.apps.tasks.lab import LabRequest
 
 
 @dataclass(frozen=True)
@@ -102,19 +107,22 @@ def dynamic_lab_task(request: LabRequest, note: Note = silent) -> Report:
         process = resolve_process(process, request.declaration, request.force_model, commanded.values, note=note)
     record = compensation_record(request)
     robot = resolve_robot(request.robot)
-    knobs = parse_set_args(request.knobs, neutral=request.neutral)
+    knobs = parse_set_args(cell_knobs(request.cell, request.knobs), neutral=request.neutral)
+    tool = resolve_tool_spec(robot, cell=request.cell)  # the cell's tool is the plant's
     if request.scenario == "loadtest":
-        loads, deflections = dynamic_load_test(THESIS_TABLE_4_2_LOADS_N, knobs=knobs, seed=request.seed, robot=robot)
+        loads, deflections = dynamic_load_test(THESIS_TABLE_4_2_LOADS_N, knobs=knobs, seed=request.seed, robot=robot,
+                                               tool=tool)
         write_load_cases(request.out, loads, deflections)
         return LoadTestReport(request.out, len(loads), plant="dynamic")
     p_cmd = commanded.values
     compensator = None
     if request.online:  # the twin beside the controller, at the run's placement
-        spec = resolve_spec(model=request.model, robot=robot, placement=request.placement, p_sheet_m=p_cmd)
+        spec = resolve_spec(model=request.model, robot=robot, placement=request.placement, p_sheet_m=p_cmd,
+                            cell=request.cell)
         compensator = OnlineCompensator(spec, assumed=assumed_forces(record, commanded))
     run, truth, log = run_dynamic_lab(
         commanded.t_s, p_cmd, scenario=request.scenario, knobs=knobs, seed=request.seed, progress=_NoteStream(note),
-        process=process, placement=request.placement, robot=robot, corrector=compensator,
+        process=process, placement=request.placement, robot=robot, corrector=compensator, tool=tool,
     )
     truth["force_model"] = process.force_model
     run = with_records(run, request)  # the compensation record (for `check`) and the cell travel with the run
@@ -131,6 +139,28 @@ def dynamic_lab_task(request: LabRequest, note: Note = silent) -> Report:
         float(np.max(np.linalg.norm(run.forces.values, axis=1))), log.t_s.size, log.wall_s,
         None if log.online is None else online_summary(log.online),
     )
+
+
+def cell_knobs(cell: Mapping[str, Any] | None, typed: Sequence[str] | None) -> list[str]:
+    """The plant's `--set` items: those typed, then a `--cell`'s `[sensors]` (rates and noise of its tracker and F/T
+    sensor, the plant's knobs of the same names) for the knobs not typed: a typed `--set` wins, as every flag
+    over a cell.
+
+    Raises:
+        InputError: A cell's sensor value outside the plant's range for that knob (naming the cell file).
+    """
+    items = list(typed or ())
+    typed_names = {item.partition("=")[0].strip() for item in items}
+    for name, value in dict((cell or {}).get("sensors") or {}).items():
+        if name in typed_names:
+            continue
+        item = f"{name}={float(value)!r}"
+        try:
+            parse_set_args([item])
+        except InputError as exc:
+            raise InputError(f"{cell_words(cell)} [sensors] {exc}") from exc
+        items.append(item)
+    return items
 
 
 def assumed_forces(record: CompensationRecord | None, commanded: Stream) -> AssumedForces | None:

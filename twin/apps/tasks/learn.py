@@ -16,6 +16,7 @@ import numpy as np
 
 from twin.analysis.learn import Gap, LearnResult, RobotFit, learn
 from twin.apps.tasks.base import Note, Report, silent
+from twin.base.outputs import repeated_input
 from twin.errors import InputError
 from twin.runs.read import read_run
 from twin.sim.model_file import read_model_file, write_model_file
@@ -41,6 +42,10 @@ class LearnRequest:
         object.__setattr__(self, "runs", tuple(self.runs))
         if not self.runs:
             raise InputError(f"runs {self.runs!r}: expected one run folder or more")
+        twice = repeated_input(self.runs)
+        if twice is not None:
+            raise InputError(f"run {twice[0]} given twice (as {twice[0]} and {twice[1]}): give each run once (a run "
+                             "given twice is learned twice and, with two runs, held out from itself)")
 
 
 @dataclass(frozen=True)
@@ -67,8 +72,10 @@ class LearnReport(Report):
                                                             "(the runs' declared tool)")
         if self.run_tool_mm is not None and abs(self.run_tool_mm - 1e3 * spec.tool_length_m) > 1e-6:
             tool += f"; the runs record a {self.run_tool_mm:g} mm tool"
+        sheet = spec.process
         return (f"  fitted for robot {spec.robot.name} ({spec.robot.vendor} {spec.robot.model}), {origin}, yaw "
-                f"{math.degrees(place.yaw_rad):g} deg (the runs' placement), {tool}")
+                f"{math.degrees(place.yaw_rad):g} deg (the runs' placement), {tool}; sheet {sheet.material} "
+                f"{1e3 * sheet.thickness_m:g} mm, tool radius {1e3 * sheet.tool_radius_m:g} mm")
 
     def lines(self) -> list[str]:
         """What was learned, for the screen."""
@@ -85,7 +92,8 @@ class LearnReport(Report):
             f"({', '.join(f'{v:.3f}' for v in robot.offset_mm)}) mm (not a robot effect: a registration error of "
             "the tracker)",
             "  robot's part of the gap (the twin's robot driven by the measured forces): "
-            + ", ".join(f"{a:.3f} -> {b:.3f} mm" for a, b in zip(robot.rms_prior_mm, robot.rms_after_mm, strict=True)),
+            + ", ".join(f"{a:.3f} -> {b:.3f} mm" for a, b in zip(robot.rms_prior_mm, robot.rms_after_mm, strict=True))
+            + _grew_words(robot),
             f"  sheet ('learned' force model): prior weight {fit['prior_weight']:.3f} ± {std['prior_weight']:.3f}, "
             f"side membrane {fit['side_membrane_n']:.0f} ± {std['side_membrane_n']:.0f} N, side cubic "
             f"{fit['side_cubic_n']:.0f} ± {std['side_cubic_n']:.0f} N, ahead {fit['ahead_membrane_n']:.0f} ± "
@@ -194,11 +202,29 @@ def _gap(gap: Gap) -> str:
     return f"{gap.position_rms_mm:.3f} mm / {gap.force_rms_n:.0f} N{profile}"
 
 
+#: A servo transient's compliance beyond this multiple of its joint's is no position loop's (flagged) [-].
+SERVO_SHARE_PLAUSIBLE = 3.0
+
+
+def _grew_words(robot: RobotFit) -> str:
+    """A flag when the learned robot fits its runs worse than the prior did (the fit's bounds cost more than its
+    freedom gains: friction >= 0, unobserved joints held at the prior)."""
+    if all(b <= a for a, b in zip(robot.rms_prior_mm, robot.rms_after_mm, strict=True)):
+        return ""
+    return (" (WORSE than the prior: the robot's terms do not describe these runs; its K_q and friction are not "
+            "to be trusted, look for an effect the learner has no term for: `tx200-twin discrepancy`)")
+
+
 def _servo_words(robot: RobotFit) -> str:
     """The servo transient learned, its compliance as a share of each joint's."""
     if robot.servo is None:
         return "no servo transient seen"
     share = ", ".join(f"j{j + 1} {cs * k:.2f}" for j, (cs, k) in enumerate(
         zip(robot.servo.compliance_rad_per_nm, robot.k_q_nm_per_rad, strict=True)) if cs != 0)
+    odd = [f"j{j + 1}" for j, (cs, k) in enumerate(zip(robot.servo.compliance_rad_per_nm, robot.k_q_nm_per_rad,
+                                                        strict=True)) if abs(cs * k) > SERVO_SHARE_PLAUSIBLE]
+    flag = "" if not odd else (f"; IMPLAUSIBLE for {', '.join(odd)}: over {SERVO_SHARE_PLAUSIBLE:g}x the joint's "
+                               "own compliance is no position loop's, likely another effect (a tracker's clock, the "
+                               "sheet) taken up by the servo term")
     return (f"servo transient over {1e3 * robot.servo.time_constant_s:.0f} ms, its compliance over the joint's "
-            f"{share} (negative: the deflection lags the force)")
+            f"{share} (negative: the deflection lags the force){flag}")

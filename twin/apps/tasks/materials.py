@@ -10,8 +10,8 @@ from pathlib import Path
 from typing import Any
 
 from twin.apps.tasks.base import Note, Report, silent
-from twin.process.material.file import read_material_library
-from twin.process.material.library import Material, MaterialLibrary, shipped_library
+from twin.process.material.file import read_material_library, shipped_library
+from twin.process.material.library import Material, MaterialLibrary
 
 #: (field, column title, format) of the table.
 COLUMNS = (

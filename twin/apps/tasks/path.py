@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 import re
 import warnings
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -77,6 +78,7 @@ class PathRequest:
         placement: The sheet frame in the robot base, for the reach check.
         robot: A robot name or description file; None: the default robot.
         reach_check: Check the robot's inverse kinematics along the path.
+        cell: A `--cell` file's record: the reach is checked with its tool (`resolve_tool_spec`), or None.
     """
 
     out: Path
@@ -100,6 +102,7 @@ class PathRequest:
     placement: Placement = field(default_factory=Placement)
     robot: str | Path | None = None
     reach_check: bool = True
+    cell: Mapping[str, Any] | None = None
 
     def __post_init__(self) -> None:
         """The ranges that involve more than one value, named as the options are typed."""
@@ -179,10 +182,13 @@ def path_task(request: PathRequest, note: Note = silent) -> PathReport:
     if "step_down_mm" in facts:  # a cone, pyramid or variable-wall-angle cone: its steady axial force
         geometry += _steady_force(process, facts)
     if request.reach_check:
+        from twin.analysis.tool_choice import resolve_tool_spec
         from twin.robot.kinematics import Kinematics
+        from twin.robot.model import build_model
 
         robot = resolve_robot(request.robot)
-        reach = check_reach(path, request.placement, Kinematics(robot=robot))
+        kin = Kinematics(build_model(robot, tool=resolve_tool_spec(robot, cell=request.cell)), robot=robot)
+        reach = check_reach(path, request.placement, kin)  # the cell's tool reaches, not the model's
         facts["reach"] = {
             "robot": robot.name,
             "min_abs_det_j_m3": reach.min_abs_det_j,

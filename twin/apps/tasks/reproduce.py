@@ -75,8 +75,9 @@ def doc_header() -> str:
     from twin.analysis.identify.default_stiffness import thesis_stiffness_fit
     from twin.process.force.table import K_LOAD_N_PER_M, K_UNLOAD_N_PER_M
     from twin.sim.quasi_static import Twin
+    from twin.sim.spec import TwinSpec
 
-    twin = Twin()
+    twin = Twin(TwinSpec())
     c_home = twin.kinematics.compliance(twin.kinematics.q_home)
     antisymmetric = 0.5 * (THESIS_CR1_MM_PER_KN - THESIS_CR1_MM_PER_KN.T)
     return DOC_TEMPLATE.format(

@@ -16,7 +16,8 @@ import numpy as np
 from twin.apps.tasks.base import Note, Report, silent
 from twin.base.csvio import write_text
 from twin.errors import InputError, TwinError
-from twin.robot.description import RobotDescription, load_robot, shipped_robots
+from twin.robot.description import load_robot, shipped_robots
+from twin.robot.facts import RobotDescription
 
 #: The common task point of the compliance comparison [mm, base frame]: in front of every shipped robot, at table
 #: height, tool down.

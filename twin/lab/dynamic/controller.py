@@ -44,7 +44,7 @@ import numpy as np
 
 from twin.lab.dynamic.knobs import Knobs
 from twin.lab.dynamic.plant import Plant
-from twin.robot.description import RobotDescription
+from twin.robot.facts import RobotDescription
 
 
 @dataclass(frozen=True)

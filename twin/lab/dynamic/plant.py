@@ -31,6 +31,8 @@ the gear spring must carry (the link lags by tau_f / K_q, as in the twin). Conta
 force field, applied at the tool tip each step. Timestep 1 ms: the fastest mode, the wrist gear against
 its link and the gear armature (~1.5e3 rad/s for joint 6), stays inside the explicit spring's stability
 (omega dt < 2) and is damped implicitly; the arm's own modes on K_q are 10-40 Hz (25+ steps per period).
+A declared bending tool (`twin.robot.tool_bending`) swings on its two flange hinges: damped at 5 % of critical on
+its own mode (65 Hz for 8 kg on a Ø25 mm steel shank of 300 mm), a mode beyond ω·dt = 1 slowed by armature.
 """
 
 from __future__ import annotations
@@ -44,7 +46,11 @@ import numpy as np
 from twin.errors import ModelError
 from twin.lab.dynamic.knobs import Knobs
 from twin.lab.dynamic.plant_robots import plant_gear_stiffness
-from twin.robot.description import RobotDescription, load_robot
+from twin.robot.description import load_robot
+from twin.robot.facts import RobotDescription
+from twin.robot.model import build_model, load_model
+from twin.robot.tool import ToolSpec, apply_tool
+from twin.robot.tool_bending import damp_bending
 
 # MuJoCo's dry friction is a soft constraint: with the default impedance (d = 0.9) the light wrist slides at a
 # fraction of the friction torque at the groove's 0.025 rad/s; d ~ 1 makes it a Coulomb friction there too.
@@ -72,6 +78,7 @@ class Plant:
         p_base_sheet_origin: Sheet origin in the base (world) frame [m].
         stiffness_table: Name of the plant's K_q table (`plant:<robot>` or the assumption for another robot).
         stiffness_source: Where that table comes from, in words.
+        tool: The declared tool the plant carries (`build_plant`); None: the robot model's own.
     """
 
     model: mujoco.MjModel
@@ -92,6 +99,7 @@ class Plant:
     p_base_sheet_origin: np.ndarray
     stiffness_table: str = ""
     stiffness_source: str = ""
+    tool: ToolSpec | None = None
 
     @property
     def dof(self) -> int:
@@ -140,12 +148,15 @@ class _Shipped(NamedTuple):
     friction: np.ndarray  # joint friction [N·m]
 
 
-def build_plant(knobs: Knobs, robot: str | RobotDescription | None = None) -> Plant:
+def build_plant(knobs: Knobs, robot: str | RobotDescription | None = None, tool: ToolSpec | None = None) -> Plant:
     """Build and compile the dynamic plant for these knobs.
 
     Args:
         knobs: Plant knobs (gear-stiffness scales, dead bands, friction, armature, timestep).
         robot: The robot; None: the default robot.
+        tool: The tool on the cell's flange (a cell file's `[tool]`: length, mass, centre of gravity), in place of
+            the model's own (`twin.robot.tool.apply_tool`): the cell's physical tool, so its tip, its gravity load
+            and the sheet's lever arm are the tool's. None: the model's own tool.
 
     Raises:
         ModelError: The scene is missing, lacks the robot's joints or actuators, or does not compile.
@@ -155,6 +166,8 @@ def build_plant(knobs: Knobs, robot: str | RobotDescription | None = None) -> Pl
     try:
         spec = mujoco.MjSpec.from_file(str(path))
         model_k_q, model_damping, armature, friction = _shipped_parameters(spec, robot)
+        if tool is not None:
+            apply_tool(spec, tool, flange_site=robot.flange_site, tool_site=robot.tool_site)
     except Exception as exc:
         raise ModelError(f"cannot build the dynamic plant from {path}: {exc}") from exc
     own = plant_gear_stiffness(robot, model_k_q)
@@ -177,11 +190,12 @@ def build_plant(knobs: Knobs, robot: str | RobotDescription | None = None) -> Pl
         model = spec.compile()
     except Exception as exc:
         raise ModelError(f"cannot compile the dynamic plant from {path}: {exc}") from exc
+    damp_bending(model, knobs["timestep_s"])  # a bending tool's hinges: 5 % of critical on its own mode
 
     def qadr(name: str) -> int:
         return int(model.jnt_qposadr[model.joint(name).id])
     tcp = model.site(robot.tool_site).id
-    tool = int(model.site_bodyid[tcp])  # the tool: the sheet's force acts on it, the F/T sensor carries it
+    tool_body = int(model.site_bodyid[tcp])  # the tool: the sheet's force acts on it, the F/T sensor carries it
     data = mujoco.MjData(model)
     mujoco.mj_kinematics(model, data)
     motors = [f"{name}_motor" for name in robot.joints]
@@ -198,15 +212,24 @@ def build_plant(knobs: Knobs, robot: str | RobotDescription | None = None) -> Pl
         servo=np.array([model.actuator(f"{name}_servo").id for name in robot.joints]),
         tcp_site=tcp,
         ft_site=model.site(robot.ft_site).id,
-        tool_body=tool,
+        tool_body=tool_body,
         ft_sensor_adr=int(model.sensor(robot.ft_force_sensor).adr[0]),
-        tool_mass_kg=float(model.body_subtreemass[tool]),
+        tool_mass_kg=float(model.body_subtreemass[tool_body]),
         p_base_sheet_origin=(
             data.site(robot.sheet_site).xpos.copy() if robot.sheet_site is not None else data.site_xpos[tcp].copy()
         ),
         stiffness_table=own.table,
         stiffness_source=own.source,
+        tool=tool,
     )
+
+
+def controller_model(plant: Plant) -> mujoco.MjModel:
+    """The controller's rigid model of the arm: the robot's model with the tool the controller is told (the
+    plant's tool, rigid: its bending is the plant's), for the IK of the command and the gravity feed-forward."""
+    if plant.tool is None:
+        return load_model(scene=True, robot=plant.robot)
+    return build_model(plant.robot, tool=plant.tool.rigid)
 
 
 def _split_joint(

@@ -37,7 +37,8 @@ from pathlib import Path
 
 import numpy as np
 
-from twin.robot.description import RobotDescription, shipped_robots
+from twin.robot.description import shipped_robots
+from twin.robot.facts import RobotDescription
 
 #: The plant's gear stiffness per shipped robot [N·m/rad], joints 1..6 (module docstring). Against the twin's
 #: prior (the MJCF's actuator gains at the time of writing), the ratios are:

@@ -16,16 +16,17 @@ import numpy as np
 from twin.base.signals import interp_rows
 from twin.lab.dynamic.knobs import Knobs
 from twin.lab.dynamic.online import CycleCorrector
-from twin.lab.dynamic.plant import Plant, build_plant
+from twin.lab.dynamic.plant import Plant, build_plant, controller_model
 from twin.lab.dynamic.sensors import ft_reading, part_scan, profile_scan, tracker_reading
 from twin.lab.dynamic.simulate import DynamicLog, simulate
 from twin.lab.dynamic.trajectory import retime_with_stops
 from twin.process.description import Process
 from twin.process.process_file import process_record
 from twin.process.toolpath.placement import Placement
-from twin.robot.description import RobotDescription, robot_record
+from twin.robot.description import robot_record
+from twin.robot.facts import RobotDescription
 from twin.robot.kinematics import Kinematics
-from twin.robot.model import load_model
+from twin.robot.tool import ToolSpec
 from twin.runs.format import Run, Stream, run_meta
 
 LOAD_HOLD_S = 1.5  # each load case (ramped over 0.5 s) is held until this time, then read [s]
@@ -44,6 +45,7 @@ def run_dynamic_lab(
     robot: str | RobotDescription | None = None,
     declared: Process | None = None,
     corrector: CycleCorrector | None = None,
+    tool: ToolSpec | None = None,
 ) -> tuple[Run, dict[str, Any], DynamicLog]:
     """Run the commanded path on the dynamic plant and measure it.
 
@@ -62,11 +64,12 @@ def run_dynamic_lab(
             one formed, which truth.json then records); None: the process formed with.
         corrector: An online corrector the controller calls each cycle (`simulate.simulate`); its F/T samples'
             noise is seeded by [seed, 1]. None: none.
+        tool: The cell's tool (`plant.build_plant`); None: the robot model's own.
 
     Returns:
         The run (not yet written), the truth record for `truth.json`, and the physical log.
     """
-    plant = build_plant(knobs, robot)
+    plant = build_plant(knobs, robot, tool)
     process = process or Process()
     # the controller's trajectory generator stops at sharp corners: its timing is the run's commanded stream
     t_s = retime_with_stops(t_s, p_cmd_sheet_m, knobs["trajectory_accel_mps2"])
@@ -83,7 +86,7 @@ def run_dynamic_lab(
         tracker_rate_hz=knobs["tracker_rate_hz"],
         sensor_rate_hz=knobs["ft_rate_hz"],
         seed=seed,
-        tool_length_m=plant.robot.tool_length_m,
+        tool_length_m=plant.robot.tool_length_m if tool is None else tool.length_m,
         placement=placement,
         robot=robot_record(plant.robot),
         force_model=process.force_model,
@@ -127,7 +130,8 @@ def truth_record(
 
 
 def dynamic_load_test(
-    loads_n: np.ndarray, *, knobs: Knobs, seed: int, robot: str | RobotDescription | None = None
+    loads_n: np.ndarray, *, knobs: Knobs, seed: int, robot: str | RobotDescription | None = None,
+    tool: ToolSpec | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Thesis Method 1 on the dynamic plant: each load held at `home`, the tip read loaded and unloaded.
 
@@ -136,13 +140,14 @@ def dynamic_load_test(
         knobs: Plant, controller and tracker knobs (the tracker noise and registration apply).
         seed: Seed of the tracker noise.
         robot: The robot; None: the default robot.
+        tool: The cell's tool (`plant.build_plant`); None: the robot model's own.
 
     Returns:
         The loads [N] and the measured deflections [m], shape (m, 3) each.
     """
     loads = np.asarray(loads_n, dtype=float)
-    plant = build_plant(knobs, robot)
-    kin = Kinematics(load_model(scene=True, robot=plant.robot), robot=plant.robot)
+    plant = build_plant(knobs, robot, tool)
+    kin = Kinematics(controller_model(plant), robot=plant.robot)
     p_home, _ = kin.fk(kin.q_home)
     p_sheet = p_home - plant.p_base_sheet_origin
     t_hold = np.array([0.0, LOAD_HOLD_S])

@@ -31,7 +31,7 @@ from twin.lab.dynamic.controller import (
 )
 from twin.lab.dynamic.knobs import Knobs
 from twin.lab.dynamic.online import CycleCorrector, OnlineCycle, OnlineFt, OnlineLog
-from twin.lab.dynamic.plant import Plant, build_plant
+from twin.lab.dynamic.plant import Plant, build_plant, controller_model
 from twin.lab.dynamic.sheet_laws import SheetLaw, make_sheet
 from twin.process.description import Process
 from twin.process.part.bottom import with_floating_bottom
@@ -39,7 +39,6 @@ from twin.process.part.surface import FORMED_BELOW_M
 from twin.process.toolpath.groove import label_passes
 from twin.process.toolpath.placement import Placement
 from twin.robot.kinematics import Kinematics
-from twin.robot.model import load_model
 
 PASS_DEADBAND_M = (
     2e-3  # back-travel that declares a reversal of the commanded path [m] (a stroke is >= 61 mm)
@@ -159,7 +158,7 @@ class _Plan(NamedTuple):
 
 def _plan(plant: Plant, knobs: Knobs, t_cmd: np.ndarray, p_cmd: np.ndarray, place: Placement) -> _Plan:
     """IK of the command, gravity, servo gains (written into the plant) and set-points at every tick."""
-    rigid = load_model(scene=True, robot=plant.robot)
+    rigid = controller_model(plant)
     kin = Kinematics(rigid, robot=plant.robot)
     origin = place.origin_in(kin)  # the scene's sheet site by default, as the plant's
     R_ws = place.R_base_sheet  # the sheet's axes in the world

@@ -21,11 +21,14 @@
 
 A source key names an entry of the file's `[sources]` (a user's file may also cite the library's). The library
 must name a source for every number it gives (`require_sources`); a user's file need not. Every error names the
-file and the key (`materials.NAME.KEY`) and says what was expected.
+file and the key (`materials.NAME.KEY`) and says what was expected. The shipped library is read once
+(`shipped_library`); `material` finds a name among a user's materials, then the library's.
 """
 
 from __future__ import annotations
 
+import functools
+import re
 import tomllib
 from collections.abc import Mapping
 from pathlib import Path
@@ -40,6 +43,7 @@ from twin.process.material.library import (
     Material,
     MaterialLibrary,
     Source,
+    find_material,
     name_key,
     number_problem,
 )
@@ -94,8 +98,6 @@ def read_material_library(path: str | Path, *, require_sources: bool = False) ->
         raise DataFileError(path, f"unknown key(s) {unknown}; a materials file has format, [sources], [materials.NAME]")
     sources = _sources(path, data.get("sources", {}))
     if not require_sources:  # a user's file may cite the library's sources
-        from twin.process.material.library import shipped_library
-
         sources = {**shipped_library().sources, **sources}
     tables = data.get("materials")
     if not isinstance(tables, Mapping) or not tables:
@@ -210,3 +212,45 @@ def _sources(path: Path, entry: Any) -> dict[str, Source]:
             raise DataFileError(path, f"sources.{key}: {list(table)} must be non-empty text")
         out[key] = Source(key, table["citation"].strip(), table["where"].strip(), table.get("url", "").strip())
     return out
+
+
+def library_path() -> Path:
+    """The shipped library file, `models/materials/library.toml`."""
+    from twin.base.resources import models_dir
+
+    return models_dir() / "materials" / "library.toml"
+
+
+@functools.cache
+def shipped_library() -> MaterialLibrary:
+    """The shipped library, every number with its source (read once)."""
+    return read_material_library(library_path(), require_sources=True)
+
+
+def shipped_materials() -> dict[str, Material]:
+    """The shipped materials, by name."""
+    return dict(shipped_library().materials)
+
+
+def material(name: str, user: Mapping[str, Material] | None = None) -> Material:
+    """The material `name` designates: first among the user's materials, then in the library.
+
+    Args:
+        name: A name or designation ("AA5086-H111", "EN AW-5086-H111", "1.4301", ...; case does not matter).
+        user: The user's materials (`read_material_file`), or None.
+
+    Raises:
+        InputError: No such material (the message lists the library and the user's materials).
+    """
+    for materials in (user or {}, shipped_library().materials):
+        found = find_material(name, materials)
+        if found is not None:
+            return found
+    known = [*(user or {}), *shipped_library().materials]
+    alloy = re.match(r"\d{4}", name_key(name))
+    close = [n for n in known if alloy and name_key(n).startswith(alloy.group())]
+    hint = f" (did you mean {' or '.join(close)}?)" if close else ""
+    raise InputError(
+        f"unknown material {name!r}{hint}; known: {', '.join(known)}. A material of your own: a materials "
+        "file (`material_file` of a process file)"
+    )

@@ -1,10 +1,11 @@
-"""Sheet materials: the shipped library, each number with its source, and a user's own materials.
+"""Sheet materials as data: a material, each number with its source, a library of them, and names looked up.
 
 A `Material` holds what a process needs of a sheet (its tensile strength R_m) and what a force model may use
 (0.2 % proof strength, Young's modulus, Poisson's ratio, density, a hardening law, `twin.process.material.hardening`);
 only R_m is required. Every number of the shipped library (`models/materials/library.toml`) names the entry of
 the file's bibliography (`[sources]`) it comes from; a number without a source is left out (None), never
-guessed. A user's materials file has the same format (`twin.process.material.file`).
+guessed. A user's materials file has the same format; `twin.process.material.file` reads both and looks a
+material up by name (`material`, `shipped_library`).
 
 Names are looked up as people write them: case, spaces, hyphens and dots do not matter, nor the prefixes `AA`
 and `EN AW` of aluminium alloys ("AA5086-H111", "5086-H111", "EN AW-5086-H111", "AA 5086 H111" are one
@@ -13,7 +14,6 @@ material), and a material may list other designations (`aliases`, e.g. "1.4301" 
 
 from __future__ import annotations
 
-import functools
 import math
 import re
 from collections.abc import Mapping
@@ -198,46 +198,3 @@ class MaterialLibrary:
         keys |= {key for text in texts for key in re.findall(r"\[([\w.-]+)\]", text) if key in self.sources}
         return sorted(keys)
 
-
-def library_path() -> Path:
-    """The shipped library file, `models/materials/library.toml`."""
-    from twin.base.resources import models_dir
-
-    return models_dir() / "materials" / "library.toml"
-
-
-@functools.cache
-def shipped_library() -> MaterialLibrary:
-    """The shipped library, every number with its source (read once)."""
-    from twin.process.material.file import read_material_library
-
-    return read_material_library(library_path(), require_sources=True)
-
-
-def shipped_materials() -> dict[str, Material]:
-    """The shipped materials, by name."""
-    return dict(shipped_library().materials)
-
-
-def material(name: str, user: Mapping[str, Material] | None = None) -> Material:
-    """The material `name` designates: first among the user's materials, then in the library.
-
-    Args:
-        name: A name or designation ("AA5086-H111", "EN AW-5086-H111", "1.4301", ...; case does not matter).
-        user: The user's materials (`read_material_file`), or None.
-
-    Raises:
-        InputError: No such material (the message lists the library and the user's materials).
-    """
-    for materials in (user or {}, shipped_library().materials):
-        found = find_material(name, materials)
-        if found is not None:
-            return found
-    known = [*(user or {}), *shipped_library().materials]
-    alloy = re.match(r"\d{4}", name_key(name))
-    close = [n for n in known if alloy and name_key(n).startswith(alloy.group())]
-    hint = f" (did you mean {' or '.join(close)}?)" if close else ""
-    raise InputError(
-        f"unknown material {name!r}{hint}; known: {', '.join(known)}. A material of your own: a materials "
-        "file (`material_file` of a process file)"
-    )

@@ -33,7 +33,9 @@ from twin.sim.compiled.work import work_arrays
 from twin.sim.result import LoopOutput
 
 #: The numba kernel modules (their sources together key the kernel cache).
-KERNEL_SOURCES = ("chain.py", "field.py", "isf.py", "isf_map.py", "learned.py", "loop.py", "online.py", "work.py")
+KERNEL_SOURCES = (
+    "chain.py", "field.py", "isf.py", "isf_map.py", "learned.py", "loop.py", "online.py", "rigid.py", "work.py",
+)
 
 
 def drop_stale_kernels(here: Path = Path(__file__).parent) -> bool:
