@@ -57,12 +57,23 @@ class KqRolloutFit:
 
 
 def kq_from_stiffness(twin: Twin, k_r_n_per_m: np.ndarray) -> KqFit:
-    """Route 1: the best diagonal K_q for a 3x3 K_R at the twin's `home` pose (joints 4, 6 default to the model's)."""
+    """Route 1: the best diagonal K_q for a 3x3 K_R at the twin's `home` pose (joints 4, 6 default to the model's).
+    A declared tool's own bending (`twin.robot.tool_bending`) is in the measured K_R: its compliance is taken out
+    first, so the joints are not made softer for the tool's bending."""
+    from twin.robot.tool_bending import bending_compliance_at
+
     k = np.asarray(k_r_n_per_m, dtype=float)
     if k.shape != (3, 3):
         raise InputError(f"K_R must be 3x3 [N/m] for the joint-stiffness fit, got {k.shape}")
-    jac = twin.kinematics.jacobian(twin.kinematics.q_home)
-    return fit_diagonal_kq(jac, k)
+    q_home = twin.kinematics.q_home
+    c_tool = bending_compliance_at(twin.model, twin.robot, q_home)
+    if np.any(c_tool):
+        c_arm = np.linalg.inv(k) - c_tool
+        if np.min(np.linalg.eigvalsh(0.5 * (c_arm + c_arm.T))) <= 0.0:
+            raise InputError("the measured compliance is smaller than the declared tool's own bending alone: the "
+                             "tool's bending stiffness (the cell's [tool]) is too low for these load cases")
+        k = np.linalg.inv(c_arm)
+    return fit_diagonal_kq(twin.kinematics.jacobian(q_home), k)
 
 
 def observable_joints(kinematics: Kinematics, q: np.ndarray, R_base_sheet: np.ndarray) -> tuple[int, ...]:
