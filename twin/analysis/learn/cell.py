@@ -23,6 +23,7 @@ from twin.analysis.learn.springback import SpringbackFit, fit_springback
 from twin.analysis.replay import replay
 from twin.errors import InputError
 from twin.process.description import Process
+from twin.process.force.learned import WEIGHT_KEYS
 from twin.process.force.registry import FORCE_MODELS, auto_force_model
 from twin.runs.format import Run, run_placement, run_process, run_robot
 from twin.sim.measure import predict_part_profile
@@ -63,7 +64,10 @@ class LearnResult(NamedTuple):
 def learned_spec(runs: list[Run], spec: TwinSpec) -> tuple[TwinSpec, RobotFit, SheetFit, SpringbackFit | None]:
     """The spec with the robot, the sheet and its springback learned from `runs` (no gaps computed)."""
     base = spec.replace(placement=run_placement(runs[0].meta))
-    robot = fit_robot(runs, replace(base, process=replace(base.process, force_model="isf")).build())
+    # the robot is fitted on the ISF model's twin: a learned prior's weights are no ISF constants (they are
+    # learned again from these runs: a model learned twice from the same runs is the same sheet)
+    isf_fit = tuple((k, v) for k, v in base.process.force_fit if k not in WEIGHT_KEYS)
+    robot = fit_robot(runs, replace(base, process=replace(base.process, force_model="isf", force_fit=isf_fit)).build())
     sheet = fit_sheet(runs, base.process)
     friction = np.where(robot.observable, robot.friction_nm, robot.prior_friction_nm)
     process = replace(base.process, force_model="learned", force_fit=sheet.force_fit)

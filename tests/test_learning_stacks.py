@@ -1,0 +1,103 @@
+"""Learning stacks (issue #47): a model file of any kind (declared, learned, augmented) is a prior for `learn` and
+`discrepancy`; every effect and every force model round-trips through a model file; learning twice from the same
+run is the same twin within its stated uncertainty; and the stacked flow on clean runs of the dynamic plant
+(`learn RUN1`, `learn RUN2 --model A`, `discrepancy RUN3 --model B`) runs without error and names nothing."""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from twin.cli import main
+from twin.process.description import Process
+from twin.process.force.learned import WEIGHT_KEYS
+from twin.process.force.registry import FORCE_MODELS
+from twin.robot.tool import ToolSpec
+from twin.sim.effects import EFFECTS, Effects
+from twin.sim.model_file import read_model_file, write_model_file
+from twin.sim.servo import ServoTransient
+from twin.sim.spec import TwinSpec
+
+#: Fitted constants each force model takes (a learned model's weights and its ISF constants; ISF's own).
+FITS = {"table": (), "isf": (("scale", 1.2), ("mu_eff", 0.12)),
+        "learned": (("prior_weight", 0.6), ("side_membrane_n", 300.0), ("side_cubic_n", -50.0),
+                    ("ahead_membrane_n", 20.0), ("mu_eff", 0.11), ("recovery_scale", 0.4))}
+
+
+def _off(name: str) -> float:
+    """A value of effect `name` away from its neutral one, inside its range."""
+    spec = EFFECTS[name]
+    low, high = spec.bounds
+    value = spec.neutral + 0.5
+    return value if low <= value <= high else 0.5 * (low + high)
+
+
+@pytest.mark.parametrize("force_model", sorted(FORCE_MODELS))
+def test_every_force_model_and_effect_round_trips_through_a_model_file(force_model: str, tmp_path: Path) -> None:
+    assert set(FITS) >= set(FORCE_MODELS), "a new force model needs its fitted constants here"
+    spec = TwinSpec(
+        process=Process(force_model=force_model, force_fit=FITS[force_model]),
+        effects=Effects({name: _off(name) for name in EFFECTS}),
+        joint_stiffness_nm_per_rad=(1.1e6, 2.2e6, 1.3e6, 4.0e5, 3.0e5, 2.0e5),
+        joint_friction_nm=(10.0, 150.0, 400.0, 0.0, 60.0, 0.0),
+        servo=ServoTransient((1e-7, -2e-7, 3e-7, 0.0, 4e-6, 0.0), 0.075),
+        tool=ToolSpec.make(0.3, 8.0, (0.0, 0.0, 0.15)),
+    )
+    back = read_model_file(write_model_file(tmp_path / "m.json", spec, note="round trip"))
+    assert back.effects == spec.effects and back.tool == spec.tool and back.servo == spec.servo
+    assert back.process.force_model == force_model and dict(back.process.force_fit) == dict(FITS[force_model])
+    assert back.joint_stiffness_nm_per_rad == spec.joint_stiffness_nm_per_rad
+    assert back.joint_friction_nm == spec.joint_friction_nm
+    assert set(WEIGHT_KEYS) <= set(FITS["learned"][i][0] for i in range(len(FITS["learned"])))
+
+
+@pytest.fixture(scope="module")
+def groove_runs(tmp_path_factory: pytest.TempPathFactory) -> list[Path]:
+    """Three nominal groove runs of the dynamic plant (neutral knobs), seeds 1-3: one clean cell."""
+    root = tmp_path_factory.mktemp("stack")
+    runs = []
+    for seed in (1, 2, 3):
+        out = root / f"g{seed}"
+        assert main(["lab", "--plant", "dynamic", "--neutral", "--scenario", "nominal", "--seed", str(seed),
+                     "--out", str(out)]) == 0
+        runs.append(out)
+    return runs
+
+
+def _learned(out: str) -> tuple[np.ndarray, np.ndarray, float]:
+    """(K_q, its std, the fitted replay gap [mm]) from `learn`'s printout."""
+    pairs = re.findall(r"j\d (\d+)(?: ± (\d+))?", out.split("robot: K_q", 1)[1].split("\n", 1)[0])
+    k = np.array([float(a) for a, _ in pairs])
+    std = np.array([float(b) if b else 0.0 for _, b in pairs])
+    return k, std, float(re.search(r"-> ([0-9.]+) mm / [0-9]+ N, profile [0-9.]+ mm \(fitted\)", out).group(1))
+
+
+def test_learning_twice_from_one_run_is_the_same_twin(groove_runs: list[Path], tmp_path: Path,
+                                                      capsys: pytest.CaptureFixture[str]) -> None:
+    first, again = tmp_path / "A.json", tmp_path / "A2.json"
+    assert main(["learn", str(groove_runs[0]), "--write-model", str(first)]) == 0
+    k1, std1, gap1 = _learned(capsys.readouterr().out)
+    assert main(["learn", str(groove_runs[0]), "--model", str(first), "--write-model", str(again)]) == 0
+    k2, _, gap2 = _learned(capsys.readouterr().out)
+    # stated tolerance: each joint's K_q within its own standard deviation, the fitted gap within 5 µm
+    assert np.all(np.abs(k2 - k1) <= np.maximum(std1, 1.0)), (k1, k2, std1)
+    assert gap2 == pytest.approx(gap1, abs=0.005)
+    a, b = (json.loads(p.read_text())["process"]["force_fit"] for p in (first, again))
+    assert a.keys() == b.keys()
+    springback = {"recovery_scale", "depth_ratio"}  # fitted on the replay of the learned robot: within 5 %
+    assert all(b[k] == pytest.approx(a[k], rel=0.05 if k in springback else 1e-6, abs=1e-9) for k in a), (a, b)
+
+
+def test_the_stacked_flow_on_clean_runs_names_nothing(groove_runs: list[Path], tmp_path: Path,
+                                                      capsys: pytest.CaptureFixture[str]) -> None:
+    a, b = tmp_path / "A.json", tmp_path / "B.json"
+    assert main(["learn", str(groove_runs[0]), "--write-model", str(a)]) == 0
+    assert main(["learn", str(groove_runs[1]), "--model", str(a), "--write-model", str(b)]) == 0  # was refused
+    capsys.readouterr()
+    assert main(["discrepancy", str(groove_runs[2]), "--model", str(b), "--json", "-"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["effect"] == "unexplained" and report["parameters"] == {}, report
