@@ -83,10 +83,20 @@ def test_analytic_replay_tracks_the_twin_through_the_reversals_where_the_tool_st
     np.testing.assert_allclose(linear.p_sheet_m, sim.p_sheet_m, atol=2e-5)  # measured 7 µm (gravity terms)
 
 
-def test_bench_cli_writes_json(tmp_path) -> None:
+def test_bench_cli_writes_json(tmp_path, result: dict, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The command's own part: its options reach `run_benchmarks` and its result is written as JSON (the module's
+    smoke result stands in for a second run of it: the run itself is what the other tests check, 16 s each)."""
+    asked: list[tuple] = []
+
+    def same_run(repeats: int, samples: int | None, seed: int = 0) -> dict:
+        asked.append((repeats, samples))
+        return result
+
+    monkeypatch.setattr("twin.apps.bench.run_benchmarks", same_run)
     out = tmp_path / "results.json"
     assert main(["bench", "--json", str(out), "--repeats", "1", "--samples", str(SAMPLES)]) == 0
     payload = json.loads(out.read_text())
+    assert asked == [(1, SAMPLES)]
     assert set(TIMES) <= set(payload) and payload["workload"]["commanded_samples"] == SAMPLES
 
 

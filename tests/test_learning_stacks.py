@@ -101,3 +101,21 @@ def test_the_stacked_flow_on_clean_runs_names_nothing(groove_runs: list[Path], t
     assert main(["discrepancy", str(groove_runs[2]), "--model", str(b), "--json", "-"]) == 0
     report = json.loads(capsys.readouterr().out)
     assert report["effect"] == "unexplained" and report["parameters"] == {}, report
+
+
+@pytest.mark.parametrize(("force_model", "fit", "needle"), [
+    ("learned", {}, "without its learned weights"),  # was read as the table model, in silence
+    ("learned", {"prior_weight": 1.0}, "lacks ['side_membrane_n'"),  # was read with the other terms at 0
+    ("isf", {"prior_weight": 0.5}, "which the 'isf' force model does not take"),
+])
+def test_a_model_files_force_model_without_its_constants_is_refused(force_model: str, fit: dict, needle: str,
+                                                                     tmp_path: Path) -> None:
+    from twin.errors import DataFileError
+
+    path = write_model_file(tmp_path / "m.json", TwinSpec(process=Process(force_model="learned",
+                                                                           force_fit=FITS["learned"])))
+    payload = json.loads(path.read_text())
+    payload["process"].update(force_model=force_model, force_fit=fit)
+    path.write_text(json.dumps(payload))
+    with pytest.raises(DataFileError, match=re.escape(needle)):
+        read_model_file(path)

@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import replace
+from dataclasses import fields, replace
 from pathlib import Path
 from typing import Any
 
@@ -163,13 +163,33 @@ def _process(path: Path, entry: Any) -> Process:
             file, symmetry=str(history.get("symmetry")), trust_columns=not history.get("unchecked_symmetry", False)
         )
     recorded = process_from_record({k: entry[k] for k in RECORD_KEYS if k in entry}, defaults)
+    force_model = str(entry.get("force_model", defaults.force_model))
+    force_fit = _force_fit(path, entry.get("force_fit"))
+    _check_constants(path, force_model, dict(force_fit))
     return replace(
         recorded,
         friction_reversal_m=metres("friction_reversal_mm", defaults.friction_reversal_m),
-        force_model=str(entry.get("force_model", defaults.force_model)),
+        force_model=force_model,
         history=loaded,
-        force_fit=_force_fit(path, entry.get("force_fit")),
+        force_fit=force_fit,
     )
+
+
+def _check_constants(path: Path, force_model: str, fit: Mapping[str, float]) -> None:
+    """Refuse a force model's constants it does not take, and a learned model without its weights (it would be
+    read as another model, or with its terms at zero, in silence)."""
+    from twin.process.force.isf_params import IsfForceParams
+    from twin.process.force.learned import WEIGHT_KEYS
+
+    isf = {f.name for f in fields(IsfForceParams)}
+    takes = {"isf": isf, "learned": isf | set(WEIGHT_KEYS)}.get(force_model)
+    if takes is not None and set(fit) - takes:
+        raise DataFileError(path, f"process.force_fit has {sorted(set(fit) - takes)}, which the {force_model!r} force "
+                            f"model does not take; it takes {sorted(takes)}")
+    missing = [key for key in WEIGHT_KEYS if key not in fit]
+    if force_model == "learned" and missing:
+        raise DataFileError(path, f"process.force_model = 'learned' without its learned weights: process.force_fit "
+                            f"lacks {missing} (a model file `learn` writes has them)")
 
 
 def _known_keys(path: Path, entry: Mapping[str, Any], prefix: str, keys: Sequence[str]) -> None:
