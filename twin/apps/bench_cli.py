@@ -43,6 +43,20 @@ FIXED = {
 }
 
 
+def _in_process(args: tuple[str, ...]) -> None:
+    """`tx200-twin ARGS` in this process, quietly; a failing command raises (its message)."""
+    import contextlib
+    import io
+
+    from twin.cli import main
+
+    err = io.StringIO()
+    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(err):
+        code = main(list(args))
+    if code != 0:
+        raise RuntimeError(f"tx200-twin bench: `{' '.join(args)}` failed: {err.getvalue().strip()[-2000:]}")
+
+
 def _python(code: str, *args: str | Path, cwd: Path) -> float:
     """Wall time of `python -c code args` in `cwd` [s]; a failing command raises (its stderr in the message)."""
     start = time.perf_counter()
@@ -71,9 +85,17 @@ def cli_ratios(top_width_m: float = 0.16, depth_m: float = 0.04, repeats: int = 
         raise InputError(f"repeats = {repeats!r}: expected >= 1")
     with tempfile.TemporaryDirectory(prefix="tx200-bench-cli-") as tmp:
         work = Path(tmp)
-        _python(CLI, "path", "--shape", "cone", "--top-width-mm", f"{1e3 * top_width_m:g}", "--depth-mm",
-                f"{1e3 * depth_m:g}", "--out", "cone.csv", cwd=work)
-        _python(CLI, "lab", "--scenario", "nominal", "--commanded", "cone.csv", "--seed", "1", "--out", "run", cwd=work)
+        setup: list[tuple[str, ...]] = [
+            ("path", "--shape", "cone", "--top-width-mm", f"{1e3 * top_width_m:g}", "--depth-mm", f"{1e3 * depth_m:g}",
+             "--out", str(work / "cone.csv")),
+            ("lab", "--scenario", "nominal", "--commanded", str(work / "cone.csv"), "--seed", "1", "--out",
+             str(work / "run")),
+        ]
+        for step in setup:  # the workload, untimed: in this process (a smoke run's start-ups are its cost)
+            if smoke:
+                _in_process(step)
+            else:
+                _python(CLI, *step, cwd=work)
         commands: dict[str, tuple[str, ...]] = {
             "replay": ("replay", "run"),
             "compensate": ("compensate", "--method", "twin", "--ideal", "cone.csv", "--out", "cmd.csv"),
