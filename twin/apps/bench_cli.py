@@ -43,18 +43,14 @@ FIXED = {
 }
 
 
-def _in_process(args: tuple[str, ...]) -> None:
-    """`tx200-twin ARGS` in this process, quietly; a failing command raises (its message)."""
-    import contextlib
-    import io
+def _workload_in_process(work: Path, top_width_m: float, depth_m: float) -> None:
+    """The cone and its nominal run written in this process (a smoke run: two start-ups less), by the tasks the
+    `path` and `lab` commands run."""
+    from twin.apps.tasks.lab import LabRequest, lab_task
+    from twin.apps.tasks.path import PathRequest, path_task
 
-    from twin.cli import main
-
-    err = io.StringIO()
-    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(err):
-        code = main(list(args))
-    if code != 0:
-        raise RuntimeError(f"tx200-twin bench: `{' '.join(args)}` failed: {err.getvalue().strip()[-2000:]}")
+    path_task(PathRequest(work / "cone.csv", "cone", depth_mm=1e3 * depth_m, top_width_mm=1e3 * top_width_m))
+    lab_task(LabRequest("nominal", work / "run", 1, commanded=work / "cone.csv"))
 
 
 def _python(code: str, *args: str | Path, cwd: Path) -> float:
@@ -91,10 +87,10 @@ def cli_ratios(top_width_m: float = 0.16, depth_m: float = 0.04, repeats: int = 
             ("lab", "--scenario", "nominal", "--commanded", str(work / "cone.csv"), "--seed", "1", "--out",
              str(work / "run")),
         ]
-        for step in setup:  # the workload, untimed: in this process (a smoke run's start-ups are its cost)
-            if smoke:
-                _in_process(step)
-            else:
+        if smoke:  # the workload, untimed
+            _workload_in_process(work, top_width_m, depth_m)
+        else:
+            for step in setup:
                 _python(CLI, *step, cwd=work)
         commands: dict[str, tuple[str, ...]] = {
             "replay": ("replay", "run"),

@@ -47,7 +47,7 @@ MODEL_FORMAT = "tx200-twin-model/2"
 READABLE_FORMATS = ("tx200-twin-model/1", MODEL_FORMAT)
 #: The keys a model file takes (`model_payload` writes them; `units` and `note` are for the reader).
 MODEL_KEYS = ("format", "robot", "process", "placement", "effects", "units", "lost_motion_takeup_mm",
-              "joint_stiffness_nm_per_rad", "joint_friction_nm", "servo", "tool", "note")
+              "joint_stiffness_nm_per_rad", "joint_friction_nm", "servo", "tool", "note", "floor")
 #: The keys of its `process` object and of `process.history`.
 PROCESS_KEYS = (*RECORD_KEYS, "friction_reversal_mm", "force_model", "force_fit", "history")
 HISTORY_KEYS = ("file", "symmetry", "unchecked_symmetry")
@@ -95,15 +95,24 @@ def model_payload(spec: TwinSpec, note: str = "") -> dict[str, Any]:
 
 
 def write_model_file(
-    path: str | Path, spec: TwinSpec, *, note: str = "", protect: Sequence[str | Path] = ()
+    path: str | Path, spec: TwinSpec, *, note: str = "", protect: Sequence[str | Path] = (),
+    floor: Mapping[str, Any] | None = None,
 ) -> Path:
-    """Write `spec` as a twin model file (atomic); never into or over an input it was made from (`protect`)."""
+    """Write `spec` as a twin model file (atomic); never into or over an input it was made from (`protect`).
+    `floor`: what the learned cell leaves on its own clean runs (`twin.analysis.discrepancy.floor.Floor.to_json`),
+    recorded beside the twin for `discrepancy` (`read_floor_entry`)."""
     for other in protect:
         if Path(path).resolve() == Path(other).resolve() or Path(path).resolve().is_relative_to(
             Path(other).resolve()
         ):
             raise InputError(f"refusing to write the model file {path} into/over the input {other}")
-    return write_json(path, model_payload(spec, note))
+    payload = model_payload(spec, note)
+    return write_json(path, payload if floor is None else {**payload, "floor": dict(floor)})
+
+
+def read_floor_entry(path: str | Path) -> Any:
+    """A model file's recorded floor (`write_model_file`'s `floor`), as written; None where it has none."""
+    return read_json(Path(path)).get("floor")
 
 
 def read_model_file(path: str | Path) -> TwinSpec:

@@ -81,8 +81,14 @@ def _measures(values: np.ndarray, sigma: float) -> tuple[float, float, float, fl
             window * float(np.sum(smooth**2)) - n, float(np.sqrt(2.0 * n * window)))
 
 
+def structured_excess(values: np.ndarray, sigma: float) -> float:
+    """The structured excess of one stream's residual over its noise `sigma` (module docstring) [noise units²]."""
+    return _measures(values, sigma)[2]
+
+
 def check(
-    before: dict[str, np.ndarray], after: dict[str, np.ndarray], sigma: dict[str, float], acts_on: tuple[str, ...]
+    before: dict[str, np.ndarray], after: dict[str, np.ndarray], sigma: dict[str, float], acts_on: tuple[str, ...],
+    floor: dict[str, float] | None = None,
 ) -> Consistency:
     """Whether the named families' evidence is consistent (module docstring).
 
@@ -91,12 +97,17 @@ def check(
         after: Stream -> what is left after the named families (SI).
         sigma: Stream -> noise sigma per axis (SI).
         acts_on: The streams the first named family acts on, its evidence first (`Family.acts_on`).
+        floor: Stream -> the structured excess a learned cell leaves on its own clean runs of this size
+            (`twin.analysis.discrepancy.floor`): the structure left is counted above it, of the structure above
+            it. None: none (judged against the noise).
     """
     streams = {}
     judged = tuple(s for s in acts_on if s in CHECKED_STREAMS and s in before)
     for name, raw in before.items():
         e0, se_e, s0, se_s = _measures(raw, sigma[name])
         e1, _, s1, _ = _measures(after[name], sigma[name])
+        base = 0.0 if floor is None else min(max(floor.get(name, 0.0), 0.0), 0.9 * max(s0, 0.0))
+        s0, s1 = s0 - base, s1 - base
         left = max(s1, 0.0) / s0 if s0 > SIGNIFICANCE_SE * se_s else 0.0
         failed = name in judged and left > STRUCTURE_SHARE and s1 > SIGNIFICANCE_SE * se_s
         streams[name] = StreamCheck(e0, e1, s0, s1, e0 > SIGNIFICANCE_SE * se_e, left, failed)

@@ -32,6 +32,7 @@ from twin.analysis.discrepancy.context import Context
 from twin.analysis.discrepancy.effect_model import context, effect_increment, prune, refine
 from twin.analysis.discrepancy.families import FAMILIES, Family
 from twin.analysis.discrepancy.fitting import Fit, Fitter
+from twin.analysis.discrepancy.floor import Floor
 from twin.analysis.discrepancy.residuals import ResidualModel
 from twin.analysis.discrepancy.selection import Step, forward_select
 from twin.analysis.discrepancy.signature import describe_remainder
@@ -94,6 +95,7 @@ class DiscrepancyResult:
         model_complete: Whether `effects` carries every named family (then `gap_after` is its replay).
         remainder: Signature of what is left (`signature.describe_remainder`).
         rounds: The selection rounds.
+        floor: The learned cell's floor the run was judged against (`Floor.to_json`), empty for none.
     """
 
     effects: Effects
@@ -114,6 +116,7 @@ class DiscrepancyResult:
     residual_before: dict[str, np.ndarray] = field(repr=False)
     residual_after: dict[str, np.ndarray] = field(repr=False)
     consistency: dict[str, Any] = field(default_factory=dict)
+    floor: dict[str, Any] = field(default_factory=dict)
 
 
 def gap(streams: dict[str, np.ndarray]) -> dict[str, float]:
@@ -234,6 +237,7 @@ def find_discrepancy(
     *,
     candidates: tuple[str, ...] | None = None,
     progress: Callable[[str], None] | None = None,
+    floor: Floor | None = None,
 ) -> DiscrepancyResult:
     """Run the workflow on one run.
 
@@ -243,6 +247,8 @@ def find_discrepancy(
             an earlier model file); placed at the run's placement. None: the default cell.
         candidates: Family names to try (default: all of `FAMILIES` the run's streams allow).
         progress: Called with each stage's name as it starts (to show a long search moving).
+        floor: What the learned cell `spec` leaves on its own clean runs (`twin.analysis.discrepancy.floor`): a
+            family's share is of the excess over it, the structure it leaves is above it. None: the noise alone.
     """
     spec = spec or TwinSpec()
     start = spec.effects
@@ -262,7 +268,9 @@ def find_discrepancy(
     fit, steps = forward_select(fitter, list(families.values()), excess, sizes) if significant else (
         fitter.fit([]), ())
     named = _named(steps, fit, families)
-    meaningful = any(n.explained_fraction >= MEANINGFUL_SHARE for n in named)
+    # over a learned cell's floor, a family's share is of the excess the floor does not account for
+    share = 1.0 if floor is None else excess / max(excess - floor.excess_on(sizes), 0.1 * excess)
+    meaningful = any(n.explained_fraction * share >= MEANINGFUL_SHARE for n in named)
     verdict = "none" if not significant else (named[0].name if meaningful else "unexplained")
     if verdict != "unexplained" and named:
         explained = 1.0 - excess_over_noise(fit.residual, list(sizes.values())) / excess
@@ -280,7 +288,8 @@ def find_discrepancy(
         explained = 1.0 - excess_over_noise(fitter.stack(remainder), list(sizes.values())) / excess
     checked: dict[str, Any] = {}
     if verdict not in ("none", "unexplained"):
-        outcome = consistency.check(fitter.raw, remainder, sigma, families[named[0].name].acts_on)
+        base = None if floor is None else {k: floor.structure.get(k, 0.0) * v.size for k, v in fitter.raw.items()}
+        outcome = consistency.check(fitter.raw, remainder, sigma, families[named[0].name].acts_on, base)
         checked = {"family": verdict, "explained_fraction": float(explained), **outcome.summary()}
         if not outcome.consistent:  # the family does not account for the gap: say so, describe the raw gap
             verdict, effects, remainder, complete, explained = "unexplained", start, dict(fitter.raw), True, 0.0
@@ -295,7 +304,7 @@ def find_discrepancy(
         chi2_after=reduced_chi2(remainder, sigma), gap_before=gap(fitter.raw),
         gap_after=gap(remainder) if found else gap(fitter.raw), noise=noise.summary(),
         confidence=_confidence(steps), residual_before=dict(fitter.raw), residual_after=remainder,
-        consistency=checked,
+        consistency=checked, floor={} if floor is None else floor.to_json(),
     )
 
 

@@ -32,6 +32,7 @@ def result_summary(result: DiscrepancyResult) -> dict[str, Any]:
         "significant_share": ROUND_SHARE,
         "remainder": result.remainder,
         "consistency": result.consistency,
+        "floor": result.floor,
         "ambiguities": [
             {"named": n.name, "ambiguous_with": list(n.ambiguous_with)} for n in result.named if n.ambiguous_with
         ],

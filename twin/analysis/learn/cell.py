@@ -50,6 +50,7 @@ class LearnResult(NamedTuple):
         before: Per run, the replay gap of the input spec.
         after: Per run, the replay gap of the learned spec, on the runs it learned from (fitted).
         held_out: Per run, the gap of a spec learned from the other runs only (predicted; empty for one run).
+        held_specs: Per run, that spec (the twin each run was held out from; empty for one run).
     """
 
     spec: TwinSpec
@@ -59,6 +60,7 @@ class LearnResult(NamedTuple):
     before: tuple[Gap, ...]
     after: tuple[Gap, ...]
     held_out: tuple[Gap, ...]
+    held_specs: tuple[TwinSpec, ...] = ()
 
 
 def learned_spec(runs: list[Run], spec: TwinSpec) -> tuple[TwinSpec, RobotFit, SheetFit, SpringbackFit | None]:
@@ -114,11 +116,13 @@ def learn(runs: list[Run], spec: TwinSpec | None = None) -> LearnResult:
     before = tuple(replay_gap(run, spec) for run in runs)
     after = tuple(replay_gap(run, learned) for run in runs)
     held: list[Gap] = []
+    held_specs: list[TwinSpec] = []
     if len(runs) > 1:
         for k, run in enumerate(runs):
             others = [r for i, r in enumerate(runs) if i != k]
-            held.append(replay_gap(run, learned_spec(others, spec)[0]))
-    return LearnResult(learned, robot_fit, sheet_fit, springback_fit, before, after, tuple(held))
+            held_specs.append(learned_spec(others, spec)[0])
+            held.append(replay_gap(run, held_specs[-1]))
+    return LearnResult(learned, robot_fit, sheet_fit, springback_fit, before, after, tuple(held), tuple(held_specs))
 
 
 def declared_process(run: Run) -> Process:

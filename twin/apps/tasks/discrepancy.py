@@ -10,6 +10,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from twin.analysis.discrepancy.floor import Floor
 from twin.analysis.discrepancy.search import DiscrepancyResult, find_discrepancy
 from twin.analysis.discrepancy.summary import result_summary
 from twin.analysis.learn.cell import Gap
@@ -23,7 +24,7 @@ from twin.process.process_file import ProcessDeclaration, process_record
 from twin.runs.contact import require_forming_contact
 from twin.runs.format import Run
 from twin.runs.read import read_run
-from twin.sim.model_file import write_model_file
+from twin.sim.model_file import read_floor_entry, write_model_file
 from twin.sim.spec import TwinSpec
 
 FIGURE = "residual_before_after.png"
@@ -128,6 +129,10 @@ class DiscrepancyReport(Report):
             f"{after['force_rms_n']:.1f} N (noise {result.noise['position_mm']:.3f} mm, "
             f"{result.noise['force_n']:.1f} N per axis); left: {result.remainder['words']}"
         ]
+        if result.floor:
+            lines.append("  judged above the floor the learned cell leaves on its own clean runs ("
+                         + ", ".join(f"{s} {v:.3g}" for s, v in result.floor["excess_per_element"].items())
+                         + " x the noise's variance per sample; from the model file)")
         if self.learned is not None:
             lines.append("  no family explains it; learned from the run (fitted):")
             lines += [f"  - {sentence}" for sentence in self.learned.named]
@@ -170,7 +175,8 @@ def discrepancy_task(request: DiscrepancyRequest, note: Note = silent) -> Discre
     spec = resolve_spec(cell=request.cell, model=request.model, robot=request.robot, run=measured, declaration=request.declaration,
                         force_model_name=request.force_model, history=declared,
                         p_sheet_m=measured.commanded.values, note=note)
-    result = find_discrepancy(measured, spec)
+    floor = None if request.model is None else _floor(request.model)
+    result = find_discrepancy(measured, spec, floor=floor)
     learned, refused = None, None
     if result.verdict == "unexplained" and measured.forces is not None and request.learn:
         try:
@@ -193,6 +199,12 @@ def discrepancy_task(request: DiscrepancyRequest, note: Note = silent) -> Discre
             label_after=f"twin + {', '.join(result.found) or 'nothing'}",
         )
     return DiscrepancyReport(request.run_dir, spec, result, learned, refused, request.model_out, figure)
+
+
+def _floor(model: Path) -> Floor | None:
+    """The floor a model file records (`learn` with two runs or more), or None."""
+    entry = read_floor_entry(model)
+    return None if entry is None else Floor.from_json(entry, str(model))
 
 
 def learn_from_run(measured: Run, spec: TwinSpec, held_out: Path | None = None) -> LearnedFromRun:

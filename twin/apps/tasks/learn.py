@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from twin.analysis.discrepancy.floor import Floor, mean_floor, measure_floor
 from twin.analysis.learn import Gap, LearnResult, RobotFit, learn
 from twin.apps.tasks.base import Note, Report, silent
 from twin.base.outputs import repeated_input
@@ -56,11 +57,13 @@ class LearnReport(Report):
         result: The learned twin, the robot's, sheet's and springback's fits and the replay gaps.
         model_file: The model file written, or None.
         run_tool_mm: The tool length the runs record (their `cell` tool, else `tool_length_m`) [mm], or None.
+        floor: With two runs or more, what the learned cell leaves on its own clean runs (each held out), or None.
     """
 
     result: LearnResult
     model_file: Path | None = None
     run_tool_mm: float | None = None
+    floor: Floor | None = None
 
     def fitted_words(self) -> str:
         """The robot, the sheet placement and the tool the twin was fitted for, in one line."""
@@ -106,6 +109,10 @@ class LearnReport(Report):
             lines.append(f"  replay {before.run}: {_gap(before)} -> {_gap(after)} (fitted)")
         for held in result.held_out:
             lines.append(f"  left out {held.run}: {_gap(held)} (predicted: learned from the other runs)")
+        if self.floor is not None:
+            lines.append("  floor on its own clean runs (predicted; what `discrepancy --model` judges a change above): "
+                         + ", ".join(f"{s} {v:.3g}" for s, v in self.floor.excess.items())
+                         + " x the noise's variance per sample")
         if self.model_file is not None:
             lines.append(f"-> {self.model_file}")
         return lines
@@ -138,6 +145,7 @@ class LearnReport(Report):
             "springback": None if result.springback is None else result.springback._asdict(),
             "before": gaps(result.before), "after_fitted": gaps(result.after),
             "held_out_predicted": gaps(result.held_out),
+            "floor": None if self.floor is None else self.floor.to_json(),
         }
 
 
@@ -151,13 +159,17 @@ def learn_task(request: LearnRequest, note: Note = silent) -> LearnReport:
     runs = [read_run(path) for path in request.runs]
     prior = read_model_file(request.model) if request.model is not None else None
     result = learn(runs, prior)
+    floor = None
+    if len(runs) > 1:  # the floor the cell leaves on a clean run it was not learned from (predicted), for discrepancy
+        note("learn: the floor the learned cell leaves on its own clean runs (each run held out)")
+        floor = mean_floor([measure_floor(run, spec) for run, spec in zip(runs, result.held_specs, strict=True)])
     if request.write_model is not None:
         names = ", ".join(str(p) for p in request.runs)
         write_model_file(request.write_model, result.spec,
                          protect=[*request.runs, *([request.model] if request.model is not None else [])],
                          note=f"learned by `tx200-twin learn` from {names}: K_q, joint friction and the sheet's "
-                         "force model are fitted to those runs")
-    return LearnReport(result, request.write_model, _run_tool_mm(runs[0].meta))
+                         "force model are fitted to those runs", floor=None if floor is None else floor.to_json())
+    return LearnReport(result, request.write_model, _run_tool_mm(runs[0].meta), floor)
 
 
 def _run_tool_mm(meta: Mapping[str, Any]) -> float | None:

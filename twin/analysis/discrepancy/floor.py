@@ -1,0 +1,108 @@
+"""The floor a learned cell leaves on its own clean runs, against which a later run's change is judged (issue #47).
+
+A twin learned from a cell does not replay that cell's next clean run to its noise: it leaves a floor (the
+reversal transients a quasi-static twin does not hold, what the sheet learner has no term for). A discrepancy
+search judged against the noise alone then throws right answers away: a family that finds the hidden change
+with its right size explains only part of the run's excess and leaves the floor's slow structure, so it is not
+named. `measure_floor` measures that floor the way the search measures a run (each stream's residual over its
+noise estimate, `twin.analysis.discrepancy.residuals.ResidualModel`): per element, the excess over noise
+(Σ v² − n) / n and the structured excess of `twin.analysis.discrepancy.consistency` (its moving average), both
+in noise units, so that they carry over to a run of another length. `learn`, given two runs or more, measures
+it on each run with the twin learned from the others (a clean run the twin did not fit: predicted, not fitted)
+and records their mean in the model file; `discrepancy RUN --model M.json` takes it (`find_discrepancy`'s
+`floor`): a family's share is counted of the excess over the floor, and what it leaves of the slow structure
+over the floor's. Without a recorded floor, the search is judged against the noise as before.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any, NamedTuple
+
+import numpy as np
+
+from twin.analysis.discrepancy.consistency import structured_excess
+from twin.analysis.discrepancy.effect_model import context
+from twin.analysis.discrepancy.fitting import Fitter
+from twin.analysis.discrepancy.residuals import ResidualModel
+from twin.errors import InputError
+from twin.runs.format import Run
+from twin.sim.spec import TwinSpec
+
+STREAMS = ("position", "force", "profile")
+
+
+class Floor(NamedTuple):
+    """A learned cell's floor on its clean runs, per stream, per element, in noise units (module docstring).
+
+    Attributes:
+        excess: Stream -> (Σ v² − n) / n of the residual over its noise, >= 0.
+        structure: Stream -> the structured excess (`consistency.structured_excess`) / n, >= 0.
+        runs: The runs it was measured on (each with a twin learned from the others).
+    """
+
+    excess: Mapping[str, float]
+    structure: Mapping[str, float]
+    runs: tuple[str, ...] = ()
+
+    def excess_on(self, sizes: Mapping[str, int]) -> float:
+        """The floor's excess over a run's streams of these sizes (elements) [noise units²]."""
+        return float(sum(self.excess.get(s, 0.0) * n for s, n in sizes.items()))
+
+    def to_json(self) -> dict[str, Any]:
+        """As the model file records it (`floor`)."""
+        return {"excess_per_element": dict(self.excess), "structure_per_element": dict(self.structure),
+                "runs": list(self.runs),
+                "note": "what the learned cell leaves on its own clean runs, predicted (learned from the others)"}
+
+    @classmethod
+    def from_json(cls, entry: Any, where: str) -> Floor:
+        """The model file's `floor` object.
+
+        Raises:
+            InputError: Not the object `to_json` writes (naming `where`).
+        """
+        if not isinstance(entry, Mapping):
+            raise InputError(f"{where}: floor = {entry!r}: expected an object")
+        parts = []
+        for key in ("excess_per_element", "structure_per_element"):
+            values = entry.get(key)
+            if not isinstance(values, Mapping) or not all(
+                    s in STREAMS and isinstance(v, int | float) and not isinstance(v, bool) and np.isfinite(v)
+                    and v >= 0 for s, v in values.items()):
+                raise InputError(f"{where}: floor.{key} = {values!r}: expected stream ({', '.join(STREAMS)}) -> "
+                                 "a finite number >= 0")
+            parts.append({str(s): float(v) for s, v in values.items()})
+        runs = entry.get("runs", [])
+        return cls(parts[0], parts[1], tuple(str(r) for r in runs) if isinstance(runs, list) else ())
+
+
+def measure_floor(run: Run, spec: TwinSpec) -> Floor:
+    """The floor `spec` leaves on `run` (a clean run it did not learn from), measured as the search measures."""
+    model = ResidualModel(run, spec)
+    noise = model.noise
+    sigma = {"position": noise.position_m, "force": noise.force_n, "profile": noise.profile_m}
+    measured = {"position": run.tracker.values}
+    if run.forces is not None:
+        measured["force"] = run.forces.values
+    if run.part_profile is not None:
+        measured["profile"] = np.asarray(run.part_profile[1], dtype=float)
+    fitter = Fitter(context(model, spec.effects), measured, sigma, model.folds())
+    excess, structure = {}, {}
+    for s, raw in fitter.raw.items():
+        v = np.ravel(raw) / sigma[s]
+        excess[s] = max(float(v @ v) - v.size, 0.0) / v.size
+        structure[s] = max(structured_excess(raw, sigma[s]), 0.0) / v.size
+    return Floor(excess, structure, (str(run.directory),))
+
+
+def mean_floor(floors: Sequence[Floor]) -> Floor:
+    """The mean of floors measured on several runs (each stream over the runs that have it)."""
+    if not floors:
+        raise InputError("mean_floor needs at least one floor")
+
+    def mean(key: str) -> dict[str, float]:
+        streams = {s for f in floors for s in getattr(f, key)}
+        return {s: float(np.mean([getattr(f, key)[s] for f in floors if s in getattr(f, key)])) for s in streams}
+
+    return Floor(mean("excess"), mean("structure"), tuple(r for f in floors for r in f.runs))
