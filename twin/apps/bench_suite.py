@@ -20,7 +20,7 @@ from twin.apps.machine import machine_info
 from twin.errors import InputError
 
 #: The suite command of the Makefile's `test` target (without its interpreter).
-SUITE_ARGS = ("-m", "pytest", "-q", "-n", "2", "--dist", "loadfile", "-p", "no:cacheprovider")
+SUITE_ARGS = ("-m", "pytest", "-q", "-n", "2", "--dist", "loadfile", "--no-loadscope-reorder", "-p", "no:cacheprovider")
 _COUNT = re.compile(r"(\d+) (passed|failed|skipped|xfailed|xpassed|errors?|deselected)")
 _SECONDS = re.compile(r" in ([0-9.]+)s")
 
