@@ -34,6 +34,7 @@ import numpy as np
 
 from twin.errors import InputError
 from twin.robot.model import build_model
+from twin.robot.tool_bending import bending_compliance_at
 from twin.sim.compiled.chain import ChainArrays, chain_arrays
 from twin.sim.compiled.online import (
     CORR,
@@ -137,9 +138,11 @@ class OnlineCompensator:
         spec = spec or TwinSpec()
         self.settings = settings or OnlineSettings()
         twin = spec.build()
-        # the plain arm with the declared tool, rigid (its bending is not in the online law): its joints are the
-        # controller's
+        # the plain arm with the declared tool, rigid: its joints are the controller's; the tool's own bending is
+        # a constant compliance at the tip while the tool is held down (`twin.robot.tool_bending`, at home)
         model = build_model(twin.robot, tool=None if spec.tool is None else spec.tool.rigid)
+        c_base = bending_compliance_at(twin.model, twin.robot, twin.kinematics.q_home)
+        self._c_tool = np.ascontiguousarray(twin.R_base_sheet.T @ c_base @ twin.R_base_sheet)
         if model.nv != twin.robot.dof:
             raise InputError(f"online compensation needs a plain {twin.robot.dof}-joint arm; {twin.robot.name} "
                              f"compiles to {model.nv} dofs")
@@ -191,7 +194,7 @@ class OnlineCompensator:
             The cycle's status (`STATUS`); the correction is in `correction_m` [m], sheet frame: add it to the
             commanded tool tip.
         """
-        return int(online_cycle(self._chain, self._params, self.k_inv, self.friction_nm, self._assumed_p,
+        return int(online_cycle(self._chain, self._params, self.k_inv, self.friction_nm, self._c_tool, self._assumed_p,
                                 self._assumed_f, self._state, self._q_prev,
                           float(t_s), float(sample_t_s), f_sheet_n, q_rad, self._p, self._jac, self._g))
 

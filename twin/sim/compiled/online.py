@@ -94,11 +94,12 @@ def progress(path, state, x0, x1, x2, alpha):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True)
-def online_cycle(chain, params, k_inv, friction, assumed_p, assumed_f, state, q_prev, t, sample_t, f, q, p, jac, g):  # type: ignore[no-untyped-def]
+def online_cycle(chain, params, k_inv, friction, c_tool, assumed_p, assumed_f, state, q_prev, t, sample_t, f, q, p, jac, g):  # type: ignore[no-untyped-def]
     """One cycle on preallocated arrays (`OnlineCompensator.step`); returns the status.
 
-    `assumed_p`, `assumed_f`: an offline command's tool tips (sheet frame [m], (n, 3)) and the force it assumed at
-    each ([N], (n, 3)); n = 0: a nominal command."""
+    `c_tool`: the tool's own bending compliance at the tip, sheet frame [m/N], (3, 3) (zeros: a rigid tool; constant
+    while the tool is held down). `assumed_p`, `assumed_f`: an offline command's tool tips (sheet frame [m], (n, 3))
+    and the force it assumed at each ([N], (n, 3)); n = 0: a nominal command."""
     omega, latency, spike, max_corr, max_step = params[1], params[2], params[3], params[4], params[5]
     stale, hold, gain, spike_run, w0 = params[6], params[7], params[8], params[9], params[10]
     cycle = params[0]
@@ -162,6 +163,9 @@ def online_cycle(chain, params, k_inv, friction, assumed_p, assumed_f, state, q_
                 d0 += jac[0, j] * w
                 d1 += jac[1, j] * w
                 d2 += jac[2, j] * w
+            d0 += c_tool[0, 0] * fp0 + c_tool[0, 1] * fp1 + c_tool[0, 2] * fp2  # the tool's own bending
+            d1 += c_tool[1, 0] * fp0 + c_tool[1, 1] * fp1 + c_tool[1, 2] * fp2
+            d2 += c_tool[2, 0] * fp0 + c_tool[2, 1] * fp1 + c_tool[2, 2] * fp2
             target0, target1, target2 = -gain * d0, -gain * d1, -gain * d2
             size = math.sqrt(target0 * target0 + target1 * target1 + target2 * target2)
             if size > max_corr:
