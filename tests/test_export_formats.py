@@ -256,9 +256,14 @@ def test_val3_check_rejects_what_the_grammar_forbids(
 def test_export_never_writes_over_its_input(path_csv: Path, cell: CellSetup, tmp_path: Path) -> None:
     copy = tmp_path / "path.csv"
     copy.write_bytes(path_csv.read_bytes())
-    for fmt in ("gcode", "csv", "rapid"):
+    for fmt in ("gcode", "csv"):
         with pytest.raises(InputError, match="refusing to overwrite"):
             export_path(copy, fmt, copy, cell=cell)
+    named_as_module = tmp_path / "path.mod"  # RAPID names its files as the program: NAME.mod, NAME.pgf
+    named_as_module.write_bytes(path_csv.read_bytes())
+    with pytest.raises(InputError, match="refusing to overwrite"):
+        export_path(named_as_module, "rapid", copy, cell=cell)
+    assert named_as_module.read_bytes() == path_csv.read_bytes()
     inside = tmp_path / "app" / "path.csv"
     inside.parent.mkdir()
     inside.write_bytes(path_csv.read_bytes())

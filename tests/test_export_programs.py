@@ -125,7 +125,7 @@ def test_rapid_has_the_vendor_structure(short: Path, work: Path) -> None:
     assert lines[0] == "MODULE s" and lines[-1] == "ENDMODULE"
     assert any(line.startswith("PERS tooldata tIsf:=[TRUE,") for line in lines)
     assert any(line.startswith("PERS wobjdata wSheet:=[FALSE,TRUE,") for line in lines)
-    proc = lines.index("PROC main()")
+    proc = lines.index("PROC isf_s()")  # not main: the task has its own main module
     assert lines[proc + 1 : proc + 3] == ["ConfJ \\On;", "ConfL \\Off;"]
     assert lines[proc + 3 : proc + 5] == ["MoveAbsJ jHome,v100,fine,tIsf;", "MoveJ pPath{1},v100,fine,tIsf\\WObj:=wSheet;"]
     moves = [line for line in lines[proc:] if line.startswith(("MoveAbsJ", "MoveJ", "MoveL"))]
@@ -170,7 +170,7 @@ def test_a_program_over_the_limit_is_split_into_parts_a_main_calls(
     names = sorted(f.name for f in split.iterdir() if f.suffix == suffix)
     assert names == [f"isf{suffix}", f"isf_1{suffix}", f"isf_2{suffix}", f"isf_3{suffix}"]
     main_text = (split / f"isf{suffix}").read_text()
-    calls = re.findall(r"^\s*(ISF_\d|isf_\d)(?:\( \))?;?$", main_text, re.M)
+    calls = re.findall(r"^\s*(?:isf_)?(ISF_\d|isf_\d)(?:\( \))?;?$", main_text, re.M)  # RAPID: isf_NAME_k
     assert [c.lower() for c in calls] == ["isf_1", "isf_2", "isf_3"]
     if fmt == "krl":
         assert ";FOLD INI" in main_text and "BAS(#INITMOV,0)" in main_text

@@ -11,6 +11,7 @@ modules; the UDP device sends where `online --serve egm` listens; `rapid` withou
 from __future__ import annotations
 
 import re
+import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -18,6 +19,7 @@ import numpy as np
 import pytest
 
 from twin.apps.export import EXPORT_FORMATS, export_path, online_format, rapid, rapid_egm, robot_format
+from twin.apps.export.motion import corners
 from twin.apps.export.program import CellSetup, ProgramPath, default_cell
 from twin.cli import main
 from twin.errors import InputError
@@ -32,7 +34,7 @@ EGM = ("EGMReset", "EGMGetId", "EGMSetupUC", "EGMActMove", "EGMMoveL", "EGMStop"
 _TARGET = re.compile(r"\[\[([^\]]*)\],\[[^\]]*\],\[[^\]]*\],\[[^\]]*\]\]")
 _ARRAY = re.compile(r"^\s*(LOCAL )?CONST (robtarget|speeddata) (\w+)\{(\d+)\}:=\[(.*?)\];", re.M | re.S)
 _SINGLE = re.compile(r"^\s*(LOCAL )?CONST (robtarget|speeddata) (\w+):=(\[.*\]);$", re.M)
-_NUM = re.compile(r"^\s*(LOCAL )?CONST num (\w+):=(\d+);$", re.M)
+_NUM = re.compile(r"^\s*(LOCAL )?CONST num (\w+):=([\d.]+);$", re.M)
 _IDENT = re.compile(r"^\s*(LOCAL )?VAR egmident (\w+);$", re.M)
 
 
@@ -44,6 +46,7 @@ class Module:
     data: dict[str, object] = field(default_factory=dict)
     local: set[str] = field(default_factory=set)
     procs: dict[str, list[str]] = field(default_factory=dict)
+    handlers: dict[str, list[str]] = field(default_factory=dict)
     idents: list[tuple[str, bool]] = field(default_factory=list)
 
 
@@ -77,6 +80,7 @@ def parse_module(text: str) -> Module:
     stack: list[str] = []
     name, proc = "", ""
     procs: dict[str, list[str]] = {}
+    handlers: dict[str, list[str]] = {}
     for line in filter(None, code):
         head = line.split()[0]
         if head == "MODULE":
@@ -96,20 +100,31 @@ def parse_module(text: str) -> Module:
             stack.append("PROC")
             continue
         if head == "ENDPROC":
-            assert stack == ["MODULE", "PROC"], f"ENDPROC closes {stack}"
-            stack.pop()
+            assert stack in (["MODULE", "PROC"], ["MODULE", "PROC", "ERROR"]), f"ENDPROC closes {stack}"
+            del stack[1:]
             continue
-        if head == "FOR":
-            assert stack[:2] == ["MODULE", "PROC"] and line.endswith(" DO"), f"FOR outside a PROC: {line}"
-            stack.append("FOR")
-        elif head == "ENDFOR":
-            assert stack[-1:] == ["FOR"], f"ENDFOR closes {stack}"
+        if head == "ERROR":
+            assert stack == ["MODULE", "PROC"] and line == "ERROR", f"ERROR outside a PROC's body: {line}"
+            stack.append("ERROR")
+            handlers[proc] = []
+            continue
+        if stack[:3] == ["MODULE", "PROC", "ERROR"]:  # the handler: IF/ENDIF balanced, statements terminated
+            assert line.endswith((";", " THEN")) or head == "ENDIF", f"unterminated statement in {proc}'s ERROR"
+            handlers[proc].append(line)
+            continue
+        if head in ("FOR", "IF"):
+            closing = " DO" if head == "FOR" else " THEN"
+            assert stack[:2] == ["MODULE", "PROC"] and line.endswith(closing), f"{head} outside a PROC: {line}"
+            stack.append(head)
+        elif head in ("ENDFOR", "ENDIF"):
+            assert stack[-1:] == [head[3:]], f"{head} closes {stack}"
             stack.pop()
-        if stack[:2] == ["MODULE", "PROC"] or head == "ENDFOR":
-            assert line.endswith((";", " DO")) or head == "ENDFOR", f"unterminated statement in {proc}: {line}"
+        if stack[:2] == ["MODULE", "PROC"] or head in ("ENDFOR", "ENDIF"):
+            assert line.endswith((";", " DO", " THEN")) or head in ("ENDFOR", "ENDIF"), (
+                f"unterminated statement in {proc}: {line}")
             procs[proc].append(line)
     assert not stack and name, f"unbalanced module {name!r}: {stack} left open"
-    module = Module(name, procs=procs)
+    module = Module(name, procs=procs, handlers=handlers)
     for local, kind, var, size, body in _ARRAY.findall(text):
         values = ([np.array([float(v) for v in row.split(",")]) for row in _TARGET.findall(body)]
                   if kind == "robtarget" else [_speed(s) for s in re.findall(r"\[[^\]]*\]", body)])
@@ -120,7 +135,7 @@ def parse_module(text: str) -> Module:
         _declare(module, local, var, np.array([float(v) for v in found.group(1).split(",")])
                  if kind == "robtarget" and found else _speed(value))
     for local, var, value in _NUM.findall(text):
-        _declare(module, local, var, int(value))
+        _declare(module, local, var, float(value) if "." in value else int(value))
     module.idents = [(var, bool(local)) for local, var in _IDENT.findall(text)]
     return module
 
@@ -129,13 +144,27 @@ class Program:
     """The modules of a program and `main` run as the controller runs it (calls and FOR loops expanded)."""
 
     def __init__(self, files: dict[str, str]) -> None:
-        self.modules = [parse_module(text) for name, text in files.items() if name.endswith(".mod")]
+        mods = sorted(name for name in files if name.endswith(".mod"))  # NAME.mod before NAME_1.mod
+        pgf = [name for name in files if name.endswith(".pgf")]
+        if pgf:  # the program file lists exactly the modules, the main one first
+            root = ET.fromstring(files[pgf[0]].split("?>", 1)[1])
+            listed = [m.text or "" for m in root]
+            assert root.tag == "Program" and {m.tag for m in root} == {"Module"} and sorted(listed) == mods
+            assert pgf == [listed[0][:-4] + ".pgf"], pgf
+            mods = listed
+        self.modules = [parse_module(files[name]) for name in mods]
+        assert [f"{m.name}.mod" for m in self.modules] == mods, "a module not in the file named as it"
         owners = [(m, p) for m in self.modules for p in m.procs]
-        assert len({p for _, p in owners}) == len(owners), "a procedure name used twice"
+        names = [p.lower() for _, p in owners]  # RAPID's names are case-insensitive
+        assert len(set(names)) == len(names), "a procedure name used twice"
+        assert "main" not in names, "a main beside the task's own main module"
+        assert not set(names) & {m.name.lower() for m in self.modules}, "a procedure named as a module"
         self.procs = {p: m for m, p in owners}
-        self.main = self.procs["main"]
+        self.main = self.modules[0]
+        self.entry = f"isf_{self.main.name}"
         self.steps: list[Step] = []
-        self._run(self.main, self.main.procs["main"], {})
+        self.skipped: list[list[str]] = []
+        self._run(self.main, self.main.procs[self.entry], {})
 
     def value(self, module: Module, name: str) -> object:
         """A name as `module` sees it: its own data, else another module's global data (never its LOCAL data)."""
@@ -164,6 +193,11 @@ class Program:
         i = 0
         while i < len(body):
             line = body[i]
+            if line.startswith("IF "):  # a check that ends the program when it fails: the normal run skips it
+                end = body.index("ENDIF", i)
+                self.skipped.append(body[i:end + 1])
+                i = end + 1
+                continue
             loop = re.fullmatch(r"FOR (\w+) FROM (.+) TO (.+) DO", line)
             if loop:
                 depth, end = 1, i + 1
@@ -213,14 +247,35 @@ def check_egm_program(files: dict[str, str], path: ProgramPath) -> Program:
     corrected = program.kinds("EGMMoveL")
     (approach,), (retract,) = program.kinds("MoveJ"), program.kinds("MoveL")
     assert approach < get < setup < act < corrected[0] <= corrected[-1] < stop < retract
-    assert program.steps[act].args[1].endswith("\\SampleRate:=4")
-    assert "\\PathCorr" in program.steps[setup].args[-1] and program.steps[setup].args[0] == "ROB_1"
+    rate = re.fullmatch(r"tIsf\.tframe\\SampleRate:=(\d+)", program.steps[act].args[1])
+    assert rate and int(rate.group(1)) % 24 == 0 and int(rate.group(1)) > 0  # path correction: multiples of 24 ms
+    options = program.steps[setup].args[-1]
+    assert "\\PathCorr" in options and re.search(r"\\CommTimeout:=\d", options)
+    assert program.steps[setup].args[0] == "ROB_1"
+    main_body = program.main.procs[program.entry]
+    check = next(i for i, line in enumerate(main_body) if line.startswith("IF EGMGetState("))
+    assert main_body.index(next(x for x in main_body if x.startswith("EGMSetupUC"))) < check < main_body.index(
+        next(x for x in main_body if x.startswith("EGMActMove")))
+    assert f"EGMGetState({egm_id}) <> EGM_STATE_CONNECTED THEN" in main_body[check]
+    assert "EXIT;" in main_body[check:main_body.index("ENDIF", check)]  # stopped before the plunge
+    handler = program.main.handlers[program.entry]  # a lost PC: stop, end EGM, lift out of the sheet, end
+    assert handler[0] == "IF ERRNO = ERR_UDPUC_COMM THEN" and handler[-1] == "RAISE;"
+    kinds = [line.split()[0].rstrip(";") for line in handler]
+    assert kinds.index("StopMove") < kinds.index("ClearPath") < kinds.index("EGMReset") < kinds.index(
+        "MoveL") < kinds.index("EXIT")
+    lift = next(line for line in handler if line.startswith("MoveL "))
+    assert lift.startswith("MoveL Offs(CRobT(\\Tool:=tIsf\\WObj:=wSheet),0,0,nLift),")
+    n_lift = program.value(program.main, "nLift")
+    assert isinstance(n_lift, int | float) and n_lift >= path.points_mm[-1, 2] - path.points_mm[1:-1, 2].min() - 1e-3
     moves = [program.steps[i] for i in program.kinds(*MOVES)]
     n = len(path.points_mm)
     assert [s.kind for s in moves] == ["MoveJ"] + ["EGMMoveL"] * (n - 2) + ["MoveL"]
     np.testing.assert_allclose([s.point for s in moves], path.points_mm, atol=POSITION_TOL_MM)
     np.testing.assert_allclose([s.speed for s in moves[1:]], path.feed_mm_s[1:], atol=0.5e-3 + 1e-9)
-    assert [s.zone for s in moves[1:-1]] == ["z0"] * (n - 3) + ["fine"] and moves[-1].zone == "fine"
+    stop = corners(path.points_mm)[1:-1]
+    stop[-1] = True  # the offline program's corners (the plunge among them) and the end at rest
+    assert stop[0] and [s.zone for s in moves[1:-1]] == ["fine" if k else "z0" for k in stop]
+    assert moves[-1].zone == "fine"
     return program
 
 
@@ -245,7 +300,7 @@ def _export(path_csv: Path, out: Path, cell: CellSetup, max_points: int = 0) -> 
 
 def test_egm_corrects_every_point_of_the_path_and_nothing_else(path_csv: Path, cell: CellSetup, tmp_path: Path) -> None:
     path, files = _export(path_csv, tmp_path / "ISF.mod", cell)
-    assert sorted(files) == ["ISF.mod", "ISF_egm_moc.cfg", "ISF_egm_sio.cfg"]
+    assert sorted(files) == ["ISF.mod", "ISF.pgf", "ISF_egm_moc.cfg", "ISF_egm_sio.cfg"]
     assert len(path.points_mm) == 281 and path.approach
     program = check_egm_program(files, path)
     assert program.steps[0].kind == "ConfJ" and program.steps[1].kind == "ConfL"
@@ -261,14 +316,14 @@ def test_a_split_program_keeps_egm_in_main_and_the_corrected_moves_in_the_parts(
     path, files = _export(path_csv, tmp_path / "ISF.mod", cell, max_points=100)
     assert sorted(f for f in files if f.endswith(".mod")) == ["ISF.mod", "ISF_1.mod", "ISF_2.mod", "ISF_3.mod"]
     program = check_egm_program(files, path)
-    calls = [line.strip() for line in program.main.procs["main"] if re.fullmatch(r"ISF_\d;", line.strip())]
-    assert calls == ["ISF_1;", "ISF_2;", "ISF_3;"]
+    calls = [line.strip() for line in program.main.procs[program.entry] if re.fullmatch(r"isf_ISF_\d;", line.strip())]
+    assert calls == ["isf_ISF_1;", "isf_ISF_2;", "isf_ISF_3;"]
     by_module = {m: [s for s in program.steps if s.module == m] for m in ("ISF", "ISF_1", "ISF_2", "ISF_3")}
     assert not any(s.kind == "EGMMoveL" for s in by_module["ISF"])
     for k, part in enumerate(("ISF_1", "ISF_2", "ISF_3")):
         steps = by_module[part]
         assert {s.kind for s in steps} == {"EGMMoveL"}, part  # no set-up, stop or uncorrected move in a part
-        assert len(steps) == [100, 100, 79][k] and steps[-1].zone == ("fine" if k == 2 else "z0")
+        assert len(steps) == [100, 100, 79][k] and (k < 2 or steps[-1].zone == "fine")
         module = next(m for m in program.modules if m.name == part)
         assert module.local == {"nPath", "pPath", "vPath"} and not module.idents
 
@@ -288,8 +343,7 @@ def test_the_configurations_are_the_device_and_profile_the_program_names(
     assert moc.splitlines()[0].startswith("MOC:CFG_1.0:") and "\nEXT_MOTION_DATA:\n" in moc
     level = re.search(rf'-name "{profile}" -ext_motion_level (\d+)', moc)
     assert level and int(level.group(1)) == 2  # path correction
-    bandwidth = re.search(r"-ext_motion_filter_bandwidth (\d+)", moc)
-    assert bandwidth and 10 < int(bandwidth.group(1)) <= 100  # above the twin's 10 Hz force filter
+    assert "filter" not in moc  # no controller filter is claimed: the profile keeps the controller's default
     assert rapid_egm.sio_config("127.0.0.7", 7000).count('"127.0.0.7"') == 1 and "7000" in rapid_egm.sio_config(
         "127.0.0.7", 7000)
 
@@ -299,9 +353,10 @@ def test_export_online_for_an_abb_robot_writes_rapid_with_egm(
 ) -> None:
     assert online_format(load_robot(ROBOT)) == "rapid-egm" and EXPORT_FORMATS["rapid-egm"].online
     assert main(["export", str(path_csv), "--robot", ROBOT, "--online", "--out", str(tmp_path / "ISF.mod")]) == 0
-    assert "rapid-egm" in capsys.readouterr().out
+    said = capsys.readouterr()
+    assert "rapid-egm" in said.out and "along-path part" in said.out + said.err  # what EGM does not correct
     files = {f.name: f.read_text() for f in tmp_path.iterdir()}
-    assert sorted(files) == ["ISF.mod", "ISF_egm_moc.cfg", "ISF_egm_sio.cfg"]
+    assert sorted(files) == ["ISF.mod", "ISF.pgf", "ISF_egm_moc.cfg", "ISF_egm_sio.cfg"]
     path = export_path(path_csv, "rapid", tmp_path / "plain" / "ISF.mod", cell=default_cell(robot=ROBOT)).path
     check_egm_program(files, path)
     assert online_format(load_robot("kr210")) == "krl-rsi"  # KUKA keeps RSI
@@ -312,7 +367,7 @@ def test_export_online_for_an_abb_robot_writes_rapid_with_egm(
 def test_rapid_without_online_is_still_plain_rapid_on_the_same_data(path_csv: Path, cell: CellSetup, tmp_path: Path) -> None:
     assert robot_format(load_robot(ROBOT)) == "rapid"
     plain = export_path(path_csv, "rapid", tmp_path / "ISF.mod", cell=cell)
-    assert [f.name for f in plain.files] == ["ISF.mod"]
+    assert [f.name for f in plain.files] == ["ISF.mod", "ISF.pgf"]
     text = plain.files[0].read_text()
     assert "EGM" not in text and "egmident" not in text
     program = Program({"ISF.mod": text})
@@ -329,3 +384,14 @@ def test_a_program_without_approach_and_retract_is_refused(path_csv: Path, cell:
     path, _ = _export(path_csv, tmp_path / "ISF.mod", cell)
     with pytest.raises(InputError, match=r"approach=False.*expects a program with its approach and retract"):
         rapid_egm.program_files(replace(path, approach=False))
+
+
+@pytest.mark.parametrize("fmt", ["rapid", "rapid-egm"])
+def test_out_without_extension_writes_the_module_named_as_the_program(path_csv: Path, cell: CellSetup, fmt: str,
+                                                                       tmp_path: Path) -> None:
+    """`--out ISF` writes `ISF.mod` and `ISF.pgf` (never a module file without its extension), as `--out ISF.mod`."""
+    bare = {f.name for f in export_path(path_csv, fmt, tmp_path / "a" / "ISF", cell=cell).files}
+    named = {f.name for f in export_path(path_csv, fmt, tmp_path / "b" / "ISF.mod", cell=cell).files}
+    assert bare == named and {"ISF.mod", "ISF.pgf"} <= bare and "ISF" not in bare
+    text = (tmp_path / "a" / "ISF.mod").read_text()
+    assert "PROC isf_ISF()" in text and "call isf_ISF; from the task's main" in text and "PROC main()" not in text

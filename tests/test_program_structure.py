@@ -20,7 +20,7 @@ structural checker per language, run on a cone exported for the robot that speak
   controller's 12 ms interpolation cycles, which the user's KSS programmers keep LIN blocks above (feed / 20 mm
   = 1.7 mm at 34 mm/s); the spline program is far below it (the cone: ~0.5 a second).
 - **RAPID** (ABB IRB 6640): `MODULE`/`PROC`/`FOR` balanced and `main` run with its calls and loops expanded (the
-  interpreter of `tests/test_export_rapid_egm.py`); `tooldata` with a mass > 0 and its centre of gravity set
+  interpreter of `tests/test_export_rapid_egm.py`); `tooldata` with a mass > 0, its centre of gravity and inertia set
   (`CellSetup.tool_cog_mm`); `MoveAbsJ jHome` the first and the last move, `jHome` the robot's home; every
   `robtarget` moved to, in order, once; `fine` only on a corner or at the end, and the `zPath` zone's corner path
   within `motion.CHORD_TOL_MM` of every blended point.
@@ -262,8 +262,11 @@ class KrlRun:
         tool = _numbers(self.assigned["TOOL_DATA[1]"])
         assert [tool[k] for k in "XYZABC"] == pytest.approx([0, 0, cell.tool_length_mm, 0, 0, 0], abs=1e-4)
         load = self.assigned["LOAD_DATA[1]"]
-        mass = float(re.fullmatch(r"\{M ([\d.]+),CM (\{[^}]*\}),J \{X ([\d.]+),Y ([\d.]+),Z ([\d.]+)\}\}",
-                                  load).group(1))  # type: ignore[union-attr]
+        found = re.fullmatch(r"\{M ([\d.]+),CM (\{[^}]*\}),J \{X ([\d.]+),Y ([\d.]+),Z ([\d.]+)\}\}", load)
+        assert found, load
+        mass = float(found.group(1))
+        inertia = [float(found.group(k)) for k in (3, 4, 5)]  # a mass has an inertia: the cell tool's cylinder
+        assert inertia == pytest.approx(cell.tool_inertia_kgm2, abs=1e-6) and min(inertia) > 0
         cog = _numbers(re.search(r"CM (\{[^}]*\})", load).group(1))  # type: ignore[union-attr]
         assert mass == pytest.approx(cell.tool_mass_kg, abs=1e-3) and mass > 0
         assert [cog[k] for k in "XYZ"] == pytest.approx(cell.tool_cog_mm, abs=1e-4) and cog["Z"] > 0
@@ -381,12 +384,15 @@ def check_rapid(files: dict[str, str], expected: ProgramPath) -> RapidProgram:
     program = RapidProgram(files)  # MODULE/PROC/FOR balanced, statements terminated, main run
     text = "\n".join(files.values())
     cell = expected.cell
-    tool = re.search(r"PERS tooldata tIsf:=\[TRUE,\[\[([^\]]*)\],\[[^\]]*\]\],\[([\d.]+),\[([^\]]*)\],", text)
+    tool = re.search(r"PERS tooldata tIsf:=\[TRUE,\[\[([^\]]*)\],\[[^\]]*\]\],\[([\d.]+),\[([^\]]*)\],"
+                     r"\[1,0,0,0\],([\d.]+),([\d.]+),([\d.]+)\]\];", text)
     assert tool, "tooldata tIsf with its load"
     assert [float(v) for v in tool.group(1).split(",")] == pytest.approx([0, 0, cell.tool_length_mm])
     mass, cog = float(tool.group(2)), [float(v) for v in tool.group(3).split(",")]
     assert mass == pytest.approx(cell.tool_mass_kg) and mass > 0
     assert cog == pytest.approx(cell.tool_cog_mm, abs=1e-4) and cog[2] > 0
+    inertia = [float(tool.group(k)) for k in (4, 5, 6)]  # ix iy iz: the cell tool's cylinder, not 0 with a mass
+    assert inertia == pytest.approx(cell.tool_inertia_kgm2, abs=1e-6) and min(inertia) > 0
     home = re.search(r"CONST jointtarget jHome:=\[\[([^\]]*)\],\[9E9,9E9,9E9,9E9,9E9,9E9\]\];", text)
     assert home and [float(v) for v in home.group(1).split(",")] == pytest.approx(home_axes_deg(cell), abs=1e-4)
     moves = [s for s in program.steps if s.kind in ("MoveAbsJ", "MoveJ", "MoveL")]

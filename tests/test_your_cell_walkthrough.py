@@ -63,6 +63,7 @@ def test_the_readme_cell_path_carries_the_irb6640_cell_to_its_program(
     assert record["robot"] == "irb6640" and record["format"] == "rapid"
     assert record["sheet_origin_in_base_mm"] == pytest.approx([1600.0, 0.0, 500.0])
     assert record["tool_length_mm"] == pytest.approx(300.0) and record["tool_mass_kg"] == pytest.approx(8.0)
-    main_module = Path("ISF_PART").read_text()
+    main_module = Path("ISF_PART.mod").read_text()  # with ISF_PART.pgf, the modules a RobotStudio user loads
+    assert "ISF_PART.mod" in Path("ISF_PART.pgf").read_text()
     assert "PERS tooldata tIsf:=[TRUE,[[0,0,300.0000],[1,0,0,0]],[8.000,[0.0000,0.0000,150.0000]" in main_module
     assert "[[1600.0000,0.0000,500.0000]" in main_module

@@ -1,14 +1,16 @@
 """Export: a compensated path as a robot program or point list (the output edge of the twin).
 
 Takes a path CSV (`t_s, x_mm, y_mm, z_mm`, sheet frame); gives a Stäubli VAL3 application (`val3`), a KUKA
-KRL `.src`/`.dat` pair (`krl`), an ABB RAPID module (`rapid`), G-code (`gcode`) or a point list (`points_csv`),
+KRL `.src`/`.dat` pair (`krl`), ABB RAPID modules with their `.pgf` (`rapid`: an entry procedure `isf_NAME`, no
+`main`), G-code (`gcode`) or a point list (`points_csv`),
 each with the tool and the sheet frame in its header and the feed taken from the path (`program`). Every program
 approaches from a safe height and retracts to it, its feeds limited to the process feed in contact (`motion`);
 every point is checked for reach (`reach`); a program over its controller's size limit is split into parts that a
 main program calls (`parts`). A robot program carries the arm configuration of the robot's IK solution
 (`configuration`); `val3_check` (with `val3_data_check`) checks the VAL3 application's grammar; for
 `export --online`, `krl_rsi` writes KRL with the online correction of KUKA RSI switched on and its Ethernet configuration, `rapid_egm` RAPID with ABB EGM
-path correction in the path's moves and its UDP device and motion profile configurations, `val3_alter` the VAL3
+path correction in the path's moves (48 ms, y and z of the path frame only; a lost PC stops and lifts the tool) and
+its UDP device and motion profile configurations, `val3_alter` the VAL3
 application with `alter` moves and a synchronous task that takes the twin's correction over a socket.
 """
 

@@ -3,12 +3,13 @@
 What a KUKA programmer loads and runs unchanged:
 
 - **Tool, load and base are the controller's own data.** The `.src` assigns the cell's tool to `TOOL_DATA[1]`, its
-  mass and centre of gravity to `LOAD_DATA[1]` (`{M ..,CM {X ..,Y ..,Z ..,A 0,B 0,C 0},J {X 0,Y 0,Z 0}}`, the
+  mass and centre of gravity to `LOAD_DATA[1]` (`{M ..,CM {X ..,Y ..,Z ..,A 0,B 0,C 0},J {X ..,Y ..,Z ..}}`, the
   layout of the controller's `$config.dat`) and the sheet frame to `BASE_DATA[1]`, then activates them as KSS's own
   code does, `$TOOL=TOOL_DATA[1]`, `$LOAD=LOAD_DATA[1]`, `$BASE=BASE_DATA[1]`, before the first motion; a comment
   says where they came from (robot, tool length, mass). Running the program overwrites tool 1, load 1 and base 1
   of the controller (`TOOL_NO`, `BASE_NO`): the cell's ISF tool is tool 1. The centre of gravity is
-  `CellSetup.tool_cog_mm` (the rule RAPID's `tooldata` uses); the inertia J is 0, which the twin does not know.
+  `CellSetup.tool_cog_mm` (the rule RAPID's `tooldata` uses); the inertia J is
+  `CellSetup.tool_inertia_kgm2` [kg m²], a solid cylinder of the tool's length, as the twin's model carries it.
 - **HOME.** The first and the last motion are `PTP XHOME_ISF` to the robot's home keyframe in controller axis
   values (`program.home_axes_deg`), an `E6AXIS` of the data list (`{A1 ..,...,A6 ..,E1 0,...,E6 0}`, the layout
   of `XHOME` in `$config.dat`; the cell has no external axes). It has its own name, so the controller's global
@@ -109,9 +110,9 @@ def setup(path: ProgramPath) -> list[str]:
     """The lines that set the controller's tool, load and base from the cell and activate them (module docstring),
     then the motion parameters; before any motion."""
     cell = path.cell
-    cog = cell.tool_cog_mm
+    cog, inertia = cell.tool_cog_mm, cell.tool_inertia_kgm2
     load = (f"{{M {fmt(cell.tool_mass_kg, 3)},CM {_frame(cog, (0.0, 0.0, 0.0))},"
-            f"J {{X 0.0,Y 0.0,Z 0.0}}}}")
+            f"J {{X {fmt(inertia[0], 6)},Y {fmt(inertia[1], 6)},Z {fmt(inertia[2], 6)}}}}}")
     return [
         f"; tool {TOOL_NO} and base {BASE_NO} of the controller, from the cell of robot {cell.robot} (tx200-twin):",
         f"; the ISF tool, {fmt(cell.tool_length_mm, 3)} mm flange -> tip along the flange z, "

@@ -33,6 +33,7 @@ from twin.errors import InputError
 from twin.process.toolpath.placement import Placement
 from twin.robot.description import DEFAULT_ROBOT, load_robot, robot_record
 from twin.robot.facts import RobotDescription
+from twin.robot.tool import INERTIA_RADIUS_M
 from twin.runs.read import read_commanded_csv
 
 POSITION_DECIMALS = 4  # mm: 0.1 µm, below the tracker's 0.02 mm noise
@@ -91,6 +92,15 @@ class CellSetup:
         if self.cog_mm is not None:
             return np.array(self.cog_mm, dtype=float)
         return np.array([0.0, 0.0, self.tool_length_mm / 2.0])
+
+    @property
+    def tool_inertia_kgm2(self) -> np.ndarray:
+        """The tool's principal moments of inertia about its centre of gravity, flange axes x, y, z [kg m²]: a
+        uniform solid cylinder of the tool's length and `twin.robot.tool.INERTIA_RADIUS_M` about the flange z, as
+        the twin's model carries the declared mass (`twin.robot.tool`); RAPID `tooldata` ix iy iz, KRL `J`."""
+        m, length, r = self.tool_mass_kg, self.tool_length_mm / 1000.0, INERTIA_RADIUS_M
+        transverse = m * (3.0 * r * r + length * length) / 12.0
+        return np.array([transverse, transverse, m * r * r / 2.0])
 
 
 @dataclass(frozen=True)

@@ -3,10 +3,10 @@
 Structure as the open post-processors write it (RoboDK's `ABB_RAPID_IRC5.py`: `MODULE`, `PERS tooldata`, `PERS
 wobjdata`, a `PROC` starting with `ConfJ \\On; ConfL \\Off;`, `MoveJ`/`MoveL ... \\WObj:=`, `ENDPROC`,
 `ENDMODULE`). `tIsf` (`tooldata`: flange to tool tip, the tool's mass with its centre of gravity
-`CellSetup.tool_cog_mm`, half way down the tool), `wSheet` (`wobjdata`: the sheet frame in the robot base), `jHome`
+`CellSetup.tool_cog_mm`, half way down the tool, its inertia ix iy iz `CellSetup.tool_inertia_kgm2`), `wSheet` (`wobjdata`: the sheet frame in the robot base), `jHome`
 (`jointtarget`: the robot's home keyframe in controller axis values, `program.home_axes_deg`, degrees; external
 axes 9E9), `zPath` (`zonedata`, `zone_mm`), `pPath{n}` (`robtarget`, in `wSheet`) and `vPath{n}` (`speeddata`,
-TCP speed = the programmed feed [mm/s]). `main` sets `ConfJ \\On; ConfL \\Off;` (the joint move goes to the
+TCP speed = the programmed feed [mm/s]). `isf_NAME` (below) sets `ConfJ \\On; ConfL \\Off;` (the joint move goes to the
 written configuration, the linear moves keep it), moves `MoveAbsJ jHome` (HOME), `MoveJ` to the approach point
 (`twin.apps.export.motion`), then `MoveL` down onto the path and through it, the retract, and `MoveAbsJ jHome`
 again: HOME is the first and the last move.
@@ -23,9 +23,17 @@ is that point's IK solution (`twin.apps.export.configuration`). Orientations are
 0.03,0.3,0.03]` (z0's values) and `CONST jointtarget jHome:=[[0,0,0,0,30,0],[9E9,9E9,9E9,9E9,9E9,9E9]];` with
 `MoveAbsJ jHome,v200,fine,tool0;` in RAPID examples on GitHub.
 
+Names: the module `NAME` (file `NAME.mod`, named as the program whatever `--out`'s extension) holds the
+procedure `isf_NAME`, not `main`: a module and a routine may not share a name in RAPID, and the task already has
+a main module with its own `main` (RoboDK's ABB post avoids the clash the same way, with `MOD_<prog>`). Call
+`isf_NAME;` from the task's `main`, or load the program file `NAME.pgf` (RobotStudio's `<Program><Module>` list
+of the modules) and set the task's Main entry (Controller > Task) to `isf_NAME`; the header says so. Not checked
+on a controller: loading the `.pgf` as it is written here.
+
 A program over the RAPID limit (`twin.apps.export.parts`) is written as modules `NAME_1.mod`, ... each with a
-procedure `NAME_k` and its own `LOCAL` data, and a main module `NAME.mod` holding the tool, the work object, the
-home and the zone and a `main` that moves HOME, calls `NAME_1;`, `NAME_2;`, ... in order and moves HOME again.
+procedure `isf_NAME_k` and its own `LOCAL` data, and a main module `NAME.mod` holding the tool, the work object,
+the home and the zone and `isf_NAME`, which moves HOME, calls `isf_NAME_1;`, `isf_NAME_2;`, ... in order and moves
+HOME again.
 """
 
 from __future__ import annotations
@@ -48,6 +56,8 @@ ZONE_MAX_MM = 1.0
 #: The zone of the blended moves and HOME's jointtarget.
 ZONE = "zPath"
 HOME = "jHome"
+#: The procedures' prefix: `isf_NAME` in module `NAME` (module docstring).
+ENTRY_PREFIX = "isf_"
 
 
 def _vec(values: Iterable[float], decimals: int) -> str:
@@ -61,7 +71,8 @@ def declarations(path: ProgramPath) -> list[str]:
     q_sheet = _vec((math.cos(half), 0.0, 0.0, math.sin(half)), QUATERNION_DECIMALS)  # the yaw about the base z
     return [
         f"  PERS tooldata tIsf:=[TRUE,[[0,0,{fmt(cell.tool_length_mm)}],[1,0,0,0]],"
-        f"[{fmt(cell.tool_mass_kg, 3)},{_vec(cell.tool_cog_mm, 4)},[1,0,0,0],0,0,0]];",
+        f"[{fmt(cell.tool_mass_kg, 3)},{_vec(cell.tool_cog_mm, 4)},[1,0,0,0],"
+        f"{_vec(cell.tool_inertia_kgm2, 6)[1:-1]}]];",
         f'  PERS wobjdata wSheet:=[FALSE,TRUE,"",[{_vec(cell.p_base_sheet_mm, 4)},{q_sheet}],'
         "[[0,0,0],[1,0,0,0]]];",
         f"  CONST jointtarget {HOME}:=[{_vec(home_axes_deg(cell), 4)},[9E9,9E9,9E9,9E9,9E9,9E9]];",
@@ -118,24 +129,25 @@ def path_data(path: ProgramPath, local: str) -> list[str]:
     ]
 
 
-def _moves(first: int, count: int, stop: np.ndarray) -> list[str]:
-    """The `MoveL`s to points `first`..`count - 1` (0-based, of one procedure): a point the robot stops on is its
-    own move to `fine`, the others run in `FOR` loops with `zPath`."""
+def moves(first: int, count: int, stop: np.ndarray, move: str = "MoveL ", zone: str = ZONE) -> list[str]:
+    """The linear moves (`move`, e.g. "MoveL " or "EGMMoveL egmID,") to points `first`..`count - 1` (0-based, of
+    one procedure): a point the robot stops on is its own move to `fine`, the others run in `FOR` loops with
+    `zone`."""
     lines: list[str] = []
     j = first
     while j < count:
         if stop[j]:
-            lines.append(f"    MoveL pPath{{{j + 1}}},vPath{{{j + 1}}},fine,tIsf\\WObj:=wSheet;")
+            lines.append(f"    {move}pPath{{{j + 1}}},vPath{{{j + 1}}},fine,tIsf\\WObj:=wSheet;")
             j += 1
             continue
         end = j
         while end + 1 < count and not stop[end + 1]:
             end += 1
         if end == j:
-            lines.append(f"    MoveL pPath{{{j + 1}}},vPath{{{j + 1}}},{ZONE},tIsf\\WObj:=wSheet;")
+            lines.append(f"    {move}pPath{{{j + 1}}},vPath{{{j + 1}}},{zone},tIsf\\WObj:=wSheet;")
         else:
             lines += [f"    FOR i FROM {j + 1} TO {end + 1} DO",
-                      f"      MoveL pPath{{i}},vPath{{i}},{ZONE},tIsf\\WObj:=wSheet;", "    ENDFOR"]
+                      f"      {move}pPath{{i}},vPath{{i}},{zone},tIsf\\WObj:=wSheet;", "    ENDFOR"]
         j = end + 1
     return lines
 
@@ -152,7 +164,7 @@ def _motion(path: ProgramPath, proc: str, stop: np.ndarray, local: str, home: bo
         "    ConfL \\Off;",
         *([home_move()] if home else []),
         *first,
-        *_moves(1 if path.joint_start else 0, len(path.points_mm), stop),
+        *moves(1 if path.joint_start else 0, len(path.points_mm), stop),
         *([home_move()] if home else []),
         "  ENDPROC",
     ]
@@ -168,28 +180,50 @@ def about(path: ProgramPath) -> list[str]:
     ]
 
 
+def entry(name: str) -> str:
+    """The procedure of module `name` (`isf_NAME`): never the module's own name, never a task's `main`."""
+    return f"{ENTRY_PREFIX}{name}"
+
+
+def how_to_call(path: ProgramPath) -> list[str]:
+    """The header lines that say how the program is started (module docstring)."""
+    return [f"  ! entry: {entry(path.name)} (no main: call {entry(path.name)}; from the task's main, or load "
+            f"{path.name}.pgf and set the task's Main entry to {entry(path.name)})"]
+
+
+def program_file(modules: Iterable[str]) -> str:
+    """The program file `NAME.pgf` listing the modules (RobotStudio's `<Program><Module>` layout)."""
+    listed = "".join(f"\t<Module>{name}</Module>\n" for name in modules)
+    return f'<?xml version="1.0" encoding="ISO-8859-1" ?>\n<Program>\n{listed}</Program>\n'
+
+
+def with_program_file(path: ProgramPath, files: dict[str, str]) -> dict[str, str]:
+    """`files` with `NAME.pgf` listing its modules."""
+    return {**files, f"{path.name}.pgf": program_file(name for name in files if name.endswith(".mod"))}
+
+
 def program_files(path: ProgramPath) -> dict[str, str]:
-    """The module `NAME.mod`, and for a split program the parts' modules: file name -> text."""
+    """The module `NAME.mod`, for a split program the parts' modules, and `NAME.pgf`: file name -> text."""
     pieces = parts(path, "rapid")
     stop = corners(path.points_mm)
     data = [*declarations(path), zone_declaration(path)]
     if len(pieces) == 1:
-        lines = [f"MODULE {path.name}", *about(path), *data, *_motion(path, "main", stop, "", home=True),
-                 "ENDMODULE"]
-        return {f"{path.name}.mod": "\n".join(lines) + "\n"}
+        lines = [f"MODULE {path.name}", *about(path), *how_to_call(path), *data,
+                 *_motion(path, entry(path.name), stop, "", home=True), "ENDMODULE"]
+        return with_program_file(path, {f"{path.name}.mod": "\n".join(lines) + "\n"})
     main = [
-        f"MODULE {path.name}", *about(path), f"  ! {len(pieces)} parts, in order", *data, "",
-        "  PROC main()", "    ConfJ \\On;", "    ConfL \\Off;", home_move(), *(f"    {p.name};" for p in pieces),
-        home_move(), "  ENDPROC", "ENDMODULE",
+        f"MODULE {path.name}", *about(path), *how_to_call(path), f"  ! {len(pieces)} parts, in order", *data, "",
+        f"  PROC {entry(path.name)}()", "    ConfJ \\On;", "    ConfL \\Off;", home_move(),
+        *(f"    {entry(p.name)};" for p in pieces), home_move(), "  ENDPROC", "ENDMODULE",
     ]
     files = {f"{path.name}.mod": "\n".join(main) + "\n"}
     start = 0
     for piece in pieces:
         n = len(piece.points_mm)
-        body = _motion(piece, piece.name, stop[start:start + n], "LOCAL ", home=False)
+        body = _motion(piece, entry(piece.name), stop[start:start + n], "LOCAL ", home=False)
         files[f"{piece.name}.mod"] = "\n".join([f"MODULE {piece.name}", *body, "ENDMODULE"]) + "\n"
         start += n
-    return files
+    return with_program_file(path, files)
 
 
 def module_text(path: ProgramPath) -> str:
@@ -198,8 +232,6 @@ def module_text(path: ProgramPath) -> str:
 
 
 def write(path: ProgramPath, out: Path, protect: Sequence[Path] = ()) -> list[Path]:
-    """Write the module, and any parts beside it, atomically (never over an input)."""
-    return [
-        write_text(Path(out) if name == f"{path.name}.mod" else Path(out).with_name(name), text, protect=protect)
-        for name, text in program_files(path).items()
-    ]
+    """Write the module `NAME.mod` (in `out`'s folder, named as the program: `--out ISF` and `--out ISF.mod` both
+    write `ISF.mod`), any parts and `NAME.pgf` beside it, atomically (never over an input)."""
+    return [write_text(Path(out).with_name(name), text, protect=protect) for name, text in program_files(path).items()]

@@ -27,6 +27,7 @@ from twin.apps.export import (
     Exported,
     export_path,
     online_format,
+    rapid_egm,
     robot_format,
 )
 from twin.apps.export.program import default_cell
@@ -228,4 +229,6 @@ def export_task(request: ExportRequest, note: Note = silent) -> ExportReport:
                            process_feed_mm_s=request.feed_mm_s, max_points=request.max_points)
     for warning in exported.feeds.warnings():
         note(f"warning: {warning}")
+    if fmt == "rapid-egm":
+        note(f"note: {rapid_egm.ALONG_PATH_NOTE}")
     return ExportReport(request.path_csv, fmt, robot, exported, request.cell)
