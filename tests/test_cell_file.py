@@ -93,8 +93,8 @@ def test_the_cell_is_laid_under_the_flags_and_recorded(tmp_path: Path, capsys: p
     assert record["sheet_origin_in_base_mm"] == pytest.approx([1650.0, 0.0, 450.0])  # the flag wins
     assert "the cell kr210-cone" in record["tool_and_base_from"] and record["cell"]["robot"] == "kr210"
     src = (tmp_path / "ISF.src").read_text()  # the cell's tool, load and centre of gravity in the controller's data
-    assert "TOOL_DATA[1]={X 0.0000,Y 0.0000,Z 250.0000" in src
-    assert "LOAD_DATA[1]={M 3.500,CM {X 0.0000,Y 0.0000,Z 110.0000" in src
+    assert "TOOL_DATA[16]={X 0.0000,Y 0.0000,Z 250.0000" in src
+    assert "LOAD_DATA[16]={M 3.500,CM {X 0.0000,Y 0.0000,Z 110.0000" in src
 
 
 def test_the_example_cell_file_is_valid() -> None:

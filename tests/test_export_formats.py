@@ -167,7 +167,7 @@ def test_krl_points_feeds_and_orientation_read_back(
     R = _rz(abc[0, 0]) @ _ry(abc[0, 1]) @ _rx(abc[0, 2])  # KUKA: Rz(A) Ry(B) Rx(C)
     np.testing.assert_allclose(R, cell.R_sheet_tool, atol=1e-6)
     src = next(f for f in exported["krl"] if f.suffix == ".src").read_text()
-    assert all(f"${v}={v}_DATA[1]" in src for v in ("TOOL", "LOAD", "BASE")) and "  SPL P_PATH[3]" in src
+    assert all(f"${v}={v}_DATA[16]" in src for v in ("TOOL", "LOAD", "BASE")) and "  SPL P_PATH[3]" in src
     # the process feed is the fast pass's: the slower passes' moves carry their own feed
     with_feed = {int(i) for i in re.findall(r"P_PATH\[(\d+)\] WITH \$VEL\.CP=V_PATH\[\1\]", src)}
     slower = {i + 1 for i in range(1, len(feed)) if abs(feed[i] / FAST_FEED_MM_S - 1.0) > krl.FEED_MATCH}
@@ -313,7 +313,7 @@ def test_a_turned_sheet_frame_puts_every_format_on_the_twins_pose(path_csv: Path
     np.testing.assert_allclose(p @ R_frame.T + 1e3 * np.array([1.5, 0.1, 0.2]), p_base, atol=2 * POSITION_TOL_MM)
     np.testing.assert_allclose(R_frame @ _rx(r[0, 0]) @ _ry(r[0, 1]) @ _rz(r[0, 2]), kin.R_tool_down, atol=1e-6)
     krl = next(f for f in export_path(path_csv, "krl", tmp_path / "k", cell=cell).files if f.suffix == ".src")
-    sheet = _numbers(re.search(r"^BASE_DATA\[1\]=\{([^}]*)\}", krl.read_text(), re.M).group(1))  # type: ignore[union-attr]
+    sheet = _numbers(re.search(r"^BASE_DATA\[16\]=\{([^}]*)\}", krl.read_text(), re.M).group(1))  # type: ignore[union-attr]
     assert sheet[3:] == pytest.approx([30.0, 0.0, 0.0])
     rapid = export_path(path_csv, "rapid", tmp_path / "r.mod", cell=cell).files[0].read_text()
     wobj = _numbers(re.search(r"wSheet:=\[FALSE,TRUE,\"\",\[\[([^\]]*)\],\[([^\]]*)\]", rapid).group(2))  # type: ignore[union-attr]

@@ -97,19 +97,21 @@ def test_krl_has_the_vendor_structure(short: Path, work: Path) -> None:
     """KRL as RoboDK's KUKA_KRC4.py writes it (github.com/ros-industrial-attic/robodk_postprocessors, 08ec3d3):
     `&ACCESS RVP`/`&REL 1`, `DEF name( )`, the header `;FOLD INI` / `BAS (#INITMOV,0 )` / `;ENDFOLD (INI)` before
     any motion, `$VEL.CP` (setSpeed, m/s), `$ACC.CP` (setAcceleration), `$APO.CDIS` (setZoneData), `END`; the data
-    list `DEFDAT name` ... `ENDDAT`; KSS 8's controller data (`$TOOL=TOOL_DATA[1]`, `$LOAD=LOAD_DATA[1]`,
-    `$BASE=BASE_DATA[1]`), a first and last `PTP` HOME and the path as `SPLINE` ... `ENDSPLINE` blocks
+    list `DEFDAT name` ... `ENDDAT`; KSS 8's controller data (`$TOOL=TOOL_DATA[16]`, `$LOAD=LOAD_DATA[16]`,
+    `$BASE=BASE_DATA[16]`: slot 16 by default, never the cell's calibrated 1), a first and last `PTP` HOME and the path as `SPLINE` ... `ENDSPLINE` blocks
     (`tests/test_program_structure.py` checks the whole program)."""
     assert main(["export", str(short), "--format", "krl", "--robot", "kr210", "--out", str(work / "s.src")]) == 0
     src = (work / "s.src").read_text().splitlines()
     assert src[:3] == ["&ACCESS RVP", "&REL 1", "DEF S( )"] and src[-1] == "END"
     fold = src.index(";FOLD INI")
-    assert src[fold + 1].strip() == "BAS(#INITMOV,0)" and src[fold + 2].startswith(";ENDFOLD")
+    assert [line.strip() for line in src[fold + 1 : fold + 4]] == [  # KUKA's template: the stop-message interrupt
+        "GLOBAL INTERRUPT DECL 3 WHEN $STOPMESS==TRUE DO IR_STOPM ( )", "INTERRUPT ON 3", "BAS(#INITMOV,0)"]
+    assert src[fold + 4].startswith(";ENDFOLD")
     moves = [i for i, line in enumerate(src) if line.lstrip().startswith(("PTP", "LIN", "SLIN", "SPLINE"))]
     assert fold < moves[0] and [src[i] for i in moves[:2]] == ["PTP XHOME_ISF", "PTP P_PATH[1]"]
     assert src[moves[-1]] == "PTP XHOME_ISF"
-    for variable in ("$VEL.CP=", "$ACC.CP=", "$APO.CDIS=", "$TOOL=TOOL_DATA[1]", "$BASE=BASE_DATA[1]",
-                     "$LOAD=LOAD_DATA[1]"):
+    for variable in ("$VEL.CP=", "$ACC.CP=", "$APO.CDIS=", "$TOOL=TOOL_DATA[16]", "$BASE=BASE_DATA[16]",
+                     "$LOAD=LOAD_DATA[16]"):
         assert any(line.strip().startswith(variable) for line in src), variable
     assert "SPLINE" in src and "ENDSPLINE" in src and not any(line.startswith("LIN") for line in src)
     dat = (work / "s.dat").read_text().splitlines()

@@ -46,6 +46,7 @@ def _points(app: dict[str, str]) -> int:
 def test_the_application_passes_the_grammar_check_and_is_one_program(app: dict[str, str]) -> None:
     check_application(app)
     assert set(app) == {"ISF.pjx", "ISF.dtx", "start.pgx", "stop.pgx", "alterTask.pgx"}
+    assert "resetMotion()" in _code(app["stop.pgx"])  # not empty: the motion reset when the application stops
     assert EXPORT_FORMATS["val3-alter"].online and EXPORT_FORMATS["val3-alter"].language == "VAL3"
     tx200 = load_robot("tx200")
     assert online_format(tx200) == "val3-alter" and robot_format(tx200) == "val3"
@@ -58,16 +59,17 @@ def test_contact_points_are_alter_moves_between_alter_begin_and_end(app: dict[st
     assert [code[i].split("(")[0] for i in moves] == ["movej", "movej", "alterMovel", "movel", "movej"]
     home, approach, alter, retract, back = moves
     assert code[home] == code[back] == "movej(jHome, tIsf, mApproach)" and code[back + 1 :] == [
-        "waitEndMove()", "bAlterRun = false", "end"]  # HOME first and last, the task stopped after it
+        "waitEndMove()", "endIf", "bAlterRun = false", "end"]  # HOME first and last, the task stopped after it
     assert code[approach] == "movej(pPath[0], tIsf, mApproach)"  # the approach point: a joint move, not altered
     assert code[retract] == "movel(pPath[size(pPath) - 1], tIsf, mPath[size(pPath) - 1])"  # the retract: linear
-    loop = re.fullmatch(r"for i = (\d+) to size\(pPath\) - (\d+)", code[alter - 1])
-    assert loop is not None and code[alter] == "alterMovel(pPath[i], tIsf, mPath[i])" and code[alter + 1] == "endFor"
+    loop = re.fullmatch(r"for i = (\d+) to size\(pPath\) - (\d+)", code[alter - 2])
+    assert loop is not None and code[alter] == "alterMovel(pPath[i], tIsf, mPath[i])"
+    assert code[alter - 1] == "if bTwinLost == false" and code[alter + 1 : alter + 3] == ["endIf", "endFor"]
     altered = range(int(loop.group(1)), n - int(loop.group(2)) + 1)
     assert list(altered) == list(range(1, n - 1))  # every point but the approach and the retract
     begin, end = code.index("alterBegin(world, mPath[1])"), code.index("alterEnd()")
     task = next(i for i, line in enumerate(code) if line.startswith("taskCreateSync"))
-    assert approach < task < begin < alter - 1 and alter + 1 < end < retract
+    assert approach < task < begin < alter - 2 and alter + 2 < end < retract
     assert code[end - 2 : end] == ["waitEndMove()", "bAlterOn = false"]  # the altered moves done, then the end
     assert code[task] == f'taskCreateSync "alterTask", {proto.CYCLE_S:g}, bAlterOver, alterTask()'
     assert code[-2:] == ["bAlterRun = false", "end"]
@@ -135,9 +137,39 @@ def test_the_program_is_not_split_and_needs_its_approach(tmp_path: Path, app: di
         export_path(path_csv, "val3-alter", tmp_path / "my app", max_points=10)
 
 
+def test_a_failed_link_stops_forming_and_stop_resets_the_motion_and_closes_the_socket(app: dict[str, str]) -> None:
+    """A socket error (`sioGet` -1, a failed `sioSet`) or `MAX_SILENT_CYCLES` without a fresh answer while altering
+    sets `bTwinLost` and resets the motion (every cycle after, sending nothing more); `start` then queues no more
+    alter moves and makes no retract or HOME; `stop` resets the motion, kills the task and closes the socket, as
+    ros-industrial staubli_val3_driver's stop.pgx."""
+    task = _code(app["alterTask.pgx"])
+    lost = task.index("if l_nRead < 0")
+    assert task[lost + 1] == "bTwinLost = true"
+    silent = task.index(f"if l_nSilent >= {val3_alter.MAX_SILENT_CYCLES}")
+    assert task[silent - 1] == "if bAlterOn" and task[silent + 1] == "bTwinLost = true"
+    stop_at = task.index("if bTwinLost")
+    assert lost < silent < stop_at and task[stop_at + 1] == "resetMotion()"
+    assert stop_at < task.index("if l_nFresh == 1", stop_at) < task.index("alter(trAlter)")  # no alter once lost
+    send = task.index("if sioSet(siTwin, l_nTx) != size(l_nTx)")
+    assert task[send + 1 : send + 5] == ["nTwinErr = nTwinErr + 1", "bTwinLost = true", "resetMotion()", "endIf"]
+    assert task.index("if bTwinLost == false") < task.index("l_jNow = herej()") < send  # nothing sent once lost
+    start = _code(app["start.pgx"])
+    assert start.index("bTwinLost = false") < start.index("alterBegin(world, mPath[1])")
+    retract = start.index("movel(pPath[size(pPath) - 1], tIsf, mPath[size(pPath) - 1])")
+    assert start[retract - 1] == "if bTwinLost == false" and start.index("alterEnd()") < retract - 1
+    stop = _code(app["stop.pgx"])
+    assert stop[0] == "begin" and stop[-1] == "end"
+    assert {"resetMotion()", 'taskKill("alterTask")', "clearBuffer(siTwin)", "bAlterRun = false"} <= set(stop)
+    data = {d.get("name"): d for d in ET.fromstring(app["ISF.dtx"]).iterfind(".//{*}Data")}
+    assert data["bTwinLost"].get("type") == "bool"
+
+
 @pytest.mark.parametrize(
     ("name", "old", "new", "pattern"),
     [
+        ("stop.pgx", 'taskKill("alterTask")', "taskKill(alterTask)", "string literal"),
+        ("stop.pgx", "\n  resetMotion()", "\n  resetMotion(siTwin)", "takes 0 argument"),
+        ("alterTask.pgx", "bTwinLost = true", "bTwinLst = true", "not a declared variable"),
         ("start.pgx", "alterMovel(pPath[i], tIsf, mPath[i])", "alterMovel(pPath[i], mPath[i], tIsf)", "not a tool"),
         ("start.pgx", "alterBegin(world, mPath[1])", "alterBegin(tIsf, mPath[1])", "not a frame"),
         ("start.pgx", "alterEnd()", "alterEnd(1)", "takes 0 argument"),

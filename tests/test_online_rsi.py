@@ -117,8 +117,10 @@ def test_export_online_writes_krl_with_rsi_and_its_ethernet_configuration(tmp_pa
     assert main(["export", str(tmp_path / "g.csv"), "--robot", "kr210", "--online",
                  "--out", str(tmp_path / "ISF.src")]) == 0
     src = (tmp_path / "ISF.src").read_text().splitlines()
-    on, off = src.index("ret=RSI_ON(#ABSOLUTE)"), src.index("ret=RSI_OFF()")
-    assert src.index("PTP XHOME_ISF") < src.index("PTP P_PATH[1]") < src.index('ret=RSI_CREATE("ISF_RSI",CONTID,TRUE)') < on
+    on, off = src.index("ret=RSI_ON(#ABSOLUTE,#IPO_FAST)"), src.index("ret=RSI_OFF()")
+    create = src.index('ret=RSI_CREATE("ISF_RSI.rsix",CONTID,TRUE)')
+    assert src.index("PTP XHOME_ISF") < src.index("PTP P_PATH[1]") < create < on
+    assert (tmp_path / "ISF_RSI.rsix").is_file()  # the context RSI_CREATE names
     retract = max(i for i, line in enumerate(src) if line.startswith("SLIN P_PATH["))  # the path's last move
     assert on < src.index("SLIN P_PATH[2]") < src.index("SPLINE") < retract < off  # RSI on over the whole path
     assert src[off + 4 :] == ["PTP XHOME_ISF", "END"]  # off before the move HOME

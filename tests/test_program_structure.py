@@ -6,8 +6,10 @@ structural checker per language, run on a cone exported for the robot that speak
   expanded: `DEF`/`END` once per `.src`, `DEFDAT`/`ENDDAT` per `.dat`; every name a statement uses declared in its
   own `.src` or `.dat` (or the controller's: `TOOL_DATA`, `BASE_DATA`, `LOAD_DATA`, `BAS`, RSI's functions) or a
   part it calls; `SPLINE`/`ENDSPLINE` balanced, not nested, holding only `SPL` segments, at most
-  `krl.SPLINE_SEGMENTS` each; `TOOL_DATA[1]`, `LOAD_DATA[1]`, `BASE_DATA[1]` assigned from the cell and `$TOOL`,
-  `$LOAD`, `$BASE` set from them before the first motion; the first and the last motion `PTP XHOME_ISF`, the
+  `krl.SPLINE_SEGMENTS` each; `TOOL_DATA[t]`, `LOAD_DATA[t]`, `BASE_DATA[b]` (`--tool-number`, `--base-number`,
+  default 16: never the cell's calibrated 1 unless asked) assigned from the cell, no other slot, and `$TOOL`,
+  `$LOAD`, `$BASE` set from them before the first motion; KUKA's `$STOPMESS` interrupt declared and switched on
+  before it; the first and the last motion `PTP XHOME_ISF`, the
   robot's home in controller axes; every Cartesian move at `$VEL.CP` = the process feed in m/s; every point of the
   program (approach, path, retract) a target, in order, once; the robot at rest only on a corner of the path
   (`motion.corners`); and the advance run fed: at most `MAX_BLOCKS_PER_S` motion statements start in any second
@@ -24,8 +26,8 @@ structural checker per language, run on a cone exported for the robot that speak
   (`CellSetup.tool_cog_mm`); `MoveAbsJ jHome` the first and the last move, `jHome` the robot's home; every
   `robtarget` moved to, in order, once; `fine` only on a corner or at the end, and the `zPath` zone's corner path
   within `motion.CHORD_TOL_MM` of every blended point.
-- **VAL3** (Stäubli TX200): `val3_check` passes; `movej(jHome, ...)` the first and the last move, `jHome` the
-  robot's home; the path's `mdesc` blend Cartesian with leave and reach.
+- **VAL3** (Stäubli TX200): `val3_check` passes; `stop` resets the motion (`resetMotion()`) and closes every socket
+  a program opens (`clearBuffer`); `movej(jHome, ...)` the first and the last move, `jHome` the robot's home; the path's `mdesc` blend Cartesian with leave and reach.
 """
 
 from __future__ import annotations
@@ -33,7 +35,7 @@ from __future__ import annotations
 import math
 import re
 import xml.etree.ElementTree as ET
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -41,21 +43,34 @@ import pytest
 from doc_numbers import quoted
 from test_export_rapid_egm import Program as RapidProgram
 
-from twin.apps.export import krl, rapid
+from twin.apps.export import krl, krl_rsi, rapid
 from twin.apps.export.motion import CHORD_TOL_MM, CORNER_DEG, turn_angles_deg, with_moves
-from twin.apps.export.program import CellSetup, ProgramPath, default_cell, home_axes_deg, load_program_path
+from twin.apps.export.program import (
+    DEFAULT_BASE_NUMBER,
+    DEFAULT_TOOL_NUMBER,
+    CellSetup,
+    ProgramPath,
+    default_cell,
+    home_axes_deg,
+    load_program_path,
+)
 from twin.apps.export.val3_check import check_application
 from twin.cli import main
 from twin.errors import InputError
+from twin.sim.online import OnlineSettings
 
 #: Motion statements that may start within one second of the path at its programmed feeds (module docstring).
 MAX_BLOCKS_PER_S = 20.0
 POSITION_TOL_MM = 0.5e-4 + 1e-9  # the programs' 4 decimals
 ROBOTS = {"kr210": "krl", "irb6640": "rapid", "tx200": "val3"}
 #: Names KRL takes from the controller (`$config.dat`, `BAS`, the RSI package) rather than the program.
-KRL_GLOBALS = {"TOOL_DATA", "BASE_DATA", "LOAD_DATA", "BAS", "RSI_CREATE", "RSI_ON", "RSI_OFF", "RSIOK"}
+KRL_GLOBALS = {"TOOL_DATA", "BASE_DATA", "LOAD_DATA", "BAS", "RSI_CREATE", "RSI_ON", "RSI_OFF", "RSIOK",
+               "IR_STOPM"}
 KRL_KEYWORDS = {"DEF", "END", "DECL", "INT", "REAL", "POS", "E6AXIS", "PTP", "SLIN", "SPL", "SPLINE", "ENDSPLINE",
-                "WITH", "C_SPL", "IF", "THEN", "ENDIF", "HALT", "TRUE", "FALSE", "DEFDAT", "ENDDAT", "PUBLIC"}
+                "WITH", "C_SPL", "IF", "THEN", "ENDIF", "HALT", "TRUE", "FALSE", "DEFDAT", "ENDDAT", "PUBLIC",
+                "GLOBAL", "INTERRUPT", "WHEN", "DO", "ON"}
+#: KUKA's stop-message interrupt as its template declares it (`krl` module docstring).
+STOPMESS = re.compile(r"GLOBAL INTERRUPT DECL (\d+) WHEN \$STOPMESS==TRUE DO IR_STOPM \( \)")
 
 
 @pytest.fixture(scope="module")
@@ -188,7 +203,8 @@ class KrlRun:
         self.modules = _read_krl(files)
         _check_names(self.modules)
         self.moves: list[KrlMove] = []
-        self.assigned: dict[str, str] = {}  # TOOL_DATA[1], $TOOL, ... -> value, as set before the first move
+        self.assigned: dict[str, str] = {}  # TOOL_DATA[n], $TOOL, ... -> value, as set before the first move
+        self.interrupts: dict[int, bool] = {}  # declared interrupt -> switched on, before the first move
         self.vel: float | None = None
         self.statements = 0
         main_name = next(f for f in files if f.endswith(".src"))[:-4].upper()
@@ -244,6 +260,15 @@ class KrlRun:
                 called = line[:-3]
                 assert called in self.modules, f"{module.name} calls {called}, which is no file of the program"
                 self._run(self.modules[called], calling | {module.name})
+            elif STOPMESS.fullmatch(line) or line.startswith(("GLOBAL ", "INTERRUPT ")):
+                declared = STOPMESS.fullmatch(line)
+                switched = re.fullmatch(r"INTERRUPT ON (\d+)", line)
+                assert declared or switched, f"{module.name}: {line!r} is not an interrupt this program writes"
+                if declared:
+                    self.interrupts.setdefault(int(declared.group(1)), False)
+                elif switched and not self.moves:
+                    assert int(switched.group(1)) in self.interrupts, f"{module.name}: {line!r} before its DECL"
+                    self.interrupts[int(switched.group(1))] = True
             elif line == "$VEL.CP=V_PROC":
                 self.vel = float(self._value(module, "V_PROC"))  # type: ignore[arg-type]
             elif "=" in line and not line.startswith(("IF", "ret=")):
@@ -252,16 +277,21 @@ class KrlRun:
                     self.assigned[var] = value
             i += 1
 
-    def check_tool_load_base(self, cell: CellSetup) -> None:
-        """TOOL_DATA[1], LOAD_DATA[1], BASE_DATA[1] from the cell, then $TOOL, $LOAD, $BASE from them, before the
-        first move."""
+    def check_tool_load_base(self, cell: CellSetup, tool_no: int = DEFAULT_TOOL_NUMBER,
+                             base_no: int = DEFAULT_BASE_NUMBER) -> None:
+        """TOOL_DATA[t], LOAD_DATA[t], BASE_DATA[b] from the cell, then $TOOL, $LOAD, $BASE from them, before the
+        first move; no other slot written (the cell's calibrated tool 1 and base 1 untouched unless asked for)."""
         order = list(self.assigned)
-        for sys_var, data in (("$TOOL", "TOOL_DATA[1]"), ("$LOAD", "LOAD_DATA[1]"), ("$BASE", "BASE_DATA[1]")):
+        slots = {"$TOOL": f"TOOL_DATA[{tool_no}]", "$LOAD": f"LOAD_DATA[{tool_no}]", "$BASE": f"BASE_DATA[{base_no}]"}
+        for sys_var, data in slots.items():
             assert data in self.assigned and self.assigned.get(sys_var) == data, f"{sys_var}={data} before a move"
             assert order.index(data) < order.index(sys_var), f"{data} assigned after {sys_var} reads it"
-        tool = _numbers(self.assigned["TOOL_DATA[1]"])
+        written = {var for var in self.assigned if re.match(r"(TOOL|LOAD|BASE)_DATA\[", var)}
+        assert written == set(slots.values()), f"writes {sorted(written)}; expected only {sorted(slots.values())}"
+        tool_data, load_data, base_data = slots["$TOOL"], slots["$LOAD"], slots["$BASE"]
+        tool = _numbers(self.assigned[tool_data])
         assert [tool[k] for k in "XYZABC"] == pytest.approx([0, 0, cell.tool_length_mm, 0, 0, 0], abs=1e-4)
-        load = self.assigned["LOAD_DATA[1]"]
+        load = self.assigned[load_data]
         found = re.fullmatch(r"\{M ([\d.]+),CM (\{[^}]*\}),J \{X ([\d.]+),Y ([\d.]+),Z ([\d.]+)\}\}", load)
         assert found, load
         mass = float(found.group(1))
@@ -270,9 +300,14 @@ class KrlRun:
         cog = _numbers(re.search(r"CM (\{[^}]*\})", load).group(1))  # type: ignore[union-attr]
         assert mass == pytest.approx(cell.tool_mass_kg, abs=1e-3) and mass > 0
         assert [cog[k] for k in "XYZ"] == pytest.approx(cell.tool_cog_mm, abs=1e-4) and cog["Z"] > 0
-        base = _numbers(self.assigned["BASE_DATA[1]"])
+        base = _numbers(self.assigned[base_data])
         assert [base[k] for k in "XYZ"] == pytest.approx(cell.p_base_sheet_mm, abs=1e-4)
         assert [base[k] for k in "ABC"] == pytest.approx([cell.yaw_deg, 0, 0], abs=1e-4)
+
+    def check_stop_interrupt(self) -> None:
+        """KUKA's stop-message interrupt declared and switched on before the first move."""
+        assert any(self.interrupts.values()), (f"no $STOPMESS interrupt declared and switched on before the first "
+                                               f"move (declared: {self.interrupts})")
 
     def check_path(self, expected: ProgramPath) -> tuple[int, float]:
         """HOME first and last; every point a target, in order, once; $VEL.CP the process feed; rests on corners;
@@ -313,7 +348,8 @@ def check_krl(files: dict[str, str], expected: ProgramPath) -> tuple[KrlRun, int
     """The KRL rules (module docstring); returns the run, its motion statements on the path and the path's
     duration at its feeds [s]."""
     run = KrlRun(files)
-    run.check_tool_load_base(expected.cell)
+    run.check_tool_load_base(expected.cell, expected.tool_number, expected.base_number)
+    run.check_stop_interrupt()
     statements, duration = run.check_path(expected)
     return run, statements, duration
 
@@ -338,6 +374,25 @@ def test_krl_for_the_kr210_loads_unchanged_and_runs_at_the_process_feed(
         assert len(rests) == 1 + 9 + 1  # the bottom of the move down onto the path, the reversals, the path's end
 
 
+def test_krl_writes_the_tool_and_base_slots_the_user_names_and_refuses_a_bad_one(
+    groove_csv: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """`--tool-number 5 --base-number 32`: TOOL_DATA[5], LOAD_DATA[5], BASE_DATA[32] and nothing else, the header
+    saying which slots it overwrites; a slot KRL does not have is refused (exit 2) naming the option."""
+    files = _export(groove_csv, "kr210", tmp_path / "ISF.src", "--tool-number", "5", "--base-number", "32")
+    check_krl(files, replace(_expected(groove_csv, "kr210"), tool_number=5, base_number=32))
+    assert "; this program OVERWRITES tool 5 (TOOL_DATA[5], LOAD_DATA[5]) and base 32 (BASE_DATA[32])" in files["ISF.src"]
+    default = _export(groove_csv, "kr210", tmp_path / "default" / "ISF.src")["ISF.src"]
+    assert "TOOL_DATA[16]=" in default and "BASE_DATA[16]=" in default and "_DATA[1]" not in default
+    for option, value in (("--tool-number", "0"), ("--tool-number", "17"), ("--base-number", "33"),
+                          ("--base-number", "-1")):
+        out = tmp_path / "bad" / "ISF.src"
+        assert main(["export", str(groove_csv), "--robot", "kr210", "--out", str(out), option, value]) == 2
+        err = capsys.readouterr().err
+        assert f"{option} {value}" in err and ("1..16" if option == "--tool-number" else "1..32") in err
+        assert not out.exists()
+
+
 def test_krl_with_rsi_switches_it_on_after_the_approach_and_off_after_the_path(cone_csv: Path, tmp_path: Path) -> None:
     """The split cone with `--online`: RSI on in the first part after `PTP P_PATH[1]`, off at the end of the last
     part after the retract; the moves HOME are never corrected."""
@@ -345,19 +400,88 @@ def test_krl_with_rsi_switches_it_on_after_the_approach_and_off_after_the_path(c
     check_krl({k: v for k, v in files.items() if k.endswith((".src", ".dat"))}, _expected(cone_csv, "kr210"))
     sources = [name for name in files if name.endswith(".src")]
     main_src, first, last = (files[n].splitlines() for n in ("ISF.src", "ISF_1.src", sources[-1]))
-    assert not any("RSI" in line for line in main_src)  # HOME, then the parts, then HOME: uncorrected
-    on = first.index("ret=RSI_ON(#ABSOLUTE)")
-    assert first.index("PTP P_PATH[1]") < first.index('ret=RSI_CREATE("ISF_RSI",CONTID,TRUE)') < on
+    assert not any("RSI" in _strip(line) for line in main_src)  # HOME, then the parts, then HOME: uncorrected
+    on = first.index("ret=RSI_ON(#ABSOLUTE,#IPO_FAST)")
+    assert first.index("PTP P_PATH[1]") < first.index('ret=RSI_CREATE("ISF_RSI.rsix",CONTID,TRUE)') < on
+    check_rsi(files)
     assert on < first.index("SLIN P_PATH[2]")
     off = last.index("ret=RSI_OFF()")
     assert re.fullmatch(r"SLIN P_PATH\[\d+\]", last[off - 1]) and last[off + 4 :] == ["END"]
     assert "DECL INT ret" in last and "DECL INT ret" in first and "DECL INT CONTID" in first
 
 
+def check_rsi(files: dict[str, str]) -> ET.Element:
+    """The RSI rules: `RSI_CREATE` names a context file that is written (with its extension); the context's
+    ETHERNET object names the configuration written beside it, with a late-packet `Timeout`; its POSCORR object
+    takes the ETHERNET outputs 1-6, its X/Y/Z limits the compensator's `max_correction_mm`, its reference frame
+    the robot base (`#WORLD`, which the server's `RKorr` is in, said in the main program's header), beside a
+    correction monitor; `RSI_ON` absolute (the server's whole corrections) at `#IPO_FAST` (4 ms)."""
+    code = [_strip(line) for text in (v for k, v in files.items() if k.endswith(".src")) for line in text.splitlines()]
+    (create,) = [line for line in code if "RSI_CREATE" in line]
+    found = re.fullmatch(r'ret=RSI_CREATE\("(\w+\.rsix)",CONTID,TRUE\)', create)
+    assert found and found.group(1) in files, f"{create!r}: no such context among {sorted(files)}"
+    on = [line for line in code if "RSI_ON" in line]
+    assert on == ["ret=RSI_ON(#ABSOLUTE,#IPO_FAST)"], f"{on}: RSI_ON absolute at 4 ms"
+    context = ET.fromstring(files[found.group(1)])
+    objects = {o.get("ObjType"): o for o in context.iter("RsiObject")}
+    assert {"Ethernet", "PosCorr", "PosCorrMon"} <= set(objects), sorted(objects)
+
+    def params(kind: str) -> dict[str, str]:
+        return {p.get("Name", ""): p.get("ParamValue", "") for p in objects[kind].iter("Parameter")}
+
+    ethernet = params("Ethernet")
+    assert ethernet["ConfigFile"] in files and ET.fromstring(files[ethernet["ConfigFile"]]).find("CONFIG") is not None
+    assert 0 < int(ethernet["Timeout"]) <= 100
+    ethernet_id = objects["Ethernet"].get("ObjId")
+    wired = sorted((int(i.get("InIdx", "-1")), i.get("OutObjId"), int(i.get("OutIdx", "-1")))
+                   for i in objects["PosCorr"].iter("Input"))
+    assert wired == [(i, ethernet_id, i) for i in range(6)], wired
+    poscorr, limit = params("PosCorr"), OnlineSettings().max_correction_mm
+    for axis in "XYZ":
+        lower, upper = float(poscorr[f"LowerLim{axis}"]), float(poscorr[f"UpperLim{axis}"])
+        assert (lower, upper) == (-limit, limit), f"LowerLim{axis}, UpperLim{axis} {lower:g}, {upper:g}"
+    frame = poscorr["RefCorrSys"]
+    assert frame == krl_rsi.CORRECTION_FRAME == "#WORLD", f"RefCorrSys {frame}: RKorr comes in the robot base"
+    assert float(params("PosCorrMon")["MaxTrans"]) >= math.sqrt(3) * limit
+    main_src = files[next(k for k in files if k.endswith(".src"))]
+    header = " ".join(line for line in main_src.splitlines() if line.startswith(";"))
+    assert "ROBOT BASE frame" in header and "#WORLD" in header and "$ROBROOT" in header
+    return context
+
+
+@pytest.mark.parametrize(
+    ("file", "old", "new", "pattern"),
+    [
+        (".rsix", None, None, r"no such context"),
+        (".rsix", 'ParamValue="#WORLD"', 'ParamValue="#BASE"', r"RefCorrSys"),
+        (".rsix", 'Name="UpperLimZ" ParamId="5" ParamValue="5"', 'Name="UpperLimZ" ParamId="5" ParamValue="50"',
+         r"UpperLimZ"),
+        ("ISF.src", "ret=RSI_ON(#ABSOLUTE,#IPO_FAST)", "ret=RSI_ON(#RELATIVE)", r"RSI_ON"),
+    ],
+)
+def test_the_rsi_checker_refuses_a_missing_context_another_frame_or_mode(
+    groove_csv: Path, tmp_path: Path, file: str, old: str | None, new: str | None, pattern: str
+) -> None:
+    """The RSI checker is strict: the context RSI_CREATE names missing, POSCORR in the sheet's `#BASE` while the
+    server sends the robot base, limits wider than the compensator's, the relative mode."""
+    files = _export(groove_csv, "kr210", tmp_path / "ISF.src", "--online")
+    check_rsi(files)
+    name = next(n for n in files if n.endswith(file))
+    if old is None:
+        del files[name]
+    else:
+        assert old in files[name]
+        files[name] = files[name].replace(old, new or "", 1)
+    with pytest.raises(AssertionError, match=pattern):
+        check_rsi(files)
+
+
 @pytest.mark.parametrize(
     ("old", "new", "pattern"),
     [
-        ("$LOAD=LOAD_DATA[1]\n", "", r"\$LOAD=LOAD_DATA\[1\] before a move"),
+        ("$LOAD=LOAD_DATA[16]\n", "", r"\$LOAD=LOAD_DATA\[16\] before a move"),
+        ("BASE_DATA[16]={", "BASE_DATA[1]={", r"BASE_DATA\[16\] before a move"),
+        ("  INTERRUPT ON 3\n", "", r"no \$STOPMESS interrupt"),
         ("ENDSPLINE C_SPL\n", "", r"SPLINE not closed|inside a SPLINE block"),
         ("$VEL.CP=V_PROC\n", "$VEL.CP=V_FAST\n", r"'V_FAST'.*declared nowhere"),
         ("PTP XHOME_ISF\nEND", "END", r"HOME first and last"),
@@ -441,6 +565,11 @@ def _val3_code(pgx: str) -> list[str]:
 def check_val3(files: dict[str, str], expected: ProgramPath) -> None:
     """The VAL3 rules (module docstring)."""
     check_application(files)
+    stop = _val3_code(files["stop.pgx"])
+    assert "resetMotion()" in stop, "stop: the motion left cancelled when the application stops"
+    sockets = {line.split("(")[1].split(",")[0].rstrip(")") for text in files.values() if text.startswith("<?xml")
+               for line in _val3_code(text) if line.startswith("sioCtrl(")}
+    assert all(f"clearBuffer({sio})" in stop for sio in sockets), f"stop closes the sockets {sockets}: {stop}"
     moves = [line for line in _val3_code(files["start.pgx"]) if re.match(r"(movej|movel|alterMovel)\(", line)]
     assert moves[0] == moves[-1] == "movej(jHome, tIsf, mApproach)" and moves[1] == "movej(pPath[0], tIsf, mApproach)"
     dtx = ET.fromstring(next(text for name, text in files.items() if name.endswith(".dtx")))

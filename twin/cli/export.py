@@ -9,6 +9,7 @@ from pathlib import Path
 from twin.apps.export import FORMATS
 from twin.apps.export.motion import FEED_TOLERANCE, SAFE_MARGIN_MM
 from twin.apps.export.parts import LIMITS
+from twin.apps.export.slots import BASE_NUMBERS, DEFAULT_BASE_NUMBER, DEFAULT_TOOL_NUMBER, TOOL_NUMBERS
 from twin.cli._common import (
     add_json_argument,
     add_placement_arguments,
@@ -71,6 +72,17 @@ def _add_program_arguments(parser: argparse.ArgumentParser) -> None:
         help=f"points per file before a KRL or RAPID program is split into parts and a main (default: KRL "
         f"{LIMITS['krl']}, RAPID {LIMITS['rapid']}, as RoboDK's posts)",
     )
+    parser.add_argument(
+        "--tool-number", type=int, default=DEFAULT_TOOL_NUMBER, metavar="N",
+        help=f"KRL: the controller's tool and load slot the program overwrites and uses, TOOL_DATA[N] and "
+        f"LOAD_DATA[N], {TOOL_NUMBERS.start}..{TOOL_NUMBERS.stop - 1} (default: {DEFAULT_TOOL_NUMBER}; the cell's "
+        "calibrated tool 1 is never written unless asked)",
+    )
+    parser.add_argument(
+        "--base-number", type=int, default=DEFAULT_BASE_NUMBER, metavar="N",
+        help=f"KRL: the controller's base slot the program overwrites and uses with the sheet frame, BASE_DATA[N], "
+        f"{BASE_NUMBERS.start}..{BASE_NUMBERS.stop - 1} (default: {DEFAULT_BASE_NUMBER})",
+    )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -82,5 +94,6 @@ def run(args: argparse.Namespace) -> int:
         args.path_csv, args.out, args.format, given(args, "robot"), args.run, given(args, "tool_length_mm"),
         given(args, "tool_mass_kg"), args.safe_height_mm, args.feed_mm_s, args.max_points, args.online,
         getattr(args, "cell_record", None), None if origin is None else tuple(origin), given(args, "yaw_deg"),
+        args.tool_number, args.base_number,
     )
     return finish(args, export_task(request, note), protect=(args.path_csv, args.run))

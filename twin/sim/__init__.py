@@ -5,7 +5,7 @@ Modules: `spec` (`TwinSpec`: robot, process, placement, effects, joint springs a
 declared once), `quasi_static` (`Twin`: the per-sample equilibrium along a commanded path), `equilibrium` (the
 Newton and joint-friction solve), `python_loop` and `compiled/` (the per-sample loop in Python and in numba),
 `servo` (the servo's transient compliance a cell's runs teach), `online` (the online compensator: each
-controller cycle an F/T sample in, the twin's -C(q) F out, filtered, limited, watched), `result` (`SimResult`), `ft_sensor` (the flange force sensor) and `measure` (what a tracker, a force sensor and a
+controller cycle an F/T sample in, the twin's -C(q) F out, filtered, limited, watched; its settings in `online_settings`), `result` (`SimResult`), `ft_sensor` (the flange force sensor) and `measure` (what a tracker, a force sensor and a
 profile scan see of a simulation, with the effects).
 
 Takes a spec and a commanded path; gives the tool's equilibrium path, the sheet force, the joint states and what

@@ -24,6 +24,8 @@ from typing import NamedTuple
 from twin.apps.export import gcode, krl, krl_rsi, points_csv, rapid, rapid_egm, val3, val3_alter
 from twin.apps.export.motion import FeedSummary, with_moves
 from twin.apps.export.program import (
+    DEFAULT_BASE_NUMBER,
+    DEFAULT_TOOL_NUMBER,
     CellSetup,
     ProgramPath,
     check_reach,
@@ -155,6 +157,8 @@ def export_path(
     safe_z_mm: float | None = None,
     process_feed_mm_s: float | None = None,
     max_points: int = 0,
+    tool_number: int = DEFAULT_TOOL_NUMBER,
+    base_number: int = DEFAULT_BASE_NUMBER,
 ) -> Exported:
     """Export a path CSV in one of `FORMATS`.
 
@@ -166,6 +170,8 @@ def export_path(
         safe_z_mm: Approach and retract height, sheet frame z [mm]; None: `motion.default_safe_z_mm`.
         process_feed_mm_s: The process feed [mm/s]; None: the median of the path's feeds.
         max_points: Points per file before a program is split (`parts`); 0: the format's limit.
+        tool_number: The controller's tool (and load) slot a KRL program writes and uses (`slots.TOOL_NUMBERS`).
+        base_number: The controller's base slot a KRL program writes and uses (`slots.BASE_NUMBERS`).
 
     Returns:
         The exported program, the files written and the feed summary.
@@ -188,7 +194,7 @@ def export_path(
             f"{out.with_name(program_name(name))})"
         )
     path, feeds = with_moves(path, safe_z_mm, process_feed_mm_s)
-    path = replace(path, max_points=max_points)
+    path = replace(path, max_points=max_points, tool_number=tool_number, base_number=base_number)
     if fmt in LANGUAGES:
         path = with_configuration(path, LANGUAGES[fmt])
     else:

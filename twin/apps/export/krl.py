@@ -2,14 +2,22 @@
 
 What a KUKA programmer loads and runs unchanged:
 
-- **Tool, load and base are the controller's own data.** The `.src` assigns the cell's tool to `TOOL_DATA[1]`, its
-  mass and centre of gravity to `LOAD_DATA[1]` (`{M ..,CM {X ..,Y ..,Z ..,A 0,B 0,C 0},J {X ..,Y ..,Z ..}}`, the
-  layout of the controller's `$config.dat`) and the sheet frame to `BASE_DATA[1]`, then activates them as KSS's own
-  code does, `$TOOL=TOOL_DATA[1]`, `$LOAD=LOAD_DATA[1]`, `$BASE=BASE_DATA[1]`, before the first motion; a comment
-  says where they came from (robot, tool length, mass). Running the program overwrites tool 1, load 1 and base 1
-  of the controller (`TOOL_NO`, `BASE_NO`): the cell's ISF tool is tool 1. The centre of gravity is
-  `CellSetup.tool_cog_mm` (the rule RAPID's `tooldata` uses); the inertia J is
+- **Tool, load and base in slots the user names, never the cell's calibrated 1.** The `.src` assigns the cell's
+  tool to `TOOL_DATA[t]`, its mass and centre of gravity to `LOAD_DATA[t]` (`{M ..,CM {X ..,Y ..,Z ..,A 0,B 0,C 0},
+  J {X ..,Y ..,Z ..}}`, the layout of the controller's `$config.dat`) and the sheet frame to `BASE_DATA[b]`, then
+  activates them as KSS's own code does, `$TOOL=TOOL_DATA[t]`, `$LOAD=LOAD_DATA[t]`, `$BASE=BASE_DATA[b]`, before
+  the first motion; a header comment says which slots it overwrites and where the values came from (robot, tool
+  length, mass). `t` and `b` are `export --tool-number` (1..16, KRL's `TOOL_DATA[16]`) and `--base-number`
+  (1..32, `BASE_DATA[32]`), by default `program.DEFAULT_TOOL_NUMBER` = 16 and `DEFAULT_BASE_NUMBER` = 16: a cell's
+  calibrated tool 1, load 1 and base 1 are left as they are (a program that overwrote them would un-calibrate the
+  cell for every other program); slot 16 is overwritten, so pick a free one on a cell that uses it. The centre of
+  gravity is `CellSetup.tool_cog_mm` (the rule RAPID's `tooldata` uses); the inertia J is
   `CellSetup.tool_inertia_kgm2` [kg m²], a solid cylinder of the tool's length, as the twin's model carries it.
+- **The stop-message interrupt.** The INI fold declares and switches on KUKA's stop-message interrupt before
+  `BAS(#INITMOV,0)`, as KUKA's program template (`vorgabe`) and the public RSI programs do:
+  `GLOBAL INTERRUPT DECL 3 WHEN $STOPMESS==TRUE DO IR_STOPM ( )`, `INTERRUPT ON 3` (ros-industrial
+  `kuka_experimental`, `kuka_rsi_hw_interface/krl/KR_C4/ros_rsi.src` and `KR_C4_RSI_4+/ros_rsi.src`, read):
+  a stop message (an emergency stop, a drive fault) runs the system's `IR_STOPM`, which stops the robot on its path.
 - **HOME.** The first and the last motion are `PTP XHOME_ISF` to the robot's home keyframe in controller axis
   values (`program.home_axes_deg`), an `E6AXIS` of the data list (`{A1 ..,...,A6 ..,E1 0,...,E6 0}`, the layout
   of `XHOME` in `$config.dat`; the cell has no external axes). It has its own name, so the controller's global
@@ -41,10 +49,10 @@ What a KUKA programmer loads and runs unchanged:
   than `FEED_MATCH` carries `WITH $VEL.CP=V_PATH[i]`. The path's time stamps are rounded, which moves its feeds by
   ~0.1 %; those moves run at the process feed, the others keep theirs.
 
-`$ACC.CP` (`ACC_CP_M_S2`), `$APO.CDIS` and `$ADVANCE=3` are set as before, the `;FOLD INI` with `BAS(#INITMOV,0)`
-first (KUKA's templates, RoboDK's `KUKA_KRC4.py`). A program over the KRL limit (`twin.apps.export.parts`) is
+`$ACC.CP` (`ACC_CP_M_S2`), `$APO.CDIS` and `$ADVANCE=3` are set as before, the `;FOLD INI` with the interrupt
+and `BAS(#INITMOV,0)` first (KUKA's templates, RoboDK's `KUKA_KRC4.py`). A program over the KRL limit (`twin.apps.export.parts`) is
 written as parts `NAME_1.src/.dat`, ... holding only their points, feeds and motion, and a main `NAME.src/.dat`
-that sets tool, load and base, moves HOME, calls `NAME_1( )`, `NAME_2( )`, ... in order and moves HOME again; a
+that declares the interrupt, sets tool, load and base, moves HOME, calls `NAME_1( )`, `NAME_2( )`, ... in order and moves HOME again; a
 part that does not end on a corner blends into the next (`ENDSPLINE C_SPL`). Angles A, B, C: R = Rz(A) Ry(B)
 Rx(C) [deg].
 
@@ -77,9 +85,6 @@ APPROXIMATION_MM = 0.1  # $APO.CDIS: how far a block blends into the next (C_SPL
 #: $ACC.CP [m/s²]: the process feed (33 mm/s) is reached within 33 ms, over 0.6 mm, about one point spacing.
 ACC_CP_M_S2 = 1.0
 PTP_VEL_PERCENT = 10  # the joint moves (HOME, the approach point), as VAL3's mApproach
-#: The controller's tool (and load) and base numbers the program sets (module docstring).
-TOOL_NO = 1
-BASE_NO = 1
 #: The data list's home (an E6AXIS of the robot's home keyframe); not the controller's global XHOME.
 HOME = "XHOME_ISF"
 #: Segments (points) per SPLINE block at most (module docstring).
@@ -87,7 +92,10 @@ SPLINE_SEGMENTS = 200
 #: A segment whose feed is within this fraction of the process feed runs at the process feed.
 FEED_MATCH = 0.01
 HEADER = ["&ACCESS RVP", "&REL 1"]
-INI = [";FOLD INI", "  BAS(#INITMOV,0)", ";ENDFOLD (INI)"]
+#: KUKA's stop-message interrupt: its number and declaration, as KUKA's template writes it (module docstring).
+STOPMESS_INTERRUPT = 3
+INI = [";FOLD INI", f"  GLOBAL INTERRUPT DECL {STOPMESS_INTERRUPT} WHEN $STOPMESS==TRUE DO IR_STOPM ( )",
+       f"  INTERRUPT ON {STOPMESS_INTERRUPT}", "  BAS(#INITMOV,0)", ";ENDFOLD (INI)"]
 
 
 def _frame(xyz: Iterable[float], abc: Iterable[float], extra: str = "") -> str:
@@ -113,19 +121,23 @@ def setup(path: ProgramPath) -> list[str]:
     cog, inertia = cell.tool_cog_mm, cell.tool_inertia_kgm2
     load = (f"{{M {fmt(cell.tool_mass_kg, 3)},CM {_frame(cog, (0.0, 0.0, 0.0))},"
             f"J {{X {fmt(inertia[0], 6)},Y {fmt(inertia[1], 6)},Z {fmt(inertia[2], 6)}}}}}")
+    tool, base = path.tool_number, path.base_number
     return [
-        f"; tool {TOOL_NO} and base {BASE_NO} of the controller, from the cell of robot {cell.robot} (tx200-twin):",
+        f"; this program OVERWRITES tool {tool} (TOOL_DATA[{tool}], LOAD_DATA[{tool}]) and base {base} "
+        f"(BASE_DATA[{base}]) of the controller (export --tool-number, --base-number); tool 1, load 1 and base 1 "
+        "are left as they are",
+        f"; their values, from the cell of robot {cell.robot} (tx200-twin):",
         f"; the ISF tool, {fmt(cell.tool_length_mm, 3)} mm flange -> tip along the flange z, "
         f"{fmt(cell.tool_mass_kg, 3)} kg, centre of gravity "
         + (f"{fmt(float(cog[2]), 3)} mm along it (half the tool)" if cell.cog_mm is None else
            f"({', '.join(fmt(float(c), 3) for c in cog)}) mm in the flange frame (declared)"),
         "; base: the sheet frame in the robot base (origin [mm], A = its yaw about the base z [deg])",
-        f"TOOL_DATA[{TOOL_NO}]={_frame((0.0, 0.0, cell.tool_length_mm), (0.0, 0.0, 0.0))}",
-        f"LOAD_DATA[{TOOL_NO}]={load}",
-        f"BASE_DATA[{BASE_NO}]={_frame(cell.p_base_sheet_mm, (cell.yaw_deg, 0.0, 0.0))}",
-        f"$TOOL=TOOL_DATA[{TOOL_NO}]",
-        f"$LOAD=LOAD_DATA[{TOOL_NO}]",
-        f"$BASE=BASE_DATA[{BASE_NO}]",
+        f"TOOL_DATA[{tool}]={_frame((0.0, 0.0, cell.tool_length_mm), (0.0, 0.0, 0.0))}",
+        f"LOAD_DATA[{tool}]={load}",
+        f"BASE_DATA[{base}]={_frame(cell.p_base_sheet_mm, (cell.yaw_deg, 0.0, 0.0))}",
+        f"$TOOL=TOOL_DATA[{tool}]",
+        f"$LOAD=LOAD_DATA[{tool}]",
+        f"$BASE=BASE_DATA[{base}]",
         "$ADVANCE=3",
         f"$ACC.CP={fmt(ACC_CP_M_S2, 3)}",
         f"$APO.CDIS={fmt(APPROXIMATION_MM, 3)}",
@@ -185,7 +197,7 @@ def _data(path: ProgramPath, home: bool) -> list[str]:
     return [
         *HEADER,
         f"DEFDAT {name} PUBLIC",
-        f"; tx200-twin export of {path.source.name}: {n} points, sheet frame (base {BASE_NO}), tool {TOOL_NO}",
+        f"; tx200-twin export of {path.source.name}: {n} points, sheet frame (base {path.base_number}), tool {path.tool_number}",
         about,
         *(f"; {line}" for line in cell_lines(cell)),
         *([f"DECL E6AXIS {HOME}={_axes(home_axes_deg(cell))}"] if home else []),

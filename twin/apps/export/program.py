@@ -29,6 +29,7 @@ import numpy as np
 
 from twin.apps.export.configuration import RobotConfiguration, path_configurations
 from twin.apps.export.reach import path_joint_angles
+from twin.apps.export.slots import DEFAULT_BASE_NUMBER, DEFAULT_TOOL_NUMBER
 from twin.errors import InputError
 from twin.process.toolpath.placement import Placement
 from twin.robot.description import DEFAULT_ROBOT, load_robot, robot_record
@@ -120,6 +121,9 @@ class ProgramPath:
         max_points: Points per file or module before a program is split (`parts`); 0: the format's limit.
         process_feed_mm_s: The process feed (`motion.with_moves`) [mm/s]; 0: not given, the median of the feeds
             (`process_feed`).
+        tool_number: The controller's tool (and load) slot the program writes and uses (KRL `TOOL_DATA[n]`,
+            `LOAD_DATA[n]`; `slots.TOOL_NUMBERS`), not the cell's calibrated tool 1.
+        base_number: The controller's base slot the program writes and uses (KRL `BASE_DATA[n]`; `slots.BASE_NUMBERS`).
     """
 
     name: str
@@ -132,6 +136,8 @@ class ProgramPath:
     joint_start: bool = True
     max_points: int = 0
     process_feed_mm_s: float = 0.0
+    tool_number: int = DEFAULT_TOOL_NUMBER
+    base_number: int = DEFAULT_BASE_NUMBER
 
     @property
     def process_feed(self) -> float:

@@ -14,7 +14,9 @@ A VAL3 application is a folder of XML files (VAL3 reference manual, "Application
 - `start.pgx`: `movej(jHome, tIsf, mApproach)` (HOME), `movej` to the approach point, `movel(pPath[i], tIsf,
   mPath[i])` down onto the path, through it and up to the retract point, `waitEndMove()` (which also ends the last
   move's blending), `movej(jHome, tIsf, mApproach)` and `waitEndMove()`: HOME is the first and the last move;
-- `stop.pgx`: empty.
+- `stop.pgx`: `resetMotion()`: when the application stops (the operator, an error) the motion commands left are
+  cancelled and the arm stops, as ros-industrial `staubli_val3_driver`'s `val3/ros_server/stop.pgx` does (and
+  RoboDK's VAL3 post).
 
 The folder is the application's name: a name VAL3 does not take (`my prog-1`) is refused by `export_path` with
 the name it would take (`my_prog_1`), so that the folder and its `.pjx` agree.
@@ -118,7 +120,8 @@ def application_files(path: ProgramPath) -> dict[str, str]:
     )
     stop = (
         f'<?xml version="1.0" encoding="utf-8"?>\n<Programs xmlns="{NS_PROGRAM}" xmlns:xsi="{XSI}">\n'
-        '  <Program name="stop">\n    <Code><![CDATA[begin\nend]]></Code>\n  </Program>\n</Programs>\n'
+        '  <Program name="stop">\n    <Code><![CDATA[begin\n  // the application stops: the motion left cancelled\n'
+        '  resetMotion()\nend]]></Code>\n  </Program>\n</Programs>\n'
     )
     pjx = (
         f'<?xml version="1.0" encoding="utf-8"?>\n<Project xmlns="{NS_PROJECT}" xmlns:xsi="{XSI}">\n'

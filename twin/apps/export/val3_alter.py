@@ -14,8 +14,18 @@ The application is `twin.apps.export.val3`'s (same `fSheet`, `tIsf`, `jHome`, `p
   compensator's own limit), puts it in `trAlter` and calls `alter(trAlter)` while the alteration is on; a cycle
   without such an answer holds the alteration (counted in `nAlterHeld`; refused frames in `nAlterBad`, failed
   sends in `nTwinErr`). Then it sends the joints now (`herej()`, degrees) with the next sequence number.
+- **A failed link stops forming** rather than freezing the correction and going on: a socket error (`sioGet`
+  returning -1, a `sioSet` that writes less than the frame) or `MAX_SILENT_CYCLES` (25 = 100 ms) without a fresh
+  answer while the alteration is on sets `bTwinLost`; from then the task calls `resetMotion()` every cycle (so a move
+  `start` queued after the failure is cancelled too), applies and sends nothing; `start` queues no more
+  `alterMovel` and makes neither the retract nor the move HOME: the robot stands where the link failed, the tool on
+  the sheet, for the operator. As ros-industrial `staubli_val3_driver` and ICube's driver stop the motion with
+  `resetMotion()` when their link fails.
+- `stop.pgx` (the application stopped by the operator or an error): `bAlterRun = false`, `resetMotion()`,
+  `taskKill("alterTask")`, `clearBuffer(siTwin)` (the socket closed), as ros-industrial `staubli_val3_driver`'s
+  `val3/ros_server/stop.pgx` (`resetMotion()`, `taskKill` of its tasks; read).
 - `NAME.dtx` adds `siTwin` (a `sio` linked to the controller's socket `Socket\\twin`), the flags `bAlterRun`,
-  `bAlterOn`, `bAlterOver` (the task's overrun flag), `nAlterMax`, the counters and `trAlter`.
+  `bAlterOn`, `bAlterOver` (the task's overrun flag), `bTwinLost` (the link failed), `nAlterMax`, the counters and `trAlter`.
 
 The controller's socket `twin` must be set up on the controller as a TCP **client** of the PC that runs
 `tx200-twin online` (its address, port `alter_protocol.DEFAULT_PORT`), timeout -1 (non-blocking). The correction is
@@ -41,7 +51,9 @@ the KUKA side); `alter` is to be called from a synchronous task, and only when t
 without a call keeps the alteration); `alterEnd()` ends it and the retract after it keeps the last alteration;
 `toBinary`'s count counts values (as ros-industrial uses it; ICube passes byte counts); the `sioCtrl` timeout -1
 and `clearBuffer` (which ros-industrial uses to close a connection) act on a TCP client socket as they do on ICube's
-UDP one; the controller's cycle allows a 4 ms synchronous task with this much work. If the manual says `alter`
+UDP one; the controller's cycle allows a 4 ms synchronous task with this much work; `resetMotion()` may be called
+from the synchronous task, stops the arm and cancels the queued moves, after which `start`'s `waitEndMove()`
+returns; `taskKill` of a synchronous task from `stop`. None of this can be checked without a controller. If the manual says `alter`
 is cumulative, `alterTask` must pass `alter` the difference between the new correction and the one applied
 (`trAlter` before it is overwritten): as written it would add the whole correction at every fresh answer.
 
@@ -55,6 +67,7 @@ from pathlib import Path
 
 import twin.apps.export.val3 as val3
 from twin.apps.export.program import ProgramPath, cell_lines
+from twin.apps.export.val3_alter_code import START_CODE, STOP_CODE, TASK_CODE
 from twin.apps.online.alter_protocol import (
     ANSWER_BYTES,
     CYCLE_S,
@@ -75,131 +88,9 @@ SOCKET = "twin"
 MAX_ALTER_MM = 5.0
 #: At most this many answers are read in one cycle (a backlog drains without overrunning the task).
 MAX_ANSWERS_PER_CYCLE = 4
-
-START_CODE = """begin
-  // {name}: {n} points of {source}, sheet frame fSheet, tool tIsf, robot {robot}
-{about}  // online correction: {task} (every {cycle_ms:g} ms) sends the joints to the twin (tx200-twin online) on siTwin
-  // and applies its answer with alter(): the path's moves are alterMovel, altered in world
-  bAlterOn = false
-  bAlterRun = true
-  nAlterHeld = 0
-  nAlterBad = 0
-  nTwinErr = 0
-  movej(jHome, tIsf, mApproach)
-  movej(pPath[0], tIsf, mApproach)
-  waitEndMove()
-  taskCreateSync "{task}", {cycle_s:g}, bAlterOver, {task}()
-  alterBegin(world, mPath[1])
-  bAlterOn = true
-  for i = 1 to size(pPath) - 2
-    alterMovel(pPath[i], tIsf, mPath[i])
-  endFor
-  waitEndMove()
-  bAlterOn = false
-  alterEnd()
-  movel(pPath[size(pPath) - 1], tIsf, mPath[size(pPath) - 1])
-  waitEndMove()
-  movej(jHome, tIsf, mApproach)
-  waitEndMove()
-  bAlterRun = false
-end"""
-
-TASK_CODE = """begin
-  // Synchronous task ({cycle_ms:g} ms): the twin's newest fresh answer into alter(), then the joints now to the twin.
-  // Frames (twin.apps.online.alter_protocol), little-endian: request magic, seq, j1..j6 [deg] ({request} bytes);
-  // answer magic, seq, dx dy dz [mm], absolute, world frame ({answer} bytes).
-  sioCtrl(siTwin, "timeout", -1)
-  clearBuffer(siTwin)
-  l_nMagic = {magic}
-  l_nSeq = 0
-  l_nApplied = 0
-  l_nGot = 0
-  toBinary(l_nMagic, 1, "{int32}", l_nTx[0])
-  while bAlterRun
-    // the answers waiting, byte by byte (a frame may come in pieces), at most {answers} frames a cycle
-    l_nFresh = 0
-    l_nBytes = 0
-    l_nRead = 1
-    while l_nRead == 1
-      l_nRead = 0
-      if l_nBytes < {max_bytes}
-        l_nRead = sioGet(siTwin, l_nByte)
-      endIf
-      if l_nRead == 1
-        l_nRx[l_nGot] = l_nByte
-        l_nGot = l_nGot + 1
-        l_nBytes = l_nBytes + 1
-      endIf
-      if l_nGot == {answer}
-        l_nGot = 0
-        l_nOk = fromBinary(l_nRx[0], 4, "{int32}", l_nAnsMagic)
-        l_nOk = l_nOk + fromBinary(l_nRx[4], 4, "{int32}", l_nAnsSeq)
-        for l_nI = 0 to 2
-          l_nOk = l_nOk + fromBinary(l_nRx[8 + 4 * l_nI], 4, "{float32}", l_nC[l_nI])
-        endFor
-        l_nUse = 0
-        if l_nOk == 5
-          if l_nAnsMagic == l_nMagic
-            l_nUse = 1
-          endIf
-        endIf
-        if l_nUse == 0
-          nAlterBad = nAlterBad + 1
-        endIf
-        // fresh: newer than the last applied, not newer than the last sent, less than {max_age} requests behind it
-        if l_nAnsSeq <= l_nApplied
-          l_nUse = 0
-        endIf
-        if l_nAnsSeq > l_nSeq
-          l_nUse = 0
-        endIf
-        if l_nAnsSeq <= l_nSeq - {max_age}
-          l_nUse = 0
-        endIf
-        if l_nUse == 1
-          l_nApplied = l_nAnsSeq
-          l_nFresh = 1
-          for l_nI = 0 to 2
-            l_nA[l_nI] = l_nC[l_nI]
-          endFor
-        endIf
-      endIf
-    endWhile
-    if l_nFresh == 1
-      // second guard: at most nAlterMax mm, whatever came
-      l_nNorm = sqrt(l_nA[0] * l_nA[0] + l_nA[1] * l_nA[1] + l_nA[2] * l_nA[2])
-      l_nScale = 1
-      if l_nNorm > nAlterMax
-        l_nScale = nAlterMax / l_nNorm
-      endIf
-      trAlter.x = l_nA[0] * l_nScale
-      trAlter.y = l_nA[1] * l_nScale
-      trAlter.z = l_nA[2] * l_nScale
-      if bAlterOn
-        alter(trAlter)
-      endIf
-    else
-      // no fresh answer: the alteration holds
-      nAlterHeld = nAlterHeld + 1
-    endIf
-    // the joints now, with the next sequence number
-    l_jNow = herej()
-    l_nJ[0] = l_jNow.j1
-    l_nJ[1] = l_jNow.j2
-    l_nJ[2] = l_jNow.j3
-    l_nJ[3] = l_jNow.j4
-    l_nJ[4] = l_jNow.j5
-    l_nJ[5] = l_jNow.j6
-    l_nSeq = l_nSeq + 1
-    toBinary(l_nSeq, 1, "{int32}", l_nTx[4])
-    toBinary(l_nJ, {joints}, "{float32}", l_nTx[8])
-    if sioSet(siTwin, l_nTx) != size(l_nTx)
-      nTwinErr = nTwinErr + 1
-    endIf
-    delay(0)
-  endWhile
-  clearBuffer(siTwin)
-end"""
+#: Cycles without a fresh answer, while altering, after which the link counts as failed and forming stops
+#: (25 x 4 ms = 100 ms; the compensator holds a correction for fewer).
+MAX_SILENT_CYCLES = 25
 
 #: The task's locals: name -> (type, size).
 TASK_LOCALS = {
@@ -207,7 +98,7 @@ TASK_LOCALS = {
     "l_nC": ("num", 3), "l_nA": ("num", 3), "l_jNow": ("jointRx", 1),
     **{name: ("num", 1) for name in ("l_nMagic", "l_nSeq", "l_nApplied", "l_nGot", "l_nFresh", "l_nBytes", "l_nRead",
                                      "l_nByte", "l_nOk", "l_nAnsMagic", "l_nAnsSeq", "l_nI", "l_nUse", "l_nNorm",
-                                     "l_nScale")},
+                                     "l_nScale", "l_nSilent")},
 }
 
 
@@ -242,7 +133,7 @@ def application_files(path: ProgramPath) -> dict[str, str]:
     files = val3.application_files(path)
     data = [
         _datum("siTwin", "sio", f'link="Socket\\{SOCKET}"'),
-        *(_datum(flag, "bool", 'value="false"') for flag in ("bAlterRun", "bAlterOn", "bAlterOver")),
+        *(_datum(flag, "bool", 'value="false"') for flag in ("bAlterRun", "bAlterOn", "bAlterOver", "bTwinLost")),
         _datum("nAlterMax", "num", f'value="{MAX_ALTER_MM:g}"'),
         *(_datum(count, "num", 'value="0"') for count in ("nAlterHeld", "nAlterBad", "nTwinErr")),
         _datum("trAlter", "trsf", 'x="0" y="0" z="0" rx="0" ry="0" rz="0"'),
@@ -259,8 +150,10 @@ def application_files(path: ProgramPath) -> dict[str, str]:
     files["start.pgx"] = _program("start", start, {"i": ("num", 1)})
     task = TASK_CODE.format(cycle_ms=cycle_ms, request=REQUEST_BYTES, answer=ANSWER_BYTES, magic=MAGIC,
                             int32=VAL3_INT32, float32=VAL3_FLOAT32, answers=MAX_ANSWERS_PER_CYCLE,
-                            max_bytes=MAX_ANSWERS_PER_CYCLE * ANSWER_BYTES, max_age=MAX_AGE_CYCLES, joints=JOINTS)
+                            max_bytes=MAX_ANSWERS_PER_CYCLE * ANSWER_BYTES, max_age=MAX_AGE_CYCLES, joints=JOINTS,
+                            silent=MAX_SILENT_CYCLES)
     files[f"{TASK}.pgx"] = _program(TASK, task, TASK_LOCALS)
+    files["stop.pgx"] = _program("stop", STOP_CODE.format(task=TASK), {})
     return files
 
 

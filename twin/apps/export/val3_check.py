@@ -46,7 +46,7 @@ PROCEDURES: dict[str, tuple[str, ...]] = {
     "waitEndMove": (), "resetMotion": (), "stopMove": (), "restartMove": (),
     "alterBegin": ("frame", "mdesc"), "alterEnd": (), "alter": ("trsf",),
     "delay": ("expr",), "clearBuffer": ("sio",), "sioCtrl": ("sio", "string", "expr"),
-    "toBinary": ("num", "expr", "format", "num"),
+    "toBinary": ("num", "expr", "format", "num"), "taskKill": ("string",),
 }
 #: Functions (in expressions) -> their arguments.
 FUNCTIONS: dict[str, tuple[str, ...]] = {

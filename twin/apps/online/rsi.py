@@ -7,7 +7,11 @@ ros-industrial `kuka_rsi_hw_interface` reads the same fields). The F/T sample co
 `<FT Fx= Fy= Fz=/>` element the cell's RSI configuration adds from the sensor it reads (sheet frame, N); a packet
 without one is a cycle without a new sample, which the compensator's watchdog handles. Or it comes from the
 sensor's own stream (a `ForceSource`, e.g. ATI RDT), read by the server. `RKorr` X Y Z is the
-correction in the robot's base frame [mm], absolute (the RSI object's correction mode `#ABSOLUTE`), A B C zero.
+correction in the **robot's base frame** [mm], absolute (`RSI_ON(#ABSOLUTE,#IPO_FAST)`: each answer the whole
+correction, every 4 ms), A B C zero. Not in the program's `$BASE`, which is the sheet frame (`BASE_DATA[b]`, the
+sheet's yaw): the exported RSI context (`twin.apps.export.krl_rsi`) has its POSCORR object correct in `#WORLD`,
+which is the robot base when the cell's `$ROBROOT` is the null frame, as the program's header says; a cell with
+another `$ROBROOT` would need the correction rotated (or sent in the sheet frame with POSCORR in `#BASE`).
 
 The server's loop is bounded: it stops after `max_cycles` packets, when no first packet was answered within
 `start_timeout_s`, or when none was answered for `idle_timeout_s` after the last. It answers one peer per session

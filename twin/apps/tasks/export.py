@@ -31,6 +31,7 @@ from twin.apps.export import (
     robot_format,
 )
 from twin.apps.export.program import default_cell
+from twin.apps.export.slots import BASE_NUMBERS, DEFAULT_BASE_NUMBER, DEFAULT_TOOL_NUMBER, TOOL_NUMBERS
 from twin.apps.tasks.base import Note, Report, silent
 from twin.errors import InputError
 from twin.process.description import check_plausible
@@ -67,6 +68,10 @@ class ExportRequest:
         yaw_deg: The sheet's yaw [deg] as typed (`--yaw-deg`, 0 included); None: the run's, else the cell's, else 0.
         cell: The `--cell` file's record (`CellDeclaration.record`: its robot, tool and sheet, under the typed
             values and the run's), or None.
+        tool_number: The controller's tool (and load) slot a KRL program overwrites and uses (`--tool-number`,
+            1..16); the default 16 leaves the cell's calibrated tool 1 alone.
+        base_number: The controller's base slot a KRL program overwrites and uses (`--base-number`, 1..32); the
+            default 16 leaves base 1 alone.
     """
 
     path_csv: Path
@@ -83,6 +88,8 @@ class ExportRequest:
     cell: Mapping[str, Any] | None = None
     origin_mm: tuple[float, float, float] | None = None
     yaw_deg: float | None = None
+    tool_number: int = DEFAULT_TOOL_NUMBER
+    base_number: int = DEFAULT_BASE_NUMBER
 
     def __post_init__(self) -> None:
         if self.format is not None and self.format not in FORMATS:
@@ -91,6 +98,12 @@ class ExportRequest:
                               ("--feed-mm-s", self.feed_mm_s)):
             if value is not None and not (math.isfinite(value) and value > 0):
                 raise InputError(f"{option} {value:g}: expected a finite number > 0")
+        for option, number, slots in (("--tool-number", self.tool_number, TOOL_NUMBERS),
+                                      ("--base-number", self.base_number, BASE_NUMBERS)):
+            if isinstance(number, bool) or not isinstance(number, int) or number not in slots:
+                raise InputError(f"{option} {number!r}: expected a whole number {slots.start}..{slots.stop - 1} "
+                                 f"(KRL's {'TOOL_DATA' if option == '--tool-number' else 'BASE_DATA'}"
+                                 f"[{slots.stop - 1}])")
         if self.tool_length_mm is not None:
             check_plausible("tool_length_m", self.tool_length_mm / 1e3, f"--tool-length-mm {self.tool_length_mm:g}")
         if self.tool_mass_kg is not None:
@@ -226,7 +239,8 @@ def export_task(request: ExportRequest, note: Note = silent) -> ExportReport:
     if request.cell is not None and request.cell.get("tool", {}).get("cog_mm") is not None:
         cell = replace(cell, cog_mm=tuple(request.cell["tool"]["cog_mm"]))
     exported = export_path(request.path_csv, fmt, request.out, cell=cell, safe_z_mm=request.safe_height_mm,
-                           process_feed_mm_s=request.feed_mm_s, max_points=request.max_points)
+                           process_feed_mm_s=request.feed_mm_s, max_points=request.max_points,
+                           tool_number=request.tool_number, base_number=request.base_number)
     for warning in exported.feeds.warnings():
         note(f"warning: {warning}")
     if fmt == "rapid-egm":

@@ -1,0 +1,61 @@
+"""The online compensator's settings (`OnlineSettings`), apart from the compensator itself (`twin.sim.online`) so
+that what only needs its defaults (a program's correction limits, `twin.apps.export.krl_rsi`; the CLI's parser) does
+not load the compiled cycle."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields
+
+import numpy as np
+
+from twin.errors import InputError
+
+
+@dataclass(frozen=True)
+class OnlineSettings:
+    """What the compensator does with a real signal (module docstring).
+
+    Attributes:
+        cycle_s: The controller cycle [s] (KUKA RSI 4 or 12 ms, ABB EGM 4 ms).
+        filter_hz: Cut-off of the force's first-order low-pass [Hz].
+        latency_s: The sensor's latency to predict over [s] (0: none).
+        spike_n: A sample this far from the filtered force is rejected [N].
+        spike_run: At most this many samples in a row are rejected; the next is a new level, taken.
+        max_correction_mm: Largest correction [mm].
+        max_rate_mm_s: Largest rate of change of the correction [mm/s].
+        stale_s: A sample older than this is stale [s].
+        hold_s: A stale correction is held this long before it ramps out [s].
+        gain: Share of the predicted deflection corrected [-] (1: all of it).
+    """
+
+    cycle_s: float = 0.004
+    filter_hz: float = 10.0
+    latency_s: float = 0.0
+    spike_n: float = 1500.0
+    spike_run: int = 2
+    max_correction_mm: float = 5.0
+    max_rate_mm_s: float = 20.0
+    stale_s: float = 0.1
+    hold_s: float = 0.1
+    gain: float = 1.0
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.spike_run, int) and self.spike_run >= 0):
+            raise InputError(f"online setting spike_run = {self.spike_run!r}: expected a whole number >= 0")
+        for f in fields(self):
+            if f.name == "spike_run":
+                continue
+            value = getattr(self, f.name)
+            ok = math.isfinite(value) and (value >= 0.0 if f.name in ("latency_s", "hold_s") else value > 0.0)
+            if not ok:
+                raise InputError(f"online setting {f.name} = {value!r}: expected a finite number "
+                                 f"{'>= 0' if f.name in ('latency_s', 'hold_s') else '> 0'}")
+        if self.gain > 1.5:
+            raise InputError(f"online setting gain = {self.gain!r}: expected at most 1.5 (1: the whole deflection)")
+
+    def params(self) -> np.ndarray:
+        """The settings as the compiled cycle reads them (SI)."""
+        return np.array([self.cycle_s, 2.0 * math.pi * self.filter_hz, self.latency_s, self.spike_n,
+                         1e-3 * self.max_correction_mm, 1e-3 * self.max_rate_mm_s * self.cycle_s, self.stale_s,
+                         self.hold_s, self.gain, float(self.spike_run)])
