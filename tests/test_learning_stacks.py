@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from run_edits import with_forces
 
 from twin.cli import main
 from twin.process.description import Process
@@ -121,22 +122,6 @@ def test_a_model_files_force_model_without_its_constants_is_refused(force_model:
         read_model_file(path)
 
 
-def _biased(run: Path, out: Path, bias_n: tuple[float, float, float]) -> Path:
-    """A copy of `run` whose F/T stream reads `bias_n` more (a sensor re-tared wrongly), edited in the run's own
-    file: a change the twin did not make."""
-    import csv
-    import shutil
-
-    shutil.copytree(run, out)
-    with (run / "forces.csv").open() as f:
-        rows = list(csv.reader(f))
-    with (out / "forces.csv").open("w", newline="") as f:
-        csv.writer(f).writerows([rows[0], *([r[0], *(f"{float(v) + b:.4f}" for v, b in zip(r[1:4], bias_n,
-                                                                                           strict=True))]
-                                          for r in rows[1:])])
-    return out
-
-
 def test_a_change_after_the_cell_was_learned_is_judged_above_its_floor(
         groove_runs: list[Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """`learn` with two runs records the floor the learned cell leaves on a clean run it did not fit; against it,
@@ -147,7 +132,8 @@ def test_a_change_after_the_cell_was_learned_is_judged_above_its_floor(
     assert "floor on its own clean runs" in capsys.readouterr().out
     floor = json.loads(cell.read_text())["floor"]
     assert floor["excess_per_element"]["position"] > 1.0  # the learned cell does not replay its runs to the noise
-    biased = _biased(groove_runs[2], tmp_path / "biased", (40.0, 0.0, -30.0))
+    # a sensor re-tared wrongly, written here: 40 N more in x, 30 N less in z
+    biased = with_forces(groove_runs[2], tmp_path / "biased", lambda f: f + np.array([40.0, 0.0, -30.0]))
     verdicts = {}
     for name, model in (("floor", cell), ("noise", tmp_path / "no_floor.json")):
         if name == "noise":

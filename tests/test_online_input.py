@@ -330,7 +330,8 @@ def test_distinct_ports_are_taken() -> None:
     from twin.apps.tasks.online import OnlineRequest, RdtSettings
 
     OnlineRequest("rsi", port=7002, ft=RdtSettings("127.0.0.1", 7003))
-    OnlineRequest("rsi", port=7002, ft=RdtSettings("192.168.1.1", 7002))  # the sensor's port on another host
+    # the sensor's port on another host (a name only: no packet is sent)
+    OnlineRequest("rsi", port=7002, ft=RdtSettings("ft-sensor.invalid", 7002))
     OnlineRequest("val3", port=7002, ft=RdtSettings("127.0.0.1", 7002))  # TCP and UDP: two ports
 
 

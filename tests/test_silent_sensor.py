@@ -4,12 +4,12 @@ fitted to its bounds (issue #46: `identify --forces` fitted a force scale of 0.0
 
 from __future__ import annotations
 
-import csv
-import shutil
 from pathlib import Path
 
+import numpy as np
 import pytest
 from cli_refusal import refused
+from run_edits import with_forces
 
 from twin.cli import main
 
@@ -22,13 +22,7 @@ def runs(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
     assert main(["path", "--shape", "cone", "--top-width-mm", "40", "--depth-mm", "4", "--out", str(cone)]) == 0
     run = root / "run"
     assert main(["lab", "--scenario", "nominal", "--seed", "1", "--commanded", str(cone), "--out", str(run)]) == 0
-    flat = root / "flat"
-    shutil.copytree(run, flat)
-    with (run / "forces.csv").open() as f:
-        rows = list(csv.reader(f))
-    with (flat / "forces.csv").open("w", newline="") as f:
-        csv.writer(f).writerows([rows[0], *([r[0], "0", "0", "0"] for r in rows[1:])])
-    return run, flat
+    return run, with_forces(run, root / "flat", np.zeros_like)
 
 
 @pytest.mark.parametrize("argv", [["identify", "--forces"], ["identify", "--method", "2"], ["discrepancy"]])

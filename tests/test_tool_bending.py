@@ -243,7 +243,8 @@ def test_the_online_correction_takes_the_tools_bending() -> None:
     from twin.sim.spec import TwinSpec
 
     f_n = np.array([300.0, -100.0, 0.0])  # in-plane (the tool stands 6 mrad off vertical at home: an axial force
-    k = 4.474e5  # [N/m]: a Ø25 mm steel 300 mm tool                 # would add 0.6 % of itself across it)
+    # would add 0.6 % of itself across it)
+    k = K_25  # a Ø25 mm steel 300 mm tool [N/m]
     out = {}
     q = Kinematics().q_home
     for name, tool in (("rigid", ToolSpec.make(0.3, 8.0)),

@@ -22,8 +22,6 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from twin.analysis.discrepancy.consistency import structured_excess
-from twin.analysis.discrepancy.effect_model import context
-from twin.analysis.discrepancy.fitting import Fitter
 from twin.analysis.discrepancy.residuals import ResidualModel
 from twin.errors import InputError
 from twin.runs.format import Run
@@ -82,14 +80,8 @@ def measure_floor(run: Run, spec: TwinSpec) -> Floor:
     model = ResidualModel(run, spec)
     noise = model.noise
     sigma = {"position": noise.position_m, "force": noise.force_n, "profile": noise.profile_m}
-    measured = {"position": run.tracker.values}
-    if run.forces is not None:
-        measured["force"] = run.forces.values
-    if run.part_profile is not None:
-        measured["profile"] = np.asarray(run.part_profile[1], dtype=float)
-    fitter = Fitter(context(model, spec.effects), measured, sigma, model.folds())
     excess, structure = {}, {}
-    for s, raw in fitter.raw.items():
+    for s, raw in model.streams(spec.effects).items():  # measured - predicted, as the search's residual
         v = np.ravel(raw) / sigma[s]
         excess[s] = max(float(v @ v) - v.size, 0.0) / v.size
         structure[s] = max(structured_excess(raw, sigma[s]), 0.0) / v.size
