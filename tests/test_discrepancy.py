@@ -74,12 +74,14 @@ def lab_run(path: tuple[np.ndarray, np.ndarray], values: dict[str, float], seed:
     return run
 
 
-def edited(run: Run, position: np.ndarray | None = None, force: np.ndarray | None = None) -> Run:
-    """The run with its tracker and/or force values replaced (an edit by hand)."""
+def edited(run: Run, position: np.ndarray | None = None, force: np.ndarray | None = None, *,
+           profile: bool = True) -> Run:
+    """The run with its tracker and/or force values replaced (an edit by hand), its profile kept or left out."""
     assert run.forces is not None
     return Run(None, dict(run.meta), run.commanded,
                Stream(run.tracker.t_s, run.tracker.values if position is None else position),
-               Stream(run.forces.t_s, run.forces.values if force is None else force), run.part_profile)
+               Stream(run.forces.t_s, run.forces.values if force is None else force),
+               run.part_profile if profile else None)
 
 
 def timed(run: Run, **kwargs: Any) -> tuple[DiscrepancyResult, float]:
@@ -174,7 +176,7 @@ def test_a_dynamic_plant_sensor_clock_with_a_rate_error_is_named_and_placed(
 
     t_s, p_m = nominal_path
     offset, skew = 0.04, 2000e-6
-    knobs = Knobs({"ft_clock_offset_s": offset, "ft_clock_skew_ppm": 1e6 * skew}, neutral=True)
+    knobs = Knobs({"force_clock_offset_s": offset, "ft_clock_skew_ppm": 1e6 * skew}, neutral=True)
     run, _, _ = run_dynamic_lab(t_s, p_m, scenario="nominal", knobs=knobs, seed=5)
     result, seconds = timed(run)
     info = describe(result, seconds)
@@ -232,7 +234,10 @@ def test_forces_and_deflections_scaled_by_hand_are_named_force_scale(
     run = clean_unlabelled
     assert run.forces is not None
     cmd, _ = commanded_at_tracker
-    result, seconds = timed(edited(run, cmd + factor * (run.tracker.values - cmd), factor * run.forces.values))
+    # the part's profile is left out: scaled forces would change its springback, which this edit does not write,
+    # and a profile left as it was contradicts a force scale (an F/T gain, the forces alone, then takes them)
+    result, seconds = timed(edited(run, cmd + factor * (run.tracker.values - cmd), factor * run.forces.values,
+                                   profile=False))
     info = describe(result, seconds)
     assert result.verdict == "force_scale", info
     fit = named(result, "force_scale")
@@ -262,8 +267,12 @@ def test_x_offset_flipping_at_reversals_is_named_lost_motion(
     position = run.tracker.values + np.outer(1.2e-4 * direction, [1.0, 0.0, 0.0])
     result, seconds = timed(edited(run, position))
     info = describe(result, seconds)
-    assert result.verdict == "lost_motion", info
-    assert named(result, "lost_motion").explained_fraction >= 0.9, info
+    # at the groove's constant speed an x offset flipping with the travel is also a tracker clock 3.6 ms late
+    # (tip(t - tau) = tip - v tau): the tool tip alone cannot tell them apart, and the search says so
+    assert result.verdict in ("lost_motion", "tracker_clock"), info
+    other = {"lost_motion": "tracker_clock", "tracker_clock": "lost_motion"}[result.verdict]
+    assert other in named(result, result.verdict).ambiguous_with, info
+    assert named(result, result.verdict).explained_fraction >= 0.9, info
     # the edit flips at once, the family over a 2 mm take-up: a little is left at each reversal
     assert result.gap_after["position_rms_mm"] <= 1.2 * NOISE_GAP["position_rms_mm"], info
 
@@ -327,8 +336,9 @@ def test_constant_fz_bias_is_named_force_sensor_bias(clean_unlabelled: Run) -> N
     fit = named(result, "force_sensor_bias")
     assert fit.parameters["bias_z_n"] == pytest.approx(60.0, abs=3.0 * fit.uncertainty["bias_z_n"] + 1.0), info
     assert abs(fit.parameters["bias_x_n"]) <= 3.0 * fit.uncertainty["bias_x_n"] + 1.0, info
-    # no lab equivalent: the model file cannot carry it, and the report says so
-    assert not result.model_complete and result.effects == Effects(), info
+    # no lab equivalent, but the instruments carry it: the model file's replay has the bias (issue #47)
+    assert result.model_complete and result.effects.values == {}, info
+    assert result.effects.instruments.force_bias_n[2] == pytest.approx(60.0, abs=3.0), info
     assert result.gap_after["force_rms_n"] <= NOISE_FACTOR * NOISE_GAP["force_rms_n"], info
 
 

@@ -19,6 +19,7 @@ from twin.process.force.learned import WEIGHT_KEYS
 from twin.process.force.registry import FORCE_MODELS
 from twin.robot.tool import ToolSpec
 from twin.sim.effects import EFFECTS, Effects
+from twin.sim.instruments import FIELDS, Instruments
 from twin.sim.model_file import read_model_file, write_model_file
 from twin.sim.servo import ServoTransient
 from twin.sim.spec import TwinSpec
@@ -42,13 +43,15 @@ def test_every_force_model_and_effect_round_trips_through_a_model_file(force_mod
     assert set(FITS) >= set(FORCE_MODELS), "a new force model needs its fitted constants here"
     spec = TwinSpec(
         process=Process(force_model=force_model, force_fit=FITS[force_model]),
-        effects=Effects({name: _off(name) for name in EFFECTS}),
+        effects=Effects({name: _off(name) for name in EFFECTS}, instruments=Instruments(**{
+            name: tuple(neutral + 0.01 * (i + 1) for i in range(n)) for name, (n, neutral, _, _) in FIELDS.items()})),
         joint_stiffness_nm_per_rad=(1.1e6, 2.2e6, 1.3e6, 4.0e5, 3.0e5, 2.0e5),
         joint_friction_nm=(10.0, 150.0, 400.0, 0.0, 60.0, 0.0),
         servo=ServoTransient((1e-7, -2e-7, 3e-7, 0.0, 4e-6, 0.0), 0.075),
         tool=ToolSpec.make(0.3, 8.0, (0.0, 0.0, 0.15)),
     )
     back = read_model_file(write_model_file(tmp_path / "m.json", spec, note="round trip"))
+    assert not spec.effects.instruments.changed().keys() ^ FIELDS.keys()  # every field of the instruments is off
     assert back.effects == spec.effects and back.tool == spec.tool and back.servo == spec.servo
     assert back.process.force_model == force_model and dict(back.process.force_fit) == dict(FITS[force_model])
     assert back.joint_stiffness_nm_per_rad == spec.joint_stiffness_nm_per_rad
@@ -87,6 +90,10 @@ def test_learning_twice_from_one_run_is_the_same_twin(groove_runs: list[Path], t
     # stated tolerance: each joint's K_q within its own standard deviation, the fitted gap within 5 µm
     assert np.all(np.abs(k2 - k1) <= np.maximum(std1, 1.0)), (k1, k2, std1)
     assert gap2 == pytest.approx(gap1, abs=0.005)
+    # the instruments learned again against the first twin's replay add nothing: within 5 um / 0.05 mrad / 0.5 N
+    i1, i2 = (read_model_file(p).effects.instruments for p in (first, again))
+    for name, tol in (("tracker_shift_mm", 0.005), ("tracker_rotation_mrad", 0.05), ("force_bias_n", 0.5)):
+        assert np.allclose(getattr(i1, name), getattr(i2, name), atol=tol), (name, i1, i2)
     a, b = (json.loads(p.read_text())["process"]["force_fit"] for p in (first, again))
     assert a.keys() == b.keys()
     springback = {"recovery_scale", "depth_ratio"}  # fitted on the replay of the learned robot: within 5 %
@@ -150,4 +157,5 @@ def test_a_change_after_the_cell_was_learned_is_judged_above_its_floor(
     assert bias["bias_x_n"] == pytest.approx(40.0, abs=8.0) and bias["bias_z_n"] == pytest.approx(-30.0, abs=8.0)
     capsys.readouterr()
     assert main(["discrepancy", str(groove_runs[2]), "--model", str(cell), "--json", "-"]) == 0
-    assert json.loads(capsys.readouterr().out)["effect"] == "unexplained"  # the clean run: nothing named
+    clean = json.loads(capsys.readouterr().out)  # the clean run: nothing named, nothing above the floor
+    assert clean["effect"] == "none" and "no change observable" in clean["remainder"]["words"], clean["remainder"]

@@ -22,6 +22,7 @@ from twin.analysis.compensate import compensation_gain
 from twin.analysis.compensation_record import CompensationRecord, run_record
 from twin.analysis.gain_cause import GAIN_TOLERANCE, name_cause
 from twin.analysis.identify.cartesian import fit_compliance
+from twin.analysis.tracker_frame import TrackerRegistration, take_off
 from twin.base.signals import interp_rows
 from twin.errors import IdentificationError, InputError, RunFormatError
 from twin.process.toolpath.groove import label_passes
@@ -45,6 +46,8 @@ class CheckResult:
         nominal: Whether the run's command is the ideal path itself (no compensation to judge).
         cause: `nominal`, or `twin.analysis.gain_cause.GainCause.cause`.
         force_scale: Forces the compensation used / forces measured, or None without its record.
+        registration: The tracker registration taken off the run's tracker before judging, or None (the tracker
+            as it reads).
     """
 
     residual_m: np.ndarray
@@ -56,6 +59,7 @@ class CheckResult:
     nominal: bool = False
     cause: str = "unknown"
     force_scale: float | None = None
+    registration: TrackerRegistration | None = None
 
     def summary(self) -> dict[str, object]:
         """JSON-ready numbers: overall, per pass and per direction residuals [mm], gain, diagnosis."""
@@ -82,6 +86,9 @@ class CheckResult:
             "cause": self.cause,
             "force_scale": self.force_scale,
             "nominal": self.nominal,
+            "tracker_registration": None if self.registration is None else {
+                key: value for key, value in self.registration.summary().items()
+                if key in ("rotation_mrad", "shift_mm", "source")},
         }
 
 
@@ -121,7 +128,8 @@ def diagnose_gain(
 
 
 def check_run(
-    run: Run, t_ideal_s: np.ndarray, p_ideal_sheet_m: np.ndarray, ideal_name: str = "the ideal path"
+    run: Run, t_ideal_s: np.ndarray, p_ideal_sheet_m: np.ndarray, ideal_name: str = "the ideal path",
+    registration: TrackerRegistration | None = None,
 ) -> CheckResult:
     """Compare a run's measured tool tip with the ideal path and estimate the compensation gain.
 
@@ -133,6 +141,8 @@ def check_run(
             taken at the commanded stream's time k.
         p_ideal_sheet_m: Ideal path U_ID, sheet frame [m], shape (n, 3).
         ideal_name: How the ideal path is named in errors (the CLI: `--ideal FILE`).
+        registration: The tracker's registration error (`twin.analysis.tracker_frame`): taken off the tracker
+            before the residual and the compliance fit, and carried by the result. None: the tracker as it reads.
 
     Raises:
         PathMismatchError: The command is not the ideal path plus a correction of the run's forces: more than
@@ -140,6 +150,8 @@ def check_run(
         RunFormatError: The run has no forces.
         IdentificationError: The run's forces cannot determine a compliance.
     """
+    if registration is not None:
+        run = take_off(run, registration)
     if run.forces is None:
         raise RunFormatError(run.directory or "run", "check needs forces.csv to estimate the gain")
     t_ideal = np.asarray(t_ideal_s, dtype=float)
@@ -189,10 +201,10 @@ def check_run(
         diagnosis = ("a nominal run: its command is the ideal path, so there is no compensation to judge; the "
                      "residual is the robot's deflection")
         return CheckResult(residual, pass_ideal[index], dir_ideal[index], gain, c_xz, diagnosis, nominal=True,
-                           cause="nominal")
+                           cause="nominal", registration=registration)
     record = run_record(run.meta, run.directory or "meta.json")
     if record is not None and len(record.t_s) == len(t_cmd):  # the same program, perhaps re-timed by the controller
         record = replace(record, t_s=np.asarray(t_cmd, dtype=float))
     cause = name_cause(gain, record, t_f, f)
     return CheckResult(residual, pass_ideal[index], dir_ideal[index], gain, c_xz, cause.text,
-                       cause=cause.cause, force_scale=cause.force_scale)
+                       cause=cause.cause, force_scale=cause.force_scale, registration=registration)

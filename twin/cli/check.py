@@ -40,6 +40,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="with --target-stl: the part passes when 99 %% of its formed region lies within T of the mesh (the "
         "drawing's profile tolerance; default 0.2) [mm]",
     )
+    parser.add_argument(
+        "--model", type=Path, metavar="FILE",
+        help="a twin model file (`learn --write-model`): the tracker registration it carries (a rotation and a "
+        "shift, learned from the cell's runs) is taken off the tracker before judging, and the report says so",
+    )
+    parser.add_argument(
+        "--free-moves", action="store_true",
+        help="without --model: fit the tracker's registration on the run's free moves (|F| < 20 N) and take it off "
+        "(unloaded, the arm's own sag and following error look like a registration too)",
+    )
     add_json_argument(parser, "the numbers")
 
 
@@ -72,8 +82,14 @@ def _add_scan_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Check the run (and its part); the exit code judges the part with a mesh, else the path's gain."""
+    from twin.analysis.tracker_frame import TrackerRegistration
     from twin.apps.tasks.check import CheckRequest, check_task
+    from twin.sim.model_file import read_model_file
 
     request = CheckRequest(args.run_dir, args.ideal, args.target_stl, args.scan, args.scan_units, args.register,
-                           args.datum, args.fit_rms_mm, args.fit_fraction, args.figure, args.part_tolerance_mm)
-    return finish(args, check_task(request, note), protect=(args.run_dir, args.target_stl, args.ideal, args.scan))
+                           args.datum, args.fit_rms_mm, args.fit_fraction, args.figure, args.part_tolerance_mm,
+                           free_moves=args.free_moves)
+    registration = None if args.model is None else TrackerRegistration.from_instruments(
+        read_model_file(args.model).effects.instruments, f"the model file {args.model}")
+    return finish(args, check_task(request, note, registration),
+                  protect=(args.run_dir, args.target_stl, args.ideal, args.scan, args.model))

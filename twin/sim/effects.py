@@ -12,7 +12,8 @@ that switches it off, the range it may take and where it acts:
 | tool_length_offset | mm | robot | the real tool tip lies this much further along the tool axis than nominal |
 | sheet_springback | - | sheet | fraction of the formed depth the sheet recovers after unclamping |
 
-The same vocabulary serves the quasi-static lab (its hidden truth), the twin (the effects it knows, e.g. found by
+The F/T sensor's and the tracker's calibration (vectors: a bias, a registration, a clock) ride along as
+`Effects.instruments` (`twin.sim.instruments`). The same vocabulary serves the quasi-static lab (its hidden truth), the twin (the effects it knows, e.g. found by
 the discrepancy search), the model file (`twin.sim.model_file`) and the discrepancy families, which map onto
 these names (`twin.analysis.discrepancy.families`). `step` is the finite-difference step the search refines an
 effect with; `compose` says how a fitted increment adds to a known value. Names used before are still read
@@ -25,15 +26,18 @@ import math
 import warnings
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 
 from twin.base.registry import Registry
 from twin.errors import InputError
+from twin.sim.instruments import Instruments
 
 #: Direction of the lab's tracker drift in the sheet frame (thermal drift of the camera bar, mostly vertical).
 TRACKER_DRIFT_DIRECTION = np.array([0.6, 0.0, 0.8])
+#: Prefix of an increment of the instruments' calibration in `Effects.composed` (`instruments.force_bias_n`).
+INSTRUMENTS = "instruments."
 #: Travel after a reversal over which lost motion is taken up [m].
 LOST_MOTION_TAKEUP_M = 0.002
 
@@ -139,10 +143,13 @@ class Effects:
     Attributes:
         values: Effect name -> parameter value (only effects that are switched on).
         lost_motion_takeup_m: Travel after a reversal over which lost motion is taken up [m].
+        instruments: The F/T sensor's and the tracker's calibration (`twin.sim.instruments`: vectors, which the
+            scalar vocabulary does not hold), applied to what the twin's sensors report.
     """
 
     values: Mapping[str, float] = field(default_factory=dict)
     lost_motion_takeup_m: float = LOST_MOTION_TAKEUP_M
+    instruments: Instruments = field(default_factory=Instruments)
 
     def __post_init__(self) -> None:
         clean: dict[str, float] = {}
@@ -163,10 +170,12 @@ class Effects:
                 clean[name] = number
         if not (np.isfinite(self.lost_motion_takeup_m) and self.lost_motion_takeup_m > 0):
             raise InputError(f"lost_motion_takeup_m = {self.lost_motion_takeup_m!r} m, expected > 0")
+        if not isinstance(self.instruments, Instruments):
+            raise InputError(f"Effects.instruments = {self.instruments!r}: expected an Instruments")
         object.__setattr__(self, "values", clean)
 
     def __hash__(self) -> int:
-        return hash((tuple(sorted(self.values.items())), self.lost_motion_takeup_m))
+        return hash((tuple(sorted(self.values.items())), self.lost_motion_takeup_m, self.instruments))
 
     def get(self, name: str) -> float:
         """Parameter of `name`, or its neutral value when the effect is off."""
@@ -174,12 +183,24 @@ class Effects:
 
     def with_value(self, name: str, value: float) -> Effects:
         """A copy with one effect set (neutral value switches it off)."""
-        return Effects({**self.values, name: value}, self.lost_motion_takeup_m)
+        return Effects({**self.values, name: value}, self.lost_motion_takeup_m, self.instruments)
 
-    def composed(self, increments: Mapping[str, float]) -> Effects:
-        """These effects with fitted increments joined by each effect's `compose` rule."""
+    def with_values(self, values: Mapping[str, float]) -> Effects:
+        """A copy with these values in place of its own (its take-up and instruments kept)."""
+        return Effects(values, self.lost_motion_takeup_m, self.instruments)
+
+    def with_instruments(self, instruments: Instruments) -> Effects:
+        """A copy with these instruments."""
+        return Effects(self.values, self.lost_motion_takeup_m, instruments)
+
+    def composed(self, increments: Mapping[str, Any]) -> Effects:
+        """These effects with fitted increments joined by each effect's `compose` rule; keys `instruments.FIELD`
+        add to the instruments' calibration (`Instruments.plus`)."""
         values = dict(self.values)
+        inst = {k.removeprefix(INSTRUMENTS): v for k, v in increments.items() if k.startswith(INSTRUMENTS)}
         for name, inc in increments.items():
+            if name.startswith(INSTRUMENTS):
+                continue
             rule = EFFECTS[name].compose
             if rule == "scale":
                 values[name] = self.get(name) * inc
@@ -187,10 +208,11 @@ class Effects:
                 values[name] = 1.0 - (1.0 - self.get(name)) * (1.0 - inc)
             else:
                 values[name] = self.get(name) + inc
-        return Effects(values, self.lost_motion_takeup_m)
+        return Effects(values, self.lost_motion_takeup_m, self.instruments.plus(inst) if inst else self.instruments)
 
     def simulated(self) -> Effects:
-        """The effects that change the twin's simulation (`EffectSpec.simulated`), the others off."""
+        """The effects that change the twin's simulation (`EffectSpec.simulated`), the others (and the
+        instruments) off."""
         return Effects({n: v for n, v in self.values.items() if EFFECTS[n].simulated}, self.lost_motion_takeup_m)
 
     @property

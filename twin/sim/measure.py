@@ -22,12 +22,15 @@ if TYPE_CHECKING:
 def predict_tracker(result: SimResult, t_s: np.ndarray, effects: Effects) -> np.ndarray:
     """Tool tip the tracker reports at `t_s`, sheet frame [m], shape (m, 3) (no noise).
 
-    The simulated tip is interpolated linearly in time, and every effect on the tracker adds its reading
+    The simulated tip is interpolated linearly in time (at the tracker clock's own time, `Instruments`), the
+    instruments' registration and drift act on it, and every effect on the tracker adds its reading
     (`EffectSpec.tracker`, e.g. `tracker_drift`).
     """
     t_s = np.asarray(t_s, dtype=float)
-    tip = interp_rows(t_s, result.t_s, result.p_sheet_m)
-    reading = tip.copy()
+    inst, t0 = effects.instruments, float(result.t_s[0])
+    t_taken = np.clip(inst.tracker_times(t_s, t0), result.t_s[0], result.t_s[-1])
+    tip = interp_rows(t_taken, result.t_s, result.p_sheet_m)
+    reading = tip.copy() if inst.neutral else inst.tracker_reading(tip, t_s, t0)
     for name, value in effects.values.items():
         action = EFFECTS[name].tracker
         if action is not None:
@@ -38,12 +41,13 @@ def predict_tracker(result: SimResult, t_s: np.ndarray, effects: Effects) -> np.
 def predict_forces(twin: Twin, result: SimResult, t_s: np.ndarray, effects: Effects) -> np.ndarray:
     """Force the flange sensor reports at stamped times `t_s`: sheet on tool, sheet frame [N], shape (m, 3).
 
-    With `stream_time_offset` tau the sample stamped t was measured at t - tau (clamped to the run).
+    With `stream_time_offset` tau the sample stamped t was measured at t - tau (clamped to the run), the
+    instruments' F/T clock shifting it further; the instruments' bias, gain and cross-talk act on what it reads.
     """
-    t_true = np.clip(
-        np.asarray(t_s, dtype=float) - effects.stream_time_offset_s, result.t_s[0], result.t_s[-1]
-    )
-    return twin.sensor_forces(result, t_true)
+    inst = effects.instruments
+    t_stamped = np.asarray(t_s, dtype=float) - effects.stream_time_offset_s
+    t_true = np.clip(inst.force_times(t_stamped, float(result.t_s[0])), result.t_s[0], result.t_s[-1])
+    return inst.force_reading(twin.sensor_forces(result, t_true))
 
 
 def predict_part_profile(twin: Twin, result: SimResult, effects: Effects) -> tuple[np.ndarray, np.ndarray]:

@@ -14,6 +14,8 @@ read with `--model`:
      "servo": {"compliance_rad_per_nm": [...], "time_constant_s": ...} (learned by `learn`),
      "tool": {"length_mm": 300.0, "mass_kg": 8.0, "cog_mm": [0, 0, 150], "bending_stiffness_n_per_mm": 450.0}
              (the declared tool, `TwinSpec.tool`, its bending at the tip optional; absent: the robot model's own),
+     "instruments": {"force_bias_n": [40, 0, -30], "tracker_shift_mm": [...], ...} (the F/T sensor's and the
+             tracker's calibration found by `discrepancy`, `twin.sim.instruments`; fields left out are neutral),
      "note": "..."}
 
 Every key but `format` may be left out (the default cell's value); a `material` of the library
@@ -40,6 +42,7 @@ from twin.process.toolpath.placement import Placement
 from twin.robot.description import load_robot, shipped_robots
 from twin.robot.tool import ToolSpec
 from twin.sim.effects import EFFECTS, LOST_MOTION_TAKEUP_M, Effects
+from twin.sim.instruments import Instruments
 from twin.sim.servo import ServoTransient
 from twin.sim.spec import TwinSpec
 
@@ -47,7 +50,7 @@ MODEL_FORMAT = "tx200-twin-model/2"
 READABLE_FORMATS = ("tx200-twin-model/1", MODEL_FORMAT)
 #: The keys a model file takes (`model_payload` writes them; `units` and `note` are for the reader).
 MODEL_KEYS = ("format", "robot", "process", "placement", "effects", "units", "lost_motion_takeup_mm",
-              "joint_stiffness_nm_per_rad", "joint_friction_nm", "servo", "tool", "note", "floor")
+              "joint_stiffness_nm_per_rad", "joint_friction_nm", "servo", "tool", "note", "floor", "instruments")
 #: The keys of its `process` object and of `process.history`.
 PROCESS_KEYS = (*RECORD_KEYS, "friction_reversal_mm", "force_model", "force_fit", "history")
 HISTORY_KEYS = ("file", "symmetry", "unchecked_symmetry")
@@ -91,6 +94,8 @@ def model_payload(spec: TwinSpec, note: str = "") -> dict[str, Any]:
                             "time_constant_s": spec.servo.time_constant_s}
     if spec.tool is not None:
         payload["tool"] = spec.tool.to_json()
+    if not spec.effects.instruments.neutral:
+        payload["instruments"] = spec.effects.instruments.changed()
     return payload
 
 
@@ -129,7 +134,9 @@ def read_model_file(path: str | Path) -> TwinSpec:
     try:
         takeup_mm = payload.get("lost_motion_takeup_mm")
         takeup_m = LOST_MOTION_TAKEUP_M if takeup_mm is None else float(takeup_mm) / 1e3
-        effects = Effects(dict(payload.get("effects", {})), takeup_m)
+        instruments = payload.get("instruments")
+        effects = Effects(dict(payload.get("effects", {})), takeup_m,
+                          Instruments() if instruments is None else Instruments.from_json(instruments, "the model"))
         return TwinSpec(
             robot=load_robot(payload.get("robot")),
             process=_process(path, payload.get("process")),

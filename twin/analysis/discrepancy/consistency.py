@@ -18,6 +18,9 @@ tracker family the tool tip; a part family the profile):
    carry another effect: they are described, not held against it. The part profile is not judged so: on the
    development set the families' linearised profile leaves 35-88 % of the profile's structure even for the
    library's own robot-side forms.
+3. *No gap made where the data show none*: a tool-tip or force stream without a significant gap before must not
+   be left with a significant slow structure by the named families together (a sensor gain taking a saturated
+   F/T's forces, with a robot-side family beside it moving the tool tip the tracker shows unmoved).
 
 Otherwise the verdict is `unexplained` and the raw gap is described (`signature`), with why the family was not
 named.
@@ -54,6 +57,7 @@ class StreamCheck(NamedTuple):
     significant: bool
     structure_left: float
     failed: bool
+    made: bool = False
 
 
 class Consistency(NamedTuple):
@@ -110,7 +114,8 @@ def check(
         s0, s1 = s0 - base, s1 - base
         left = max(s1, 0.0) / s0 if s0 > SIGNIFICANCE_SE * se_s else 0.0
         failed = name in judged and left > STRUCTURE_SHARE and s1 > SIGNIFICANCE_SE * se_s
-        streams[name] = StreamCheck(e0, e1, s0, s1, e0 > SIGNIFICANCE_SE * se_e, left, failed)
+        made = name in CHECKED_STREAMS and e0 <= SIGNIFICANCE_SE * se_e and s1 > SIGNIFICANCE_SE * se_s
+        streams[name] = StreamCheck(e0, e1, s0, s1, e0 > SIGNIFICANCE_SE * se_e, left, failed or made, made)
     evidence = acts_on[0]
     no_gap = (evidence,) if evidence in streams and not streams[evidence].significant else ()
     return Consistency(not no_gap and not any(c.failed for c in streams.values()), streams, no_gap, judged)

@@ -28,6 +28,12 @@ from twin.runs.format import Run
 from twin.sim.spec import TwinSpec
 
 STREAMS = ("position", "force", "profile")
+#: A run whose excess over noise lies within this share of the floor's shows no change the floor would not: the
+#: floor itself moves by 1-5 % between a learned cell's clean runs (a TX200 groove and a KR210 cone, the cells of
+#: tests/plant_changes.py, measured on their clean runs only), and a change adding less cannot be told from it.
+OBSERVABLE_SHARE = 0.10
+#: Units of each stream's noise in words.
+UNITS = {"position": (1e3, "mm"), "force": (1.0, "N"), "profile": (1e3, "mm")}
 
 
 class Floor(NamedTuple):
@@ -46,6 +52,24 @@ class Floor(NamedTuple):
     def excess_on(self, sizes: Mapping[str, int]) -> float:
         """The floor's excess over a run's streams of these sizes (elements) [noise units²]."""
         return float(sum(self.excess.get(s, 0.0) * n for s, n in sizes.items()))
+
+    def observable(self, excess: float, sizes: Mapping[str, int]) -> bool:
+        """Whether a run's excess over noise [noise units², whole run] rises above the floor by more than
+        OBSERVABLE_SHARE of it."""
+        return excess - self.excess_on(sizes) > OBSERVABLE_SHARE * self.excess_on(sizes)
+
+    def unobservable_words(self, excess: float, sizes: Mapping[str, int], sigma: Mapping[str, float]) -> str:
+        """Why nothing is named, and the size of a change that would be observable: per stream, the rms a change
+        alone in that stream must reach to add OBSERVABLE_SHARE of the floor."""
+        floor = self.excess_on(sizes)
+        least = []
+        for s, n in sizes.items():
+            scale, unit = UNITS[s]
+            rms = scale * sigma[s] * float(np.sqrt(OBSERVABLE_SHARE * floor / max(n, 1)))
+            least.append(f"{s} {rms:.3g} {unit} rms")
+        return (f"no change observable on this run above the cell's floor: its excess over noise is "
+                f"{excess / max(floor, 1e-12):.2f} x the floor's (within {1 + OBSERVABLE_SHARE:.2f} x, what the floor "
+                f"moves between clean runs); a change would be observable from about {', '.join(least)}")
 
     def to_json(self) -> dict[str, Any]:
         """As the model file records it (`floor`)."""

@@ -29,7 +29,7 @@ import numpy as np
 
 from twin.analysis.discrepancy import consistency
 from twin.analysis.discrepancy.context import Context
-from twin.analysis.discrepancy.effect_model import context, effect_increment, prune, refine
+from twin.analysis.discrepancy.effect_model import context, effect_increment, prune, refine, refit_instruments
 from twin.analysis.discrepancy.families import FAMILIES, Family
 from twin.analysis.discrepancy.fitting import Fit, Fitter
 from twin.analysis.discrepancy.floor import Floor
@@ -43,7 +43,7 @@ from twin.analysis.discrepancy.significance import (
     split_streams,
 )
 from twin.runs.format import Run
-from twin.sim.effects import Effects
+from twin.sim.effects import EFFECTS, INSTRUMENTS, Effects
 from twin.sim.spec import TwinSpec
 
 STAGES = 3  # replay-and-select rounds after the first selection
@@ -54,6 +54,7 @@ STAGES = 3  # replay-and-select rounds after the first selection
 EFFECT_FORM_SLACK = 1.1
 EFFECT_FORM_FLOOR = 0.005
 MEANINGFUL_SHARE = 0.25  # a family explaining less than a quarter of the excess does not make a verdict
+FLOOR_SHARE_MIN = 0.1  # over a floor, shares are of the excess above it, taken as at least this share of the run's
 
 
 @dataclass(frozen=True)
@@ -168,6 +169,7 @@ class EffectModel(NamedTuple):
 
 
 def _into_effects(
+    ctx: Context,
     model: ResidualModel,
     start: Effects,
     fit: Fit,
@@ -186,16 +188,17 @@ def _into_effects(
     steps: tuple[Step, ...] = ()
     final, more, fit_now = fit, list(named), fit
     for _ in range(STAGES):
-        new = {n.name: list(inc) for n in more
-               if (inc := effect_increment(fit_now, families, n.name, lenient=True)) is not None}
-        if not new:
+        found = {n.name: inc for n in more
+                 if (inc := effect_increment(fit_now, families, n.name, ctx, lenient=True)) is not None}
+        if not found:
             break
-        increments: dict[str, float] = {}
-        for name in new:
-            increments.update(effect_increment(fit_now, families, name, lenient=True) or {})
+        new = {name: list(inc) for name, inc in found.items()}
+        scalar = {k: v for inc in found.values() for k, v in inc.items() if not k.startswith(INSTRUMENTS)}
         trial_mapped = {**mapped, **new}
-        effect_keys = [k for keys in trial_mapped.values() for k in keys]
-        trial = refine(model, effects.composed(increments), fitter_for, effect_keys, progress)
+        effect_keys = [k for keys in trial_mapped.values() for k in keys if k in EFFECTS]
+        trial = refine(model, effects.composed(scalar), fitter_for, effect_keys, progress) if effect_keys else effects
+        trial = refit_instruments(model, trial, [families[n] for n, keys in new.items()
+                                                 if keys[0].startswith(INSTRUMENTS)], fitter_for)
         trial, kept = prune(model, start, trial, trial_mapped, fitter_for, list(sizes.values()))
         replayed_trial = fitter_for(context(model, trial))
         rest = excess_over_noise(replayed_trial.base, list(sizes.values()))
@@ -216,19 +219,17 @@ def _into_effects(
         streams = {s: (v * fitter.sigma[s]).reshape(fitter.raw[s].shape)
                    for s, v in split_streams(fit.residual, sizes).items()}
         return EffectModel(start, named, streams, False, ())
-    mapped_named = [replace(fits[name], effect_name=keys[0]) for name, keys in mapped.items()]
+    mapped_named = [replace(fits[name], effect_name=keys[0] if keys[0] in EFFECTS else None)
+                    for name, keys in mapped.items()]
     streams = {s: (v * replayed.sigma[s]).reshape(replayed.raw[s].shape)
                for s, v in split_streams(final.residual, sizes).items()}
     return EffectModel(effects, mapped_named + more, streams, not more, steps)
 
 
 def _measured(run: Run) -> dict[str, np.ndarray]:
-    out = {"position": run.tracker.values}
-    if run.forces is not None:
-        out["force"] = run.forces.values
-    if run.part_profile is not None:
-        out["profile"] = np.asarray(run.part_profile[1], dtype=float)
-    return out
+    out = {"position": run.tracker.values, "force": None if run.forces is None else run.forces.values,
+           "profile": None if run.part_profile is None else np.asarray(run.part_profile[1], dtype=float)}
+    return {k: v for k, v in out.items() if v is not None}
 
 
 def find_discrepancy(
@@ -248,7 +249,8 @@ def find_discrepancy(
         candidates: Family names to try (default: all of `FAMILIES` the run's streams allow).
         progress: Called with each stage's name as it starts (to show a long search moving).
         floor: What the learned cell `spec` leaves on its own clean runs (`twin.analysis.discrepancy.floor`): a
-            family's share is of the excess over it, the structure it leaves is above it. None: the noise alone.
+            family's share is of the excess over it, the structure it leaves is above it; a run within it is
+            `none` (`Floor.observable`). None: the noise alone.
     """
     spec = spec or TwinSpec()
     start = spec.effects
@@ -268,19 +270,18 @@ def find_discrepancy(
     fit, steps = forward_select(fitter, list(families.values()), excess, sizes) if significant else (
         fitter.fit([]), ())
     named = _named(steps, fit, families)
-    # over a learned cell's floor, a family's share is of the excess the floor does not account for
-    share = 1.0 if floor is None else excess / max(excess - floor.excess_on(sizes), 0.1 * excess)
+    # over a learned cell's floor, a family's share is of the excess above it (the selection is judged against the
+    # whole excess: against the part above the floor, families soak up the floor's reversal transients)
+    share = 1.0 if floor is None else excess / max(excess - floor.excess_on(sizes), FLOOR_SHARE_MIN * excess)
     meaningful = any(n.explained_fraction * share >= MEANINGFUL_SHARE for n in named)
     verdict = "none" if not significant else (named[0].name if meaningful else "unexplained")
-    if verdict != "unexplained" and named:
-        explained = 1.0 - excess_over_noise(fit.residual, list(sizes.values())) / excess
-    else:
-        explained = 0.0
+    explained = 1.0 - excess_over_noise(fit.residual, list(sizes.values())) / excess if (
+        verdict != "unexplained" and named) else 0.0
     if verdict in ("none", "unexplained"):
         effects, remainder, complete = start, dict(fitter.raw), True
     else:
         carried = _into_effects(
-            model, start, fit, named, families, lambda c: Fitter(c, measured, sigma, model.folds()), sizes,
+            ctx, model, start, fit, named, families, lambda c: Fitter(c, measured, sigma, model.folds()), sizes,
             excess, progress)
         effects, named, remainder, complete = carried.effects, carried.named, carried.remainder, carried.complete
         steps = steps + carried.steps
@@ -297,6 +298,8 @@ def find_discrepancy(
     signature = describe_remainder(ctx, remainder, sigma, found)
     if checked and not found:
         signature["words"] += "; " + _not_named(checked)
+    if floor is not None and verdict == "unexplained" and not floor.observable(excess, sizes):
+        verdict, signature["words"] = "none", floor.unobservable_words(excess, sizes, sigma) + "; " + signature["words"]
     return DiscrepancyResult(
         effects=effects, found=found, verdict=verdict, named=tuple(named) if found else (),
         partial=tuple(named) if not found else (), explained_fraction=float(explained),
@@ -310,7 +313,8 @@ def find_discrepancy(
 
 def _not_named(checked: dict[str, Any]) -> str:
     """Why the first family was not named: the streams whose gap or slow structure it leaves."""
-    why = [f"it leaves {c['structure_left']:.0%} of the {s} stream's slow structure"
+    why = [f"the families named with it leave a slow structure in the {s} stream, which shows no gap" if c["made"]
+           else f"it leaves {c['structure_left']:.0%} of the {s} stream's slow structure"
            for s, c in checked["streams"].items() if c["failed"]]
     why += [f"the {s} stream it acts on shows no gap" for s in checked["no_gap"]]
     return f"{checked['family']} would explain {checked['explained_fraction']:.0%}, but " + " and ".join(why)

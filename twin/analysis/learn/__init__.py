@@ -2,7 +2,8 @@
 
 Modules: `robot` (joint stiffness, friction, the servo's transient and the tracker's offset: from the measured
 forces and tool positions), `sheet` (the `learned` force model's weights: from the F/T stream), `springback` (two
-springback constants: from the runs' part profiles), `cell` (`learn`: all of them, the learned spec and the
+springback constants: from the runs' part profiles), `instruments` (the tracker's rotation and shift and the F/T
+bias, carried as the instruments' calibration), `cell` (`learn`: all of them, the learned spec and the
 replay gap before, after and on a run left out), `split` (a run's replay gap split into the robot's part and the
 sheet's part, the twin's robot driven by the measured forces), `signatures` (what was learned, in words).
 """

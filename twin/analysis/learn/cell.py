@@ -1,7 +1,7 @@
 """Learn the cell: from one or more nominal runs of a cell the twin did not build, a twin of that cell.
 
 `learn` fits the robot (`twin.analysis.learn.robot`: joint stiffness, joint friction, the servo's transient,
-tracker offset) and the sheet (`twin.analysis.learn.sheet`: the `learned` force model's weights and in-plane
+tracker offset), the tracker's registration and the F/T bias (`twin.analysis.learn.instruments`, carried as the instruments') and the sheet (`twin.analysis.learn.sheet`: the `learned` force model's weights and in-plane
 ratios) and returns the twin's spec with them, which `twin.sim.model_file.write_model_file` saves. It reports,
 per run, the replay gap before and after (the twin's own simulation of the run's command: what compensation
 relies on), and given several runs, the gap on each run left out of its own learning (`held_out`): what a user
@@ -17,6 +17,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from twin.analysis.learn.instruments import fit_instruments
 from twin.analysis.learn.robot import RobotFit, fit_robot
 from twin.analysis.learn.sheet import SheetFit, fit_sheet
 from twin.analysis.learn.springback import SpringbackFit, fit_springback
@@ -80,6 +81,7 @@ def learned_spec(runs: list[Run], spec: TwinSpec) -> tuple[TwinSpec, RobotFit, S
         fit = (*sheet.force_fit, ("recovery_scale", springback.recovery_scale),
                ("depth_ratio", springback.depth_ratio))
         learned = learned.replace(process=replace(process, force_fit=fit))
+    learned = learned.replace(effects=learned.effects.with_instruments(fit_instruments(runs, learned).instruments))
     return learned.replace(placement=spec.placement), robot, sheet, springback
 
 

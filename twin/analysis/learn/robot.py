@@ -11,7 +11,8 @@ prior. Beside the gear spring the same solve fits what a real arm adds: each joi
 its motion (a deflection J_j·c_j·τ_f,j that flips with the sign of the joint's speed), the servo's transient
 compliance c_s,j on the force's high-pass F − lag_τ(F) (`twin.sim.servo`: the position loop gives way while the
 force changes and recovers over τ, picked on a grid by the least residual), and a constant tracker offset per
-axis (a registration error of the tracker frame: reported, not put into the twin). `truth.json` is never read.
+axis (a registration error of the tracker frame: reported, not put into the robot; the model carries the
+registration as the instruments', `twin.analysis.learn.instruments`). `truth.json` is never read.
 """
 
 from __future__ import annotations

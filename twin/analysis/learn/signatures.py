@@ -82,5 +82,6 @@ def robot_sentences(result: LearnResult) -> list[str]:
                      f"{', '.join(seen)} of the joint's (negative: the deflection lags the force)")
     if float(np.linalg.norm(robot.offset_mm)) > 0.05:
         words.append(f"the tracker reads ({', '.join(f'{v:.2f}' for v in robot.offset_mm)}) mm off the tool "
-                     "(a registration error of the tracker: not learned into the twin)")
+                     "(a registration error of the tracker, not the robot's: the model carries it as the "
+                     "instruments' registration, `twin.analysis.learn.instruments`)")
     return words

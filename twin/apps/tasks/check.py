@@ -1,6 +1,8 @@
 """`check`: a (compensated) run against the ideal path U_ID, its residual per pass and direction and its
 compensation gain, the gain's cause named from the run's record of what its compensation used
-(`twin.analysis.check`); with a design or target mesh, the formed part against it: the run's `part_scan.csv` or a
+(`twin.analysis.check`), judged on the tracker with its registration error taken off where one is known (a model
+file's, or with `free_moves` one fitted on the run's free moves, `twin.analysis.tracker_frame`); with a design or
+target mesh, the formed part against it: the run's `part_scan.csv` or a
 scanner's point cloud (`twin.runs.scan_file`) registered to the mesh (`twin.analysis.scan_registration`), its
 deviations over the formed region and by region of the design (`twin.analysis.surface_check`).
 
@@ -39,6 +41,7 @@ from twin.analysis.surface_check import (
     region_deviation,
     surface_deviation,
 )
+from twin.analysis.tracker_frame import FREE_FORCE_N, TrackerRegistration, fit_on_free_moves
 from twin.apps.tasks.base import Note, Report, silent
 from twin.apps.tasks.inputs import ideal_path
 from twin.errors import InputError
@@ -72,6 +75,10 @@ class CheckRequest:
         figure: With `target_stl`: the deviation map to write (PNG), or None.
         part_tolerance_mm: With `target_stl`: the part passes when `PART_QUANTILE` of its |deviation| from the
             mesh is within this [mm] (the drawing's profile tolerance; `DEFAULT_PART_TOLERANCE_MM` is ours).
+        free_moves: Fit the tracker's registration on the run's free moves and take it off (where no model gives
+            one). Off by default: unloaded, the tip also misses the command by the arm's own sag and following
+            error, which the fit would take for the tracker's (0.16 mm on a quasi-static lab cone, whose tracker
+            is perfect).
     """
 
     run_dir: Path
@@ -85,6 +92,7 @@ class CheckRequest:
     fit_fraction: float = MIN_INLIER_FRACTION
     figure: Path | None = None
     part_tolerance_mm: float | None = None
+    free_moves: bool = False
 
     def __post_init__(self) -> None:
         needs = [name for name, on in (("--figure", self.figure), ("--scan", self.scan), ("--register", self.register),
@@ -172,26 +180,31 @@ class CheckReport(Report):
         run_dir: The run checked.
         result: Its residual, gain and diagnosis.
         surface: The part against the mesh, or None.
+        registration_note: Why no tracker registration was taken off, or None (one was, or it was kept on purpose).
     """
 
     run_dir: Path
     result: CheckResult
     surface: SurfaceCheck | None = None
+    registration_note: str | None = None
 
     def lines(self) -> list[str]:
         m = self.result.summary()
         line = (f"check {self.run_dir}: residual rms {m['residual_rms_mm']:.3f} mm, max {m['residual_max_mm']:.3f} mm; "
                 f"{self.result.diagnosis}")
+        registration = self.result.registration
+        said = [registration.text() if registration is not None else self.registration_note]
         if self.surface is None:
             judged = ("judged: the path (a nominal run: nothing to judge)" if self.result.nominal else
                       f"judged: the path's gain {self.result.gain:.3f}, "
                       f"{'within' if self.exit_code == 0 else 'OUTSIDE'} 1 +- {GAIN_TOLERANCE:g}")
-            return [line, judged]
-        return [line + self.surface.text(), self.surface.verdict()]
+            return [line, *(s for s in said if s), judged]
+        return [line + self.surface.text(), *(s for s in said if s), self.surface.verdict()]
 
     def record(self) -> dict[str, Any]:
         surface = {} if self.surface is None else self.surface.record()
-        return {"run": self.run_dir, **self.result.summary(), **surface, "judged": self.judged}
+        note = {} if self.registration_note is None else {"tracker_registration_note": self.registration_note}
+        return {"run": self.run_dir, **self.result.summary(), **note, **surface, "judged": self.judged}
 
     @property
     def judged(self) -> str:
@@ -207,8 +220,17 @@ class CheckReport(Report):
         return 0 if self.result.nominal or abs(self.result.gain - 1.0) <= GAIN_TOLERANCE else 1
 
 
-def check_task(request: CheckRequest, note: Note = silent) -> CheckReport:
+#: What the report says when the run's free moves fix no tracker registration.
+NO_REGISTRATION = ("tracker registration: none taken off (the run's free moves, |F| < {force:g} N, are too few or "
+                   "in one direction only to fix it): the tracker is judged as it reads")
+
+
+def check_task(request: CheckRequest, note: Note = silent,
+               registration: TrackerRegistration | None = None) -> CheckReport:
     """Check the run against the ideal path, and its part against the mesh when the request names one.
+
+    The tracker's registration error is taken off before judging: `registration` when given (a model file's),
+    else with `request.free_moves` one fitted on the run's free moves when they fix them; else none.
 
     Raises:
         PathMismatchError: The run's command does not follow the ideal path.
@@ -225,9 +247,13 @@ def check_task(request: CheckRequest, note: Note = silent) -> CheckReport:
             f"with --target-stl {record.design_file}")
     name = (f"--ideal {request.ideal}" if request.ideal is not None
             else "the default ideal path (the groove; --ideal FILE)")
-    result = check_run(measured, ideal.t_s, ideal.p_sheet_m, name)
+    said = None
+    if registration is None and request.free_moves:
+        registration = fit_on_free_moves(measured)
+        said = None if registration is not None else NO_REGISTRATION.format(force=FREE_FORCE_N)
+    result = check_run(measured, ideal.t_s, ideal.p_sheet_m, name, registration=registration)
     surface = None if request.target_stl is None else _surface(request, request.target_stl, measured, ideal.p_sheet_m)
-    return CheckReport(request.run_dir, result, surface)
+    return CheckReport(request.run_dir, result, surface, said)
 
 
 def _surface(request: CheckRequest, target: Path, measured: Run, ideal_m: np.ndarray) -> SurfaceCheck:

@@ -21,6 +21,7 @@ from twin.base.outputs import repeated_input
 from twin.errors import InputError
 from twin.runs.read import read_run
 from twin.sim.model_file import read_model_file, write_model_file
+from twin.sim.spec import TwinSpec
 
 
 @dataclass(frozen=True)
@@ -94,6 +95,8 @@ class LearnReport(Report):
             f"  robot: joint friction [N·m] {friction}; {_servo_words(robot)}; tracker offset "
             f"({', '.join(f'{v:.3f}' for v in robot.offset_mm)}) mm (not a robot effect: a registration error of "
             "the tracker)",
+            "  instruments carried in the model: tracker registration (rotation about the sheet origin, shift) "
+            + _registration_words(result.spec),
             "  robot's part of the gap (the twin's robot driven by the measured forces): "
             + ", ".join(f"{a:.3f} -> {b:.3f} mm" for a, b in zip(robot.rms_prior_mm, robot.rms_after_mm, strict=True))
             + _grew_words(robot),
@@ -225,6 +228,14 @@ def _grew_words(robot: RobotFit) -> str:
         return ""
     return (" (WORSE than the prior: the robot's terms do not describe these runs; its K_q and friction are not "
             "to be trusted, look for an effect the learner has no term for: `tx200-twin discrepancy`)")
+
+
+def _registration_words(spec: TwinSpec) -> str:
+    """The carried tracker registration and F/T bias, in words."""
+    inst = spec.effects.instruments
+    return (f"({', '.join(f'{v:.3f}' for v in inst.tracker_rotation_mrad)}) mrad, "
+            f"({', '.join(f'{v:.3f}' for v in inst.tracker_shift_mm)}) mm; F/T bias "
+            f"({', '.join(f'{v:.1f}' for v in inst.force_bias_n)}) N")
 
 
 def _servo_words(robot: RobotFit) -> str:

@@ -66,7 +66,8 @@ class Family(ABC):
         bilinear: The last parameter w weighs two changes linear in the others: delta = d0 + w (d1 - d0)
             (d0 at w = 0, d1 at w = 1); the fitter caches both bases.
         effect: The effect of the vocabulary (`twin.sim.effects.EFFECTS`) the family maps onto, or None: what a
-            model file carries of it (`to_effect`).
+            model file carries of it (`to_effect`). A family of the instruments maps onto their calibration
+            instead (`to_instruments`, `twin.sim.instruments`).
         acts_on: The streams whose gap the family must explain to be named (`consistency`), its evidence first:
             a robot-side family the tool tip and the forces (its change reaches both through the loaded robot;
             the default), a force-sensor family the forces, a tracker family the tool tip, a part family the
@@ -103,6 +104,12 @@ class Family(ABC):
         """The fitted family as a value of its `effect` [the effect's unit], for a model file; None when the fit is
         not of the effect's form (or the family has no effect)."""
         del theta, covariance
+        return None
+
+    def to_instruments(self, theta: np.ndarray, ctx: Context) -> dict[str, np.ndarray] | None:
+        """The fitted family as increments of the instruments' calibration (`twin.sim.instruments.FIELDS`), for a
+        model file, where `to_effect` gives none; None: the family is not of the instruments."""
+        del theta, ctx
         return None
 
     def applicable(self, ctx: Context) -> bool:

@@ -1,4 +1,4 @@
-"""Families acting on the force sensor's data: bias, cross-talk between axes, clock offset and rate skew."""
+"""Families acting on the force sensor's data: bias, gain, cross-talk between axes, clock offset and rate skew."""
 
 from __future__ import annotations
 
@@ -28,6 +28,10 @@ class ForceSensorBias(Family):
         """Every force sample shifted by theta [N]."""
         return Delta(force=np.broadcast_to(theta, ctx.pred["force"].shape).copy())
 
+    def to_instruments(self, theta: np.ndarray, ctx: Context) -> dict[str, np.ndarray] | None:
+        """The F/T bias [N]."""
+        return {"force_bias_n": np.asarray(theta, dtype=float)}
+
 
 @register
 class ForceSensorCrosstalk(Family):
@@ -51,6 +55,34 @@ class ForceSensorCrosstalk(Family):
         for (i, j), m in zip(self.PAIRS, theta, strict=True):
             out[:, i] += m * f[:, j]
         return Delta(force=out)
+
+    def to_instruments(self, theta: np.ndarray, ctx: Context) -> dict[str, np.ndarray] | None:
+        """The F/T cross-talk ratios, in `twin.sim.instruments.CROSSTALK_PAIRS` order (this family's)."""
+        return {"force_crosstalk": np.asarray(theta, dtype=float)}
+
+
+@register
+class ForceSensorGain(Family):
+    """Each force axis reads a fraction more or less than the force (a sensor re-calibrated, or its calibration
+    matrix for another range): the force stream alone changes, not the tool tip (a robot-side force scale moves
+    both)."""
+
+    name = "force_sensor_gain"
+    parameters = ("gain_x_ratio", "gain_y_ratio", "gain_z_ratio")
+    neutral = (1.0, 1.0, 1.0)
+    bounds = ((0.2, 0.2, 0.2), (5.0, 5.0, 5.0))
+    scale = (0.01, 0.01, 0.01)
+    description = "the force sensor's calibration off by a factor per axis"
+    needs_forces = True
+    acts_on = ("force",)
+
+    def delta(self, ctx: Context, theta: np.ndarray) -> Delta:
+        """Force change (g - 1) f per axis."""
+        return Delta(force=ctx.pred["force"] * (np.asarray(theta) - 1.0))
+
+    def to_instruments(self, theta: np.ndarray, ctx: Context) -> dict[str, np.ndarray] | None:
+        """The F/T gain per axis [-] (an increment multiplies the carried gain)."""
+        return {"force_gain": np.asarray(theta, dtype=float)}
 
 
 @register
@@ -125,6 +157,10 @@ class StreamTimeOffset(Family):
         if not negligible(theta[1], covariance, 1):
             return None
         return float(theta[0])
+
+    def to_instruments(self, theta: np.ndarray, ctx: Context) -> dict[str, np.ndarray] | None:
+        """The F/T clock's offset [s] and rate error [-] (where the rate error is significant: `to_effect`)."""
+        return {"force_clock_offset_s": np.array([theta[0]]), "force_clock_rate": np.array([theta[1]])}
 
 
 def negligible(value: float, covariance: np.ndarray | None, index: int, *, sigmas: float = 3.0) -> bool:

@@ -1,0 +1,311 @@
+"""A held-out set of changes on the dynamic plant (issue #47): the cell learned once, then something changes.
+
+For each cell (a robot and a part) the test learns the cell from two clean runs of the dynamic plant (`learn RUN1
+RUN2 --write-model cell.json`, which records the floor the learned cell leaves on its own runs), then hides one
+change in a third run and a fourth (the next run, with the same change), asks `discrepancy RUN3 --model
+cell.json --model-out M.json` what changed, and replays the next run with the cell and with M. A case is right
+when the change is named right and the next run's excess over the floor shrinks by at least half.
+
+Every change is written here, never through the library's effects or families:
+* data-level edits of the plant's clean runs (a re-tared, re-mounted, re-calibrated or re-clocked F/T sensor; a
+  re-registered, drifting or re-clocked tracker), each in this module's own form (a finite rotation, a resampled
+  clock);
+* plant variants this module builds with the plant's knobs (`--set`), which the twin never reads: a gear's lost
+  motion; or a program executed off by a move of the robot on its base, the run's command left as written.
+
+The thresholds are the issue's (named right, the held-out excess over the floor at most half), fixed before any
+run. Two sets: `development` (a TX200 groove and a KR210 cone: the library was changed while looking at it) and
+`held-out` (an IRB 6640 pyramid and a TX200 cone, other forms and sizes: written before any of its runs). `python
+-m tests.plant_changes --set held-out --out changes.json` runs a set (`make test-slow` checks both).
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import io
+import json
+import shutil
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from twin.analysis.discrepancy.floor import Floor, measure_floor
+from twin.analysis.discrepancy.residuals import ResidualModel
+from twin.cli import main
+from twin.runs.format import Run, Stream
+from twin.runs.read import read_run
+from twin.runs.write import write_run
+from twin.sim.model_file import read_floor_entry, read_model_file
+
+#: The issue's bar: the next run's excess over the floor with the model found at most this share of the cell's.
+SHRINK_TO = 0.5
+CLEAN_SEEDS = (1, 2)
+CHANGED_SEED, NEXT_SEED = 3, 4
+
+
+@dataclass(frozen=True)
+class Cell:
+    """A robot forming a part: `path_args` for `tx200-twin path` (empty: the groove)."""
+
+    robot: str
+    part: str
+    path_args: tuple[str, ...] = ()
+
+
+CELLS = {
+    "tx200-groove": Cell("tx200", "groove"),
+    "kr210-cone": Cell("kr210", "cone", ("--shape", "cone", "--depth-mm", "4")),
+    # held out: written before any of its runs, never run while the library was changed
+    "irb6640-pyramid": Cell("irb6640", "pyramid", ("--shape", "pyramid", "--depth-mm", "4")),
+    "tx200-cone": Cell("tx200", "cone", ("--shape", "cone", "--depth-mm", "3")),
+}
+#: The cells of each set: the development set (the library was changed while looking at it) and the held-out set.
+SETS = {"development": ("tx200-groove", "kr210-cone"), "held-out": ("irb6640-pyramid", "tx200-cone")}
+
+
+def _rotation(axis: np.ndarray, angle_rad: float) -> np.ndarray:
+    """This module's own finite rotation (Rodrigues), shape (3, 3)."""
+    k = np.asarray(axis, dtype=float) / np.linalg.norm(axis)
+    kx = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
+    return np.eye(3) + np.sin(angle_rad) * kx + (1.0 - np.cos(angle_rad)) * kx @ kx
+
+
+def _reclocked(stream: Stream, t0: float, offset_s: float, rate: float) -> Stream:
+    """The stream as a clock `offset_s` ahead and `rate` fast stamps it: the sample taken at t is stamped
+    t + offset + rate (t - t0) (the values as measured, only their stamps changed)."""
+    return Stream(stream.t_s + offset_s + rate * (stream.t_s - t0), stream.values)
+
+
+def _forces(change: Callable[[Run], np.ndarray]) -> Callable[[Run], Run]:
+    def edit(run: Run) -> Run:
+        assert run.forces is not None
+        return replace(run, forces=Stream(run.forces.t_s, change(run)))
+    return edit
+
+
+def _tracker(change: Callable[[Run], np.ndarray]) -> Callable[[Run], Run]:
+    def edit(run: Run) -> Run:
+        return replace(run, tracker=Stream(run.tracker.t_s, change(run)))
+    return edit
+
+
+R_MOUNT = _rotation(np.array([0.0, 0.0, 1.0]), np.deg2rad(4.0))
+R_TRACKER = _rotation(np.array([0.3, -1.0, 0.5]), 1.5e-3)
+DRIFT_M_PER_S = 1e-3 * 0.004 * np.array([0.8, -0.5, 0.3]) / np.linalg.norm([0.8, -0.5, 0.3])
+
+
+@dataclass(frozen=True)
+class Change:
+    """One hidden change: a data edit of the clean runs (`edit`), plant knobs (`knobs`), or the robot moved on its
+    base (`base_shift_mm`: the plant commanded that much off, the run's command unchanged); `expected`: the names
+    that are right."""
+
+    name: str
+    expected: tuple[str, ...]
+    edit: Callable[[Run], Run] | None = None
+    knobs: tuple[str, ...] = ()
+    base_shift_mm: tuple[float, float, float] | None = None
+    what: str = ""
+    learned_words: str = ""
+
+
+def _about(axis: tuple[float, float, float], angle_rad: float) -> np.ndarray:
+    return _rotation(np.asarray(axis), angle_rad)
+
+
+DEVELOPMENT = (
+    Change("ft_retared", ("force_sensor_bias",), what="F/T re-tared: +40 N x, -30 N z",
+           edit=_forces(lambda r: r.forces.values + np.array([40.0, 0.0, -30.0]))),  # type: ignore[union-attr]
+    Change("ft_remounted", ("force_sensor_crosstalk",), what="F/T re-mounted turned 4 deg about z",
+           edit=_forces(lambda r: r.forces.values @ R_MOUNT.T)),  # type: ignore[union-attr]
+    Change("ft_recalibrated", ("force_sensor_gain",), what="F/T calibration x 1.06 on x, x 0.94 on z",
+           edit=_forces(lambda r: r.forces.values * np.array([1.06, 1.0, 0.94]))),  # type: ignore[union-attr]
+    Change("ft_clock", ("stream_time_offset",), what="F/T clock 40 ms ahead and 300 ppm fast",
+           edit=lambda r: replace(r, forces=_reclocked(r.forces, r.commanded.t_s[0], 0.04, 3e-4))),  # type: ignore[arg-type]
+    Change("tracker_reregistered", ("tracker_registration",),
+           what="tracker re-registered: 1.5 mrad about (0.3, -1, 0.5), shift (0.25, -0.15, 0.10) mm",
+           edit=_tracker(lambda r: r.tracker.values @ R_TRACKER.T + 1e-3 * np.array([0.25, -0.15, 0.10]))),
+    Change("tracker_drift", ("tracker_drift",), what="tracker drifting 4 um/s along (0.8, -0.5, 0.3)",
+           edit=_tracker(lambda r: r.tracker.values + np.outer(r.tracker.t_s - r.commanded.t_s[0], DRIFT_M_PER_S))),
+    Change("tracker_clock", ("tracker_clock",), what="tracker clock 15 ms behind and 200 ppm fast",
+           edit=lambda r: replace(r, tracker=_reclocked(r.tracker, r.commanded.t_s[0], -0.015, 2e-4))),
+    Change("gear_play", ("lost_motion",), what="joint 3's gear with 0.4 mrad of play (plant knob)",
+           knobs=("backlash_j3_mrad=0.4",)),
+    Change("robot_moved", ("tracker_registration",),
+           what="the robot moved 1.5 mm on its base, in plane: every commanded point lands off on the sheet",
+           base_shift_mm=(1.5, -1.0, 0.0)),
+)
+
+#: Other forms and sizes, on other cells; a gear made softer is learned (no family covers it) and named by the
+#: learned robot's words.
+HELD_OUT = (
+    Change("ft_retared", ("force_sensor_bias",), what="F/T re-tared: -25 N x, +15 N y, +45 N z",
+           edit=_forces(lambda r: r.forces.values + np.array([-25.0, 15.0, 45.0]))),  # type: ignore[union-attr]
+    Change("ft_remounted", ("force_sensor_crosstalk",), what="F/T re-mounted turned 6 deg about z and 1 deg about x",
+           edit=_forces(lambda r: r.forces.values @ (_about((0, 0, 1), np.deg2rad(6.0))  # type: ignore[union-attr]
+                                                     @ _about((1, 0, 0), np.deg2rad(1.0))).T)),
+    Change("ft_recalibrated", ("force_sensor_gain",), what="F/T calibration x 0.92 on every axis",
+           edit=_forces(lambda r: 0.92 * r.forces.values)),  # type: ignore[union-attr]
+    Change("ft_clock", ("stream_time_offset",), what="F/T clock 25 ms behind",
+           edit=lambda r: replace(r, forces=_reclocked(r.forces, r.commanded.t_s[0], -0.025, 0.0))),  # type: ignore[arg-type]
+    Change("tracker_reregistered", ("tracker_registration",),
+           what="tracker re-registered: 2 mrad about (1, 0.2, 0), shift (-0.30, 0.20, 0.05) mm",
+           edit=_tracker(lambda r: r.tracker.values @ _about((1.0, 0.2, 0.0), 2e-3).T
+                         + 1e-3 * np.array([-0.30, 0.20, 0.05]))),
+    Change("tracker_drift", ("tracker_drift",), what="tracker drifting 8 um/s along (-0.3, 0.9, 0.2)",
+           edit=_tracker(lambda r: r.tracker.values + np.outer(
+               r.tracker.t_s - r.commanded.t_s[0], 8e-6 * np.array([-0.3, 0.9, 0.2]) / np.linalg.norm([-0.3, 0.9, 0.2])))),
+    Change("tracker_clock", ("tracker_clock",), what="tracker clock 10 ms ahead",
+           edit=lambda r: replace(r, tracker=_reclocked(r.tracker, r.commanded.t_s[0], 0.010, 0.0))),
+    Change("gear_play", ("lost_motion",), what="joint 2's gear with 0.3 mrad of play (plant knob)",
+           knobs=("backlash_j2_mrad=0.3",)),
+    Change("gear_softer", ("unexplained",), what="joint 2's gear 30 % softer (plant knob)",
+           knobs=("gear_stiffness_j2_scale=0.7",), learned_words="joint 2 is"),
+    Change("robot_moved", ("tracker_registration",), what="the robot moved on its base: (-1, 2, 0) mm in plane",
+           base_shift_mm=(-1.0, 2.0, 0.0)),
+)
+CHANGES = {"development": DEVELOPMENT, "held-out": HELD_OUT}
+
+
+def _cli(args: list[str]) -> tuple[int, str]:
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(io.StringIO()):
+        code = main(args)
+    return code, out.getvalue()
+
+
+def _plant_run(cell: Cell, root: Path, seed: int, out: Path, knobs: tuple[str, ...] = (),
+               base_shift_mm: tuple[float, float, float] | None = None) -> Path:
+    args = ["lab", "--plant", "dynamic", "--robot", cell.robot, "--scenario", "nominal", "--seed", str(seed),
+            "--out", str(out)]
+    path = root / "path.csv"
+    if base_shift_mm is not None:  # the robot, moved, executes the program off by the move on the sheet
+        shifted = np.loadtxt(path, delimiter=",", skiprows=1)
+        header = path.read_text().splitlines()[0]
+        shifted[:, 1:4] -= np.asarray(base_shift_mm)
+        path = out.parent / f"{out.name}-path.csv"
+        np.savetxt(path, shifted, delimiter=",", header=header, comments="", fmt=["%.6f"] * 4 + ["%d"] * (shifted.shape[1] - 4))
+    args += ["--commanded", str(path)]
+    for knob in knobs:
+        args += ["--set", knob]
+    code, text = _cli(args)
+    assert code == 0, text
+    if base_shift_mm is not None:  # the user's records keep the program as written: the move is hidden
+        run = read_run(out)
+        commanded = Stream(run.commanded.t_s, run.commanded.values + 1e-3 * np.asarray(base_shift_mm))
+        final = out.parent / f"{out.name}-as-written"
+        return write_run(final, replace(run, commanded=commanded))
+    return out
+
+
+def learn_cell(name: str, root: Path) -> Path:
+    """The cell's clean runs, and the cell learned from the first two (`cell.json`, with its floor)."""
+    cell = CELLS[name]
+    root.mkdir(parents=True, exist_ok=True)
+    code, text = _cli(["path", *cell.path_args, "--robot", cell.robot, "--out", str(root / "path.csv")])
+    assert code == 0, text
+    clean = [_plant_run(cell, root, s, root / f"clean{s}") for s in (*CLEAN_SEEDS, CHANGED_SEED, NEXT_SEED)]
+    code, text = _cli(["learn", str(clean[0]), str(clean[1]), "--write-model", str(root / "cell.json")])
+    assert code == 0, text
+    return root / "cell.json"
+
+
+def _excess_above(run: Run, model: Path, floor: Floor) -> float:
+    """The run's excess over noise with the twin `model`, less the cell's floor [noise units², whole run]."""
+    spec = read_model_file(model)
+    sizes = {s: v.size for s, v in ResidualModel(run, spec).streams(spec.effects).items()}
+    return max(measure_floor(run, spec).excess_on(sizes) - floor.excess_on(sizes), 0.0)
+
+
+def run_case(cell_name: str, change: Change, root: Path) -> dict[str, Any]:
+    """One hidden change on one learned cell (module docstring): the verdict and the next run's shrink."""
+    cell, cell_model = CELLS[cell_name], root / "cell.json"
+    case = root / change.name
+    if case.exists():
+        shutil.rmtree(case)
+    case.mkdir()
+    runs = []
+    for seed, tag in ((CHANGED_SEED, "changed"), (NEXT_SEED, "next")):
+        if change.edit is not None:
+            runs.append(write_run(case / tag, change.edit(read_run(root / f"clean{seed}"))))
+        else:
+            runs.append(_plant_run(cell, root, seed, case / tag, change.knobs, change.base_shift_mm))
+    code, text = _cli(["discrepancy", str(runs[0]), "--model", str(cell_model), "--model-out",
+                       str(case / "M.json"), "--json", str(case / "report.json")])
+    assert code == 0, text
+    report = json.loads((case / "report.json").read_text())
+    floor = Floor.from_json(read_floor_entry(cell_model), str(cell_model))
+    nxt = read_run(runs[1])
+    before, after = _excess_above(nxt, cell_model, floor), _excess_above(nxt, case / "M.json", floor)
+    named = report.get("effect")
+    learned = (report.get("learned") or {}).get("named", [])
+    robot_words = [w for w in learned if w.startswith("joint")]
+    right_words = not change.learned_words or bool(robot_words and change.learned_words in robot_words[0])
+    return {"cell": cell_name, "change": change.name, "what": change.what, "expected": list(change.expected),
+            "named": named, "families": [f["name"] for f in report.get("families", [])],
+            "learned": robot_words[:2], "named_right": named in change.expected and right_words,
+            "excess_before": before, "excess_after": after,
+            "shrink": 1.0 - after / before if before > 0 else float("nan"),
+            "remainder": report.get("remainder", {}).get("words", "")}
+
+
+def run_set(which: str, root: Path) -> list[dict[str, Any]]:
+    """Every change of a set (`SETS`, `CHANGES`) on every cell of it."""
+    rows = []
+    for name in SETS[which]:
+        learn_cell(name, root / name)
+        rows += [{"set": which, **run_case(name, c, root / name)} for c in CHANGES[which]]
+    return rows
+
+
+def right(row: dict[str, Any]) -> bool:
+    """Named right and the next run's excess over the floor at most SHRINK_TO of the cell's."""
+    return bool(row["named_right"]) and row["shrink"] >= 1.0 - SHRINK_TO
+
+
+def markdown(rows: list[dict[str, Any]]) -> str:
+    """One set's rows as a table (rounded to what a machine's floating point cannot move), and its count."""
+    which = rows[0]["set"]
+    lines = [f"| {which}: cell | change | named | right | next run's excess over the floor, cell -> found |",
+             "|---|---|---|---|---|"]
+    for r in rows:
+        shrink = "n/a" if r["excess_before"] <= 0 else f"{100 * (1 - r['excess_after'] / r['excess_before']):.0f} % less"
+        words = f" ({r['learned'][0]})" if r["learned"] and r["named"] == "unexplained" else ""
+        lines.append(f"| {r['cell']} | {r['what']} | `{r['named']}`{words} | {'yes' if right(r) else 'no'} | "
+                     f"{shrink} |")
+    lines.append("")
+    lines.append(f"{which}: named right with the next run's excess over the floor at least halved in "
+                 f"{sum(right(r) for r in rows)} / {len(rows)}.")
+    return "\n".join(lines)
+
+
+BEGIN, END = "<!-- plant-changes:begin", "<!-- plant-changes:end -->"
+
+
+def write_markdown(path: Path, tables: list[str]) -> None:
+    """Replace the block between BEGIN and END in `path` with the tables."""
+    text = path.read_text()
+    head, tail = text[:text.index(BEGIN)], text[text.index(END):]
+    header = (f"{BEGIN} (generated by `.venv/bin/python -m tests.plant_changes --set SET --out F.json --markdown "
+              "docs/discrepancy.md`; do not edit) -->")
+    path.write_text(head + header + "\n" + "\n\n".join(tables) + "\n" + tail)
+
+
+if __name__ == "__main__":
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--out", type=Path, required=True)
+    parser.add_argument("--work", type=Path, default=Path("plant-changes"))
+    parser.add_argument("--set", choices=(*SETS, "both"), default="held-out")
+    parser.add_argument("--markdown", type=Path, help="write both sets' tables into this file (with --set both)")
+    args = parser.parse_args()
+    sets = tuple(SETS) if args.set == "both" else (args.set,)
+    tables = {which: run_set(which, args.work / which) for which in sets}
+    args.out.write_text(json.dumps(tables, indent=1))
+    for table in tables.values():
+        print(markdown(table))
+    if args.markdown is not None and len(tables) == len(SETS):
+        write_markdown(args.markdown, [markdown(t) for t in tables.values()])

@@ -1,0 +1,77 @@
+"""Issue #47: the cell learned once from the dynamic plant, then something changes; `discrepancy --model CELL`
+names it against the cell's floor, carries it into the model file, and the next run's gap shrinks
+(tests/plant_changes.py writes every change itself; the thresholds are the issue's, fixed before the runs).
+
+`make test` keeps a short check of each change on the development set's groove cell; `make test-slow` reruns
+both sets, checks docs/discrepancy.md's tables, and holds the issue's goal on the held-out set.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import pytest
+from plant_changes import (
+    BEGIN,
+    CHANGES,
+    DEVELOPMENT,
+    END,
+    SETS,
+    learn_cell,
+    markdown,
+    right,
+    run_case,
+    run_set,
+)
+
+ROOT = Path(__file__).resolve().parents[1]
+#: On the groove cell: named right, the next run's excess over the floor at least halved.
+RIGHT_ON_THE_GROOVE = ("ft_retared", "ft_remounted", "ft_recalibrated", "tracker_reregistered", "tracker_clock",
+                       "robot_moved")
+
+
+@pytest.fixture(scope="module")
+def groove_cell(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The TX200 groove cell learned from two clean plant runs (with its floor), and two more clean runs."""
+    root = tmp_path_factory.mktemp("plant-changes") / "tx200-groove"
+    learn_cell("tx200-groove", root)
+    return root
+
+
+@pytest.mark.parametrize("change", DEVELOPMENT, ids=lambda c: c.name)
+def test_each_change_on_the_groove_is_named_right_and_carried_or_not_named(groove_cell: Path, change: Any) -> None:
+    """Those the search gets are named right and carried (the next run's excess over the floor at least halved);
+    the others (an F/T clock the groove's reversals do not pin down, a 0.08 mm drift within the floor's spread, a
+    gear's play the lost-motion family does not have the form of) are not named wrong: `unexplained` (the cell
+    learned again) or `none` (not observable above the floor)."""
+    row = run_case("tx200-groove", change, groove_cell)
+    if change.name in RIGHT_ON_THE_GROOVE:
+        assert right(row), row
+    else:
+        assert row["named"] in ("unexplained", "none"), row
+
+
+@pytest.fixture(scope="module")
+def both_sets(tmp_path_factory: pytest.TempPathFactory) -> dict[str, list[dict[str, Any]]]:
+    root = tmp_path_factory.mktemp("plant-sets")
+    return {which: run_set(which, root / which) for which in SETS}
+
+
+@pytest.mark.slow
+def test_the_plant_change_sets_are_as_the_docs_show(both_sets: dict[str, list[dict[str, Any]]]) -> None:
+    text = (ROOT / "docs" / "discrepancy.md").read_text()
+    block = text[text.index(BEGIN):text.index(END)]
+    for rows in both_sets.values():
+        assert markdown(rows) in block, markdown(rows)
+    assert {r["change"] for rows in both_sets.values() for r in rows} >= {c.name for c in CHANGES["held-out"]}
+    assert len({r["cell"].split("-")[0] for r in both_sets["held-out"]}) >= 2  # two robots, two parts
+    assert len({r["cell"].split("-")[1] for r in both_sets["held-out"]}) >= 2
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, raises=AssertionError, reason="issue #47's goal, named right with the next run's "
+                   "excess over the floor halved in >= 10 of 12, is not met on the held-out set (docs/discrepancy.md)")
+def test_the_held_out_set_meets_the_issue_goal(both_sets: dict[str, list[dict[str, Any]]]) -> None:
+    rows = both_sets["held-out"]
+    assert sum(right(r) for r in rows) >= 10 / 12 * len(rows), markdown(rows)
