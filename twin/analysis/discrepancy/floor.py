@@ -17,12 +17,17 @@ over the floor's. Without a recorded floor, the search is judged against the noi
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from types import MappingProxyType
 from typing import Any, NamedTuple
 
 import numpy as np
 
 from twin.analysis.discrepancy.consistency import structured_excess
-from twin.analysis.discrepancy.residuals import ResidualModel
+from twin.analysis.discrepancy.effect_model import context
+from twin.analysis.discrepancy.families import FAMILIES
+from twin.analysis.discrepancy.fitting import Fitter
+from twin.analysis.discrepancy.residuals import ResidualModel, measured_streams
+from twin.analysis.discrepancy.selection import single_gains
 from twin.errors import InputError
 from twin.runs.format import Run
 from twin.sim.spec import TwinSpec
@@ -43,11 +48,20 @@ class Floor(NamedTuple):
         excess: Stream -> (Σ v² − n) / n of the residual over its noise, >= 0.
         structure: Stream -> the structured excess (`consistency.structured_excess`) / n, >= 0.
         runs: The runs it was measured on (each with a twin learned from the others).
+        family_gain: Family -> the held-out gain it finds alone on those runs, per element [noise units²]: what a
+            family takes of the floor's own structure (a lost motion of the reversal transients), which
+            `discrepancy` takes off its gain on a later run (`selection.forward_select`'s `offsets`).
     """
 
     excess: Mapping[str, float]
     structure: Mapping[str, float]
     runs: tuple[str, ...] = ()
+    family_gain: Mapping[str, float] = MappingProxyType({})
+
+    def offsets(self, sizes: Mapping[str, int]) -> dict[str, float]:
+        """Each family's floor gain over a run of these stream sizes (elements) [noise units²]."""
+        n = sum(sizes.values())
+        return {name: g * n for name, g in self.family_gain.items()}
 
     def excess_on(self, sizes: Mapping[str, int]) -> float:
         """The floor's excess over a run's streams of these sizes (elements) [noise units²]."""
@@ -74,7 +88,7 @@ class Floor(NamedTuple):
     def to_json(self) -> dict[str, Any]:
         """As the model file records it (`floor`)."""
         return {"excess_per_element": dict(self.excess), "structure_per_element": dict(self.structure),
-                "runs": list(self.runs),
+                "family_gain_per_element": dict(self.family_gain), "runs": list(self.runs),
                 "note": "what the learned cell leaves on its own clean runs, predicted (learned from the others)"}
 
     @classmethod
@@ -96,7 +110,14 @@ class Floor(NamedTuple):
                                  "a finite number >= 0")
             parts.append({str(s): float(v) for s, v in values.items()})
         runs = entry.get("runs", [])
-        return cls(parts[0], parts[1], tuple(str(r) for r in runs) if isinstance(runs, list) else ())
+        gains = entry.get("family_gain_per_element", {})
+        if not isinstance(gains, Mapping) or not all(
+                isinstance(v, int | float) and not isinstance(v, bool) and np.isfinite(v) and v >= 0
+                for v in gains.values()):
+            raise InputError(f"{where}: floor.family_gain_per_element = {gains!r}: expected family -> a finite "
+                             "number >= 0")
+        return cls(parts[0], parts[1], tuple(str(r) for r in runs) if isinstance(runs, list) else (),
+                   {str(k): float(v) for k, v in gains.items()})
 
 
 def measure_floor(run: Run, spec: TwinSpec) -> Floor:
@@ -109,7 +130,13 @@ def measure_floor(run: Run, spec: TwinSpec) -> Floor:
         v = np.ravel(raw) / sigma[s]
         excess[s] = max(float(v @ v) - v.size, 0.0) / v.size
         structure[s] = max(structured_excess(raw, sigma[s]), 0.0) / v.size
-    return Floor(excess, structure, (str(run.directory),))
+    ctx = context(model, spec.effects)
+    fitter = Fitter(ctx, measured_streams(run), sigma, model.folds())
+    sizes = {s: fitter.raw[s].size for s in fitter.streams}
+    families = [f for f in FAMILIES.values() if f.applicable(ctx)]
+    n = sum(sizes.values())
+    gains = {name: g / n for name, g in single_gains(fitter, families, sizes).items()}
+    return Floor(excess, structure, (str(run.directory),), gains)
 
 
 def mean_floor(floors: Sequence[Floor]) -> Floor:
@@ -121,4 +148,4 @@ def mean_floor(floors: Sequence[Floor]) -> Floor:
         streams = {s for f in floors for s in getattr(f, key)}
         return {s: float(np.mean([getattr(f, key)[s] for f in floors if s in getattr(f, key)])) for s in streams}
 
-    return Floor(mean("excess"), mean("structure"), tuple(r for f in floors for r in f.runs))
+    return Floor(mean("excess"), mean("structure"), tuple(r for f in floors for r in f.runs), mean("family_gain"))

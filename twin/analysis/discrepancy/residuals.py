@@ -61,6 +61,13 @@ def estimate_noise(run: Run) -> Noise:
     )
 
 
+def measured_streams(run: Run) -> dict[str, np.ndarray]:
+    """What the run measured, by stream: `position` [m] (m, 3), `force` [N] (k, 3), `profile` [m] (p,)."""
+    out = {"position": run.tracker.values, "force": None if run.forces is None else run.forces.values,
+           "profile": None if run.part_profile is None else np.asarray(run.part_profile[1], dtype=float)}
+    return {k: v for k, v in out.items() if v is not None}
+
+
 class ResidualModel:
     """Replays one run on the twin with any set of effects and returns normalised residuals.
 

@@ -22,64 +22,31 @@
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field, replace
-from typing import Any, NamedTuple
+from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
 from twin.analysis.discrepancy import consistency
-from twin.analysis.discrepancy.context import Context
-from twin.analysis.discrepancy.effect_model import context, effect_increment, prune, refine, refit_instruments
-from twin.analysis.discrepancy.families import FAMILIES, Family
-from twin.analysis.discrepancy.fitting import Fit, Fitter
+from twin.analysis.discrepancy.carry import NamedEffect, into_effects, named_effects
+from twin.analysis.discrepancy.effect_model import context
+from twin.analysis.discrepancy.families import FAMILIES
+from twin.analysis.discrepancy.fitting import Fitter
 from twin.analysis.discrepancy.floor import Floor
-from twin.analysis.discrepancy.residuals import ResidualModel
+from twin.analysis.discrepancy.residuals import ResidualModel, measured_streams
 from twin.analysis.discrepancy.selection import Step, forward_select
 from twin.analysis.discrepancy.signature import describe_remainder
 from twin.analysis.discrepancy.significance import (
     excess_over_noise,
     is_significant,
     reduced_chi2,
-    split_streams,
 )
 from twin.runs.format import Run
-from twin.sim.effects import EFFECTS, INSTRUMENTS, Effects
+from twin.sim.effects import Effects
 from twin.sim.spec import TwinSpec
 
-STAGES = 3  # replay-and-select rounds after the first selection
-# the effects' form of the named families is kept when the twin replayed with it leaves at most this x the excess
-# of the linearised fit plus EFFECT_FORM_FLOOR of the run's: replaying removes linearisation error, so an effect's
-# form that holds leaves less; one that does not (a per-axis scale forced to a scalar, a drift off the effect's
-# direction) leaves more
-EFFECT_FORM_SLACK = 1.1
-EFFECT_FORM_FLOOR = 0.005
 MEANINGFUL_SHARE = 0.25  # a family explaining less than a quarter of the excess does not make a verdict
 FLOOR_SHARE_MIN = 0.1  # over a floor, shares are of the excess above it, taken as at least this share of the run's
-
-
-@dataclass(frozen=True)
-class NamedEffect:
-    """A family named by the search, with what it explains."""
-
-    name: str
-    parameters: dict[str, float]
-    uncertainty: dict[str, float | None]
-    explained_fraction: float
-    ambiguous_with: tuple[str, ...]
-    effect_name: str | None = None
-
-    @property
-    def reported_name(self) -> str:
-        """The effect's name (the model file's vocabulary) when the family maps onto one, else its own."""
-        return self.effect_name or self.name
-
-    def summary(self) -> dict[str, Any]:
-        """JSON-ready."""
-        return {
-            "name": self.name, "effect_name": self.effect_name, "parameters": self.parameters,
-            "uncertainty": self.uncertainty, "explained_fraction": self.explained_fraction,
-            "ambiguous_with": list(self.ambiguous_with),
-        }
 
 
 @dataclass(frozen=True)
@@ -97,6 +64,8 @@ class DiscrepancyResult:
         remainder: Signature of what is left (`signature.describe_remainder`).
         rounds: The selection rounds.
         floor: The learned cell's floor the run was judged against (`Floor.to_json`), empty for none.
+        spec_changes: Changes of the twin's spec that carry named families the effects do not (`Family.to_spec`,
+            e.g. a joint's K_q), for a model file.
     """
 
     effects: Effects
@@ -118,6 +87,7 @@ class DiscrepancyResult:
     residual_after: dict[str, np.ndarray] = field(repr=False)
     consistency: dict[str, Any] = field(default_factory=dict)
     floor: dict[str, Any] = field(default_factory=dict)
+    spec_changes: dict[str, Any] = field(default_factory=dict)
 
 
 def gap(streams: dict[str, np.ndarray]) -> dict[str, float]:
@@ -131,105 +101,6 @@ def gap(streams: dict[str, np.ndarray]) -> dict[str, float]:
         "force_rms_n": rms(streams.get("force")),
         "profile_rms_mm": 1e3 * rms(streams.get("profile")) if "profile" in streams else float("nan"),
     }
-
-
-def _named(steps: tuple[Step, ...], fit: Fit, families: dict[str, Family]) -> list[NamedEffect]:
-    out = []
-    for step in steps:
-        if step.accepted is None:
-            continue
-        share = next(c.share for c in step.candidates if c.name == step.accepted)
-        family = families[step.accepted]
-        theta, sd = fit.theta[step.accepted], fit.sigma[step.accepted]
-        out.append(NamedEffect(
-            step.accepted,
-            {p: float(v) for p, v in zip(family.parameters, theta, strict=True)},
-            {p: (float(s) if np.isfinite(s) else None) for p, s in zip(family.parameters, sd, strict=True)},
-            float(share), step.ambiguous_with,
-        ))
-    return out
-
-
-class EffectModel(NamedTuple):
-    """The named families carried into the twin's effects (`_into_effects`).
-
-    Attributes:
-        effects: The twin's effects.
-        named: The named families.
-        remainder: What is left by stream (SI).
-        complete: Whether the effects carry every named family.
-        steps: The selection rounds on the replayed twin.
-    """
-
-    effects: Effects
-    named: list[NamedEffect]
-    remainder: dict[str, np.ndarray]
-    complete: bool
-    steps: tuple[Step, ...]
-
-
-def _into_effects(
-    ctx: Context,
-    model: ResidualModel,
-    start: Effects,
-    fit: Fit,
-    named: list[NamedEffect],
-    families: dict[str, Family],
-    fitter_for: Callable[[Context], Fitter],
-    sizes: dict[str, int],
-    excess: float,
-    progress: Callable[[str], None] | None,
-) -> EffectModel:
-    """Carry the named families that map onto an effect into the twin, replayed and refitted; then select again on
-    the replayed twin for what they leave (families without an effect, small effects the linearisation hid)."""
-    effects = start
-    mapped: dict[str, list[str]] = {}
-    fits = {n.name: n for n in named}
-    steps: tuple[Step, ...] = ()
-    final, more, fit_now = fit, list(named), fit
-    for _ in range(STAGES):
-        found = {n.name: inc for n in more
-                 if (inc := effect_increment(fit_now, families, n.name, ctx, lenient=True)) is not None}
-        if not found:
-            break
-        new = {name: list(inc) for name, inc in found.items()}
-        scalar = {k: v for inc in found.values() for k, v in inc.items() if not k.startswith(INSTRUMENTS)}
-        trial_mapped = {**mapped, **new}
-        effect_keys = [k for keys in trial_mapped.values() for k in keys if k in EFFECTS]
-        trial = refine(model, effects.composed(scalar), fitter_for, effect_keys, progress) if effect_keys else effects
-        trial = refit_instruments(model, trial, [families[n] for n, keys in new.items()
-                                                 if keys[0].startswith(INSTRUMENTS)], fitter_for)
-        trial, kept = prune(model, start, trial, trial_mapped, fitter_for, list(sizes.values()))
-        replayed_trial = fitter_for(context(model, trial))
-        rest = excess_over_noise(replayed_trial.base, list(sizes.values()))
-        linearised = excess_over_noise(fit_now.residual, list(sizes.values()))
-        if rest > EFFECT_FORM_SLACK * linearised + EFFECT_FORM_FLOOR * excess:
-            break  # the effect's form does not hold (e.g. a scale that differs per axis): keep the families' own
-        effects, replayed = trial, replayed_trial
-        mapped = {k: v for k, v in trial_mapped.items() if k in kept}
-        others = {k: f for k, f in families.items() if k not in mapped}
-        final, steps = forward_select(replayed, list(others.values()), rest, sizes, of_rest=True) if rest > 0 else (
-            replayed.fit([]), ())
-        more = [replace(n, explained_fraction=n.explained_fraction * rest / excess)
-                for n in _named(steps, final, others)]
-        fits.update({n.name: n for n in more if n.name not in fits})
-        fit_now = final
-    if not mapped:
-        fitter = fitter_for(context(model, start))
-        streams = {s: (v * fitter.sigma[s]).reshape(fitter.raw[s].shape)
-                   for s, v in split_streams(fit.residual, sizes).items()}
-        return EffectModel(start, named, streams, False, ())
-    mapped_named = [replace(fits[name], effect_name=keys[0] if keys[0] in EFFECTS else None)
-                    for name, keys in mapped.items()]
-    streams = {s: (v * replayed.sigma[s]).reshape(replayed.raw[s].shape)
-               for s, v in split_streams(final.residual, sizes).items()}
-    return EffectModel(effects, mapped_named + more, streams, not more, steps)
-
-
-def _measured(run: Run) -> dict[str, np.ndarray]:
-    out = {"position": run.tracker.values, "force": None if run.forces is None else run.forces.values,
-           "profile": None if run.part_profile is None else np.asarray(run.part_profile[1], dtype=float)}
-    return {k: v for k, v in out.items() if v is not None}
 
 
 def find_discrepancy(
@@ -258,7 +129,7 @@ def find_discrepancy(
     ctx = context(model, start)
     noise = model.noise
     sigma = {"position": noise.position_m, "force": noise.force_n, "profile": noise.profile_m}
-    measured = _measured(run)
+    measured = measured_streams(run)
     fitter = Fitter(ctx, measured, sigma, model.folds())
     sizes = {s: fitter.raw[s].size for s in fitter.streams}
     families = {n: f for n, f in FAMILIES.items() if f.applicable(ctx) and (candidates is None or n in candidates)}
@@ -267,9 +138,10 @@ def find_discrepancy(
     significant = is_significant(chi2_before, dict(sizes))
     if progress is not None:
         progress("selection")
-    fit, steps = forward_select(fitter, list(families.values()), excess, sizes) if significant else (
+    offsets = None if floor is None else floor.offsets(sizes)
+    fit, steps = forward_select(fitter, list(families.values()), excess, sizes, offsets=offsets) if significant else (
         fitter.fit([]), ())
-    named = _named(steps, fit, families)
+    named = named_effects(steps, fit, families)
     # over a learned cell's floor, a family's share is of the excess above it (the selection is judged against the
     # whole excess: against the part above the floor, families soak up the floor's reversal transients)
     share = 1.0 if floor is None else excess / max(excess - floor.excess_on(sizes), FLOOR_SHARE_MIN * excess)
@@ -278,12 +150,13 @@ def find_discrepancy(
     explained = 1.0 - excess_over_noise(fit.residual, list(sizes.values())) / excess if (
         verdict != "unexplained" and named) else 0.0
     if verdict in ("none", "unexplained"):
-        effects, remainder, complete = start, dict(fitter.raw), True
+        effects, remainder, complete, changes = start, dict(fitter.raw), True, {}
     else:
-        carried = _into_effects(
+        carried = into_effects(
             ctx, model, start, fit, named, families, lambda c: Fitter(c, measured, sigma, model.folds()), sizes,
-            excess, progress)
+            excess, progress, offsets)
         effects, named, remainder, complete = carried.effects, carried.named, carried.remainder, carried.complete
+        changes = dict(carried.spec)
         steps = steps + carried.steps
         verdict = named[0].name
         explained = 1.0 - excess_over_noise(fitter.stack(remainder), list(sizes.values())) / excess
@@ -294,6 +167,7 @@ def find_discrepancy(
         checked = {"family": verdict, "explained_fraction": float(explained), **outcome.summary()}
         if not outcome.consistent:  # the family does not account for the gap: say so, describe the raw gap
             verdict, effects, remainder, complete, explained = "unexplained", start, dict(fitter.raw), True, 0.0
+            changes = {}
     found = tuple(n.name for n in named) if verdict not in ("none", "unexplained") else ()
     signature = describe_remainder(ctx, remainder, sigma, found)
     if checked and not found:
@@ -307,7 +181,7 @@ def find_discrepancy(
         chi2_after=reduced_chi2(remainder, sigma), gap_before=gap(fitter.raw),
         gap_after=gap(remainder) if found else gap(fitter.raw), noise=noise.summary(),
         confidence=_confidence(steps), residual_before=dict(fitter.raw), residual_after=remainder,
-        consistency=checked, floor={} if floor is None else floor.to_json(),
+        consistency=checked, floor={} if floor is None else floor.to_json(), spec_changes=changes,
     )
 
 

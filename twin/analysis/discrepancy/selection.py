@@ -15,6 +15,9 @@ ones and back) and its share is that gain over the run's excess over noise. The 
   family then explains most of the gap while one stream disagrees (e.g. forces and deflections edited by
   hand, the part profile not), and the report says which stream (`Candidate.contradicted`).
 
+Against a learned cell's floor, each family's gain is counted above what it finds on the cell's own clean runs
+(`offsets`: a lost-motion family soaking up the reversal transients a clean run has too is no evidence of play).
+
 Candidates whose held-out gain reaches AMBIGUITY_RATIO of the best one's cannot be told apart by the held-out
 error; among them the information criterion (BIC gain) picks the winner. Those that add less than ROUND_SHARE
 once the winner is in explain the same thing: they are reported as ambiguous with it rather than guessed away.
@@ -22,7 +25,7 @@ once the winner is in explain the same thing: they are reported as ambiguous wit
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -73,6 +76,7 @@ def _candidates(
     penalty: float,
     excess: float,
     rest: float,
+    offsets: Mapping[str, float] | None = None,
 ) -> list[Candidate]:
     """Fit every family not yet in the model jointly with it; the candidates by decreasing held-out gain.
 
@@ -85,6 +89,8 @@ def _candidates(
         penalty: BIC penalty per observable parameter, log N.
         excess: The run's excess over noise.
         rest: The excess over noise the current model leaves.
+        offsets: Family -> the gain it finds on a learned cell's own clean runs of this size (the floor's,
+            `twin.analysis.discrepancy.floor.Floor.family_gain`), taken off its gains here.
     """
     starts = dict(fit.theta)
     chi2_now = _chi2(fit, sizes)
@@ -94,9 +100,10 @@ def _candidates(
             continue
         trial = fitter.fit([*current, family], starts)
         observable = int(np.sum(np.isfinite(trial.sigma[family.name])))
-        gain = fit.heldout - trial.heldout
+        floor = 0.0 if offsets is None else offsets.get(family.name, 0.0)
+        gain = fit.heldout - trial.heldout - floor
         candidates.append(Candidate(
-            family.name, gain, gain / excess, gain / rest, fit.sse - trial.sse - observable * penalty,
+            family.name, gain, gain / excess, gain / rest, fit.sse - trial.sse - floor - observable * penalty,
             is_contradicted(chi2_now, _chi2(trial, sizes), sizes), trial,
         ))
     candidates.sort(key=lambda c: -c.gain)
@@ -159,8 +166,17 @@ def _ambiguous_with(
     return ambiguous
 
 
+def single_gains(fitter: Fitter, families: Sequence[Family], sizes: dict[str, int]) -> dict[str, float]:
+    """Each family's held-out gain alone on the run (what a first round scores), >= 0."""
+    fit = fitter.fit([])
+    excess = max(excess_over_noise(fitter.base, list(sizes.values())), 1e-9)
+    candidates = _candidates(fitter, families, [], fit, sizes, 0.0, excess, excess)
+    return {c.name: max(c.gain, 0.0) for c in candidates}
+
+
 def forward_select(
-    fitter: Fitter, families: Sequence[Family], excess: float, sizes: dict[str, int], *, of_rest: bool = False
+    fitter: Fitter, families: Sequence[Family], excess: float, sizes: dict[str, int], *, of_rest: bool = False,
+    offsets: Mapping[str, float] | None = None,
 ) -> tuple[Fit, tuple[Step, ...]]:
     """Grow a model family by family while a family explains a significant held-out share of the gap.
 
@@ -172,6 +188,7 @@ def forward_select(
         of_rest: Judge ROUND_SHARE against the excess the current model leaves (True, used on a twin replayed
             with the effects already named, where no linearisation error is left to be soaked up) or against
             `excess` (False: on the linearised twin as given, where a small share can be linearisation error).
+        offsets: Family -> its gain on the learned cell's own clean runs (`_candidates`), or None.
 
     Returns:
         The final joint fit and the rounds.
@@ -184,7 +201,7 @@ def forward_select(
         rest = excess_over_noise(fit.residual, list(sizes.values()))
         if rest <= 0.0:
             break
-        candidates = _candidates(fitter, families, current, fit, sizes, penalty, excess, rest)
+        candidates = _candidates(fitter, families, current, fit, sizes, penalty, excess, rest, offsets)
         pool = _pool(candidates, of_rest)
         if not pool:
             steps.append(Step(tuple(candidates), None, ()))

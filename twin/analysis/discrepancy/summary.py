@@ -37,6 +37,8 @@ def result_summary(result: DiscrepancyResult) -> dict[str, Any]:
             {"named": n.name, "ambiguous_with": list(n.ambiguous_with)} for n in result.named if n.ambiguous_with
         ],
         "parameters": result.effects.named_parameters(),
+        "instruments": result.effects.instruments.changed(),
+        "spec_changes": result.spec_changes,
         "model_complete": result.model_complete,
         "confidence": result.confidence,
         "gap_before": result.gap_before,
