@@ -27,6 +27,7 @@ import argparse
 import contextlib
 import io
 import json
+import re
 import shutil
 from collections.abc import Callable
 from dataclasses import dataclass, replace
@@ -329,7 +330,8 @@ def markdown(rows: list[dict[str, Any]]) -> str:
     for r in rows:
         shrink = "none to shrink" if r["excess_before"] <= 0 else (
             "at least halved" if r["shrink"] >= 1.0 - SHRINK_TO else "not halved")
-        words = f" ({r['learned'][0]})" if r["learned"] and r["named"] == "unexplained" else ""
+        said = re.match(r"(joint \d) is [\d.]+ % (softer|stiffer)", r["learned"][0]) if r["learned"] else None
+        words = f" (learned: {said[1]} {said[2]})" if said and r["named"] == "unexplained" else ""
         seen = "yes" if r["observable"] else "no"
         lines.append(f"| {r['cell']} | {r['what']} | `{r['named']}`{words} | {'yes' if right(r) else 'no'} | "
                      f"{seen}; {shrink} |")
