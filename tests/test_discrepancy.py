@@ -176,7 +176,7 @@ def test_a_dynamic_plant_sensor_clock_with_a_rate_error_is_named_and_placed(
 
     t_s, p_m = nominal_path
     offset, skew = 0.04, 2000e-6
-    knobs = Knobs({"force_clock_offset_s": offset, "ft_clock_skew_ppm": 1e6 * skew}, neutral=True)
+    knobs = Knobs({"ft_clock_offset_s": offset, "ft_clock_skew_ppm": 1e6 * skew}, neutral=True)
     run, _, _ = run_dynamic_lab(t_s, p_m, scenario="nominal", knobs=knobs, seed=5)
     result, seconds = timed(run)
     info = describe(result, seconds)

@@ -30,6 +30,7 @@ from discrepancy_heldout import (
 from twin.analysis.discrepancy import consistency
 
 ROOT = Path(__file__).resolve().parents[1]
+DEVELOPMENT_RULE_SINCE_47 = 0.05  # what `chosen_threshold` gives on the development set since #47's families
 OUTSIDE_REACHED = 10 / 14  # the test set's outside forms `unexplained` when first run (issue #28 asks for 0.9)
 
 
@@ -80,7 +81,10 @@ def test_heldout_sets_are_as_the_docs_show_and_the_threshold_is_the_development_
     both_sets: tuple[dict[str, Any], dict[str, Any]],
 ) -> None:
     development, test = both_sets
-    assert chosen_threshold(development) == consistency.STRUCTURE_SHARE
+    # the development set's rule gave 0.07 when STRUCTURE_SHARE was frozen, before the test set was first run; with
+    # the families #47 added it gives 0.05 (a one-sided wrist stiffness now taken by `tracker_clock` leaves 0.046).
+    # The threshold stays frozen: chosen again after the test set was seen, it would no longer be held out.
+    assert consistency.STRUCTURE_SHARE == 0.07 and chosen_threshold(development) == DEVELOPMENT_RULE_SINCE_47
     text = (ROOT / "docs" / "discrepancy.md").read_text()
     block = text[text.index(BEGIN):text.index(END)]
     assert markdown(development) in block and markdown(test) in block
@@ -99,6 +103,6 @@ def test_heldout_test_set_names_inside_forms_and_keeps_clean_runs_clean(
 
 @pytest.mark.slow
 @pytest.mark.xfail(strict=True, raises=AssertionError, reason="issue #28's goal, outside forms `unexplained` in >= 90 % of the test set, "
-                   "is not met: 10 / 14 (a tracker scale error taken as a registration, a tracker lag as lost motion)")
+                   "is not met: 10 / 14 (a tracker scale error taken as a registration, a tracker lag as a tracker clock)")
 def test_heldout_test_set_meets_the_issue_goals(both_sets: tuple[dict[str, Any], dict[str, Any]]) -> None:
     assert meets_goals(both_sets[1]), markdown(both_sets[1])

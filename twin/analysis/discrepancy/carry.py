@@ -11,7 +11,6 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, replace
-from types import MappingProxyType
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -83,9 +82,8 @@ class EffectModel(NamedTuple):
         effects: The twin's effects.
         named: The named families.
         remainder: What is left by stream (SI).
-        complete: Whether the effects and `spec` carry every named family.
+        complete: Whether the effects carry every named family.
         steps: The selection rounds on the replayed twin.
-        spec: Changes of the twin's spec for the families carried there (`Family.to_spec`, e.g. its K_q).
     """
 
     effects: Effects
@@ -93,19 +91,6 @@ class EffectModel(NamedTuple):
     remainder: dict[str, np.ndarray]
     complete: bool
     steps: tuple[Step, ...]
-    spec: Mapping[str, Any] = MappingProxyType({})
-
-
-def spec_changes(named: list[NamedEffect], families: dict[str, Family], ctx: Context) -> tuple[dict[str, Any], set[str]]:
-    """The spec changes of the named families that carry themselves there (`Family.to_spec`), and their names."""
-    changes: dict[str, Any] = {}
-    names = set()
-    for n in named:
-        out = families[n.name].to_spec(np.array(list(n.parameters.values()), dtype=float), ctx)
-        if out:
-            changes.update(out)
-            names.add(n.name)
-    return changes, names
 
 
 def into_effects(
@@ -168,13 +153,11 @@ def into_effects(
         fitter = fitter_for(context(model, start))
         streams = {s: (v * fitter.sigma[s]).reshape(fitter.raw[s].shape)
                    for s, v in split_streams(fit.residual, sizes).items()}
-        spec, carried = spec_changes(named, families, ctx)
-        return EffectModel(start, named, streams, all(n.name in carried for n in named), (), spec)
+        return EffectModel(start, named, streams, False, ())
     mapped_named = [replace(fits[name], effect_name=keys[0] if keys[0] in EFFECTS else None)
                     for name, keys in mapped.items()]
     streams = {s: (v * replayed.sigma[s]).reshape(replayed.raw[s].shape)
                for s, v in split_streams(final.residual, sizes).items()}
-    spec, carried = spec_changes(more, families, ctx)
-    return EffectModel(effects, mapped_named + more, streams, all(n.name in carried for n in more), steps, spec)
+    return EffectModel(effects, mapped_named + more, streams, not more, steps)
 
 

@@ -64,8 +64,6 @@ class DiscrepancyResult:
         remainder: Signature of what is left (`signature.describe_remainder`).
         rounds: The selection rounds.
         floor: The learned cell's floor the run was judged against (`Floor.to_json`), empty for none.
-        spec_changes: Changes of the twin's spec that carry named families the effects do not (`Family.to_spec`,
-            e.g. a joint's K_q), for a model file.
     """
 
     effects: Effects
@@ -87,7 +85,6 @@ class DiscrepancyResult:
     residual_after: dict[str, np.ndarray] = field(repr=False)
     consistency: dict[str, Any] = field(default_factory=dict)
     floor: dict[str, Any] = field(default_factory=dict)
-    spec_changes: dict[str, Any] = field(default_factory=dict)
 
 
 def gap(streams: dict[str, np.ndarray]) -> dict[str, float]:
@@ -150,13 +147,12 @@ def find_discrepancy(
     explained = 1.0 - excess_over_noise(fit.residual, list(sizes.values())) / excess if (
         verdict != "unexplained" and named) else 0.0
     if verdict in ("none", "unexplained"):
-        effects, remainder, complete, changes = start, dict(fitter.raw), True, {}
+        effects, remainder, complete = start, dict(fitter.raw), True
     else:
         carried = into_effects(
             ctx, model, start, fit, named, families, lambda c: Fitter(c, measured, sigma, model.folds()), sizes,
             excess, progress, offsets)
         effects, named, remainder, complete = carried.effects, carried.named, carried.remainder, carried.complete
-        changes = dict(carried.spec)
         steps = steps + carried.steps
         verdict = named[0].name
         explained = 1.0 - excess_over_noise(fitter.stack(remainder), list(sizes.values())) / excess
@@ -167,7 +163,6 @@ def find_discrepancy(
         checked = {"family": verdict, "explained_fraction": float(explained), **outcome.summary()}
         if not outcome.consistent:  # the family does not account for the gap: say so, describe the raw gap
             verdict, effects, remainder, complete, explained = "unexplained", start, dict(fitter.raw), True, 0.0
-            changes = {}
     found = tuple(n.name for n in named) if verdict not in ("none", "unexplained") else ()
     signature = describe_remainder(ctx, remainder, sigma, found)
     if checked and not found:
@@ -181,7 +176,7 @@ def find_discrepancy(
         chi2_after=reduced_chi2(remainder, sigma), gap_before=gap(fitter.raw),
         gap_after=gap(remainder) if found else gap(fitter.raw), noise=noise.summary(),
         confidence=_confidence(steps), residual_before=dict(fitter.raw), residual_after=remainder,
-        consistency=checked, floor={} if floor is None else floor.to_json(), spec_changes=changes,
+        consistency=checked, floor={} if floor is None else floor.to_json(),
     )
 
 

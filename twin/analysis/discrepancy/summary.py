@@ -38,7 +38,6 @@ def result_summary(result: DiscrepancyResult) -> dict[str, Any]:
         ],
         "parameters": result.effects.named_parameters(),
         "instruments": result.effects.instruments.changed(),
-        "spec_changes": result.spec_changes,
         "model_complete": result.model_complete,
         "confidence": result.confidence,
         "gap_before": result.gap_before,

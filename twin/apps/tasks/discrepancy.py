@@ -186,8 +186,7 @@ def discrepancy_task(request: DiscrepancyRequest, note: Note = silent) -> Discre
             note(f"note: no family explains the gap, and the run cannot teach the twin: {exc}")
     if request.model_out is not None:
         inputs = (request.run_dir, request.model, request.history.path, request.held_out)
-        model_spec, words = _model_file(request.run_dir, spec.replace(effects=result.effects, **result.spec_changes),
-                                        result, learned)
+        model_spec, words = _model_file(request.run_dir, spec.replace(effects=result.effects), result, learned)
         write_model_file(request.model_out, model_spec, note=words, protect=[p for p in inputs if p is not None])
     figure = None
     if request.report is not None:

@@ -112,12 +112,6 @@ class Family(ABC):
         del theta, ctx
         return None
 
-    def to_spec(self, theta: np.ndarray, ctx: Context) -> dict[str, object] | None:
-        """The fitted family as changes of the twin's spec (`TwinSpec` fields, e.g. its K_q) for a model file,
-        where neither an effect nor the instruments hold it; None: not of the spec."""
-        del theta, ctx
-        return None
-
     def applicable(self, ctx: Context) -> bool:
         """Whether the run has the streams this family acts on."""
         return (ctx.has_forces or not self.needs_forces) and (ctx.has_profile or not self.needs_profile)

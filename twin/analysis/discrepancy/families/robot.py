@@ -161,37 +161,3 @@ class ClampProximity(Family):
         weight = sum(a * np.exp(-distance / decay) for a, decay in zip(theta[:2], CLAMP_DECAYS_M, strict=True))
         return _delta(ctx, theta, np.zeros((len(x), 3)), weight[:, None] * ctx.sim.f_sheet_n)
 
-
-#: The arm joints a joint-stiffness change is fitted on: the shipped robots' six (a joint a run does not load has
-#: no sensitivity and is held at its neutral value; a robot with fewer joints leaves the rest neutral).
-ARM_JOINTS = ("j1", "j2", "j3", "j4", "j5", "j6")
-
-
-@register
-class JointStiffness(Family):
-    """A joint's gear is softer or stiffer than the twin's: its compliance 1/K_q,j times (1 + r_j) (a worn gear, a
-    servo re-tuned). Its tip change follows the force through that joint alone, J_j J_j^T f / K_q,j, so it turns
-    with the force around a part, where a drift or a registration does not."""
-
-    name = "joint_stiffness"
-    parameters = (*(f"{j}_compliance_ratio" for j in ARM_JOINTS), *ANSWER)
-    neutral = (*(0.0 for _ in ARM_JOINTS), 1.0)
-    bounds = ((*(-0.8 for _ in ARM_JOINTS), 0.0), (*(4.0 for _ in ARM_JOINTS), 1.0))
-    scale = (*(0.02 for _ in ARM_JOINTS), 0.1)
-    bilinear = True
-    description = "one joint's compliance x (1 + r) (a worn or re-tuned gear)"
-
-    def delta(self, ctx: Context, theta: np.ndarray) -> Delta:
-        """Unloaded-equivalent tip change sum_j r_j J_j J_j^T f / K_q,j."""
-        jac, k_q = ctx.jac, ctx.twin.joint_stiffness
-        n = min(jac.shape[2], len(ARM_JOINTS))
-        along = np.einsum("nij,ni->nj", jac[:, :, :n], ctx.sim.f_sheet_n)  # J_j^T f per joint
-        weights = theta[:n] / k_q[:n] * along
-        return _delta(ctx, theta, np.einsum("nij,nj->ni", jac[:, :, :n], weights))
-
-    def to_spec(self, theta: np.ndarray, ctx: Context) -> dict[str, object] | None:
-        """The twin's K_q with each joint's compliance changed: K_q,j / (1 + r_j)."""
-        k_q = np.asarray(ctx.twin.joint_stiffness, dtype=float)
-        n = min(len(k_q), len(ARM_JOINTS))
-        return {"joint_stiffness_nm_per_rad": tuple(float(k) for k in k_q[:n] / (1.0 + theta[:n]))
-                + tuple(float(k) for k in k_q[n:])}
