@@ -76,6 +76,24 @@ def test_a_force_step_is_followed_within_the_rate_limit_and_the_size_limit(setup
     assert np.linalg.norm(out[-1]) == pytest.approx(1e-3, rel=1e-9)
 
 
+def test_a_burst_of_calls_moves_the_correction_by_the_rate_times_the_time_it_spans(setup) -> None:
+    """50 calls in 5 ms of the controller's time (a burst, or a second sender) move the correction by at most the
+    rate limit times 5 ms (before, 50 cycles' worth: 40 x more); calls that carry no new time move it not at all."""
+    spec, q, _ = setup
+    settings = OnlineSettings(max_rate_mm_s=20.0)
+    comp = OnlineCompensator(spec, settings)
+    comp.step(0.0, 0.0, 5.0 * F_N, q)  # the filter starts at a force whose correction is the size limit
+    start = comp.correction_m.copy()
+    for k in range(1, 51):
+        comp.step(1e-4 * k, 1e-4 * k, 5.0 * F_N, q)
+    moved = float(np.linalg.norm(comp.correction_m - start))
+    assert 0.0 < moved <= 1e-3 * settings.max_rate_mm_s * 5e-3 * (1 + 1e-9)
+    frozen = comp.correction_m.copy()
+    for _ in range(20):
+        comp.step(5e-3, 5e-3, 5.0 * F_N, q)  # the same controller time again
+    np.testing.assert_array_equal(comp.correction_m, frozen)
+
+
 def test_a_spike_is_rejected_and_changes_nothing(setup) -> None:
     spec, q, _ = setup
     n = 200

@@ -13,8 +13,10 @@ needs:
   filtered rate of change (`latency_s`);
 * **spikes**: a sample further than `spike_n` from the filtered force is rejected (counted), as a broken packet;
   `spike_run` such samples in a row are a real change of level (a contact), and the next one is taken;
-* **limits**: the correction's size (`max_correction_mm`, default 5 mm) and its rate (`max_rate_mm_s`): no
-  correction steps by more than the rate allows in one cycle, whatever the input;
+* **limits**: the correction's size (`max_correction_mm`, default 5 mm) and its rate (`max_rate_mm_s`) per unit
+  of the controller's time (`t_s`): no correction moves faster than the rate allows since the last call, however
+  often it is called (a burst moves it by the rate times the time the burst spans; a stalled controller earns at
+  most a few cycles' worth);
 * **watchdog**: no correction before a first sample (no start without a sensor); a sample older than `stale_s`
   holds the last correction for `hold_s`, then ramps it out at the rate limit: never a jump.
 

@@ -57,5 +57,5 @@ class OnlineSettings:
     def params(self) -> np.ndarray:
         """The settings as the compiled cycle reads them (SI)."""
         return np.array([self.cycle_s, 2.0 * math.pi * self.filter_hz, self.latency_s, self.spike_n,
-                         1e-3 * self.max_correction_mm, 1e-3 * self.max_rate_mm_s * self.cycle_s, self.stale_s,
+                         1e-3 * self.max_correction_mm, 1e-3 * self.max_rate_mm_s, self.stale_s,
                          self.hold_s, self.gain, float(self.spike_run)])

@@ -26,9 +26,13 @@ from twin.sim.compiled.chain import chain_eval
 NO_SENSOR, TRACKING, SPIKE, HOLDING, RAMPING = range(5)
 #: Slots of the state vector: a sample seen, its stamp, spikes rejected, filtered force (3), its rate (3), the
 #: correction (3), spikes in a row, joints seen, the segment along an offline command, the offset of the reported
-#: tip from that command (3), that progress started.
-HAVE, T_LAST, SPIKES, F, DF, CORR, RUN, HAVE_Q, AT, OFFSET, HAVE_AT = 0, 1, 2, 3, 6, 9, 12, 13, 14, 15, 18
-STATE_SIZE = 19
+#: tip from that command (3), that progress started, the time of the last call, a call seen.
+HAVE, T_LAST, SPIKES, F, DF, CORR, RUN, HAVE_Q, AT, OFFSET, HAVE_AT, T_CALL, HAVE_T = (
+    0, 1, 2, 3, 6, 9, 12, 13, 14, 15, 18, 19, 20)
+STATE_SIZE = 21
+#: The rate limit's clock: the correction moves at most the rate times the controller time since the last call,
+#: and that time counts at most this many cycles (a controller that stalled does not earn a jump).
+MAX_GAP_CYCLES = 4.0
 #: Time constant of the offset of the reported tip from the command, across the path [s]: slow against a pass's
 #: step to the next (a groove's 0.5 mm down at a turn, in ~0.1 s), fast against the twin's kinematic error, which
 #: changes over the workspace (mm over tens of mm).
@@ -100,7 +104,7 @@ def online_cycle(chain, params, k_inv, friction, c_tool, assumed_p, assumed_f, s
     `c_tool`: the tool's own bending compliance at the tip, sheet frame [m/N], (3, 3) (zeros: a rigid tool; constant
     while the tool is held down). `assumed_p`, `assumed_f`: an offline command's tool tips (sheet frame [m], (n, 3))
     and the force it assumed at each ([N], (n, 3)); n = 0: a nominal command."""
-    omega, latency, spike, max_corr, max_step = params[1], params[2], params[3], params[4], params[5]
+    omega, latency, spike, max_corr, max_rate = params[1], params[2], params[3], params[4], params[5]
     stale, hold, gain, spike_run, w0 = params[6], params[7], params[8], params[9], params[10]
     cycle = params[0]
     status = TRACKING
@@ -179,6 +183,12 @@ def online_cycle(chain, params, k_inv, friction, c_tool, assumed_p, assumed_f, s
     for j in range(q.shape[0]):
         q_prev[j] = q[j]
     state[HAVE_Q] = 1.0
+    # the rate limit per unit of the controller's time: calls that come faster than its cycle (a burst, a second
+    # sender) move the correction no faster; a first call counts one cycle, a call back in time none
+    elapsed = min(max(t - state[T_CALL], 0.0), MAX_GAP_CYCLES * cycle) if state[HAVE_T] != 0.0 else cycle
+    if t == t:
+        state[T_CALL], state[HAVE_T] = max(t, state[T_CALL]) if state[HAVE_T] != 0.0 else t, 1.0
+    max_step = max_rate * elapsed
     s0, s1, s2 = target0 - state[CORR], target1 - state[CORR + 1], target2 - state[CORR + 2]
     size = math.sqrt(s0 * s0 + s1 * s1 + s2 * s2)
     if size > max_step:
