@@ -16,9 +16,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from scipy.spatial.transform import Rotation
 
 from twin.analysis.check import check_run
-from twin.analysis.tracker_frame import TrackerRegistration, fit_on_free_moves, rotation_matrix, take_off
+from twin.analysis.tracker_frame import TrackerRegistration, fit_on_free_moves, take_off
 from twin.cli import main
 from twin.runs.format import Run, Stream
 from twin.runs.read import read_run
@@ -54,7 +55,7 @@ def test_a_registration_written_onto_the_tracker_is_recovered_and_taken_off(groo
     clean = read_run(groove["nominal_true"])
     rotation, shift = np.array([0.0, 0.8e-3, -0.6e-3]), np.array([-0.15e-3, 0.25e-3, 0.1e-3])
     edited = Run(clean.directory, clean.meta, clean.commanded,
-                 Stream(clean.tracker.t_s, clean.tracker.values @ rotation_matrix(rotation).T + shift), clean.forces)
+                 Stream(clean.tracker.t_s, clean.tracker.values @ Rotation.from_rotvec(rotation).as_matrix().T + shift), clean.forces)
     fitted = fit_on_free_moves(edited)
     assert fitted is not None and "free moves" in fitted.source
     print(f"fitted rotation {1e3 * fitted.rotation_rad} mrad, shift {1e3 * fitted.shift_m} mm, "

@@ -20,6 +20,11 @@ the path looks exactly like a rotation: the rotation is then left at zero, the s
 shift itself is not fixed (too few free samples, or free moves at one velocity only, where a lag and a shift
 look alike: the groove's first pass without a backward free move), no registration is fitted (None).
 
+The command is not what an unloaded arm reaches: its own sag and kinematic errors look like a registration too
+(0.16 mm on a quasi-static lab cone, whose tracker is perfect), so `check` fits one here only when asked
+(`--free-moves`); a learned cell's registration (`check --model`, `twin.analysis.learn.instruments`) is fitted
+against the twin's replay, which holds the sag, and `TrackerRegistration.from_instruments` reads it.
+
 Everything is SI inside (m, rad, s).
 """
 
@@ -35,8 +40,7 @@ from twin.runs.format import Run, Stream
 from twin.sim.instruments import Instruments
 from twin.sim.instruments import rotation as rotation_matrix
 
-__all__ = ["FREE_FORCE_N", "MIN_FREE_SAMPLES", "TrackerRegistration", "fit_on_free_moves", "rotation_matrix",
-           "take_off"]
+__all__ = ["FREE_FORCE_N", "MIN_FREE_SAMPLES", "TrackerRegistration", "fit_on_free_moves", "take_off"]
 
 #: A tracker sample is a free move where the force's norm is below this [N] (the F/T noise is ~5-15 N; at the
 #: twin's ~1.5 µm/N compliance it deflects the tool by at most ~30 µm).
