@@ -159,3 +159,20 @@ def test_a_change_after_the_cell_was_learned_is_judged_above_its_floor(
     assert main(["discrepancy", str(groove_runs[2]), "--model", str(cell), "--json", "-"]) == 0
     clean = json.loads(capsys.readouterr().out)  # the clean run: nothing named, nothing above the floor
     assert clean["effect"] == "none" and "no change observable" in clean["remainder"]["words"], clean["remainder"]
+
+
+@pytest.mark.parametrize(("instruments", "needle"), [
+    ({"force_bias_n": [1.0, 2.0]}, "instruments.force_bias_n = (1.0, 2.0): expected 3 finite number(s) [N]"),
+    ({"ft_bias_n": [1.0, 2.0, 3.0]}, "unknown field(s) ['ft_bias_n']"),
+    ({"tracker_rotation_mrad": [0.0, 1e9, 0.0]}, "within 50 of 0"),
+    ([1.0, 2.0], "expected an object of force_bias_n"),
+])
+def test_a_model_files_bad_instruments_are_named(instruments: object, needle: str, tmp_path: Path) -> None:
+    from twin.errors import DataFileError
+
+    path = write_model_file(tmp_path / "m.json", TwinSpec())
+    payload = json.loads(path.read_text())
+    payload["instruments"] = instruments
+    path.write_text(json.dumps(payload))
+    with pytest.raises(DataFileError, match=re.escape(needle)):
+        read_model_file(path)
