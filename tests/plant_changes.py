@@ -105,7 +105,9 @@ DRIFT_M_PER_S = 1e-3 * 0.004 * np.array([0.8, -0.5, 0.3]) / np.linalg.norm([0.8,
 class Change:
     """One hidden change: a data edit of the clean runs (`edit`), plant knobs (`knobs`), or the robot moved on its
     base (`base_shift_mm`: the plant commanded that much off, the run's command unchanged); `expected`: the names
-    that are right; `joint`: the joint a softer gear must name (`unexplained`, the learned robot naming it first)."""
+    that are right; `sheet`: plant flags for a sheet other than the cell's records (meta.json keeps the cell's);
+    `learned`: with `unexplained`, what the learned twin must say first of its kind (a regular expression on the
+    first learned sentence that starts with its first word: `joint 2 is`, the sheet pushing more)."""
 
     name: str
     expected: tuple[str, ...]
@@ -113,7 +115,8 @@ class Change:
     knobs: tuple[str, ...] = ()
     base_shift_mm: tuple[float, float, float] | None = None
     what: str = ""
-    joint: str = ""
+    sheet: tuple[str, ...] = ()
+    learned: str = ""
 
 
 def _about(axis: tuple[float, float, float], angle_rad: float) -> np.ndarray:
@@ -141,6 +144,9 @@ DEVELOPMENT = (
     Change("robot_moved", ("tracker_registration",),
            what="the robot moved 1.5 mm on its base, in plane: every commanded point lands off on the sheet",
            base_shift_mm=(1.5, -1.0, 0.0)),
+    Change("sheet_thicker", ("force_scale", "unexplained"),
+           what="a new coil: the sheet 1.2 mm thick where the cell's records say 1.0 mm (plant process)",
+           sheet=("--thickness-mm", "1.2"), learned=r"^the sheet pushes [\d.]+ N more"),
 )
 
 #: Other forms and sizes, on other cells; a gear made softer is learned (no family covers it) and named by the
@@ -167,7 +173,7 @@ FIRST_HELD_OUT = (
     Change("gear_play", ("lost_motion",), what="joint 2's gear with 0.3 mrad of play (plant knob)",
            knobs=("backlash_j2_mrad=0.3",)),
     Change("gear_softer", ("unexplained",), what="joint 2's gear 30 % softer (plant knob)",
-           knobs=("gear_stiffness_j2_scale=0.7",), joint="joint 2"),
+           knobs=("gear_stiffness_j2_scale=0.7",), learned="^joint 2 is"),
     Change("robot_moved", ("tracker_registration",), what="the robot moved on its base: (-1, 2, 0) mm in plane",
            base_shift_mm=(-1.0, 2.0, 0.0)),
 )
@@ -193,7 +199,7 @@ HELD_OUT = (
     Change("gear_play", ("lost_motion",), what="joint 1's gear with 0.5 mrad of play (plant knob)",
            knobs=("backlash_j1_mrad=0.5",)),
     Change("gear_softer", ("unexplained",), what="joint 3's gear 40 % softer (plant knob)",
-           knobs=("gear_stiffness_j3_scale=0.6",), joint="joint 3"),
+           knobs=("gear_stiffness_j3_scale=0.6",), learned="^joint 3 is"),
     Change("robot_moved", ("tracker_registration",), what="the robot moved on its base: (2, 0.5, 0) mm in plane",
            base_shift_mm=(2.0, 0.5, 0.0)),
 )
@@ -214,7 +220,7 @@ def _cli(args: list[str]) -> tuple[int, str]:
 
 
 def _plant_run(cell: Cell, root: Path, seed: int, out: Path, knobs: tuple[str, ...] = (),
-               base_shift_mm: tuple[float, float, float] | None = None) -> Path:
+               base_shift_mm: tuple[float, float, float] | None = None, sheet: tuple[str, ...] = ()) -> Path:
     args = ["lab", "--plant", "dynamic", "--robot", cell.robot, "--scenario", "nominal", "--seed", str(seed),
             "--out", str(out)]
     path = root / "path.csv"
@@ -227,8 +233,12 @@ def _plant_run(cell: Cell, root: Path, seed: int, out: Path, knobs: tuple[str, .
     args += ["--commanded", str(path)]
     for knob in knobs:
         args += ["--set", knob]
-    code, text = _cli(args)
+    code, text = _cli([*args, *sheet])
     assert code == 0, text
+    if sheet:  # the user's records keep the cell's sheet: the new coil is hidden
+        meta = json.loads((out / "meta.json").read_text())
+        meta["process"] = json.loads((root / "clean1" / "meta.json").read_text())["process"]
+        (out / "meta.json").write_text(json.dumps(meta, indent=1))
     if base_shift_mm is not None:  # the user's records keep the program as written: the move is hidden
         run = read_run(out)
         commanded = Stream(run.commanded.t_s, run.commanded.values + 1e-3 * np.asarray(base_shift_mm))
@@ -273,7 +283,7 @@ def run_case(cell_name: str, change: Change, root: Path) -> dict[str, Any]:
         if change.edit is not None:
             runs.append(write_run(case / tag, change.edit(read_run(root / f"clean{seed}"))))
         else:
-            runs.append(_plant_run(cell, root, seed, case / tag, change.knobs, change.base_shift_mm))
+            runs.append(_plant_run(cell, root, seed, case / tag, change.knobs, change.base_shift_mm, change.sheet))
     code, text = _cli(["discrepancy", str(runs[0]), "--model", str(cell_model), "--model-out",
                        str(case / "M.json"), "--json", str(case / "report.json")])
     assert code == 0, text
@@ -283,11 +293,12 @@ def run_case(cell_name: str, change: Change, root: Path) -> dict[str, Any]:
     (before, floor_excess), (after, _) = _excess_above(nxt, cell_model, floor), _excess_above(nxt, case / "M.json", floor)
     named = report.get("effect")
     learned = (report.get("learned") or {}).get("named", [])
-    robot_words = [w for w in learned if w.startswith("joint")]
-    right_joint = not change.joint or bool(robot_words and f"{change.joint} is" in robot_words[0])
+    first = next((w for w in learned if w.startswith(change.learned.lstrip("^").split()[0])), "") if change.learned else ""
+    right_words = named != "unexplained" or not change.learned or bool(re.search(change.learned, first))
     return {"cell": cell_name, "change": change.name, "what": change.what, "expected": list(change.expected),
             "named": named, "families": [f["name"] for f in report.get("families", [])],
-            "learned": robot_words[:2], "named_right": named in change.expected and right_joint,
+            "learned": [w for w in (first or next((w for w in learned if w.startswith("joint")), ""),) if w],
+            "named_right": named in change.expected and right_words,
             "observable": before > OBSERVABLE_SHARE * floor_excess,
             "excess_before": before, "excess_after": after,
             "shrink": 1.0 - after / before if before > 0 else float("nan"),
@@ -311,6 +322,17 @@ def right(row: dict[str, Any]) -> bool:
     return bool(row["named_right"]) and row["shrink"] >= 1.0 - SHRINK_TO
 
 
+def _gist(sentences: list[str]) -> str:
+    """What the learned twin says first, without its numbers: `joint 2 softer`, `the sheet pushes more`."""
+    for w in sentences:
+        if said := re.match(r"(joint \d) is [\d.]+ % (softer|stiffer)", w):
+            return f"{said[1]} {said[2]}"
+    for w in sentences:
+        if said := re.match(r"the sheet pushes [\d.]+ N (more|less)", w):
+            return f"the sheet pushes {said[1]}"
+    return "nothing named"
+
+
 def markdown(rows: list[dict[str, Any]]) -> str:
     """One set's rows as a table (rounded to what a machine's floating point cannot move), and its count."""
     which = rows[0]["set"]
@@ -319,8 +341,7 @@ def markdown(rows: list[dict[str, Any]]) -> str:
     for r in rows:
         shrink = "none to shrink" if r["excess_before"] <= 0 else (
             "at least halved" if r["shrink"] >= 1.0 - SHRINK_TO else "not halved")
-        said = re.match(r"(joint \d) is [\d.]+ % (softer|stiffer)", r["learned"][0]) if r["learned"] else None
-        words = f" (learned: {said[1]} {said[2]})" if said and r["named"] == "unexplained" else ""
+        words = f" (learned: {_gist(r['learned'])})" if r["learned"] and r["named"] == "unexplained" else ""
         seen = "yes" if r["observable"] else "no"
         lines.append(f"| {r['cell']} | {r['what']} | `{r['named']}`{words} | {'yes' if right(r) else 'no'} | "
                      f"{seen}; {shrink} |")
