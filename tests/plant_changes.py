@@ -36,7 +36,7 @@ from typing import Any
 
 import numpy as np
 
-from twin.analysis.discrepancy.floor import OBSERVABLE_SHARE, Floor
+from twin.analysis.discrepancy.floor import OBSERVABLE_SHARE, Floor, excess_by_stream
 from twin.analysis.discrepancy.residuals import ResidualModel
 from twin.cli import main
 from twin.runs.format import Run, Stream
@@ -263,12 +263,9 @@ def _excess_above(run: Run, model: Path, floor: Floor) -> tuple[float, float]:
     """The run's excess over noise with the twin `model` less the cell's floor, and the floor's own, over the run's
     streams [noise units², whole run] (the search's measures: its residual over the noise it estimates)."""
     spec = read_model_file(model)
-    residual = ResidualModel(run, spec)
-    sigma = {"position": residual.noise.position_m, "force": residual.noise.force_n, "profile": residual.noise.profile_m}
-    streams = residual.streams(spec.effects)
-    excess = sum(float(np.sum((np.ravel(v) / sigma[s]) ** 2)) - v.size for s, v in streams.items())
-    on_run = floor.excess_on({s: v.size for s, v in streams.items()})
-    return max(excess - on_run, 0.0), on_run
+    by_stream = excess_by_stream(ResidualModel(run, spec), spec.effects)
+    on_run = floor.excess_on({s: n for s, (_, n) in by_stream.items()})
+    return max(sum(e for e, _ in by_stream.values()) - on_run, 0.0), on_run
 
 
 def run_case(cell_name: str, change: Change, root: Path) -> dict[str, Any]:

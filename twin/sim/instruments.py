@@ -140,11 +140,6 @@ class Instruments:
         out = out + 1e-3 * np.asarray(self.tracker_shift_mm)
         return out + np.outer(t_s - t0_s, 1e-3 * np.asarray(self.tracker_drift_mm_per_s))
 
-    def untracked(self, reading_m: np.ndarray) -> np.ndarray:
-        """The tips behind tracker readings, registration taken off (drift and clock kept) [m], shape (m, 3)."""
-        return (reading_m - 1e-3 * np.asarray(self.tracker_shift_mm)) @ rotation(
-            1e-3 * np.asarray(self.tracker_rotation_mrad))
-
 
 def rotation(w_rad: np.ndarray) -> np.ndarray:
     """The rotation matrix of rotation vector `w_rad` (Rodrigues), shape (3, 3)."""

@@ -30,6 +30,7 @@ from twin.analysis.discrepancy.residuals import ResidualModel, measured_streams
 from twin.analysis.discrepancy.selection import single_gains
 from twin.errors import InputError
 from twin.runs.format import Run
+from twin.sim.effects import Effects
 from twin.sim.spec import TwinSpec
 
 STREAMS = ("position", "force", "profile")
@@ -120,16 +121,27 @@ class Floor(NamedTuple):
                    {str(k): float(v) for k, v in gains.items()})
 
 
+def excess_by_stream(model: ResidualModel, effects: Effects) -> dict[str, tuple[float, int]]:
+    """Stream -> (Σ v² − n, n): the excess over noise of the residual measured - predicted (`model.streams`) over
+    the noise the run shows, as the search measures it, and its number of elements."""
+    sigma = model.noise.by_stream
+    out = {}
+    for s, raw in model.streams(effects).items():
+        v = np.ravel(raw) / sigma[s]
+        out[s] = (float(v @ v) - v.size, v.size)
+    return out
+
+
 def measure_floor(run: Run, spec: TwinSpec) -> Floor:
     """The floor `spec` leaves on `run` (a clean run it did not learn from), measured as the search measures."""
     model = ResidualModel(run, spec)
     noise = model.noise
-    sigma = {"position": noise.position_m, "force": noise.force_n, "profile": noise.profile_m}
+    sigma = noise.by_stream
     excess, structure = {}, {}
-    for s, raw in model.streams(spec.effects).items():  # measured - predicted, as the search's residual
-        v = np.ravel(raw) / sigma[s]
-        excess[s] = max(float(v @ v) - v.size, 0.0) / v.size
-        structure[s] = max(structured_excess(raw, sigma[s]), 0.0) / v.size
+    for s, (total, n) in excess_by_stream(model, spec.effects).items():
+        excess[s] = max(total, 0.0) / n
+    for s, raw in model.streams(spec.effects).items():
+        structure[s] = max(structured_excess(raw, sigma[s]), 0.0) / raw.size
     ctx = context(model, spec.effects)
     fitter = Fitter(ctx, measured_streams(run), sigma, model.folds())
     sizes = {s: fitter.raw[s].size for s in fitter.streams}

@@ -39,6 +39,11 @@ class Noise:
     force_n: float
     profile_m: float
 
+    @property
+    def by_stream(self) -> dict[str, float]:
+        """Stream name -> its sigma per axis (SI): `position` [m], `force` [N], `profile` [m]."""
+        return {"position": self.position_m, "force": self.force_n, "profile": self.profile_m}
+
     def summary(self) -> dict[str, float]:
         """JSON keys with units: `position_mm`, `force_n`, `profile_mm` (per axis sigma)."""
         return {

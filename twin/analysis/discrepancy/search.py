@@ -125,7 +125,7 @@ def find_discrepancy(
     model = ResidualModel(run, spec)
     ctx = context(model, start)
     noise = model.noise
-    sigma = {"position": noise.position_m, "force": noise.force_n, "profile": noise.profile_m}
+    sigma = noise.by_stream
     measured = measured_streams(run)
     fitter = Fitter(ctx, measured, sigma, model.folds())
     sizes = {s: fitter.raw[s].size for s in fitter.streams}
