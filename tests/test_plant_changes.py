@@ -29,7 +29,7 @@ from plant_changes import (
 ROOT = Path(__file__).resolve().parents[1]
 #: On the groove cell: named right, the next run's excess over the floor at least halved.
 RIGHT_ON_THE_GROOVE = ("ft_retared", "ft_recalibrated", "tracker_reregistered", "tracker_clock",
-                       "robot_moved", "sheet_thicker")
+                       "gear_play", "robot_moved", "sheet_thicker")
 
 
 @pytest.fixture(scope="module")
@@ -44,7 +44,7 @@ def groove_cell(tmp_path_factory: pytest.TempPathFactory) -> Path:
 def test_each_change_on_the_groove_is_named_right_and_carried_or_not_named(groove_cell: Path, change: Any) -> None:
     """Those the search gets are named right and carried (the next run's excess over the floor at least halved);
     the others (an F/T re-mount within the floor, an F/T clock the groove's reversals do not pin down, a 0.08 mm
-    drift at the floor's edge, a gear's play the lost-motion family does not have the form of) are not named wrong:
+    drift at the floor's edge) are not named wrong:
     `unexplained` (the cell learned again) or `none` (not observable above the floor)."""
     row = run_case("tx200-groove", change, groove_cell)
     if change.name in RIGHT_ON_THE_GROOVE:

@@ -13,7 +13,8 @@ that switches it off, the range it may take and where it acts:
 | sheet_springback | - | sheet | fraction of the formed depth the sheet recovers after unclamping |
 
 The F/T sensor's and the tracker's calibration (vectors: a bias, a registration, a clock) ride along as
-`Effects.instruments` (`twin.sim.instruments`). The same vocabulary serves the quasi-static lab (its hidden truth), the twin (the effects it knows, e.g. found by
+`Effects.instruments` (`twin.sim.instruments`), and a gear's play under the forming load (one half dead band per arm
+joint, the flank set by the joint's torque) as `Effects.gear_play_rad` (`twin.sim.gear_play`). The same vocabulary serves the quasi-static lab (its hidden truth), the twin (the effects it knows, e.g. found by
 the discrepancy search), the model file (`twin.sim.model_file`) and the discrepancy families, which map onto
 these names (`twin.analysis.discrepancy.families`). `step` is the finite-difference step the search refines an
 effect with; `compose` says how a fitted increment adds to a known value. Names used before are still read
@@ -40,6 +41,10 @@ TRACKER_DRIFT_DIRECTION = np.array([0.6, 0.0, 0.8])
 INSTRUMENTS = "instruments."
 #: Travel after a reversal over which lost motion is taken up [m].
 LOST_MOTION_TAKEUP_M = 0.002
+#: Key of an increment of `Effects.gear_play_rad` in `Effects.composed` (one value per arm joint [rad]).
+GEAR_PLAY = "gear_play_rad"
+#: The largest half dead band of a gear's play the twin takes [rad] (a worn industrial gear shows a few mrad).
+GEAR_PLAY_MAX_RAD = 0.02
 
 
 #: (time since the run's start [s], simulated tip [m], value [unit]) -> reading added [m] (`EffectSpec.tracker`).
@@ -145,11 +150,14 @@ class Effects:
         lost_motion_takeup_m: Travel after a reversal over which lost motion is taken up [m].
         instruments: The F/T sensor's and the tracker's calibration (`twin.sim.instruments`: vectors, which the
             scalar vocabulary does not hold), applied to what the twin's sensors report.
+        gear_play_rad: Half dead band of each arm joint's gear, the link resting on the flank its torque pushes it
+            to (`twin.sim.gear_play`) [rad], one per arm joint; empty: none.
     """
 
     values: Mapping[str, float] = field(default_factory=dict)
     lost_motion_takeup_m: float = LOST_MOTION_TAKEUP_M
     instruments: Instruments = field(default_factory=Instruments)
+    gear_play_rad: tuple[float, ...] = ()
 
     def __post_init__(self) -> None:
         clean: dict[str, float] = {}
@@ -173,9 +181,11 @@ class Effects:
         if not isinstance(self.instruments, Instruments):
             raise InputError(f"Effects.instruments = {self.instruments!r}: expected an Instruments")
         object.__setattr__(self, "values", clean)
+        object.__setattr__(self, "gear_play_rad", _gear_play(self.gear_play_rad))
 
     def __hash__(self) -> int:
-        return hash((tuple(sorted(self.values.items())), self.lost_motion_takeup_m, self.instruments))
+        return hash((tuple(sorted(self.values.items())), self.lost_motion_takeup_m, self.instruments,
+                     self.gear_play_rad))
 
     def get(self, name: str) -> float:
         """Parameter of `name`, or its neutral value when the effect is off."""
@@ -183,23 +193,30 @@ class Effects:
 
     def with_value(self, name: str, value: float) -> Effects:
         """A copy with one effect set (neutral value switches it off)."""
-        return Effects({**self.values, name: value}, self.lost_motion_takeup_m, self.instruments)
+        return Effects({**self.values, name: value}, self.lost_motion_takeup_m, self.instruments, self.gear_play_rad)
 
     def with_values(self, values: Mapping[str, float]) -> Effects:
-        """A copy with these values in place of its own (its take-up and instruments kept)."""
-        return Effects(values, self.lost_motion_takeup_m, self.instruments)
+        """A copy with these values in place of its own (its take-up, instruments and gear play kept)."""
+        return Effects(values, self.lost_motion_takeup_m, self.instruments, self.gear_play_rad)
 
     def with_instruments(self, instruments: Instruments) -> Effects:
         """A copy with these instruments."""
-        return Effects(self.values, self.lost_motion_takeup_m, instruments)
+        return Effects(self.values, self.lost_motion_takeup_m, instruments, self.gear_play_rad)
 
     def composed(self, increments: Mapping[str, Any]) -> Effects:
         """These effects with fitted increments joined by each effect's `compose` rule; keys `instruments.FIELD`
-        add to the instruments' calibration (`Instruments.plus`)."""
+        add to the instruments' calibration (`Instruments.plus`), `GEAR_PLAY` (one value per arm joint [rad]) to the
+        gear play."""
         values = dict(self.values)
         inst = {k.removeprefix(INSTRUMENTS): v for k, v in increments.items() if k.startswith(INSTRUMENTS)}
+        play = self.gear_play_rad
+        if GEAR_PLAY in increments:
+            inc = np.asarray(increments[GEAR_PLAY], dtype=float)
+            if play and len(play) != len(inc):
+                raise InputError(f"gear play increment {inc.tolist()} rad: {len(inc)} joints, the twin's {len(play)}")
+            play = tuple(float(v) for v in (np.asarray(play or np.zeros(len(inc))) + inc))
         for name, inc in increments.items():
-            if name.startswith(INSTRUMENTS):
+            if name.startswith(INSTRUMENTS) or name == GEAR_PLAY:
                 continue
             rule = EFFECTS[name].compose
             if rule == "scale":
@@ -208,12 +225,14 @@ class Effects:
                 values[name] = 1.0 - (1.0 - self.get(name)) * (1.0 - inc)
             else:
                 values[name] = self.get(name) + inc
-        return Effects(values, self.lost_motion_takeup_m, self.instruments.plus(inst) if inst else self.instruments)
+        return Effects(values, self.lost_motion_takeup_m, self.instruments.plus(inst) if inst else self.instruments,
+                       play)
 
     def simulated(self) -> Effects:
         """The effects that change the twin's simulation (`EffectSpec.simulated`), the others (and the
-        instruments) off."""
-        return Effects({n: v for n, v in self.values.items() if EFFECTS[n].simulated}, self.lost_motion_takeup_m)
+        instruments) off; the gear play kept."""
+        return Effects({n: v for n, v in self.values.items() if EFFECTS[n].simulated}, self.lost_motion_takeup_m,
+                       gear_play_rad=self.gear_play_rad)
 
     @property
     def lost_motion_rad(self) -> float:
@@ -250,9 +269,31 @@ class Effects:
         """Fraction of the formed depth recovered after unclamping [-]."""
         return self.get("sheet_springback")
 
-    def named_parameters(self) -> dict[str, dict[str, float]]:
-        """Effect name -> {parameter key with unit: value}, for JSON reports."""
-        return {name: {EFFECTS[name].key: value} for name, value in self.values.items()}
+    def named_parameters(self) -> dict[str, dict[str, float | list[float]]]:
+        """Effect name -> {parameter key with unit: value}, for JSON reports (the gear play as `gear_play`:
+        {`gear_play_mrad`: one per arm joint})."""
+        named: dict[str, dict[str, float | list[float]]] = {
+            name: {EFFECTS[name].key: value} for name, value in self.values.items()}
+        if self.gear_play_rad:
+            named["gear_play"] = {"gear_play_mrad": [1e3 * b for b in self.gear_play_rad]}
+        return named
+
+
+def _gear_play(values: Any) -> tuple[float, ...]:
+    """`Effects.gear_play_rad` checked (finite, |b| <= GEAR_PLAY_MAX_RAD) [rad]; () where no joint has play.
+
+    Raises:
+        InputError: Not numbers, or a value out of range (naming the joint and the value in mrad).
+    """
+    try:
+        play = tuple(float(v) for v in values)
+    except (TypeError, ValueError):
+        raise InputError(f"gear play = {values!r}: expected one number per arm joint [rad]") from None
+    for i, b in enumerate(play):
+        if not (math.isfinite(b) and abs(b) <= GEAR_PLAY_MAX_RAD):
+            raise InputError(f"gear play of arm joint {i + 1} = {1e3 * b:g} mrad, expected a finite half dead band "
+                             f"within +/-{1e3 * GEAR_PLAY_MAX_RAD:g} mrad")
+    return play if any(play) else ()
 
 
 def parse_effect_args(items: list[str] | None) -> Effects:

@@ -16,6 +16,8 @@ read with `--model`:
              (the declared tool, `TwinSpec.tool`, its bending at the tip optional; absent: the robot model's own),
      "instruments": {"force_bias_n": [40, 0, -30], "tracker_shift_mm": [...], ...} (the F/T sensor's and the
              tracker's calibration found by `discrepancy`, `twin.sim.instruments`; fields left out are neutral),
+     "gear_play_mrad": [0, 0, 0.4, 0, 0, 0] (a gear's play under the forming load, one half dead band per arm
+             joint, `Effects.gear_play_rad`, found by `discrepancy`; absent: none),
      "note": "..."}
 
 Every key but `format` may be left out (the default cell's value); a `material` of the library
@@ -50,7 +52,8 @@ MODEL_FORMAT = "tx200-twin-model/2"
 READABLE_FORMATS = ("tx200-twin-model/1", MODEL_FORMAT)
 #: The keys a model file takes (`model_payload` writes them; `units` and `note` are for the reader).
 MODEL_KEYS = ("format", "robot", "process", "placement", "effects", "units", "lost_motion_takeup_mm",
-              "joint_stiffness_nm_per_rad", "joint_friction_nm", "servo", "tool", "note", "floor", "instruments")
+              "joint_stiffness_nm_per_rad", "joint_friction_nm", "servo", "tool", "note", "floor", "instruments",
+              "gear_play_mrad")
 #: The keys of its `process` object and of `process.history`.
 PROCESS_KEYS = (*RECORD_KEYS, "friction_reversal_mm", "force_model", "force_fit", "history")
 HISTORY_KEYS = ("file", "symmetry", "unchecked_symmetry")
@@ -96,6 +99,8 @@ def model_payload(spec: TwinSpec, note: str = "") -> dict[str, Any]:
         payload["tool"] = spec.tool.to_json()
     if not spec.effects.instruments.neutral:
         payload["instruments"] = spec.effects.instruments.changed()
+    if spec.effects.gear_play_rad:
+        payload["gear_play_mrad"] = [1e3 * b for b in spec.effects.gear_play_rad]
     return payload
 
 
@@ -136,7 +141,8 @@ def read_model_file(path: str | Path) -> TwinSpec:
         takeup_m = LOST_MOTION_TAKEUP_M if takeup_mm is None else float(takeup_mm) / 1e3
         instruments = payload.get("instruments")
         effects = Effects(dict(payload.get("effects", {})), takeup_m,
-                          Instruments() if instruments is None else Instruments.from_json(instruments, "the model"))
+                          Instruments() if instruments is None else Instruments.from_json(instruments, "the model"),
+                          _gear_play(path, payload.get("gear_play_mrad")))
         return TwinSpec(
             robot=load_robot(payload.get("robot")),
             process=_process(path, payload.get("process")),
@@ -215,6 +221,17 @@ def _known_keys(path: Path, entry: Mapping[str, Any], prefix: str, keys: Sequenc
     if unknown:
         raise DataFileError(path, f"unknown key(s) {[prefix + str(k) for k in unknown]}; "
                             f"{'a model file' if not prefix else prefix.rstrip('.')} takes {list(keys)}")
+
+
+def _gear_play(path: Path, entry: Any) -> tuple[float, ...]:
+    """The `gear_play_mrad` list as `Effects.gear_play_rad` [rad] (None: no play; its range is the effects')."""
+    if entry is None:
+        return ()
+    if not isinstance(entry, Sequence) or isinstance(entry, str) or not all(
+        isinstance(v, int | float) and not isinstance(v, bool) for v in entry
+    ):
+        raise DataFileError(path, f"gear_play_mrad = {entry!r}: expected a list of numbers [mrad], one for each arm joint of the robot")
+    return tuple(float(v) / 1e3 for v in entry)
 
 
 def _servo(path: Path, entry: Any) -> ServoTransient | None:

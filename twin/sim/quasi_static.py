@@ -8,7 +8,8 @@ same equilibria.
 
 The path is taught under gravity: the set-points are q_ref = q_ik + K^-1 g(q_ik), so the unloaded robot
 lands exactly on the IK solution, and deflection = loaded - unloaded. After each sample the field's formed
-surface advances to where the tool really was.
+surface advances to where the tool really was. A gear's play (`Effects.gear_play_rad`) replays twice: the second
+time each gear rests on the flank the first replay's torques set (`twin.sim.gear_play`).
 """
 
 from __future__ import annotations
@@ -32,6 +33,7 @@ from twin.sim.compiled import compiled_replay
 from twin.sim.compiled.work import tip_gains
 from twin.sim.equilibrium import EquilibriumSolver
 from twin.sim.ft_sensor import flange_sensor_forces
+from twin.sim.gear_play import gear_play_references
 from twin.sim.python_loop import python_loop
 from twin.sim.result import LoopOutput, SimResult
 
@@ -81,9 +83,8 @@ class Twin:
                 set_joint_stiffness(nominal, spec.joint_stiffness, self.robot)
         self.kinematics = Kinematics(nominal, robot=self.robot)
         self.data = mujoco.MjData(self.model)
-        scaled = self.history
-        if effects.force_scale != 1.0:
-            scaled = replace(self.history, f_sheet_n=effects.force_scale * self.history.f_sheet_n)
+        scaled = self.history if effects.force_scale == 1.0 else replace(
+            self.history, f_sheet_n=effects.force_scale * self.history.f_sheet_n)
         self._reversal_m = spec.process.friction_reversal_m
         self.set_sheet_field(build_force_field(spec.process, scaled))
         m = self.model
@@ -224,6 +225,9 @@ class Twin:
         q_nominal_all[:, self._lost_qpos] = self._lost_motion_references(p_cmd, direction, q_ik)
         h_const = np.diag(k_diag) + grad_g  # the Newton matrix without the sheet term
         out = self._loop(q_nominal_all, pass_index, direction, k_diag, h_const)
+        if self.effects.gear_play_rad:  # again, each gear on the flank the first replay's torques set
+            q_nominal_all = gear_play_references(self, q_nominal_all, t_s, p_cmd, direction, out.qpos, out.f_sheet_n)
+            out = self._loop(q_nominal_all, pass_index, direction, k_diag, h_const)
         tip_gain = np.empty((len(t_s), 3, 3))  # (I - J K⁻¹ Jᵀ S)⁻¹ per sample
         if not tip_gains(out.jac, np.ascontiguousarray(k_diag, dtype=float), out.stiffness, tip_gain):
             raise np.linalg.LinAlgError("singular tool-tip gain I - J K⁻¹ Jᵀ S")
@@ -294,9 +298,8 @@ class Twin:
         Returns:
             Force exerted by the sheet on the tool, sheet frame [N], shape (m, 3).
         """
-        return flange_sensor_forces(
-            self.model, self.data, result, t_s, robot=self.robot, R_base_sheet=self.R_base_sheet
-        )
+        return flange_sensor_forces(self.model, self.data, result, t_s, robot=self.robot,
+                                    R_base_sheet=self.R_base_sheet)
 
     def static_deflection(self, f_base_n: np.ndarray, q: np.ndarray | None = None) -> np.ndarray:
         """Equilibrium tool-tip deflection under a constant force at the tool tip (no sheet field).
@@ -320,9 +323,8 @@ class Twin:
         q_ref = q_nominal + g_nom / k_diag
         h_const = np.diag(k_diag) + self._gravity_gradient(q_nominal)
         no_sheet = np.zeros((3, 3))
-        q, _, _, _ = self._solver.solve(
-            q_nominal.copy(), q_ref, k_diag, h_const, lambda _p: (f, no_sheet), q_ref - q_nominal
-        )
+        q, _, _, _ = self._solver.solve(q_nominal.copy(), q_ref, k_diag, h_const, lambda _p: (f, no_sheet),
+                                        q_ref - q_nominal)
         d.qpos[:] = q
         mujoco.mj_kinematics(m, d)
         return d.site_xpos[self._tcp] - p0

@@ -66,6 +66,10 @@ class TwinSpec:
             if not isinstance(getattr(self, name), kind):
                 raise InputError(f"TwinSpec.{name} = {getattr(self, name)!r}: expected a {kind.__name__}")
         force_model(self.process.force_model)  # registered (the error lists the models)
+        play = self.effects.gear_play_rad
+        if play and len(play) != robot.dof:
+            raise InputError(f"gear play {[1e3 * b for b in play]} mrad gives {len(play)} joints; robot {robot.name!r} "
+                             f"has {robot.dof} arm joints: give one value for each")
         if self.servo is not None and (not isinstance(self.servo, ServoTransient)
                                        or len(self.servo.compliance_rad_per_nm) != robot.dof):
             raise InputError(f"TwinSpec.servo = {self.servo!r}: expected a ServoTransient with {robot.dof} joints")

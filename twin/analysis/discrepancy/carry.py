@@ -122,7 +122,8 @@ def into_effects(
         scalar = {k: v for inc in found.values() for k, v in inc.items() if not k.startswith(INSTRUMENTS)}
         trial_mapped = {**mapped, **new}
         effect_keys = [k for keys in trial_mapped.values() for k in keys if k in EFFECTS]
-        trial = refine(model, effects.composed(scalar), fitter_for, effect_keys, progress) if effect_keys else effects
+        trial = refine(model, effects.composed(scalar), fitter_for, effect_keys, progress) if effect_keys \
+            else effects.composed(scalar)
         trial = refit_instruments(model, trial, [families[n] for n, keys in new.items()
                                                  if keys[0].startswith(INSTRUMENTS)], fitter_for)
         trial, kept = prune(model, start, trial, trial_mapped, fitter_for, list(sizes.values()))

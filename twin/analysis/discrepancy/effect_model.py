@@ -11,6 +11,7 @@ what is then left was only soaking up linearisation error and is dropped (`prune
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -21,7 +22,7 @@ from twin.analysis.discrepancy.fitting import Fit, Fitter
 from twin.analysis.discrepancy.residuals import ResidualModel
 from twin.analysis.discrepancy.selection import ROUND_SHARE
 from twin.analysis.discrepancy.significance import excess_over_noise
-from twin.sim.effects import EFFECTS, INSTRUMENTS, Effects
+from twin.sim.effects import EFFECTS, GEAR_PLAY, INSTRUMENTS, Effects
 
 REFINE_ITERATIONS = 4  # replays to make the linearised fit exact (each ~0.1 s)
 
@@ -30,7 +31,8 @@ def effect_increment(
     fit: Fit, families: dict[str, Family], name: str, ctx: Context, *, lenient: bool = False
 ) -> dict[str, Any] | None:
     """One fitted family as an increment of its effect, or of the instruments' calibration (keys
-    `instruments.FIELD`, `twin.sim.instruments`) where the fit is not of its effect's form; None: neither.
+    `instruments.FIELD`, `twin.sim.instruments`) where the fit is not of its effect's form, or of the effects the
+    scalar vocabulary does not hold (`Family.to_increments`: the gear play, `GEAR_PLAY`); None: none of these.
 
     `lenient` projects onto the effect's form whatever the uncertainty where the family has no instruments' form
     (used once the form is chosen).
@@ -44,6 +46,9 @@ def effect_increment(
     carried = family.to_instruments(theta, ctx)
     if carried is not None:
         return {f"{INSTRUMENTS}{k}": v for k, v in carried.items()}
+    increments = family.to_increments(theta, ctx)
+    if increments is not None:
+        return increments
     if family.effect is None or not lenient:
         return None
     value = family.to_effect(theta, fit.covariance[name] * 1e8)
@@ -143,6 +148,8 @@ def prune(
         values.update({k: start.get(k) for k in effect_keys if k in EFFECTS})
         fields = [k.removeprefix(INSTRUMENTS) for k in effect_keys if k.startswith(INSTRUMENTS)]
         without = effects.with_values(values).with_instruments(effects.instruments.reset(fields, start.instruments))
+        if GEAR_PLAY in effect_keys:
+            without = replace(without, gear_play_rad=start.gear_play_rad)
         excess_without = excess_over_noise(fitter_for(context(model, without)).base, sizes)
         if len(keys) > 1 and excess_without - excess_with <= ROUND_SHARE * max(excess_without, 0.0):
             effects = without

@@ -26,7 +26,7 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -109,6 +109,13 @@ class Family(ABC):
     def to_instruments(self, theta: np.ndarray, ctx: Context) -> dict[str, np.ndarray] | None:
         """The fitted family as increments of the instruments' calibration (`twin.sim.instruments.FIELDS`), for a
         model file, where `to_effect` gives none; None: the family is not of the instruments."""
+        del theta, ctx
+        return None
+
+    def to_increments(self, theta: np.ndarray, ctx: Context) -> dict[str, Any] | None:
+        """The fitted family as increments of the twin's effects the scalar vocabulary does not hold (keys
+        `twin.sim.effects.Effects.composed` takes, e.g. `GEAR_PLAY`: one value per arm joint), for a model file, where
+        it has neither an effect nor the instruments' form; None: none."""
         del theta, ctx
         return None
 

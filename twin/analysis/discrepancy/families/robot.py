@@ -10,11 +10,15 @@ given w.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from twin.analysis.discrepancy.context import Context
 from twin.analysis.discrepancy.families.base import Delta, Family, register
 from twin.analysis.discrepancy.families.sensors import negligible
+from twin.sim.effects import GEAR_PLAY
+from twin.sim.gear_play import load_flank
 
 # joints 2 and 3 count as "alike" (the effect `lost_motion`) within this fraction of their sum: the linearised
 # replay under-states an alternating offset's force change, biasing the two by up to ~25 %; the replay
@@ -161,3 +165,50 @@ class ClampProximity(Family):
         weight = sum(a * np.exp(-distance / decay) for a, decay in zip(theta[:2], CLAMP_DECAYS_M, strict=True))
         return _delta(ctx, theta, np.zeros((len(x), 3)), weight[:, None] * ctx.sim.f_sheet_n)
 
+
+@register
+class LostMotionUnderLoad(Family):
+    """Backlash in joints 1-3 under the forming load: each link rests on the flank its torque pushes it against.
+
+    `lost_motion` flips the flank with the travel direction. Under a forming load the flank is set by the
+    torque the gear transmits: the dead-zone backlash of the control literature (Nordin & Gutman 2002,
+    "Controlling mechanical systems with backlash - a survey", Automatica 38(10), 1633-1649), the link lagging the
+    motor by -b s(tau), b the half dead band, s a smooth sign (`twin.sim.gear_play.load_flank`, the twin's own) and
+    tau = g(q) - J^T F + f_c sign(dq/dt) gravity's torque (the twin's own model), the forming force's moment and the
+    link side's friction. The robot is calibrated and taught under gravity, so the flank gravity alone sets is the
+    reference: the offset is -b (s(tau) - s(g)). Where gravity's torque is large and one-signed the play hardly
+    shows; where the forming force's moment outweighs it, or on the vertical axis (no gravity torque), it flips
+    with the load.
+
+    The twin carries it as its gear play (`Effects.gear_play_rad`, `to_increments`): it replays with each joint on
+    the flank the same `load_flank` sets.
+    """
+
+    name = "lost_motion_under_load"
+    parameters = ("joint1_mrad", "joint2_mrad", "joint3_mrad", *ANSWER)
+    neutral = (0.0, 0.0, 0.0, 1.0)
+    bounds = ((-20.0, -20.0, -20.0, 0.0), (20.0, 20.0, 20.0, 1.0))
+    scale = (0.05, 0.05, 0.05, 0.1)
+    bilinear = True
+    description = "lost motion (half dead band) per joint, flipping with the sign of the joint's torque"
+
+    def __init__(self) -> None:
+        self._last: tuple[Context, np.ndarray] | None = None
+
+    def delta(self, ctx: Context, theta: np.ndarray) -> Delta:
+        """Joint offsets -b (s(tau) - s(g)) moved to the tip through the arm Jacobian (sheet frame)."""
+        if self._last is None or self._last[0] is not ctx:
+            sim = ctx.sim
+            self._last = (ctx, load_flank(ctx.twin, sim.t_s, sim.p_cmd_sheet_m, sim.direction, sim.q_ik, sim.qpos,
+                                          sim.f_sheet_n))
+        dq = -1e-3 * theta[None, :3] * self._last[1][:, :3]
+        jac = np.einsum("ki,nkj->nij", ctx.twin.R_base_sheet, ctx.jac[:, :, :3])
+        return _delta(ctx, theta, np.einsum("nij,nj->ni", jac, dq))
+
+    def to_increments(self, theta: np.ndarray, ctx: Context) -> dict[str, Any] | None:
+        """The twin's gear play (`twin.sim.effects.GEAR_PLAY`): b per arm joint [rad], the joints beyond this
+        family's free of play."""
+        fitted = 1e-3 * np.asarray(theta[:-1], dtype=float)
+        play = np.zeros(ctx.twin.robot.dof)
+        play[:len(fitted)] = fitted
+        return {GEAR_PLAY: tuple(float(b) for b in play)}
