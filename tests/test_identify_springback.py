@@ -60,7 +60,8 @@ def cone():
 
 def test_the_springback_constants_are_found_from_a_scan(cone) -> None:
     """Fitted: recovery_scale and depth_ratio within 1 % and 0.1 % of what the test hid (1.6, 0.94; measured
-    1.602, 0.9400), the scan's shift found by the registration, the residual at the scan's noise (0.02 mm)."""
+    1.602, 0.9400), the wall's tilt the test's rule does not have near 0, the scan's shift found by the
+    registration, the residual at the scan's noise (0.02 mm)."""
     path, design = cone
     spec = TwinSpec(process=Process(force_model="isf"))
     scan, _ = _scanned_part(path, spec, seed=3)
@@ -72,7 +73,8 @@ def test_the_springback_constants_are_found_from_a_scan(cone) -> None:
     doc[1].check(found["depth_ratio"], slack=2.0)
     assert found["recovery_scale"] == pytest.approx(HIDDEN_RECOVERY, rel=0.01)
     assert found["depth_ratio"] == pytest.approx(1.0 - HIDDEN_LIFT, abs=0.001)
-    assert fit.rms_before_m > 0.2e-3 and fit.rms_after_m < 0.03e-3 and fit.points > 500
+    assert found["wall_tilt_scale"] < 0.05  # the test's part does not turn its wall: the fit says so
+    assert fit.rms_before_m > 0.15e-3 and fit.rms_after_m < 0.03e-3 and fit.points > 500
     np.testing.assert_allclose(fit.registration.translation_m[:2], [-0.2e-3, 0.1e-3], atol=0.02e-3)
 
 

@@ -40,6 +40,7 @@ CASES: dict[str, list[tuple[list[str], dict[str, str], str]]] = {
     ],
     "reproduce": [(["--markdown", "r.md", "--json", "r.md"], {}, "--json r.md")],
     "force-validation": [(["--markdown", "r.md", "--json", "r.md"], {}, "--json r.md")],
+    "springback-scans": [(["--markdown", "r.md", "--json", "r.md"], {}, "--json r.md")],
     "lab": [
         (["--scenario", "compensated", "--commanded", "c.csv", "--seed", "1", "--out", "c.csv"],
          {"c.csv": "t_s,x_mm,y_mm,z_mm\n"}, "--out c.csv"),

@@ -42,14 +42,16 @@ def cone():
 
 
 def test_the_twins_part_lands_on_the_design(cone) -> None:
-    """Measured: path-compensated 0.490 mm rms (the springback), part-compensated 0.039 then 0.007 mm (each
-    sample's error read on the surface it formed)."""
+    """Measured: path-compensated 0.743 mm rms (the springback and the wall's tilt), part-compensated 0.081 then
+    0.046 mm (each sample's error read on the surface it formed; the wall's tilt depends on the whole part's
+    shape, which each iteration changes, so the iterations stall near 0.04 mm where they reached 0.007 mm
+    without it)."""
     path, design = cone
     twin = TwinSpec(process=Process(force_model="isf")).build()
     result = compensate_part(path, twin, design, iterations=2)
     first = 1e-3 * result.error_per_iteration[0]["part"]["rms_mm"]
     last = 1e-3 * result.error_per_iteration[-1]["part"]["rms_mm"]
-    assert first > 0.3e-3 and last < first / 3 and last < 0.02e-3
+    assert first > 0.3e-3 and last < first / 10 and last < 0.06e-3
     assert np.all(result.target.p_sheet_m[:, :2] == path.p_sheet_m[:, :2])  # x-y held fixed
 
 

@@ -2,7 +2,8 @@
 
 Modules: `demo` (the thesis story) and its `report`, `reproduction` (the thesis-vs-twin table),
 `force_validation` (the force model against the published measurements of `force_data`, and the springback
-against a published part's section, `springback_validation`), `bench`,
+against a published part's section, `springback_validation`), `springback_scans` and `springback_page` (the
+formed part's springback against 32 scanned cones), `bench`,
 `bench_speed`, `bench_place` (the placement search's cost), `bench_cli` (`compensate` and `place` over `replay`,
 fresh CLI processes), `bench_suite` (the test suite's own time), `bench_online` (the online compensator's
 real-time figures) and `machine` (the speed ratios and the machine they

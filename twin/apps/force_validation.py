@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from scipy.optimize import least_squares
@@ -188,6 +189,21 @@ def validate_forces(measurements: Measurements | None = None, seed: int = 1) -> 
 
 def _n(value: float | None) -> str:
     return "—" if value is None else f"{value:.0f}"
+
+
+def result_json(result: Validation) -> dict[str, Any]:
+    """The validation's numbers as the `force-validation --json` document."""
+    return {
+        "cases": [{
+            "key": r.case.key, "source": r.case.source, "material": r.case.material,
+            "tensile_strength_mpa": r.tensile_strength_mpa, "measured_steady_n": r.case.fz_steady_n,
+            "measured_peak_n": r.case.fz_peak_n, "model_steady_n": r.steady_n, "model_peak_n": r.peak_n,
+            "error": r.error, "inside": r.inside, "reasons": list(r.reasons),
+        } for r in result.cases],
+        "trends": [{"key": t.key, "published": t.published, "model": t.model} for t in result.trends],
+        "build_up": {"depth_mm": 1e3 * result.build_up.depth_m, "fz_steady_n": result.build_up.fz_steady_n,
+                     "rms_n": result.build_up.rms_n},
+    }
 
 
 def markdown(validation: Validation) -> str:

@@ -75,7 +75,8 @@ def profile_lines(profile: ProfileResult | None) -> list[str]:
         "## Springback: the BM3 part's section (predicted)",
         "",
         "The BM3 cone formed on the rigid CNC with its process and unclamped (the model's elastic recovery F/k_unload "
-        "with k_unload calibrated on the thesis's AA5086 groove, and the floating bottom), its section along x beside "
+        "with k_unload calibrated on the thesis's AA5086 groove, the floating bottom, and the wall's tilt fitted on "
+        "scanned cones, docs/springback.md), its section along x beside "
         "the measured one (Neto et al. 2016, Fig. 10, rolling direction, digitised by a third party: secondary; "
         f"`twin/data/bm3_profile_rd.csv`). The design is {profile.cad_depth_mm:.2f} mm deep. RMS model − measured: "
         f"**{profile.rms_mm():.2f} mm** over the section, {profile.rms_mm(50.0):.2f} mm within |x| ≤ 50 mm.",
@@ -86,7 +87,7 @@ def profile_lines(profile: ProfileResult | None) -> list[str]:
         "",
         f"Where the model is weak: near the clamp (|x| = 60 mm) the measured sheet lies {rim:.1f} mm lower than the "
         "model's (the unformed sheet bends there; the height map keeps it flat); the walls and the bottom come out "
-        f"{inner.min():.1f}-{inner.max():.1f} mm deeper than measured (the model's recovery, from a 1 mm AA5086 "
-        "groove, is too small for this 1.63 mm AA7075-O part).",
+        f"between {inner.min():+.1f} and {inner.max():+.1f} mm deeper than measured (the recovery's k_unload is a 1 mm "
+        "AA5086 groove's, not this 1.63 mm AA7075-O part's).",
         "",
     ]

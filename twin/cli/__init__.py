@@ -1,6 +1,6 @@
 """Command line `tx200-twin`: one module per command in this package, listed in COMMANDS.
 
-Modules: `info`, `path`, `fe_history`, `identify`, `calibrate`, `reproduce`, `force_validation`, `lab`, `replay`, `learn`,
+Modules: `info`, `path`, `fe_history`, `identify`, `calibrate`, `reproduce`, `force_validation`, `springback_scans`, `lab`, `replay`, `learn`,
 `compensate`, `check`, `bench`, `sweep`, `place`, `discrepancy`, `demo`, `import_run` (`import`), `export`, `online`, `materials` and `robots`,
 one per command, each over its task (`twin/apps/tasks/`: a typed request, a report); `_common` holds the options
 several commands share (the FE history, the force model, the declared process, the placement, `--json`) and
@@ -58,6 +58,7 @@ COMMANDS: dict[str, str] = {
     "calibrate": "calibrate",
     "reproduce": "reproduce",
     "force-validation": "force_validation",
+    "springback-scans": "springback_scans",
     "lab": "lab",
     "replay": "replay",
     "learn": "learn",

@@ -21,7 +21,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Validate, print the table, write it where asked."""
-    from twin.apps.force_validation import markdown, validate_forces
+    from twin.apps.force_validation import markdown, result_json, validate_forces
     from twin.base.csvio import write_text
     from twin.base.jsonio import emit_json
 
@@ -30,15 +30,5 @@ def run(args: argparse.Namespace) -> int:
     if args.markdown is not None:
         write_text(args.markdown, text)
     print(text, file=sys.stderr if args.json == "-" else sys.stdout)
-    emit_json(args.json, {
-        "cases": [{
-            "key": r.case.key, "source": r.case.source, "material": r.case.material,
-            "tensile_strength_mpa": r.tensile_strength_mpa, "measured_steady_n": r.case.fz_steady_n,
-            "measured_peak_n": r.case.fz_peak_n, "model_steady_n": r.steady_n, "model_peak_n": r.peak_n,
-            "error": r.error, "inside": r.inside, "reasons": list(r.reasons),
-        } for r in result.cases],
-        "trends": [{"key": t.key, "published": t.published, "model": t.model} for t in result.trends],
-        "build_up": {"depth_mm": 1e3 * result.build_up.depth_m, "fz_steady_n": result.build_up.fz_steady_n,
-                     "rms_n": result.build_up.rms_n},
-    })
+    emit_json(args.json, result_json(result))
     return 0

@@ -1,4 +1,4 @@
-"""The part's springback learned from the cell: two global springback constants fitted to a formed part's scan.
+"""The part's springback learned from the cell: three global springback constants fitted to a formed part's scan.
 
 Forces do not show how far a part springs back once unclamped; a scan does. The nominal part is formed anyway
 (its F/T stream gives the forces, `twin.analysis.identify.forces`), so its scan gives the springback: the twin
@@ -10,17 +10,19 @@ mm: 0.9 mm), which a registration to the design would take away. The twin's part
 springback it does not know (the dynamic plant's Ø 80 mm cone: 1.0 mm rms), so the registration's thresholds are
 looser than `check`'s (`REGISTRATION_RMS_M`); the scan is registered again to the part the fit found and fitted
 again (`PASSES`), and a fit that leaves more than `MAX_FIT_RMS_M` rms is refused (another part). The
-design classes the points (wall, bottom, rim). Two constants of the model's springback
+design classes the points (wall, bottom, rim). Three constants of the model's springback
 (`twin.process.part.surface.springback_surface`) are fitted by least squares:
 
-    z_after = depth_ratio · min(z_loaded + recovery_scale · F_z/k_unload, 0)
+    z_after = depth_ratio · min(min(z_loaded + recovery_scale · F_z/k_unload, 0) + wall_tilt_scale · lift, 0)
 
 `recovery_scale` scales the elastic recovery the twin predicts (the sheet's unloading stiffness k_unload, as a
 forming engineer's "elastic springback of the wall"), `depth_ratio` is the depth the part keeps of it (a global
-loss of depth on unclamping, as the thesis's rigid CNC kept 8.7 mm of 10 mm). The residual of a scan point is its
+loss of depth on unclamping, as the thesis's rigid CNC kept 8.7 mm of 10 mm), `wall_tilt_scale` the wall's turn
+about its top when the load is released (`twin.process.part.wall_tilt`: the model's, 1, from scanned cones). The
+residual of a scan point is its
 distance to the predicted surface along that surface's normal, to first order: (z_scan - z_pred(x, y)) /
 sqrt(1 + |∇z_pred|²), over the points the design classes as the part (wall, bottom, rim). This is model
-identification: two global numbers, the same everywhere on the part; it corrects no point on its own (that is
+identification: three global numbers, the same everywhere on the part; it corrects no point on its own (that is
 the learning from scans, `twin.analysis.part_compensation.learn_from_scan`).
 
 The fit uses the run's command and scan and the design only; `truth.json` is never read.
@@ -43,7 +45,7 @@ from twin.runs.format import Run
 from twin.sim.spec import TwinSpec
 
 #: Fitted constants: (name, lower bound, upper bound) [-].
-FITTED = (("recovery_scale", 0.01, 10.0), ("depth_ratio", 0.5, 1.5))
+FITTED = (("recovery_scale", 0.01, 10.0), ("depth_ratio", 0.5, 1.5), ("wall_tilt_scale", 0.0, 10.0))
 #: Registration to the twin's part before the fit (it may miss the scan by the springback it does not know): rms
 #: [m] and share of points within 2 mm; then the fit must leave at most `MAX_FIT_RMS_M` rms [m].
 REGISTRATION_RMS_M, REGISTRATION_FRACTION, MAX_FIT_RMS_M = 3e-3, 0.9, 1e-3

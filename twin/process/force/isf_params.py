@@ -18,6 +18,8 @@ from twin.errors import InputError
 from twin.process.description import Process
 from twin.process.force.aerens import AERENS_COEFFICIENT, EXPONENT_THICKNESS, EXPONENT_TOOL, aerens_fz_n
 from twin.process.force.table import K_UNLOAD_N_PER_M, TOOL_RADIUS_M
+from twin.process.material.file import material
+from twin.process.material.hardening import power_law_equivalent
 
 #: Where the build-up depth comes from (fitted by `twin.apps.force_validation.fit_build_up`, guarded by a test).
 BUILD_UP_SOURCE = (
@@ -55,6 +57,13 @@ class IsfForceParams:
         depth_ratio: The part's depth after unclamping over its depth with that recovery [-] (1: no further loss;
             0.95: 5 % of the depth springs back; identified from a scan likewise).
         spacing_m: Height-map grid spacing [m].
+        youngs_modulus_gpa: The sheet's E [GPa] (the wall's tilt, `twin.process.part.wall_tilt`).
+        poisson_ratio: The sheet's ν [-], in (0, 0.5).
+        hardening_k_mpa: K of the sheet's flow stress read as σ = K·ε^n [MPa]
+            (`twin.process.material.hardening.power_law_equivalent`).
+        hardening_n: n of it [-], in (0, 1].
+        wall_tilt_scale: Factor on the wall's tilt when the tool's load is released [-] (1: the model's; 0: none,
+            as for a material whose E the library does not know).
     """
 
     tensile_strength_mpa: float = 275.0
@@ -71,12 +80,21 @@ class IsfForceParams:
     spacing_m: float = 0.5e-3
     recovery_scale: float = 1.0
     depth_ratio: float = 1.0
+    # the thesis's AA5086-H111 (`models/materials/library.toml`): its Voce law read as a power law
+    youngs_modulus_gpa: float = 71.0
+    poisson_ratio: float = 0.33
+    hardening_k_mpa: float = 434.6
+    hardening_n: float = 0.127
+    wall_tilt_scale: float = 1.0
 
     def __post_init__(self) -> None:
         for name, value in vars(self).items():
             if not (isinstance(value, int | float) and math.isfinite(value) and (value > 0 or (
-                    name == "mu_radial" and value == 0))):
+                    name in ("mu_radial", "wall_tilt_scale") and value == 0))):
                 raise InputError(f"IsfForceParams.{name} = {value!r}: expected a finite number > 0")
+        if not (self.poisson_ratio < 0.5 and self.hardening_n <= 1.0):
+            raise InputError(f"IsfForceParams: poisson_ratio {self.poisson_ratio!r} must be < 0.5 and hardening_n "
+                             f"{self.hardening_n!r} <= 1")
         if not 0.0 < self.wall_angle_max_deg < 90.0:
             raise InputError(f"IsfForceParams.wall_angle_max_deg = {self.wall_angle_max_deg!r}: expected (0, 90)")
 
@@ -89,12 +107,27 @@ def material_fz_n(params: IsfForceParams) -> float:
     )
 
 
+def sheet_constants(process: Process) -> dict[str, float]:
+    """The wall tilt's sheet constants for a process's material (the library's E, ν and flow stress read as a
+    power law); `wall_tilt_scale` 0 for a material the library does not have, or whose E or flow stress it does
+    not know (the tilt is then left out, not guessed)."""
+    try:
+        found = material(process.material)
+    except InputError:
+        return {"wall_tilt_scale": 0.0}
+    power = power_law_equivalent(found.hardening, found.yield_strength_mpa, found.tensile_strength_mpa)
+    if found.youngs_modulus_gpa is None or power is None:
+        return {"wall_tilt_scale": 0.0}
+    return {"youngs_modulus_gpa": found.youngs_modulus_gpa, "poisson_ratio": found.poisson_ratio or 0.33,
+            "hardening_k_mpa": power[0], "hardening_n": power[1]}
+
+
 def params_for(process: Process, **overrides: float) -> IsfForceParams:
-    """The model's constants for a process: its R_m, t and R, the shipped shape constants (`overrides` replace
-    any of them)."""
+    """The model's constants for a process: its R_m, t and R, its material's elastic and plastic constants
+    (`sheet_constants`), the shipped shape constants (`overrides` replace any of them)."""
     base = IsfForceParams(
         tensile_strength_mpa=process.tensile_strength_mpa, thickness_m=process.thickness_m,
-        tool_radius_m=process.tool_radius_m,
+        tool_radius_m=process.tool_radius_m, **sheet_constants(process),
     )
     unknown = set(overrides) - set(vars(base))
     if unknown:

@@ -142,3 +142,39 @@ def parameter_problem(name: str, value: Any) -> str | None:
     if name in ("n", "m") and value > 1:
         return "expected an exponent in (0, 1]"
     return None
+
+
+#: The strains over which a law is read as a power law (`power_law_equivalent`): a SPIF wall's sine-law strains
+#: from about 25° to 70° [-].
+WALL_STRAINS = (0.1, 1.2)
+
+
+def power_law_equivalent(
+    law: HardeningLaw | None, yield_strength_mpa: float | None, tensile_strength_mpa: float
+) -> tuple[float, float] | None:
+    """A power law σ = K·ε^n for a material: (K [MPa], n [-]), or None when neither a law nor R_p0.2 is known.
+
+    A law is read by least squares in log-log over `WALL_STRAINS`. Without one, Hollomon's law through the 0.2 %
+    proof strength (σ = R_p0.2 at ε = 0.002) and the tensile strength (Considère: the engineering maximum
+    R_m = K n^n e^-n at ε = n) gives n from R_m / R_p0.2 = (n / (0.002 e))^n, then K = R_p0.2 / 0.002^n.
+
+    Args:
+        law: The material's hardening law, or None.
+        yield_strength_mpa: R_p0.2 [MPa], or None.
+        tensile_strength_mpa: R_m [MPa].
+    """
+    if law is not None:
+        strain = np.linspace(*WALL_STRAINS, 50)
+        n, log_k = np.polyfit(np.log(strain), np.log(law.stress_mpa(strain)), 1)
+        return float(np.exp(log_k)), float(n)
+    if yield_strength_mpa is None or not 0.0 < yield_strength_mpa < tensile_strength_mpa:
+        return None
+    ratio = math.log(tensile_strength_mpa / yield_strength_mpa)
+    lo, hi = 1e-3, 1.0  # n log(n / 0.002e) rises from 0 at n = 0.002e to its value at 1: bisect
+    if hi * math.log(hi / (0.002 * math.e)) < ratio:
+        return None
+    for _ in range(100):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if mid <= 0.002 * math.e or mid * math.log(mid / (0.002 * math.e)) < ratio else (lo, mid)
+    n = 0.5 * (lo + hi)
+    return yield_strength_mpa / 0.002**n, n

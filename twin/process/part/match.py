@@ -7,7 +7,9 @@ wrong design. `check_same_part` refuses them by comparing three things in the sh
 that a real part of the same path stays well inside:
 
 * depth: the surface's deepest point against the path's. A formed part is shallower than its path by springback and
-  the robot's compliance (about 1 mm on the thesis's 10 mm groove; up to 40 % of a 2 mm deep part): refused beyond
+  the robot's compliance (about 1 mm on the thesis's 10 mm groove; up to 40 % of a 2 mm deep part; the twin's
+  command for a 5 mm deep AA5086 cone goes 7.2 mm deep, and a sheet 20 % stronger forms it 4.6 mm deep, its
+  wall turning back on release): refused beyond
   `DEPTH_TOLERANCE` of the path's depth or `DEPTH_TOLERANCE_M`, whichever is larger.
 * outline and shape, at the depth `OUTLINE_DEPTH` x the path's depth: the support function h(theta) of the region
   deeper than that (its extent in each of `DIRECTIONS` directions of the x-y plane) against the path's. The same
@@ -40,7 +42,7 @@ OUTLINE_DEPTH = 0.2
 #: Directions of the x-y plane the outlines are compared in (every 5 degrees).
 DIRECTIONS = 72
 #: Depth: the surface's depth may differ from the path's by this fraction of it, or `DEPTH_TOLERANCE_M`.
-DEPTH_TOLERANCE = 0.25
+DEPTH_TOLERANCE = 0.4
 DEPTH_TOLERANCE_M = 2e-3
 #: Outline: spread and size margin, this fraction of the path's mean half-width, or `SHAPE_TOLERANCE_M`.
 SHAPE_TOLERANCE = 0.15

@@ -13,7 +13,9 @@ after unclamping, e.g. a fringe-projection scanner) and compared with the target
   the tool has left, its unsupported bottom lowered with the last contour (`twin.process.part.bottom`); None for
   a field without one (the groove's table field keeps a centre line only).
 * `springback_surface(field, recovery_scale, depth_ratio)`: the same with the springback's two constants given
-  (`formed_surface` takes them from the field's `IsfForceParams`; `identify --springback` fits them to a scan).
+  (`formed_surface` takes them from the field's `IsfForceParams`; `identify --springback` fits them to a scan);
+  the wall's tilt when the load is released (`twin.process.part.wall_tilt`) is the model's, with the params'
+  material and `wall_tilt_scale`.
 * `surface_points(...)`: grid nodes of a surface over the formed region and a margin, every `spacing_m`:
   what a scan gives (the labs add their own scanner noise).
 * `heightmap_mesh(...)`: a triangulated surface (`trimesh.Trimesh`), e.g. to write the target as an STL.
@@ -31,6 +33,7 @@ from twin.process.force.isf import IsfForceField
 from twin.process.force.isf_params import IsfForceParams
 from twin.process.part.bottom import with_floating_bottom
 from twin.process.part.heightmap import HeightMap
+from twin.process.part.wall_tilt import Sheet, tilt_lift_m
 from twin.process.toolpath.groove import ToolPath
 
 SCAN_SPACING_M = 1e-3  # a scan's point spacing [m]
@@ -56,27 +59,58 @@ def formed_surface(field: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray] | No
 
 
 def springback_surface(
-    field: Any, recovery_scale: float = 1.0, depth_ratio: float = 1.0
+    field: Any, recovery_scale: float = 1.0, depth_ratio: float = 1.0, tilt_scale: float | None = None
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The surface a height-map field has formed, after unclamping, with given springback constants [m]:
 
-        z_after = depth_ratio · min(z_loaded + recovery_scale · F_z/k_unload, 0)
+        z_after = depth_ratio · min(min(z_loaded + recovery_scale · F_z/k_unload, 0) + tilt_scale · lift, 0)
 
-    (the unsupported bottom hanging from the last contour before the depth ratio applies).
+    (the unsupported bottom hanging from the last contour before the tilt and the depth ratio apply; lift the
+    wall's tilt, `twin.process.part.wall_tilt`, with the field's params' sheet).
 
     Args:
         field: A sheet force field with a height map (`map`, `k_unload`).
         recovery_scale: Factor on the elastic recovery F_z/k_unload [-] (> 0).
         depth_ratio: Depth after unclamping over the depth with that recovery [-] (> 0).
+        tilt_scale: Factor on the wall's tilt [-] (>= 0); None: the field's params' `wall_tilt_scale`.
     """
-    if not (recovery_scale > 0 and depth_ratio > 0):
-        raise InputError(f"recovery_scale {recovery_scale!r} and depth_ratio {depth_ratio!r}: expected numbers > 0")
+    if not (recovery_scale > 0 and depth_ratio > 0 and (tilt_scale is None or tilt_scale >= 0)):
+        raise InputError(f"recovery_scale {recovery_scale!r}, depth_ratio {depth_ratio!r} and tilt_scale "
+                         f"{tilt_scale!r}: expected numbers > 0 (the tilt's >= 0)")
     height_map = field.map
     x, y = np.asarray(height_map.x_m, dtype=float), np.asarray(height_map.y_m, dtype=float)
     z = height_map.unloaded_z_m(field.k_unload / recovery_scale)
     if len(height_map.track_m) >= 3:  # the unsupported bottom inside the last contour moves down with it
         z = with_floating_bottom(x, y, z, height_map.track_m, FORMED_BELOW_M)
+    params = getattr(field, "params", None)
+    scale = (0.0 if params is None else params.wall_tilt_scale) if tilt_scale is None else tilt_scale
+    if params is not None and scale > 0:
+        z = np.minimum(z + scale * _tilt_lift(field, params), 0.0)
     return x, y, depth_ratio * z
+
+
+def _tilt_lift(field: Any, params: IsfForceParams) -> np.ndarray:
+    """The wall's tilt lift of a field's part [m] (`twin.process.part.wall_tilt.tilt_lift_m`), read off its loaded
+    surface with its floating bottom: the part's shape, not its recovery, so that a fit of the recovery and the
+    depth ratio (`identify --springback`) moves nothing else. Kept on the field until it forms more."""
+    height_map = field.map
+    key = (len(height_map.track_m), params)
+    cached = getattr(field, "_tilt_lift_cache", None)
+    if cached is not None and cached[0] == key:
+        return cached[1]
+    x, y = np.asarray(height_map.x_m, dtype=float), np.asarray(height_map.y_m, dtype=float)
+    loaded = height_map.z_loaded_m
+    if len(height_map.track_m) >= 3:
+        loaded = with_floating_bottom(x, y, loaded, height_map.track_m, FORMED_BELOW_M)
+    lift = tilt_lift_m(x, y, loaded, height_map.track_m, sheet_of(params), FORMED_BELOW_M)
+    field._tilt_lift_cache = (key, lift)
+    return lift
+
+
+def sheet_of(params: IsfForceParams) -> Sheet:
+    """What the wall's tilt needs of the params' sheet and tool (`twin.process.part.wall_tilt.Sheet`)."""
+    return Sheet(params.thickness_m, params.tool_radius_m, 1e9 * params.youngs_modulus_gpa, params.poisson_ratio,
+                 1e6 * params.hardening_k_mpa, params.hardening_n)
 
 
 def target_part_surface(
