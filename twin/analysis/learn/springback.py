@@ -8,7 +8,8 @@ command; its loaded section z_loaded(x) and the force each point last carried gi
 
 (`twin.process.part.springback`, the model's elastic recovery), and the two constants are fitted by least squares to
 the measured profile over the formed points (deeper than `FORMED_BELOW_M`). A run with a 3-D part scan instead
-needs its design to be registered: `identify --springback RUN --design STL` fits the same two constants there.
+needs its design to be registered: `identify --springback RUN --design STL` fits these two there, and the scale
+of the wall's tilt a 3-D part shows (`twin.process.part.wall_tilt`; a groove's centre line has no such wall).
 `truth.json` is never read.
 """
 

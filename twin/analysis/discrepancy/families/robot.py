@@ -10,7 +10,7 @@ given w.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -102,7 +102,7 @@ class LostMotion(Family):
     scale = (0.05, 0.05, 0.05, 0.1)
     bilinear = True
     description = "lost motion (half dead band) per joint, flipping with the travel direction"
-    effect = "lost_motion"
+    effect: ClassVar[str | None] = "lost_motion"
 
     def delta(self, ctx: Context, theta: np.ndarray) -> Delta:
         """Joint offsets -b level sign(dx/dq) moved to the tip through the arm Jacobian."""
@@ -167,7 +167,7 @@ class ClampProximity(Family):
 
 
 @register
-class LostMotionUnderLoad(Family):
+class LostMotionUnderLoad(LostMotion):
     """Backlash in joints 1-3 under the forming load: each link rests on the flank its torque pushes it against.
 
     `lost_motion` flips the flank with the travel direction. Under a forming load the flank is set by the
@@ -184,13 +184,13 @@ class LostMotionUnderLoad(Family):
     the flank the same `load_flank` sets.
     """
 
-    name = "lost_motion_under_load"
-    parameters = ("joint1_mrad", "joint2_mrad", "joint3_mrad", *ANSWER)
-    neutral = (0.0, 0.0, 0.0, 1.0)
-    bounds = ((-20.0, -20.0, -20.0, 0.0), (20.0, 20.0, 20.0, 1.0))
-    scale = (0.05, 0.05, 0.05, 0.1)
-    bilinear = True
+    name = "lost_motion_under_load"  # `lost_motion`'s parameters, bounds and scales
     description = "lost motion (half dead band) per joint, flipping with the sign of the joint's torque"
+    effect = None
+
+    def to_effect(self, theta: np.ndarray, covariance: np.ndarray | None) -> float | None:
+        """No scalar effect: the play per joint is carried by `to_increments`."""
+        return None
 
     def __init__(self) -> None:
         self._last: tuple[Context, np.ndarray] | None = None
