@@ -30,7 +30,10 @@ answers with (in EGM's path coordinates, which the server turns its base-frame c
 
 EGM path correction corrects only y and z of its path frame ("nor corrections in x (which is the path
 direction/tangent)", 3HAC073318 rev. K): the twin's correction along the path is dropped, which the header and
-the export's note say (`ALONG_PATH_NOTE`).
+the export's note say (`ALONG_PATH_NOTE`). Measured on the dynamic plant (docs/online.md, "Path correction or
+position guidance"): the 48 ms rate costs little, the dropped along-path part most of the groove's correction, whose
+deflection lies along its passes; position guidance (`EGMRunPose`, every axis each 4 ms) would keep it, but the PC
+would then stream the whole path, which this export does not do.
 
 No `egm_minmax` is declared: convergence limits belong to the guidance modes (`EGMActJoint`/`EGMActPose` with
 `EGMRunJoint`/`EGMRunPose`); a path correction ends with its moves. A program over the RAPID limit

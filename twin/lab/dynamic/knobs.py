@@ -147,6 +147,14 @@ KNOBS: dict[str, KnobSpec] = {
     "trajectory_smoothing_s": KnobSpec(
         0.02, 0.02, "s", "centred moving average of the joint set-points (jerk filter; 0: none)", 0.0, 0.5
     ),
+    "correction_period_ms": KnobSpec(
+        4.0, 4.0, "ms", "online: how often the controller takes a sensor correction (RSI, EGM position guidance: "
+        "4; EGM path correction: 48, ABB EGM manual 3HAC073318)", 1.0, 240.0
+    ),
+    "correction_along_path": KnobSpec(
+        1.0, 1.0, "-", "online: 1 the correction applied whole; 0 its part along the path dropped (EGM path "
+        "correction applies y and z of the path frame only)", 0.0, 1.0
+    ),
     # ---- tracker
     "tracker_rate_hz": KnobSpec(50.0, 50.0, "Hz", "tracker rate (thesis 3.2.1: 50 Hz)", 1.0, 1000.0),
     "tracker_noise_mm": KnobSpec(0.02, 0.02, "mm", "tracker white noise per axis (K-610 class)", 0.0, 1.0),
@@ -178,7 +186,7 @@ KNOBS: dict[str, KnobSpec] = {
 
 
 #: Knobs that choose among alternatives: whole numbers only.
-INTEGER_KNOBS = frozenset({"sheet_law"})
+INTEGER_KNOBS = frozenset({"sheet_law", "correction_along_path"})
 
 
 class Knobs:

@@ -96,17 +96,28 @@ class OnlineLog(NamedTuple):
 
 class OnlineCycle:
     """The controller's online correction: every `every` ticks the corrector's cycle, its Cartesian correction
-    turned into joint offsets by the controller's rigid model, dq = J(q_sp)^-1 [R_ws c; 0] (orientation held)."""
+    turned into joint offsets by the controller's rigid model, dq = J(q_sp)^-1 [R_ws c; 0] (orientation held).
+
+    The controller takes a correction every `correction_period_ms` (knob; held in between) and, with
+    `correction_along_path` 0, drops its part along the path (the direction of the set-points' motion, the last
+    one kept while they stand): ABB's EGM path correction reads the sensor at multiples of 24 ms and applies only
+    y and z of the path frame ("nor corrections in x (which is the path direction)", EGM application manual
+    3HAC073318 rev. K, EGMActMove); RSI's IPO_FAST and EGM's position guidance take every 4 ms, all axes."""
 
     def __init__(self, online: tuple[CycleCorrector, OnlineFt], kin: Kinematics, q_sp: np.ndarray,
                  R_ws: np.ndarray, dt: float, n_tick: int) -> None:
         self.corrector, self.ft = online
         self.every = max(1, round(self.corrector.cycle_s / dt))
+        period = 1e-3 * self.ft.knobs["correction_period_ms"]
+        self.hold = self.every * max(1, round(period / (self.every * dt)))  # ticks between corrections taken
+        self.along_path = self.ft.knobs["correction_along_path"] == 1.0
         self.kin, self.q_sp, self.R_ws = kin, q_sp, R_ws
         count = (n_tick + self.every - 1) // self.every
         self.t, self.c, self.s = np.zeros(count), np.zeros((count, 3)), np.zeros(count)
         self.status = np.zeros(count, dtype=np.int64)
         self.twist = np.zeros(kin.jacobian(q_sp[0]).shape[0])  # [translation; rotation held at 0]
+        self.held = np.zeros(q_sp.shape[1])
+        self.direction = np.zeros(3)  # the path's direction, sheet frame
 
     def run(self, k: int, t: float, q_motor: np.ndarray, ft_log: np.ndarray, R_log: np.ndarray) -> np.ndarray:
         """The corrector's cycle at tick k; returns the joint offsets to hold until the next cycle [rad]."""
@@ -116,9 +127,20 @@ class OnlineCycle:
         self.status[i] = self.corrector.step(t, stamp, f, q_motor)
         self.s[i] = time.perf_counter() - start
         self.t[i], self.c[i] = t, self.corrector.correction_m
-        self.twist[:3] = self.R_ws @ self.c[i]
+        if k % self.hold:
+            return self.held
         J = self.kin.jacobian(self.q_sp[k])
-        return np.linalg.lstsq(J, self.twist, rcond=None)[0]  # a 6-joint arm's solve; a redundant one's least norm
+        correction = self.c[i]
+        if not self.along_path:
+            last = len(self.q_sp) - 1
+            v = self.R_ws.T @ (J[:3] @ (self.q_sp[min(k + 1, last)] - self.q_sp[max(k - 1, 0)]))
+            speed = float(np.linalg.norm(v))
+            if speed > 1e-9:
+                self.direction = v / speed
+            correction = correction - float(correction @ self.direction) * self.direction
+        self.twist[:3] = self.R_ws @ correction
+        self.held = np.linalg.lstsq(J, self.twist, rcond=None)[0]  # a 6-joint arm's solve; a redundant one's least norm
+        return self.held
 
     def log(self) -> OnlineLog:
         """What the corrector did, each cycle."""
