@@ -17,6 +17,8 @@ from twin.sim.spec import TwinSpec
 
 #: A joint's compliance change below this fraction is not named [-].
 NAMED_CHANGE = 0.10
+#: Nor one within this many of its standard deviations of the prior [-].
+NAMED_SIGMAS = 2.0
 
 
 def sheet_sentences(run: Run, prior: TwinSpec) -> list[str]:
@@ -58,14 +60,16 @@ def springback_sentences(result: LearnResult) -> list[str]:
 def robot_sentences(result: LearnResult) -> list[str]:
     """The joints that changed, the friction, the lag and the tracker offset learned."""
     robot = result.robot
-    words = []
-    for j, (k, k0, seen) in enumerate(zip(robot.k_q_nm_per_rad, robot.prior_nm_per_rad, robot.observable,
-                                           strict=True)):
+    joints = []  # the largest change first: what a user reads first is what changed most
+    for j, (k, k0, k_std, seen) in enumerate(zip(robot.k_q_nm_per_rad, robot.prior_nm_per_rad, robot.std_nm_per_rad,
+                                                  robot.observable, strict=True)):
         change = k0 / k - 1.0
-        if seen and abs(change) >= NAMED_CHANGE:
-            words.append(f"joint {j + 1} is {100 * abs(change):.0f} % {'softer' if change > 0 else 'stiffer'} than "
-                         f"its K_q prior at the process's frequencies (gear and servo in series: K_q,eff "
-                         f"{k / 1e3:.0f} kN·m/rad, prior {k0 / 1e3:.0f})")
+        if seen and abs(change) >= NAMED_CHANGE and abs(k - k0) > NAMED_SIGMAS * k_std:
+            joints.append((abs(change), f"joint {j + 1} is {100 * abs(change):.0f} % "
+                           f"{'softer' if change > 0 else 'stiffer'} than its K_q prior at the process's frequencies "
+                           f"(gear and servo in series: K_q,eff {k / 1e3:.0f} ± {k_std / 1e3:.0f} kN·m/rad, prior "
+                           f"{k0 / 1e3:.0f})"))
+    words = [sentence for _, sentence in sorted(joints, key=lambda item: -item[0])]
     for j, (f, f0, seen) in enumerate(zip(robot.friction_nm, robot.prior_friction_nm, robot.observable,
                                           strict=True)):
         if seen and abs(f - f0) >= max(0.25 * f0, 20.0):
