@@ -170,7 +170,7 @@ SHIPPED_ROBOTS = ("tx200", "kr210", "irb6640")
 @pytest.mark.parametrize("name", SHIPPED_ROBOTS)
 def test_the_plants_gear_stiffness_is_its_own_not_the_twins_prior(name: str) -> None:
     """The plant's K_q stays off the twin's prior (the model's actuator gains, whatever they become): at least half
-    of the joints 10 % or more off, some stiffer and some softer."""
+    of the joints 10 % or more off, some stiffer and some softer (or off by no one common factor)."""
     from twin.lab.dynamic.knobs import Knobs
     from twin.lab.dynamic.plant import build_plant
     from twin.robot.model import load_model
@@ -182,7 +182,9 @@ def test_the_plants_gear_stiffness_is_its_own_not_the_twins_prior(name: str) -> 
     ratio = plant.k_q / prior
     off = np.abs(ratio - 1.0) >= 0.10
     assert off.sum() >= robot.dof / 2, ratio
-    assert (ratio[off] > 1.0).any() and (ratio[off] < 1.0).any(), ratio  # both signs of error
+    # both signs of error, or (a prior that is a class estimate, stiffer than the plant on every joint) no one common
+    # factor: the joints off by ratios at least 20 % apart, so a learner must find each joint, not one scale
+    assert ((ratio[off] > 1.0).any() and (ratio[off] < 1.0).any()) or np.ptp(np.log(ratio)) > np.log(1.2), ratio
     assert plant.stiffness_table == f"plant:{name}"
     # the gear spring the model carries is the plant's K_q (without a dead band: MuJoCo's joint stiffness)
     np.testing.assert_allclose(plant.model.jnt_stiffness[plant.model.dof_jntid[plant.link_dof]], plant.k_q)

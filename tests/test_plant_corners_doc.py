@@ -67,3 +67,17 @@ def test_the_plant_table_is_what_the_plant_gives() -> None:
         median, peak = (float(v) for v in doc[6].split("/"))
         assert row["corner_peak_median_n"] == pytest.approx(median, rel=0.05, abs=3.0), doc
         assert row["corner_peak_max_n"] == pytest.approx(peak, rel=0.05, abs=3.0), doc
+
+
+def test_the_pages_ratio_ranges_are_its_stiffness_table() -> None:
+    """The page's prose ("the TX200's 0.74-1.38x its prior ... the KR 210's 0.35-1.38x and the IRB 6640's 0.45-0.75x")
+    is the table's smallest and largest plant / prior ratio of each robot."""
+    page = (REPO / "docs" / "dynamic-plant.md").read_text(encoding="utf-8")
+    said = re.search(r"the TX200's ([\d.]+)-([\d.]+)x its prior.*?the KR 210's ([\d.]+)-([\d.]+)x and the IRB 6640's\s+"
+                     r"([\d.]+)-([\d.]+)x", page, flags=re.DOTALL)
+    assert said is not None
+    for k, name in enumerate(("tx200", "kr210", "irb6640")):
+        (row,) = _rows(name)
+        ratios = [float(re.findall(r"\(([\d.]+)x\)", cell)[0]) for cell in row[1:]]
+        assert (float(said.group(2 * k + 1)), float(said.group(2 * k + 2))) == pytest.approx(
+            (min(ratios), max(ratios)), abs=0.006), name

@@ -79,7 +79,7 @@ def test_the_folder_is_a_shipped_robot_described_from_public_numbers() -> None:
     kp = model.actuator_gainprm[robot.addresses(model).actuator, 0]
     priors = {p.joint: p for p in robot.stiffness_priors}
     np.testing.assert_array_equal(kp, [priors[j].k_nm_per_rad for j in robot.joints])
-    assert all(p.source.startswith("assumed:") for p in priors.values())
+    assert all(p.source.startswith("class estimate:") for p in priors.values())
     # the masses of KUKA's ROS 2 description (1068.08 kg) plus the sensor and the tool
     assert model.body_subtreemass[model.body("base").id] == pytest.approx(1068.08 + 2.7 + 2.0)
 
