@@ -3,6 +3,9 @@ the twin and the dynamic plant run on it, and its home pose is a forming pose.""
 
 from __future__ import annotations
 
+import re
+from pathlib import Path
+
 import mujoco
 import numpy as np
 import pytest
@@ -26,6 +29,7 @@ RANGES_DEG = [(-170, 170), (-65, 85), (-180, 70), (-300, 300), (-120, 120), (-36
 URDF_ORIGINS = [(0, 0, 0.780), (0.320, 0, 0), (0, 0, 1.075), (0, 0, 0.2), (1.392, 0, 0), (0.2, 0, 0)]
 URDF_AXES = [(0, 0, 1), (0, 1, 0), (0, 1, 0), (1, 0, 0), (0, 1, 0), (1, 0, 0)]
 TOOL0_RPY = (0.0, np.pi / 2, 0.0)
+README = Path(__file__).resolve().parents[1] / "models" / "irb6640" / "README.md"
 PRIORS = [3.76e6, 3.21e6, 2.09e6, 8.39e5, 4.07e5, 8.39e5]  # robot.toml's class estimate of K_q [N m/rad]
 
 
@@ -143,6 +147,12 @@ def test_cone_is_in_reach_and_the_twin_forms_it(robot, kin, cone) -> None:
     rms = float(np.sqrt(np.mean(np.sum(sim.deflection_sheet_m**2, axis=1))))
     # about 1.1 mm with the class estimate of K_q (the TX200's calibrated model: about 1.0 mm on the same cone)
     assert 0.6e-3 < rms < 2.0e-3
+    said = re.search(r"rms deflection ([\d.]+) mm \(x ([\d.]+), y ([\d.]+), z ([\d.]+) mm rms; largest ([\d.]+) mm",
+                     README.read_text(encoding="utf-8"))
+    assert said is not None  # models/irb6640/README.md's numbers are this run's
+    d = 1e3 * sim.deflection_sheet_m
+    measured = [1e3 * rms, *np.sqrt(np.mean(d**2, axis=0)), float(np.linalg.norm(d, axis=1).max())]
+    np.testing.assert_allclose([float(v) for v in said.groups()], measured, atol=0.01)
     assert np.all(np.isfinite(sim.p_sheet_m))
 
 
@@ -151,6 +161,9 @@ def test_home_compliance(kin) -> None:
     np.testing.assert_allclose(C, C.T, atol=1e-12)
     assert np.all(np.linalg.eigvalsh(C) > 0)
     np.testing.assert_allclose(np.diag(C), [1.417, 0.902, 1.195], atol=2e-3)
+    block = README.read_text(encoding="utf-8").split("J K_q⁻¹ Jᵀ [mm/kN]")[1].split("```")[1]
+    np.testing.assert_allclose(C, np.array([[float(v) for v in re.findall(r"-?\d+\.\d+|0\.(?!\d)", line)]
+                                            for line in block.strip().splitlines()]), atol=2e-3)
 
 
 def test_dynamic_plant_builds_and_runs(robot, cone) -> None:

@@ -6,6 +6,9 @@ each check compares them, the DH table and the MuJoCo model with one another.
 
 from __future__ import annotations
 
+import re
+from pathlib import Path
+
 import mujoco
 import numpy as np
 import pytest
@@ -148,6 +151,10 @@ def test_compliance_at_home(kin: Kinematics) -> None:
     np.testing.assert_allclose(C, C.T, atol=1e-12)
     assert np.all(np.linalg.eigvalsh(C) > 0)
     assert np.all((np.diag(C) > 0.5) & (np.diag(C) < 10.0)), C
+    readme = (Path(__file__).resolve().parents[1] / "models" / "kr210" / "README.md").read_text(encoding="utf-8")
+    block = readme.split("Home compliance J K_q⁻¹ Jᵀ [mm/kN]")[1].split("```")[1]
+    np.testing.assert_allclose(C, np.array([[float(v) for v in re.findall(r"-?\d+\.\d+", line)]
+                                            for line in block.strip().splitlines()]), atol=2e-3)
 
 
 def test_the_twin_forms_the_cone_with_the_isf_force_model(cone) -> None:

@@ -82,6 +82,10 @@ def test_a_material_gives_its_power_law_and_an_unknown_one_no_tilt():
     assert sheet_constants(Process(material="DC01", tensile_strength_mpa=270.0)) == {"wall_tilt_scale": 0.0}
     assert params_for(Process(material="AA1050-O", tensile_strength_mpa=77.0)).hardening_n == pytest.approx(n)
     assert IsfForceParams(wall_tilt_scale=0.0).wall_tilt_scale == 0.0
+    default, derived = IsfForceParams(), sheet_constants(Process())  # the defaults are the thesis's AA5086-H111's
+    assert (default.youngs_modulus_gpa, default.poisson_ratio) == (derived["youngs_modulus_gpa"], derived["poisson_ratio"])
+    assert default.hardening_k_mpa == pytest.approx(derived["hardening_k_mpa"], abs=0.05)
+    assert default.hardening_n == pytest.approx(derived["hardening_n"], abs=5e-4)
     for bad in ({"wall_tilt_scale": -1.0}, {"poisson_ratio": 0.5}, {"hardening_n": 1.5}):
         with pytest.raises(InputError, match="IsfForceParams"):
             IsfForceParams(**bad)  # type: ignore[arg-type]

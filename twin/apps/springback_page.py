@@ -28,17 +28,12 @@ from twin.apps.springback_scans import (
     splits,
     unclamped,
 )
+from twin.apps.springback_validation import bm3_measured, bm3_part
 from twin.base.csvio import write_text
 from twin.base.jsonio import emit_json
-from twin.base.resources import data_file
-from twin.process.description import Process
 from twin.process.force.aerens import scallop_height_m
 from twin.process.material.file import material
 from twin.process.part.wall_tilt import TiltConstants, tilt_rad
-from twin.process.toolpath.shapes import PartSpec, part_path
-
-#: The BM3 cone's process, as `twin.apps.springback_validation` forms it (Neto et al. 2016).
-BM3_PROCESS = dict(material="AA7075-O", tensile_strength_mpa=198.0, thickness_m=1.63e-3, tool_radius_m=6.33e-3)
 
 
 class Bm3(NamedTuple):
@@ -62,13 +57,8 @@ class Study(NamedTuple):
 def bm3(constants: TiltConstants) -> Bm3:
     """The BM3 cone formed rigidly, unclamped, its section at y = 0 against the measured one, with no tilt and
     with the model's."""
-    table = [line.split(",") for line in data_file("bm3_profile_rd.csv").read_text().splitlines()
-             if line and not line.startswith("#")][1:]
-    points = np.array([[float(x), float(z)] for series, x, z in table if series == "measured"])
-    depth_mm = -min(float(z) for series, _, z in table if series == "cad")
-    process = Process(**BM3_PROCESS)  # type: ignore[arg-type]
-    path = part_path(PartSpec(shape="cone", top_half_width_m=0.062, depth_m=1e-3 * depth_mm, step_down_m=0.5e-3,
-                              mode="z-level"))
+    points, depth_mm = bm3_measured()
+    process, path = bm3_part(depth_mm)
     part = unclamped(process, path)
     x, y, z = part.x_m, part.y_m, part.z_m
     angle, step, width, depth, bottom = part.inputs

@@ -15,6 +15,7 @@ from twin.base.resources import data_file
 from twin.errors import ExtrapolationWarning
 from twin.lab.cnc import run_cnc
 from twin.process.description import Process
+from twin.process.toolpath.groove import ToolPath
 from twin.process.toolpath.shapes import PartSpec, part_path
 
 
@@ -40,18 +41,29 @@ class ProfileResult:
         return float(np.sqrt(np.mean((self.model_mm[keep] - self.measured_mm[keep]) ** 2)))
 
 
+def bm3_measured() -> tuple[np.ndarray, float]:
+    """The BM3 section as measured, (x, z) [mm] shape (m, 2), and the design's depth [mm]
+    (`twin/data/bm3_profile_rd.csv`)."""
+    table = [line.split(",") for line in data_file("bm3_profile_rd.csv").read_text().splitlines()
+             if line and not line.startswith("#")][1:]
+    measured = np.array([[float(x), float(z)] for series, x, z in table if series == "measured"])
+    return measured, -min(float(z) for series, _, z in table if series == "cad")
+
+
+def bm3_part(cad_depth_mm: float) -> tuple[Process, ToolPath]:
+    """The BM3 cone's process (AA7075-O, 1.63 mm, Ø 12.66 mm, the `isf` model) and its z-level path, 0.5 mm down."""
+    process = Process(material="AA7075-O", tensile_strength_mpa=198.0, thickness_m=1.63e-3, tool_radius_m=6.33e-3,
+                      force_model="isf")
+    return process, part_path(PartSpec(shape="cone", top_half_width_m=0.062, depth_m=1e-3 * cad_depth_mm,
+                                       step_down_m=0.5e-3, mode="z-level"))
+
+
 def bm3_profile(seed: int = 1) -> ProfileResult:
     """The BM3 cone (Neto et al. 2016, Fig. 10, `twin/data/bm3_profile_rd.csv`) formed on the rigid CNC with its
     process and unclamped (the model's elastic recovery and floating bottom), its section along x beside the
     measured one."""
-    table = [line.split(",") for line in data_file("bm3_profile_rd.csv").read_text().splitlines()
-             if line and not line.startswith("#")][1:]
-    measured = np.array([[float(x), float(z)] for series, x, z in table if series == "measured"])
-    cad_depth = -min(float(z) for series, _, z in table if series == "cad")
-    process = Process(material="AA7075-O", tensile_strength_mpa=198.0, thickness_m=1.63e-3, tool_radius_m=6.33e-3,
-                      force_model="isf")
-    path = part_path(PartSpec(shape="cone", top_half_width_m=0.062, depth_m=1e-3 * cad_depth, step_down_m=0.5e-3,
-                              mode="z-level"))
+    measured, cad_depth = bm3_measured()
+    process, path = bm3_part(cad_depth)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ExtrapolationWarning)
         run, _ = run_cnc(seed=seed, path=path, process=process)

@@ -169,12 +169,12 @@ def power_law_equivalent(
         return float(np.exp(log_k)), float(n)
     if yield_strength_mpa is None or not 0.0 < yield_strength_mpa < tensile_strength_mpa:
         return None
-    ratio = math.log(tensile_strength_mpa / yield_strength_mpa)
-    lo, hi = 1e-3, 1.0  # n log(n / 0.002e) rises from 0 at n = 0.002e to its value at 1: bisect
-    if hi * math.log(hi / (0.002 * math.e)) < ratio:
+    from scipy.optimize import brentq  # here: the CLI's parser imports this module and must not import scipy
+
+    def gap(n: float) -> float:  # rises from < 0 at n = 0.002 e to its value at n = 1
+        return n * math.log(n / (0.002 * math.e)) - math.log(tensile_strength_mpa / yield_strength_mpa)
+
+    if gap(1.0) < 0.0:
         return None
-    for _ in range(100):
-        mid = 0.5 * (lo + hi)
-        lo, hi = (mid, hi) if mid <= 0.002 * math.e or mid * math.log(mid / (0.002 * math.e)) < ratio else (lo, mid)
-    n = 0.5 * (lo + hi)
+    n = float(brentq(gap, 0.002 * math.e, 1.0, xtol=1e-12))
     return yield_strength_mpa / 0.002**n, n
