@@ -58,7 +58,8 @@ def exported(
     """Every format written once."""
     out = tmp_path_factory.mktemp("programs")
     names = {"val3": "isf", "krl": "isf.src", "rapid": "isf.mod", "gcode": "isf.ngc", "csv": "isf.csv",
-             "krl-rsi": "isf_rsi.src", "rapid-egm": "isf_egm.mod", "val3-alter": "isf_alter"}
+             "krl-rsi": "isf_rsi.src", "rapid-egm": "isf_egm.mod", "val3-alter": "isf_alter",
+             "rapid-egm-pose": "isf_pose.mod"}
     return {  # the process feed is the fast pass's, so that the program keeps the path's two feeds
         fmt: export_path(path_csv, fmt, out / names[fmt], cell=cell, process_feed_mm_s=FAST_FEED_MM_S).files
         for fmt in FORMATS

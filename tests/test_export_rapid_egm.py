@@ -352,7 +352,8 @@ def test_export_online_for_an_abb_robot_writes_rapid_with_egm(
     path_csv: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     assert online_format(load_robot(ROBOT)) == "rapid-egm" and EXPORT_FORMATS["rapid-egm"].online
-    assert main(["export", str(path_csv), "--robot", ROBOT, "--online", "--out", str(tmp_path / "ISF.mod")]) == 0
+    assert main(["export", str(path_csv), "--robot", ROBOT, "--online", "--egm-mode", "path", "--out",
+                 str(tmp_path / "ISF.mod")]) == 0  # --online's ABB default is position guidance (#50)
     said = capsys.readouterr()
     assert "rapid-egm" in said.out and "along-path part" in said.out + said.err  # what EGM does not correct
     files = {f.name: f.read_text() for f in tmp_path.iterdir()}

@@ -40,8 +40,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     _add_program_arguments(parser)
     add_placement_arguments(parser, "sheet placement (the program's sheet frame)")
     parser.add_argument("--online", action="store_true", help="the program with the twin's online correction on "
-                        "(KUKA: KRL with RSI and its Ethernet configuration; ABB: RAPID with EGM path correction and "
+                        "(KUKA: KRL with RSI and its Ethernet configuration; ABB: RAPID with EGM, --egm-mode, and "
                         "its configuration; Stäubli: VAL3 alter moves; for `tx200-twin online --serve`)")
+    parser.add_argument("--egm-mode", choices=("pose", "path"), help="ABB: EGM position guidance (default; every "
+                        "axis, 4 ms) or path correction (y, z of the path frame, 48 ms: drops the along-path part)")
     add_json_argument(parser, "a summary")
 
 
@@ -94,6 +96,6 @@ def run(args: argparse.Namespace) -> int:
         args.path_csv, args.out, args.format, given(args, "robot"), args.run, given(args, "tool_length_mm"),
         given(args, "tool_mass_kg"), args.safe_height_mm, args.feed_mm_s, args.max_points, args.online,
         getattr(args, "cell_record", None), None if origin is None else tuple(origin), given(args, "yaw_deg"),
-        args.tool_number, args.base_number,
+        args.tool_number, args.base_number, egm_mode=args.egm_mode,
     )
     return finish(args, export_task(request, note), protect=(args.path_csv, args.run))

@@ -46,6 +46,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--max-rate-mm-s", type=finite, default=20.0,
                         help="largest rate of change of the correction [mm/s]: per second of the controller's clock "
                              "and of this computer's, not per packet (a burst of packets moves it no faster)")
+    parser.add_argument("--guidance", type=Path, metavar="FILE", help="--serve egm: stream the path of this table "
+                        "(NAME_egm_pose.csv of `export --online`: EGM position guidance); without it, path correction")
     add_robot_argument(parser)
     add_placement_arguments(parser)
     add_json_argument(parser, "the session's counts and compute times")
@@ -58,5 +60,6 @@ def run(args: argparse.Namespace) -> int:
     ft = None if args.ft_rdt is None else RdtSettings.parse(args.ft_rdt, args.ft_counts_per_n, args.ft_bias)
     request = OnlineRequest(args.serve, args.port, args.host, args.model, args.robot, placement_given(args),
                             args.cycles, args.idle_timeout_s, ft, cell=getattr(args, "cell_record", None),
-                            start_timeout_s=args.start_timeout_s, max_rate_mm_s=args.max_rate_mm_s)
-    return finish(args, online_task(request, note), protect=(args.model,))
+                            start_timeout_s=args.start_timeout_s, max_rate_mm_s=args.max_rate_mm_s,
+                            guidance=args.guidance)
+    return finish(args, online_task(request, note), protect=(args.model, args.guidance))

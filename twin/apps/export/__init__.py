@@ -10,7 +10,9 @@ main program calls (`parts`). A robot program carries the arm configuration of t
 (`configuration`); `val3_check` (with `val3_data_check`) checks the VAL3 application's grammar; for
 `export --online`, `krl_rsi` writes KRL with the online correction of KUKA RSI switched on and its Ethernet configuration, `rapid_egm` RAPID with ABB EGM
 path correction in the path's moves (48 ms, y and z of the path frame only; a lost PC stops and lifts the tool) and
-its UDP device and motion profile configurations, `val3_alter` the VAL3
+its UDP device and motion profile configurations, `rapid_egm_pose` RAPID with EGM position guidance (the PC
+streams the path and the correction, every axis every 4 ms; `export --online`'s ABB default) and its guidance
+table, `val3_alter` the VAL3
 application with `alter` moves and a synchronous task that takes the twin's correction over a socket.
 """
 
@@ -21,7 +23,17 @@ from dataclasses import replace
 from pathlib import Path
 from typing import NamedTuple
 
-from twin.apps.export import gcode, krl, krl_rsi, points_csv, rapid, rapid_egm, val3, val3_alter
+from twin.apps.export import (
+    gcode,
+    krl,
+    krl_rsi,
+    points_csv,
+    rapid,
+    rapid_egm,
+    rapid_egm_pose,
+    val3,
+    val3_alter,
+)
 from twin.apps.export.motion import FeedSummary, with_moves
 from twin.apps.export.program import (
     DEFAULT_BASE_NUMBER,
@@ -65,7 +77,8 @@ for _format in (ExportFormat("val3", val3.write, "VAL3"), ExportFormat("krl", kr
                 ExportFormat("rapid", rapid.write, "RAPID"), ExportFormat("gcode", gcode.write),
                 ExportFormat("csv", points_csv.write), ExportFormat("krl-rsi", krl_rsi.write, "KRL", online=True),
                 ExportFormat("rapid-egm", rapid_egm.write, "RAPID", online=True),
-                ExportFormat("val3-alter", val3_alter.write, "VAL3", online=True)):
+                ExportFormat("val3-alter", val3_alter.write, "VAL3", online=True),
+                ExportFormat("rapid-egm-pose", rapid_egm_pose.write, "RAPID", online=True)):
     EXPORT_FORMATS.register(_format)
 
 

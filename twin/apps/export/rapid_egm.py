@@ -32,8 +32,8 @@ EGM path correction corrects only y and z of its path frame ("nor corrections in
 direction/tangent)", 3HAC073318 rev. K): the twin's correction along the path is dropped, which the header and
 the export's note say (`ALONG_PATH_NOTE`). Measured on the dynamic plant (docs/online.md, "Path correction or
 position guidance"): the 48 ms rate costs little, the dropped along-path part most of the groove's correction, whose
-deflection lies along its passes; position guidance (`EGMRunPose`, every axis each 4 ms) would keep it, but the PC
-would then stream the whole path, which this export does not do.
+deflection lies along its passes; position guidance (`EGMRunPose`, every axis each 4 ms, the PC streaming the whole
+path) keeps it: `rapid_egm_pose`, `export --online`'s default for ABB (this one: `--egm-mode path`).
 
 No `egm_minmax` is declared: convergence limits belong to the guidance modes (`EGMActJoint`/`EGMActPose` with
 `EGMRunJoint`/`EGMRunPose`); a path correction ends with its moves. A program over the RAPID limit
@@ -159,7 +159,7 @@ def _contact(path: ProgramPath) -> ProgramPath:
                    cell=replace(path.cell, configuration=configs[0] if configs else None), joint_start=False)
 
 
-def _ends(path: ProgramPath) -> list[str]:
+def end_data(path: ProgramPath) -> list[str]:
     """The approach and retract points, the retract's speed and `nLift`, the lift out of the sheet after a lost link
     (main module data): the retract's height above the deepest corrected point [mm]."""
     ends = replace(path, points_mm=path.points_mm[[0, -1]], feed_mm_s=path.feed_mm_s[[0, -1]],
@@ -186,7 +186,7 @@ def _main(path: ProgramPath, body: list[str], data: list[str], note: list[str]) 
         f"  ! {ALONG_PATH_NOTE}",
         f"  ! sensor read every {SAMPLE_RATE_MS} ms; no answer for {COMM_TIMEOUT_S} s: ERR_UDPUC_COMM, the ERROR "
         "handler stops, lifts the tool nLift mm out of the sheet and ends",
-        *rapid.declarations(path), f"  VAR egmident {EGM_ID};", *_ends(path), *data, "",
+        *rapid.declarations(path), f"  VAR egmident {EGM_ID};", *end_data(path), *data, "",
         f"  PROC {rapid.entry(path.name)}()", "    ConfJ \\On;", "    ConfL \\Off;", rapid.home_move(),
         f"    MoveJ pApproach,{rapid.APPROACH_SPEED},fine,tIsf\\WObj:=wSheet;",
         *EGM_ON, *body, *EGM_OFF,

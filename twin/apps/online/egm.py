@@ -148,7 +148,7 @@ class EgmServer:
             cartesian = planned if planned is not None else robot_msg.feedBack.cartesian
             orient = cartesian.orient if cartesian.HasField("orient") else None
             rejected = cycle.rejected
-            if not (self._take_force(robot_msg, cycle, t) and _finite_pose(cartesian.pos, orient)):
+            if not (self._take_force(robot_msg, cycle, t) and finite_pose(cartesian.pos, orient)):
                 cycle.hold()  # a value not finite: the last correction, in the last frame
             else:
                 frame.update(cartesian.pos, orient)
@@ -173,7 +173,7 @@ class EgmServer:
         return True
 
 
-def _finite_pose(pos: Any, orient: Any | None) -> bool:
+def finite_pose(pos: Any, orient: Any | None) -> bool:
     """Whether a message's position (and orientation, if any) is finite."""
     if not (math.isfinite(pos.x) and math.isfinite(pos.y) and math.isfinite(pos.z)):
         return False

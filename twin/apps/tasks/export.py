@@ -28,6 +28,7 @@ from twin.apps.export import (
     export_path,
     online_format,
     rapid_egm,
+    rapid_egm_pose,
     robot_format,
 )
 from twin.apps.export.program import default_cell
@@ -72,6 +73,8 @@ class ExportRequest:
             1..16); the default 16 leaves the cell's calibrated tool 1 alone.
         base_number: The controller's base slot a KRL program overwrites and uses (`--base-number`, 1..32); the
             default 16 leaves base 1 alone.
+        egm_mode: ABB EGM's program (`--egm-mode`, `rapid_egm_pose.MODES`): "pose" (position guidance, the default
+            of `--online`), "path" (path correction); None: the default, or what `--format` names.
     """
 
     path_csv: Path
@@ -90,6 +93,7 @@ class ExportRequest:
     yaw_deg: float | None = None
     tool_number: int = DEFAULT_TOOL_NUMBER
     base_number: int = DEFAULT_BASE_NUMBER
+    egm_mode: str | None = None
 
     def __post_init__(self) -> None:
         if self.format is not None and self.format not in FORMATS:
@@ -223,6 +227,7 @@ def export_task(request: ExportRequest, note: Note = silent) -> ExportReport:
     robot = resolve_robot(request.robot if request.robot is not None else None if recorded else cell_robot,
                           None, recorded)
     fmt = request.format or (online_format(robot) if request.online else robot_format(robot))
+    fmt = rapid_egm_pose.egm_format(fmt, request.egm_mode, chosen=request.format is not None)
     if request.online and not EXPORT_FORMATS[fmt].online:
         online = ", ".join(name for name, f in EXPORT_FORMATS.items() if f.online)
         raise InputError(f"--online with --format {fmt}: the online formats are {online}")
@@ -245,4 +250,7 @@ def export_task(request: ExportRequest, note: Note = silent) -> ExportReport:
         note(f"warning: {warning}")
     if fmt == "rapid-egm":
         note(f"note: {rapid_egm.ALONG_PATH_NOTE}")
+    elif fmt == "rapid-egm-pose":
+        table = exported.files[0].with_name(f"{exported.path.name}_egm_pose.csv")
+        note("note: " + rapid_egm_pose.NOTE.format(table=table))
     return ExportReport(request.path_csv, fmt, robot, exported, request.cell)

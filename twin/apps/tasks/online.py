@@ -126,6 +126,8 @@ class OnlineRequest:
             after the twin).
         max_rate_mm_s: Largest rate of change of the correction [mm/s], per second of the controller's clock and
             of the server's, not per packet (`twin.apps.online.cycle`).
+        guidance: `--serve egm` only: the guidance table `NAME_egm_pose.csv` of an EGM position-guidance program
+            (`twin.apps.online.egm_pose`: the path's poses plus the correction); None: EGM path correction.
     """
 
     serve: str
@@ -140,10 +142,14 @@ class OnlineRequest:
     cell: dict[str, Any] | None = None
     start_timeout_s: float = 60.0
     max_rate_mm_s: float = 20.0
+    guidance: Path | None = None
 
     def __post_init__(self) -> None:
         if self.serve not in INTERFACES:
             raise InputError(f"--serve {self.serve!r}: expected one of {', '.join(INTERFACES)}")
+        if self.guidance is not None and self.serve != "egm":
+            raise InputError(f"--guidance with --serve {self.serve}: the guidance table is ABB EGM position guidance's; "
+                             "expected --serve egm")
         defaulted = self.port is None
         if self.port is None:
             object.__setattr__(self, "port", INTERFACES[self.serve].default_port)
@@ -246,11 +252,16 @@ def online_task(request: OnlineRequest, note: Note = silent) -> OnlineReport:
     Raises:
         InputError: A port that cannot be bound, a bad model file.
     """
+    from twin.apps.online.egm_pose import EgmPoseServer, GuidancePath
     from twin.apps.online.rdt import RdtSource
     from twin.robot.ft_mount import sensor_in_sheet
     from twin.sim.online import OnlineCompensator, OnlineSettings
 
     interface = INTERFACES[request.serve]
+    guided = None if request.guidance is None else GuidancePath.load(request.guidance)
+    if guided is not None:
+        note(f"online: EGM position guidance along {request.guidance} ({len(guided.t_s)} points, "
+             f"{guided.duration_s:.1f} s at the programmed feeds)")
     spec = resolve_spec(cell=request.cell, model=request.model, robot=request.robot, placement=request.placement)
     twin = spec.build()
     ft = request.ft
@@ -261,7 +272,8 @@ def online_task(request: OnlineRequest, note: Note = silent) -> OnlineReport:
                                               R_sheet_sensor=R_sheet_sensor)
     try:
         compensator = OnlineCompensator(spec, OnlineSettings(max_rate_mm_s=request.max_rate_mm_s))
-        server = interface.server(compensator, twin.robot, request.port, request.host, force)
+        server = interface.server(compensator, twin.robot, request.port, request.host, force) if guided is None else \
+            EgmPoseServer(compensator, twin.robot, guided, request.port or 0, request.host, force)
         try:
             note(f"online: serving {request.serve} on {request.host}:{server.port} ({interface.transport}), at most "
                  f"{request.cycles} cycles, waiting {request.start_timeout_s:g} s for the robot"
