@@ -2,7 +2,10 @@
 RSI's IPO_FAST, ABB EGM's position guidance), every 48 ms on every axis, and every 48 ms on y and z of the path
 frame only (ABB EGM's path correction: `EGMActMove ... \\SampleRate:=48`, "nor corrections in x (which is the path
 direction)", EGM application manual 3HAC073318 rev. K). The plant's knobs `correction_period_ms` and
-`correction_along_path` set it (twin/lab/dynamic/online.py).
+`correction_along_path` set it (twin/lab/dynamic/online.py). Each 48 ms case runs twice: with the compensator's
+default settings (it predicts over the sensor's latency only), and "predicting over the period", its `period_s`
+set to the exported program's sample rate (`twin.apps.export.rapid_egm.SAMPLE_RATE_MS`), as `online --serve egm`
+sets it in path-correction mode.
 
 For each variant of `experiments/online_study.py` (the groove and the 60 mm cone, default knobs): a nominal run
 (seed 1) to `learn` from, then with seed 3 the ideal path with the controller compensating online under each
@@ -24,11 +27,22 @@ from typing import Any
 import online_study
 from online_study import VARIANTS, _lab, _residual
 
-#: (name, plant knobs) of each way the controller takes the correction.
-INTERFACES: dict[str, dict[str, float]] = {
-    "4 ms, all axes (RSI; EGM position guidance)": {"correction_period_ms": 4.0, "correction_along_path": 1.0},
-    "48 ms, all axes": {"correction_period_ms": 48.0, "correction_along_path": 1.0},
-    "48 ms, y and z of the path (EGM path correction)": {"correction_period_ms": 48.0, "correction_along_path": 0.0},
+from twin.apps.export.rapid_egm import SAMPLE_RATE_MS
+from twin.sim.online_settings import OnlineSettings
+
+#: The compensator predicting over the path correction's period (`OnlineSettings.period_s`).
+OVER_PERIOD = OnlineSettings(period_s=1e-3 * SAMPLE_RATE_MS)
+#: (name, plant knobs, the compensator's settings or None for the defaults) of each way the controller takes the
+#: correction.
+INTERFACES: dict[str, tuple[dict[str, float], OnlineSettings | None]] = {
+    "4 ms, all axes (RSI; EGM position guidance)": ({"correction_period_ms": 4.0, "correction_along_path": 1.0}, None),
+    "48 ms, all axes": ({"correction_period_ms": 48.0, "correction_along_path": 1.0}, None),
+    "48 ms, all axes, predicting over the period": (
+        {"correction_period_ms": 48.0, "correction_along_path": 1.0}, OVER_PERIOD),
+    "48 ms, y and z of the path (EGM path correction)": (
+        {"correction_period_ms": 48.0, "correction_along_path": 0.0}, None),
+    "48 ms, y and z of the path (EGM path correction), predicting over the period": (
+        {"correction_period_ms": 48.0, "correction_along_path": 0.0}, OVER_PERIOD),
 }
 
 
@@ -46,11 +60,11 @@ def interface_study(out: Path, name: str) -> dict[str, Any]:
     offset = learned["robot"]["tracker_offset_mm"]
     row: dict[str, Any] = {"variant": name, "nominal": _residual(_lab(strength, ideal, out / "nominal3", 3), ideal,
                                                                  offset)}
-    for k, (interface, knobs) in enumerate(INTERFACES.items()):
+    for k, (interface, (knobs, settings)) in enumerate(INTERFACES.items()):
         online_study.PLANT_KNOBS.clear()
         online_study.PLANT_KNOBS.update(knobs)
         for twin, online in (("default", True), ("learned", model)):
-            formed = _lab(strength, ideal, out / f"online_{twin}_{k}", 3, online=online)
+            formed = _lab(strength, ideal, out / f"online_{twin}_{k}", 3, online=online, settings=settings)
             row[f"{interface} | {twin}"] = _residual(formed, ideal, offset)
     online_study.PLANT_KNOBS.clear()
     return row

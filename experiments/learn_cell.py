@@ -32,9 +32,13 @@ VARIANTS: dict[str, tuple[str, list[str], list[str], float]] = {
     "groove-backlash": ("tx200", ["--shape", "groove"], ["--neutral", "--set", "backlash_j3_mrad=0.3"], 1.0),
     "cone-kr210": ("kr210", ["--shape", "cone", "--top-width-mm", "60", "--depth-mm", "10"], ["--neutral"], 1.0),
     "cone-tx200": ("tx200", ["--shape", "cone", "--top-width-mm", "60", "--depth-mm", "10"], ["--neutral"], 1.0),
+    "cone-irb6640": ("irb6640", ["--shape", "cone", "--top-width-mm", "60", "--depth-mm", "10"], ["--neutral"], 1.0),
 }
-#: Cross-part: learned from the cone variant's nominal run, compensating this part.
-PYRAMID = ["--shape", "pyramid", "--top-width-mm", "40", "--depth-mm", "6"]
+#: Cross-part: learned from the cone variant's nominal run, compensating these parts (prefix -> path arguments).
+OTHER_PARTS = {"pyramid_": ["--shape", "pyramid", "--top-width-mm", "40", "--depth-mm", "6"],
+               "cone80_": ["--shape", "cone", "--top-width-mm", "80", "--depth-mm", "8"]}
+#: Their names in the table.
+OTHER_NAMES = {"pyramid_": "pyramid", "cone80_": "cone 80 x 8"}
 
 
 def _lab(robot: str, knobs: list[str], strength: float, command: Path, out: Path, seed: int,
@@ -74,14 +78,15 @@ def variant_study(out: Path, name: str, plant_set: tuple[str, ...] = ()) -> dict
                            "learn": learned}
     targets = [("", ideal, path_args)]
     if name.startswith("cone-"):
-        pyramid = out / "pyramid.csv"
-        cli("path", *PYRAMID, "--robot", robot, "--out", str(pyramid))
-        targets.append(("pyramid_", pyramid, PYRAMID))
-        pyr_nominal = _lab(robot, knobs, strength, pyramid, out / "pyramid_nominal", 3)
-        row["pyramid_nominal"] = cli_json("check", str(pyr_nominal), "--ideal", str(pyramid))
-        row["pyramid_replay_untaught"] = cli_json("replay", str(pyr_nominal), "--forces", "measured")
-        row["pyramid_replay_learned"] = cli_json("replay", str(pyr_nominal), "--model", str(model), "--forces",
-                                              "measured")
+        for prefix, part in OTHER_PARTS.items():
+            target = out / f"{prefix}path.csv"
+            cli("path", *part, "--robot", robot, "--out", str(target))
+            targets.append((prefix, target, part))
+            nominal = _lab(robot, knobs, strength, target, out / f"{prefix}nominal", 3)
+            row[f"{prefix}nominal"] = cli_json("check", str(nominal), "--ideal", str(target))
+            row[f"{prefix}replay_untaught"] = cli_json("replay", str(nominal), "--forces", "measured")
+            row[f"{prefix}replay_learned"] = cli_json("replay", str(nominal), "--model", str(model), "--forces",
+                                                      "measured")
     for prefix, target, _ in targets:
         for twin, extra in (("untaught", ["--robot", robot]), ("learned", ["--model", str(model)])):
             command = out / f"{prefix}{twin}.csv"
@@ -140,11 +145,12 @@ def table(rows: list[dict[str, Any]]) -> str:
     for r in rows:
         lines.append(f"| {r['variant']} | {res(r, 'nominal')} | {gap(r, 'replay_untaught')}; {res(r, 'untaught')} | "
                      f"{gap(r, 'replay_learned')}; {res(r, 'learned')} | {r['learned']['less_tracker_offset_mm']:.3f} mm |")
-        if "pyramid_nominal" in r:
-            lines.append(f"| {r['variant']} -> pyramid (never formed) | {res(r, 'pyramid_nominal')} | "
-                         f"{gap(r, 'pyramid_replay_untaught')}; {res(r, 'pyramid_untaught')} | "
-                         f"{gap(r, 'pyramid_replay_learned')}; {res(r, 'pyramid_learned')} | "
-                         f"{r['pyramid_learned']['less_tracker_offset_mm']:.3f} mm |")
+        for prefix, part in OTHER_NAMES.items():
+            if f"{prefix}nominal" in r:
+                lines.append(f"| {r['variant']} -> {part} (never formed) | {res(r, prefix + 'nominal')} | "
+                             f"{gap(r, prefix + 'replay_untaught')}; {res(r, prefix + 'untaught')} | "
+                             f"{gap(r, prefix + 'replay_learned')}; {res(r, prefix + 'learned')} | "
+                             f"{r[prefix + 'learned']['less_tracker_offset_mm']:.3f} mm |")
     return "\n".join(lines) + "\n"
 
 

@@ -39,9 +39,9 @@ PLANT_KNOBS: dict[str, float] = {}
 
 
 def _lab(strength: float, command: Path, out: Path, seed: int, scenario: str = "nominal",
-         online: Path | bool | None = False) -> Path:
+         online: Path | bool | None = False, settings: Any = None) -> Path:
     """Form `command` on the plant (default knobs), the sheet `strength` x the declared one; `online`: False, or
-    True / a model file for the online compensator."""
+    True / a model file for the online compensator, with `settings` (an `OnlineSettings`; None: the defaults)."""
     from twin.lab.dynamic.knobs import Knobs
     from twin.lab.dynamic.run import run_dynamic_lab
     from twin.process.description import Process
@@ -60,7 +60,7 @@ def _lab(strength: float, command: Path, out: Path, seed: int, scenario: str = "
 
         assumed = assumed_forces(read_record(command), cmd) if scenario == "compensated" else None
         corrector = OnlineCompensator(read_model_file(online) if isinstance(online, Path) else TwinSpec(),
-                                      assumed=assumed)
+                                      settings, assumed=assumed)
     run, truth, log = run_dynamic_lab(cmd.t_s, cmd.values, scenario=scenario, knobs=Knobs(PLANT_KNOBS), seed=seed,
                                     process=Process(tensile_strength_mpa=strength * 275.0, force_model=model),
                                     declared=Process(force_model=model),

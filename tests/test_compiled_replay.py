@@ -266,13 +266,16 @@ def test_the_isf_model_at_reversals_replays_compiled_to_the_python_loops_equilib
 
 
 def test_the_learned_force_model_replays_compiled_to_the_python_loops_equilibria() -> None:
-    """The `learned` model (the ISF model with membrane terms learned from a cell) runs in the ISF kernel with its
-    terms: a cone and the groove's first passes give the Python loop's tips and forces."""
+    """The `learned` model (the ISF model with membrane and formed-state terms learned from a cell) runs in the ISF
+    kernel with its terms: a cone and the groove's first passes give the Python loop's tips and forces."""
     from twin.process.toolpath.groove import GrooveSpec, groove_path
     from twin.process.toolpath.shapes import PartSpec, part_path
 
     fit = (("prior_weight", -0.1), ("side_membrane_n", 2200.0), ("side_cubic_n", 1300.0),
-           ("ahead_membrane_n", 100.0), ("mu_eff", 0.1), ("mu_radial", 0.05))
+           ("ahead_membrane_n", 100.0), ("engagement_n_per_mm", -300.0), ("contact_n", 200.0),
+           ("wall_angle_n", 100.0), ("depth_n_per_mm", 20.0), ("depth_engagement_n_per_mm2", -5.0),
+           ("prior_per_cm", 0.3), ("wall_depth_n_per_mm", 8.0), ("side_rise_n", 300.0), ("side_rise_sq_n", -200.0),
+           ("ahead_rise_n", 150.0), ("mu_eff", 0.1), ("mu_radial", 0.05))
     twin = TwinSpec(process=Process(force_model="learned", force_fit=fit)).build()
     for path in (part_path(PartSpec(depth_m=3e-3, top_half_width_m=15e-3)),
                  groove_path(GrooveSpec(passes=3, depth_m=0.003, bottom_length_m=0.068))):

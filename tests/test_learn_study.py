@@ -45,8 +45,39 @@ def test_the_pages_groove_row_is_the_one_a_fresh_run_writes(groove_row: dict) ->
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, raises=AssertionError, reason="with the plant's own joint stiffness (issue #45) the "
-                   "learned twin's groove compensation leaves 0.213 of the untaught twin's 0.680 mm (0.31x, 0.25x "
-                   "asked), most of it at the reversals")
 def test_the_learned_compensation_removes_most_of_what_the_untaught_leaves(groove_row: dict) -> None:
+    """Was a strict xfail (0.213 of the untaught's 0.680 mm, 0.31x) until the sheet learner chose its terms from the
+    data (#48): 0.130 mm, 0.19x."""
     assert groove_row["learned"]["residual_rms_mm"] < 0.25 * groove_row["untaught"]["residual_rms_mm"]
+
+
+def _block(marker: str) -> str:
+    text = DOC.read_text()
+    return text[text.index(f"<!-- {marker}:begin"):text.index(f"<!-- {marker}:end")]
+
+
+def test_the_pages_words_on_the_four_cells_are_its_tables() -> None:
+    """The prose under the law-2 table: (replay gap, compensated residual) learned over untaught, the targets not
+    met, the IRB 6640's law-1 rows."""
+    law2 = _block("learn-table-law2")
+    for variant in ("cone-kr210", "cone-irb6640"):
+        for part in ("", " -> pyramid (never formed)", " -> cone 80 x 8 (never formed)"):
+            n = _row_numbers(law2, variant + part)  # nominal rms, max; untaught gap mm, N, rms, max; learned ...
+            assert 0.25 <= n[6] / n[2] <= 0.5 and 0.35 <= n[8] / n[4] <= 0.75, (variant + part, n)
+    n = _row_numbers(law2, "groove-neutral")
+    assert n[6] < n[2] and n[8] >= 0.98 * n[4]
+    law1 = _block("learn-table")
+    learned = {}
+    for block in (law1, law2):
+        for line in block.splitlines():
+            if line.startswith("| cone-kr210") or line.startswith("| cone-irb6640"):
+                name = line.split("|")[1].strip()
+                n = _row_numbers(block, name)
+                cone = "pyramid" not in name
+                assert n[8] > (0.10 if cone else 0.15) or n[8] > 0.25 * n[4], name  # no cell meets #48's targets
+                learned[(block is law2, name)] = n[8]
+    nearest = min(learned, key=learned.get)
+    assert nearest == (False, "cone-kr210 -> cone 80 x 8 (never formed)"), learned
+    for part in ("cone-irb6640", "cone-irb6640 -> pyramid (never formed)", "cone-irb6640 -> cone 80 x 8 (never formed)"):
+        n = _row_numbers(law1, part)  # compensates worse; replays the cones better, an eighth of their force gap
+        assert n[8] > n[4] and ("pyramid" in part or (n[6] < n[2] and 0.1 <= n[7] / n[3] <= 0.15)), (part, n)

@@ -16,7 +16,11 @@ from twin.process.toolpath.shapes import PartSpec, part_path
 from twin.sim.model_file import read_model_file, write_model_file
 from twin.sim.spec import TwinSpec
 
-WEIGHTS = (("prior_weight", 0.2), ("side_membrane_n", 2000.0), ("side_cubic_n", 900.0), ("ahead_membrane_n", 150.0))
+WEIGHTS = (("prior_weight", 0.2), ("side_membrane_n", 2000.0), ("side_cubic_n", 900.0), ("ahead_membrane_n", 150.0),
+           ("engagement_n_per_mm", -300.0), ("contact_n", 200.0), ("wall_angle_n", 100.0), ("depth_n_per_mm", 20.0),
+           ("engagement_sq_n_per_mm2", 40.0), ("depth_sq_n_per_mm2", 2.0), ("depth_engagement_n_per_mm2", -5.0),
+           ("prior_per_cm", 0.3), ("wall_depth_n_per_mm", 8.0), ("side_rise_n", 300.0),
+           ("side_rise_sq_n", -200.0), ("ahead_rise_n", 150.0))
 
 
 @pytest.fixture(scope="module")
@@ -39,9 +43,10 @@ def test_the_learned_terms_gradients_are_their_derivatives(small_cone) -> None:
     for p in small_cone.p_sheet_m[:n]:
         field.force(p)
         field.advance(p)
-    p0 = small_cone.p_sheet_m[n] + np.array([0.0, 0.0, -0.2e-3])
+    p0 = small_cone.p_sheet_m[n] + np.array([0.13e-3, 0.07e-3, -0.2e-3])  # off the map's grid lines
     values, grads = field.features(p0)
     assert values[1] > 0.05  # the sides wrap the tool
+    assert 0.5 < values[5] < 1.0 and values[7] > 1.0 and values[12] > 0.5  # in contact, below the sheet's plane
     h = 1e-7
     numeric = np.column_stack([(field.features(p0 + h * e)[0] - field.features(p0 - h * e)[0]) / (2 * h)
                                for e in np.eye(3)])
@@ -50,6 +55,16 @@ def test_the_learned_terms_gradients_are_their_derivatives(small_cone) -> None:
     fz, stiffness = field.force_and_stiffness(p0)
     assert stiffness[2, 2] == pytest.approx(np.asarray(field.weights.as_array()) @ grads[:, 2], rel=1e-9)
     assert fz[2] > 100.0
+
+
+def test_a_model_file_from_before_the_formed_state_terms_reads_them_as_zero(tmp_path, small_cone) -> None:
+    old = WEIGHTS[:4]
+    spec = TwinSpec(process=Process(force_model="learned", force_fit=old))
+    back = read_model_file(write_model_file(tmp_path / "m.json", spec, note="test"))
+    field = build_force_field(back.process)
+    assert isinstance(field, LearnedForceField)
+    assert field.weights == LearnedWeights(**dict(old))
+    assert not np.any(field.weights.as_array()[4:])
 
 
 def test_weights_scale_with_a_force_scale_history(small_cone) -> None:

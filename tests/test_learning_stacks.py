@@ -27,7 +27,11 @@ from twin.sim.spec import TwinSpec
 #: Fitted constants each force model takes (a learned model's weights and its ISF constants; ISF's own).
 FITS = {"table": (), "isf": (("scale", 1.2), ("mu_eff", 0.12)),
         "learned": (("prior_weight", 0.6), ("side_membrane_n", 300.0), ("side_cubic_n", -50.0),
-                    ("ahead_membrane_n", 20.0), ("mu_eff", 0.11), ("recovery_scale", 0.4))}
+                    ("ahead_membrane_n", 20.0), ("engagement_n_per_mm", -150.0), ("contact_n", 80.0),
+                    ("wall_angle_n", -40.0), ("depth_n_per_mm", 12.0), ("engagement_sq_n_per_mm2", 30.0),
+                    ("depth_sq_n_per_mm2", 1.5), ("depth_engagement_n_per_mm2", -4.0), ("prior_per_cm", 0.2),
+                    ("wall_depth_n_per_mm", 6.0), ("side_rise_n", 90.0), ("side_rise_sq_n", 40.0),
+                    ("ahead_rise_n", -10.0), ("mu_eff", 0.11), ("recovery_scale", 0.4))}
 
 
 def _off(name: str) -> float:

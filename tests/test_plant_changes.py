@@ -92,9 +92,9 @@ def test_two_changes_in_one_run_are_both_named_and_carried(groove_cell: Path) ->
 
 
 def test_the_floor_moves_less_between_clean_runs_than_a_change_must_add(groove_cell: Path) -> None:
-    """docs/discrepancy.md and `floor.OBSERVABLE_SHARE`: the learned cell's floor moves by at most 5 % between its
-    clean runs (here the groove's third and fourth, neither learned from; the fourth +5.0 %, to the docs'
-    precision), below the 10 % a change must add."""
+    """docs/discrepancy.md and `floor.OBSERVABLE_SHARE`: the learned cell's floor moves by at most 6 % between its
+    clean runs (here the groove's third and fourth, neither learned from; the fourth +5.9 % since the sheet learner
+    chooses its terms, +5.0 % before; to the docs' precision), below the 10 % a change must add."""
     from plant_changes import _excess_above
 
     from twin.analysis.discrepancy.floor import OBSERVABLE_SHARE, Floor
@@ -106,4 +106,4 @@ def test_the_floor_moves_less_between_clean_runs_than_a_change_must_add(groove_c
     for seed in (3, 4):
         run = read_run(groove_cell / f"clean{seed}")
         above, on_run = _excess_above(run, cell, floor)
-        assert round(100.0 * above / on_run) <= 5 and above < OBSERVABLE_SHARE * on_run, (seed, above, on_run)
+        assert round(100.0 * above / on_run) <= 6 and above < OBSERVABLE_SHARE * on_run, (seed, above, on_run)

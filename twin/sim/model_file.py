@@ -201,14 +201,14 @@ def _check_constants(path: Path, force_model: str, fit: Mapping[str, float]) -> 
     """Refuse a force model's constants it does not take, and a learned model without its weights (it would be
     read as another model, or with its terms at zero, in silence)."""
     from twin.process.force.isf_params import IsfForceParams
-    from twin.process.force.learned import WEIGHT_KEYS
+    from twin.process.force.learned import REQUIRED_WEIGHT_KEYS, WEIGHT_KEYS
 
     isf = {f.name for f in fields(IsfForceParams)}
     takes = {"isf": isf, "learned": isf | set(WEIGHT_KEYS)}.get(force_model)
     if takes is not None and set(fit) - takes:
         raise DataFileError(path, f"process.force_fit has {sorted(set(fit) - takes)}, which the {force_model!r} force "
                             f"model does not take; it takes {sorted(takes)}")
-    missing = [key for key in WEIGHT_KEYS if key not in fit]
+    missing = [key for key in REQUIRED_WEIGHT_KEYS if key not in fit]
     if force_model == "learned" and missing:
         raise DataFileError(path, f"process.force_model = 'learned' without its learned weights: process.force_fit "
                             f"lacks {missing} (a model file `learn` writes has them)")

@@ -10,7 +10,8 @@ needs:
 
 * **filtering**: a first-order low-pass on the force (`filter_hz`), so sensor noise does not reach the motors;
 * **latency**: the filtered force is predicted forward by the sensor's latency plus the sample's age, from its
-  filtered rate of change (`latency_s`);
+  filtered rate of change (`latency_s`), and by half of how much longer than a cycle the controller holds each
+  correction (`period_s`: ABB EGM's path correction takes one every 48 ms; `OnlineSettings.horizon_s`);
 * **spikes**: a sample further than `spike_n` from the filtered force is rejected (counted), as a broken packet;
   `spike_run` such samples in a row are a real change of level (a contact), and the next one is taken;
 * **limits**: the correction's size (`max_correction_mm`, default 5 mm) and its rate (`max_rate_mm_s`) per unit
@@ -29,6 +30,7 @@ of the cycle is one of `STATUS`.
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from typing import NamedTuple
 
 import numpy as np
@@ -123,6 +125,16 @@ class OnlineCompensator:
         # compile (or load) the compiled cycle now, not in a controller's first cycle; then forget that call
         self.step(0.0, math.nan, np.zeros(3), np.asarray(twin.robot.q_home_rad, dtype=float))
         self.reset()
+
+    def hold_each_correction(self, period_s: float) -> None:
+        """The controller takes a correction every `period_s` and holds it until the next (`OnlineSettings.period_s`;
+        a server whose interface fixes it sets it).
+
+        Raises:
+            InputError: A period that is not a finite number in (0, 1] s.
+        """
+        self.settings = replace(self.settings, period_s=period_s)
+        self._params[:-1] = self.settings.params()
 
     def reset(self) -> None:
         """Back to the start: no sample seen, no correction."""

@@ -20,6 +20,11 @@ class OnlineSettings:
         cycle_s: The controller cycle [s] (KUKA RSI 4 or 12 ms, ABB EGM 4 ms).
         filter_hz: Cut-off of the force's first-order low-pass [Hz].
         latency_s: The sensor's latency to predict over [s] (0: none).
+        period_s: How often the controller takes a correction and holds it until the next [s] (ABB EGM's path
+            correction every 48 ms; at most `cycle_s`: every cycle, RSI's, EGM position guidance's, VAL3's). A
+            correction held for the period is applied on average half of it after it was computed, and for a force
+            that ramps the held value that errs least over the hold is the one at its middle: the force is
+            predicted `horizon_s` ahead.
         spike_n: A sample this far from the filtered force is rejected [N].
         spike_run: At most this many samples in a row are rejected; the next is a new level, taken.
         max_correction_mm: Largest correction [mm].
@@ -32,6 +37,7 @@ class OnlineSettings:
     cycle_s: float = 0.004
     filter_hz: float = 10.0
     latency_s: float = 0.0
+    period_s: float = 0.004
     spike_n: float = 1500.0
     spike_run: int = 2
     max_correction_mm: float = 5.0
@@ -51,11 +57,21 @@ class OnlineSettings:
             if not ok:
                 raise InputError(f"online setting {f.name} = {value!r}: expected a finite number "
                                  f"{'>= 0' if f.name in ('latency_s', 'hold_s') else '> 0'}")
+        if self.period_s > 1.0:
+            raise InputError(f"online setting period_s = {self.period_s!r}: expected the controller's correction "
+                             "period, a finite number > 0 and at most 1 s (ABB EGM path correction: 0.048)")
         if self.gain > 1.5:
             raise InputError(f"online setting gain = {self.gain!r}: expected at most 1.5 (1: the whole deflection)")
 
+    @property
+    def horizon_s(self) -> float:
+        """How far ahead the filtered force is predicted, besides the sample's age [s]: the latency and half of the
+        hold beyond the cycle, latency_s + (period_s - cycle_s) / 2 (a correction taken every cycle: the latency,
+        as `latency_s` has always been measured; EGM path correction, 48 ms in a 4 ms cycle: 22 ms more)."""
+        return self.latency_s + 0.5 * max(self.period_s - self.cycle_s, 0.0)
+
     def params(self) -> np.ndarray:
-        """The settings as the compiled cycle reads them (SI)."""
-        return np.array([self.cycle_s, 2.0 * math.pi * self.filter_hz, self.latency_s, self.spike_n,
+        """The settings as the compiled cycle reads them (SI; its third, the horizon)."""
+        return np.array([self.cycle_s, 2.0 * math.pi * self.filter_hz, self.horizon_s, self.spike_n,
                          1e-3 * self.max_correction_mm, 1e-3 * self.max_rate_mm_s, self.stale_s,
                          self.hold_s, self.gain, float(self.spike_run)])

@@ -35,7 +35,7 @@ from twin.sim.spec import TwinSpec
 
 STREAMS = ("position", "force", "profile")
 #: A run whose excess over noise lies within this share of the floor's shows no change the floor would not: the
-#: floor itself moves by 1-5 % between a learned cell's clean runs (a TX200 groove and a KR210 cone, the cells of
+#: floor itself moves by 1-6 % between a learned cell's clean runs (a TX200 groove and a KR210 cone, the cells of
 #: tests/plant_changes.py, measured on their clean runs only), and a change adding less cannot be told from it.
 OBSERVABLE_SHARE = 0.10
 #: Units of each stream's noise in words.

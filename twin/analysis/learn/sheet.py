@@ -1,28 +1,43 @@
-"""The sheet learned from a cell's runs: the `learned` force model's weights fitted to the measured F/T stream.
+"""The sheet learned from a cell's runs: which terms of the `learned` force model its F/T stream supports, and
+their weights, chosen from the data under regularisation, with their uncertainty.
 
 Each run's measured tool tip (its commanded path moved by the tracker's deflection,
 `twin.analysis.identify.forces.measured_tip_path`) drives a `LearnedForceField` from a flat sheet; at every
-sample it gives the terms its axial force is a weighted sum of (the ISF model's own force and the membrane terms
-of the formed surface around the tool, `twin.process.force.learned`). The model is linear in its weights, so
-they come from one least-squares solve against the measured Fz (the terms interpolated to the sensor's times),
-and the in-plane ratios μ_t, μ_r from a second one against the measured Fx, Fy with the fitted Fz. Their
-standard errors are the least-squares ones (white residuals assumed: the residuals of a real run are
-correlated in time, so they are a lower bound). The runs' commanded paths, trackers and forces are all it
-reads; `truth.json` never.
+sample it gives the library of terms its axial force is a weighted sum of (`twin.process.force.learned`): the
+published formula's force, the membrane terms a model file may carry, the formed state (engagement, contact,
+wall angle, depth) and the walls' rise around the tool. The model is linear in its weights; the fit is a ridge regression towards the
+prior mean (the published formula: its weight 1, every other 0; `RIDGE` of the samples' weight, on terms scaled
+to unit rms), and which terms enter is chosen by forward selection on validation that looks ahead: each run's
+samples in `BLOCKS` blocks of time, the blocks before b fitted, block b predicted, for b = 2 .. BLOCKS-1 (a part
+is formed deeper as it goes, so this scores what a term predicts for the material the fit has not seen, as the
+next part asks); a term enters while it lowers that error by more than `ENTRY_GAIN`. The candidates are the
+formed-state terms (`STATE_KEYS`) and the walls' rise around the tool (`RISE_KEYS`), never the membrane terms of
+Silva et al. (the form the plant's sheet law 1 is written in: a learner of that form fits that plant and nothing
+says it fits a real cell); a model file's membrane weights are still read and replayed. The radial in-plane
+ratio μ_r is chosen the same way (held at 0 where the look-ahead does not show it: a groove's walls run along
+its travel), μ_t always fitted. docs/learning.md has what it gives on parts it never formed.
+
+The uncertainty is a moving-block bootstrap (`BOOT` resamples of blocks of `BOOT_BLOCK_S`, seeded): the spread of
+each selected weight over resamples (the residuals of a run are correlated in time; the least-squares standard
+error would understate it), and the validation error is reported as what the next part's force should be
+expected to miss by. The in-plane ratios μ_t, μ_r come from a second least squares against the measured Fx, Fy
+with the fitted Fz. The runs' commanded paths, trackers and forces are all it reads; `truth.json` never.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 from typing import NamedTuple
 
 import numpy as np
+from scipy.optimize import lsq_linear
 
 from twin.analysis.identify.forces import measured_tip_path
 from twin.base.signals import interp_rows
 from twin.errors import InputError
 from twin.process.description import Process
-from twin.process.force.learned import WEIGHT_KEYS, LearnedForceField
+from twin.process.force.learned import RISE_KEYS, STATE_KEYS, WEIGHT_KEYS, LearnedForceField
 from twin.process.force.registry import build_force_field
 from twin.runs.format import Run
 
@@ -30,12 +45,30 @@ from twin.runs.format import Run
 MIN_SAMPLES = 50
 #: A run's measured force peaking below this fraction of what the declared sheet predicts is a silent sensor.
 SILENT_SENSOR = 0.05
+#: Ridge weight towards the prior mean, per sample, on terms scaled to unit rms [-].
+RIDGE = 1e-3
+#: Blocks of time per run for the look-ahead validation, and the least relative drop of its error to take a term.
+BLOCKS = 6
+ENTRY_GAIN = 0.03
+#: The terms forward selection may add to the published formula's.
+CANDIDATES = STATE_KEYS + RISE_KEYS
+#: The prior mean of the weights: the published formula (`prior_weight` 1), every other term 0.
+PRIOR_MEAN = np.array([1.0 if key == "prior_weight" else 0.0 for key in WEIGHT_KEYS])
+#: Weights that cannot be negative: the published formula's (a sheet does not push the less for it), and those on
+#: the engagement (the force does not fall as the tool goes deeper into the same surface; a negative slope there is
+#: the robot's own give read as the sheet's: the tip rises where the sheet pushes harder).
+NON_NEGATIVE = ("prior_weight", "engagement_n_per_mm", "engagement_sq_n_per_mm2", "depth_engagement_n_per_mm2")
+#: Moving-block bootstrap: resamples, block length [s], seed.
+BOOT = 64
+BOOT_BLOCK_S = 2.0
+BOOT_SEED = 0
 
 
 class SheetRows(NamedTuple):
     """One run's regression rows at its force samples."""
 
-    terms: np.ndarray  # (m, 4) the axial-force terms (`LearnedForceField.features`)
+    terms: np.ndarray  # (m, k) the axial-force terms (`LearnedForceField.features`)
+    t_s: np.ndarray  # (m,) the sensor's times [s]
     travel: np.ndarray  # (m, 2) the sliding direction at the tip [-]
     side: np.ndarray  # (m,) the held wall side [-]
     measured_n: np.ndarray  # (m, 3) the measured force [N]
@@ -50,6 +83,9 @@ class SheetFit(NamedTuple):
         rms_before_n: Per run, RMS of the measured minus the declared model's force along the measured tip [N].
         rms_after_n: Per run, the same with the learned model [N].
         samples: Force samples used, all runs.
+        terms: The terms selected (`WEIGHT_KEYS` names; the prior's always), in the order they entered.
+        validation_rms_n: The look-ahead validation's RMS axial-force error with those terms [N] (predicted).
+        prior_validation_rms_n: The same with the published formula alone [N].
     """
 
     force_fit: tuple[tuple[str, float], ...]
@@ -57,6 +93,9 @@ class SheetFit(NamedTuple):
     rms_before_n: tuple[float, ...]
     rms_after_n: tuple[float, ...]
     samples: int
+    terms: tuple[str, ...] = ("prior_weight",)
+    validation_rms_n: float = float("nan")
+    prior_validation_rms_n: float = float("nan")
 
 
 def sheet_rows(run: Run, process: Process) -> SheetRows:
@@ -69,7 +108,7 @@ def sheet_rows(run: Run, process: Process) -> SheetRows:
     assert isinstance(field, LearnedForceField)
     field.reset()
     n = len(path.t_s)
-    terms, travel, side = np.empty((n, 4)), np.empty((n, 2)), np.empty(n)
+    terms, travel, side = np.empty((n, len(WEIGHT_KEYS))), np.empty((n, 2)), np.empty(n)
     for i, p in enumerate(path.p_sheet_m):
         terms[i] = field.features(p)[0]
         travel[i] = field.sliding_direction(p)
@@ -78,7 +117,7 @@ def sheet_rows(run: Run, process: Process) -> SheetRows:
     t_f = run.forces.t_s
     inside = (t_f >= path.t_s[0]) & (t_f <= path.t_s[-1])
     t_f = t_f[inside]
-    return SheetRows(interp_rows(t_f, path.t_s, terms), interp_rows(t_f, path.t_s, travel),
+    return SheetRows(interp_rows(t_f, path.t_s, terms), t_f, interp_rows(t_f, path.t_s, travel),
                      interp_rows(t_f, path.t_s, side[:, None])[:, 0], run.forces.values[inside])
 
 
@@ -89,6 +128,76 @@ def _lstsq(X: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     s2 = float(np.sum((y - X @ coef) ** 2)) / dof
     cov = s2 * np.linalg.pinv(X.T @ X)
     return coef, np.sqrt(np.maximum(np.diag(cov), 0.0))
+
+
+def _ridge(X: np.ndarray, y: np.ndarray, cols: list[int]) -> np.ndarray:
+    """Ridge regression of the terms `cols` towards the prior mean, with weight `RIDGE` per sample on unit-rms
+    columns and the physical bounds (`NON_NEGATIVE`) held (module docstring)."""
+    scale = np.sqrt(np.mean(X**2, axis=0))
+    scale = np.where(scale > 0.0, scale, 1.0)
+    k = math.sqrt(RIDGE * len(y))
+    A = np.vstack([X / scale, k * np.eye(X.shape[1])])
+    b = np.concatenate([y, k * PRIOR_MEAN[cols] * scale])
+    low = np.array([0.0 if WEIGHT_KEYS[c] in NON_NEGATIVE else -np.inf for c in cols])
+    coef = lsq_linear(A, b, bounds=(low, np.full(len(cols), np.inf))).x
+    return np.asarray(coef / scale)
+
+
+def _blocks(rows: list[SheetRows], count: int) -> np.ndarray:
+    """Each sample's block of time within its own run, `count` equal blocks per run."""
+    return np.concatenate([np.arange(len(r.t_s)) * count // max(len(r.t_s), 1) for r in rows])
+
+
+def look_ahead_rms(terms: np.ndarray, fz_n: np.ndarray, block: np.ndarray, cols: list[int],
+                   fitted: bool = True) -> float:
+    """RMS axial-force error [N] predicting block b from blocks < b, b = 2 .. BLOCKS-1 (module docstring);
+    `fitted` False: the published formula as it is (weight 1, nothing fitted)."""
+    error, count = 0.0, 0
+    for b in range(2, BLOCKS):
+        train, test = block < b, block == b
+        w = _ridge(terms[train][:, cols], fz_n[train], cols) if fitted else PRIOR_MEAN[cols]
+        error += float(np.sum((fz_n[test] - np.maximum(terms[test][:, cols] @ w, 0.0)) ** 2))
+        count += int(np.sum(test))
+    return math.sqrt(error / max(count, 1))
+
+
+def _plane_rms(plane: np.ndarray, fxy_n: np.ndarray, block: np.ndarray, cols: list[int]) -> float:
+    """The look-ahead RMS [N] of the in-plane force with the ratios `cols` of (μ_t, μ_r) fitted (`look_ahead_rms`)."""
+    error, count = 0.0, 0
+    for b in range(2, BLOCKS):
+        train, test = block < b, block == b
+        mu = np.linalg.lstsq(plane[train][:, cols], fxy_n[train], rcond=None)[0]
+        error += float(np.sum((fxy_n[test] - plane[test][:, cols] @ mu) ** 2))
+        count += int(np.sum(test))
+    return math.sqrt(error / max(count, 1))
+
+
+def select_terms(terms: np.ndarray, fz_n: np.ndarray, block: np.ndarray) -> tuple[list[int], float]:
+    """Forward selection of the formed-state terms on the look-ahead validation: (columns, its RMS [N])."""
+    chosen = [0]
+    best = look_ahead_rms(terms, fz_n, block, chosen)
+    candidates = [WEIGHT_KEYS.index(key) for key in CANDIDATES]
+    while True:
+        scores = [(look_ahead_rms(terms, fz_n, block, [*chosen, k]), k) for k in candidates if k not in chosen]
+        if not scores:
+            return chosen, best
+        score, k = min(scores)
+        if score > (1.0 - ENTRY_GAIN) * best:
+            return chosen, best
+        chosen.append(k)
+        best = score
+
+
+def _bootstrap_std(rows: list[SheetRows], terms: np.ndarray, fz_n: np.ndarray, cols: list[int]) -> np.ndarray:
+    """The spread of the selected weights over a seeded moving-block bootstrap (module docstring)."""
+    ids = np.concatenate([np.floor((r.t_s - r.t_s[0]) / BOOT_BLOCK_S) + 1e6 * i for i, r in enumerate(rows)])
+    groups = [np.flatnonzero(ids == u) for u in np.unique(ids)]
+    rng = np.random.default_rng(BOOT_SEED)
+    draws = np.empty((BOOT, len(cols)))
+    for b in range(BOOT):
+        pick = np.concatenate([groups[i] for i in rng.integers(0, len(groups), len(groups))])
+        draws[b] = _ridge(terms[pick][:, cols], fz_n[pick], cols)
+    return np.asarray(np.std(draws, axis=0, ddof=1))
 
 
 def in_plane_columns(rows: SheetRows, fz_n: np.ndarray) -> np.ndarray:
@@ -119,14 +228,23 @@ def fit_sheet(runs: list[Run], process: Process) -> SheetFit:
                              "sensor's data (a sensor not connected, or not tared on?)")
     terms = np.vstack([r.terms for r in rows])
     measured = np.vstack([r.measured_n for r in rows])
-    if np.linalg.matrix_rank(terms) < terms.shape[1]:
-        raise InputError("the runs do not determine the sheet's terms (no forming contact in the path?): "
-                         f"rank {np.linalg.matrix_rank(terms)} of {terms.shape[1]}")
-    weights, w_std = _lstsq(terms, measured[:, 2])
+    if not np.any(terms[:, 0] > 0.0):
+        raise InputError("the runs do not determine the sheet's terms: the published formula pushes nowhere along "
+                         "their tips (no forming contact in the path?)")
+    block = _blocks(rows, BLOCKS)
+    cols, validation = select_terms(terms, measured[:, 2], block)
+    prior_validation = look_ahead_rms(terms, measured[:, 2], block, [0], fitted=False)
+    weights, w_std = PRIOR_MEAN.copy(), np.zeros(len(WEIGHT_KEYS))
+    weights[cols] = _ridge(terms[:, cols], measured[:, 2], cols)
+    w_std[cols] = _bootstrap_std(rows, terms, measured[:, 2], cols)
     plane = np.vstack([in_plane_columns(r, np.maximum(r.terms @ weights, 0.0)) for r in rows])
     fxy = np.concatenate([np.concatenate([r.measured_n[:, 0], r.measured_n[:, 1]]) for r in rows])
-    mu, mu_std = _lstsq(plane, fxy)
-    mu = np.clip(mu, 1e-6, None)  # the ISF constants are positive; a ratio at its floor is reported so
+    plane_block = np.concatenate([np.tile(b, 2) for b in np.split(block, np.cumsum([len(r.t_s) for r in rows])[:-1])])
+    mu_cols = [0, 1] if _plane_rms(plane, fxy, plane_block, [0, 1]) < (1.0 - ENTRY_GAIN) * _plane_rms(
+        plane, fxy, plane_block, [0]) else [0]
+    mu, mu_std = np.zeros(2), np.zeros(2)
+    mu[mu_cols], mu_std[mu_cols] = _lstsq(plane[:, mu_cols], fxy)
+    mu[mu_cols] = np.clip(mu[mu_cols], 1e-6, None)  # the ISF constants are positive; a ratio at its floor is so
     keys = (*WEIGHT_KEYS, "mu_eff", "mu_radial")
     values = (*weights, *mu)
     fit = tuple((k, float(v)) for k, v in zip(keys, values, strict=True))
@@ -134,7 +252,8 @@ def fit_sheet(runs: list[Run], process: Process) -> SheetFit:
     before = [_rms_along(run, process) for run in runs]
     after = [_rms_along(run, learned) for run in runs]
     return SheetFit(fit, tuple((k, float(v)) for k, v in zip(keys, (*w_std, *mu_std), strict=True)),
-                    tuple(before), tuple(after), len(measured))
+                    tuple(before), tuple(after), len(measured), tuple(WEIGHT_KEYS[c] for c in cols), validation,
+                    prior_validation)
 
 
 def _rms_along(run: Run, process: Process) -> float:

@@ -97,16 +97,25 @@ class EgmServer:
     """The twin's side of EGM path correction on a UDP port (`serve`).
 
     Args:
-        compensator: The online compensator (its twin at the cell's placement).
+        compensator: The online compensator (its twin at the cell's placement). The controller takes a path
+            correction every 48 ms (the exported program's `\\SampleRate`) and holds it; predicting over the
+            hold (`OnlineSettings.period_s`) was measured on the plant and did not help (docs/online.md), so the
+            server leaves the compensator's setting as it is given (`correction_period_s` None).
         robot: The robot (its controller's axis signs and offsets turn the feedback joints into the twin's).
         port: UDP port to listen on (0: any free one, see `port`).
         host: Address to bind (tests: 127.0.0.1).
         force: Where the F/T sample comes from; None: the messages' `measuredForce`.
     """
 
+    #: The hold the server sets the compensator to predict over [s]; None: the compensator's own setting (the
+    #: default: over the program's 48 ms, `1e-3 * SAMPLE_RATE_MS`, it made the largest error grow on the plant).
+    correction_period_s: float | None = None
+
     def __init__(self, compensator: OnlineCompensator, robot: RobotDescription, port: int = 0,
                  host: str = "127.0.0.1", force: ForceSource | None = None) -> None:
         self.compensator, self.robot, self.force = compensator, robot, force
+        if self.correction_period_s is not None:
+            compensator.hold_each_correction(self.correction_period_s)
         self.pb = egm_messages()
         self.sock, self.port = udp_socket(host, port)
 

@@ -1,19 +1,29 @@
-"""The sheet's force learned from a cell: the height-map ISF model with a membrane correction fitted to a run.
+"""The sheet's force learned from a cell: the height-map ISF model and a library of terms of the formed state.
 
 A real cell's sheet need not push as Aerens's formula says (`twin.process.force.isf`): its level, how it builds
-up with depth and how it depends on the surface around the tool are the cell's own. This model keeps the ISF
-model's height map, wall angle, sliding direction and in-plane law, and writes its unsoftened axial force as
+up with depth, the step-down and the wall are the cell's own. This model keeps the ISF model's height map, wall
+angle, sliding direction and in-plane law, and writes its unsoftened axial force as a weighted sum of terms of
+the formed state at the tip (a library; `twin.analysis.learn.sheet` chooses which a cell's data support):
 
-    Fz_lin = w · Fz_isf,lin + a_side · Σ_{left, right} m(u_s) + b_side · Σ_{left, right} u_s³ + a_ahead · m(u_a)
+    Fz_lin = w · Fz_isf,lin                                  the published formula (the prior mean: w = 1)
+           + a_side · Σ_{left, right} m(u_s) + b_side · Σ_{left, right} u_s³ + a_ahead · m(u_a)   membrane wrap
+           + Σ_k c_k · Π_{q in term k} q,   q in {Fz_isf,lin, E(Δz), σ(Δz), α / 45°, D}          formed state
 
-with u = sin β = r / sqrt(r² + R²), r = max(S(p + R·d) − z, 0) the rise of the met surface one tool radius R
-from the tip, to the left and the right of the held travel direction and ahead of it (the sheet wrapped
-around the tool leaves it at the angle β), and m(u) = u²·sqrt(1 − u²): the vertical part (sin β) of a membrane
-force per side σ·t·cos β over a contact length R·sin β (the membrane analysis of SPIF: Silva, Skjødt, Atkins,
-Bay, Martins, J Strain Anal 43 (2008) 15-35). The u³ term lets the membrane stress grow with the wrap (strain
-hardening). With w = 1 and the rest 0 it is the ISF model itself (its prior); what `twin.analysis.learn`
-fits from a run's F/T stream is marked fitted wherever it is reported. Every feature reads the formed surface,
-so the learned force carries from one part shape to another (learned on a cone, used on a pyramid).
+Membrane wrap: u = sin β = r / sqrt(r² + R²), r = max(S(p + R·d) − z, 0) the rise of the met surface one tool
+radius R from the tip, to the left and the right of the held travel direction and ahead of it, and
+m(u) = u²·sqrt(1 − u²): the vertical part of a membrane force per side σ·t·cos β over a contact length R·sin β
+(Silva, Skjødt, Atkins, Bay, Martins, J Strain Anal 43 (2008) 15-35); u³ lets the membrane stress harden.
+Formed state, the quantities the ISF literature's force correlations are written in (step-down, wall angle,
+depth; e.g. Aerens et al., IJAMT 46 (2010); Duflou et al., CIRP Annals 56 (2007)): the engagement
+Δz = S(p) − z (the step-down where a wall is formed), its smooth part E(Δz) = W·ln(1 + exp(Δz/W)) [mm] and the
+contact σ(Δz) = 1/(1 + exp(−Δz/W)) (W = `CONTACT_WIDTH_M`: off the sheet every formed-state term fades), the
+held wall angle α and the depth D = max(−z, 0) [mm] below the original sheet; the terms are those quantities and
+their products up to second order in E and D (`STATE_TERMS`: E, σ, σα, σD, E², σD², σDE, Fz_isf,lin·D/10 mm,
+σαD). They read no part shape around the tool. The rise terms read it as plainly as it can be read, the sines
+u_s, u_a of the walls' rise to the sides and ahead and their squares (the wall angle on each side and ahead),
+with no law of how a membrane or a bend turns them into force. With
+w = 1 and the rest 0 it is the ISF model itself; what `twin.analysis.learn` fits is marked fitted wherever it is
+reported.
 
 Its compiled kernel is the ISF model's (`twin.sim.compiled.isf`), which adds these terms where the model
 carries them; `tests/test_compiled_replay.py` holds the two loops together.
@@ -41,12 +51,36 @@ class LearnedWeights:
         side_membrane_n: a_side, on Σ m(u) over the two sides [N].
         side_cubic_n: b_side, on Σ u³ over the two sides [N].
         ahead_membrane_n: a_ahead, on m(u) ahead of the tool [N].
+        engagement_n_per_mm: on the smooth engagement E [N/mm].
+        contact_n: on the contact σ [N].
+        wall_angle_n: on σ α / 45° [N].
+        depth_n_per_mm: on σ D [N/mm].
+        engagement_sq_n_per_mm2: on E² [N/mm²].
+        depth_sq_n_per_mm2: on σ D² [N/mm²].
+        depth_engagement_n_per_mm2: on σ D E [N/mm²].
+        prior_per_cm: on Fz_isf,lin · D / 10 mm [-].
+        wall_depth_n_per_mm: on σ α / 45° · D [N/mm].
+        side_rise_n: on Σ_{left, right} u_s, the sines of the side walls' rise [N].
+        side_rise_sq_n: on Σ_{left, right} u_s² [N].
+        ahead_rise_n: on u_a, ahead [N].
     """
 
     prior_weight: float = 1.0
     side_membrane_n: float = 0.0
     side_cubic_n: float = 0.0
     ahead_membrane_n: float = 0.0
+    engagement_n_per_mm: float = 0.0
+    contact_n: float = 0.0
+    wall_angle_n: float = 0.0
+    depth_n_per_mm: float = 0.0
+    engagement_sq_n_per_mm2: float = 0.0
+    depth_sq_n_per_mm2: float = 0.0
+    depth_engagement_n_per_mm2: float = 0.0
+    prior_per_cm: float = 0.0
+    wall_depth_n_per_mm: float = 0.0
+    side_rise_n: float = 0.0
+    side_rise_sq_n: float = 0.0
+    ahead_rise_n: float = 0.0
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -55,7 +89,7 @@ class LearnedWeights:
                 raise InputError(f"LearnedWeights.{f.name} = {value!r}: expected a finite number")
 
     def as_array(self) -> np.ndarray:
-        """(w, a_side, b_side, a_ahead)."""
+        """The weights in the order of `WEIGHT_KEYS`."""
         return np.array([getattr(self, f.name) for f in fields(self)])
 
 
@@ -65,6 +99,44 @@ REACH = 1.0
 CAP = 1.0
 #: The keys of `LearnedWeights`, as `Process.force_fit` carries them beside the ISF constants.
 WEIGHT_KEYS = tuple(f.name for f in fields(LearnedWeights))
+#: The keys every learned model file has carried (the later ones are read as 0 where a file lacks them).
+REQUIRED_WEIGHT_KEYS = WEIGHT_KEYS[:4]
+#: The formed-state terms (read no part shape around the tool: `twin.analysis.learn.sheet`'s library).
+STATE_KEYS = WEIGHT_KEYS[4:13]
+#: The rise terms: the sines of the walls' rise one tool radius to the sides and ahead, as a polynomial.
+RISE_KEYS = WEIGHT_KEYS[13:]
+#: Each formed-state term (in the order of `STATE_KEYS`) as a product of up to three base quantities, indices
+#: into (Fz_isf,lin [N], E [mm], σ [-], α / 45° [-], D [mm]) (-1: none), and its factor.
+STATE_TERMS = np.array([[1, -1, -1], [2, -1, -1], [2, 3, -1], [2, 4, -1], [1, 1, -1], [2, 4, 4], [2, 4, 1],
+                        [0, 4, -1], [2, 3, 4]], dtype=np.int64)
+STATE_FACTORS = np.array([1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 0.1, 1.0])
+#: The weights on the published formula's force itself (dimensionless: a force-level ratio does not scale them).
+ON_PRIOR_KEYS = ("prior_weight", "prior_per_cm")
+#: Width of the contact's smooth step in the engagement [m].
+CONTACT_WIDTH_M = 1e-4
+#: The wall angle the wall term is read against [deg].
+ALPHA_REF_DEG = 45.0
+
+
+def contact_terms(dh_m: float) -> tuple[float, float, float]:
+    """(E(Δz) [mm], σ(Δz) [-], dσ/dΔz [1/m]) of the engagement Δz [m] (module docstring)."""
+    a = dh_m / CONTACT_WIDTH_M
+    if a < -40.0:
+        return 0.0, 0.0, 0.0
+    ex = math.exp(-abs(a))
+    soft = (max(a, 0.0) + math.log1p(ex)) * CONTACT_WIDTH_M
+    sig = 1.0 / (1.0 + ex) if a >= 0.0 else ex / (1.0 + ex)
+    return 1e3 * soft, sig, sig * (1.0 - sig) / CONTACT_WIDTH_M
+
+
+def _rise(s: float, radius: float) -> tuple[float, float]:
+    """(u, du/ds [1/m]) for a rise s [m] one tool radius away, capped as `_membrane`."""
+    if s <= 0.0:
+        return 0.0, 0.0
+    if s >= CAP * radius:
+        return _rise(0.999999 * CAP * radius, radius)[0], 0.0
+    q = s * s + radius * radius
+    return s / math.sqrt(q), radius * radius / q**1.5
 
 
 def _membrane(s: float, radius: float) -> tuple[float, float, float, float]:
@@ -101,7 +173,7 @@ class LearnedForceField(IsfForceField):
         """The terms the axial force is a weighted sum of, at a tip position, and their gradients; pure.
 
         Returns:
-            (values (4,) [N for the prior, - for the rest], gradients (4, 3) [per m]) in the order of
+            (values (k,) [N for the prior; -, mm for the rest], gradients (k, 3) [per m]) in the order of
             `LearnedWeights`.
         """
         x, y, z = float(p_sheet_m[0]), float(p_sheet_m[1]), float(p_sheet_m[2])
@@ -111,18 +183,40 @@ class LearnedForceField(IsfForceField):
         vx, vy = (vx / speed, vy / speed) if speed > 1e-9 else (1.0, 0.0)
         radius = self.radius
         reach = REACH * radius
-        values = np.array([lin, 0.0, 0.0, 0.0])
-        grads = np.zeros((4, 3))
+        values = np.zeros(len(WEIGHT_KEYS))
+        values[0] = lin
+        grads = np.zeros((len(WEIGHT_KEYS), 3))
         grads[0] = gx, gy, gz
         for dx, dy, ahead in ((-vy, vx, False), (vy, -vx, False), (vx, vy, True)):
             s, sx, sy = self.map.met_height(x + reach * dx, y + reach * dy)
             m, dm, cube, dcube = _membrane(s - z, radius)
+            u, du = _rise(s - z, radius)
+            rise = (du * sx, du * sy, -du)
+            if ahead:
+                values[15] = u
+                grads[15] = rise
+            else:
+                values[13] += u
+                values[14] += u * u
+                grads[13] += rise
+                grads[14] += 2.0 * u * np.array(rise)
             k = 3 if ahead else 1
             values[k] += m
             grads[k] += (dm * sx, dm * sy, -dm)
             if not ahead:
                 values[2] += cube
                 grads[2] += (dcube * sx, dcube * sy, -dcube)
+        s, sx, sy = self.map.met_height(x, y)
+        soft, sig, dsig = contact_terms(s - z)
+        base = np.array([lin, soft, sig, self._alpha / ALPHA_REF_DEG, 1e3 * max(-z, 0.0)])
+        base_grad = np.array([[gx, gy, gz], [1e3 * sig * sx, 1e3 * sig * sy, -1e3 * sig],
+                              [dsig * sx, dsig * sy, -dsig], [0.0, 0.0, 0.0], [0.0, 0.0, -1e3 if z < 0.0 else 0.0]])
+        for k, (factors, scale) in enumerate(zip(STATE_TERMS, STATE_FACTORS, strict=True)):  # product rule
+            used = [int(f) for f in factors if f >= 0]
+            values[4 + k] = scale * math.prod(base[f] for f in used)
+            for i, f in enumerate(used):
+                others = math.prod(base[g] for j, g in enumerate(used) if j != i)
+                grads[4 + k] += scale * others * base_grad[f]
         return values, grads
 
     def _fz_linear(self, x: float, y: float, z: float) -> tuple[float, float, float, float]:

@@ -33,7 +33,7 @@ from twin.process.force.aerens import validity_warnings
 from twin.process.force.base import ForceField
 from twin.process.force.isf import IsfForceField
 from twin.process.force.isf_params import params_for
-from twin.process.force.learned import WEIGHT_KEYS, LearnedForceField, LearnedWeights
+from twin.process.force.learned import ON_PRIOR_KEYS, WEIGHT_KEYS, LearnedForceField, LearnedWeights
 from twin.process.force.table import SheetForceField
 from twin.process.toolpath.groove import label_passes
 
@@ -173,7 +173,7 @@ def _learned(history: ForceHistory, process: Process) -> ForceField:
         warnings.warn(sentence, ExtrapolationWarning, stacklevel=3)
     fit = dict(process.force_fit)
     ratio = history_ratio(history, process.force_history())
-    weights = {key: ratio * fit.pop(key) if key != "prior_weight" else fit.pop(key)
+    weights = {key: ratio * fit.pop(key) if key not in ON_PRIOR_KEYS else fit.pop(key)
                for key in WEIGHT_KEYS if key in fit}
     fit["scale"] = ratio * fit.get("scale", 1.0)  # the prior's level: the prior weight multiplies it
     return LearnedForceField(params_for(process, **fit), LearnedWeights(**weights))
@@ -187,6 +187,6 @@ register_force_model(ForceModel(
     "isf", "the height-map ISF model at the process's published force level (any part and path)", _isf,
 ))
 register_force_model(ForceModel(
-    "learned", "the ISF model with membrane terms learned from a cell's F/T stream (`tx200-twin learn`)",
+    "learned", "the ISF model with terms of the formed state chosen and fitted from a cell's F/T stream (`tx200-twin learn`)",
     _learned, lambda _h, _process, _p: False,  # never from a path alone: it needs a cell's fitted weights
 ))

@@ -74,16 +74,21 @@ def isf_arrays(field: IsfForceField, capacity: int) -> IsfArrays | None:
 
 
 def _learned_prm(field: IsfForceField) -> list[float]:
-    """The learned terms' slots of `prm` (`twin.process.force.learned`): a flag, the weights, reach and cap."""
+    """The learned terms' slots of `prm` (`twin.process.force.learned`): a flag, the membrane weights, reach and
+    cap, the formed-state weights, the contact width and the reference wall angle."""
     if isinstance(field, LearnedForceField):
-        return [1.0, *field.weights.as_array(), learned_force.REACH, learned_force.CAP]
-    return [0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 1.0]
+        w = field.weights.as_array()
+        return [1.0, *w[:4], learned_force.REACH, learned_force.CAP, *w[4:], learned_force.CONTACT_WIDTH_M,
+                learned_force.ALPHA_REF_DEG]
+    return [0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 1.0, *[0.0] * (len(learned_force.WEIGHT_KEYS) - 4),
+            learned_force.CONTACT_WIDTH_M,
+            learned_force.ALPHA_REF_DEG]
 
 
 def idle_isf_arrays() -> IsfArrays:
     """A placeholder of the right types for a replay on the table field (never read)."""
     return IsfArrays(np.zeros((2, 2)), np.full((2, 2), -1, dtype=np.int64), np.zeros((1, 1, 1, 1)), np.zeros((1, 7)),
-                     np.zeros(8), np.zeros(21), np.zeros(11))
+                     np.zeros(8), np.zeros(19 + len(learned_force.WEIGHT_KEYS)), np.zeros(11))
 
 
 def write_back(field: IsfForceField, arrays: IsfArrays) -> None:

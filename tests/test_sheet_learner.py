@@ -1,0 +1,157 @@
+"""The sheet learner (`twin.analysis.learn.sheet`): the terms it takes are chosen by the data, it carries a
+force law it has no term for from one part to another, it holds what the data do not support at the prior mean,
+and says its uncertainty.
+
+The hidden sheet is written here, in a form the library does not have (a power of the commanded depth and a
+step with the tracker's speed), as a data edit of the dynamic plant's runs: the plant's own force is replaced.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from twin.analysis.learn.cell import declared_process
+from twin.analysis.learn.sheet import fit_sheet, sheet_rows
+from twin.cli import main
+from twin.process.force.registry import build_force_field
+from twin.runs.read import read_run
+
+
+def _hidden_forces(run_dir: Path) -> None:
+    """Replace the run's F/T stream by the test's own sheet: Fz = 95 N·D^0.8 + 2 N·D² (D the commanded depth
+    [mm]) where the plant's tool touched the sheet, the in-plane force at the plant's own ratio to its Fz."""
+    cmd = np.loadtxt(run_dir / "commanded.csv", delimiter=",", skiprows=1, usecols=(0, 3))
+    forces = np.loadtxt(run_dir / "forces.csv", delimiter=",", skiprows=1)
+    depth = np.maximum(-np.interp(forces[:, 0], cmd[:, 0], cmd[:, 1]), 0.0)
+    touching = forces[:, 3] > 30.0
+    fz = np.where(touching, 95.0 * depth**0.8 + 2.0 * depth**2, 0.0)
+    ratio = np.where(touching, fz / np.maximum(forces[:, 3], 1.0), 0.0)
+    out = np.column_stack([forces[:, 0], forces[:, 1] * ratio, forces[:, 2] * ratio, fz])
+    np.savetxt(run_dir / "forces.csv", out, delimiter=",", header="t_s,fx_n,fy_n,fz_n", comments="", fmt="%.6f")
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    """A cone (learned from) and a pyramid (never learned from) of the neutral dynamic plant, their forces the
+    hidden sheet's."""
+    root = tmp_path_factory.mktemp("sheet")
+    out = {}
+    for name, shape, width, depth, seed in (("cone", "cone", "50", "6", 1), ("pyramid", "pyramid", "40", "5", 3)):
+        path = root / f"{name}.csv"
+        assert main(["path", "--shape", shape, "--top-width-mm", width, "--depth-mm", depth, "--out", str(path)]) == 0
+        assert main(["lab", "--plant", "dynamic", "--neutral", "--scenario", "nominal", "--commanded", str(path),
+                     "--seed", str(seed), "--out", str(root / name)]) == 0
+        _hidden_forces(root / name)
+        out[name] = root / name
+    return out
+
+
+def _fz_rms(run_dir: Path, process) -> float:
+    """RMS of the run's Fz minus the process's force model along the run's measured tip [N]."""
+    run = read_run(run_dir)
+    rows = sheet_rows(run, declared_process(run))
+    field = build_force_field(process)
+    from twin.analysis.identify.forces import measured_tip_path
+    from twin.base.signals import interp_rows
+
+    path = measured_tip_path(run, 0.0)
+    model = interp_rows(rows.t_s, path.t_s, field.rigid_forces(path))[:, 2]
+    return float(np.sqrt(np.mean((rows.measured_n[:, 2] - model) ** 2)))
+
+
+def test_a_sheet_law_it_has_no_term_for_carries_to_a_part_it_never_formed(runs: dict[str, Path]) -> None:
+    cone = read_run(runs["cone"])
+    declared = declared_process(cone)
+    fit = fit_sheet([cone], declared)
+    learned = replace(declared, force_model="learned", force_fit=fit.force_fit)
+    # chosen from the data: the published formula's own weight and at least one formed-state term; fewer terms
+    # than the library holds
+    assert fit.terms[0] == "prior_weight" and 2 <= len(fit.terms) <= 5, fit.terms
+    # the look-ahead check on the run it learned from, predicted: well below the published formula's
+    assert fit.validation_rms_n < 0.35 * fit.prior_validation_rms_n, (fit.validation_rms_n, fit.prior_validation_rms_n)
+    # the pyramid it never formed: the learned sheet misses its force by less than half the published formula's
+    untaught, taught = _fz_rms(runs["pyramid"], declared), _fz_rms(runs["pyramid"], learned)
+    assert taught < 0.5 * untaught, (taught, untaught, fit.terms)
+
+
+def test_the_learner_says_its_uncertainty_and_is_deterministic(runs: dict[str, Path]) -> None:
+    cone = read_run(runs["cone"])
+    one, two = (fit_sheet([cone], declared_process(cone)) for _ in range(2))
+    assert one == two  # the bootstrap is seeded
+    std = dict(one.std)
+    assert all(std[k] > 0.0 for k in one.terms)  # every chosen term has a spread
+    unchosen = [k for k, _ in one.force_fit if k not in one.terms and k not in ("mu_eff", "mu_radial")]
+    assert unchosen and all(std[k] == 0.0 for k in unchosen)  # held at the prior mean, not fitted
+
+
+def test_a_radial_force_the_data_do_not_show_is_not_learned(tmp_path: Path) -> None:
+    """The groove's wall runs along the travel: its runs show almost no radial in-plane force, and the learner
+    sets none (a fitted ratio there drove the twin's tool sideways in a replay of the next run)."""
+    out = tmp_path / "groove"
+    assert main(["lab", "--plant", "dynamic", "--neutral", "--scenario", "nominal", "--seed", "2", "--out",
+                 str(out)]) == 0
+    run = read_run(out)
+    fit = dict(fit_sheet([run], declared_process(run)).force_fit)
+    assert fit["mu_radial"] == 0.0 and fit["mu_eff"] > 0.05
+
+
+DOC = Path(__file__).resolve().parents[1] / "docs" / "learning.md"
+PARTS = ("cone (fitted)", "cone 80 x 8", "pyramid")
+
+
+def _doc_rows() -> dict[str, dict[str, tuple[float, float, float]]]:
+    """docs/learning.md's sheet-learner table: cell -> part -> (published, membrane, learned) Fz rms [N]."""
+    text = DOC.read_text()
+    block = text[text.index("<!-- sheet-learner:begin"):text.index("<!-- sheet-learner:end")]
+    rows = {}
+    for line in block.splitlines()[3:]:
+        cells = [c.strip() for c in line.strip("|").split("|")]
+        rows[cells[0]] = {part: tuple(float(v) for v in cell.removesuffix(" N").split(" / "))
+                          for part, cell in zip(PARTS, cells[2:], strict=True)}
+    return rows
+
+
+def test_the_pages_words_on_the_learned_sheet_are_its_tables() -> None:
+    rows = _doc_rows()
+    held = {k: v for k, v in rows.items() if "(held out)" in k}
+    assert len(held) == 4 and {"kr210", "irb6640"} == {k.split(",")[0] for k in held}
+    for cell, parts in held.items():
+        for part in PARTS[1:]:  # predicted: at most three fifths of the published formula's miss
+            published, _, learned = parts[part]
+            assert learned <= 0.6 * published, (cell, part, parts[part])
+        if "sheet law 2" in cell:  # law 2: ahead of the membrane learner on every predicted part, 2x on the pyramid
+            assert all(parts[p][2] < parts[p][1] for p in PARTS[1:]) and parts["pyramid"][2] <= 0.5 * parts[
+                "pyramid"][1], (cell, parts)
+        else:  # law 1, the membrane's own form: within a few tens of newtons
+            assert all(abs(parts[p][2] - parts[p][1]) <= 60.0 for p in PARTS[1:]), (cell, parts)
+
+
+@pytest.mark.slow
+def test_the_sheet_learner_table_is_what_the_study_gives(tmp_path: Path) -> None:
+    """Reruns the KR 210's law-2 cell (held out) and compares it with the page's row."""
+    import sys
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "experiments"))
+    from sheet_learner_study import cell_study
+
+    row = cell_study(tmp_path / "cell", "kr210:2")
+    doc = _doc_rows()["kr210, sheet law 2 (held out)"]
+    for part, key in zip(PARTS, ("cone", "cone 80 x 8", "pyramid"), strict=True):
+        got = tuple(row[key][m]["fz_n"] for m in ("published", "membrane", "learned"))
+        assert np.allclose(got, doc[part], rtol=0.05, atol=3.0), (part, got, doc[part])
+
+
+def test_learn_says_so_when_its_twin_replays_its_own_run_worse(runs: dict[str, Path]) -> None:
+    from twin.analysis.learn import learn
+    from twin.apps.tasks.learn import LearnReport
+
+    result = learn([read_run(runs["cone"])])
+    words = "\n".join(LearnReport(result).lines())
+    assert "WORSE: the learned twin replays" not in words  # it replays its own run better
+    before = result.before[0]
+    worse = result._replace(after=(before._replace(position_rms_mm=before.position_rms_mm + 0.1),))
+    assert "WORSE: the learned twin replays the run it learned from worse" in "\n".join(LearnReport(worse).lines())
