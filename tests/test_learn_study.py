@@ -81,3 +81,16 @@ def test_the_pages_words_on_the_four_cells_are_its_tables() -> None:
     for part in ("cone-irb6640", "cone-irb6640 -> pyramid (never formed)", "cone-irb6640 -> cone 80 x 8 (never formed)"):
         n = _row_numbers(law1, part)  # compensates worse; replays the cones better, an eighth of their force gap
         assert n[8] > n[4] and ("pyramid" in part or (n[6] < n[2] and 0.1 <= n[7] / n[3] <= 0.15)), (part, n)
+
+
+def test_the_pages_words_on_the_learned_robot_are_its_table() -> None:
+    rows = [line.split("|")[1:-1] for line in _block("robot-learning").splitlines()[3:]]
+    joints = [(r[0].strip(), r[1].strip(), float(r[5]), float(r[6])) for r in rows]  # cell, joint, ratio, miss
+    assert len(joints) == 16
+    for cell, joint, ratio, miss in joints:
+        if joint in ("j2", "j3"):
+            assert miss <= 2.0, (cell, joint, miss)
+        elif cell.endswith("cone") and (joint == "j5" or not cell.startswith("irb6640")):
+            assert ratio > 1.1 and miss > 2.0, (cell, joint, ratio, miss)
+    met = [j for j, r in zip(joints, rows, strict=True) if j[3] <= 2.0 and float(r[3].split("(")[1].split(" %")[0]) <= 15]
+    assert len(met) == 9, met

@@ -199,3 +199,38 @@ def test_the_servers_keep_the_compensators_setting_as_predicting_over_the_hold_d
     pose = EgmPoseServer(OnlineCompensator(spec, OnlineSettings(max_rate_mm_s=1000.0)), robot, guided)
     pose.close()
     assert pose.compensator.settings.period_s == 0.004 and _lead_s(pose.compensator) == pytest.approx(0.0, abs=1e-9)
+
+
+def test_the_pages_words_on_a_model_learned_from_another_part_are_its_table() -> None:
+    """docs/online.md's table of `experiments/online_other_part.py`: learned against default, offline and online."""
+    text = (Path(__file__).resolve().parents[1] / "docs" / "online.md").read_text()
+    block = text[text.index("<!-- online-other-part:begin"):text.index("<!-- online-other-part:end")]
+    rms = {}
+    for line in block.splitlines()[3:]:
+        cells = [c.strip() for c in line.strip("|").split("|")]
+        rms[(cells[0], cells[1])] = [float(c.split(" / ")[0]) for c in cells[2:]]  # nominal, off d, off l, on d, on l
+    better = {("kr210", "cone 80 x 8"): (True, True), ("kr210", "pyramid"): (None, True),
+              ("tx200", "cone 80 x 8"): (True, False), ("tx200", "pyramid"): (False, False),
+              ("tx200", "groove"): (False, False)}
+    for key, (offline, online) in better.items():
+        r = rms[key]
+        for claim, learned, default in ((offline, r[2], r[1]), (online, r[4], r[3])):
+            if claim is not None:
+                assert (learned < default) == claim, (key, r)
+    groove = rms[("tx200", "groove")]
+    assert groove[2] >= 1.8 * groove[1]  # offline by a factor of two
+    assert all(min(r[1:]) > (0.15 if part == "pyramid" else 0.10) for (_, part), r in rms.items())
+
+
+def test_the_pages_words_on_the_second_sheet_law_are_its_table() -> None:
+    """docs/online.md under the law-2 table: the learned model changes little on the groove, helps offline on the
+    cone and hurts online there."""
+    text = (Path(__file__).resolve().parents[1] / "docs" / "online.md").read_text()
+    block = text[text.index("<!-- online-table-law2:begin"):text.index("<!-- online-table-law2:end")]
+    rms = {}
+    for line in block.splitlines()[3:]:
+        cells = [c.strip() for c in line.strip("|").split("|")]
+        rms[cells[0]] = [float(c.split(" / ")[0]) for c in cells[1:]]  # nominal, off d, off l, on d, on l, ...
+    groove, cone = rms["groove-default"], rms["cone-default"]
+    assert abs(groove[2] - groove[1]) <= 0.1 and abs(groove[4] - groove[3]) <= 0.05, groove
+    assert cone[2] < 0.5 * cone[1] and cone[4] > cone[3], cone

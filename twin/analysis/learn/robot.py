@@ -37,6 +37,10 @@ OBSERVABLE_RATIO = 0.5
 SPEED_SMOOTHING_RAD_S = 2e-4
 #: Servo time constants tried [s].
 SERVO_TIME_CONSTANTS_S = (0.01, 0.02, 0.03, 0.05, 0.075, 0.1, 0.15, 0.2, 0.3)
+#: Moving-block bootstrap of the compliances' spread: resamples, block length [s], seed.
+BOOT = 48
+BOOT_BLOCK_S = 2.0
+BOOT_SEED = 0
 
 
 class RobotRows(NamedTuple):
@@ -146,6 +150,27 @@ def _solve(runs: list[RobotRows], servo_s: float, c0: np.ndarray, free: np.ndarr
     return coef, cov, rss
 
 
+def _resampled(rows: RobotRows, pick: np.ndarray) -> RobotRows:
+    """The rows at the tracker samples `pick` (the force stream whole: it is interpolated at their times)."""
+    return rows._replace(deflection_m=rows.deflection_m[pick], t_s=rows.t_s[pick], lever=rows.lever[pick],
+                         friction=rows.friction[pick])
+
+
+def _bootstrap_std(runs: list[RobotRows], servo_s: float, c0: np.ndarray, free: np.ndarray,
+                   frictionless: np.ndarray) -> np.ndarray:
+    """The compliances' spread over a seeded moving-block bootstrap of each run's tracker samples (`BOOT`
+    resamples of `BOOT_BLOCK_S` blocks, the servo's time constant and the held joints kept) [rad/(N·m)]."""
+    rng = np.random.default_rng(BOOT_SEED)
+    groups = [[np.flatnonzero(b == u) for u in np.unique(b)]
+              for b in (np.floor((r.t_s - r.t_s[0]) / BOOT_BLOCK_S) for r in runs)]
+    draws = np.empty((BOOT, len(c0)))
+    for k in range(BOOT):
+        picked = [_resampled(r, np.concatenate([g[i] for i in rng.integers(0, len(g), len(g))]))
+                  for r, g in zip(runs, groups, strict=True)]
+        draws[k] = _solve(picked, servo_s, c0, free, frictionless)[0][: len(c0)]
+    return np.asarray(np.std(draws, axis=0, ddof=1))
+
+
 def predicted_deflection(rows: RobotRows, fit: RobotFit, offset_m: np.ndarray) -> np.ndarray:
     """The learned robot's tool-tip deflection under the measured forces at the tracker's times [m], (m, 3)."""
     m = len(rows.t_s)
@@ -179,6 +204,9 @@ def fit_robot(runs: list[Run], twin: Twin) -> RobotFit:
         if np.all(coef[dof:2 * dof] >= 0.0):
             break
     c, c_std = coef[:dof], np.sqrt(np.diag(cov)[:dof])
+    # the posterior's spread assumes white residuals; a run's are correlated in time (the servo, the sheet), so the
+    # spread stated is the larger of it and a moving-block bootstrap's
+    c_std = np.maximum(c_std, _bootstrap_std(rows, best, c0, observable, frictionless))
     c = np.where(observable & (c > 0.05 * c0), c, np.where(observable, 0.05 * c0, c0))
     k = 1.0 / c
     k_std = np.where(observable, c_std / c**2, PRIOR_SPREAD * k0)

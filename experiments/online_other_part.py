@@ -1,0 +1,95 @@
+"""Online and offline compensation of parts the learned model never formed, on the dynamic plant, on two robots.
+
+For each robot: one nominal cone (60 x 10 mm, seed 1) is formed and `learn`ed from; then each target part (a wider,
+shallower cone 80 x 8 mm, a pyramid 40 x 6 mm, and on the TX200 the thesis's groove) is formed with seed 3 from
+its ideal path (nominal), from the twin's offline compensation (`compensate --method twin`, default or learned
+model) and with the controller compensating online (`lab --online`, default or learned model). The learned model
+never saw these parts (predicted, not fitted). Default knobs (the tracker's registration error included); each
+residual is `check`'s as in `experiments/online_study.py` (rms / max [mm], in brackets less the tracker offset
+`learn` found). Writes OUT/online_other_part.json, OUT/online_other_part.md and with `--doc` the table between the
+online-other-part markers of that page (docs/online.md; `tests/test_online_interface.py` reads it):
+
+    .venv/bin/python experiments/online_other_part.py OUT [--robots tx200,kr210] [--doc docs/online.md]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+from typing import Any
+
+from experiments_cli import cli, cli_json
+from online_study import _residual
+
+LEARN_FROM = ["--shape", "cone", "--top-width-mm", "60", "--depth-mm", "10"]
+TARGETS = {"cone 80 x 8": ["--shape", "cone", "--top-width-mm", "80", "--depth-mm", "8"],
+           "pyramid": ["--shape", "pyramid", "--top-width-mm", "40", "--depth-mm", "6"],
+           "groove": ["--shape", "groove"]}
+#: The parts each robot forms (the groove's path is the TX200 cell's).
+ROBOT_TARGETS = {"tx200": ("cone 80 x 8", "pyramid", "groove"), "kr210": ("cone 80 x 8", "pyramid")}
+COLUMNS = ("nominal", "offline_default", "offline_learned", "online_default", "online_learned")
+
+
+def _lab(robot: str, command: Path, out: Path, seed: int, scenario: str = "nominal", *extra: str) -> Path:
+    cli("lab", "--plant", "dynamic", "--scenario", scenario, "--commanded", str(command), "--seed", str(seed),
+        "--robot", robot, "--out", str(out), *extra)
+    return out
+
+
+def robot_study(out: Path, robot: str) -> list[dict[str, Any]]:
+    """One robot's rows (module docstring)."""
+    out.mkdir(parents=True, exist_ok=True)
+    learn_path, model = out / "learn_cone.csv", out / "learned.json"
+    cli("path", *LEARN_FROM, "--robot", robot, "--out", str(learn_path))
+    learned = cli_json("learn", str(_lab(robot, learn_path, out / "learn_nominal1", 1)), "--write-model", str(model))
+    offset = learned["robot"]["tracker_offset_mm"]
+    rows = []
+    for part in ROBOT_TARGETS[robot]:
+        tag = part.replace(" ", "")
+        ideal = out / f"{tag}.csv"
+        cli("path", *TARGETS[part], "--robot", robot, "--out", str(ideal))
+        row: dict[str, Any] = {"robot": robot, "part": part,
+                               "nominal": _residual(_lab(robot, ideal, out / f"{tag}_nominal3", 3), ideal, offset)}
+        for twin, extra in (("default", []), ("learned", ["--model", str(model)])):
+            command = out / f"{tag}_offline_{twin}.csv"
+            cli("compensate", "--method", "twin", "--robot", robot, *extra, "--ideal", str(ideal), "--out",
+                str(command))
+            row[f"offline_{twin}"] = _residual(_lab(robot, command, out / f"{tag}_offline_{twin}", 3, "compensated"),
+                                               ideal, offset)
+            row[f"online_{twin}"] = _residual(_lab(robot, ideal, out / f"{tag}_online_{twin}", 3, "nominal",
+                                                   "--online", *extra), ideal, offset)
+        rows.append(row)
+        print(table(rows[-1:]).splitlines()[-1], flush=True)
+    return rows
+
+
+def table(rows: list[dict[str, Any]]) -> str:
+    """The markdown table: rms / max (rms less the tracker offset) [mm]."""
+    lines = ["| robot | part (never formed) | nominal | offline, default | offline, learned | online, default | "
+             "online, learned |", "|---|---|---|---|---|---|---|"]
+    for r in rows:
+        cells = [f"{r[c]['rms_mm']:.2f} / {r[c]['max_mm']:.2f} ({r[c]['less_offset_rms_mm']:.2f})" for c in COLUMNS]
+        lines.append(f"| {r['robot']} | {r['part']} | " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("out", type=Path)
+    parser.add_argument("--robots", default=",".join(ROBOT_TARGETS))
+    parser.add_argument("--doc", type=Path, help="write the table into this page between its markers")
+    args = parser.parse_args()
+    rows = [row for robot in args.robots.split(",") for row in robot_study(args.out / robot, robot)]
+    (args.out / "online_other_part.json").write_text(json.dumps(rows, indent=1))
+    (args.out / "online_other_part.md").write_text(table(rows))
+    print(table(rows))
+    if args.doc is not None:
+        text = args.doc.read_text()
+        begin = text.index("\n", text.index("<!-- online-other-part:begin")) + 1
+        end = text.index("<!-- online-other-part:end")
+        args.doc.write_text(text[:begin] + table(rows) + text[end:])
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,76 @@
+"""The learned robot against the plant's own joint stiffness: does `learn`'s K_q land on it within its stated spread?
+
+For each cell (robot, part; the dynamic plant with neutral knobs, its sheet law 1), one nominal run (seed 1) is
+formed and learned from with `tx200-twin learn` (the twin side reads the run only); here, on the experiment's side,
+each observable joint's learned K_q and its stated standard deviation (the larger of the posterior's and a
+moving-block bootstrap's, `twin.analysis.learn.robot`) are set against the plant's K_q from the run's
+`truth.json`. Writes OUT/robot_learning.json, OUT/robot_learning.md and with `--doc` the table between the
+robot-learning markers of that page (docs/learning.md; `tests/test_learn_study.py` reads it):
+
+    .venv/bin/python experiments/robot_learning_study.py OUT [--cells tx200:groove,...] [--doc docs/learning.md]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+from typing import Any
+
+from experiments_cli import cli, cli_json
+
+#: robot:part
+CELLS = ("tx200:groove", "tx200:cone", "kr210:cone", "irb6640:cone")
+PARTS = {"groove": ["--shape", "groove"], "cone": ["--shape", "cone", "--top-width-mm", "60", "--depth-mm", "10"]}
+
+
+def cell_study(out: Path, cell: str) -> dict[str, Any]:
+    """One cell's joints (module docstring)."""
+    robot, part = cell.split(":")
+    out.mkdir(parents=True, exist_ok=True)
+    path, run = out / "path.csv", out / "nominal1"
+    cli("path", *PARTS[part], "--robot", robot, "--out", str(path))
+    cli("lab", "--plant", "dynamic", "--neutral", "--scenario", "nominal", "--commanded", str(path), "--seed", "1",
+        "--robot", robot, "--out", str(run))
+    learned = cli_json("learn", str(run))["robot"]
+    plant = json.loads((run / "truth.json").read_text())["joint_stiffness_nm_per_rad"]
+    joints = [{"joint": j + 1, "learned_knm": 1e-3 * k, "std_knm": 1e-3 * s, "plant_knm": 1e-3 * p,
+               "prior_knm": 1e-3 * k0}
+              for j, (k, s, p, k0, seen) in enumerate(zip(learned["k_q_nm_per_rad"], learned["k_q_std_nm_per_rad"],
+                                                          plant, learned["prior_k_q_nm_per_rad"],
+                                                          learned["observable"], strict=True)) if seen]
+    return {"cell": cell, "joints": joints}
+
+
+def table(rows: list[dict[str, Any]]) -> str:
+    """Per observable joint: learned ± stated spread, the plant's, their ratio, the miss in spreads."""
+    lines = ["| cell | joint | prior [kN·m/rad] | learned ± spread | plant | learned / plant | miss / spread |",
+             "|---|---|---|---|---|---|---|"]
+    for r in rows:
+        for j in r["joints"]:
+            miss = abs(j["learned_knm"] - j["plant_knm"]) / j["std_knm"]
+            lines.append(f"| {r['cell']} | j{j['joint']} | {j['prior_knm']:.0f} | {j['learned_knm']:.0f} ± "
+                         f"{j['std_knm']:.0f} ({100 * j['std_knm'] / j['learned_knm']:.0f} %) | {j['plant_knm']:.0f} | "
+                         f"{j['learned_knm'] / j['plant_knm']:.2f} | {miss:.1f} |")
+    return "\n".join(lines) + "\n"
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("out", type=Path)
+    parser.add_argument("--cells", default=",".join(CELLS))
+    parser.add_argument("--doc", type=Path, help="write the table into this page between its robot-learning markers")
+    args = parser.parse_args()
+    rows = [cell_study(args.out / cell.replace(":", "-"), cell) for cell in args.cells.split(",")]
+    (args.out / "robot_learning.json").write_text(json.dumps(rows, indent=1))
+    (args.out / "robot_learning.md").write_text(table(rows))
+    print(table(rows))
+    if args.doc is not None:
+        text = args.doc.read_text()
+        begin = text.index("\n", text.index("<!-- robot-learning:begin")) + 1
+        end = text.index("<!-- robot-learning:end")
+        args.doc.write_text(text[:begin] + table(rows) + text[end:])
+
+
+if __name__ == "__main__":
+    main()
