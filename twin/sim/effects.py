@@ -7,6 +7,7 @@ that switches it off, the range it may take and where it acts:
 |---|---|---|---|
 | lost_motion | mrad | robot | lost motion (half dead band) of the robot's lost-motion joints, flipping with the travel direction |
 | force_scale | - | sheet | the sheet's real forces are k x the FE history (the field is fitted to the scaled history) |
+| force_scale_in_plane | - | sheet | their in-plane part r x that (k r on x and y, k on z: a per-axis scale) |
 | stream_time_offset | s | sensor | the force sensor's clock runs tau ahead: a sample stamped t was measured at t - tau |
 | tracker_drift | mm/s | tracker | the tracker's reading drifts linearly with time along `TRACKER_DRIFT_DIRECTION` |
 | tool_length_offset | mm | robot | the real tool tip lies this much further along the tool axis than nominal |
@@ -14,11 +15,11 @@ that switches it off, the range it may take and where it acts:
 
 The F/T sensor's and the tracker's calibration (vectors: a bias, a registration, a clock) ride along as
 `Effects.instruments` (`twin.sim.instruments`), and a gear's play under the forming load (one half dead band per arm
-joint, the flank set by the joint's torque) as `Effects.gear_play_rad` (`twin.sim.gear_play`). The same vocabulary serves the quasi-static lab (its hidden truth), the twin (the effects it knows, e.g. found by
-the discrepancy search), the model file (`twin.sim.model_file`) and the discrepancy families, which map onto
-these names (`twin.analysis.discrepancy.families`). `step` is the finite-difference step the search refines an
-effect with; `compose` says how a fitted increment adds to a known value. Names used before are still read
-(`RENAMED`), with a message naming the new one.
+joint, the flank set by the joint's torque) as `Effects.gear_play_rad` (`twin.sim.gear_play`). The same vocabulary
+serves the quasi-static lab (its hidden truth), the twin (the effects it knows, e.g. found by the discrepancy
+search), the model file (`twin.sim.model_file`) and the discrepancy families, which map onto these names
+(`twin.analysis.discrepancy.families`). `step` is the finite-difference step the search refines an effect with;
+`compose` says how a fitted increment adds to a known value. Names used before are still read (`RENAMED`).
 """
 
 from __future__ import annotations
@@ -103,6 +104,8 @@ for _spec in (
                key_suffix="mrad", simulated=True),
     EffectSpec("force_scale", "-", 1.0, (0.0, 100.0), "sheet", "real sheet forces = k x the FE force history",
                0.02, "scale", "ratio", simulated=True),
+    EffectSpec("force_scale_in_plane", "-", 1.0, (0.0, 100.0), "sheet", "real in-plane sheet forces = r x the "
+               "axial force's scale (a per-axis force scale)", 0.02, "scale", "ratio", simulated=True),
     EffectSpec("stream_time_offset", "s", 0.0, (-math.inf, math.inf), "sensor",
                "force-sensor clock ahead of the tracker clock by tau", 0.005, key_suffix="s"),
     EffectSpec("tracker_drift", "mm/s", 0.0, (-math.inf, math.inf), "tracker",
@@ -148,8 +151,7 @@ class Effects:
     Attributes:
         values: Effect name -> parameter value (only effects that are switched on).
         lost_motion_takeup_m: Travel after a reversal over which lost motion is taken up [m].
-        instruments: The F/T sensor's and the tracker's calibration (`twin.sim.instruments`: vectors, which the
-            scalar vocabulary does not hold), applied to what the twin's sensors report.
+        instruments: The F/T sensor's and the tracker's calibration (`twin.sim.instruments`), applied to its sensors.
         gear_play_rad: Half dead band of each arm joint's gear, the link resting on the flank its torque pushes it
             to (`twin.sim.gear_play`) [rad], one per arm joint; empty: none.
     """

@@ -83,8 +83,8 @@ class Twin:
                 set_joint_stiffness(nominal, spec.joint_stiffness, self.robot)
         self.kinematics = Kinematics(nominal, robot=self.robot)
         self.data = mujoco.MjData(self.model)
-        scaled = self.history if effects.force_scale == 1.0 else replace(
-            self.history, f_sheet_n=effects.force_scale * self.history.f_sheet_n)
+        axes = effects.force_scale * np.array([effects.get("force_scale_in_plane")] * 2 + [1.0])
+        scaled = self.history if np.all(axes == 1.0) else replace(self.history, f_sheet_n=self.history.f_sheet_n * axes)
         self._reversal_m = spec.process.friction_reversal_m
         self.set_sheet_field(build_force_field(spec.process, scaled))
         m = self.model

@@ -32,7 +32,7 @@ from twin.process.fe.load import ForceHistory
 from twin.process.force.aerens import validity_warnings
 from twin.process.force.base import ForceField
 from twin.process.force.isf import IsfForceField
-from twin.process.force.isf_params import params_for
+from twin.process.force.isf_params import IsfForceParams, params_for
 from twin.process.force.learned import ON_PRIOR_KEYS, WEIGHT_KEYS, LearnedForceField, LearnedWeights
 from twin.process.force.table import SheetForceField
 from twin.process.toolpath.groove import label_passes
@@ -160,12 +160,28 @@ def history_ratio(history: ForceHistory, reference: ForceHistory) -> float:
     return float(np.mean(history.f_sheet_n[:, 2]) / np.mean(reference.f_sheet_n[:, 2]))
 
 
+def in_plane_ratio(history: ForceHistory, reference: ForceHistory) -> float:
+    """Mean in-plane force of `history` over that of `reference`, over their Fz ratio [-]: 1 for a history scaled
+    alike on every axis, r for one whose in-plane force is scaled r times more (a per-axis `force_scale`)."""
+    if history is reference:
+        return 1.0
+    plane, ref = (float(np.mean(np.linalg.norm(h.f_sheet_n[:, :2], axis=1))) for h in (history, reference))
+    r = plane / ref / history_ratio(history, reference) if ref > 0.0 else 1.0
+    return 1.0 if abs(r - 1.0) < 1e-9 else r
+
+
+def _in_plane_scaled(params: IsfForceParams, r: float) -> IsfForceParams:
+    """The ISF constants with the in-plane ratios μ_t, μ_r scaled by `r` (`in_plane_ratio`)."""
+    return params if r == 1.0 else replace(params, mu_eff=r * params.mu_eff, mu_radial=r * params.mu_radial)
+
+
 def _isf(history: ForceHistory, process: Process) -> ForceField:
     for sentence in validity_warnings(process.thickness_m, process.tool_radius_m):
         warnings.warn(sentence, ExtrapolationWarning, stacklevel=3)
     fit = dict(process.force_fit)
-    scale = history_ratio(history, process.force_history()) * fit.pop("scale", 1.0)
-    return IsfForceField(params_for(process, scale=scale, **fit))
+    reference = process.force_history()
+    scale = history_ratio(history, reference) * fit.pop("scale", 1.0)
+    return IsfForceField(_in_plane_scaled(params_for(process, scale=scale, **fit), in_plane_ratio(history, reference)))
 
 
 def _learned(history: ForceHistory, process: Process) -> ForceField:
@@ -176,7 +192,8 @@ def _learned(history: ForceHistory, process: Process) -> ForceField:
     weights = {key: ratio * fit.pop(key) if key not in ON_PRIOR_KEYS else fit.pop(key)
                for key in WEIGHT_KEYS if key in fit}
     fit["scale"] = ratio * fit.get("scale", 1.0)  # the prior's level: the prior weight multiplies it
-    return LearnedForceField(params_for(process, **fit), LearnedWeights(**weights))
+    params = _in_plane_scaled(params_for(process, **fit), in_plane_ratio(history, process.force_history()))
+    return LearnedForceField(params, LearnedWeights(**weights))
 
 
 register_force_model(ForceModel(

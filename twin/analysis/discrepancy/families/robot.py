@@ -71,6 +71,14 @@ class ForceScale(Family):
         w = np.array([covariance[2, 2], covariance[0, 0]])
         return float((w @ theta[[0, 2]]) / w.sum()) if w.sum() > 0 else float(theta[2])
 
+    def to_increments(self, theta: np.ndarray, ctx: Context) -> dict[str, Any] | None:
+        """Where x and z differ: `force_scale` k_z and `force_scale_in_plane` k_xy / k_z, k_xy the x scale, or the
+        mean of x and y where the sheet pushes along y too (a sheet's in-plane force has no preferred axis)."""
+        f = ctx.sim.f_sheet_n
+        rms = np.sqrt(np.mean(f[:, :2] ** 2, axis=0))
+        k_xy = float(theta[0]) if rms[1] < 0.2 * rms[0] else float(np.mean(theta[:2]))
+        return {"force_scale": float(theta[2]), "force_scale_in_plane": k_xy / float(theta[2])}
+
 
 @register
 class DirectionDependentCompliance(Family):
