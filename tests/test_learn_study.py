@@ -57,54 +57,53 @@ def _block(marker: str) -> str:
 
 
 def test_the_pages_words_on_the_four_cells_are_its_tables() -> None:
-    """The prose under the law-2 table: (replay gap, compensated residual) learned over untaught, the targets not
-    met, the IRB 6640's law-1 rows."""
-    law2 = _block("learn-table-law2")
+    """The prose under the law-2 table: (replay gap, compensated residual) learned over untaught, better than the
+    untaught on every part but one, the targets met on the TX200's wider cone only."""
+    law2, law1 = _block("learn-table-law2"), _block("learn-table")
     for variant in ("cone-kr210", "cone-irb6640"):
         for part in ("", " -> pyramid (never formed)", " -> cone 80 x 8 (never formed)"):
             n = _row_numbers(law2, variant + part)  # nominal rms, max; untaught gap mm, N, rms, max; learned ...
-            assert 0.25 <= n[6] / n[2] <= 0.5 and 0.35 <= n[8] / n[4] <= 0.75, (variant + part, n)
-    n = _row_numbers(law2, "groove-neutral")
-    assert n[6] < n[2] and n[8] >= 0.98 * n[4]
-    law1 = _block("learn-table")
-    learned = {}
-    for block in (law1, law2):
-        for line in block.splitlines():
-            if line.startswith("| cone-kr210") or line.startswith("| cone-irb6640"):
-                name = line.split("|")[1].strip()
-                n = _row_numbers(block, name)
+            assert 0.2 <= n[6] / n[2] <= 0.5 and 0.3 <= n[8] / n[4] <= 0.7, (variant + part, n)
+    worse, learned = [], {}
+    for law, block in ((1, law1), (2, law2)):
+        for line in block.splitlines()[3:]:
+            name = line.split("|")[1].strip()
+            n = _row_numbers(block, name)
+            if n[8] >= n[4]:
+                worse.append((law, name))
+            if name.startswith(("cone-kr210", "cone-irb6640")):
+                learned[(law, name)] = n[8]
                 cone = "pyramid" not in name
-                assert n[8] > (0.10 if cone else 0.15) or n[8] > 0.25 * n[4], name  # no cell meets #48's targets
-                learned[(block is law2, name)] = n[8]
-    nearest = min(learned, key=learned.get)
-    assert nearest == (False, "cone-kr210 -> cone 80 x 8 (never formed)"), learned
-    for part in ("cone-irb6640", "cone-irb6640 -> pyramid (never formed)", "cone-irb6640 -> cone 80 x 8 (never formed)"):
-        n = _row_numbers(law1, part)  # compensates worse; replays the cones better, an eighth of their force gap
-        assert n[8] > n[4] and ("pyramid" in part or (n[6] < n[2] and 0.1 <= n[7] / n[3] <= 0.15)), (part, n)
+                assert n[8] > (0.10 if cone else 0.15) or n[8] > 0.25 * n[4], name  # not met on these two robots
+    assert worse == [(1, "cone-irb6640")], worse
+    assert min(learned, key=learned.get) == (1, "cone-kr210 -> cone 80 x 8 (never formed)"), learned
+    n = _row_numbers(law1, "cone-tx200 -> cone 80 x 8 (never formed)")
+    assert n[8] <= 0.10 and n[8] <= 0.25 * n[4], n
+
+
+def _robot_rows(marker: str) -> dict[tuple[str, str], tuple[float, float, float]]:
+    """(cell, joint) -> (learned / plant, miss / spread, spread [%]) of a robot-learning table."""
+    out = {}
+    for line in _block(marker).splitlines()[3:]:
+        r = [c.strip() for c in line.split("|")[1:-1]]
+        out[(r[0], r[1])] = (float(r[5]), float(r[6]), float(r[3].split("(")[1].split(" %")[0]))
+    return out
 
 
 def test_the_pages_words_on_the_learned_robot_are_its_table() -> None:
-    rows = [line.split("|")[1:-1] for line in _block("robot-learning").splitlines()[3:]]
-    joints = [(r[0].strip(), r[1].strip(), float(r[5]), float(r[6])) for r in rows]  # cell, joint, ratio, miss
-    assert len(joints) == 16
-    for cell, joint, ratio, miss in joints:
-        if joint in ("j2", "j3"):
-            assert miss <= 2.0, (cell, joint, miss)
-        elif cell.endswith("cone") and (joint == "j5" or not cell.startswith("irb6640")):
-            assert ratio > 1.1 and miss > 2.0, (cell, joint, ratio, miss)
-    met = [j for j, r in zip(joints, rows, strict=True) if j[3] <= 2.0 and float(r[3].split("(")[1].split(" %")[0]) <= 15]
-    assert len(met) == 9, met
+    rows = _robot_rows("robot-learning")
+    assert len(rows) == 16
+    for (cell, joint), (ratio, miss, _spread) in rows.items():
+        assert miss <= 2.0, (cell, joint, miss)  # within two stated spreads
+        if joint != "j1":
+            assert abs(ratio - 1.0) <= 0.0601, (cell, joint, ratio)  # 6 %, as the table rounds it
+        elif cell in ("tx200:cone", "kr210:cone"):
+            assert 1.16 <= ratio <= 1.2, (cell, joint, ratio)
+    met = [k for k, (_, miss, spread) in rows.items() if miss <= 2.0 and spread <= 15]
+    assert len(met) == 14 and {k for k in rows if k not in met} == {("tx200:groove", "j1"), ("kr210:cone", "j1")}
 
 
 def test_the_pages_words_on_the_learned_robot_without_friction_are_its_table() -> None:
-    rows = [line.split("|")[1:-1] for line in _block("robot-learning-no-friction").splitlines()[3:]]
-    joints = [(r[0].strip(), r[1].strip(), float(r[5]), float(r[6]), float(r[3].split("(")[1].split(" %")[0]))
-              for r in rows]  # cell, joint, learned / plant, miss / spread, spread [%]
-    assert len(joints) == 16
-    for cell, joint, ratio, _miss, spread in joints:
-        if joint in ("j2", "j3", "j5"):
-            assert abs(ratio - 1.0) <= 0.0501, (cell, joint, ratio)  # 5 %, as the table rounds it
-        if joint == "j1" and cell in ("tx200:cone", "kr210:cone"):
-            assert ratio > 1.1, (cell, joint, ratio)
-        assert spread <= 3 or cell == "tx200:groove", (cell, joint, spread)
-    assert max(miss for *_, miss, _ in joints) > 5.0  # the misses are larger than the spread says
+    on, off = _robot_rows("robot-learning"), _robot_rows("robot-learning-no-friction")
+    assert on.keys() == off.keys()
+    assert all(abs(on[k][0] - off[k][0]) <= 0.05 for k in on), (on, off)  # the same within 5 %

@@ -209,8 +209,8 @@ def test_the_pages_words_on_a_model_learned_from_another_part_are_its_table() ->
     for line in block.splitlines()[3:]:
         cells = [c.strip() for c in line.strip("|").split("|")]
         rms[(cells[0], cells[1])] = [float(c.split(" / ")[0]) for c in cells[2:]]  # nominal, off d, off l, on d, on l
-    better = {("kr210", "cone 80 x 8"): (True, True), ("kr210", "pyramid"): (None, True),
-              ("tx200", "cone 80 x 8"): (True, False), ("tx200", "pyramid"): (False, False),
+    better = {("kr210", "cone 80 x 8"): (True, True), ("kr210", "pyramid"): (True, True),
+              ("tx200", "cone 80 x 8"): (True, True), ("tx200", "pyramid"): (True, False),
               ("tx200", "groove"): (False, False)}
     for key, (offline, online) in better.items():
         r = rms[key]
@@ -218,13 +218,13 @@ def test_the_pages_words_on_a_model_learned_from_another_part_are_its_table() ->
             if claim is not None:
                 assert (learned < default) == claim, (key, r)
     groove = rms[("tx200", "groove")]
-    assert groove[2] >= 1.8 * groove[1]  # offline by a factor of two
+    assert 1.8 * groove[1] <= groove[2] < 2.0 * groove[1]  # offline by a factor of almost two
     assert all(min(r[1:]) > (0.15 if part == "pyramid" else 0.10) for (_, part), r in rms.items())
 
 
 def test_the_pages_words_on_the_second_sheet_law_are_its_table() -> None:
-    """docs/online.md under the law-2 table: the learned model changes little on the groove, helps offline on the
-    cone and hurts online there."""
+    """docs/online.md under the law-2 table: the learned model changes little on the groove, helps on the cone,
+    offline and online."""
     text = (Path(__file__).resolve().parents[1] / "docs" / "online.md").read_text()
     block = text[text.index("<!-- online-table-law2:begin"):text.index("<!-- online-table-law2:end")]
     rms = {}
@@ -233,4 +233,19 @@ def test_the_pages_words_on_the_second_sheet_law_are_its_table() -> None:
         rms[cells[0]] = [float(c.split(" / ")[0]) for c in cells[1:]]  # nominal, off d, off l, on d, on l, ...
     groove, cone = rms["groove-default"], rms["cone-default"]
     assert abs(groove[2] - groove[1]) <= 0.1 and abs(groove[4] - groove[3]) <= 0.05, groove
-    assert cone[2] < 0.5 * cone[1] and cone[4] > cone[3], cone
+    assert cone[2] < 0.5 * cone[1] and cone[4] < cone[3], cone
+
+
+def test_the_pages_words_on_what_is_not_reached_are_its_table() -> None:
+    text = (ROOT / "docs" / "online.md").read_text(encoding="utf-8")
+    block = text[text.index("<!-- online-table:begin"):text.index("<!-- online-table:end")]
+    rows = {}
+    for line in block.splitlines()[3:]:
+        cells = [c.strip() for c in line.strip("|").split("|")]
+        # per cell: rms, then the first bracketed number (less the tracker offset)
+        rows[cells[0]] = [(float(c.split(" / ")[0]), float(c.split("(")[1].split(";")[0])) for c in cells[1:]]
+    # columns: nominal, offline d, offline l, online d, online l, both d, both l
+    for cone in ("cone-default", "cone-stronger"):
+        assert rows[cone][6][1] <= 0.10 and rows[cone][4][0] < rows[cone][3][0], rows[cone]
+    for groove in ("groove-default", "groove-stronger"):
+        assert min(rows[groove][4][1], rows[groove][6][1]) > 0.10, rows[groove]

@@ -12,7 +12,9 @@ its motion (a deflection J_j·c_j·τ_f,j that flips with the sign of the joint'
 compliance c_s,j on the force's high-pass F − lag_τ(F) (`twin.sim.servo`: the position loop gives way while the
 force changes and recovers over τ, picked on a grid by the least residual), and a constant tracker offset per
 axis (a registration error of the tracker frame: reported, not put into the robot; the model carries the
-registration as the instruments', `twin.analysis.learn.instruments`). `truth.json` is never read.
+registration as the instruments', `twin.analysis.learn.instruments`). That linear fit is the start: the
+observable joints' springs and friction are then refined as the twin's equilibrium holds them, a friction that
+sticks (`twin.analysis.learn.stick_slip`), which is what their stated spread is of. `truth.json` is never read.
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from twin.analysis.learn.stick_slip import JointRows, play_deflection, refine
 from twin.base.signals import interp_rows
 from twin.errors import InputError
 from twin.runs.format import Run
@@ -35,12 +38,11 @@ FRICTION_SPREAD_NM = 1000.0
 OBSERVABLE_RATIO = 0.5
 #: Joint speed below which the friction's sign turns smoothly (tanh) [rad/s].
 SPEED_SMOOTHING_RAD_S = 2e-4
+#: A joint is refined with its friction sticking (`stick_slip`) where the linear fit's spread is below this share of
+#: its compliance.
+REFINE_SPREAD = 0.1
 #: Servo time constants tried [s].
 SERVO_TIME_CONSTANTS_S = (0.01, 0.02, 0.03, 0.05, 0.075, 0.1, 0.15, 0.2, 0.3)
-#: Moving-block bootstrap of the compliances' spread: resamples, block length [s], seed.
-BOOT = 48
-BOOT_BLOCK_S = 2.0
-BOOT_SEED = 0
 
 
 class RobotRows(NamedTuple):
@@ -52,6 +54,8 @@ class RobotRows(NamedTuple):
     force_n: np.ndarray  # (k, 3) measured force, sheet frame [N]
     lever: np.ndarray  # (m, dof, 3, 3) per joint J_j J_jᵀ, sheet frame [m²/rad²]
     friction: np.ndarray  # (m, 3, dof) per joint -J_j·s_j, s_j the smoothed sign of the joint's speed [m/rad]
+    q: np.ndarray  # (m, dof) the commanded joint angles [rad]
+    jacobian: np.ndarray  # (m, 3, dof) the tool tip's translational Jacobian, sheet frame [m/rad]
 
 
 class RobotFit(NamedTuple):
@@ -98,7 +102,7 @@ def robot_rows(run: Run, twin: Twin) -> RobotRows:
     speed = np.gradient(q_ik, run.commanded.t_s, axis=0)
     sign = np.tanh(interp_rows(t, run.commanded.t_s, speed) / SPEED_SMOOTHING_RAD_S)
     return RobotRows(run.tracker.values - unloaded, t, run.forces.t_s, run.forces.values, lever,
-                     -J_sheet * sign[:, None, :])
+                     -J_sheet * sign[:, None, :], q, J_sheet)
 
 
 def design(rows: RobotRows, servo_s: float = 0.0) -> np.ndarray:
@@ -150,35 +154,20 @@ def _solve(runs: list[RobotRows], servo_s: float, c0: np.ndarray, free: np.ndarr
     return coef, cov, rss
 
 
-def _resampled(rows: RobotRows, pick: np.ndarray) -> RobotRows:
-    """The rows at the tracker samples `pick` (the force stream whole: it is interpolated at their times)."""
-    return rows._replace(deflection_m=rows.deflection_m[pick], t_s=rows.t_s[pick], lever=rows.lever[pick],
-                         friction=rows.friction[pick])
-
-
-def _bootstrap_std(runs: list[RobotRows], servo_s: float, c0: np.ndarray, free: np.ndarray,
-                   frictionless: np.ndarray) -> np.ndarray:
-    """The compliances' spread over a seeded moving-block bootstrap of each run's tracker samples (`BOOT`
-    resamples of `BOOT_BLOCK_S` blocks, the servo's time constant and the held joints kept) [rad/(N·m)]."""
-    rng = np.random.default_rng(BOOT_SEED)
-    groups = [[np.flatnonzero(b == u) for u in np.unique(b)]
-              for b in (np.floor((r.t_s - r.t_s[0]) / BOOT_BLOCK_S) for r in runs)]
-    draws = np.empty((BOOT, len(c0)))
-    for k in range(BOOT):
-        picked = [_resampled(r, np.concatenate([g[i] for i in rng.integers(0, len(g), len(g))]))
-                  for r, g in zip(runs, groups, strict=True)]
-        draws[k] = _solve(picked, servo_s, c0, free, frictionless)[0][: len(c0)]
-    return np.asarray(np.std(draws, axis=0, ddof=1))
+def joint_rows(rows: RobotRows, linear: np.ndarray) -> JointRows:
+    """The rows as the play model takes them (`twin.analysis.learn.stick_slip`), with the linear part's columns."""
+    torque = np.einsum("nij,ni->nj", rows.jacobian, interp_rows(rows.t_s, rows.force_t_s, rows.force_n))
+    return JointRows(rows.t_s, rows.q, rows.jacobian, torque, rows.deflection_m, linear)
 
 
 def predicted_deflection(rows: RobotRows, fit: RobotFit, offset_m: np.ndarray) -> np.ndarray:
-    """The learned robot's tool-tip deflection under the measured forces at the tracker's times [m], (m, 3)."""
+    """The learned robot's tool-tip deflection under the measured forces at the tracker's times [m], (m, 3): its
+    springs and sticking friction (`stick_slip.play_deflection`, as the twin's equilibrium holds them), servo."""
     m = len(rows.t_s)
-    c = 1.0 / fit.k_q_nm_per_rad
-    spring = (design(rows) @ c).reshape(3, m).T
+    spring = play_deflection(joint_rows(rows, np.zeros((3 * m, 0))), 1.0 / fit.k_q_nm_per_rad, fit.friction_nm)
     servo = 0.0 if fit.servo is None else (design(rows, fit.servo.time_constant_s)
                                            @ np.asarray(fit.servo.compliance_rad_per_nm)).reshape(3, m).T
-    return spring + servo + np.einsum("nij,j->ni", rows.friction, c * fit.friction_nm) + offset_m
+    return spring + servo + offset_m
 
 
 def fit_robot(runs: list[Run], twin: Twin) -> RobotFit:
@@ -204,16 +193,24 @@ def fit_robot(runs: list[Run], twin: Twin) -> RobotFit:
         if np.all(coef[dof:2 * dof] >= 0.0):
             break
     c, c_std = coef[:dof], np.sqrt(np.diag(cov)[:dof])
-    # the posterior's spread assumes white residuals; a run's are correlated in time (the servo, the sheet), so the
-    # spread stated is the larger of it and a moving-block bootstrap's
-    c_std = np.maximum(c_std, _bootstrap_std(rows, best, c0, observable, frictionless))
     c = np.where(observable & (c > 0.05 * c0), c, np.where(observable, 0.05 * c0, c0))
-    k = 1.0 / c
-    k_std = np.where(observable, c_std / c**2, PRIOR_SPREAD * k0)
     friction = np.where(observable, np.maximum(coef[dof:2 * dof], 0.0) / c, 0.0)
     servo_c = np.where(observable, coef[2 * dof:3 * dof], 0.0)
-    servo = ServoTransient(tuple(float(v) for v in servo_c), float(best)) if np.any(servo_c != 0) else None
     offsets = coef[3 * dof:].reshape(len(rows), 3)
+    # the springs and friction as the twin's equilibrium holds them (friction that sticks), for the joints the
+    # linear fit pins down; a joint it leaves loose keeps the linear fit's values (its spring and friction could
+    # trade against each other without end)
+    pinned = observable & (c_std < REFINE_SPREAD * c)
+    if pinned.any():
+        ss = refine([joint_rows(r, design(r, best)[:, observable]) for r in rows], c, friction, pinned, c0)
+        c = np.where(pinned, ss.c, c)
+        c_std = np.where(pinned, ss.c_std, c_std)
+        friction, offsets = np.where(observable, ss.friction_nm, 0.0), ss.offsets_m
+        servo_c = np.zeros(dof)
+        servo_c[observable] = ss.linear
+    k = 1.0 / c
+    k_std = np.where(observable, c_std / c**2, PRIOR_SPREAD * k0)
+    servo = ServoTransient(tuple(float(v) for v in servo_c), float(best)) if np.any(servo_c != 0) else None
     fit = RobotFit(k, k_std, k0, twin.joint_friction, observable, servo, friction, 1e3 * offsets.mean(axis=0), (), ())
     prior = fit._replace(k_q_nm_per_rad=k0, servo=twin.spec.servo, friction_nm=twin.joint_friction)
     prior_rms = tuple(rms_norm_mm(r.deflection_m - predicted_deflection(r, prior, np.zeros(3))) for r in rows)
