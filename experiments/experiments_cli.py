@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 from contextlib import redirect_stdout
 from io import StringIO
+from pathlib import Path
 from typing import Any
 
 from twin.cli import main
@@ -26,3 +27,12 @@ def cli_json(*argv: str) -> dict[str, Any]:
     if code not in (0, 1):
         raise SystemExit(f"`tx200-twin {' '.join(argv)}` exited with {code}")
     return dict(json.loads(out.getvalue()))
+
+
+def write_between_markers(doc: Path, marker: str, text: str) -> None:
+    """Replace what lies between a page's `<!-- MARKER:begin ... -->` line and its `<!-- MARKER:end -->` by `text`
+    (a generated table)."""
+    page = doc.read_text(encoding="utf-8")
+    begin = page.index("\n", page.index(f"<!-- {marker}:begin")) + 1
+    end = page.index(f"<!-- {marker}:end")
+    doc.write_text(page[:begin] + text + page[end:], encoding="utf-8")

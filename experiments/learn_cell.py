@@ -16,7 +16,7 @@ import json
 from pathlib import Path
 from typing import Any
 
-from experiments_cli import cli, cli_json
+from experiments_cli import cli, cli_json, write_between_markers
 
 from twin.lab.dynamic.knobs import Knobs
 from twin.lab.dynamic.run import run_dynamic_lab
@@ -171,11 +171,7 @@ def main() -> None:
     (args.out / "learn_cell.md").write_text(table(rows))
     print(table(rows))
     if args.doc is not None:
-        text = args.doc.read_text()
-        begin = text.index(f"<!-- {args.marker}:begin")
-        begin = text.index("\n", begin) + 1
-        end = text.index(f"<!-- {args.marker}:end")
-        args.doc.write_text(text[:begin] + table(rows) + text[end:])
+        write_between_markers(args.doc, args.marker, table(rows))
 
 
 if __name__ == "__main__":

@@ -19,7 +19,7 @@ import json
 from pathlib import Path
 from typing import Any
 
-from experiments_cli import cli, cli_json
+from experiments_cli import cli, cli_json, write_between_markers
 from online_study import _residual
 
 LEARN_FROM = ["--shape", "cone", "--top-width-mm", "60", "--depth-mm", "10"]
@@ -85,10 +85,7 @@ def main() -> None:
     (args.out / "online_other_part.md").write_text(table(rows))
     print(table(rows))
     if args.doc is not None:
-        text = args.doc.read_text()
-        begin = text.index("\n", text.index("<!-- online-other-part:begin")) + 1
-        end = text.index("<!-- online-other-part:end")
-        args.doc.write_text(text[:begin] + table(rows) + text[end:])
+        write_between_markers(args.doc, "online-other-part", table(rows))
 
 
 if __name__ == "__main__":

@@ -18,7 +18,7 @@ import json
 from pathlib import Path
 from typing import Any
 
-from experiments_cli import cli, cli_json
+from experiments_cli import cli, cli_json, write_between_markers
 
 #: robot:part
 CELLS = ("tx200:groove", "tx200:cone", "kr210:cone", "irb6640:cone")
@@ -72,10 +72,7 @@ def main() -> None:
     (args.out / "robot_learning.md").write_text(table(rows))
     print(table(rows))
     if args.doc is not None:
-        text = args.doc.read_text()
-        begin = text.index("\n", text.index(f"<!-- {args.marker}:begin")) + 1
-        end = text.index(f"<!-- {args.marker}:end")
-        args.doc.write_text(text[:begin] + table(rows) + text[end:])
+        write_between_markers(args.doc, args.marker, table(rows))
 
 
 if __name__ == "__main__":

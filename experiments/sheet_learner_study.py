@@ -24,7 +24,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from experiments_cli import cli
+from experiments_cli import cli, write_between_markers
 
 from twin.analysis.identify.forces import measured_tip_path
 from twin.analysis.learn.cell import declared_process
@@ -119,10 +119,7 @@ def main() -> None:
     (args.out / "sheet_learner.md").write_text(table(rows))
     print(table(rows))
     if args.doc is not None:
-        text = args.doc.read_text()
-        begin = text.index("\n", text.index("<!-- sheet-learner:begin")) + 1
-        end = text.index("<!-- sheet-learner:end")
-        args.doc.write_text(text[:begin] + table(rows) + text[end:])
+        write_between_markers(args.doc, "sheet-learner", table(rows))
 
 
 if __name__ == "__main__":

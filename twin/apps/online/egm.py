@@ -93,6 +93,21 @@ class PathFrame:
         a[2, 0], a[2, 1], a[2, 2] = z0, z1, z2
 
 
+def read_feedback(message: Any, packet: bytes, axes: np.ndarray) -> bool:
+    """Parse a robot's EGM message into `message` and its feedback joints into `axes` (in place); False for one
+    that cannot be read (protobuf's DecodeError, or fewer joints than `axes`)."""
+    try:
+        message.ParseFromString(packet)
+        joints = message.feedBack.joints.joints
+        if len(joints) < len(axes):
+            return False
+    except Exception:
+        return False
+    for i in range(len(axes)):
+        axes[i] = joints[i]
+    return True
+
+
 class EgmServer:
     """The twin's side of EGM path correction on a UDP port (`serve`).
 
@@ -143,15 +158,8 @@ class EgmServer:
         corr_path = np.zeros(3)
 
         def answer(packet: bytes, received_s: float) -> bytes | None:
-            try:
-                robot_msg.ParseFromString(packet)
-                joints = robot_msg.feedBack.joints.joints
-                if len(joints) < self.robot.dof:
-                    raise ValueError("joints")
-            except Exception:  # protobuf's DecodeError, a message without joints
+            if not read_feedback(robot_msg, packet, axes):
                 return None
-            for i in range(self.robot.dof):
-                axes[i] = joints[i]
             t = received_s if self.force is not None else 1e-3 * robot_msg.header.tm
             planned = robot_msg.planned.cartesian if robot_msg.planned.HasField("cartesian") else None
             cartesian = planned if planned is not None else robot_msg.feedBack.cartesian

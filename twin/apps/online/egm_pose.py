@@ -34,7 +34,7 @@ from typing import Any
 import numpy as np
 
 from twin.apps.online.cycle import DEFAULT_START_TIMEOUT_S, ServedCycle, ServeReport, serve_udp
-from twin.apps.online.egm import EgmServer, finite_pose
+from twin.apps.online.egm import EgmServer, finite_pose, read_feedback
 from twin.apps.online.source import ForceSource
 from twin.base.csvio import check_monotonic, read_table
 from twin.errors import DataFileError
@@ -135,15 +135,8 @@ class EgmPoseServer(EgmServer):
         last_tm: list[int] = []  # the stamp of the last valid message [ms]
 
         def answer(packet: bytes, received_s: float) -> bytes | None:
-            try:
-                robot_msg.ParseFromString(packet)
-                joints = robot_msg.feedBack.joints.joints
-                if len(joints) < self.robot.dof:
-                    raise ValueError("joints")
-            except Exception:  # protobuf's DecodeError, a message without joints
+            if not read_feedback(robot_msg, packet, axes):
                 return None
-            for i in range(self.robot.dof):
-                axes[i] = joints[i]
             tm = int(robot_msg.header.tm)
             t = received_s if self.force is not None else 1e-3 * tm
             feedback = robot_msg.feedBack.cartesian
