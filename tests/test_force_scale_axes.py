@@ -1,8 +1,9 @@
-"""A per-axis force scale found by `discrepancy` is carried in the model file (`force_scale` and
-`force_scale_in_plane`) and shrinks the next run's gap (issue #47: everything named is carried).
+"""The carrying of a per-axis force scale: `discrepancy` writes `force_scale` and `force_scale_in_plane` to the model
+file, and the next run's gap shrinks (issue #47: everything named is carried).
 
-The hidden sheet is written here: the default FE history's forces multiplied per axis by the test's own factors,
-the lab's twin fitted to that history (not the effect the twin carries).
+This checks the mechanics on the quasi-static lab, which shares the twin: the hidden sheet is the default FE history
+scaled per axis here, the form the twin carries. Finding it in a form the library does not have is
+`tests/test_plant_changes.py::test_a_dry_sheet_on_the_plant_*` (the plant's own sheet, its friction raised).
 """
 
 from __future__ import annotations

@@ -86,9 +86,9 @@ class StickSlip(NamedTuple):
     rms_mm: tuple[float, ...]  # per run, RMS of the tracker minus the model [mm]
 
 
-def _split(runs: list[JointRows], c: np.ndarray, friction: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The residual with the linear part projected out, and that part's coefficients (servo, offsets per run)."""
-    r = np.concatenate([(run.deflection_m - play_deflection(run, c, friction)).T.reshape(-1) for run in runs])
+def _linear_columns(runs: list[JointRows]) -> np.ndarray:
+    """The linear part's columns over the stacked runs: each run's own (the servo's), then a tracker offset per run
+    and axis. They do not depend on the spring or the friction: built once per fit."""
     blocks = []
     for k, run in enumerate(runs):
         m = len(run.t_s)
@@ -96,7 +96,12 @@ def _split(runs: list[JointRows], c: np.ndarray, friction: np.ndarray) -> tuple[
         for a in range(3):
             offset[a * m:(a + 1) * m, 3 * k + a] = 1.0
         blocks.append(np.hstack([run.linear, offset]))
-    X = np.vstack(blocks)
+    return np.vstack(blocks)
+
+
+def _split(runs: list[JointRows], X: np.ndarray, c: np.ndarray, friction: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The residual with the linear part (`X`, `_linear_columns`) projected out, and that part's coefficients."""
+    r = np.concatenate([(run.deflection_m - play_deflection(run, c, friction)).T.reshape(-1) for run in runs])
     beta = np.linalg.lstsq(X, r, rcond=None)[0]
     return r - X @ beta, beta
 
@@ -117,9 +122,10 @@ def refine(runs: list[JointRows], c: np.ndarray, friction_nm: np.ndarray, free: 
 
     start = np.log(np.maximum(friction_nm[idx], FRICTION_START_NM))  # inside its bounds: a start on one stalls
     p0 = np.clip(np.concatenate([np.log(c[idx]), start]), low + 1e-9, high - 1e-9)
-    sol = least_squares(lambda p: _split(runs, *unpack(p))[0], p0, diff_step=1e-3, bounds=(low, high))
+    X = _linear_columns(runs)
+    sol = least_squares(lambda p: _split(runs, X, *unpack(p))[0], p0, diff_step=1e-3, bounds=(low, high))
     cc, ff = unpack(sol.x)
-    residual, beta = _split(runs, cc, ff)
+    residual, beta = _split(runs, X, cc, ff)
     dof_fit = max(len(residual) - len(sol.x) - len(beta), 1)
     cov = np.linalg.pinv(sol.jac.T @ sol.jac) * float(residual @ residual) / dof_fit * _correlation_factor(runs,
                                                                                                             residual)
@@ -152,11 +158,12 @@ def _block_spread(runs: list[JointRows], c: np.ndarray, friction_nm: np.ndarray,
     values = []
     for b in range(BLOCKS):
         parts = [_part(r, slice(b * len(r.t_s) // BLOCKS, (b + 1) * len(r.t_s) // BLOCKS)) for r in runs]
+        X = _linear_columns(parts)
 
-        def residual(p: np.ndarray, parts: list[JointRows] = parts) -> np.ndarray:
+        def residual(p: np.ndarray, parts: list[JointRows] = parts, X: np.ndarray = X) -> np.ndarray:
             cc, ff = c.copy(), friction_nm.copy()
             cc[idx], ff[idx] = np.exp(p[:n]), np.exp(p[n:])
-            return _split(parts, cc, ff)[0]
+            return _split(parts, X, cc, ff)[0]
 
         values.append(np.exp(least_squares(residual, p0, diff_step=1e-3, max_nfev=20, bounds=bounds).x[:n]))
     spread = np.zeros(len(c))
