@@ -8,6 +8,7 @@ from dataclasses import replace
 from pathlib import Path
 from types import SimpleNamespace
 
+import mujoco
 import numpy as np
 import pytest
 
@@ -15,7 +16,7 @@ from twin.analysis.discrepancy.families import FAMILIES
 from twin.cli import main
 from twin.errors import DataFileError, InputError
 from twin.sim.effects import GEAR_PLAY, Effects
-from twin.sim.gear_play import load_flank
+from twin.sim.gear_play import gravity_torque, joint_motion, load_flank
 from twin.sim.model_file import read_model_file, write_model_file
 from twin.sim.quasi_static import Twin
 from twin.sim.result import SimResult
@@ -80,7 +81,7 @@ def test_a_play_moves_the_tip_where_the_torque_flips_and_not_where_gravity_holds
     """Joint 3 on the groove: gravity's torque holds its flank on part of the path (the tip stays put), the forming
     force's moment flips it on the rest (the tip moves by about b x |flank| x the joint's lever, first order)."""
     twin, sim = plain
-    flank = load_flank(twin, sim.t_s, sim.p_cmd_sheet_m, sim.direction, sim.q_ik, sim.qpos, sim.f_sheet_n)[:, 2]
+    flank = load_flank(twin, sim.t_s, sim.q_ik, sim.qpos, sim.f_sheet_n)[:, 2]
     flipped, held = np.abs(flank) > 1.5, np.abs(flank) < 0.05
     assert flipped.mean() > 0.2 and held.mean() > 0.1, (flipped.mean(), held.mean())
     played = TwinSpec(effects=Effects(gear_play_rad=_play(twin.robot.dof, 2))).build()
@@ -121,3 +122,35 @@ def test_replay_with_a_model_file_applies_the_play(clean_run_dir: Path, tmp_path
         assert main(["replay", str(clean_run_dir), "--model", str(model), "--json", "-"]) == 0
         gaps.append(json.loads(capsys.readouterr().out))
     assert gaps[0] != gaps[1], gaps
+
+
+def test_the_joints_motion_is_the_sign_of_their_own_speed_held_through_stops() -> None:
+    t = np.linspace(0.0, 4.0, 401)
+    q = np.column_stack([np.sin(np.pi * t / 2.0), np.clip(t - 1.0, 0.0, 1.0), np.zeros_like(t)])
+    moving = joint_motion(t, q)
+    assert np.all(moving[(t > 0.1) & (t < 0.9), 0] == 1) and np.all(moving[(t > 1.1) & (t < 2.9), 0] == -1)
+    assert np.all(moving[t < 0.99, 1] == 1) and np.all(moving[t > 2.01, 1] == 1)  # held through its stops
+    assert np.all(moving[:, 2] == 1)  # a joint the path never moves: the default flank
+
+
+def test_the_links_torque_adds_what_accelerates_them(plain: tuple[Twin, SimResult]) -> None:
+    """Inverse dynamics of the commanded motion: a joint accelerated at rest adds M(q) q'' to gravity's torque
+    (checked against MuJoCo's own mass matrix, `mj_mulM`, less the motors' armature, which acts before the gear)."""
+    twin, sim = plain
+    n, dof = 200, twin.robot.dof
+    t = np.linspace(0.0, 2.0, n)
+    q_ik = np.repeat(sim.q_ik[:1], n, axis=0)
+    q_ik[:, 0] += 0.5 * 0.2 * (t - 1.0) ** 2  # joint 1 at 0.2 rad/s², at rest at t = 1 s (no Coriolis there)
+    qpos = np.repeat(sim.qpos[:1], n, axis=0)
+    qpos[:, twin.robot.addresses(twin.model).qpos] = q_ik
+    extra = gravity_torque(twin, t, qpos, q_ik) - gravity_torque(twin, t, qpos)
+    data = mujoco.MjData(twin.model)
+    data.qpos[:] = qpos[n // 2]
+    mujoco.mj_forward(twin.model, data)
+    dofs = twin.robot.addresses(twin.model).dof
+    accel, product = np.zeros(twin.model.nv), np.zeros(twin.model.nv)
+    accel[dofs[0]] = 0.2
+    mujoco.mj_mulM(twin.model, data, product, accel)
+    expected = product[dofs] - twin.model.dof_armature[dofs] * accel[dofs]  # the motor's rotor is not the gear's
+    assert expected[0] > 1.0  # joint 1 carries the arm: a torque worth checking [N·m]
+    np.testing.assert_allclose(extra[n // 2, :dof], expected, rtol=0.05, atol=0.05 * abs(expected[0]))

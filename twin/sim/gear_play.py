@@ -4,12 +4,15 @@ The dead-zone backlash of the control literature (Nordin & Gutman 2002, "Control
 backlash - a survey", Automatica 38(10), 1633-1649): the link lags the motor by -b s(tau), b the half dead band
 and s a smooth sign of the torque the gear transmits,
 
-    tau = g(q) - J^T F + FRICTION_SHARE x f_c x sign(dq/dt),
+    tau = g(q) + M(q) q'' + c(q, q') - J^T F + FRICTION_SHARE x f_c x sign(q'),
 
-gravity's torque (the twin's own MuJoCo model), the forming force's moment and the link side's friction. The robot
-is calibrated and taught under gravity, so the flank gravity alone sets is the reference: the offset is
--b (s(tau) - s(g)) (`load_flank`). Where gravity's torque is large and one-signed the play hardly shows; where the
-forming force's moment outweighs it, or on a joint gravity does not load, it flips with the load.
+the torque that holds and moves the links along the command (inverse dynamics of the twin's own MuJoCo model,
+without the motors' armature, which acts before the gear), the forming force's moment and the link side's
+friction, which opposes each joint's own motion (`joint_motion`). The robot is calibrated and taught under
+gravity, so the flank gravity alone sets is the reference: the offset is -b (s(tau) - s(g)) (`load_flank`). Where
+gravity's torque is large and one-signed the play hardly shows; where the forming force's moment outweighs it, or
+on a joint gravity does not load (a vertical axis, where a link's inertia turns the flank before the joint
+reverses), it flips with the load.
 
 The twin (`twin.sim.quasi_static.Twin.simulate`) replays once, takes the flanks from that replay's torques and
 replays again with -b x flank added to the arm joints' references (`gear_play_references`); the discrepancy
@@ -22,8 +25,7 @@ from typing import TYPE_CHECKING
 
 import mujoco
 import numpy as np
-
-from twin.robot.model import lost_motion_schedule
+from scipy.ndimage import uniform_filter1d
 
 if TYPE_CHECKING:
     from twin.sim.quasi_static import Twin
@@ -35,61 +37,90 @@ TAKEUP_SHARE = 0.05
 #: The share of the twin's joint friction the gear transmits (the link side's bearings; the motor's own friction
 #: acts before the gear): the flank under a light load follows the joint's motion through it.
 FRICTION_SHARE = 0.5
-#: Poses along the run at which gravity's torque is evaluated (interpolated between; it varies slowly).
-GRAVITY_POSES = 200
+#: A joint slower than this is standing still [rad/s] (0.1 mm/s at 1 m of reach).
+MOVING_RAD_PER_S = 1e-4
+#: Poses along the run at which the links' torque is evaluated (interpolated between).
+GRAVITY_POSES = 1000
+#: The window the commanded joint speed is averaged over before its acceleration is taken [s] (the controller's
+#: own trajectory is smoother than its sampled command).
+ACCELERATION_WINDOW_S = 0.1
 
 
-def gravity_torque(twin: Twin, t_s: np.ndarray, qpos: np.ndarray) -> np.ndarray:
-    """Gravity's torque on the arm joints along a replay [N·m], shape (n, dof).
+def gravity_torque(twin: Twin, t_s: np.ndarray, qpos: np.ndarray, q_ik: np.ndarray | None = None) -> np.ndarray:
+    """Gravity's torque on the arm joints along a replay, with the torque that moves the links where `q_ik` is
+    given (inverse dynamics of the commanded motion, `mj_rne`) [N·m], shape (n, dof).
 
     Args:
-        twin: The twin (its own MuJoCo model, `mj_rne` without velocity or acceleration).
+        twin: The twin (its own MuJoCo model).
         t_s: Sample times [s], shape (n,).
         qpos: The twin's (loaded) poses [rad], shape (n, nq).
+        q_ik: The commanded joint motion [rad], shape (n, dof), its speed and acceleration (averaged over
+            ACCELERATION_WINDOW_S) giving the links' inertia and Coriolis torques; None: gravity alone.
     """
     model = twin.model
     data = mujoco.MjData(model)
     dof = twin.robot.addresses(model).dof
     rows = np.unique(np.r_[np.arange(0, len(t_s), max(1, len(t_s) // GRAVITY_POSES)), len(t_s) - 1])
+    speed = acceleration = np.zeros((len(t_s), len(dof)))
+    if q_ik is not None and len(t_s) > 2:
+        speed = np.gradient(q_ik, t_s, axis=0)
+        window = max(1, round(ACCELERATION_WINDOW_S / max(float(np.median(np.diff(t_s))), 1e-6)))
+        acceleration = np.gradient(uniform_filter1d(speed, window, axis=0), t_s, axis=0)
     out = np.zeros((len(rows), len(dof)))
     bias = np.zeros(model.nv)
     for k, i in enumerate(rows):
         data.qpos[:] = qpos[i]
         data.qvel[:] = 0.0
+        data.qvel[dof] = speed[i]
+        data.qacc[:] = 0.0
+        data.qacc[dof] = acceleration[i]
         mujoco.mj_kinematics(model, data)
         mujoco.mj_comPos(model, data)
-        mujoco.mj_rne(model, data, 0, bias)
+        mujoco.mj_comVel(model, data)
+        mujoco.mj_rne(model, data, 1, bias)
         out[k] = bias[dof]
     return np.column_stack([np.interp(t_s, t_s[rows], out[:, j]) for j in range(out.shape[1])])
 
 
+def joint_motion(t_s: np.ndarray, q_ik: np.ndarray) -> np.ndarray:
+    """The sign of each arm joint's speed along the command, +/-1, held through the stops [-], shape (n, dof).
+
+    The link side's friction opposes the link's motion, so the gear transmits it with the sign of the joint's own
+    speed (the rigid IK's): on a groove the travel direction along x, on a cone a joint that swings once a lap.
+    Where a joint stands still (a stop, or a joint the path does not move) the last sign holds.
+    """
+    speed = np.gradient(q_ik, t_s, axis=0)
+    still = np.abs(speed) <= MOVING_RAD_PER_S
+    sign = np.where(still, 0.0, np.sign(speed))
+    out = np.empty_like(sign)
+    last = np.where(np.any(~still, axis=0), sign[np.argmax(~still, axis=0), np.arange(sign.shape[1])], 1.0)
+    for i in range(len(sign)):  # bounded: one pass over the samples
+        last = np.where(still[i], last, sign[i])
+        out[i] = last
+    return out
+
+
 def load_flank(
-    twin: Twin, t_s: np.ndarray, p_cmd_sheet_m: np.ndarray, direction: np.ndarray, q_ik: np.ndarray,
-    qpos: np.ndarray, f_sheet_n: np.ndarray,
+    twin: Twin, t_s: np.ndarray, q_ik: np.ndarray, qpos: np.ndarray, f_sheet_n: np.ndarray,
 ) -> np.ndarray:
     """s(tau) - s(g) of the arm joints along a replay [-], shape (n, dof) (module docstring).
 
     s = tanh(tau / tau_0), tau_0 = TAKEUP_SHARE x the swing of the joint's torque along the run.
 
     Args:
-        twin: The twin that made the replay (model, kinematics, placement, joint friction, lost-motion take-up).
+        twin: The twin that made the replay (model, kinematics, placement, joint friction).
         t_s: Sample times [s], shape (n,).
-        p_cmd_sheet_m: Commanded tool tip, sheet frame [m], shape (n, 3).
-        direction: Travel direction along x per sample (+1/-1), shape (n,).
-        q_ik: Rigid IK of the command [rad], shape (n, dof).
+        q_ik: Rigid IK of the command [rad], shape (n, dof) (the joints' motion, `joint_motion`).
         qpos: The replay's loaded poses (all joints) [rad], shape (n, nq).
         f_sheet_n: Force of the sheet on the tool, sheet frame [N], shape (n, 3).
     """
     gravity = gravity_torque(twin, t_s, qpos)
+    links = gravity_torque(twin, t_s, qpos, q_ik)
     jac = twin.kinematics.jacobians(qpos[:, twin.robot.addresses(twin.model).qpos])[:, :3, :]
     force_base = f_sheet_n @ twin.R_base_sheet.T
-    # the joint's motion, +/-1: the travel direction (ramped after reversals) x sign(d x_sheet / dq) at the start
-    level = -lost_motion_schedule(p_cmd_sheet_m[:, 0], direction, np.ones(1), 1.0,
-                                  twin.effects.lost_motion_takeup_m)[:, 0]
-    dx_dq = twin.R_base_sheet[:, 0] @ twin.kinematics.jacobian(q_ik[0])[:3]
-    moving = level[:, None] * np.where(np.abs(dx_dq) > 1e-3, np.sign(dx_dq), 1.0)[None, :]
+    moving = joint_motion(t_s, q_ik)
     friction = FRICTION_SHARE * twin.joint_friction[None, :] * moving
-    tau = gravity - np.einsum("nij,ni->nj", jac, force_base) + friction
+    tau = links - np.einsum("nij,ni->nj", jac, force_base) + friction
     takeup = np.maximum(TAKEUP_SHARE * np.ptp(tau, axis=0), 1e-9)
     return np.tanh(tau / takeup) - np.tanh(gravity / takeup)
 
@@ -108,7 +139,7 @@ def gear_play_references(
         qpos, f_sheet_n: The first replay's loaded poses [rad] and sheet force [N] (`load_flank`).
     """
     arm = twin.robot.addresses(twin.model).qpos
-    flank = load_flank(twin, t_s, p_cmd_sheet_m, direction, q_nominal_all[:, arm], qpos, f_sheet_n)
+    flank = load_flank(twin, t_s, q_nominal_all[:, arm], qpos, f_sheet_n)
     out = q_nominal_all.copy()
     out[:, arm] -= np.asarray(twin.effects.gear_play_rad, dtype=float)[None, :] * flank
     return out

@@ -15,10 +15,10 @@ tip by dp = G (dp_free + C dF) and changes the force by dF + S dp (first order, 
 
 from __future__ import annotations
 
-import itertools
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from twin.base.signals import interp_rows
 from twin.robot.model import lost_motion_schedule
@@ -27,6 +27,9 @@ from twin.sim.effects import Effects
 from twin.sim.measure import predict_forces, predict_part_profile, predict_tracker
 from twin.sim.quasi_static import Twin
 from twin.sim.result import SimResult
+
+#: Passes closer than this in the sheet's plane (median over a pass) form over the same place [m].
+SAME_PLACE_M = 0.005
 
 
 @dataclass
@@ -64,6 +67,7 @@ class Context:
     level: np.ndarray
     force_cmd: np.ndarray
     joint_sign: np.ndarray
+    _below: np.ndarray | None = None
 
     @property
     def has_forces(self) -> bool:
@@ -104,17 +108,35 @@ class Context:
         """C S per commanded sample, shape (n, 3, 3)."""
         return self.compliance @ self.stiffness
 
+    @property
+    def below(self) -> np.ndarray:
+        """Per commanded sample, the sample of the latest earlier pass over the same place (-1: none), shape (n,).
+
+        A groove's previous stroke runs along the same line; a cone's or a pyramid's passes are half laps
+        (`label_passes` splits at the reversals of x), so the surface a sample meets was left a lap before, two
+        passes back. The pass over the same place is the latest whose nearest samples lie within SAME_PLACE_M
+        (median, in the sheet's plane); the sample matched is the nearest one of that pass.
+        """
+        if self._below is None:
+            passes, xy = self.sim.pass_index, self.sim.p_cmd_sheet_m[:, :2]
+            out = np.full(len(passes), -1)
+            ks = np.unique(passes)
+            trees = {int(k): (np.flatnonzero(passes == k), cKDTree(xy[passes == k])) for k in ks}
+            for i, k in enumerate(ks):
+                rows = trees[int(k)][0]
+                for a in ks[:i][::-1]:
+                    prev, tree = trees[int(a)]
+                    distance, nearest = tree.query(xy[rows])
+                    if np.median(distance) <= SAME_PLACE_M:
+                        out[rows] = prev[nearest]
+                        break
+            self._below = out
+        return self._below
+
     def _previous_pass(self, dp: np.ndarray) -> np.ndarray:
-        """Tip change of the previous pass at the same x (zero in the first pass), shape (n, 3)."""
-        passes = self.sim.pass_index
-        x = self.sim.p_cmd_sheet_m[:, 0]
-        out = np.zeros_like(dp)
-        ks = np.unique(passes)
-        for a, b in itertools.pairwise(ks):
-            prev, rows = np.flatnonzero(passes == a), np.flatnonzero(passes == b)
-            order = np.argsort(x[prev])
-            out[rows] = np.column_stack([np.interp(x[rows], x[prev][order], dp[prev][order, i]) for i in range(3)])
-        return out
+        """Tip change of the previous pass over the same place (`below`; zero where none), shape (n, 3)."""
+        below = self.below
+        return np.where(below[:, None] >= 0, dp[np.maximum(below, 0)], 0.0)
 
     def robot_response(
         self, dp_free: np.ndarray, df_direct: np.ndarray | None = None, *, sheet_answers: bool = True
@@ -141,18 +163,13 @@ class Context:
                     self.profile_change(drive) if self.has_profile else None)
         dp = np.zeros_like(drive)
         passes = self.sim.pass_index
-        x = self.sim.p_cmd_sheet_m[:, 0]
-        previous: np.ndarray | None = None
         for k in np.unique(passes):
             rows = np.flatnonzero(passes == k)
-            drive_k = drive[rows]
-            if previous is not None:  # the sheet answers the change against the surface the last pass left
-                order = np.argsort(x[previous])
-                prev = np.column_stack([np.interp(x[rows], x[previous][order], dp[previous][order, i])
-                                        for i in range(3)])
-                drive_k = drive_k - np.einsum("nij,nj->ni", self.cs[rows], prev)
+            # the sheet answers the change against the surface the pass below it left (`below`)
+            below = self.below[rows]
+            prev = np.where(below[:, None] >= 0, dp[np.maximum(below, 0)], 0.0)
+            drive_k = drive[rows] - np.einsum("nij,nj->ni", self.cs[rows], prev)
             dp[rows] = np.einsum("nij,nj->ni", self.gain[rows], drive_k)
-            previous = rows
         prev_all = self._previous_pass(dp)
         df = np.einsum("nij,nj->ni", self.stiffness, dp - prev_all)
         if df_direct is not None:

@@ -4,7 +4,8 @@ Modules: `robot` (joint stiffness, friction, the servo's transient and the track
 forces and tool positions), `sheet` (the `learned` force model's weights: from the F/T stream), `springback` (two
 springback constants: from the runs' part profiles), `instruments` (the tracker's rotation and shift and the F/T
 bias, carried as the instruments' calibration), `cell` (`learn`: all of them, the learned spec and the
-replay gap before, after and on a run left out), `split` (a run's replay gap split into the robot's part and the
+replay gap before, after and on a run left out), `servo_fit` (the dynamic twin's servo and stop timing, fitted to a
+run's tracker; `dynamic_replay`), `split` (a run's replay gap split into the robot's part and the
 sheet's part, the twin's robot driven by the measured forces), `signatures` (what was learned, in words).
 """
 

@@ -182,11 +182,11 @@ class LostMotionUnderLoad(LostMotion):
     torque the gear transmits: the dead-zone backlash of the control literature (Nordin & Gutman 2002,
     "Controlling mechanical systems with backlash - a survey", Automatica 38(10), 1633-1649), the link lagging the
     motor by -b s(tau), b the half dead band, s a smooth sign (`twin.sim.gear_play.load_flank`, the twin's own) and
-    tau = g(q) - J^T F + f_c sign(dq/dt) gravity's torque (the twin's own model), the forming force's moment and the
-    link side's friction. The robot is calibrated and taught under gravity, so the flank gravity alone sets is the
-    reference: the offset is -b (s(tau) - s(g)). Where gravity's torque is large and one-signed the play hardly
-    shows; where the forming force's moment outweighs it, or on the vertical axis (no gravity torque), it flips
-    with the load.
+    tau = g(q) + M(q) q'' + c(q, q') - J^T F + f_c sign(q') the torque that holds and moves the links (the twin's
+    own model), the forming force's moment and the link side's friction. The robot is calibrated and taught under
+    gravity, so the flank gravity alone sets is the reference: the offset is -b (s(tau) - s(g)). Where gravity's
+    torque is large and one-signed the play hardly shows; where the forming force's moment outweighs it, or on the
+    vertical axis (no gravity torque), it flips with the load.
 
     The twin carries it as its gear play (`Effects.gear_play_rad`, `to_increments`): it replays with each joint on
     the flank the same `load_flank` sets.
@@ -207,8 +207,7 @@ class LostMotionUnderLoad(LostMotion):
         """Joint offsets -b (s(tau) - s(g)) moved to the tip through the arm Jacobian (sheet frame)."""
         if self._last is None or self._last[0] is not ctx:
             sim = ctx.sim
-            self._last = (ctx, load_flank(ctx.twin, sim.t_s, sim.p_cmd_sheet_m, sim.direction, sim.q_ik, sim.qpos,
-                                          sim.f_sheet_n))
+            self._last = (ctx, load_flank(ctx.twin, sim.t_s, sim.q_ik, sim.qpos, sim.f_sheet_n))
         dq = -1e-3 * theta[None, :3] * self._last[1][:, :3]
         jac = np.einsum("ki,nkj->nij", ctx.twin.R_base_sheet, ctx.jac[:, :, :3])
         return _delta(ctx, theta, np.einsum("nij,nj->ni", jac, dq))

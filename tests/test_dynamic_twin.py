@@ -1,0 +1,143 @@
+"""The dynamic twin (`twin.sim.dynamic`) and its servo fit (`twin.analysis.learn.servo_fit`).
+
+- Physics: with a rigid or a stiff servo, on a slow path (slow feed, gentle stops), the moving arm's tip is the
+  quasi-static twin's within `SLOW_RMS_M` rms (the arm's inertia, a/ω² ~ 1 µm at these stops, and the friction
+  constraint's slip are all that is left).
+- Identification: a servo written here (each joint's motor following its reference through the closed loop
+  (a s³ + (2ζ+1)ω s² + (2ζ+1)ω² s + ω³) / ((s + ω)(s² + 2ζω s + ω²)), delayed by d, simulated with
+  `scipy.signal.lsim` on a rigid arm, its tip moved by J (θ − r)) makes a synthetic run; `fit_servo` finds β, ζ
+  and d again within `FOUND` (the feed-forward share a trades against ζ on so short a run and is not checked).
+- Neither module imports the plant (`twin.lab`).
+"""
+
+from __future__ import annotations
+
+import ast
+import itertools
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy import signal
+
+from twin.analysis.learn.servo_fit import corner_indices, dynamic_replay, fit_servo, near_corners, stop_lag
+from twin.errors import InputError
+from twin.process.description import Process
+from twin.runs.format import Run, Stream, run_meta
+from twin.sim.dynamic import DynamicTwin, ServoModel, references
+from twin.sim.spec import TwinSpec
+
+REPO = Path(__file__).resolve().parents[1]
+#: The slow path's tip gap, dynamic (stiff servo) to quasi-static [m]: a fifth of its deflection under the sheet or less.
+SLOW_RMS_M = 20e-6
+#: The servo the test writes, and how close the fit must come: relative on β and ζ, absolute on d [s].
+TRUE = {"bandwidth_over_mode": 0.3, "damping_ratio": 0.9, "delay_s": 0.008}
+FOUND = {"bandwidth_over_mode": 0.15, "damping_ratio": 0.25, "delay_s": 0.002}
+
+
+def square(side_m: float, z_m: float, feed_mps: float, accel_mps2: float, dt_s: float) -> tuple[np.ndarray, ...]:
+    """A square contour with a stop at each corner (constant acceleration into and out of it): times, tips."""
+    corners = np.array([[1, 1], [-1, 1], [-1, -1], [1, -1], [1, 1]]) * side_m / 2
+    times, tips, t = [], [], 0.0
+    for a, b in itertools.pairwise(corners):
+        length, ramp = float(np.linalg.norm(b - a)), feed_mps / accel_mps2
+        cruise = (length - feed_mps * ramp) / feed_mps
+        total = 2 * ramp + cruise
+        ts = np.arange(0.0, total, dt_s)
+        s = np.where(ts < ramp, 0.5 * accel_mps2 * ts**2,
+                     np.where(ts < ramp + cruise, 0.5 * feed_mps * ramp + feed_mps * (ts - ramp),
+                              length - 0.5 * accel_mps2 * np.clip(total - ts, 0, None) ** 2))
+        times.append(t + ts)
+        tips.append(a + np.outer(s / length, b - a))
+        t += total
+    xy = np.concatenate([*tips, corners[-1:]])
+    return np.r_[np.concatenate(times), t], np.column_stack([xy, np.full(len(xy), z_m)])
+
+
+@pytest.fixture(scope="module")
+def isf_twin():  # type: ignore[no-untyped-def]
+    return TwinSpec(process=Process(force_model="isf")).build()
+
+
+@pytest.mark.parametrize("servo", [ServoModel(math.inf, 1.0, 0.0), ServoModel(1.5, 1.0, 0.0)],
+                         ids=["rigid", "stiff"])
+def test_a_stiff_servo_on_a_slow_path_lands_on_the_quasi_static_tip(isf_twin, servo: ServoModel) -> None:
+    t, p = square(0.01, -5e-4, 0.005, 0.05, 0.01)
+    sim = isf_twin.simulate(t, p)
+    deflection = np.sqrt(np.mean(np.sum((sim.p_sheet_m - sim.p_unloaded_sheet_m) ** 2, axis=1)))
+    assert deflection > 5 * SLOW_RMS_M  # the sheet loads the arm: the check is not of an unloaded arm
+    moved = DynamicTwin(isf_twin, sim).simulate(servo)
+    gap = np.linalg.norm(moved.p_sheet_m - sim.p_sheet_m, axis=1)
+    assert np.sqrt(np.mean(gap**2)) < SLOW_RMS_M
+    assert moved.p_cmd_sheet_m is sim.p_cmd_sheet_m and moved.qpos.shape == sim.qpos.shape
+
+
+def _servo_written_here(twin, t: np.ndarray, sim, mode_rad_s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # type: ignore[no-untyped-def]
+    """The tip of a rigid arm whose motors follow their references through the test's own servo (TRUE)."""
+    beta, zeta, delay = TRUE["bandwidth_over_mode"], TRUE["damping_ratio"], TRUE["delay_s"]
+    arm = twin.robot.addresses(twin.model).qpos
+    ref = references(twin, sim)[:, arm]
+    fine = np.arange(t[0], t[-1], 1e-3)
+    motor = np.empty((len(fine), len(arm)))
+    for j, w in enumerate(beta * mode_rad_s):
+        loop = ([(2 * zeta + 1) * w, (2 * zeta + 1) * w**2, w**3], np.polymul([1, w], [1, 2 * zeta * w, w**2]))
+        r = np.interp(fine - delay, t, ref[:, j])
+        motor[:, j] = r[0] + signal.lsim(loop, r - r[0], fine)[1]
+    on_ref = np.column_stack([np.interp(fine, t, ref[:, j]) for j in range(len(arm))])
+    q = np.column_stack([np.interp(fine, t, sim.q_ik[:, j]) for j in range(len(arm))])
+    jac = twin.kinematics.jacobians(q)[:, :3, :]
+    moved = np.einsum("ki,nkj,nj->ni", twin.R_base_sheet, jac, motor - on_ref)
+    tip = np.column_stack([np.interp(fine, t, sim.p_sheet_m[:, j]) for j in range(3)]) + moved
+    return fine, tip
+
+
+def test_fit_servo_finds_a_servo_written_in_the_test_again() -> None:
+    twin = TwinSpec(process=Process(force_model="isf"), joint_friction_nm=(0.0,) * 6).build()
+    t, p = square(0.02, 1e-3, 0.0333, 0.5, 0.004)  # above the sheet: the servo alone moves the tip
+    sim = twin.simulate(t, p)
+    dynamic = DynamicTwin(twin, sim)
+    fine, tip = _servo_written_here(twin, t, sim, dynamic.mode_rad_s)
+    t_k = np.arange(0.0, t[-1], 0.02)
+    tracker = np.column_stack([np.interp(t_k, fine, tip[:, j]) for j in range(3)])
+    meta = run_meta(scenario="nominal", source="test: a servo written in the test", tracker_rate_hz=50.0,
+                    sensor_rate_hz=30.0, seed=0, tool_length_m=twin.robot.tool_length_m, robot=twin.robot.name)
+    run = Run(None, meta, Stream(t, p), Stream(t_k, tracker))
+    assert len(corner_indices(p)) == 3 and near_corners(run, 2e-3).any()
+    assert 0.0 <= stop_lag(run) <= 0.05
+    fit = fit_servo(run, dynamic, max_evaluations=30)
+    for name, truth in TRUE.items():
+        found = getattr(fit.servo, name)
+        tol = FOUND[name] if name == "delay_s" else FOUND[name] * truth
+        assert found == pytest.approx(truth, abs=tol), f"{name}: found {found:.4g}, wrote {truth}"
+    assert fit.rms_mm < 0.3 * fit.rms_rigid_mm  # the fitted servo explains most of what a rigid one leaves
+    replayed = dynamic_replay(run, dynamic, fit.servo)
+    assert replayed.metrics["position_rms_mm"] == pytest.approx(fit.rms_mm, rel=0.05)
+
+
+def test_a_servo_out_of_its_range_is_refused() -> None:
+    for bad in ({"bandwidth_over_mode": 0.0}, {"damping_ratio": math.nan}, {"delay_s": -0.01},
+                {"feedforward": 1.5}):
+        with pytest.raises(InputError, match=next(iter(bad))):
+            ServoModel(**bad)
+
+
+@pytest.mark.parametrize("module", ["twin/sim/dynamic.py", "twin/analysis/learn/servo_fit.py"])
+def test_the_dynamic_twin_imports_nothing_from_the_plant(module: str) -> None:
+    tree = ast.parse((REPO / module).read_text(encoding="utf-8"))
+    imported = [node.module or "" for node in ast.walk(tree) if isinstance(node, ast.ImportFrom)]
+    imported += [alias.name for node in ast.walk(tree) if isinstance(node, ast.Import) for alias in node.names]
+    assert imported and not [name for name in imported if name == "twin.lab" or name.startswith("twin.lab.")]
+
+
+def test_the_page_holds_its_generated_table_and_what_its_words_say_of_it() -> None:
+    page = (REPO / "docs" / "dynamic-twin.md").read_text(encoding="utf-8")
+    begin = page.index("<!-- dynamic-twin:begin (generated by experiments/dynamic_twin_study.py; do not edit) -->")
+    block = page[begin:page.index("<!-- dynamic-twin:end -->")]
+    rows = [line.split("|")[1:-1] for line in block.splitlines() if line.startswith("| TX200")]
+    replays = [r for r in rows if len(r) == 5]
+    assert len(replays) == 6 and {r[0].strip() for r in replays} == {r[0].strip() for r in rows if len(r) == 11}
+    for r in replays:  # "the corner rows are larger than the whole-run rows for both twins alike"
+        for cell in (r[2], r[3]):
+            whole, corners = (float(v) for v in cell.split("/"))
+            assert corners > whole

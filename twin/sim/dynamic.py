@@ -1,0 +1,283 @@
+"""The dynamic twin: the twin's own arm model stepped in time (MuJoCo forward dynamics) under a generic servo.
+
+Where the quasi-static twin (`twin.sim.quasi_static`) solves each sample to rest, this mode integrates the same
+MuJoCo model (`Twin.model`: its K_q as position actuators, its joint damping c, Coulomb `frictionloss`, lost-motion
+and tool-bending hinges) with `mj_step` (implicitfast, 1 ms), so the arm moves while the force turns at corner
+stops and pass reversals. The joint friction is MuJoCo's constraint made hard (solref 2h, solimp 0.999), so a
+sliding joint carries its whole τ_f as the quasi-static twin's does.
+
+**Servo (the generic form).** Each arm joint is a two-mass drive (Spong, Hutchinson & Vidyasagar, "Robot Modeling
+and Control", 2nd ed. 2020, ch. 9, independent joint control of flexible joints): the motor, its rotor inertia J_m
+(the model's `dof_armature`, moved to the motor side of the gear), drives the link through K_q and c, and a PID
+loop closes on the motor angle θ, with derivative on the error, feed-forward and a pure delay d of the reference r:
+
+    J_m θ̈ = K_p e + K_i ∫e dt + K_d ė + τ_ff − K_q (θ − q) − c (θ̇ − q̇),   e = r(t − d) − θ,
+    τ_ff = K_q (r − q_qs)(t − d) + a J r̈(t − d),
+
+q_qs the quasi-static twin's link pose (the load torque a settled loop holds) and a the share of the inertial
+torque fed forward. The gains are placed for the rigid joint (J = J_m + the link's inertia at the first pose) at
+the poles (s + ω_s)(s² + 2ζω_s s + ω_s²) (Åström & Hägglund, "Advanced PID Control", ISA 2006, ch. 6, pole
+placement): K_d = J(2ζ+1)ω_s, K_p = J(2ζ+1)ω_s², K_i = Jω_s³. For a rigid joint the motor then follows
+
+    θ/r = (a s³ + (2ζ+1)ω_s s² + (2ζ+1)ω_s² s + ω_s³) / ((s + ω_s)(s² + 2ζω_s s + ω_s²)) · e^(−sd),
+
+each joint's bandwidth a share β of its first mode, ω_s = β sqrt(K_q / J) (the loop is set below the drive's
+resonance, the usual design rule: G. Ellis, "Control System Design Guide", 4th ed. 2012, ch. 16). Four numbers
+(β, ζ, d, a) are all it has, so they are learned from a run (`twin.analysis.learn.servo_fit`); its rest state is
+the quasi-static one. The motor step is implicit Euler; β = inf puts the motor on r(t − d).
+
+**Sheet (linearised contact).** The quasi-static replay at t − d gives the force f_qs, the tip p_qs and the sheet's
+D = ∂f/∂p, recovered from its tip gain G = (I − C D)⁻¹ (`SimResult.tip_gain`, C = J K⁻¹ Jᵀ): D = C⁻¹(I − G⁻¹).
+The moving arm feels f = f_qs + D (p − p_qs) at its tip; the formed surface is the quasi-static replay's.
+
+Cost: one quasi-static replay, then one `mj_step` per millisecond of the run (a fixed loop, arrays made before it).
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
+
+import mujoco
+import numpy as np
+
+from twin.base.signals import interp_rows
+from twin.errors import InputError
+from twin.robot.model import lost_joint_name, lost_motion_schedule
+from twin.sim.gear_play import gear_play_references
+from twin.sim.result import SimResult
+
+if TYPE_CHECKING:
+    from twin.sim.quasi_static import Twin
+
+#: MuJoCo timestep of the dynamic twin [s] (the arm's modes, 10-130 Hz, take 8+ steps a period).
+TIMESTEP_S = 1e-3
+#: Largest delay the servo takes [s].
+MAX_DELAY_S = 0.5
+#: Poses along a run at which gravity's torque is evaluated (interpolated between; it varies slowly).
+GRAVITY_POSES = 200
+
+
+@dataclass(frozen=True)
+class ServoModel:
+    """The generic joint servo (module docstring).
+
+    Attributes:
+        bandwidth_over_mode: β, each joint's loop bandwidth ω_s over its first mode sqrt(K_q / J) [-]; inf: a
+            rigid servo.
+        damping_ratio: ζ of the loop's complex poles [-].
+        delay_s: d, pure delay of the reference (the controller's interpolation, its stops' timing) [s].
+        feedforward: a, the share of the rigid joint's inertial torque J r̈ fed forward [-], in [0, 1].
+    """
+
+    bandwidth_over_mode: float = 0.5
+    damping_ratio: float = 1.0
+    delay_s: float = 0.0
+    feedforward: float = 0.0
+
+    def __post_init__(self) -> None:
+        checks = (("bandwidth_over_mode", 0.02, math.inf, "- (inf: rigid)"), ("damping_ratio", 0.05, 20.0, "-"),
+                  ("delay_s", 0.0, MAX_DELAY_S, "s"), ("feedforward", 0.0, 1.0, "-"))
+        for name, low, high, unit in checks:
+            value = getattr(self, name)
+            if not (isinstance(value, int | float) and low <= value <= high):
+                raise InputError(f"ServoModel.{name} = {value!r}: expected a number in [{low}, {high}] {unit}")
+
+    @property
+    def rigid(self) -> bool:
+        """Whether the motor sits on its reference (β = inf)."""
+        return math.isinf(self.bandwidth_over_mode)
+
+
+def stiffness_diag(twin: Twin) -> np.ndarray:
+    """The springs of every dof [N·m/rad]: K_q on the arm joints, the passive hinges' own elsewhere, (nv,)."""
+    m = twin.model
+    k = m.jnt_stiffness[m.dof_jntid].astype(float)
+    k[twin.robot.addresses(m).dof] = twin.joint_stiffness
+    if m.nq != m.nv or np.any(k <= 0):
+        raise InputError(f"the twin's model has dofs {np.flatnonzero(k <= 0).tolist()} without a spring (nq {m.nq}, "
+                         f"nv {m.nv}); the dynamic twin steps a chain of sprung hinges (arm, lost motion, tool)")
+    return k
+
+
+def sheet_stiffness(twin: Twin, sim: SimResult) -> np.ndarray:
+    """The sheet's D = ∂f/∂p per sample from a quasi-static replay's tip gain, sheet frame [N/m], (n, 3, 3).
+
+    Args:
+        twin: The twin that made `sim` (its model and springs give C = J K⁻¹ Jᵀ).
+        sim: Its quasi-static replay.
+    """
+    m = twin.model
+    data, k_inv, jacp = mujoco.MjData(m), 1.0 / stiffness_diag(twin), np.zeros((3, m.nv))
+    out, site = np.empty((len(sim.t_s), 3, 3)), m.site(twin.robot.tool_site).id
+    for i, q in enumerate(sim.qpos):  # bounded: one Jacobian per sample
+        data.qpos[:] = q
+        mujoco.mj_kinematics(m, data)
+        mujoco.mj_comPos(m, data)
+        mujoco.mj_jacSite(m, data, jacp, None, site)
+        j_sheet = twin.R_base_sheet.T @ jacp
+        out[i] = np.linalg.solve((j_sheet * k_inv) @ j_sheet.T, np.eye(3) - np.linalg.inv(sim.tip_gain[i]))
+    return out
+
+
+def references(twin: Twin, sim: SimResult) -> np.ndarray:
+    """The spring references of the replay, all dofs [rad], (n, nq): rigid IK, lost-motion schedule and gear play
+    as the quasi-static twin takes them, plus K⁻¹ g of the unloaded pose (taught under gravity)."""
+    m, robot, effects = twin.model, twin.robot, twin.effects
+    q_nom = np.zeros((len(sim.t_s), m.nq))
+    q_nom[:, robot.addresses(m).qpos] = sim.q_ik
+    if effects.lost_motion_rad != 0:
+        lost = [m.jnt_qposadr[m.joint(lost_joint_name(j)).id] for j in robot.lost_motion_joints]
+        dx_dq = twin.R_base_sheet.T[0] @ twin.kinematics.jacobian(sim.q_ik[0])[:3]
+        arm = [robot.joints.index(j) for j in robot.lost_motion_joints]
+        q_nom[:, lost] = lost_motion_schedule(sim.p_cmd_sheet_m[:, 0], sim.direction, np.sign(dx_dq[arm]),
+                                              effects.lost_motion_rad, effects.lost_motion_takeup_m)
+    if effects.gear_play_rad:
+        q_nom = gear_play_references(twin, q_nom, sim.t_s, sim.p_cmd_sheet_m, sim.direction, sim.qpos, sim.f_sheet_n)
+    rows = np.unique(np.r_[np.arange(0, len(q_nom), max(1, len(q_nom) // GRAVITY_POSES)), len(q_nom) - 1])
+    g, data = np.zeros((len(rows), m.nv)), mujoco.MjData(m)
+    for k, i in enumerate(rows):  # bounded: GRAVITY_POSES poses
+        data.qpos[:], data.qvel[:] = q_nom[i], 0.0
+        mujoco.mj_kinematics(m, data)
+        mujoco.mj_comPos(m, data)
+        mujoco.mj_rne(m, data, 0, g[k])
+    return q_nom + interp_rows(sim.t_s, sim.t_s[rows], g) / stiffness_diag(twin)
+
+
+class DynamicTwin:
+    """The dynamic twin of one commanded path, prepared once from its quasi-static replay (module docstring);
+    `simulate(servo)` steps it under a servo (a fit calls it many times).
+
+    Args:
+        twin: The quasi-static twin (model, springs, friction); its `spec.servo` transient is not used.
+        sim: Its quasi-static replay of the path, made without a servo transient (`Twin.simulate`).
+        timestep_s: MuJoCo timestep [s].
+    """
+
+    def __init__(self, twin: Twin, sim: SimResult, timestep_s: float = TIMESTEP_S) -> None:
+        if not (math.isfinite(timestep_s) and 1e-5 <= timestep_s <= 2e-3):
+            raise InputError(f"timestep_s = {timestep_s!r}: expected [1e-5, 2e-3] s (the arm's modes are 10-130 Hz)")
+        self.twin, self.sim = twin, sim
+        m = self.model = copy.deepcopy(twin.model)
+        m.opt.timestep, m.opt.integrator = timestep_s, mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+        m.actuator_ctrllimited[:] = 0
+        m.dof_solref[:, 0], m.dof_solimp[:, :2] = 2 * timestep_s, 0.999  # the hard friction constraint
+        arm = twin.robot.addresses(m)
+        self._arm, self._act, self._passive = arm.dof, arm.actuator, np.setdiff1d(np.arange(m.nq), arm.qpos)
+        #: J_m per arm joint [kg·m²]: the model's rotor inertia, moved to the motor side of the gear.
+        self.motor_inertia = np.maximum(m.dof_armature[arm.dof], 1e-3)
+        m.dof_armature[arm.dof] = 0.0
+        self.data, self.k_q, self._ref = mujoco.MjData(m), twin.joint_stiffness, references(twin, sim)
+        self.data.qpos[:] = sim.qpos[0]
+        mujoco.mj_forward(m, self.data)
+        full_m = np.zeros((m.nv, m.nv))
+        mujoco.mj_fullM(m, self.data, full_m)
+        #: J per arm joint, the rigid joint the gains are placed for [kg·m²]: motor plus link at the first pose.
+        self.joint_inertia = self.motor_inertia + np.diag(full_m)[arm.dof]
+        #: Each arm joint's first mode sqrt(K_q / J) [rad/s]: its servo's bandwidth is β times it.
+        self.mode_rad_s = np.sqrt(self.k_q / self.joint_inertia)
+        self._d_sheet = sheet_stiffness(twin, sim).reshape(len(sim.t_s), 9)
+        self._tcp = m.site(twin.robot.tool_site).id
+        #: The steps' times [s].
+        self.t_steps = sim.t_s[0] + timestep_s * np.arange(int((sim.t_s[-1] - sim.t_s[0]) / timestep_s) + 1)
+
+    def _at(self, t: np.ndarray) -> tuple[np.ndarray, ...]:
+        """At times `t` (a step apart) of the quasi-static replay: references, their rate, the base-frame force,
+        tip and sheet stiffness, and the arm joints' pose."""
+        sim, rot, h = self.sim, self.twin.R_base_sheet, self.model.opt.timestep
+        t = np.clip(t, sim.t_s[0], sim.t_s[-1])
+        ref = interp_rows(t, sim.t_s, self._ref)
+        d_sheet = interp_rows(t, sim.t_s, self._d_sheet).reshape(-1, 3, 3)
+        return (ref, np.gradient(ref, h, axis=0), sim.force_at(t) @ rot.T,
+                self.twin.p_base_sheet_origin + interp_rows(t, sim.t_s, sim.p_sheet_m) @ rot.T,
+                np.einsum("ij,njk,lk->nil", rot, d_sheet, rot), interp_rows(t, sim.t_s, sim.qpos[:, self._arm]))
+
+    def simulate(self, servo: ServoModel) -> SimResult:
+        """Step the arm along the path under `servo`.
+
+        Args:
+            servo: The joint servo.
+
+        Returns:
+            The quasi-static replay with `p_sheet_m`, `f_sheet_n` and `qpos` those of the moving arm, at the
+            command's samples.
+
+        Raises:
+            InputError: The arm diverged (a servo too stiff for the timestep).
+        """
+        m, d, h, arm = self.model, self.data, self.model.opt.timestep, self._arm
+        ref, rate, f_base, x_base, d_base, q_static = self._at(self.t_steps - servo.delay_s)
+        arm_ref, pas_ref = np.ascontiguousarray(ref[:, arm]), np.ascontiguousarray(ref[:, self._passive])
+        arm_rate, jm, jt, k_q = np.ascontiguousarray(rate[:, arm]), self.motor_inertia, self.joint_inertia, self.k_q
+        ff = k_q * (arm_ref - q_static) + servo.feedforward * jt * np.gradient(arm_rate, h, axis=0)
+        damping = m.dof_damping.copy()  # the gear's damper acts on the motor's speed less the link's
+        c_arm, w, z, rigid = damping[arm], servo.bandwidth_over_mode * self.mode_rad_s, servo.damping_ratio, servo.rigid
+        kd, kp, ki = jt * (2 * z + 1) * w, jt * (2 * z + 1) * w**2, jt * w**3
+        denom = jm / h + kd + c_arm + (kp + k_q) * h  # implicit Euler: ω⁺ denom = J_m ω / h + ...
+        mujoco.mj_resetData(m, d)
+        d.qpos[:] = self.sim.qpos[0]
+        theta, omega, integral = arm_ref[0].copy(), np.zeros(len(arm)), np.zeros(len(arm))
+        n = len(self.t_steps)
+        tips, qpos, force = np.empty((n, 3)), np.empty((n, m.nq)), np.empty((n, 3))
+        jacp, dx, df, f, drive = np.zeros((3, m.nv)), np.empty(3), np.empty(3), np.empty(3), np.empty(m.nv)
+        num, err = np.empty(len(arm)), np.empty(len(arm))
+        tip, act, passive, spring, tcp = d.site_xpos[self._tcp], self._act, self._passive, m.qpos_spring, self._tcp
+        step1, step2, jac_site = mujoco.mj_step1, mujoco.mj_step2, mujoco.mj_jacSite
+        for k in range(n):  # bounded: one step per timestep of the run
+            spring[passive] = pas_ref[k]
+            if rigid:
+                theta[:], omega[:] = arm_ref[k], arm_rate[k]
+            else:
+                np.subtract(arm_ref[k], theta, out=err)
+                integral += h * err
+                num[:] = jm * omega / h + kp * err + ki * integral + kd * arm_rate[k] + ff[k]
+                num += c_arm * d.qvel[arm] - k_q * (theta - d.qpos[arm])
+                np.divide(num, denom, out=omega)
+                theta += h * omega
+            d.ctrl[act] = theta
+            drive[:] = rate[k]
+            drive[arm] = omega
+            step1(m, d)
+            np.subtract(tip, x_base[k], out=dx)
+            np.dot(d_base[k], dx, out=df)
+            np.add(f_base[k], df, out=f)
+            jac_site(m, d, jacp, None, tcp)
+            np.dot(f, jacp, out=d.qfrc_applied)
+            d.qfrc_applied += damping * drive
+            tips[k], qpos[k], force[k] = tip, d.qpos, f
+            step2(m, d)
+        return self._result(tips, qpos, force)
+
+    def _result(self, tips: np.ndarray, qpos: np.ndarray, force: np.ndarray) -> SimResult:
+        """The stepped arm at the command's samples, as a `SimResult`."""
+        sim, rot, t = self.sim, self.twin.R_base_sheet, self.t_steps
+        p_sheet = interp_rows(sim.t_s, t, tips - self.twin.p_base_sheet_origin) @ rot
+        if not (np.all(np.isfinite(p_sheet)) and np.max(np.abs(p_sheet - sim.p_sheet_m)) < 0.05):
+            raise InputError("the dynamic twin diverged (its tip more than 50 mm from the quasi-static one): a servo "
+                             "this stiff needs a smaller timestep_s")
+        return replace(sim, p_sheet_m=p_sheet, f_sheet_n=interp_rows(sim.t_s, t, force) @ rot,
+                       qpos=interp_rows(sim.t_s, t, qpos))
+
+
+def simulate_dynamic(
+    twin: Twin, t_s: np.ndarray, p_cmd_sheet_m: np.ndarray, servo: ServoModel | None = None,
+    timestep_s: float = TIMESTEP_S,
+) -> SimResult:
+    """Replay a commanded path on the dynamic twin: the quasi-static replay, then the arm stepped through it.
+
+    Args:
+        twin: The twin; one with a servo transient (`spec.servo`) is built again without it.
+        t_s: Sample times [s], (n,), the command's stamps (its stops included).
+        p_cmd_sheet_m: Commanded tool tip, sheet frame [m], (n, 3).
+        servo: The joint servo; None: `ServoModel()`.
+        timestep_s: MuJoCo timestep [s].
+
+    Returns:
+        The dynamic replay at the command's samples (`DynamicTwin.simulate`).
+    """
+    if twin.spec.servo is not None:
+        twin = twin.spec.replace(servo=None).build()
+    sim = twin.simulate(t_s, p_cmd_sheet_m)
+    return DynamicTwin(twin, sim, timestep_s).simulate(servo or ServoModel())
