@@ -14,7 +14,9 @@ from __future__ import annotations
 
 import ast
 import itertools
+import json
 import math
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -22,10 +24,13 @@ import pytest
 from scipy import signal
 
 from twin.analysis.learn.servo_fit import corner_indices, dynamic_replay, fit_servo, near_corners, stop_lag
+from twin.cli import main
 from twin.errors import InputError
 from twin.process.description import Process
 from twin.runs.format import Run, Stream, run_meta
+from twin.runs.write import write_run
 from twin.sim.dynamic import DynamicTwin, ServoModel, references
+from twin.sim.model_file import write_model_file
 from twin.sim.spec import TwinSpec
 
 REPO = Path(__file__).resolve().parents[1]
@@ -92,7 +97,7 @@ def _servo_written_here(twin, t: np.ndarray, sim, mode_rad_s: np.ndarray) -> tup
     return fine, tip
 
 
-def test_fit_servo_finds_a_servo_written_in_the_test_again() -> None:
+def test_fit_servo_finds_a_servo_written_in_the_test_again(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     twin = TwinSpec(process=Process(force_model="isf"), joint_friction_nm=(0.0,) * 6).build()
     t, p = square(0.02, 1e-3, 0.0333, 0.5, 0.004)  # above the sheet: the servo alone moves the tip
     sim = twin.simulate(t, p)
@@ -113,6 +118,16 @@ def test_fit_servo_finds_a_servo_written_in_the_test_again() -> None:
     assert fit.rms_mm < 0.3 * fit.rms_rigid_mm  # the fitted servo explains most of what a rigid one leaves
     replayed = dynamic_replay(run, dynamic, fit.servo)
     assert replayed.metrics["position_rms_mm"] == pytest.approx(fit.rms_mm, rel=0.05)
+    # `replay --dynamic`: the same fit on the run's folder, reported beside the quasi-static gap
+    model = write_model_file(tmp_path / "m.json", TwinSpec(process=Process(force_model="isf"),
+                                                           joint_friction_nm=(0.0,) * 6))
+    t_f = np.arange(0.0, t[-1], 1.0 / 30.0)  # the F/T above the sheet reads nothing
+    written = write_run(tmp_path / "run", replace(run, forces=Stream(t_f, np.zeros((len(t_f), 3)))))
+    assert main(["replay", str(written), "--model", str(model), "--dynamic", "--json", "-"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["quasi_static_position_rms_mm"] == pytest.approx(fit.rms_rigid_mm, rel=0.5)
+    assert report["position_rms_mm"] < 0.5 * report["quasi_static_position_rms_mm"]
+    assert report["dynamic_servo_fitted"]["delay_s"] == pytest.approx(TRUE["delay_s"], abs=FOUND["delay_s"])
 
 
 def test_a_servo_out_of_its_range_is_refused() -> None:

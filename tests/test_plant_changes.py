@@ -18,6 +18,7 @@ from plant_changes import (
     DEVELOPMENT,
     END,
     HELD_OUT,
+    HELD_OUT_2,
     SETS,
     learn_cell,
     markdown,
@@ -65,17 +66,24 @@ def test_the_plant_change_sets_are_as_the_docs_show(both_sets: dict[str, list[di
     block = text[text.index(BEGIN):text.index(END)]
     for rows in both_sets.values():
         assert markdown(rows) in block, markdown(rows)
-    assert {r["change"] for r in both_sets["held-out"]} == {c.name for c in HELD_OUT}
-    assert len({r["cell"].split("-")[0] for r in both_sets["held-out"]}) >= 2  # two robots, two parts
-    assert len({r["cell"].split("-")[1] for r in both_sets["held-out"]}) >= 2
+    for which, changes in (("held-out", HELD_OUT), ("held-out-2", HELD_OUT_2)):
+        rows = both_sets[which]
+        assert {r["change"] for r in rows} == {c.name for c in changes}
+        assert len({r["cell"].split("-")[0] for r in rows}) >= 2  # two robots, two parts
+        assert len({r["cell"].split("-")[1] for r in rows}) >= 2
+
+
+GOAL_NOT_MET = pytest.mark.xfail(strict=True, raises=AssertionError, reason="issue #47's goal, named right with the "
+                                 "next run's excess over the floor halved in >= 10 of 12, is not met on this held-out "
+                                 "set (docs/discrepancy.md)")
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, raises=AssertionError, reason="issue #47's goal, named right with the next run's "
-                   "excess over the floor halved in >= 10 of 12, is not met on the held-out set (docs/discrepancy.md)")
-def test_the_held_out_set_meets_the_issue_goal(both_sets: dict[str, list[dict[str, Any]]]) -> None:
-    seen = [r for r in both_sets["held-out"] if r["observable"]]
-    assert sum(right(r) for r in seen) >= 10 / 12 * len(seen), markdown(both_sets["held-out"])
+@pytest.mark.parametrize("which", [pytest.param("held-out", marks=GOAL_NOT_MET),
+                                   pytest.param("held-out-2", marks=GOAL_NOT_MET)])
+def test_the_held_out_sets_meet_the_issue_goal(both_sets: dict[str, list[dict[str, Any]]], which: str) -> None:
+    seen = [r for r in both_sets[which] if r["observable"]]
+    assert sum(right(r) for r in seen) >= 10 / 12 * len(seen), markdown(both_sets[which])
 
 
 def test_two_changes_in_one_run_are_both_named_and_carried(groove_cell: Path) -> None:

@@ -31,6 +31,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--forces", choices=("twin", "measured"), default="twin",
                         help="measured: also drive the twin's robot by the run's F/T stream and split the gap into "
                         "the robot's part and the sheet's part")
+    parser.add_argument("--dynamic", action="store_true", help="step the arm in time, its servo fitted on this run "
+                        "(docs/dynamic-twin.md; about 80 dynamic replays)")
     add_json_argument(parser, "the metrics")
     parser.add_argument("--rrd", type=Path, help="also save a rerun recording of the replay to FILE")
     parser.add_argument("--figure", type=Path, metavar="PNG", help="also write a figure of the replay: measured vs "
@@ -42,5 +44,5 @@ def run(args: argparse.Namespace) -> int:
     from twin.apps.tasks.replay import ReplayRequest, replay_task
 
     request = ReplayRequest(args.run_dir, args.model, process_declaration(args), args.force_model, args.robot,
-                            args.forces, args.rrd, args.figure, cell=getattr(args, "cell_record", None))
+                            args.forces, args.rrd, args.figure, getattr(args, "cell_record", None), args.dynamic)
     return finish(args, replay_task(request, note), protect=(args.run_dir, args.model, args.process))

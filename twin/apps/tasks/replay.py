@@ -36,6 +36,8 @@ class ReplayRequest:
         figure: A figure to write (PNG): the measured and the simulated tool tip minus the commanded one on each
             axis x, y, z [mm] against time [s]; never over an input; or None.
         cell: A `--cell` file's record (`CellDeclaration.record`): its tool is the twin's (`resolve_spec`).
+        dynamic: Step the arm in time (`twin.sim.dynamic`), its servo fitted on this run (`fit_servo`: fitted, not
+            predicted); the quasi-static replay's gap is reported beside it.
     """
 
     run_dir: Path
@@ -47,6 +49,7 @@ class ReplayRequest:
     rrd: Path | None = None
     figure: Path | None = None
     cell: dict[str, Any] | None = None
+    dynamic: bool = False
 
     def __post_init__(self) -> None:
         if self.forces not in FORCES:
@@ -68,6 +71,9 @@ class ReplayReport(Report):
         robot_gap_rms_mm: With forces="measured": the robot's part of the gap [mm rms], else None.
         sheet_gap_rms_mm: With forces="measured": the sheet's part [mm rms], else None.
         figure: The figure written, or None.
+        servo: With dynamic: the servo fitted on the run (`twin.analysis.learn.servo_fit.ServoFit`), the result
+            the dynamic replay's; else None.
+        quasi_static_rms_mm: With dynamic: the quasi-static replay's position gap [mm rms], else None.
     """
 
     run_dir: Path
@@ -76,12 +82,19 @@ class ReplayReport(Report):
     robot_gap_rms_mm: float | None = None
     sheet_gap_rms_mm: float | None = None
     figure: Path | None = None
+    servo: Any = None
+    quasi_static_rms_mm: float | None = None
 
     def metrics(self) -> dict[str, Any]:
         """The replay's metrics, with the split when there is one."""
         m: dict[str, Any] = dict(self.result.metrics)
         if self.robot_gap_rms_mm is not None:
             m.update(robot_gap_rms_mm=self.robot_gap_rms_mm, sheet_gap_rms_mm=self.sheet_gap_rms_mm)
+        if self.servo is not None:
+            servo = self.servo.servo
+            m.update(quasi_static_position_rms_mm=self.quasi_static_rms_mm, dynamic_servo_fitted={
+                "bandwidth_over_mode": servo.bandwidth_over_mode, "damping_ratio": servo.damping_ratio,
+                "delay_s": servo.delay_s, "feedforward": servo.feedforward, "stop_lag_s": self.servo.stop_lag_s})
         return m
 
     def lines(self) -> list[str]:
@@ -98,6 +111,12 @@ class ReplayReport(Report):
             lines.append(f"  split: the robot's part (the twin's robot driven by the measured forces) "
                          f"{self.robot_gap_rms_mm:.3f} mm rms; the sheet's part (what the twin's forces move the "
                          f"tip by) {self.sheet_gap_rms_mm:.3f} mm rms")
+        if self.servo is not None:
+            servo = self.servo.servo
+            lines.append(f"  dynamic (the arm stepped in time, docs/dynamic-twin.md), its servo fitted on this run: "
+                         f"bandwidth {servo.bandwidth_over_mode:.2f} x each joint's mode, damping "
+                         f"{servo.damping_ratio:.2f}, delay {1e3 * servo.delay_s:.1f} ms, feed-forward "
+                         f"{servo.feedforward:.2f}; the quasi-static replay's gap {self.quasi_static_rms_mm:.3f} mm rms")
         return lines
 
     def record(self) -> dict[str, Any]:
@@ -118,6 +137,13 @@ def replay_task(request: ReplayRequest, note: Note = silent) -> ReplayReport:
                         force_model_name=request.force_model, note=note)
     twin = spec.build()
     result = replay(measured, twin)
+    servo = quasi_static_rms = None
+    if request.dynamic:
+        from twin.analysis.learn.servo_fit import dynamic_replay, fit_servo, prepare
+
+        dynamic = prepare(measured, twin)
+        servo, quasi_static_rms = fit_servo(measured, dynamic), float(result.metrics["position_rms_mm"])
+        result = dynamic_replay(measured, dynamic, servo.servo)
     split = None
     if request.forces == "measured":
         from twin.analysis.learn.split import split_gap
@@ -140,4 +166,4 @@ def replay_task(request: ReplayRequest, note: Note = silent) -> ReplayReport:
                              title=f"replay of {request.run_dir}: measured vs simulated tool tip, minus the command")
         note(f"figure -> {figure}")
     return ReplayReport(request.run_dir, spec, result, None if split is None else split.robot_rms_mm,
-                        None if split is None else split.sheet_rms_mm, figure)
+                        None if split is None else split.sheet_rms_mm, figure, servo, quasi_static_rms)
