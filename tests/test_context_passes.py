@@ -1,4 +1,5 @@
-"""The linearised replay's sheet answers against the pass that formed the same place (`Context.below`).
+"""The linearised replay (`Context`): its sheet answers against the pass that formed the same place (`below`), and
+its part profile moves where the twin's own profile is formed (`profile_change`).
 
 `label_passes` splits a path at the reversals of x: a groove's strokes, but a cone's or a pyramid's half laps. The
 surface a cone's sample meets was left a lap before (two passes back, on the same side), not by the half lap on
@@ -50,3 +51,20 @@ def test_passes_apart_do_not_meet() -> None:
     y = np.r_[np.zeros(300), np.full(300, 3 * SAME_PLACE_M)]  # the second stroke on another line
     below = _below(np.column_stack([x, y, np.zeros_like(x)]))
     assert np.all(below == -1)
+
+
+def test_the_profile_moves_only_where_the_twins_own_profile_is_formed() -> None:
+    """`predict_part_profile` clamps the recovered sheet at its plane: where the twin's profile is there (a cone's
+    section, all recovered), a tip change does not move it; elsewhere it moves by the tip's z change, scaled as the
+    twin scales its profile (its depth ratio, the springback effect)."""
+    x = np.linspace(-0.05, 0.05, 201)
+    sim = SimpleNamespace(pass_index=np.ones(201, dtype=int), p_sheet_m=np.column_stack([x, 0 * x, 0 * x]))
+    profile_x = np.linspace(-0.04, 0.04, 81)
+    formed = np.where(profile_x < 0.0, -1e-3, 0.0)  # formed on the left half only
+    twin = SimpleNamespace(sheet_field=SimpleNamespace(params=SimpleNamespace(depth_ratio=0.9)))
+    fake = SimpleNamespace(sim=sim, profile_x_m=profile_x, pred={"profile": formed}, twin=twin,
+                           effects=SimpleNamespace(springback_ratio=0.1))
+    dp = np.column_stack([0 * x, 0 * x, np.full(201, -2e-4)])
+    change = Context.profile_change(fake, dp)  # type: ignore[arg-type]
+    np.testing.assert_allclose(change[profile_x < 0.0], -2e-4 * 0.9 * 0.9, rtol=1e-12)
+    assert np.all(change[profile_x >= 0.0] == 0.0)

@@ -95,13 +95,19 @@ class Context:
         return self.sim.force_at(self.run.forces.t_s, values)
 
     def profile_change(self, dp_cmd: np.ndarray) -> np.ndarray:
-        """Profile change caused by a tip change (n, 3) [m]: the last (deepest) pass's z change along x."""
+        """Profile change caused by a tip change (n, 3) [m]: the last (deepest) pass's z change along x, where the
+        twin's own profile is formed (`predict_part_profile` clamps the sheet's recovery at its plane, z <= 0: where
+        it has recovered to it, a tip change does not show), scaled as the twin scales its profile (the model's
+        `depth_ratio`, the `sheet_springback` effect)."""
         last = self.sim.pass_index == self.sim.pass_index.max()
         x, dz = self.sim.p_sheet_m[last, 0], dp_cmd[last, 2]
         order = np.argsort(x)
         inside = (self.profile_x_m >= x.min()) & (self.profile_x_m <= x.max())
+        if "profile" in self.pred:
+            inside &= self.pred["profile"] < 0.0
         out = np.where(inside, np.interp(self.profile_x_m, x[order], dz[order]), 0.0)
-        return out * (1.0 - self.effects.springback_ratio)
+        depth_ratio = float(getattr(getattr(self.twin.sheet_field, "params", None), "depth_ratio", 1.0))
+        return out * depth_ratio * (1.0 - self.effects.springback_ratio)
 
     @property
     def cs(self) -> np.ndarray:

@@ -201,7 +201,7 @@ def dynamic_replay(
     under `servo`, compared with the run's measurements (the same metrics).
 
     Args:
-        run: A measured run (never its truth).
+        run: A measured run (its measurements only).
         twin: A spec (placed at the run's placement), a twin at the run's placement, a `DynamicTwin` of this run
             (`prepare`), or None (the run's robot in its cell). A spec's servo transient is left out.
         servo: The servo (`fit_servo(...).servo`); None: `ServoModel()`.
