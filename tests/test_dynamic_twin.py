@@ -25,12 +25,12 @@ from scipy import signal
 
 from twin.analysis.learn.servo_fit import corner_indices, dynamic_replay, fit_servo, near_corners, stop_lag
 from twin.cli import main
-from twin.errors import InputError
+from twin.errors import DataFileError, InputError
 from twin.process.description import Process
 from twin.runs.format import Run, Stream, run_meta
 from twin.runs.write import write_run
 from twin.sim.dynamic import DynamicTwin, ServoModel, references
-from twin.sim.model_file import write_model_file
+from twin.sim.model_file import read_model_file, write_model_file
 from twin.sim.spec import TwinSpec
 
 REPO = Path(__file__).resolve().parents[1]
@@ -127,7 +127,29 @@ def test_fit_servo_finds_a_servo_written_in_the_test_again(tmp_path: Path, capsy
     report = json.loads(capsys.readouterr().out)
     assert report["quasi_static_position_rms_mm"] == pytest.approx(fit.rms_rigid_mm, rel=0.5)
     assert report["position_rms_mm"] < 0.5 * report["quasi_static_position_rms_mm"]
-    assert report["dynamic_servo_fitted"]["delay_s"] == pytest.approx(TRUE["delay_s"], abs=FOUND["delay_s"])
+    assert report["dynamic_servo"]["fitted_on_this_run"]
+    assert report["dynamic_servo"]["delay_s"] == pytest.approx(TRUE["delay_s"], abs=FOUND["delay_s"])
+    # a model that carries the servo (`learn --dynamic` writes it): replayed with it, nothing fitted (predicted)
+    carried = write_model_file(tmp_path / "carried.json", replace(read_model_file(model), dynamic_servo=fit.servo))
+    assert read_model_file(carried).dynamic_servo == fit.servo
+    assert main(["replay", str(written), "--model", str(carried), "--dynamic", "--json", "-"]) == 0
+    again = json.loads(capsys.readouterr().out)
+    assert not again["dynamic_servo"]["fitted_on_this_run"]
+    assert again["position_rms_mm"] == pytest.approx(replayed.metrics["position_rms_mm"], rel=0.05)
+
+
+def test_the_model_file_refuses_a_bad_dynamic_servo(tmp_path: Path) -> None:
+    path = write_model_file(tmp_path / "m.json", TwinSpec(dynamic_servo=ServoModel(0.5, 1.2, 0.01, 0.3)))
+    payload = json.loads(path.read_text())
+    assert payload["dynamic_servo"] == {"bandwidth_over_mode": 0.5, "damping_ratio": 1.2, "delay_s": 0.01,
+                                        "feedforward": 0.3}
+    for bad, words in (({"bandwidth_over_mode": 0.5}, "dynamic_servo = .*expected an object with the numbers"),
+                       ({**payload["dynamic_servo"], "delay_s": "1"}, "expected an object with the numbers"),
+                       ({**payload["dynamic_servo"], "damping_ratio": -1.0}, "ServoModel.damping_ratio = -1.0")):
+        (tmp_path / "bad.json").write_text(json.dumps({**payload, "dynamic_servo": bad}))
+        with pytest.raises(DataFileError, match=words) as err:
+            read_model_file(tmp_path / "bad.json")
+        assert "bad.json" in str(err.value)
 
 
 def test_a_servo_out_of_its_range_is_refused() -> None:
@@ -156,3 +178,38 @@ def test_the_page_holds_its_generated_table_and_what_its_words_say_of_it() -> No
         for cell in (r[2], r[3]):
             whole, corners = (float(v) for v in cell.split("/"))
             assert corners > whole
+
+
+def test_learn_dynamic_writes_no_servo_where_the_learned_arm_does_not_step(
+    clean_run_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """`learn --dynamic` on the lab's groove: the learned joint 1 (the groove hardly turns it, so its K_q comes out
+    at a lower bound 20 times its prior) with its sticking friction does not step stably; the model is written
+    without a dynamic servo and the report says why (exit 0: the quasi-static twin is learned)."""
+    out = tmp_path / "m.json"
+    assert main(["learn", str(clean_run_dir), "--dynamic", "--write-model", str(out), "--json", "-"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert "diverged" in report["dynamic_servo"]
+    assert "dynamic_servo" not in json.loads(out.read_text())
+
+
+@pytest.mark.slow
+def test_learn_dynamic_carries_the_servo_for_replay(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """On the dynamic plant's TX200 pyramid: `learn --dynamic` writes the servo, `replay --dynamic` of another
+    seed uses it (predicted) and reports the quasi-static gap beside it."""
+    path = tmp_path / "pyramid.csv"
+    assert main(["path", "--shape", "pyramid", "--depth-mm", "3", "--robot", "tx200", "--out", str(path)]) == 0
+    runs = []
+    for seed in (1, 2):
+        runs.append(tmp_path / f"run{seed}")
+        assert main(["lab", "--plant", "dynamic", "--robot", "tx200", "--scenario", "nominal", "--seed", str(seed),
+                     "--commanded", str(path), "--out", str(runs[-1])]) == 0
+    model = tmp_path / "cell.json"
+    assert main(["learn", str(runs[0]), "--dynamic", "--write-model", str(model)]) == 0
+    servo = json.loads(model.read_text())["dynamic_servo"]
+    capsys.readouterr()
+    assert main(["replay", str(runs[1]), "--model", str(model), "--dynamic", "--json", "-"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert not report["dynamic_servo"]["fitted_on_this_run"]
+    assert report["dynamic_servo"]["damping_ratio"] == pytest.approx(servo["damping_ratio"], rel=1e-9)
+    assert report["position_rms_mm"] < 1.5 * report["quasi_static_position_rms_mm"]

@@ -8,8 +8,7 @@ from pathlib import Path
 
 from twin.cli._common import add_json_argument, finish
 
-HELP = ("Learn the cell's robot (joint compliance, friction, servo transient) and sheet (forces, springback) from "
-        "its nominal runs.")
+HELP = "Learn the cell's robot (compliance, friction, servo) and sheet (forces, springback) from its nominal runs."
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -21,6 +20,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         "priors (default: the runs' recorded robot and process)")
     parser.add_argument("--write-model", type=Path, help="write the learned twin to FILE (a model file that "
                         "`replay`, `compensate`, `discrepancy` and `place` take with --model)")
+    parser.add_argument("--dynamic", action="store_true", help="also learn the dynamic mode's servo from the first "
+                        "run, for `replay --dynamic` (docs/dynamic-twin.md)")
     add_json_argument(parser, "what was learned and the gaps")
 
 
@@ -28,5 +29,5 @@ def run(args: argparse.Namespace) -> int:
     """Learn from the runs."""
     from twin.apps.tasks.learn import LearnRequest, learn_task
 
-    report = learn_task(LearnRequest(tuple(args.runs), args.model, args.write_model))
+    report = learn_task(LearnRequest(tuple(args.runs), args.model, args.write_model, args.dynamic))
     return finish(args, report, protect=(*args.runs, args.model))

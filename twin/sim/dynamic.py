@@ -54,6 +54,9 @@ if TYPE_CHECKING:
 
 #: MuJoCo timestep of the dynamic twin [s] (the arm's modes, 10-130 Hz, take 8+ steps a period).
 TIMESTEP_S = 1e-3
+#: ω h of the stiffest rotor mode sqrt(K_q / J_m) at most (an explicit step of an undamped spring is stable below
+#: 2): the step is shortened below TIMESTEP_S where a learned gear is that stiff.
+MOTOR_MODE_STEP = 1.5
 #: Largest delay the servo takes [s].
 MAX_DELAY_S = 0.5
 #: Poses along a run at which gravity's torque is evaluated (interpolated between; it varies slowly).
@@ -161,13 +164,19 @@ class DynamicTwin:
             raise InputError(f"timestep_s = {timestep_s!r}: expected [1e-5, 2e-3] s (the arm's modes are 10-130 Hz)")
         self.twin, self.sim = twin, sim
         m = self.model = copy.deepcopy(twin.model)
+        arm = twin.robot.addresses(m)
+        #: J_m per arm joint [kg·m²]: the model's rotor inertia, moved to the motor side of the gear.
+        self.motor_inertia = np.maximum(m.dof_armature[arm.dof], 1e-3)
+        # the gear spring on the rotor is stepped explicitly: a step short enough for its stiffest rotor mode
+        fastest = float(np.max(np.sqrt(twin.joint_stiffness / self.motor_inertia)))
+        timestep_s = min(timestep_s, MOTOR_MODE_STEP / fastest)
+        if timestep_s < 1e-5:
+            raise InputError(f"a gear of K_q {np.max(twin.joint_stiffness):.3g} N·m/rad on its rotor needs a step of "
+                             f"{timestep_s:.2g} s: below the 1e-5 s the dynamic mode takes")
         m.opt.timestep, m.opt.integrator = timestep_s, mujoco.mjtIntegrator.mjINT_IMPLICITFAST
         m.actuator_ctrllimited[:] = 0
         m.dof_solref[:, 0], m.dof_solimp[:, :2] = 2 * timestep_s, 0.999  # the hard friction constraint
-        arm = twin.robot.addresses(m)
         self._arm, self._act, self._passive = arm.dof, arm.actuator, np.setdiff1d(np.arange(m.nq), arm.qpos)
-        #: J_m per arm joint [kg·m²]: the model's rotor inertia, moved to the motor side of the gear.
-        self.motor_inertia = np.maximum(m.dof_armature[arm.dof], 1e-3)
         m.dof_armature[arm.dof] = 0.0
         self.data, self.k_q, self._ref = mujoco.MjData(m), twin.joint_stiffness, references(twin, sim)
         self.data.qpos[:] = sim.qpos[0]
@@ -205,7 +214,7 @@ class DynamicTwin:
             command's samples.
 
         Raises:
-            InputError: The arm diverged (a servo too stiff for the timestep).
+            InputError: The arm diverged (a servo, gear or friction too stiff for the timestep).
         """
         m, d, h, arm = self.model, self.data, self.model.opt.timestep, self._arm
         ref, rate, f_base, x_base, d_base, q_static = self._at(self.t_steps - servo.delay_s)
@@ -255,8 +264,8 @@ class DynamicTwin:
         sim, rot, t = self.sim, self.twin.R_base_sheet, self.t_steps
         p_sheet = interp_rows(sim.t_s, t, tips - self.twin.p_base_sheet_origin) @ rot
         if not (np.all(np.isfinite(p_sheet)) and np.max(np.abs(p_sheet - sim.p_sheet_m)) < 0.05):
-            raise InputError("the dynamic twin diverged (its tip more than 50 mm from the quasi-static one): a servo "
-                             "this stiff needs a smaller timestep_s")
+            raise InputError("the dynamic twin diverged (its tip more than 50 mm from the quasi-static one): its "
+                             "servo, gears or joint friction are too stiff for its step")
         return replace(sim, p_sheet_m=p_sheet, f_sheet_n=interp_rows(sim.t_s, t, force) @ rot,
                        qpos=interp_rows(sim.t_s, t, qpos))
 

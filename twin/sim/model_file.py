@@ -12,6 +12,8 @@ read with `--model`:
      "effects": {"lost_motion": 0.15}, "units": {"lost_motion": "mrad"}, "lost_motion_takeup_mm": 2.0,
      "joint_stiffness_nm_per_rad": [...], "joint_friction_nm": [...],
      "servo": {"compliance_rad_per_nm": [...], "time_constant_s": ...} (learned by `learn`),
+     "dynamic_servo": {"bandwidth_over_mode": ..., "damping_ratio": ..., "delay_s": ..., "feedforward": ...}
+             (the dynamic mode's joint servo, `learn --dynamic`; absent: none),
      "tool": {"length_mm": 300.0, "mass_kg": 8.0, "cog_mm": [0, 0, 150], "bending_stiffness_n_per_mm": 450.0}
              (the declared tool, `TwinSpec.tool`, its bending at the tip optional; absent: the robot model's own),
      "instruments": {"force_bias_n": [40, 0, -30], "tracker_shift_mm": [...], ...} (the F/T sensor's and the
@@ -43,6 +45,7 @@ from twin.process.process_file import RECORD_KEYS, process_from_record
 from twin.process.toolpath.placement import Placement
 from twin.robot.description import load_robot, shipped_robots
 from twin.robot.tool import ToolSpec
+from twin.sim.dynamic import ServoModel
 from twin.sim.effects import EFFECTS, LOST_MOTION_TAKEUP_M, Effects
 from twin.sim.instruments import Instruments
 from twin.sim.servo import ServoTransient
@@ -53,7 +56,9 @@ READABLE_FORMATS = ("tx200-twin-model/1", MODEL_FORMAT)
 #: The keys a model file takes (`model_payload` writes them; `units` and `note` are for the reader).
 MODEL_KEYS = ("format", "robot", "process", "placement", "effects", "units", "lost_motion_takeup_mm",
               "joint_stiffness_nm_per_rad", "joint_friction_nm", "servo", "tool", "note", "floor", "instruments",
-              "gear_play_mrad")
+              "gear_play_mrad", "dynamic_servo")
+#: The keys of its `dynamic_servo` object (`twin.sim.dynamic.ServoModel`'s fields).
+DYNAMIC_SERVO_KEYS = ("bandwidth_over_mode", "damping_ratio", "delay_s", "feedforward")
 #: The keys of its `process` object and of `process.history`.
 PROCESS_KEYS = (*RECORD_KEYS, "friction_reversal_mm", "force_model", "force_fit", "history")
 HISTORY_KEYS = ("file", "symmetry", "unchecked_symmetry")
@@ -97,6 +102,8 @@ def model_payload(spec: TwinSpec, note: str = "") -> dict[str, Any]:
                             "time_constant_s": spec.servo.time_constant_s}
     if spec.tool is not None:
         payload["tool"] = spec.tool.to_json()
+    if spec.dynamic_servo is not None:
+        payload["dynamic_servo"] = {key: getattr(spec.dynamic_servo, key) for key in DYNAMIC_SERVO_KEYS}
     if not spec.effects.instruments.neutral:
         payload["instruments"] = spec.effects.instruments.changed()
     if spec.effects.gear_play_rad:
@@ -152,6 +159,7 @@ def read_model_file(path: str | Path) -> TwinSpec:
             joint_friction_nm=payload.get("joint_friction_nm"),
             servo=_servo(path, payload.get("servo")),
             tool=_tool(path, payload.get("tool")),
+            dynamic_servo=_dynamic_servo(path, payload.get("dynamic_servo")),
         )
     except DataFileError:
         raise
@@ -242,6 +250,18 @@ def _servo(path: Path, entry: Any) -> ServoTransient | None:
         raise DataFileError(path, f"servo = {entry!r}: expected an object with compliance_rad_per_nm (a list, one "
                             "per arm joint) and time_constant_s")
     return ServoTransient(tuple(entry["compliance_rad_per_nm"]), float(entry["time_constant_s"]))
+
+
+def _dynamic_servo(path: Path, entry: Any) -> ServoModel | None:
+    """The `dynamic_servo` object (`twin.sim.dynamic.ServoModel`), or None."""
+    if entry is None:
+        return None
+    if not isinstance(entry, Mapping) or set(entry) != set(DYNAMIC_SERVO_KEYS) or not all(
+        isinstance(v, int | float) and not isinstance(v, bool) for v in entry.values()
+    ):
+        raise DataFileError(path, f"dynamic_servo = {entry!r}: expected an object with the numbers "
+                            f"{', '.join(DYNAMIC_SERVO_KEYS)}")
+    return ServoModel(**{key: float(entry[key]) for key in DYNAMIC_SERVO_KEYS})
 
 
 def _tool(path: Path, entry: Any) -> ToolSpec | None:

@@ -25,6 +25,7 @@ from twin.process.toolpath.placement import Placement
 from twin.robot.description import load_robot
 from twin.robot.facts import RobotDescription
 from twin.robot.tool import ToolSpec
+from twin.sim.dynamic import ServoModel
 from twin.sim.effects import Effects
 from twin.sim.servo import ServoTransient
 
@@ -46,6 +47,8 @@ class TwinSpec:
         servo: The servo's transient compliance (`twin.sim.servo`), learned from a cell; None: none.
         tool: The tool on the flange (`twin.robot.tool.ToolSpec`: length, mass, centre of gravity), simulated in
             place of the robot model's; None: the robot model's own tool.
+        dynamic_servo: The joint servo of the dynamic mode (`twin.sim.dynamic.ServoModel`), learned from a run
+            (`learn --dynamic`); None: none learned.
     """
 
     robot: RobotDescription = field(default_factory=load_robot)
@@ -56,6 +59,7 @@ class TwinSpec:
     joint_friction_nm: tuple[float, ...] | None = None
     servo: ServoTransient | None = None
     tool: ToolSpec | None = None
+    dynamic_servo: ServoModel | None = None
 
     def __post_init__(self) -> None:
         robot = load_robot(self.robot) if isinstance(self.robot, str | Path) else self.robot
@@ -73,6 +77,8 @@ class TwinSpec:
         if self.servo is not None and (not isinstance(self.servo, ServoTransient)
                                        or len(self.servo.compliance_rad_per_nm) != robot.dof):
             raise InputError(f"TwinSpec.servo = {self.servo!r}: expected a ServoTransient with {robot.dof} joints")
+        if self.dynamic_servo is not None and not isinstance(self.dynamic_servo, ServoModel):
+            raise InputError(f"TwinSpec.dynamic_servo = {self.dynamic_servo!r}: expected a ServoModel or None")
         if self.tool is not None and not isinstance(self.tool, ToolSpec):
             raise InputError(f"TwinSpec.tool = {self.tool!r}: expected a ToolSpec (ToolSpec.make) or None")
         object.__setattr__(self, "robot", robot)

@@ -20,7 +20,7 @@ from twin.apps.tasks.base import Note, Report, silent
 from twin.base.outputs import repeated_input
 from twin.errors import InputError
 from twin.runs.read import read_run
-from twin.sim.model_file import read_model_file, write_model_file
+from twin.sim.model_file import DYNAMIC_SERVO_KEYS, read_model_file, write_model_file
 from twin.sim.spec import TwinSpec
 
 
@@ -34,11 +34,14 @@ class LearnRequest:
         model: The declared twin (a model file) whose robot and process are the priors, or None for the runs'
             recorded robot and process.
         write_model: Where to write the learned twin (a model file), or None.
+        dynamic: Also learn the dynamic mode's joint servo from the first run (`fit_servo`, docs/dynamic-twin.md),
+            carried in the model file for `replay --dynamic`.
     """
 
     runs: tuple[Path, ...]
     model: Path | None = None
     write_model: Path | None = None
+    dynamic: bool = False
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "runs", tuple(self.runs))
@@ -59,12 +62,15 @@ class LearnReport(Report):
         model_file: The model file written, or None.
         run_tool_mm: The tool length the runs record (their `cell` tool, else `tool_length_m`) [mm], or None.
         floor: With two runs or more, what the learned cell leaves on its own clean runs (each held out), or None.
+        servo_fit: With dynamic, the dynamic mode's servo learned from the first run (`ServoFit`), or why it was
+            not (the learned arm does not step stably); else None.
     """
 
     result: LearnResult
     model_file: Path | None = None
     run_tool_mm: float | None = None
     floor: Floor | None = None
+    servo_fit: Any = None
 
     def fitted_words(self) -> str:
         """The robot, the sheet placement and the tool the twin was fitted for, in one line."""
@@ -116,6 +122,14 @@ class LearnReport(Report):
             lines.append("  floor on its own clean runs (predicted; what `discrepancy --model` judges a change above): "
                          + ", ".join(f"{s} {v:.3g}" for s, v in self.floor.excess.items())
                          + " x the noise's variance per sample")
+        if isinstance(self.servo_fit, str):
+            lines.append(f"  dynamic mode's servo: not learned ({self.servo_fit}); the model has none")
+        elif self.servo_fit is not None:
+            fit, servo = self.servo_fit, self.servo_fit.servo
+            lines.append(f"  dynamic mode's servo (fitted on the first run): bandwidth {servo.bandwidth_over_mode:.2f} x "
+                         f"each joint's mode, damping {servo.damping_ratio:.2f}, delay {1e3 * servo.delay_s:.1f} ms, "
+                         f"feed-forward {servo.feedforward:.2f}; its replay {fit.rms_rigid_mm:.3f} -> {fit.rms_mm:.3f} "
+                         "mm against a rigid servo")
         if self.model_file is not None:
             lines.append(f"-> {self.model_file}")
         return lines
@@ -151,6 +165,9 @@ class LearnReport(Report):
             "before": gaps(result.before), "after_fitted": gaps(result.after),
             "held_out_predicted": gaps(result.held_out),
             "floor": None if self.floor is None else self.floor.to_json(),
+            "dynamic_servo": self.servo_fit if not hasattr(self.servo_fit, "servo") else {
+                **{k: getattr(self.servo_fit.servo, k) for k in DYNAMIC_SERVO_KEYS},
+                "rms_rigid_mm": self.servo_fit.rms_rigid_mm, "rms_mm": self.servo_fit.rms_mm},
         }
 
 
@@ -164,6 +181,16 @@ def learn_task(request: LearnRequest, note: Note = silent) -> LearnReport:
     runs = [read_run(path) for path in request.runs]
     prior = read_model_file(request.model) if request.model is not None else None
     result = learn(runs, prior)
+    servo_fit: Any = None
+    if request.dynamic:
+        from twin.analysis.learn.servo_fit import fit_servo
+
+        note("learn: the dynamic mode's servo, fitted on the first run")
+        try:
+            servo_fit = fit_servo(runs[0], result.spec)
+            result = result._replace(spec=result.spec.replace(dynamic_servo=servo_fit.servo))
+        except InputError as exc:  # the learned arm does not step stably: the model is written without it
+            servo_fit = str(exc)
     floor = None
     if len(runs) > 1:  # the floor the cell leaves on a clean run it was not learned from (predicted), for discrepancy
         note("learn: the floor the learned cell leaves on its own clean runs (each run held out)")
@@ -174,7 +201,7 @@ def learn_task(request: LearnRequest, note: Note = silent) -> LearnReport:
                          protect=[*request.runs, *([request.model] if request.model is not None else [])],
                          note=f"learned by `tx200-twin learn` from {names}: K_q, joint friction and the sheet's "
                          "force model are fitted to those runs", floor=None if floor is None else floor.to_json())
-    return LearnReport(result, request.write_model, _run_tool_mm(runs[0].meta), floor)
+    return LearnReport(result, request.write_model, _run_tool_mm(runs[0].meta), floor, servo_fit)
 
 
 def _run_tool_mm(meta: Mapping[str, Any]) -> float | None:

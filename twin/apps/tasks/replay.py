@@ -15,6 +15,7 @@ from twin.base.signals import interp_rows
 from twin.errors import InputError
 from twin.process.process_file import ProcessDeclaration, process_record
 from twin.runs.read import read_run
+from twin.sim.model_file import DYNAMIC_SERVO_KEYS
 from twin.sim.spec import TwinSpec
 
 FORCES = ("twin", "measured")
@@ -36,8 +37,9 @@ class ReplayRequest:
         figure: A figure to write (PNG): the measured and the simulated tool tip minus the commanded one on each
             axis x, y, z [mm] against time [s]; never over an input; or None.
         cell: A `--cell` file's record (`CellDeclaration.record`): its tool is the twin's (`resolve_spec`).
-        dynamic: Step the arm in time (`twin.sim.dynamic`), its servo fitted on this run (`fit_servo`: fitted, not
-            predicted); the quasi-static replay's gap is reported beside it.
+        dynamic: Step the arm in time (`twin.sim.dynamic`) under the model's servo (`learn --dynamic`: predicted),
+            or one fitted on this run where the model has none (`fit_servo`: fitted); the quasi-static replay's gap
+            is reported beside it.
     """
 
     run_dir: Path
@@ -71,8 +73,9 @@ class ReplayReport(Report):
         robot_gap_rms_mm: With forces="measured": the robot's part of the gap [mm rms], else None.
         sheet_gap_rms_mm: With forces="measured": the sheet's part [mm rms], else None.
         figure: The figure written, or None.
-        servo: With dynamic: the servo fitted on the run (`twin.analysis.learn.servo_fit.ServoFit`), the result
-            the dynamic replay's; else None.
+        servo: With dynamic: the servo of the dynamic replay (`twin.sim.dynamic.ServoModel`), the result the
+            dynamic replay's; else None.
+        servo_fitted: Whether that servo was fitted on this run (else the model's).
         quasi_static_rms_mm: With dynamic: the quasi-static replay's position gap [mm rms], else None.
     """
 
@@ -84,6 +87,7 @@ class ReplayReport(Report):
     figure: Path | None = None
     servo: Any = None
     quasi_static_rms_mm: float | None = None
+    servo_fitted: bool = False
 
     def metrics(self) -> dict[str, Any]:
         """The replay's metrics, with the split when there is one."""
@@ -91,10 +95,8 @@ class ReplayReport(Report):
         if self.robot_gap_rms_mm is not None:
             m.update(robot_gap_rms_mm=self.robot_gap_rms_mm, sheet_gap_rms_mm=self.sheet_gap_rms_mm)
         if self.servo is not None:
-            servo = self.servo.servo
-            m.update(quasi_static_position_rms_mm=self.quasi_static_rms_mm, dynamic_servo_fitted={
-                "bandwidth_over_mode": servo.bandwidth_over_mode, "damping_ratio": servo.damping_ratio,
-                "delay_s": servo.delay_s, "feedforward": servo.feedforward, "stop_lag_s": self.servo.stop_lag_s})
+            m.update(quasi_static_position_rms_mm=self.quasi_static_rms_mm, dynamic_servo={
+                **{k: getattr(self.servo, k) for k in DYNAMIC_SERVO_KEYS}, "fitted_on_this_run": self.servo_fitted})
         return m
 
     def lines(self) -> list[str]:
@@ -112,8 +114,8 @@ class ReplayReport(Report):
                          f"{self.robot_gap_rms_mm:.3f} mm rms; the sheet's part (what the twin's forces move the "
                          f"tip by) {self.sheet_gap_rms_mm:.3f} mm rms")
         if self.servo is not None:
-            servo = self.servo.servo
-            lines.append(f"  dynamic (the arm stepped in time, docs/dynamic-twin.md), its servo fitted on this run: "
+            servo, whose = self.servo, "fitted on this run" if self.servo_fitted else "the model's (predicted)"
+            lines.append(f"  dynamic (the arm stepped in time, docs/dynamic-twin.md), its servo {whose}: "
                          f"bandwidth {servo.bandwidth_over_mode:.2f} x each joint's mode, damping "
                          f"{servo.damping_ratio:.2f}, delay {1e3 * servo.delay_s:.1f} ms, feed-forward "
                          f"{servo.feedforward:.2f}; the quasi-static replay's gap {self.quasi_static_rms_mm:.3f} mm rms")
@@ -141,9 +143,9 @@ def replay_task(request: ReplayRequest, note: Note = silent) -> ReplayReport:
     if request.dynamic:
         from twin.analysis.learn.servo_fit import dynamic_replay, fit_servo, prepare
 
-        dynamic = prepare(measured, twin)
-        servo, quasi_static_rms = fit_servo(measured, dynamic), float(result.metrics["position_rms_mm"])
-        result = dynamic_replay(measured, dynamic, servo.servo)
+        dynamic, quasi_static_rms = prepare(measured, twin), float(result.metrics["position_rms_mm"])
+        servo = spec.dynamic_servo or fit_servo(measured, dynamic).servo  # the model's (predicted), else fitted here
+        result = dynamic_replay(measured, dynamic, servo)
     split = None
     if request.forces == "measured":
         from twin.analysis.learn.split import split_gap
@@ -166,4 +168,5 @@ def replay_task(request: ReplayRequest, note: Note = silent) -> ReplayReport:
                              title=f"replay of {request.run_dir}: measured vs simulated tool tip, minus the command")
         note(f"figure -> {figure}")
     return ReplayReport(request.run_dir, spec, result, None if split is None else split.robot_rms_mm,
-                        None if split is None else split.sheet_rms_mm, figure, servo, quasi_static_rms)
+                        None if split is None else split.sheet_rms_mm, figure, servo, quasi_static_rms,
+                        request.dynamic and spec.dynamic_servo is None)
