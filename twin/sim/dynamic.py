@@ -37,7 +37,7 @@ from __future__ import annotations
 
 import copy
 import math
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from typing import TYPE_CHECKING
 
 import mujoco
@@ -46,6 +46,7 @@ import numpy as np
 from twin.base.signals import interp_rows
 from twin.errors import InputError
 from twin.robot.model import lost_joint_name, lost_motion_schedule
+from twin.sim.dynamic_servo import ServoModel
 from twin.sim.gear_play import gear_play_references
 from twin.sim.result import SimResult
 
@@ -57,41 +58,8 @@ TIMESTEP_S = 1e-3
 #: ω h of the stiffest rotor mode sqrt(K_q / J_m) at most (an explicit step of an undamped spring is stable below
 #: 2): the step is shortened below TIMESTEP_S where a learned gear is that stiff.
 MOTOR_MODE_STEP = 1.5
-#: Largest delay the servo takes [s].
-MAX_DELAY_S = 0.5
 #: Poses along a run at which gravity's torque is evaluated (interpolated between; it varies slowly).
 GRAVITY_POSES = 200
-
-
-@dataclass(frozen=True)
-class ServoModel:
-    """The generic joint servo (module docstring).
-
-    Attributes:
-        bandwidth_over_mode: β, each joint's loop bandwidth ω_s over its first mode sqrt(K_q / J) [-]; inf: a
-            rigid servo.
-        damping_ratio: ζ of the loop's complex poles [-].
-        delay_s: d, pure delay of the reference (the controller's interpolation, its stops' timing) [s].
-        feedforward: a, the share of the rigid joint's inertial torque J r̈ fed forward [-], in [0, 1].
-    """
-
-    bandwidth_over_mode: float = 0.5
-    damping_ratio: float = 1.0
-    delay_s: float = 0.0
-    feedforward: float = 0.0
-
-    def __post_init__(self) -> None:
-        checks = (("bandwidth_over_mode", 0.02, math.inf, "- (inf: rigid)"), ("damping_ratio", 0.05, 20.0, "-"),
-                  ("delay_s", 0.0, MAX_DELAY_S, "s"), ("feedforward", 0.0, 1.0, "-"))
-        for name, low, high, unit in checks:
-            value = getattr(self, name)
-            if not (isinstance(value, int | float) and low <= value <= high):
-                raise InputError(f"ServoModel.{name} = {value!r}: expected a number in [{low}, {high}] {unit}")
-
-    @property
-    def rigid(self) -> bool:
-        """Whether the motor sits on its reference (β = inf)."""
-        return math.isinf(self.bandwidth_over_mode)
 
 
 def stiffness_diag(twin: Twin) -> np.ndarray:

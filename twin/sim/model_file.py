@@ -45,7 +45,7 @@ from twin.process.process_file import RECORD_KEYS, process_from_record
 from twin.process.toolpath.placement import Placement
 from twin.robot.description import load_robot, shipped_robots
 from twin.robot.tool import ToolSpec
-from twin.sim.dynamic import ServoModel
+from twin.sim.dynamic_servo import ServoModel
 from twin.sim.effects import EFFECTS, LOST_MOTION_TAKEUP_M, Effects
 from twin.sim.instruments import Instruments
 from twin.sim.servo import ServoTransient

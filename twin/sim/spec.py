@@ -25,7 +25,7 @@ from twin.process.toolpath.placement import Placement
 from twin.robot.description import load_robot
 from twin.robot.facts import RobotDescription
 from twin.robot.tool import ToolSpec
-from twin.sim.dynamic import ServoModel
+from twin.sim.dynamic_servo import ServoModel
 from twin.sim.effects import Effects
 from twin.sim.servo import ServoTransient
 
