@@ -73,16 +73,25 @@ def learned_spec(runs: list[Run], spec: TwinSpec) -> tuple[TwinSpec, RobotFit, S
     robot = fit_robot(runs, replace(base, process=replace(base.process, force_model="isf", force_fit=isf_fit)).build())
     sheet = fit_sheet(runs, base.process)
     friction = np.where(robot.observable, robot.friction_nm, robot.prior_friction_nm)
-    process = replace(base.process, force_model="learned", force_fit=sheet.force_fit)
+    # the learned sheet replaces the declared force model only where it forces nearer the measured force along the
+    # measured tip (fitted, so a learned sheet that does not is of the wrong form: a lab's FE history, say)
+    kept = sheet_kept(sheet)
+    process = base.process if kept else replace(base.process, force_model="learned", force_fit=sheet.force_fit)
     learned = base.replace(process=process, joint_stiffness_nm_per_rad=tuple(float(k) for k in robot.k_q_nm_per_rad),
                            joint_friction_nm=tuple(float(f) for f in friction), servo=robot.servo)
-    springback = fit_springback(runs, learned)
+    springback = None if kept else fit_springback(runs, learned)
     if springback is not None:
         fit = (*sheet.force_fit, ("recovery_scale", springback.recovery_scale),
                ("depth_ratio", springback.depth_ratio))
         learned = learned.replace(process=replace(process, force_fit=fit))
     learned = learned.replace(effects=learned.effects.with_instruments(fit_instruments(runs, learned).instruments))
     return learned.replace(placement=spec.placement), robot, sheet, springback
+
+
+def sheet_kept(sheet: SheetFit) -> bool:
+    """Whether the declared force model is kept: the learned sheet forces no nearer the measured force along the
+    measured tip than it (`SheetFit.rms_before_n` against `rms_after_n`, over the runs)."""
+    return float(np.mean(sheet.rms_after_n)) >= float(np.mean(sheet.rms_before_n))
 
 
 def learn(runs: list[Run], spec: TwinSpec | None = None) -> LearnResult:

@@ -16,6 +16,7 @@ import numpy as np
 
 from twin.analysis.discrepancy.floor import Floor, mean_floor, measure_floor
 from twin.analysis.learn import Gap, LearnResult, RobotFit, SheetFit, learn
+from twin.analysis.learn.cell import sheet_kept
 from twin.apps.tasks.base import Note, Report, silent
 from twin.base.outputs import repeated_input
 from twin.errors import InputError
@@ -105,7 +106,9 @@ class LearnReport(Report):
             "  robot's part of the gap (the twin's robot driven by the measured forces): "
             + ", ".join(f"{a:.3f} -> {b:.3f} mm" for a, b in zip(robot.rms_prior_mm, robot.rms_after_mm, strict=True))
             + _grew_words(robot),
-            "  sheet ('learned' force model): " + _sheet_words(sheet),
+            ("  sheet ('learned' force model): " + _sheet_words(sheet)) if not sheet_kept(sheet) else
+            f"  sheet: the declared force model ({result.spec.process.force_model}) kept: the one learned ("
+            + _sheet_words(sheet) + ") forces no nearer the measured force",
             "  sheet's force along the measured tip: "
             + ", ".join(f"{a:.0f} -> {b:.0f} N" for a, b in zip(sheet.rms_before_n, sheet.rms_after_n, strict=True)),
             _springback_words(result),
