@@ -18,8 +18,8 @@ from twin.process.toolpath.groove import label_passes
 
 def _below(p_cmd_sheet_m: np.ndarray) -> np.ndarray:
     passes, _ = label_passes(p_cmd_sheet_m[:, 0], deadband_m=0.002)
-    fake = SimpleNamespace(sim=SimpleNamespace(pass_index=passes, p_cmd_sheet_m=p_cmd_sheet_m), _below=None)
-    return np.asarray(Context.below.fget(fake))  # type: ignore[attr-defined]
+    fake = SimpleNamespace(sim=SimpleNamespace(pass_index=passes, p_cmd_sheet_m=p_cmd_sheet_m))
+    return np.asarray(Context.below.func(fake))  # type: ignore[attr-defined]
 
 
 def test_a_cone_meets_the_lap_before_on_the_same_side() -> None:

@@ -16,7 +16,7 @@ from twin.analysis.discrepancy.families import FAMILIES
 from twin.cli import main
 from twin.errors import DataFileError, InputError
 from twin.sim.effects import GEAR_PLAY, Effects
-from twin.sim.gear_play import gravity_torque, joint_motion, load_flank
+from twin.sim.gear_play import joint_motion, link_torque, load_flank
 from twin.sim.model_file import read_model_file, write_model_file
 from twin.sim.quasi_static import Twin
 from twin.sim.result import SimResult
@@ -143,7 +143,7 @@ def test_the_links_torque_adds_what_accelerates_them(plain: tuple[Twin, SimResul
     q_ik[:, 0] += 0.5 * 0.2 * (t - 1.0) ** 2  # joint 1 at 0.2 rad/s², at rest at t = 1 s (no Coriolis there)
     qpos = np.repeat(sim.qpos[:1], n, axis=0)
     qpos[:, twin.robot.addresses(twin.model).qpos] = q_ik
-    extra = gravity_torque(twin, t, qpos, q_ik) - gravity_torque(twin, t, qpos)
+    extra = link_torque(twin, t, qpos, q_ik) - link_torque(twin, t, qpos)
     data = mujoco.MjData(twin.model)
     data.qpos[:] = qpos[n // 2]
     mujoco.mj_forward(twin.model, data)

@@ -47,7 +47,7 @@ from twin.base.signals import interp_rows
 from twin.errors import InputError
 from twin.robot.model import lost_joint_name, lost_motion_schedule
 from twin.sim.dynamic_servo import ServoModel
-from twin.sim.gear_play import gear_play_references
+from twin.sim.gear_play import gear_play_references, rne_along
 from twin.sim.result import SimResult
 
 if TYPE_CHECKING:
@@ -58,8 +58,6 @@ TIMESTEP_S = 1e-3
 #: ω h of the stiffest rotor mode sqrt(K_q / J_m) at most (an explicit step of an undamped spring is stable below
 #: 2): the step is shortened below TIMESTEP_S where a learned gear is that stiff.
 MOTOR_MODE_STEP = 1.5
-#: Poses along a run at which gravity's torque is evaluated (interpolated between; it varies slowly).
-GRAVITY_POSES = 200
 
 
 def stiffness_diag(twin: Twin) -> np.ndarray:
@@ -107,14 +105,7 @@ def references(twin: Twin, sim: SimResult) -> np.ndarray:
                                               effects.lost_motion_rad, effects.lost_motion_takeup_m)
     if effects.gear_play_rad:
         q_nom = gear_play_references(twin, q_nom, sim.t_s, sim.p_cmd_sheet_m, sim.direction, sim.qpos, sim.f_sheet_n)
-    rows = np.unique(np.r_[np.arange(0, len(q_nom), max(1, len(q_nom) // GRAVITY_POSES)), len(q_nom) - 1])
-    g, data = np.zeros((len(rows), m.nv)), mujoco.MjData(m)
-    for k, i in enumerate(rows):  # bounded: GRAVITY_POSES poses
-        data.qpos[:], data.qvel[:] = q_nom[i], 0.0
-        mujoco.mj_kinematics(m, data)
-        mujoco.mj_comPos(m, data)
-        mujoco.mj_rne(m, data, 0, g[k])
-    return q_nom + interp_rows(sim.t_s, sim.t_s[rows], g) / stiffness_diag(twin)
+    return q_nom + rne_along(m, sim.t_s, q_nom) / stiffness_diag(twin)
 
 
 class DynamicTwin:

@@ -9,7 +9,7 @@ The form (a two-mass drive under a PID on the motor angle, its gains placed at (
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 from twin.errors import InputError
 
@@ -41,6 +41,10 @@ class ServoModel:
             value = getattr(self, name)
             if not (isinstance(value, int | float) and low <= value <= high):
                 raise InputError(f"ServoModel.{name} = {value!r}: expected a number in [{low}, {high}] {unit}")
+
+    def to_json(self) -> dict[str, float]:
+        """Its four numbers by name, as a model file's `dynamic_servo` carries them."""
+        return {f.name: float(getattr(self, f.name)) for f in fields(self)}
 
     @property
     def rigid(self) -> bool:

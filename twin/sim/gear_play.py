@@ -46,9 +46,36 @@ GRAVITY_POSES = 1000
 ACCELERATION_WINDOW_S = 0.1
 
 
-def gravity_torque(twin: Twin, t_s: np.ndarray, qpos: np.ndarray, q_ik: np.ndarray | None = None) -> np.ndarray:
+def rne_along(model: mujoco.MjModel, t_s: np.ndarray, qpos: np.ndarray, dof: np.ndarray | None = None,
+              speed: np.ndarray | None = None, acceleration: np.ndarray | None = None) -> np.ndarray:
+    """The torque that holds the model's links at `qpos` (gravity) and, where given, moves the dofs `dof` at
+    `speed` and `acceleration` (inertia, Coriolis), `mj_rne` at GRAVITY_POSES poses interpolated between [N·m],
+    shape (n, nv); the motors' armature is not in it.
+
+    Args:
+        model: A MuJoCo model (the twin's own).
+        t_s: Sample times [s], shape (n,).
+        qpos: Poses [rad], shape (n, nq).
+        dof: The dofs `speed` and `acceleration` give [-]; None: none move.
+        speed, acceleration: Their speed [rad/s] and acceleration [rad/s²], shape (n, len(dof)).
+    """
+    data = mujoco.MjData(model)
+    rows = np.unique(np.r_[np.arange(0, len(t_s), max(1, len(t_s) // GRAVITY_POSES)), len(t_s) - 1])
+    out = np.zeros((len(rows), model.nv))
+    for k, i in enumerate(rows):  # bounded: GRAVITY_POSES poses
+        data.qpos[:], data.qvel[:], data.qacc[:] = qpos[i], 0.0, 0.0
+        if dof is not None and speed is not None and acceleration is not None:
+            data.qvel[dof], data.qacc[dof] = speed[i], acceleration[i]
+        mujoco.mj_kinematics(model, data)
+        mujoco.mj_comPos(model, data)
+        mujoco.mj_comVel(model, data)
+        mujoco.mj_rne(model, data, 1, out[k])
+    return np.column_stack([np.interp(t_s, t_s[rows], out[:, j]) for j in range(model.nv)])
+
+
+def link_torque(twin: Twin, t_s: np.ndarray, qpos: np.ndarray, q_ik: np.ndarray | None = None) -> np.ndarray:
     """Gravity's torque on the arm joints along a replay, with the torque that moves the links where `q_ik` is
-    given (inverse dynamics of the commanded motion, `mj_rne`) [N·m], shape (n, dof).
+    given (inverse dynamics of the commanded motion, `rne_along`) [N·m], shape (n, dof).
 
     Args:
         twin: The twin (its own MuJoCo model).
@@ -57,29 +84,13 @@ def gravity_torque(twin: Twin, t_s: np.ndarray, qpos: np.ndarray, q_ik: np.ndarr
         q_ik: The commanded joint motion [rad], shape (n, dof), its speed and acceleration (averaged over
             ACCELERATION_WINDOW_S) giving the links' inertia and Coriolis torques; None: gravity alone.
     """
-    model = twin.model
-    data = mujoco.MjData(model)
-    dof = twin.robot.addresses(model).dof
-    rows = np.unique(np.r_[np.arange(0, len(t_s), max(1, len(t_s) // GRAVITY_POSES)), len(t_s) - 1])
-    speed = acceleration = np.zeros((len(t_s), len(dof)))
-    if q_ik is not None and len(t_s) > 2:
-        speed = np.gradient(q_ik, t_s, axis=0)
-        window = max(1, round(ACCELERATION_WINDOW_S / max(float(np.median(np.diff(t_s))), 1e-6)))
-        acceleration = np.gradient(uniform_filter1d(speed, window, axis=0), t_s, axis=0)
-    out = np.zeros((len(rows), len(dof)))
-    bias = np.zeros(model.nv)
-    for k, i in enumerate(rows):
-        data.qpos[:] = qpos[i]
-        data.qvel[:] = 0.0
-        data.qvel[dof] = speed[i]
-        data.qacc[:] = 0.0
-        data.qacc[dof] = acceleration[i]
-        mujoco.mj_kinematics(model, data)
-        mujoco.mj_comPos(model, data)
-        mujoco.mj_comVel(model, data)
-        mujoco.mj_rne(model, data, 1, bias)
-        out[k] = bias[dof]
-    return np.column_stack([np.interp(t_s, t_s[rows], out[:, j]) for j in range(out.shape[1])])
+    dof = twin.robot.addresses(twin.model).dof
+    if q_ik is None or len(t_s) <= 2:
+        return rne_along(twin.model, t_s, qpos)[:, dof]
+    speed = np.gradient(q_ik, t_s, axis=0)
+    window = max(1, round(ACCELERATION_WINDOW_S / max(float(np.median(np.diff(t_s))), 1e-6)))
+    acceleration = np.gradient(uniform_filter1d(speed, window, axis=0), t_s, axis=0)
+    return rne_along(twin.model, t_s, qpos, dof, speed, acceleration)[:, dof]
 
 
 def joint_motion(t_s: np.ndarray, q_ik: np.ndarray) -> np.ndarray:
@@ -90,14 +101,13 @@ def joint_motion(t_s: np.ndarray, q_ik: np.ndarray) -> np.ndarray:
     Where a joint stands still (a stop, or a joint the path does not move) the last sign holds.
     """
     speed = np.gradient(q_ik, t_s, axis=0)
-    still = np.abs(speed) <= MOVING_RAD_PER_S
-    sign = np.where(still, 0.0, np.sign(speed))
-    out = np.empty_like(sign)
-    last = np.where(np.any(~still, axis=0), sign[np.argmax(~still, axis=0), np.arange(sign.shape[1])], 1.0)
-    for i in range(len(sign)):  # bounded: one pass over the samples
-        last = np.where(still[i], last, sign[i])
-        out[i] = last
-    return out
+    moving = np.abs(speed) > MOVING_RAD_PER_S
+    rows = np.arange(len(speed))[:, None]
+    last = np.maximum.accumulate(np.where(moving, rows, -1), axis=0)  # the last moving sample, -1 before any
+    first = np.where(moving.any(axis=0), np.argmax(moving, axis=0), -1)  # before it moves: its first motion's
+    held = np.where(last >= 0, last, first[None, :])
+    cols = np.arange(speed.shape[1])[None, :]
+    return np.where(held >= 0, np.sign(speed[np.maximum(held, 0), cols]), 1.0)
 
 
 def load_flank(
@@ -114,8 +124,8 @@ def load_flank(
         qpos: The replay's loaded poses (all joints) [rad], shape (n, nq).
         f_sheet_n: Force of the sheet on the tool, sheet frame [N], shape (n, 3).
     """
-    gravity = gravity_torque(twin, t_s, qpos)
-    links = gravity_torque(twin, t_s, qpos, q_ik)
+    gravity = link_torque(twin, t_s, qpos)
+    links = link_torque(twin, t_s, qpos, q_ik)
     jac = twin.kinematics.jacobians(qpos[:, twin.robot.addresses(twin.model).qpos])[:, :3, :]
     force_base = f_sheet_n @ twin.R_base_sheet.T
     moving = joint_motion(t_s, q_ik)

@@ -57,8 +57,8 @@ READABLE_FORMATS = ("tx200-twin-model/1", MODEL_FORMAT)
 MODEL_KEYS = ("format", "robot", "process", "placement", "effects", "units", "lost_motion_takeup_mm",
               "joint_stiffness_nm_per_rad", "joint_friction_nm", "servo", "tool", "note", "floor", "instruments",
               "gear_play_mrad", "dynamic_servo")
-#: The keys of its `dynamic_servo` object (`twin.sim.dynamic.ServoModel`'s fields).
-DYNAMIC_SERVO_KEYS = ("bandwidth_over_mode", "damping_ratio", "delay_s", "feedforward")
+#: The keys of its `dynamic_servo` object (`twin.sim.dynamic_servo.ServoModel`'s fields).
+DYNAMIC_SERVO_KEYS = tuple(f.name for f in fields(ServoModel))
 #: The keys of its `process` object and of `process.history`.
 PROCESS_KEYS = (*RECORD_KEYS, "friction_reversal_mm", "force_model", "force_fit", "history")
 HISTORY_KEYS = ("file", "symmetry", "unchecked_symmetry")
@@ -103,7 +103,7 @@ def model_payload(spec: TwinSpec, note: str = "") -> dict[str, Any]:
     if spec.tool is not None:
         payload["tool"] = spec.tool.to_json()
     if spec.dynamic_servo is not None:
-        payload["dynamic_servo"] = {key: getattr(spec.dynamic_servo, key) for key in DYNAMIC_SERVO_KEYS}
+        payload["dynamic_servo"] = spec.dynamic_servo.to_json()
     if not spec.effects.instruments.neutral:
         payload["instruments"] = spec.effects.instruments.changed()
     if spec.effects.gear_play_rad:

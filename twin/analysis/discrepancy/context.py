@@ -16,6 +16,7 @@ tip by dp = G (dp_free + C dF) and changes the force by dF + S dp (first order, 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -67,7 +68,6 @@ class Context:
     level: np.ndarray
     force_cmd: np.ndarray
     joint_sign: np.ndarray
-    _below: np.ndarray | None = None
 
     @property
     def has_forces(self) -> bool:
@@ -114,7 +114,7 @@ class Context:
         """C S per commanded sample, shape (n, 3, 3)."""
         return self.compliance @ self.stiffness
 
-    @property
+    @cached_property
     def below(self) -> np.ndarray:
         """Per commanded sample, the sample of the latest earlier pass over the same place (-1: none), shape (n,).
 
@@ -123,25 +123,23 @@ class Context:
         passes back. The pass over the same place is the latest whose nearest samples lie within SAME_PLACE_M
         (median, in the sheet's plane); the sample matched is the nearest one of that pass.
         """
-        if self._below is None:
-            passes, xy = self.sim.pass_index, self.sim.p_cmd_sheet_m[:, :2]
-            out = np.full(len(passes), -1)
-            ks = np.unique(passes)
-            trees = {int(k): (np.flatnonzero(passes == k), cKDTree(xy[passes == k])) for k in ks}
-            for i, k in enumerate(ks):
-                rows = trees[int(k)][0]
-                for a in ks[:i][::-1]:
-                    prev, tree = trees[int(a)]
-                    distance, nearest = tree.query(xy[rows])
-                    if np.median(distance) <= SAME_PLACE_M:
-                        out[rows] = prev[nearest]
-                        break
-            self._below = out
-        return self._below
+        passes, xy = self.sim.pass_index, self.sim.p_cmd_sheet_m[:, :2]
+        out = np.full(len(passes), -1)
+        ks = np.unique(passes)
+        trees = {int(k): (np.flatnonzero(passes == k), cKDTree(xy[passes == k])) for k in ks}
+        for i, k in enumerate(ks):
+            rows = trees[int(k)][0]
+            for a in ks[:i][::-1]:
+                prev, tree = trees[int(a)]
+                distance, nearest = tree.query(xy[rows])
+                if np.median(distance) <= SAME_PLACE_M:
+                    out[rows] = prev[nearest]
+                    break
+        return out
 
-    def _previous_pass(self, dp: np.ndarray) -> np.ndarray:
-        """Tip change of the previous pass over the same place (`below`; zero where none), shape (n, 3)."""
-        below = self.below
+    def _previous_pass(self, dp: np.ndarray, rows: np.ndarray | slice = slice(None)) -> np.ndarray:
+        """Tip change of the previous pass over the same place (`below`; zero where none) at `rows`, (len, 3)."""
+        below = self.below[rows]
         return np.where(below[:, None] >= 0, dp[np.maximum(below, 0)], 0.0)
 
     def robot_response(
@@ -172,9 +170,7 @@ class Context:
         for k in np.unique(passes):
             rows = np.flatnonzero(passes == k)
             # the sheet answers the change against the surface the pass below it left (`below`)
-            below = self.below[rows]
-            prev = np.where(below[:, None] >= 0, dp[np.maximum(below, 0)], 0.0)
-            drive_k = drive[rows] - np.einsum("nij,nj->ni", self.cs[rows], prev)
+            drive_k = drive[rows] - np.einsum("nij,nj->ni", self.cs[rows], self._previous_pass(dp, rows))
             dp[rows] = np.einsum("nij,nj->ni", self.gain[rows], drive_k)
         prev_all = self._previous_pass(dp)
         df = np.einsum("nij,nj->ni", self.stiffness, dp - prev_all)

@@ -10,7 +10,7 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -21,8 +21,11 @@ from twin.apps.tasks.base import Note, Report, silent
 from twin.base.outputs import repeated_input
 from twin.errors import InputError
 from twin.runs.read import read_run
-from twin.sim.model_file import DYNAMIC_SERVO_KEYS, read_model_file, write_model_file
+from twin.sim.model_file import read_model_file, write_model_file
 from twin.sim.spec import TwinSpec
+
+if TYPE_CHECKING:
+    from twin.analysis.learn.servo_fit import ServoFit
 
 
 @dataclass(frozen=True)
@@ -63,15 +66,16 @@ class LearnReport(Report):
         model_file: The model file written, or None.
         run_tool_mm: The tool length the runs record (their `cell` tool, else `tool_length_m`) [mm], or None.
         floor: With two runs or more, what the learned cell leaves on its own clean runs (each held out), or None.
-        servo_fit: With dynamic, the dynamic mode's servo learned from the first run (`ServoFit`), or why it was
-            not (the learned arm does not step stably); else None.
+        servo_fit: With dynamic, the dynamic mode's servo learned from the first run, else None.
+        servo_refused: With dynamic, why it was not learned (the learned arm does not step stably), else None.
     """
 
     result: LearnResult
     model_file: Path | None = None
     run_tool_mm: float | None = None
     floor: Floor | None = None
-    servo_fit: Any = None
+    servo_fit: ServoFit | None = None
+    servo_refused: str | None = None
 
     def fitted_words(self) -> str:
         """The robot, the sheet placement and the tool the twin was fitted for, in one line."""
@@ -125,9 +129,9 @@ class LearnReport(Report):
             lines.append("  floor on its own clean runs (predicted; what `discrepancy --model` judges a change above): "
                          + ", ".join(f"{s} {v:.3g}" for s, v in self.floor.excess.items())
                          + " x the noise's variance per sample")
-        if isinstance(self.servo_fit, str):
-            lines.append(f"  dynamic mode's servo: not learned ({self.servo_fit}); the model has none")
-        elif self.servo_fit is not None:
+        if self.servo_refused is not None:
+            lines.append(f"  dynamic mode's servo: not learned ({self.servo_refused}); the model has none")
+        if self.servo_fit is not None:
             fit, servo = self.servo_fit, self.servo_fit.servo
             lines.append(f"  dynamic mode's servo (fitted on the first run): bandwidth {servo.bandwidth_over_mode:.2f} x "
                          f"each joint's mode, damping {servo.damping_ratio:.2f}, delay {1e3 * servo.delay_s:.1f} ms, "
@@ -168,8 +172,8 @@ class LearnReport(Report):
             "before": gaps(result.before), "after_fitted": gaps(result.after),
             "held_out_predicted": gaps(result.held_out),
             "floor": None if self.floor is None else self.floor.to_json(),
-            "dynamic_servo": self.servo_fit if not hasattr(self.servo_fit, "servo") else {
-                **{k: getattr(self.servo_fit.servo, k) for k in DYNAMIC_SERVO_KEYS},
+            "dynamic_servo": self.servo_refused if self.servo_fit is None else {
+                **self.servo_fit.servo.to_json(),
                 "rms_rigid_mm": self.servo_fit.rms_rigid_mm, "rms_mm": self.servo_fit.rms_mm},
         }
 
@@ -184,7 +188,7 @@ def learn_task(request: LearnRequest, note: Note = silent) -> LearnReport:
     runs = [read_run(path) for path in request.runs]
     prior = read_model_file(request.model) if request.model is not None else None
     result = learn(runs, prior)
-    servo_fit: Any = None
+    servo_fit, refused = None, None
     if request.dynamic:
         from twin.analysis.learn.servo_fit import fit_servo
 
@@ -193,7 +197,7 @@ def learn_task(request: LearnRequest, note: Note = silent) -> LearnReport:
             servo_fit = fit_servo(runs[0], result.spec)
             result = result._replace(spec=result.spec.replace(dynamic_servo=servo_fit.servo))
         except InputError as exc:  # the learned arm does not step stably: the model is written without it
-            servo_fit = str(exc)
+            refused = str(exc)
     floor = None
     if len(runs) > 1:  # the floor the cell leaves on a clean run it was not learned from (predicted), for discrepancy
         note("learn: the floor the learned cell leaves on its own clean runs (each run held out)")
@@ -204,7 +208,7 @@ def learn_task(request: LearnRequest, note: Note = silent) -> LearnReport:
                          protect=[*request.runs, *([request.model] if request.model is not None else [])],
                          note=f"learned by `tx200-twin learn` from {names}: K_q, joint friction and the sheet's "
                          "force model are fitted to those runs", floor=None if floor is None else floor.to_json())
-    return LearnReport(result, request.write_model, _run_tool_mm(runs[0].meta), floor, servo_fit)
+    return LearnReport(result, request.write_model, _run_tool_mm(runs[0].meta), floor, servo_fit, refused)
 
 
 def _run_tool_mm(meta: Mapping[str, Any]) -> float | None:

@@ -15,7 +15,7 @@ from twin.base.signals import interp_rows
 from twin.errors import InputError
 from twin.process.process_file import ProcessDeclaration, process_record
 from twin.runs.read import read_run
-from twin.sim.model_file import DYNAMIC_SERVO_KEYS
+from twin.sim.dynamic_servo import ServoModel
 from twin.sim.spec import TwinSpec
 
 FORCES = ("twin", "measured")
@@ -85,7 +85,7 @@ class ReplayReport(Report):
     robot_gap_rms_mm: float | None = None
     sheet_gap_rms_mm: float | None = None
     figure: Path | None = None
-    servo: Any = None
+    servo: ServoModel | None = None
     quasi_static_rms_mm: float | None = None
     servo_fitted: bool = False
 
@@ -96,7 +96,7 @@ class ReplayReport(Report):
             m.update(robot_gap_rms_mm=self.robot_gap_rms_mm, sheet_gap_rms_mm=self.sheet_gap_rms_mm)
         if self.servo is not None:
             m.update(quasi_static_position_rms_mm=self.quasi_static_rms_mm, dynamic_servo={
-                **{k: getattr(self.servo, k) for k in DYNAMIC_SERVO_KEYS}, "fitted_on_this_run": self.servo_fitted})
+                **self.servo.to_json(), "fitted_on_this_run": self.servo_fitted})
         return m
 
     def lines(self) -> list[str]:
