@@ -19,6 +19,7 @@ from plant_changes import (
     END,
     HELD_OUT,
     HELD_OUT_2,
+    HELD_OUT_3,
     SETS,
     learn_cell,
     markdown,
@@ -66,7 +67,7 @@ def test_the_plant_change_sets_are_as_the_docs_show(both_sets: dict[str, list[di
     block = text[text.index(BEGIN):text.index(END)]
     for rows in both_sets.values():
         assert markdown(rows) in block, markdown(rows)
-    for which, changes in (("held-out", HELD_OUT), ("held-out-2", HELD_OUT_2)):
+    for which, changes in (("held-out", HELD_OUT), ("held-out-2", HELD_OUT_2), ("held-out-3", HELD_OUT_3)):
         rows = both_sets[which]
         assert {r["change"] for r in rows} == {c.name for c in changes}
         assert len({r["cell"].split("-")[0] for r in rows}) >= 2  # two robots, two parts
@@ -78,10 +79,17 @@ GOAL_NOT_MET = pytest.mark.xfail(strict=True, raises=AssertionError, reason="iss
                                  "held-out set (docs/discrepancy.md)")
 
 
+GOAL_NOT_MET_3 = pytest.mark.xfail(strict=True, raises=AssertionError, reason="issue #47's goal is not met on the "
+                                   "third held-out set, run once: 15 / 19 (a softer gear named a tracker drift with an "
+                                   "F/T gain, a gear's play taken by the learned robot for a softer wrist)")
+
+
 @pytest.mark.slow
-@pytest.mark.parametrize("which", [pytest.param("held-out", marks=GOAL_NOT_MET), "held-out-2"])
+@pytest.mark.parametrize("which", [pytest.param("held-out", marks=GOAL_NOT_MET), "held-out-2",
+                                   pytest.param("held-out-3", marks=GOAL_NOT_MET_3)])
 def test_the_held_out_sets_meet_the_issue_goal(both_sets: dict[str, list[dict[str, Any]]], which: str) -> None:
-    """The second set met it only when run again, after the fix its first run showed (docs/discrepancy.md)."""
+    """The second set met it only when run again, after the fix its first run showed; the third, run once, does not
+    (docs/discrepancy.md)."""
     seen = [r for r in both_sets[which] if r["observable"]]
     assert sum(right(r) for r in seen) >= 10 / 12 * len(seen), markdown(both_sets[which])
 
@@ -115,6 +123,24 @@ def test_the_floor_moves_less_between_clean_runs_than_a_change_must_add(groove_c
         run = read_run(groove_cell / f"clean{seed}")
         above, on_run = _excess_above(run, cell, floor)
         assert round(100.0 * above / on_run) <= 6 and above < OBSERVABLE_SHARE * on_run, (seed, above, on_run)
+
+
+def test_a_clean_runs_slow_structure_lies_within_the_floors_slack(groove_cell: Path) -> None:
+    """`consistency.FLOOR_STRUCTURE_SLACK`: a later clean run of the cell leaves at most 1.14 x the slow structure
+    the floor records on the tool tip and the forces (the groove's third and fourth runs: 1.04, 1.14 and 1.00, 1.05;
+    docs to two digits), within the slack the consistency rule grants it."""
+    from twin.analysis.discrepancy.consistency import FLOOR_STRUCTURE_SLACK
+    from twin.analysis.discrepancy.floor import Floor, measure_floor
+    from twin.runs.read import read_run
+    from twin.sim.model_file import read_floor_entry, read_model_file
+
+    cell = groove_cell / "cell.json"
+    floor, spec = Floor.from_json(read_floor_entry(cell), str(cell)), read_model_file(cell)
+    for seed in (3, 4):
+        measured = measure_floor(read_run(groove_cell / f"clean{seed}"), spec)
+        for stream in ("position", "force"):
+            ratio = measured.structure[stream] / floor.structure[stream]
+            assert 0.85 <= ratio <= 1.16 and ratio < 1.0 + FLOOR_STRUCTURE_SLACK, (seed, stream, ratio)
 
 
 def _dry_sheet(root: Path) -> Any:

@@ -34,6 +34,13 @@ it from the development rows). One outside development case, a warm-up drift of 
 cross-talk, leaves 0.014 and is not caught. Since the families of issue #47 (`tracker_clock` takes the one-sided
 wrist stiffness, leaving 0.046) the rule gives 0.05 on the same rows; the threshold stays frozen at 0.07, as the
 test set has been seen since.
+
+Over a learned cell's floor (`twin.analysis.discrepancy.floor`) the structure is counted above the floor's, raised
+by FLOOR_STRUCTURE_SLACK: the floor is measured on the cell's own two clean runs, and a later clean run of the same
+cell leaves up to 14 % more slow structure than it records (the third and fourth runs of the development cells of
+`tests/plant_changes.py`: tool tip 0.94-1.14 x, forces 0.91-1.06 x; profile not judged). Without the slack a family
+with the right size that leaves a clean run's structure failed rule 2 (an F/T gain of 1.10 on z, its gain found
+within 0.3 %, leaving 10 % of the structure above the floor). The slack is 0.2, chosen on those clean runs alone.
 """
 
 from __future__ import annotations
@@ -47,6 +54,7 @@ STRUCTURE_SHARE = 0.07  # chosen on the development set (module docstring); froz
 CHECKED_STREAMS = ("position", "force")
 WINDOW_FRACTION = 1.0 / 40.0  # the moving average spans this share of a stream's samples (>= 3 samples)
 SIGNIFICANCE_SE = 5.0  # an excess counts when above this many standard errors of white noise's
+FLOOR_STRUCTURE_SLACK = 0.2  # a clean run's structure over the floor's, at most (module docstring); chosen on clean runs
 
 
 class StreamCheck(NamedTuple):
@@ -104,15 +112,16 @@ def check(
         sigma: Stream -> noise sigma per axis (SI).
         acts_on: The streams the first named family acts on, its evidence first (`Family.acts_on`).
         floor: Stream -> the structured excess a learned cell leaves on its own clean runs of this size
-            (`twin.analysis.discrepancy.floor`): the structure left is counted above it, of the structure above
-            it. None: none (judged against the noise).
+            (`twin.analysis.discrepancy.floor`): the structure left is counted above it (raised by
+            FLOOR_STRUCTURE_SLACK), of the structure above it. None: none (judged against the noise).
     """
     streams = {}
     judged = tuple(s for s in acts_on if s in CHECKED_STREAMS and s in before)
     for name, raw in before.items():
         e0, se_e, s0, se_s = _measures(raw, sigma[name])
         e1, _, s1, _ = _measures(after[name], sigma[name])
-        base = 0.0 if floor is None else min(max(floor.get(name, 0.0), 0.0), 0.9 * max(s0, 0.0))
+        base = 0.0 if floor is None else min(max((1.0 + FLOOR_STRUCTURE_SLACK) * floor.get(name, 0.0), 0.0),
+                                             0.9 * max(s0, 0.0))
         s0, s1 = s0 - base, s1 - base
         left = max(s1, 0.0) / s0 if s0 > SIGNIFICANCE_SE * se_s else 0.0
         failed = name in judged and left > STRUCTURE_SHARE and s1 > SIGNIFICANCE_SE * se_s
