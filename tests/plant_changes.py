@@ -38,6 +38,7 @@ from typing import Any
 
 import numpy as np
 
+from twin.analysis.discrepancy.families import FAMILIES
 from twin.analysis.discrepancy.floor import OBSERVABLE_SHARE, Floor, excess_by_stream
 from twin.analysis.discrepancy.residuals import ResidualModel
 from twin.cli import main
@@ -77,6 +78,11 @@ CELLS = {
                                                  "--bottom-length-mm", "52")),
     "tx200-vwa-cone": Cell("tx200", "vwa-cone", ("--shape", "vwa-cone", "--depth-mm", "4", "--top-width-mm", "90",
                                                  "--mode", "z-level")),
+    # the fourth held-out set: written before any of its runs (after the joint-compliance family), run once
+    "irb6640-vwa-cone": Cell("irb6640", "vwa-cone", ("--shape", "vwa-cone", "--depth-mm", "5", "--top-width-mm", "100",
+                                                     "--wall-angle-deg", "40", "--wall-angle-end-deg", "60")),
+    "kr210-cone-wide": Cell("kr210", "cone", ("--shape", "cone", "--depth-mm", "5", "--top-width-mm", "100",
+                                              "--wall-angle-deg", "35")),
 }
 
 
@@ -162,7 +168,7 @@ DEVELOPMENT = (
 #: Added to the development set after the second held-out run (the slow tables only; `make test` keeps the
 #: groove checks of `DEVELOPMENT`): a gear softer and a vertical axis's play on the development cells.
 DEVELOPMENT_MORE = (
-    Change("gear_softer_j3", ("unexplained",), what="joint 3's gear 40 % softer (plant knob)",
+    Change("gear_softer_j3", ("joint_compliance", "unexplained"), what="joint 3's gear 40 % softer (plant knob)",
            knobs=("gear_stiffness_j3_scale=0.6",), learned="^joint 3 is"),
     Change("gear_play_j1", ("lost_motion", "lost_motion_under_load"), what="joint 1's gear with 0.5 mrad of play "
            "(plant knob)", knobs=("backlash_j1_mrad=0.5",)),
@@ -190,7 +196,7 @@ FIRST_HELD_OUT = (
            edit=lambda r: replace(r, tracker=_reclocked(r.tracker, r.commanded.t_s[0], 0.010, 0.0))),
     Change("gear_play", ("lost_motion", "lost_motion_under_load"), what="joint 2's gear with 0.3 mrad of play (plant knob)",
            knobs=("backlash_j2_mrad=0.3",)),
-    Change("gear_softer", ("unexplained",), what="joint 2's gear 30 % softer (plant knob)",
+    Change("gear_softer", ("joint_compliance", "unexplained"), what="joint 2's gear 30 % softer (plant knob)",
            knobs=("gear_stiffness_j2_scale=0.7",), learned="^joint 2 is"),
     Change("robot_moved", ("tracker_registration",), what="the robot moved on its base: (-1, 2, 0) mm in plane",
            base_shift_mm=(-1.0, 2.0, 0.0)),
@@ -216,7 +222,7 @@ HELD_OUT = (
            edit=lambda r: replace(r, tracker=_reclocked(r.tracker, r.commanded.t_s[0], -0.020, 1e-4))),
     Change("gear_play", ("lost_motion", "lost_motion_under_load"), what="joint 1's gear with 0.5 mrad of play (plant knob)",
            knobs=("backlash_j1_mrad=0.5",)),
-    Change("gear_softer", ("unexplained",), what="joint 3's gear 40 % softer (plant knob)",
+    Change("gear_softer", ("joint_compliance", "unexplained"), what="joint 3's gear 40 % softer (plant knob)",
            knobs=("gear_stiffness_j3_scale=0.6",), learned="^joint 3 is"),
     Change("robot_moved", ("tracker_registration",), what="the robot moved on its base: (2, 0.5, 0) mm in plane",
            base_shift_mm=(2.0, 0.5, 0.0)),
@@ -245,7 +251,7 @@ HELD_OUT_2 = (
            edit=lambda r: replace(r, tracker=_reclocked(r.tracker, r.commanded.t_s[0], 0.012, -1.5e-4))),
     Change("gear_play", ("lost_motion", "lost_motion_under_load"), what="joint 2's gear with 0.4 mrad of play (plant knob)",
            knobs=("backlash_j2_mrad=0.4",)),
-    Change("gear_softer", ("unexplained",), what="joint 1's gear 35 % softer (plant knob)",
+    Change("gear_softer", ("joint_compliance", "unexplained"), what="joint 1's gear 35 % softer (plant knob)",
            knobs=("gear_stiffness_j1_scale=0.65",), learned="^joint 1 is"),
     Change("robot_moved", ("tracker_registration",), what="the robot moved on its base: (-1.5, -1, 0) mm in plane",
            base_shift_mm=(-1.5, -1.0, 0.0)),
@@ -277,13 +283,45 @@ HELD_OUT_3 = (
            edit=lambda r: replace(r, tracker=_reclocked(r.tracker, r.commanded.t_s[0], -0.018, -2.5e-4))),
     Change("gear_play", ("lost_motion", "lost_motion_under_load"), what="joint 3's gear with 0.35 mrad of play (plant knob)",
            knobs=("backlash_j3_mrad=0.35",)),
-    Change("gear_softer", ("unexplained",), what="joint 2's gear 25 % softer (plant knob)",
+    Change("gear_softer", ("joint_compliance", "unexplained"), what="joint 2's gear 25 % softer (plant knob)",
            knobs=("gear_stiffness_j2_scale=0.75",), learned="^joint 2 is"),
     Change("robot_moved", ("tracker_registration",), what="the robot moved on its base: (1, -2, 0) mm in plane",
            base_shift_mm=(1.0, -2.0, 0.0)),
     Change("sheet_thicker", ("force_scale", "unexplained"),
            what="a new coil: the sheet 1.1 mm thick where the cell's records say 1.0 mm (plant process)",
            sheet=("--thickness-mm", "1.1"), learned=r"^the sheet pushes [\d.]+ N more"),
+)
+#: The fourth held-out set (after the joint-compliance family, which couples the tip's change and the force's through
+#: one gear): an IRB 6640 forming a variable-wall-angle cone (spiral), a KR210 a wider, shallower-walled cone; other
+#: forms and sizes again; written before any of its runs.
+HELD_OUT_4 = (
+    Change("ft_retared", ("force_sensor_bias",), what="F/T re-tared: -15 N x, -30 N y, +35 N z",
+           edit=_forces(lambda r: r.forces.values + np.array([-15.0, -30.0, 35.0]))),  # type: ignore[union-attr]
+    Change("ft_remounted", ("force_sensor_crosstalk",), what="F/T re-mounted turned 6 deg about z and 2 deg about x",
+           edit=_forces(lambda r: r.forces.values @ (_about((0, 0, 1), np.deg2rad(6.0))  # type: ignore[union-attr]
+                                                     @ _about((1, 0, 0), np.deg2rad(2.0))).T)),
+    Change("ft_recalibrated", ("force_sensor_gain",), what="F/T calibration x 1.05 on x and y, x 0.93 on z",
+           edit=_forces(lambda r: r.forces.values * np.array([1.05, 1.05, 0.93]))),  # type: ignore[union-attr]
+    Change("ft_clock", ("stream_time_offset",), what="F/T clock 45 ms behind and 150 ppm fast",
+           edit=lambda r: replace(r, forces=_reclocked(r.forces, r.commanded.t_s[0], -0.045, 1.5e-4))),  # type: ignore[arg-type]
+    Change("tracker_reregistered", ("tracker_registration",),
+           what="tracker re-registered: 1.8 mrad about (0.7, 0.7, -0.3), shift (-0.25, 0.10, 0.20) mm",
+           edit=_tracker(lambda r: r.tracker.values @ _about((0.7, 0.7, -0.3), 1.8e-3).T
+                         + 1e-3 * np.array([-0.25, 0.10, 0.20]))),
+    Change("tracker_drift", ("tracker_drift",), what="tracker drifting 6 um/s along (-0.4, 0.8, 0.45)",
+           edit=_tracker(lambda r: r.tracker.values + np.outer(
+               r.tracker.t_s - r.commanded.t_s[0], 6e-6 * np.array([-0.4, 0.8, 0.45]) / np.linalg.norm([-0.4, 0.8, 0.45])))),
+    Change("tracker_clock", ("tracker_clock",), what="tracker clock 14 ms ahead and 200 ppm fast",
+           edit=lambda r: replace(r, tracker=_reclocked(r.tracker, r.commanded.t_s[0], 0.014, 2e-4))),
+    Change("gear_play", ("lost_motion", "lost_motion_under_load"), what="joint 2's gear with 0.45 mrad of play (plant knob)",
+           knobs=("backlash_j2_mrad=0.45",)),
+    Change("gear_softer", ("joint_compliance", "unexplained"), what="joint 3's gear 30 % softer (plant knob)",
+           knobs=("gear_stiffness_j3_scale=0.7",), learned="^joint 3 is"),
+    Change("robot_moved", ("tracker_registration",), what="the robot moved on its base: (-2, -1, 0) mm in plane",
+           base_shift_mm=(-2.0, -1.0, 0.0)),
+    Change("sheet_thicker", ("force_scale", "unexplained"),
+           what="a new coil: the sheet 1.12 mm thick where the cell's records say 1.0 mm (plant process)",
+           sheet=("--thickness-mm", "1.12"), learned=r"^the sheet pushes [\d.]+ N more"),
 )
 #: Each set's cells and the changes hidden on each: the development set (the library was changed while looking at
 #: it; the first held-out set joined it once run) and the held-out set.
@@ -294,6 +332,7 @@ SETS: dict[str, dict[str, tuple[Change, ...]]] = {
     "held-out": {"irb6640-cone": HELD_OUT, "kr210-pyramid": HELD_OUT},
     "held-out-2": {"kr210-groove": HELD_OUT_2, "tx200-pyramid": HELD_OUT_2},
     "held-out-3": {"irb6640-groove": HELD_OUT_3, "tx200-vwa-cone": HELD_OUT_3},
+    "held-out-4": {"irb6640-vwa-cone": HELD_OUT_4, "kr210-cone-wide": HELD_OUT_4},
 }
 
 
@@ -379,7 +418,8 @@ def run_case(cell_name: str, change: Change, root: Path) -> dict[str, Any]:
     named = report.get("effect")
     learned = (report.get("learned") or {}).get("named", [])
     first = next((w for w in learned if w.startswith(change.learned.lstrip("^").split()[0])), "") if change.learned else ""
-    right_words = named != "unexplained" or not change.learned or bool(re.search(change.learned, first))
+    by_learning = named == "unexplained" or (named in FAMILIES and FAMILIES[named].carried_by_learning)
+    right_words = not by_learning or not change.learned or bool(re.search(change.learned, first))
     return {"cell": cell_name, "change": change.name, "what": change.what, "expected": list(change.expected),
             "named": named, "families": [f["name"] for f in report.get("families", [])],
             "learned": [w for w in (first or next((w for w in learned if w.startswith("joint")), ""),) if w],
@@ -426,7 +466,8 @@ def markdown(rows: list[dict[str, Any]]) -> str:
     for r in rows:
         shrink = "none to shrink" if r["excess_before"] <= 0 else (
             "at least halved" if r["shrink"] >= 1.0 - SHRINK_TO else "not halved")
-        words = f" (learned: {_gist(r['learned'])})" if r["learned"] and r["named"] == "unexplained" else ""
+        by_learning = r["named"] == "unexplained" or (r["named"] in FAMILIES and FAMILIES[r["named"]].carried_by_learning)
+        words = f" (learned: {_gist(r['learned'])})" if r["learned"] and by_learning else ""
         seen = "yes" if r["observable"] else "no"
         lines.append(f"| {r['cell']} | {r['what']} | `{r['named']}`{words} | {'yes' if right(r) else 'no'} | "
                      f"{seen}; {shrink} |")

@@ -68,6 +68,9 @@ class Family(ABC):
         effect: The effect of the vocabulary (`twin.sim.effects.EFFECTS`) the family maps onto, or None: what a
             model file carries of it (`to_effect`). A family of the instruments maps onto their calibration
             instead (`to_instruments`, `twin.sim.instruments`).
+        carried_by_learning: The model file carries the family through the robot learner, not an effect of its own:
+            `discrepancy` learns the robot (and the sheet) from the run when it names the family first, as it does
+            for a gap no family explains (`JointCompliance`: the learned K_q holds a softer gear).
         acts_on: The streams whose gap the family must explain to be named (`consistency`), its evidence first:
             a robot-side family the tool tip and the forces (its change reaches both through the loaded robot;
             the default), a force-sensor family the forces, a tracker family the tool tip, a part family the
@@ -86,6 +89,7 @@ class Family(ABC):
     bilinear: ClassVar[bool] = False
     effect: ClassVar[str | None] = None
     acts_on: ClassVar[tuple[str, ...]] = ("position", "force")
+    carried_by_learning: ClassVar[bool] = False
 
     @abstractmethod
     def delta(self, ctx: Context, theta: np.ndarray) -> Delta:

@@ -100,6 +100,36 @@ class DirectionDependentCompliance(Family):
 
 
 @register
+class JointCompliance(Family):
+    """A gear softer (or stiffer) than the cell's: joint j's compliance 1/K_j grows by s_j, one joint at a time.
+
+    The arm's compliance at the tip is C = sum_j J_j J_j^T / K_j (J_j joint j's column of the position Jacobian,
+    sheet frame); a gear worn or replaced changes one term, so the tip moves by s_j J_j (J_j . f) / K_j under the
+    sheet's force f, and the sheet answers the moved tip. The tip's change and the force's are coupled through the
+    arm, which a tracker drift and a re-calibrated force sensor fitted apart are not. Joints 4 and 6 (the wrist's
+    rolls) are left out: a forming force hardly loads them. The learned robot carries it (`carried_by_learning`).
+    """
+
+    name = "joint_compliance"
+    parameters = ("softer_j1_ratio", "softer_j2_ratio", "softer_j3_ratio", "softer_j5_ratio", *ANSWER)
+    neutral = (0.0, 0.0, 0.0, 0.0, 1.0)
+    bounds = ((-0.8, -0.8, -0.8, -0.8, 0.0), (4.0, 4.0, 4.0, 4.0, 1.0))
+    scale = (0.02, 0.02, 0.02, 0.02, 0.1)
+    bilinear = True
+    description = "joint j's compliance x (1 + s_j), one value per loaded joint (1, 2, 3, 5)"
+    carried_by_learning = True
+    JOINTS: ClassVar[tuple[int, ...]] = (0, 1, 2, 4)
+
+    def delta(self, ctx: Context, theta: np.ndarray) -> Delta:
+        """Unloaded-equivalent tip change sum_j s_j J_j (J_j . f) / K_j (sheet frame)."""
+        jac = np.einsum("ki,nkj->nij", ctx.twin.R_base_sheet, ctx.jac[:, :, list(self.JOINTS)])
+        k = np.asarray(ctx.twin.joint_stiffness, dtype=float)[list(self.JOINTS)]
+        torque = np.einsum("nij,ni->nj", jac, ctx.sim.f_sheet_n)  # J_j . f per joint [N·m]
+        free = np.einsum("nij,nj->ni", jac, np.asarray(theta[:-1])[None, :] * torque / k[None, :])
+        return _delta(ctx, theta, free)
+
+
+@register
 class LostMotion(Family):
     """Backlash in joints 1-3: each link lags by its dead band, flipping at reversals over a take-up travel."""
 
