@@ -138,6 +138,10 @@ def find_discrepancy(
     offsets = None if floor is None else floor.offsets(sizes)
     fit, steps = forward_select(fitter, list(families.values()), excess, sizes, offsets=offsets) if significant else (
         fitter.fit([]), ())
+    accepted = [s.accepted for s in steps if s.accepted is not None]
+    if any(families[a].carried_by_learning for a in accepted[1:]):  # carried by the robot learner: first, or not
+        families = {n: f for n, f in families.items() if not f.carried_by_learning or n == accepted[0]}
+        fit, steps = forward_select(fitter, list(families.values()), excess, sizes, offsets=offsets)
     named = named_effects(steps, fit, families)
     # over a learned cell's floor, a family's share is of the excess above it (the selection is judged against the
     # whole excess: against the part above the floor, families soak up the floor's reversal transients)

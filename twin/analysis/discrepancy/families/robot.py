@@ -107,26 +107,32 @@ class JointCompliance(Family):
     sheet frame); a gear worn or replaced changes one term, so the tip moves by s_j J_j (J_j . f) / K_j under the
     sheet's force f, and the sheet answers the moved tip. The tip's change and the force's are coupled through the
     arm, which a tracker drift and a re-calibrated force sensor fitted apart are not. Joints 4 and 6 (the wrist's
-    rolls) are left out: a forming force hardly loads them. The learned robot carries it (`carried_by_learning`).
+    rolls) are left out: a forming force hardly loads them. The sheet always answers (no `sheet_answer_ratio`: a
+    gear that gives moves the tool in the sheet; free, the fit traded a kinematic tip change against a sensor gain).
+    The learned robot carries it (`carried_by_learning`); named only first (`search`).
     """
 
     name = "joint_compliance"
-    parameters = ("softer_j1_ratio", "softer_j2_ratio", "softer_j3_ratio", "softer_j5_ratio", *ANSWER)
-    neutral = (0.0, 0.0, 0.0, 0.0, 1.0)
-    bounds = ((-0.8, -0.8, -0.8, -0.8, 0.0), (4.0, 4.0, 4.0, 4.0, 1.0))
-    scale = (0.02, 0.02, 0.02, 0.02, 0.1)
-    bilinear = True
-    description = "joint j's compliance x (1 + s_j), one value per loaded joint (1, 2, 3, 5)"
+    parameters = ("softer_j1_ratio", "softer_j2_ratio", "softer_j3_ratio", "softer_j5_ratio")
+    neutral = (0.0, 0.0, 0.0, 0.0)
+    bounds = ((-0.8, -0.8, -0.8, -0.8), (4.0, 4.0, 4.0, 4.0))
+    scale = (0.02, 0.02, 0.02, 0.02)
+    description = "joint j's compliance x (1 + s_j), one value per loaded joint (1, 2, 3, 5), against the learned K_q"
     carried_by_learning = True
     JOINTS: ClassVar[tuple[int, ...]] = (0, 1, 2, 4)
 
+    def applicable(self, ctx: Context) -> bool:
+        """Against a learned robot only (a model file with its K_q): a declared robot's stiffness is the robot
+        learner's to find (`unexplained`, then learned), not a change since the cell was learned."""
+        return ctx.has_forces and ctx.twin.spec.joint_stiffness is not None
+
     def delta(self, ctx: Context, theta: np.ndarray) -> Delta:
-        """Unloaded-equivalent tip change sum_j s_j J_j (J_j . f) / K_j (sheet frame)."""
+        """Tip change sum_j s_j J_j (J_j . f) / K_j (sheet frame), the sheet answering it: a gear really gives."""
         jac = np.einsum("ki,nkj->nij", ctx.twin.R_base_sheet, ctx.jac[:, :, list(self.JOINTS)])
         k = np.asarray(ctx.twin.joint_stiffness, dtype=float)[list(self.JOINTS)]
         torque = np.einsum("nij,ni->nj", jac, ctx.sim.f_sheet_n)  # J_j . f per joint [N·m]
-        free = np.einsum("nij,nj->ni", jac, np.asarray(theta[:-1])[None, :] * torque / k[None, :])
-        return _delta(ctx, theta, free)
+        free = np.einsum("nij,nj->ni", jac, np.asarray(theta)[None, :] * torque / k[None, :])
+        return _delta(ctx, np.append(theta, 1.0), free)
 
 
 @register
