@@ -170,6 +170,19 @@ def test_a_worn_tool_on_the_plant_is_carried_into_the_next_run(groove_cell: Path
     assert row["shrink"] >= 0.5, row
 
 
+def test_a_softer_gear_is_named_for_its_joint_and_carried(groove_cell: Path) -> None:
+    """A change written here, in the plant's own form (its gear knob, which the twin never reads): joint 2's gear 30 %
+    softer on the learned groove cell. Named `joint_compliance` (its tip change and force change coupled through
+    that gear) or `unexplained`, the robot learned again naming joint 2 softer either way, and the next run's excess
+    over the floor at least halved."""
+    from plant_changes import Change
+
+    row = run_case("tx200-groove", Change("gear_softer_j2", ("joint_compliance", "unexplained"),
+                                          what="joint 2's gear 30 % softer", knobs=("gear_stiffness_j2_scale=0.7",),
+                                          learned="^joint 2 is [\\d.]+ % softer"), groove_cell)
+    assert row["observable"] and right(row), row
+
+
 @pytest.fixture(scope="module")
 def dry_sheet_row(groove_cell: Path) -> dict[str, Any]:
     return run_case("tx200-groove", _dry_sheet(groove_cell), groove_cell)
