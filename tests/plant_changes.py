@@ -38,7 +38,7 @@ from typing import Any
 
 import numpy as np
 
-from twin.analysis.discrepancy.families import FAMILIES
+from twin.analysis.discrepancy.families import learns_from_run
 from twin.analysis.discrepancy.floor import OBSERVABLE_SHARE, Floor, excess_by_stream
 from twin.analysis.discrepancy.residuals import ResidualModel
 from twin.cli import main
@@ -418,8 +418,7 @@ def run_case(cell_name: str, change: Change, root: Path) -> dict[str, Any]:
     named = report.get("effect")
     learned = (report.get("learned") or {}).get("named", [])
     first = next((w for w in learned if w.startswith(change.learned.lstrip("^").split()[0])), "") if change.learned else ""
-    by_learning = named == "unexplained" or (named in FAMILIES and FAMILIES[named].carried_by_learning)
-    right_words = not by_learning or not change.learned or bool(re.search(change.learned, first))
+    right_words = not learns_from_run(named) or not change.learned or bool(re.search(change.learned, first))
     return {"cell": cell_name, "change": change.name, "what": change.what, "expected": list(change.expected),
             "named": named, "families": [f["name"] for f in report.get("families", [])],
             "learned": [w for w in (first or next((w for w in learned if w.startswith("joint")), ""),) if w],
@@ -466,8 +465,7 @@ def markdown(rows: list[dict[str, Any]]) -> str:
     for r in rows:
         shrink = "none to shrink" if r["excess_before"] <= 0 else (
             "at least halved" if r["shrink"] >= 1.0 - SHRINK_TO else "not halved")
-        by_learning = r["named"] == "unexplained" or (r["named"] in FAMILIES and FAMILIES[r["named"]].carried_by_learning)
-        words = f" (learned: {_gist(r['learned'])})" if r["learned"] and by_learning else ""
+        words = f" (learned: {_gist(r['learned'])})" if r["learned"] and learns_from_run(r["named"]) else ""
         seen = "yes" if r["observable"] else "no"
         lines.append(f"| {r['cell']} | {r['what']} | `{r['named']}`{words} | {'yes' if right(r) else 'no'} | "
                      f"{seen}; {shrink} |")

@@ -47,7 +47,7 @@ class Context:
         gain: Tip gain G per commanded sample, shape (n, 3, 3).
         compliance: C [m/N], shape (n, 3, 3).
         stiffness: S [N/m], shape (n, 3, 3).
-        jac: Translational Jacobian of the arm joints [m/rad], shape (n, 3, dof).
+        jac: Translational Jacobian of the arm joints, the robot base's frame [m/rad], shape (n, 3, dof).
         tool_axis: Tool axis (tool z) in the sheet frame [-], shape (n, 3).
         level: Lost-motion level, +/-1 with the direction, ramped after reversals [-], shape (n,).
         force_cmd: Predicted sensor force at the commanded samples [N], shape (n, 3).
@@ -108,6 +108,11 @@ class Context:
         out = np.where(inside, np.interp(self.profile_x_m, x[order], dz[order]), 0.0)
         depth_ratio = float(getattr(getattr(self.twin.sheet_field, "params", None), "depth_ratio", 1.0))
         return out * depth_ratio * (1.0 - self.effects.springback_ratio)
+
+    @cached_property
+    def jac_sheet(self) -> np.ndarray:
+        """`jac` (the base frame's) turned into the sheet frame [m/rad], shape (n, 3, dof)."""
+        return np.einsum("ki,nkj->nij", self.twin.R_base_sheet, self.jac)
 
     @property
     def cs(self) -> np.ndarray:

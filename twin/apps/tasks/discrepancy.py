@@ -10,7 +10,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from twin.analysis.discrepancy.families import FAMILIES
+from twin.analysis.discrepancy.families import learns_from_run
 from twin.analysis.discrepancy.floor import Floor
 from twin.analysis.discrepancy.search import DiscrepancyResult, find_discrepancy
 from twin.analysis.discrepancy.summary import result_summary
@@ -179,8 +179,7 @@ def discrepancy_task(request: DiscrepancyRequest, note: Note = silent) -> Discre
     floor = None if request.model is None else _floor(request.model)
     result = find_discrepancy(measured, spec, floor=floor)
     learned, refused = None, None
-    by_learning = result.verdict in FAMILIES and FAMILIES[result.verdict].carried_by_learning
-    if (result.verdict == "unexplained" or by_learning) and measured.forces is not None and request.learn:
+    if learns_from_run(result.verdict) and measured.forces is not None and request.learn:
         try:
             learned = learn_from_run(measured, spec.replace(effects=result.effects), request.held_out)
         except InputError as exc:  # the run cannot teach the twin (a silent sensor, ...): the search still stands

@@ -5,6 +5,6 @@ Importing this package registers every family of its modules; a user's own famil
 """
 
 from twin.analysis.discrepancy.families import robot, sensors, tracker
-from twin.analysis.discrepancy.families.base import FAMILIES, Delta, Family, register
+from twin.analysis.discrepancy.families.base import FAMILIES, Delta, Family, learns_from_run, register
 
-__all__ = ["FAMILIES", "Delta", "Family", "register", "robot", "sensors", "tracker"]
+__all__ = ["FAMILIES", "Delta", "Family", "learns_from_run", "register", "robot", "sensors", "tracker"]

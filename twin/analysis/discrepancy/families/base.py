@@ -132,6 +132,12 @@ class Family(ABC):
 FAMILIES: Registry[Family] = Registry("discrepancy family")
 
 
+def learns_from_run(verdict: str) -> bool:
+    """Whether a verdict is carried by learning the robot and the sheet from the run: `unexplained` (no family
+    explains the gap) or a family `carried_by_learning`."""
+    return verdict == "unexplained" or (verdict in FAMILIES and FAMILIES[verdict].carried_by_learning)
+
+
 def register(cls: type[Family]) -> type[Family]:
     """Class decorator: add one instance of a family to `FAMILIES` (names must be unique)."""
     if cls.effect is not None and cls.effect not in EFFECTS:

@@ -128,11 +128,12 @@ class JointCompliance(Family):
 
     def delta(self, ctx: Context, theta: np.ndarray) -> Delta:
         """Tip change sum_j s_j J_j (J_j . f) / K_j (sheet frame), the sheet answering it: a gear really gives."""
-        jac = np.einsum("ki,nkj->nij", ctx.twin.R_base_sheet, ctx.jac[:, :, list(self.JOINTS)])
-        k = np.asarray(ctx.twin.joint_stiffness, dtype=float)[list(self.JOINTS)]
+        joints = list(self.JOINTS)
+        jac = ctx.jac_sheet[:, :, joints]
+        k = np.asarray(ctx.twin.joint_stiffness, dtype=float)[joints]
         torque = np.einsum("nij,ni->nj", jac, ctx.sim.f_sheet_n)  # J_j . f per joint [N·m]
-        free = np.einsum("nij,nj->ni", jac, np.asarray(theta)[None, :] * torque / k[None, :])
-        return _delta(ctx, np.append(theta, 1.0), free)
+        _, position, force, profile = ctx.robot_response(np.einsum("nij,nj->ni", jac, theta[None, :] * torque / k))
+        return Delta(position=position, force=force, profile=profile)
 
 
 @register
@@ -245,8 +246,7 @@ class LostMotionUnderLoad(LostMotion):
             sim = ctx.sim
             self._last = (ctx, load_flank(ctx.twin, sim.t_s, sim.q_ik, sim.qpos, sim.f_sheet_n))
         dq = -1e-3 * theta[None, :3] * self._last[1][:, :3]
-        jac = np.einsum("ki,nkj->nij", ctx.twin.R_base_sheet, ctx.jac[:, :, :3])
-        return _delta(ctx, theta, np.einsum("nij,nj->ni", jac, dq))
+        return _delta(ctx, theta, np.einsum("nij,nj->ni", ctx.jac_sheet[:, :, :3], dq))
 
     def to_increments(self, theta: np.ndarray, ctx: Context) -> dict[str, Any] | None:
         """The twin's gear play (`twin.sim.effects.GEAR_PLAY`): b per arm joint [rad], the joints beyond this
