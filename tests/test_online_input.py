@@ -168,7 +168,10 @@ def test_a_burst_of_packets_moves_the_correction_no_faster_than_the_rate_limit()
     # from the burst's first answer to its last: at most the rate over the burst's wall time (50 cycles' worth,
     # 4 mm, before the rate was per second), and it does move
     assert 0.0 < moved <= rate * elapsed + 2e-4, (moved, elapsed)
-    assert np.linalg.norm(corrections[-1]) < 0.5 and report["r"].cycles == 51
+    # from zero: at most one cycle's worth for the first packet and one for the pause before the burst, then the
+    # burst's wall time (a loaded machine answers slower, so the bound is the burst's own time, not a fixed size)
+    cycle_s = OnlineSettings().cycle_s
+    assert np.linalg.norm(corrections[-1]) <= rate * (elapsed + 2 * cycle_s) + 2e-4 and report["r"].cycles == 51
 
 
 # ---------------------------------------------------------------- a spike held by a slow sensor
