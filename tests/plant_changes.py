@@ -373,14 +373,18 @@ def _plant_run(cell: Cell, root: Path, seed: int, out: Path, knobs: tuple[str, .
 
 def learn_cell(name: str, root: Path, reuse: bool = False) -> Path:
     """The cell's clean runs, and the cell learned from the first two (`cell.json`, with its floor); `reuse`: a cell
-    already learned in `root` is kept (the plant and `learn` are deterministic)."""
+    already learned in `root` is kept (the plant and `learn` are deterministic), and a cell whose `cell.json` was
+    removed is learned again from the runs already there (after a change to the learner)."""
     cell = CELLS[name]
-    if reuse and (root / "cell.json").exists() and all((root / f"clean{s}").is_dir() for s in (*CLEAN_SEEDS, CHANGED_SEED, NEXT_SEED)):
+    seeds = (*CLEAN_SEEDS, CHANGED_SEED, NEXT_SEED)
+    clean = [root / f"clean{s}" for s in seeds]
+    if reuse and (root / "cell.json").exists() and all(path.is_dir() for path in clean):
         return root / "cell.json"
-    root.mkdir(parents=True, exist_ok=True)
-    code, text = _cli(["path", *cell.path_args, "--robot", cell.robot, "--out", str(root / "path.csv")])
-    assert code == 0, text
-    clean = [_plant_run(cell, root, s, root / f"clean{s}") for s in (*CLEAN_SEEDS, CHANGED_SEED, NEXT_SEED)]
+    if not (reuse and all(path.is_dir() for path in clean)):  # a cell.json removed: learned again from its runs
+        root.mkdir(parents=True, exist_ok=True)
+        code, text = _cli(["path", *cell.path_args, "--robot", cell.robot, "--out", str(root / "path.csv")])
+        assert code == 0, text
+        clean = [_plant_run(cell, root, s, root / f"clean{s}") for s in seeds]
     code, text = _cli(["learn", str(clean[0]), str(clean[1]), "--write-model", str(root / "cell.json")])
     assert code == 0, text
     return root / "cell.json"

@@ -23,7 +23,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from twin.analysis.learn.stick_slip import JointRows, play_deflection, refine
+from twin.analysis.learn.stick_slip import COMPLIANCE_RANGE, JointRows, play_deflection, refine
 from twin.base.signals import interp_rows
 from twin.errors import InputError
 from twin.runs.format import Run
@@ -184,16 +184,16 @@ def fit_robot(runs: list[Run], twin: Twin) -> RobotFit:
     coef, cov, _ = _solve(rows, best, c0)
     dof = len(c0)
     observable = np.sqrt(np.diag(cov)[:dof]) < OBSERVABLE_RATIO * PRIOR_SPREAD * c0
-    frictionless = np.zeros(dof, dtype=bool)
-    for _ in range(dof):  # refit with the joints the runs cannot observe held at their prior, friction >= 0
-        frictionless |= coef[dof:2 * dof] < 0.0
-        if observable.all() and not frictionless.any():
+    refit = not observable.all()
+    for _ in range(dof):  # refit with the joints the runs cannot observe, or pull outside their range, at the prior
+        if refit:
+            coef, cov, _ = _solve(rows, best, c0, observable)
+        outside = observable & ((coef[:dof] < COMPLIANCE_RANGE[0] * c0) | (coef[:dof] > COMPLIANCE_RANGE[1] * c0))
+        if not outside.any():
             break
-        coef, cov, _ = _solve(rows, best, c0, observable, frictionless)
-        if np.all(coef[dof:2 * dof] >= 0.0):
-            break
+        observable &= ~outside
+        refit = True
     c, c_std = coef[:dof], np.sqrt(np.diag(cov)[:dof])
-    c = np.where(observable & (c > 0.05 * c0), c, np.where(observable, 0.05 * c0, c0))
     friction = np.where(observable, np.maximum(coef[dof:2 * dof], 0.0) / c, 0.0)
     servo_c = np.where(observable, coef[2 * dof:3 * dof], 0.0)
     offsets = coef[3 * dof:].reshape(len(rows), 3)
