@@ -7,8 +7,12 @@ compliance [rad/(N·m)]): linear in the c_j, whatever the part and whatever the 
 squares over the runs, each pulled towards the robot's prior 1/K_q with a prior spread of `PRIOR_SPREAD` (a
 Gaussian prior; the posterior's standard deviations are the uncertainties). A joint whose posterior spread is
 not below `OBSERVABLE_RATIO` of its prior spread is one the runs cannot observe: it is named and held at its
-prior. Beside the gear spring the same solve fits what a real arm adds: each joint's Coulomb friction against
-its motion (a deflection J_j·c_j·τ_f,j that flips with the sign of the joint's speed), the servo's transient
+prior; so is one the fit pulls outside `stick_slip.COMPLIANCE_RANGE` of its prior (a quarter to four times its
+compliance: no gear of the class is there, the fit is pulled by what its columns lack, and clipping it there
+would push its share onto its neighbours). Beside the gear spring the same solve fits what a real arm adds: each joint's Coulomb friction against
+its motion (a deflection J_j·c_j·τ_f,j that flips with the sign of the joint's speed: a column kept free in the
+spring's fit whatever its sign, since a deflection that leads the joint's motion is a real cell's too, and only its
+non-negative part is the friction the twin takes), the servo's transient
 compliance c_s,j on the force's high-pass F − lag_τ(F) (`twin.sim.servo`: the position loop gives way while the
 force changes and recovers over τ, picked on a grid by the least residual), and a constant tracker offset per
 axis (a registration error of the tracker frame: reported, not put into the robot; the model carries the
@@ -177,8 +181,21 @@ def fit_robot(runs: list[Run], twin: Twin) -> RobotFit:
         runs: Runs with tracker and force streams, made by the twin's robot at the twin's placement.
         twin: The twin (its robot's K_q is the prior).
     """
-    rows = [robot_rows(run, twin) for run in runs]
-    k0 = twin.joint_stiffness
+    return fit_rows([robot_rows(run, twin) for run in runs], twin.joint_stiffness, twin.joint_friction,
+                    twin.spec.servo)
+
+
+def fit_rows(rows: list[RobotRows], k0: np.ndarray, prior_friction_nm: np.ndarray,
+             prior_servo: ServoTransient | None) -> RobotFit:
+    """`fit_robot` on the runs' regression rows (module docstring).
+
+    Args:
+        rows: Per run, its rows (`robot_rows`).
+        k0: The prior joint stiffness (dof,) [N·m/rad].
+        prior_friction_nm: The twin's joint friction before learning (dof,) [N·m].
+        prior_servo: The twin's servo transient before learning (None: none).
+    """
+    k0 = np.asarray(k0, dtype=float)
     c0 = 1.0 / k0
     best = min(SERVO_TIME_CONSTANTS_S, key=lambda tau: _solve(rows, tau, c0)[2])
     coef, cov, _ = _solve(rows, best, c0)
@@ -202,17 +219,22 @@ def fit_robot(runs: list[Run], twin: Twin) -> RobotFit:
     # trade against each other without end)
     pinned = observable & (c_std < REFINE_SPREAD * c)
     if pinned.any():
-        ss = refine([joint_rows(r, design(r, best)[:, observable]) for r in rows], c, friction, pinned, c0)
+        # a joint whose deflection leads its motion (its sign column came out negative) keeps that column beside
+        # the servo's: the play holds a friction, never a lead, and without it the springs would take its share
+        lead = observable & (coef[dof:2 * dof] < 0.0)
+        ss = refine([joint_rows(r, np.hstack([design(r, best)[:, observable],
+                                              r.friction.transpose(1, 0, 2).reshape(-1, dof)[:, lead]]))
+                     for r in rows], c, friction, pinned, c0)
         c = np.where(pinned, ss.c, c)
         c_std = np.where(pinned, ss.c_std, c_std)
         friction, offsets = np.where(observable, ss.friction_nm, 0.0), ss.offsets_m
         servo_c = np.zeros(dof)
-        servo_c[observable] = ss.linear
+        servo_c[observable] = ss.linear[:int(observable.sum())]
     k = 1.0 / c
     k_std = np.where(observable, c_std / c**2, PRIOR_SPREAD * k0)
     servo = ServoTransient(tuple(float(v) for v in servo_c), float(best)) if np.any(servo_c != 0) else None
-    fit = RobotFit(k, k_std, k0, twin.joint_friction, observable, servo, friction, 1e3 * offsets.mean(axis=0), (), ())
-    prior = fit._replace(k_q_nm_per_rad=k0, servo=twin.spec.servo, friction_nm=twin.joint_friction)
+    fit = RobotFit(k, k_std, k0, np.asarray(prior_friction_nm, dtype=float), observable, servo, friction, 1e3 * offsets.mean(axis=0), (), ())
+    prior = fit._replace(k_q_nm_per_rad=k0, servo=prior_servo, friction_nm=fit.prior_friction_nm)
     prior_rms = tuple(rms_norm_mm(r.deflection_m - predicted_deflection(r, prior, np.zeros(3))) for r in rows)
     after_rms = tuple(rms_norm_mm(r.deflection_m - predicted_deflection(r, fit, off))
                       for r, off in zip(rows, offsets, strict=True))
