@@ -84,11 +84,11 @@ def test_the_development_cells_clean_runs_lie_within_the_floors_slack(
     both_sets: dict[str, list[dict[str, Any]]], sets_root: Path
 ) -> None:
     """docs/discrepancy.md and `consistency.FLOOR_STRUCTURE_SLACK`: over the development cells a later clean run
-    leaves 0.91-1.14 x the slow structure the floor records (to 0.02), within the 20 % slack."""
+    leaves 0.90-1.14 x the slow structure the floor records (to 0.02), within the 20 % slack."""
     from twin.analysis.discrepancy.consistency import FLOOR_STRUCTURE_SLACK
 
     ratios = [r for cell in SETS["development"] for r in _structure_ratios(sets_root / "development" / cell)]
-    assert abs(min(ratios) - 0.91) <= 0.02 and abs(max(ratios) - 1.14) <= 0.02, ratios
+    assert abs(min(ratios) - 0.90) <= 0.02 and abs(max(ratios) - 1.14) <= 0.02, ratios
     assert max(ratios) < 1.0 + FLOOR_STRUCTURE_SLACK, ratios
 
 
