@@ -117,15 +117,14 @@ def design(rows: RobotRows, servo_s: float = 0.0) -> np.ndarray:
     return cols.transpose(2, 0, 1).reshape(-1, cols.shape[1])
 
 
-def _solve(runs: list[RobotRows], servo_s: float, c0: np.ndarray, free: np.ndarray | None = None,
-           frictionless: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, float]:
+def _solve(runs: list[RobotRows], servo_s: float, c0: np.ndarray,
+           free: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, float]:
     """(coefficients, posterior covariance, RSS) of the regularised fit. Coefficients: the compliances c (dof),
     the friction deflections c_j·τ_f,j (dof) [rad], the servo's transient compliances c_s (dof), a tracker offset
     per run and axis [m]. A joint not `free` (default: all free) is held at its prior compliance with no friction
-    and no servo term, a `frictionless` one's friction at 0: their columns leave the fit (variance 0)."""
+    and no servo term: their columns leave the fit (variance 0)."""
     dof = len(c0)
     held = np.zeros(dof, dtype=bool) if free is None else ~np.asarray(free, dtype=bool)
-    no_friction = held | (np.zeros(dof, dtype=bool) if frictionless is None else np.asarray(frictionless, dtype=bool))
     blocks, ys = [], []
     for k, rows in enumerate(runs):
         m = len(rows.t_s)
@@ -137,7 +136,7 @@ def _solve(runs: list[RobotRows], servo_s: float, c0: np.ndarray, free: np.ndarr
         ys.append(rows.deflection_m.T.reshape(-1))
     X, y = np.vstack(blocks), np.concatenate(ys)
     # the held joints' prior deflection is taken out of the data; the held columns out of the fit
-    drop = np.concatenate([held, no_friction, held, np.zeros(3 * len(runs), dtype=bool)])
+    drop = np.concatenate([held, held, held, np.zeros(3 * len(runs), dtype=bool)])
     if drop.any():
         y = y - X[:, :dof][:, held] @ c0[held]
         X = X.copy()
@@ -233,7 +232,8 @@ def fit_rows(rows: list[RobotRows], k0: np.ndarray, prior_friction_nm: np.ndarra
     k = 1.0 / c
     k_std = np.where(observable, c_std / c**2, PRIOR_SPREAD * k0)
     servo = ServoTransient(tuple(float(v) for v in servo_c), float(best)) if np.any(servo_c != 0) else None
-    fit = RobotFit(k, k_std, k0, np.asarray(prior_friction_nm, dtype=float), observable, servo, friction, 1e3 * offsets.mean(axis=0), (), ())
+    fit = RobotFit(k, k_std, k0, np.asarray(prior_friction_nm, dtype=float), observable, servo, friction,
+                   1e3 * offsets.mean(axis=0), (), ())
     prior = fit._replace(k_q_nm_per_rad=k0, servo=prior_servo, friction_nm=fit.prior_friction_nm)
     prior_rms = tuple(rms_norm_mm(r.deflection_m - predicted_deflection(r, prior, np.zeros(3))) for r in rows)
     after_rms = tuple(rms_norm_mm(r.deflection_m - predicted_deflection(r, fit, off))
