@@ -250,6 +250,7 @@ def test_the_pages_words_on_what_is_not_reached_are_its_table() -> None:
         rows[cells[0]] = [(float(c.split(" / ")[0]), float(c.split("(")[1].split(";")[0])) for c in cells[1:]]
     # columns: nominal, offline d, offline l, online d, online l, both d, both l
     for cone in ("cone-default", "cone-stronger"):
-        assert rows[cone][6][1] <= 0.10 and rows[cone][4][0] < rows[cone][3][0], rows[cone]
+        assert rows[cone][4][0] < rows[cone][3][0], rows[cone]
+    assert rows["cone-default"][6][1] <= 0.10 < rows["cone-stronger"][6][1]
     for groove in ("groove-default", "groove-stronger"):
         assert min(rows[groove][4][1], rows[groove][6][1]) > 0.10, rows[groove]
