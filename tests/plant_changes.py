@@ -378,9 +378,10 @@ def learn_cell(name: str, root: Path, reuse: bool = False) -> Path:
     cell = CELLS[name]
     seeds = (*CLEAN_SEEDS, CHANGED_SEED, NEXT_SEED)
     clean = [root / f"clean{s}" for s in seeds]
-    if reuse and (root / "cell.json").exists() and all(path.is_dir() for path in clean):
+    have_runs = reuse and all(path.is_dir() for path in clean)
+    if have_runs and (root / "cell.json").exists():
         return root / "cell.json"
-    if not (reuse and all(path.is_dir() for path in clean)):  # a cell.json removed: learned again from its runs
+    if not have_runs:  # (with the runs but no cell.json: learned again from them)
         root.mkdir(parents=True, exist_ok=True)
         code, text = _cli(["path", *cell.path_args, "--robot", cell.robot, "--out", str(root / "path.csv")])
         assert code == 0, text

@@ -15,12 +15,14 @@ from typing import Any
 import pytest
 from plant_changes import (
     BEGIN,
+    CHANGED_SEED,
     DEVELOPMENT,
     END,
     HELD_OUT,
     HELD_OUT_2,
     HELD_OUT_3,
     HELD_OUT_4,
+    NEXT_SEED,
     SETS,
     learn_cell,
     markdown,
@@ -75,7 +77,7 @@ def _structure_ratios(cell_dir: Path) -> list[float]:
 
     cell = cell_dir / "cell.json"
     floor, spec = Floor.from_json(read_floor_entry(cell), str(cell)), read_model_file(cell)
-    measured = [measure_floor(read_run(cell_dir / f"clean{seed}"), spec) for seed in (3, 4)]
+    measured = [measure_floor(read_run(cell_dir / f"clean{seed}"), spec) for seed in (CHANGED_SEED, NEXT_SEED)]
     return [m.structure[s] / floor.structure[s] for m in measured for s in ("position", "force")]
 
 

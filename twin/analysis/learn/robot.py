@@ -117,6 +117,11 @@ def design(rows: RobotRows, servo_s: float = 0.0) -> np.ndarray:
     return cols.transpose(2, 0, 1).reshape(-1, cols.shape[1])
 
 
+def friction_columns(rows: RobotRows) -> np.ndarray:
+    """(3m, dof) each joint's friction column (-J_j times the sign of its speed), stacked as `design`'s."""
+    return rows.friction.transpose(1, 0, 2).reshape(-1, rows.friction.shape[2])
+
+
 def _solve(runs: list[RobotRows], servo_s: float, c0: np.ndarray,
            free: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, float]:
     """(coefficients, posterior covariance, RSS) of the regularised fit. Coefficients: the compliances c (dof),
@@ -131,8 +136,7 @@ def _solve(runs: list[RobotRows], servo_s: float, c0: np.ndarray,
         extra = np.zeros((3 * m, 3 * len(runs)))
         for a in range(3):
             extra[a * m:(a + 1) * m, 3 * k + a] = 1.0
-        friction = rows.friction.transpose(1, 0, 2).reshape(-1, dof)
-        blocks.append(np.hstack([design(rows), friction, design(rows, servo_s), extra]))
+        blocks.append(np.hstack([design(rows), friction_columns(rows), design(rows, servo_s), extra]))
         ys.append(rows.deflection_m.T.reshape(-1))
     X, y = np.vstack(blocks), np.concatenate(ys)
     # the held joints' prior deflection is taken out of the data; the held columns out of the fit
@@ -196,8 +200,9 @@ def fit_rows(rows: list[RobotRows], k0: np.ndarray, prior_friction_nm: np.ndarra
     """
     k0 = np.asarray(k0, dtype=float)
     c0 = 1.0 / k0
-    best = min(SERVO_TIME_CONSTANTS_S, key=lambda tau: _solve(rows, tau, c0)[2])
-    coef, cov, _ = _solve(rows, best, c0)
+    solves = {tau: _solve(rows, tau, c0) for tau in SERVO_TIME_CONSTANTS_S}
+    best = min(solves, key=lambda tau: solves[tau][2])
+    coef, cov, _ = solves[best]
     dof = len(c0)
     observable = np.sqrt(np.diag(cov)[:dof]) < OBSERVABLE_RATIO * PRIOR_SPREAD * c0
     refit = not observable.all()
@@ -221,8 +226,7 @@ def fit_rows(rows: list[RobotRows], k0: np.ndarray, prior_friction_nm: np.ndarra
         # a joint whose deflection leads its motion (its sign column came out negative) keeps that column beside
         # the servo's: the play holds a friction, never a lead, and without it the springs would take its share
         lead = observable & (coef[dof:2 * dof] < 0.0)
-        ss = refine([joint_rows(r, np.hstack([design(r, best)[:, observable],
-                                              r.friction.transpose(1, 0, 2).reshape(-1, dof)[:, lead]]))
+        ss = refine([joint_rows(r, np.hstack([design(r, best)[:, observable], friction_columns(r)[:, lead]]))
                      for r in rows], c, friction, pinned, c0)
         c = np.where(pinned, ss.c, c)
         c_std = np.where(pinned, ss.c_std, c_std)

@@ -32,10 +32,10 @@ from scipy.optimize import least_squares
 CORRELATION_S = 2.0
 #: Contiguous blocks of each run refitted apart for the spread of what a part of the run says.
 BLOCKS = 4
-#: Bounds of a joint's compliance, relative to the prior's 1/K_q (a gear 4x stiffer or softer than its class is
-#: none a maker builds: a fit that goes there is pulled by what its model lacks), and of the friction [N·m] (a
-#: joint the run hardly moves can trade a stiffer spring for more friction without end: the twin would then never
-#: let it slide).
+#: Bounds of a joint's compliance, relative to the prior's 1/K_q (a choice, wider than the class's spread seen so far:
+#: the plant's K_q lie 0.35-1.38x the twin's priors; a fit that goes beyond is taken as pulled by what its columns
+#: lack), and of the friction [N·m] (a joint the run hardly moves can trade a stiffer spring for more friction
+#: without end: the twin would then never let it slide).
 COMPLIANCE_RANGE = (0.25, 4.0)
 FRICTION_MIN_NM, FRICTION_MAX_NM = 0.1, 2000.0
 #: Where a joint's friction starts when the linear fit found less [N·m].
