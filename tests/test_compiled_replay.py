@@ -89,7 +89,8 @@ def test_whole_groove_replays_to_the_python_loops_equilibria(nominal_path: tuple
 
 
 @pytest.mark.parametrize(
-    "case", ["no-tool-stick", "lost-motion-and-force-scale", "frictionless-joints", "stateless-field", "jittered"]
+    "case", ["no-tool-stick", "lost-motion-and-force-scale", "frictionless-joints", "stateless-field", "jittered",
+             "clamping-frame"]
 )
 def test_compiled_loop_matches_on_every_model_and_field_variant(case: str) -> None:
     path = groove_path()
@@ -101,6 +102,8 @@ def test_compiled_loop_matches_on_every_model_and_field_variant(case: str) -> No
         twin = TwinSpec(effects=Effects({"lost_motion": 0.4, "force_scale": 1.3})).build()
     elif case == "frictionless-joints":
         twin = TwinSpec(joint_friction_nm=(0.0,) * 6).build()
+    elif case == "clamping-frame":  # the frame's give solved in the kernel (`twin.sim.compiled.sheet`)
+        twin = TwinSpec(effects=Effects({"frame_compliance": 0.5})).build()
     elif case == "stateless-field":
         twin = TwinSpec(process=Process(friction_reversal_m=None)).build()
         twin.set_sheet_field(SheetForceField(twin.history, stateful=False))
@@ -213,14 +216,16 @@ def test_an_edited_kernel_source_drops_every_cached_kernel(tmp_path: Path) -> No
     assert not any(path.exists() for path in cached)
 
 
-def test_the_height_map_isf_model_replays_compiled_to_the_python_loops_equilibria() -> None:
-    """A cone on the ISF model (any part): same tips and forces, and the field is left as the Python loop leaves
-    it (track, pending commits, travel direction, wall angle), so the part's surface after the run is the same."""
+@pytest.mark.parametrize("effects", [Effects(), Effects({"frame_compliance": 0.5})], ids=["bare", "giving-frame"])
+def test_the_height_map_isf_model_replays_compiled_to_the_python_loops_equilibria(effects: Effects) -> None:
+    """A cone on the ISF model (any part), bare or on a clamping frame that gives: same tips and forces, and the
+    field is left as the Python loop leaves it (track, pending commits, travel direction, wall angle), so the part's
+    surface after the run is the same."""
     from twin.process.part.surface import formed_surface
     from twin.process.toolpath.shapes import PartSpec, part_path
 
     path = part_path(PartSpec(depth_m=3e-3, top_half_width_m=15e-3))
-    twin = TwinSpec(process=Process(force_model="isf")).build()
+    twin = TwinSpec(process=Process(force_model="isf"), effects=effects).build()
     fast = twin.simulate(path.t_s, path.p_sheet_m)
     assert twin.last_loop_compiled
     field = twin.sheet_field

@@ -8,6 +8,7 @@ both sets, checks docs/discrepancy.md's tables, and holds the issue's goal on th
 
 from __future__ import annotations
 
+import json
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -183,6 +184,21 @@ def test_a_worn_tool_on_the_plant_is_carried_into_the_next_run(groove_cell: Path
                                           "cell's is 7.5 mm", sheet=("--tool-radius-mm", "7.0")), groove_cell)
     assert row["observable"], row
     assert row["shrink"] >= 0.5, row
+
+
+def test_a_clamping_frame_that_gives_is_named_and_carried(groove_cell: Path) -> None:
+    """A change written here, as a plant variant (`plant_changes._GivingFrame`: the plant's sheet in a frame of
+    0.3 mm/kN with its own lag, which the library's `twin.sim.giving_frame` is not): named `frame_compliance`, its
+    size within a quarter (the twin's learned sheet is not the plant's: its depth answers the frame's give by its
+    own law; 0.26 mm/kN once refined over replays, docs/discrepancy.md), and the next run's excess over the floor at
+    least halved."""
+    from plant_changes import Change
+
+    row = run_case("tx200-groove", Change("frame_gives", ("frame_compliance",), what="the clamping frame gives 0.3 "
+                                          "mm/kN", frame_mm_per_kn=0.3), groove_cell)
+    assert row["observable"] and right(row), row
+    model = json.loads((groove_cell / "frame_gives" / "M.json").read_text())
+    assert model["effects"]["frame_compliance"] == pytest.approx(0.3, rel=0.25), model["effects"]
 
 
 def test_a_softer_gear_is_named_for_its_joint_and_carried(groove_cell: Path) -> None:

@@ -3,7 +3,8 @@
 Modules: `spec` (`TwinSpec`: robot, process, placement, effects, joint springs and friction; `.build()`),
 `model_file` (the spec saved as a versioned JSON model file), `effects` (the effect vocabulary, each effect
 declared once), `instruments` (the F/T sensor's and the tracker's calibration the effects carry), `gear_play` (a
-gear's play under the forming load: the flank each joint's torque sets), `quasi_static` (`Twin`: the per-sample equilibrium along a commanded path), `dynamic` (`DynamicTwin`: the same arm stepped in time under a generic servo, for corners and reversals), `dynamic_servo` (`ServoModel`: that servo's four numbers, as a model file carries them), `equilibrium` (the
+gear's play under the forming load: the flank each joint's torque sets), `giving_frame` (a clamping frame that
+gives under the axial force, in series with the sheet), `quasi_static` (`Twin`: the per-sample equilibrium along a commanded path), `dynamic` (`DynamicTwin`: the same arm stepped in time under a generic servo, for corners and reversals), `dynamic_servo` (`ServoModel`: that servo's four numbers, as a model file carries them), `equilibrium` (the
 Newton and joint-friction solve), `python_loop` and `compiled/` (the per-sample loop in Python and in numba),
 `servo` (the servo's transient compliance a cell's runs teach), `online` (the online compensator: each
 controller cycle an F/T sample in, the twin's -C(q) F out, filtered, limited, watched; its settings in `online_settings`), `result` (`SimResult`), `ft_sensor` (the flange force sensor) and `measure` (what a tracker, a force sensor and a

@@ -12,6 +12,7 @@ that switches it off, the range it may take and where it acts:
 | tracker_drift | mm/s | tracker | the tracker's reading drifts linearly with time along `TRACKER_DRIFT_DIRECTION` |
 | tool_length_offset | mm | robot | the real tool tip lies this much further along the tool axis than nominal |
 | sheet_springback | - | sheet | fraction of the formed depth the sheet recovers after unclamping |
+| frame_compliance | mm/kN | sheet | the clamping frame gives along the sheet's normal by c x the axial force (`twin.sim.giving_frame`) |
 
 The F/T sensor's and the tracker's calibration (vectors: a bias, a registration, a clock) ride along as
 `Effects.instruments` (`twin.sim.instruments`), and a gear's play under the forming load (one half dead band per arm
@@ -53,8 +54,7 @@ TrackerAction = Callable[[np.ndarray, np.ndarray, float], np.ndarray]
 
 
 def _tracker_drift(t_s: np.ndarray, p_sheet_m: np.ndarray, value_mm_per_s: float) -> np.ndarray:
-    """The drift of `tracker_drift`: (t - t0) x rate along `TRACKER_DRIFT_DIRECTION` [m]."""
-    del p_sheet_m
+    """The drift of `tracker_drift`: (t - t0) x rate along `TRACKER_DRIFT_DIRECTION` [m] (`p_sheet_m` unused)."""
     return np.outer(t_s, 1e-3 * value_mm_per_s * TRACKER_DRIFT_DIRECTION)
 
 
@@ -114,6 +114,8 @@ for _spec in (
                "real tool tip further along the tool axis than nominal", 0.05, key_suffix="mm", simulated=True),
     EffectSpec("sheet_springback", "-", 0.0, (0.0, 0.99), "sheet",
                "fraction of the formed depth recovered after unclamping", 0.01, "fraction", "ratio"),
+    EffectSpec("frame_compliance", "mm/kN", 0.0, (0.0, 5.0), "sheet", "the clamping frame gives along the sheet's "
+               "normal by c x the axial force", 0.02, key_suffix="mm_per_kn", simulated=True),
 ):
     EFFECTS.register(_spec)
 
@@ -206,9 +208,8 @@ class Effects:
         return Effects(self.values, self.lost_motion_takeup_m, instruments, self.gear_play_rad)
 
     def composed(self, increments: Mapping[str, Any]) -> Effects:
-        """These effects with fitted increments joined by each effect's `compose` rule; keys `instruments.FIELD`
-        add to the instruments' calibration (`Instruments.plus`), `GEAR_PLAY` (one value per arm joint [rad]) to the
-        gear play."""
+        """These effects with fitted increments joined by each effect's `compose` rule; keys `instruments.FIELD` add
+        to the instruments' calibration (`Instruments.plus`), `GEAR_PLAY` (per arm joint [rad]) to the gear play."""
         values = dict(self.values)
         inst = {k.removeprefix(INSTRUMENTS): v for k, v in increments.items() if k.startswith(INSTRUMENTS)}
         play = self.gear_play_rad
@@ -231,8 +232,7 @@ class Effects:
                        play)
 
     def simulated(self) -> Effects:
-        """The effects that change the twin's simulation (`EffectSpec.simulated`), the others (and the
-        instruments) off; the gear play kept."""
+        """The effects that change the twin's simulation (`EffectSpec.simulated`), the others off; gear play kept."""
         return Effects({n: v for n, v in self.values.items() if EFFECTS[n].simulated}, self.lost_motion_takeup_m,
                        gear_play_rad=self.gear_play_rad)
 

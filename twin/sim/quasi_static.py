@@ -34,6 +34,7 @@ from twin.sim.compiled.work import tip_gains
 from twin.sim.equilibrium import EquilibriumSolver
 from twin.sim.ft_sensor import flange_sensor_forces
 from twin.sim.gear_play import gear_play_references
+from twin.sim.giving_frame import with_frame
 from twin.sim.python_loop import python_loop
 from twin.sim.result import LoopOutput, SimResult
 
@@ -52,10 +53,9 @@ class Twin:
 
     The robot model carries the spec's declared tool (`twin.robot.tool`) and robot-side effects
     (`twin.robot.model.build_model`); the controller's kinematics (IK) use the nominal robot with that tool. The
-    force field is the process's force model (`twin.process.force.registry`) fitted to the FE history, scaled by
-    the `force_scale` effect (the sheet's penetration sensitivity, a property of the sheet, is not scaled); a model whose in-plane force flips with
-    the commanded direction is wrapped in the tool's sliding friction (`twin.process.force.tool_friction`). Paths, tool
-    tips and forces are in the sheet frame, placed by the spec's placement.
+    force field is the process's force model (`twin.process.force.registry`) fitted to the FE history, scaled by the
+    `force_scale` effect (not the sheet's penetration sensitivity), on a frame that gives (`twin.sim.giving_frame`)
+    and, where its in-plane force flips with the command, in the tool's sliding friction. Sheet frame throughout.
 
     Args:
         spec: The twin's specification (`TwinSpec()`: the default cell).
@@ -109,19 +109,19 @@ class Twin:
             self.joint_friction = spec.joint_friction
 
     def set_sheet_field(self, field: ForceField) -> None:
-        """Press the tool against `field` from now on, with the tool's sliding friction around it where the
-        model's in-plane force flips with the command (`ForceField.tangential_from_command`).
-
-        Args:
-            field: A sheet force field.
+        """Press the tool against `field` from now on, on the clamping frame the effects give
+        (`twin.sim.giving_frame`), with the tool's sliding friction around it where the model's in-plane force
+        flips with the command (`ForceField.tangential_from_command`).
         """
+        framed = with_frame(field, self.effects)
         wrap = field.tangential_from_command and self._reversal_m is not None
-        self.field: ForceField = SlidingFriction(field, self._reversal_m) if wrap else field  # type: ignore[arg-type]
+        self.field: ForceField = SlidingFriction(framed, self._reversal_m) if wrap else framed  # type: ignore[arg-type]
+        self._sheet = field
 
     @property
     def sheet_field(self) -> ForceField:
-        """The sheet's force field itself (`field` without the tool's sliding friction around it)."""
-        return self.field.inner if isinstance(self.field, SlidingFriction) else self.field
+        """The sheet's force field itself (`field` without the frame and the tool's sliding friction around it)."""
+        return self._sheet
 
     @property
     def joint_friction(self) -> np.ndarray:

@@ -216,3 +216,17 @@ def build_context(run: Run, twin: Twin, sim: SimResult, effects: Effects) -> Con
         run, effects, twin, sim, pred, x_prof, sim.tip_gain, compliance, stiffness, jac, axis_all, level,
         force_cmd, joint_sign,
     )
+
+
+def replay_streams(ctx: Context, effects: Effects) -> dict[str, np.ndarray]:
+    """What the twin of `ctx`, replayed with `effects` instead, predicts of the run's streams (`Context.pred`'s
+    keys): a new simulation for a change the linearisation does not hold."""
+    twin = ctx.twin.spec.replace(effects=effects.simulated()).build()
+    sim, run = twin.simulate(ctx.sim.t_s, ctx.sim.p_cmd_sheet_m, q_ik=ctx.sim.q_ik), ctx.run
+    out = {"position": predict_tracker(sim, run.tracker.t_s, effects)}
+    if run.forces is not None:
+        out["force"] = predict_forces(twin, sim, run.forces.t_s, effects)
+    if run.part_profile is not None:
+        x_pred, z_pred = predict_part_profile(twin, sim, effects)
+        out["profile"] = np.interp(ctx.profile_x_m, x_pred, z_pred)
+    return out

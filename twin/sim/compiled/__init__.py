@@ -30,11 +30,13 @@ from twin.sim.compiled.field import FieldArrays, field_arrays, idle_field_arrays
 from twin.sim.compiled.isf import IsfArrays, idle_isf_arrays, isf_arrays, write_back
 from twin.sim.compiled.loop import replay_loop
 from twin.sim.compiled.work import work_arrays
+from twin.sim.giving_frame import GivingFrame
 from twin.sim.result import LoopOutput
 
 #: The numba kernel modules (their sources together key the kernel cache).
 KERNEL_SOURCES = (
-    "chain.py", "field.py", "isf.py", "isf_map.py", "learned.py", "loop.py", "online.py", "rigid.py", "work.py",
+    "chain.py", "field.py", "isf.py", "isf_map.py", "learned.py", "loop.py", "online.py", "rigid.py", "sheet.py",
+    "work.py",
 )
 
 
@@ -115,7 +117,7 @@ def compiled_replay(
     Args:
         model, tcp_site: The twin's model (its current springs and `dof_frictionloss`) and its tool site's id.
         field: The twin's field, reset: a model declaring the kernel `table` (optionally inside `SlidingFriction`)
-            or `isf`.
+            or `isf`, either on a `GivingFrame` (its compliance runs in the kernel, `twin.sim.compiled.sheet`).
         q_nominal: Unloaded poses (all joints) [rad], shape (n, nv).
         passes, dirs: Pass (1..N of the field's history) and direction (+1/-1) per sample.
         origin, R_base_sheet: The sheet frame in the base [m] (None: the base axes).
@@ -130,6 +132,8 @@ def compiled_replay(
     """
     friction = isinstance(field, SlidingFriction)
     inner = field.inner if isinstance(field, SlidingFriction) else field
+    frame = inner.compliance if isinstance(inner, GivingFrame) else 0.0  # the clamping frame's, in the kernel
+    inner = inner.inner if isinstance(inner, GivingFrame) else inner
     n, nv = q_nominal.shape
     passes = np.asarray(passes, dtype=np.int64)
     kernel = _kernel_arrays(inner, friction, passes, n)
@@ -149,7 +153,7 @@ def compiled_replay(
         np.asarray(dirs, dtype=np.int64), np.asarray(k_diag, dtype=float),
         np.ascontiguousarray(h_const, dtype=float), model.dof_frictionloss.copy(), bool(predict_active_set),
         not field.extrapolated_start,
-        friction, float(gain), qpos, p_out, p_unloaded, f_out, iters, jac, stiffness, state, work_arrays(nv),
+        friction, float(gain), float(frame), qpos, p_out, p_unloaded, f_out, iters, jac, stiffness, state, work_arrays(nv),
     )
     if isf is not None and isinstance(inner, IsfForceField):
         write_back(inner, isf)

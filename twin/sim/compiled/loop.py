@@ -23,8 +23,9 @@ import numpy as np
 from numba import njit
 
 from twin.sim.compiled.chain import ChainArrays, chain_eval
-from twin.sim.compiled.field import FieldArrays, field_advance, field_eval, field_force
+from twin.sim.compiled.field import FieldArrays, field_advance, field_force
 from twin.sim.compiled.isf import IsfArrays, isf_advance_from, isf_eval
+from twin.sim.compiled.sheet import frame_give, sheet
 from twin.sim.compiled.work import Work, solve_linear
 
 NEWTON_TOL_RAD = 1e-7
@@ -34,39 +35,9 @@ FRICTION_MAX_ROUNDS = 6
 
 
 @njit(cache=True)
-def _sheet(
-    F: FieldArrays, M: IsfArrays, kind: int, cur: int, mode: int, slip: float, x_prev: float, gain: float,
-    p: np.ndarray, pass_index: int, direction: int, f: np.ndarray, S: np.ndarray,
-) -> float:
-    """The sheet's force `f` and ∂f/∂p `S` at the tip `p`: the ISF model (`kind` 1), or the table field (0)
-    sliding along `direction` (mode 0) or in the stick band (mode 1).
-
-    Returns:
-        The sticking part of dFx/dx [N/m] (0 when sliding).
-    """
-    if kind == 1:
-        isf_eval(M, p[0], p[1], p[2], f, S)
-        return 0.0
-    x, z = p[0], p[2]
-    if mode == 0:
-        fx, fz, fx_x, fx_z, fz_x, fz_z = field_eval(F, cur, x, z, pass_index, direction)
-        stick = 0.0
-        s = 1.0
-    else:
-        fx, fz, fx_x, fx_z, fz_x, fz_z = field_eval(F, cur, x, z, pass_index, np.int64(1))
-        s = slip + gain * (x - x_prev)
-        stick = fx * gain
-        fx, fx_x, fx_z = s * fx, s * fx_x + stick, s * fx_z
-    f[0], f[1], f[2] = fx, 0.0, fz
-    S[:] = 0.0
-    S[0, 0], S[0, 2], S[2, 0], S[2, 2] = fx_x, fx_z, fz_x, fz_z
-    return stick
-
-
-@njit(cache=True)
 def _newton(
     C: ChainArrays, F: FieldArrays, M: IsfArrays, kind: int, cur: int, mode: int, slip: float, x_prev: float, gain: float,
-    pass_index: int, direction: int, q: np.ndarray, q_ref: np.ndarray, k_diag: np.ndarray,
+    frame: float, pass_index: int, direction: int, q: np.ndarray, q_ref: np.ndarray, k_diag: np.ndarray,
     h_const: np.ndarray, use_stick: bool, stuck: np.ndarray, e_stuck: np.ndarray, tau_fr: np.ndarray,
     choose: bool, tau_f: np.ndarray, jac: np.ndarray, S: np.ndarray, W: Work,
 ) -> tuple:
@@ -84,7 +55,7 @@ def _newton(
     it = 0
     for it in range(1, NEWTON_MAX_ITER + 1):
         chain_eval(C, q, p, jac, g)
-        stick = _sheet(F, M, kind, cur, mode, slip, x_prev, gain, p, pass_index, direction, f, S)
+        stick = sheet(F, M, kind, cur, mode, slip, x_prev, gain, frame, p, pass_index, direction, f, S)
         for j in range(nv):
             jtf[j] = jac[0, j] * f[0] + jac[1, j] * f[1] + jac[2, j] * f[2]
             for row in range(3):
@@ -128,7 +99,7 @@ def _newton(
 @njit(cache=True)
 def _equilibrium(
     C: ChainArrays, F: FieldArrays, M: IsfArrays, kind: int, cur: int, mode: int, slip: float, x_prev: float, gain: float,
-    pass_index: int, direction: int, q: np.ndarray, q_ref: np.ndarray, k_diag: np.ndarray,
+    frame: float, pass_index: int, direction: int, q: np.ndarray, q_ref: np.ndarray, k_diag: np.ndarray,
     h_const: np.ndarray, e_prev: np.ndarray, tau_f: np.ndarray, predict: bool, hold: bool, jac: np.ndarray,
     S: np.ndarray, W: Work,
 ) -> tuple:
@@ -143,7 +114,7 @@ def _equilibrium(
             frictional = True
     NO = np.bool_(False)
     if not frictional:
-        return _newton(C, F, M, kind, cur, mode, slip, x_prev, gain, pass_index, direction, q, q_ref, k_diag,
+        return _newton(C, F, M, kind, cur, mode, slip, x_prev, gain, frame, pass_index, direction, q, q_ref, k_diag,
                        h_const, NO, stuck, e_prev, tau_fr, NO, tau_f, jac, S, W)
     if predict and hold:
         for j in range(nv):
@@ -154,7 +125,7 @@ def _equilibrium(
     total = 0
     stick = 0.0
     for _ in range(FRICTION_MAX_ROUNDS):
-        k, status, stick = _newton(C, F, M, kind, cur, mode, slip, x_prev, gain, pass_index, direction, q, q_ref,
+        k, status, stick = _newton(C, F, M, kind, cur, mode, slip, x_prev, gain, frame, pass_index, direction, q, q_ref,
                                    k_diag, h_const, YES, stuck, e_prev, tau_fr, choose, tau_f, jac, S, W)
         total += k
         if status != 0:
@@ -182,7 +153,7 @@ def _equilibrium(
 def replay_loop(
     C: ChainArrays, F: FieldArrays, M: IsfArrays, kind: int, q_nominal: np.ndarray, passes: np.ndarray, dirs: np.ndarray,
     k_diag: np.ndarray, h_const: np.ndarray, tau_f: np.ndarray, predict: bool, hold: bool,
-    friction: bool, gain: float, qpos_out: np.ndarray, p_out: np.ndarray, p_unloaded: np.ndarray,
+    friction: bool, gain: float, frame: float, qpos_out: np.ndarray, p_out: np.ndarray, p_unloaded: np.ndarray,
     f_out: np.ndarray, iters: np.ndarray, jac_out: np.ndarray, s_out: np.ndarray, state: np.ndarray, W: Work,
 ) -> tuple:
     """`Twin.simulate`'s per-sample loop over every sample, outputs in the `*_out` arrays.
@@ -229,7 +200,7 @@ def replay_loop(
         stick = 0.0
         if not friction or i == 0:
             q_try[:] = q
-            k, status, stick = _equilibrium(C, F, M, kind, cur, ZERO, slip, x_prev, gain, pi, di, q_try, q_ref, k_diag,
+            k, status, stick = _equilibrium(C, F, M, kind, cur, ZERO, slip, x_prev, gain, frame, pi, di, q_try, q_ref, k_diag,
                                             h_const, e_prev, tau_f, predict, hold, jac, S, W)
             total += k
             if status != 0:
@@ -244,7 +215,7 @@ def replay_loop(
                 mode = ONE if regime == 0.0 else ZERO
                 sign = di if attempt == 0 else -di
                 q_try[:] = q
-                k, status, stick = _equilibrium(C, F, M, kind, cur, mode, slip, x_prev, gain, pi, sign, q_try, q_ref,
+                k, status, stick = _equilibrium(C, F, M, kind, cur, mode, slip, x_prev, gain, frame, pi, sign, q_try, q_ref,
                                                 k_diag, h_const, e_prev, tau_f, predict, hold, jac, S, W)
                 total += k
                 if status != 0:
@@ -255,8 +226,8 @@ def replay_loop(
                 u = slip + gain * (p[0] - x_prev)
                 if (regime == 0.0 and -1.0 <= u <= 1.0) or (regime != 0.0 and u * regime >= 1.0):
                     break
-        x, z = p[0], p[2]
-        # the force at the equilibrium (not in the band: the slip state clipped)
+        # the force at the equilibrium (not in the band: the slip state clipped), the sheet met where the frame gave
+        x, z = p[0], p[2] + frame_give(F, M, kind, cur, ZERO, slip, x_prev, gain, frame, p, pi, ONE, f_eq, S_eq)
         if kind == 1:
             vx, vy = isf_eval(M, x, p[1], z, f_eq, S_eq)
             fx, fy, fz = f_eq[0], f_eq[1], f_eq[2]

@@ -14,7 +14,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from twin.analysis.discrepancy.context import Context
+from twin.analysis.discrepancy.context import Context, replay_streams
 from twin.analysis.discrepancy.families.base import Delta, Family, register
 from twin.analysis.discrepancy.families.sensors import negligible
 from twin.sim.effects import GEAR_PLAY
@@ -25,6 +25,7 @@ from twin.sim.gear_play import load_flank
 # refinement of the search then fits the lab form exactly and keeps it only if it fits better
 LAB_MATCH = 0.15
 CLAMP_DECAYS_M = (0.003, 0.008)  # decay lengths of the force rise near the stroke ends (sec. 2.3.1)
+FRAME_STEP = 0.2  # the frame compliance `FrameCompliance` replays with [mm/kN]
 
 
 ANSWER = ("sheet_answer_ratio",)  # last parameter of every robot family: w in [0, 1]
@@ -183,6 +184,49 @@ class ToolLengthOffset(Family):
 
     def to_effect(self, theta: np.ndarray, covariance: np.ndarray | None) -> float | None:
         """The effect `tool_length_offset` [mm]."""
+        del covariance
+        return float(theta[0])
+
+
+@register
+class FrameCompliance(Family):
+    """The clamping frame gives along the sheet's normal by c f_z (`twin.sim.giving_frame`): a spring in series with
+    the sheet. The tip sits c f_z higher against the yielded sheet, which answers it (less force, a shallower formed
+    depth); the tracker sees the tip that much lower than that, where the frame let it go.
+
+    Its change is the sheet's answer to a shallower depth (without it only the profile would move), so it has no
+    `sheet_answer_ratio`, and it is taken from a replay with the frame (linear in c): the context's local sheet
+    stiffness S does not hold it, since the twin's sheet pushes with the depth itself (a groove 0.3 mm shallower
+    by the frame loses 3x the force S gives).
+    """
+
+    name = "frame_compliance"
+    parameters = ("compliance_mm_per_kn",)
+    neutral = (0.0,)
+    bounds = ((0.0,), (5.0,))
+    scale = (0.05,)
+    description = "the clamping frame gives along the sheet's normal by c x the axial force"
+    effect = "frame_compliance"
+
+    def __init__(self) -> None:
+        self._last: tuple[Context, dict[str, np.ndarray]] | None = None
+
+    def delta(self, ctx: Context, theta: np.ndarray) -> Delta:
+        """c / FRAME_STEP times the change a replay with the frame at FRAME_STEP makes (cached per context)."""
+        if self._last is None or self._last[0] is not ctx:
+            effects = ctx.effects.with_value(self.name, ctx.effects.get(self.name) + FRAME_STEP)
+            self._last = (ctx, {k: v - ctx.pred[k] for k, v in replay_streams(ctx, effects).items()})
+        change, k = self._last[1], float(theta[0]) / FRAME_STEP
+        return Delta(**{s: k * v for s, v in change.items()})
+
+    def start(self, ctx: Context, residual: dict[str, np.ndarray]) -> np.ndarray:
+        """One typical size in from the bound c = 0 (its neutral): `least_squares`' trust region starts on the bound
+        with a step scaled by the square root of the distance to it, and stops there."""
+        del ctx, residual
+        return np.asarray(self.scale, dtype=float)
+
+    def to_effect(self, theta: np.ndarray, covariance: np.ndarray | None) -> float | None:
+        """The effect `frame_compliance` [mm/kN]."""
         del covariance
         return float(theta[0])
 
