@@ -11,15 +11,17 @@ Every change is written here, never through the library's effects or families:
   re-registered, drifting or re-clocked tracker), each in this module's own form (a finite rotation, a resampled
   clock);
 * plant variants this module builds with the plant's knobs (`--set`), which the twin never reads: a gear's lost
-  motion; or a program executed off by a move of the robot on its base, the run's command left as written.
+  motion; or a program executed off by a move of the robot on its base, the run's command left as written; or
+  the plant's sheet clamped in a frame that gives (`_GivingFrame`, this module's own lagged spring).
 
 The thresholds are the issue's (named right, the held-out excess over the floor at most half), fixed before any
-run. Four sets: `development` (a TX200 groove and a KR210 cone, and an IRB 6640 pyramid and a TX200 cone with
+run. Six sets: `development` (a TX200 groove and a KR210 cone, and an IRB 6640 pyramid and a TX200 cone with
 other forms and sizes: the first held-out set, run once at 8 / 20, then developed on; the library was changed while
 looking at them), `held-out` (an IRB 6640 cone and a KR210 pyramid, other forms and sizes again: written before
 any of its runs, run once; run again with the library `held-out-2` was written for) and `held-out-2` (a KR210 groove and a
 TX200 pyramid, written before any of its runs, run once; then again after a fix) and `held-out-3` (an IRB 6640
-groove and a TX200 variable-wall-angle cone, written before any of its runs, run once). `python -m tests.plant_changes --set held-out --out
+groove and a TX200 variable-wall-angle cone, written before any of its runs, run once), `held-out-4` and `held-out-5`
+(a clamping frame that gives on four cells, written before any of its runs, run once). `python -m tests.plant_changes --set held-out --out
 changes.json` runs a set (`make test-slow` checks all).
 """
 

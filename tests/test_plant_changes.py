@@ -23,6 +23,7 @@ from plant_changes import (
     HELD_OUT_2,
     HELD_OUT_3,
     HELD_OUT_4,
+    HELD_OUT_5,
     NEXT_SEED,
     SETS,
     learn_cell,
@@ -102,7 +103,7 @@ def test_the_plant_change_sets_are_as_the_docs_show(both_sets: dict[str, list[di
     for rows in both_sets.values():
         assert markdown(rows) in block, markdown(rows)
     for which, changes in (("held-out", HELD_OUT), ("held-out-2", HELD_OUT_2), ("held-out-3", HELD_OUT_3),
-                            ("held-out-4", HELD_OUT_4)):
+                            ("held-out-4", HELD_OUT_4), ("held-out-5", HELD_OUT_5)):
         rows = both_sets[which]
         assert {r["change"] for r in rows} == {c.name for c in changes}
         assert len({r["cell"].split("-")[0] for r in rows}) >= 2  # two robots, two parts
@@ -110,7 +111,12 @@ def test_the_plant_change_sets_are_as_the_docs_show(both_sets: dict[str, list[di
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("which", ["held-out", "held-out-2", "held-out-3", "held-out-4"])
+@pytest.mark.parametrize("which", ["held-out", "held-out-2", "held-out-3", "held-out-4", pytest.param(
+    "held-out-5", marks=pytest.mark.xfail(strict=True, raises=AssertionError, reason=(
+        "a clamping frame that gives is named `frame_compliance` with its size on a groove, whose part scan shows the "
+        "shallower part; on a cone or a pyramid its tip and forces are a softer sheet's (`force_scale`, the frame "
+        "listed as ambiguous), and a frame the next run does not show above the floor is named all the same"))),
+])
 def test_the_held_out_sets_meet_the_issue_goal(both_sets: dict[str, list[dict[str, Any]]], which: str) -> None:
     """With the library as it is: the fourth set met it when first run; the first three met it only when run again,
     after the fixes their first runs showed, and are no longer held out (docs/discrepancy.md)."""

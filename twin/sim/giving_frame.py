@@ -20,30 +20,27 @@ this cell; a frame of aluminium profiles, tenths of a millimetre.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
-from twin.process.force.base import FieldState, ForceField
+from twin.process.force.base import FieldState, FieldWrapper, ForceField
 from twin.sim.effects import Effects
-
-if TYPE_CHECKING:
-    from twin.process.part.heightmap import HeightMap
 
 #: Newton on the frame's give: at most this many steps, stopping below TOLERANCE_M.
 ITERATIONS = 30
 TOLERANCE_M = 1e-10
 
 
-class GivingFrame(ForceField):
+class GivingFrame(FieldWrapper):
     """A sheet force field on a frame that yields by c f_z along the sheet's normal (module docstring).
 
     Args:
         field: The sheet's own field (in the frame's coordinates).
         compliance_m_per_n: The frame's compliance c along the sheet's normal [m/N] (> 0).
 
-    Its formed surface, tool radius, unloading stiffness and declared traits are the wrapped field's; it runs in the
-    twin's Python loop (no compiled kernel of its own).
+    Its formed surface (in the frame's coordinates), tool radius, unloading stiffness and declared traits are the
+    wrapped field's; the compiled loop solves it in its kernel (`twin.sim.compiled.sheet`).
     """
 
     def __init__(self, field: ForceField, compliance_m_per_n: float) -> None:
@@ -103,21 +100,6 @@ class GivingFrame(ForceField):
         """The wrapped field's reset; the frame at rest."""
         self.inner.reset()
         self._delta = 0.0
-
-    @property
-    def x_grid_m(self) -> np.ndarray:
-        """The wrapped field's profile abscissae [m]."""
-        return self.inner.x_grid_m
-
-    @property
-    def formed_z_m(self) -> np.ndarray:
-        """The wrapped field's formed profile, in the frame's coordinates [m]."""
-        return self.inner.formed_z_m
-
-    @property
-    def height_map(self) -> HeightMap | None:
-        """The wrapped field's height map, if any."""
-        return self.inner.height_map
 
     @property
     def state(self) -> FieldState:

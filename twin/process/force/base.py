@@ -132,3 +132,25 @@ class ForceField(ABC):
             out[i] = self.force(p, passes[i], dirs[i])
             self.advance(p, passes[i])
         return out
+
+
+class FieldWrapper(ForceField):
+    """A force field around another one, `inner` (the tool's sliding friction, a clamping frame that gives): its
+    profile, formed surface and height map are the inner field's."""
+
+    inner: ForceField
+
+    @property
+    def x_grid_m(self) -> np.ndarray:
+        """The wrapped field's profile abscissae [m]."""
+        return self.inner.x_grid_m
+
+    @property
+    def formed_z_m(self) -> np.ndarray:
+        """The wrapped field's formed profile [m]."""
+        return self.inner.formed_z_m
+
+    @property
+    def height_map(self) -> HeightMap | None:
+        """The wrapped field's height map, if any."""
+        return self.inner.height_map

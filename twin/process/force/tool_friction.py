@@ -32,15 +32,12 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 from functools import partial
-from typing import TYPE_CHECKING, TypeVar
+from typing import TypeVar
 
 import numpy as np
 
 from twin.errors import InputError
-from twin.process.force.base import FieldState, ForceField
-
-if TYPE_CHECKING:
-    from twin.process.part.heightmap import HeightMap
+from twin.process.force.base import FieldState, FieldWrapper, ForceField
 
 T = TypeVar("T")
 #: Tip position in the sheet frame [m] -> (force of the sheet on the tool [N], its gradient [N/m]).
@@ -65,7 +62,7 @@ class SlipState(FieldState):
     first_direction: int
 
 
-class SlidingFriction(ForceField):
+class SlidingFriction(FieldWrapper):
     """A sheet force field whose tangential force follows the tool's real travel along x.
 
     Args:
@@ -89,21 +86,6 @@ class SlidingFriction(ForceField):
         #: [N/m]: what a command step large enough to make the tool slide does not meet.
         self.last_stick_stiffness = 0.0
         self._in_band = False  # True while a sample is solved inside the band: the law unclipped
-
-    @property
-    def x_grid_m(self) -> np.ndarray:
-        """The wrapped field's profile abscissae [m]."""
-        return self.inner.x_grid_m
-
-    @property
-    def formed_z_m(self) -> np.ndarray:
-        """The wrapped field's formed profile [m]."""
-        return self.inner.formed_z_m
-
-    @property
-    def height_map(self) -> HeightMap | None:
-        """The wrapped field's height map, if any."""
-        return self.inner.height_map
 
     def reset(self) -> None:
         """The wrapped field's reset; the slip state starts with the first commanded direction."""
