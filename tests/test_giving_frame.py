@@ -94,3 +94,21 @@ def test_a_frame_that_gives_lowers_the_groove_and_its_forces_in_the_twin() -> No
     assert np.median(framed.f_sheet_n[loaded, 2] / bare.f_sheet_n[loaded, 2]) < 0.98
     assert framed.formed_z_m.min() > bare.formed_z_m.min() + 1e-4
     assert np.mean(framed.p_sheet_m[loaded, 2] - bare.p_sheet_m[loaded, 2]) < 0.0
+
+
+def test_the_twins_compensation_forms_the_part_not_the_tip_on_a_frame_that_gives() -> None:
+    """On a frame of 0.5 mm/kN the compensated command puts the tip where the yielded sheet meets it on the ideal
+    path (the part's depth), and the tip the tracker sees lies c f_z deeper."""
+    from twin.analysis.compensate import compensate_twin
+
+    path = groove_path()
+    keep = path.pass_index <= 2
+    t_s, p_id = path.t_s[keep], path.p_sheet_m[keep]
+    twin = TwinSpec(effects=Effects({"frame_compliance": 0.5})).build()
+    comp = compensate_twin(t_s, p_id, twin, tol_m=2e-5)
+    sim = twin.simulate(t_s, comp.p_cmd_sheet_m)
+    give = 0.5e-6 * sim.f_sheet_n[:, 2]
+    loaded = sim.f_sheet_n[:, 2] > 200.0
+    part = sim.p_sheet_m[:, 2] + give
+    assert np.sqrt(np.mean((part[loaded] - p_id[loaded, 2]) ** 2)) < 5e-5
+    assert np.mean(sim.p_sheet_m[loaded, 2] - p_id[loaded, 2]) < -1e-4

@@ -56,7 +56,8 @@ class Compensation:
         p_ideal_sheet_m: Ideal path U_ID [m], shape (n, 3).
         p_cmd_sheet_m: Compensated command U_ALG [m], shape (n, 3).
         iterations: Twin iterations (0 for the formula).
-        predicted_residual_m: Predicted tool tip minus U_ID with the twin used [m], shape (n, 3), or None.
+        predicted_residual_m: Predicted tool tip (where the sheet meets it) minus U_ID with the twin used [m],
+            shape (n, 3), or None.
         history_m: RMS residual after each twin iteration [m].
         converged: True when the twin iteration's rms residual reached its tolerance; False when it stalled
             above it and returned its best command (the remainder is in `predicted_residual_m`, typically a few
@@ -128,7 +129,9 @@ def compensate_twin(
     progress: Callable[[int, float], None] | None = None,
     memory: int = ANDERSON_MEMORY,
 ) -> Compensation:
-    """Iterate the command with the twin until its simulated tool tip follows U_ID.
+    """Iterate the command with the twin until its simulated tool tip follows U_ID where the sheet meets it: on a
+    clamping frame that gives (`twin.sim.giving_frame`), c f_z above the tip the tracker sees, so that the part is
+    formed to U_ID (the tracker then sees the tip that much deeper).
 
     Args:
         t_s, p_ideal_sheet_m: Sample times [s] and the ideal path U_ID [m], shape (n, 3).
@@ -158,6 +161,7 @@ def compensate_twin(
     for iteration in range(1, max_iter + 1):
         sim = twin.simulate(t, cmd, q_ik=q_ik)
         residual = sim.p_sheet_m - p_id
+        residual[:, 2] += 1e-6 * twin.effects.get("frame_compliance") * sim.f_sheet_n[:, 2]  # the frame's give
         history.append(float(np.sqrt(np.mean(np.sum(residual**2, axis=1)))))
         if progress is not None:
             progress(iteration, history[-1])
