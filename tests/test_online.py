@@ -55,6 +55,18 @@ def test_a_steady_force_is_corrected_by_the_twins_compliance(setup) -> None:
     assert status[-1] == TRACKING and 1.0 < 1e3 * np.linalg.norm(out[-1]) < 5.0
 
 
+def test_on_a_frame_that_gives_the_correction_takes_the_frames_give_too(setup) -> None:
+    """A model with a clamping frame of 0.5 mm/kN (`twin.sim.giving_frame`): the frame is a spring in series along
+    the sheet's normal, so the steady correction is -(C + c e_z e_z^T) F: 0.9 mm deeper at the 1.8 kN here."""
+    spec, q, C = setup
+    from twin.sim.effects import Effects
+
+    comp = OnlineCompensator(spec.replace(effects=Effects({"frame_compliance": 0.5})), OnlineSettings(max_rate_mm_s=1000.0))
+    n = 500
+    out, _ = _run(comp, q, np.tile(F_N, (n, 1)), 0.004 * np.arange(n), 0.004)
+    np.testing.assert_allclose(out[-1], -C @ F_N - np.array([0.0, 0.0, 0.5e-6 * F_N[2]]), atol=1e-9)
+
+
 def test_no_sensor_no_correction(setup) -> None:
     spec, q, _ = setup
     comp = OnlineCompensator(spec)

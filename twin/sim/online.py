@@ -3,7 +3,8 @@ of the tool path out, from the twin's model of the robot.
 
 A cell's F/T sensor measures the sheet's force as it happens; the twin knows what that force does to the tool tip:
 the deflection C(q) F with C(q) = J(q) K_q^-1 J(q)^T, the translational Jacobian of the tool tip at the robot's
-current joints and the twin's joint stiffness (a `learn`ed model's where given), and the lag of its joint friction,
+current joints and the twin's joint stiffness (a `learn`ed model's where given), plus constant compliances in series
+(the tool's own bending, a clamping frame's give along the sheet's normal: `twin.sim.giving_frame`), and the lag of its joint friction,
 -sum_j J_j tanh(qdot_j / w0) tau_f,j / K_j (each joint's Coulomb friction tau_f against its motion, its speed from
 the joints of successive cycles). The compensator commands the tip the other way and does what a real signal
 needs:
@@ -98,6 +99,7 @@ class OnlineCompensator:
         model = build_model(twin.robot, tool=None if spec.tool is None else spec.tool.rigid)
         c_base = bending_compliance_at(twin.model, twin.robot, twin.kinematics.q_home)
         self._c_tool = np.ascontiguousarray(twin.R_base_sheet.T @ c_base @ twin.R_base_sheet)
+        self._c_tool[2, 2] += 1e-6 * spec.effects.get("frame_compliance")  # a frame that gives: in series too
         if model.nv != twin.robot.dof:
             raise InputError(f"online compensation needs a plain {twin.robot.dof}-joint arm; {twin.robot.name} "
                              f"compiles to {model.nv} dofs")
