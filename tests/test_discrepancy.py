@@ -457,6 +457,12 @@ def test_two_families_explaining_the_same_thing_are_reported_ambiguous(
     other = ({"tracker_drift", "tracker_drift_copy"} - set(result.found)).pop()
     assert result.named[0].ambiguous_with == (other,), info
     assert result_summary(result)["ambiguities"] == [{"named": result.found[0], "ambiguous_with": [other]}]
+    from pathlib import Path
+
+    from twin.apps.tasks.discrepancy import DiscrepancyReport
+
+    said = DiscrepancyReport(Path("run"), TwinSpec(), result).lines()
+    assert f"  {result.found[0]} is not told apart from {other} on this run" in "\n".join(said), said
 
 
 # ---- slow grid: every effect over magnitudes from barely above the noise to large, three seeds each ----

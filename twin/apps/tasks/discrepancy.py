@@ -130,6 +130,9 @@ class DiscrepancyReport(Report):
             f"{after['force_rms_n']:.1f} N (noise {result.noise['position_mm']:.3f} mm, "
             f"{result.noise['force_n']:.1f} N per axis); left: {result.remainder['words']}"
         ]
+        lines += [f"  {n.reported_name} is not told apart from {', '.join(n.ambiguous_with)} on this run (each "
+                  "explains the gap about as well out of sample): a measurement the others do not predict alike tells"
+                  for n in result.named if n.ambiguous_with]
         if result.floor:
             lines.append("  judged above the floor the learned cell leaves on its own clean runs ("
                          + ", ".join(f"{s} {v:.3g}" for s, v in result.floor["excess_per_element"].items())
