@@ -196,8 +196,7 @@ def test_a_clamping_frame_that_gives_is_named_and_carried(groove_cell: Path) -> 
     """A change written here, as a plant variant (`plant_changes._GivingFrame`: the plant's sheet in a frame of
     0.3 mm/kN with its own lag, which the library's `twin.sim.giving_frame` is not): named `frame_compliance`, its
     size within a quarter (the twin's learned sheet is not the plant's: its depth answers the frame's give by its
-    own law; 0.26 mm/kN once refined over replays, docs/discrepancy.md), and the next run's excess over the floor at
-    least halved."""
+    own law), and the next run's excess over the floor at least halved."""
     from plant_changes import Change
 
     row = run_case("tx200-groove", Change("frame_gives", ("frame_compliance",), what="the clamping frame gives 0.3 "

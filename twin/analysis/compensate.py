@@ -31,6 +31,7 @@ import numpy as np
 from twin.analysis.anderson import Anderson
 from twin.errors import CompensationError, IdentificationError, InputError
 from twin.process.toolpath.groove import label_passes
+from twin.sim.giving_frame import frame_compliance_m_per_n
 from twin.sim.spec import TwinSpec
 
 if TYPE_CHECKING:  # the twin (MuJoCo, numba) loads when a spec is built
@@ -161,7 +162,7 @@ def compensate_twin(
     for iteration in range(1, max_iter + 1):
         sim = twin.simulate(t, cmd, q_ik=q_ik)
         residual = sim.p_sheet_m - p_id
-        residual[:, 2] += 1e-6 * twin.effects.get("frame_compliance") * sim.f_sheet_n[:, 2]  # the frame's give
+        residual[:, 2] += frame_compliance_m_per_n(twin.effects) * sim.f_sheet_n[:, 2]  # the frame's give
         history.append(float(np.sqrt(np.mean(np.sum(residual**2, axis=1)))))
         if progress is not None:
             progress(iteration, history[-1])

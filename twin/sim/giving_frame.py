@@ -52,7 +52,6 @@ class GivingFrame(FieldWrapper):
         self.tangential_from_command = field.tangential_from_command  # type: ignore[misc]
         self.steps_between_passes = field.steps_between_passes  # type: ignore[misc]
         self.extrapolated_start = field.extrapolated_start  # type: ignore[misc]
-        self._delta = 0.0  # the frame's give at the last committed tip [m]: where Newton starts
 
     def __getattr__(self, name: str) -> Any:
         """The wrapped field's attributes (its constants, `params`, `map`), read through the frame."""
@@ -61,8 +60,9 @@ class GivingFrame(FieldWrapper):
         return getattr(self.inner, name)
 
     def give(self, p_sheet_m: np.ndarray, pass_index: int, direction: int) -> tuple[float, np.ndarray, np.ndarray]:
-        """The frame's give delta [m] at tip `p_sheet_m`, and the sheet's force [N] and gradient [N/m] there; pure."""
-        c, delta = self.compliance, self._delta
+        """The frame's give delta [m] at tip `p_sheet_m`, and the sheet's force [N] and gradient [N/m] there; pure
+        (Newton from delta = 0, as the compiled kernel)."""
+        c, delta = self.compliance, 0.0
         shifted = np.array(p_sheet_m, dtype=float)
         z0 = shifted[2]
         for _ in range(ITERATIONS):
@@ -91,15 +91,13 @@ class GivingFrame(FieldWrapper):
     def advance(self, p_sheet_m: np.ndarray, pass_index: int | None = None) -> None:
         """Commit the tip: the sheet formed where the tip met the yielded frame."""
         delta, _, _ = self.give(p_sheet_m, 1 if pass_index is None else pass_index, 1)
-        self._delta = delta
         shifted = np.array(p_sheet_m, dtype=float)
         shifted[2] += delta
         self.inner.advance(shifted, pass_index)
 
     def reset(self) -> None:
-        """The wrapped field's reset; the frame at rest."""
+        """The wrapped field's reset."""
         self.inner.reset()
-        self._delta = 0.0
 
     @property
     def state(self) -> FieldState:
@@ -111,7 +109,12 @@ class GivingFrame(FieldWrapper):
         self.inner.restore(state)
 
 
+def frame_compliance_m_per_n(effects: Effects) -> float:
+    """The effects' `frame_compliance` [mm/kN] in SI [m/N] (0: a rigid frame)."""
+    return 1e-6 * effects.get("frame_compliance")
+
+
 def with_frame(field: ForceField, effects: Effects) -> ForceField:
-    """`field` on a frame that gives by the effects' `frame_compliance` [mm/kN]; the field itself when it is 0."""
-    c = 1e-6 * effects.get("frame_compliance")
+    """`field` on a frame that gives by the effects' `frame_compliance`; the field itself when it is 0."""
+    c = frame_compliance_m_per_n(effects)
     return GivingFrame(field, c) if c > 0.0 else field

@@ -51,6 +51,7 @@ from twin.sim.compiled.online import (
     TRACKING,
     online_cycle,
 )
+from twin.sim.giving_frame import frame_compliance_m_per_n
 from twin.sim.online_settings import OnlineSettings
 from twin.sim.spec import TwinSpec
 
@@ -99,7 +100,7 @@ class OnlineCompensator:
         model = build_model(twin.robot, tool=None if spec.tool is None else spec.tool.rigid)
         c_base = bending_compliance_at(twin.model, twin.robot, twin.kinematics.q_home)
         self._c_tool = np.ascontiguousarray(twin.R_base_sheet.T @ c_base @ twin.R_base_sheet)
-        self._c_tool[2, 2] += 1e-6 * spec.effects.get("frame_compliance")  # a frame that gives: in series too
+        self._c_tool[2, 2] += frame_compliance_m_per_n(spec.effects)  # a frame that gives: in series too
         if model.nv != twin.robot.dof:
             raise InputError(f"online compensation needs a plain {twin.robot.dof}-joint arm; {twin.robot.name} "
                              f"compiles to {model.nv} dofs")

@@ -202,31 +202,31 @@ def build_context(run: Run, twin: Twin, sim: SimResult, effects: Effects) -> Con
     )[:, 0]
     jac0 = twin.kinematics.jacobian(sim.q_ik[0])[0]
     joint_sign = np.where(np.abs(jac0) > 1e-3, np.sign(jac0), 1.0)
-    pred = {"position": predict_tracker(sim, run.tracker.t_s, effects)}
-    force_cmd = np.zeros((len(sim.t_s), 3))
-    if run.forces is not None:
-        pred["force"] = predict_forces(twin, sim, run.forces.t_s, effects)
-        force_cmd = predict_forces(twin, sim, sim.t_s, effects)
-    x_prof = np.zeros(0)
-    if run.part_profile is not None:
-        x_pred, z_pred = predict_part_profile(twin, sim, effects)
-        x_prof = np.asarray(run.part_profile[0], dtype=float)
-        pred["profile"] = np.interp(x_prof, x_pred, z_pred)
+    pred = predicted_streams(run, twin, sim, effects)
+    force_cmd = np.zeros((len(sim.t_s), 3)) if run.forces is None else predict_forces(twin, sim, sim.t_s, effects)
+    x_prof = np.zeros(0) if run.part_profile is None else np.asarray(run.part_profile[0], dtype=float)
     return Context(
         run, effects, twin, sim, pred, x_prof, sim.tip_gain, compliance, stiffness, jac, axis_all, level,
         force_cmd, joint_sign,
     )
 
 
-def replay_streams(ctx: Context, effects: Effects) -> dict[str, np.ndarray]:
-    """What the twin of `ctx`, replayed with `effects` instead, predicts of the run's streams (`Context.pred`'s
-    keys): a new simulation for a change the linearisation does not hold."""
-    twin = ctx.twin.spec.replace(effects=effects.simulated()).build()
-    sim, run = twin.simulate(ctx.sim.t_s, ctx.sim.p_cmd_sheet_m, q_ik=ctx.sim.q_ik), ctx.run
+def predicted_streams(run: Run, twin: Twin, sim: SimResult, effects: Effects) -> dict[str, np.ndarray]:
+    """What the twin's simulation `sim` of `run`, with `effects`, predicts of the run's streams: `position` at the
+    tracker times [m], `force` at the sensor times [N] and `profile` at the scan's abscissae [m] (where the run has
+    them)."""
     out = {"position": predict_tracker(sim, run.tracker.t_s, effects)}
     if run.forces is not None:
         out["force"] = predict_forces(twin, sim, run.forces.t_s, effects)
     if run.part_profile is not None:
         x_pred, z_pred = predict_part_profile(twin, sim, effects)
-        out["profile"] = np.interp(ctx.profile_x_m, x_pred, z_pred)
+        out["profile"] = np.interp(np.asarray(run.part_profile[0], dtype=float), x_pred, z_pred)
     return out
+
+
+def replay_streams(ctx: Context, effects: Effects) -> dict[str, np.ndarray]:
+    """`predicted_streams` of the twin of `ctx` replayed with `effects` instead: a new simulation for a change the
+    linearisation does not hold."""
+    twin = ctx.twin.spec.replace(effects=effects.simulated()).build()
+    return predicted_streams(ctx.run, twin, twin.simulate(ctx.sim.t_s, ctx.sim.p_cmd_sheet_m, q_ik=ctx.sim.q_ik),
+                             effects)
