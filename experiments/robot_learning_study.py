@@ -8,7 +8,10 @@ moving-block bootstrap's, `twin.analysis.learn.robot`) are set against the plant
 robot-learning markers of that page (docs/learning.md; `tests/test_learn_study.py` reads it):
 
     .venv/bin/python experiments/robot_learning_study.py OUT [--cells tx200:groove,...] [--doc docs/learning.md]
-        [--plant-set link_friction_scale=0 --marker robot-learning-no-friction]
+        [--plant-set link_friction_scale=0 --marker robot-learning-no-friction] [--reuse]
+
+`--reuse` learns again from the runs an earlier call left under OUT (a run is its seed's: formed again, it is the
+same run), for a change of the learner alone.
 """
 
 from __future__ import annotations
@@ -25,15 +28,16 @@ CELLS = ("tx200:groove", "tx200:cone", "kr210:cone", "irb6640:cone")
 PARTS = {"groove": ["--shape", "groove"], "cone": ["--shape", "cone", "--top-width-mm", "60", "--depth-mm", "10"]}
 
 
-def cell_study(out: Path, cell: str, plant_set: tuple[str, ...] = ()) -> dict[str, Any]:
+def cell_study(out: Path, cell: str, plant_set: tuple[str, ...] = (), reuse: bool = False) -> dict[str, Any]:
     """One cell's joints (module docstring); `plant_set`: plant knobs NAME=VALUE for the run (a diagnosis: which of
-    the plant's effects the learner's model does not hold)."""
+    the plant's effects the learner's model does not hold); `reuse`: the run an earlier call left, where it is."""
     robot, part = cell.split(":")
     out.mkdir(parents=True, exist_ok=True)
     path, run = out / "path.csv", out / "nominal1"
-    cli("path", *PARTS[part], "--robot", robot, "--out", str(path))
-    cli("lab", "--plant", "dynamic", "--neutral", *(a for item in plant_set for a in ("--set", item)), "--scenario",
-        "nominal", "--commanded", str(path), "--seed", "1", "--robot", robot, "--out", str(run))
+    if not (reuse and (run / "truth.json").exists()):
+        cli("path", *PARTS[part], "--robot", robot, "--out", str(path))
+        cli("lab", "--plant", "dynamic", "--neutral", *(a for item in plant_set for a in ("--set", item)),
+            "--scenario", "nominal", "--commanded", str(path), "--seed", "1", "--robot", robot, "--out", str(run))
     learned = cli_json("learn", str(run))["robot"]
     plant = json.loads((run / "truth.json").read_text())["joint_stiffness_nm_per_rad"]
     joints = [{"joint": j + 1, "learned_knm": 1e-3 * k, "std_knm": 1e-3 * s, "plant_knm": 1e-3 * p,
@@ -65,8 +69,9 @@ def main() -> None:
     parser.add_argument("--marker", default="robot-learning", help="the page's markers (default robot-learning)")
     parser.add_argument("--plant-set", action="append", default=[], metavar="NAME=VALUE",
                         help="a plant knob for every run (repeat), e.g. link_friction_scale=0")
+    parser.add_argument("--reuse", action="store_true", help="learn again from the runs an earlier call left in OUT")
     args = parser.parse_args()
-    rows = [cell_study(args.out / cell.replace(":", "-"), cell, tuple(args.plant_set))
+    rows = [cell_study(args.out / cell.replace(":", "-"), cell, tuple(args.plant_set), args.reuse)
             for cell in args.cells.split(",")]
     (args.out / "robot_learning.json").write_text(json.dumps(rows, indent=1))
     (args.out / "robot_learning.md").write_text(table(rows))

@@ -459,16 +459,23 @@ def _excess_above(run: Run, model: Path, floor: Floor) -> tuple[float, float]:
     return max(sum(e for e, _ in by_stream.values()) - on_run, 0.0), on_run
 
 
-def run_case(cell_name: str, change: Change, root: Path) -> dict[str, Any]:
-    """One hidden change on one learned cell (module docstring): the verdict and the next run's shrink."""
+def run_case(cell_name: str, change: Change, root: Path, reuse: bool = False) -> dict[str, Any]:
+    """One hidden change on one learned cell (module docstring): the verdict and the next run's shrink; `reuse`: the
+    changed and next runs an earlier call left are kept (the plant is deterministic: a change of the twin alone)."""
     cell, cell_model = CELLS[cell_name], root / "cell.json"
     case = root / change.name
-    if case.exists():
+    kept = reuse and all((case / tag / "tracker.csv").is_file() for tag in ("changed", "next"))
+    if case.exists() and not kept:
         shutil.rmtree(case)
-    case.mkdir()
+    case.mkdir(exist_ok=True)
+    for old in (case / "M.json", case / "report.json"):
+        old.unlink(missing_ok=True)
     runs = []
     for seed, tag in ((CHANGED_SEED, "changed"), (NEXT_SEED, "next")):
-        if change.edit is not None:
+        if kept:  # a robot moved: the run as the user's records keep it (`_plant_run`)
+            written = case / f"{tag}-as-written"
+            runs.append(written if written.is_dir() else case / tag)
+        elif change.edit is not None:
             runs.append(write_run(case / tag, change.edit(read_run(root / f"clean{seed}"))))
         else:
             runs.append(_plant_run(cell, root, seed, case / tag, change.knobs, change.base_shift_mm, change.sheet,
@@ -495,11 +502,12 @@ def run_case(cell_name: str, change: Change, root: Path) -> dict[str, Any]:
 
 
 def run_set(which: str, root: Path, reuse: bool = False) -> list[dict[str, Any]]:
-    """Every change of a set (`SETS`) on each of its cells (`reuse`: cells already learned under `root` kept)."""
+    """Every change of a set (`SETS`) on each of its cells (`reuse`: cells already learned under `root` kept, and the
+    runs already formed there)."""
     rows = []
     for name, changes in SETS[which].items():
         learn_cell(name, root / name, reuse)
-        rows += [{"set": which, **run_case(name, c, root / name)} for c in changes]
+        rows += [{"set": which, **run_case(name, c, root / name, reuse)} for c in changes]
     return rows
 
 
@@ -561,7 +569,7 @@ if __name__ == "__main__":
     parser.add_argument("--work", type=Path, default=Path("plant-changes"))
     parser.add_argument("--set", choices=(*SETS, "both"), default="held-out")
     parser.add_argument("--markdown", type=Path, help="write both sets' tables into this file (with --set both)")
-    parser.add_argument("--reuse-cells", action="store_true", help="keep cells already learned under --work")
+    parser.add_argument("--reuse-cells", action="store_true", help="keep cells already learned under --work, and the runs already formed there")
     args = parser.parse_args()
     sets = tuple(SETS) if args.set == "both" else (args.set,)
     tables = {which: run_set(which, args.work / which, args.reuse_cells) for which in sets}

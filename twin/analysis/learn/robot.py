@@ -6,19 +6,25 @@ compliance [rad/(N·m)]): linear in the c_j, whatever the part and whatever the 
 (its reading minus the twin's unloaded tool tip), the F/T sensor F. So the c_j come from one regularised least
 squares over the runs, each pulled towards the robot's prior 1/K_q with a prior spread of `PRIOR_SPREAD` (a
 Gaussian prior; the posterior's standard deviations are the uncertainties). A joint whose posterior spread is
-not below `OBSERVABLE_RATIO` of its prior spread is one the runs cannot observe: it is named and held at its
-prior; so is one the fit pulls outside `stick_slip.COMPLIANCE_RANGE` of its prior (a quarter to four times its
-compliance: no gear of the class is there, the fit is pulled by what its columns lack, and clipping it there
-would push its share onto its neighbours). Beside the gear spring the same solve fits what a real arm adds: each joint's Coulomb friction against
-its motion (a deflection J_j·c_j·τ_f,j that flips with the sign of the joint's speed: a column kept free in the
-spring's fit whatever its sign, since a deflection that leads the joint's motion is a real cell's too, and only its
-non-negative part is the friction the twin takes), the servo's transient
-compliance c_s,j on the force's high-pass F − lag_τ(F) (`twin.sim.servo`: the position loop gives way while the
-force changes and recovers over τ, picked on a grid by the least residual), and a constant tracker offset per
-axis (a registration error of the tracker frame: reported, not put into the robot; the model carries the
-registration as the instruments', `twin.analysis.learn.instruments`). That linear fit is the start: the
-observable joints' springs and friction are then refined as the twin's equilibrium holds them, a friction that
-sticks (`twin.analysis.learn.stick_slip`), which is what their stated spread is of. `truth.json` is never read.
+not below `OBSERVABLE_RATIO` of its prior spread is one the runs cannot observe: it is named and held at its prior
+in the twin, but keeps its prior's spread in the fit. Held there too, its prior's error would go to a joint whose
+column is nearly collinear with its own, with a spread that does not say so: with the tool vertical and the
+forearm level, joints 1 and 4 turn the tip alike, and with joint 4 held a groove's joint 1 came out far from the
+cell's K_q at a spread that called it learned. One the fit pulls outside `stick_slip.COMPLIANCE_RANGE` of its prior (a quarter to
+four times its compliance: no gear of the class is there, the fit is pulled by what its columns lack, and clipping
+it there would push its share onto its neighbours) is held in the fit as well. Beside the gear spring the same
+solve fits what a real arm adds: each joint's Coulomb friction against its motion (a deflection J_j·c_j·τ_f,j that
+flips with the sign of the joint's speed: a column kept free in the spring's fit whatever its sign, since a
+deflection that leads the joint's motion is a real cell's too, and only its non-negative part is the friction the
+twin takes), the servo's transient compliance c_s,j on the force's high-pass F − lag_τ(F) (`twin.sim.servo`: the
+position loop gives way while the force changes and recovers over τ, picked on a grid by the least residual), and
+per run the tracker's own errors (`tracker_columns`): a constant offset per axis, its registration's rotation about
+the sheet origin and a lateness (a clock offset, or the servo's following error: both read the tip a velocity
+times a time behind). Without the last two a registration's tilt went into joint 1 and a few milliseconds of
+lateness into joints 2 and 3's friction. They are reported, not put into the robot; the model carries the
+registration as the instruments' (`twin.analysis.learn.instruments`). That linear fit is the start: the observable
+joints' springs and friction are then refined as the twin's equilibrium holds them, a friction that sticks
+(`twin.analysis.learn.stick_slip`), which is what their stated spread is of. `truth.json` is never read.
 """
 
 from __future__ import annotations
@@ -45,6 +51,10 @@ SPEED_SMOOTHING_RAD_S = 2e-4
 #: A joint is refined with its friction sticking (`stick_slip`) where the linear fit's spread is below this share of
 #: its compliance.
 REFINE_SPREAD = 0.1
+#: Prior spreads of a run's tracker errors beside its offset (`tracker_columns`): its registration's rotation per
+#: axis [rad] (a registration to the usual care is within ~1 mrad) and its lateness [s].
+TRACKER_SPREADS = (5e-3, 5e-3, 5e-3, 0.05)
+TRACKER_COLUMNS = len(TRACKER_SPREADS)
 #: Servo time constants tried [s].
 SERVO_TIME_CONSTANTS_S = (0.01, 0.02, 0.03, 0.05, 0.075, 0.1, 0.15, 0.2, 0.3)
 
@@ -60,6 +70,22 @@ class RobotRows(NamedTuple):
     friction: np.ndarray  # (m, 3, dof) per joint -J_j·s_j, s_j the smoothed sign of the joint's speed [m/rad]
     q: np.ndarray  # (m, dof) the commanded joint angles [rad]
     jacobian: np.ndarray  # (m, 3, dof) the tool tip's translational Jacobian, sheet frame [m/rad]
+    nuisance: np.ndarray | None = None  # (3m, r) the tracker's own columns (`tracker_columns`), stacked as `design`'s
+
+
+def tracker_columns(tip_m: np.ndarray, velocity_m_s: np.ndarray) -> np.ndarray:
+    """(3m, 4) a tracker's own errors beside its offset, stacked as `design`'s: its registration's rotation about
+    the sheet origin (w x p, three columns [rad]) and a reading late by dt (-v dt [s]: the tracker's clock, or the
+    servo's following error, which is the same), from the unloaded tip p [m] and its velocity v [m/s] at the
+    tracker's times. A clock's rate (a lateness growing with t) is not among them: on a groove whose force grows
+    pass by pass, -v t is nearly a wrist joint's column (its deflection under a drag that flips with the travel)."""
+    p, v = tip_m, velocity_m_s
+    cols = np.zeros((len(p), 3, TRACKER_COLUMNS))
+    cols[:, 1, 0], cols[:, 2, 0] = -p[:, 2], p[:, 1]  # w_x: (0, -p_z, p_y)
+    cols[:, 0, 1], cols[:, 2, 1] = p[:, 2], -p[:, 0]  # w_y: (p_z, 0, -p_x)
+    cols[:, 0, 2], cols[:, 1, 2] = -p[:, 1], p[:, 0]  # w_z: (-p_y, p_x, 0)
+    cols[:, :, 3] = -v
+    return cols.transpose(1, 0, 2).reshape(-1, TRACKER_COLUMNS)
 
 
 class RobotFit(NamedTuple):
@@ -77,6 +103,9 @@ class RobotFit(NamedTuple):
         rms_prior_mm: Per run, RMS of the tracker minus the twin's tool tip driven by the measured forces, with the
             twin's own K_q, friction and servo: the robot's part of the replay gap [mm].
         rms_after_mm: The same with the learned K_q, friction, servo and tracker offset [mm].
+        rotation_mrad: Fitted tracker rotation about the sheet origin, mean over the runs [mrad].
+        late_ms: Fitted lateness of the tracker's reading (its clock, or the servo's following error), mean over
+            the runs [ms].
     """
 
     k_q_nm_per_rad: np.ndarray
@@ -89,6 +118,8 @@ class RobotFit(NamedTuple):
     offset_mm: np.ndarray
     rms_prior_mm: tuple[float, ...]
     rms_after_mm: tuple[float, ...]
+    rotation_mrad: tuple[float, ...] = (0.0, 0.0, 0.0)
+    late_ms: float = 0.0
 
 
 def robot_rows(run: Run, twin: Twin) -> RobotRows:
@@ -105,8 +136,9 @@ def robot_rows(run: Run, twin: Twin) -> RobotRows:
     lever = np.einsum("nij,nkj->njik", J_sheet, J_sheet)
     speed = np.gradient(q_ik, run.commanded.t_s, axis=0)
     sign = np.tanh(interp_rows(t, run.commanded.t_s, speed) / SPEED_SMOOTHING_RAD_S)
+    velocity = interp_rows(t, run.commanded.t_s, np.gradient(run.commanded.values, run.commanded.t_s, axis=0))
     return RobotRows(run.tracker.values - unloaded, t, run.forces.t_s, run.forces.values, lever,
-                     -J_sheet * sign[:, None, :], q, J_sheet)
+                     -J_sheet * sign[:, None, :], q, J_sheet, tracker_columns(unloaded, velocity))
 
 
 def design(rows: RobotRows, servo_s: float = 0.0) -> np.ndarray:
@@ -122,35 +154,50 @@ def friction_columns(rows: RobotRows) -> np.ndarray:
     return rows.friction.transpose(1, 0, 2).reshape(-1, rows.friction.shape[2])
 
 
+def own_columns(rows: RobotRows) -> np.ndarray:
+    """(3m, 3 + r) a run's own columns: the tracker's offset per axis, then its `nuisance` columns."""
+    m = len(rows.t_s)
+    offset = np.kron(np.eye(3), np.ones((m, 1)))
+    return offset if rows.nuisance is None else np.hstack([offset, rows.nuisance])
+
+
+def own_precision(rows: RobotRows) -> np.ndarray:
+    """The prior precision of a run's own columns: the offset free, the rotation and the clock within
+    `TRACKER_SPREADS` (a tracker registered and clocked to a cell's usual care)."""
+    width = 3 if rows.nuisance is None else 3 + rows.nuisance.shape[1]
+    return np.concatenate([np.full(3, 1e-12), 1.0 / np.asarray(TRACKER_SPREADS[:width - 3]) ** 2])
+
+
 def _solve(runs: list[RobotRows], servo_s: float, c0: np.ndarray,
            free: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, float]:
     """(coefficients, posterior covariance, RSS) of the regularised fit. Coefficients: the compliances c (dof),
-    the friction deflections c_j·τ_f,j (dof) [rad], the servo's transient compliances c_s (dof), a tracker offset
-    per run and axis [m]. A joint not `free` (default: all free) is held at its prior compliance with no friction
-    and no servo term: their columns leave the fit (variance 0)."""
+    the friction deflections c_j·τ_f,j (dof) [rad], the servo's transient compliances c_s (dof), then each run's
+    own (`own_columns`: the tracker's offset [m], rotation [rad] and clock [s, -]). A joint not `free` (default:
+    all free) is held at its prior compliance with no friction and no servo term: their columns leave the fit
+    (variance 0)."""
     dof = len(c0)
     held = np.zeros(dof, dtype=bool) if free is None else ~np.asarray(free, dtype=bool)
+    owns = [own_columns(rows) for rows in runs]
+    widths = np.array([o.shape[1] for o in owns])
+    starts = np.concatenate([[0], np.cumsum(widths)])
     blocks, ys = [], []
     for k, rows in enumerate(runs):
-        m = len(rows.t_s)
-        extra = np.zeros((3 * m, 3 * len(runs)))
-        for a in range(3):
-            extra[a * m:(a + 1) * m, 3 * k + a] = 1.0
-        blocks.append(np.hstack([design(rows), friction_columns(rows), design(rows, servo_s), extra]))
+        own = np.zeros((3 * len(rows.t_s), int(starts[-1])))
+        own[:, starts[k]:starts[k + 1]] = owns[k]
+        blocks.append(np.hstack([design(rows), friction_columns(rows), design(rows, servo_s), own]))
         ys.append(rows.deflection_m.T.reshape(-1))
     X, y = np.vstack(blocks), np.concatenate(ys)
     # the held joints' prior deflection is taken out of the data; the held columns out of the fit
-    drop = np.concatenate([held, held, held, np.zeros(3 * len(runs), dtype=bool)])
+    drop = np.concatenate([held, held, held, np.zeros(int(starts[-1]), dtype=bool)])
     if drop.any():
         y = y - X[:, :dof][:, held] @ c0[held]
-        X = X.copy()
         X[:, drop] = 0.0
     # the noise level from an unregularised solve, floored at 10 µm
     sigma = max(float(np.std(y - X @ np.linalg.lstsq(X, y, rcond=1e-10)[0])), 1e-5)
     prior_precision = np.concatenate([1.0 / (PRIOR_SPREAD * c0) ** 2, 1.0 / (FRICTION_SPREAD_NM * c0) ** 2,
-                                      1.0 / (PRIOR_SPREAD * c0) ** 2, np.full(3 * len(runs), 1e-12)])
+                                      1.0 / (PRIOR_SPREAD * c0) ** 2, *(own_precision(rows) for rows in runs)])
     A = X.T @ X / sigma**2 + np.diag(prior_precision)
-    b = X.T @ y / sigma**2 + prior_precision * np.concatenate([c0, np.zeros(2 * dof + 3 * len(runs))])
+    b = X.T @ y / sigma**2 + prior_precision * np.concatenate([c0, np.zeros(2 * dof + int(starts[-1]))])
     cov = np.linalg.inv(A)
     coef = cov @ b
     rss = float(np.sum((y - X @ coef) ** 2))
@@ -164,12 +211,13 @@ def _solve(runs: list[RobotRows], servo_s: float, c0: np.ndarray,
 def joint_rows(rows: RobotRows, linear: np.ndarray) -> JointRows:
     """The rows as the play model takes them (`twin.analysis.learn.stick_slip`), with the linear part's columns."""
     torque = np.einsum("nij,ni->nj", rows.jacobian, interp_rows(rows.t_s, rows.force_t_s, rows.force_n))
-    return JointRows(rows.t_s, rows.q, rows.jacobian, torque, rows.deflection_m, linear)
+    return JointRows(rows.t_s, rows.q, rows.jacobian, torque, rows.deflection_m, linear, rows.nuisance)
 
 
 def predicted_deflection(rows: RobotRows, fit: RobotFit, offset_m: np.ndarray) -> np.ndarray:
     """The learned robot's tool-tip deflection under the measured forces at the tracker's times [m], (m, 3): its
-    springs and sticking friction (`stick_slip.play_deflection`, as the twin's equilibrium holds them), servo."""
+    springs and sticking friction (`stick_slip.play_deflection`, as the twin's equilibrium holds them), servo, plus
+    `offset_m` (the tracker's own: (3,) or (m, 3))."""
     m = len(rows.t_s)
     spring = play_deflection(joint_rows(rows, np.zeros((3 * m, 0))), 1.0 / fit.k_q_nm_per_rad, fit.friction_nm)
     servo = 0.0 if fit.servo is None else (design(rows, fit.servo.time_constant_s)
@@ -205,19 +253,21 @@ def fit_rows(rows: list[RobotRows], k0: np.ndarray, prior_friction_nm: np.ndarra
     coef, cov, _ = solves[best]
     dof = len(c0)
     observable = np.sqrt(np.diag(cov)[:dof]) < OBSERVABLE_RATIO * PRIOR_SPREAD * c0
-    refit = not observable.all()
-    for _ in range(dof):  # refit with the joints the runs cannot observe, or pull outside their range, at the prior
-        if refit:
-            coef, cov, _ = _solve(rows, best, c0, observable)
+    # a joint the runs cannot observe keeps its prior's spread in the fit (its columns stay: holding it at its prior
+    # would put its prior's error on the joints whose columns are nearly collinear with its own, with a spread that
+    # does not say so) and is held at its prior in the twin; one the fit pulls outside its range is held in the fit
+    held = np.zeros(dof, dtype=bool)
+    for _ in range(dof):
         outside = observable & ((coef[:dof] < COMPLIANCE_RANGE[0] * c0) | (coef[:dof] > COMPLIANCE_RANGE[1] * c0))
         if not outside.any():
             break
         observable &= ~outside
-        refit = True
-    c, c_std = coef[:dof], np.sqrt(np.diag(cov)[:dof])
+        held |= outside
+        coef, cov, _ = _solve(rows, best, c0, ~held)
+    c, c_std = np.where(observable, coef[:dof], c0), np.sqrt(np.diag(cov)[:dof])
     friction = np.where(observable, np.maximum(coef[dof:2 * dof], 0.0) / c, 0.0)
     servo_c = np.where(observable, coef[2 * dof:3 * dof], 0.0)
-    offsets = coef[3 * dof:].reshape(len(rows), 3)
+    own = np.split(coef[3 * dof:], np.cumsum([own_columns(r).shape[1] for r in rows])[:-1])
     # the springs and friction as the twin's equilibrium holds them (friction that sticks), for the joints the
     # linear fit pins down; a joint it leaves loose keeps the linear fit's values (its spring and friction could
     # trade against each other without end)
@@ -230,19 +280,29 @@ def fit_rows(rows: list[RobotRows], k0: np.ndarray, prior_friction_nm: np.ndarra
                      for r in rows], c, friction, pinned, c0)
         c = np.where(pinned, ss.c, c)
         c_std = np.where(pinned, ss.c_std, c_std)
-        friction, offsets = np.where(observable, ss.friction_nm, 0.0), ss.offsets_m
+        friction, own = np.where(observable, ss.friction_nm, 0.0), ss.own
         servo_c = np.zeros(dof)
         servo_c[observable] = ss.linear[:int(observable.sum())]
     k = 1.0 / c
     k_std = np.where(observable, c_std / c**2, PRIOR_SPREAD * k0)
     servo = ServoTransient(tuple(float(v) for v in servo_c), float(best)) if np.any(servo_c != 0) else None
-    fit = RobotFit(k, k_std, k0, np.asarray(prior_friction_nm, dtype=float), observable, servo, friction,
-                   1e3 * offsets.mean(axis=0), (), ())
+    offset_mm, rotation_mrad, late_ms = _tracker_means(own)
+    fit = RobotFit(k, k_std, k0, np.asarray(prior_friction_nm, dtype=float), observable, servo, friction, offset_mm,
+                   (), (), rotation_mrad, late_ms)
     prior = fit._replace(k_q_nm_per_rad=k0, servo=prior_servo, friction_nm=fit.prior_friction_nm)
     prior_rms = tuple(rms_norm_mm(r.deflection_m - predicted_deflection(r, prior, np.zeros(3))) for r in rows)
-    after_rms = tuple(rms_norm_mm(r.deflection_m - predicted_deflection(r, fit, off))
-                      for r, off in zip(rows, offsets, strict=True))
+    after_rms = tuple(rms_norm_mm(r.deflection_m - predicted_deflection(r, fit, (own_columns(r) @ o).reshape(3, -1).T))
+                      for r, o in zip(rows, own, strict=True))
     return fit._replace(rms_prior_mm=prior_rms, rms_after_mm=after_rms)
+
+
+def _tracker_means(own: list[np.ndarray]) -> tuple[np.ndarray, tuple[float, ...], float]:
+    """The tracker's offset [mm], rotation [mrad] and lateness [ms] from each run's own coefficients (`own_columns`),
+    mean over the runs (zero where the rows had no such columns)."""
+    mean = np.mean(own, axis=0)
+    full = np.zeros(3 + TRACKER_COLUMNS)
+    full[:len(mean)] = mean
+    return 1e3 * full[:3], tuple(float(v) for v in 1e3 * full[3:3 + 3]), 1e3 * float(full[3 + 3])
 
 
 def rms_norm_mm(error_m: np.ndarray) -> float:

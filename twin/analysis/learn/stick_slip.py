@@ -66,6 +66,7 @@ class JointRows(NamedTuple):
     torque: np.ndarray  # (m, dof) the measured force's torque on each joint [N·m]
     deflection_m: np.ndarray  # (m, 3) tracker minus the command [m]
     linear: np.ndarray  # (3m, k) the linear part's columns (the servo's transient per joint)
+    nuisance: np.ndarray | None = None  # (3m, r) the run's own columns beside its offset (the tracker's rotation, clock)
 
 
 def play_deflection(rows: JointRows, c: np.ndarray, friction_nm: np.ndarray) -> np.ndarray:
@@ -84,20 +85,30 @@ class StickSlip(NamedTuple):
     c_std: np.ndarray  # (dof,) its spread (0 where held)
     friction_nm: np.ndarray  # (dof,) [N·m]
     linear: np.ndarray  # (k,) the linear part's coefficients
-    offsets_m: np.ndarray  # (runs, 3) tracker offset per run [m]
+    own: list[np.ndarray]  # per run, its own columns' coefficients: the tracker offset [m], then its nuisance's
     rms_mm: tuple[float, ...]  # per run, RMS of the tracker minus the model [mm]
 
 
+def nuisance_width(run: JointRows) -> int:
+    """The number of a run's own columns: a tracker offset per axis, then its `nuisance` columns."""
+    return 3 + (0 if run.nuisance is None else run.nuisance.shape[1])
+
+
 def _linear_columns(runs: list[JointRows]) -> np.ndarray:
-    """The linear part's columns over the stacked runs: each run's own (the servo's), then a tracker offset per run
-    and axis. They do not depend on the spring or the friction: built once per fit."""
+    """The linear part's columns over the stacked runs: the runs' shared ones (the servo's), then each run's own (a
+    tracker offset per axis, its `nuisance` columns), zero on the other runs' rows. They do not depend on the spring
+    or the friction: built once per fit."""
+    widths = [nuisance_width(run) for run in runs]
+    starts = np.concatenate([[0], np.cumsum(widths)])
     blocks = []
     for k, run in enumerate(runs):
         m = len(run.t_s)
-        offset = np.zeros((3 * m, 3 * len(runs)))
+        own = np.zeros((3 * m, int(starts[-1])))
         for a in range(3):
-            offset[a * m:(a + 1) * m, 3 * k + a] = 1.0
-        blocks.append(np.hstack([run.linear, offset]))
+            own[a * m:(a + 1) * m, starts[k] + a] = 1.0
+        if run.nuisance is not None:
+            own[:, starts[k] + 3:starts[k + 1]] = run.nuisance
+        blocks.append(np.hstack([run.linear, own]))
     return np.vstack(blocks)
 
 
@@ -140,14 +151,18 @@ def refine(runs: list[JointRows], c: np.ndarray, friction_nm: np.ndarray, free: 
         m = 3 * len(run.t_s)
         rms.append(1e3 * float(np.sqrt(np.sum(residual[start:start + m] ** 2) / len(run.t_s))))
         start += m
-    return StickSlip(cc, c_std, ff, beta[:k], beta[k:].reshape(len(runs), 3), tuple(rms))
+    own = np.split(beta[k:], np.cumsum([nuisance_width(run) for run in runs])[:-1])
+    return StickSlip(cc, c_std, ff, beta[:k], own, tuple(rms))
 
 
 def _part(run: JointRows, sl: slice) -> JointRows:
     """The samples `sl` of a run (its linear columns are axis-major: x of all samples, then y, then z)."""
     m, n = len(run.t_s), sl.stop - sl.start
-    linear = run.linear.reshape(3, m, -1)[:, sl, :].reshape(3 * n, -1)
-    return JointRows(run.t_s[sl], run.q[sl], run.jacobian[sl], run.torque[sl], run.deflection_m[sl], linear)
+    def cut(columns: np.ndarray) -> np.ndarray:
+        return columns.reshape(3, m, -1)[:, sl, :].reshape(3 * n, -1)
+
+    return JointRows(run.t_s[sl], run.q[sl], run.jacobian[sl], run.torque[sl], run.deflection_m[sl],
+                     cut(run.linear), None if run.nuisance is None else cut(run.nuisance))
 
 
 def _block_spread(runs: list[JointRows], c: np.ndarray, friction_nm: np.ndarray, free: np.ndarray,

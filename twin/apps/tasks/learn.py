@@ -103,9 +103,10 @@ class LearnReport(Report):
             self.fitted_words(),
             f"  robot: K_q [kN·m/rad] {'; '.join(_stiffness_words(robot))}",
             f"  robot: joint friction [N·m] {friction}; {_servo_words(robot)}; tracker offset "
-            f"({', '.join(f'{v:.3f}' for v in robot.offset_mm)}) mm (not a robot effect: a registration error of "
-            "the tracker)",
-            "  instruments carried in the model: tracker registration (rotation about the sheet origin, shift) "
+            f"({', '.join(f'{v:.3f}' for v in robot.offset_mm)}) mm, turned ("
+            f"{', '.join(f'{v:.2f}' for v in robot.rotation_mrad)}) mrad, {robot.late_ms:.1f} ms late (not robot "
+            "effects: the tracker's registration and clock, or the servo's following error)",
+            "  instruments carried in the model: tracker registration (rotation about the sheet origin, shift) and clock "
             + _registration_words(result.spec),
             "  robot's part of the gap (the twin's robot driven by the measured forces): "
             + ", ".join(f"{a:.3f} -> {b:.3f} mm" for a, b in zip(robot.rms_prior_mm, robot.rms_after_mm, strict=True))
@@ -157,6 +158,7 @@ class LearnReport(Report):
                 "k_q_nm_per_rad": robot.k_q_nm_per_rad, "k_q_std_nm_per_rad": robot.std_nm_per_rad,
                 "prior_k_q_nm_per_rad": robot.prior_nm_per_rad, "observable": np.asarray(robot.observable).tolist(),
                 "friction_nm": robot.friction_nm, "tracker_offset_mm": robot.offset_mm,
+                "tracker_rotation_mrad": list(robot.rotation_mrad), "tracker_late_ms": robot.late_ms,
                 "servo": None if robot.servo is None else {
                     "compliance_rad_per_nm": list(robot.servo.compliance_rad_per_nm),
                     "time_constant_s": robot.servo.time_constant_s},
@@ -267,10 +269,11 @@ def _grew_words(robot: RobotFit) -> str:
 
 
 def _registration_words(spec: TwinSpec) -> str:
-    """The carried tracker registration and F/T bias, in words."""
+    """The carried tracker registration and lateness and the F/T bias, in words."""
     inst = spec.effects.instruments
     return (f"({', '.join(f'{v:.3f}' for v in inst.tracker_rotation_mrad)}) mrad, "
-            f"({', '.join(f'{v:.3f}' for v in inst.tracker_shift_mm)}) mm; F/T bias "
+            f"({', '.join(f'{v:.3f}' for v in inst.tracker_shift_mm)}) mm, read "
+            f"{1e3 * inst.tracker_time_offset_s[0]:.1f} ms late; F/T bias "
             f"({', '.join(f'{v:.1f}' for v in inst.force_bias_n)}) N")
 
 
