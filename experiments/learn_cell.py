@@ -6,13 +6,18 @@ with seed 3, and its residual (`check`). The learned twin learns from seed 1's r
 learn`; nothing here reads the plant's truth, knobs or code on the twin's side. Writes OUT/learn_cell.json and
 OUT/learn_cell.md (the table in docs/learning.md):
 
-    .venv/bin/python experiments/learn_cell.py OUT [--variants groove-neutral,...]
+    .venv/bin/python experiments/learn_cell.py OUT [--variants groove-neutral,...] [--reuse]
+
+`--reuse` keeps the runs an earlier call left under OUT that do not depend on what `learn` gives (the nominal runs
+and the untaught twin's compensated ones: a run is its seed's) and forms the learned twin's again, for a change of
+the learner alone.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import shutil
 from pathlib import Path
 from typing import Any
 
@@ -42,9 +47,13 @@ OTHER_NAMES = {"pyramid_": "pyramid", "cone80_": "cone 80 x 8"}
 
 
 def _lab(robot: str, knobs: list[str], strength: float, command: Path, out: Path, seed: int,
-         scenario: str = "nominal") -> Path:
+         scenario: str = "nominal", reuse: bool = False) -> Path:
     """Form `command` on the plant; a sheet stronger than declared goes through the API (the CLI records the
-    process it forms, so the twin would read it)."""
+    process it forms, so the twin would read it). `reuse`: a run already at `out` is kept."""
+    if reuse and (out / "truth.json").is_file():
+        return out
+    if out.exists():
+        shutil.rmtree(out)
     if strength == 1.0:
         cli("lab", "--plant", "dynamic", *knobs, "--scenario", scenario, "--commanded", str(command), "--seed",
              str(seed), "--robot", robot, "--out", str(out))
@@ -59,16 +68,17 @@ def _lab(robot: str, knobs: list[str], strength: float, command: Path, out: Path
     return out
 
 
-def variant_study(out: Path, name: str, plant_set: tuple[str, ...] = ()) -> dict[str, Any]:
+def variant_study(out: Path, name: str, plant_set: tuple[str, ...] = (), reuse: bool = False) -> dict[str, Any]:
     """One variant's row (module docstring); `plant_set`: plant knobs NAME=VALUE added to every run's (the sheet
-    law, say)."""
+    law, say); `reuse`: the runs that do not depend on the learned model kept where an earlier call left them."""
     robot, path_args, knobs, strength = VARIANTS[name]
     knobs = [*knobs, *(arg for item in plant_set for arg in ("--set", item))]
     out.mkdir(parents=True, exist_ok=True)
     ideal = out / "ideal.csv"
     cli("path", *path_args, "--robot", robot, "--out", str(ideal))
-    runs = {seed: _lab(robot, knobs, strength, ideal, out / f"nominal{seed}", seed) for seed in (1, 2)}
+    runs = {seed: _lab(robot, knobs, strength, ideal, out / f"nominal{seed}", seed, reuse=reuse) for seed in (1, 2)}
     model = out / "learned.json"
+    model.unlink(missing_ok=True)
     learned = cli_json("learn", str(runs[1]), "--write-model", str(model))
     row: dict[str, Any] = {"variant": name, "robot": robot,
                            "nominal": cli_json("check", str(runs[1]), "--ideal", str(ideal)),
@@ -82,7 +92,7 @@ def variant_study(out: Path, name: str, plant_set: tuple[str, ...] = ()) -> dict
             target = out / f"{prefix}path.csv"
             cli("path", *part, "--robot", robot, "--out", str(target))
             targets.append((prefix, target, part))
-            nominal = _lab(robot, knobs, strength, target, out / f"{prefix}nominal", 3)
+            nominal = _lab(robot, knobs, strength, target, out / f"{prefix}nominal", 3, reuse=reuse)
             row[f"{prefix}nominal"] = cli_json("check", str(nominal), "--ideal", str(target))
             row[f"{prefix}replay_untaught"] = cli_json("replay", str(nominal), "--forces", "measured")
             row[f"{prefix}replay_learned"] = cli_json("replay", str(nominal), "--model", str(model), "--forces",
@@ -90,8 +100,11 @@ def variant_study(out: Path, name: str, plant_set: tuple[str, ...] = ()) -> dict
     for prefix, target, _ in targets:
         for twin, extra in (("untaught", ["--robot", robot]), ("learned", ["--model", str(model)])):
             command = out / f"{prefix}{twin}.csv"
+            for old in (command, command.with_suffix(".compensation.json")):
+                old.unlink(missing_ok=True)
             cli("compensate", "--method", "twin", *extra, "--ideal", str(target), "--out", str(command))
-            formed = _lab(robot, knobs, strength, command, out / f"{prefix}{twin}_formed", 3, "compensated")
+            formed = _lab(robot, knobs, strength, command, out / f"{prefix}{twin}_formed", 3, "compensated",
+                          reuse and twin == "untaught")
             row[f"{prefix}{twin}"] = cli_json("check", str(formed), "--ideal", str(target))
             row[f"{prefix}{twin}"]["less_tracker_offset_mm"] = _less_offset(
                 formed, target, learned["robot"]["tracker_offset_mm"])
@@ -162,10 +175,12 @@ def main() -> None:
     parser.add_argument("--marker", default="learn-table", help="the page's markers (default learn-table)")
     parser.add_argument("--plant-set", action="append", default=[], metavar="NAME=VALUE",
                         help="a plant knob for every run (repeat), e.g. sheet_law=2")
+    parser.add_argument("--reuse", action="store_true", help="keep the runs an earlier call left that do not depend on "
+                        "the learned model")
     args = parser.parse_args()
     rows = []
     for name in args.variants.split(","):
-        rows.append(variant_study(args.out / name, name, tuple(args.plant_set)))
+        rows.append(variant_study(args.out / name, name, tuple(args.plant_set), args.reuse))
         print(table(rows[-1:]).splitlines()[-1], flush=True)
     (args.out / "learn_cell.json").write_text(json.dumps(rows, indent=1, default=str))
     (args.out / "learn_cell.md").write_text(table(rows))

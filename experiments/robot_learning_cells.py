@@ -5,7 +5,9 @@ learned K_q and stated spread are set against the plant's (`truth.json`). Prints
 the observed joints within two stated spreads of the plant's, with a spread of at most 15 % (issue #48's target),
 and at the bound of the learner's range. Writes OUT (JSON):
 
-    .venv/bin/python experiments/robot_learning_cells.py WORK OUT
+    .venv/bin/python experiments/robot_learning_cells.py WORK OUT [--tracker-errors]
+
+`--tracker-errors`: `learn --tracker-errors` (each run's tracker rotation and lateness fitted beside the robot).
 """
 
 from __future__ import annotations
@@ -21,9 +23,9 @@ from experiments_cli import cli_json
 from twin.analysis.learn.stick_slip import COMPLIANCE_RANGE
 
 
-def cell_row(cell: Path) -> dict[str, Any]:
-    """One cell's learned joints against the plant's."""
-    robot = cli_json("learn", str(cell / "clean1"), str(cell / "clean2"))["robot"]
+def cell_row(cell: Path, *options: str) -> dict[str, Any]:
+    """One cell's learned joints against the plant's (`options`: `learn`'s)."""
+    robot = cli_json("learn", str(cell / "clean1"), str(cell / "clean2"), *options)["robot"]
     plant = json.loads((cell / "clean1" / "truth.json").read_text())["joint_stiffness_nm_per_rad"]
     return {"cell": f"{cell.parent.name}/{cell.name}", "k": robot["k_q_nm_per_rad"],
             "std": robot["k_q_std_nm_per_rad"], "prior": robot["prior_k_q_nm_per_rad"],
@@ -50,10 +52,11 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("work", type=Path)
     parser.add_argument("out", type=Path)
+    parser.add_argument("--tracker-errors", action="store_true", help="learn with --tracker-errors")
     args = parser.parse_args()
     rows = []
     for cell in sorted(p.parent for p in args.work.glob("*/*/clean1")):
-        row = cell_row(cell)
+        row = cell_row(cell, *(["--tracker-errors"] if args.tracker_errors else []))
         rows.append(row)
         joints = " ".join(f"{'*' if seen else ' '}{1e-6 * k:.2f}/{1e-6 * p:.2f}({s / k:.0%})" for k, s, p, seen in
                           zip(row["k"], row["std"], row["plant"], row["observable"], strict=True))

@@ -200,3 +200,28 @@ def test_learn_keeps_the_declared_sheet_where_the_learned_one_forces_no_nearer(c
     assert sheet_kept(result.sheet)
     assert result.spec.process.force_model == declared_process(run).force_model != "learned"
     assert result.after[0].position_rms_mm < 1.25 * result.before[0].position_rms_mm
+
+
+def test_learn_with_tracker_errors_carries_a_late_tracker_as_its_clock(plant_runs: dict[int, Path]) -> None:
+    """A change written here, at the data level (the tracker's samples read 6 ms late, by interpolation of the
+    neutral run's own reading): `learn --tracker-errors` carries more lateness than it finds on the run as it came
+    (the robot's own lag along the path is in both), at least half the 6 ms (a groove's steady travel makes a
+    lateness and a friction read almost alike: 4.1 ms carried, the rest in joints 2 and 3's friction), and joints 2
+    and 3 (which a groove loads) keep their K_q within 5 %; the default learner carries no lateness."""
+    from dataclasses import replace
+
+    import numpy as np
+
+    from twin.runs.format import Stream
+    from twin.runs.write import write_run
+
+    run = read_run(plant_runs[1])
+    t = run.tracker.t_s
+    late = np.stack([np.interp(t - 0.006, t, run.tracker.values[:, a]) for a in range(3)], axis=1)
+    edited = read_run(write_run(plant_runs[1].parent / "late6ms", replace(run, tracker=Stream(t, late))))
+    as_came, with_late = learn([run], tracker_errors=True), learn([edited], tracker_errors=True)
+    found = [r.spec.effects.instruments.tracker_time_offset_s[0] for r in (as_came, with_late)]
+    assert 0.003 <= found[1] - found[0] <= 0.0066, found
+    k0, k1 = as_came.robot.k_q_nm_per_rad, with_late.robot.k_q_nm_per_rad
+    assert np.all(np.abs(k1[1:3] / k0[1:3] - 1.0) <= 0.05), (k0, k1)
+    assert learn([edited]).spec.effects.instruments.tracker_time_offset_s[0] == 0.0

@@ -156,8 +156,8 @@ def test_the_floor_moves_less_between_clean_runs_than_a_change_must_add(groove_c
 
 
 def test_a_clean_runs_slow_structure_lies_within_the_floors_slack(groove_cell: Path) -> None:
-    """`consistency.FLOOR_STRUCTURE_SLACK`: a later clean run of the cell leaves at most 1.12 x the slow structure
-    the floor records on the tool tip and the forces (the groove's third and fourth runs: 1.04, 1.12 and 1.01, 1.06;
+    """`consistency.FLOOR_STRUCTURE_SLACK`: a later clean run of the cell leaves at most 1.14 x the slow structure
+    the floor records on the tool tip and the forces (the groove's third and fourth runs: 1.04, 1.14 and 1.00, 1.05;
     docs to two digits), within the slack the consistency rule grants it."""
     from twin.analysis.discrepancy.consistency import FLOOR_STRUCTURE_SLACK
 

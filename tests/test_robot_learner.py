@@ -98,9 +98,9 @@ def test_a_tracker_turned_and_late_does_not_bend_the_springs() -> None:
 
 def test_a_joint_the_runs_cannot_observe_leaves_its_spread_on_the_joint_it_moves_alike() -> None:
     # a fourth joint whose column is joint 1's at a third of its lever (what joints 1 and 4 are with the tool vertical
-    # and the forearm level), 1.8 x softer than its prior: the runs see the sum. It is held at its prior, and joint 1
-    # states a spread that holds its truth (before, joint 4 was held at its prior in the fit too, and joint 1 took
-    # its error at a spread that called it learned)
+    # and the forearm level), 1.8 x softer than its prior: the runs see the sum. It is held at its prior, and with
+    # `keep_unobserved` joint 1 states a spread that holds its truth (by default joint 4 is held at its prior in the
+    # fit too, and joint 1 takes its error at a spread that calls it learned)
     rows = _rows()
     jac = np.concatenate([rows.jacobian, rows.jacobian[:, :, :1] / 3.0], axis=2)
     k0 = np.append(K0, 0.5e6)
@@ -111,8 +111,10 @@ def test_a_joint_the_runs_cannot_observe_leaves_its_spread_on_the_joint_it_moves
     q = np.concatenate([rows.q, rows.q[:, :1]], axis=1)
     friction = np.concatenate([rows.friction, rows.friction[:, :, :1] / 3.0], axis=2)
     lever = np.einsum("nij,nkj->njik", jac, jac)
-    fit = fit_rows([RobotRows(deflection, rows.t_s, rows.t_s, rows.force_n, lever, friction, q, jac)], k0,
-                   np.zeros(4), None)
+    arm = [RobotRows(deflection, rows.t_s, rows.t_s, rows.force_n, lever, friction, q, jac)]
+    fit = fit_rows(arm, k0, np.zeros(4), None, keep_unobserved=True)
     assert not fit.observable[3] and fit.k_q_nm_per_rad[3] == k0[3]
     assert fit.observable[0]
     assert abs(fit.k_q_nm_per_rad[0] - k0[0] / true[0]) <= 2.0 * fit.std_nm_per_rad[0]
+    held = fit_rows(arm, k0, np.zeros(4), None)  # the default: joint 4 held in the fit too
+    assert abs(held.k_q_nm_per_rad[0] - k0[0] / true[0]) > 2.0 * held.std_nm_per_rad[0]

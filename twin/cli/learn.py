@@ -16,12 +16,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("runs", type=Path, nargs="+", metavar="RUN",
                         help="nominal runs of one cell (tracker and F/T streams), one robot at one placement; "
                         "with two or more, each is also replayed on a twin learned from the others")
-    parser.add_argument("--model", type=Path, help="the declared twin (model file) whose robot and process are the "
-                        "priors (default: the runs' recorded robot and process)")
-    parser.add_argument("--write-model", type=Path, help="write the learned twin to FILE (a model file that "
-                        "`replay`, `compensate`, `discrepancy` and `place` take with --model)")
+    parser.add_argument("--model", type=Path, help="the declared twin (model file): the priors (default: the runs')")
+    parser.add_argument("--write-model", type=Path, help="write the learned twin to FILE (a model file: --model's)")
     parser.add_argument("--dynamic", action="store_true", help="also learn the dynamic mode's servo from the first "
                         "run, for `replay --dynamic` (docs/dynamic-twin.md)")
+    parser.add_argument("--tracker-errors", action="store_true", help="also fit each run's tracker turned and late, "
+                        "carried as its clock (a robot's lag along the path is then not compensated; docs/learning.md)")
     add_json_argument(parser, "what was learned and the gaps")
 
 
@@ -29,5 +29,5 @@ def run(args: argparse.Namespace) -> int:
     """Learn from the runs."""
     from twin.apps.tasks.learn import LearnRequest, learn_task
 
-    report = learn_task(LearnRequest(tuple(args.runs), args.model, args.write_model, args.dynamic))
+    report = learn_task(LearnRequest(tuple(args.runs), args.model, args.write_model, args.dynamic, args.tracker_errors))
     return finish(args, report, protect=(*args.runs, args.model))

@@ -64,13 +64,16 @@ class LearnResult(NamedTuple):
     held_specs: tuple[TwinSpec, ...] = ()
 
 
-def learned_spec(runs: list[Run], spec: TwinSpec) -> tuple[TwinSpec, RobotFit, SheetFit, SpringbackFit | None]:
-    """The spec with the robot, the sheet and its springback learned from `runs` (no gaps computed)."""
+def learned_spec(runs: list[Run], spec: TwinSpec,
+                 tracker_errors: bool = False) -> tuple[TwinSpec, RobotFit, SheetFit, SpringbackFit | None]:
+    """The spec with the robot, the sheet and its springback learned from `runs` (no gaps computed);
+    `tracker_errors`: `fit_robot`'s, and the tracker's lateness carried (`fit_instruments`' `lateness`)."""
     base = spec.replace(placement=run_placement(runs[0].meta))
     # the robot is fitted on the ISF model's twin: a learned prior's weights are no ISF constants (they are
     # learned again from these runs: a model learned twice from the same runs is the same sheet)
     isf_fit = tuple((k, v) for k, v in base.process.force_fit if k not in WEIGHT_KEYS)
-    robot = fit_robot(runs, replace(base, process=replace(base.process, force_model="isf", force_fit=isf_fit)).build())
+    robot = fit_robot(runs, replace(base, process=replace(base.process, force_model="isf", force_fit=isf_fit)).build(),
+                      tracker_errors)
     sheet = fit_sheet(runs, base.process)
     friction = np.where(robot.observable, robot.friction_nm, robot.prior_friction_nm)
     # the learned sheet replaces the declared force model only where it forces nearer the measured force along the
@@ -84,7 +87,8 @@ def learned_spec(runs: list[Run], spec: TwinSpec) -> tuple[TwinSpec, RobotFit, S
         fit = (*sheet.force_fit, ("recovery_scale", springback.recovery_scale),
                ("depth_ratio", springback.depth_ratio))
         learned = learned.replace(process=replace(process, force_fit=fit))
-    learned = learned.replace(effects=learned.effects.with_instruments(fit_instruments(runs, learned).instruments))
+    instruments = fit_instruments(runs, learned, lateness=tracker_errors).instruments
+    learned = learned.replace(effects=learned.effects.with_instruments(instruments))
     return learned.replace(placement=spec.placement), robot, sheet, springback
 
 
@@ -94,12 +98,14 @@ def sheet_kept(sheet: SheetFit) -> bool:
     return float(np.mean(sheet.rms_after_n)) >= float(np.mean(sheet.rms_before_n))
 
 
-def learn(runs: list[Run], spec: TwinSpec | None = None) -> LearnResult:
+def learn(runs: list[Run], spec: TwinSpec | None = None, tracker_errors: bool = False) -> LearnResult:
     """Learn the cell's robot and sheet from its runs (module docstring).
 
     Args:
         runs: Nominal runs of the cell, each with tracker and F/T streams, made by one robot at one placement.
         spec: The declared twin (robot, process: the priors); None: the first run's robot in its cell.
+        tracker_errors: Fit each run's tracker rotation and lateness beside the robot, keep unobserved joints'
+            spread in the robot's fit, and carry the lateness as the tracker's clock (`learn --tracker-errors`).
 
     Raises:
         InputError: No run, runs of different robots or placements, or runs without forces.
@@ -123,7 +129,7 @@ def learn(runs: list[Run], spec: TwinSpec | None = None) -> LearnResult:
                              f"({tool} vs {tools[0]}; None: the robot model's): learn from one cell's runs at a time")
     spec = (spec or TwinSpec(robot=robot, process=declared_process(runs[0]))).replace(placement=placement,
                                                                                       tool=tools[0])
-    learned, robot_fit, sheet_fit, springback_fit = learned_spec(runs, spec)
+    learned, robot_fit, sheet_fit, springback_fit = learned_spec(runs, spec, tracker_errors)
     before = tuple(replay_gap(run, spec) for run in runs)
     after = tuple(replay_gap(run, learned) for run in runs)
     held: list[Gap] = []
@@ -131,7 +137,7 @@ def learn(runs: list[Run], spec: TwinSpec | None = None) -> LearnResult:
     if len(runs) > 1:
         for k, run in enumerate(runs):
             others = [r for i, r in enumerate(runs) if i != k]
-            held_specs.append(learned_spec(others, spec)[0])
+            held_specs.append(learned_spec(others, spec, tracker_errors)[0])
             held.append(replay_gap(run, held_specs[-1]))
     return LearnResult(learned, robot_fit, sheet_fit, springback_fit, before, after, tuple(held), tuple(held_specs))
 

@@ -5,11 +5,13 @@ A laser tracker registered to the sheet with a small rotation and shift reads ev
 constant offset, and a tilt that grows across the part. Neither is the robot's, and a cell learned without it
 leaves it in the floor it records and in every later run's gap (where `discrepancy` would then name it on each
 run). It is fitted on the learned twin's replay of the runs: the tracker residual r against the predicted
-reading p, r = w x p + s - v dt (w the rotation vector about the sheet origin [rad], s the shift [m], dt how late
-the tracker reads, v the reading's velocity; the forms of `twin.sim.instruments`), by linear least squares over all
-runs together. A lateness is the tracker's clock, or a servo's following error the twin does not hold: either
-reads the tip a velocity times a time behind, and without it the robot's friction took it (both flip with the
-travel). The F/T sensor's bias is the mean of
+reading p, r = w x p + s (w the rotation vector about the sheet origin [rad], s the shift [m]; the forms of
+`twin.sim.instruments`), by linear least squares over all runs together. With `lateness` (`learn
+--tracker-errors`) the reading's lateness dt joins them, r = w x p + s - v dt (v the reading's velocity), the
+rotation and the lateness within the robot learner's prior spreads, and is carried as the tracker's clock. A
+lateness is the tracker's latency, or the robot's following error along the path: both read the tip a velocity
+times a time behind. Carried as the tracker's, the second is not compensated, so it stays opt-in (docs/learning.md).
+The F/T sensor's bias is the mean of
 the force residual over the runs (what a zeroing error leaves; where the learned sheet leaves a mean error of its
 own, the bias takes it too, and the twin's sensor then reads what the cell's does). They are added to the spec's
 instruments (`Instruments.plus`) and the residuals are those of the spec's replay with its instruments, so
@@ -23,6 +25,7 @@ from typing import NamedTuple
 import numpy as np
 
 from twin.analysis.discrepancy.residuals import ResidualModel
+from twin.analysis.learn.robot import TRACKER_SPREADS
 from twin.runs.format import Run
 from twin.sim.instruments import Instruments
 from twin.sim.spec import TwinSpec
@@ -49,8 +52,9 @@ class InstrumentsFit(NamedTuple):
     late_s: float = 0.0
 
 
-def fit_instruments(runs: list[Run], spec: TwinSpec) -> InstrumentsFit:
-    """The tracker registration and the F/T bias the runs show against `spec`'s replay (module docstring)."""
+def fit_instruments(runs: list[Run], spec: TwinSpec, lateness: bool = False) -> InstrumentsFit:
+    """The tracker registration and the F/T bias the runs show against `spec`'s replay (module docstring);
+    `lateness`: the tracker's lateness too (within the robot learner's prior spreads, as the rotation)."""
     rows, rhs, forces = [], [], []
     for run in runs:
         streams = ResidualModel(run, spec).streams(spec.effects)
@@ -66,10 +70,22 @@ def fit_instruments(runs: list[Run], spec: TwinSpec) -> InstrumentsFit:
         block[:, :, _LATE] = -np.gradient(p, run.tracker.t_s, axis=0)  # read dt late: p(t - dt) = p - v dt
         rows.append(block.reshape(-1, _WIDTH))
         rhs.append(residual.ravel())
-    coef, *_ = np.linalg.lstsq(np.vstack(rows), np.concatenate(rhs), rcond=None)
+    X, y = np.vstack(rows), np.concatenate(rhs)
+    coef = _with_priors(X, y) if lateness else np.append(np.linalg.lstsq(X[:, :_LATE], y, rcond=None)[0], 0.0)
     rotation_mrad, shift_mm, late_s = 1e3 * coef[_ROTATION], 1e3 * coef[_SHIFT], float(coef[_LATE])
     bias_n = np.vstack(forces).mean(axis=0) if forces else np.zeros(3)
     instruments = spec.effects.instruments.plus(
         {"tracker_rotation_mrad": rotation_mrad, "tracker_shift_mm": shift_mm, "tracker_time_offset_s": [late_s],
          "force_bias_n": bias_n})
     return InstrumentsFit(instruments, rotation_mrad, shift_mm, bias_n, late_s)
+
+
+def _with_priors(X: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """The tracker's coefficients with the rotation and the lateness within `robot.TRACKER_SPREADS`: on a cone at a
+    steady speed a turn about z and a lateness move the reading alike (along the travel, by w r and v dt), and
+    unweighted they trade without end."""
+    sigma = max(float(np.std(y - X @ np.linalg.lstsq(X, y, rcond=None)[0])), 1e-5)
+    spreads = np.asarray(TRACKER_SPREADS)
+    precision = np.zeros(_WIDTH)
+    precision[_ROTATION], precision[_LATE] = 1.0 / spreads[:3] ** 2, 1.0 / spreads[3] ** 2
+    return np.linalg.solve(X.T @ X / sigma**2 + np.diag(precision), X.T @ y / sigma**2)

@@ -7,10 +7,10 @@ compliance [rad/(N·m)]): linear in the c_j, whatever the part and whatever the 
 squares over the runs, each pulled towards the robot's prior 1/K_q with a prior spread of `PRIOR_SPREAD` (a
 Gaussian prior; the posterior's standard deviations are the uncertainties). A joint whose posterior spread is
 not below `OBSERVABLE_RATIO` of its prior spread is one the runs cannot observe: it is named and held at its prior
-in the twin, but keeps its prior's spread in the fit. Held there too, its prior's error would go to a joint whose
-column is nearly collinear with its own, with a spread that does not say so: with the tool vertical and the
-forearm level, joints 1 and 4 turn the tip alike, and with joint 4 held a groove's joint 1 came out far from the
-cell's K_q at a spread that called it learned. One the fit pulls outside `stick_slip.COMPLIANCE_RANGE` of its prior (a quarter to
+in the twin, and in the fit (with `keep_unobserved` it keeps its prior's spread there instead: held, its prior's
+error goes to a joint whose column is nearly collinear with its own, with a spread that does not say so; with the
+tool vertical and the forearm level, joints 1 and 4 turn the tip alike, and with joint 4 held a groove's joint 1
+came out far from the cell's K_q at a spread that called it learned). One the fit pulls outside `stick_slip.COMPLIANCE_RANGE` of its prior (a quarter to
 four times its compliance: no gear of the class is there, the fit is pulled by what its columns lack, and clipping
 it there would push its share onto its neighbours) is held in the fit as well. Beside the gear spring the same
 solve fits what a real arm adds: each joint's Coulomb friction against its motion (a deflection J_j·c_j·τ_f,j that
@@ -18,11 +18,12 @@ flips with the sign of the joint's speed: a column kept free in the spring's fit
 deflection that leads the joint's motion is a real cell's too, and only its non-negative part is the friction the
 twin takes), the servo's transient compliance c_s,j on the force's high-pass F − lag_τ(F) (`twin.sim.servo`: the
 position loop gives way while the force changes and recovers over τ, picked on a grid by the least residual), and
-per run the tracker's own errors (`tracker_columns`): a constant offset per axis, its registration's rotation about
-the sheet origin and a lateness (a clock offset, or the servo's following error: both read the tip a velocity
-times a time behind). Without the last two a registration's tilt went into joint 1 and a few milliseconds of
-lateness into joints 2 and 3's friction. They are reported, not put into the robot; the model carries the
-registration as the instruments' (`twin.analysis.learn.instruments`). That linear fit is the start: the observable
+per run the tracker's own errors: a constant offset per axis and, with `tracker_errors` (`learn --tracker-errors`;
+both options together), its registration's rotation about the sheet origin and a lateness (`tracker_columns`: the
+tracker's latency, or the robot's lag along the path, both read the tip a velocity times a time behind). Without
+them a registration's tilt goes into joint 1 and a few milliseconds of lateness into joints 2 and 3's friction;
+with them a lag of the robot along the path is the tracker's, and no compensation takes it. They are reported, not
+put into the robot; the model carries the registration as the instruments' (`twin.analysis.learn.instruments`). That linear fit is the start: the observable
 joints' springs and friction are then refined as the twin's equilibrium holds them, a friction that sticks
 (`twin.analysis.learn.stick_slip`), which is what their stated spread is of. `truth.json` is never read.
 """
@@ -52,8 +53,9 @@ SPEED_SMOOTHING_RAD_S = 2e-4
 #: its compliance.
 REFINE_SPREAD = 0.1
 #: Prior spreads of a run's tracker errors beside its offset (`tracker_columns`): its registration's rotation per
-#: axis [rad] (a registration to the usual care is within ~1 mrad) and its lateness [s].
-TRACKER_SPREADS = (5e-3, 5e-3, 5e-3, 0.05)
+#: axis [rad] (a registration to the usual care is within ~1 mrad) and its lateness [s] (a tracker's latency is a
+#: few milliseconds).
+TRACKER_SPREADS = (2e-3, 2e-3, 2e-3, 0.01)
 TRACKER_COLUMNS = len(TRACKER_SPREADS)
 #: Servo time constants tried [s].
 SERVO_TIME_CONSTANTS_S = (0.01, 0.02, 0.03, 0.05, 0.075, 0.1, 0.15, 0.2, 0.3)
@@ -122,8 +124,9 @@ class RobotFit(NamedTuple):
     late_ms: float = 0.0
 
 
-def robot_rows(run: Run, twin: Twin) -> RobotRows:
-    """The twin's unloaded tool tip and per-joint levers along the run's command, at its tracker times."""
+def robot_rows(run: Run, twin: Twin, tracker_errors: bool = False) -> RobotRows:
+    """The twin's unloaded tool tip and per-joint levers along the run's command, at its tracker times
+    (`tracker_errors`: with the tracker's rotation and lateness columns, `tracker_columns`)."""
     if run.forces is None or len(run.forces.t_s) < 10:
         raise InputError(f"run {run.directory}: learning the robot needs forces.csv (the F/T sensor on)")
     q_ik = twin.ik_path(run.commanded.values)
@@ -138,7 +141,8 @@ def robot_rows(run: Run, twin: Twin) -> RobotRows:
     sign = np.tanh(interp_rows(t, run.commanded.t_s, speed) / SPEED_SMOOTHING_RAD_S)
     velocity = interp_rows(t, run.commanded.t_s, np.gradient(run.commanded.values, run.commanded.t_s, axis=0))
     return RobotRows(run.tracker.values - unloaded, t, run.forces.t_s, run.forces.values, lever,
-                     -J_sheet * sign[:, None, :], q, J_sheet, tracker_columns(unloaded, velocity))
+                     -J_sheet * sign[:, None, :], q, J_sheet,
+                     tracker_columns(unloaded, velocity) if tracker_errors else None)
 
 
 def design(rows: RobotRows, servo_s: float = 0.0) -> np.ndarray:
@@ -225,19 +229,21 @@ def predicted_deflection(rows: RobotRows, fit: RobotFit, offset_m: np.ndarray) -
     return spring + servo + offset_m
 
 
-def fit_robot(runs: list[Run], twin: Twin) -> RobotFit:
+def fit_robot(runs: list[Run], twin: Twin, tracker_errors: bool = False) -> RobotFit:
     """Learn the effective joint compliances, the servo lag and the tracker offset from runs (module docstring).
 
     Args:
         runs: Runs with tracker and force streams, made by the twin's robot at the twin's placement.
         twin: The twin (its robot's K_q is the prior).
+        tracker_errors: Also fit each run's tracker rotation and lateness (`tracker_columns`), and keep a joint
+            the runs cannot observe in the fit with its prior's spread (`fit_rows`' `keep_unobserved`).
     """
-    return fit_rows([robot_rows(run, twin) for run in runs], twin.joint_stiffness, twin.joint_friction,
-                    twin.spec.servo)
+    return fit_rows([robot_rows(run, twin, tracker_errors) for run in runs], twin.joint_stiffness,
+                    twin.joint_friction, twin.spec.servo, keep_unobserved=tracker_errors)
 
 
 def fit_rows(rows: list[RobotRows], k0: np.ndarray, prior_friction_nm: np.ndarray,
-             prior_servo: ServoTransient | None) -> RobotFit:
+             prior_servo: ServoTransient | None, keep_unobserved: bool = False) -> RobotFit:
     """`fit_robot` on the runs' regression rows (module docstring).
 
     Args:
@@ -245,6 +251,8 @@ def fit_rows(rows: list[RobotRows], k0: np.ndarray, prior_friction_nm: np.ndarra
         k0: The prior joint stiffness (dof,) [N·m/rad].
         prior_friction_nm: The twin's joint friction before learning (dof,) [N·m].
         prior_servo: The twin's servo transient before learning (None: none).
+        keep_unobserved: A joint the runs cannot observe keeps its prior's spread in the fit (held at its prior
+            in the twin all the same); False: it is held at its prior in the fit too.
     """
     k0 = np.asarray(k0, dtype=float)
     c0 = 1.0 / k0
@@ -253,10 +261,12 @@ def fit_rows(rows: list[RobotRows], k0: np.ndarray, prior_friction_nm: np.ndarra
     coef, cov, _ = solves[best]
     dof = len(c0)
     observable = np.sqrt(np.diag(cov)[:dof]) < OBSERVABLE_RATIO * PRIOR_SPREAD * c0
-    # a joint the runs cannot observe keeps its prior's spread in the fit (its columns stay: holding it at its prior
-    # would put its prior's error on the joints whose columns are nearly collinear with its own, with a spread that
-    # does not say so) and is held at its prior in the twin; one the fit pulls outside its range is held in the fit
-    held = np.zeros(dof, dtype=bool)
+    # a joint the runs cannot observe is held at its prior in the fit (or, `keep_unobserved`, keeps its prior's
+    # spread there: holding it would put its prior's error on the joints whose columns are nearly collinear with its
+    # own, with a spread that does not say so) and in the twin; one the fit pulls outside its range is held in both
+    held = np.zeros(dof, dtype=bool) if keep_unobserved else ~observable
+    if held.any():
+        coef, cov, _ = _solve(rows, best, c0, ~held)
     for _ in range(dof):
         outside = observable & ((coef[:dof] < COMPLIANCE_RANGE[0] * c0) | (coef[:dof] > COMPLIANCE_RANGE[1] * c0))
         if not outside.any():

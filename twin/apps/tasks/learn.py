@@ -40,12 +40,15 @@ class LearnRequest:
         write_model: Where to write the learned twin (a model file), or None.
         dynamic: Also learn the dynamic mode's joint servo from the first run (`fit_servo`, docs/dynamic-twin.md),
             carried in the model file for `replay --dynamic`.
+        tracker_errors: Fit each run's tracker rotation and lateness beside the robot and carry the lateness as the
+            tracker's clock (`twin.analysis.learn.cell.learn`).
     """
 
     runs: tuple[Path, ...]
     model: Path | None = None
     write_model: Path | None = None
     dynamic: bool = False
+    tracker_errors: bool = False
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "runs", tuple(self.runs))
@@ -103,10 +106,8 @@ class LearnReport(Report):
             self.fitted_words(),
             f"  robot: K_q [kN·m/rad] {'; '.join(_stiffness_words(robot))}",
             f"  robot: joint friction [N·m] {friction}; {_servo_words(robot)}; tracker offset "
-            f"({', '.join(f'{v:.3f}' for v in robot.offset_mm)}) mm, turned ("
-            f"{', '.join(f'{v:.2f}' for v in robot.rotation_mrad)}) mrad, {robot.late_ms:.1f} ms late (not robot "
-            "effects: the tracker's registration and clock, or the servo's following error)",
-            "  instruments carried in the model: tracker registration (rotation about the sheet origin, shift) and clock "
+            f"({', '.join(f'{v:.3f}' for v in robot.offset_mm)}) mm" + _tracker_words(robot),
+            "  instruments carried in the model: tracker registration (rotation about the sheet origin, shift) "
             + _registration_words(result.spec),
             "  robot's part of the gap (the twin's robot driven by the measured forces): "
             + ", ".join(f"{a:.3f} -> {b:.3f} mm" for a, b in zip(robot.rms_prior_mm, robot.rms_after_mm, strict=True))
@@ -189,7 +190,7 @@ def learn_task(request: LearnRequest, note: Note = silent) -> LearnReport:
     """
     runs = [read_run(path) for path in request.runs]
     prior = read_model_file(request.model) if request.model is not None else None
-    result = learn(runs, prior)
+    result = learn(runs, prior, request.tracker_errors)
     servo_fit, refused = None, None
     if request.dynamic:
         from twin.analysis.learn.servo_fit import fit_servo
@@ -269,12 +270,21 @@ def _grew_words(robot: RobotFit) -> str:
 
 
 def _registration_words(spec: TwinSpec) -> str:
-    """The carried tracker registration and lateness and the F/T bias, in words."""
+    """The carried tracker registration (and lateness) and the F/T bias, in words."""
     inst = spec.effects.instruments
+    late = inst.tracker_time_offset_s[0]
     return (f"({', '.join(f'{v:.3f}' for v in inst.tracker_rotation_mrad)}) mrad, "
-            f"({', '.join(f'{v:.3f}' for v in inst.tracker_shift_mm)}) mm, read "
-            f"{1e3 * inst.tracker_time_offset_s[0]:.1f} ms late; F/T bias "
-            f"({', '.join(f'{v:.1f}' for v in inst.force_bias_n)}) N")
+            f"({', '.join(f'{v:.3f}' for v in inst.tracker_shift_mm)}) mm"
+            + (f", its clock read {1e3 * late:.1f} ms late" if late else "")
+            + f"; F/T bias ({', '.join(f'{v:.1f}' for v in inst.force_bias_n)}) N")
+
+
+def _tracker_words(robot: RobotFit) -> str:
+    """The tracker's errors the robot's fit took apart, in words (`learn --tracker-errors`: turned and late too)."""
+    if not any(robot.rotation_mrad) and not robot.late_ms:
+        return " (not a robot effect: a registration error of the tracker)"
+    return (f", turned ({', '.join(f'{v:.2f}' for v in robot.rotation_mrad)}) mrad, {robot.late_ms:.1f} ms late "
+            "(not robot effects: the tracker's registration and clock, or the robot's lag along the path)")
 
 
 def _servo_words(robot: RobotFit) -> str:
