@@ -48,6 +48,9 @@ class CheckResult:
         force_scale: Forces the compensation used / forces measured, or None without its record.
         registration: The tracker registration taken off the run's tracker before judging, or None (the tracker
             as it reads).
+        path_tangent: The ideal path's unit tangent at the tracker times, shape (m, 3) (zero where it stands), or
+            None: the residual's part along the path (a lag or a lead of the tool along its own track, which the
+            part's shape does not keep) and across it.
     """
 
     residual_m: np.ndarray
@@ -60,6 +63,14 @@ class CheckResult:
     cause: str = "unknown"
     force_scale: float | None = None
     registration: TrackerRegistration | None = None
+    path_tangent: np.ndarray | None = None
+
+    def along_across_m(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """The residual's component along the ideal path (m,) and the rest across it (m, 3) [m], or None."""
+        if self.path_tangent is None:
+            return None
+        along = np.sum(self.residual_m * self.path_tangent, axis=1)
+        return along, self.residual_m - along[:, None] * self.path_tangent
 
     def summary(self) -> dict[str, object]:
         """JSON-ready numbers: overall, per pass and per direction residuals [mm], gain, diagnosis."""
@@ -75,6 +86,7 @@ class CheckResult:
         return {
             **stats(np.ones(len(norm), dtype=bool)),
             "residual_rms_xyz_mm": (1e3 * np.sqrt(np.mean(self.residual_m**2, axis=0))).tolist(),
+            **self._along_across(),
             "per_pass": {str(k): stats(self.pass_index == k) for k in np.unique(self.pass_index)},
             "per_direction": {
                 ("forward" if d > 0 else "backward"): stats(self.direction == d)
@@ -90,6 +102,16 @@ class CheckResult:
                 key: value for key, value in self.registration.summary().items()
                 if key in ("rotation_mrad", "shift_mm", "source")},
         }
+
+
+    def _along_across(self) -> dict[str, float]:
+        """The rms of the residual along the path and across it [mm] (empty without a tangent)."""
+        split = self.along_across_m()
+        if split is None:
+            return {}
+        along, across = split
+        return {"residual_along_path_rms_mm": 1e3 * float(np.sqrt(np.mean(along**2))),
+                "residual_across_path_rms_mm": 1e3 * float(np.sqrt(np.mean(np.sum(across**2, axis=1))))}
 
 
 #: A command within this of the ideal path everywhere is the ideal path (a nominal run) [m].
@@ -162,6 +184,7 @@ def check_run(
     t_tr = run.tracker.t_s
     ideal_tr = interp_rows(t_tr, t_ideal, p_ideal)
     residual = run.tracker.values - ideal_tr
+    tangent = _tangent(t_tr, t_ideal, p_ideal)
     pass_ideal, dir_ideal = label_passes(p_ideal[:, 0])
     index = np.clip(np.searchsorted(t_ideal, t_tr), 0, len(t_ideal) - 1)
 
@@ -201,10 +224,18 @@ def check_run(
         diagnosis = ("a nominal run: its command is the ideal path, so there is no compensation to judge; the "
                      "residual is the robot's deflection")
         return CheckResult(residual, pass_ideal[index], dir_ideal[index], gain, c_xz, diagnosis, nominal=True,
-                           cause="nominal", registration=registration)
+                           cause="nominal", registration=registration, path_tangent=tangent)
     record = run_record(run.meta, run.directory or "meta.json")
     if record is not None and len(record.t_s) == len(t_cmd):  # the same program, perhaps re-timed by the controller
         record = replace(record, t_s=np.asarray(t_cmd, dtype=float))
     cause = name_cause(gain, record, t_f, f)
     return CheckResult(residual, pass_ideal[index], dir_ideal[index], gain, c_xz, cause.text,
-                       cause=cause.cause, force_scale=cause.force_scale, registration=registration)
+                       cause=cause.cause, force_scale=cause.force_scale, registration=registration,
+                       path_tangent=tangent)
+
+
+def _tangent(t_s: np.ndarray, t_ideal_s: np.ndarray, p_ideal_m: np.ndarray) -> np.ndarray:
+    """The ideal path's unit tangent at times `t_s` (m, 3): its velocity's direction, zero where it stands."""
+    velocity = interp_rows(t_s, t_ideal_s, np.gradient(p_ideal_m, t_ideal_s, axis=0))
+    speed = np.linalg.norm(velocity, axis=1, keepdims=True)
+    return np.where(speed > 1e-6, velocity / np.maximum(speed, 1e-12), 0.0)

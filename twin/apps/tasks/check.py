@@ -190,8 +190,10 @@ class CheckReport(Report):
 
     def lines(self) -> list[str]:
         m = self.result.summary()
-        line = (f"check {self.run_dir}: residual rms {m['residual_rms_mm']:.3f} mm, max {m['residual_max_mm']:.3f} mm; "
-                f"{self.result.diagnosis}")
+        split = (f" ({m['residual_along_path_rms_mm']:.3f} along the path, {m['residual_across_path_rms_mm']:.3f} "
+                 "across it)" if "residual_along_path_rms_mm" in m else "")
+        line = (f"check {self.run_dir}: residual rms {m['residual_rms_mm']:.3f} mm{split}, max "
+                f"{m['residual_max_mm']:.3f} mm; {self.result.diagnosis}")
         registration = self.result.registration
         said = [registration.text() if registration is not None else self.registration_note]
         if self.surface is None:
