@@ -1,21 +1,19 @@
 """The instruments' calibration a cell's runs show (the tracker's registration, the F/T sensor's bias), learned
 with the cell and carried in its model file.
 
-A laser tracker registered to the sheet with a small rotation and shift reads every tip turned and moved: a
-constant offset, and a tilt that grows across the part. Neither is the robot's, and a cell learned without it
-leaves it in the floor it records and in every later run's gap (where `discrepancy` would then name it on each
-run). It is fitted on the learned twin's replay of the runs: the tracker residual r against the predicted
-reading p, r = w x p + s (w the rotation vector about the sheet origin [rad], s the shift [m]; the forms of
-`twin.sim.instruments`), by linear least squares over all runs together. With `lateness` (`learn
---tracker-errors`) the reading's lateness dt joins them, r = w x p + s - v dt (v the reading's velocity), the
-rotation and the lateness within the robot learner's prior spreads, and is carried as the tracker's clock. A
-lateness is the tracker's latency, or the robot's following error along the path: both read the tip a velocity
-times a time behind. Carried as the tracker's, the second is not compensated, so it stays opt-in (docs/learning.md).
-The F/T sensor's bias is the mean of
-the force residual over the runs (what a zeroing error leaves; where the learned sheet leaves a mean error of its
-own, the bias takes it too, and the twin's sensor then reads what the cell's does). They are added to the spec's
-instruments (`Instruments.plus`) and the residuals are those of the spec's replay with its instruments, so
-learning twice from the same runs adds nothing the second time.
+A laser tracker registered to the sheet with a small rotation and shift reads every tip turned and moved: a constant
+offset, and a tilt that grows across the part. Neither is the robot's, and a cell learned without it leaves it in the
+floor it records and in every later run's gap (where `discrepancy` would then name it on each run). It is fitted on
+the learned twin's replay of the runs: the tracker residual r against the predicted reading p, r = w×p + s (w the
+rotation vector about the sheet origin [rad], s the shift [m]; the forms of `twin.sim.instruments`), by linear least
+squares over all runs together. With `lateness` (`learn --tracker-errors`) the reading's lateness dt joins them, r =
+w×p + s − v·dt (v the reading's velocity), the rotation and the lateness within the robot learner's prior spreads, and
+is carried as the tracker's clock. A lateness is the tracker's latency, or the robot's following error along the path:
+both read the tip a velocity times a time behind. Carried as the tracker's, the second is not compensated, so it stays
+opt-in (docs/learning.md). The F/T sensor's bias is the mean of the force residual over the runs (what a zeroing error
+leaves; where the learned sheet leaves a mean error of its own, the bias takes it too, and the twin's sensor then
+reads what the cell's does). They are added to the spec's instruments (`Instruments.plus`) and the residuals are those
+of the spec's replay with its instruments, so learning twice from the same runs adds nothing the second time.
 """
 
 from __future__ import annotations
