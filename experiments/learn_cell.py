@@ -6,7 +6,7 @@ with seed 3, and its residual (`check`). The learned twin learns from seed 1's r
 learn`; nothing here reads the plant's truth, knobs or code on the twin's side. Writes OUT/learn_cell.json and
 OUT/learn_cell.md (the table in docs/learning.md):
 
-    .venv/bin/python experiments/learn_cell.py OUT [--variants groove-neutral,...] [--reuse]
+    .venv/bin/python experiments/learn_cell.py OUT [--variants groove-neutral,...] [--reuse] [--tracker-errors]
 
 `--reuse` keeps the runs an earlier call left under OUT that do not depend on what `learn` gives (the nominal runs
 and the untaught twin's compensated ones: a run is its seed's) and forms the learned twin's again, for a change of
@@ -68,9 +68,11 @@ def _lab(robot: str, knobs: list[str], strength: float, command: Path, out: Path
     return out
 
 
-def variant_study(out: Path, name: str, plant_set: tuple[str, ...] = (), reuse: bool = False) -> dict[str, Any]:
+def variant_study(out: Path, name: str, plant_set: tuple[str, ...] = (), reuse: bool = False,
+                  learn_options: tuple[str, ...] = ()) -> dict[str, Any]:
     """One variant's row (module docstring); `plant_set`: plant knobs NAME=VALUE added to every run's (the sheet
-    law, say); `reuse`: the runs that do not depend on the learned model kept where an earlier call left them."""
+    law, say); `reuse`: the runs that do not depend on the learned model kept where an earlier call left them;
+    `learn_options`: `learn`'s (`--tracker-errors`)."""
     robot, path_args, knobs, strength = VARIANTS[name]
     knobs = [*knobs, *(arg for item in plant_set for arg in ("--set", item))]
     out.mkdir(parents=True, exist_ok=True)
@@ -79,7 +81,7 @@ def variant_study(out: Path, name: str, plant_set: tuple[str, ...] = (), reuse: 
     runs = {seed: _lab(robot, knobs, strength, ideal, out / f"nominal{seed}", seed, reuse=reuse) for seed in (1, 2)}
     model = out / "learned.json"
     model.unlink(missing_ok=True)
-    learned = cli_json("learn", str(runs[1]), "--write-model", str(model))
+    learned = cli_json("learn", str(runs[1]), "--write-model", str(model), *learn_options)
     row: dict[str, Any] = {"variant": name, "robot": robot,
                            "nominal": cli_json("check", str(runs[1]), "--ideal", str(ideal)),
                            "replay_untaught": cli_json("replay", str(runs[2]), "--forces", "measured"),
@@ -177,10 +179,12 @@ def main() -> None:
                         help="a plant knob for every run (repeat), e.g. sheet_law=2")
     parser.add_argument("--reuse", action="store_true", help="keep the runs an earlier call left that do not depend on "
                         "the learned model")
+    parser.add_argument("--tracker-errors", action="store_true", help="learn with --tracker-errors")
     args = parser.parse_args()
     rows = []
     for name in args.variants.split(","):
-        rows.append(variant_study(args.out / name, name, tuple(args.plant_set), args.reuse))
+        rows.append(variant_study(args.out / name, name, tuple(args.plant_set), args.reuse,
+                                  ("--tracker-errors",) if args.tracker_errors else ()))
         print(table(rows[-1:]).splitlines()[-1], flush=True)
     (args.out / "learn_cell.json").write_text(json.dumps(rows, indent=1, default=str))
     (args.out / "learn_cell.md").write_text(table(rows))
