@@ -569,7 +569,8 @@ if __name__ == "__main__":
     parser.add_argument("--work", type=Path, default=Path("plant-changes"))
     parser.add_argument("--set", choices=(*SETS, "both"), default="held-out")
     parser.add_argument("--markdown", type=Path, help="write both sets' tables into this file (with --set both)")
-    parser.add_argument("--reuse-cells", action="store_true", help="keep cells already learned under --work, and the runs already formed there")
+    parser.add_argument("--reuse-cells", action="store_true",
+                        help="keep cells already learned under --work, and the runs already formed there")
     args = parser.parse_args()
     sets = tuple(SETS) if args.set == "both" else (args.set,)
     tables = {which: run_set(which, args.work / which, args.reuse_cells) for which in sets}

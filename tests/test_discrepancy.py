@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any, ClassVar
 
 import numpy as np
@@ -23,6 +24,7 @@ from twin.analysis.discrepancy.families.tracker import TrackerDrift
 from twin.analysis.discrepancy.search import DiscrepancyResult, find_discrepancy
 from twin.analysis.discrepancy.significance import excess_over_noise, is_contradicted
 from twin.analysis.discrepancy.summary import result_summary
+from twin.apps.tasks.discrepancy import DiscrepancyReport
 from twin.base.resources import data_file
 from twin.lab.virtual import LabSettings, run_lab
 from twin.process.description import Process
@@ -457,10 +459,6 @@ def test_two_families_explaining_the_same_thing_are_reported_ambiguous(
     other = ({"tracker_drift", "tracker_drift_copy"} - set(result.found)).pop()
     assert result.named[0].ambiguous_with == (other,), info
     assert result_summary(result)["ambiguities"] == [{"named": result.found[0], "ambiguous_with": [other]}]
-    from pathlib import Path
-
-    from twin.apps.tasks.discrepancy import DiscrepancyReport
-
     said = DiscrepancyReport(Path("run"), TwinSpec(), result).lines()
     assert f"  {result.found[0]} is not told apart from {other} on this run" in "\n".join(said), said
 

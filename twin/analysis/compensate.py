@@ -159,10 +159,11 @@ def compensate_twin(
     best: tuple[float, np.ndarray, np.ndarray, np.ndarray] | None = None
     accelerate = Anderson(memory)
     q_ik = None
+    frame = frame_compliance_m_per_n(twin.effects)  # a clamping frame that gives [m/N]
     for iteration in range(1, max_iter + 1):
         sim = twin.simulate(t, cmd, q_ik=q_ik)
         residual = sim.p_sheet_m - p_id
-        residual[:, 2] += frame_compliance_m_per_n(twin.effects) * sim.f_sheet_n[:, 2]  # the frame's give
+        residual[:, 2] += frame * sim.f_sheet_n[:, 2]  # the frame's give
         history.append(float(np.sqrt(np.mean(np.sum(residual**2, axis=1)))))
         if progress is not None:
             progress(iteration, history[-1])

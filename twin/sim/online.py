@@ -4,9 +4,9 @@ of the tool path out, from the twin's model of the robot.
 A cell's F/T sensor measures the sheet's force as it happens; the twin knows what that force does to the tool tip:
 the deflection C(q) F with C(q) = J(q) K_q^-1 J(q)^T, the translational Jacobian of the tool tip at the robot's
 current joints and the twin's joint stiffness (a `learn`ed model's where given), plus constant compliances in series
-(the tool's own bending, a clamping frame's give along the sheet's normal: `twin.sim.giving_frame`), and the lag of its joint friction,
--sum_j J_j tanh(qdot_j / w0) tau_f,j / K_j (each joint's Coulomb friction tau_f against its motion, its speed from
-the joints of successive cycles). The compensator commands the tip the other way and does what a real signal
+(the tool's own bending, a clamping frame's give along the sheet's normal: `twin.sim.giving_frame`), and the lag of
+its joint friction, -sum_j J_j tanh(qdot_j / w0) tau_f,j / K_j (each joint's Coulomb friction tau_f against its
+motion, its speed from the joints of successive cycles). The compensator commands the tip the other way and does what a real signal
 needs:
 
 * **filtering**: a first-order low-pass on the force (`filter_hz`), so sensor noise does not reach the motors;

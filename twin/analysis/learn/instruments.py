@@ -23,7 +23,7 @@ from typing import NamedTuple
 import numpy as np
 
 from twin.analysis.discrepancy.residuals import ResidualModel
-from twin.analysis.learn.robot import TRACKER_SPREADS
+from twin.analysis.learn.robot import TRACKER_SPREADS, gaussian_posterior
 from twin.runs.format import Run
 from twin.sim.instruments import Instruments
 from twin.sim.spec import TwinSpec
@@ -82,8 +82,7 @@ def _with_priors(X: np.ndarray, y: np.ndarray) -> np.ndarray:
     """The tracker's coefficients with the rotation and the lateness within `robot.TRACKER_SPREADS`: on a cone at a
     steady speed a turn about z and a lateness move the reading alike (along the travel, by w r and v dt), and
     unweighted they trade without end."""
-    sigma = max(float(np.std(y - X @ np.linalg.lstsq(X, y, rcond=None)[0])), 1e-5)
     spreads = np.asarray(TRACKER_SPREADS)
     precision = np.zeros(_WIDTH)
     precision[_ROTATION], precision[_LATE] = 1.0 / spreads[:3] ** 2, 1.0 / spreads[3] ** 2
-    return np.linalg.solve(X.T @ X / sigma**2 + np.diag(precision), X.T @ y / sigma**2)
+    return gaussian_posterior(X, y, precision, np.zeros(_WIDTH))[0]

@@ -172,6 +172,15 @@ def own_precision(rows: RobotRows) -> np.ndarray:
     return np.concatenate([np.full(3, 1e-12), 1.0 / np.asarray(TRACKER_SPREADS[:width - 3]) ** 2])
 
 
+def gaussian_posterior(X: np.ndarray, y: np.ndarray, precision: np.ndarray,
+                       mean: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(posterior mean, covariance) of y = X beta + noise under a Gaussian prior beta ~ N(mean, diag(1/precision)),
+    the noise's level from an unregularised solve's residual, floored at 10 µm."""
+    sigma = max(float(np.std(y - X @ np.linalg.lstsq(X, y, rcond=1e-10)[0])), 1e-5)
+    cov = np.linalg.inv(X.T @ X / sigma**2 + np.diag(precision))
+    return cov @ (X.T @ y / sigma**2 + precision * mean), cov
+
+
 def _solve(runs: list[RobotRows], servo_s: float, c0: np.ndarray,
            free: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, float]:
     """(coefficients, posterior covariance, RSS) of the regularised fit. Coefficients: the compliances c (dof),
@@ -196,14 +205,9 @@ def _solve(runs: list[RobotRows], servo_s: float, c0: np.ndarray,
     if drop.any():
         y = y - X[:, :dof][:, held] @ c0[held]
         X[:, drop] = 0.0
-    # the noise level from an unregularised solve, floored at 10 µm
-    sigma = max(float(np.std(y - X @ np.linalg.lstsq(X, y, rcond=1e-10)[0])), 1e-5)
     prior_precision = np.concatenate([1.0 / (PRIOR_SPREAD * c0) ** 2, 1.0 / (FRICTION_SPREAD_NM * c0) ** 2,
                                       1.0 / (PRIOR_SPREAD * c0) ** 2, *(own_precision(rows) for rows in runs)])
-    A = X.T @ X / sigma**2 + np.diag(prior_precision)
-    b = X.T @ y / sigma**2 + prior_precision * np.concatenate([c0, np.zeros(2 * dof + int(starts[-1]))])
-    cov = np.linalg.inv(A)
-    coef = cov @ b
+    coef, cov = gaussian_posterior(X, y, prior_precision, np.concatenate([c0, np.zeros(2 * dof + int(starts[-1]))]))
     rss = float(np.sum((y - X @ coef) ** 2))
     if drop.any():
         coef[drop] = 0.0

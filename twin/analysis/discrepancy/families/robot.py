@@ -197,7 +197,7 @@ class FrameCompliance(Family):
     Its change is the sheet's answer to a shallower depth (without it only the profile would move), so it has no
     `sheet_answer_ratio`, and it is taken from a replay with the frame (linear in c): the context's local sheet
     stiffness S does not hold it, since the twin's sheet pushes with the depth itself (a groove 0.3 mm shallower
-    by the frame loses 3x the force S gives: -83 N against -25 N on the TX200 groove at 0.3 mm/kN).
+    by the frame loses several times the force S gives).
     """
 
     name = "frame_compliance"
