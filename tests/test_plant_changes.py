@@ -9,6 +9,7 @@ both sets, checks docs/discrepancy.md's tables, and holds the issue's goal on th
 from __future__ import annotations
 
 import json
+import re
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -24,6 +25,7 @@ from plant_changes import (
     HELD_OUT_3,
     HELD_OUT_4,
     HELD_OUT_5,
+    HELD_OUT_6,
     NEXT_SEED,
     SETS,
     learn_cell,
@@ -103,7 +105,7 @@ def test_the_plant_change_sets_are_as_the_docs_show(both_sets: dict[str, list[di
     for rows in both_sets.values():
         assert markdown(rows) in block, markdown(rows)
     for which, changes in (("held-out", HELD_OUT), ("held-out-2", HELD_OUT_2), ("held-out-3", HELD_OUT_3),
-                            ("held-out-4", HELD_OUT_4), ("held-out-5", HELD_OUT_5)):
+                            ("held-out-4", HELD_OUT_4), ("held-out-5", HELD_OUT_5), ("held-out-6", HELD_OUT_6)):
         rows = both_sets[which]
         assert {r["change"] for r in rows} == {c.name for c in changes}
         assert len({r["cell"].split("-")[0] for r in rows}) >= 2  # two robots, two parts
@@ -111,15 +113,16 @@ def test_the_plant_change_sets_are_as_the_docs_show(both_sets: dict[str, list[di
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("which", ["held-out", "held-out-2", "held-out-3", "held-out-4", pytest.param(
+@pytest.mark.parametrize("which", ["held-out", "held-out-2", "held-out-3", "held-out-4", "held-out-6", pytest.param(
     "held-out-5", marks=pytest.mark.xfail(strict=True, raises=AssertionError, reason=(
-        "a clamping frame that gives is named `frame_compliance` with its size on a groove, whose part scan shows the "
-        "shallower part; on a cone or a pyramid its tip and forces are a softer sheet's (`force_scale`, the frame "
-        "listed as ambiguous), and a frame the next run does not show above the floor is named all the same"))),
+        "a frame of 0.25 mm/kN on a cone or a pyramid is taken for a softer sheet (`force_scale`): on the TX200 "
+        "pyramid the frame is not even close, on the IRB 6640 cone the scan's miss of the softer sheet's part stays "
+        "within SCAN_SEEN of the cell's spread; and a frame the next run does not show above the floor is named all "
+        "the same"))),
 ])
 def test_the_held_out_sets_meet_the_issue_goal(both_sets: dict[str, list[dict[str, Any]]], which: str) -> None:
-    """With the library as it is: the fourth set met it when first run; the first three met it only when run again,
-    after the fixes their first runs showed, and are no longer held out (docs/discrepancy.md)."""
+    """With the library as it is: the fourth and the sixth sets met it when first run; the first three met it only when
+    run again, after the fixes their first runs showed, and are no longer held out (docs/discrepancy.md)."""
     seen = [r for r in both_sets[which] if r["observable"]]
     assert sum(right(r) for r in seen) >= 10 / 12 * len(seen), markdown(both_sets[which])
 
@@ -236,3 +239,45 @@ def test_a_dry_sheet_on_the_plant_is_carried_into_the_next_run(dry_sheet_row: di
                    "a dry sheet's gap, but leaves the force stream's slow structure (consistency rule 3): `unexplained`")
 def test_a_dry_sheet_on_the_plant_is_named_a_per_axis_force_scale(dry_sheet_row: dict[str, Any]) -> None:
     assert dry_sheet_row["named"] == "force_scale", dry_sheet_row
+
+
+@pytest.mark.slow
+def test_the_scan_bias_is_as_the_docs_say(both_sets: dict[str, list[dict[str, Any]]], sets_root: Path) -> None:
+    """docs/discrepancy.md: the learned cells' scan bias on the fifth set's cones and pyramids (the real part
+    0.5-0.7 mm deeper than the twin's), within 0.05 mm."""
+    from twin.analysis.discrepancy.floor import Floor
+    from twin.sim.model_file import read_floor_entry
+
+    flat = " ".join((ROOT / "docs" / "discrepancy.md").read_text().split())
+    said = re.search(r"the real part ([0-9.]+)-([0-9.]+) mm deeper on the cones and pyramids of the fifth set", flat)
+    assert said is not None
+    low, high = float(said.group(1)), float(said.group(2))
+    biases = []
+    for cell in ("kr210-pyramid", "tx200-pyramid", "irb6640-cone"):
+        model = sets_root / "held-out-5" / cell / "cell.json"
+        floor = Floor.from_json(read_floor_entry(model), str(model))
+        assert floor.scan_bias_m is not None, cell
+        biases.append(-1e3 * floor.scan_bias_m)
+    assert low - 0.05 <= min(biases) and max(biases) <= high + 0.05, (biases, low, high)
+
+
+@pytest.mark.slow
+def test_without_the_scan_the_tx200_cones_frame_is_taken_for_a_softer_sheet(
+        both_sets: dict[str, list[dict[str, Any]]], sets_root: Path, tmp_path: Path,
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """docs/discrepancy.md: the part scan's judge decides one row of the sixth set; the same runs with it switched
+    off name the TX200 cone's 0.8 mm/kN frame a softer sheet (`force_scale`)."""
+    import shutil
+
+    from twin.analysis.discrepancy import search
+    from twin.analysis.discrepancy.scan import ScanVerdict
+
+    judged = next(r for r in both_sets["held-out-6"] if r["cell"] == "tx200-cone" and r["change"] == "frame_gives_0p8")
+    assert judged["named"] == "frame_compliance", judged
+    cell = sets_root / "held-out-6" / "tx200-cone"
+    shutil.copy(cell / "cell.json", tmp_path / "cell.json")
+    for tag in ("changed", "next"):
+        shutil.copytree(cell / "frame_gives_0p8" / tag, tmp_path / "frame_gives_0p8" / tag)
+    monkeypatch.setattr(search, "_judge_by_scan", lambda *args: ScanVerdict(None, {}))
+    row = run_case("tx200-cone", HELD_OUT_6[1], tmp_path, reuse=True)
+    assert row["named"] == "force_scale", row

@@ -27,6 +27,7 @@ from twin.analysis.discrepancy.effect_model import context
 from twin.analysis.discrepancy.families import FAMILIES
 from twin.analysis.discrepancy.fitting import Fitter
 from twin.analysis.discrepancy.residuals import ResidualModel, measured_streams
+from twin.analysis.discrepancy.scan import scan_miss
 from twin.analysis.discrepancy.selection import single_gains
 from twin.errors import InputError
 from twin.runs.format import Run
@@ -52,12 +53,17 @@ class Floor(NamedTuple):
         family_gain: Family -> the held-out gain it finds alone on those runs, per element [noise units²]: what a
             family takes of the floor's own structure (a lost motion of the reversal transients), which
             `discrepancy` takes off its gain on a later run (`selection.forward_select`'s `offsets`).
+        scan_bias_m: The mean of the part scan less the twin's part over the formed region (`scan.scan_miss`) [m],
+            None where the runs have no scan or the force model keeps no surface.
+        scan_spread_m: The rms of that miss about its mean [m], None likewise.
     """
 
     excess: Mapping[str, float]
     structure: Mapping[str, float]
     runs: tuple[str, ...] = ()
     family_gain: Mapping[str, float] = MappingProxyType({})
+    scan_bias_m: float | None = None
+    scan_spread_m: float | None = None
 
     def offsets(self, sizes: Mapping[str, int]) -> dict[str, float]:
         """Each family's floor gain over a run of these stream sizes (elements) [noise units²]."""
@@ -88,8 +94,10 @@ class Floor(NamedTuple):
 
     def to_json(self) -> dict[str, Any]:
         """As the model file records it (`floor`)."""
+        scan = {} if self.scan_bias_m is None or self.scan_spread_m is None else {
+            "scan_bias_mm": 1e3 * self.scan_bias_m, "scan_spread_mm": 1e3 * self.scan_spread_m}
         return {"excess_per_element": dict(self.excess), "structure_per_element": dict(self.structure),
-                "family_gain_per_element": dict(self.family_gain), "runs": list(self.runs),
+                "family_gain_per_element": dict(self.family_gain), "runs": list(self.runs), **scan,
                 "note": "what the learned cell leaves on its own clean runs, predicted (learned from the others)"}
 
     @classmethod
@@ -117,8 +125,18 @@ class Floor(NamedTuple):
                 for v in gains.values()):
             raise InputError(f"{where}: floor.family_gain_per_element = {gains!r}: expected family -> a finite "
                              "number >= 0")
+        scan = []
+        for key, low in (("scan_bias_mm", -np.inf), ("scan_spread_mm", 0.0)):
+            value = entry.get(key)
+            if value is not None and (not isinstance(value, int | float) or isinstance(value, bool)
+                                      or not np.isfinite(value) or value < low):
+                raise InputError(f"{where}: floor.{key} = {value!r}: expected a finite number"
+                                 + (" >= 0" if low == 0.0 else "") + " [mm], or no entry")
+            scan.append(None if value is None else 1e-3 * float(value))
+        if (scan[0] is None) != (scan[1] is None):
+            raise InputError(f"{where}: floor has one of scan_bias_mm and scan_spread_mm: expected both or neither")
         return cls(parts[0], parts[1], tuple(str(r) for r in runs) if isinstance(runs, list) else (),
-                   {str(k): float(v) for k, v in gains.items()})
+                   {str(k): float(v) for k, v in gains.items()}, scan[0], scan[1])
 
 
 def excess_by_stream(model: ResidualModel, effects: Effects) -> dict[str, tuple[float, int]]:
@@ -148,7 +166,9 @@ def measure_floor(run: Run, spec: TwinSpec) -> Floor:
     families = [f for f in FAMILIES.values() if f.applicable(ctx)]
     n = sum(sizes.values())
     gains = {name: g / n for name, g in single_gains(fitter, families, sizes).items()}
-    return Floor(excess, structure, (str(run.directory),), gains)
+    miss = scan_miss(model, spec.effects)
+    bias, spread = (None, None) if miss is None else (float(np.mean(miss)), float(np.std(miss)))
+    return Floor(excess, structure, (str(run.directory),), gains, bias, spread)
 
 
 def mean_floor(floors: Sequence[Floor]) -> Floor:
@@ -160,4 +180,8 @@ def mean_floor(floors: Sequence[Floor]) -> Floor:
         streams = {s for f in floors for s in getattr(f, key)}
         return {s: float(np.mean([getattr(f, key)[s] for f in floors if s in getattr(f, key)])) for s in streams}
 
-    return Floor(mean("excess"), mean("structure"), tuple(r for f in floors for r in f.runs), mean("family_gain"))
+    scans = [(f.scan_bias_m, f.scan_spread_m) for f in floors if f.scan_bias_m is not None]
+    bias, spread = (float(np.mean([b for b, _ in scans])), float(np.mean([s for _, s in scans]))) if scans else (
+        None, None)
+    return Floor(mean("excess"), mean("structure"), tuple(r for f in floors for r in f.runs), mean("family_gain"),
+                 bias, spread)

@@ -29,11 +29,13 @@ import numpy as np
 
 from twin.analysis.discrepancy import consistency
 from twin.analysis.discrepancy.carry import NamedEffect, into_effects, named_effects
+from twin.analysis.discrepancy.context import Context
 from twin.analysis.discrepancy.effect_model import context
-from twin.analysis.discrepancy.families import FAMILIES
+from twin.analysis.discrepancy.families import FAMILIES, Family
 from twin.analysis.discrepancy.fitting import Fitter
 from twin.analysis.discrepancy.floor import Floor
 from twin.analysis.discrepancy.residuals import ResidualModel, measured_streams
+from twin.analysis.discrepancy.scan import ScanVerdict, judge
 from twin.analysis.discrepancy.selection import Step, forward_select
 from twin.analysis.discrepancy.signature import describe_remainder
 from twin.analysis.discrepancy.significance import (
@@ -64,6 +66,8 @@ class DiscrepancyResult:
         remainder: Signature of what is left (`signature.describe_remainder`).
         rounds: The selection rounds.
         floor: The learned cell's floor the run was judged against (`Floor.to_json`), empty for none.
+        scan: Family -> its rms miss of the part scan less the floor's bias [mm] where the scan judged the first
+            round's ambiguity (`scan.judge`), empty where it did not.
     """
 
     effects: Effects
@@ -85,6 +89,7 @@ class DiscrepancyResult:
     residual_after: dict[str, np.ndarray] = field(repr=False)
     consistency: dict[str, Any] = field(default_factory=dict)
     floor: dict[str, Any] = field(default_factory=dict)
+    scan: dict[str, float] = field(default_factory=dict)
 
 
 def gap(streams: dict[str, np.ndarray]) -> dict[str, float]:
@@ -142,6 +147,10 @@ def find_discrepancy(
     if any(families[a].carried_by_learning for a in accepted[1:]):  # carried by the robot learner: first, or not
         families = {n: f for n, f in families.items() if not f.carried_by_learning or n == accepted[0]}
         fit, steps = forward_select(fitter, list(families.values()), excess, sizes, offsets=offsets)
+    scanned = _judge_by_scan(model, start, steps, families, ctx, floor)
+    if scanned.chosen is not None:  # the part scan prefers an ambiguous candidate: the winner is not tried again
+        families = {n: f for n, f in families.items() if n != steps[0].accepted}
+        fit, steps = forward_select(fitter, list(families.values()), excess, sizes, offsets=offsets)
     named = named_effects(steps, fit, families)
     # over a learned cell's floor, a family's share is of the excess above it (the selection is judged against the
     # whole excess: against the part above the floor, families soak up the floor's reversal transients)
@@ -180,8 +189,17 @@ def find_discrepancy(
         chi2_after=reduced_chi2(remainder, sigma), gap_before=gap(fitter.raw),
         gap_after=gap(remainder) if found else gap(fitter.raw), noise=noise.summary(),
         confidence=_confidence(steps), residual_before=dict(fitter.raw), residual_after=remainder,
-        consistency=checked, floor={} if floor is None else floor.to_json(),
+        consistency=checked, floor={} if floor is None else floor.to_json(), scan=scanned.miss_mm,
     )
+
+
+def _judge_by_scan(model: ResidualModel, start: Effects, steps: tuple[Step, ...], families: dict[str, Family],
+                   ctx: Context, floor: Floor | None) -> ScanVerdict:
+    """The part scan's verdict on the first round's ambiguity (`scan.judge`), where the floor has its scan bias."""
+    if (floor is None or floor.scan_bias_m is None or floor.scan_spread_m is None or not steps
+            or not steps[0].ambiguous_with):
+        return ScanVerdict(None, {})
+    return judge(model, start, steps[0], families, ctx, floor.scan_bias_m, floor.scan_spread_m)
 
 
 def _not_named(checked: dict[str, Any]) -> str:

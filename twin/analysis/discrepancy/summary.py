@@ -14,7 +14,8 @@ def result_summary(result: DiscrepancyResult) -> dict[str, Any]:
     `families`),
     `families` (each with parameters, uncertainty, explained_fraction, ambiguous_with), `explained_fraction`,
     `remainder` (signature of what is left, in words and numbers), `parameters` (the model file's effects),
-    `gap_before`, `gap_after`, `noise`, `candidates` and `rounds`."""
+    `gap_before`, `gap_after`, `noise`, `candidates`, `rounds` and `scan_miss_mm` (family -> its rms miss of the part
+    scan less the cell's floor bias, where the scan judged the first round's ambiguity)."""
 
     def candidate(c: Any) -> dict[str, Any]:
         return {
@@ -36,6 +37,7 @@ def result_summary(result: DiscrepancyResult) -> dict[str, Any]:
         "ambiguities": [
             {"named": n.name, "ambiguous_with": list(n.ambiguous_with)} for n in result.named if n.ambiguous_with
         ],
+        "scan_miss_mm": result.scan,
         "parameters": result.effects.named_parameters(),
         "instruments": result.effects.instruments.changed(),
         "model_complete": result.model_complete,

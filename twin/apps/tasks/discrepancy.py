@@ -133,6 +133,9 @@ class DiscrepancyReport(Report):
         lines += [f"  {n.reported_name} is not told apart from {', '.join(n.ambiguous_with)} on this run (each "
                   "explains the gap about as well out of sample): a measurement the others do not predict alike tells"
                   for n in result.named if n.ambiguous_with]
+        if result.scan:
+            lines.append("  the part scan judged the first round's candidates the others could not tell apart (rms "
+                         "miss less the cell's own, mm): " + ", ".join(f"{n} {v:.3f}" for n, v in result.scan.items()))
         if result.floor:
             lines.append("  judged above the floor the learned cell leaves on its own clean runs ("
                          + ", ".join(f"{s} {v:.3g}" for s, v in result.floor["excess_per_element"].items())
