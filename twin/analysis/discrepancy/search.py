@@ -11,7 +11,9 @@
    take is small against the unexplained rest, and naming it would be a guess. A family is named only when its
    evidence is consistent (`consistency`): its own stream shows a gap, and what the named families leave keeps
    no more than a small share of the tool-tip's or the forces' slow structure; otherwise `unexplained`, and the
-   words say which family would have been named and why not.
+   words say which family would have been named and why not. Against a learned cell's floor, a run whose excess
+   does not rise above it (`Floor.observable`) is `none` before any family is fitted: a change below the floor
+   is not observable on this run, and the words give the size that would be.
 3. Add: families that map onto an effect of the vocabulary (`twin.sim.effects`) are written into the twin's
    effects, which a model file carries to `replay --model`; when all named families do, the twin is replayed
    with them and refitted once (the linearisation is then exact to second order) and the gap after is that
@@ -138,6 +140,9 @@ def find_discrepancy(
     chi2_before = reduced_chi2(fitter.raw, sigma)
     excess = excess_over_noise(fitter.base, list(sizes.values()))
     significant = is_significant(chi2_before, dict(sizes))
+    # a run within the learned cell's floor shows no change, whatever a family would take of it (issue #47)
+    within_floor = significant and floor is not None and not floor.observable(excess, sizes)
+    significant = significant and not within_floor
     if progress is not None:
         progress("selection")
     offsets = None if floor is None else floor.offsets(sizes)
@@ -180,8 +185,8 @@ def find_discrepancy(
     signature = describe_remainder(ctx, remainder, sigma, found)
     if checked and not found:
         signature["words"] += "; " + _not_named(checked)
-    if floor is not None and verdict == "unexplained" and not floor.observable(excess, sizes):
-        verdict, signature["words"] = "none", floor.unobservable_words(excess, sizes, sigma) + "; " + signature["words"]
+    if within_floor and floor is not None:
+        signature["words"] = floor.unobservable_words(excess, sizes, sigma) + "; " + signature["words"]
     return DiscrepancyResult(
         effects=effects, found=found, verdict=verdict, named=tuple(named) if found else (),
         partial=tuple(named) if not found else (), explained_fraction=float(explained),
