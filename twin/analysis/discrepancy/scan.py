@@ -35,7 +35,7 @@ from twin.sim.effects import INSTRUMENTS, Effects
 #: around a part is met alike by every candidate) [m].
 FORMED_DEPTH_M = 0.2e-3
 #: An alternative replaces the winner when its rms miss of the scan (less the floor's bias) is at most this share of
-#: the winner's; chosen on the development cells' frames (a TX200 groove and a KR 210 cone, 0.3 mm/kN).
+#: the winner's; chosen on the development set's KR 210 cone with a frame of 0.3 mm/kN (its groove keeps no surface).
 SCAN_LEAD = 0.8
 #: ... and the winner's rms miss exceeds this many times the floor's spread (a scan within it shows no change).
 SCAN_SEEN = 1.5
