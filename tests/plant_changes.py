@@ -380,8 +380,9 @@ HELD_OUT_5 = (
            frame_mm_per_kn=0.6),
 )
 #: The sixth held-out set (issue #47's clamping frame, judged by the part scan): written before any of its runs, after
-#: the scan's judge (`twin.analysis.discrepancy.scan`) was developed on the KR210 cone (0.3 mm/kN) and the fifth set
-#: had been run with it, on six cells no frame was hidden in before, two robots' grooves and cones and pyramids.
+#: the scan's judge (`twin.analysis.discrepancy.scan`) was developed on the KR210 cone (0.3 mm/kN), while the fifth set
+#: ran again with it (its results not yet seen), on six cells no frame was hidden in before, three robots' grooves,
+#: cones and pyramids.
 HELD_OUT_6 = (
     Change("frame_gives_0p4", ("frame_compliance",), what="the clamping frame gives 0.4 mm/kN (plant variant)",
            frame_mm_per_kn=0.4),

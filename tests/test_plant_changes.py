@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import re
+import shutil
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -265,8 +266,6 @@ def test_without_the_scan_the_tx200_cones_frame_is_taken_for_a_softer_sheet(
         monkeypatch: pytest.MonkeyPatch) -> None:
     """docs/discrepancy.md: the part scan's judge decides one row of the sixth set; the same runs with it switched
     off name the TX200 cone's 0.8 mm/kN frame a softer sheet (`force_scale`)."""
-    import shutil
-
     from twin.analysis.discrepancy import search
     from twin.analysis.discrepancy.scan import ScanVerdict
 

@@ -7,7 +7,7 @@ pressed, so the part comes out shallower, where a softer sheet lets the robot be
 deeper. `part_scan.csv` (the formed part's point cloud, sheet frame) shows which.
 
 A learned twin does not form its cell's part to the scan's precision: on a clean run its part after unclamping
-misses the scan by a bias (a KR 210 pyramid cell: half a millimetre) that no change since learning explains.
+misses the scan by a bias (docs/discrepancy.md gives its size on the plant) that no change since learning explains.
 `learn` measures that bias and its spread on a clean run it did not fit (`Floor.scan_bias_m`,
 `Floor.scan_spread_m`); the judge compares each candidate's part with the scan less that bias. A candidate
 replaces the round's winner when it leaves at most SCAN_LEAD of the winner's rms miss and the winner leaves more
@@ -99,12 +99,12 @@ def judge(
     Returns:
         The verdict; candidates whose fit maps onto no effect are not judged (their part cannot be replayed).
     """
-    fits = {c.name: c.fit for c in step.candidates}
+    fits, by_name = {c.name: c.fit for c in step.candidates}, dict(families)
     miss: dict[str, float] = {}
     for name in (step.accepted, *step.ambiguous_with):
         if name is None:
             continue
-        increment = effect_increment(fits[name], dict(families), name, ctx, lenient=True)
+        increment = effect_increment(fits[name], by_name, name, ctx, lenient=True)
         if increment is None:
             continue
         shaped = {k: v for k, v in increment.items() if not k.startswith(INSTRUMENTS)}
