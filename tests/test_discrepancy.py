@@ -229,7 +229,7 @@ def commanded_at_tracker(clean_unlabelled: Run) -> tuple[np.ndarray, np.ndarray]
     return cmd, np.sign(np.interp(run.tracker.t_s, run.commanded.t_s, direction.astype(float)))
 
 
-@pytest.mark.parametrize("factor", [0.8, 1.35])
+@pytest.mark.parametrize("factor", [pytest.param(0.8, marks=pytest.mark.slow), 1.35])  # one in make test
 def test_forces_and_deflections_scaled_by_hand_are_named_force_scale(
     factor: float, clean_unlabelled: Run, commanded_at_tracker: tuple[np.ndarray, np.ndarray]
 ) -> None:

@@ -181,7 +181,8 @@ def _dry_sheet(root: Path) -> Any:
 
 @pytest.mark.xfail(strict=True, raises=AssertionError, reason="no family covers a worn tool (issue #47's vocabulary): "
                    "`unexplained`, and the cell learned again from the changed run shrinks the next run's excess over "
-                   "the floor by about a third, not half")
+                   "the floor by about a third, not half: the sheet learner has no term that follows a tool's radius, "
+                   "and the twin given the smaller radius replays the plant's runs worse (docs/discrepancy.md)")
 def test_a_worn_tool_on_the_plant_is_carried_into_the_next_run(groove_cell: Path) -> None:
     """A change written here, in the plant's own form (its process, which the cell's records do not see): the tool
     worn from 7.5 to 7.0 mm of radius. Observable above the floor; right would be its excess at least halved on the
