@@ -280,10 +280,15 @@ def test_the_learned_force_model_replays_compiled_to_the_python_loops_equilibria
            ("ahead_membrane_n", 100.0), ("engagement_n_per_mm", -300.0), ("contact_n", 200.0),
            ("wall_angle_n", 100.0), ("depth_n_per_mm", 20.0), ("depth_engagement_n_per_mm2", -5.0),
            ("prior_per_cm", 0.3), ("wall_depth_n_per_mm", 8.0), ("side_rise_n", 300.0), ("side_rise_sq_n", -200.0),
-           ("ahead_rise_n", 150.0), ("mu_eff", 0.1), ("mu_radial", 0.05))
+           ("ahead_rise_n", 150.0), ("mu_eff", 0.1), ("mu_radial", 0.05), ("mu_radial_rise", 0.3))
     twin = TwinSpec(process=Process(force_model="learned", force_fit=fit)).build()
+    flat = TwinSpec(process=Process(force_model="learned", force_fit=fit[:-1])).build()  # no radial rise
     for path in (part_path(PartSpec(depth_m=3e-3, top_half_width_m=15e-3)),
                  groove_path(GrooveSpec(passes=3, depth_m=0.003, bottom_length_m=0.068))):
         fast, reference = _both(twin, path.t_s, path.p_sheet_m)
         _assert_same(fast, reference, gain_from=2)
         assert np.max(fast.f_sheet_n[:, 2]) > 300.0
+    # on the cone the walls' rise turns the force across the travel: the radial ratio's μ_ρ is in the kernel
+    cone = part_path(PartSpec(depth_m=3e-3, top_half_width_m=15e-3))
+    with_rise, without = (t.simulate(cone.t_s, cone.p_sheet_m).f_sheet_n for t in (twin, flat))
+    assert np.max(np.linalg.norm(with_rise[:, :2] - without[:, :2], axis=1)) > 10.0

@@ -209,10 +209,10 @@ def _check_constants(path: Path, force_model: str, fit: Mapping[str, float]) -> 
     """Refuse a force model's constants it does not take, and a learned model without its weights (it would be
     read as another model, or with its terms at zero, in silence)."""
     from twin.process.force.isf_params import IsfForceParams
-    from twin.process.force.learned import REQUIRED_WEIGHT_KEYS, WEIGHT_KEYS
+    from twin.process.force.learned import RADIAL_RISE_KEY, REQUIRED_WEIGHT_KEYS, WEIGHT_KEYS
 
     isf = {f.name for f in fields(IsfForceParams)}
-    takes = {"isf": isf, "learned": isf | set(WEIGHT_KEYS)}.get(force_model)
+    takes = {"isf": isf, "learned": isf | set(WEIGHT_KEYS) | {RADIAL_RISE_KEY}}.get(force_model)
     if takes is not None and set(fit) - takes:
         raise DataFileError(path, f"process.force_fit has {sorted(set(fit) - takes)}, which the {force_model!r} force "
                             f"model does not take; it takes {sorted(takes)}")

@@ -14,14 +14,16 @@ next part asks); a term enters while it lowers that error by more than `ENTRY_GA
 formed-state terms (`STATE_KEYS`) and the walls' rise around the tool (`RISE_KEYS`), never the membrane terms of
 Silva et al. (the form the plant's sheet law 1 is written in: a learner of that form fits that plant and nothing
 says it fits a real cell); a model file's membrane weights are still read and replayed. The radial in-plane
-ratio μ_r is chosen the same way (held at 0 where the look-ahead does not show it: a groove's walls run along
-its travel), μ_t always fitted. docs/learning.md has what it gives on parts it never formed.
+ratio μ_r and its part that follows the side walls' rise μ_ρ (`twin.process.force.learned`: the contact's normal
+tilted by the walls around the tool) are chosen the same way, by forward selection on the look-ahead of the
+measured Fx, Fy (each held at 0 where it does not show: a groove's walls run along its travel), μ_t always
+fitted; the ratios are non-negative. docs/learning.md has what it gives on parts it never formed.
 
 The uncertainty is a moving-block bootstrap (`BOOT` resamples of blocks of `BOOT_BLOCK_S`, seeded): the spread of
 each selected weight over resamples (the residuals of a run are correlated in time; the least-squares standard
 error would understate it), and the validation error is reported as what the next part's force should be
-expected to miss by. The in-plane ratios μ_t, μ_r come from a second least squares against the measured Fx, Fy
-with the fitted Fz. The runs' commanded paths, trackers and forces are all it reads; `truth.json` never.
+expected to miss by. The in-plane ratios μ_t, μ_r, μ_ρ come from a second least squares against the measured
+Fx, Fy with the fitted Fz. The runs' commanded paths, trackers and forces are all it reads; `truth.json` never.
 """
 
 from __future__ import annotations
@@ -37,7 +39,7 @@ from twin.analysis.identify.forces import measured_tip_path
 from twin.base.signals import interp_rows
 from twin.errors import InputError
 from twin.process.description import Process
-from twin.process.force.learned import RISE_KEYS, STATE_KEYS, WEIGHT_KEYS, LearnedForceField
+from twin.process.force.learned import RADIAL_RISE_KEY, RISE_KEYS, STATE_KEYS, WEIGHT_KEYS, LearnedForceField
 from twin.process.force.registry import build_force_field
 from twin.runs.format import Run
 
@@ -58,6 +60,8 @@ PRIOR_MEAN = np.array([1.0 if key == "prior_weight" else 0.0 for key in WEIGHT_K
 #: the engagement (the force does not fall as the tool goes deeper into the same surface; a negative slope there is
 #: the robot's own give read as the sheet's: the tip rises where the sheet pushes harder).
 NON_NEGATIVE = ("prior_weight", "engagement_n_per_mm", "engagement_sq_n_per_mm2", "depth_engagement_n_per_mm2")
+#: The column of the side walls' rise Σ u_s among the terms (the radial ratio's μ_ρ reads it).
+SIDE_RISE = WEIGHT_KEYS.index("side_rise_n")
 #: Moving-block bootstrap: resamples, block length [s], seed.
 BOOT = 64
 BOOT_BLOCK_S = 2.0
@@ -162,7 +166,8 @@ def look_ahead_rms(terms: np.ndarray, fz_n: np.ndarray, block: np.ndarray, cols:
 
 
 def _plane_rms(plane: np.ndarray, fxy_n: np.ndarray, block: np.ndarray, cols: list[int]) -> float:
-    """The look-ahead RMS [N] of the in-plane force with the ratios `cols` of (μ_t, μ_r) fitted (`look_ahead_rms`)."""
+    """The look-ahead RMS [N] of the in-plane force with the ratios `cols` of (μ_t, μ_r, μ_ρ) fitted
+    (`look_ahead_rms`)."""
     error, count = 0.0, 0
     for b in range(2, BLOCKS):
         train, test = block < b, block == b
@@ -201,11 +206,24 @@ def _bootstrap_std(rows: list[SheetRows], terms: np.ndarray, fz_n: np.ndarray, c
 
 
 def in_plane_columns(rows: SheetRows, fz_n: np.ndarray) -> np.ndarray:
-    """(2m, 2) columns of (μ_t, μ_r) for the stacked (Fx, Fy) (`IsfForceField._in_plane`)."""
+    """(2m, 3) columns of (μ_t, μ_r, μ_ρ) for the stacked (Fx, Fy) (`LearnedForceField._in_plane`)."""
     vx, vy, s = rows.travel[:, 0], rows.travel[:, 1], rows.side
     mu_t = np.concatenate([-vx * fz_n, -vy * fz_n])
     mu_r = np.concatenate([s * vy * fz_n, -s * vx * fz_n])
-    return np.stack([mu_t, mu_r], axis=1)
+    return np.stack([mu_t, mu_r, mu_r * np.tile(rows.terms[:, SIDE_RISE], 2)], axis=1)
+
+
+def select_ratios(plane: np.ndarray, fxy_n: np.ndarray, block: np.ndarray) -> list[int]:
+    """Forward selection of μ_r and μ_ρ beside μ_t (always) on the look-ahead of the in-plane force: the columns
+    of `in_plane_columns` taken."""
+    chosen, best = [0], _plane_rms(plane, fxy_n, block, [0])
+    while len(chosen) < plane.shape[1]:
+        score, k = min((_plane_rms(plane, fxy_n, block, [*chosen, k]), k) for k in range(1, plane.shape[1])
+                       if k not in chosen)
+        if score > (1.0 - ENTRY_GAIN) * best:
+            break
+        chosen, best = [*chosen, k], score
+    return sorted(chosen)
 
 
 def fit_sheet(runs: list[Run], process: Process) -> SheetFit:
@@ -240,12 +258,12 @@ def fit_sheet(runs: list[Run], process: Process) -> SheetFit:
     plane = np.vstack([in_plane_columns(r, np.maximum(r.terms @ weights, 0.0)) for r in rows])
     fxy = np.concatenate([np.concatenate([r.measured_n[:, 0], r.measured_n[:, 1]]) for r in rows])
     plane_block = np.concatenate([np.tile(b, 2) for b in np.split(block, np.cumsum([len(r.t_s) for r in rows])[:-1])])
-    mu_cols = [0, 1] if _plane_rms(plane, fxy, plane_block, [0, 1]) < (1.0 - ENTRY_GAIN) * _plane_rms(
-        plane, fxy, plane_block, [0]) else [0]
-    mu, mu_std = np.zeros(2), np.zeros(2)
-    mu[mu_cols], mu_std[mu_cols] = _lstsq(plane[:, mu_cols], fxy)
-    mu[mu_cols] = np.clip(mu[mu_cols], 1e-6, None)  # the ISF constants are positive; a ratio at its floor is so
-    keys = (*WEIGHT_KEYS, "mu_eff", "mu_radial")
+    mu_cols = select_ratios(plane, fxy, plane_block)
+    mu, mu_std = np.zeros(3), np.zeros(3)
+    mu_std[mu_cols] = _lstsq(plane[:, mu_cols], fxy)[1]
+    floor = np.array([1e-6, 1e-6, 0.0])[mu_cols]  # the ISF constants are positive; a ratio at its floor is so
+    mu[mu_cols] = lsq_linear(plane[:, mu_cols], fxy, bounds=(floor, np.inf)).x
+    keys = (*WEIGHT_KEYS, "mu_eff", "mu_radial", RADIAL_RISE_KEY)
     values = (*weights, *mu)
     fit = tuple((k, float(v)) for k, v in zip(keys, values, strict=True))
     learned = replace(process, force_model="learned", force_fit=fit)

@@ -20,6 +20,7 @@ from twin.analysis.learn.cell import sheet_kept
 from twin.apps.tasks.base import Note, Report, silent
 from twin.base.outputs import repeated_input
 from twin.errors import InputError
+from twin.process.force.learned import RADIAL_RISE_KEY
 from twin.runs.read import read_run
 from twin.sim.model_file import read_model_file, write_model_file
 from twin.sim.spec import TwinSpec
@@ -307,6 +308,8 @@ def _sheet_words(sheet: SheetFit) -> str:
     fit, std = dict(sheet.force_fit), dict(sheet.std)
     terms = ", ".join(f"{k} {fit[k]:.4g} ± {std[k]:.2g}" for k in sheet.terms)
     radial = f"mu_r {fit['mu_radial']:.3f}" if fit["mu_radial"] > 0.0 else "mu_r 0 (no radial force the data support)"
+    if fit.get(RADIAL_RISE_KEY, 0.0) > 0.0:
+        radial += f" + {fit[RADIAL_RISE_KEY]:.3f} x the side walls' rise"
     return (f"terms chosen from the data: {terms}; mu_t {fit['mu_eff']:.3f}, {radial}; predicting each run's later "
             f"material from its earlier: {sheet.validation_rms_n:.0f} N rms (the published formula: "
             f"{sheet.prior_validation_rms_n:.0f} N)")

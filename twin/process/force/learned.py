@@ -25,6 +25,13 @@ with no law of how a membrane or a bend turns them into force. With
 w = 1 and the rest 0 it is the ISF model itself; what `twin.analysis.learn` fits is marked fitted wherever it is
 reported.
 
+The in-plane law is the ISF model's, F_xy = -Fz·(μ_t·v + μ_r'·σ·L·v), with the radial ratio
+μ_r' = μ_r + μ_ρ·Σ_{left, right} u_s: where the walls around the tool rise, the contact's normal tilts off the
+vertical and the sheet pushes the tool across its travel by the axial force times that tilt (a normal at an angle
+β to the vertical has a horizontal part tan β ≈ sin β of its vertical one). μ_ρ (`mu_radial_rise`) is the
+learner's to choose like any term; 0 is the ISF model's law, and the rises are read as state (∂f/∂p does not
+differentiate them, as it does not α or σ).
+
 Its compiled kernel is the ISF model's (`twin.sim.compiled.isf`), which adds these terms where the model
 carries them; `tests/test_compiled_replay.py` holds the two loops together.
 """
@@ -110,6 +117,9 @@ RISE_KEYS = WEIGHT_KEYS[13:]
 STATE_TERMS = np.array([[1, -1, -1], [2, -1, -1], [2, 3, -1], [2, 4, -1], [1, 1, -1], [2, 4, 4], [2, 4, 1],
                         [0, 4, -1], [2, 3, 4]], dtype=np.int64)
 STATE_FACTORS = np.array([1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 0.1, 1.0])
+#: The learned model's in-plane constant beyond the ISF model's: μ_ρ, the radial ratio per unit of the side walls'
+#: rise Σ u_s [-] (module docstring).
+RADIAL_RISE_KEY = "mu_radial_rise"
 #: The weights on the published formula's force itself (dimensionless: a force-level ratio does not scale them).
 ON_PRIOR_KEYS = ("prior_weight", "prior_per_cm")
 #: Width of the contact's smooth step in the engagement [m].
@@ -159,14 +169,23 @@ class LearnedForceField(IsfForceField):
         params: ISF model constants (level, in-plane ratios, ...), possibly fitted too.
         weights: The learned terms; None for the prior (the ISF model itself).
         half_size_m: Half-extent (x, y) of the modelled sheet [m].
+        radial_rise: μ_ρ, the radial ratio per unit of the side walls' rise [-] (module docstring; >= 0).
+
+    Raises:
+        InputError: `radial_rise` negative or not finite.
     """
 
     compiled_kernel: ClassVar[str | None] = "isf"
 
     def __init__(self, params: IsfForceParams | None = None, weights: LearnedWeights | None = None,
-                 half_size_m: tuple[float, float] = (0.12, 0.12)) -> None:
+                 half_size_m: tuple[float, float] = (0.12, 0.12), radial_rise: float = 0.0) -> None:
+        if not (math.isfinite(radial_rise) and radial_rise >= 0.0):
+            raise InputError(f"{RADIAL_RISE_KEY} = {radial_rise!r}: expected a finite number >= 0 (a wall that rises "
+                             "tilts the contact away from it)")
         self.weights = weights or LearnedWeights()
         self._w = self.weights.as_array()
+        self.radial_rise = float(radial_rise)
+        self._rise_sum = 0.0  # Σ u_s at the last evaluated tip (`features`), read by `_in_plane`
         super().__init__(params, half_size_m)
 
     def features(self, p_sheet_m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -219,8 +238,14 @@ class LearnedForceField(IsfForceField):
                 grads[4 + k] += scale * others * base_grad[f]
         return values, grads
 
+    def _in_plane(self) -> tuple[tuple[float, float], tuple[float, float]]:
+        """The ISF model's A with the radial ratio μ_r + μ_ρ·Σ u_s at the tip last evaluated (module docstring)."""
+        mu, mr = self.params.mu_eff, (self.params.mu_radial + self.radial_rise * self._rise_sum) * self._side
+        return (-mu, mr), (-mr, -mu)
+
     def _fz_linear(self, x: float, y: float, z: float) -> tuple[float, float, float, float]:
         values, grads = self.features(np.array([x, y, z]))
+        self._rise_sum = float(values[13])
         w = self._w
         g = w @ grads
         return float(w @ values), float(g[0]), float(g[1]), float(g[2])

@@ -33,7 +33,13 @@ from twin.process.force.aerens import validity_warnings
 from twin.process.force.base import ForceField
 from twin.process.force.isf import IsfForceField
 from twin.process.force.isf_params import IsfForceParams, params_for
-from twin.process.force.learned import ON_PRIOR_KEYS, WEIGHT_KEYS, LearnedForceField, LearnedWeights
+from twin.process.force.learned import (
+    ON_PRIOR_KEYS,
+    RADIAL_RISE_KEY,
+    WEIGHT_KEYS,
+    LearnedForceField,
+    LearnedWeights,
+)
 from twin.process.force.table import SheetForceField
 from twin.process.toolpath.groove import label_passes
 
@@ -192,8 +198,10 @@ def _learned(history: ForceHistory, process: Process) -> ForceField:
     weights = {key: ratio * fit.pop(key) if key not in ON_PRIOR_KEYS else fit.pop(key)
                for key in WEIGHT_KEYS if key in fit}
     fit["scale"] = ratio * fit.get("scale", 1.0)  # the prior's level: the prior weight multiplies it
-    params = _in_plane_scaled(params_for(process, **fit), in_plane_ratio(history, process.force_history()))
-    return LearnedForceField(params, LearnedWeights(**weights))
+    plane = in_plane_ratio(history, process.force_history())
+    radial_rise = plane * fit.pop(RADIAL_RISE_KEY, 0.0)  # an in-plane ratio, scaled as μ_t and μ_r are
+    return LearnedForceField(_in_plane_scaled(params_for(process, **fit), plane), LearnedWeights(**weights),
+                             radial_rise=radial_rise)
 
 
 register_force_model(ForceModel(

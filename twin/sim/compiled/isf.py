@@ -34,7 +34,10 @@ from twin.sim.compiled.isf_map import (
     LAST_Y,
     LAST_Z,
     Q_HEAD,
+    RADIAL_RISE,
+    RISE,
     SIDE,
+    STATE_SLOTS,
     TF,
     TP,
     TRAVEL,
@@ -64,7 +67,7 @@ def isf_arrays(field: IsfForceField, capacity: int) -> IsfArrays | None:
         sliding.RELEASE_LENGTH_M, p.mu_radial, isf_force.WALL_RUN_MIN_M, p.tool_radius_m,
         *_learned_prm(field),
     ])
-    state = np.zeros(11)
+    state = np.zeros(STATE_SLOTS)
     state[ALPHA] = motion.wall_angle_deg
     state[SIDE] = motion.wall_side
     return IsfArrays(
@@ -75,20 +78,20 @@ def isf_arrays(field: IsfForceField, capacity: int) -> IsfArrays | None:
 
 def _learned_prm(field: IsfForceField) -> list[float]:
     """The learned terms' slots of `prm` (`twin.process.force.learned`): a flag, the membrane weights, reach and
-    cap, the formed-state weights, the contact width and the reference wall angle."""
+    cap, the formed-state weights, the contact width, the reference wall angle and μ_ρ (at `RADIAL_RISE`)."""
     if isinstance(field, LearnedForceField):
         w = field.weights.as_array()
         return [1.0, *w[:4], learned_force.REACH, learned_force.CAP, *w[4:], learned_force.CONTACT_WIDTH_M,
-                learned_force.ALPHA_REF_DEG]
+                learned_force.ALPHA_REF_DEG, field.radial_rise]
     return [0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 1.0, *[0.0] * (len(learned_force.WEIGHT_KEYS) - 4),
             learned_force.CONTACT_WIDTH_M,
-            learned_force.ALPHA_REF_DEG]
+            learned_force.ALPHA_REF_DEG, 0.0]
 
 
 def idle_isf_arrays() -> IsfArrays:
     """A placeholder of the right types for a replay on the table field (never read)."""
     return IsfArrays(np.zeros((2, 2)), np.full((2, 2), -1, dtype=np.int64), np.zeros((1, 1, 1, 1)), np.zeros((1, 7)),
-                     np.zeros(8), np.zeros(19 + len(learned_force.WEIGHT_KEYS)), np.zeros(11))
+                     np.zeros(8), np.zeros(RADIAL_RISE + 1), np.zeros(STATE_SLOTS))
 
 
 def write_back(field: IsfForceField, arrays: IsfArrays) -> None:
@@ -192,7 +195,8 @@ def isf_eval(M: IsfArrays, x: float, y: float, z: float, f: np.ndarray, S: np.nd
     """
     fz, gx, gy, gz = _fz(M, x, y, z)
     vx, vy, has_jac, j00, j01, j10, j11 = _travel(M, x, y)
-    mu, mr = M.prm[5], M.prm[11] * M.state[SIDE]  # `IsfForceField._in_plane`: A = [[-μ_t, σμ_r], [-σμ_r, -μ_t]]
+    # `IsfForceField._in_plane`: A = [[-μ_t, σμ_r], [-σμ_r, -μ_t]], μ_r + μ_ρ Σu_s for the learned model's
+    mu, mr = M.prm[5], (M.prm[11] + M.prm[RADIAL_RISE] * M.state[RISE]) * M.state[SIDE]
     axx, axy, ayx, ayy = -mu, mr, -mr, -mu
     ax, ay = axx * vx + axy * vy, ayx * vx + ayy * vy
     S[0, 0], S[0, 1], S[0, 2] = ax * gx, ax * gy, ax * gz

@@ -9,7 +9,11 @@ import numpy as np
 from numba import njit
 
 # state slots
-DIR_X, DIR_Y, HAS_LAST, LAST_X, LAST_Y, LAST_Z, ALPHA, COUNT, Q_HEAD, TRAVEL, SIDE = range(11)
+DIR_X, DIR_Y, HAS_LAST, LAST_X, LAST_Y, LAST_Z, ALPHA, COUNT, Q_HEAD, TRAVEL, SIDE, RISE = range(12)
+#: the slots of `IsfArrays.state`
+STATE_SLOTS = 12
+#: the slot of `prm` that holds the learned model's μ_ρ (`twin.process.force.learned.RADIAL_RISE_KEY`)
+RADIAL_RISE = 35
 # track columns: x, y, z, f_z, parent, travel at the commit, has a patch on the grid
 TX, TY, TZ, TF, TP, TS, TW = range(7)
 
@@ -23,8 +27,9 @@ class IsfArrays(NamedTuple):
     track: np.ndarray  # (capacity, 7) commits
     grid: np.ndarray  # (x0, y0, h, nx, ny, half window, lag, substeps)
     prm: np.ndarray  # (base, α_max, D0, Δz_min, k_unload, μ_t, L_f, alpha length, wall baseline, max layers, L_r,
-    #                   μ_r, least wall run, R, has learned terms, w, a_side, b_side, a_ahead, reach, cap)
-    state: np.ndarray  # (11,) see the slots above
+    #                   μ_r, least wall run, R, has learned terms, w, a_side, b_side, a_ahead, reach, cap,
+    #                   the formed-state and rise weights, contact width, reference angle, μ_ρ)
+    state: np.ndarray  # (STATE_SLOTS,) see the slots above (RISE: Σ u_s at the last evaluated tip)
 
 
 @njit(cache=True)

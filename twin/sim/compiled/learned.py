@@ -12,7 +12,7 @@ import math
 from numba import njit
 
 from twin.process.force.learned import STATE_FACTORS, STATE_TERMS
-from twin.sim.compiled.isf_map import ALPHA, DIR_X, DIR_Y, IsfArrays, met_height
+from twin.sim.compiled.isf_map import ALPHA, DIR_X, DIR_Y, RISE, IsfArrays, met_height
 
 
 @njit(cache=True)
@@ -70,7 +70,7 @@ def learned_terms(M: IsfArrays, x: float, y: float, z: float, lin: float, gx: fl
     ahead = ahead_x = ahead_y = ahead_z = 0.0
     n_state = STATE_TERMS.shape[0]
     r0, r1, r2 = prm[21 + n_state], prm[22 + n_state], prm[23 + n_state]
-    f_rise = fx_rise = fy_rise = fz_rise = 0.0
+    f_rise = fx_rise = fy_rise = fz_rise = rise_sum = 0.0
     for k in range(3):
         dx, dy = (-vy, vx) if k == 0 else ((vy, -vx) if k == 1 else (vx, vy))
         s, sx, sy = met_height(M, x + reach * dx, y + reach * dy)
@@ -80,10 +80,12 @@ def learned_terms(M: IsfArrays, x: float, y: float, z: float, lin: float, gx: fl
         f_rise += r2 * u if k == 2 else r0 * u + r1 * u * u
         fx_rise, fy_rise, fz_rise = fx_rise + wr * du * sx, fy_rise + wr * du * sy, fz_rise - wr * du
         if k < 2:
+            rise_sum += u
             side, side_x, side_y, side_z = side + m, side_x + dm * sx, side_y + dm * sy, side_z - dm
             cube, cube_x, cube_y, cube_z = cube + c3, cube_x + dc3 * sx, cube_y + dc3 * sy, cube_z - dc3
         else:
             ahead, ahead_x, ahead_y, ahead_z = m, dm * sx, dm * sy, -dm
+    M.state[RISE] = rise_sum  # `LearnedForceField._rise_sum`: the radial ratio's Σ u_s (`isf_eval`)
     w0, w1, w2, w3 = prm[15], prm[16], prm[17], prm[18]
     f = w0 * lin + w1 * side + w2 * cube + w3 * ahead + f_rise
     fx = w0 * gx + w1 * side_x + w2 * cube_x + w3 * ahead_x + fx_rise
