@@ -39,7 +39,14 @@ from twin.analysis.identify.forces import measured_tip_path
 from twin.base.signals import interp_rows
 from twin.errors import InputError
 from twin.process.description import Process
-from twin.process.force.learned import RADIAL_RISE_KEY, RISE_KEYS, STATE_KEYS, WEIGHT_KEYS, LearnedForceField
+from twin.process.force.learned import (
+    RADIAL_RISE_KEY,
+    RISE_KEYS,
+    SIDE_RISE_INDEX,
+    STATE_KEYS,
+    WEIGHT_KEYS,
+    LearnedForceField,
+)
 from twin.process.force.registry import build_force_field
 from twin.runs.format import Run
 
@@ -60,8 +67,6 @@ PRIOR_MEAN = np.array([1.0 if key == "prior_weight" else 0.0 for key in WEIGHT_K
 #: the engagement (the force does not fall as the tool goes deeper into the same surface; a negative slope there is
 #: the robot's own give read as the sheet's: the tip rises where the sheet pushes harder).
 NON_NEGATIVE = ("prior_weight", "engagement_n_per_mm", "engagement_sq_n_per_mm2", "depth_engagement_n_per_mm2")
-#: The column of the side walls' rise Σ u_s among the terms (the radial ratio's μ_ρ reads it).
-SIDE_RISE = WEIGHT_KEYS.index("side_rise_n")
 #: Moving-block bootstrap: resamples, block length [s], seed.
 BOOT = 64
 BOOT_BLOCK_S = 2.0
@@ -210,7 +215,7 @@ def in_plane_columns(rows: SheetRows, fz_n: np.ndarray) -> np.ndarray:
     vx, vy, s = rows.travel[:, 0], rows.travel[:, 1], rows.side
     mu_t = np.concatenate([-vx * fz_n, -vy * fz_n])
     mu_r = np.concatenate([s * vy * fz_n, -s * vx * fz_n])
-    return np.stack([mu_t, mu_r, mu_r * np.tile(rows.terms[:, SIDE_RISE], 2)], axis=1)
+    return np.stack([mu_t, mu_r, mu_r * np.tile(rows.terms[:, SIDE_RISE_INDEX], 2)], axis=1)
 
 
 def select_ratios(plane: np.ndarray, fxy_n: np.ndarray, block: np.ndarray) -> list[int]:

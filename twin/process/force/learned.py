@@ -117,6 +117,8 @@ RISE_KEYS = WEIGHT_KEYS[13:]
 STATE_TERMS = np.array([[1, -1, -1], [2, -1, -1], [2, 3, -1], [2, 4, -1], [1, 1, -1], [2, 4, 4], [2, 4, 1],
                         [0, 4, -1], [2, 3, 4]], dtype=np.int64)
 STATE_FACTORS = np.array([1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 0.1, 1.0])
+#: The column of the side walls' rise Σ u_s among the terms (`features`; the radial ratio's μ_ρ reads it).
+SIDE_RISE_INDEX = WEIGHT_KEYS.index("side_rise_n")
 #: The learned model's in-plane constant beyond the ISF model's: μ_ρ, the radial ratio per unit of the side walls'
 #: rise Σ u_s [-] (module docstring).
 RADIAL_RISE_KEY = "mu_radial_rise"
@@ -245,7 +247,7 @@ class LearnedForceField(IsfForceField):
 
     def _fz_linear(self, x: float, y: float, z: float) -> tuple[float, float, float, float]:
         values, grads = self.features(np.array([x, y, z]))
-        self._rise_sum = float(values[13])
+        self._rise_sum = float(values[SIDE_RISE_INDEX])
         w = self._w
         g = w @ grads
         return float(w @ values), float(g[0]), float(g[1]), float(g[2])

@@ -67,6 +67,8 @@ def isf_arrays(field: IsfForceField, capacity: int) -> IsfArrays | None:
         sliding.RELEASE_LENGTH_M, p.mu_radial, isf_force.WALL_RUN_MIN_M, p.tool_radius_m,
         *_learned_prm(field),
     ])
+    if prm.shape[0] != RADIAL_RISE + 1:
+        raise RuntimeError(f"the ISF kernel's constants hold {prm.shape[0]} slots; μ_ρ's slot is {RADIAL_RISE}")
     state = np.zeros(STATE_SLOTS)
     state[ALPHA] = motion.wall_angle_deg
     state[SIDE] = motion.wall_side

@@ -8,12 +8,15 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from twin.process.force.learned import WEIGHT_KEYS
+
 # state slots
 DIR_X, DIR_Y, HAS_LAST, LAST_X, LAST_Y, LAST_Z, ALPHA, COUNT, Q_HEAD, TRAVEL, SIDE, RISE = range(12)
 #: the slots of `IsfArrays.state`
 STATE_SLOTS = 12
-#: the slot of `prm` that holds the learned model's μ_ρ (`twin.process.force.learned.RADIAL_RISE_KEY`)
-RADIAL_RISE = 35
+#: the slot of `prm` that holds the learned model's μ_ρ (`twin.process.force.learned.RADIAL_RISE_KEY`): after the
+#: ISF constants (14), the learned flag, the weights, reach, cap, contact width and reference angle
+RADIAL_RISE = 19 + len(WEIGHT_KEYS)
 # track columns: x, y, z, f_z, parent, travel at the commit, has a patch on the grid
 TX, TY, TZ, TF, TP, TS, TW = range(7)
 
