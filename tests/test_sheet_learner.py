@@ -199,6 +199,14 @@ def test_the_sheet_learner_table_is_what_the_study_gives(tmp_path: Path) -> None
     for part, key in zip(PARTS, ("cone", "cone 80 x 8", "pyramid"), strict=True):
         got = tuple(row[key][m]["fz_n"] for m in ("published", "membrane", "learned"))
         assert np.allclose(got, doc[part], rtol=0.05, atol=3.0), (part, got, doc[part])
+    text = DOC.read_text()
+    plane = next(line for line in text[text.index("<!-- sheet-learner-plane:begin"):].splitlines()
+                 if line.startswith("| kr210, sheet law 2"))
+    for cell, key in zip([c.strip() for c in plane.strip("|").split("|")][2:], ("cone", "cone 80 x 8", "pyramid"),
+                         strict=True):
+        got = tuple(row[key][m]["plane_n"] for m in ("published", "constant ratio", "learned"))
+        documented = tuple(float(v) for v in cell.removesuffix(" N").split(" / "))
+        assert np.allclose(got, documented, rtol=0.05, atol=3.0), (key, got, documented)
 
 
 def test_learn_says_so_when_its_twin_replays_its_own_run_worse(runs: dict[str, Path]) -> None:
@@ -211,3 +219,25 @@ def test_learn_says_so_when_its_twin_replays_its_own_run_worse(runs: dict[str, P
     before = result.before[0]
     worse = result._replace(after=(before._replace(position_rms_mm=before.position_rms_mm + 0.1),))
     assert "WORSE: the learned twin replays the run it learned from worse" in "\n".join(LearnReport(worse).lines())
+
+
+def test_the_pages_words_on_the_learned_in_plane_force_are_its_table() -> None:
+    """docs/learning.md's sheet-learner-plane table: μ_ρ and no μ_r on every cell; against the constant ratio, on law
+    2 below half on the wider cone and about two thirds on the pyramid, on law 1 four fifths to nearly as much;
+    below the published formula's everywhere."""
+    text = DOC.read_text()
+    block = text[text.index("<!-- sheet-learner-plane:begin"):text.index("<!-- sheet-learner-plane:end")]
+    lines = block.splitlines()[3:]
+    assert len(lines) == 6
+    for line in lines:
+        cells = [c.strip() for c in line.strip("|").split("|")]
+        ratios = dict(item.split() for item in cells[1].split(", "))
+        assert float(ratios["mu_r"]) == 0.0 and float(ratios["mu_rho"]) > 0.1, line
+        parts = {part: tuple(float(v) for v in cell.removesuffix(" N").split(" / "))
+                 for part, cell in zip(PARTS, cells[2:], strict=True)}
+        assert all(learned < published for published, _, learned in parts.values()), line
+        cone, pyramid = (parts[p][2] / parts[p][1] for p in ("cone 80 x 8", "pyramid"))
+        if "sheet law 2" in cells[0]:
+            assert cone < 0.5 and 0.55 <= pyramid <= 0.75, (line, cone, pyramid)
+        else:
+            assert 0.75 <= cone <= 1.0 and 0.75 <= pyramid <= 1.0, (line, cone, pyramid)
