@@ -32,7 +32,7 @@ from experiments_cli import cli, write_between_markers
 
 from twin.analysis.identify.forces import measured_tip_path
 from twin.analysis.learn.cell import declared_process
-from twin.analysis.learn.sheet import _lstsq, fit_sheet, in_plane_columns, sheet_rows
+from twin.analysis.learn.sheet import SheetRows, _lstsq, fit_sheet, in_plane_columns, sheet_rows
 from twin.base.signals import interp_rows
 from twin.process.description import Process
 from twin.process.force.learned import RADIAL_RISE_KEY, WEIGHT_KEYS
@@ -53,10 +53,8 @@ def membrane_fit(run_dir: Path, process: Process) -> Process:
     rows = sheet_rows(run, process)
     weights = np.zeros(len(WEIGHT_KEYS))
     weights[:4] = _lstsq(rows.terms[:, :4], rows.measured_n[:, 2])[0]
-    fz = np.maximum(rows.terms @ weights, 0.0)
-    fxy = np.concatenate([rows.measured_n[:, 0], rows.measured_n[:, 1]])
-    mu = np.clip(_lstsq(in_plane_columns(rows, fz)[:, :2], fxy)[0], 1e-6, None)  # its constant ratios (μ_t, μ_r)
-    fit = (*zip(WEIGHT_KEYS, map(float, weights), strict=True), ("mu_eff", float(mu[0])), ("mu_radial", float(mu[1])))
+    mu_t, mu_r = _constant_ratios(rows, weights)
+    fit = (*zip(WEIGHT_KEYS, map(float, weights), strict=True), ("mu_eff", mu_t), ("mu_radial", mu_r))
     return replace(process, force_model="learned", force_fit=fit)
 
 
@@ -65,11 +63,17 @@ def constant_ratio(run_dir: Path, learned: Process) -> Process:
     learned Fz, μ_ρ = 0."""
     rows = sheet_rows(read_run(run_dir), learned)
     fit = dict(learned.force_fit)
-    fz = np.maximum(rows.terms @ np.array([fit[k] for k in WEIGHT_KEYS]), 0.0)
+    mu_t, mu_r = _constant_ratios(rows, np.array([fit[k] for k in WEIGHT_KEYS]))
+    fit |= {"mu_eff": mu_t, "mu_radial": mu_r, RADIAL_RISE_KEY: 0.0}
+    return replace(learned, force_fit=tuple(fit.items()))
+
+
+def _constant_ratios(rows: SheetRows, weights: np.ndarray) -> tuple[float, float]:
+    """(μ_t, μ_r), constant ratios, by least squares against the run's Fx, Fy with the Fz of `weights` [-]."""
+    fz = np.maximum(rows.terms @ weights, 0.0)
     fxy = np.concatenate([rows.measured_n[:, 0], rows.measured_n[:, 1]])
     mu = np.clip(_lstsq(in_plane_columns(rows, fz)[:, :2], fxy)[0], 1e-6, None)
-    fit |= {"mu_eff": float(mu[0]), "mu_radial": float(mu[1]), RADIAL_RISE_KEY: 0.0}
-    return replace(learned, force_fit=tuple(fit.items()))
+    return float(mu[0]), float(mu[1])
 
 
 def force_gap(run_dir: Path, process: Process) -> dict[str, float]:

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from twin.analysis.learn.cell import declared_process
-from twin.analysis.learn.sheet import fit_sheet, sheet_rows
+from twin.analysis.learn.sheet import fit_sheet
 from twin.cli import main
 from twin.process.force.registry import build_force_field
 from twin.runs.read import read_run
@@ -50,17 +50,22 @@ def runs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     return out
 
 
-def _fz_rms(run_dir: Path, process) -> float:
-    """RMS of the run's Fz minus the process's force model along the run's measured tip [N]."""
-    run = read_run(run_dir)
-    rows = sheet_rows(run, declared_process(run))
-    field = build_force_field(process)
+def _force_miss(run_dir: Path, process) -> np.ndarray:
+    """The run's measured force minus the process's force model along the run's measured tip, at the sensor's
+    times within the path, (m, 3) [N]."""
     from twin.analysis.identify.forces import measured_tip_path
     from twin.base.signals import interp_rows
 
+    run = read_run(run_dir)
     path = measured_tip_path(run, 0.0)
-    model = interp_rows(rows.t_s, path.t_s, field.rigid_forces(path))[:, 2]
-    return float(np.sqrt(np.mean((rows.measured_n[:, 2] - model) ** 2)))
+    t = run.forces.t_s
+    inside = (t >= path.t_s[0]) & (t <= path.t_s[-1])
+    return run.forces.values[inside] - interp_rows(t[inside], path.t_s, build_force_field(process).rigid_forces(path))
+
+
+def _fz_rms(run_dir: Path, process) -> float:
+    """RMS of the run's Fz minus the process's force model along the run's measured tip [N]."""
+    return float(np.sqrt(np.mean(_force_miss(run_dir, process)[:, 2] ** 2)))
 
 
 def test_a_sheet_law_it_has_no_term_for_carries_to_a_part_it_never_formed(runs: dict[str, Path]) -> None:
@@ -121,15 +126,7 @@ def _hidden_inward_push(run_dir: Path, out: Path) -> None:
 
 def _xy_rms(run_dir: Path, process) -> float:
     """RMS of the run's in-plane force minus the process's along the run's measured tip [N]."""
-    from twin.analysis.identify.forces import measured_tip_path
-    from twin.base.signals import interp_rows
-
-    run = read_run(run_dir)
-    path = measured_tip_path(run, 0.0)
-    model = interp_rows(run.forces.t_s, path.t_s, build_force_field(process).rigid_forces(path))
-    inside = (run.forces.t_s >= path.t_s[0]) & (run.forces.t_s <= path.t_s[-1])
-    miss = run.forces.values[inside, :2] - model[inside, :2]
-    return float(np.sqrt(np.mean(np.sum(miss**2, axis=1))))
+    return float(np.sqrt(np.mean(np.sum(_force_miss(run_dir, process)[:, :2] ** 2, axis=1))))
 
 
 def test_a_push_across_the_travel_that_grows_with_the_wall_is_learned_and_carried(

@@ -29,6 +29,7 @@ Fx, Fy with the fitted Fz. The runs' commanded paths, trackers and forces are al
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Sequence
 from dataclasses import replace
 from typing import NamedTuple
 
@@ -182,20 +183,21 @@ def _plane_rms(plane: np.ndarray, fxy_n: np.ndarray, block: np.ndarray, cols: li
     return math.sqrt(error / max(count, 1))
 
 
+def _forward(score: Callable[[list[int]], float], candidates: Sequence[int]) -> tuple[list[int], float]:
+    """Forward selection from column 0 (always in): the candidate that lowers `score` most enters while it lowers it
+    by more than `ENTRY_GAIN`; (columns in the order they entered, the last score)."""
+    chosen, best = [0], score([0])
+    while rest := [k for k in candidates if k not in chosen]:
+        value, k = min((score([*chosen, k]), k) for k in rest)
+        if value > (1.0 - ENTRY_GAIN) * best:
+            break
+        chosen, best = [*chosen, k], value
+    return chosen, best
+
+
 def select_terms(terms: np.ndarray, fz_n: np.ndarray, block: np.ndarray) -> tuple[list[int], float]:
     """Forward selection of the formed-state terms on the look-ahead validation: (columns, its RMS [N])."""
-    chosen = [0]
-    best = look_ahead_rms(terms, fz_n, block, chosen)
-    candidates = [WEIGHT_KEYS.index(key) for key in CANDIDATES]
-    while True:
-        scores = [(look_ahead_rms(terms, fz_n, block, [*chosen, k]), k) for k in candidates if k not in chosen]
-        if not scores:
-            return chosen, best
-        score, k = min(scores)
-        if score > (1.0 - ENTRY_GAIN) * best:
-            return chosen, best
-        chosen.append(k)
-        best = score
+    return _forward(lambda cols: look_ahead_rms(terms, fz_n, block, cols), [WEIGHT_KEYS.index(k) for k in CANDIDATES])
 
 
 def _bootstrap_std(rows: list[SheetRows], terms: np.ndarray, fz_n: np.ndarray, cols: list[int]) -> np.ndarray:
@@ -221,14 +223,7 @@ def in_plane_columns(rows: SheetRows, fz_n: np.ndarray) -> np.ndarray:
 def select_ratios(plane: np.ndarray, fxy_n: np.ndarray, block: np.ndarray) -> list[int]:
     """Forward selection of μ_r and μ_ρ beside μ_t (always) on the look-ahead of the in-plane force: the columns
     of `in_plane_columns` taken."""
-    chosen, best = [0], _plane_rms(plane, fxy_n, block, [0])
-    while len(chosen) < plane.shape[1]:
-        score, k = min((_plane_rms(plane, fxy_n, block, [*chosen, k]), k) for k in range(1, plane.shape[1])
-                       if k not in chosen)
-        if score > (1.0 - ENTRY_GAIN) * best:
-            break
-        chosen, best = [*chosen, k], score
-    return sorted(chosen)
+    return sorted(_forward(lambda cols: _plane_rms(plane, fxy_n, block, cols), range(1, plane.shape[1]))[0])
 
 
 def fit_sheet(runs: list[Run], process: Process) -> SheetFit:
@@ -266,8 +261,8 @@ def fit_sheet(runs: list[Run], process: Process) -> SheetFit:
     mu_cols = select_ratios(plane, fxy, plane_block)
     mu, mu_std = np.zeros(3), np.zeros(3)
     mu_std[mu_cols] = _lstsq(plane[:, mu_cols], fxy)[1]
-    floor = np.array([1e-6, 1e-6, 0.0])[mu_cols]  # the ISF constants are positive; a ratio at its floor is so
-    mu[mu_cols] = lsq_linear(plane[:, mu_cols], fxy, bounds=(floor, np.inf)).x
+    lower = np.array([1e-6, 1e-6, 0.0])[mu_cols]  # the ISF constants are positive; a ratio at its floor is so
+    mu[mu_cols] = lsq_linear(plane[:, mu_cols], fxy, bounds=(lower, np.inf)).x
     keys = (*WEIGHT_KEYS, "mu_eff", "mu_radial", RADIAL_RISE_KEY)
     values = (*weights, *mu)
     fit = tuple((k, float(v)) for k, v in zip(keys, values, strict=True))

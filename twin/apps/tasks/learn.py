@@ -307,8 +307,11 @@ def _sheet_words(sheet: SheetFit) -> str:
     """The selected terms with their weights and bootstrap spread, the in-plane ratios, and the look-ahead check."""
     fit, std = dict(sheet.force_fit), dict(sheet.std)
     terms = ", ".join(f"{k} {fit[k]:.4g} ± {std[k]:.2g}" for k in sheet.terms)
-    parts = [f"{fit['mu_radial']:.3f}"] * (fit["mu_radial"] > 0.0) + [
-        f"{fit[RADIAL_RISE_KEY]:.3f} x the side walls' rise"] * (fit.get(RADIAL_RISE_KEY, 0.0) > 0.0)
+    parts = []
+    if fit["mu_radial"] > 0.0:
+        parts.append(f"{fit['mu_radial']:.3f}")
+    if fit.get(RADIAL_RISE_KEY, 0.0) > 0.0:
+        parts.append(f"{fit[RADIAL_RISE_KEY]:.3f} x the side walls' rise")
     radial = f"mu_r {' + '.join(parts)}" if parts else "mu_r 0 (no radial force the data support)"
     return (f"terms chosen from the data: {terms}; mu_t {fit['mu_eff']:.3f}, {radial}; predicting each run's later "
             f"material from its earlier: {sheet.validation_rms_n:.0f} N rms (the published formula: "
