@@ -7,15 +7,17 @@ sample it gives the library of terms its axial force is a weighted sum of (`twin
 published formula's force, the membrane terms a model file may carry, the formed state (engagement, contact,
 wall angle, depth) and the walls' rise around the tool. The model is linear in its weights; the fit is a ridge regression towards the
 prior mean (the published formula: its weight 1, every other 0; `RIDGE` of the samples' weight, on terms scaled
-to unit rms), and which terms enter is chosen by forward selection on validation that looks ahead: each run's
+to unit rms), and which terms enter is chosen by best-subset selection on validation that looks ahead: each run's
 samples in `BLOCKS` blocks of time, the blocks before b fitted, block b predicted, for b = 2 .. BLOCKS-1 (a part
 is formed deeper as it goes, so this scores what a term predicts for the material the fit has not seen, as the
-next part asks); a term enters while it lowers that error by more than `ENTRY_GAIN`. The candidates are the
+next part asks); of 1, 2, .. `MAX_TERMS` terms, the subset that predicts best is taken while it lowers that error
+by more than `ENTRY_GAIN` below the last taken (not forward selection: on a cone, the term best alone can be the
+wrong one beside others). The candidates are the
 formed-state terms (`STATE_KEYS`) and the walls' rise around the tool (`RISE_KEYS`), never the membrane terms of
 Silva et al. (the form the plant's sheet law 1 is written in: a learner of that form fits that plant and nothing
 says it fits a real cell); a model file's membrane weights are still read and replayed. The radial in-plane
 ratio μ_r and its part that follows the side walls' rise μ_ρ (`twin.process.force.learned`: the contact's normal
-tilted by the walls around the tool) are chosen the same way, by forward selection on the look-ahead of the
+tilted by the walls around the tool) are chosen the same way, by best-subset selection on the look-ahead of the
 measured Fx, Fy (each held at 0 where it does not show: a groove's walls run along its travel), μ_t always
 fitted; the ratios are non-negative. docs/learning.md has what it gives on parts it never formed.
 
@@ -28,6 +30,7 @@ Fx, Fy with the fitted Fz. The runs' commanded paths, trackers and forces are al
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import replace
@@ -60,8 +63,9 @@ RIDGE = 1e-3
 #: Blocks of time per run for the look-ahead validation, and the least relative drop of its error to take a term.
 BLOCKS = 6
 ENTRY_GAIN = 0.03
-#: The terms forward selection may add to the published formula's.
+#: The terms selection may add to the published formula's, and the most it adds.
 CANDIDATES = STATE_KEYS + RISE_KEYS
+MAX_TERMS = 5
 #: The prior mean of the weights: the published formula (`prior_weight` 1), every other term 0.
 PRIOR_MEAN = np.array([1.0 if key == "prior_weight" else 0.0 for key in WEIGHT_KEYS])
 #: Weights that cannot be negative: the published formula's (a sheet does not push the less for it), and those on
@@ -93,7 +97,7 @@ class SheetFit(NamedTuple):
         rms_before_n: Per run, RMS of the measured minus the declared model's force along the measured tip [N].
         rms_after_n: Per run, the same with the learned model [N].
         samples: Force samples used, all runs.
-        terms: The terms selected (`WEIGHT_KEYS` names; the prior's always), in the order they entered.
+        terms: The terms selected (`WEIGHT_KEYS` names; the prior's always, first).
         validation_rms_n: The look-ahead validation's RMS axial-force error with those terms [N] (predicted).
         prior_validation_rms_n: The same with the published formula alone [N].
     """
@@ -143,13 +147,33 @@ def _lstsq(X: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def _ridge(X: np.ndarray, y: np.ndarray, cols: list[int]) -> np.ndarray:
     """Ridge regression of the terms `cols` towards the prior mean, with weight `RIDGE` per sample on unit-rms
     columns and the physical bounds (`NON_NEGATIVE`) held (module docstring)."""
-    scale = np.sqrt(np.mean(X**2, axis=0))
+    return _ridge_normal(X.T @ X, X.T @ y, len(y), cols)
+
+
+def _ridge_normal(G: np.ndarray, g: np.ndarray, n: int, cols: list[int]) -> np.ndarray:
+    """`_ridge` from the normal equations G = XᵀX, g = Xᵀy of n samples of the terms `cols`.
+
+    The bounded problem is solved exactly: its optimum holds some of the bounded weights at 0 and the rest free,
+    so it is the free solution if that keeps the bounds, else the least objective over those choices whose free
+    weights keep them (at most 2^4 small solves; the search over subsets scores thousands of fits).
+    """
+    scale = np.sqrt(np.diag(G) / max(n, 1))
     scale = np.where(scale > 0.0, scale, 1.0)
-    k = math.sqrt(RIDGE * len(y))
-    A = np.vstack([X / scale, k * np.eye(X.shape[1])])
-    b = np.concatenate([y, k * PRIOR_MEAN[cols] * scale])
-    low = np.array([0.0 if WEIGHT_KEYS[c] in NON_NEGATIVE else -np.inf for c in cols])
-    coef = lsq_linear(A, b, bounds=(low, np.full(len(cols), np.inf))).x
+    k2 = RIDGE * n
+    A = G / np.outer(scale, scale) + k2 * np.eye(len(cols))
+    b = g / scale + k2 * PRIOR_MEAN[cols] * scale
+    bounded = [i for i, c in enumerate(cols) if WEIGHT_KEYS[c] in NON_NEGATIVE]
+    coef = np.linalg.solve(A, b)
+    if np.any(coef[bounded] < 0.0):
+        best = math.inf
+        for n_held in range(1, len(bounded) + 1):
+            for held in itertools.combinations(bounded, n_held):
+                free = [i for i in range(len(cols)) if i not in held]
+                z = np.zeros(len(cols))
+                z[free] = np.linalg.solve(A[np.ix_(free, free)], b[free])
+                value = float(z @ A @ z - 2.0 * b @ z)
+                if np.all(z[bounded] >= 0.0) and value < best:
+                    best, coef = value, z
     return np.asarray(coef / scale)
 
 
@@ -158,22 +182,27 @@ def _blocks(rows: list[SheetRows], count: int) -> np.ndarray:
     return np.concatenate([np.arange(len(r.t_s)) * count // max(len(r.t_s), 1) for r in rows])
 
 
-def look_ahead_rms(terms: np.ndarray, fz_n: np.ndarray, block: np.ndarray, cols: list[int],
-                   fitted: bool = True) -> float:
-    """RMS axial-force error [N] predicting block b from blocks < b, b = 2 .. BLOCKS-1 (module docstring);
-    `fitted` False: the published formula as it is (weight 1, nothing fitted)."""
-    error, count = 0.0, 0
-    for b in range(2, BLOCKS):
-        train, test = block < b, block == b
-        w = _ridge(terms[train][:, cols], fz_n[train], cols) if fitted else PRIOR_MEAN[cols]
-        error += float(np.sum((fz_n[test] - np.maximum(terms[test][:, cols] @ w, 0.0)) ** 2))
-        count += int(np.sum(test))
-    return math.sqrt(error / max(count, 1))
+class _LookAhead:
+    """RMS axial-force error [N] predicting block b from blocks < b, b = 2 .. BLOCKS-1 (module docstring), each
+    training span's normal equations formed once, so that a subset of terms is scored in a few small solves."""
+
+    def __init__(self, terms: np.ndarray, fz_n: np.ndarray, block: np.ndarray) -> None:
+        self.spans = [(terms[block < b].T @ terms[block < b], terms[block < b].T @ fz_n[block < b],
+                       int(np.sum(block < b)), terms[block == b], fz_n[block == b]) for b in range(2, BLOCKS)]
+
+    def __call__(self, cols: list[int], fitted: bool = True) -> float:
+        """The error with the terms `cols` fitted; `fitted` False: the published formula as it is (weight 1)."""
+        error, count = 0.0, 0
+        for G, g, n, X_test, y_test in self.spans:
+            w = _ridge_normal(G[np.ix_(cols, cols)], g[cols], n, cols) if fitted else PRIOR_MEAN[cols]
+            error += float(np.sum((y_test - np.maximum(X_test[:, cols] @ w, 0.0)) ** 2))
+            count += len(y_test)
+        return math.sqrt(error / max(count, 1))
 
 
 def _plane_rms(plane: np.ndarray, fxy_n: np.ndarray, block: np.ndarray, cols: list[int]) -> float:
     """The look-ahead RMS [N] of the in-plane force with the ratios `cols` of (μ_t, μ_r, μ_ρ) fitted
-    (`look_ahead_rms`)."""
+    (`_LookAhead`)."""
     error, count = 0.0, 0
     for b in range(2, BLOCKS):
         train, test = block < b, block == b
@@ -183,21 +212,24 @@ def _plane_rms(plane: np.ndarray, fxy_n: np.ndarray, block: np.ndarray, cols: li
     return math.sqrt(error / max(count, 1))
 
 
-def _forward(score: Callable[[list[int]], float], candidates: Sequence[int]) -> tuple[list[int], float]:
-    """Forward selection from column 0 (always in): the candidate that lowers `score` most enters while it lowers it
-    by more than `ENTRY_GAIN`; (columns in the order they entered, the last score)."""
+def _best_subset(score: Callable[[list[int]], float], candidates: Sequence[int],
+                 most: int) -> tuple[list[int], float]:
+    """Best-subset selection from column 0 (always in): for 1, 2, .. `most` added columns, the subset of that size
+    that scores least, taken while it lowers the score of the last taken by more than `ENTRY_GAIN`; (columns, the
+    last score). Not forward selection: a term that is best alone can be the wrong one beside others (on a cone
+    the engagement alone follows the force's rise, which two terms of the wall and its depth follow better)."""
     chosen, best = [0], score([0])
-    while rest := [k for k in candidates if k not in chosen]:
-        value, k = min((score([*chosen, k]), k) for k in rest)
+    for size in range(1, min(most, len(candidates)) + 1):
+        value, subset = min((score([0, *subset]), subset) for subset in itertools.combinations(candidates, size))
         if value > (1.0 - ENTRY_GAIN) * best:
             break
-        chosen, best = [*chosen, k], value
+        chosen, best = [0, *subset], value
     return chosen, best
 
 
 def select_terms(terms: np.ndarray, fz_n: np.ndarray, block: np.ndarray) -> tuple[list[int], float]:
-    """Forward selection of the formed-state terms on the look-ahead validation: (columns, its RMS [N])."""
-    return _forward(lambda cols: look_ahead_rms(terms, fz_n, block, cols), [WEIGHT_KEYS.index(k) for k in CANDIDATES])
+    """Best-subset selection of the formed-state terms on the look-ahead validation: (columns, its RMS [N])."""
+    return _best_subset(_LookAhead(terms, fz_n, block), [WEIGHT_KEYS.index(k) for k in CANDIDATES], MAX_TERMS)
 
 
 def _bootstrap_std(rows: list[SheetRows], terms: np.ndarray, fz_n: np.ndarray, cols: list[int]) -> np.ndarray:
@@ -221,9 +253,9 @@ def in_plane_columns(rows: SheetRows, fz_n: np.ndarray) -> np.ndarray:
 
 
 def select_ratios(plane: np.ndarray, fxy_n: np.ndarray, block: np.ndarray) -> list[int]:
-    """Forward selection of μ_r and μ_ρ beside μ_t (always) on the look-ahead of the in-plane force: the columns
+    """Best-subset selection of μ_r and μ_ρ beside μ_t (always) on the look-ahead of the in-plane force: the columns
     of `in_plane_columns` taken."""
-    return sorted(_forward(lambda cols: _plane_rms(plane, fxy_n, block, cols), range(1, plane.shape[1]))[0])
+    return _best_subset(lambda cols: _plane_rms(plane, fxy_n, block, cols), range(1, plane.shape[1]), 2)[0]
 
 
 def fit_sheet(runs: list[Run], process: Process) -> SheetFit:
@@ -251,7 +283,7 @@ def fit_sheet(runs: list[Run], process: Process) -> SheetFit:
                          "their tips (no forming contact in the path?)")
     block = _blocks(rows, BLOCKS)
     cols, validation = select_terms(terms, measured[:, 2], block)
-    prior_validation = look_ahead_rms(terms, measured[:, 2], block, [0], fitted=False)
+    prior_validation = _LookAhead(terms, measured[:, 2], block)([0], fitted=False)
     weights, w_std = PRIOR_MEAN.copy(), np.zeros(len(WEIGHT_KEYS))
     weights[cols] = _ridge(terms[:, cols], measured[:, 2], cols)
     w_std[cols] = _bootstrap_std(rows, terms, measured[:, 2], cols)
