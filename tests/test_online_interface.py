@@ -222,7 +222,7 @@ def test_the_pages_words_on_a_model_learned_from_another_part_are_its_table() ->
     offset = less[("tx200", "pyramid")]
     assert abs(pyramid[2] - pyramid[1]) <= 0.02 and offset[2] < offset[1]  # as well offline, better less the offset
     groove = rms[("tx200", "groove")]
-    assert 1.8 * groove[1] <= groove[2] < 2.0 * groove[1]  # offline by a factor of almost two
+    assert 1.7 * groove[1] <= groove[2] < 2.0 * groove[1]  # offline by a factor of almost two
     assert all(min(r[1:]) > (0.15 if part == "pyramid" else 0.10) for (_, part), r in rms.items())
 
 
