@@ -1,13 +1,25 @@
-"""Shared, session-scoped fixtures: one nominal twin, one clean lab run and its replay.
+"""Shared, session-scoped fixtures: one nominal twin, one clean lab run and its replay; the dynamic plant's
+neutral groove runs and the cell learned from two of them (`made_once`: made by one xdist worker, read by both).
 
 A full twin simulation of the groove takes ~0.5 s, so the expensive objects are built once per session and
 shared. Tests must not mutate them (no `set_joint_stiffness` on `twin_nominal.model`, no writes into
-`clean_run_dir`): copy first.
+`clean_run_dir` or a folder `made_once` gives): copy first.
 """
 
 from __future__ import annotations
 
+import contextlib
+import io
+import os
+import shutil
+from collections.abc import Callable
 from pathlib import Path
+
+#: One BLAS thread per test process, set before numpy loads OpenBLAS (xdist's workers inherit it): `make test` runs
+#: a worker per core, and two workers of 2 OpenBLAS threads each on 2 cores spin against each other (the discrepancy
+#: search, the sheet learner: 2-5x slower per test, ~30 % more CPU time over the suite). A value set outside is kept.
+#: The doc guards run again under the machine's thread count and another kernel (tests/test_doc_guards_blas.py).
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np
 import pytest
@@ -69,6 +81,91 @@ def clean_run(clean_run_dir: Path) -> Run:
 def clean_replay(clean_run: Run, twin_nominal: Twin) -> ReplayResult:
     """The clean run replayed on the nominal twin (its `sim` is the twin's simulation of the groove)."""
     return replay(clean_run, twin=twin_nominal)
+
+
+def _shared_root(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A folder every worker of this `pytest -n` run sees (the run's base temp, above each worker's own); the
+    base temp itself without xdist."""
+    base = tmp_path_factory.getbasetemp()
+    root = (base.parent if "PYTEST_XDIST_WORKER" in os.environ else base) / "made-once"
+    root.mkdir(parents=True, exist_ok=True)
+    return root
+
+
+@contextlib.contextmanager
+def _locked(path: Path):
+    """An exclusive lock on `path` across processes (POSIX `flock`; without it, none: each worker makes its own)."""
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover - not POSIX
+        yield
+        return
+    with open(path, "a") as handle:
+        fcntl.flock(handle, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(handle, fcntl.LOCK_UN)
+
+
+@pytest.fixture(scope="session")
+def made_once(tmp_path_factory: pytest.TempPathFactory) -> Callable[[str, Callable[[Path], None]], Path]:
+    """`made_once(name, make)`: the folder `make(folder)` filled, made once per test session by whichever xdist
+    worker asks first (the other waits for it, then reads it). Read-only to the tests: copy before editing. The
+    makers are deterministic (the plant and `learn` are), so which worker made it does not matter."""
+    root = _shared_root(tmp_path_factory)
+
+    def made(name: str, make: Callable[[Path], None]) -> Path:
+        folder = root / name
+        with _locked(root / f"{name}.lock"):
+            if not (folder / ".made").exists():
+                shutil.rmtree(folder, ignore_errors=True)
+                folder.mkdir(parents=True)
+                make(folder)
+                (folder / ".made").write_text("")
+        return folder
+
+    return made
+
+
+def cli_out(args: list[str]) -> str:
+    """`tx200-twin ARGS` run in this process; asserts it exits 0 and returns what it printed."""
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        code = main(args)
+    assert code == 0, (args, out.getvalue()[-2000:])
+    return out.getvalue()
+
+
+@pytest.fixture(scope="session")
+def neutral_groove_runs(made_once) -> Callable[[int], Path]:
+    """`neutral_groove_runs(seed)`: the dynamic plant's nominal groove run with neutral knobs and that seed
+    (`lab --plant dynamic --neutral --scenario nominal --seed SEED`), one per session. Read-only."""
+
+    def run(seed: int) -> Path:
+        def make(folder: Path) -> None:
+            cli_out(["lab", "--plant", "dynamic", "--neutral", "--scenario", "nominal", "--seed", str(seed),
+                     "--out", str(folder / "run")])
+
+        return made_once(f"neutral-groove-{seed}", make) / "run"
+
+    return run
+
+
+@pytest.fixture(scope="session")
+def neutral_groove_cell(made_once, neutral_groove_runs) -> tuple[Path, str]:
+    """The cell learned from the neutral groove runs of seeds 1 and 2 (`learn RUN1 RUN2 --write-model cell.json
+    --json learn.json`: with the floor it leaves on its own clean runs), once per session: its folder and what
+    `learn` printed. Read-only."""
+    runs = [str(neutral_groove_runs(seed)) for seed in (1, 2)]
+
+    def make(folder: Path) -> None:
+        printed = cli_out(["learn", *runs, "--write-model", str(folder / "cell.json"),
+                           "--json", str(folder / "learn.json")])
+        (folder / "printed.txt").write_text(printed)
+
+    folder = made_once("neutral-groove-cell-1-2", make)
+    return folder, (folder / "printed.txt").read_text()
 
 
 @pytest.fixture

@@ -19,6 +19,9 @@ from twin.cli import main
 INDEPENDENT = ("measured against the dependent plant (the twin's own isf model); the independent plant's membrane "
                "sheet (twin/lab/dynamic/sheet.py) is not the twin's model: {}")
 PLANTS = {"quasi-static": [], "dynamic": ["--plant", "dynamic", "--neutral"]}
+#: The parts of the table and compensation grids: the cone in make test, the pyramid (its own compensation and four
+#: lab runs, ~12 s) in make test-slow.
+PARTS = ["cone_runs", pytest.param("pyramid_runs", marks=pytest.mark.slow)]
 
 
 def _part_runs(base: Path, shape: str) -> dict[str, Path]:
@@ -66,7 +69,7 @@ def checked(runs: dict[str, Path], plant: str, capsys: pytest.CaptureFixture[str
 
 # measured (seed 1, 5 mm deep, 40 mm across): rms residual against the ideal path [mm], docs/any-part.md's table
 @pytest.mark.parametrize("plant", ["quasi-static", "dynamic"])
-@pytest.mark.parametrize("part", ["cone_runs", "pyramid_runs"])
+@pytest.mark.parametrize("part", PARTS)
 def test_the_any_part_table_is_what_the_runs_give(
     part: str, plant: str, request: pytest.FixtureRequest, capsys: pytest.CaptureFixture[str]
 ) -> None:
@@ -85,7 +88,7 @@ def test_the_any_part_table_is_what_the_runs_give(
 @pytest.mark.parametrize("plant", ["quasi-static", pytest.param("dynamic", marks=pytest.mark.xfail(
     strict=True, raises=AssertionError,
     reason=INDEPENDENT.format("the twin-compensated part misses its path by more than the test allows (the run prints it)")))])
-@pytest.mark.parametrize("part", ["cone_runs", "pyramid_runs"])
+@pytest.mark.parametrize("part", PARTS)
 def test_a_part_is_compensated_onto_its_path_on_both_plants(
     part: str, plant: str, request: pytest.FixtureRequest, capsys: pytest.CaptureFixture[str]
 ) -> None:

@@ -355,6 +355,7 @@ def test_a_fit_that_makes_another_stream_worse_is_contradicted() -> None:
 
 # ---- the demo's story ----
 
+@pytest.mark.slow  # the single lost motion is in make test (test_each_lab_effect_is_named_fitted_and_closes_the_gap)
 def test_thesis_nominal_run_names_the_labs_lost_motion(nominal_path: tuple[np.ndarray, np.ndarray]) -> None:
     result, seconds = timed(lab_run(nominal_path, {"lost_motion": 0.3}, seed=130))
     info = describe(result, seconds)

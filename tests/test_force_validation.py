@@ -28,12 +28,22 @@ def validation():
     return validate_forces()
 
 
-def test_the_page_is_the_one_a_fresh_run_writes(validation, tmp_path):
-    """Number by number, within what a machine's floating point moves them (`doc_numbers.page_differences`)."""
+def test_the_page_is_the_one_a_fresh_run_writes(validation, tmp_path, monkeypatch):
+    """Number by number, within what a machine's floating point moves them (`doc_numbers.page_differences`).
+    The command's own part, its page written from the validation it asks for (the default seed's), is checked on
+    the module's fresh run (the same call: a second run of it cost this test and its BLAS rerun ~6 s each)."""
     stale = "docs/force-validation.md is stale: run `tx200-twin force-validation --markdown docs/force-validation.md`"
     assert page_differences(DOC.read_text(encoding="utf-8"), markdown(validation)) == [], stale
+    asked: list[tuple] = []
+
+    def same_run(measurements=None, seed: int = 1):
+        asked.append((measurements, seed))
+        return validation
+
+    monkeypatch.setattr("twin.apps.force_validation.validate_forces", same_run)
     out = tmp_path / "page.md"
     assert main(["force-validation", "--markdown", str(out), "--json", str(tmp_path / "rows.json")]) == 0
+    assert asked == [(None, 1)]  # the fixture's call: `validate_forces()`
     assert page_differences(DOC.read_text(encoding="utf-8"), out.read_text(encoding="utf-8")) == [], stale
 
 

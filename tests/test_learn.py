@@ -24,16 +24,9 @@ LEARN_DIR = Path(__file__).resolve().parent.parent / "twin" / "analysis" / "lear
 
 
 @pytest.fixture(scope="module")
-def plant_runs(tmp_path_factory: pytest.TempPathFactory) -> dict[int, Path]:
-    """Nominal groove runs of the dynamic plant (neutral knobs), seeds 1 and 2."""
-    root = tmp_path_factory.mktemp("plant")
-    runs = {}
-    for seed in (1, 2):
-        out = root / f"groove{seed}"
-        assert main(["lab", "--plant", "dynamic", "--neutral", "--scenario", "nominal", "--seed", str(seed),
-                     "--out", str(out)]) == 0
-        runs[seed] = out
-    return runs
+def plant_runs(neutral_groove_runs) -> dict[int, Path]:
+    """Nominal groove runs of the dynamic plant (neutral knobs), seeds 1 and 2 (conftest's, shared: read-only)."""
+    return {seed: neutral_groove_runs(seed) for seed in (1, 2)}
 
 
 @pytest.fixture(scope="module")
@@ -82,11 +75,11 @@ def test_learn_never_reads_the_plants_truth(plant_runs: dict[int, Path], learned
 
 
 def test_cli_learn_writes_a_model_replay_takes(plant_runs: dict[int, Path], tmp_path: Path,
-                                              capsys: pytest.CaptureFixture[str]) -> None:
-    model, report = tmp_path / "cell.json", tmp_path / "learn.json"
-    assert main(["learn", str(plant_runs[1]), str(plant_runs[2]), "--write-model", str(model),
-                 "--json", str(report)]) == 0
-    out = capsys.readouterr().out
+                                              neutral_groove_cell: tuple[Path, str]) -> None:
+    """`learn RUN1 RUN2 --write-model cell.json --json learn.json` (conftest's `neutral_groove_cell`, the cell
+    test_learning_stacks.py judges a change against: run once for both)."""
+    cell, out = neutral_groove_cell
+    model, report = cell / "cell.json", cell / "learn.json"
     assert "left out" in out and "(fitted" in out and "(predicted" in out
     assert "fitted for robot tx200 (" in out and "(the runs' placement), tool " in out  # #46: which robot it fitted
     data = json.loads(report.read_text())
@@ -202,7 +195,8 @@ def test_learn_keeps_the_declared_sheet_where_the_learned_one_forces_no_nearer(c
     assert result.after[0].position_rms_mm < 1.25 * result.before[0].position_rms_mm
 
 
-def test_learn_with_tracker_errors_carries_a_late_tracker_as_its_clock(plant_runs: dict[int, Path]) -> None:
+def test_learn_with_tracker_errors_carries_a_late_tracker_as_its_clock(plant_runs: dict[int, Path],
+                                                                     tmp_path: Path) -> None:
     """A change written here, at the data level (the tracker's samples read 6 ms late, by interpolation of the
     neutral run's own reading): `learn --tracker-errors` carries more lateness than it finds on the run as it came
     (the robot's own lag along the path is in both), at least half the 6 ms (a groove's steady travel makes a
@@ -218,7 +212,7 @@ def test_learn_with_tracker_errors_carries_a_late_tracker_as_its_clock(plant_run
     run = read_run(plant_runs[1])
     t = run.tracker.t_s
     late = np.stack([np.interp(t - 0.006, t, run.tracker.values[:, a]) for a in range(3)], axis=1)
-    edited = read_run(write_run(plant_runs[1].parent / "late6ms", replace(run, tracker=Stream(t, late))))
+    edited = read_run(write_run(tmp_path / "late6ms", replace(run, tracker=Stream(t, late))))
     as_came, with_late = learn([run], tracker_errors=True), learn([edited], tracker_errors=True)
     found = [r.spec.effects.instruments.tracker_time_offset_s[0] for r in (as_came, with_late)]
     assert 0.003 <= found[1] - found[0] <= 0.0066, found

@@ -5,6 +5,8 @@ run is the same twin within its stated uncertainty; and the stacked flow on clea
 
 from __future__ import annotations
 
+import contextlib
+import io
 import json
 import re
 from pathlib import Path
@@ -64,16 +66,20 @@ def test_every_force_model_and_effect_round_trips_through_a_model_file(force_mod
 
 
 @pytest.fixture(scope="module")
-def groove_runs(tmp_path_factory: pytest.TempPathFactory) -> list[Path]:
-    """Three nominal groove runs of the dynamic plant (neutral knobs), seeds 1-3: one clean cell."""
-    root = tmp_path_factory.mktemp("stack")
-    runs = []
-    for seed in (1, 2, 3):
-        out = root / f"g{seed}"
-        assert main(["lab", "--plant", "dynamic", "--neutral", "--scenario", "nominal", "--seed", str(seed),
-                     "--out", str(out)]) == 0
-        runs.append(out)
-    return runs
+def groove_runs(neutral_groove_runs) -> list[Path]:
+    """Three nominal groove runs of the dynamic plant (neutral knobs), seeds 1-3: one clean cell (conftest's,
+    shared with test_learn.py: read-only)."""
+    return [neutral_groove_runs(seed) for seed in (1, 2, 3)]
+
+
+@pytest.fixture(scope="module")
+def learned_from_first(groove_runs: list[Path], tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, str]:
+    """`learn RUN1 --write-model A.json`, once for the two tests that start from it: the model and what `learn`
+    printed. Read-only."""
+    model, printed = tmp_path_factory.mktemp("first") / "A.json", io.StringIO()
+    with contextlib.redirect_stdout(printed):
+        assert main(["learn", str(groove_runs[0]), "--write-model", str(model)]) == 0
+    return model, printed.getvalue()
 
 
 def _learned(out: str) -> tuple[np.ndarray, np.ndarray, float]:
@@ -85,10 +91,11 @@ def _learned(out: str) -> tuple[np.ndarray, np.ndarray, float]:
 
 
 def test_learning_twice_from_one_run_is_the_same_twin(groove_runs: list[Path], tmp_path: Path,
+                                                      learned_from_first: tuple[Path, str],
                                                       capsys: pytest.CaptureFixture[str]) -> None:
-    first, again = tmp_path / "A.json", tmp_path / "A2.json"
-    assert main(["learn", str(groove_runs[0]), "--write-model", str(first)]) == 0
-    k1, std1, gap1 = _learned(capsys.readouterr().out)
+    (first, printed), again = learned_from_first, tmp_path / "A2.json"
+    k1, std1, gap1 = _learned(printed)
+    capsys.readouterr()
     assert main(["learn", str(groove_runs[0]), "--model", str(first), "--write-model", str(again)]) == 0
     k2, _, gap2 = _learned(capsys.readouterr().out)
     # stated tolerance: each joint's K_q within its own standard deviation, the fitted gap within 5 µm
@@ -105,9 +112,9 @@ def test_learning_twice_from_one_run_is_the_same_twin(groove_runs: list[Path], t
 
 
 def test_the_stacked_flow_on_clean_runs_names_nothing(groove_runs: list[Path], tmp_path: Path,
+                                                      learned_from_first: tuple[Path, str],
                                                       capsys: pytest.CaptureFixture[str]) -> None:
-    a, b = tmp_path / "A.json", tmp_path / "B.json"
-    assert main(["learn", str(groove_runs[0]), "--write-model", str(a)]) == 0
+    (a, _), b = learned_from_first, tmp_path / "B.json"  # a: `learn RUN1 --write-model A.json`
     assert main(["learn", str(groove_runs[1]), "--model", str(a), "--write-model", str(b)]) == 0  # was refused
     capsys.readouterr()
     assert main(["discrepancy", str(groove_runs[2]), "--model", str(b), "--json", "-"]) == 0
@@ -134,13 +141,15 @@ def test_a_model_files_force_model_without_its_constants_is_refused(force_model:
 
 
 def test_a_change_after_the_cell_was_learned_is_judged_above_its_floor(
-        groove_runs: list[Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+        groove_runs: list[Path], tmp_path: Path, neutral_groove_cell: tuple[Path, str],
+        capsys: pytest.CaptureFixture[str]) -> None:
     """`learn` with two runs records the floor the learned cell leaves on a clean run it did not fit; against it,
     a 40 / -30 N sensor bias on the third run is named with its size, where judged against the noise alone the
-    same search found it and threw it away (it explains 21 % of a gap mostly the floor's)."""
-    cell = tmp_path / "cell.json"
-    assert main(["learn", str(groove_runs[0]), str(groove_runs[1]), "--write-model", str(cell)]) == 0
-    assert "floor on its own clean runs" in capsys.readouterr().out
+    same search found it and threw it away (it explains 21 % of a gap mostly the floor's). The cell: `learn RUN1
+    RUN2 --write-model cell.json` (conftest's `neutral_groove_cell`, shared with test_learn.py)."""
+    folder, printed = neutral_groove_cell
+    cell = folder / "cell.json"
+    assert "floor on its own clean runs" in printed
     floor = json.loads(cell.read_text())["floor"]
     assert floor["excess_per_element"]["position"] > 1.0  # the learned cell does not replay its runs to the noise
     # a sensor re-tared wrongly, written here: 40 N more in x, 30 N less in z

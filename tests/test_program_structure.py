@@ -94,11 +94,20 @@ def _expected(path_csv: Path, robot: str) -> ProgramPath:
     return with_moves(load_program_path(path_csv, default_cell(robot=robot), "expected"))[0]
 
 
+#: The programs written so far in this module: (path, robot, the file or folder's name, options) -> name -> text.
+_EXPORTED: dict[tuple[Path, str, str, tuple[str, ...]], dict[str, str]] = {}
+
+
 def _export(path_csv: Path, robot: str, out: Path, *extra: str) -> dict[str, str]:
-    """`tx200-twin export PATH --robot ROBOT --out OUT`: the files written, name -> text."""
-    assert main(["export", str(path_csv), "--robot", robot, "--out", str(out), *extra]) == 0
-    folder = out if out.is_dir() else out.parent
-    return {f.name: f.read_text(encoding="utf-8") for f in sorted(folder.iterdir()) if f.is_file()}
+    """`tx200-twin export PATH --robot ROBOT --out OUT` into a fresh folder: the files written, name -> text (a
+    copy: the checkers' tests edit it). Run once per module for the same path, robot, name and options, which
+    give the same program (the exporter is deterministic): the checker grids edit one export each."""
+    key = (path_csv, robot, out.name, extra)
+    if key not in _EXPORTED:
+        assert main(["export", str(path_csv), "--robot", robot, "--out", str(out), *extra]) == 0
+        folder = out if out.is_dir() else out.parent
+        _EXPORTED[key] = {f.name: f.read_text(encoding="utf-8") for f in sorted(folder.iterdir()) if f.is_file()}
+    return dict(_EXPORTED[key])
 
 
 # ----------------------------------------------------------------------------------------------------------- KRL

@@ -107,7 +107,8 @@ def test_a_scan_far_from_the_sheet_frame_starts_from_its_principal_axes(designs:
     assert np.max(np.abs(error[:3, 3])) < 0.05e-3
 
 
-@pytest.mark.parametrize(("scanned", "design"), [("cone 8 mm", "cone"), ("pyramid", "cone")])
+@pytest.mark.parametrize(("scanned", "design"), [pytest.param("cone 8 mm", "cone", marks=pytest.mark.slow),
+                                                 ("pyramid", "cone")])  # one in make test
 def test_a_scan_of_another_part_is_refused(designs: dict[str, DesignIndex], scanned: str, design: str):
     points = _grid_scan(SPECS[scanned])
     with pytest.raises(InputError, match=r"does not fit the design.*within 2 mm.*98 % needed"):
