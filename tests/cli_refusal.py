@@ -1,7 +1,10 @@
-"""What every bad-input test asks of the CLI: a refusal (exit 2) that names the problem, never a traceback."""
+"""What tests ask of the CLI in this process: a refusal (exit 2) that names the problem, never a traceback; or a
+run that succeeds, and what it printed."""
 
 from __future__ import annotations
 
+import contextlib
+import io
 from pathlib import Path
 
 import pytest
@@ -23,3 +26,12 @@ def refused(argv: list[str], capsys: pytest.CaptureFixture[str], *needles: str, 
     for path in never:
         assert not path.exists(), path
     return err
+
+
+def cli_out(args: list[str]) -> str:
+    """`tx200-twin ARGS` run in this process; asserts it exits 0 and returns what it printed."""
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        code = main(args)
+    assert code == 0, (args, out.getvalue()[-2000:])
+    return out.getvalue()

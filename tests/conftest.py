@@ -9,7 +9,6 @@ shared. Tests must not mutate them (no `set_joint_stiffness` on `twin_nominal.mo
 from __future__ import annotations
 
 import contextlib
-import io
 import os
 import shutil
 from collections.abc import Callable
@@ -23,6 +22,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np
 import pytest
+from cli_refusal import cli_out
 
 from twin.analysis.replay import ReplayResult, replay
 from twin.cli import main
@@ -126,15 +126,6 @@ def made_once(tmp_path_factory: pytest.TempPathFactory) -> Callable[[str, Callab
         return folder
 
     return made
-
-
-def cli_out(args: list[str]) -> str:
-    """`tx200-twin ARGS` run in this process; asserts it exits 0 and returns what it printed."""
-    out = io.StringIO()
-    with contextlib.redirect_stdout(out):
-        code = main(args)
-    assert code == 0, (args, out.getvalue()[-2000:])
-    return out.getvalue()
 
 
 @pytest.fixture(scope="session")

@@ -5,14 +5,13 @@ run is the same twin within its stated uncertainty; and the stacked flow on clea
 
 from __future__ import annotations
 
-import contextlib
-import io
 import json
 import re
 from pathlib import Path
 
 import numpy as np
 import pytest
+from cli_refusal import cli_out
 from run_edits import with_forces
 
 from twin.cli import main
@@ -76,10 +75,8 @@ def groove_runs(neutral_groove_runs) -> list[Path]:
 def learned_from_first(groove_runs: list[Path], tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, str]:
     """`learn RUN1 --write-model A.json`, once for the two tests that start from it: the model and what `learn`
     printed. Read-only."""
-    model, printed = tmp_path_factory.mktemp("first") / "A.json", io.StringIO()
-    with contextlib.redirect_stdout(printed):
-        assert main(["learn", str(groove_runs[0]), "--write-model", str(model)]) == 0
-    return model, printed.getvalue()
+    model = tmp_path_factory.mktemp("first") / "A.json"
+    return model, cli_out(["learn", str(groove_runs[0]), "--write-model", str(model)])
 
 
 def _learned(out: str) -> tuple[np.ndarray, np.ndarray, float]:
