@@ -52,6 +52,9 @@ class LearnResult(NamedTuple):
         after: Per run, the replay gap of the learned spec, on the runs it learned from (fitted).
         held_out: Per run, the gap of a spec learned from the other runs only (predicted; empty for one run).
         held_specs: Per run, that spec (the twin each run was held out from; empty for one run).
+        declared_sheets: The force models the runs declare, each once (several: runs of parts whose declared
+            sheets differ, and the learned one is taken, the one that covers them all).
+        sheet_kept: Whether the declared sheet was kept (`sheet_kept`, and the runs declare one).
     """
 
     spec: TwinSpec
@@ -62,23 +65,30 @@ class LearnResult(NamedTuple):
     after: tuple[Gap, ...]
     held_out: tuple[Gap, ...]
     held_specs: tuple[TwinSpec, ...] = ()
+    declared_sheets: tuple[str, ...] = ()
+    sheet_kept: bool = False
 
 
-def learned_spec(runs: list[Run], spec: TwinSpec,
-                 tracker_errors: bool = False) -> tuple[TwinSpec, RobotFit, SheetFit, SpringbackFit | None]:
+def learned_spec(runs: list[Run], spec: TwinSpec, tracker_errors: bool = False, declared: list[Process] | None = None,
+                 one_sheet: bool = True) -> tuple[TwinSpec, RobotFit, SheetFit, SpringbackFit | None]:
     """The spec with the robot, the sheet and its springback learned from `runs` (no gaps computed);
-    `tracker_errors`: `fit_robot`'s, and the tracker's lateness carried (`fit_instruments`' `lateness`)."""
+    `tracker_errors`: `fit_robot`'s, and the tracker's lateness carried (`fit_instruments`' `lateness`);
+    `declared`: per run, the sheet it declares (default `spec`'s for every run); `one_sheet`: False where the
+    cell's runs (these and any held out) declare several sheets, so the learned one is taken."""
     base = spec.replace(placement=run_placement(runs[0].meta))
+    declared = declared or [base.process] * len(runs)
     # the robot is fitted on the ISF model's twin: a learned prior's weights are no ISF constants (they are
     # learned again from these runs: a model learned twice from the same runs is the same sheet)
     isf_fit = tuple((k, v) for k, v in base.process.force_fit if k not in (*WEIGHT_KEYS, RADIAL_RISE_KEY))
     robot = fit_robot(runs, replace(base, process=replace(base.process, force_model="isf", force_fit=isf_fit)).build(),
                       tracker_errors)
-    sheet = fit_sheet(runs, base.process)
+    sheet = fit_sheet(runs, base.process, declared)
     friction = np.where(robot.observable, robot.friction_nm, robot.prior_friction_nm)
     # the learned sheet replaces the declared force model only where it forces nearer the measured force along the
     # measured tip (fitted, so a learned sheet that does not is of the wrong form: a lab's FE history, say)
-    kept = sheet_kept(sheet)
+    # (runs of parts that declare different sheets, a groove's FE history and a cone's formula, say: none covers them
+    # all, and the learned one is taken)
+    kept = one_sheet and sheet_kept(sheet) and all(process == base.process for process in declared)
     process = base.process if kept else replace(base.process, force_model="learned", force_fit=sheet.force_fit)
     learned = base.replace(process=process, joint_stiffness_nm_per_rad=tuple(float(k) for k in robot.k_q_nm_per_rad),
                            joint_friction_nm=tuple(float(f) for f in friction), servo=robot.servo)
@@ -127,19 +137,24 @@ def learn(runs: list[Run], spec: TwinSpec | None = None, tracker_errors: bool = 
         if tool != tools[0]:
             raise InputError(f"run {run.directory} was made with another tool than {runs[0].directory} "
                              f"({tool} vs {tools[0]}; None: the robot model's): learn from one cell's runs at a time")
-    spec = (spec or TwinSpec(robot=robot, process=declared_process(runs[0]))).replace(placement=placement,
-                                                                                      tool=tools[0])
-    learned, robot_fit, sheet_fit, springback_fit = learned_spec(runs, spec, tracker_errors)
-    before = tuple(replay_gap(run, spec) for run in runs)
+    # without a declared twin each run's sheet is the one it records (runs of several parts may record several)
+    declared = [declared_process(run) for run in runs] if spec is None else [spec.process] * len(runs)
+    spec = (spec or TwinSpec(robot=robot, process=declared[0])).replace(placement=placement, tool=tools[0])
+    one_sheet = all(process == declared[0] for process in declared)
+    learned, robot_fit, sheet_fit, springback_fit = learned_spec(runs, spec, tracker_errors, declared, one_sheet)
+    before = tuple(replay_gap(run, spec.replace(process=process)) for run, process in zip(runs, declared, strict=True))
     after = tuple(replay_gap(run, learned) for run in runs)
     held: list[Gap] = []
     held_specs: list[TwinSpec] = []
     if len(runs) > 1:
         for k, run in enumerate(runs):
             others = [r for i, r in enumerate(runs) if i != k]
-            held_specs.append(learned_spec(others, spec, tracker_errors)[0])
+            held_specs.append(learned_spec(others, spec, tracker_errors, [d for i, d in enumerate(declared) if i != k],
+                                           one_sheet)[0])
             held.append(replay_gap(run, held_specs[-1]))
-    return LearnResult(learned, robot_fit, sheet_fit, springback_fit, before, after, tuple(held), tuple(held_specs))
+    models = tuple(dict.fromkeys(process.force_model for process in declared))
+    return LearnResult(learned, robot_fit, sheet_fit, springback_fit, before, after, tuple(held), tuple(held_specs),
+                       models, one_sheet and sheet_kept(sheet_fit))
 
 
 def declared_process(run: Run) -> Process:
@@ -154,7 +169,11 @@ def declared_process(run: Run) -> Process:
 def replay_gap(run: Run, spec: TwinSpec) -> Gap:
     """The run replayed on `spec` (at the run's placement): tool tip, force and profile gaps."""
     twin = spec.replace(placement=run_placement(run.meta)).build()
-    replayed = replay(run, twin)
+    try:
+        replayed = replay(run, twin)
+    except InputError as exc:  # a declared FE history shorter than the run's passes, say
+        raise InputError(f"run {run.directory}: the twin's sheet ({spec.process.force_model}) cannot be driven "
+                         f"along it: {exc}") from exc
     metrics = replayed.metrics
     profile = float("nan")
     if run.part_profile is not None:

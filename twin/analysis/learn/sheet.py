@@ -258,12 +258,13 @@ def select_ratios(plane: np.ndarray, fxy_n: np.ndarray, block: np.ndarray) -> li
     return _best_subset(lambda cols: _plane_rms(plane, fxy_n, block, cols), range(1, plane.shape[1]), 2)[0]
 
 
-def fit_sheet(runs: list[Run], process: Process) -> SheetFit:
+def fit_sheet(runs: list[Run], process: Process, declared: Sequence[Process] | None = None) -> SheetFit:
     """Learn the `learned` model's weights and in-plane ratios from the runs' F/T streams (module docstring).
 
     Args:
         runs: Runs with force streams (one part or several).
         process: The declared process (material, sheet, tool: the prior).
+        declared: Per run, the sheet its `rms_before_n` is of (default `process` for every run).
 
     Raises:
         InputError: A run without enough force samples, or the terms leave the weights undetermined.
@@ -299,7 +300,7 @@ def fit_sheet(runs: list[Run], process: Process) -> SheetFit:
     values = (*weights, *mu)
     fit = tuple((k, float(v)) for k, v in zip(keys, values, strict=True))
     learned = replace(process, force_model="learned", force_fit=fit)
-    before = [_rms_along(run, process) for run in runs]
+    before = [_rms_along(run, own) for run, own in zip(runs, declared or [process] * len(runs), strict=True)]
     after = [_rms_along(run, learned) for run in runs]
     return SheetFit(fit, tuple((k, float(v)) for k, v in zip(keys, (*w_std, *mu_std), strict=True)),
                     tuple(before), tuple(after), len(measured), tuple(WEIGHT_KEYS[c] for c in cols), validation,
@@ -310,7 +311,11 @@ def _rms_along(run: Run, process: Process) -> float:
     """RMS of the measured minus the model's force along the run's measured tip, at the sensor's times [N]."""
     assert run.forces is not None
     path = measured_tip_path(run, 0.0)
-    model = build_force_field(process).rigid_forces(path)
+    try:
+        model = build_force_field(process).rigid_forces(path)
+    except InputError as exc:  # a declared FE history shorter than the run's passes, say
+        raise InputError(f"run {run.directory}: the declared sheet ({process.force_model}) cannot be driven along "
+                         f"it: {exc}") from exc
     t_f = run.forces.t_s
     inside = (t_f >= path.t_s[0]) & (t_f <= path.t_s[-1])
     error = run.forces.values[inside] - interp_rows(t_f[inside], path.t_s, model)

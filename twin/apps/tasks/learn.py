@@ -16,7 +16,6 @@ import numpy as np
 
 from twin.analysis.discrepancy.floor import Floor, mean_floor, measure_floor
 from twin.analysis.learn import Gap, LearnResult, RobotFit, SheetFit, learn
-from twin.analysis.learn.cell import sheet_kept
 from twin.apps.tasks.base import Note, Report, silent
 from twin.base.outputs import repeated_input
 from twin.errors import InputError
@@ -113,7 +112,8 @@ class LearnReport(Report):
             "  robot's part of the gap (the twin's robot driven by the measured forces): "
             + ", ".join(f"{a:.3f} -> {b:.3f} mm" for a, b in zip(robot.rms_prior_mm, robot.rms_after_mm, strict=True))
             + _grew_words(robot),
-            ("  sheet ('learned' force model): " + _sheet_words(sheet)) if not sheet_kept(sheet) else
+            ("  sheet ('learned' force model" + _several(result.declared_sheets) + "): " + _sheet_words(sheet))
+            if not result.sheet_kept else
             f"  sheet: the declared force model ({result.spec.process.force_model}) kept: the one learned ("
             + _sheet_words(sheet) + ") forces no nearer the measured force",
             "  sheet's force along the measured tip: "
@@ -167,7 +167,9 @@ class LearnReport(Report):
                 "gap_measured_forces_prior_mm": list(robot.rms_prior_mm),
                 "gap_measured_forces_learned_mm": list(robot.rms_after_mm),
             },
-            "sheet": {"force_model": "learned", "force_fit": dict(sheet.force_fit), "std": dict(sheet.std),
+            "sheet": {"force_model": "learned", "declared_kept": result.sheet_kept,
+                      "declared_sheets": list(result.declared_sheets),
+                      "force_fit": dict(sheet.force_fit), "std": dict(sheet.std),
                       "force_rms_before_n": list(sheet.rms_before_n), "force_rms_after_n": list(sheet.rms_after_n),
                       "samples": sheet.samples, "terms": list(sheet.terms),
                       "validation_rms_n": sheet.validation_rms_n,
@@ -301,6 +303,12 @@ def _servo_words(robot: RobotFit) -> str:
                                "sheet) taken up by the servo term")
     return (f"servo transient over {1e3 * robot.servo.time_constant_s:.0f} ms, its compliance over the joint's "
             f"{share} (negative: the deflection lags the force){flag}")
+
+
+def _several(models: tuple[str, ...]) -> str:
+    """Words for runs that declare several sheets (the learned one is taken)."""
+    return "" if len(models) < 2 else (f"; the runs declare several sheets ({', '.join(models)}): the learned one, which "
+                                       "covers them all, is taken")
 
 
 def _sheet_words(sheet: SheetFit) -> str:
