@@ -10,6 +10,9 @@ robot-learning markers of that page (docs/learning.md; `tests/test_learn_study.p
     .venv/bin/python experiments/robot_learning_study.py OUT [--cells tx200:groove,...] [--doc docs/learning.md]
         [--plant-set link_friction_scale=0 --marker robot-learning-no-friction] [--reuse]
 
+A cell of several runs names its parts with `+` (`kr210:cone+pyramid`: the cone formed with seed 1, the pyramid with
+seed 2, both learned from in one `learn`), as `--cells` of `TWO_RUNS` with `--marker robot-learning-two-runs`.
+
 `--reuse` learns again from the runs an earlier call left under OUT (a run is its seed's: formed again, it is the
 same run), for a change of the learner alone.
 """
@@ -25,21 +28,30 @@ from experiments_cli import cli, cli_json, write_between_markers
 
 #: robot:part
 CELLS = ("tx200:groove", "tx200:cone", "kr210:cone", "irb6640:cone")
-PARTS = {"groove": ["--shape", "groove"], "cone": ["--shape", "cone", "--top-width-mm", "60", "--depth-mm", "10"]}
+#: The same robots, each learned from a cone and a pyramid (the groove's TX200 from the groove and the cone).
+TWO_RUNS = ("tx200:groove+cone", "tx200:cone+pyramid", "kr210:cone+pyramid", "irb6640:cone+pyramid")
+PARTS = {"groove": ["--shape", "groove"], "cone": ["--shape", "cone", "--top-width-mm", "60", "--depth-mm", "10"],
+         "pyramid": ["--shape", "pyramid", "--top-width-mm", "40", "--depth-mm", "6"]}
 
 
 def cell_study(out: Path, cell: str, plant_set: tuple[str, ...] = (), reuse: bool = False) -> dict[str, Any]:
     """One cell's joints (module docstring); `plant_set`: plant knobs NAME=VALUE for the run (a diagnosis: which of
     the plant's effects the learner's model does not hold); `reuse`: the run an earlier call left, where it is."""
-    robot, part = cell.split(":")
+    robot, parts = cell.split(":")
     out.mkdir(parents=True, exist_ok=True)
-    path, run = out / "path.csv", out / "nominal1"
-    if not (reuse and (run / "truth.json").exists()):
-        cli("path", *PARTS[part], "--robot", robot, "--out", str(path))
-        cli("lab", "--plant", "dynamic", "--neutral", *(a for item in plant_set for a in ("--set", item)),
-            "--scenario", "nominal", "--commanded", str(path), "--seed", "1", "--robot", robot, "--out", str(run))
-    learned = cli_json("learn", str(run))["robot"]
-    plant = json.loads((run / "truth.json").read_text())["joint_stiffness_nm_per_rad"]
+    runs = []
+    for seed, part in enumerate(parts.split("+"), start=1):
+        path, run = out / f"path{'' if seed == 1 else f'_{part}'}.csv", out / f"nominal{seed}"
+        runs.append(run)
+        if not (reuse and (run / "truth.json").exists()):
+            cli("path", *PARTS[part], "--robot", robot, "--out", str(path))
+            cli("lab", "--plant", "dynamic", "--neutral", *(a for item in plant_set for a in ("--set", item)),
+                "--scenario", "nominal", "--commanded", str(path), "--seed", str(seed), "--robot", robot,
+                "--out", str(run))
+    learned = cli_json("learn", *map(str, runs))["robot"]
+    plants = [json.loads((run / "truth.json").read_text())["joint_stiffness_nm_per_rad"] for run in runs]
+    assert all(p == plants[0] for p in plants), plants  # one robot: its runs' plant the same
+    plant = plants[0]
     joints = [{"joint": j + 1, "learned_knm": 1e-3 * k, "std_knm": 1e-3 * s, "plant_knm": 1e-3 * p,
                "prior_knm": 1e-3 * k0}
               for j, (k, s, p, k0, seen) in enumerate(zip(learned["k_q_nm_per_rad"], learned["k_q_std_nm_per_rad"],

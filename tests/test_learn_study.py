@@ -105,6 +105,19 @@ def test_the_pages_words_on_the_learned_robot_are_its_table() -> None:
     assert len(met) == 14 and {k for k in rows if k not in met} == {("tx200:groove", "j1"), ("kr210:cone", "j1")}
 
 
+def test_the_pages_words_on_the_robot_learned_from_two_runs_are_its_table() -> None:
+    one, two = _robot_rows("robot-learning"), _robot_rows("robot-learning-two-runs")
+    assert len(two) == 16
+    pairs = [key for key in two if key[0].endswith("cone+pyramid")]
+    assert len(pairs) == 12
+    for key in pairs:  # within 1.1 stated spreads, the spread at most 13 %
+        assert two[key][1] <= 1.1 and two[key][2] <= 13, (key, two[key])
+    alone = [one[(robot + ":cone", "j1")][2] for robot in ("tx200", "kr210", "irb6640")]
+    both = [two[(robot + ":cone+pyramid", "j1")][2] for robot in ("tx200", "kr210", "irb6640")]
+    assert [min(alone), max(alone), min(both), max(both)] == pytest.approx([14, 17, 12, 13], abs=0.5), (alone, both)
+    assert [two[("tx200:groove+cone", "j1")][2], one[("tx200:groove", "j1")][2]] == pytest.approx([18, 21], abs=0.5)
+
+
 def test_the_pages_words_on_the_learned_robot_without_friction_are_its_table() -> None:
     on, off = _robot_rows("robot-learning"), _robot_rows("robot-learning-no-friction")
     assert on.keys() == off.keys()
