@@ -18,6 +18,7 @@ from twin.analysis.learn.cell import declared_process
 from twin.analysis.learn.sheet import fit_sheet
 from twin.cli import main
 from twin.process.force.registry import build_force_field
+from twin.process.force.span import SPAN_KEYS
 from twin.runs.read import read_run
 
 
@@ -89,7 +90,8 @@ def test_the_learner_says_its_uncertainty_and_is_deterministic(runs: dict[str, P
     assert one == two  # the bootstrap is seeded
     std = dict(one.std)
     assert all(std[k] > 0.0 for k in one.terms)  # every chosen term has a spread
-    unchosen = [k for k, _ in one.force_fit if k not in one.terms and k not in ("mu_eff", "mu_radial", "mu_radial_rise")]
+    unchosen = [k for k, _ in one.force_fit
+                if k not in one.terms and k not in ("mu_eff", "mu_radial", "mu_radial_rise", *SPAN_KEYS)]
     assert unchosen and all(std[k] == 0.0 for k in unchosen)  # held at the prior mean, not fitted
 
 

@@ -212,7 +212,9 @@ def _check_constants(path: Path, force_model: str, fit: Mapping[str, float]) -> 
     from twin.process.force.learned import RADIAL_RISE_KEY, REQUIRED_WEIGHT_KEYS, WEIGHT_KEYS
 
     isf = {f.name for f in fields(IsfForceParams)}
-    takes = {"isf": isf, "learned": isf | set(WEIGHT_KEYS) | {RADIAL_RISE_KEY}}.get(force_model)
+    from twin.process.force.span import SPAN_KEYS
+
+    takes = {"isf": isf, "learned": isf | set(WEIGHT_KEYS) | {RADIAL_RISE_KEY, *SPAN_KEYS}}.get(force_model)
     if takes is not None and set(fit) - takes:
         raise DataFileError(path, f"process.force_fit has {sorted(set(fit) - takes)}, which the {force_model!r} force "
                             f"model does not take; it takes {sorted(takes)}")

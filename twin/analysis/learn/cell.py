@@ -26,6 +26,7 @@ from twin.errors import InputError
 from twin.process.description import Process
 from twin.process.force.learned import RADIAL_RISE_KEY, WEIGHT_KEYS
 from twin.process.force.registry import FORCE_MODELS, auto_force_model
+from twin.process.force.span import SPAN_KEYS
 from twin.runs.format import Run, run_placement, run_process, run_robot
 from twin.sim.measure import predict_part_profile
 from twin.sim.spec import TwinSpec
@@ -79,7 +80,7 @@ def learned_spec(runs: list[Run], spec: TwinSpec, tracker_errors: bool = False, 
     declared = declared or [base.process] * len(runs)
     # the robot is fitted on the ISF model's twin: a learned prior's weights are no ISF constants (they are
     # learned again from these runs: a model learned twice from the same runs is the same sheet)
-    isf_fit = tuple((k, v) for k, v in base.process.force_fit if k not in (*WEIGHT_KEYS, RADIAL_RISE_KEY))
+    isf_fit = tuple((k, v) for k, v in base.process.force_fit if k not in (*WEIGHT_KEYS, RADIAL_RISE_KEY, *SPAN_KEYS))
     robot = fit_robot(runs, replace(base, process=replace(base.process, force_model="isf", force_fit=isf_fit)).build(),
                       tracker_errors)
     sheet = fit_sheet(runs, base.process, declared)

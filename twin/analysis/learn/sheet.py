@@ -52,6 +52,7 @@ from twin.process.force.learned import (
     LearnedForceField,
 )
 from twin.process.force.registry import build_force_field
+from twin.process.force.span import SPAN_KEYS, learned_span
 from twin.runs.format import Run
 
 #: Fewest force samples a run must give.
@@ -297,8 +298,9 @@ def fit_sheet(runs: list[Run], process: Process, declared: Sequence[Process] | N
     lower = np.array([1e-6, 1e-6, 0.0])[mu_cols]  # the ISF constants are positive; a ratio at its floor is so
     mu[mu_cols] = lsq_linear(plane[:, mu_cols], fxy, bounds=(lower, np.inf)).x
     keys = (*WEIGHT_KEYS, "mu_eff", "mu_radial", RADIAL_RISE_KEY)
-    values = (*weights, *mu)
-    fit = tuple((k, float(v)) for k, v in zip(keys, values, strict=True))
+    span = learned_span([measured_tip_path(r).p_sheet_m for r in runs], [r.commanded.values for r in runs],
+                        process.tool_radius_m)
+    fit = tuple((k, float(v)) for k, v in zip((*keys, *SPAN_KEYS), (*weights, *mu, *span), strict=True))
     learned = replace(process, force_model="learned", force_fit=fit)
     before = [_rms_along(run, own) for run, own in zip(runs, declared or [process] * len(runs), strict=True)]
     after = [_rms_along(run, learned) for run in runs]

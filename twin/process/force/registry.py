@@ -40,6 +40,7 @@ from twin.process.force.learned import (
     LearnedForceField,
     LearnedWeights,
 )
+from twin.process.force.span import SPAN_KEYS
 from twin.process.force.table import SheetForceField
 from twin.process.toolpath.groove import label_passes
 
@@ -200,6 +201,8 @@ def _learned(history: ForceHistory, process: Process) -> ForceField:
     fit["scale"] = ratio * fit.get("scale", 1.0)  # the prior's level: the prior weight multiplies it
     plane = in_plane_ratio(history, process.force_history())
     radial_rise = plane * fit.pop(RADIAL_RISE_KEY, 0.0)  # an in-plane ratio, scaled as μ_t and μ_r are
+    for key in SPAN_KEYS:  # what it was learned over (`twin.process.force.span`), no constant of its force
+        fit.pop(key, None)
     return LearnedForceField(_in_plane_scaled(params_for(process, **fit), plane), LearnedWeights(**weights),
                              radial_rise=radial_rise)
 
