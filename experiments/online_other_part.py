@@ -6,7 +6,7 @@ its ideal path (nominal), from the twin's offline compensation (`compensate --me
 model) and with the controller compensating online (`lab --online`, default or learned model). The learned model
 never saw these parts (predicted, not fitted). Default knobs (the tracker's registration error included); each
 residual is `check`'s as in `experiments/online_study.py` (rms / max [mm], in brackets less the tracker offset
-`learn` found). Writes OUT/online_other_part.json, OUT/online_other_part.md and with `--doc` the table between the
+`learn` found, and the plant's true tip's rms: its `truth_tip.csv`, read on the experiment's side only). Writes OUT/online_other_part.json, OUT/online_other_part.md and with `--doc` the table between the
 online-other-part markers of that page (docs/online.md; `tests/test_online_interface.py` reads it):
 
     .venv/bin/python experiments/online_other_part.py OUT [--robots tx200,kr210] [--doc docs/online.md]
@@ -65,11 +65,12 @@ def robot_study(out: Path, robot: str) -> list[dict[str, Any]]:
 
 
 def table(rows: list[dict[str, Any]]) -> str:
-    """The markdown table: rms / max (rms less the tracker offset) [mm]."""
+    """The markdown table: rms / max (rms less the tracker offset; the true tip's rms) [mm]."""
     lines = ["| robot | part (never formed) | nominal | offline, default | offline, learned | online, default | "
              "online, learned |", "|---|---|---|---|---|---|---|"]
     for r in rows:
-        cells = [f"{r[c]['rms_mm']:.2f} / {r[c]['max_mm']:.2f} ({r[c]['less_offset_rms_mm']:.2f})" for c in COLUMNS]
+        cells = [f"{r[c]['rms_mm']:.2f} / {r[c]['max_mm']:.2f} ({r[c]['less_offset_rms_mm']:.2f}; true "
+                 f"{r[c]['true_tip_rms_mm']:.2f})" for c in COLUMNS]
         lines.append(f"| {r['robot']} | {r['part']} | " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
 

@@ -19,6 +19,8 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -93,9 +95,14 @@ def _residual(run_dir: Path, ideal: Path, offset_mm: list[float]) -> dict[str, f
     less = r - np.asarray(offset_mm)
     turns = reversal_times(run.commanded.t_s, run.commanded.values)
     away = np.all(np.abs(run.tracker.t_s[:, None] - turns[None, :]) > REVERSAL_WINDOW_S, axis=1)
+    true = math.nan  # the plant's true tip (its truth_tip.csv, read here on the experiment's side only)
+    if (run_dir / "truth_tip.csv").exists():
+        tip = read_commanded_csv(run_dir / "truth_tip.csv")
+        e = 1e3 * check_run(replace(run, tracker=tip), cmd.t_s, cmd.values).residual_m
+        true = float(np.sqrt(np.mean(np.sum(e**2, axis=1))))
     return {"rms_mm": float(np.sqrt(np.mean(np.sum(r**2, axis=1)))), "max_mm": float(np.max(np.linalg.norm(r, axis=1))),
             "less_offset_rms_mm": float(np.sqrt(np.mean(np.sum(less**2, axis=1)))),
-            "away_rms_mm": float(np.sqrt(np.mean(np.sum(less[away] ** 2, axis=1))))}
+            "away_rms_mm": float(np.sqrt(np.mean(np.sum(less[away] ** 2, axis=1)))), "true_tip_rms_mm": true}
 
 
 def variant_study(out: Path, name: str) -> dict[str, Any]:

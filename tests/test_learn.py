@@ -12,6 +12,7 @@ import json
 import shutil
 from pathlib import Path
 
+import numpy as np
 import pytest
 from doc_numbers import quoted
 
@@ -62,10 +63,17 @@ def test_the_learned_force_gap_meets_the_issue_target(plant_runs: dict[int, Path
 def test_learn_never_reads_the_plants_truth(plant_runs: dict[int, Path], learned, tmp_path: Path) -> None:
     copy = tmp_path / "run"
     shutil.copytree(plant_runs[1], copy)
+    # the plant's true tip beside the run (neutral knobs: the tracker reads it and its noise, no registration)
+    tip = np.loadtxt(copy / "truth_tip.csv", delimiter=",", skiprows=1)
+    tracker = np.loadtxt(copy / "tracker.csv", delimiter=",", skiprows=1)
+    np.testing.assert_array_equal(tip[:, 0], tracker[:, 0])
+    assert 1e-4 < np.sqrt(np.mean((tip[:, 1:] - tracker[:, 1:]) ** 2)) < 0.05  # [mm]: the tracker's noise
     (copy / "truth.json").write_text("not json: learn must not open this file")
+    (copy / "truth_tip.csv").write_text("not a path: learn must not open this file")
     again = learn([read_run(copy)])
     assert again.spec == learned.spec
     (copy / "truth.json").unlink()
+    (copy / "truth_tip.csv").unlink()
     assert learn([read_run(copy)]).spec == learned.spec
     for path in LEARN_DIR.glob("*.py"):
         tree = ast.parse(path.read_text())

@@ -68,6 +68,8 @@ def _checked_meta(run: Run) -> dict[str, Any]:
 
 #: Where a run keeps the copy of a user's robot description (`_with_robot_copy`), relative to the run.
 ROBOT_COPY = "robot/robot.toml"
+#: The lab's true tool tip beside the run (`write_run`'s `truth_tip`; like truth.json, no reader of runs opens it).
+TRUTH_TIP = "truth_tip.csv"
 _FILE_KEY = re.compile(r'^(mjcf|scene)\s*=\s*"[^"]*"', re.MULTILINE)
 
 
@@ -147,6 +149,7 @@ def write_run(
     run: Run,
     *,
     truth: Mapping[str, Any] | None = None,
+    truth_tip: Stream | None = None,
     overwrite: bool = False,
     protect: Sequence[str | Path] = (),
 ) -> Path:
@@ -160,6 +163,8 @@ def write_run(
         directory: Target run directory.
         run: The run (SI units). Missing `format`/`frame` keys in `run.meta` are filled in.
         truth: Lab-only hidden truth, written to truth.json when given.
+        truth_tip: Lab-only, the plant's true tool tip (sheet frame), written to truth_tip.csv when given: what an
+            experiment scores a result on beside the tracker (no reader of runs opens it).
         overwrite: Replace an existing non-empty directory.
         protect: Input paths that must not be inside (or be) the target; `run.directory` is always protected.
 
@@ -175,6 +180,8 @@ def write_run(
     tmp = temporary_folder(target)
     try:
         _write_files(tmp, run, meta, truth)
+        if truth_tip is not None:
+            write_path_csv(truth_tip, tmp / TRUTH_TIP)
         _read_back(tmp, run)
         swap_in_directory(tmp, target)
     except BaseException:

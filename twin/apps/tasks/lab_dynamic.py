@@ -128,7 +128,9 @@ def dynamic_lab_task(request: LabRequest, note: Note = silent) -> Report:
     run = with_records(run, request)  # the compensation record (for `check`) and the cell travel with the run
     if compensator is not None:
         run = replace(run, meta={**run.meta, "online": online_record(compensator, request.model)})
-    write_run(request.out, run, truth=truth, overwrite=request.overwrite, protect=protect)
+    # the true tip at the tracker's stamps, for an experiment to score a result on beside the tracker
+    tip = Stream(run.tracker.t_s, interp_rows(run.tracker.t_s, log.t_s, log.p_tip_sheet_m))
+    write_run(request.out, run, truth=truth, truth_tip=tip, overwrite=request.overwrite, protect=protect)
     if log.online is not None:
         write_online_log(request.out / ONLINE_LOG, log.online)
     deviation = run.tracker.values - interp_rows(run.tracker.t_s, run.commanded.t_s, p_cmd)
