@@ -97,3 +97,24 @@ def test_compensate_names_a_corner_the_learned_sheet_never_saw(tmp_path: Path,
     assert code == 0
     err = capsys.readouterr().err
     assert f"the ideal path {tmp_path / 'pyramid.csv'} turns by up to 90 deg over one tool radius, past the 20 deg" in err
+
+
+def test_replay_names_a_run_deeper_than_the_learned_sheet_went(tmp_path: Path,
+                                                              capsys: pytest.CaptureFixture[str]) -> None:
+    """A replay reads the depth its run's tip reached (the tracker), not its command's (a nominal run's tip lags:
+    replayed on the sheet learned from it, it stays inside)."""
+    assert main(["path", "--shape", "cone", "--top-width-mm", "30", "--depth-mm", "1.5",
+                 "--out", str(tmp_path / "cone.csv")]) == 0
+    assert main(["lab", "--scenario", "nominal", "--commanded", str(tmp_path / "cone.csv"), "--seed", "2",
+                 "--out", str(tmp_path / "run")]) == 0
+    reached = path_span(np.loadtxt(tmp_path / "run" / "tracker.csv", delimiter=",", skiprows=1)[:, 1:] * 1e-3, R)
+    assert 1.0 < reached.depth_mm < 1.5  # the tip lagged the command
+    weights = tuple((k, 1.0 if k == "prior_weight" else 0.0) for k in WEIGHT_KEYS)
+    for depth_mm, named in ((reached.depth_mm, False), (0.5, True)):
+        fit = (*weights, ("span_depth_mm", depth_mm), ("span_turn_deg", 90.0))
+        model = write_model_file(tmp_path / "m.json", TwinSpec(process=Process(force_model="learned", force_fit=fit)),
+                                 note="test")
+        capsys.readouterr()
+        assert main(["replay", str(tmp_path / "run"), "--model", str(model)]) == 0
+        err = capsys.readouterr().err
+        assert (f"the run {tmp_path / 'run'} goes {reached.depth_mm:.2f} mm deep, past the" in err) == named, err

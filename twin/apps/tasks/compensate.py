@@ -6,7 +6,6 @@ forces it assumed (`CMD.compensation.json`, what `check` names a gain's cause fr
 
 from __future__ import annotations
 
-import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -27,10 +26,10 @@ from twin.analysis.resolve import AUTO, resolve_spec
 from twin.apps.tasks.base import Note, Report, silent
 from twin.apps.tasks.inputs import HistoryDeclaration, ideal_path
 from twin.base.jsonio import read_json
-from twin.errors import DataFileError, ExtrapolationWarning, InputError
+from twin.errors import DataFileError, InputError
 from twin.process.fe.load import ForceHistory
 from twin.process.force.registry import build_force_field
-from twin.process.force.span import span_of, span_warnings
+from twin.process.force.span import warn_outside_span
 from twin.process.process_file import ProcessDeclaration, process_record
 from twin.process.toolpath.groove import ToolPath
 from twin.process.toolpath.placement import Placement
@@ -212,10 +211,7 @@ def compensate_task(request: CompensateRequest, note: Note = silent) -> Report:
     declared, reference = request.history.load()
     ideal = ideal_path(request.ideal)
     spec = request.spec(ideal.p_sheet_m, declared, note)
-    learned = span_of(dict(spec.process.force_fit)) if spec.process.force_model == "learned" else None
-    for sentence in span_warnings(learned, ideal.p_sheet_m, spec.process.tool_radius_m,
-                                  f"the ideal path {request.ideal or '(the groove)'}"):
-        warnings.warn(sentence, ExtrapolationWarning, stacklevel=2)
+    warn_outside_span(spec.process, ideal.p_sheet_m, f"the ideal path {request.ideal or '(the groove)'}")
     f_reference = rigid_forces(build_force_field(spec.process, reference), ideal)
     comp, c_r, predicted, f_used = _compensate(request, spec, ideal, declared)
     gain = gain_of(comp, f_reference, c_r)

@@ -13,6 +13,7 @@ from twin.apps.tasks.base import Note, Report, silent
 from twin.base.csvio import check_not_an_input
 from twin.base.signals import interp_rows
 from twin.errors import InputError
+from twin.process.force.span import warn_outside_span
 from twin.process.process_file import ProcessDeclaration, process_record
 from twin.runs.read import read_run
 from twin.sim.dynamic_servo import ServoModel
@@ -137,6 +138,8 @@ def replay_task(request: ReplayRequest, note: Note = silent) -> ReplayReport:
     measured = read_run(request.run_dir)
     spec = resolve_spec(cell=request.cell, model=request.model, robot=request.robot, run=measured, declaration=request.declaration,
                         force_model_name=request.force_model, note=note)
+    warn_outside_span(spec.process, measured.commanded.values, f"the run {request.run_dir}",
+                      measured.tracker.values)  # the depth its tip reached, the turns its command made
     twin = spec.build()
     result = replay(measured, twin)
     servo = quasi_static_rms = None

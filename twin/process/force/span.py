@@ -18,10 +18,16 @@ The two quantities are read off the path alone, in contact (below the sheet's pl
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Mapping
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
+
+from twin.errors import ExtrapolationWarning
+
+if TYPE_CHECKING:
+    from twin.process.description import Process
 
 #: `Process.force_fit` keys of the learned span (`Span`'s fields, in that order).
 SPAN_KEYS = ("span_depth_mm", "span_turn_deg")
@@ -79,11 +85,15 @@ def span_of(force_fit: Mapping[str, float]) -> Span | None:
     return Span(*(float(force_fit[key]) for key in SPAN_KEYS))
 
 
-def span_warnings(learned: Span | None, p_sheet_m: np.ndarray, radius_m: float, what: str) -> list[str]:
-    """Sentences naming where the path `what` leaves the learned span (none inside it, or without a span)."""
+def span_warnings(learned: Span | None, p_sheet_m: np.ndarray, radius_m: float, what: str,
+                  reached_m: np.ndarray | None = None) -> list[str]:
+    """Sentences naming where the path `what` leaves the learned span (none inside it, or without a span);
+    `reached_m`: the tip a run reached (its tracker), read for the depth in place of the path (a replay)."""
     if learned is None:
         return []
     span = path_span(p_sheet_m, radius_m)
+    if reached_m is not None:
+        span = span._replace(depth_mm=path_span(reached_m, radius_m).depth_mm)
     out = []
     if span.depth_mm > learned.depth_mm + DEPTH_MARGIN_MM:
         out.append(f"{what} goes {span.depth_mm:.2f} mm deep, past the {learned.depth_mm:.2f} mm the learned sheet "
@@ -93,3 +103,11 @@ def span_warnings(learned: Span | None, p_sheet_m: np.ndarray, radius_m: float, 
                    f"{learned.turn_deg:.0f} deg of the runs the learned sheet was learned from (a corner its runs "
                    "had none of): its force there is extrapolated")
     return out
+
+
+def warn_outside_span(process: Process, p_sheet_m: np.ndarray, what: str, reached_m: np.ndarray | None = None) -> None:
+    """Warn (`ExtrapolationWarning`) where the path `what` leaves the span of a learned sheet (`span_warnings`);
+    nothing for another force model or a learned one without a span."""
+    learned = span_of(dict(process.force_fit)) if process.force_model == "learned" else None
+    for sentence in span_warnings(learned, p_sheet_m, process.tool_radius_m, what, reached_m):
+        warnings.warn(sentence, ExtrapolationWarning, stacklevel=3)
