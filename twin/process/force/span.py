@@ -63,7 +63,7 @@ def path_span(p_sheet_m: np.ndarray, radius_m: float) -> Span:
     if np.count_nonzero(moving) < 2:
         return Span(depth_mm, 0.0)
     heading = np.unwrap(np.arctan2(np.diff(p[:, 1])[moving], np.diff(p[:, 0])[moving]))
-    s = np.concatenate(([0.0], np.cumsum(step[moving][1:])))  # path length at each heading [m]
+    s = np.concatenate(([0.0], np.cumsum(step[moving][:-1])))  # path length at the start of each heading [m]
     ahead = np.searchsorted(s, s + radius_m).clip(max=len(s) - 1)
     turn = np.abs(heading[ahead] - heading)
     inside = below[1:][moving]
