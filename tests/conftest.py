@@ -172,25 +172,36 @@ def tiny(tmp_path: Path) -> Path:
 #: The order files start in under xdist (`make test`: `--dist loadfile --no-loadscope-reorder`): first the file
 #: that compiles the replay kernels (`twin.sim.compiled`, ~17 s cold on a fresh clone), then files that never run
 #: them in this process (measured: their process ends with `replay_loop` uncompiled), longest first, so that the
-#: other worker is busy while one compiles and then loads them from numba's cache; the rest by size, largest
-#: first (xdist's own reorder). A file listed here that starts using the kernels only costs that saving.
+#: other worker is busy while one compiles and then loads them from numba's cache; then `HEAVY_FILES`; the rest by
+#: size, largest first (xdist's own reorder). A file listed here that starts using the kernels only costs that saving.
 WARM_FIRST = "tests/test_compiled_replay.py"
 NO_KERNEL_FILES = (
     "tests/test_identify_forces_chatter.py", "tests/test_program_structure.py", "tests/test_bad_input_46.py",
     "tests/test_plant_sheet_law2.py", "tests/test_force_validation.py", "tests/test_no_answer.py",
     "tests/test_online_input.py", "tests/test_scan_learning.py", "tests/test_layout.py", "tests/test_clock_sigma.py",
 )
+#: Files of few but long tests (15-55 s each on the 2-core machine), longest first: ranked by their test count they
+#: came last, and the worker left with one ran it alone while the other had nothing left. Early, the many short files
+#: after them fill both workers to the end. test_learn.py makes the session's neutral groove runs and cell
+#: (`made_once`) before test_sheet_learner.py and test_learning_stacks.py read them, not while they wait on its lock.
+HEAVY_FILES = (
+    "tests/test_plant_changes.py", "tests/test_learn.py", "tests/test_discrepancy.py", "tests/test_scans.py",
+    "tests/test_part_compensation.py", "tests/test_dynamic_twin.py", "tests/test_sheet_learner.py",
+    "tests/test_bench.py", "tests/test_cli_any_part.py", "tests/test_doc_guards_blas.py", "tests/test_isf_force.py",
+    "tests/test_learning_stacks.py",
+)
 
 
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    """Under xdist, the file order `WARM_FIRST` and `NO_KERNEL_FILES` describe (a fresh clone's numba kernels
-    compiled once, by one worker, while the other works): each file's tests keep their order."""
+    """Under xdist, the file order `WARM_FIRST`, `NO_KERNEL_FILES` and `HEAVY_FILES` describe (a fresh clone's numba
+    kernels compiled once, by one worker, while the other works; the long files before the short): each file's
+    tests keep their order."""
     if not hasattr(config, "workerinput"):
         return
     counts: dict[str, int] = {}
     for item in items:
         counts[item.nodeid.split("::")[0]] = counts.get(item.nodeid.split("::")[0], 0) + 1
-    first = [WARM_FIRST, *NO_KERNEL_FILES]
+    first = [WARM_FIRST, *NO_KERNEL_FILES, *HEAVY_FILES]
 
     def rank(item: pytest.Item) -> tuple[int, int]:
         name = item.nodeid.split("::")[0]

@@ -18,7 +18,7 @@ from twin.sim.spec import TwinSpec
 SAMPLES = 160  # approach and most of pass 1: a tiny workload
 TIMES = (
     "lab_run_s", "replay_s", "replay_warm_s", "simulate_warm_s", "ik_path_s", "analytic_replay_s",
-    "identify_method2_s", "compensate_twin_s", "force_field_eval_s",
+    "identify_method2_s", "compensate_twin_s", "force_field_eval_s", "gcode_load_s",
 )
 
 
@@ -31,6 +31,7 @@ def test_bench_reports_every_time_as_a_positive_number(result: dict) -> None:
     for key in TIMES:
         assert isinstance(result[key], float) and result[key] > 0.0, key
     assert result["discrepancy_s"] is None or result["discrepancy_s"] > 0.0
+    assert isinstance(result["gcode_moves"], int) and result["gcode_moves"] > 100
     if result["discrepancy_s"] is None:
         assert result["discrepancy_note"]
     assert result["workload"] == {"commanded_samples": SAMPLES, "machining_s": pytest.approx(

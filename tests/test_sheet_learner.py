@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from twin.analysis.learn.cell import declared_process
-from twin.analysis.learn.sheet import fit_sheet
+from twin.analysis.learn.sheet import SheetFit, fit_sheet
 from twin.cli import main
 from twin.process.force.registry import build_force_field
 from twin.process.force.span import SPAN_KEYS
@@ -69,10 +69,18 @@ def _fz_rms(run_dir: Path, process) -> float:
     return float(np.sqrt(np.mean(_force_miss(run_dir, process)[:, 2] ** 2)))
 
 
-def test_a_sheet_law_it_has_no_term_for_carries_to_a_part_it_never_formed(runs: dict[str, Path]) -> None:
+@pytest.fixture(scope="module")
+def cone_fit(runs: dict[str, Path]) -> SheetFit:
+    """The sheet learned from the cone's run (`fit_sheet` with its declared process), once for this module."""
+    cone = read_run(runs["cone"])
+    return fit_sheet([cone], declared_process(cone))
+
+
+def test_a_sheet_law_it_has_no_term_for_carries_to_a_part_it_never_formed(
+        runs: dict[str, Path], cone_fit: SheetFit) -> None:
     cone = read_run(runs["cone"])
     declared = declared_process(cone)
-    fit = fit_sheet([cone], declared)
+    fit = cone_fit
     learned = replace(declared, force_model="learned", force_fit=fit.force_fit)
     # chosen from the data: the published formula's own weight and at least one formed-state term; fewer terms
     # than the library holds
@@ -84,9 +92,9 @@ def test_a_sheet_law_it_has_no_term_for_carries_to_a_part_it_never_formed(runs: 
     assert taught < 0.5 * untaught, (taught, untaught, fit.terms)
 
 
-def test_the_learner_says_its_uncertainty_and_is_deterministic(runs: dict[str, Path]) -> None:
+def test_the_learner_says_its_uncertainty_and_is_deterministic(runs: dict[str, Path], cone_fit: SheetFit) -> None:
     cone = read_run(runs["cone"])
-    one, two = (fit_sheet([cone], declared_process(cone)) for _ in range(2))
+    one, two = cone_fit, fit_sheet([cone], declared_process(cone))  # the module's fit, and a second one
     assert one == two  # the bootstrap is seeded
     std = dict(one.std)
     assert all(std[k] > 0.0 for k in one.terms)  # every chosen term has a spread
@@ -95,13 +103,11 @@ def test_the_learner_says_its_uncertainty_and_is_deterministic(runs: dict[str, P
     assert unchosen and all(std[k] == 0.0 for k in unchosen)  # held at the prior mean, not fitted
 
 
-def test_a_radial_force_the_data_do_not_show_is_not_learned(tmp_path: Path) -> None:
+def test_a_radial_force_the_data_do_not_show_is_not_learned(neutral_groove_runs) -> None:
     """The groove's wall runs along the travel: its runs show almost no radial in-plane force, and the learner
-    sets none (a fitted ratio there drove the twin's tool sideways in a replay of the next run)."""
-    out = tmp_path / "groove"
-    assert main(["lab", "--plant", "dynamic", "--neutral", "--scenario", "nominal", "--seed", "2", "--out",
-                 str(out)]) == 0
-    run = read_run(out)
+    sets none (a fitted ratio there drove the twin's tool sideways in a replay of the next run). The run: `lab
+    --plant dynamic --neutral --scenario nominal --seed 2` (conftest's, made once per session)."""
+    run = read_run(neutral_groove_runs(2))
     fit = dict(fit_sheet([run], declared_process(run)).force_fit)
     assert fit["mu_radial"] == 0.0 and fit["mu_radial_rise"] == 0.0 and fit["mu_eff"] > 0.05
 

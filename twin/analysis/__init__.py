@@ -9,7 +9,7 @@ command learned from the last part's scan, at the points each sample formed),
 `compensation_record` (what a compensation used, carried with its command into its runs), `check` (the check of a
 compensated run), `tracker_frame` (the tracker's registration to the sheet, fitted on a run's free moves and taken
 off before `check` judges), `gain_cause` (a gain's cause, from that record and the measured forces), `surface_check` (a part
-scan against its target or design mesh, by region),
+scan against its target or design mesh, by region; its vertical rays onto the design in `design_rays`),
 `scan_registration` (a scanner's point cloud laid on its design by ICP), `placement_search` (where to put the
 sheet for the least predicted error of a part) with its screen and confirmation in `placement_screen`, `learn/` (a twin of a cell it
 did not build: its robot and sheet learned from the cell's nominal runs), `discrepancy/` (find,

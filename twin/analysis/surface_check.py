@@ -290,15 +290,10 @@ def region_deviation(points_m: np.ndarray, design: trimesh.Trimesh | DesignIndex
 
 def design_heights(design: trimesh.Trimesh, x_m: np.ndarray, y_m: np.ndarray) -> np.ndarray:
     """z of the design surface above each (x, y) [m] (the highest hit of a vertical ray; NaN off the design)."""
+    from twin.analysis.design_rays import vertical_heights  # trimesh's ray test, its broad phase in bulk
+
     x, y = np.ravel(x_m), np.ravel(y_m)
-    top = float(design.bounds[1, 2]) + 1.0
-    origins = np.column_stack([x, y, np.full(len(x), top)])
-    directions = np.tile([0.0, 0.0, -1.0], (len(x), 1))
-    hits, rays, _ = design.ray.intersects_location(origins, directions, multiple_hits=False)
-    z = np.full(len(x), np.nan)
-    if len(rays):  # no hit at all comes back as an empty 1-D array
-        z[rays] = np.reshape(hits, (-1, 3))[:, 2]
-    return z.reshape(np.shape(x_m))
+    return vertical_heights(design, x, y, float(design.bounds[1, 2]) + 1.0).reshape(np.shape(x_m))
 
 
 def surface_heights(surface: tuple[np.ndarray, np.ndarray, np.ndarray], p_m: np.ndarray) -> np.ndarray:

@@ -22,7 +22,7 @@ Forces are those EXERTED BY THE SHEET ON THE TOOL, in the sheet frame (Fz > 0 wh
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -198,6 +198,18 @@ def _metres(table: SITable, name: str) -> np.ndarray:
     return table.as_read[name] / 1000.0 if table.declared_mm((name,)) else table.si(name)
 
 
+#: The shipped history as last read, by (path, mtime, size): `default_force_history` parses the file once.
+_SHIPPED: dict[tuple[str, int, int], ForceHistory] = {}
+
+
 def default_force_history() -> ForceHistory:
-    """The shipped stand-in history `twin/data/fe_force_history.csv`, loaded as half-symmetric."""
-    return load_force_history(data_file("fe_force_history.csv"), symmetry="half")
+    """The shipped stand-in history `twin/data/fe_force_history.csv`, loaded as half-symmetric (the file is read once
+    per process while it is unchanged; every call gets arrays of its own, as a fresh load)."""
+    path = data_file("fe_force_history.csv")
+    stat = path.stat()
+    key = (str(path), stat.st_mtime_ns, stat.st_size)
+    if key not in _SHIPPED:
+        _SHIPPED.clear()
+        _SHIPPED[key] = load_force_history(path, symmetry="half")
+    read = _SHIPPED[key]
+    return replace(read, s_m=read.s_m.copy(), p_sheet_m=read.p_sheet_m.copy(), f_sheet_n=read.f_sheet_n.copy())

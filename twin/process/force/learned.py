@@ -117,6 +117,13 @@ RISE_KEYS = WEIGHT_KEYS[13:]
 STATE_TERMS = np.array([[1, -1, -1], [2, -1, -1], [2, 3, -1], [2, 4, -1], [1, 1, -1], [2, 4, 4], [2, 4, 1],
                         [0, 4, -1], [2, 3, 4]], dtype=np.int64)
 STATE_FACTORS = np.array([1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 0.1, 1.0])
+#: `STATE_TERMS` as `features` walks them: each term's scale and factors, and each factor with the others beside it
+#: (the product rule), worked out once.
+_STATE_WALK = tuple(
+    (float(scale), used, tuple((f, tuple(g for j, g in enumerate(used) if j != i)) for i, f in enumerate(used)))
+    for factors, scale in zip(STATE_TERMS, STATE_FACTORS, strict=True)
+    for used in (tuple(int(f) for f in factors if f >= 0),)
+)
 #: The column of the side walls' rise Σ u_s among the terms (`features`; the radial ratio's μ_ρ reads it).
 SIDE_RISE_INDEX = WEIGHT_KEYS.index("side_rise_n")
 #: The learned model's in-plane constant beyond the ISF model's: μ_ρ, the radial ratio per unit of the side walls'
@@ -232,12 +239,11 @@ class LearnedForceField(IsfForceField):
         base = np.array([lin, soft, sig, self._alpha / ALPHA_REF_DEG, 1e3 * max(-z, 0.0)])
         base_grad = np.array([[gx, gy, gz], [1e3 * sig * sx, 1e3 * sig * sy, -1e3 * sig],
                               [dsig * sx, dsig * sy, -dsig], [0.0, 0.0, 0.0], [0.0, 0.0, -1e3 if z < 0.0 else 0.0]])
-        for k, (factors, scale) in enumerate(zip(STATE_TERMS, STATE_FACTORS, strict=True)):  # product rule
-            used = [int(f) for f in factors if f >= 0]
-            values[4 + k] = scale * math.prod(base[f] for f in used)
-            for i, f in enumerate(used):
-                others = math.prod(base[g] for j, g in enumerate(used) if j != i)
-                grads[4 + k] += scale * others * base_grad[f]
+        b = base.tolist()
+        for k, (scale, used, rule) in enumerate(_STATE_WALK):  # product rule
+            values[4 + k] = scale * math.prod([b[f] for f in used])
+            for f, others in rule:
+                grads[4 + k] += scale * math.prod([b[g] for g in others]) * base_grad[f]
         return values, grads
 
     def _in_plane(self) -> tuple[tuple[float, float], tuple[float, float]]:

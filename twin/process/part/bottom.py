@@ -73,6 +73,9 @@ def with_floating_bottom(
         ix = np.clip(np.round((loop[:, 0] - x_m[0]) / h).astype(int), 0, len(x_m) - 1)
         iy = np.clip(np.round((loop[:, 1] - y_m[0]) / h).astype(int), 0, len(y_m) - 1)
         level = float(np.median(z[iy, ix]))
-        inside = PolygonPath(loop[:, :2]).contains_points(np.column_stack([X.ravel(), Y.ravel()])).reshape(z.shape)
+        # only the nodes in the contour's bounding box can lie inside it (the others are not asked)
+        (x0, y0), (x1, y1) = loop[:, :2].min(axis=0), loop[:, :2].max(axis=0)
+        inside = (x0 <= X) & (x1 >= X) & (y0 <= Y) & (y1 >= Y)
+        inside[inside] = PolygonPath(loop[:, :2]).contains_points(np.column_stack([X[inside], Y[inside]]))
         out[inside] = np.minimum(out[inside], level)
     return out
