@@ -178,6 +178,14 @@ def test_the_page_holds_its_generated_table_and_what_its_words_say_of_it() -> No
         for cell in (r[2], r[3]):
             whole, corners = (float(v) for v in cell.split("/"))
             assert corners > whole
+    # "Speed": a dynamic replay ten to fifteen times the quasi-static one; a fit of 85-115 of them, 3-4 minutes
+    walls = {(r[0].strip(), r[1].strip()): r[4].strip() for r in replays}
+    for cell in {key[0] for key in walls}:
+        ratio = (float(walls[(cell, "dynamic, servo fitted on run 1")])
+                 / float(walls[(cell, "quasi-static (learned, its servo transient)")]))
+        assert 10.0 <= ratio <= 15.0, (cell, ratio)
+    fits = [r for r in rows if len(r) == 11]
+    assert all(85 <= int(r[8]) <= 115 and 180 <= float(r[9]) <= 240 for r in fits), fits
 
 
 def test_learn_dynamic_writes_no_servo_where_the_learned_arm_does_not_step(
