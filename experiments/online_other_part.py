@@ -6,8 +6,9 @@ its ideal path (nominal), from the twin's offline compensation (`compensate --me
 model) and with the controller compensating online (`lab --online`, default or learned model). The learned model
 never saw these parts (predicted, not fitted). Default knobs (the tracker's registration error included); each
 residual is `check`'s as in `experiments/online_study.py` (rms / max [mm], in brackets less the tracker offset
-`learn` found, and the plant's true tip's rms: its `truth_tip.csv`, read on the experiment's side only). Writes OUT/online_other_part.json, OUT/online_other_part.md and with `--doc` the table between the
-online-other-part markers of that page (docs/online.md; `tests/test_online_interface.py` reads it):
+`learn` found, and the plant's true tip's rms: its `truth_tip.csv`, read on the experiment's side only). Writes
+OUT/online_other_part.json, OUT/online_other_part.md and with `--doc` the table between the online-other-part
+markers of that page (docs/online.md; `tests/test_online_interface.py` reads it):
 
     .venv/bin/python experiments/online_other_part.py OUT [--robots tx200,kr210] [--doc docs/online.md]
 """
