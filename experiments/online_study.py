@@ -88,6 +88,7 @@ def reversal_times(t_s: np.ndarray, p: np.ndarray) -> np.ndarray:
 def _residual(run_dir: Path, ideal: Path, offset_mm: list[float]) -> dict[str, float]:
     from twin.analysis.check import check_run
     from twin.runs.read import read_commanded_csv, read_run
+    from twin.runs.write import TRUTH_TIP
 
     cmd = read_commanded_csv(ideal)
     run = read_run(run_dir)
@@ -96,8 +97,8 @@ def _residual(run_dir: Path, ideal: Path, offset_mm: list[float]) -> dict[str, f
     turns = reversal_times(run.commanded.t_s, run.commanded.values)
     away = np.all(np.abs(run.tracker.t_s[:, None] - turns[None, :]) > REVERSAL_WINDOW_S, axis=1)
     true = math.nan  # the plant's true tip (its truth_tip.csv, read here on the experiment's side only)
-    if (run_dir / "truth_tip.csv").exists():
-        tip = read_commanded_csv(run_dir / "truth_tip.csv")
+    if (run_dir / TRUTH_TIP).exists():
+        tip = read_commanded_csv(run_dir / TRUTH_TIP)
         e = 1e3 * check_run(replace(run, tracker=tip), cmd.t_s, cmd.values).residual_m
         true = float(np.sqrt(np.mean(np.sum(e**2, axis=1))))
     return {"rms_mm": float(np.sqrt(np.mean(np.sum(r**2, axis=1)))), "max_mm": float(np.max(np.linalg.norm(r, axis=1))),

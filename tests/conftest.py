@@ -159,6 +159,20 @@ def neutral_groove_cell(made_once, neutral_groove_runs) -> tuple[Path, str]:
     return folder, (folder / "printed.txt").read_text()
 
 
+@pytest.fixture(scope="session")
+def lab_cone_run(made_once) -> Path:
+    """A 1.5 mm deep cone 30 mm across in 6 levels of 0.25 mm (11 passes), formed in the quasi-static lab, seed 2
+    (its tip lags its command), once per session. Read-only."""
+
+    def make(folder: Path) -> None:
+        cli_out(["path", "--shape", "cone", "--top-width-mm", "30", "--depth-mm", "1.5", "--step-down-mm", "0.25",
+                 "--out", str(folder / "cone.csv")])
+        cli_out(["lab", "--scenario", "nominal", "--commanded", str(folder / "cone.csv"), "--seed", "2",
+                 "--out", str(folder / "run")])
+
+    return made_once("lab-cone-1.5mm", make) / "run"
+
+
 @pytest.fixture
 def tiny(tmp_path: Path) -> Path:
     """A four-sample path CSV in tmp_path (`cli_refusal.TINY`)."""

@@ -18,14 +18,9 @@ from twin.sim.spec import TwinSpec
 
 
 @pytest.fixture(scope="module")
-def cone_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """A 1.5 mm deep cone 30 mm across in 6 levels (11 passes, past the groove history's 10), formed in the lab, seed 2."""
-    out = tmp_path_factory.mktemp("cone")
-    assert main(["path", "--shape", "cone", "--top-width-mm", "30", "--depth-mm", "1.5", "--step-down-mm", "0.25",
-                 "--out", str(out / "cone.csv")]) == 0
-    assert main(["lab", "--scenario", "nominal", "--commanded", str(out / "cone.csv"), "--seed", "2",
-                 "--out", str(out / "run")]) == 0
-    return out / "run"
+def cone_run(lab_cone_run: Path) -> Path:
+    """conftest's lab cone: 11 passes, past the groove history's 10."""
+    return lab_cone_run
 
 
 def test_learn_from_a_groove_and_a_cone_that_declare_different_sheets(

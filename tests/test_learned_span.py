@@ -16,11 +16,20 @@ from twin.errors import ExtrapolationWarning
 from twin.process.description import Process
 from twin.process.force.learned import WEIGHT_KEYS
 from twin.process.force.registry import build_force_field
-from twin.process.force.span import SPAN_KEYS, Span, path_span, span_of, span_warnings
+from twin.process.force.span import Span, path_span, span_of, span_warnings
+from twin.process.toolpath.groove import ToolPath
 from twin.sim.model_file import read_model_file, write_model_file
 from twin.sim.spec import TwinSpec
 
 R = 0.0075  # tool radius [m]
+#: The learned model's weights at its prior mean (the published formula): only the span differs between models here.
+PRIOR_WEIGHTS = tuple((k, 1.0 if k == "prior_weight" else 0.0) for k in WEIGHT_KEYS)
+
+
+def learned_process(depth_mm: float, turn_deg: float) -> Process:
+    """A learned sheet at its prior mean, carrying the span (depth_mm, turn_deg)."""
+    return Process(force_model="learned",
+                   force_fit=(*PRIOR_WEIGHTS, ("span_depth_mm", depth_mm), ("span_turn_deg", turn_deg)))
 
 
 def circle(radius_m: float, depth_m: float, n: int = 2000) -> np.ndarray:
@@ -66,27 +75,21 @@ def test_span_warnings_name_a_deeper_part_and_a_corner_and_nothing_inside() -> N
 
 
 def test_the_span_travels_in_the_model_file_and_leaves_the_force_alone(tmp_path: Path) -> None:
-    weights = tuple((k, 1.0 if k == "prior_weight" else 0.0) for k in WEIGHT_KEYS)
-    with_span = Process(force_model="learned", force_fit=(*weights, ("span_depth_mm", 9.0), ("span_turn_deg", 20.0)))
-    back = read_model_file(write_model_file(tmp_path / "m.json", TwinSpec(process=with_span), note="test"))
+    back = read_model_file(write_model_file(tmp_path / "m.json", TwinSpec(process=learned_process(9.0, 20.0)),
+                                            note="test"))
     assert span_of(dict(back.process.force_fit)) == Span(9.0, 20.0)
-    assert span_of(dict(weights)) is None
-    from twin.process.toolpath.groove import ToolPath
-
+    assert span_of(dict(PRIOR_WEIGHTS)) is None
     p = circle(0.025, 0.004)
     t = np.arange(len(p)) * 0.01
     path = ToolPath(t_s=t, p_sheet_m=p, pass_index=np.ones(len(p), dtype=int), direction=np.ones(len(p), dtype=int))
-    plain = Process(force_model="learned", force_fit=weights)
+    plain = Process(force_model="learned", force_fit=PRIOR_WEIGHTS)
     np.testing.assert_array_equal(build_force_field(back.process).rigid_forces(path),
                                   build_force_field(plain).rigid_forces(path))
-    assert set(SPAN_KEYS) <= set(dict(back.process.force_fit))
 
 
 def test_compensate_names_a_corner_the_learned_sheet_never_saw(tmp_path: Path,
                                                                capsys: pytest.CaptureFixture[str]) -> None:
-    weights = tuple((k, 1.0 if k == "prior_weight" else 0.0) for k in WEIGHT_KEYS)
-    process = Process(force_model="learned", force_fit=(*weights, ("span_depth_mm", 9.0), ("span_turn_deg", 20.0)))
-    model = write_model_file(tmp_path / "m.json", TwinSpec(process=process), note="test")
+    model = write_model_file(tmp_path / "m.json", TwinSpec(process=learned_process(9.0, 20.0)), note="test")
     assert main(["path", "--shape", "pyramid", "--top-width-mm", "30", "--depth-mm", "1", "--out",
                  str(tmp_path / "pyramid.csv")]) == 0
     capsys.readouterr()
@@ -99,22 +102,19 @@ def test_compensate_names_a_corner_the_learned_sheet_never_saw(tmp_path: Path,
     assert f"the ideal path {tmp_path / 'pyramid.csv'} turns by up to 90 deg over one tool radius, past the 20 deg" in err
 
 
-def test_replay_names_a_run_deeper_than_the_learned_sheet_went(tmp_path: Path,
+def test_replay_names_a_run_deeper_than_the_learned_sheet_went(lab_cone_run: Path, tmp_path: Path,
                                                               capsys: pytest.CaptureFixture[str]) -> None:
     """A replay reads the depth its run's tip reached (the tracker), not its command's (a nominal run's tip lags:
     replayed on the sheet learned from it, it stays inside)."""
-    assert main(["path", "--shape", "cone", "--top-width-mm", "30", "--depth-mm", "1.5",
-                 "--out", str(tmp_path / "cone.csv")]) == 0
-    assert main(["lab", "--scenario", "nominal", "--commanded", str(tmp_path / "cone.csv"), "--seed", "2",
-                 "--out", str(tmp_path / "run")]) == 0
-    reached = path_span(np.loadtxt(tmp_path / "run" / "tracker.csv", delimiter=",", skiprows=1)[:, 1:] * 1e-3, R)
+    reached = path_span(np.loadtxt(lab_cone_run / "tracker.csv", delimiter=",", skiprows=1)[:, 1:] * 1e-3, R)
+    command = np.loadtxt(lab_cone_run / "commanded.csv", delimiter=",", skiprows=1)[:, 1:] * 1e-3
     assert 1.0 < reached.depth_mm < 1.5  # the tip lagged the command
-    weights = tuple((k, 1.0 if k == "prior_weight" else 0.0) for k in WEIGHT_KEYS)
-    for depth_mm, named in ((reached.depth_mm, False), (0.5, True)):
-        fit = (*weights, ("span_depth_mm", depth_mm), ("span_turn_deg", 90.0))
-        model = write_model_file(tmp_path / "m.json", TwinSpec(process=Process(force_model="learned", force_fit=fit)),
-                                 note="test")
+    # learned 0.2 mm above the tip's deepest: inside its margin for the tip, outside it for the command
+    inside = Span(reached.depth_mm - 0.2, 90.0)
+    assert span_warnings(inside, command, R, "the command")  # read off the command, this span would be left
+    for depth_mm, named in ((inside.depth_mm, False), (0.5, True)):
+        model = write_model_file(tmp_path / "m.json", TwinSpec(process=learned_process(depth_mm, 90.0)), note="test")
         capsys.readouterr()
-        assert main(["replay", str(tmp_path / "run"), "--model", str(model)]) == 0
+        assert main(["replay", str(lab_cone_run), "--model", str(model)]) == 0
         err = capsys.readouterr().err
-        assert (f"the run {tmp_path / 'run'} goes {reached.depth_mm:.2f} mm deep, past the" in err) == named, err
+        assert (f"the run {lab_cone_run} goes {reached.depth_mm:.2f} mm deep, past the" in err) == named, err

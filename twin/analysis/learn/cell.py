@@ -89,7 +89,7 @@ def learned_spec(runs: list[Run], spec: TwinSpec, tracker_errors: bool = False, 
     # measured tip (fitted, so a learned sheet that does not is of the wrong form: a lab's FE history, say)
     # (runs of parts that declare different sheets, a groove's FE history and a cone's formula, say: none covers them
     # all, and the learned one is taken)
-    kept = one_sheet and sheet_kept(sheet) and all(process == base.process for process in declared)
+    kept = one_sheet and sheet_kept(sheet)
     process = base.process if kept else replace(base.process, force_model="learned", force_fit=sheet.force_fit)
     learned = base.replace(process=process, joint_stiffness_nm_per_rad=tuple(float(k) for k in robot.k_q_nm_per_rad),
                            joint_friction_nm=tuple(float(f) for f in friction), servo=robot.servo)

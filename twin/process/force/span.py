@@ -17,7 +17,6 @@ The two quantities are read off the path alone, in contact (below the sheet's pl
 
 from __future__ import annotations
 
-import math
 import warnings
 from collections.abc import Mapping
 from typing import TYPE_CHECKING, NamedTuple
@@ -98,7 +97,7 @@ def span_warnings(learned: Span | None, p_sheet_m: np.ndarray, radius_m: float, 
     if span.depth_mm > learned.depth_mm + DEPTH_MARGIN_MM:
         out.append(f"{what} goes {span.depth_mm:.2f} mm deep, past the {learned.depth_mm:.2f} mm the learned sheet "
                    "was learned to (its runs' deepest measured tip): its force there is extrapolated")
-    if span.turn_deg > learned.turn_deg + TURN_MARGIN_DEG and math.isfinite(learned.turn_deg):
+    if span.turn_deg > learned.turn_deg + TURN_MARGIN_DEG:
         out.append(f"{what} turns by up to {span.turn_deg:.0f} deg over one tool radius, past the "
                    f"{learned.turn_deg:.0f} deg of the runs the learned sheet was learned from (a corner its runs "
                    "had none of): its force there is extrapolated")
