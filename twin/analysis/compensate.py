@@ -181,7 +181,7 @@ def compensate_twin(
             return Compensation("twin", t, p_id, best[1], iteration, best[2], tuple(history), False, best[3])
         if iteration > 1 and history[-1] > history[-2]:  # the mixed step went too far: start the memory anew
             accelerate.clear()
-        cmd = accelerate.next(cmd, -_trust_region_step(sim.tip_gain, residual))
+        cmd = accelerate.next(cmd, -trust_region_step(sim.tip_gain, residual))
         # the command moved by micrometres to millimetres: its IK starts from the last one's
         q_ik = twin.kinematics.ik_path(twin.p_base_sheet_origin + cmd @ twin.R_base_sheet.T, q_near=sim.q_ik)
     raise CompensationError(
@@ -190,7 +190,7 @@ def compensate_twin(
     )
 
 
-def _trust_region_step(tip_gain: np.ndarray, residual: np.ndarray) -> np.ndarray:
+def trust_region_step(tip_gain: np.ndarray, residual: np.ndarray) -> np.ndarray:
     """The command change of one iteration: a local Newton step per sample, held within a trust region.
 
     The tip moves by tip_gain @ d_cmd when the command moves by d_cmd. The sheet's force law has a kink where the

@@ -42,6 +42,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--tol-mm", type=finite, default=1e3 * TWIN_TOL_M, help="--method twin: stop when the rms residual is within this [mm]"
     )
     parser.add_argument("--max-iter", type=count, default=TWIN_MAX_ITER, help="--method twin: iteration limit")
+    parser.add_argument("--dynamic", action="store_true",
+                        help="--method twin: then iterate the command on the dynamic twin, under the servo the model "
+                        "learned (`learn --dynamic`; docs/dynamic-twin.md)")
     _add_part_arguments(parser)
     parser.add_argument("--out", type=Path, required=True, help="compensated path, commanded.csv format")
     add_json_argument(parser, "the numbers")
@@ -86,7 +89,7 @@ def run(args: argparse.Namespace) -> int:
         placement=placement_given(args), tol_mm=args.tol_mm, max_iter=args.max_iter,
         target_stl=args.target_stl, part_iterations=args.part_iterations, learn_from=args.learn_from,
         learn_at=args.learn_at, learn_gain=args.learn_gain, learn_smoothing_mm=args.learn_smoothing_mm,
-        figure=args.figure, rrd=args.rrd, cell=getattr(args, "cell_record", None),
+        figure=args.figure, rrd=args.rrd, cell=getattr(args, "cell_record", None), dynamic=args.dynamic,
     )
     return finish(args, compensate_task(request, note), protect=(
         args.stiffness, args.model, args.history, args.ideal, args.process, args.target_stl, args.learn_from))

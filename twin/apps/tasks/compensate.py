@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -36,6 +36,9 @@ from twin.process.toolpath.placement import Placement
 from twin.runs.format import Stream
 from twin.runs.write import write_path_csv
 from twin.sim.spec import TwinSpec
+
+if TYPE_CHECKING:  # the dynamic twin (MuJoCo) loads only when --dynamic runs
+    from twin.analysis.compensate_dynamic import DynamicCompensation
 
 METHODS = ("formula", "twin")
 LEARN_AT = ("twin", "formed", "tip")
@@ -69,6 +72,8 @@ class CompensateRequest:
         figure: Deviation maps from the design to write (PNG), or None; with `target_stl` only.
         rrd: A rerun recording of the part's iterations to write, or None; with `target_stl` only.
         cell: A `--cell` file's record (`CellDeclaration.record`): its tool is the twin's (`resolve_spec`).
+        dynamic: "twin": then iterate the command on the dynamic twin under the model's learned servo
+            (`twin.analysis.compensate_dynamic`).
     """
 
     method: str
@@ -92,11 +97,16 @@ class CompensateRequest:
     figure: Path | None = None
     rrd: Path | None = None
     cell: dict[str, Any] | None = None
+    dynamic: bool = False
 
     def __post_init__(self) -> None:
         for option, value, valid in (("--method", self.method, METHODS), ("--learn-at", self.learn_at, LEARN_AT)):
             if value not in valid:
                 raise InputError(f"{option} {value!r}: expected one of {', '.join(valid)}")
+        if self.dynamic and (self.method != "twin" or self.target_stl is not None):
+            raise InputError(f"--dynamic iterates the path on the dynamic twin: it needs --method twin and no "
+                             f"--target-stl (got --method {self.method}"
+                             f"{'' if self.target_stl is None else ' --target-stl ' + str(self.target_stl)})")
         if self.target_stl is not None:
             self._check_part()
             return
@@ -144,6 +154,7 @@ class CompensateReport(Report):
         gain: The compensation gain against the physical reference forces [-] (1: right).
         gain_diagnosis: The gain and its cause in words (`twin.analysis.check.diagnose_gain`).
         record_file: The compensation record written beside the command.
+        dynamic: With `dynamic`: the dynamic twin's iteration (its start is the quasi-static compensation).
     """
 
     request: CompensateRequest
@@ -155,6 +166,7 @@ class CompensateReport(Report):
     gain: float
     gain_diagnosis: str
     record_file: Path
+    dynamic: DynamicCompensation | None = None
 
     def lines(self) -> list[str]:
         r = self.record()
@@ -165,6 +177,11 @@ class CompensateReport(Report):
             lines.append(f"note: the twin iteration stalled at {r['predicted_residual_rms_mm']:.4f} mm rms (max "
                          f"{r['predicted_residual_max_mm']:.3f} mm, where joint friction flips: reversals, corners, "
                          "stick-slip); the best command is written")
+        if self.dynamic is not None:
+            dyn = r["dynamic"]
+            lines.append(f"dynamic twin: rms {dyn['rms_per_iteration_mm'][0]:.4f} mm on the quasi-static command -> "
+                         f"{r['predicted_residual_rms_mm']:.4f} mm in {len(dyn['rms_per_iteration_mm']) - 1} "
+                         f"iteration(s) (learning filter sigma {dyn['learning_filter_ms']:.1f} ms); predicted")
         if abs(self.gain - 1.0) > GAIN_WARNING:
             lines.append(f"warning: {self.gain_diagnosis}")
         return lines
@@ -188,6 +205,11 @@ class CompensateReport(Report):
             "force_model": self.spec.process.force_model,
             "process": process_record(self.spec.process),
             "effects": dict(self.spec.effects.values),
+            "dynamic": None if self.dynamic is None else {
+                "servo": self.dynamic.servo.to_json(),
+                "rms_per_iteration_mm": [1e3 * h for h in self.compensation.history_m],
+                "quasi_static_rms_per_iteration_mm": [1e3 * h for h in self.dynamic.quasi_static.history_m],
+                "learning_filter_ms": 1e3 * self.dynamic.smoothing_s},
         }
 
 
@@ -211,9 +233,13 @@ def compensate_task(request: CompensateRequest, note: Note = silent) -> Report:
     declared, reference = request.history.load()
     ideal = ideal_path(request.ideal)
     spec = request.spec(ideal.p_sheet_m, declared, note)
+    if request.dynamic and spec.dynamic_servo is None:
+        raise InputError(f"--dynamic needs the dynamic twin's servo, learned into a model file (`tx200-twin learn RUN "
+                         f"--dynamic --write-model MODEL`); {request.model or 'the default model'} carries no "
+                         "dynamic_servo")
     warn_outside_span(spec.process, ideal.p_sheet_m, f"the ideal path {request.ideal or '(the groove)'}")
     f_reference = rigid_forces(build_force_field(spec.process, reference), ideal)
-    comp, c_r, predicted, f_used = _compensate(request, spec, ideal, declared)
+    comp, c_r, predicted, f_used, dynamic = _compensate(request, spec, ideal, declared)
     gain = gain_of(comp, f_reference, c_r)
     # an FE history's symmetry is evidence only where its forces were used (the table model; the formula's K_R)
     uses_history = request.method == "formula" or spec.process.force_model == "table"
@@ -223,14 +249,15 @@ def compensate_task(request: CompensateRequest, note: Note = silent) -> Report:
     write_command(request.out, comp.t_s, comp.p_cmd_sheet_m, request.inputs())
     record_file = write_record(request.out, record)
     return CompensateReport(request, spec, declared, comp, c_r, predicted, gain,
-                            diagnose_gain(gain, record, ideal.t_s, f_reference), record_file)
+                            diagnose_gain(gain, record, ideal.t_s, f_reference), record_file, dynamic)
 
 
 def _compensate(
     request: CompensateRequest, spec: TwinSpec, ideal: ToolPath, declared: ForceHistory
-) -> tuple[Compensation, np.ndarray, np.ndarray, np.ndarray]:
+) -> tuple[Compensation, np.ndarray, np.ndarray, np.ndarray, DynamicCompensation | None]:
     """The compensation of the request's method, the compliance its gain is measured with [m/N], the twin's
-    predicted residual of the command [m], shape (n, 3), and the forces it assumed at each sample [N], (n, 3)."""
+    predicted residual of the command [m], shape (n, 3), the forces it assumed at each sample [N], (n, 3), and with
+    `dynamic` the dynamic twin's iteration."""
     twin = spec.build()
     if request.method == "formula":
         if request.stiffness is None:  # here, not in the request: a bad ideal path or model is named first
@@ -239,15 +266,23 @@ def _compensate(
         from twin.sim.compiled.rigid import rigid_forces  # the twin above loaded numba
         f_ideal = rigid_forces(build_force_field(spec.process, declared), ideal)
         comp = compensate_formula(ideal.t_s, ideal.p_sheet_m, f_ideal, c_r)
-        return comp, c_r, twin.simulate(comp.t_s, comp.p_cmd_sheet_m).p_sheet_m - ideal.p_sheet_m, f_ideal
+        return comp, c_r, twin.simulate(comp.t_s, comp.p_cmd_sheet_m).p_sheet_m - ideal.p_sheet_m, f_ideal, None
     comp = compensate_twin(ideal.t_s, ideal.p_sheet_m, twin, tol_m=1e-3 * request.tol_mm, max_iter=request.max_iter)
+    dynamic = None
+    if request.dynamic:
+        from twin.analysis.compensate_dynamic import compensate_dynamic
+
+        assert spec.dynamic_servo is not None  # compensate_task refused a model without one
+        dynamic = compensate_dynamic(ideal.t_s, ideal.p_sheet_m, twin, spec.dynamic_servo, start=comp,
+                                     tol_m=1e-3 * request.tol_mm)
+        comp = dynamic.compensation
     assert comp.predicted_residual_m is not None and comp.predicted_force_n is not None
     # the forces the twin predicts for its command (the simulation that gave its residual)
     from twin.robot.tool_bending import bending_compliance_at
 
     q_home = twin.kinematics.q_home  # the joints' compliance and the tool's own bending (`twin.robot.tool_bending`)
     c_r = twin.kinematics.compliance(q_home) + bending_compliance_at(twin.model, twin.robot, q_home)
-    return comp, c_r, comp.predicted_residual_m, comp.predicted_force_n
+    return comp, c_r, comp.predicted_residual_m, comp.predicted_force_n, dynamic
 
 
 def read_stiffness(path: Path) -> np.ndarray:
