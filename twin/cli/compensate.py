@@ -28,9 +28,7 @@ HELP = "Compensate the ideal path offline (Eq. 4.28 formula, or iterating the tw
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Add the `compensate` options."""
     parser.add_argument("--method", required=True, choices=("formula", "twin"))
-    parser.add_argument(
-        "--stiffness", type=Path, help="JSON with k_r_n_per_mm (2x2 x-z or 3x3); formula only"
-    )
+    parser.add_argument("--stiffness", type=Path, help="JSON with k_r_n_per_mm (2x2 x-z or 3x3); formula only")
     parser.add_argument("--model", type=Path, help="twin model file (effects, K_q, process) for --method twin")
     add_history_arguments(parser)
     add_ideal_argument(parser)
@@ -38,13 +36,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_process_arguments(parser)
     add_robot_argument(parser)
     add_placement_arguments(parser, "sheet placement (the twin's)")
-    parser.add_argument(
-        "--tol-mm", type=finite, default=1e3 * TWIN_TOL_M, help="--method twin: stop when the rms residual is within this [mm]"
-    )
+    parser.add_argument("--tol-mm", type=finite, default=1e3 * TWIN_TOL_M,
+                        help="--method twin: stop when the rms residual is within this [mm]")
     parser.add_argument("--max-iter", type=count, default=TWIN_MAX_ITER, help="--method twin: iteration limit")
-    parser.add_argument("--dynamic", action="store_true",
-                        help="--method twin: then iterate the command on the dynamic twin, under the servo the model "
-                        "learned (`learn --dynamic`; docs/dynamic-twin.md)")
+    parser.add_argument("--dynamic", action="store_true", help="--method twin: then iterate the command on the dynamic "
+                        "twin, under the servo the model learned (`learn --dynamic`; docs/dynamic-twin.md)")
     _add_part_arguments(parser)
     parser.add_argument("--out", type=Path, required=True, help="compensated path, commanded.csv format")
     add_json_argument(parser, "the numbers")
