@@ -2,15 +2,17 @@
 
 Reads the output folder of `experiments/dynamic_twin_study.py` (per cell: its 40 x 6 mm pyramid, the model learned
 from run 1 and the servo fitted on run 1's tracker) and, per cell, writes the model with that servo
-(`dynamic_servo`), compensates the pyramid with it twice through the CLI (`compensate --method twin`, then the same
-with `--dynamic`), forms each command on the dynamic plant (`lab --plant dynamic --scenario compensated --seed 3`,
-the cell's knobs: a run neither learned from) and scores it against the pyramid with `check`'s residual: on the
+(`dynamic_servo`); makes two groove cells of its own (`GROOVES`: the groove formed with seed 1 and learned with
+`learn --dynamic`, which fits the servo as a user's would); and compensates each part twice through the CLI
+(`compensate --method twin`, then the same with `--dynamic`), forms each command on the dynamic plant (`lab --plant
+dynamic --scenario compensated --seed 3`, the cell's knobs: a run neither learned from) and scores it against the
+part's path with `check`'s residual: on the
 tracker, and on the plant's true tip (its `truth_tip.csv`, read here on the experiment's side only), over the whole
 run and within `CORNER_RADIUS_M` of a corner or reversal; with the mean height of the true tip over the ideal
 path above and below `DEEP_M` (where the sheet's force is largest). The dynamic twin's own rms before (on the
 quasi-static command) and after its iteration, and each compensation's wall, come from `compensate --json`. A
-second table gives what is left: on the quasi-static compensation's formed run, the measured Fz and the learned
-twin's (`replay` with the learned model) by the ideal path's depth, in 1 mm bins.
+second table gives what is left on the pyramids: on the quasi-static compensation's formed run, the measured Fz and
+the learned twin's (`replay` with the learned model) by the ideal path's depth, in 1 mm bins.
 
     .venv/bin/python experiments/dynamic_twin_study.py DTS
     .venv/bin/python experiments/dynamic_compensation_study.py OUT --from DTS [--doc docs/dynamic-twin.md]
@@ -40,6 +42,9 @@ from twin.runs.write import TRUTH_TIP
 #: Depth below which the true tip's mean height is reported apart [m] (half the pyramid's 6 mm).
 DEEP_M = 3e-3
 SEED = 3
+#: The groove cells (name -> the plant's knob arguments): learned from their own nominal run with `learn --dynamic`.
+GROOVES: dict[str, tuple[str, ...]] = {"TX200 groove, neutral knobs": ("--neutral",),
+                                       "TX200 groove, plant's default knobs": ()}
 
 
 def _score(run_dir: Path, ideal: Path) -> dict[str, float]:
@@ -71,15 +76,8 @@ def _force_by_depth(run_dir: Path, model: Path) -> list[dict[str, float]]:
     return rows
 
 
-def cell_study(out: Path, source: Path, cell: dict[str, Any]) -> dict[str, Any]:
-    """One cell's rows (module docstring)."""
-    out.mkdir(parents=True, exist_ok=True)
-    ideal, model = source / "pyramid.csv", out / "learned_dynamic.json"
-    learned = json.loads((source / "learned.json").read_text(encoding="utf-8"))
-    fit = cell["fit"]
-    learned["dynamic_servo"] = {k: fit[k] for k in ("bandwidth_over_mode", "damping_ratio", "delay_s", "feedforward")}
-    model.write_text(json.dumps(learned, indent=1), encoding="utf-8")
-    sets = [arg for knob in cell["knobs"] for arg in ("--set", knob)]
+def _compensate_and_form(out: Path, ideal: Path, model: Path, knobs: list[str]) -> list[dict[str, Any]]:
+    """The two compensations of `ideal` with `model` (its servo carried), each formed and scored."""
     rows = []
     for name, extra in (("quasi-static", []), ("dynamic", ["--dynamic"])):
         command = out / f"{name}.csv"
@@ -88,19 +86,44 @@ def cell_study(out: Path, source: Path, cell: dict[str, Any]) -> dict[str, Any]:
                           "--out", str(command))
         wall = time.perf_counter() - start
         cli("lab", "--plant", "dynamic", "--robot", ROBOT, "--scenario", "compensated", "--seed", str(SEED),
-            "--commanded", str(command), "--out", str(out / f"{name}_formed"), "--overwrite", *sets)
+            "--commanded", str(command), "--out", str(out / f"{name}_formed"), "--overwrite", *knobs)
         dyn = report["dynamic"]
         rows.append({"compensation": name, "wall_s": wall, "predicted_mm": report["predicted_residual_rms_mm"],
                      "dynamic_start_mm": dyn["rms_per_iteration_mm"][0] if dyn else math.nan,
                      "dynamic_iterations": len(dyn["rms_per_iteration_mm"]) - 1 if dyn else 0,
                      **_score(out / f"{name}_formed", ideal)})
+    return rows
+
+
+def pyramid_study(out: Path, source: Path, cell: dict[str, Any]) -> dict[str, Any]:
+    """A pyramid cell of dynamic_twin_study.py: its learned model with the servo it fitted (module docstring)."""
+    out.mkdir(parents=True, exist_ok=True)
+    ideal, model = source / "pyramid.csv", out / "learned_dynamic.json"
+    learned = json.loads((source / "learned.json").read_text(encoding="utf-8"))
+    fit = cell["fit"]
+    learned["dynamic_servo"] = {k: fit[k] for k in ("bandwidth_over_mode", "damping_ratio", "delay_s", "feedforward")}
+    model.write_text(json.dumps(learned, indent=1), encoding="utf-8")
+    rows = _compensate_and_form(out, ideal, model, [arg for knob in cell["knobs"] for arg in ("--set", knob)])
     return {"cell": cell["cell"], "knobs": cell["knobs"], "rows": rows,
             "force_by_depth": _force_by_depth(out / "quasi-static_formed", model)}
 
 
+def groove_study(out: Path, name: str, knobs: list[str]) -> dict[str, Any]:
+    """A groove cell: its nominal run (seed 1) learned with `learn --dynamic` (module docstring)."""
+    out.mkdir(parents=True, exist_ok=True)
+    ideal, model = out / "groove.csv", out / "learned_dynamic.json"
+    cli("path", "--shape", "groove", "--robot", ROBOT, "--out", str(ideal))
+    cli("lab", "--plant", "dynamic", "--robot", ROBOT, "--scenario", "nominal", "--seed", "1", "--commanded",
+        str(ideal), "--out", str(out / "nominal1"), "--overwrite", *knobs)
+    model.unlink(missing_ok=True)
+    cli("learn", str(out / "nominal1"), "--dynamic", "--write-model", str(model))
+    return {"cell": name, "knobs": knobs, "rows": _compensate_and_form(out, ideal, model, knobs)}
+
+
 def table(cells: list[dict[str, Any]]) -> str:
     """The markdown table (module docstring)."""
-    lines = [f"The pyramid compensated with the model learned from run 1, formed with seed {SEED}; corners: within "
+    lines = [f"Each part compensated with the model learned from run 1 (the pyramids: dynamic-twin study's; the "
+             f"grooves: `learn --dynamic` on their nominal run), formed with seed {SEED}; corners: within "
              f"{1e3 * CORNER_RADIUS_M:.0f} mm of a corner or reversal; true tip height over the ideal path, mean, "
              f"shallower / deeper than {1e3 * DEEP_M:.0f} mm.", "",
              "| cell | compensation | dynamic twin's rms, quasi-static command -> its own [mm] | iterations | "
@@ -111,14 +134,15 @@ def table(cells: list[dict[str, Any]]) -> str:
             dyn = ("-" if math.isnan(r["dynamic_start_mm"]) else
                    f"{r['dynamic_start_mm']:.3f} -> {r['predicted_mm']:.3f}")
             lines.append(f"| {c['cell']} | {r['compensation']} | {dyn} | {r['dynamic_iterations']} | "
-                         f"{r['wall_s']:.0f} | {r['tracker_mm']:.3f} / {r['tracker_corners_mm']:.3f} | "
+                         f"{r['wall_s']:.1f} | {r['tracker_mm']:.3f} / {r['tracker_corners_mm']:.3f} | "
                          f"{r['true_mm']:.3f} / {r['true_corners_mm']:.3f} | "
                          f"{r['true_z_shallow_mm']:+.3f} / {r['true_z_deep_mm']:+.3f} |")
-    depths = [f"{b['depth_mm']:.0f}-{b['depth_mm'] + 1:.0f}" for b in cells[0]["force_by_depth"]]
+    pyramids = [c for c in cells if "force_by_depth" in c]
+    depths = [f"{b['depth_mm']:.0f}-{b['depth_mm'] + 1:.0f}" for b in pyramids[0]["force_by_depth"]]
     lines += ["", "The quasi-static compensation's formed run: Fz measured / the learned twin's replay [N], mean by "
               "the ideal path's depth [mm]:", "", "| cell | " + " | ".join(depths) + " |",
               "|---|" + "---|" * len(depths)]
-    for c in cells:
+    for c in pyramids:
         cols = [f"{b['measured_fz_n']:.0f} / {b['twin_fz_n']:.0f}" for b in c["force_by_depth"]][:len(depths)]
         lines.append(f"| {c['cell']} | " + " | ".join(cols + ["-"] * (len(depths) - len(cols))) + " |")
     return "\n".join(lines) + "\n"
@@ -136,11 +160,13 @@ def main() -> None:
         raise SystemExit(f"{args.source}: its cells are not dynamic_twin_study.py's {list(CELLS)}")
     cells = []
     for i, cell in enumerate(studied):
-        cells.append(cell_study(args.out / f"cell{i + 1}", args.source / f"cell{i + 1}", cell))
-        print(table(cells[-1:]), flush=True)
+        cells.append(pyramid_study(args.out / f"cell{i + 1}", args.source / f"cell{i + 1}", cell))
+        print(table(cells), flush=True)
+    for i, (name, knobs) in enumerate(GROOVES.items()):
+        cells.append(groove_study(args.out / f"groove{i + 1}", name, list(knobs)))
+    print(table(cells), flush=True)
     (args.out / "dynamic_compensation.json").write_text(json.dumps(cells, indent=1))
     (args.out / "dynamic_compensation.md").write_text(table(cells))
-    print(table(cells))
     if args.doc is not None:
         write_between_markers(args.doc, "dynamic-compensation", table(cells))
 

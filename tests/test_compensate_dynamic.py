@@ -109,18 +109,28 @@ def test_the_pages_words_on_compensation_with_the_dynamic_twin_are_its_tables() 
     comp = {(r[0], r[1]): r for r in rows if r[1] in named}
     depth = [r for r in rows if r[1] not in named]
     cells = {key[0] for key in comp}
-    assert len(cells) == 2 and len(comp) == 4 and len(depth) == 2
+    grooves = {"TX200 groove, neutral knobs", "TX200 groove, plant's default knobs"}
+    assert len(cells) == 4 and grooves < cells and len(comp) == 8 and len(depth) == 2
     pair = lambda cell: [float(v) for v in cell.split("/")]  # noqa: E731
     for cell in cells:
         qs, dyn = comp[(cell, "quasi-static")], comp[(cell, "dynamic")]
         before, after = (float(v) for v in dyn[2].split("->"))
-        assert after <= 0.5 * before  # "halves what the dynamic twin itself predicts"
-        assert 5.0 <= float(dyn[4]) / float(qs[4]) <= 15.0  # "at five to fifteen times its wall"
-        for col in (5, 6):  # "the plant does not notice ... within a few hundredths of a millimetre"
+        if cell in grooves:  # "takes a quarter to two fifths off it on the grooves"
+            assert 0.2 <= 1 - after / before <= 0.45, cell
+        else:  # "halves what the dynamic twin itself predicts ... on the pyramids"
+            assert after <= 0.5 * before, cell
+        assert float(dyn[4]) >= 3 * float(qs[4])  # "at several times its wall"
+        if cell == "TX200 groove, neutral knobs":  # "a little off at the pass reversals ... not under 0.10 mm"
+            for col in (5, 6):
+                assert pair(dyn[col])[1] < 0.9 * pair(qs[col])[1] and pair(dyn[col])[0] < pair(qs[col])[0], col
+                assert pair(dyn[col])[0] > 0.10, col
+            continue
+        for col in (5, 6):  # "within a few hundredths of a millimetre" (pyramids); "nothing" (the default groove)
             assert np.allclose(pair(dyn[col]), pair(qs[col]), atol=0.03, rtol=0), (cell, col)
+            assert cell not in grooves or pair(qs[col])[1] > pair(qs[col])[0]  # "its residual is largest there"
         for r in (qs, dyn):  # "below the pyramid's half depth the true tip stays above the path"
             shallow, deep = pair(r[7])
-            assert deep > 0.1 and deep > 5 * abs(shallow), r
+            assert cell in grooves or (deep > 0.1 and deep > 5 * abs(shallow)), r
     for r in depth:  # "the learned sheet's force ... too low there; nearly a straight line; the plant's starts lower"
         measured, twin = np.array([pair(c) for c in r[1:] if c != "-"]).T
         assert np.all(twin[3:] < measured[3:]) and np.all(twin[:3] > measured[:3]), r
