@@ -86,6 +86,10 @@ def test_compensate_dynamic_on_the_command_line(tmp_path: Path, path, capsys: py
                  "--out", str(out), "--json", "-"]) == 0
     report = json.loads(capsys.readouterr().out)
     dynamic = report["dynamic"]
+    assert main(["compensate", "--method", "twin", "--model", str(with_servo), "--ideal", str(ideal), "--dynamic",
+                 "--out", str(tmp_path / "again.csv")]) == 0
+    words = capsys.readouterr().out
+    assert "dynamic twin: rms" in words and "predicted" in words
     assert dynamic["servo"] == SLOW.to_json() and dynamic["learning_filter_ms"] > 0
     assert report["predicted_residual_rms_mm"] <= LAG_LEFT * dynamic["rms_per_iteration_mm"][0]
     assert out.exists()
