@@ -24,20 +24,22 @@ import argparse
 import json
 import math
 import time
-from dataclasses import replace
+from dataclasses import fields, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from dynamic_twin_study import CELLS, CORNER_RADIUS_M, ROBOT
 from experiments_cli import cli, cli_json, write_between_markers
+from online_study import true_tip_residual_mm
 
 from twin.analysis.check import check_run
 from twin.analysis.learn.servo_fit import near_corners
 from twin.analysis.replay import replay
 from twin.analysis.resolve import resolve_spec
 from twin.runs.read import read_commanded_csv, read_run
-from twin.runs.write import TRUTH_TIP
+from twin.sim.dynamic_servo import ServoModel
+from twin.sim.model_file import read_model_file, write_model_file
 
 #: Depth below which the true tip's mean height is reported apart [m] (half the pyramid's 6 mm).
 DEEP_M = 3e-3
@@ -48,16 +50,17 @@ GROOVES: dict[str, tuple[str, ...]] = {"TX200 groove, neutral knobs": ("--neutra
 
 
 def _score(run_dir: Path, ideal: Path) -> dict[str, float]:
-    """The formed run's residual to the ideal path (module docstring) [mm]."""
+    """The formed run's residual to the ideal path (module docstring) [mm]; the true tip is at the tracker's stamps."""
     cmd, run = read_commanded_csv(ideal), read_run(run_dir)
     rms = lambda e: float(np.sqrt(np.mean(np.sum(e**2, axis=1)))) if len(e) else math.nan  # noqa: E731
     tracker = 1e3 * check_run(run, cmd.t_s, cmd.values).residual_m
-    tip = read_commanded_csv(run_dir / TRUTH_TIP)
-    true = 1e3 * check_run(replace(run, tracker=tip), cmd.t_s, cmd.values).residual_m
-    near, near_t = near_corners(run, CORNER_RADIUS_M), near_corners(run, CORNER_RADIUS_M, tip.t_s)
-    deep = np.interp(tip.t_s, cmd.t_s, cmd.values[:, 2]) <= -DEEP_M
+    true = true_tip_residual_mm(run_dir, run, cmd)
+    if true is None:
+        raise SystemExit(f"{run_dir}: no truth_tip.csv (a run of the dynamic plant writes one)")
+    near = near_corners(run, CORNER_RADIUS_M)
+    deep = np.interp(run.tracker.t_s, cmd.t_s, cmd.values[:, 2]) <= -DEEP_M
     return {"tracker_mm": rms(tracker), "tracker_corners_mm": rms(tracker[near]), "true_mm": rms(true),
-            "true_corners_mm": rms(true[near_t]), "true_z_shallow_mm": float(np.mean(true[~deep, 2])),
+            "true_corners_mm": rms(true[near]), "true_z_shallow_mm": float(np.mean(true[~deep, 2])),
             "true_z_deep_mm": float(np.mean(true[deep, 2]))}
 
 
@@ -87,10 +90,10 @@ def _compensate_and_form(out: Path, ideal: Path, model: Path, knobs: list[str]) 
         wall = time.perf_counter() - start
         cli("lab", "--plant", "dynamic", "--robot", ROBOT, "--scenario", "compensated", "--seed", str(SEED),
             "--commanded", str(command), "--out", str(out / f"{name}_formed"), "--overwrite", *knobs)
-        dyn = report["dynamic"]
+        history, dyn = report["residual_rms_per_iteration_mm"], report["dynamic"] is not None
         rows.append({"compensation": name, "wall_s": wall, "predicted_mm": report["predicted_residual_rms_mm"],
-                     "dynamic_start_mm": dyn["rms_per_iteration_mm"][0] if dyn else math.nan,
-                     "dynamic_iterations": len(dyn["rms_per_iteration_mm"]) - 1 if dyn else 0,
+                     "dynamic_start_mm": history[0] if dyn else math.nan,
+                     "dynamic_iterations": len(history) - 1 if dyn else 0,
                      **_score(out / f"{name}_formed", ideal)})
     return rows
 
@@ -99,10 +102,9 @@ def pyramid_study(out: Path, source: Path, cell: dict[str, Any]) -> dict[str, An
     """A pyramid cell of dynamic_twin_study.py: its learned model with the servo it fitted (module docstring)."""
     out.mkdir(parents=True, exist_ok=True)
     ideal, model = source / "pyramid.csv", out / "learned_dynamic.json"
-    learned = json.loads((source / "learned.json").read_text(encoding="utf-8"))
-    fit = cell["fit"]
-    learned["dynamic_servo"] = {k: fit[k] for k in ("bandwidth_over_mode", "damping_ratio", "delay_s", "feedforward")}
-    model.write_text(json.dumps(learned, indent=1), encoding="utf-8")
+    servo = ServoModel(**{f.name: cell["fit"][f.name] for f in fields(ServoModel)})
+    model.unlink(missing_ok=True)
+    write_model_file(model, replace(read_model_file(source / "learned.json"), dynamic_servo=servo))
     rows = _compensate_and_form(out, ideal, model, [arg for knob in cell["knobs"] for arg in ("--set", knob)])
     return {"cell": cell["cell"], "knobs": cell["knobs"], "rows": rows,
             "force_by_depth": _force_by_depth(out / "quasi-static_formed", model)}

@@ -85,10 +85,22 @@ def reversal_times(t_s: np.ndarray, p: np.ndarray) -> np.ndarray:
     return t_s[index[1:][back]]
 
 
+def true_tip_residual_mm(run_dir: Path, run: Any, cmd: Any) -> np.ndarray | None:
+    """`check`'s residual of the plant's true tip against the command `cmd` [mm], at the tracker's stamps (its
+    `truth_tip.csv`, read here on the experiment's side only), or None for a run without one."""
+    from twin.analysis.check import check_run
+    from twin.runs.read import read_commanded_csv
+    from twin.runs.write import TRUTH_TIP
+
+    if not (run_dir / TRUTH_TIP).exists():
+        return None
+    tip = read_commanded_csv(run_dir / TRUTH_TIP)
+    return 1e3 * check_run(replace(run, tracker=tip), cmd.t_s, cmd.values).residual_m
+
+
 def _residual(run_dir: Path, ideal: Path, offset_mm: list[float]) -> dict[str, float]:
     from twin.analysis.check import check_run
     from twin.runs.read import read_commanded_csv, read_run
-    from twin.runs.write import TRUTH_TIP
 
     cmd = read_commanded_csv(ideal)
     run = read_run(run_dir)
@@ -96,11 +108,8 @@ def _residual(run_dir: Path, ideal: Path, offset_mm: list[float]) -> dict[str, f
     less = r - np.asarray(offset_mm)
     turns = reversal_times(run.commanded.t_s, run.commanded.values)
     away = np.all(np.abs(run.tracker.t_s[:, None] - turns[None, :]) > REVERSAL_WINDOW_S, axis=1)
-    true = math.nan  # the plant's true tip (its truth_tip.csv, read here on the experiment's side only)
-    if (run_dir / TRUTH_TIP).exists():
-        tip = read_commanded_csv(run_dir / TRUTH_TIP)
-        e = 1e3 * check_run(replace(run, tracker=tip), cmd.t_s, cmd.values).residual_m
-        true = float(np.sqrt(np.mean(np.sum(e**2, axis=1))))
+    e = true_tip_residual_mm(run_dir, run, cmd)
+    true = math.nan if e is None else float(np.sqrt(np.mean(np.sum(e**2, axis=1))))
     return {"rms_mm": float(np.sqrt(np.mean(np.sum(r**2, axis=1)))), "max_mm": float(np.max(np.linalg.norm(r, axis=1))),
             "less_offset_rms_mm": float(np.sqrt(np.mean(np.sum(less**2, axis=1)))),
             "away_rms_mm": float(np.sqrt(np.mean(np.sum(less[away] ** 2, axis=1)))), "true_tip_rms_mm": true}

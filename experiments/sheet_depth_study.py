@@ -61,13 +61,14 @@ def cell_study(name: str, folder: Path) -> dict[str, Any]:
     rc, rp = learner.sheet_rows(cone, process), learner.sheet_rows(pyramid, process)
     fc, fp = rc.measured_n[:, 2], rp.measured_n[:, 2]
     block = learner._blocks([rc], learner.BLOCKS)
-    chosen, _ = learner.select_terms(rc.terms, fc, block)
-    look_ahead = learner._LookAhead(rc.terms, fc, block)
+    chosen, chosen_look_ahead = learner.select_terms(rc.terms, fc, block)  # the learner's choice and its score
+    depth_only_look_ahead = learner._LookAhead(rc.terms, fc, block)(DEPTH_ONLY)
     row: dict[str, Any] = {"cell": name, "chosen": [WEIGHT_KEYS[c] for c in chosen]}
-    for key, cols in (("chosen", chosen), ("depth_only", DEPTH_ONLY)):
+    for key, cols, look_ahead in (("chosen", chosen, chosen_look_ahead),
+                                  ("depth_only", DEPTH_ONLY, depth_only_look_ahead)):
         w = learner._ridge(rc.terms[:, cols], fc, cols)
         row[f"{key}_pyramid_rms_n"] = _rms(fp - rp.terms[:, cols] @ w)
-        row[f"{key}_look_ahead_n"] = float(look_ahead(cols))
+        row[f"{key}_look_ahead_n"] = float(look_ahead)
     dc, dp = _tip_depth_mm(rc), _tip_depth_mm(rp)
     index = np.floor(dc / BIN_MM).astype(int)
     bins = [i for i in range(index.max() + 1) if np.count_nonzero(index == i) >= 4]

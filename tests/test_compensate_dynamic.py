@@ -29,6 +29,9 @@ SLOW = ServoModel(0.3, 0.9, 0.008)
 RIGID = ServoModel(math.inf, 1.0, 0.0)
 #: The dynamic iteration's rms at most this share of the quasi-static command's on the dynamic twin [-].
 LAG_LEFT = 0.3
+#: A rigid servo's iteration moves the quasi-static command by less than this, rms [m] (a third of what the slow
+#: servo's moves it by).
+RIGID_MOVE_M = 0.1e-3
 
 
 @pytest.fixture(scope="module")
@@ -61,8 +64,9 @@ def test_the_dynamic_iteration_takes_out_a_slow_servos_lag(isf_twin, path) -> No
 def test_a_rigid_servo_leaves_the_iteration_little_to_do(isf_twin, path) -> None:  # type: ignore[no-untyped-def]
     t, p = path
     result = compensate_dynamic(t, p, isf_twin, RIGID, max_iter=3)
-    history = result.compensation.history_m
-    assert history[0] < 0.05e-3 and min(history) <= history[0] and len(history) <= 4
+    assert result.compensation.history_m[0] < 0.05e-3  # its rest is the quasi-static tip the start was made for
+    moved = result.compensation.p_cmd_sheet_m - result.quasi_static.p_cmd_sheet_m
+    assert _rms(moved) < RIGID_MOVE_M  # the command hardly moves (the slow servo's moves it by ~0.3 mm rms)
     assert result.smoothing_s == 0.0  # a rigid servo has no bandwidth to filter at
 
 
@@ -91,7 +95,7 @@ def test_compensate_dynamic_on_the_command_line(tmp_path: Path, path, capsys: py
     words = capsys.readouterr().out
     assert "dynamic twin: rms" in words and "predicted" in words
     assert dynamic["servo"] == SLOW.to_json() and dynamic["learning_filter_ms"] > 0
-    assert report["predicted_residual_rms_mm"] <= LAG_LEFT * dynamic["rms_per_iteration_mm"][0]
+    assert report["predicted_residual_rms_mm"] <= LAG_LEFT * report["residual_rms_per_iteration_mm"][0]
     assert out.exists()
     # refused, named, and nothing written: a model without a servo, a method that is not the twin's
     without = write_model_file(tmp_path / "plain.json", TwinSpec(process=Process(force_model="isf")))

@@ -17,14 +17,10 @@ from twin.sim.model_file import write_model_file
 from twin.sim.spec import TwinSpec
 
 
-@pytest.fixture(scope="module")
-def cone_run(lab_cone_run: Path) -> Path:
-    """conftest's lab cone: 11 passes, past the groove history's 10."""
-    return lab_cone_run
-
-
 def test_learn_from_a_groove_and_a_cone_that_declare_different_sheets(
-        clean_run_dir: Path, cone_run: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+        clean_run_dir: Path, lab_cone_run: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """conftest's lab cone has 11 passes, past the groove history's 10."""
+    cone_run = lab_cone_run
     groove, cone = read_run(clean_run_dir), read_run(cone_run)
     assert (declared_process(groove).force_model, declared_process(cone).force_model) == ("table", "isf")
     capsys.readouterr()

@@ -18,6 +18,7 @@ from twin.process.force.learned import WEIGHT_KEYS
 from twin.process.force.registry import build_force_field
 from twin.process.force.span import Span, path_span, span_of, span_warnings
 from twin.process.toolpath.groove import ToolPath
+from twin.runs.read import read_run
 from twin.sim.model_file import read_model_file, write_model_file
 from twin.sim.spec import TwinSpec
 
@@ -106,8 +107,8 @@ def test_replay_names_a_run_deeper_than_the_learned_sheet_went(lab_cone_run: Pat
                                                               capsys: pytest.CaptureFixture[str]) -> None:
     """A replay reads the depth its run's tip reached (the tracker), not its command's (a nominal run's tip lags:
     replayed on the sheet learned from it, it stays inside)."""
-    reached = path_span(np.loadtxt(lab_cone_run / "tracker.csv", delimiter=",", skiprows=1)[:, 1:] * 1e-3, R)
-    command = np.loadtxt(lab_cone_run / "commanded.csv", delimiter=",", skiprows=1)[:, 1:] * 1e-3
+    run = read_run(lab_cone_run)
+    reached, command = path_span(run.tracker.values, R), run.commanded.values
     assert 1.0 < reached.depth_mm < 1.5  # the tip lagged the command
     # learned 0.2 mm above the tip's deepest: inside its margin for the tip, outside it for the command
     inside = Span(reached.depth_mm - 0.2, 90.0)

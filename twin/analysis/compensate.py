@@ -36,6 +36,7 @@ from twin.sim.spec import TwinSpec
 
 if TYPE_CHECKING:  # the twin (MuJoCo, numba) loads when a spec is built
     from twin.sim.quasi_static import Twin
+    from twin.sim.result import SimResult
 
 TWIN_TOL_M = 1e-5  # rms residual [m]: half the tracker's noise sigma (module docstring)
 TWIN_MAX_ITER = 20
@@ -162,8 +163,7 @@ def compensate_twin(
     frame = frame_compliance_m_per_n(twin.effects)  # a clamping frame that gives [m/N]
     for iteration in range(1, max_iter + 1):
         sim = twin.simulate(t, cmd, q_ik=q_ik)
-        residual = sim.p_sheet_m - p_id
-        residual[:, 2] += frame * sim.f_sheet_n[:, 2]  # the frame's give
+        residual = formed_residual(sim, p_id, frame)
         history.append(float(np.sqrt(np.mean(np.sum(residual**2, axis=1)))))
         if progress is not None:
             progress(iteration, history[-1])
@@ -188,6 +188,14 @@ def compensate_twin(
         f"twin compensation did not reach {tol_m * 1e3:g} mm rms in {max_iter} iterations "
         f"(rms residual after each: {[round(h * 1e3, 4) for h in history]} mm)"
     )
+
+
+def formed_residual(sim: SimResult, p_ideal_sheet_m: np.ndarray, frame_m_per_n: float) -> np.ndarray:
+    """Where the sheet meets the simulated tip, minus U_ID [m], (n, 3): the tip, and on a clamping frame that gives
+    (`twin.sim.giving_frame`, `frame_m_per_n` [m/N]) c f_z above it, where the part is formed."""
+    residual = sim.p_sheet_m - p_ideal_sheet_m
+    residual[:, 2] += frame_m_per_n * sim.f_sheet_n[:, 2]
+    return residual
 
 
 def trust_region_step(tip_gain: np.ndarray, residual: np.ndarray) -> np.ndarray:

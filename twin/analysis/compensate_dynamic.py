@@ -31,10 +31,16 @@ from typing import TYPE_CHECKING, NamedTuple
 import numpy as np
 from scipy.ndimage import gaussian_filter1d
 
-from twin.analysis.compensate import TWIN_TOL_M, Compensation, compensate_twin, trust_region_step
+from twin.analysis.compensate import (
+    TWIN_TOL_M,
+    Compensation,
+    compensate_twin,
+    formed_residual,
+    trust_region_step,
+)
 from twin.base.signals import interp_rows
 from twin.errors import InputError
-from twin.sim.dynamic import DynamicTwin
+from twin.sim.dynamic import DynamicTwin, without_servo
 from twin.sim.dynamic_servo import ServoModel
 from twin.sim.giving_frame import frame_compliance_m_per_n
 from twin.sim.spec import TwinSpec
@@ -108,7 +114,7 @@ def compensate_dynamic(
     start = start if start is not None else compensate_twin(t, p_id, twin, tol_m=tol_m)
     if start.p_cmd_sheet_m.shape != p_id.shape:
         raise InputError(f"the start command has shape {start.p_cmd_sheet_m.shape}; the ideal path {p_id.shape}")
-    still = twin if twin.spec.servo is None else twin.spec.replace(servo=None).build()  # the servo is the dynamic one
+    still = without_servo(twin)  # the servo is the dynamic one
     frame = frame_compliance_m_per_n(still.effects)
     step_s = float(np.median(np.diff(t))) if len(t) > 1 else 1.0
     cmd, sigma, history = start.p_cmd_sheet_m, 0.0, []
@@ -118,14 +124,14 @@ def compensate_dynamic(
         sim = still.simulate(t, cmd)
         dynamic = DynamicTwin(still, sim)
         moving = dynamic.simulate(servo)
-        residual = moving.p_sheet_m - p_id
-        residual[:, 2] += frame * moving.f_sheet_n[:, 2]  # the frame's give, as the quasi-static iteration's
+        residual = formed_residual(moving, p_id, frame)
         history.append(float(np.sqrt(np.mean(np.sum(residual**2, axis=1)))))
         if progress is not None:
             progress(iteration, history[-1])
         if best is None or history[-1] < best[0]:
             best, best_at = (history[-1], cmd, residual, moving.f_sheet_n), iteration
-        sigma = learning_filter_s(dynamic, servo)
+        if iteration == 0:  # the joints' modes at the path's first pose: sub-millimetre steps hardly move them
+            sigma = learning_filter_s(dynamic, servo)
         if history[-1] <= tol_m or iteration - best_at >= STALL_ITERATIONS or iteration == max_iter:
             break
         lead = interp_rows(np.clip(t + servo.delay_s, t[0], t[-1]), t, residual)

@@ -229,6 +229,12 @@ class DynamicTwin:
                        qpos=interp_rows(sim.t_s, t, qpos))
 
 
+def without_servo(twin: Twin) -> Twin:
+    """The twin without its servo transient (`spec.servo`, added after the quasi-static solve): the dynamic servo
+    replaces it. The same twin where it has none."""
+    return twin if twin.spec.servo is None else twin.spec.replace(servo=None).build()
+
+
 def simulate_dynamic(
     twin: Twin, t_s: np.ndarray, p_cmd_sheet_m: np.ndarray, servo: ServoModel | None = None,
     timestep_s: float = TIMESTEP_S,
@@ -245,7 +251,6 @@ def simulate_dynamic(
     Returns:
         The dynamic replay at the command's samples (`DynamicTwin.simulate`).
     """
-    if twin.spec.servo is not None:
-        twin = twin.spec.replace(servo=None).build()
+    twin = without_servo(twin)
     sim = twin.simulate(t_s, p_cmd_sheet_m)
     return DynamicTwin(twin, sim, timestep_s).simulate(servo or ServoModel())

@@ -25,7 +25,7 @@ from twin.analysis.replay import ReplayResult, replay_metrics
 from twin.analysis.resolve import spec_for_run
 from twin.errors import IdentificationError, InputError, RunFormatError
 from twin.runs.format import Run
-from twin.sim.dynamic import DynamicTwin, ServoModel
+from twin.sim.dynamic import DynamicTwin, ServoModel, without_servo
 from twin.sim.measure import predict_forces, predict_tracker
 from twin.sim.quasi_static import Twin
 from twin.sim.spec import TwinSpec
@@ -116,10 +116,7 @@ def stop_lag(run: Run) -> float:
 
 def _twin_for(run: Run, twin: Twin | TwinSpec | None) -> Twin:
     """The quasi-static twin of the run, without a servo transient (the dynamic servo replaces it)."""
-    spec = twin.spec if isinstance(twin, Twin) else spec_for_run(run, twin)
-    if isinstance(twin, Twin) and spec.servo is None:
-        return twin
-    return spec.replace(servo=None).build()
+    return without_servo(twin) if isinstance(twin, Twin) else spec_for_run(run, twin).replace(servo=None).build()
 
 
 def prepare(run: Run, twin: Twin | TwinSpec | None = None) -> DynamicTwin:

@@ -179,10 +179,10 @@ class CompensateReport(Report):
                          f"{r['predicted_residual_max_mm']:.3f} mm, where joint friction flips: reversals, corners, "
                          "stick-slip); the best command is written")
         if self.dynamic is not None:
-            dyn = r["dynamic"]
-            lines.append(f"dynamic twin: rms {dyn['rms_per_iteration_mm'][0]:.4f} mm on the quasi-static command -> "
-                         f"{r['predicted_residual_rms_mm']:.4f} mm in {len(dyn['rms_per_iteration_mm']) - 1} "
-                         f"iteration(s) (learning filter sigma {dyn['learning_filter_ms']:.1f} ms); predicted")
+            history = r["residual_rms_per_iteration_mm"]  # the dynamic twin's, the first on the quasi-static command
+            lines.append(f"dynamic twin: rms {history[0]:.4f} mm on the quasi-static command -> "
+                         f"{r['predicted_residual_rms_mm']:.4f} mm in {len(history) - 1} iteration(s) (learning "
+                         f"filter sigma {r['dynamic']['learning_filter_ms']:.1f} ms); predicted")
         if abs(self.gain - 1.0) > GAIN_WARNING:
             lines.append(f"warning: {self.gain_diagnosis}")
         return lines
@@ -208,7 +208,6 @@ class CompensateReport(Report):
             "effects": dict(self.spec.effects.values),
             "dynamic": None if self.dynamic is None else {
                 "servo": self.dynamic.servo.to_json(),
-                "rms_per_iteration_mm": [1e3 * h for h in self.compensation.history_m],
                 "quasi_static_rms_per_iteration_mm": [1e3 * h for h in self.dynamic.quasi_static.history_m],
                 "learning_filter_ms": 1e3 * self.dynamic.smoothing_s},
         }
