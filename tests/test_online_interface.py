@@ -37,7 +37,8 @@ class Constant:
     def __init__(self, correction_m: np.ndarray) -> None:
         self.correction_m = np.asarray(correction_m, dtype=float)
 
-    def step(self, t_s: float, sample_t_s: float, f_sheet_n: np.ndarray, q_rad: np.ndarray) -> int:
+    def step(self, t_s: float, sample_t_s: float, f_sheet_n: np.ndarray, q_rad: np.ndarray,
+             q_planned_rad: np.ndarray | None = None) -> int:
         return 0
 
 

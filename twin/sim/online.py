@@ -6,7 +6,12 @@ the deflection C(q) F with C(q) = J(q) K_q^-1 J(q)^T, the translational Jacobian
 current joints and the twin's joint stiffness (a `learn`ed model's where given), plus constant compliances in series
 (the tool's own bending, a clamping frame's give along the sheet's normal: `twin.sim.giving_frame`), and the lag of
 its joint friction, -sum_j J_j tanh(qdot_j / w0) tau_f,j / K_j (each joint's Coulomb friction tau_f against its
-motion, its speed from the joints of successive cycles). The compensator commands the tip the other way and does what a real signal
+motion, its speed from the joints of successive cycles: the controller's planned joints where its interface reports
+them, KUKA RSI's `ASPos`, ABB EGM's `planned.joints`; else the measured ones). The planned motion is the one the
+friction opposes on average and the one `learn` signs it by; a measured joint's speed also carries the arm's own
+vibration and the correction's motion, and with w0 at 2e-4 rad/s a measured joint that barely moves turns the term's
+sign back and forth (on the dynamic plant's groove, nominal command, in-sample learned model, the true tip's rms
+0.30 mm with the measured sign, 0.24 mm with the planned one). The compensator commands the tip the other way and does what a real signal
 needs:
 
 * **filtering**: a first-order low-pass on the force (`filter_hz`), so sensor noise does not reach the motors;
@@ -149,7 +154,8 @@ class OnlineCompensator:
         """Samples rejected as spikes so far."""
         return int(self._state[SPIKES])
 
-    def step(self, t_s: float, sample_t_s: float, f_sheet_n: np.ndarray, q_rad: np.ndarray) -> int:
+    def step(self, t_s: float, sample_t_s: float, f_sheet_n: np.ndarray, q_rad: np.ndarray,
+             q_planned_rad: np.ndarray | None = None) -> int:
         """One controller cycle.
 
         Args:
@@ -157,6 +163,9 @@ class OnlineCompensator:
             sample_t_s: Stamp of the newest F/T sample [s] (the same as last cycle's: no new sample; NaN: none yet).
             f_sheet_n: That sample: the force of the sheet on the tool, sheet frame [N], shape (3,).
             q_rad: The robot's joints now [rad], shape (dof,).
+            q_planned_rad: The controller's planned joints now, without the correction [rad], shape (dof,), where
+                its interface reports them: their motion signs the friction's lag (module docstring). None: the
+                measured joints' motion does. Give them every cycle or never.
 
         Returns:
             The cycle's status (`STATUS`); the correction is in `correction_m` [m], sheet frame: add it to the
@@ -164,7 +173,8 @@ class OnlineCompensator:
         """
         return int(online_cycle(self._chain, self._params, self.k_inv, self.friction_nm, self._c_tool, self._assumed_p,
                                 self._assumed_f, self._state, self._q_prev,
-                          float(t_s), float(sample_t_s), f_sheet_n, q_rad, self._p, self._jac, self._g))
+                                float(t_s), float(sample_t_s), f_sheet_n, q_rad,
+                                q_rad if q_planned_rad is None else q_planned_rad, self._p, self._jac, self._g))
 
 
 __all__ = ["HOLDING", "NO_SENSOR", "RAMPING", "SPIKE", "STATUS", "TRACKING", "AssumedForces", "OnlineCompensator", "OnlineSettings"]

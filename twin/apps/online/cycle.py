@@ -184,6 +184,7 @@ class ServedCycle:
         self._sign = np.array(robot.controller_sign or (1.0,) * robot.dof)
         self._offset = np.array(robot.controller_offset_rad or (0.0,) * robot.dof)
         self.q_rad = np.zeros(robot.dof)
+        self.q_planned_rad = np.zeros(robot.dof)
         self.force_n = np.zeros(3)
         self.stamp_s = math.nan
         self.correction_base_mm = np.zeros(3)
@@ -225,8 +226,11 @@ class ServedCycle:
         self.rejected += 1
         return self.correction_base_mm
 
-    def step(self, t_s: float, axes_deg: np.ndarray | tuple[float, ...]) -> np.ndarray:
-        """One cycle: the controller's axes [deg] at time `t_s` [s], with the F/T sample last put in `force_n`
+    def step(self, t_s: float, axes_deg: np.ndarray | tuple[float, ...],
+             planned_deg: np.ndarray | tuple[float, ...] | None = None) -> np.ndarray:
+        """One cycle: the controller's axes [deg] at time `t_s` [s] (and its planned axes [deg], without the
+        correction, where its interface reports them: their motion signs the friction's lag, `twin.sim.online`),
+        with the F/T sample last put in `force_n`
         (sheet frame [N]) measured at `stamp_s` [s] (NaN: none yet). Returns the correction, base frame [mm]
         (a view of `correction_base_mm`). A time or an axis not finite is not given to the compensator (its state
         would stay NaN): the cycle is rejected and answered with the last correction (`hold`). A sample already
@@ -238,12 +242,21 @@ class ServedCycle:
         self.q_rad *= math.pi / 180.0
         self.q_rad -= self._offset
         self.q_rad /= self._sign
+        planned = None
+        if planned_deg is not None:
+            planned = self.q_planned_rad
+            planned[:] = planned_deg
+            if not math.isfinite(float(planned.sum())):
+                return self.hold()
+            planned *= math.pi / 180.0
+            planned -= self._offset
+            planned /= self._sign
         f, spike = self.force_n, self._spike_n
         sample_s = self.stamp_s
         if sample_s == self._given_stamp or (f[0] == spike[0] and f[1] == spike[1] and f[2] == spike[2]):
             sample_s = math.nan  # no new sample this cycle: the compensator's clock and watchdog go on
         self._before_m[:] = self.compensator.correction_m
-        status = self.compensator.step(t_s, sample_s, f, self.q_rad)
+        status = self.compensator.step(t_s, sample_s, f, self.q_rad, planned)
         if status == SPIKE:
             spike[:] = f
         elif sample_s == sample_s:  # a new sample taken: the spike (if any) is over

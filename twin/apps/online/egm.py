@@ -13,7 +13,9 @@ robot's base frame; this server turns it into path coordinates from the planned 
 direction from the planned positions of successive messages (the last one kept while the robot stands), the
 tool's z from the planned orientation. Which way ABB's path frame points at a standstill is not documented where
 we could read it; the correction there is sent in the last moving frame. `age` is sent as 1 ms, as
-`abb-robot-client` does. These conventions are read from those sources, not tried on a controller.
+`abb-robot-client` does. These conventions are read from those sources, not tried on a controller. The message's
+planned joints (`planned.joints`, `egm.proto`'s `EgmPlanned`), where it carries them, sign the friction's lag
+(`twin.sim.online`); a message without them leaves it to the feedback joints.
 
 The F/T sample comes from a `ForceSource` (the sensor's own stream, `twin.apps.online.rdt`) or, without one, from
 the message's `measuredForce` (ABB Force Control's sensor, its first three values taken as the sheet-frame force
@@ -93,6 +95,19 @@ class PathFrame:
         a[2, 0], a[2, 1], a[2, 2] = z0, z1, z2
 
 
+def read_planned(message: Any, planned: np.ndarray) -> np.ndarray | None:
+    """The message's planned joints (`planned.joints`, without the correction) into `planned` (in place), or None
+    where it carries fewer than `planned` holds."""
+    if not message.planned.HasField("joints"):
+        return None
+    joints = message.planned.joints.joints
+    if len(joints) < len(planned):
+        return None
+    for i in range(len(planned)):
+        planned[i] = joints[i]
+    return planned
+
+
 def read_feedback(message: Any, packet: bytes, axes: np.ndarray) -> bool:
     """Parse a robot's EGM message into `message` and its feedback joints into `axes` (in place); False for one
     that cannot be read (protobuf's DecodeError, or fewer joints than `axes`)."""
@@ -154,7 +169,7 @@ class EgmServer:
         robot_msg, reply = pb.EgmRobot(), pb.EgmSensorPathCorr()
         reply.header.mtype = pb.EgmHeader.MessageType.Value("MSGTYPE_PATH_CORRECTION")
         reply.pathCorr.age = 1
-        axes = np.zeros(self.robot.dof)
+        axes, planned_q = np.zeros(self.robot.dof), np.zeros(self.robot.dof)
         corr_path = np.zeros(3)
 
         def answer(packet: bytes, received_s: float) -> bytes | None:
@@ -169,7 +184,7 @@ class EgmServer:
                 cycle.hold()  # a value not finite: the last correction, in the last frame
             else:
                 frame.update(cartesian.pos, orient)
-                np.dot(frame.axes, cycle.step(t, axes), out=corr_path)
+                np.dot(frame.axes, cycle.step(t, axes, read_planned(robot_msg, planned_q)), out=corr_path)
             reply.header.seqno += 1
             reply.header.tm = robot_msg.header.tm
             if cycle.rejected == rejected:

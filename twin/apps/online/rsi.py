@@ -2,7 +2,8 @@
 online compensator's correction (`RKorr`) and echoing the packet's `IPOC`.
 
 Each interpolation cycle (4 or 12 ms) the controller sends `<Rob Type="KUKA">` with the actual pose (`RIst`), the
-axes (`AIPos`, degrees) and `<IPOC>` (its time stamp, ms); the answer must come within the cycle (KUKA RSI; the
+axes (`AIPos`, degrees), the set-point axes (`ASPos`, degrees: the planned motion without the correction, which
+signs the friction's lag, `twin.sim.online`) and `<IPOC>` (its time stamp, ms); the answer must come within the cycle (KUKA RSI; the
 ros-industrial `kuka_rsi_hw_interface` reads the same fields). The F/T sample comes in the robot's packet, as an
 `<FT Fx= Fy= Fz=/>` element the cell's RSI configuration adds from the sensor it reads (sheet frame, N); a packet
 without one is a cycle without a new sample, which the compensator's watchdog handles. Or it comes from the
@@ -36,6 +37,7 @@ from twin.sim.online import OnlineCompensator
 
 _IPOC = re.compile(rb"<IPOC>\s*(\d+)\s*</IPOC>")
 _AXES = re.compile(rb"<AIPos\b([^>]*)/>")
+_PLANNED = re.compile(rb"<ASPos\b([^>]*)/>")
 _FT = re.compile(rb"<FT\b([^>]*)/>")
 _ATTR = re.compile(rb'(\w+)\s*=\s*"([^"]*)"')
 #: The answer, its numbers filled in each cycle.
@@ -45,28 +47,28 @@ SEN = ('<Sen Type="ImFree"><RKorr X="{:.4f}" Y="{:.4f}" Z="{:.4f}" A="0.0000" B=
 
 class RobPacket(NamedTuple):
     """What the twin reads of a `<Rob>` packet: the stamp [ms], the axes [deg], the F/T sample (sheet frame, N)
-    or None."""
+    or None, the set-point axes (`ASPos`) [deg] or None."""
 
     ipoc: int
     axes_deg: tuple[float, ...]
     force_n: tuple[float, float, float] | None
+    planned_deg: tuple[float, ...] | None = None
 
 
 def parse_rob(packet: bytes, dof: int) -> RobPacket:
     """Read a `<Rob>` packet.
 
     Raises:
-        InputError: No `IPOC`, or no `AIPos` with A1..A<dof> as numbers (naming what is missing).
+        InputError: No `IPOC`, no `AIPos` with A1..A<dof> as numbers, or an `ASPos` without them (naming what is
+            missing).
     """
     ipoc = _IPOC.search(packet)
     axes = _AXES.search(packet)
     if ipoc is None or axes is None:
         raise InputError(f"RSI packet without {'<IPOC>' if ipoc is None else '<AIPos .../>'}: {packet[:120]!r}")
-    attrs = dict(_ATTR.findall(axes.group(1)))
-    try:
-        angles = tuple(float(attrs[f"A{i + 1}".encode()]) for i in range(dof))
-    except (KeyError, ValueError):
-        raise InputError(f"RSI packet's AIPos needs A1..A{dof} as numbers: {axes.group(0)!r}") from None
+    angles = _angles(axes, dof, "AIPos")
+    aspos = _PLANNED.search(packet)
+    planned = None if aspos is None else _angles(aspos, dof, "ASPos")
     ft = _FT.search(packet)
     force = None
     if ft is not None:
@@ -75,7 +77,16 @@ def parse_rob(packet: bytes, dof: int) -> RobPacket:
             force = (float(f[b"Fx"]), float(f[b"Fy"]), float(f[b"Fz"]))
         except (KeyError, ValueError):
             raise InputError(f"RSI packet's FT needs Fx, Fy, Fz as numbers [N]: {ft.group(0)!r}") from None
-    return RobPacket(int(ipoc.group(1)), angles, force)
+    return RobPacket(int(ipoc.group(1)), angles, force, planned)
+
+
+def _angles(element: re.Match[bytes], dof: int, tag: str) -> tuple[float, ...]:
+    """A1..A<dof> of an axes element [deg]."""
+    attrs = dict(_ATTR.findall(element.group(1)))
+    try:
+        return tuple(float(attrs[f"A{i + 1}".encode()]) for i in range(dof))
+    except (KeyError, ValueError):
+        raise InputError(f"RSI packet's {tag} needs A1..A{dof} as numbers: {element.group(0)!r}") from None
 
 
 def sen_packet(ipoc: int, correction_base_mm: np.ndarray) -> bytes:
@@ -130,6 +141,6 @@ class RsiServer:
                 t = 1e-3 * rob.ipoc
                 if rob.force_n is not None and not cycle.put_force(*rob.force_n, t):
                     return sen_packet(rob.ipoc, cycle.hold())  # an F/T value not finite: the last correction
-            return sen_packet(rob.ipoc, cycle.step(t, rob.axes_deg))
+            return sen_packet(rob.ipoc, cycle.step(t, rob.axes_deg, rob.planned_deg))
 
         return serve_udp(self.sock, max_cycles, idle_timeout_s, answer, cycle, start_timeout_s)

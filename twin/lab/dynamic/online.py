@@ -68,13 +68,16 @@ class OnlineFt:
 
 class CycleCorrector(Protocol):
     """What the controller calls each cycle when it compensates online (the twin's `OnlineCompensator`, or any
-    other): the newest F/T sample and the motor angles in, a Cartesian correction of the tool tip out."""
+    other): the newest F/T sample, the motor angles and the controller's own set-points in (as a real controller's
+    interface reports them), a Cartesian correction of the tool tip out."""
 
     cycle_s: float
     correction_m: np.ndarray  # the last cycle's correction, sheet frame [m], shape (3,)
 
-    def step(self, t_s: float, sample_t_s: float, f_sheet_n: np.ndarray, q_rad: np.ndarray) -> int:
-        """One cycle; returns a status code."""
+    def step(self, t_s: float, sample_t_s: float, f_sheet_n: np.ndarray, q_rad: np.ndarray,
+             q_planned_rad: np.ndarray | None = None) -> int:
+        """One cycle (q_rad: the motor angles; q_planned_rad: the controller's set-points, as RSI's `ASPos` and EGM's
+        `planned.joints` report them); returns a status code."""
         ...
 
 
@@ -124,7 +127,7 @@ class OnlineCycle:
         stamp, f = self.ft.sample(t, k, ft_log, R_log)
         i = k // self.every
         start = time.perf_counter()
-        self.status[i] = self.corrector.step(t, stamp, f, q_motor)
+        self.status[i] = self.corrector.step(t, stamp, f, q_motor, self.q_sp[k])
         self.s[i] = time.perf_counter() - start
         self.t[i], self.c[i] = t, self.corrector.correction_m
         if k % self.hold:

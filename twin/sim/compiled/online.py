@@ -98,12 +98,13 @@ def progress(path, state, x0, x1, x2, alpha):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True)
-def online_cycle(chain, params, k_inv, friction, c_tool, assumed_p, assumed_f, state, q_prev, t, sample_t, f, q, p, jac, g):  # type: ignore[no-untyped-def]
+def online_cycle(chain, params, k_inv, friction, c_tool, assumed_p, assumed_f, state, q_prev, t, sample_t, f, q, q_ref, p, jac, g):  # type: ignore[no-untyped-def]
     """One cycle on preallocated arrays (`OnlineCompensator.step`); returns the status.
 
     `c_tool`: the tool's own bending compliance at the tip, sheet frame [m/N], (3, 3) (zeros: a rigid tool; constant
     while the tool is held down). `assumed_p`, `assumed_f`: an offline command's tool tips (sheet frame [m], (n, 3))
-    and the force it assumed at each ([N], (n, 3)); n = 0: a nominal command."""
+    and the force it assumed at each ([N], (n, 3)); n = 0: a nominal command. `q_ref`: the joints whose motion
+    signs the friction's lag (the controller's planned joints where it reports them, else `q`)."""
     omega, latency, spike, max_corr, max_rate = params[1], params[2], params[3], params[4], params[5]
     stale, hold, gain, spike_run, w0 = params[6], params[7], params[8], params[9], params[10]
     cycle = params[0]
@@ -163,7 +164,7 @@ def online_cycle(chain, params, k_inv, friction, c_tool, assumed_p, assumed_f, s
             for j in range(k_inv.shape[0]):
                 w = k_inv[j] * (jac[0, j] * fp0 + jac[1, j] * fp1 + jac[2, j] * fp2)
                 if state[HAVE_Q] != 0.0 and n_assumed == 0:  # the friction's lag: -J_j s_j tau_j / K_j
-                    w -= k_inv[j] * friction[j] * math.tanh((q[j] - q_prev[j]) / cycle / w0)
+                    w -= k_inv[j] * friction[j] * math.tanh((q_ref[j] - q_prev[j]) / cycle / w0)
                 d0 += jac[0, j] * w
                 d1 += jac[1, j] * w
                 d2 += jac[2, j] * w
@@ -181,7 +182,7 @@ def online_cycle(chain, params, k_inv, friction, c_tool, assumed_p, assumed_f, s
         else:
             status = RAMPING
     for j in range(q.shape[0]):
-        q_prev[j] = q[j]
+        q_prev[j] = q_ref[j]
     state[HAVE_Q] = 1.0
     # the rate limit per unit of the controller's time: calls that come faster than its cycle (a burst, a second
     # sender) move the correction no faster; a first call counts one cycle, a call back in time none
