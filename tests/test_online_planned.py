@@ -1,0 +1,98 @@
+"""The friction's lag signed by the controller's planned joints (`twin.sim.online`): a measured joint that shakes
+about a steady planned motion no longer turns the correction back and forth; each interface passes the planned
+joints it reports (RSI's `ASPos`, EGM's `planned.joints`), and one not finite is rejected like a bad axis."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from twin.apps.export.krl_rsi import ETHERNET
+from twin.apps.online.cycle import ServedCycle
+from twin.apps.online.egm import egm_messages, read_planned
+from twin.apps.online.rsi import parse_rob
+from twin.errors import InputError
+from twin.robot.description import load_robot
+from twin.sim.online import OnlineCompensator, OnlineSettings
+from twin.sim.spec import TwinSpec
+
+CYCLE_S = 0.004
+F_N = np.array([300.0, -100.0, 1800.0])
+SHAKE_RAD = 2e-5  # the measured joints' back-and-forth about the plan each cycle: 5 mrad/s, 25 x the tanh's width
+
+
+def _corrections(planned_given: bool, n: int = 400) -> np.ndarray:
+    """The correction each cycle [m] while joints 2, 3 and 5 (the ones with friction) move steadily on the plan at
+    2 mrad/s and the measured joints shake about it."""
+    spec = TwinSpec()
+    comp = OnlineCompensator(spec, OnlineSettings(max_rate_mm_s=1000.0))
+    q0 = np.asarray(spec.build().robot.q_home_rad, dtype=float)
+    speed = np.array([0.0, 2e-3, -2e-3, 0.0, 2e-3, 0.0])
+    out = np.zeros((n, 3))
+    for k in range(n):
+        q_plan = q0 + speed * CYCLE_S * k
+        q_meas = q_plan + SHAKE_RAD * (-1.0) ** k
+        comp.step(CYCLE_S * k, CYCLE_S * k, F_N, q_meas, q_plan if planned_given else None)
+        out[k] = comp.correction_m
+    return out
+
+
+def test_a_shaking_measured_joint_does_not_turn_the_friction_term_when_the_plan_is_given() -> None:
+    """With the plan: the correction moves by under 1 um from one cycle to the next (the Jacobian's drift along the
+    motion); with the measured joints alone the friction's term flips each cycle and the correction swings by more
+    than 0.1 mm (0.73 mm here) every cycle."""
+    planned, measured = _corrections(True)[-100:], _corrections(False)[-100:]
+    assert np.abs(np.diff(planned, axis=0)).max() < 1e-6
+    assert np.abs(np.diff(measured, axis=0)).max() > 1e-4
+
+
+def test_the_planned_joints_friction_term_is_the_steady_motions() -> None:
+    """Given the plan, the correction is the one of a robot that follows the plan without shaking (the Jacobian at
+    the measured joints moves it by far less than a micrometre)."""
+    spec = TwinSpec()
+    comp = OnlineCompensator(spec, OnlineSettings(max_rate_mm_s=1000.0))
+    q0 = np.asarray(spec.build().robot.q_home_rad, dtype=float)
+    speed = np.array([0.0, 2e-3, -2e-3, 0.0, 2e-3, 0.0])
+    for k in range(400):
+        q_plan = q0 + speed * CYCLE_S * k
+        comp.step(CYCLE_S * k, CYCLE_S * k, F_N, q_plan)
+    steady = comp.correction_m.copy()
+    np.testing.assert_allclose(_corrections(True)[-1], steady, atol=1e-6)
+
+
+def test_rsi_reads_the_set_point_axes_and_names_a_bad_one() -> None:
+    packet = ('<Rob Type="KUKA"><AIPos A1="1" A2="2" A3="3" A4="4" A5="5" A6="6"/>'
+              '<ASPos A1="1.5" A2="2" A3="3" A4="4" A5="5" A6="6.5"/><IPOC>9</IPOC></Rob>')
+    rob = parse_rob(packet.encode(), 6)
+    assert rob.axes_deg == (1.0, 2.0, 3.0, 4.0, 5.0, 6.0) and rob.planned_deg == (1.5, 2.0, 3.0, 4.0, 5.0, 6.5)
+    assert parse_rob(packet.replace('<ASPos A1="1.5" A2="2" A3="3" A4="4" A5="5" A6="6.5"/>', "").encode(),
+                     6).planned_deg is None
+    with pytest.raises(InputError, match=r"ASPos needs A1\.\.A6"):
+        parse_rob(packet.replace('A6="6.5"', 'A6="x"').encode(), 6)
+    assert '<ELEMENT TAG="DEF_ASPos" TYPE="DOUBLE" INDX="INTERNAL" />' in ETHERNET  # the context sends them
+
+
+def test_egm_reads_the_planned_joints_where_the_message_has_them() -> None:
+    pb = egm_messages()
+    msg, planned = pb.EgmRobot(), np.zeros(6)
+    assert read_planned(msg, planned) is None
+    msg.planned.joints.joints.extend([1.0, 2.0, 3.0])
+    assert read_planned(msg, planned) is None  # fewer than the robot's
+    msg.planned.joints.joints.extend([4.0, 5.0, 6.0])
+    np.testing.assert_array_equal(read_planned(msg, planned), [1.0, 2.0, 3.0, 4.0, 5.0, 6.0])
+
+
+@pytest.mark.parametrize("bad", [float("nan"), float("inf")])
+def test_planned_axes_not_finite_are_rejected_and_the_correction_held(bad: float) -> None:
+    spec = TwinSpec()
+    robot = load_robot("tx200")
+    cycle = ServedCycle(OnlineCompensator(spec), robot, spec.build().R_base_sheet)
+    axes = np.degrees(np.asarray(robot.q_home_rad))
+    for k in range(50):
+        cycle.put_force(*F_N, CYCLE_S * k)
+        before = cycle.step(CYCLE_S * k, axes, axes).copy()
+    cycle.put_force(*F_N, CYCLE_S * 50)
+    planned = axes.copy()
+    planned[2] = bad
+    np.testing.assert_array_equal(cycle.step(CYCLE_S * 50, axes, planned), before)
+    assert cycle.rejected == 1
