@@ -110,16 +110,18 @@ def test_the_pages_words_on_predicting_over_the_period_are_its_table():
     pairs = [(v, i, 3, 0) for i in (ALL, PATH) for v in ("groove-default", "cone-default")]
     pairs += [("groove-default", ALL, 3, 1), ("cone-default", PATH, 3, 1)]
     said = quoted("online.md", "With the default model the rms goes", 2 * len(pairs))
-    said += quoted("online.md", "Only the learned model on the groove, all axes, gains", 2)
+    said += quoted("online.md", "The learned model on the groove, all axes, stays where it was", 2)
     for k, (variant, interface, column, at) in enumerate([*pairs, ("groove-default", ALL, 4, 0)]):
         before, after = _cell(doc, variant, interface, column, at), _cell(doc, variant, interface + OVER, column, at)
         said[2 * k].check(before)
         said[2 * k + 1].check(after)
-    assert _cell(doc, "groove-default", ALL + OVER, 4) < _cell(doc, "groove-default", ALL, 4)  # "gains"
+    assert abs(_cell(doc, "groove-default", ALL + OVER, 4) - _cell(doc, "groove-default", ALL, 4)) <= 0.011
+    grows = 0
     for v in ("groove-default", "cone-default"):
         for i in (ALL, PATH):
             assert _cell(doc, v, i + OVER) >= _cell(doc, v, i)  # the default model: "does not help"
-            assert _cell(doc, v, i + OVER, 3, 1) > _cell(doc, v, i, 3, 1)  # "the largest error grows"
+            grows += _cell(doc, v, i + OVER, 3, 1) > _cell(doc, v, i, 3, 1)
+    assert grows == 3  # "the largest error grows in three of the four"
 
 
 @pytest.mark.parametrize(("interface", "along", "period_s"), [
@@ -213,7 +215,7 @@ def test_the_pages_words_on_a_model_learned_from_another_part_are_its_table() ->
         less[(cells[0], cells[1])] = [float(c.split("(")[1].split(";")[0]) for c in cells[2:]]  # less the offset
         true[(cells[0], cells[1])] = [float(c.split("; true ")[1].rstrip(")")) for c in cells[2:]]  # the true tip
     better = {("kr210", "cone 80 x 8"): (True, True), ("kr210", "pyramid"): (True, True),
-              ("tx200", "cone 80 x 8"): (True, True), ("tx200", "pyramid"): (None, False),
+              ("tx200", "cone 80 x 8"): (True, True), ("tx200", "pyramid"): (None, True),
               ("tx200", "groove"): (False, False)}
     for key, (offline, online) in better.items():
         r = rms[key]
@@ -228,9 +230,13 @@ def test_the_pages_words_on_a_model_learned_from_another_part_are_its_table() ->
     assert all(min(r[1:]) > (0.15 if part == "pyramid" else 0.10) for (_, part), r in rms.items())
     # on the true tip the learned online compensation of the wider cone meets #50's 0.10 mm on both robots; the
     # pyramids and the groove do not
-    assert [true[(robot, "cone 80 x 8")][4] for robot in ("tx200", "kr210")] == pytest.approx([0.05, 0.08], abs=0.011)
-    assert [true[(robot, "pyramid")][4] for robot in ("tx200", "kr210")] == pytest.approx([0.25, 0.30], abs=0.011)
-    assert true[("tx200", "groove")][4] == pytest.approx(0.33, abs=0.011) and true[("tx200", "groove")][4] > 0.10
+    said = quoted("online.md", "On the true tip the learned model's online compensation of the wider cone", 5)
+    for k, value in enumerate([true[("tx200", "cone 80 x 8")][4], true[("kr210", "cone 80 x 8")][4],
+                               true[("tx200", "pyramid")][4], true[("kr210", "pyramid")][4],
+                               true[("tx200", "groove")][4]]):
+        said[k].check(value)
+    assert max(true[(robot, "cone 80 x 8")][4] for robot in ("tx200", "kr210")) <= 0.10
+    assert min(true[(robot, "pyramid")][4] for robot in ("tx200", "kr210")) > 0.15 and true[("tx200", "groove")][4] > 0.10
 
 
 def test_the_pages_words_on_the_second_sheet_law_are_its_table() -> None:

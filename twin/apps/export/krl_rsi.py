@@ -38,6 +38,11 @@ the world when `$ROBROOT` is the null frame, a floor-mounted robot on no linear 
 - the **correction monitor** (`PosCorrMon`), `MaxTrans` = sqrt(3) x the limit (the most the clipped correction
   can reach: it stops the robot only if the limits failed) and `MaxRotAngle` 1 deg.
 
+Its Ethernet configuration (`ETHERNET`) sends the actual pose and axes (`DEF_RIst`, `DEF_AIPos`), the set-point
+axes (`DEF_ASPos`: the planned motion without the correction, which signs the friction's lag in the compensator,
+`twin.sim.online`) and the late-packet count (`DEF_Delay`), each `INDX="INTERNAL"` as ros-industrial's
+`kuka_rsi_hw_interface/krl/KR_C4/ros_rsi_ethernet.xml` declares them, and the F/T sample on channels 1-3.
+
 What could be read in public files: the `.rsix` layout (`RsiContext`, `RsiObjects`, `RsiObject ObjTypeId ObjType
 ObjId`, `Inputs/Input InIdx OutObjId OutIdx`, `Parameters/Parameter Name ParamId ParamValue`), the ETHERNET object
 and its four parameters (`ros_rsi.rsix`); `PosCorr` type 27 with `LowerLimX..UpperLimZ` at ids 0-5 and inputs 0-5
