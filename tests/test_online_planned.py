@@ -96,3 +96,60 @@ def test_planned_axes_not_finite_are_rejected_and_the_correction_held(bad: float
     planned[2] = bad
     np.testing.assert_array_equal(cycle.step(CYCLE_S * 50, axes, planned), before)
     assert cycle.rejected == 1
+
+
+def test_the_rsi_server_signs_the_friction_by_the_packets_set_points() -> None:
+    """A fake KUKA on 127.0.0.1 sends shaking actual axes (`AIPos`) and steady set-points (`ASPos`): the server's
+    last `RKorr` is a direct compensator's given both, not one given the actual axes alone."""
+    import socket
+    import threading
+
+    from twin.apps.online.rsi import RsiServer
+
+    spec = TwinSpec()
+    twin = spec.build()
+    robot = twin.robot
+    server = RsiServer(OnlineCompensator(spec, OnlineSettings(max_rate_mm_s=1000.0)), robot)
+    report: dict[str, object] = {}
+    n = 120
+    thread = threading.Thread(target=lambda: report.setdefault("r", server.serve(twin.R_base_sheet, n, 2.0)))
+    thread.start()
+    q0 = np.asarray(robot.q_home_rad, dtype=float)
+    speed = np.array([0.0, 2e-3, -2e-3, 0.0, 2e-3, 0.0])
+    planned = [q0 + speed * CYCLE_S * k for k in range(n)]
+    measured = [q + SHAKE_RAD * (-1.0) ** k for k, q in enumerate(planned)]
+
+    def axes(tag: str, q: np.ndarray) -> str:
+        a = np.degrees(robot.controller_angles(q))
+        return f"<{tag} " + " ".join(f'A{i + 1}="{v:.6f}"' for i, v in enumerate(a)) + "/>"
+
+    client = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    client.settimeout(0.5)
+    try:
+        for k in range(n):  # bounded: n packets, each answered or timed out
+            packet = (f'<Rob Type="KUKA">{axes("AIPos", measured[k])}{axes("ASPos", planned[k])}'
+                      f'<FT Fx="{F_N[0]}" Fy="{F_N[1]}" Fz="{F_N[2]}"/><IPOC>{4 * k}</IPOC></Rob>')
+            client.sendto(packet.encode(), ("127.0.0.1", server.port))
+            answer = client.recvfrom(4096)[0]
+    finally:
+        client.close()
+        thread.join(timeout=5.0)
+        server.close()
+    import re
+
+    m = re.search(rb'<RKorr X="([-\d.]+)" Y="([-\d.]+)" Z="([-\d.]+)"', answer)
+    assert m is not None
+    got_mm = np.array([float(v) for v in m.groups()])
+    both, alone = (OnlineCompensator(spec, OnlineSettings(max_rate_mm_s=1000.0)) for _ in range(2))
+    for k in range(n):
+        # the packet's axes as the server reads them: 6 decimals of a degree
+        q_m = np.radians(np.round(np.degrees(robot.controller_angles(measured[k])), 6))
+        q_p = np.radians(np.round(np.degrees(robot.controller_angles(planned[k])), 6))
+        sign = np.asarray(robot.controller_sign or (1.0,) * robot.dof)
+        offset = np.asarray(robot.controller_offset_rad or (0.0,) * robot.dof)
+        q_m, q_p = (q_m - offset) / sign, (q_p - offset) / sign
+        both.step(0.004 * k, 0.004 * k, F_N, q_m, q_p)
+        alone.step(0.004 * k, 0.004 * k, F_N, q_m)
+    assert report["r"].cycles == n  # type: ignore[attr-defined]
+    np.testing.assert_allclose(got_mm, 1e3 * twin.R_base_sheet @ both.correction_m, atol=2e-3)
+    assert np.linalg.norm(got_mm - 1e3 * twin.R_base_sheet @ alone.correction_m) > 0.05
