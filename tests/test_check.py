@@ -265,3 +265,15 @@ def test_right_forces_never_explain_a_gain_near_one(gain: float) -> None:
     cause = name_cause(gain, CompensationRecord("twin", t, f), t, f)
     assert cause.cause == "compliance" and cause.force_scale == pytest.approx(1.0)
     assert "symmetry" not in cause.text
+
+
+def test_a_force_scale_nearer_the_gain_than_one_is_named_the_cause() -> None:
+    """A learned cell's check (IRB 6640, cone 80 x 8): gain 0.907 and force scale 0.91. The scale is within 10 % of
+    1, but it is the gain: the forces are named, not the compliance."""
+    from twin.analysis.gain_cause import name_cause
+
+    t = np.linspace(0.0, 10.0, 200)
+    f = np.column_stack([200.0 * np.sin(t), np.zeros_like(t), -800.0 - 100.0 * np.cos(t)])
+    cause = name_cause(0.907, CompensationRecord("twin", t, 0.91 * f), t, f)
+    assert cause.cause == "force_scale" and cause.force_scale == pytest.approx(0.91)
+    assert "compliance it used is off" not in cause.text
