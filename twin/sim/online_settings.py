@@ -32,6 +32,12 @@ class OnlineSettings:
         stale_s: A sample older than this is stale [s].
         hold_s: A stale correction is held this long before it ramps out [s].
         gain: Share of the predicted deflection corrected [-] (1: all of it).
+        side_share: Across the tool's travel, the correction is taken in full where the sheet's side force is at
+            least this share of its normal force (a wall on one side: an incremental cone's or pyramid's wall
+            pushes with 0.15-0.3 of Fz), and scaled down in proportion below it, to nothing where the side force is
+            nil (a groove, whose walls hold the tool from both sides: its side force is their reaction to where the
+            arm puts the tool, and correcting it closes a loop through their stiffness) [-]. 0: taken in full
+            everywhere.
     """
 
     cycle_s: float = 0.004
@@ -45,6 +51,7 @@ class OnlineSettings:
     stale_s: float = 0.1
     hold_s: float = 0.1
     gain: float = 1.0
+    side_share: float = 0.1
 
     def __post_init__(self) -> None:
         if not (isinstance(self.spike_run, int) and self.spike_run >= 0):
@@ -53,13 +60,17 @@ class OnlineSettings:
             if f.name == "spike_run":
                 continue
             value = getattr(self, f.name)
-            ok = math.isfinite(value) and (value >= 0.0 if f.name in ("latency_s", "hold_s") else value > 0.0)
+            zero_ok = f.name in ("latency_s", "hold_s", "side_share")
+            ok = math.isfinite(value) and (value >= 0.0 if zero_ok else value > 0.0)
             if not ok:
                 raise InputError(f"online setting {f.name} = {value!r}: expected a finite number "
-                                 f"{'>= 0' if f.name in ('latency_s', 'hold_s') else '> 0'}")
+                                 f"{'>= 0' if zero_ok else '> 0'}")
         if self.period_s > 1.0:
             raise InputError(f"online setting period_s = {self.period_s!r}: expected the controller's correction "
                              "period, a finite number > 0 and at most 1 s (ABB EGM path correction: 0.048)")
+        if self.side_share > 1.0:
+            raise InputError(f"online setting side_share = {self.side_share!r}: expected a share of the normal "
+                             "force in [0, 1] (0: the correction across the travel taken in full)")
         if self.gain > 1.5:
             raise InputError(f"online setting gain = {self.gain!r}: expected at most 1.5 (1: the whole deflection)")
 
@@ -71,7 +82,8 @@ class OnlineSettings:
         return self.latency_s + 0.5 * max(self.period_s - self.cycle_s, 0.0)
 
     def params(self) -> np.ndarray:
-        """The settings as the compiled cycle reads them (SI; its third, the horizon)."""
+        """The settings as the compiled cycle reads them (SI; its third, the horizon; its eleventh, the side
+        share)."""
         return np.array([self.cycle_s, 2.0 * math.pi * self.filter_hz, self.horizon_s, self.spike_n,
                          1e-3 * self.max_correction_mm, 1e-3 * self.max_rate_mm_s, self.stale_s,
-                         self.hold_s, self.gain, float(self.spike_run)])
+                         self.hold_s, self.gain, float(self.spike_run), self.side_share])

@@ -26,10 +26,22 @@ from twin.sim.compiled.chain import chain_eval
 NO_SENSOR, TRACKING, SPIKE, HOLDING, RAMPING = range(5)
 #: Slots of the state vector: a sample seen, its stamp, spikes rejected, filtered force (3), its rate (3), the
 #: correction (3), spikes in a row, joints seen, the segment along an offline command, the offset of the reported
-#: tip from that command (3), that progress started, the time of the last call, a call seen.
+#: tip from that command (3), that progress started, the time of the last call, a call seen; the travel's last
+#: anchor point (3) and direction (2, sheet plane), a direction found, the side force's share of the normal force
+#: (slowly filtered), that share seen.
 HAVE, T_LAST, SPIKES, F, DF, CORR, RUN, HAVE_Q, AT, OFFSET, HAVE_AT, T_CALL, HAVE_T = (
     0, 1, 2, 3, 6, 9, 12, 13, 14, 15, 18, 19, 20)
-STATE_SIZE = 21
+ANCHOR, DIRECTION, HAVE_DIR, SIDE, HAVE_SIDE = 21, 24, 26, 27, 28
+STATE_SIZE = 29
+#: The travel's direction is taken over this much of the tool's planned travel [m]: a joint's vibration (um) does
+#: not turn it, a pass's reversal does within a tenth of a millimetre.
+TRAVEL_STEP_M = 1e-4
+#: Time constant of the side force's share [s]: the kind of contact (a wall on one side, walls on both), not the
+#: loop's own swing (a few Hz).
+SIDE_TAU_S = 1.0
+#: The share is read only while the tool presses the sheet this hard [N] (below it, the tool is off the sheet or
+#: only touching it).
+SIDE_MIN_FZ_N = 100.0
 #: The rate limit's clock: the correction moves at most the rate times the controller time since the last call,
 #: and that time counts at most this many cycles (a controller that stalled does not earn a jump).
 MAX_GAP_CYCLES = 4.0
@@ -106,8 +118,17 @@ def online_cycle(chain, params, k_inv, friction, c_tool, assumed_p, assumed_f, s
     and the force it assumed at each ([N], (n, 3)); n = 0: a nominal command. `q_ref`: the joints whose motion
     signs the friction's lag (the controller's planned joints where it reports them, else `q`)."""
     omega, latency, spike, max_corr, max_rate = params[1], params[2], params[3], params[4], params[5]
-    stale, hold, gain, spike_run, w0 = params[6], params[7], params[8], params[9], params[10]
+    stale, hold, gain, spike_run, side_share, w0 = params[6], params[7], params[8], params[9], params[10], params[11]
     cycle = params[0]
+    if side_share > 0.0:  # the travel's direction in the sheet plane, from the planned tip's motion (`q_ref`)
+        chain_eval(chain, q_ref, p, jac, g, False)
+        if state[HAVE_Q] == 0.0:
+            state[ANCHOR], state[ANCHOR + 1], state[ANCHOR + 2] = p[0], p[1], p[2]
+        m0, m1 = p[0] - state[ANCHOR], p[1] - state[ANCHOR + 1]
+        moved = math.sqrt(m0 * m0 + m1 * m1)
+        if moved >= TRAVEL_STEP_M:
+            state[DIRECTION], state[DIRECTION + 1], state[HAVE_DIR] = m0 / moved, m1 / moved, 1.0
+            state[ANCHOR], state[ANCHOR + 1], state[ANCHOR + 2] = p[0], p[1], p[2]
     status = TRACKING
     if sample_t == sample_t and (state[HAVE] == 0.0 or sample_t > state[T_LAST]):  # a new sample (not NaN)
         if state[HAVE] == 0.0:
@@ -172,6 +193,18 @@ def online_cycle(chain, params, k_inv, friction, c_tool, assumed_p, assumed_f, s
             d1 += c_tool[1, 0] * fp0 + c_tool[1, 1] * fp1 + c_tool[1, 2] * fp2
             d2 += c_tool[2, 0] * fp0 + c_tool[2, 1] * fp1 + c_tool[2, 2] * fp2
             target0, target1, target2 = -gain * d0, -gain * d1, -gain * d2
+            if side_share > 0.0 and state[HAVE_DIR] != 0.0:  # across the travel: a load, or the walls' reaction
+                a0, a1 = -state[DIRECTION + 1], state[DIRECTION]
+                if abs(state[F + 2]) >= SIDE_MIN_FZ_N:
+                    share = abs(state[F] * a0 + state[F + 1] * a1) / abs(state[F + 2])
+                    if state[HAVE_SIDE] == 0.0:
+                        state[SIDE], state[HAVE_SIDE] = share, 1.0
+                    else:
+                        state[SIDE] += (1.0 - math.exp(-cycle / SIDE_TAU_S)) * (share - state[SIDE])
+                if state[HAVE_SIDE] != 0.0 and state[SIDE] < side_share:
+                    across = (1.0 - state[SIDE] / side_share) * (target0 * a0 + target1 * a1)
+                    target0 -= across * a0
+                    target1 -= across * a1
             size = math.sqrt(target0 * target0 + target1 * target1 + target2 * target2)
             if size > max_corr:
                 scale = max_corr / size
