@@ -28,7 +28,8 @@ TARGETS = {"cone 80 x 8": ["--shape", "cone", "--top-width-mm", "80", "--depth-m
            "pyramid": ["--shape", "pyramid", "--top-width-mm", "40", "--depth-mm", "6"],
            "groove": ["--shape", "groove"]}
 #: The parts each robot forms (the groove's path is the TX200 cell's).
-ROBOT_TARGETS = {"tx200": ("cone 80 x 8", "pyramid", "groove"), "kr210": ("cone 80 x 8", "pyramid")}
+ROBOT_TARGETS = {"tx200": ("cone 80 x 8", "pyramid", "groove"), "kr210": ("cone 80 x 8", "pyramid"),
+                 "irb6640": ("cone 80 x 8", "pyramid")}
 COLUMNS = ("nominal", "offline_default", "offline_learned", "online_default", "online_learned")
 
 
