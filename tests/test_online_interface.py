@@ -88,7 +88,7 @@ def _cell(doc: str, variant: str, interface: str, column: int = 3, at: int = 0) 
 
 
 def test_the_pages_shares_are_its_tables():
-    """'gives back 67 % ... on the groove ... and 39 % on the cone': (path correction - 4 ms) / (nominal - 4 ms)."""
+    """'gives back 69 % ... on the groove ... and 38 % on the cone': (path correction - 4 ms) / (nominal - 4 ms)."""
     doc = (ROOT / "docs" / "online.md").read_text(encoding="utf-8")
     said = re.search(r"gives back (\d+) % of what the\s+correction took off on the groove.*?and (\d+) % on the cone",
                      doc, flags=re.DOTALL)
@@ -216,7 +216,8 @@ def test_the_pages_words_on_a_model_learned_from_another_part_are_its_table() ->
         true[(cells[0], cells[1])] = [float(c.split("; true ")[1].rstrip(")")) for c in cells[2:]]  # the true tip
     better = {("kr210", "cone 80 x 8"): (True, True), ("kr210", "pyramid"): (True, True),
               ("tx200", "cone 80 x 8"): (True, True), ("tx200", "pyramid"): (None, True),
-              ("tx200", "groove"): (False, False)}
+              ("tx200", "groove"): (False, False), ("irb6640", "cone 80 x 8"): (False, True),
+              ("irb6640", "pyramid"): (False, True)}
     for key, (offline, online) in better.items():
         r = rms[key]
         for claim, learned, default in ((offline, r[2], r[1]), (online, r[4], r[3])):
@@ -230,13 +231,13 @@ def test_the_pages_words_on_a_model_learned_from_another_part_are_its_table() ->
     assert all(min(r[1:]) > (0.15 if part == "pyramid" else 0.10) for (_, part), r in rms.items())
     # on the true tip the learned online compensation of the wider cone meets #50's 0.10 mm on both robots; the
     # pyramids and the groove do not
-    said = quoted("online.md", "On the true tip the learned model's online compensation of the wider cone", 5)
-    for k, value in enumerate([true[("tx200", "cone 80 x 8")][4], true[("kr210", "cone 80 x 8")][4],
-                               true[("tx200", "pyramid")][4], true[("kr210", "pyramid")][4],
-                               true[("tx200", "groove")][4]]):
+    robots = ("tx200", "kr210", "irb6640")
+    said = quoted("online.md", "On the true tip the learned model's online compensation of the wider cone", 7)
+    measured = [true[(r, "cone 80 x 8")][4] for r in robots] + [true[(r, "pyramid")][4] for r in robots]
+    for k, value in enumerate([*measured, true[("tx200", "groove")][4]]):
         said[k].check(value)
-    assert max(true[(robot, "cone 80 x 8")][4] for robot in ("tx200", "kr210")) <= 0.10
-    assert min(true[(robot, "pyramid")][4] for robot in ("tx200", "kr210")) > 0.15 and true[("tx200", "groove")][4] > 0.10
+    assert max(true[(robot, "cone 80 x 8")][4] for robot in robots) <= 0.10
+    assert min(true[(robot, "pyramid")][4] for robot in robots) > 0.15 and true[("tx200", "groove")][4] > 0.10
 
 
 def test_the_pages_words_on_the_second_sheet_law_are_its_table() -> None:
@@ -267,3 +268,15 @@ def test_the_pages_words_on_what_is_not_reached_are_its_table() -> None:
     assert rows["cone-default"][6][1] <= 0.10 < rows["cone-stronger"][6][1]
     for groove in ("groove-default", "groove-stronger"):
         assert min(rows[groove][4][1], rows[groove][6][1]) > 0.10, rows[groove]
+
+
+def test_the_learned_online_grooves_away_from_their_reversals_are_at_the_target() -> None:
+    """docs/online.md, 'What is not reached': the learned online runs' rms away from the reversals (the second
+    bracketed number) of the groove variants is at or just under 0.10 mm, and well below their whole-run number."""
+    doc = (ROOT / "docs" / "online.md").read_text(encoding="utf-8")
+    block = doc[doc.index("<!-- online-table:begin"):doc.index("<!-- online-table:end")]
+    for line in block.splitlines():
+        if line.startswith("| groove-"):
+            cell = [c.strip() for c in line.strip("|").split("|")][5]  # online, learned
+            whole, away = (float(v) for v in cell.split("(")[1].rstrip(")").split(";"))
+            assert away <= 0.105 and away < 0.8 * whole, line
