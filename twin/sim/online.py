@@ -20,6 +20,11 @@ needs:
   correction (`period_s`: ABB EGM's path correction takes one every 48 ms; `OnlineSettings.horizon_s`);
 * **spikes**: a sample further than `spike_n` from the filtered force is rejected (counted), as a broken packet;
   `spike_run` such samples in a row are a real change of level (a contact), and the next one is taken;
+* **the kind of contact**: across the planned travel (its direction taken over each 0.1 mm of the planned tip's
+  motion) the correction is taken in proportion to the side force's share of Fz, in full from `side_share`: a
+  one-sided wall (a cone's, a pyramid's) pushes the tool sideways with 0.15-0.3 of Fz, a load; a groove's walls
+  hold it from both sides, and their reaction to where the arm puts the tool is not one (correcting it closes a
+  loop through the walls' stiffness);
 * **limits**: the correction's size (`max_correction_mm`, default 5 mm) and its rate (`max_rate_mm_s`) per unit
   of the controller's time (`t_s`): no correction moves faster than the rate allows since the last call, however
   often it is called (a burst moves it by the rate times the time the burst spans; a stalled controller earns at
