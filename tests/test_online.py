@@ -176,7 +176,7 @@ def test_the_dynamic_plants_controller_compensates_online(tmp_path) -> None:
     documented = quoted("online.md", "| nominal, no compensation |", 1) + quoted("online.md", "default model |", 1)
     documented[0].check(nominal, slack=2.0)  # docs/online.md's table, within 0.02 mm
     documented[1].check(online, slack=2.0)
-    quoted("online.md", "default knobs, seed 1: TX200 cone 80 x 8", 3)[2].check(groove_share, slack=2.0)
+    quoted("online.md", "default knobs, seed 1: TX200 cone 40 x 6", 3)[2].check(groove_share, slack=2.0)
     assert online < 0.35 * nominal
     assert groove_share < 0.3 * OnlineSettings().side_share  # the correction across nearly all left out
     meta = json.loads((tmp_path / "online" / "meta.json").read_text())

@@ -100,9 +100,9 @@ def test_the_plants_side_force_is_a_share_of_fz_on_a_wall(tmp_path) -> None:
 
     from twin.cli import main
 
-    said = quoted("online.md", "default knobs, seed 1: TX200 cone 80 x 8", 2)  # the cone's, the pyramid's
+    said = quoted("online.md", "default knobs, seed 1: TX200 cone 40 x 6", 2)  # the cone's, the pyramid's
     shares = []
-    for name, shape in (("cone", ["--shape", "cone", "--top-width-mm", "80", "--depth-mm", "8"]),
+    for name, shape in (("cone", ["--shape", "cone", "--top-width-mm", "40", "--depth-mm", "6"]),
                         ("pyramid", ["--shape", "pyramid", "--top-width-mm", "40", "--depth-mm", "6"])):
         path = tmp_path / f"{name}.csv"
         assert main(["path", *shape, "--out", str(path)]) == 0
