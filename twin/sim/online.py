@@ -22,7 +22,7 @@ needs:
   `spike_run` such samples in a row are a real change of level (a contact), and the next one is taken;
 * **the kind of contact**: across the planned travel (its direction taken over each 0.1 mm of the planned tip's
   motion) the correction is taken in proportion to the side force's share of Fz, in full from `side_share`: a
-  one-sided wall (a cone's, a pyramid's) pushes the tool sideways with 0.15-0.3 of Fz, a load; a groove's walls
+  one-sided wall (a cone's, a pyramid's) pushes the tool sideways with a share of Fz (docs/online.md: 0.14 to 0.24 on the plant), a load; a groove's walls
   hold it from both sides, and their reaction to where the arm puts the tool is not one (correcting it closes a
   loop through the walls' stiffness);
 * **limits**: the correction's size (`max_correction_mm`, default 5 mm) and its rate (`max_rate_mm_s`) per unit
