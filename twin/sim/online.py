@@ -33,8 +33,8 @@ needs:
   holds the last correction for `hold_s`, then ramps it out at the rate limit: never a jump.
 
 Every cycle is one compiled call (`twin.sim.compiled.online.online_cycle`) on arrays allocated when the compensator
-is built: no allocation per cycle, bounded work (one chain evaluation, a 3x3 product; on top of an offline command,
-a few segments' walk along it). `OnlineCompensator.step` returns a view of its own correction array; the status
+is built: no allocation per cycle, bounded work (two chain evaluations, the planned tip's and the measured
+joints', a 3x3 product; on top of an offline command, a few segments' walk along it). `OnlineCompensator.step` returns a view of its own correction array; the status
 of the cycle is one of `STATUS`.
 """
 
