@@ -12,7 +12,10 @@ run and within `CORNER_RADIUS_M` of a corner or reversal; with the mean height o
 path above and below `DEEP_M` (where the sheet's force is largest). The dynamic twin's own rms before (on the
 quasi-static command) and after its iteration, and each compensation's wall, come from `compensate --json`. A
 second table gives what is left on the pyramids: on the quasi-static compensation's formed run, the measured Fz and
-the learned twin's (`replay` with the learned model) by the ideal path's depth, in 1 mm bins.
+the learned twin's (`replay` with the learned model) by the ideal path's depth, in 1 mm bins. A third gives each
+groove command formed again with the controller compensating online on top, with the same model ("both": the
+force the command did not assume, docs/online.md): the dynamic twin's feed-forward and the online correction
+together.
 
     .venv/bin/python experiments/dynamic_twin_study.py DTS
     .venv/bin/python experiments/dynamic_compensation_study.py OUT --from DTS [--doc docs/dynamic-twin.md]
@@ -79,8 +82,11 @@ def _force_by_depth(run_dir: Path, model: Path) -> list[dict[str, float]]:
     return rows
 
 
-def _compensate_and_form(out: Path, ideal: Path, model: Path, knobs: list[str]) -> list[dict[str, Any]]:
-    """The two compensations of `ideal` with `model` (its servo carried), each formed and scored."""
+def _compensate_and_form(out: Path, ideal: Path, model: Path, knobs: list[str],
+                         online: bool = False) -> list[dict[str, Any]]:
+    """The two compensations of `ideal` with `model` (its servo carried), each formed and scored; with `online`,
+    each formed again with the controller compensating online, with the same model, the force its command did not
+    assume ("both", docs/online.md)."""
     rows = []
     for name, extra in (("quasi-static", []), ("dynamic", ["--dynamic"])):
         command = out / f"{name}.csv"
@@ -91,10 +97,15 @@ def _compensate_and_form(out: Path, ideal: Path, model: Path, knobs: list[str]) 
         cli("lab", "--plant", "dynamic", "--robot", ROBOT, "--scenario", "compensated", "--seed", str(SEED),
             "--commanded", str(command), "--out", str(out / f"{name}_formed"), "--overwrite", *knobs)
         history, dyn = report["residual_rms_per_iteration_mm"], report["dynamic"] is not None
-        rows.append({"compensation": name, "wall_s": wall, "predicted_mm": report["predicted_residual_rms_mm"],
-                     "dynamic_start_mm": history[0] if dyn else math.nan,
-                     "dynamic_iterations": len(history) - 1 if dyn else 0,
-                     **_score(out / f"{name}_formed", ideal)})
+        row = {"compensation": name, "wall_s": wall, "predicted_mm": report["predicted_residual_rms_mm"],
+               "dynamic_start_mm": history[0] if dyn else math.nan,
+               "dynamic_iterations": len(history) - 1 if dyn else 0, **_score(out / f"{name}_formed", ideal)}
+        if online:
+            cli("lab", "--plant", "dynamic", "--robot", ROBOT, "--scenario", "compensated", "--seed", str(SEED),
+                "--commanded", str(command), "--online", "--model", str(model), "--out",
+                str(out / f"{name}_online_formed"), "--overwrite", *knobs)
+            row["online"] = _score(out / f"{name}_online_formed", ideal)
+        rows.append(row)
     return rows
 
 
@@ -119,7 +130,7 @@ def groove_study(out: Path, name: str, knobs: list[str]) -> dict[str, Any]:
         str(ideal), "--out", str(out / "nominal1"), "--overwrite", *knobs)
     model.unlink(missing_ok=True)
     cli("learn", str(out / "nominal1"), "--dynamic", "--write-model", str(model))
-    return {"cell": name, "knobs": knobs, "rows": _compensate_and_form(out, ideal, model, knobs)}
+    return {"cell": name, "knobs": knobs, "rows": _compensate_and_form(out, ideal, model, knobs, online=True)}
 
 
 def table(cells: list[dict[str, Any]]) -> str:
@@ -147,6 +158,17 @@ def table(cells: list[dict[str, Any]]) -> str:
     for c in pyramids:
         cols = [f"{b['measured_fz_n']:.0f} / {b['twin_fz_n']:.0f}" for b in c["force_by_depth"]][:len(depths)]
         lines.append(f"| {c['cell']} | " + " | ".join(cols + ["-"] * (len(depths) - len(cols))) + " |")
+    grooves = [c for c in cells if any("online" in r for r in c["rows"])]
+    if grooves:
+        lines += ["", "The grooves' commands formed again with the controller compensating online on top (\"both\": "
+                  "`lab --online --model`, the force the command did not assume, docs/online.md):", "",
+                  "| groove | command | tracker rms, all / reversals [mm] | true tip rms, all / reversals [mm] |",
+                  "|---|---|---|---|"]
+        for c in grooves:
+            for r in c["rows"]:
+                o = r["online"]
+                lines.append(f"| {c['cell']} | {r['compensation']}, online on top | {o['tracker_mm']:.3f} / "
+                             f"{o['tracker_corners_mm']:.3f} | {o['true_mm']:.3f} / {o['true_corners_mm']:.3f} |")
     return "\n".join(lines) + "\n"
 
 
