@@ -118,7 +118,8 @@ def test_the_pages_words_on_compensation_with_the_dynamic_twin_are_its_tables() 
     comp = {(r[0], r[1]): r for r in rows if r[1] in named}
     both = {(r[0], r[1].removesuffix(", online on top")): r for r in rows if r[1].endswith(", online on top")}
     depth = [r for r in rows if r[1] not in named and not r[1].endswith(", online on top")]
-    first = lambda cell: float(cell.split("/")[0])  # noqa: E731
+    pair = lambda cell: [float(v) for v in cell.split("/")]  # noqa: E731
+    first = lambda cell: pair(cell)[0]  # noqa: E731
     neutral, default = "TX200 groove, neutral knobs", "TX200 groove, plant's default knobs"
     said = quoted("dynamic-twin.md", "the dynamic twin's command with the online correction on top reaches", 5)
     for quote, value in zip(said, (first(both[(neutral, "dynamic")][3]), first(both[(neutral, "dynamic")][2]),
@@ -134,7 +135,6 @@ def test_the_pages_words_on_compensation_with_the_dynamic_twin_are_its_tables() 
     cells = {key[0] for key in comp}
     grooves = {"TX200 groove, neutral knobs", "TX200 groove, plant's default knobs"}
     assert len(cells) == 4 and grooves < cells and len(comp) == 8 and len(depth) == 2
-    pair = lambda cell: [float(v) for v in cell.split("/")]  # noqa: E731
     for cell in cells:
         qs, dyn = comp[(cell, "quasi-static")], comp[(cell, "dynamic")]
         before, after = (float(v) for v in dyn[2].split("->"))

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from test_online_rsi import parse_rkorr
 
 from twin.apps.export.krl_rsi import ETHERNET
 from twin.apps.online.cycle import ServedCycle
@@ -21,17 +22,20 @@ F_N = np.array([300.0, -100.0, 1800.0])
 SHAKE_RAD = 2e-5  # the measured joints' back-and-forth about the plan each cycle: 5 mrad/s, 25 x the tanh's width
 
 
-def _corrections(planned_given: bool, n: int = 400) -> np.ndarray:
-    """The correction each cycle [m] while joints 2, 3 and 5 (the ones with friction) move steadily on the plan at
-    2 mrad/s and the measured joints shake about it."""
-    spec = TwinSpec()
-    comp = OnlineCompensator(spec, OnlineSettings(max_rate_mm_s=1000.0))
-    q0 = np.asarray(spec.build().robot.q_home_rad, dtype=float)
+def _joints(n: int, shake_rad: float = SHAKE_RAD) -> tuple[np.ndarray, np.ndarray]:
+    """The planned joints of n cycles, joints 2, 3 and 5 (the ones with friction) moving steadily at 2 mrad/s, and
+    the measured ones shaking about them by `shake_rad` each cycle [rad], each shape (n, dof)."""
+    q0 = np.asarray(load_robot("tx200").q_home_rad, dtype=float)
     speed = np.array([0.0, 2e-3, -2e-3, 0.0, 2e-3, 0.0])
+    planned = q0 + np.outer(CYCLE_S * np.arange(n), speed)
+    return planned, planned + shake_rad * (-1.0) ** np.arange(n)[:, None]
+
+
+def _corrections(planned_given: bool, shake_rad: float = SHAKE_RAD, n: int = 400) -> np.ndarray:
+    """The correction each cycle [m] over `_joints`, the compensator given the plan or the measured joints alone."""
+    comp = OnlineCompensator(TwinSpec(), OnlineSettings(max_rate_mm_s=1000.0))
     out = np.zeros((n, 3))
-    for k in range(n):
-        q_plan = q0 + speed * CYCLE_S * k
-        q_meas = q_plan + SHAKE_RAD * (-1.0) ** k
+    for k, (q_plan, q_meas) in enumerate(zip(*_joints(n, shake_rad), strict=True)):
         comp.step(CYCLE_S * k, CYCLE_S * k, F_N, q_meas, q_plan if planned_given else None)
         out[k] = comp.correction_m
     return out
@@ -40,7 +44,7 @@ def _corrections(planned_given: bool, n: int = 400) -> np.ndarray:
 def test_a_shaking_measured_joint_does_not_turn_the_friction_term_when_the_plan_is_given() -> None:
     """With the plan: the correction moves by under 1 um from one cycle to the next (the Jacobian's drift along the
     motion); with the measured joints alone the friction's term flips each cycle and the correction swings by more
-    than 0.1 mm (0.73 mm here) every cycle."""
+    than 0.1 mm every cycle."""
     planned, measured = _corrections(True)[-100:], _corrections(False)[-100:]
     assert np.abs(np.diff(planned, axis=0)).max() < 1e-6
     assert np.abs(np.diff(measured, axis=0)).max() > 1e-4
@@ -49,15 +53,7 @@ def test_a_shaking_measured_joint_does_not_turn_the_friction_term_when_the_plan_
 def test_the_planned_joints_friction_term_is_the_steady_motions() -> None:
     """Given the plan, the correction is the one of a robot that follows the plan without shaking (the Jacobian at
     the measured joints moves it by far less than a micrometre)."""
-    spec = TwinSpec()
-    comp = OnlineCompensator(spec, OnlineSettings(max_rate_mm_s=1000.0))
-    q0 = np.asarray(spec.build().robot.q_home_rad, dtype=float)
-    speed = np.array([0.0, 2e-3, -2e-3, 0.0, 2e-3, 0.0])
-    for k in range(400):
-        q_plan = q0 + speed * CYCLE_S * k
-        comp.step(CYCLE_S * k, CYCLE_S * k, F_N, q_plan)
-    steady = comp.correction_m.copy()
-    np.testing.assert_allclose(_corrections(True)[-1], steady, atol=1e-6)
+    np.testing.assert_allclose(_corrections(True)[-1], _corrections(False, shake_rad=0.0)[-1], atol=1e-6)
 
 
 def test_rsi_reads_the_set_point_axes_and_names_a_bad_one() -> None:
@@ -114,14 +110,11 @@ def test_the_rsi_server_signs_the_friction_by_the_packets_set_points() -> None:
     n = 120
     thread = threading.Thread(target=lambda: report.setdefault("r", server.serve(twin.R_base_sheet, n, 2.0)))
     thread.start()
-    q0 = np.asarray(robot.q_home_rad, dtype=float)
-    speed = np.array([0.0, 2e-3, -2e-3, 0.0, 2e-3, 0.0])
-    planned = [q0 + speed * CYCLE_S * k for k in range(n)]
-    measured = [q + SHAKE_RAD * (-1.0) ** k for k, q in enumerate(planned)]
+    planned, measured = _joints(n)
 
     def axes(tag: str, q: np.ndarray) -> str:
-        a = np.degrees(robot.controller_angles(q))
-        return f"<{tag} " + " ".join(f'A{i + 1}="{v:.6f}"' for i, v in enumerate(a)) + "/>"
+        a = np.degrees(robot.controller_angles(q))  # 10 decimals: the server reads back q within 1e-12 rad
+        return f"<{tag} " + " ".join(f'A{i + 1}="{v:.10f}"' for i, v in enumerate(a)) + "/>"
 
     client = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     client.settimeout(0.5)
@@ -135,21 +128,11 @@ def test_the_rsi_server_signs_the_friction_by_the_packets_set_points() -> None:
         client.close()
         thread.join(timeout=5.0)
         server.close()
-    import re
-
-    m = re.search(rb'<RKorr X="([-\d.]+)" Y="([-\d.]+)" Z="([-\d.]+)"', answer)
-    assert m is not None
-    got_mm = np.array([float(v) for v in m.groups()])
+    got_mm = parse_rkorr(answer)
     both, alone = (OnlineCompensator(spec, OnlineSettings(max_rate_mm_s=1000.0)) for _ in range(2))
     for k in range(n):
-        # the packet's axes as the server reads them: 6 decimals of a degree
-        q_m = np.radians(np.round(np.degrees(robot.controller_angles(measured[k])), 6))
-        q_p = np.radians(np.round(np.degrees(robot.controller_angles(planned[k])), 6))
-        sign = np.asarray(robot.controller_sign or (1.0,) * robot.dof)
-        offset = np.asarray(robot.controller_offset_rad or (0.0,) * robot.dof)
-        q_m, q_p = (q_m - offset) / sign, (q_p - offset) / sign
-        both.step(0.004 * k, 0.004 * k, F_N, q_m, q_p)
-        alone.step(0.004 * k, 0.004 * k, F_N, q_m)
+        both.step(CYCLE_S * k, CYCLE_S * k, F_N, measured[k], planned[k])
+        alone.step(CYCLE_S * k, CYCLE_S * k, F_N, measured[k])
     assert report["r"].cycles == n  # type: ignore[attr-defined]
     np.testing.assert_allclose(got_mm, 1e3 * twin.R_base_sheet @ both.correction_m, atol=2e-3)
     assert np.linalg.norm(got_mm - 1e3 * twin.R_base_sheet @ alone.correction_m) > 0.05

@@ -50,8 +50,9 @@ def test_the_correction_across_the_travel_is_taken_in_proportion_to_the_side_for
     correction across the travel, the rest unchanged. None (a groove): nothing across, the rest unchanged."""
     spec, Q, d, a = _setup()
     f = -150.0 * d + share * 1500.0 * a + np.array([0.0, 0.0, 1500.0])
-    full, gated = _correction(spec, Q, f, 0.0), _correction(spec, Q, f, 0.1)
-    kept = min(share / 0.1, 1.0)
+    side_share = OnlineSettings().side_share
+    full, gated = _correction(spec, Q, f, 0.0), _correction(spec, Q, f, side_share)
+    kept = min(share / side_share, 1.0)
     assert gated @ a == pytest.approx(kept * (full @ a), abs=1e-7)
     assert gated @ d == pytest.approx(full @ d, abs=1e-9) and gated[2] == pytest.approx(full[2], abs=1e-9)
     assert abs(full @ a) > 1e-6 or share == 0.0  # there is something across to take (or to leave)
@@ -63,7 +64,7 @@ def test_without_travel_nothing_is_gated() -> None:
     q0 = Q[0]
     f = np.array([30.0, -20.0, 1500.0])
     outs = []
-    for side_share in (0.0, 0.1):
+    for side_share in (0.0, OnlineSettings().side_share):
         comp = OnlineCompensator(spec, OnlineSettings(max_rate_mm_s=1000.0, side_share=side_share))
         for k in range(100):
             comp.step(CYCLE_S * k, CYCLE_S * k, f, q0, q0)

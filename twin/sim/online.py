@@ -10,8 +10,7 @@ motion, its speed from the joints of successive cycles: the controller's planned
 them, KUKA RSI's `ASPos`, ABB EGM's `planned.joints`; else the measured ones). The planned motion is the one the
 friction opposes on average and the one `learn` signs it by; a measured joint's speed also carries the arm's own
 vibration and the correction's motion, and with w0 at 2e-4 rad/s a measured joint that barely moves turns the term's
-sign back and forth (on the dynamic plant's groove, nominal command, in-sample learned model, the true tip's rms
-0.30 mm with the measured sign, 0.24 mm with the planned one). The compensator commands the tip the other way and does what a real signal
+sign back and forth (what the planned sign changed on the plant: CHANGELOG). The compensator commands the tip the other way and does what a real signal
 needs:
 
 * **filtering**: a first-order low-pass on the force (`filter_hz`), so sensor noise does not reach the motors;
@@ -22,9 +21,9 @@ needs:
   `spike_run` such samples in a row are a real change of level (a contact), and the next one is taken;
 * **the kind of contact**: across the planned travel (its direction taken over each 0.1 mm of the planned tip's
   motion) the correction is taken in proportion to the side force's share of Fz, in full from `side_share`: a
-  one-sided wall (a cone's, a pyramid's) pushes the tool sideways with a share of Fz (docs/online.md: 0.14 to 0.24 on the plant), a load; a groove's walls
-  hold it from both sides, and their reaction to where the arm puts the tool is not one (correcting it closes a
-  loop through the walls' stiffness);
+  one-sided wall (a cone's, a pyramid's) pushes the tool sideways with a share of Fz (docs/online.md has the
+  plant's), a load; a groove's walls hold it from both sides, and their reaction to where the arm puts the tool is
+  not one (correcting it closes a loop through the walls' stiffness);
 * **limits**: the correction's size (`max_correction_mm`, default 5 mm) and its rate (`max_rate_mm_s`) per unit
   of the controller's time (`t_s`): no correction moves faster than the rate allows since the last call, however
   often it is called (a burst moves it by the rate times the time the burst spans; a stalled controller earns at

@@ -34,10 +34,10 @@ class OnlineSettings:
         gain: Share of the predicted deflection corrected [-] (1: all of it).
         side_share: Across the tool's travel, the correction is taken in full where the sheet's side force is at
             least this share of its normal force (a wall on one side: an incremental cone's or pyramid's wall
-            pushes with a share of Fz, 0.14-0.24 on the plant), and scaled down in proportion below it, to nothing where the side force is
-            nil (a groove, whose walls hold the tool from both sides: its side force is their reaction to where the
-            arm puts the tool, and correcting it closes a loop through their stiffness) [-]. 0: taken in full
-            everywhere.
+            pushes with a share of Fz, docs/online.md has the plant's), and scaled down in proportion below it, to
+            nothing where the side force is nil (a groove, whose walls hold the tool from both sides: its side force
+            is their reaction to where the arm puts the tool, and correcting it closes a loop through their
+            stiffness) [-]. 0: taken in full everywhere.
     """
 
     cycle_s: float = 0.004

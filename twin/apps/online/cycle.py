@@ -236,21 +236,10 @@ class ServedCycle:
         would stay NaN): the cycle is rejected and answered with the last correction (`hold`). A sample already
         given, or a packet's force equal to the last spike, is not a new sample (module docstring); the
         correction's change is bounded per second (`_limit_rate`)."""
-        self.q_rad[:] = axes_deg
-        if not (math.isfinite(t_s) and math.isfinite(float(self.q_rad.sum()))):
+        planned = None if planned_deg is None else self.q_planned_rad
+        if not (math.isfinite(t_s) and self._joints(axes_deg, self.q_rad)
+                and (planned_deg is None or self._joints(planned_deg, self.q_planned_rad))):
             return self.hold()
-        self.q_rad *= math.pi / 180.0
-        self.q_rad -= self._offset
-        self.q_rad /= self._sign
-        planned = None
-        if planned_deg is not None:
-            planned = self.q_planned_rad
-            planned[:] = planned_deg
-            if not math.isfinite(float(planned.sum())):
-                return self.hold()
-            planned *= math.pi / 180.0
-            planned -= self._offset
-            planned /= self._sign
         f, spike = self.force_n, self._spike_n
         sample_s = self.stamp_s
         if sample_s == self._given_stamp or (f[0] == spike[0] and f[1] == spike[1] and f[2] == spike[2]):
@@ -274,6 +263,17 @@ class ServedCycle:
         np.dot(self.R_base_sheet, self.compensator.correction_m, out=self.correction_base_mm)
         self.correction_base_mm *= 1e3
         return self.correction_base_mm
+
+    def _joints(self, axes_deg: np.ndarray | tuple[float, ...], out: np.ndarray) -> bool:
+        """The controller's axes [deg] as the twin's joints [rad], into `out`; False (out not to be used) for an
+        axis not finite."""
+        out[:] = axes_deg
+        if not math.isfinite(float(out.sum())):
+            return False
+        out *= math.pi / 180.0
+        out -= self._offset
+        out /= self._sign
+        return True
 
     def _limit_rate(self, t_s: float) -> None:
         """Bound this step of the compensator's correction (in place) to `max_rate_mm_s` times the time since the
