@@ -24,6 +24,11 @@ needs:
   one-sided wall (a cone's, a pyramid's) pushes the tool sideways with a share of Fz (docs/online.md has the
   plant's), a load; a groove's walls hold it from both sides, and their reaction to where the arm puts the tool is
   not one (correcting it closes a loop through the walls' stiffness);
+* **turns**: where the planned travel turns by more than 45 deg (a pyramid's corner, a groove's reversal), the
+  sheet's friction along the travel (its share of Fz followed between turns) is turned with it at once, ahead of
+  the filtered force, which shows it only after the sensor's sample, latency and filter; what of the turn the
+  filtered force has shown since is taken off, so nothing counts twice, and how much of it the cell's turns turned
+  is learned from them (`OnlineSettings.feed_turns`);
 * **limits**: the correction's size (`max_correction_mm`, default 5 mm) and its rate (`max_rate_mm_s`) per unit
   of the controller's time (`t_s`): no correction moves faster than the rate allows since the last call, however
   often it is called (a burst moves it by the rate times the time the burst spans; a stalled controller earns at
@@ -178,7 +183,8 @@ class OnlineCompensator:
         return int(online_cycle(self._chain, self._params, self.k_inv, self.friction_nm, self._c_tool, self._assumed_p,
                                 self._assumed_f, self._state, self._q_prev,
                                 float(t_s), float(sample_t_s), f_sheet_n, q_rad,
-                                q_rad if q_planned_rad is None else q_planned_rad, self._p, self._jac, self._g))
+                                q_rad if q_planned_rad is None else q_planned_rad, q_planned_rad is not None,
+                                self._p, self._jac, self._g))
 
 
 __all__ = ["HOLDING", "NO_SENSOR", "RAMPING", "SPIKE", "STATUS", "TRACKING", "AssumedForces", "OnlineCompensator", "OnlineSettings"]

@@ -38,6 +38,10 @@ class OnlineSettings:
             nothing where the side force is nil (a groove, whose walls hold the tool from both sides: its side force
             is their reaction to where the arm puts the tool, and correcting it closes a loop through their
             stiffness) [-]. 0: taken in full everywhere.
+        feed_turns: At a turn of the planned travel (a pyramid's corner, a groove's reversal), the sheet's friction
+            is turned with it at once, ahead of the filtered force, which shows it only after the sensor's sample,
+            latency and filter, by as much as the cell's earlier turns turned it
+            (`twin.sim.compiled.online._turned_friction`). False: the filtered force alone.
     """
 
     cycle_s: float = 0.004
@@ -52,12 +56,15 @@ class OnlineSettings:
     hold_s: float = 0.1
     gain: float = 1.0
     side_share: float = 0.1
+    feed_turns: bool = True
 
     def __post_init__(self) -> None:
         if not (isinstance(self.spike_run, int) and self.spike_run >= 0):
             raise InputError(f"online setting spike_run = {self.spike_run!r}: expected a whole number >= 0")
+        if not isinstance(self.feed_turns, bool):
+            raise InputError(f"online setting feed_turns = {self.feed_turns!r}: expected True or False")
         for f in fields(self):
-            if f.name == "spike_run":
+            if f.name in ("spike_run", "feed_turns"):
                 continue
             value = getattr(self, f.name)
             zero_ok = f.name in ("latency_s", "hold_s", "side_share")
@@ -83,7 +90,8 @@ class OnlineSettings:
 
     def params(self) -> np.ndarray:
         """The settings as the compiled cycle reads them (SI; its third, the horizon; its eleventh, the side
-        share)."""
+        share; its twelfth, 1.0 where turns are fed forward)."""
         return np.array([self.cycle_s, 2.0 * math.pi * self.filter_hz, self.horizon_s, self.spike_n,
                          1e-3 * self.max_correction_mm, 1e-3 * self.max_rate_mm_s, self.stale_s,
-                         self.hold_s, self.gain, float(self.spike_run), self.side_share])
+                         self.hold_s, self.gain, float(self.spike_run), self.side_share,
+                         float(self.feed_turns)])

@@ -27,12 +27,18 @@ NO_SENSOR, TRACKING, SPIKE, HOLDING, RAMPING = range(5)
 #: Slots of the state vector: a sample seen, its stamp, spikes rejected, filtered force (3), its rate (3), the
 #: correction (3), spikes in a row, joints seen, the segment along an offline command, the offset of the reported
 #: tip from that command (3), that progress started, the time of the last call, a call seen; the travel's last
-#: anchor point (3) and direction (2, sheet plane), a direction found, the side force's share of the normal force
-#: (slowly filtered), that share seen.
+#: anchor point (x, y; a third slot unused) and direction (2, sheet plane), a direction found, the side force's share
+#: of the normal force (slowly filtered), that share seen; the last turn of the travel (the friction's change of
+#: direction there (2), the filtered in-plane force at it (2), its time, its state: 0 over, 1 fed forward, 2 shown
+#: by the force and waiting to be read), the sheet's friction force along the
+#: travel as a share of the normal force (slowly filtered), that share seen; the planned tip of the last cycle (2);
+#: the friction at the last turn, mu [N]; how much of mu u the cell's turns have turned, less 1 (zeros start at 1).
 HAVE, T_LAST, SPIKES, F, DF, CORR, RUN, HAVE_Q, AT, OFFSET, HAVE_AT, T_CALL, HAVE_T = (
     0, 1, 2, 3, 6, 9, 12, 13, 14, 15, 18, 19, 20)
 ANCHOR, DIRECTION, HAVE_DIR, SIDE, HAVE_SIDE = 21, 24, 26, 27, 28
-STATE_SIZE = 29
+TURN_U, TURN_F, TURN_T, TURNING, FRICTION, HAVE_FRICTION, PREV, TURN_MU, TURN_GAIN = (
+    29, 31, 33, 34, 35, 36, 37, 39, 40)
+STATE_SIZE = 41
 #: The travel's direction is taken over this much of the tool's planned travel [m]: a joint's vibration (um) does
 #: not turn it, a pass's reversal does within a tenth of a millimetre.
 TRAVEL_STEP_M = 1e-4
@@ -42,6 +48,21 @@ SIDE_TAU_S = 1.0
 #: The share is read only while the tool presses the sheet this hard [N] (below it, the tool is off the sheet or
 #: only touching it).
 SIDE_MIN_FZ_N = 100.0
+#: A turn of the planned travel's direction by more than this is a turn whose friction is fed forward (cosine): a
+#: pyramid's corner turns by 90 deg, a groove's reversal by 180; a spiral's 0.1 mm steps by a fraction of a degree.
+COS_TURN = math.cos(math.radians(45.0))
+#: Where the controller reports its planned joints (no vibration in them), a turn is seen in the plan's first step
+#: of at least this much in a cycle [m] (2.5 mm/s in 4 ms; a joint quantum of 1e-4 deg, RSI's, moves a tip at 1.5 m
+#: by 2.6 um, which cannot turn such a step by 45 deg), not after `TRAVEL_STEP_M` of it (~20 ms out of a stop).
+TURN_STEP_M = 1e-5
+#: This long after a turn, what the filtered force has shown of it is read [s] (a sensor at 30 Hz behind a 10 Hz
+#: filter shows a reversed friction within ~0.1 s), and the turn is over: fed forward no longer.
+TURN_SETTLE_S = 0.3
+#: Weight of each turn's reading in the share of mu u the cell's turns turn (the turn gain; three turns: 7/8) [-],
+#: and its bounds: a groove's end wall that pushed before the reversal turns less than the friction (a tool that
+#: left the sheet, none), a plough front that builds after it more.
+TURN_ADAPT = 0.5
+TURN_GAIN_MAX = 1.5
 #: The rate limit's clock: the correction moves at most the rate times the controller time since the last call,
 #: and that time counts at most this many cycles (a controller that stalled does not earn a jump).
 MAX_GAP_CYCLES = 4.0
@@ -110,25 +131,83 @@ def progress(path, state, x0, x1, x2, alpha):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True)
-def online_cycle(chain, params, k_inv, friction, c_tool, assumed_p, assumed_f, state, q_prev, t, sample_t, f, q, q_ref, p, jac, g):  # type: ignore[no-untyped-def]
+def _travel(state, t, x0, x1, turn_feed, planned):  # type: ignore[no-untyped-def]
+    """Follow the planned tip (x0, x1) [m]: the travel's direction over each `TRAVEL_STEP_M` (or, `planned`, a turn
+    of it in one cycle's step of `TURN_STEP_M`), and a turn of it by more than `COS_TURN` recorded (the friction's
+    change of direction, the filtered force there, the time)."""
+    if state[HAVE_Q] == 0.0:
+        state[ANCHOR], state[ANCHOR + 1], state[PREV], state[PREV + 1] = x0, x1, x0, x1
+    s0, s1 = x0 - state[PREV], x1 - state[PREV + 1]
+    state[PREV], state[PREV + 1] = x0, x1
+    step = math.sqrt(s0 * s0 + s1 * s1)
+    m0, m1 = x0 - state[ANCHOR], x1 - state[ANCHOR + 1]
+    moved = math.sqrt(m0 * m0 + m1 * m1)
+    if (planned and state[HAVE_DIR] != 0.0 and step >= TURN_STEP_M
+            and s0 * state[DIRECTION] + s1 * state[DIRECTION + 1] < COS_TURN * step):
+        m0, m1, moved = s0, s1, step  # the plan turned: seen in its first step
+    elif moved < TRAVEL_STEP_M:
+        return
+    n0, n1 = m0 / moved, m1 / moved
+    if (turn_feed > 0.0 and state[HAVE_DIR] != 0.0 and state[HAVE_FRICTION] != 0.0
+            and n0 * state[DIRECTION] + n1 * state[DIRECTION + 1] < COS_TURN):
+        state[TURN_U], state[TURN_U + 1] = state[DIRECTION] - n0, state[DIRECTION + 1] - n1
+        state[TURN_F], state[TURN_F + 1], state[TURN_T], state[TURNING] = state[F], state[F + 1], t, 1.0
+        state[TURN_MU] = state[FRICTION] * abs(state[F + 2])
+    state[DIRECTION], state[DIRECTION + 1], state[HAVE_DIR] = n0, n1, 1.0
+    state[ANCHOR], state[ANCHOR + 1] = x0, x1
+
+
+@njit(cache=True)
+def _turned_friction(state, t, cycle):  # type: ignore[no-untyped-def]
+    """The sheet's friction force the filtered force has not yet turned with the travel [N] (in-plane, 2 values).
+
+    The sheet's friction opposes the tool's travel, -mu d. At a turn of the planned travel from d_old to d_new it
+    changes by mu (d_old - d_new) = mu u, at once where the tool turns; the filtered force shows it only after the
+    sensor's sample, its latency and the filter. Of k mu u (k, the turn gain: 1 at first) what the filtered force
+    has not yet shown, measured by its change since the turn along u, is added to it, until it has shown it all.
+    `TURN_SETTLE_S` after the turn the share of mu u it has shown is read into k (`TURN_ADAPT`): the along-travel
+    force of a real cell is not only friction (a groove's end wall pushes before the reversal and not after), and
+    its turns teach the compensator how much of it turns. Between turns, mu's share of the normal force is followed
+    slowly (`SIDE_TAU_S`) from the filtered force along the travel, while the tool presses the sheet
+    (`SIDE_MIN_FZ_N`)."""
+    fz = abs(state[F + 2])
+    if state[TURNING] != 0.0:
+        mu, gain = state[TURN_MU], 1.0 + state[TURN_GAIN]
+        u0, u1 = state[TURN_U], state[TURN_U + 1]
+        uu = mu * (u0 * u0 + u1 * u1)
+        seen = gain if uu <= 0.0 else ((state[F] - state[TURN_F]) * u0 + (state[F + 1] - state[TURN_F + 1]) * u1) / uu
+        if t - state[TURN_T] < TURN_SETTLE_S:
+            if state[TURNING] == 1.0 and seen < gain:
+                left = (gain - max(seen, 0.0)) * mu
+                return left * u0, left * u1
+            state[TURNING] = 2.0  # shown: the rest is the filtered force's; read at TURN_SETTLE_S
+            return 0.0, 0.0
+        if uu > 0.0:
+            state[TURN_GAIN] += TURN_ADAPT * (min(max(seen, 0.0), TURN_GAIN_MAX) - gain)
+        state[TURNING] = 0.0
+    if state[HAVE_DIR] != 0.0 and fz >= SIDE_MIN_FZ_N:
+        share = max(-(state[F] * state[DIRECTION] + state[F + 1] * state[DIRECTION + 1]) / fz, 0.0)
+        if state[HAVE_FRICTION] == 0.0:
+            state[FRICTION], state[HAVE_FRICTION] = share, 1.0
+        else:
+            state[FRICTION] += (1.0 - math.exp(-cycle / SIDE_TAU_S)) * (share - state[FRICTION])
+    return 0.0, 0.0
+
+
+@njit(cache=True)
+def online_cycle(chain, params, k_inv, friction, c_tool, assumed_p, assumed_f, state, q_prev, t, sample_t, f, q, q_ref, planned, p, jac, g):  # type: ignore[no-untyped-def]
     """One cycle on preallocated arrays (`OnlineCompensator.step`); returns the status.
 
     `c_tool`: the tool's own bending compliance at the tip, sheet frame [m/N], (3, 3) (zeros: a rigid tool; constant
     while the tool is held down). `assumed_p`, `assumed_f`: an offline command's tool tips (sheet frame [m], (n, 3))
     and the force it assumed at each ([N], (n, 3)); n = 0: a nominal command. `q_ref`: the joints whose motion
-    signs the friction's lag (the controller's planned joints where it reports them, else `q`)."""
+    signs the friction's lag (the controller's planned joints where it reports them, `planned` True, else `q`)."""
     omega, latency, spike, max_corr, max_rate = params[1], params[2], params[3], params[4], params[5]
-    stale, hold, gain, spike_run, side_share, w0 = params[6], params[7], params[8], params[9], params[10], params[11]
-    cycle = params[0]
-    if side_share > 0.0:  # the travel's direction in the sheet plane, from the planned tip's motion (`q_ref`)
+    stale, hold, gain, spike_run, side_share = params[6], params[7], params[8], params[9], params[10]
+    cycle, turn_feed, w0 = params[0], params[11], params[12]
+    if side_share > 0.0 or turn_feed > 0.0:  # the travel in the sheet plane, from the planned tip (`q_ref`)
         chain_eval(chain, q_ref, p, jac, g, False)
-        if state[HAVE_Q] == 0.0:
-            state[ANCHOR], state[ANCHOR + 1], state[ANCHOR + 2] = p[0], p[1], p[2]
-        m0, m1 = p[0] - state[ANCHOR], p[1] - state[ANCHOR + 1]
-        moved = math.sqrt(m0 * m0 + m1 * m1)
-        if moved >= TRAVEL_STEP_M:
-            state[DIRECTION], state[DIRECTION + 1], state[HAVE_DIR] = m0 / moved, m1 / moved, 1.0
-            state[ANCHOR], state[ANCHOR + 1], state[ANCHOR + 2] = p[0], p[1], p[2]
+        _travel(state, t, p[0], p[1], turn_feed, planned)
     status = TRACKING
     if sample_t == sample_t and (state[HAVE] == 0.0 or sample_t > state[T_LAST]):  # a new sample (not NaN)
         if state[HAVE] == 0.0:
@@ -176,6 +255,14 @@ def online_cycle(chain, params, k_inv, friction, c_tool, assumed_p, assumed_f, s
             fp0 = state[F] + state[DF] * ahead
             fp1 = state[F + 1] + state[DF + 1] * ahead
             fp2 = state[F + 2] + state[DF + 2] * ahead
+            ff0, ff1 = 0.0, 0.0
+            if turn_feed > 0.0:  # the friction's turn the filtered force has not shown yet
+                ff0, ff1 = _turned_friction(state, t, cycle)
+                if state[TURNING] == 1.0:  # the turn is fed forward: its rate in the filtered force is not
+                    u0, u1 = state[TURN_U], state[TURN_U + 1]  # extrapolated past it as well
+                    along = (state[DF] * u0 + state[DF + 1] * u1) * ahead / (u0 * u0 + u1 * u1)
+                    fp0, fp1 = fp0 - along * u0, fp1 - along * u1
+                fp0, fp1 = fp0 + ff0, fp1 + ff1
             if n_assumed > 0:  # only the force the command did not assume, there
                 fp0 -= (1.0 - w_at) * assumed_f[i_at, 0] + w_at * assumed_f[i_at + 1, 0]
                 fp1 -= (1.0 - w_at) * assumed_f[i_at, 1] + w_at * assumed_f[i_at + 1, 1]
@@ -196,7 +283,7 @@ def online_cycle(chain, params, k_inv, friction, c_tool, assumed_p, assumed_f, s
             if side_share > 0.0 and state[HAVE_DIR] != 0.0:  # across the travel: a load, or the walls' reaction
                 a0, a1 = -state[DIRECTION + 1], state[DIRECTION]
                 if abs(state[F + 2]) >= SIDE_MIN_FZ_N:
-                    share = abs(state[F] * a0 + state[F + 1] * a1) / abs(state[F + 2])
+                    share = abs((state[F] + ff0) * a0 + (state[F + 1] + ff1) * a1) / abs(state[F + 2])
                     if state[HAVE_SIDE] == 0.0:
                         state[SIDE], state[HAVE_SIDE] = share, 1.0
                     else:

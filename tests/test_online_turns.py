@@ -1,0 +1,159 @@
+"""At a turn of the planned travel (a pyramid's corner, a groove's reversal) the sheet's friction turns with the tool
+at once, and the filtered force shows it only later: the online compensator turns it ahead (`OnlineSettings.
+feed_turns`, `twin.sim.compiled.online._turned_friction`). Written against the twin's own kinematics, with a
+measured force that shows the turn a fixed number of cycles late (a sensor's sample, latency and filter)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from twin.errors import InputError
+from twin.robot.kinematics import Kinematics
+from twin.sim.compiled.online import TURN_SETTLE_S
+from twin.sim.online import OnlineCompensator, OnlineSettings
+from twin.sim.spec import TwinSpec
+
+CYCLE_S = 0.004
+LEG = 150  # cycles per leg
+STEP_M = 1.2e-4  # 30 mm/s in a 4 ms cycle
+LATE = 20  # cycles the measured force shows the turn late (80 ms)
+FZ_N, MU = 1500.0, 0.15
+
+
+def _path(turn_deg: float, accel_mps2: float = 0.0) -> tuple[TwinSpec, np.ndarray, np.ndarray, np.ndarray]:
+    """The twin, the planned joints of two straight legs that meet at a turn of `turn_deg` (the twin's IK), and the
+    legs' directions in the sheet frame; the second leg at `STEP_M` a cycle, or out of a stop at `accel_mps2`."""
+    spec = TwinSpec()
+    twin = spec.build()
+    kin = Kinematics(robot=twin.robot)
+    q0 = np.asarray(twin.robot.q_home_rad, dtype=float)
+    d1 = np.array([math.cos(0.5), math.sin(0.5), 0.0])
+    a = 0.5 + math.radians(turn_deg)
+    d2 = np.array([math.cos(a), math.sin(a), 0.0])
+    p0 = kin.fk(q0)[0]
+    tips = [STEP_M * k * d1 for k in range(LEG)]
+    out = [STEP_M * k if accel_mps2 == 0.0 else min(0.5 * accel_mps2 * (CYCLE_S * k) ** 2, STEP_M * k)
+           for k in range(1, LEG + 1)]
+    tips += [tips[-1] + x * d2 for x in out]
+    Q = kin.ik_path(np.array([p0 + twin.R_base_sheet @ x for x in tips]), q0)
+    return spec, Q, d1, d2
+
+
+def _run(spec: TwinSpec, Q: np.ndarray, forces: np.ndarray, feed_turns: bool, planned: bool = True) -> np.ndarray:
+    """The correction after each cycle [m], shape (n, 3), the sensor sampled every cycle; the joints given as the
+    planned ones too, or (`planned` False) as the measured ones only."""
+    comp = OnlineCompensator(spec, OnlineSettings(max_rate_mm_s=1000.0, feed_turns=feed_turns))
+    out = np.empty((len(Q), 3))
+    for k, q in enumerate(Q):
+        comp.step(CYCLE_S * k, CYCLE_S * k, forces[k], q, q if planned else None)
+        out[k] = comp.correction_m
+    return out
+
+
+def _friction(d: np.ndarray) -> np.ndarray:
+    return -MU * FZ_N * d + np.array([0.0, 0.0, FZ_N])
+
+
+@pytest.mark.parametrize("turn_deg", [180.0, 90.0])
+def test_the_friction_turns_at_the_planned_turn_not_when_the_force_shows_it(turn_deg: float) -> None:
+    """Just before the measured force shows the turn, the correction without the turn fed forward misses that of a
+    force that showed it at once by the sheet's friction's part (the joints' friction turns with the planned joints
+    either way); fed forward, by less than a tenth of that. While the force comes round nothing is counted twice,
+    and at the leg's end the correction is the timely one's."""
+    spec, Q, d1, d2 = _path(turn_deg)
+    forces = np.array([_friction(d1)] * (LEG + LATE) + [_friction(d2)] * (len(Q) - LEG - LATE))
+    fed, plain = _run(spec, Q, forces, True), _run(spec, Q, forces, False)
+    timely = _run(spec, Q, np.array([_friction(d1)] * LEG + [_friction(d2)] * LEG), False)
+    before, after = plain[LEG - 1], plain[-1]
+    change = after - before
+    k = LEG + LATE - 1  # the last cycle before the force shows it
+    missed = np.linalg.norm(plain[k] - timely[k])
+    assert missed > 1e-4 and missed > 0.3 * np.linalg.norm(change)  # 0.1 mm at least, a fair part of the turn
+    assert np.linalg.norm(fed[k] - timely[k]) < 0.1 * missed
+    share = (fed[LEG:] - before) @ change / (change @ change)
+    assert share.min() > -0.1 and share.max() < 1.1  # no overshoot while the force comes round
+    # at the leg's end, as if the force had shown the turn at once (the plain run's differs at a 90 deg turn by
+    # the side force's slowly filtered share, which it read from the friction the force had not yet turned)
+    assert np.linalg.norm(fed[-1] - timely[-1]) < 0.05 * missed
+
+
+def test_the_planned_joints_show_a_turn_out_of_a_stop_first() -> None:
+    """Out of a stop at 0.5 m/s^2 a reversal's first cycles move micrometres: the planned joints (no vibration in
+    them) show the turn in the first step of 10 um; the measured ones only after 0.1 mm of travel, cycles later."""
+    spec, Q, d1, _ = _path(180.0, accel_mps2=0.5)
+    forces = np.array([_friction(d1)] * len(Q))
+    plain = _run(spec, Q, forces, False)
+    fed = {planned: _run(spec, Q, forces, True, planned) for planned in (True, False)}
+    first = {planned: LEG + int(np.argmax(np.linalg.norm(c[LEG:] - plain[LEG:], axis=1) > 1e-5))
+             for planned, c in fed.items()}
+    assert first[True] <= LEG + 3  # two steps of 8 and 16 um
+    assert first[False] >= first[True] + 2
+
+
+def test_a_turn_the_force_never_shows_is_dropped() -> None:
+    """A tool that left the sheet at the turn: the force keeps its old friction; after `TURN_SETTLE_S` the
+    correction is the measured force's again."""
+    spec, Q, d1, _ = _path(180.0)
+    forces = np.array([_friction(d1)] * len(Q))
+    fed, plain = _run(spec, Q, forces, True), _run(spec, Q, forces, False)
+    assert np.linalg.norm(fed[LEG + 5] - plain[LEG + 5]) > 1e-5  # fed forward at first
+    gone = LEG + 2 + math.ceil(TURN_SETTLE_S / CYCLE_S)
+    np.testing.assert_allclose(fed[gone:], plain[gone:], atol=1e-9)
+
+
+def test_a_gentle_curve_is_no_turn() -> None:
+    """A spiral's travel turns by a fraction of a degree per step: nothing fed forward."""
+    spec = TwinSpec()
+    twin = spec.build()
+    kin = Kinematics(robot=twin.robot)
+    q0 = np.asarray(twin.robot.q_home_rad, dtype=float)
+    radius = 0.02
+    angles = STEP_M / radius * np.arange(2 * LEG)
+    tips = radius * np.column_stack([np.cos(angles), np.sin(angles), np.zeros_like(angles)])
+    Q = kin.ik_path(np.array([kin.fk(q0)[0] + twin.R_base_sheet @ (x - tips[0]) for x in tips]), q0)
+    tangents = np.column_stack([-np.sin(angles), np.cos(angles), np.zeros_like(angles)])
+    forces = np.array([_friction(t) for t in np.roll(tangents, LATE, axis=0)])  # the force shows it late too
+    np.testing.assert_allclose(_run(spec, Q, forces, True), _run(spec, Q, forces, False), atol=1e-12)
+
+
+@pytest.mark.parametrize("value", [1, 0.0, "yes"])
+def test_a_bad_feed_turns_is_named(value: object) -> None:
+    with pytest.raises(InputError, match="feed_turns"):
+        OnlineSettings(feed_turns=value)  # type: ignore[arg-type]
+
+
+def test_how_much_of_the_friction_a_turn_turns_is_learned_from_the_turns() -> None:
+    """A cell whose along-travel force turns by half of mu u at each reversal, the rest only later (a groove's end
+    wall that pushed before it): the first turn is fed forward whole; by the last of seven, fed forward by what the
+    turns showed, the correction before the force shows the turn is within a sixth of a timely force's of where the
+    plain one is."""
+    spec = TwinSpec()
+    twin = spec.build()
+    kin = Kinematics(robot=twin.robot)
+    q0 = np.asarray(twin.robot.q_home_rad, dtype=float)
+    d = np.array([math.cos(0.5), math.sin(0.5), 0.0])
+    legs, settle = 8, math.ceil(1.2 * TURN_SETTLE_S / CYCLE_S)
+    x = [0.0]
+    for leg in range(legs):
+        x += [x[-1] + (STEP_M if leg % 2 == 0 else -STEP_M) * k for k in range(1, LEG + 1)]
+    Q = kin.ik_path(np.array([kin.fk(q0)[0] + twin.R_base_sheet @ (v * d) for v in x[1:]]), q0)
+
+    def forces(late: int) -> np.ndarray:
+        out = np.empty((len(Q), 3))
+        for k in range(len(Q)):
+            leg, into = divmod(k - late, LEG)
+            leg, sign = max(leg, 0), (1.0 if max(leg, 0) % 2 == 0 else -1.0)
+            along = -sign * MU * FZ_N  # the friction, against the travel
+            if leg > 0 and into < settle:  # at first only half of its turn: from +sign mu Fz to nothing
+                along = 0.0
+            out[k] = along * d + np.array([0.0, 0.0, FZ_N])
+        return out
+
+    fed, plain, timely = _run(spec, Q, forces(LATE), True), _run(spec, Q, forces(LATE), False), _run(
+        spec, Q, forces(0), False)
+    first, last = LEG + LATE - 1, (legs - 1) * LEG + LATE - 1
+    assert np.linalg.norm(fed[first] - timely[first]) > 0.3 * np.linalg.norm(plain[first] - timely[first])
+    assert np.linalg.norm(fed[last] - timely[last]) < np.linalg.norm(plain[last] - timely[last]) / 6.0
