@@ -1,7 +1,7 @@
 """Online and offline compensation of parts the learned model never formed, on the dynamic plant, on three robots.
 
 For each robot: one nominal cone (60 x 10 mm, seed 1) is formed and `learn`ed from; then each target part (a wider,
-shallower cone 80 x 8 mm, a pyramid 40 x 6 mm, and on the TX200 and the KR 210 the thesis's groove) is formed with seed 3 from
+shallower cone 80 x 8 mm, a pyramid 40 x 6 mm, and the thesis's groove) is formed with seed 3 from
 its ideal path (nominal), from the twin's offline compensation (`compensate --method twin`, default or learned
 model) and with the controller compensating online (`lab --online`, default or learned model). The learned model
 never saw these parts (predicted, not fitted). Default knobs (the tracker's registration error included); each
@@ -30,10 +30,8 @@ LEARN_FROM = ["--shape", "cone", "--top-width-mm", "60", "--depth-mm", "10"]
 TARGETS = {"cone 80 x 8": ["--shape", "cone", "--top-width-mm", "80", "--depth-mm", "8"],
            "pyramid": ["--shape", "pyramid", "--top-width-mm", "40", "--depth-mm", "6"],
            "groove": ["--shape", "groove"]}
-#: The parts each robot forms (the groove: the thesis's path, in each robot's own cell; on the KR 210 as issue #50
-#: asks the groove on two robots).
-ROBOT_TARGETS = {"tx200": ("cone 80 x 8", "pyramid", "groove"), "kr210": ("cone 80 x 8", "pyramid", "groove"),
-                 "irb6640": ("cone 80 x 8", "pyramid")}
+#: The parts each robot forms (the groove: the thesis's path, in each robot's own cell).
+ROBOT_TARGETS = {robot: ("cone 80 x 8", "pyramid", "groove") for robot in ("tx200", "kr210", "irb6640")}
 COLUMNS = ("nominal", "offline_default", "offline_learned", "online_default", "online_learned")
 
 

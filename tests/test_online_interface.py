@@ -215,18 +215,18 @@ def test_the_pages_words_on_a_model_learned_from_another_part_are_its_table() ->
         less[(cells[0], cells[1])] = [float(c.split("(")[1].split(";")[0]) for c in cells[2:]]  # less the offset
         true[(cells[0], cells[1])] = [float(c.split("; true ")[1].rstrip(")")) for c in cells[2:]]  # the true tip
     # the page's numbers first (a guard before the claims): on the true tip the learned online compensation of the
-    # wider cone meets #50's 0.10 mm on the three robots, and of the TX200's groove; the KR 210's and the pyramids not
+    # wider cone meets #50's 0.10 mm on the three robots, and of the TX200's groove; the other grooves, the pyramids not
     robots = ("tx200", "kr210", "irb6640")
-    said = quoted("online.md", "On the true tip the learned model's online compensation of the wider cone", 8)
-    measured = ([true[(r, "cone 80 x 8")][4] for r in robots] + [true[(r, "groove")][4] for r in ("tx200", "kr210")]
+    said = quoted("online.md", "On the true tip the learned model's online compensation of the wider cone", 9)
+    measured = ([true[(r, "cone 80 x 8")][4] for r in robots] + [true[(r, "groove")][4] for r in robots]
                 + [true[(r, "pyramid")][4] for r in robots])
     for k, value in enumerate(measured):
         said[k].check(value)
     better = {("kr210", "cone 80 x 8"): (True, True), ("kr210", "pyramid"): (True, True),
               ("tx200", "cone 80 x 8"): (True, True), ("tx200", "pyramid"): (None, True),
               ("tx200", "groove"): (False, False), ("kr210", "groove"): (False, True),
-              ("irb6640", "cone 80 x 8"): (False, True),
-              ("irb6640", "pyramid"): (False, True)}
+              ("irb6640", "cone 80 x 8"): (False, True), ("irb6640", "pyramid"): (False, True),
+              ("irb6640", "groove"): (False, True)}
     for key, (offline, online) in better.items():
         r = rms[key]
         for claim, learned, default in ((offline, r[2], r[1]), (online, r[4], r[3])):
@@ -239,7 +239,8 @@ def test_the_pages_words_on_a_model_learned_from_another_part_are_its_table() ->
     assert 1.7 * groove[1] <= groove[2] < 2.0 * groove[1]  # offline by a factor of almost two
     assert all(min(r[1:]) > (0.15 if part == "pyramid" else 0.10) for (_, part), r in rms.items())
     assert max(true[(robot, "cone 80 x 8")][4] for robot in robots) <= 0.10 and true[("tx200", "groove")][4] <= 0.10
-    assert min(true[(robot, "pyramid")][4] for robot in robots) > 0.15 and true[("kr210", "groove")][4] > 0.10
+    assert min(true[(robot, "pyramid")][4] for robot in robots) > 0.15
+    assert min(true[(robot, "groove")][4] for robot in ("kr210", "irb6640")) > 0.10
 
 
 def test_the_pages_words_on_the_second_sheet_law_are_its_table() -> None:
