@@ -275,3 +275,24 @@ def test_the_progress_along_a_command_goes_forward_over_its_return_and_its_dwell
     progress(path, state, *path[0], 0.0)
     progress(path, state, *path[-1], 0.0)  # far along at once (after a dropout): a bounded walk
     assert int(state[AT]) <= MAX_ADVANCE
+
+
+def test_the_lab_says_when_the_correction_sat_at_its_limit() -> None:
+    """A cell whose deflection is more than `max_correction_mm` (the IRB 6640's deepest groove passes): the run's
+    summary says in what share of the cycles the correction sat at its limit; a run that never reached it says
+    nothing of it."""
+    from dataclasses import replace
+
+    from twin.apps.tasks.lab_dynamic import DynamicRunReport, online_summary
+    from twin.lab.dynamic.online import OnlineLog
+
+    limit_mm = OnlineSettings().max_correction_mm
+    sizes_m = 1e-3 * np.array([1.0, limit_mm, 0.5 * limit_mm, limit_mm])
+    log = OnlineLog(np.arange(4) * 0.004, np.outer(sizes_m, [0.6, 0.0, 0.8]), np.full(4, 1e-5), np.ones(4, int))
+    summary = online_summary(log, limit_mm)
+    assert summary["at_limit_share"] == pytest.approx(0.5) and summary["limit_mm"] == limit_mm
+    report = DynamicRunReport("nominal", Path("run"), 1, {}, 10, 10, 1.0, 100.0, 4, 0.1, summary)
+    assert any("sat at its limit" in line and "50.0 %" in line for line in report.lines())
+    calm = online_summary(log._replace(correction_m=0.5 * log.correction_m), limit_mm)
+    assert calm["at_limit_share"] == 0.0
+    assert not any("limit" in line for line in replace(report, online=calm).lines())

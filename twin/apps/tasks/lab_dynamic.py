@@ -80,6 +80,9 @@ class DynamicRunReport(Report):
             lines.append(f"  online: {o['cycles']:.0f} cycles, correction up to {o['correction_max_mm']:.2f} mm, "
                          f"compute p50 {o['compute_p50_us']:.1f} / p99 {o['compute_p99_us']:.1f} / max "
                          f"{o['compute_max_us']:.0f} µs per cycle")
+            if o["at_limit_share"] > 0.0:  # the cell needs more than the compensator may give: say so
+                lines.append(f"  online: the correction sat at its limit ({o['limit_mm']:.1f} mm, "
+                             f"max_correction_mm) in {100.0 * o['at_limit_share']:.1f} % of the cycles")
         return lines
 
     def record(self) -> dict[str, Any]:
@@ -139,7 +142,8 @@ def dynamic_lab_task(request: LabRequest, note: Note = silent) -> Report:
         request.scenario, request.out, request.seed, knobs.changed(), len(run.tracker.t_s), len(run.forces.t_s),
         1e3 * float(np.max(np.linalg.norm(deviation, axis=1))),
         float(np.max(np.linalg.norm(run.forces.values, axis=1))), log.t_s.size, log.wall_s,
-        None if log.online is None else online_summary(log.online),
+        None if log.online is None or compensator is None else online_summary(
+            log.online, compensator.settings.max_correction_mm),
     )
 
 
@@ -200,11 +204,17 @@ def write_online_log(path: Path, log: OnlineLog) -> None:
                 formats={"t_s": ".4f", "dx_mm": ".5f", "dy_mm": ".5f", "dz_mm": ".5f", "compute_us": ".2f"})
 
 
-def online_summary(log: OnlineLog) -> dict[str, float]:
-    """The correction's largest size [mm] and the per-cycle compute time's p50, p99 and max [µs]."""
+#: A correction within this of the compensator's size limit sits at it [mm].
+AT_LIMIT_MM = 1e-3
+
+
+def online_summary(log: OnlineLog, limit_mm: float) -> dict[str, float]:
+    """The correction's largest size [mm], the share of cycles it sat at its size limit `limit_mm` [mm] (a cell
+    whose deflection the limit leaves uncorrected), and the per-cycle compute time's p50, p99 and max [µs]."""
     compute = 1e6 * log.compute_s[1:]  # the first cycle compiles nothing but warms caches
-    return {"cycles": float(log.t_s.size),
-            "correction_max_mm": 1e3 * float(np.max(np.linalg.norm(log.correction_m, axis=1))),
+    size_mm = 1e3 * np.linalg.norm(log.correction_m, axis=1)
+    return {"cycles": float(log.t_s.size), "correction_max_mm": float(np.max(size_mm)), "limit_mm": float(limit_mm),
+            "at_limit_share": float(np.mean(size_mm >= limit_mm - AT_LIMIT_MM)),
             "compute_p50_us": float(np.percentile(compute, 50)), "compute_p99_us": float(np.percentile(compute, 99)),
             "compute_max_us": float(np.max(compute))}
 
