@@ -296,3 +296,25 @@ def test_the_lab_says_when_the_correction_sat_at_its_limit() -> None:
     calm = online_summary(log._replace(correction_m=0.5 * log.correction_m), limit_mm)
     assert calm["at_limit_share"] == 0.0
     assert not any("limit" in line for line in replace(report, online=calm).lines())
+
+
+def test_the_correction_limit_is_the_lab_s_and_the_server_s_option(tmp_path: Path,
+                                                                  capsys: pytest.CaptureFixture[str]) -> None:
+    """`lab --online --max-correction-mm 1` holds the plant's groove correction to 1 mm and says for how much of the
+    run it sat there; a limit that is not one is refused by `lab` and by `online` (exit 2), naming the option."""
+    from twin.apps.tasks.online import OnlineRequest
+    from twin.cli import main
+
+    out = tmp_path / "run"
+    assert main(["lab", "--plant", "dynamic", "--scenario", "nominal", "--seed", "1", "--online",
+                 "--max-correction-mm", "1", "--out", str(out)]) == 0
+    said = capsys.readouterr()
+    assert "sat at its limit (1.0 mm" in said.out + said.err
+    log = np.loadtxt(out / "online.csv", delimiter=",", skiprows=1)
+    assert np.max(np.linalg.norm(log[:, 1:4], axis=1)) <= 1.0 + 1e-4  # the log keeps 5 decimals of a mm
+    for value in ("0", "60"):
+        assert main(["lab", "--plant", "dynamic", "--scenario", "nominal", "--seed", "1", "--online",
+                     "--max-correction-mm", value, "--out", str(tmp_path / "bad")]) == 2
+        assert "--max-correction-mm" in capsys.readouterr().err and not (tmp_path / "bad").exists()
+    with pytest.raises(InputError, match="--max-correction-mm"):
+        OnlineRequest("rsi", max_correction_mm=0.0)

@@ -419,10 +419,10 @@ def test_krl_with_rsi_switches_it_on_after_the_approach_and_off_after_the_path(c
     assert "DECL INT ret" in last and "DECL INT ret" in first and "DECL INT CONTID" in first
 
 
-def check_rsi(files: dict[str, str]) -> ET.Element:
+def check_rsi(files: dict[str, str], limit: float = OnlineSettings().max_correction_mm) -> ET.Element:
     """The RSI rules: `RSI_CREATE` names a context file that is written (with its extension); the context's
     ETHERNET object names the configuration written beside it, with a late-packet `Timeout`; its POSCORR object
-    takes the ETHERNET outputs 1-6, its X/Y/Z limits the compensator's `max_correction_mm`, its reference frame
+    takes the ETHERNET outputs 1-6, its X/Y/Z limits `limit` (the compensator's `max_correction_mm`), its reference frame
     the robot base (`#WORLD`, which the server's `RKorr` is in, said in the main program's header), beside a
     correction monitor; `RSI_ON` absolute (the server's whole corrections) at `#IPO_FAST` (4 ms)."""
     code = [_strip(line) for text in (v for k, v in files.items() if k.endswith(".src")) for line in text.splitlines()]
@@ -445,7 +445,7 @@ def check_rsi(files: dict[str, str]) -> ET.Element:
     wired = sorted((int(i.get("InIdx", "-1")), i.get("OutObjId"), int(i.get("OutIdx", "-1")))
                    for i in objects["PosCorr"].iter("Input"))
     assert wired == [(i, ethernet_id, i) for i in range(6)], wired
-    poscorr, limit = params("PosCorr"), OnlineSettings().max_correction_mm
+    poscorr = params("PosCorr")
     for axis in "XYZ":
         lower, upper = float(poscorr[f"LowerLim{axis}"]), float(poscorr[f"UpperLim{axis}"])
         assert (lower, upper) == (-limit, limit), f"LowerLim{axis}, UpperLim{axis} {lower:g}, {upper:g}"
@@ -455,7 +455,28 @@ def check_rsi(files: dict[str, str]) -> ET.Element:
     main_src = files[next(k for k in files if k.endswith(".src"))]
     header = " ".join(line for line in main_src.splitlines() if line.startswith(";"))
     assert "ROBOT BASE frame" in header and "#WORLD" in header and "$ROBROOT" in header
+    assert f"limits +/-{limit:g} mm a axis" in header
     return context
+
+
+def test_an_online_program_takes_the_correction_limit_its_server_is_given(
+    groove_csv: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """`export --online --max-correction-mm 8` (a cell that bends further than the default 5 mm, the IRB 6640's
+    deepest groove passes): the RSI context's POSCORR limits and monitor and the RAPID position-guidance program's
+    end tolerance take 8 mm, as `online --max-correction-mm 8` does; a limit that is not one is refused (exit 2)
+    naming the option, nothing written."""
+    check_rsi(_export(groove_csv, "kr210", tmp_path / "ISF.src", "--online", "--max-correction-mm", "8"), limit=8.0)
+    check_rsi(_export(groove_csv, "kr210", tmp_path / "default" / "ISF.src", "--online"))
+    rapid = _export(groove_csv, "irb6640", tmp_path / "abb" / "ISF.mod", "--online", "--max-correction-mm", "8")
+    assert "  CONST num nEndTol:=9;" in rapid["ISF.mod"].splitlines()
+    for value in ("0", "-1", "nan", "60"):
+        out = tmp_path / "bad" / "ISF.src"
+        assert main(["export", str(groove_csv), "--robot", "kr210", "--online", "--out", str(out),
+                     "--max-correction-mm", value]) == 2
+        err = capsys.readouterr().err
+        assert "--max-correction-mm" in err and "at most 50" in err and "Traceback" not in err
+        assert not out.exists()
 
 
 @pytest.mark.parametrize(

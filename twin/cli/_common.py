@@ -25,23 +25,15 @@ from twin.robot.description import DEFAULT_ROBOT, shipped_robots
 def add_history_arguments(parser: argparse.ArgumentParser) -> None:
     """Add `--history FILE --symmetry half|full [--unchecked-symmetry]`."""
     parser.add_argument("--history", type=Path, help="FE force history CSV (default: the shipped stand-in)")
-    parser.add_argument(
-        "--symmetry",
-        choices=("half", "full"),
-        help="REQUIRED with --history: half-symmetric or full FE model",
-    )
-    parser.add_argument(
-        "--unchecked-symmetry",
-        action="store_true",
-        help="skip the column-name check of --symmetry (only to reproduce the thesis's mistake)",
-    )
+    parser.add_argument("--symmetry", choices=("half", "full"),
+                        help="REQUIRED with --history: half-symmetric or full FE model")
+    parser.add_argument("--unchecked-symmetry", action="store_true",
+                        help="skip the column-name check of --symmetry (only to reproduce the thesis's mistake)")
 
 
 def add_ideal_argument(parser: argparse.ArgumentParser) -> None:
     """Add `--ideal FILE` (the ideal path U_ID; default: the thesis groove)."""
-    parser.add_argument(
-        "--ideal", type=Path, help="ideal path U_ID as CSV t_s,x_mm,y_mm,z_mm (default: the groove)"
-    )
+    parser.add_argument("--ideal", type=Path, help="ideal path U_ID as CSV t_s,x_mm,y_mm,z_mm (default: the groove)")
 
 
 def add_json_argument(parser: argparse.ArgumentParser | Any, what: str) -> None:

@@ -18,6 +18,7 @@ from twin.cli._common import (
     given,
     note,
 )
+from twin.sim.online_settings import MAX_CORRECTION_HELP
 
 HELP = "Export a (compensated) path CSV as a robot program: Staubli VAL3, KUKA KRL, ABB RAPID, G-code or CSV."
 
@@ -85,6 +86,7 @@ def _add_program_arguments(parser: argparse.ArgumentParser) -> None:
         help=f"KRL: the controller's base slot the program overwrites and uses with the sheet frame, BASE_DATA[N], "
         f"{BASE_NUMBERS.start}..{BASE_NUMBERS.stop - 1} (default: {DEFAULT_BASE_NUMBER})",
     )
+    parser.add_argument("--max-correction-mm", type=float, default=5.0, metavar="MM", help=MAX_CORRECTION_HELP)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -96,6 +98,6 @@ def run(args: argparse.Namespace) -> int:
         args.path_csv, args.out, args.format, given(args, "robot"), args.run, given(args, "tool_length_mm"),
         given(args, "tool_mass_kg"), args.safe_height_mm, args.feed_mm_s, args.max_points, args.online,
         getattr(args, "cell_record", None), None if origin is None else tuple(origin), given(args, "yaw_deg"),
-        args.tool_number, args.base_number, egm_mode=args.egm_mode,
+        args.tool_number, args.base_number, egm_mode=args.egm_mode, max_correction_mm=args.max_correction_mm,
     )
     return finish(args, export_task(request, note), protect=(args.path_csv, args.run))

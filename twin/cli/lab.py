@@ -18,6 +18,7 @@ from twin.cli._common import (
 )
 from twin.cli._types import seed
 from twin.sim.effects import EFFECTS
+from twin.sim.online_settings import MAX_CORRECTION_HELP
 
 HELP = "Run the virtual lab (richer plant, noise, hidden effects) and write a measured run."
 
@@ -25,9 +26,8 @@ HELP = "Run the virtual lab (richer plant, noise, hidden effects) and write a me
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Add the `lab` options."""
     parser.add_argument("--scenario", required=True, choices=("nominal", "compensated", "loadtest", "cnc"))
-    parser.add_argument(
-        "--commanded", type=Path, help="commanded.csv-format path (required for compensated; default the groove)"
-    )
+    parser.add_argument("--commanded", type=Path,
+                        help="commanded.csv-format path (required for compensated; default the groove)")
     effect_list = ", ".join(f"{name} [{spec.unit}] (acts on the {spec.acts_on})" for name, spec in EFFECTS.items())
     parser.add_argument(
         "--effect", action="append", metavar="NAME=VALUE", help=f"hidden effect, repeatable: {effect_list}"
@@ -44,6 +44,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--online", action="store_true", help="dynamic plant: its controller compensates online "
                         "each 4 ms cycle with the twin's compensator on the plant's F/T stream (docs/online.md)")
     parser.add_argument("--model", type=Path, help="with --online: the compensator's twin (a `learn`ed model file)")
+    parser.add_argument("--max-correction-mm", type=float, default=5.0, metavar="MM", help=MAX_CORRECTION_HELP)
     parser.add_argument("--seed", type=seed, required=True, help="seed of the lab's noise")
     add_force_model_argument(parser)
     add_process_arguments(parser)
@@ -62,5 +63,6 @@ def run(args: argparse.Namespace) -> int:
         args.scenario, args.out, args.seed, args.commanded, tuple(args.effect or ()), args.plant,
         tuple(args.set or ()), args.neutral, args.force_model, process_declaration(args), args.robot,
         placement_from(args), args.overwrite, args.online, args.model, getattr(args, "cell_record", None),
+        args.max_correction_mm,
     )
     return finish(args, lab_task(request, note), protect=(args.commanded, args.process, args.model))

@@ -11,6 +11,25 @@ import numpy as np
 
 from twin.errors import InputError
 
+#: Largest correction a cell may allow [mm]: beyond it a correction is not an arm's deflection under a forming load.
+MAX_CORRECTION_LIMIT_MM = 50.0
+
+
+#: `--max-correction-mm`'s help (`lab --online`, `export --online`, `online`).
+MAX_CORRECTION_HELP = ("the online correction's size limit [mm] (default: 5): the compensator's, the exported program's "
+                       "(RSI's POSCORR limits, EGM position guidance's end tolerance) and its server's alike; "
+                       "`lab --online` says when the correction sat at it")
+
+
+def check_max_correction_mm(value: float, option: str = "--max-correction-mm") -> float:
+    """`value` as the correction's size limit [mm], or an `InputError` naming `option`: a finite number > 0 and at
+    most `MAX_CORRECTION_LIMIT_MM` (the controller's own limits, RSI's POSCORR, EGM's end tolerance, take it too)."""
+    if isinstance(value, bool) or not isinstance(value, int | float) or not (
+            math.isfinite(value) and 0.0 < value <= MAX_CORRECTION_LIMIT_MM):
+        raise InputError(f"{option} {value!r}: expected the correction's size limit in mm, a finite number > 0 and at "
+                         f"most {MAX_CORRECTION_LIMIT_MM:g} (default {OnlineSettings.max_correction_mm:g})")
+    return float(value)
+
 
 @dataclass(frozen=True)
 class OnlineSettings:
@@ -78,6 +97,7 @@ class OnlineSettings:
         if self.side_share > 1.0:
             raise InputError(f"online setting side_share = {self.side_share!r}: expected a share of the normal "
                              "force in [0, 1] (0: the correction across the travel taken in full)")
+        check_max_correction_mm(self.max_correction_mm, "online setting max_correction_mm")
         if self.gain > 1.5:
             raise InputError(f"online setting gain = {self.gain!r}: expected at most 1.5 (1: the whole deflection)")
 

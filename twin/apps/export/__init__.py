@@ -49,6 +49,7 @@ from twin.apps.export.program import (
 from twin.base.registry import Registry
 from twin.errors import InputError
 from twin.robot.facts import RobotDescription
+from twin.sim.online_settings import OnlineSettings, check_max_correction_mm
 
 Writer = Callable[[ProgramPath, Path, Sequence[Path]], list[Path]]
 
@@ -172,6 +173,7 @@ def export_path(
     max_points: int = 0,
     tool_number: int = DEFAULT_TOOL_NUMBER,
     base_number: int = DEFAULT_BASE_NUMBER,
+    max_correction_mm: float = OnlineSettings.max_correction_mm,
 ) -> Exported:
     """Export a path CSV in one of `FORMATS`.
 
@@ -185,6 +187,7 @@ def export_path(
         max_points: Points per file before a program is split (`parts`); 0: the format's limit.
         tool_number: The controller's tool (and load) slot a KRL program writes and uses (`slots.TOOL_NUMBERS`).
         base_number: The controller's base slot a KRL program writes and uses (`slots.BASE_NUMBERS`).
+        max_correction_mm: An online program's limit on the correction [mm] (`ProgramPath.max_correction_mm`).
 
     Returns:
         The exported program, the files written and the feed summary.
@@ -207,7 +210,8 @@ def export_path(
             f"{out.with_name(program_name(name))})"
         )
     path, feeds = with_moves(path, safe_z_mm, process_feed_mm_s)
-    path = replace(path, max_points=max_points, tool_number=tool_number, base_number=base_number)
+    path = replace(path, max_points=max_points, tool_number=tool_number, base_number=base_number,
+                   max_correction_mm=check_max_correction_mm(max_correction_mm))
     if fmt in LANGUAGES:
         path = with_configuration(path, LANGUAGES[fmt])
     else:

@@ -77,11 +77,19 @@ MODE, CYCLE = "#ABSOLUTE", "#IPO_FAST"
 CORRECTION_FRAME = "#WORLD"
 #: The ETHERNET object's `Timeout`: late or lost packets accepted before the controller stops the robot.
 LATE_PACKET_LIMIT = 100
-#: POSCORR's per-axis limit [mm]: the online compensator's own (`OnlineSettings.max_correction_mm`).
+#: POSCORR's per-axis limit by default [mm]: the online compensator's own (`OnlineSettings.max_correction_mm`; a
+#: program takes its `ProgramPath.max_correction_mm`, `export --max-correction-mm`).
 MAX_CORRECTION_MM = OnlineSettings().max_correction_mm
-#: The correction monitor's limit [mm]: the most the per-axis-limited correction can reach.
-MONITOR_MAX_MM = math.ceil(math.sqrt(3.0) * MAX_CORRECTION_MM * 10.0) / 10.0
 MONITOR_MAX_DEG = 1.0
+
+
+def monitor_max_mm(limit_mm: float) -> float:
+    """The correction monitor's limit [mm]: the most a correction limited to `limit_mm` a axis can reach."""
+    return math.ceil(math.sqrt(3.0) * limit_mm * 10.0) / 10.0
+
+
+#: The monitor's limit of the default per-axis limit [mm].
+MONITOR_MAX_MM = monitor_max_mm(MAX_CORRECTION_MM)
 RSI_OFF = ["ret=RSI_OFF()", "IF (ret<>RSIOK) THEN", "  HALT", "ENDIF"]
 
 
@@ -101,14 +109,14 @@ def rsi_on(name: str) -> list[str]:
             f"ret=RSI_ON({MODE},{CYCLE})", "IF (ret<>RSIOK) THEN", "  HALT", "ENDIF"]
 
 
-def frame_lines(name: str) -> list[str]:
+def frame_lines(name: str, limit_mm: float = MAX_CORRECTION_MM) -> list[str]:
     """The program header's comment on the RSI context and the correction's frame."""
     return [f"; RSI (KUKA.RobotSensorInterface 4.x): context {context_file(name)}, Ethernet {ethernet_file(name)}, "
             f"RSI_ON({MODE},{CYCLE}): 4 ms, each RKorr the whole correction",
             f"; RKorr X Y Z from tx200-twin online --serve rsi is in the ROBOT BASE frame, not $BASE (the sheet): "
             f"POSCORR corrects in {CORRECTION_FRAME},",
             "; the robot base when $ROBROOT is the null frame (check $ROBROOT on this cell); "
-            f"limits +/-{MAX_CORRECTION_MM:g} mm a axis, monitor {MONITOR_MAX_MM:g} mm"]
+            f"limits +/-{limit_mm:g} mm a axis, monitor {monitor_max_mm(limit_mm):g} mm"]
 
 
 _CONTEXT = """<?xml version="1.0" encoding="utf-8"?>
@@ -146,15 +154,15 @@ _CONTEXT = """<?xml version="1.0" encoding="utf-8"?>
 """
 
 
-def rsi_context(name: str) -> str:
+def rsi_context(name: str, limit_mm: float = MAX_CORRECTION_MM) -> str:
     """The RSI context `context_file(name)`: ETHERNET, POSCORR and its monitor (module docstring)."""
     inputs = "\n".join(f'        <Input InIdx="{i}" OutObjId="Ethernet_1" OutIdx="{i}" />'
                        for i, _ in enumerate("XYZABC"))  # POSCORR's six channels
-    limits = "\n".join(f'        <Parameter Name="{side}Lim{axis}" ParamId="{3 * k + j}" ParamValue="{sign}{MAX_CORRECTION_MM:g}" />'
+    limits = "\n".join(f'        <Parameter Name="{side}Lim{axis}" ParamId="{3 * k + j}" ParamValue="{sign}{limit_mm:g}" />'
                        for k, (side, sign) in enumerate((("Lower", "-"), ("Upper", "")))
                        for j, axis in enumerate("XYZ"))
     return _CONTEXT.format(context=context_file(name), frame=CORRECTION_FRAME, ethernet=ethernet_file(name),
-                           timeout=LATE_PACKET_LIMIT, inputs=inputs, limits=limits, monitor_mm=MONITOR_MAX_MM,
+                           timeout=LATE_PACKET_LIMIT, inputs=inputs, limits=limits, monitor_mm=monitor_max_mm(limit_mm),
                            monitor_deg=MONITOR_MAX_DEG)
 ETHERNET = """<ROOT>
    <CONFIG>
@@ -212,10 +220,10 @@ def program_files(path: ProgramPath) -> dict[str, str]:
     main = f"{path.name}.src"
     text = files[main].splitlines()
     header = next(i for i, line in enumerate(text) if line.startswith("DEF ")) + 1
-    text[header:header] = frame_lines(path.name)
+    text[header:header] = frame_lines(path.name, path.max_correction_mm)
     files[main] = "\n".join(text) + "\n"
     files[ethernet_file(path.name)] = ethernet_config()
-    files[context_file(path.name)] = rsi_context(path.name)
+    files[context_file(path.name)] = rsi_context(path.name, path.max_correction_mm)
     return files
 
 

@@ -36,6 +36,7 @@ from twin.robot.description import DEFAULT_ROBOT, load_robot, robot_record
 from twin.robot.facts import RobotDescription
 from twin.robot.tool import INERTIA_RADIUS_M
 from twin.runs.read import read_commanded_csv
+from twin.sim.online_settings import OnlineSettings
 
 POSITION_DECIMALS = 4  # mm: 0.1 µm, below the tracker's 0.02 mm noise
 MIN_FEED_MM_S = 1e-3
@@ -124,6 +125,8 @@ class ProgramPath:
         tool_number: The controller's tool (and load) slot the program writes and uses (KRL `TOOL_DATA[n]`,
             `LOAD_DATA[n]`; `slots.TOOL_NUMBERS`), not the cell's calibrated tool 1.
         base_number: The controller's base slot the program writes and uses (KRL `BASE_DATA[n]`; `slots.BASE_NUMBERS`).
+        max_correction_mm: An online program's limit on the correction [mm] (RSI's POSCORR limits and monitor, EGM
+            position guidance's end tolerance): the compensator's `max_correction_mm`, which its server is given.
     """
 
     name: str
@@ -138,6 +141,7 @@ class ProgramPath:
     process_feed_mm_s: float = 0.0
     tool_number: int = DEFAULT_TOOL_NUMBER
     base_number: int = DEFAULT_BASE_NUMBER
+    max_correction_mm: float = OnlineSettings.max_correction_mm
 
     @property
     def process_feed(self) -> float:

@@ -85,9 +85,11 @@ RAMP_IN_S = 0.05
 MAX_SPEED_DEVIATION_DEG_S = 1000
 #: External Motion Interface Data level: 1, "Filtering" (the controller's default).
 GUIDANCE_LEVEL = 1
-#: Where guidance may end away from the path's last point before the program says so and lifts first [mm]: the
-#: PC holds the last point plus the correction, at most the compensator's `max_correction_mm`, 1 mm beyond it.
-END_TOLERANCE_MM = OnlineSettings().max_correction_mm + 1.0
+#: Where guidance may end away from the path's last point before the program says so and lifts first, beyond the
+#: correction's limit [mm]: the PC holds the last point plus the correction, at most the compensator's
+#: `max_correction_mm` (the program's `ProgramPath.max_correction_mm`), 1 mm beyond it.
+END_MARGIN_MM = 1.0
+END_TOLERANCE_MM = OnlineSettings().max_correction_mm + END_MARGIN_MM
 #: The guidance table's columns: time at the programmed feeds [s], point [mm] and orientation (w x y z), sheet frame.
 GUIDANCE_COLUMNS = ("t_s", "x_mm", "y_mm", "z_mm", "qw", "qx", "qy", "qz")
 #: `--egm-mode` -> export format; the default (module docstring).
@@ -173,7 +175,8 @@ def _main(path: ProgramPath) -> str:
         "  CONST pose pose0:=[[0,0,0],[1,0,0,0]];",
         f"  CONST egm_minmax egmLin:=[{-CONVERGENCE_MM:g},{CONVERGENCE_MM:g}];",
         f"  CONST egm_minmax egmRot:=[{-CONVERGENCE_DEG:g},{CONVERGENCE_DEG:g}];",
-        *path_corr.end_data(path), f"  CONST robtarget pEnd:={end};", f"  CONST num nEndTol:={END_TOLERANCE_MM:g};", "",
+        *path_corr.end_data(path), f"  CONST robtarget pEnd:={end};",
+        f"  CONST num nEndTol:={path.max_correction_mm + END_MARGIN_MM:g};", "",
         f"  PROC {rapid.entry(path.name)}()", "    ConfJ \\On;", "    ConfL \\Off;", rapid.home_move(),
         f"    MoveJ pApproach,{rapid.APPROACH_SPEED},fine,tIsf\\WObj:=wSheet;",
         *EGM_ON,

@@ -40,6 +40,7 @@ from twin.robot.description import load_robot
 from twin.robot.facts import RobotDescription
 from twin.runs.format import run_robot
 from twin.runs.read import read_run
+from twin.sim.online_settings import OnlineSettings, check_max_correction_mm
 
 
 @dataclass(frozen=True)
@@ -75,6 +76,8 @@ class ExportRequest:
             default 16 leaves base 1 alone.
         egm_mode: ABB EGM's program (`--egm-mode`, `rapid_egm_pose.MODES`): "pose" (position guidance, the default
             of `--online`), "path" (path correction); None: the default, or what `--format` names.
+        max_correction_mm: An online program's limit on the correction [mm] (`--max-correction-mm`): the one its
+            server is given (`tx200-twin online --max-correction-mm`).
     """
 
     path_csv: Path
@@ -94,8 +97,10 @@ class ExportRequest:
     tool_number: int = DEFAULT_TOOL_NUMBER
     base_number: int = DEFAULT_BASE_NUMBER
     egm_mode: str | None = None
+    max_correction_mm: float = OnlineSettings.max_correction_mm
 
     def __post_init__(self) -> None:
+        check_max_correction_mm(self.max_correction_mm)
         if self.format is not None and self.format not in FORMATS:
             raise InputError(f"--format {self.format!r}: expected one of {', '.join(sorted(FORMATS))}")
         for option, value in (("--tool-length-mm", self.tool_length_mm), ("--tool-mass-kg", self.tool_mass_kg),
@@ -245,7 +250,8 @@ def export_task(request: ExportRequest, note: Note = silent) -> ExportReport:
         cell = replace(cell, cog_mm=tuple(request.cell["tool"]["cog_mm"]))
     exported = export_path(request.path_csv, fmt, request.out, cell=cell, safe_z_mm=request.safe_height_mm,
                            process_feed_mm_s=request.feed_mm_s, max_points=request.max_points,
-                           tool_number=request.tool_number, base_number=request.base_number)
+                           tool_number=request.tool_number, base_number=request.base_number,
+                           max_correction_mm=request.max_correction_mm)
     for warning in exported.feeds.warnings():
         note(f"warning: {warning}")
     if fmt == "rapid-egm":

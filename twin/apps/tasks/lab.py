@@ -27,6 +27,7 @@ from twin.process.toolpath.placement import Placement
 from twin.runs.read import lab_commanded
 from twin.runs.write import write_run
 from twin.sim.effects import Effects, parse_effect_args
+from twin.sim.online_settings import OnlineSettings, check_max_correction_mm
 from twin.sim.spec import TwinSpec
 
 SCENARIOS = ("nominal", "compensated", "loadtest", "cnc")
@@ -54,6 +55,7 @@ class LabRequest:
         online: The dynamic plant's controller compensates online each 4 ms cycle with the twin's compensator
             (`twin.sim.online`), on the plant's own F/T stream.
         model: The model file the online compensator's twin is (a `learn`ed one); None: the default twin.
+        max_correction_mm: The online compensator's size limit on the correction [mm] (`--max-correction-mm`).
         cell: The `--cell` file's record (`twin.process.cell_file.CellDeclaration.record`), which the run keeps in
             its meta.json, or None.
     """
@@ -74,8 +76,10 @@ class LabRequest:
     online: bool = False
     model: Path | None = None
     cell: Mapping[str, Any] | None = None
+    max_correction_mm: float = OnlineSettings.max_correction_mm
 
     def __post_init__(self) -> None:
+        check_max_correction_mm(self.max_correction_mm)
         for option, value, valid in (("--scenario", self.scenario, SCENARIOS), ("--plant", self.plant,
                                                                                  tuple(LAB_PLANTS))):
             if value not in valid:

@@ -36,6 +36,7 @@ from twin.runs.format import Stream
 from twin.runs.read import lab_commanded
 from twin.runs.write import write_run
 from twin.sim.online import AssumedForces, OnlineCompensator
+from twin.sim.online_settings import OnlineSettings
 
 if TYPE_CHECKING:
     from twin.apps.tasks.lab import LabRequest
@@ -122,7 +123,8 @@ def dynamic_lab_task(request: LabRequest, note: Note = silent) -> Report:
     if request.online:  # the twin beside the controller, at the run's placement
         spec = resolve_spec(model=request.model, robot=robot, placement=request.placement, p_sheet_m=p_cmd,
                             cell=request.cell)
-        compensator = OnlineCompensator(spec, assumed=assumed_forces(record, commanded))
+        compensator = OnlineCompensator(spec, OnlineSettings(max_correction_mm=request.max_correction_mm),
+                                        assumed=assumed_forces(record, commanded))
     run, truth, log = run_dynamic_lab(
         commanded.t_s, p_cmd, scenario=request.scenario, knobs=knobs, seed=request.seed, progress=_NoteStream(note),
         process=process, placement=request.placement, robot=robot, corrector=compensator, tool=tool,

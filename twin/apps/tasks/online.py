@@ -22,6 +22,7 @@ from twin.analysis.resolve import resolve_spec
 from twin.apps.tasks.base import Note, Report, silent
 from twin.errors import InputError
 from twin.process.toolpath.placement import Placement
+from twin.sim.online_settings import OnlineSettings, check_max_correction_mm
 
 if TYPE_CHECKING:
     from twin.apps.online.cycle import ServeReport
@@ -128,6 +129,8 @@ class OnlineRequest:
             of the server's, not per packet (`twin.apps.online.cycle`).
         guidance: `--serve egm` only: the guidance table `NAME_egm_pose.csv` of an EGM position-guidance program
             (`twin.apps.online.egm_pose`: the path's poses plus the correction); None: EGM path correction.
+        max_correction_mm: The correction's size limit [mm] (`OnlineSettings.max_correction_mm`): the exported
+            program's (`export --online --max-correction-mm`).
     """
 
     serve: str
@@ -143,8 +146,10 @@ class OnlineRequest:
     start_timeout_s: float = 60.0
     max_rate_mm_s: float = 20.0
     guidance: Path | None = None
+    max_correction_mm: float = OnlineSettings.max_correction_mm
 
     def __post_init__(self) -> None:
+        check_max_correction_mm(self.max_correction_mm)
         if self.serve not in INTERFACES:
             raise InputError(f"--serve {self.serve!r}: expected one of {', '.join(INTERFACES)}")
         if self.guidance is not None and self.serve != "egm":
@@ -271,7 +276,8 @@ def online_task(request: OnlineRequest, note: Note = silent) -> OnlineReport:
     force = None if ft is None else RdtSource(ft.host, ft.port, counts_per_n=ft.counts_per_n, bias=ft.bias, log=note,
                                               R_sheet_sensor=R_sheet_sensor)
     try:
-        compensator = OnlineCompensator(spec, OnlineSettings(max_rate_mm_s=request.max_rate_mm_s))
+        compensator = OnlineCompensator(spec, OnlineSettings(max_rate_mm_s=request.max_rate_mm_s,
+                                                             max_correction_mm=request.max_correction_mm))
         server = interface.server(compensator, twin.robot, request.port, request.host, force) if guided is None else \
             EgmPoseServer(compensator, twin.robot, guided, request.port or 0, request.host, force)
         try:
