@@ -32,8 +32,8 @@ the world when `$ROBROOT` is the null frame, a floor-mounted robot on no linear 
   (`NAME_rsi_ethernet.xml`), its `Timeout` (`LATE_PACKET_LIMIT`: the late or lost packets the controller accepts
   before it stops the robot; `ros_rsi.rsix` uses 100), `Flag` and `Precision`;
 - the **POSCORR** object (`PosCorr`, type id 27) fed by the ETHERNET object's outputs 1-6 (`RKorr` X Y Z A B C),
-  its limits `LowerLimX..Z` / `UpperLimX..Z` = -/+ `OnlineSettings.max_correction_mm` (the compensator's own
-  limit, 5 mm: RSI clips what passes it), `MaxRotAngle` 0 (the twin corrects no orientation) and its reference
+  its limits `LowerLimX..Z` / `UpperLimX..Z` = -/+ the program's `max_correction_mm` (the compensator's own
+  limit, 5 mm unless `export --max-correction-mm` gives the one its server is given: RSI clips what passes it), `MaxRotAngle` 0 (the twin corrects no orientation) and its reference
   frame `RefCorrSys` = `#WORLD`;
 - the **correction monitor** (`PosCorrMon`), `MaxTrans` = sqrt(3) x the limit (the most the clipped correction
   can reach: it stops the robot only if the limits failed) and `MaxRotAngle` 1 deg.

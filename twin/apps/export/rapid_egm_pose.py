@@ -23,7 +23,8 @@ written):
 - `EGMRunPose egmID,EGM_STOP_HOLD\\x\\y\\z\\Rx\\Ry\\Rz\\CondTime:=2\\RampInTime:=0.05;` (the manual's UdpUc
   example's values): it returns when the robot has been within the limits of the PC's pose for `COND_TIME_S`, which
   happens once the PC holds the path's last point; then `EGMStop egmID,EGM_STOP_HOLD;`;
-- a check of where guidance ended (`Distance(CPos(\\Tool:=tIsf\\WObj:=wSheet),pEnd.trans) > nEndTol`): away
+- a check of where guidance ended (`Distance(CPos(\\Tool:=tIsf\\WObj:=wSheet),pEnd.trans) > nEndTol`, the
+  correction's limit, `export --max-correction-mm`, plus 1 mm): away
   from `pEnd` (the path's last point) the program says so and lifts `nLift` straight up first; then the retract `MoveL pRetract` and `MoveAbsJ jHome`;
 - the same ERROR handler as `rapid_egm` (ERR_UDPUC_COMM: "In synchronous mode ... always a recoverable error"):
   stop, `EGMReset`, lift `nLift` mm along the sheet's z out of the sheet, `EXIT`.
