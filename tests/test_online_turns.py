@@ -54,6 +54,7 @@ def _run(spec: TwinSpec, Q: np.ndarray, forces: np.ndarray, feed_turns: bool, pl
 
 
 def _friction(d: np.ndarray) -> np.ndarray:
+    """The sheet's force on a tool travelling along `d`: Fz and its friction against the travel [N]."""
     return -MU * FZ_N * d + np.array([0.0, 0.0, FZ_N])
 
 
@@ -144,16 +145,15 @@ def test_how_much_of_the_friction_a_turn_turns_is_learned_from_the_turns() -> No
     def forces(late: int) -> np.ndarray:
         out = np.empty((len(Q), 3))
         for k in range(len(Q)):
-            leg, into = divmod(k - late, LEG)
-            leg, sign = max(leg, 0), (1.0 if max(leg, 0) % 2 == 0 else -1.0)
-            along = -sign * MU * FZ_N  # the friction, against the travel
-            if leg > 0 and into < settle:  # at first only half of its turn: from +sign mu Fz to nothing
-                along = 0.0
+            leg, into = divmod(max(k - late, 0), LEG)
+            sign = 1.0 if leg % 2 == 0 else -1.0  # the leg's travel along d
+            # the friction against the travel; after a turn at first only half of it: from +sign mu Fz to nothing
+            along = 0.0 if leg > 0 and into < settle else -sign * MU * FZ_N
             out[k] = along * d + np.array([0.0, 0.0, FZ_N])
         return out
 
-    fed, plain, timely = _run(spec, Q, forces(LATE), True), _run(spec, Q, forces(LATE), False), _run(
-        spec, Q, forces(0), False)
+    fed, plain = _run(spec, Q, forces(LATE), True), _run(spec, Q, forces(LATE), False)
+    timely = _run(spec, Q, forces(0), False)
     first, last = LEG + LATE - 1, (legs - 1) * LEG + LATE - 1
     assert np.linalg.norm(fed[first] - timely[first]) > 0.3 * np.linalg.norm(plain[first] - timely[first])
     assert np.linalg.norm(fed[last] - timely[last]) < np.linalg.norm(plain[last] - timely[last]) / 6.0
