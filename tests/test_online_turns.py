@@ -167,7 +167,7 @@ def test_on_the_plant_the_turns_fed_forward_lower_the_groove_learned_from_a_cone
     import functools
     from dataclasses import replace
 
-    import twin.sim.online as online
+    import twin.apps.tasks.lab_dynamic as lab_dynamic
     from twin.analysis.check import check_run
     from twin.cli import main
     from twin.runs.read import read_commanded_csv, read_run
@@ -183,7 +183,7 @@ def test_on_the_plant_the_turns_fed_forward_lower_the_groove_learned_from_a_cone
     assert main(["learn", str(tmp_path / "cone1"), "--write-model", str(tmp_path / "m.json")]) == 0
     rms = {}
     for feed in (False, True):
-        monkeypatch.setattr(online, "OnlineSettings", functools.partial(OnlineSettings, feed_turns=feed))
+        monkeypatch.setattr(lab_dynamic, "OnlineSettings", functools.partial(OnlineSettings, feed_turns=feed))
         lab(f"groove{feed}", "groove.csv", 3, "--online", "--model", str(tmp_path / "m.json"))
         run, cmd = read_run(tmp_path / f"groove{feed}"), read_commanded_csv(tmp_path / "groove.csv")
         tip = read_commanded_csv(tmp_path / f"groove{feed}" / "truth_tip.csv")
