@@ -477,6 +477,9 @@ def test_an_online_program_takes_the_correction_limit_its_server_is_given(
         err = capsys.readouterr().err
         assert "--max-correction-mm" in err and "at most 50" in err and "Traceback" not in err
         assert not out.exists()
+    out = tmp_path / "offline" / "ISF.src"  # an offline program has no correction to limit: refused
+    assert main(["export", str(groove_csv), "--robot", "kr210", "--out", str(out), "--max-correction-mm", "8"]) == 2
+    assert "without --online" in capsys.readouterr().err and not out.exists()
 
 
 @pytest.mark.parametrize(

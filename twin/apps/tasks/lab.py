@@ -55,9 +55,10 @@ class LabRequest:
         online: The dynamic plant's controller compensates online each 4 ms cycle with the twin's compensator
             (`twin.sim.online`), on the plant's own F/T stream.
         model: The model file the online compensator's twin is (a `learn`ed one); None: the default twin.
-        max_correction_mm: The online compensator's size limit on the correction [mm] (`--max-correction-mm`).
         cell: The `--cell` file's record (`twin.process.cell_file.CellDeclaration.record`), which the run keeps in
             its meta.json, or None.
+        max_correction_mm: The online compensator's size limit on the correction [mm] (`--max-correction-mm`;
+            with `online` only).
     """
 
     scenario: str
@@ -80,6 +81,9 @@ class LabRequest:
 
     def __post_init__(self) -> None:
         check_max_correction_mm(self.max_correction_mm)
+        if self.max_correction_mm != OnlineSettings.max_correction_mm and not self.online:
+            raise InputError(f"--max-correction-mm {self.max_correction_mm:g} without --online: it is the online "
+                             "compensator's limit; expected --online with it")
         for option, value, valid in (("--scenario", self.scenario, SCENARIOS), ("--plant", self.plant,
                                                                                  tuple(LAB_PLANTS))):
             if value not in valid:
