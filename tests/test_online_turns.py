@@ -23,23 +23,26 @@ LATE = 20  # cycles the measured force shows the turn late (80 ms)
 FZ_N, MU = 1500.0, 0.15
 
 
-def _path(turn_deg: float, accel_mps2: float = 0.0) -> tuple[TwinSpec, np.ndarray, np.ndarray, np.ndarray]:
-    """The twin, the planned joints of two straight legs that meet at a turn of `turn_deg` (the twin's IK), and the
-    legs' directions in the sheet frame; the second leg at `STEP_M` a cycle, or out of a stop at `accel_mps2`."""
+def _joints(tips_m: np.ndarray | list[np.ndarray]) -> tuple[TwinSpec, np.ndarray]:
+    """The twin and the planned joints (its IK from home) of tool tips given from its home tip, sheet frame [m]."""
     spec = TwinSpec()
     twin = spec.build()
     kin = Kinematics(robot=twin.robot)
     q0 = np.asarray(twin.robot.q_home_rad, dtype=float)
+    return spec, kin.ik_path(np.array([kin.fk(q0)[0] + twin.R_base_sheet @ x for x in tips_m]), q0)
+
+
+def _path(turn_deg: float, accel_mps2: float = 0.0) -> tuple[TwinSpec, np.ndarray, np.ndarray, np.ndarray]:
+    """The twin, the planned joints of two straight legs that meet at a turn of `turn_deg` (the twin's IK), and the
+    legs' directions in the sheet frame; the second leg at `STEP_M` a cycle, or out of a stop at `accel_mps2`."""
     d1 = np.array([math.cos(0.5), math.sin(0.5), 0.0])
     a = 0.5 + math.radians(turn_deg)
     d2 = np.array([math.cos(a), math.sin(a), 0.0])
-    p0 = kin.fk(q0)[0]
     tips = [STEP_M * k * d1 for k in range(LEG)]
     out = [STEP_M * k if accel_mps2 == 0.0 else min(0.5 * accel_mps2 * (CYCLE_S * k) ** 2, STEP_M * k)
            for k in range(1, LEG + 1)]
     tips += [tips[-1] + x * d2 for x in out]
-    Q = kin.ik_path(np.array([p0 + twin.R_base_sheet @ x for x in tips]), q0)
-    return spec, Q, d1, d2
+    return (*_joints(tips), d1, d2)
 
 
 def _run(spec: TwinSpec, Q: np.ndarray, forces: np.ndarray, feed_turns: bool, planned: bool = True) -> np.ndarray:
@@ -107,14 +110,10 @@ def test_a_turn_the_force_never_shows_is_dropped() -> None:
 
 def test_a_gentle_curve_is_no_turn() -> None:
     """A spiral's travel turns by a fraction of a degree per step: nothing fed forward."""
-    spec = TwinSpec()
-    twin = spec.build()
-    kin = Kinematics(robot=twin.robot)
-    q0 = np.asarray(twin.robot.q_home_rad, dtype=float)
     radius = 0.02
     angles = STEP_M / radius * np.arange(2 * LEG)
     tips = radius * np.column_stack([np.cos(angles), np.sin(angles), np.zeros_like(angles)])
-    Q = kin.ik_path(np.array([kin.fk(q0)[0] + twin.R_base_sheet @ (x - tips[0]) for x in tips]), q0)
+    spec, Q = _joints(tips - tips[0])
     tangents = np.column_stack([-np.sin(angles), np.cos(angles), np.zeros_like(angles)])
     forces = np.array([_friction(t) for t in np.roll(tangents, LATE, axis=0)])  # the force shows it late too
     np.testing.assert_allclose(_run(spec, Q, forces, True), _run(spec, Q, forces, False), atol=1e-12)
@@ -131,16 +130,12 @@ def test_how_much_of_the_friction_a_turn_turns_is_learned_from_the_turns() -> No
     wall that pushed before it): the first turn is fed forward whole; by the last of seven, fed forward by what the
     turns showed, the correction before the force shows the turn is within a sixth of a timely force's of where the
     plain one is."""
-    spec = TwinSpec()
-    twin = spec.build()
-    kin = Kinematics(robot=twin.robot)
-    q0 = np.asarray(twin.robot.q_home_rad, dtype=float)
     d = np.array([math.cos(0.5), math.sin(0.5), 0.0])
     legs, settle = 8, math.ceil(1.2 * TURN_SETTLE_S / CYCLE_S)
     x = [0.0]
     for leg in range(legs):
         x += [x[-1] + (STEP_M if leg % 2 == 0 else -STEP_M) * k for k in range(1, LEG + 1)]
-    Q = kin.ik_path(np.array([kin.fk(q0)[0] + twin.R_base_sheet @ (v * d) for v in x[1:]]), q0)
+    spec, Q = _joints([v * d for v in x[1:]])
 
     def forces(late: int) -> np.ndarray:
         out = np.empty((len(Q), 3))

@@ -43,7 +43,7 @@ import pytest
 from doc_numbers import quoted
 from test_export_rapid_egm import Program as RapidProgram
 
-from twin.apps.export import krl, krl_rsi, rapid
+from twin.apps.export import krl, krl_rsi, rapid, rapid_egm_pose
 from twin.apps.export.motion import CHORD_TOL_MM, CORNER_DEG, turn_angles_deg, with_moves
 from twin.apps.export.program import (
     DEFAULT_BASE_NUMBER,
@@ -58,6 +58,7 @@ from twin.apps.export.val3_check import check_application
 from twin.cli import main
 from twin.errors import InputError
 from twin.sim.online import OnlineSettings
+from twin.sim.online_settings import MAX_CORRECTION_LIMIT_MM
 
 #: Motion statements that may start within one second of the path at its programmed feeds (module docstring).
 MAX_BLOCKS_PER_S = 20.0
@@ -469,13 +470,13 @@ def test_an_online_program_takes_the_correction_limit_its_server_is_given(
     check_rsi(_export(groove_csv, "kr210", tmp_path / "ISF.src", "--online", "--max-correction-mm", "8"), limit=8.0)
     check_rsi(_export(groove_csv, "kr210", tmp_path / "default" / "ISF.src", "--online"))
     rapid = _export(groove_csv, "irb6640", tmp_path / "abb" / "ISF.mod", "--online", "--max-correction-mm", "8")
-    assert "  CONST num nEndTol:=9;" in rapid["ISF.mod"].splitlines()
+    assert f"  CONST num nEndTol:={8.0 + rapid_egm_pose.END_MARGIN_MM:g};" in rapid["ISF.mod"].splitlines()
     for value in ("0", "-1", "nan", "60"):
         out = tmp_path / "bad" / "ISF.src"
         assert main(["export", str(groove_csv), "--robot", "kr210", "--online", "--out", str(out),
                      "--max-correction-mm", value]) == 2
         err = capsys.readouterr().err
-        assert "--max-correction-mm" in err and "at most 50" in err and "Traceback" not in err
+        assert "--max-correction-mm" in err and f"at most {MAX_CORRECTION_LIMIT_MM:g}" in err and "Traceback" not in err
         assert not out.exists()
     out = tmp_path / "offline" / "ISF.src"  # an offline program has no correction to limit: refused
     assert main(["export", str(groove_csv), "--robot", "kr210", "--out", str(out), "--max-correction-mm", "8"]) == 2

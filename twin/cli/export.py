@@ -18,7 +18,7 @@ from twin.cli._common import (
     given,
     note,
 )
-from twin.sim.online_settings import MAX_CORRECTION_HELP
+from twin.sim.online_settings import MAX_CORRECTION_HELP, OnlineSettings
 
 HELP = "Export a (compensated) path CSV as a robot program: Staubli VAL3, KUKA KRL, ABB RAPID, G-code or CSV."
 
@@ -86,7 +86,8 @@ def _add_program_arguments(parser: argparse.ArgumentParser) -> None:
         help=f"KRL: the controller's base slot the program overwrites and uses with the sheet frame, BASE_DATA[N], "
         f"{BASE_NUMBERS.start}..{BASE_NUMBERS.stop - 1} (default: {DEFAULT_BASE_NUMBER})",
     )
-    parser.add_argument("--max-correction-mm", type=float, default=5.0, metavar="MM", help=MAX_CORRECTION_HELP)
+    parser.add_argument("--max-correction-mm", type=float, default=OnlineSettings.max_correction_mm,
+                        metavar="MM", help=MAX_CORRECTION_HELP)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -15,19 +15,18 @@ from twin.errors import InputError
 MAX_CORRECTION_LIMIT_MM = 50.0
 
 
-#: `--max-correction-mm`'s help (`lab --online`, `export --online`, `online`).
-MAX_CORRECTION_HELP = ("the online correction's size limit [mm] (default: 5): the compensator's, the exported program's "
-                       "(RSI's POSCORR limits, EGM position guidance's end tolerance) and its server's alike; "
-                       "`lab --online` says when the correction sat at it")
-
-
-def check_max_correction_mm(value: float, option: str = "--max-correction-mm") -> float:
+def check_max_correction_mm(value: float, option: str = "--max-correction-mm", online: bool = True) -> float:
     """`value` as the correction's size limit [mm], or an `InputError` naming `option`: a finite number > 0 and at
-    most `MAX_CORRECTION_LIMIT_MM` (the controller's own limits, RSI's POSCORR, EGM's end tolerance, take it too)."""
+    most `MAX_CORRECTION_LIMIT_MM` (the controller's own limits, RSI's POSCORR, EGM's end tolerance, take it too);
+    other than the default only where there is an online correction to limit (`online`: a `lab` or `export`
+    without `--online` would ignore it)."""
     if isinstance(value, bool) or not isinstance(value, int | float) or not (
             math.isfinite(value) and 0.0 < value <= MAX_CORRECTION_LIMIT_MM):
         raise InputError(f"{option} {value!r}: expected the correction's size limit in mm, a finite number > 0 and at "
                          f"most {MAX_CORRECTION_LIMIT_MM:g} (default {OnlineSettings.max_correction_mm:g})")
+    if value != OnlineSettings.max_correction_mm and not online:
+        raise InputError(f"{option} {value:g} without --online: it limits the online correction; expected --online "
+                         "with it")
     return float(value)
 
 
@@ -115,3 +114,9 @@ class OnlineSettings:
                          1e-3 * self.max_correction_mm, 1e-3 * self.max_rate_mm_s, self.stale_s,
                          self.hold_s, self.gain, float(self.spike_run), self.side_share,
                          float(self.feed_turns)])
+
+
+#: `--max-correction-mm`'s help (`lab --online`, `export --online`, `online`).
+MAX_CORRECTION_HELP = (f"the online correction's size limit [mm] (default: {OnlineSettings.max_correction_mm:g}): the "
+                       "compensator's, the exported program's (RSI's POSCORR limits, EGM position guidance's end "
+                       "tolerance) and its server's alike; `lab --online` says when the correction sat at it")

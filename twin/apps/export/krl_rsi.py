@@ -67,7 +67,6 @@ from pathlib import Path
 import twin.apps.export.krl as krl
 from twin.apps.export.program import ProgramPath
 from twin.base.csvio import write_text
-from twin.sim.online_settings import OnlineSettings
 
 #: Where `tx200-twin online --serve rsi` listens by default.
 DEFAULT_PORT = 49152
@@ -77,19 +76,13 @@ MODE, CYCLE = "#ABSOLUTE", "#IPO_FAST"
 CORRECTION_FRAME = "#WORLD"
 #: The ETHERNET object's `Timeout`: late or lost packets accepted before the controller stops the robot.
 LATE_PACKET_LIMIT = 100
-#: POSCORR's per-axis limit by default [mm]: the online compensator's own (`OnlineSettings.max_correction_mm`; a
-#: program takes its `ProgramPath.max_correction_mm`, `export --max-correction-mm`).
-MAX_CORRECTION_MM = OnlineSettings().max_correction_mm
 MONITOR_MAX_DEG = 1.0
 
 
 def monitor_max_mm(limit_mm: float) -> float:
-    """The correction monitor's limit [mm]: the most a correction limited to `limit_mm` a axis can reach."""
+    """The correction monitor's limit [mm]: the most a correction limited to `limit_mm` a axis can reach (POSCORR's
+    per-axis limit is the program's `ProgramPath.max_correction_mm`, the compensator's own)."""
     return math.ceil(math.sqrt(3.0) * limit_mm * 10.0) / 10.0
-
-
-#: The monitor's limit of the default per-axis limit [mm].
-MONITOR_MAX_MM = monitor_max_mm(MAX_CORRECTION_MM)
 RSI_OFF = ["ret=RSI_OFF()", "IF (ret<>RSIOK) THEN", "  HALT", "ENDIF"]
 
 
@@ -109,7 +102,7 @@ def rsi_on(name: str) -> list[str]:
             f"ret=RSI_ON({MODE},{CYCLE})", "IF (ret<>RSIOK) THEN", "  HALT", "ENDIF"]
 
 
-def frame_lines(name: str, limit_mm: float = MAX_CORRECTION_MM) -> list[str]:
+def frame_lines(name: str, limit_mm: float) -> list[str]:
     """The program header's comment on the RSI context and the correction's frame."""
     return [f"; RSI (KUKA.RobotSensorInterface 4.x): context {context_file(name)}, Ethernet {ethernet_file(name)}, "
             f"RSI_ON({MODE},{CYCLE}): 4 ms, each RKorr the whole correction",
@@ -154,7 +147,7 @@ _CONTEXT = """<?xml version="1.0" encoding="utf-8"?>
 """
 
 
-def rsi_context(name: str, limit_mm: float = MAX_CORRECTION_MM) -> str:
+def rsi_context(name: str, limit_mm: float) -> str:
     """The RSI context `context_file(name)`: ETHERNET, POSCORR and its monitor (module docstring)."""
     inputs = "\n".join(f'        <Input InIdx="{i}" OutObjId="Ethernet_1" OutIdx="{i}" />'
                        for i, _ in enumerate("XYZABC"))  # POSCORR's six channels

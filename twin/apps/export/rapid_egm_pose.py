@@ -71,7 +71,6 @@ import twin.apps.export.rapid_egm as path_corr
 from twin.apps.export.program import ProgramPath, fmt, quaternion_wxyz
 from twin.base.csvio import write_text
 from twin.errors import InputError
-from twin.sim.online_settings import OnlineSettings
 
 PROFILE = "poseGuide"
 #: `EGMActPose`'s sample rate [ms]: "multiples of 4 milliseconds"; 4, the fastest.
@@ -90,7 +89,6 @@ GUIDANCE_LEVEL = 1
 #: correction's limit [mm]: the PC holds the last point plus the correction, at most the compensator's
 #: `max_correction_mm` (the program's `ProgramPath.max_correction_mm`), 1 mm beyond it.
 END_MARGIN_MM = 1.0
-END_TOLERANCE_MM = OnlineSettings().max_correction_mm + END_MARGIN_MM
 #: The guidance table's columns: time at the programmed feeds [s], point [mm] and orientation (w x y z), sheet frame.
 GUIDANCE_COLUMNS = ("t_s", "x_mm", "y_mm", "z_mm", "qw", "qx", "qy", "qz")
 #: `--egm-mode` -> export format; the default (module docstring).

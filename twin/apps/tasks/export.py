@@ -100,10 +100,7 @@ class ExportRequest:
     max_correction_mm: float = OnlineSettings.max_correction_mm
 
     def __post_init__(self) -> None:
-        check_max_correction_mm(self.max_correction_mm)
-        if self.max_correction_mm != OnlineSettings.max_correction_mm and not self.online:
-            raise InputError(f"--max-correction-mm {self.max_correction_mm:g} without --online: it is an online "
-                             "program's limit on the correction; expected --online with it")
+        check_max_correction_mm(self.max_correction_mm, online=self.online)
         if self.format is not None and self.format not in FORMATS:
             raise InputError(f"--format {self.format!r}: expected one of {', '.join(sorted(FORMATS))}")
         for option, value in (("--tool-length-mm", self.tool_length_mm), ("--tool-mass-kg", self.tool_mass_kg),

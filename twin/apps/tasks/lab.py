@@ -80,10 +80,7 @@ class LabRequest:
     max_correction_mm: float = OnlineSettings.max_correction_mm
 
     def __post_init__(self) -> None:
-        check_max_correction_mm(self.max_correction_mm)
-        if self.max_correction_mm != OnlineSettings.max_correction_mm and not self.online:
-            raise InputError(f"--max-correction-mm {self.max_correction_mm:g} without --online: it is the online "
-                             "compensator's limit; expected --online with it")
+        check_max_correction_mm(self.max_correction_mm, online=self.online)
         for option, value, valid in (("--scenario", self.scenario, SCENARIOS), ("--plant", self.plant,
                                                                                  tuple(LAB_PLANTS))):
             if value not in valid:

@@ -144,8 +144,7 @@ def dynamic_lab_task(request: LabRequest, note: Note = silent) -> Report:
         request.scenario, request.out, request.seed, knobs.changed(), len(run.tracker.t_s), len(run.forces.t_s),
         1e3 * float(np.max(np.linalg.norm(deviation, axis=1))),
         float(np.max(np.linalg.norm(run.forces.values, axis=1))), log.t_s.size, log.wall_s,
-        None if log.online is None or compensator is None else online_summary(
-            log.online, compensator.settings.max_correction_mm),
+        None if log.online is None else online_summary(log.online, request.max_correction_mm),
     )
 
 

@@ -27,7 +27,7 @@ NO_SENSOR, TRACKING, SPIKE, HOLDING, RAMPING = range(5)
 #: Slots of the state vector: a sample seen, its stamp, spikes rejected, filtered force (3), its rate (3), the
 #: correction (3), spikes in a row, joints seen, the segment along an offline command, the offset of the reported
 #: tip from that command (3), that progress started, the time of the last call, a call seen; the travel's last
-#: anchor point (x, y; a third slot unused) and direction (2, sheet plane), a direction found, the side force's share
+#: anchor point (2, sheet plane) and direction (2), a direction found, the side force's share
 #: of the normal force (slowly filtered), that share seen; the last turn of the travel (the friction's change of
 #: direction there (2), the filtered in-plane force at it (2), its time, its state: 0 over, 1 fed forward, 2 shown
 #: by the force and waiting to be read), the sheet's friction force along the
@@ -35,10 +35,10 @@ NO_SENSOR, TRACKING, SPIKE, HOLDING, RAMPING = range(5)
 #: the friction at the last turn, mu [N]; how much of mu u the cell's turns have turned, less 1 (zeros start at 1).
 HAVE, T_LAST, SPIKES, F, DF, CORR, RUN, HAVE_Q, AT, OFFSET, HAVE_AT, T_CALL, HAVE_T = (
     0, 1, 2, 3, 6, 9, 12, 13, 14, 15, 18, 19, 20)
-ANCHOR, DIRECTION, HAVE_DIR, SIDE, HAVE_SIDE = 21, 24, 26, 27, 28
+ANCHOR, DIRECTION, HAVE_DIR, SIDE, HAVE_SIDE = 21, 23, 25, 26, 27
 TURN_U, TURN_F, TURN_T, TURNING, FRICTION, HAVE_FRICTION, PREV, TURN_MU, TURN_GAIN = (
-    29, 31, 33, 34, 35, 36, 37, 39, 40)
-STATE_SIZE = 41
+    28, 30, 32, 33, 34, 35, 36, 38, 39)
+STATE_SIZE = 40
 #: The travel's direction is taken over this much of the tool's planned travel [m]: a joint's vibration (um) does
 #: not turn it, a pass's reversal does within a tenth of a millimetre.
 TRAVEL_STEP_M = 1e-4
@@ -131,6 +131,16 @@ def progress(path, state, x0, x1, x2, alpha):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True)
+def _follow(state, at, seen, value, cycle):  # type: ignore[no-untyped-def]
+    """Follow `value` slowly in `state[at]` (its first value taken whole, `state[seen]` set; then low-passed with
+    `SIDE_TAU_S`): the side force's and the friction's shares of the normal force."""
+    if state[seen] == 0.0:
+        state[at], state[seen] = value, 1.0
+    else:
+        state[at] += (1.0 - math.exp(-cycle / SIDE_TAU_S)) * (value - state[at])
+
+
+@njit(cache=True)
 def _travel(state, t, x0, x1, turn_feed, planned):  # type: ignore[no-untyped-def]
     """Follow the planned tip (x0, x1) [m]: the travel's direction over each `TRAVEL_STEP_M` (or, `planned`, a turn
     of it in one cycle's step of `TURN_STEP_M`), and a turn of it by more than `COS_TURN` recorded (the friction's
@@ -187,10 +197,7 @@ def _turned_friction(state, t, cycle):  # type: ignore[no-untyped-def]
         state[TURNING] = 0.0
     if state[HAVE_DIR] != 0.0 and fz >= SIDE_MIN_FZ_N:
         share = max(-(state[F] * state[DIRECTION] + state[F + 1] * state[DIRECTION + 1]) / fz, 0.0)
-        if state[HAVE_FRICTION] == 0.0:
-            state[FRICTION], state[HAVE_FRICTION] = share, 1.0
-        else:
-            state[FRICTION] += (1.0 - math.exp(-cycle / SIDE_TAU_S)) * (share - state[FRICTION])
+        _follow(state, FRICTION, HAVE_FRICTION, share, cycle)
     return 0.0, 0.0
 
 
@@ -284,10 +291,7 @@ def online_cycle(chain, params, k_inv, friction, c_tool, assumed_p, assumed_f, s
                 a0, a1 = -state[DIRECTION + 1], state[DIRECTION]
                 if abs(state[F + 2]) >= SIDE_MIN_FZ_N:
                     share = abs((state[F] + ff0) * a0 + (state[F + 1] + ff1) * a1) / abs(state[F + 2])
-                    if state[HAVE_SIDE] == 0.0:
-                        state[SIDE], state[HAVE_SIDE] = share, 1.0
-                    else:
-                        state[SIDE] += (1.0 - math.exp(-cycle / SIDE_TAU_S)) * (share - state[SIDE])
+                    _follow(state, SIDE, HAVE_SIDE, share, cycle)
                 if state[HAVE_SIDE] != 0.0 and state[SIDE] < side_share:
                     across = (1.0 - state[SIDE] / side_share) * (target0 * a0 + target1 * a1)
                     target0 -= across * a0
