@@ -281,7 +281,8 @@ def test_a_session_that_answered_no_packet_exits_non_zero_saying_so(serve: str, 
                  *extra]) == 1
     out = capsys.readouterr().out
     assert "no packet answered" in out and "--start-timeout-s 0.3" in out
-    assert 0.3 <= time.perf_counter() - started < 3.0
+    # at least the start timeout; at most a bound that a loaded CI worker (building the compensator) stays under
+    assert 0.3 <= time.perf_counter() - started < 10.0
 
 
 # ---------------------------------------------------------------- a stream out of step

@@ -1,0 +1,161 @@
+"""Where the online compensation of a pyramid stops, on the dynamic plant: the sensor, the arm's own miss, the path
+of the correction.
+
+For each robot a model is learned from one nominal cone (60 x 10 mm, seed 1) and the pyramid 40 x 6 mm is formed
+online with it (seed 3), as `experiments/online_other_part.py`'s "online, learned" column; then, each scored on the
+plant's true tip against the ideal path, timed as `check` times it (the plant's `truth_tip.csv` or its log, read on
+the experiment's side only):
+
+* **a perfect F/T sensor**: the same run with the sensor at 1 kHz and no noise, latency, quantum, bias, cross-talk
+  or clock error (`lab --set`): how much of the miss is the sensor's;
+* **in air**: the same program 30 mm above the sheet, nominal and online (the compensator's joint-friction term its
+  only correction: there is no force) -- the arm's own miss at the controller's corner stops, which no force
+  measures;
+* **the correction's step**: in air, a 0.5 mm step of the correction along x, y and z in turn every 4 s (on for
+  2 s), the true tip's answer less the same run's without them: the median over the steps' edges of the time to
+  90 % of the step [ms] and of the peak over the first 0.5 s [-] -- how late and how far a correction reaches the
+  tip.
+
+Writes OUT/online_floor.json, OUT/online_floor.md and with `--doc` the table between the online-floor markers of that
+page (docs/online.md; `tests/test_online_floor_doc.py` reads it):
+
+    .venv/bin/python experiments/online_floor.py OUT [--robots tx200,kr210,irb6640] [--doc docs/online.md]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from experiments_cli import cli, write_between_markers
+from online_other_part import LEARN_FROM, TARGETS
+from online_study import _residual
+
+from twin.analysis.resolve import resolve_robot, resolve_spec
+from twin.base.signals import interp_rows
+from twin.lab.dynamic.knobs import parse_set_args
+from twin.lab.dynamic.run import run_dynamic_lab
+from twin.runs.read import read_commanded_csv
+from twin.sim.online import OnlineCompensator
+
+#: The sensor as good as the plant's knobs make it.
+PERFECT_SENSOR = ("ft_rate_hz=1000", "ft_noise_n=0", "ft_latency_s=0", "ft_quantum_n=0", "ft_bias_n=0",
+                  "ft_crosstalk=0", "ft_clock_offset_s=0", "ft_clock_skew_ppm=0")
+#: How far above the sheet the program runs in air [m], the correction's step [m], its period [s] and first start.
+AIR_LIFT_M, STEP_M, STEP_PERIOD_S, STEP_START_S = 0.03, 5e-4, 4.0, 6.0
+#: Over how long a step's answer is read [s].
+STEP_WINDOW_S = 0.5
+
+
+class StepCorrector:
+    """A correction of `STEP_M` along x, y, z in turn: on for half of each `STEP_PERIOD_S`, from `STEP_START_S`
+    (the plant's `CycleCorrector`)."""
+
+    cycle_s = 0.004
+
+    def __init__(self) -> None:
+        self.correction_m = np.zeros(3)
+
+    def step(self, t_s: float, sample_t_s: float, f_sheet_n: np.ndarray, q_rad: np.ndarray,
+             q_planned_rad: np.ndarray | None = None) -> int:
+        self.correction_m[:] = 0.0
+        k = int((t_s - STEP_START_S) // (STEP_PERIOD_S / 2.0))
+        if t_s >= STEP_START_S and k % 2 == 0:
+            self.correction_m[(k // 2) % 3] = STEP_M
+        return 1
+
+
+def _air_run(robot: str, ideal: Path, corrector: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The program `AIR_LIFT_M` above the sheet: (the log's times [s], the true tip [m], its miss at the tracker's
+    stamps against the lifted ideal, timed as `check` times it [mm])."""
+    cmd = read_commanded_csv(ideal)
+    p = cmd.values + np.array([0.0, 0.0, AIR_LIFT_M])
+    run, _, log = run_dynamic_lab(cmd.t_s, p, scenario="nominal", knobs=parse_set_args([]), seed=3,
+                                  robot=resolve_robot(None, robot), corrector=corrector)
+    t_ideal = run.commanded.t_s if len(run.commanded.t_s) == len(cmd.t_s) else cmd.t_s
+    tip = interp_rows(run.tracker.t_s, log.t_s, log.p_tip_sheet_m)
+    return log.t_s, log.p_tip_sheet_m, 1e3 * (tip - interp_rows(run.tracker.t_s, t_ideal, p))
+
+
+def _rms(miss_mm: np.ndarray) -> float:
+    return float(np.sqrt(np.mean(np.sum(miss_mm**2, axis=1))))
+
+
+def step_answer(t_s: np.ndarray, tip_m: np.ndarray, plain_tip_m: np.ndarray) -> dict[str, float]:
+    """The median time to 90 % [ms] and peak [-] of the true tip's answer to `StepCorrector`'s edges."""
+    delta = tip_m - plain_tip_m
+    rise, peak = [], []
+    edge = STEP_START_S
+    k = 0
+    while edge + STEP_WINDOW_S < t_s[-1]:
+        axis, sign = (k // 2) % 3, (1.0 if k % 2 == 0 else -1.0)
+        inside = (t_s >= edge) & (t_s <= edge + STEP_WINDOW_S)
+        base = float(np.interp(edge, t_s, delta[:, axis]))
+        answer = sign * (delta[inside, axis] - base) / STEP_M
+        reached = np.nonzero(answer >= 0.9)[0]
+        rise.append(1e3 * float(t_s[inside][reached[0]] - edge) if reached.size else 1e3 * STEP_WINDOW_S)
+        peak.append(float(np.max(answer)))
+        edge += STEP_PERIOD_S / 2.0
+        k += 1
+    return {"rise_90_ms": float(np.median(rise)), "peak": float(np.median(peak)), "edges": float(len(rise))}
+
+
+def robot_floor(out: Path, robot: str) -> dict[str, Any]:
+    """One robot's row (module docstring)."""
+    out.mkdir(parents=True, exist_ok=True)
+    learn_path, model, ideal = out / "learn_cone.csv", out / "learned.json", out / "pyramid.csv"
+    cli("path", *LEARN_FROM, "--robot", robot, "--out", str(learn_path))
+    cli("lab", "--plant", "dynamic", "--scenario", "nominal", "--commanded", str(learn_path), "--seed", "1",
+        "--robot", robot, "--out", str(out / "learn_nominal1"))
+    cli("learn", str(out / "learn_nominal1"), "--write-model", str(model))
+    cli("path", *TARGETS["pyramid"], "--robot", robot, "--out", str(ideal))
+    row: dict[str, Any] = {"robot": robot}
+    for name, extra in (("online", []), ("perfect_sensor", [a for s in PERFECT_SENSOR for a in ("--set", s)])):
+        run = out / f"pyramid_{name}"
+        cli("lab", "--plant", "dynamic", "--scenario", "nominal", "--commanded", str(ideal), "--seed", "3",
+            "--robot", robot, "--out", str(run), "--online", "--model", str(model), *extra)
+        row[name] = _residual(run, ideal, [0.0, 0.0, 0.0])["true_tip_rms_mm"]
+    spec = resolve_spec(model=model, robot=resolve_robot(None, robot), placement=None,
+                        p_sheet_m=read_commanded_csv(ideal).values, cell=None)
+    t_plain, tip_plain, miss = _air_run(robot, ideal, None)
+    row["air_nominal"] = _rms(miss)
+    row["air_online"] = _rms(_air_run(robot, ideal, OnlineCompensator(spec))[2])
+    t_step, tip_step, _ = _air_run(robot, ideal, StepCorrector())
+    if t_step.shape != t_plain.shape:
+        raise SystemExit(f"{robot}: the runs with and without the steps have different logs")
+    row["step"] = step_answer(t_step, tip_step, tip_plain)
+    return row
+
+
+def table(rows: list[dict[str, Any]]) -> str:
+    """The markdown table: true tip rms [mm]; the step's median time to 90 % [ms] and peak [-]."""
+    lines = ["| robot | pyramid online, learned | the same, a perfect F/T sensor | in air, nominal | in air, online | "
+             "a correction's step: 90 % after / peak |", "|---|---|---|---|---|---|"]
+    for r in rows:
+        lines.append(f"| {r['robot']} | {r['online']:.3f} mm | {r['perfect_sensor']:.3f} mm | {r['air_nominal']:.3f} mm"
+                     f" | {r['air_online']:.3f} mm | {r['step']['rise_90_ms']:.0f} ms / {r['step']['peak']:.2f} |")
+    return "\n".join(lines) + "\n"
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("out", type=Path)
+    parser.add_argument("--robots", default="tx200,kr210,irb6640")
+    parser.add_argument("--doc", type=Path, help="write the table into this page between its markers")
+    args = parser.parse_args()
+    rows = []
+    for robot in args.robots.split(","):
+        rows.append(robot_floor(args.out / robot, robot))
+        print(table(rows[-1:]).splitlines()[-1], flush=True)
+    (args.out / "online_floor.json").write_text(json.dumps(rows, indent=1))
+    (args.out / "online_floor.md").write_text(table(rows))
+    print(table(rows))
+    if args.doc is not None:
+        write_between_markers(args.doc, "online-floor", table(rows))
+
+
+if __name__ == "__main__":
+    main()
