@@ -61,3 +61,15 @@ def test_the_plain_iteration_does_not_reach_it_in_four(cone_and_twin) -> None:
     cone, twin = cone_and_twin
     with pytest.raises(CompensationError, match=r"did not reach 0\.01 mm rms in 4 iterations"):
         compensate_twin(cone.t_s, cone.p_sheet_m, twin, max_iter=4, memory=0)
+
+
+def test_an_iteration_that_runs_away_is_refused_in_millimetres(cone_and_twin, monkeypatch) -> None:
+    """A step the wrong way (written here: the residual added to the command, not taken off) grows the residual; the
+    error gives each iteration's rms in mm and the lowest it reached, not a list of metres."""
+    import twin.analysis.compensate as compensate
+
+    monkeypatch.setattr(compensate, "trust_region_step", lambda gain, residual: -residual)
+    cone, twin = cone_and_twin
+    with pytest.raises(CompensationError, match=r"diverges: its rms residual after each iteration \[[\d., ]+\] mm "
+                                                r"rose from its lowest, \d+\.\d{3} mm"):
+        compensate_twin(cone.t_s, cone.p_sheet_m, twin, memory=0)

@@ -173,7 +173,10 @@ def compensate_twin(
             return Compensation("twin", t, p_id, cmd, iteration, residual, tuple(history), True, sim.f_sheet_n)
         bounced = iteration > 2 and history[-1] > 2.0 * min(history)
         if bounced and history[-1] > 0.5 * history[0]:
-            raise CompensationError(f"twin compensation diverges: rms residual {history} m")
+            raise CompensationError(
+                f"twin compensation diverges: its rms residual after each iteration "
+                f"{[round(h * 1e3, 3) for h in history]} mm rose from its lowest, {min(history) * 1e3:.3f} mm, to "
+                f"more than twice that and half its start: this twin cannot hold the path")
         stalled = iteration > STALL_ITERATIONS and min(history[-STALL_ITERATIONS:]) > STALL_RATIO * min(
             history[:-STALL_ITERATIONS]
         )
