@@ -5,8 +5,8 @@ shallower cone 80 x 8 mm, a pyramid 40 x 6 mm, and the thesis's groove) is forme
 its ideal path (nominal), from the twin's offline compensation (`compensate --method twin`, default or learned
 model), with the controller compensating online (`lab --online`, default or learned model), and both: the learned
 offline command with the learned online correction on top (it corrects only the force the command did not assume).
-The learned model never saw these parts (predicted, not fitted). Default knobs (the tracker's registration error included); each
-residual is `check`'s as in `experiments/online_study.py` (rms / max [mm], in brackets less the tracker offset
+The learned model never saw these parts (predicted, not fitted). Default knobs (the tracker's registration error
+included); each residual is `check`'s as in `experiments/online_study.py` (rms / max [mm], in brackets less the tracker offset
 `learn` found, and the plant's true tip's rms: its `truth_tip.csv`, read on the experiment's side only). Writes
 OUT/online_other_part.json, OUT/online_other_part.md and with `--doc` the table between the online-other-part
 markers of that page (docs/online.md; `tests/test_online_interface.py` reads it):
@@ -67,11 +67,12 @@ def robot_study(out: Path, robot: str, plant_set: tuple[str, ...] = ()) -> list[
             try:
                 cli("compensate", "--method", "twin", "--robot", robot, *extra, "--ideal", str(ideal), "--out",
                     str(command))
-                row[f"offline_{twin}"] = _residual(_lab(robot, command, out / f"{tag}_offline_{twin}", 3,
-                                                        "compensated", plant_set=plant_set), ideal, offset)
             except SystemExit as refused:  # the twin cannot hold the path: `compensate` says so (exit 2)
                 print(refused, flush=True)
                 row[f"offline_{twin}"] = None
+            else:
+                row[f"offline_{twin}"] = _residual(_lab(robot, command, out / f"{tag}_offline_{twin}", 3,
+                                                        "compensated", plant_set=plant_set), ideal, offset)
             row[f"online_{twin}"] = _residual(_lab(robot, ideal, out / f"{tag}_online_{twin}", 3, "nominal",
                                                    "--online", *extra, plant_set=plant_set), ideal, offset)
         row["both_learned"] = None if row["offline_learned"] is None else _residual(
@@ -84,8 +85,7 @@ def robot_study(out: Path, robot: str, plant_set: tuple[str, ...] = ()) -> list[
 
 def table(rows: list[dict[str, Any]]) -> str:
     """The markdown table: rms / max (rms less the tracker offset; the true tip's rms, to a micrometre: the
-    headline) [mm]; "refused" where the
-    twin's compensation diverged (`compensate` exits 2 naming it)."""
+    headline) [mm]; "refused" where the twin's compensation diverged (`compensate` exits 2 naming it)."""
     lines = ["| robot | part (never formed) | nominal | offline, default | offline, learned | online, default | "
              "online, learned | both, learned |", "|---|---|---|---|---|---|---|---|"]
     for r in rows:
