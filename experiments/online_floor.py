@@ -26,19 +26,21 @@ from __future__ import annotations
 
 import argparse
 import json
+from itertools import count
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from experiments_cli import cli, write_between_markers
-from online_other_part import LEARN_FROM, TARGETS
-from online_study import _residual
+from online_other_part import TARGETS, lab_run, learn_cone
+from online_study import true_tip_residual_mm
 
+from twin.analysis.check import ideal_times
 from twin.analysis.resolve import resolve_robot, resolve_spec
 from twin.base.signals import interp_rows
 from twin.lab.dynamic.knobs import parse_set_args
 from twin.lab.dynamic.run import run_dynamic_lab
-from twin.runs.read import read_commanded_csv
+from twin.runs.read import read_commanded_csv, read_run
 from twin.sim.online import OnlineCompensator
 
 #: The sensor as good as the plant's knobs make it.
@@ -48,6 +50,11 @@ PERFECT_SENSOR = ("ft_rate_hz=1000", "ft_noise_n=0", "ft_latency_s=0", "ft_quant
 AIR_LIFT_M, STEP_M, STEP_PERIOD_S, STEP_START_S = 0.03, 5e-4, 4.0, 6.0
 #: Over how long a step's answer is read [s].
 STEP_WINDOW_S = 0.5
+
+
+def _edge(k: int) -> tuple[float, int, float]:
+    """The k-th edge of `StepCorrector`'s steps: (its time [s], the axis it steps, +1 on / -1 off)."""
+    return STEP_START_S + k * STEP_PERIOD_S / 2.0, (k // 2) % 3, 1.0 if k % 2 == 0 else -1.0
 
 
 class StepCorrector:
@@ -63,8 +70,9 @@ class StepCorrector:
              q_planned_rad: np.ndarray | None = None) -> int:
         self.correction_m[:] = 0.0
         k = int((t_s - STEP_START_S) // (STEP_PERIOD_S / 2.0))
-        if t_s >= STEP_START_S and k % 2 == 0:
-            self.correction_m[(k // 2) % 3] = STEP_M
+        _, axis, sign = _edge(k)
+        if t_s >= STEP_START_S and sign > 0.0:
+            self.correction_m[axis] = STEP_M
         return 1
 
 
@@ -75,9 +83,9 @@ def _air_run(robot: str, ideal: Path, corrector: Any) -> tuple[np.ndarray, np.nd
     p = cmd.values + np.array([0.0, 0.0, AIR_LIFT_M])
     run, _, log = run_dynamic_lab(cmd.t_s, p, scenario="nominal", knobs=parse_set_args([]), seed=3,
                                   robot=resolve_robot(None, robot), corrector=corrector)
-    t_ideal = run.commanded.t_s if len(run.commanded.t_s) == len(cmd.t_s) else cmd.t_s
     tip = interp_rows(run.tracker.t_s, log.t_s, log.p_tip_sheet_m)
-    return log.t_s, log.p_tip_sheet_m, 1e3 * (tip - interp_rows(run.tracker.t_s, t_ideal, p))
+    ideal_tr = interp_rows(run.tracker.t_s, ideal_times(run.commanded.t_s, cmd.t_s), p)
+    return log.t_s, log.p_tip_sheet_m, 1e3 * (tip - ideal_tr)
 
 
 def _rms(miss_mm: np.ndarray) -> float:
@@ -85,39 +93,35 @@ def _rms(miss_mm: np.ndarray) -> float:
 
 
 def step_answer(t_s: np.ndarray, tip_m: np.ndarray, plain_tip_m: np.ndarray) -> dict[str, float]:
-    """The median time to 90 % [ms] and peak [-] of the true tip's answer to `StepCorrector`'s edges."""
+    """The median time to 90 % [ms] and peak [-] of the true tip's answer to `StepCorrector`'s edges (an edge whose
+    answer never reaches 90 % counts the whole window, `STEP_WINDOW_S`)."""
     delta = tip_m - plain_tip_m
     rise, peak = [], []
-    edge = STEP_START_S
-    k = 0
-    while edge + STEP_WINDOW_S < t_s[-1]:
-        axis, sign = (k // 2) % 3, (1.0 if k % 2 == 0 else -1.0)
+    for k in count():
+        edge, axis, sign = _edge(k)
+        if edge + STEP_WINDOW_S >= t_s[-1]:
+            break
         inside = (t_s >= edge) & (t_s <= edge + STEP_WINDOW_S)
         base = float(np.interp(edge, t_s, delta[:, axis]))
         answer = sign * (delta[inside, axis] - base) / STEP_M
         reached = np.nonzero(answer >= 0.9)[0]
         rise.append(1e3 * float(t_s[inside][reached[0]] - edge) if reached.size else 1e3 * STEP_WINDOW_S)
         peak.append(float(np.max(answer)))
-        edge += STEP_PERIOD_S / 2.0
-        k += 1
     return {"rise_90_ms": float(np.median(rise)), "peak": float(np.median(peak)), "edges": float(len(rise))}
 
 
 def robot_floor(out: Path, robot: str) -> dict[str, Any]:
     """One robot's row (module docstring)."""
-    out.mkdir(parents=True, exist_ok=True)
-    learn_path, model, ideal = out / "learn_cone.csv", out / "learned.json", out / "pyramid.csv"
-    cli("path", *LEARN_FROM, "--robot", robot, "--out", str(learn_path))
-    cli("lab", "--plant", "dynamic", "--scenario", "nominal", "--commanded", str(learn_path), "--seed", "1",
-        "--robot", robot, "--out", str(out / "learn_nominal1"))
-    cli("learn", str(out / "learn_nominal1"), "--write-model", str(model))
+    model, _ = learn_cone(out, robot)
+    ideal = out / "pyramid.csv"
     cli("path", *TARGETS["pyramid"], "--robot", robot, "--out", str(ideal))
     row: dict[str, Any] = {"robot": robot}
-    for name, extra in (("online", []), ("perfect_sensor", [a for s in PERFECT_SENSOR for a in ("--set", s)])):
-        run = out / f"pyramid_{name}"
-        cli("lab", "--plant", "dynamic", "--scenario", "nominal", "--commanded", str(ideal), "--seed", "3",
-            "--robot", robot, "--out", str(run), "--online", "--model", str(model), *extra)
-        row[name] = _residual(run, ideal, [0.0, 0.0, 0.0])["true_tip_rms_mm"]
+    for name, plant_set in (("online", ()), ("perfect_sensor", PERFECT_SENSOR)):
+        run = lab_run(robot, ideal, out / f"pyramid_{name}", 3, "nominal", "--online", "--model", str(model),
+                      plant_set=plant_set)
+        miss = true_tip_residual_mm(run, read_run(run), read_commanded_csv(ideal))
+        assert miss is not None  # the dynamic plant writes its true tip
+        row[name] = _rms(miss)
     spec = resolve_spec(model=model, robot=resolve_robot(None, robot), placement=None,
                         p_sheet_m=read_commanded_csv(ideal).values, cell=None)
     t_plain, tip_plain, miss = _air_run(robot, ideal, None)

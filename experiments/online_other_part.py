@@ -40,20 +40,28 @@ ROBOT_TARGETS = {robot: ("cone 80 x 8", "pyramid", "groove") for robot in ("tx20
 COLUMNS = ("nominal", "offline_default", "offline_learned", "online_default", "online_learned", "both_learned")
 
 
-def _lab(robot: str, command: Path, out: Path, seed: int, scenario: str = "nominal", *extra: str,
-         plant_set: tuple[str, ...] = ()) -> Path:
+def lab_run(robot: str, command: Path, out: Path, seed: int, scenario: str = "nominal", *extra: str,
+            plant_set: tuple[str, ...] = ()) -> Path:
+    """Form `command` on the dynamic plant (`lab --plant dynamic`) into `out`."""
     cli("lab", "--plant", "dynamic", "--scenario", scenario, "--commanded", str(command), "--seed", str(seed),
         "--robot", robot, "--out", str(out), *extra, *(a for item in plant_set for a in ("--set", item)))
     return out
 
 
-def robot_study(out: Path, robot: str, plant_set: tuple[str, ...] = ()) -> list[dict[str, Any]]:
-    """One robot's rows (module docstring); `plant_set`: plant knobs NAME=VALUE added to every run's."""
+def learn_cone(out: Path, robot: str, plant_set: tuple[str, ...] = ()) -> tuple[Path, dict[str, Any]]:
+    """Form the nominal cone `LEARN_FROM` (seed 1) in `out` and `learn` from it: (the model file, `learn`'s
+    document)."""
     out.mkdir(parents=True, exist_ok=True)
     learn_path, model = out / "learn_cone.csv", out / "learned.json"
     cli("path", *LEARN_FROM, "--robot", robot, "--out", str(learn_path))
-    learned = cli_json("learn", str(_lab(robot, learn_path, out / "learn_nominal1", 1, plant_set=plant_set)),
+    learned = cli_json("learn", str(lab_run(robot, learn_path, out / "learn_nominal1", 1, plant_set=plant_set)),
                        "--write-model", str(model))
+    return model, learned
+
+
+def robot_study(out: Path, robot: str, plant_set: tuple[str, ...] = ()) -> list[dict[str, Any]]:
+    """One robot's rows (module docstring); `plant_set`: plant knobs NAME=VALUE added to every run's."""
+    model, learned = learn_cone(out, robot, plant_set)
     offset = learned["robot"]["tracker_offset_mm"]
     rows = []
     for part in ROBOT_TARGETS[robot]:
@@ -61,7 +69,7 @@ def robot_study(out: Path, robot: str, plant_set: tuple[str, ...] = ()) -> list[
         ideal = out / f"{tag}.csv"
         cli("path", *TARGETS[part], "--robot", robot, "--out", str(ideal))
         row: dict[str, Any] = {"robot": robot, "part": part, "nominal": _residual(
-            _lab(robot, ideal, out / f"{tag}_nominal3", 3, plant_set=plant_set), ideal, offset)}
+            lab_run(robot, ideal, out / f"{tag}_nominal3", 3, plant_set=plant_set), ideal, offset)}
         for twin, extra in (("default", []), ("learned", ["--model", str(model)])):
             command = out / f"{tag}_offline_{twin}.csv"
             try:
@@ -71,12 +79,12 @@ def robot_study(out: Path, robot: str, plant_set: tuple[str, ...] = ()) -> list[
                 print(refused, flush=True)
                 row[f"offline_{twin}"] = None
             else:
-                row[f"offline_{twin}"] = _residual(_lab(robot, command, out / f"{tag}_offline_{twin}", 3,
+                row[f"offline_{twin}"] = _residual(lab_run(robot, command, out / f"{tag}_offline_{twin}", 3,
                                                         "compensated", plant_set=plant_set), ideal, offset)
-            row[f"online_{twin}"] = _residual(_lab(robot, ideal, out / f"{tag}_online_{twin}", 3, "nominal",
+            row[f"online_{twin}"] = _residual(lab_run(robot, ideal, out / f"{tag}_online_{twin}", 3, "nominal",
                                                    "--online", *extra, plant_set=plant_set), ideal, offset)
         row["both_learned"] = None if row["offline_learned"] is None else _residual(
-            _lab(robot, out / f"{tag}_offline_learned.csv", out / f"{tag}_both_learned", 3, "compensated", "--online",
+            lab_run(robot, out / f"{tag}_offline_learned.csv", out / f"{tag}_both_learned", 3, "compensated", "--online",
                  "--model", str(model), plant_set=plant_set), ideal, offset)
         rows.append(row)
         print(table(rows[-1:]).splitlines()[-1], flush=True)

@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+import twin.analysis.compensate as compensate
 from twin.analysis.anderson import Anderson
 from twin.analysis.compensate import TWIN_TOL_M, compensate_twin
 from twin.errors import CompensationError, InputError
@@ -66,8 +67,6 @@ def test_the_plain_iteration_does_not_reach_it_in_four(cone_and_twin) -> None:
 def test_an_iteration_that_runs_away_is_refused_in_millimetres(cone_and_twin, monkeypatch) -> None:
     """A step the wrong way (written here: the residual added to the command, not taken off) grows the residual; the
     error gives each iteration's rms in mm and the lowest it reached, not a list of metres."""
-    import twin.analysis.compensate as compensate
-
     monkeypatch.setattr(compensate, "trust_region_step", lambda gain, residual: -residual)
     cone, twin = cone_and_twin
     with pytest.raises(CompensationError, match=r"diverges: its rms residual after each iteration \[[\d., ]+\] mm "

@@ -204,19 +204,34 @@ def test_the_servers_keep_the_compensators_setting_as_predicting_over_the_hold_d
     assert pose.compensator.settings.period_s == 0.004 and _lead_s(pose.compensator) == pytest.approx(0.0, abs=1e-9)
 
 
-def test_the_pages_words_on_a_model_learned_from_another_part_are_its_table() -> None:
-    """docs/online.md's table of `experiments/online_other_part.py`: learned against default, offline and online."""
+#: The other-part tables' robots, in their order, and the columns read by name (`experiments/online_other_part.py`
+#: COLUMNS: nominal, offline default, offline learned, online default, online learned, both learned).
+ROBOTS = ("tx200", "kr210", "irb6640")
+OFF_L, ON_L, BOTH_L = 2, 4, 5
+
+
+def _other_part(marker: str) -> dict[str, dict[tuple[str, str], list[float | None]]]:
+    """An other-part table of docs/online.md by (robot, part): each column's rms, rms less the tracker offset and
+    true-tip rms [mm] ("rms", "less", "true"); None where the table says "refused"."""
     text = (Path(__file__).resolve().parents[1] / "docs" / "online.md").read_text()
-    block = text[text.index("<!-- online-other-part:begin"):text.index("<!-- online-other-part:end")]
-    rms, less, true = {}, {}, {}
+    block = text[text.index(f"<!-- {marker}:begin"):text.index(f"<!-- {marker}:end")]
+    out: dict[str, dict[tuple[str, str], list[float | None]]] = {"rms": {}, "less": {}, "true": {}}
+    reads = {"rms": lambda c: c.split(" / ")[0], "less": lambda c: c.split("(")[1].split(";")[0],
+             "true": lambda c: c.split("; true ")[1].rstrip(")")}
     for line in block.splitlines()[3:]:
         cells = [c.strip() for c in line.strip("|").split("|")]
-        rms[(cells[0], cells[1])] = [float(c.split(" / ")[0]) for c in cells[2:]]  # nominal, off d, off l, on d, on l
-        less[(cells[0], cells[1])] = [float(c.split("(")[1].split(";")[0]) for c in cells[2:]]  # less the offset
-        true[(cells[0], cells[1])] = [float(c.split("; true ")[1].rstrip(")")) for c in cells[2:]]  # the true tip
+        for name, read in reads.items():
+            out[name][(cells[0], cells[1])] = [None if c == "refused" else float(read(c)) for c in cells[2:]]
+    return out
+
+
+def test_the_pages_words_on_a_model_learned_from_another_part_are_its_table() -> None:
+    """docs/online.md's table of `experiments/online_other_part.py`: learned against default, offline and online."""
+    table = _other_part("online-other-part")
+    rms, less, true = table["rms"], table["less"], table["true"]
     # the page's numbers first (a guard before the claims): on the true tip the learned online compensation of the
     # wider cone meets #50's 0.10 mm on the three robots, and of the TX200's groove; the other grooves, the pyramids not
-    robots = ("tx200", "kr210", "irb6640")
+    robots = ROBOTS
     said = quoted("online.md", "On the true tip the learned model's online compensation of the wider cone", 9)
     measured = ([true[(r, "cone 80 x 8")][4] for r in robots] + [true[(r, "groove")][4] for r in robots]
                 + [true[(r, "pyramid")][4] for r in robots])
@@ -246,14 +261,8 @@ def test_the_pages_words_on_a_model_learned_from_another_part_are_its_table() ->
 def test_the_pages_words_on_both_together_on_another_part_are_its_table() -> None:
     """docs/online.md under the table of a model learned from another part: its last column, the learned offline
     command with the learned online correction on top, against online alone (the true tip)."""
-    text = (Path(__file__).resolve().parents[1] / "docs" / "online.md").read_text()
-    block = text[text.index("<!-- online-other-part:begin"):text.index("<!-- online-other-part:end")]
-    true = {}
-    for line in block.splitlines()[3:]:
-        cells = [c.strip() for c in line.strip("|").split("|")]
-        true[(cells[0], cells[1])] = [float(c.split("; true ")[1].rstrip(")")) for c in cells[2:]]
-    robots = ("tx200", "kr210", "irb6640")
-    off_l, on_l, both = 2, 4, 5  # the columns: nominal, off d, off l, on d, on l, both l
+    true = _other_part("online-other-part")["true"]
+    robots, off_l, on_l, both = ROBOTS, OFF_L, ON_L, BOTH_L
     # the page's numbers first (a guard before the claims)
     said = quoted("online.md", "robot come down, to", 10)
     measured = [true[("kr210", "groove")][both], true[("irb6640", "groove")][both], true[("kr210", "groove")][on_l],
@@ -275,15 +284,8 @@ def test_the_pages_words_on_both_together_on_another_part_are_its_table() -> Non
 def test_the_pages_words_on_another_part_on_the_second_sheet_law_are_its_table() -> None:
     """docs/online.md under the law-2 table of a model learned from another part (the true tip; "refused": the
     twin's compensation diverged and `compensate` exited 2)."""
-    text = (Path(__file__).resolve().parents[1] / "docs" / "online.md").read_text()
-    block = text[text.index("<!-- online-other-part-law2:begin"):text.index("<!-- online-other-part-law2:end")]
-    true = {}
-    for line in block.splitlines()[3:]:
-        cells = [c.strip() for c in line.strip("|").split("|")]
-        true[(cells[0], cells[1])] = [None if c == "refused" else float(c.split("; true ")[1].rstrip(")"))
-                                      for c in cells[2:]]
-    robots = ("tx200", "kr210", "irb6640")
-    off_l, on_l, both = 2, 4, 5
+    true = _other_part("online-other-part-law2")["true"]
+    robots, off_l, on_l, both = ROBOTS, OFF_L, ON_L, BOTH_L
     # the page's numbers first (a guard before the claims)
     said = quoted("online.md", "comes to the target on the first robot only (true tip", 3)
     for k, robot in enumerate(robots):

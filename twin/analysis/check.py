@@ -149,6 +149,16 @@ def diagnose_gain(
     return name_cause(gain, record, t_s, f_measured_n).text
 
 
+def ideal_times(t_cmd_s: np.ndarray, t_ideal_s: np.ndarray) -> np.ndarray:
+    """The ideal path's times on the run's clock [s]: the commanded stream's where it has as many samples as the
+    ideal path but other times (the controller re-timed the same program: a stop at each sharp corner,
+    `twin.lab.dynamic.trajectory`), else the ideal's own."""
+    t_ideal = np.asarray(t_ideal_s, dtype=float)
+    if len(t_cmd_s) == len(t_ideal) and not np.allclose(t_cmd_s, t_ideal, rtol=0.0, atol=1e-6):
+        return np.asarray(t_cmd_s, dtype=float)
+    return t_ideal
+
+
 def check_run(
     run: Run, t_ideal_s: np.ndarray, p_ideal_sheet_m: np.ndarray, ideal_name: str = "the ideal path",
     registration: TrackerRegistration | None = None,
@@ -176,11 +186,9 @@ def check_run(
         run = take_off(run, registration)
     if run.forces is None:
         raise RunFormatError(run.directory or "run", "check needs forces.csv to estimate the gain")
-    t_ideal = np.asarray(t_ideal_s, dtype=float)
-    p_ideal = np.asarray(p_ideal_sheet_m, dtype=float)
     t_cmd = run.commanded.t_s
-    if len(t_cmd) == len(t_ideal) and not np.allclose(t_cmd, t_ideal, rtol=0.0, atol=1e-6):
-        t_ideal = np.asarray(t_cmd, dtype=float)  # the same program, re-timed by the controller
+    t_ideal = ideal_times(t_cmd, t_ideal_s)
+    p_ideal = np.asarray(p_ideal_sheet_m, dtype=float)
     t_tr = run.tracker.t_s
     ideal_tr = interp_rows(t_tr, t_ideal, p_ideal)
     residual = run.tracker.values - ideal_tr
