@@ -1,0 +1,98 @@
+"""Do the online results on parts a cone did not teach hold at a finer plant step? The plant's own convergence.
+
+The dynamic plant integrates at 1 ms (`timestep_s`, twin/lab/dynamic/knobs.py: its servo runs once per step). A
+result that moves when that step is halved is the integrator's, not the cell's. For each robot a model is learned
+from one nominal cone (60 x 10 mm, seed 1, at the default step) and each part of `experiments/online_other_part.py`
+(a cone 80 x 8 mm, a pyramid 40 x 6 mm, the thesis's groove) is formed online with it (seed 3, as that table's
+"online, learned" column) at the default step and at half of it (`lab --set timestep_s=5e-4`: a knob of the plant,
+which the twin never sees). Each is scored on the plant's true tip (its `truth_tip.csv`, read on the experiment's
+side only); the share of the run's mean square miss from samples that miss by more than 0.5 mm says whether a few
+events carry it. Writes OUT/online_timestep.json, OUT/online_timestep.md and with `--doc` the table between the
+online-timestep markers of that page (docs/online.md; `tests/test_online_timestep_doc.py` reads it):
+
+    .venv/bin/python experiments/online_timestep.py OUT [--robots tx200,kr210,irb6640] [--doc docs/online.md]
+
+About 40 minutes on one core (a robot per process: `--robots`, then `--merge` the robots' JSON files).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from experiments_cli import cli, write_between_markers
+from online_other_part import ROBOT_TARGETS, TARGETS, lab_run, learn_cone
+from online_study import true_tip_residual_mm
+
+from twin.runs.read import read_commanded_csv, read_run
+
+#: The finer step [s] (the plant's default is 1 ms), and the miss above which a sample counts as an event [mm].
+FINE_STEP_S, EVENT_MM = 5e-4, 0.5
+
+
+def _score(run_dir: Path, ideal: Path) -> dict[str, float]:
+    miss = true_tip_residual_mm(run_dir, read_run(run_dir), read_commanded_csv(ideal))
+    assert miss is not None  # the dynamic plant writes its true tip
+    square = np.sum(miss**2, axis=1)
+    events = np.sqrt(square) > EVENT_MM
+    return {"true_tip_rms_mm": float(np.sqrt(np.mean(square))),
+            "event_share": float(np.sum(square[events]) / np.sum(square))}
+
+
+def robot_rows(out: Path, robot: str) -> list[dict[str, Any]]:
+    """One robot's rows (module docstring)."""
+    model, _ = learn_cone(out, robot)
+    rows = []
+    for part in ROBOT_TARGETS[robot]:
+        tag = part.replace(" ", "")
+        ideal = out / f"{tag}.csv"
+        cli("path", *TARGETS[part], "--robot", robot, "--out", str(ideal))
+        row: dict[str, Any] = {"robot": robot, "part": part}
+        for name, plant_set in (("default", ()), ("fine", (f"timestep_s={FINE_STEP_S:g}",))):
+            row[name] = _score(lab_run(robot, ideal, out / f"{tag}_online_{name}", 3, "nominal", "--online", "--model",
+                                       str(model), plant_set=plant_set), ideal)
+        rows.append(row)
+        print(table(rows[-1:]).splitlines()[-1], flush=True)
+    return rows
+
+
+def table(rows: list[dict[str, Any]]) -> str:
+    """The markdown table: true tip rms [mm] and the share of its mean square from misses over `EVENT_MM`."""
+    lines = ["| robot | part (never formed) | online, learned: 1 ms step | the same, 0.5 ms step | share from misses over "
+             "0.5 mm: 1 ms / 0.5 ms |", "|---|---|---|---|---|"]
+    for r in rows:
+        lines.append(f"| {r['robot']} | {r['part']} | {r['default']['true_tip_rms_mm']:.3f} mm | "
+                     f"{r['fine']['true_tip_rms_mm']:.3f} mm | {r['default']['event_share']:.2f} / "
+                     f"{r['fine']['event_share']:.2f} |")
+    return "\n".join(lines) + "\n"
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("out", type=Path)
+    parser.add_argument("--robots", default=",".join(ROBOT_TARGETS))
+    parser.add_argument("--merge", type=Path, nargs="*", default=None,
+                        help="instead of running, join these robots' online_timestep.json files")
+    parser.add_argument("--doc", type=Path, help="write the table into this page between its markers")
+    args = parser.parse_args()
+    rows: list[dict[str, Any]] = []
+    if args.merge is not None:
+        for path in args.merge:
+            rows.extend(json.loads(path.read_text()))
+    else:
+        for robot in args.robots.split(","):
+            rows.extend(robot_rows(args.out / robot, robot))
+    rows.sort(key=lambda r: list(ROBOT_TARGETS).index(r["robot"]))  # stable: each robot's parts in their order
+    args.out.mkdir(parents=True, exist_ok=True)
+    (args.out / "online_timestep.json").write_text(json.dumps(rows, indent=1))
+    (args.out / "online_timestep.md").write_text(table(rows))
+    print(table(rows))
+    if args.doc is not None:
+        write_between_markers(args.doc, "online-timestep", table(rows))
+
+
+if __name__ == "__main__":
+    main()

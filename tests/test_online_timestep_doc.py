@@ -1,0 +1,55 @@
+"""docs/online.md's words on the plant's step are its table's (`experiments/online_timestep.py`, generated between
+the online-timestep markers), and the table's 1 ms column is the other-part table's "online, learned" true tip:
+the same runs, formed again."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from doc_numbers import quoted
+
+ROBOTS = ("tx200", "kr210", "irb6640")
+PARTS = ("cone 80 x 8", "pyramid", "groove")
+DOC = Path(__file__).resolve().parents[1] / "docs" / "online.md"
+
+
+def _block(marker: str) -> list[list[str]]:
+    text = DOC.read_text(encoding="utf-8")
+    block = text[text.index(f"<!-- {marker}:begin"):text.index(f"<!-- {marker}:end")]
+    return [[c.strip() for c in line.strip("|").split("|")] for line in block.splitlines()[3:]]
+
+
+def _rows() -> dict[tuple[str, str], dict[str, float]]:
+    rows = {}
+    for cells in _block("online-timestep"):
+        share = cells[4].split(" / ")
+        rows[(cells[0], cells[1])] = {"ms1": float(cells[2].split(" mm")[0]), "ms05": float(cells[3].split(" mm")[0]),
+                                      "share1": float(share[0]), "share05": float(share[1])}
+    assert list(rows) == [(r, p) for r in ROBOTS for p in PARTS], list(rows)
+    return rows
+
+
+def test_the_default_step_column_is_the_other_part_tables_online_learned_true_tip() -> None:
+    """Same code, seeds and step: the same runs (a table regenerated apart from the other would show here)."""
+    rows = _rows()
+    online_learned = 6  # robot, part, nominal, offline default, offline learned, online default, online learned
+    for cells in _block("online-other-part"):
+        true_tip = float(cells[online_learned].split("; true ")[1].rstrip(")"))
+        assert abs(rows[(cells[0], cells[1])]["ms1"] - true_tip) <= 0.0015, (cells[:2], true_tip)
+
+
+def test_the_words_on_the_plants_step_are_its_table() -> None:
+    rows = _rows()
+    # the page's numbers first (a guard before the claims)
+    most = quoted("online.md", "Every row but one moves by at most", 1)[0]
+    groove = quoted("online.md", "The KR 210's groove goes from", 4)
+    kr = rows[("kr210", "groove")]
+    for q, value in zip(groove, (kr["ms1"], kr["ms05"], kr["share1"], kr["share05"]), strict=True):
+        q.check(value)
+    others = [abs(r["ms05"] - r["ms1"]) for key, r in rows.items() if key != ("kr210", "groove")]
+    most.check(max(others))
+    # "every row but one": the step is converged there, well inside the targets' scale (0.1 mm)
+    assert max(others) <= 0.01, others
+    # the one that is not: the KR 210's groove, carried by its misses over 0.5 mm, more so at the finer step
+    assert kr["ms05"] - kr["ms1"] > 0.1, kr
+    assert kr["share1"] > 0.5 and kr["share05"] > kr["share1"], kr
