@@ -5,14 +5,15 @@ result that moves when that step is halved is the integrator's, not the cell's. 
 from one nominal cone (60 x 10 mm, seed 1, at the default step) and each part of `experiments/online_other_part.py`
 (a cone 80 x 8 mm, a pyramid 40 x 6 mm, the thesis's groove) is formed online with it (seed 3, as that table's
 "online, learned" column) at the default step and at half of it (`lab --set timestep_s=5e-4`: a knob of the plant,
-which the twin never sees). Each is scored on the plant's true tip (its `truth_tip.csv`, read on the experiment's
+which the twin never sees), and so is its "both, learned" (the learned offline command, `compensate --method twin
+--model`, with the learned online correction on top). Each is scored on the plant's true tip (its `truth_tip.csv`, read on the experiment's
 side only); the share of the run's mean square miss from samples that miss by more than 0.5 mm says whether a few
 events carry it. Writes OUT/online_timestep.json, OUT/online_timestep.md and with `--doc` the table between the
 online-timestep markers of that page (docs/online.md; `tests/test_online_timestep_doc.py` reads it):
 
     .venv/bin/python experiments/online_timestep.py OUT [--robots tx200,kr210,irb6640] [--doc docs/online.md]
 
-About 40 minutes on one core (a robot per process: `--robots`, then `--merge` the robots' JSON files).
+About 20 minutes on one core (a robot per process: `--robots`, then `--merge` the robots' JSON files).
 """
 
 from __future__ import annotations
@@ -50,10 +51,15 @@ def robot_rows(out: Path, robot: str) -> list[dict[str, Any]]:
         tag = part.replace(" ", "")
         ideal = out / f"{tag}.csv"
         cli("path", *TARGETS[part], "--robot", robot, "--out", str(ideal))
+        command = out / f"{tag}_offline_learned.csv"
+        cli("compensate", "--method", "twin", "--robot", robot, "--model", str(model), "--ideal", str(ideal), "--out",
+            str(command))
         row: dict[str, Any] = {"robot": robot, "part": part}
         for name, plant_set in (("default", ()), ("fine", (f"timestep_s={FINE_STEP_S:g}",))):
             row[name] = _score(lab_run(robot, ideal, out / f"{tag}_online_{name}", 3, "nominal", "--online", "--model",
                                        str(model), plant_set=plant_set), ideal)
+            row[f"both_{name}"] = _score(lab_run(robot, command, out / f"{tag}_both_{name}", 3, "compensated",
+                                                 "--online", "--model", str(model), plant_set=plant_set), ideal)
         rows.append(row)
         print(table(rows[-1:]).splitlines()[-1], flush=True)
     return rows
@@ -62,11 +68,12 @@ def robot_rows(out: Path, robot: str) -> list[dict[str, Any]]:
 def table(rows: list[dict[str, Any]]) -> str:
     """The markdown table: true tip rms [mm] and the share of its mean square from misses over `EVENT_MM`."""
     lines = ["| robot | part (never formed) | online, learned: 1 ms step | the same, 0.5 ms step | share from misses over "
-             "0.5 mm: 1 ms / 0.5 ms |", "|---|---|---|---|---|"]
+             "0.5 mm: 1 ms / 0.5 ms | both, learned: 1 ms step | the same, 0.5 ms step |", "|---|---|---|---|---|---|---|"]
     for r in rows:
         lines.append(f"| {r['robot']} | {r['part']} | {r['default']['true_tip_rms_mm']:.3f} mm | "
                      f"{r['fine']['true_tip_rms_mm']:.3f} mm | {r['default']['event_share']:.2f} / "
-                     f"{r['fine']['event_share']:.2f} |")
+                     f"{r['fine']['event_share']:.2f} | {r['both_default']['true_tip_rms_mm']:.3f} mm | "
+                     f"{r['both_fine']['true_tip_rms_mm']:.3f} mm |")
     return "\n".join(lines) + "\n"
 
 

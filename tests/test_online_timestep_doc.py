@@ -23,19 +23,21 @@ def _rows() -> dict[tuple[str, str], dict[str, float]]:
     rows = {}
     for cells in _block("online-timestep"):
         share = cells[4].split(" / ")
-        rows[(cells[0], cells[1])] = {"ms1": float(cells[2].split(" mm")[0]), "ms05": float(cells[3].split(" mm")[0]),
-                                      "share1": float(share[0]), "share05": float(share[1])}
+        mm = [float(cells[k].split(" mm")[0]) for k in (2, 3, 5, 6)]
+        rows[(cells[0], cells[1])] = {"ms1": mm[0], "ms05": mm[1], "share1": float(share[0]),
+                                      "share05": float(share[1]), "both1": mm[2], "both05": mm[3]}
     assert list(rows) == [(r, p) for r in ROBOTS for p in PARTS], list(rows)
     return rows
 
 
-def test_the_default_step_column_is_the_other_part_tables_online_learned_true_tip() -> None:
+def test_the_default_step_columns_are_the_other_part_tables_true_tip() -> None:
     """Same code, seeds and step: the same runs (a table regenerated apart from the other would show here)."""
     rows = _rows()
-    online_learned = 6  # robot, part, nominal, offline default, offline learned, online default, online learned
+    # robot, part, nominal, offline default, offline learned, online default, online learned, both learned
     for cells in _block("online-other-part"):
-        true_tip = float(cells[online_learned].split("; true ")[1].rstrip(")"))
-        assert abs(rows[(cells[0], cells[1])]["ms1"] - true_tip) <= 0.0015, (cells[:2], true_tip)
+        for column, key in ((6, "ms1"), (7, "both1")):
+            true_tip = float(cells[column].split("; true ")[1].rstrip(")"))
+            assert abs(rows[(cells[0], cells[1])][key] - true_tip) <= 0.0015, (cells[:2], key, true_tip)
 
 
 def test_the_words_on_the_plants_step_are_its_table() -> None:
@@ -48,6 +50,12 @@ def test_the_words_on_the_plants_step_are_its_table() -> None:
         q.check(value)
     others = [abs(r["ms05"] - r["ms1"]) for key, r in rows.items() if key != ("kr210", "groove")]
     most.check(max(others))
+    both = quoted("online.md", "With the learned offline command under it (\"both\") every row moves by at most", 3)
+    moved = max(abs(r["both05"] - r["both1"]) for r in rows.values())
+    both[0].check(moved)
+    both[1].check(kr["both1"])
+    both[2].check(kr["both05"])
+    assert moved <= 0.02, moved
     # "every row but one": the step is converged there, well inside the targets' scale (0.1 mm)
     assert max(others) <= 0.01, others
     # the one that is not: the KR 210's groove, carried by its misses over 0.5 mm, more so at the finer step
