@@ -33,14 +33,14 @@ from typing import Any
 import numpy as np
 from experiments_cli import cli, write_between_markers
 from online_other_part import TARGETS, lab_run, learn_cone
-from online_study import true_tip_residual_mm
+from online_study import rms_mm, true_tip_miss_mm
 
 from twin.analysis.check import ideal_times
 from twin.analysis.resolve import resolve_robot, resolve_spec
 from twin.base.signals import interp_rows
 from twin.lab.dynamic.knobs import parse_set_args
 from twin.lab.dynamic.run import run_dynamic_lab
-from twin.runs.read import read_commanded_csv, read_run
+from twin.runs.read import read_commanded_csv
 from twin.sim.online import OnlineCompensator
 
 #: The sensor as good as the plant's knobs make it.
@@ -88,10 +88,6 @@ def _air_run(robot: str, ideal: Path, corrector: Any) -> tuple[np.ndarray, np.nd
     return log.t_s, log.p_tip_sheet_m, 1e3 * (tip - ideal_tr)
 
 
-def _rms(miss_mm: np.ndarray) -> float:
-    return float(np.sqrt(np.mean(np.sum(miss_mm**2, axis=1))))
-
-
 def step_answer(t_s: np.ndarray, tip_m: np.ndarray, plain_tip_m: np.ndarray) -> dict[str, float]:
     """The median time to 90 % [ms] and peak [-] of the true tip's answer to `StepCorrector`'s edges (an edge whose
     answer never reaches 90 % counts the whole window, `STEP_WINDOW_S`)."""
@@ -119,14 +115,12 @@ def robot_floor(out: Path, robot: str) -> dict[str, Any]:
     for name, plant_set in (("online", ()), ("perfect_sensor", PERFECT_SENSOR)):
         run = lab_run(robot, ideal, out / f"pyramid_{name}", 3, "nominal", "--online", "--model", str(model),
                       plant_set=plant_set)
-        miss = true_tip_residual_mm(run, read_run(run), read_commanded_csv(ideal))
-        assert miss is not None  # the dynamic plant writes its true tip
-        row[name] = _rms(miss)
+        row[name] = rms_mm(true_tip_miss_mm(run, ideal))
     spec = resolve_spec(model=model, robot=resolve_robot(None, robot), placement=None,
                         p_sheet_m=read_commanded_csv(ideal).values, cell=None)
     t_plain, tip_plain, miss = _air_run(robot, ideal, None)
-    row["air_nominal"] = _rms(miss)
-    row["air_online"] = _rms(_air_run(robot, ideal, OnlineCompensator(spec))[2])
+    row["air_nominal"] = rms_mm(miss)
+    row["air_online"] = rms_mm(_air_run(robot, ideal, OnlineCompensator(spec))[2])
     t_step, tip_step, _ = _air_run(robot, ideal, StepCorrector())
     if t_step.shape != t_plain.shape:
         raise SystemExit(f"{robot}: the runs with and without the steps have different logs")

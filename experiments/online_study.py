@@ -98,6 +98,21 @@ def true_tip_residual_mm(run_dir: Path, run: Any, cmd: Any) -> np.ndarray | None
     return 1e3 * check_run(replace(run, tracker=tip), cmd.t_s, cmd.values).residual_m
 
 
+def true_tip_miss_mm(run_dir: Path, ideal: Path) -> np.ndarray:
+    """`true_tip_residual_mm` of a dynamic-plant run against the ideal path file `ideal` [mm], shape (m, 3)."""
+    from twin.runs.read import read_commanded_csv, read_run
+
+    miss = true_tip_residual_mm(run_dir, read_run(run_dir), read_commanded_csv(ideal))
+    if miss is None:
+        raise SystemExit(f"{run_dir}: no truth_tip.csv (a run of the dynamic plant writes one)")
+    return miss
+
+
+def rms_mm(miss_mm: np.ndarray) -> float:
+    """The rms of a miss's length [mm], shape (m, 3)."""
+    return float(np.sqrt(np.mean(np.sum(miss_mm**2, axis=1))))
+
+
 def _residual(run_dir: Path, ideal: Path, offset_mm: list[float]) -> dict[str, float]:
     from twin.analysis.check import check_run
     from twin.runs.read import read_commanded_csv, read_run
@@ -109,7 +124,7 @@ def _residual(run_dir: Path, ideal: Path, offset_mm: list[float]) -> dict[str, f
     turns = reversal_times(run.commanded.t_s, run.commanded.values)
     away = np.all(np.abs(run.tracker.t_s[:, None] - turns[None, :]) > REVERSAL_WINDOW_S, axis=1)
     e = true_tip_residual_mm(run_dir, run, cmd)
-    true = math.nan if e is None else float(np.sqrt(np.mean(np.sum(e**2, axis=1))))
+    true = math.nan if e is None else rms_mm(e)
     return {"rms_mm": float(np.sqrt(np.mean(np.sum(r**2, axis=1)))), "max_mm": float(np.max(np.linalg.norm(r, axis=1))),
             "less_offset_rms_mm": float(np.sqrt(np.mean(np.sum(less**2, axis=1)))),
             "away_rms_mm": float(np.sqrt(np.mean(np.sum(less[away] ** 2, axis=1)))), "true_tip_rms_mm": true}

@@ -26,21 +26,17 @@ from typing import Any
 import numpy as np
 from experiments_cli import cli, write_between_markers
 from online_other_part import ROBOT_TARGETS, TARGETS, lab_run, learn_cone
-from online_study import true_tip_residual_mm
-
-from twin.runs.read import read_commanded_csv, read_run
+from online_study import rms_mm, true_tip_miss_mm
 
 #: The finer step [s] (the plant's default is 1 ms), and the miss above which a sample counts as an event [mm].
 FINE_STEP_S, EVENT_MM = 5e-4, 0.5
 
 
 def _score(run_dir: Path, ideal: Path) -> dict[str, float]:
-    miss = true_tip_residual_mm(run_dir, read_run(run_dir), read_commanded_csv(ideal))
-    assert miss is not None  # the dynamic plant writes its true tip
+    miss = true_tip_miss_mm(run_dir, ideal)
     square = np.sum(miss**2, axis=1)
-    events = np.sqrt(square) > EVENT_MM
-    return {"true_tip_rms_mm": float(np.sqrt(np.mean(square))),
-            "event_share": float(np.sum(square[events]) / np.sum(square))}
+    return {"true_tip_rms_mm": rms_mm(miss),
+            "event_share": float(np.sum(square[np.sqrt(square) > EVENT_MM]) / np.sum(square))}
 
 
 def robot_rows(out: Path, robot: str) -> list[dict[str, Any]]:

@@ -318,6 +318,8 @@ def test_the_correction_limit_is_the_lab_s_and_the_server_s_option(tmp_path: Pat
         assert "--max-correction-mm" in capsys.readouterr().err and not (tmp_path / "bad").exists()
     with pytest.raises(InputError, match="--max-correction-mm"):
         OnlineRequest("rsi", max_correction_mm=0.0)
+    assert main(["online", "--serve", "rsi", "--cycles", "1", "--max-correction-mm", "nan"]) == 2  # the same check
+    assert "--max-correction-mm nan: expected" in capsys.readouterr().err
     assert main(["lab", "--plant", "dynamic", "--scenario", "nominal", "--seed", "1", "--max-correction-mm", "8",
                  "--out", str(tmp_path / "offline")]) == 2  # without --online it would do nothing: refused
     assert "without --online" in capsys.readouterr().err and not (tmp_path / "offline").exists()

@@ -3,19 +3,13 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 from doc_numbers import quoted
-
-ROBOTS = ("tx200", "kr210", "irb6640")
+from online_doc_tables import ROBOTS, table_rows
 
 
 def _rows() -> dict[str, dict[str, float]]:
-    text = (Path(__file__).resolve().parents[1] / "docs" / "online.md").read_text(encoding="utf-8")
-    block = text[text.index("<!-- online-floor:begin"):text.index("<!-- online-floor:end")]
     rows = {}
-    for line in block.splitlines()[3:]:
-        cells = [c.strip() for c in line.strip("|").split("|")]
+    for cells in table_rows("online-floor"):
         mm = [float(c.split(" mm")[0]) for c in cells[1:5]]
         rise, peak = cells[5].split(" / ")
         rows[cells[0]] = {"online": mm[0], "perfect": mm[1], "air_nominal": mm[2], "air_online": mm[3],

@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from doc_numbers import quoted
+from online_doc_tables import BOTH_L, OFF_D, OFF_L, ON_D, ON_L, ROBOTS, other_part
 
 from twin.apps.export.rapid_egm import SAMPLE_RATE_MS
 from twin.apps.online.egm import EgmServer
@@ -204,37 +205,14 @@ def test_the_servers_keep_the_compensators_setting_as_predicting_over_the_hold_d
     assert pose.compensator.settings.period_s == 0.004 and _lead_s(pose.compensator) == pytest.approx(0.0, abs=1e-9)
 
 
-#: The other-part tables' robots, in their order, and the columns read by name (`experiments/online_other_part.py`
-#: COLUMNS: nominal, offline default, offline learned, online default, online learned, both learned).
-ROBOTS = ("tx200", "kr210", "irb6640")
-OFF_L, ON_L, BOTH_L = 2, 4, 5
-
-
-def _other_part(marker: str) -> dict[str, dict[tuple[str, str], list[float | None]]]:
-    """An other-part table of docs/online.md by (robot, part): each column's rms, rms less the tracker offset and
-    true-tip rms [mm] ("rms", "less", "true"); None where the table says "refused"."""
-    text = (Path(__file__).resolve().parents[1] / "docs" / "online.md").read_text()
-    block = text[text.index(f"<!-- {marker}:begin"):text.index(f"<!-- {marker}:end")]
-    out: dict[str, dict[tuple[str, str], list[float | None]]] = {"rms": {}, "less": {}, "true": {}}
-    reads = {"rms": lambda c: c.split(" / ")[0], "less": lambda c: c.split("(")[1].split(";")[0],
-             "true": lambda c: c.split("; true ")[1].rstrip(")")}
-    for line in block.splitlines()[3:]:
-        cells = [c.strip() for c in line.strip("|").split("|")]
-        for name, read in reads.items():
-            out[name][(cells[0], cells[1])] = [None if c == "refused" else float(read(c)) for c in cells[2:]]
-    return out
-
-
 def test_the_pages_words_on_a_model_learned_from_another_part_are_its_table() -> None:
     """docs/online.md's table of `experiments/online_other_part.py`: learned against default, offline and online."""
-    table = _other_part("online-other-part")
+    table = other_part("online-other-part")
     rms, less, true = table["rms"], table["less"], table["true"]
     # the page's numbers first (a guard before the claims): on the true tip the learned online compensation of the
     # wider cone meets #50's 0.10 mm on the three robots, and of the TX200's groove; the other grooves, the pyramids not
-    robots = ROBOTS
     said = quoted("online.md", "On the true tip the learned model's online compensation of the wider cone", 9)
-    measured = ([true[(r, "cone 80 x 8")][4] for r in robots] + [true[(r, "groove")][4] for r in robots]
-                + [true[(r, "pyramid")][4] for r in robots])
+    measured = [true[(r, part)][ON_L] for part in ("cone 80 x 8", "groove", "pyramid") for r in ROBOTS]
     for k, value in enumerate(measured):
         said[k].check(value)
     better = {("kr210", "cone 80 x 8"): (True, True), ("kr210", "pyramid"): (True, True),
@@ -244,69 +222,68 @@ def test_the_pages_words_on_a_model_learned_from_another_part_are_its_table() ->
               ("irb6640", "groove"): (False, True)}
     for key, (offline, online) in better.items():
         r = rms[key]
-        for claim, learned, default in ((offline, r[2], r[1]), (online, r[4], r[3])):
+        for claim, learned, default in ((offline, r[OFF_L], r[OFF_D]), (online, r[ON_L], r[ON_D])):
             if claim is not None:
                 assert (learned < default) == claim, (key, r)
     pyramid = rms[("tx200", "pyramid")]
     offset = less[("tx200", "pyramid")]
-    assert abs(pyramid[2] - pyramid[1]) <= 0.02 and offset[2] < offset[1]  # as well offline, better less the offset
+    # as well offline, better less the offset
+    assert abs(pyramid[OFF_L] - pyramid[OFF_D]) <= 0.02 and offset[OFF_L] < offset[OFF_D]
     groove = rms[("tx200", "groove")]
-    assert 1.7 * groove[1] <= groove[2] < 2.0 * groove[1]  # offline by a factor of almost two
-    assert all(min(r[1:5]) > (0.15 if part == "pyramid" else 0.10) for (_, part), r in rms.items())
-    assert max(true[(robot, "cone 80 x 8")][4] for robot in robots) <= 0.10 and true[("tx200", "groove")][4] <= 0.10
-    assert min(true[(robot, "pyramid")][4] for robot in robots) > 0.15
-    assert min(true[(robot, "groove")][4] for robot in ("kr210", "irb6640")) > 0.10
+    assert 1.7 * groove[OFF_D] <= groove[OFF_L] < 2.0 * groove[OFF_D]  # offline by a factor of almost two
+    assert all(min(r[OFF_D:BOTH_L]) > (0.15 if part == "pyramid" else 0.10) for (_, part), r in rms.items())
+    assert max(true[(r, "cone 80 x 8")][ON_L] for r in ROBOTS) <= 0.10 and true[("tx200", "groove")][ON_L] <= 0.10
+    assert min(true[(r, "pyramid")][ON_L] for r in ROBOTS) > 0.15
+    assert min(true[(r, "groove")][ON_L] for r in ("kr210", "irb6640")) > 0.10
 
 
 def test_the_pages_words_on_both_together_on_another_part_are_its_table() -> None:
     """docs/online.md under the table of a model learned from another part: its last column, the learned offline
     command with the learned online correction on top, against online alone (the true tip)."""
-    true = _other_part("online-other-part")["true"]
-    robots, off_l, on_l, both = ROBOTS, OFF_L, ON_L, BOTH_L
+    true = other_part("online-other-part")["true"]
     # the page's numbers first (a guard before the claims)
     said = quoted("online.md", "robot come down, to", 10)
-    measured = [true[("kr210", "groove")][both], true[("irb6640", "groove")][both], true[("kr210", "groove")][on_l],
-                true[("irb6640", "groove")][on_l], true[("tx200", "groove")][both], true[("tx200", "groove")][on_l],
-                true[("tx200", "groove")][off_l]] + [true[(r, "cone 80 x 8")][both] for r in robots]
+    measured = [true[("kr210", "groove")][BOTH_L], true[("irb6640", "groove")][BOTH_L], true[("kr210", "groove")][ON_L],
+                true[("irb6640", "groove")][ON_L], true[("tx200", "groove")][BOTH_L], true[("tx200", "groove")][ON_L],
+                true[("tx200", "groove")][OFF_L]] + [true[(r, "cone 80 x 8")][BOTH_L] for r in ROBOTS]
     for k, value in enumerate(measured):
         said[k].check(value)
     pyramids = quoted("online.md", "mm) and pyramids (", 3)
-    for k, robot in enumerate(robots):
-        pyramids[k].check(true[(robot, "pyramid")][both])
+    for k, robot in enumerate(ROBOTS):
+        pyramids[k].check(true[(robot, "pyramid")][BOTH_L])
     for robot in ("kr210", "irb6640"):  # come down
-        assert true[(robot, "groove")][both] < 0.75 * true[(robot, "groove")][on_l]
-    assert true[("tx200", "groove")][both] > 1.5 * true[("tx200", "groove")][on_l]  # goes up
-    for robot in robots:  # within 0.04 mm of online alone
+        assert true[(robot, "groove")][BOTH_L] < 0.75 * true[(robot, "groove")][ON_L]
+    assert true[("tx200", "groove")][BOTH_L] > 1.5 * true[("tx200", "groove")][ON_L]  # goes up
+    for robot in ROBOTS:  # within 0.04 mm of online alone
         for part in ("cone 80 x 8", "pyramid"):
-            assert abs(true[(robot, part)][both] - true[(robot, part)][on_l]) <= 0.04, (robot, part)
+            assert abs(true[(robot, part)][BOTH_L] - true[(robot, part)][ON_L]) <= 0.04, (robot, part)
 
 
 def test_the_pages_words_on_another_part_on_the_second_sheet_law_are_its_table() -> None:
     """docs/online.md under the law-2 table of a model learned from another part (the true tip; "refused": the
     twin's compensation diverged and `compensate` exited 2)."""
-    true = _other_part("online-other-part-law2")["true"]
-    robots, off_l, on_l, both = ROBOTS, OFF_L, ON_L, BOTH_L
+    true = other_part("online-other-part-law2")["true"]
     # the page's numbers first (a guard before the claims)
     said = quoted("online.md", "comes to the target on the first robot only (true tip", 3)
-    for k, robot in enumerate(robots):
-        said[k].check(true[(robot, "cone 80 x 8")][on_l])
+    for k, robot in enumerate(ROBOTS):
+        said[k].check(true[(robot, "cone 80 x 8")][ON_L])
     under = quoted("online.md", "cones and pyramids (cones", 8)
-    measured = [true[(r, p)][c] for p, c in (("cone 80 x 8", both), ("pyramid", both)) for r in robots[1:]]
-    measured += [true[(r, p)][on_l] for p in ("cone 80 x 8", "pyramid") for r in robots[1:]]
+    measured = [true[(r, p)][c] for p, c in (("cone 80 x 8", BOTH_L), ("pyramid", BOTH_L)) for r in ROBOTS[1:]]
+    measured += [true[(r, p)][ON_L] for p in ("cone 80 x 8", "pyramid") for r in ROBOTS[1:]]
     for k, value in enumerate(measured):
         under[k].check(value)
     grooves = quoted("online.md", "far worse on their grooves (", 4)
-    for k, value in enumerate([true[(r, "groove")][c] for c in (both, off_l) for r in robots[1:]]):
+    for k, value in enumerate([true[(r, "groove")][c] for c in (BOTH_L, OFF_L) for r in ROBOTS[1:]]):
         grooves[k].check(value)
-    cone = [true[(r, "cone 80 x 8")][on_l] for r in robots]
+    cone = [true[(r, "cone 80 x 8")][ON_L] for r in ROBOTS]
     # the target (0.10 mm) on the first robot only: just over it alone (within the printed digit), under it on top
     # of the learned offline command
-    assert 0.10 < cone[0] < 0.105 and min(cone[1:]) > 0.10 and true[("tx200", "cone 80 x 8")][both] <= 0.10
-    for robot in robots[1:]:
+    assert 0.10 < cone[0] < 0.105 and min(cone[1:]) > 0.10 and true[("tx200", "cone 80 x 8")][BOTH_L] <= 0.10
+    for robot in ROBOTS[1:]:
         for part in ("cone 80 x 8", "pyramid"):  # better with its offline command under it
-            assert true[(robot, part)][both] < true[(robot, part)][on_l], (robot, part)
-        assert true[(robot, "groove")][both] > 3.0 * true[(robot, "groove")][on_l]  # far worse
-    assert true[("tx200", "groove")][off_l] is None and true[("tx200", "groove")][both] is None  # refused
+            assert true[(robot, part)][BOTH_L] < true[(robot, part)][ON_L], (robot, part)
+        assert true[(robot, "groove")][BOTH_L] > 3.0 * true[(robot, "groove")][ON_L]  # far worse
+    assert true[("tx200", "groove")][OFF_L] is None and true[("tx200", "groove")][BOTH_L] is None  # refused
 
 
 def test_the_pages_words_on_the_second_sheet_law_are_its_table() -> None:

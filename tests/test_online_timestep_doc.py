@@ -4,24 +4,15 @@ the same runs, formed again."""
 
 from __future__ import annotations
 
-from pathlib import Path
-
 from doc_numbers import quoted
+from online_doc_tables import BOTH_L, ON_L, ROBOTS, other_part, table_rows
 
-ROBOTS = ("tx200", "kr210", "irb6640")
 PARTS = ("cone 80 x 8", "pyramid", "groove")
-DOC = Path(__file__).resolve().parents[1] / "docs" / "online.md"
-
-
-def _block(marker: str) -> list[list[str]]:
-    text = DOC.read_text(encoding="utf-8")
-    block = text[text.index(f"<!-- {marker}:begin"):text.index(f"<!-- {marker}:end")]
-    return [[c.strip() for c in line.strip("|").split("|")] for line in block.splitlines()[3:]]
 
 
 def _rows() -> dict[tuple[str, str], dict[str, float]]:
     rows = {}
-    for cells in _block("online-timestep"):
+    for cells in table_rows("online-timestep"):
         share = cells[4].split(" / ")
         mm = [float(cells[k].split(" mm")[0]) for k in (2, 3, 5, 6)]
         rows[(cells[0], cells[1])] = {"ms1": mm[0], "ms05": mm[1], "share1": float(share[0]),
@@ -33,11 +24,10 @@ def _rows() -> dict[tuple[str, str], dict[str, float]]:
 def test_the_default_step_columns_are_the_other_part_tables_true_tip() -> None:
     """Same code, seeds and step: the same runs (a table regenerated apart from the other would show here)."""
     rows = _rows()
-    # robot, part, nominal, offline default, offline learned, online default, online learned, both learned
-    for cells in _block("online-other-part"):
-        for column, key in ((6, "ms1"), (7, "both1")):
-            true_tip = float(cells[column].split("; true ")[1].rstrip(")"))
-            assert abs(rows[(cells[0], cells[1])][key] - true_tip) <= 0.0015, (cells[:2], key, true_tip)
+    true = other_part("online-other-part")["true"]
+    for key, row in rows.items():
+        for column, name in ((ON_L, "ms1"), (BOTH_L, "both1")):
+            assert abs(row[name] - true[key][column]) <= 0.0015, (key, name, true[key][column])
 
 
 def test_the_words_on_the_plants_step_are_its_table() -> None:

@@ -47,7 +47,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--max-rate-mm-s", type=finite, default=20.0,
                         help="largest rate of change of the correction [mm/s]: per second of the controller's clock "
                              "and of this computer's, not per packet (a burst of packets moves it no faster)")
-    parser.add_argument("--max-correction-mm", type=finite, default=OnlineSettings.max_correction_mm,
+    parser.add_argument("--max-correction-mm", type=float, default=OnlineSettings.max_correction_mm,
                         metavar="MM", help=MAX_CORRECTION_HELP)
     parser.add_argument("--guidance", type=Path, metavar="FILE", help="--serve egm: stream the path of this table "
                         "(NAME_egm_pose.csv of `export --online`: EGM position guidance); without it, path correction")

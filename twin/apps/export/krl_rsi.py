@@ -83,6 +83,8 @@ def monitor_max_mm(limit_mm: float) -> float:
     """The correction monitor's limit [mm]: the most a correction limited to `limit_mm` a axis can reach (POSCORR's
     per-axis limit is the program's `ProgramPath.max_correction_mm`, the compensator's own)."""
     return math.ceil(math.sqrt(3.0) * limit_mm * 10.0) / 10.0
+
+
 RSI_OFF = ["ret=RSI_OFF()", "IF (ret<>RSIOK) THEN", "  HALT", "ENDIF"]
 
 
