@@ -1,0 +1,97 @@
+"""Are the online results on parts a cone did not teach the cell's, or the seed's? The same runs on six seeds.
+
+The other-part table (`experiments/online_other_part.py`) forms each part once, with seed 3 (the lab's noise: the
+sensors' and the tracker's, the plant's small draws). A row that moves by tenths of a millimetre from one seed to the
+next is a draw, not a number. For each robot a model is learned from one nominal cone (60 x 10 mm, seed 1, as that
+table's) and each part (a cone 80 x 8 mm, a pyramid 40 x 6 mm, the thesis's groove) is formed online with it and
+with the learned offline command under it ("both"), on seeds `SEEDS` (3 first: the other-part table's runs again),
+each scored on the plant's true tip (its `truth_tip.csv`, read on the experiment's side only). Every online run may
+correct up to `online_other_part.ONLINE_LIMIT_MM`. Writes OUT/online_seeds.json, OUT/online_seeds.md and with
+`--doc` the table between the online-seeds markers of that page (docs/online.md; `tests/test_online_seeds_doc.py`
+reads it):
+
+    .venv/bin/python experiments/online_seeds.py OUT [--robots tx200,kr210,irb6640] [--doc docs/online.md]
+
+About 15 minutes on one core (a robot per process: `--robots`, then `--merge` the robots' JSON files).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+from pathlib import Path
+from typing import Any
+
+from experiments_cli import cli, write_between_markers
+from online_other_part import ROBOT_TARGETS, TARGETS, lab_run, learn_cone
+from online_study import rms_mm, true_tip_miss_mm
+
+#: The lab's seeds each part is formed with (3: the other-part table's).
+SEEDS = (3, 4, 5, 6, 7, 8)
+#: The columns: online with the learned model, and the learned offline command with it on top.
+MODES = ("online", "both")
+
+
+def robot_rows(out: Path, robot: str) -> list[dict[str, Any]]:
+    """One robot's rows (module docstring): each mode's true-tip rms [mm] per seed."""
+    model, _ = learn_cone(out, robot)
+    rows = []
+    for part in ROBOT_TARGETS[robot]:
+        tag = part.replace(" ", "")
+        ideal = out / f"{tag}.csv"
+        cli("path", *TARGETS[part], "--robot", robot, "--out", str(ideal))
+        command = out / f"{tag}_offline_learned.csv"
+        cli("compensate", "--method", "twin", "--robot", robot, "--model", str(model), "--ideal", str(ideal), "--out",
+            str(command))
+        row: dict[str, Any] = {"robot": robot, "part": part}
+        for mode, formed, scenario in (("online", ideal, "nominal"), ("both", command, "compensated")):
+            row[mode] = [rms_mm(true_tip_miss_mm(lab_run(robot, formed, out / f"{tag}_{mode}_{seed}", seed, scenario,
+                                                         "--online", "--model", str(model)), ideal))
+                         for seed in SEEDS]
+        rows.append(row)
+        print(table(rows[-1:]).splitlines()[-1], flush=True)
+    return rows
+
+
+def _cells(values: list[float]) -> list[str]:
+    return [f"{values[0]:.3f}", f"{min(values):.3f} / {statistics.median(values):.3f} / {max(values):.3f}"]
+
+
+def table(rows: list[dict[str, Any]]) -> str:
+    """The markdown table: per mode, seed 3's true-tip rms and the least / median / largest over `SEEDS` [mm]."""
+    span = f"seeds {SEEDS[0]}-{SEEDS[-1]}: least / median / largest"
+    lines = [f"| robot | part (never formed) | online, learned: seed {SEEDS[0]} | the same, {span} | both, learned: seed "
+             f"{SEEDS[0]} | the same, {span} |", "|---|---|---|---|---|---|"]
+    for r in rows:
+        cells = [c for mode in MODES for c in _cells(r[mode])]
+        lines.append(f"| {r['robot']} | {r['part']} | " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("out", type=Path)
+    parser.add_argument("--robots", default=",".join(ROBOT_TARGETS))
+    parser.add_argument("--merge", type=Path, nargs="*", default=None,
+                        help="instead of running, join these robots' online_seeds.json files")
+    parser.add_argument("--doc", type=Path, help="write the table into this page between its markers")
+    args = parser.parse_args()
+    rows: list[dict[str, Any]] = []
+    if args.merge is not None:
+        for path in args.merge:
+            rows.extend(json.loads(path.read_text()))
+    else:
+        for robot in args.robots.split(","):
+            rows.extend(robot_rows(args.out / robot, robot))
+    rows.sort(key=lambda r: list(ROBOT_TARGETS).index(r["robot"]))  # stable: each robot's parts in their order
+    args.out.mkdir(parents=True, exist_ok=True)
+    (args.out / "online_seeds.json").write_text(json.dumps(rows, indent=1))
+    (args.out / "online_seeds.md").write_text(table(rows))
+    print(table(rows))
+    if args.doc is not None:
+        write_between_markers(args.doc, "online-seeds", table(rows))
+
+
+if __name__ == "__main__":
+    main()
