@@ -17,10 +17,10 @@ markers of that page (docs/online.md; `tests/test_online_interface.py` reads it)
 `--plant-set NAME=VALUE` (repeatable) adds a plant knob to every run (the second sheet law, say); `--marker` names
 the page's markers the table goes between.
 
-Every online run may correct up to `ONLINE_LIMIT_MM` (`--max-correction-mm`, 5 mm by default): the IRB 6640's arm
-deflects by up to 5.0 mm on the groove (its nominal run's true tip), and at the default limit its online correction
-sat there in 18 % of the cycles, which is the limit's miss, not the compensator's. A run whose correction still sits
-at the limit ends the experiment, naming it.
+Every online run may correct up to `ONLINE_LIMIT_MM` (`--max-correction-mm`; the default is less): the IRB 6640's
+arm bends on the groove as far as the default limit, where its online correction sat through the deepest passes, and
+that was the limit's miss, not the compensator's (CHANGELOG 0.16.0). A run whose correction still sits at the limit
+ends the experiment, naming it.
 
 The IRB 6640 rows were added after the online compensator's side-force share (`OnlineSettings.side_share`) was
 chosen on the TX200 and KR 210 cells: they are its held-out robot.

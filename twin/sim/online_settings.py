@@ -11,6 +11,8 @@ import numpy as np
 
 from twin.errors import InputError
 
+#: A correction within this of its size limit sits at it [mm] (`lab --online`'s share, a server's count).
+AT_LIMIT_MM = 1e-3
 #: Largest correction a cell may allow [mm]: beyond it a correction is not an arm's deflection under a forming load.
 MAX_CORRECTION_LIMIT_MM = 50.0
 

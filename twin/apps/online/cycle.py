@@ -38,6 +38,7 @@ from twin.apps.online.source import ForceSource
 from twin.errors import InputError
 from twin.robot.facts import RobotDescription
 from twin.sim.online import HOLDING, NO_SENSOR, RAMPING, SPIKE, OnlineCompensator
+from twin.sim.online_settings import AT_LIMIT_MM
 
 
 class ServeReport(NamedTuple):
@@ -55,6 +56,9 @@ class ServeReport(NamedTuple):
         stale: Cycles whose newest sample was older than the watchdog's `stale_s` (held, then ramped out).
         spikes: F/T samples rejected as spikes.
         sampled: Whether the compensator had an F/T sample in any cycle.
+        at_limit: Cycles answered with the correction at its size limit, `limit_mm` (a cell that bends further than
+            the limit lets the correction follow: raise `--max-correction-mm`).
+        limit_mm: The correction's size limit [mm].
     """
 
     cycles: int
@@ -67,6 +71,8 @@ class ServeReport(NamedTuple):
     stale: int = 0
     spikes: int = 0
     sampled: bool = False
+    at_limit: int = 0
+    limit_mm: float = math.nan
 
 
 #: The longest idle or start timeout a server takes [s] (an hour: a socket's timeout has a platform limit, and a
@@ -188,7 +194,8 @@ class ServedCycle:
         self.force_n = np.zeros(3)
         self.stamp_s = math.nan
         self.correction_base_mm = np.zeros(3)
-        self.rejected = self.no_sample = self.stale = 0
+        self.rejected = self.no_sample = self.stale = self.at_limit = 0
+        self._limit_m = 1e-3 * (compensator.settings.max_correction_mm - AT_LIMIT_MM)  # at the size limit [m]
         self.sampled = False
         self._spikes0 = compensator.spikes_rejected
         self._rate_m_s = 1e-3 * compensator.settings.max_rate_mm_s
@@ -253,6 +260,9 @@ class ServedCycle:
         if sample_s == sample_s:
             self._given_stamp = sample_s
         self._limit_rate(t_s)
+        c = self.compensator.correction_m
+        if c[0] * c[0] + c[1] * c[1] + c[2] * c[2] >= self._limit_m * self._limit_m:
+            self.at_limit += 1
         if status == NO_SENSOR:
             self.no_sample += 1
         elif status in (HOLDING, RAMPING):
@@ -297,4 +307,4 @@ class ServedCycle:
         `unreadable`)."""
         return ServeReport(cycles, unreadable + self.rejected, compute_us, stopped, refused, foreign,
                            self.no_sample, self.stale, self.compensator.spikes_rejected - self._spikes0,
-                           self.sampled)
+                           self.sampled, self.at_limit, self.compensator.settings.max_correction_mm)

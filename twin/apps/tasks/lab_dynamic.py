@@ -36,7 +36,7 @@ from twin.runs.format import Stream
 from twin.runs.read import lab_commanded
 from twin.runs.write import write_run
 from twin.sim.online import AssumedForces, OnlineCompensator
-from twin.sim.online_settings import OnlineSettings
+from twin.sim.online_settings import AT_LIMIT_MM, OnlineSettings
 
 if TYPE_CHECKING:
     from twin.apps.tasks.lab import LabRequest
@@ -203,10 +203,6 @@ def write_online_log(path: Path, log: OnlineLog) -> None:
                        "dz_mm": 1e3 * log.correction_m[:, 2], "compute_us": 1e6 * log.compute_s,
                        "status": log.status},
                 formats={"t_s": ".4f", "dx_mm": ".5f", "dy_mm": ".5f", "dz_mm": ".5f", "compute_us": ".2f"})
-
-
-#: A correction within this of the compensator's size limit sits at it [mm].
-AT_LIMIT_MM = 1e-3
 
 
 def online_summary(log: OnlineLog, limit_mm: float) -> dict[str, float]:

@@ -235,6 +235,9 @@ class OnlineReport(Report):
         if r.no_sample or r.stale or r.spikes:
             lines.append(f"F/T: {r.no_sample} cycle(s) before any sample (no correction), {r.stale} with a stale "
                          f"sample (held, then ramped out), {r.spikes} spike(s) rejected")
+        if r.at_limit:  # the cell needs more than the compensator may give: say so
+            lines.append(f"correction: at its size limit ({r.limit_mm:g} mm) in {r.at_limit} of the {r.cycles} cycles: "
+                         "the arm bends further than the limit lets it correct (--max-correction-mm)")
         if self.ft_counts is not None:
             c = self.ft_counts
             lines.append(f"F/T RDT {self.ft_source}: {c['samples']} good samples; {c['malformed']} malformed, "
@@ -248,6 +251,7 @@ class OnlineReport(Report):
         return {"serve": self.serve, "port": self.port, "transport": self.transport, "cycles": r.cycles,
                 "unreadable": r.unreadable, "stopped": r.stopped, "refused": r.refused, "foreign": r.foreign,
                 "no_sample": r.no_sample, "stale": r.stale, "spikes": r.spikes, "sampled": r.sampled,
+                "at_limit": r.at_limit, "limit_mm": r.limit_mm,
                 "failure": self.failure(), "ft": self.ft_counts, **self._stats()}
 
 
