@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import argparse
 import json
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -115,6 +116,34 @@ def table(rows: list[dict[str, Any]]) -> str:
                  f"({r[c]['less_offset_rms_mm']:.2f}; true {r[c]['true_tip_rms_mm']:.3f})" for c in COLUMNS]
         lines.append(f"| {r['robot']} | {r['part']} | " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
+
+
+def per_robot_main(description: str, name: str, robot_rows: Callable[[Path, str], list[dict[str, Any]]],
+                   table: Callable[[list[dict[str, Any]]], str]) -> None:
+    """The command line of a study formed robot by robot (`online_timestep.py`, `online_seeds.py`): OUT, `--robots`
+    (a robot per process, then `--merge` their OUT/NAME.json files), `--doc` (the table between the page's NAME
+    markers, `_` read as `-`); writes OUT/NAME.json and OUT/NAME.md."""
+    parser = argparse.ArgumentParser(description=description)
+    parser.add_argument("out", type=Path)
+    parser.add_argument("--robots", default=",".join(ROBOT_TARGETS))
+    parser.add_argument("--merge", type=Path, nargs="*", default=None,
+                        help=f"instead of running, join these robots' {name}.json files")
+    parser.add_argument("--doc", type=Path, help="write the table into this page between its markers")
+    args = parser.parse_args()
+    rows: list[dict[str, Any]] = []
+    if args.merge is not None:
+        for path in args.merge:
+            rows.extend(json.loads(path.read_text()))
+    else:
+        for robot in args.robots.split(","):
+            rows.extend(robot_rows(args.out / robot, robot))
+    rows.sort(key=lambda r: list(ROBOT_TARGETS).index(r["robot"]))  # stable: each robot's parts in their order
+    args.out.mkdir(parents=True, exist_ok=True)
+    (args.out / f"{name}.json").write_text(json.dumps(rows, indent=1))
+    (args.out / f"{name}.md").write_text(table(rows))
+    print(table(rows))
+    if args.doc is not None:
+        write_between_markers(args.doc, name.replace("_", "-"), table(rows))
 
 
 def main() -> None:

@@ -17,14 +17,12 @@ About 15 minutes on one core (a robot per process: `--robots`, then `--merge` th
 
 from __future__ import annotations
 
-import argparse
-import json
 import statistics
 from pathlib import Path
 from typing import Any
 
-from experiments_cli import cli, write_between_markers
-from online_other_part import ROBOT_TARGETS, TARGETS, lab_run, learn_cone
+from experiments_cli import cli
+from online_other_part import ROBOT_TARGETS, TARGETS, lab_run, learn_cone, per_robot_main
 from online_study import rms_mm, true_tip_miss_mm
 
 #: The lab's seeds each part is formed with (3: the other-part table's).
@@ -70,27 +68,7 @@ def table(rows: list[dict[str, Any]]) -> str:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("out", type=Path)
-    parser.add_argument("--robots", default=",".join(ROBOT_TARGETS))
-    parser.add_argument("--merge", type=Path, nargs="*", default=None,
-                        help="instead of running, join these robots' online_seeds.json files")
-    parser.add_argument("--doc", type=Path, help="write the table into this page between its markers")
-    args = parser.parse_args()
-    rows: list[dict[str, Any]] = []
-    if args.merge is not None:
-        for path in args.merge:
-            rows.extend(json.loads(path.read_text()))
-    else:
-        for robot in args.robots.split(","):
-            rows.extend(robot_rows(args.out / robot, robot))
-    rows.sort(key=lambda r: list(ROBOT_TARGETS).index(r["robot"]))  # stable: each robot's parts in their order
-    args.out.mkdir(parents=True, exist_ok=True)
-    (args.out / "online_seeds.json").write_text(json.dumps(rows, indent=1))
-    (args.out / "online_seeds.md").write_text(table(rows))
-    print(table(rows))
-    if args.doc is not None:
-        write_between_markers(args.doc, "online-seeds", table(rows))
+    per_robot_main(__doc__.splitlines()[0], "online_seeds", robot_rows, table)
 
 
 if __name__ == "__main__":
