@@ -57,8 +57,8 @@ from twin.apps.export.program import (
 from twin.apps.export.val3_check import check_application
 from twin.cli import main
 from twin.errors import InputError
+from twin.robot.controller import MAX_CORRECTION_LIMIT_MM
 from twin.sim.online import OnlineSettings
-from twin.sim.online_settings import MAX_CORRECTION_LIMIT_MM
 
 #: Motion statements that may start within one second of the path at its programmed feeds (module docstring).
 MAX_BLOCKS_PER_S = 20.0

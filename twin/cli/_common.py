@@ -19,6 +19,7 @@ from twin.cli._types import finite
 from twin.process.force.registry import FORCE_MODELS
 from twin.process.process_file import ProcessDeclaration, declare_process
 from twin.process.toolpath.placement import Placement
+from twin.robot.controller import CONTROLLER_DEFAULTS, ONLINE_LIMIT_KEYS
 from twin.robot.description import DEFAULT_ROBOT, shipped_robots
 
 
@@ -101,8 +102,10 @@ def apply_cell(args: argparse.Namespace) -> None:
     `args.cell_record` is what runs and programs record of it; `args.cell_filled` names the options the cell filled
     in (`given` tells them from typed ones: `twin.analysis.resolve.PRECEDENCE`, a flag > a run > the cell). A
     `--robot` that names another robot than the cell's keeps the cell's process but not its sheet and tool (they are
-    the cell robot's), with a note. Nothing for a command without `--cell`."""
+    the cell robot's), with a note. The controller's slots and online limits (`[controller]`; the limits only where
+    the command corrects online) fill in as well, and what neither gives takes `twin.robot.controller`'s default."""
     if getattr(args, "cell", None) is None:
+        _controller_defaults(args)
         return
     from twin.process.cell_file import read_cell_file
     from twin.robot.description import load_robot
@@ -119,12 +122,21 @@ def apply_cell(args: argparse.Namespace) -> None:
     else:
         values += [("origin_mm", None if cell.origin_mm is None else list(cell.origin_mm)), ("yaw_deg", cell.yaw_deg),
                    ("tool_length_mm", cell.tool.length_mm), ("tool_mass_kg", cell.tool.mass_kg)]
+    online = getattr(args, "online", True)  # `online` itself has no flag: it is online
+    values += [(k, v) for k, v in cell.controller.items() if online or k not in ONLINE_LIMIT_KEYS]
     filled = set()
     for name, value in values:
         if value is not None and hasattr(args, name) and getattr(args, name) is None:
             setattr(args, name, value)
             filled.add(name)
     args.cell_filled = frozenset(filled)
+    _controller_defaults(args)
+
+
+def _controller_defaults(args: argparse.Namespace) -> None:
+    for name, value in CONTROLLER_DEFAULTS.items():
+        if hasattr(args, name) and getattr(args, name) is None:
+            setattr(args, name, value)
 
 
 def given(args: argparse.Namespace, name: str) -> Any:

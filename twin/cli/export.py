@@ -9,7 +9,6 @@ from pathlib import Path
 from twin.apps.export import FORMATS
 from twin.apps.export.motion import FEED_TOLERANCE, SAFE_MARGIN_MM
 from twin.apps.export.parts import LIMITS
-from twin.apps.export.slots import BASE_NUMBERS, DEFAULT_BASE_NUMBER, DEFAULT_TOOL_NUMBER, TOOL_NUMBERS
 from twin.cli._common import (
     add_json_argument,
     add_placement_arguments,
@@ -18,7 +17,8 @@ from twin.cli._common import (
     given,
     note,
 )
-from twin.sim.online_settings import MAX_CORRECTION_HELP, OnlineSettings
+from twin.robot.controller import BASE_NUMBERS, DEFAULT_BASE_NUMBER, DEFAULT_TOOL_NUMBER, TOOL_NUMBERS
+from twin.sim.online_settings import MAX_CORRECTION_HELP
 
 HELP = "Export a (compensated) path CSV as a robot program: Staubli VAL3, KUKA KRL, ABB RAPID, G-code or CSV."
 
@@ -26,14 +26,10 @@ HELP = "Export a (compensated) path CSV as a robot program: Staubli VAL3, KUKA K
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Add the `export` options."""
     parser.add_argument("path_csv", type=Path, help="path CSV t_s,x_mm,y_mm,z_mm (sheet frame)")
-    parser.add_argument(
-        "--format", choices=sorted(FORMATS),
-        help="program format (default: the robot's own language: val3 for Staubli, krl for KUKA, rapid for ABB)",
-    )
-    parser.add_argument(
-        "--out", type=Path, required=True,
-        help="output: VAL3 application folder, KRL .src (its .dat beside it), RAPID .mod, G-code or CSV file",
-    )
+    parser.add_argument("--format", choices=sorted(FORMATS), help="program format (default: the robot's own "
+                        "language: val3 for Staubli, krl for KUKA, rapid for ABB)")
+    parser.add_argument("--out", type=Path, required=True, help="output: VAL3 application folder, KRL .src (its .dat "
+                        "beside it), RAPID .mod, G-code or CSV file")
     add_robot_argument(parser)
     parser.add_argument("--run", type=Path, metavar="RUN",
                         help="a run (tx200-twin-run/1) the program is for: its robot, its sheet placement and its tool "
@@ -50,44 +46,30 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def _add_program_arguments(parser: argparse.ArgumentParser) -> None:
     """Add the tool, approach, feed and file-size options of the program."""
-    parser.add_argument(
-        "--tool-length-mm", type=float, metavar="MM",
-        help="flange to tool tip along the flange z [mm] (default: the run's tool_length_m, else the robot's)",
-    )
-    parser.add_argument(
-        "--tool-mass-kg", type=float, metavar="KG",
-        help="tool mass for the program's load data (RAPID tooldata, KRL LOAD_DATA) [kg] (default: the run's "
-        "imported sensor tool_mass_kg, else the robot model's tool body mass)",
-    )
-    parser.add_argument(
-        "--safe-height-mm", type=float, metavar="MM",
-        help="approach and retract height, sheet frame z [mm]: the program moves (joint move) above the first point, "
-        f"down onto the path and back up at the end (default: the sheet top z = 0 or the path's highest point, "
-        f"whichever is higher, + {SAFE_MARGIN_MM:g} mm)",
-    )
-    parser.add_argument(
-        "--feed-mm-s", type=float, metavar="MM_S",
-        help=f"the process feed [mm/s]; a path move faster than {FEED_TOLERANCE:g}x it is programmed at it "
-        "(default: the median of the path's feeds)",
-    )
-    parser.add_argument(
-        "--max-points", type=int, default=0, metavar="N",
-        help=f"points per file before a KRL or RAPID program is split into parts and a main (default: KRL "
-        f"{LIMITS['krl']}, RAPID {LIMITS['rapid']}, as RoboDK's posts)",
-    )
-    parser.add_argument(
-        "--tool-number", type=int, default=DEFAULT_TOOL_NUMBER, metavar="N",
-        help=f"KRL: the controller's tool and load slot the program overwrites and uses, TOOL_DATA[N] and "
-        f"LOAD_DATA[N], {TOOL_NUMBERS.start}..{TOOL_NUMBERS.stop - 1} (default: {DEFAULT_TOOL_NUMBER}; the cell's "
-        "calibrated tool 1 is never written unless asked)",
-    )
-    parser.add_argument(
-        "--base-number", type=int, default=DEFAULT_BASE_NUMBER, metavar="N",
-        help=f"KRL: the controller's base slot the program overwrites and uses with the sheet frame, BASE_DATA[N], "
-        f"{BASE_NUMBERS.start}..{BASE_NUMBERS.stop - 1} (default: {DEFAULT_BASE_NUMBER})",
-    )
-    parser.add_argument("--max-correction-mm", type=float, default=OnlineSettings.max_correction_mm,
-                        metavar="MM", help=MAX_CORRECTION_HELP)
+    parser.add_argument("--tool-length-mm", type=float, metavar="MM", help="flange to tool tip along the flange z "
+                        "[mm] (default: the run's tool_length_m, else the robot's)")
+    parser.add_argument("--tool-mass-kg", type=float, metavar="KG", help="tool mass for the program's load data "
+                        "(RAPID tooldata, KRL LOAD_DATA) [kg] (default: the run's imported sensor tool_mass_kg, else the "
+                        "robot model's tool body mass)")
+    parser.add_argument("--safe-height-mm", type=float, metavar="MM", help="approach and retract height, sheet frame "
+                        "z [mm]: the program moves (joint move) above the first point, down onto the path and back up "
+                        "at the end (default: the sheet top z = 0 or the path's highest point, whichever is higher, "
+                        f"+ {SAFE_MARGIN_MM:g} mm)")
+    parser.add_argument("--feed-mm-s", type=float, metavar="MM_S", help=f"the process feed [mm/s]; a path move "
+                        f"faster than {FEED_TOLERANCE:g}x it is programmed at it (default: the median of the path's "
+                        "feeds)")
+    parser.add_argument("--max-points", type=int, default=0, metavar="N", help="points per file before a KRL or "
+                        f"RAPID program is split into parts and a main (default: KRL {LIMITS['krl']}, RAPID "
+                        f"{LIMITS['rapid']}, as RoboDK's posts)")
+    parser.add_argument("--tool-number", type=int, metavar="N", help="KRL: the controller's tool and load slot the "
+                        f"program overwrites and uses, TOOL_DATA[N] and LOAD_DATA[N], {TOOL_NUMBERS.start}.."
+                        f"{TOOL_NUMBERS.stop - 1} (default: a --cell's controller.tool_number, else "
+                        f"{DEFAULT_TOOL_NUMBER}; the cell's calibrated tool 1 is never written unless asked)")
+    parser.add_argument("--base-number", type=int, metavar="N", help="KRL: the controller's base slot the program "
+                        f"overwrites and uses with the sheet frame, BASE_DATA[N], {BASE_NUMBERS.start}.."
+                        f"{BASE_NUMBERS.stop - 1} (default: a --cell's controller.base_number, else "
+                        f"{DEFAULT_BASE_NUMBER})")
+    parser.add_argument("--max-correction-mm", type=float, metavar="MM", help=MAX_CORRECTION_HELP)
 
 
 def run(args: argparse.Namespace) -> int:

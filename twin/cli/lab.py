@@ -18,7 +18,7 @@ from twin.cli._common import (
 )
 from twin.cli._types import seed
 from twin.sim.effects import EFFECTS
-from twin.sim.online_settings import MAX_CORRECTION_HELP, OnlineSettings
+from twin.sim.online_settings import MAX_CORRECTION_HELP
 
 HELP = "Run the virtual lab (richer plant, noise, hidden effects) and write a measured run."
 
@@ -44,8 +44,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--online", action="store_true", help="dynamic plant: its controller compensates online "
                         "each 4 ms cycle with the twin's compensator on the plant's F/T stream (docs/online.md)")
     parser.add_argument("--model", type=Path, help="with --online: the compensator's twin (a `learn`ed model file)")
-    parser.add_argument("--max-correction-mm", type=float, default=OnlineSettings.max_correction_mm,
-                        metavar="MM", help=MAX_CORRECTION_HELP)
+    parser.add_argument("--max-correction-mm", type=float, metavar="MM", help=MAX_CORRECTION_HELP)
     parser.add_argument("--seed", type=seed, required=True, help="seed of the lab's noise")
     add_force_model_argument(parser)
     add_process_arguments(parser)

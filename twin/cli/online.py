@@ -15,7 +15,8 @@ from twin.cli._common import (
     placement_given,
 )
 from twin.cli._types import finite
-from twin.sim.online_settings import MAX_CORRECTION_HELP, OnlineSettings
+from twin.robot.controller import DEFAULT_MAX_RATE_MM_S
+from twin.sim.online_settings import MAX_CORRECTION_HELP
 
 HELP = ("Serve the online compensator over a robot's real-time interface (KUKA RSI, ABB EGM, Stäubli VAL3 alter), for a bounded time; "
         "the F/T from the robot's packets or the sensor's RDT stream.")
@@ -44,11 +45,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "program is started after the twin; a session that answered none exits 1)")
     parser.add_argument("--idle-timeout-s", type=finite, default=5.0,
                         help="stop when no packet was answered this long after the last one [s]")
-    parser.add_argument("--max-rate-mm-s", type=finite, default=20.0,
+    parser.add_argument("--max-rate-mm-s", type=finite,
                         help="largest rate of change of the correction [mm/s]: per second of the controller's clock "
-                             "and of this computer's, not per packet (a burst of packets moves it no faster)")
-    parser.add_argument("--max-correction-mm", type=float, default=OnlineSettings.max_correction_mm,
-                        metavar="MM", help=MAX_CORRECTION_HELP)
+                             "and of this computer's, not per packet (a burst of packets moves it no faster; default: a --cell's "
+                             f"controller.max_rate_mm_s, else {DEFAULT_MAX_RATE_MM_S:g})")
+    parser.add_argument("--max-correction-mm", type=float, metavar="MM", help=MAX_CORRECTION_HELP)
     parser.add_argument("--guidance", type=Path, metavar="FILE", help="--serve egm: stream the path of this table "
                         "(NAME_egm_pose.csv of `export --online`: EGM position guidance); without it, path correction")
     add_robot_argument(parser)

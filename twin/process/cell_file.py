@@ -27,11 +27,17 @@
     tracker_noise_mm = 0.02
     ft_rate_hz = 30.0                   # the F/T sensor's rate [Hz] and white noise per axis [N]
     ft_noise_n = 5.0
+    [controller]                        # the robot controller's slots and the online correction's limits
+    tool_number = 16                    # the tool and load slot programs write and select (KRL TOOL_DATA[n], 1..16)
+    base_number = 16                    # the base slot, the sheet frame (KRL BASE_DATA[n], 1..32)
+    max_correction_mm = 8.0             # the online correction's size limit [mm] (program, compensator, server)
+    max_rate_mm_s = 20.0                # its rate limit [mm/s] (the compensator's and the server's)
 
 Every key but `format` may be left out: it keeps what the command would take without the cell (the robot's own
 tool and sheet origin, the thesis's process). A command's own flags override the cell (`--robot`, `--origin-mm`,
 `--yaw-deg`, `--material`, `--thickness-mm`, `--tool-radius-mm`, `--process`, `--tool-length-mm`,
-`--tool-mass-kg`): the cell is what a user would otherwise type on every command. Without a bending key the tool
+`--tool-mass-kg`, `--tool-number`, `--base-number`, `--max-correction-mm`, `--max-rate-mm-s`; the online limits
+are taken where there is an online correction): the cell is what a user would otherwise type on every command. Without a bending key the tool
 is rigid (`twin.robot.tool_bending`); without `[ft_sensor]` an import takes the sensor's axes as the sheet's (the
 mapping's default) unless its mapping says (`twin.robot.ft_mount`). Each value is checked here, with
 the file and the key named: a length must be a number in its range (a tool of 15 m or a sheet of 1 µm is no ISF
@@ -50,9 +56,14 @@ from twin.errors import DataFileError
 from twin.process.description import PLAUSIBLE
 from twin.process.material.file import read_toml
 from twin.process.process_file import PROCESS_KEYS, ProcessDeclaration, declaration_from_table
+from twin.robot.controller import BASE_NUMBERS, MAX_CORRECTION_LIMIT_MM, MAX_RATE_MM_S, TOOL_NUMBERS
 
 CELL_FORMAT = "tx200-twin-cell/1"
-CELL_KEYS = ("format", "name", "robot", "tool", "sheet", "process", "sensors", "ft_sensor")
+CELL_KEYS = ("format", "name", "robot", "tool", "sheet", "process", "sensors", "ft_sensor", "controller")
+#: The `[controller]` keys (`twin.robot.controller`): the slots as whole numbers in their ranges, the online limits
+#: as numbers above 0 up to the largest a cell may allow.
+CONTROLLER_SLOTS = {"tool_number": TOOL_NUMBERS, "base_number": BASE_NUMBERS}
+CONTROLLER_LIMITS = {"max_correction_mm": (MAX_CORRECTION_LIMIT_MM, "mm"), "max_rate_mm_s": (MAX_RATE_MM_S, "mm/s")}
 #: The `[sensors]` keys and their ranges: rates of the trackers and F/T sensors cells use, noise up to ten times
 #: the thesis's (its Krypton tracker 0.02 mm, its F/T 5 N in the twin's lab).
 SENSOR_RANGES = {"tracker_rate_hz": (1.0, 2000.0, "Hz"), "ft_rate_hz": (1.0, 10000.0, "Hz"),
@@ -127,6 +138,7 @@ class CellDeclaration:
         process: What its `[process]` declares (the tool radius included).
         sensors: Its `[sensors]` values, by key (`SENSOR_RANGES`).
         ft_sensor: Its `[ft_sensor]` mounting; None: not declared (an import's sensor axes are the sheet's).
+        controller: Its `[controller]` values, by key (`CONTROLLER_SLOTS`, `CONTROLLER_LIMITS`).
     """
 
     source: Path
@@ -138,6 +150,7 @@ class CellDeclaration:
     process: ProcessDeclaration = field(default_factory=ProcessDeclaration)
     sensors: Mapping[str, float] = field(default_factory=dict)
     ft_sensor: SensorMount | None = None
+    controller: Mapping[str, float] = field(default_factory=dict)
 
     def record(self) -> dict[str, Any]:
         """What runs, model files and programs record of the cell (JSON-ready, millimetres as in the file)."""
@@ -148,6 +161,7 @@ class CellDeclaration:
                                    ("yaw_deg", self.yaw_deg)) if v is not None}
         return {"file": str(self.source.resolve()), "name": self.name, "robot": self.robot, "tool": tool, "sheet": sheet,
                 "process": dict(self.process.origins), "sensors": dict(self.sensors),
+                **({"controller": dict(self.controller)} if self.controller else {}),
                 **({} if self.ft_sensor is None else {"ft_sensor": {"rpy_deg": list(self.ft_sensor.rpy_deg),
                                                                     "offset_mm": list(self.ft_sensor.offset_mm)}})}
 
@@ -172,7 +186,7 @@ def read_cell_file(path: str | Path) -> CellDeclaration:
                            *_sheet(path, _table(path, data, "sheet")),
                            _process(path, _table(path, data, "process"), tool.get("radius_mm")),
                            _sensors(path, _table(path, data, "sensors")),
-                           _ft_sensor(path, data))
+                           _ft_sensor(path, data), _controller(path, _table(path, data, "controller")))
 
 
 def _table(path: Path, data: Mapping[str, Any], key: str) -> Mapping[str, Any]:
@@ -282,3 +296,23 @@ def _process(path: Path, table: Mapping[str, Any], radius_mm: Any) -> ProcessDec
 def _sensors(path: Path, table: Mapping[str, Any]) -> dict[str, float]:
     _known(path, table, tuple(SENSOR_RANGES), "[sensors]", "sensors.")
     return {key: _number(path, f"sensors.{key}", value, *SENSOR_RANGES[key]) for key, value in table.items()}
+
+
+def _controller(path: Path, table: Mapping[str, Any]) -> dict[str, float]:
+    """The `[controller]` table: the slots (whole numbers in their ranges) and the online limits (> 0)."""
+    _known(path, table, (*CONTROLLER_SLOTS, *CONTROLLER_LIMITS), "[controller]", "controller.")
+    out: dict[str, float] = {}
+    for key, value in table.items():
+        if key in CONTROLLER_SLOTS:
+            slots = CONTROLLER_SLOTS[key]
+            if isinstance(value, bool) or not isinstance(value, int) or value not in slots:
+                raise DataFileError(path, f"controller.{key} = {value!r}: expected a whole number {slots.start} to "
+                                    f"{slots.stop - 1} (the controller's slot)")
+            out[key] = value
+        else:
+            high, unit = CONTROLLER_LIMITS[key]
+            number = _number(path, f"controller.{key}", value, 0.0, high, unit)
+            if number <= 0.0:
+                raise DataFileError(path, f"controller.{key} = {value!r}: expected a number above 0 [{unit}]")
+            out[key] = number
+    return out

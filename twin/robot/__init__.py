@@ -10,7 +10,8 @@ built with MjSpec), `kinematics` (MuJoCo FK, Jacobian, IK with the tool held ver
 sensor's mounting on the flange and its axes in the sheet frame),
 `chain_fk` (vectorised FK of the hinge chain), `ik_batch` (batched IK: many points at once, a warm start from
 the last path's solution, the branch check), `dh` (the DH table's FK, the independent check), `pinocchio_model`
-(the Pinocchio cross-check) and `stiffness` (the joint springs K_q).
+(the Pinocchio cross-check), `stiffness` (the joint springs K_q) and `controller` (what its controller takes from a
+cell: the program's tool and base slots, the online correction's limits).
 
 Takes a robot's model folder; gives compiled models, poses, Jacobians and IK solutions. Knows nothing of the sheet.
 Nothing outside this stage names a joint, a joint count or a number of one robot.

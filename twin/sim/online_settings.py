@@ -10,11 +10,10 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from twin.errors import InputError
+from twin.robot.controller import DEFAULT_MAX_CORRECTION_MM, DEFAULT_MAX_RATE_MM_S, MAX_CORRECTION_LIMIT_MM
 
 #: A correction within this of its size limit sits at it [mm] (`lab --online`'s share, a server's count).
 AT_LIMIT_MM = 1e-3
-#: Largest correction a cell may allow [mm]: beyond it a correction is not an arm's deflection under a forming load.
-MAX_CORRECTION_LIMIT_MM = 50.0
 
 
 def check_max_correction_mm(value: float, option: str = "--max-correction-mm", online: bool = True) -> float:
@@ -70,8 +69,8 @@ class OnlineSettings:
     period_s: float = 0.004
     spike_n: float = 1500.0
     spike_run: int = 2
-    max_correction_mm: float = 5.0
-    max_rate_mm_s: float = 20.0
+    max_correction_mm: float = DEFAULT_MAX_CORRECTION_MM
+    max_rate_mm_s: float = DEFAULT_MAX_RATE_MM_S
     stale_s: float = 0.1
     hold_s: float = 0.1
     gain: float = 1.0
@@ -119,6 +118,7 @@ class OnlineSettings:
 
 
 #: `--max-correction-mm`'s help (`lab --online`, `export --online`, `online`).
-MAX_CORRECTION_HELP = (f"the online correction's size limit [mm] (default: {OnlineSettings.max_correction_mm:g}): the "
+MAX_CORRECTION_HELP = (f"the online correction's size limit [mm] (default: a --cell's controller.max_correction_mm, else "
+                       f"{OnlineSettings.max_correction_mm:g}): the "
                        "compensator's, the exported program's (RSI's POSCORR limits, EGM position guidance's end "
                        "tolerance) and its server's alike; `lab --online` says when the correction sat at it")

@@ -185,8 +185,8 @@ def export_path(
         safe_z_mm: Approach and retract height, sheet frame z [mm]; None: `motion.default_safe_z_mm`.
         process_feed_mm_s: The process feed [mm/s]; None: the median of the path's feeds.
         max_points: Points per file before a program is split (`parts`); 0: the format's limit.
-        tool_number: The controller's tool (and load) slot a KRL program writes and uses (`slots.TOOL_NUMBERS`).
-        base_number: The controller's base slot a KRL program writes and uses (`slots.BASE_NUMBERS`).
+        tool_number: The controller's tool (and load) slot a KRL program writes and uses (`twin.robot.controller.TOOL_NUMBERS`).
+        base_number: The controller's base slot a KRL program writes and uses (`twin.robot.controller.BASE_NUMBERS`).
         max_correction_mm: An online program's limit on the correction [mm] (`ProgramPath.max_correction_mm`).
 
     Returns:

@@ -29,9 +29,9 @@ import numpy as np
 
 from twin.apps.export.configuration import RobotConfiguration, path_configurations
 from twin.apps.export.reach import path_joint_angles
-from twin.apps.export.slots import DEFAULT_BASE_NUMBER, DEFAULT_TOOL_NUMBER
 from twin.errors import InputError
 from twin.process.toolpath.placement import Placement
+from twin.robot.controller import DEFAULT_BASE_NUMBER, DEFAULT_TOOL_NUMBER
 from twin.robot.description import DEFAULT_ROBOT, load_robot, robot_record
 from twin.robot.facts import RobotDescription
 from twin.robot.tool import INERTIA_RADIUS_M

@@ -32,10 +32,10 @@ from twin.apps.export import (
     robot_format,
 )
 from twin.apps.export.program import default_cell
-from twin.apps.export.slots import BASE_NUMBERS, DEFAULT_BASE_NUMBER, DEFAULT_TOOL_NUMBER, TOOL_NUMBERS
 from twin.apps.tasks.base import Note, Report, silent
 from twin.errors import InputError
 from twin.process.description import check_plausible
+from twin.robot.controller import BASE_NUMBERS, DEFAULT_BASE_NUMBER, DEFAULT_TOOL_NUMBER, TOOL_NUMBERS
 from twin.robot.description import load_robot
 from twin.robot.facts import RobotDescription
 from twin.runs.format import run_robot

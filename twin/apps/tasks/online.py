@@ -22,6 +22,7 @@ from twin.analysis.resolve import resolve_spec
 from twin.apps.tasks.base import Note, Report, silent
 from twin.errors import InputError
 from twin.process.toolpath.placement import Placement
+from twin.robot.controller import DEFAULT_MAX_RATE_MM_S, MAX_RATE_MM_S
 from twin.sim.online_settings import OnlineSettings, check_max_correction_mm
 
 if TYPE_CHECKING:
@@ -69,8 +70,6 @@ INTERFACES: dict[str, Interface] = {
     "egm": Interface("egm", "UDP", 6510, _egm),  # twin.apps.export.rapid_egm.DEFAULT_PORT
     "val3": Interface("val3", "TCP", 49153, _val3),  # twin.apps.online.alter_protocol.DEFAULT_PORT
 }
-#: The largest `--max-rate-mm-s` taken [mm/s] (a correction of 5 mm in 5 ms: faster is a jump, not a rate).
-MAX_RATE_MM_S = 1000.0
 _RDT = re.compile(r"^(?P<host>[A-Za-z0-9.\-]+)(:(?P<port>\d{1,5}))?$")
 
 
@@ -144,7 +143,7 @@ class OnlineRequest:
     ft: RdtSettings | None = None
     cell: dict[str, Any] | None = None
     start_timeout_s: float = 60.0
-    max_rate_mm_s: float = 20.0
+    max_rate_mm_s: float = DEFAULT_MAX_RATE_MM_S
     guidance: Path | None = None
     max_correction_mm: float = OnlineSettings.max_correction_mm
 
