@@ -108,3 +108,19 @@ def test_the_cells_correction_limit_is_the_online_labs(tmp_path: Path) -> None:
                  "--commanded", str(cone), "--out", str(tmp_path / "run")]) == 0
     meta = json.loads((tmp_path / "run" / "meta.json").read_text())
     assert meta["online"]["settings"]["max_correction_mm"] == 7.5
+
+
+def test_another_robot_than_the_cells_does_not_take_its_controller(tmp_path: Path) -> None:
+    """`--robot` naming another robot than the cell's: the cell's controller is the cell robot's, not used."""
+    import argparse
+
+    from twin.cli._common import apply_cell
+
+    cell = _cell(tmp_path, "tool_number = 7\nmax_correction_mm = 8\n")
+    args = argparse.Namespace(cell=cell, robot="tx200", tool_number=None, max_correction_mm=None, online=True)
+    apply_cell(args)
+    assert args.tool_number == DEFAULT_TOOL_NUMBER and args.max_correction_mm == 5.0
+    assert "controller" not in args.cell_record
+    args = argparse.Namespace(cell=cell, robot=None, tool_number=None, max_correction_mm=None, online=True)
+    apply_cell(args)
+    assert args.tool_number == 7 and args.max_correction_mm == 8.0 and args.cell_record["controller"]["tool_number"] == 7

@@ -101,9 +101,10 @@ def apply_cell(args: argparse.Namespace) -> None:
     the cell's value (robot, sheet origin and yaw, tool length and mass; its process through `process_declaration`).
     `args.cell_record` is what runs and programs record of it; `args.cell_filled` names the options the cell filled
     in (`given` tells them from typed ones: `twin.analysis.resolve.PRECEDENCE`, a flag > a run > the cell). A
-    `--robot` that names another robot than the cell's keeps the cell's process but not its sheet and tool (they are
-    the cell robot's), with a note. The controller's slots and online limits (`[controller]`; the limits only where
-    the command corrects online) fill in as well, and what neither gives takes `twin.robot.controller`'s default."""
+    `--robot` that names another robot than the cell's keeps the cell's process but not its sheet, tool and
+    controller (they are the cell robot's), with a note. The controller's slots and online limits (`[controller]`;
+    the limits only where the command corrects online) fill in as well; what neither gives takes
+    `twin.robot.controller`'s default."""
     if getattr(args, "cell", None) is None:
         _controller_defaults(args)
         return
@@ -117,13 +118,14 @@ def apply_cell(args: argparse.Namespace) -> None:
     if cell.robot is not None and typed_robot is not None and \
             load_robot(typed_robot).source != load_robot(cell.robot).source:
         note(f"note: --robot {typed_robot} is not the cell's robot {cell.robot} ({args.cell}): the cell's sheet "
-             "placement and tool are that robot's and are not used; its process is")
-        args.cell_record = {**{k: v for k, v in args.cell_record.items() if k != "ft_sensor"}, "sheet": {}, "tool": {}}
+             "placement, tool and controller are that robot's and are not used; its process is")
+        args.cell_record = {**{k: v for k, v in args.cell_record.items() if k not in ("ft_sensor", "controller")},
+                            "sheet": {}, "tool": {}}
     else:
+        online = getattr(args, "online", True)  # `online` itself has no flag: it is online
         values += [("origin_mm", None if cell.origin_mm is None else list(cell.origin_mm)), ("yaw_deg", cell.yaw_deg),
-                   ("tool_length_mm", cell.tool.length_mm), ("tool_mass_kg", cell.tool.mass_kg)]
-    online = getattr(args, "online", True)  # `online` itself has no flag: it is online
-    values += [(k, v) for k, v in cell.controller.items() if online or k not in ONLINE_LIMIT_KEYS]
+                   ("tool_length_mm", cell.tool.length_mm), ("tool_mass_kg", cell.tool.mass_kg),
+                   *((k, v) for k, v in cell.controller.items() if online or k not in ONLINE_LIMIT_KEYS)]
     filled = set()
     for name, value in values:
         if value is not None and hasattr(args, name) and getattr(args, name) is None:
@@ -134,6 +136,7 @@ def apply_cell(args: argparse.Namespace) -> None:
 
 
 def _controller_defaults(args: argparse.Namespace) -> None:
+    """The controller's options neither typed nor filled by a cell take their defaults."""
     for name, value in CONTROLLER_DEFAULTS.items():
         if hasattr(args, name) and getattr(args, name) is None:
             setattr(args, name, value)
