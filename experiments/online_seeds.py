@@ -5,6 +5,7 @@ sensors' and the tracker's, the plant's small draws). A row that moves by tenths
 next is a draw, not a number. For each robot a model is learned from one nominal cone (60 x 10 mm, seed 1, as that
 table's) and each part (a cone 80 x 8 mm, a pyramid 40 x 6 mm, the thesis's groove) is formed online with it and
 with the learned offline command under it ("both"), on seeds `SEEDS` (3 first: the other-part table's runs again),
+and online again with the plant's step halved,
 each scored on the plant's true tip (its `truth_tip.csv`, read on the experiment's side only). Every online run may
 correct up to `online_other_part.ONLINE_LIMIT_MM`. Writes OUT/online_seeds.json, OUT/online_seeds.md and with
 `--doc` the table between the online-seeds markers of that page (docs/online.md; `tests/test_online_seeds_doc.py`
@@ -12,7 +13,7 @@ reads it):
 
     .venv/bin/python experiments/online_seeds.py OUT [--robots tx200,kr210,irb6640] [--doc docs/online.md]
 
-About 15 minutes on one core (a robot per process: `--robots`, then `--merge` the robots' JSON files).
+About 25 minutes on one core (a robot per process: `--robots`, then `--merge` the robots' JSON files).
 """
 
 from __future__ import annotations
@@ -24,11 +25,15 @@ from typing import Any
 from experiments_cli import cli
 from online_other_part import ROBOT_TARGETS, TARGETS, lab_run, learn_cone, per_robot_main
 from online_study import rms_mm, true_tip_miss_mm
+from online_timestep import FINE_STEP_S
 
 #: The lab's seeds each part is formed with (3: the other-part table's).
 SEEDS = (3, 4, 5, 6, 7, 8)
-#: The columns: online with the learned model, and the learned offline command with it on top.
+#: The columns: online with the learned model, and the learned offline command with it on top; then online again
+#: with the plant's step halved (`lab --set timestep_s=5e-4`, `online_timestep.FINE_STEP_S`): a row that spans as
+#: much at either step is the draw's, not the integrator's.
 MODES = ("online", "both")
+FINE_STEP = (f"timestep_s={FINE_STEP_S:g}",)
 
 
 def robot_rows(out: Path, robot: str) -> list[dict[str, Any]]:
@@ -43,9 +48,10 @@ def robot_rows(out: Path, robot: str) -> list[dict[str, Any]]:
         cli("compensate", "--method", "twin", "--robot", robot, "--model", str(model), "--ideal", str(ideal), "--out",
             str(command))
         row: dict[str, Any] = {"robot": robot, "part": part}
-        for mode, formed, scenario in (("online", ideal, "nominal"), ("both", command, "compensated")):
+        for mode, formed, scenario, step in (("online", ideal, "nominal", ()), ("both", command, "compensated", ()),
+                                             ("online_fine", ideal, "nominal", FINE_STEP)):
             row[mode] = [rms_mm(true_tip_miss_mm(lab_run(robot, formed, out / f"{tag}_{mode}_{seed}", seed, scenario,
-                                                         "--online", "--model", str(model)), ideal))
+                                                         "--online", "--model", str(model), plant_set=step), ideal))
                          for seed in SEEDS]
         rows.append(row)
         print(table(rows[-1:]).splitlines()[-1], flush=True)
@@ -60,9 +66,9 @@ def table(rows: list[dict[str, Any]]) -> str:
     """The markdown table: per mode, seed 3's true-tip rms and the least / median / largest over `SEEDS` [mm]."""
     span = f"seeds {SEEDS[0]}-{SEEDS[-1]}: least / median / largest"
     lines = [f"| robot | part (never formed) | online, learned: seed {SEEDS[0]} | the same, {span} | both, learned: seed "
-             f"{SEEDS[0]} | the same, {span} |", "|---|---|---|---|---|---|"]
+             f"{SEEDS[0]} | the same, {span} | online, learned, 0.5 ms step: {span} |", "|---|---|---|---|---|---|---|"]
     for r in rows:
-        cells = [c for mode in MODES for c in _cells(r[mode])]
+        cells = [c for mode in MODES for c in _cells(r[mode])] + _cells(r["online_fine"])[1:]
         lines.append(f"| {r['robot']} | {r['part']} | " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
 
