@@ -15,7 +15,7 @@ markers of that page (docs/online.md; `tests/test_online_interface.py` reads it)
         [--plant-set sheet_law=2 --marker online-other-part-law2]
 
 `--plant-set NAME=VALUE` (repeatable) adds a plant knob to every run (the second sheet law, say); `--marker` names
-the page's markers the table goes between.
+the page's markers the table goes between; `--tracker-errors` learns with `learn --tracker-errors`.
 
 Every online run may correct up to `ONLINE_LIMIT_MM` (`--max-correction-mm`; the default is less): the IRB 6640's
 arm bends on the groove as far as the default limit, where its online correction sat through the deepest passes, and
@@ -63,20 +63,23 @@ def lab_run(robot: str, command: Path, out: Path, seed: int, scenario: str = "no
     return out
 
 
-def learn_cone(out: Path, robot: str, plant_set: tuple[str, ...] = ()) -> tuple[Path, dict[str, Any]]:
-    """Form the nominal cone `LEARN_FROM` (seed 1) in `out` and `learn` from it: (the model file, `learn`'s
-    document)."""
+def learn_cone(out: Path, robot: str, plant_set: tuple[str, ...] = (),
+               learn_args: tuple[str, ...] = ()) -> tuple[Path, dict[str, Any]]:
+    """Form the nominal cone `LEARN_FROM` (seed 1) in `out` and `learn` from it (with `learn_args`, `learn`'s own
+    options): (the model file, `learn`'s document)."""
     out.mkdir(parents=True, exist_ok=True)
     learn_path, model = out / "learn_cone.csv", out / "learned.json"
     cli("path", *LEARN_FROM, "--robot", robot, "--out", str(learn_path))
     learned = cli_json("learn", str(lab_run(robot, learn_path, out / "learn_nominal1", 1, plant_set=plant_set)),
-                       "--write-model", str(model))
+                       "--write-model", str(model), *learn_args)
     return model, learned
 
 
-def robot_study(out: Path, robot: str, plant_set: tuple[str, ...] = ()) -> list[dict[str, Any]]:
-    """One robot's rows (module docstring); `plant_set`: plant knobs NAME=VALUE added to every run's."""
-    model, learned = learn_cone(out, robot, plant_set)
+def robot_study(out: Path, robot: str, plant_set: tuple[str, ...] = (),
+                learn_args: tuple[str, ...] = ()) -> list[dict[str, Any]]:
+    """One robot's rows (module docstring); `plant_set`: plant knobs NAME=VALUE added to every run's; `learn_args`:
+    `learn`'s options."""
+    model, learned = learn_cone(out, robot, plant_set, learn_args)
     offset = learned["robot"]["tracker_offset_mm"]
     rows = []
     for part in ROBOT_TARGETS[robot]:
@@ -154,9 +157,13 @@ def main() -> None:
     parser.add_argument("--plant-set", action="append", default=[], metavar="NAME=VALUE",
                         help="a plant knob added to every run, repeatable")
     parser.add_argument("--marker", default="online-other-part", help="the page's markers (default: %(default)s)")
+    parser.add_argument("--tracker-errors", action="store_true",
+                        help="learn with `learn --tracker-errors` (the tracker's turn and lateness beside the robot)")
     args = parser.parse_args()
     plant_set = tuple(args.plant_set)
-    rows = [row for robot in args.robots.split(",") for row in robot_study(args.out / robot, robot, plant_set)]
+    learn_args = ("--tracker-errors",) if args.tracker_errors else ()
+    rows = [row for robot in args.robots.split(",") for row in robot_study(args.out / robot, robot, plant_set,
+                                                                             learn_args)]
     (args.out / "online_other_part.json").write_text(json.dumps(rows, indent=1))
     (args.out / "online_other_part.md").write_text(table(rows))
     print(table(rows))
