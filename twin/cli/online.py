@@ -47,8 +47,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="stop when no packet was answered this long after the last one [s]")
     parser.add_argument("--max-rate-mm-s", type=finite,
                         help="largest rate of change of the correction [mm/s]: per second of the controller's clock "
-                             "and of this computer's, not per packet (a burst of packets moves it no faster; default: a --cell's "
-                             f"controller.max_rate_mm_s, else {DEFAULT_MAX_RATE_MM_S:g})")
+                             "and of this computer's, not per packet (a burst of packets moves it no faster; "
+                             f"default: a --cell's controller.max_rate_mm_s, else {DEFAULT_MAX_RATE_MM_S:g})")
     parser.add_argument("--max-correction-mm", type=float, metavar="MM", help=MAX_CORRECTION_HELP)
     parser.add_argument("--guidance", type=Path, metavar="FILE", help="--serve egm: stream the path of this table "
                         "(NAME_egm_pose.csv of `export --online`: EGM position guidance); without it, path correction")
