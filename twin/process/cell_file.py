@@ -40,8 +40,8 @@ tool and sheet origin, the thesis's process). A command's own flags override the
 are taken where there is an online correction): the cell is what a user would otherwise type on every command.
 Without a bending key the tool is rigid (`twin.robot.tool_bending`); without `[ft_sensor]` an import takes the
 sensor's axes as the sheet's (the mapping's default) unless its mapping says (`twin.robot.ft_mount`). Each value is
-checked here, with the file and the key named: a length must be a number in its range (a tool of 15 m or a sheet of 1 µm is no ISF
-cell).
+checked here, with the file and the key named: a length must be a number in its range (a tool of 15 m or a sheet
+of 1 µm is no ISF cell).
 """
 
 from __future__ import annotations
