@@ -20,19 +20,18 @@ Writes OUT/online_floor.json, OUT/online_floor.md and with `--doc` the table bet
 page (docs/online.md; `tests/test_online_floor_doc.py` reads it):
 
     .venv/bin/python experiments/online_floor.py OUT [--robots tx200,kr210,irb6640] [--doc docs/online.md]
+
+(a robot per process: `--robots`, then `--merge` the robots' JSON files).
 """
 
 from __future__ import annotations
 
-import argparse
-import json
 from itertools import count
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-from experiments_cli import cli, write_between_markers
-from online_other_part import TARGETS, lab_run, learn_cone
+from online_other_part import ONLINE_LIMIT_MM, lab_run, learn_cone, per_robot_main, target_ideal
 from online_study import rms_mm, true_tip_miss_mm
 
 from twin.analysis.check import ideal_times
@@ -41,7 +40,7 @@ from twin.base.signals import interp_rows
 from twin.lab.dynamic.knobs import parse_set_args
 from twin.lab.dynamic.run import run_dynamic_lab
 from twin.runs.read import read_commanded_csv
-from twin.sim.online import OnlineCompensator
+from twin.sim.online import OnlineCompensator, OnlineSettings
 
 #: The sensor as good as the plant's knobs make it.
 PERFECT_SENSOR = ("ft_rate_hz=1000", "ft_noise_n=0", "ft_latency_s=0", "ft_quantum_n=0", "ft_bias_n=0",
@@ -109,8 +108,7 @@ def step_answer(t_s: np.ndarray, tip_m: np.ndarray, plain_tip_m: np.ndarray) -> 
 def robot_floor(out: Path, robot: str) -> dict[str, Any]:
     """One robot's row (module docstring)."""
     model, _ = learn_cone(out, robot)
-    ideal = out / "pyramid.csv"
-    cli("path", *TARGETS["pyramid"], "--robot", robot, "--out", str(ideal))
+    ideal = target_ideal(out, robot, "pyramid")
     row: dict[str, Any] = {"robot": robot}
     for name, plant_set in (("online", ()), ("perfect_sensor", PERFECT_SENSOR)):
         run = lab_run(robot, ideal, out / f"pyramid_{name}", 3, "nominal", "--online", "--model", str(model),
@@ -120,7 +118,8 @@ def robot_floor(out: Path, robot: str) -> dict[str, Any]:
                         p_sheet_m=read_commanded_csv(ideal).values, cell=None)
     t_plain, tip_plain, miss = _air_run(robot, ideal, None)
     row["air_nominal"] = rms_mm(miss)
-    row["air_online"] = rms_mm(_air_run(robot, ideal, OnlineCompensator(spec))[2])
+    row["air_online"] = rms_mm(_air_run(robot, ideal, OnlineCompensator(
+        spec, OnlineSettings(max_correction_mm=ONLINE_LIMIT_MM)))[2])  # as lab_run's online runs
     t_step, tip_step, _ = _air_run(robot, ideal, StepCorrector())
     if t_step.shape != t_plain.shape:
         raise SystemExit(f"{robot}: the runs with and without the steps have different logs")
@@ -138,21 +137,15 @@ def table(rows: list[dict[str, Any]]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def robot_rows(out: Path, robot: str) -> list[dict[str, Any]]:
+    """One robot's row, said as it comes."""
+    row = robot_floor(out, robot)
+    print(table([row]).splitlines()[-1], flush=True)
+    return [row]
+
+
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("out", type=Path)
-    parser.add_argument("--robots", default="tx200,kr210,irb6640")
-    parser.add_argument("--doc", type=Path, help="write the table into this page between its markers")
-    args = parser.parse_args()
-    rows = []
-    for robot in args.robots.split(","):
-        rows.append(robot_floor(args.out / robot, robot))
-        print(table(rows[-1:]).splitlines()[-1], flush=True)
-    (args.out / "online_floor.json").write_text(json.dumps(rows, indent=1))
-    (args.out / "online_floor.md").write_text(table(rows))
-    print(table(rows))
-    if args.doc is not None:
-        write_between_markers(args.doc, "online-floor", table(rows))
+    per_robot_main(__doc__.splitlines()[0], "online_floor", robot_rows, table)
 
 
 if __name__ == "__main__":

@@ -75,6 +75,22 @@ def learn_cone(out: Path, robot: str, plant_set: tuple[str, ...] = (),
     return model, learned
 
 
+def target_ideal(out: Path, robot: str, part: str) -> Path:
+    """The part's ideal path (`TARGETS[part]`, in `robot`'s cell), written as OUT/<part without spaces>.csv."""
+    ideal = out / f"{part.replace(' ', '')}.csv"
+    cli("path", *TARGETS[part], "--robot", robot, "--out", str(ideal))
+    return ideal
+
+
+def offline_command(robot: str, ideal: Path, twin: str, *model_args: str) -> Path:
+    """The `twin` twin's offline command for `ideal` (`compensate --method twin`; `model_args`: its `--model FILE`,
+    none for the default twin), written beside it as <ideal>_offline_<twin>.csv; a refusal (`compensate`'s exit 2:
+    the twin cannot hold the path) ends in `SystemExit`, naming it."""
+    command = ideal.with_name(f"{ideal.stem}_offline_{twin}.csv")
+    cli("compensate", "--method", "twin", "--robot", robot, *model_args, "--ideal", str(ideal), "--out", str(command))
+    return command
+
+
 def robot_study(out: Path, robot: str, plant_set: tuple[str, ...] = (),
                 learn_args: tuple[str, ...] = ()) -> list[dict[str, Any]]:
     """One robot's rows (module docstring); `plant_set`: plant knobs NAME=VALUE added to every run's; `learn_args`:
@@ -83,16 +99,13 @@ def robot_study(out: Path, robot: str, plant_set: tuple[str, ...] = (),
     offset = learned["robot"]["tracker_offset_mm"]
     rows = []
     for part in ROBOT_TARGETS[robot]:
-        tag = part.replace(" ", "")
-        ideal = out / f"{tag}.csv"
-        cli("path", *TARGETS[part], "--robot", robot, "--out", str(ideal))
+        ideal = target_ideal(out, robot, part)
+        tag = ideal.stem
         row: dict[str, Any] = {"robot": robot, "part": part, "nominal": _residual(
             lab_run(robot, ideal, out / f"{tag}_nominal3", 3, plant_set=plant_set), ideal, offset)}
         for twin, extra in (("default", []), ("learned", ["--model", str(model)])):
-            command = out / f"{tag}_offline_{twin}.csv"
             try:
-                cli("compensate", "--method", "twin", "--robot", robot, *extra, "--ideal", str(ideal), "--out",
-                    str(command))
+                command = offline_command(robot, ideal, twin, *extra)
             except SystemExit as refused:  # the twin cannot hold the path: `compensate` says so (exit 2)
                 print(refused, flush=True)
                 row[f"offline_{twin}"] = None

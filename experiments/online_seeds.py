@@ -22,18 +22,23 @@ import statistics
 from pathlib import Path
 from typing import Any
 
-from experiments_cli import cli
-from online_other_part import ROBOT_TARGETS, TARGETS, lab_run, learn_cone, per_robot_main
+from online_other_part import (
+    ROBOT_TARGETS,
+    lab_run,
+    learn_cone,
+    offline_command,
+    per_robot_main,
+    target_ideal,
+)
 from online_study import rms_mm, true_tip_miss_mm
-from online_timestep import FINE_STEP_S
+from online_timestep import FINE_STEP
 
 #: The lab's seeds each part is formed with (3: the other-part table's).
 SEEDS = (3, 4, 5, 6, 7, 8)
 #: The columns: online with the learned model, and the learned offline command with it on top; then online again
-#: with the plant's step halved (`lab --set timestep_s=5e-4`, `online_timestep.FINE_STEP_S`): a row that spans as
-#: much at either step is the draw's, not the integrator's.
+#: with the plant's step halved (`online_timestep.FINE_STEP`): a row that spans as much at either step is the
+#: draw's, not the integrator's.
 MODES = ("online", "both")
-FINE_STEP = (f"timestep_s={FINE_STEP_S:g}",)
 
 
 def robot_rows(out: Path, robot: str) -> list[dict[str, Any]]:
@@ -41,12 +46,9 @@ def robot_rows(out: Path, robot: str) -> list[dict[str, Any]]:
     model, _ = learn_cone(out, robot)
     rows = []
     for part in ROBOT_TARGETS[robot]:
-        tag = part.replace(" ", "")
-        ideal = out / f"{tag}.csv"
-        cli("path", *TARGETS[part], "--robot", robot, "--out", str(ideal))
-        command = out / f"{tag}_offline_learned.csv"
-        cli("compensate", "--method", "twin", "--robot", robot, "--model", str(model), "--ideal", str(ideal), "--out",
-            str(command))
+        ideal = target_ideal(out, robot, part)
+        tag = ideal.stem
+        command = offline_command(robot, ideal, "learned", "--model", str(model))
         row: dict[str, Any] = {"robot": robot, "part": part}
         for mode, formed, scenario, step in (("online", ideal, "nominal", ()), ("both", command, "compensated", ()),
                                              ("online_fine", ideal, "nominal", FINE_STEP)):

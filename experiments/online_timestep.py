@@ -22,12 +22,20 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from experiments_cli import cli
-from online_other_part import ROBOT_TARGETS, TARGETS, lab_run, learn_cone, per_robot_main
+from online_other_part import (
+    ROBOT_TARGETS,
+    lab_run,
+    learn_cone,
+    offline_command,
+    per_robot_main,
+    target_ideal,
+)
 from online_study import rms_mm, true_tip_miss_mm
 
 #: The finer step [s] (the plant's default is 1 ms), and the miss above which a sample counts as an event [mm].
 FINE_STEP_S, EVENT_MM = 5e-4, 0.5
+#: The plant knob that halves its step (`lab --set`).
+FINE_STEP = (f"timestep_s={FINE_STEP_S:g}",)
 
 
 def _score(run_dir: Path, ideal: Path) -> dict[str, float]:
@@ -42,14 +50,11 @@ def robot_rows(out: Path, robot: str) -> list[dict[str, Any]]:
     model, _ = learn_cone(out, robot)
     rows = []
     for part in ROBOT_TARGETS[robot]:
-        tag = part.replace(" ", "")
-        ideal = out / f"{tag}.csv"
-        cli("path", *TARGETS[part], "--robot", robot, "--out", str(ideal))
-        command = out / f"{tag}_offline_learned.csv"
-        cli("compensate", "--method", "twin", "--robot", robot, "--model", str(model), "--ideal", str(ideal), "--out",
-            str(command))
+        ideal = target_ideal(out, robot, part)
+        tag = ideal.stem
+        command = offline_command(robot, ideal, "learned", "--model", str(model))
         row: dict[str, Any] = {"robot": robot, "part": part}
-        for name, plant_set in (("default", ()), ("fine", (f"timestep_s={FINE_STEP_S:g}",))):
+        for name, plant_set in (("default", ()), ("fine", FINE_STEP)):
             row[name] = _score(lab_run(robot, ideal, out / f"{tag}_online_{name}", 3, "nominal", "--online", "--model",
                                        str(model), plant_set=plant_set), ideal)
             row[f"both_{name}"] = _score(lab_run(robot, command, out / f"{tag}_both_{name}", 3, "compensated",

@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 
 DOC = Path(__file__).resolve().parents[1] / "docs" / "online.md"
-#: The robots of the studies' tables, in their order.
+#: The robots of the studies' tables, in their order, and each robot's parts (`experiments/online_other_part.py`).
 ROBOTS = ("tx200", "kr210", "irb6640")
+PARTS = ("cone 80 x 8", "pyramid", "groove")
 #: The other-part tables' columns after robot and part (`experiments/online_other_part.py` COLUMNS: nominal, offline
 #: default, offline learned, online default, online learned, both learned), read by name.
 NOMINAL, OFF_D, OFF_L, ON_D, ON_L, BOTH_L = range(6)
@@ -30,3 +32,11 @@ def other_part(marker: str) -> dict[str, dict[tuple[str, str], list[float | None
         for name, read in reads.items():
             out[name][(cells[0], cells[1])] = [None if c == "refused" else float(read(c)) for c in cells[2:]]
     return out
+
+
+def rows_by_part(marker: str, read: Callable[[list[str]], dict[str, float]]) -> dict[tuple[str, str], dict[str, float]]:
+    """A table of every robot's parts (`ROBOTS` x `PARTS`, in that order, asserted) by (robot, part), each row's
+    cells read by `read`."""
+    rows = {(cells[0], cells[1]): read(cells) for cells in table_rows(marker)}
+    assert list(rows) == [(r, p) for r in ROBOTS for p in PARTS], list(rows)
+    return rows

@@ -10,7 +10,7 @@ import json
 from pathlib import Path
 
 import pytest
-from test_program_structure import check_rsi
+from test_program_structure import _export, check_rsi
 
 from twin.cli import main
 from twin.errors import DataFileError
@@ -33,27 +33,21 @@ def groove_csv(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return out
 
 
-def _krl(path_csv: Path, out: Path, *extra: str) -> str:
-    assert main(["export", str(path_csv), "--out", str(out), *extra]) == 0
-    return out.read_text(encoding="utf-8")
-
-
 def test_the_cells_slots_are_the_programs_and_a_typed_flag_beats_them(groove_csv: Path, tmp_path: Path) -> None:
     cell = _cell(tmp_path, "tool_number = 7\nbase_number = 9\n")
-    src = _krl(groove_csv, tmp_path / "cell" / "ISF.src", "--cell", str(cell))
+    src = _export(groove_csv, "kr210", tmp_path / "cell" / "ISF.src", "--cell", str(cell))["ISF.src"]
     assert "$TOOL=TOOL_DATA[7]" in src and "$BASE=BASE_DATA[9]" in src and "TOOL_DATA[16]" not in src
-    src = _krl(groove_csv, tmp_path / "typed" / "ISF.src", "--cell", str(cell), "--tool-number", "5")
+    src = _export(groove_csv, "kr210", tmp_path / "typed" / "ISF.src", "--cell", str(cell),
+                  "--tool-number", "5")["ISF.src"]
     assert "$TOOL=TOOL_DATA[5]" in src and "$BASE=BASE_DATA[9]" in src
-    src = _krl(groove_csv, tmp_path / "none" / "ISF.src", "--robot", "kr210")  # no cell: the defaults, never 1
+    src = _export(groove_csv, "kr210", tmp_path / "none" / "ISF.src")["ISF.src"]  # no cell: the defaults, never 1
     assert f"$TOOL=TOOL_DATA[{DEFAULT_TOOL_NUMBER}]" in src and f"$BASE=BASE_DATA[{DEFAULT_BASE_NUMBER}]" in src
 
 
 def test_the_cells_correction_limit_is_the_online_programs_and_the_servers(groove_csv: Path, tmp_path: Path,
                                                                           capsys: pytest.CaptureFixture[str]) -> None:
     cell = _cell(tmp_path, "max_correction_mm = 8.0\nmax_rate_mm_s = 30.0\n")
-    out = tmp_path / "rsi" / "ISF.src"
-    assert main(["export", str(groove_csv), "--cell", str(cell), "--online", "--out", str(out)]) == 0
-    check_rsi({f.name: f.read_text(encoding="utf-8") for f in out.parent.iterdir() if f.is_file()}, limit=8.0)
+    check_rsi(_export(groove_csv, "kr210", tmp_path / "rsi" / "ISF.src", "--cell", str(cell), "--online"), limit=8.0)
     # an offline program and a lab without --online: the cell's online limits are not theirs, and not refused
     assert main(["export", str(groove_csv), "--cell", str(cell), "--out", str(tmp_path / "offline" / "ISF.src")]) == 0
     assert main(["lab", "--scenario", "nominal", "--seed", "1", "--cell", str(cell), "--commanded", str(groove_csv),
@@ -63,7 +57,7 @@ def test_the_cells_correction_limit_is_the_online_programs_and_the_servers(groov
     assert main(["online", "--serve", "rsi", "--port", "0", "--cell", str(cell), "--cycles", "1",
                  "--start-timeout-s", "0.1", "--json", "-"]) == 1
     said = json.loads(capsys.readouterr().out)
-    assert said["limit_mm"] == 8.0 and said["cycles"] == 0
+    assert said["limit_mm"] == 8.0 and said["rate_mm_s"] == 30.0 and said["cycles"] == 0
     assert main(["online", "--serve", "rsi", "--port", "0", "--cell", str(cell), "--cycles", "1",
                  "--start-timeout-s", "0.1", "--max-correction-mm", "3", "--json", "-"]) == 1
     assert json.loads(capsys.readouterr().out)["limit_mm"] == 3.0  # a typed flag beats the cell

@@ -5,9 +5,7 @@ again; at the plant's step halved the KR 210's groove spans as much (the timeste
 from __future__ import annotations
 
 from doc_numbers import quoted
-from online_doc_tables import BOTH_L, ON_L, ROBOTS, other_part, table_rows
-
-PARTS = ("cone 80 x 8", "pyramid", "groove")
+from online_doc_tables import BOTH_L, ON_L, ROBOTS, other_part, rows_by_part
 
 
 def _spans(cell: str) -> tuple[float, float, float]:
@@ -15,16 +13,15 @@ def _spans(cell: str) -> tuple[float, float, float]:
     return least, median, largest
 
 
+def _read(cells: list[str]) -> dict[str, float]:
+    on, both, fine = _spans(cells[3]), _spans(cells[5]), _spans(cells[6])
+    return {"on3": float(cells[2]), "on_least": on[0], "on_median": on[1], "on_largest": on[2],
+            "both3": float(cells[4]), "both_least": both[0], "both_median": both[1], "both_largest": both[2],
+            "fine_least": fine[0], "fine_median": fine[1], "fine_largest": fine[2]}
+
+
 def _rows() -> dict[tuple[str, str], dict[str, float]]:
-    rows = {}
-    for cells in table_rows("online-seeds"):
-        on, both, fine = _spans(cells[3]), _spans(cells[5]), _spans(cells[6])
-        rows[(cells[0], cells[1])] = {"on3": float(cells[2]), "on_least": on[0], "on_median": on[1],
-                                      "on_largest": on[2], "both3": float(cells[4]), "both_least": both[0],
-                                      "both_median": both[1], "both_largest": both[2], "fine_least": fine[0],
-                                      "fine_median": fine[1], "fine_largest": fine[2]}
-    assert list(rows) == [(r, p) for r in ROBOTS for p in PARTS], list(rows)
-    return rows
+    return rows_by_part("online-seeds", _read)
 
 
 def test_the_seed_3_columns_are_the_other_part_tables_true_tip() -> None:

@@ -5,20 +5,18 @@ the same runs, formed again."""
 from __future__ import annotations
 
 from doc_numbers import quoted
-from online_doc_tables import BOTH_L, ON_L, ROBOTS, other_part, table_rows
+from online_doc_tables import BOTH_L, ON_L, other_part, rows_by_part
 
-PARTS = ("cone 80 x 8", "pyramid", "groove")
+
+def _read(cells: list[str]) -> dict[str, float]:
+    share = cells[4].split(" / ")
+    mm = [float(cells[k].split(" mm")[0]) for k in (2, 3, 5, 6)]
+    return {"ms1": mm[0], "ms05": mm[1], "share1": float(share[0]), "share05": float(share[1]), "both1": mm[2],
+            "both05": mm[3]}
 
 
 def _rows() -> dict[tuple[str, str], dict[str, float]]:
-    rows = {}
-    for cells in table_rows("online-timestep"):
-        share = cells[4].split(" / ")
-        mm = [float(cells[k].split(" mm")[0]) for k in (2, 3, 5, 6)]
-        rows[(cells[0], cells[1])] = {"ms1": mm[0], "ms05": mm[1], "share1": float(share[0]),
-                                      "share05": float(share[1]), "both1": mm[2], "both05": mm[3]}
-    assert list(rows) == [(r, p) for r in ROBOTS for p in PARTS], list(rows)
-    return rows
+    return rows_by_part("online-timestep", _read)
 
 
 def test_the_default_step_columns_are_the_other_part_tables_true_tip() -> None:

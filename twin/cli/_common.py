@@ -19,7 +19,7 @@ from twin.cli._types import finite
 from twin.process.force.registry import FORCE_MODELS
 from twin.process.process_file import ProcessDeclaration, declare_process
 from twin.process.toolpath.placement import Placement
-from twin.robot.controller import CONTROLLER_DEFAULTS, ONLINE_LIMIT_KEYS
+from twin.robot.controller import CONTROLLER_DEFAULTS, ONLINE_LIMITS
 from twin.robot.description import DEFAULT_ROBOT, shipped_robots
 
 
@@ -105,9 +105,15 @@ def apply_cell(args: argparse.Namespace) -> None:
     controller (they are the cell robot's), with a note. The controller's slots and online limits (`[controller]`;
     the limits only where the command corrects online) fill in as well; what neither gives takes
     `twin.robot.controller`'s default."""
-    if getattr(args, "cell", None) is None:
-        _controller_defaults(args)
-        return
+    if getattr(args, "cell", None) is not None:
+        _lay_cell(args)
+    for name, value in CONTROLLER_DEFAULTS.items():  # what neither a flag nor the cell gives
+        if hasattr(args, name) and getattr(args, name) is None:
+            setattr(args, name, value)
+
+
+def _lay_cell(args: argparse.Namespace) -> None:
+    """`apply_cell` with a `--cell`: its values into the options left unset, `cell_record`, `cell_filled`."""
     from twin.process.cell_file import read_cell_file
     from twin.robot.description import load_robot
 
@@ -125,21 +131,13 @@ def apply_cell(args: argparse.Namespace) -> None:
         online = getattr(args, "online", True)  # `online` itself has no flag: it is online
         values += [("origin_mm", None if cell.origin_mm is None else list(cell.origin_mm)), ("yaw_deg", cell.yaw_deg),
                    ("tool_length_mm", cell.tool.length_mm), ("tool_mass_kg", cell.tool.mass_kg),
-                   *((k, v) for k, v in cell.controller.items() if online or k not in ONLINE_LIMIT_KEYS)]
+                   *((k, v) for k, v in cell.controller.items() if online or k not in ONLINE_LIMITS)]
     filled = set()
     for name, value in values:
         if value is not None and hasattr(args, name) and getattr(args, name) is None:
             setattr(args, name, value)
             filled.add(name)
     args.cell_filled = frozenset(filled)
-    _controller_defaults(args)
-
-
-def _controller_defaults(args: argparse.Namespace) -> None:
-    """The controller's options neither typed nor filled by a cell take their defaults."""
-    for name, value in CONTROLLER_DEFAULTS.items():
-        if hasattr(args, name) and getattr(args, name) is None:
-            setattr(args, name, value)
 
 
 def given(args: argparse.Namespace, name: str) -> Any:

@@ -56,14 +56,10 @@ from twin.errors import DataFileError
 from twin.process.description import PLAUSIBLE
 from twin.process.material.file import read_toml
 from twin.process.process_file import PROCESS_KEYS, ProcessDeclaration, declaration_from_table
-from twin.robot.controller import BASE_NUMBERS, MAX_CORRECTION_LIMIT_MM, MAX_RATE_MM_S, TOOL_NUMBERS
+from twin.robot.controller import ONLINE_LIMITS, SLOTS
 
 CELL_FORMAT = "tx200-twin-cell/1"
 CELL_KEYS = ("format", "name", "robot", "tool", "sheet", "process", "sensors", "ft_sensor", "controller")
-#: The `[controller]` keys (`twin.robot.controller`): the slots as whole numbers in their ranges, the online limits
-#: as numbers above 0 up to the largest a cell may allow.
-CONTROLLER_SLOTS = {"tool_number": TOOL_NUMBERS, "base_number": BASE_NUMBERS}
-CONTROLLER_LIMITS = {"max_correction_mm": (MAX_CORRECTION_LIMIT_MM, "mm"), "max_rate_mm_s": (MAX_RATE_MM_S, "mm/s")}
 #: The `[sensors]` keys and their ranges: rates of the trackers and F/T sensors cells use, noise up to ten times
 #: the thesis's (its Krypton tracker 0.02 mm, its F/T 5 N in the twin's lab).
 SENSOR_RANGES = {"tracker_rate_hz": (1.0, 2000.0, "Hz"), "ft_rate_hz": (1.0, 10000.0, "Hz"),
@@ -138,7 +134,7 @@ class CellDeclaration:
         process: What its `[process]` declares (the tool radius included).
         sensors: Its `[sensors]` values, by key (`SENSOR_RANGES`).
         ft_sensor: Its `[ft_sensor]` mounting; None: not declared (an import's sensor axes are the sheet's).
-        controller: Its `[controller]` values, by key (`CONTROLLER_SLOTS`, `CONTROLLER_LIMITS`).
+        controller: Its `[controller]` values, by key (`twin.robot.controller.SLOTS`, `ONLINE_LIMITS`).
     """
 
     source: Path
@@ -300,17 +296,17 @@ def _sensors(path: Path, table: Mapping[str, Any]) -> dict[str, float]:
 
 def _controller(path: Path, table: Mapping[str, Any]) -> dict[str, float]:
     """The `[controller]` table: the slots (whole numbers in their ranges) and the online limits (> 0)."""
-    _known(path, table, (*CONTROLLER_SLOTS, *CONTROLLER_LIMITS), "[controller]", "controller.")
+    _known(path, table, (*SLOTS, *ONLINE_LIMITS), "[controller]", "controller.")
     out: dict[str, float] = {}
     for key, value in table.items():
-        if key in CONTROLLER_SLOTS:
-            slots = CONTROLLER_SLOTS[key]
+        if key in SLOTS:
+            slots = SLOTS[key]
             if isinstance(value, bool) or not isinstance(value, int) or value not in slots:
                 raise DataFileError(path, f"controller.{key} = {value!r}: expected a whole number {slots.start} to "
                                     f"{slots.stop - 1} (the controller's slot)")
             out[key] = value
         else:
-            high, unit = CONTROLLER_LIMITS[key]
+            high, unit = ONLINE_LIMITS[key]
             number = _number(path, f"controller.{key}", value, 0.0, high, unit)
             if number <= 0.0:
                 raise DataFileError(path, f"controller.{key} = {value!r}: expected a number above 0 [{unit}]")

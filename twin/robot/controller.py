@@ -25,8 +25,10 @@ MAX_CORRECTION_LIMIT_MM = 50.0
 #: 5 ms: faster is a jump, not a rate).
 DEFAULT_MAX_RATE_MM_S = 20.0
 MAX_RATE_MM_S = 1000.0
-#: What a cell's `[controller]` table gives and a command's flags of the same names override (their defaults), and
-#: which of them limit the online correction (taken only where a command corrects online).
+#: What a cell's `[controller]` table gives, by the names of the command flags that override it: the slots (their
+#: ranges) and the online correction's limits (their largest and unit; taken only where a command corrects online).
+SLOTS = {"tool_number": TOOL_NUMBERS, "base_number": BASE_NUMBERS}
+ONLINE_LIMITS = {"max_correction_mm": (MAX_CORRECTION_LIMIT_MM, "mm"), "max_rate_mm_s": (MAX_RATE_MM_S, "mm/s")}
+#: Their defaults, where neither a flag nor a cell gives them.
 CONTROLLER_DEFAULTS = {"tool_number": DEFAULT_TOOL_NUMBER, "base_number": DEFAULT_BASE_NUMBER,
                        "max_correction_mm": DEFAULT_MAX_CORRECTION_MM, "max_rate_mm_s": DEFAULT_MAX_RATE_MM_S}
-ONLINE_LIMIT_KEYS = ("max_correction_mm", "max_rate_mm_s")

@@ -59,6 +59,7 @@ class ServeReport(NamedTuple):
         at_limit: Cycles answered with the correction at its size limit, `limit_mm` (a cell that bends further than
             the limit lets the correction follow: raise `--max-correction-mm`).
         limit_mm: The correction's size limit [mm].
+        rate_mm_s: Its rate limit [mm/s].
     """
 
     cycles: int
@@ -73,6 +74,7 @@ class ServeReport(NamedTuple):
     sampled: bool = False
     at_limit: int = 0
     limit_mm: float = math.nan
+    rate_mm_s: float = math.nan
 
 
 #: The longest idle or start timeout a server takes [s] (an hour: a socket's timeout has a platform limit, and a
@@ -307,4 +309,5 @@ class ServedCycle:
         `unreadable`)."""
         return ServeReport(cycles, unreadable + self.rejected, compute_us, stopped, refused, foreign,
                            self.no_sample, self.stale, self.compensator.spikes_rejected - self._spikes0,
-                           self.sampled, self.at_limit, self.compensator.settings.max_correction_mm)
+                           self.sampled, self.at_limit, self.compensator.settings.max_correction_mm,
+                           self.compensator.settings.max_rate_mm_s)

@@ -250,7 +250,7 @@ class OnlineReport(Report):
         return {"serve": self.serve, "port": self.port, "transport": self.transport, "cycles": r.cycles,
                 "unreadable": r.unreadable, "stopped": r.stopped, "refused": r.refused, "foreign": r.foreign,
                 "no_sample": r.no_sample, "stale": r.stale, "spikes": r.spikes, "sampled": r.sampled,
-                "at_limit": r.at_limit, "limit_mm": r.limit_mm,
+                "at_limit": r.at_limit, "limit_mm": r.limit_mm, "rate_mm_s": r.rate_mm_s,
                 "failure": self.failure(), "ft": self.ft_counts, **self._stats()}
 
 
