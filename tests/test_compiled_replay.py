@@ -272,7 +272,8 @@ def test_the_isf_model_at_reversals_replays_compiled_to_the_python_loops_equilib
 
 def test_the_learned_force_model_replays_compiled_to_the_python_loops_equilibria() -> None:
     """The `learned` model (the ISF model with membrane and formed-state terms learned from a cell) runs in the ISF
-    kernel with its terms: a cone and the groove's first passes give the Python loop's tips and forces."""
+    kernel with its terms: a cone, a pyramid (its corners read the side rises off the square point,
+    `SIDE_ARC_DEG`) and the groove's first passes give the Python loop's tips and forces."""
     from twin.process.toolpath.groove import GrooveSpec, groove_path
     from twin.process.toolpath.shapes import PartSpec, part_path
 
@@ -284,6 +285,7 @@ def test_the_learned_force_model_replays_compiled_to_the_python_loops_equilibria
     twin = TwinSpec(process=Process(force_model="learned", force_fit=fit)).build()
     flat = TwinSpec(process=Process(force_model="learned", force_fit=fit[:-1])).build()  # no radial rise
     for path in (part_path(PartSpec(depth_m=3e-3, top_half_width_m=15e-3)),
+                 part_path(PartSpec(shape="pyramid", depth_m=2e-3, top_half_width_m=12e-3)),
                  groove_path(GrooveSpec(passes=3, depth_m=0.003, bottom_length_m=0.068))):
         fast, reference = _both(twin, path.t_s, path.p_sheet_m)
         _assert_same(fast, reference, gain_from=2)

@@ -94,3 +94,39 @@ def test_the_model_file_keeps_the_learned_sheet(tmp_path, small_cone) -> None:
     field = build_force_field(back.process)
     assert isinstance(field, LearnedForceField)
     np.testing.assert_array_equal(field.rigid_forces(small_cone), build_force_field(spec.process).rigid_forces(small_cone))
+
+
+def _side_rise_along(path) -> np.ndarray:
+    """Σ u_s (`features`' side rise column) along `path`, the field formed along it as it goes."""
+    from twin.process.force.learned import SIDE_RISE_INDEX
+
+    field = build_force_field(Process(force_model="learned", force_fit=WEIGHTS))
+    field.reset()
+    out = []
+    for p in path.p_sheet_m:
+        out.append(field.features(p)[0][SIDE_RISE_INDEX])
+        field.advance(p)
+    return np.array(out)
+
+
+def test_a_corner_does_not_hide_the_wall_beside_the_tool(monkeypatch) -> None:
+    """Just past a pyramid's corner the point square to the new travel, one tool radius in, lies in the trough
+    the last side formed: read there alone, the inner side's rise falls away for a tool radius or two; read as the
+    highest on that side's half circle (`SIDE_ARC_DEG`) it holds, and mid-side nothing changes."""
+    import twin.process.force.learned as learned
+
+    path = part_path(PartSpec(shape="pyramid", top_half_width_m=0.02, depth_m=3e-3, mode="z-level"))
+    arc = _side_rise_along(path)
+    monkeypatch.setattr(learned, "_ARC", ())
+    square = _side_rise_along(path)
+    level = np.round(path.p_sheet_m[:, 2] * 1e4)  # the z-levels [0.1 mm]
+    for z in np.unique(level[path.p_sheet_m[:, 2] < -1e-3]):
+        on = level == z
+        if np.count_nonzero(on) < 100:  # a step down between levels
+            continue
+        # on each level the square point alone loses over a quarter of its median rise past the corners; the arc
+        # nowhere loses a tenth, never reads lower than the square point, and mostly reads the same
+        assert np.min(square[on]) < 0.75 * np.median(square[on])
+        assert np.min(arc[on]) > 0.9 * np.median(arc[on])
+        assert np.median(arc[on]) == pytest.approx(np.median(square[on]), rel=1e-9)
+    assert np.all(arc >= square - 1e-12)
