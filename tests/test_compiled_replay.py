@@ -282,6 +282,10 @@ def test_the_learned_force_model_replays_compiled_to_the_python_loops_equilibria
            ("wall_angle_n", 100.0), ("depth_n_per_mm", 20.0), ("depth_engagement_n_per_mm2", -5.0),
            ("prior_per_cm", 0.3), ("wall_depth_n_per_mm", 8.0), ("side_rise_n", 300.0), ("side_rise_sq_n", -200.0),
            ("ahead_rise_n", 150.0), ("mu_eff", 0.1), ("mu_radial", 0.05), ("mu_radial_rise", 0.3))
+    from twin.process.force import learned
+    from twin.sim.compiled import learned as compiled_learned
+
+    assert compiled_learned.SIDE_ARC_DEG == learned.SIDE_ARC_DEG  # numba keys its cache on the kernel's file alone
     twin = TwinSpec(process=Process(force_model="learned", force_fit=fit)).build()
     flat = TwinSpec(process=Process(force_model="learned", force_fit=fit[:-1])).build()  # no radial rise
     for path in (part_path(PartSpec(depth_m=3e-3, top_half_width_m=15e-3)),

@@ -21,12 +21,14 @@ held wall angle α and the depth D = max(−z, 0) [mm] below the original sheet;
 their products up to second order in E and D (`STATE_TERMS`: E, σ, σα, σD, E², σD², σDE, Fz_isf,lin·D/10 mm,
 σαD). They read no part shape around the tool. The rise terms read it as plainly as it can be read, the sines
 u_s, u_a of the walls' rise to the sides and ahead and their squares (the wall angle on each side and ahead),
-with no law of how a membrane or a bend turns them into force. Each side's u_s is the highest rise on that side's
-half of the circle one tool radius out (`SIDE_ARC_DEG`, 30 to 150 deg off the travel, the point square to it
-among them): just past a corner the point square to the new travel lies in the trough the last side has just
-formed, while the wall beside the tool still stands a little ahead of it (read at that one point, the inner
-side's rise on the TX200's pyramid fell by up to 70 % for a tool radius or two past each corner, and a learned
-force that weighs it fell with it; on a cone's circle and mid-side the square point is the highest, as before). With
+with no law of how a membrane or a bend turns them into force. Each side's u_s is the highest rise on the front
+quarter of the circle one tool radius out on that side (`SIDE_ARC_DEG`: 30 and 60 deg off the travel besides the
+point square to it): just past a corner the square point lies in the trough the last side has just formed, while
+the wall beside the tool stands a little ahead of it (read at that one point, the inner side's rise on the TX200's
+pyramid fell by up to 70 % for a tool radius or two past each corner, and a learned force that weighs it fell with
+it). Not behind: there lies the tool's own trail, and past a groove's reversal the end wall it has just left would
+read as a side wall (on the TX200's groove a learned twin then would not converge). On a cone's circle and along
+a pyramid's side the square point is the highest, as before. With
 w = 1 and the rest 0 it is the ISF model itself; what `twin.analysis.learn` fits is marked fitted wherever it is
 reported.
 
@@ -110,9 +112,9 @@ REACH = 1.0
 #: Largest rise read, in tool radii [-].
 CAP = 1.0
 #: Where on each side of the travel the side rises are read beside the point square to it: angles off the travel
-#: direction [deg] on one tool radius's circle; u_s is the highest (module docstring). Mirrored in
+#: direction [deg], ahead of the tool, on one tool radius's circle; u_s is the highest (module docstring). Mirrored in
 #: `twin.sim.compiled.learned` (`ARC_COS`, `ARC_SIN`).
-SIDE_ARC_DEG = (30.0, 60.0, 120.0, 150.0)
+SIDE_ARC_DEG = (30.0, 60.0)
 _ARC = tuple((math.cos(math.radians(a)), math.sin(math.radians(a))) for a in SIDE_ARC_DEG)
 #: The keys of `LearnedWeights`, as `Process.force_fit` carries them beside the ISF constants.
 WEIGHT_KEYS = tuple(f.name for f in fields(LearnedWeights))

@@ -11,10 +11,12 @@ import math
 
 from numba import njit
 
-from twin.process.force.learned import SIDE_ARC_DEG, STATE_FACTORS, STATE_TERMS
+from twin.process.force.learned import STATE_FACTORS, STATE_TERMS
 from twin.sim.compiled.isf_map import ALPHA, DIR_X, DIR_Y, RISE, IsfArrays, met_height
 
-#: `twin.process.force.learned.SIDE_ARC_DEG` as cosines and sines (numba bakes them in at compile time).
+#: `twin.process.force.learned.SIDE_ARC_DEG`, written here (numba bakes a global in at compile time and keys its
+#: cache on this file alone; `tests/test_compiled_replay.py` holds the two equal), and as cosines and sines.
+SIDE_ARC_DEG = (30.0, 60.0)
 ARC_COS = tuple(math.cos(math.radians(a)) for a in SIDE_ARC_DEG)
 ARC_SIN = tuple(math.sin(math.radians(a)) for a in SIDE_ARC_DEG)
 N_ARC = len(SIDE_ARC_DEG)
