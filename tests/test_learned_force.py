@@ -112,7 +112,7 @@ def _side_rise_along(path) -> np.ndarray:
 def test_a_corner_does_not_hide_the_wall_beside_the_tool(monkeypatch) -> None:
     """Just past a pyramid's corner the point square to the new travel, one tool radius in, lies in the trough
     the last side formed: read there alone, the inner side's rise falls away for a tool radius or two; read as the
-    highest from there to 30 deg ahead (`SIDE_ARC_DEG`) it holds, and mid-side nothing changes."""
+    higher of there and 30 deg ahead (`SIDE_ARC_DEG`) it holds, and mid-side nothing changes."""
     import twin.process.force.learned as learned
 
     path = part_path(PartSpec(shape="pyramid", top_half_width_m=0.02, depth_m=3e-3, mode="z-level"))
@@ -125,9 +125,9 @@ def test_a_corner_does_not_hide_the_wall_beside_the_tool(monkeypatch) -> None:
         if np.count_nonzero(on) < 100:  # a step down between levels
             continue
         # past the corners of each of the deeper levels the square point alone falls to 0.59-0.68 of the level's
-        # median rise, 3-8 % below it on the level's mean; the arc to 0.73-0.92 and 0.2-2.5 %, the median the same
+        # median rise and 3-8 % below it on the level's mean; the two points to 0.64-0.75 and 1.5-4.6 %
         short = [np.mean(np.maximum(np.median(r[on]) - r[on], 0.0)) / np.median(r[on]) for r in (square, arc)]
         assert np.min(square[on]) < 0.7 * np.median(square[on]) and short[0] > 0.025
-        assert np.min(arc[on]) > 0.7 * np.median(arc[on]) and short[1] < 0.4 * short[0]
+        assert np.min(arc[on]) > np.min(square[on]) + 0.04 * np.median(arc[on]) and short[1] < 0.65 * short[0]
         assert np.median(arc[on]) == pytest.approx(np.median(square[on]), rel=1e-9)
     assert np.all(arc >= square - 1e-12)

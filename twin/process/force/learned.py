@@ -21,14 +21,16 @@ held wall angle α and the depth D = max(−z, 0) [mm] below the original sheet;
 their products up to second order in E and D (`STATE_TERMS`: E, σ, σα, σD, E², σD², σDE, Fz_isf,lin·D/10 mm,
 σαD). They read no part shape around the tool. The rise terms read it as plainly as it can be read, the sines
 u_s, u_a of the walls' rise to the sides and ahead and their squares (the wall angle on each side and ahead),
-with no law of how a membrane or a bend turns them into force. Each side's u_s is the highest rise on the front
-quarter of the circle one tool radius out on that side (`SIDE_ARC_DEG`: 30 and 60 deg off the travel besides the
-point square to it): just past a corner the square point lies in the trough the last side has just formed, while
-the wall beside the tool stands a little ahead of it (read at that one point, the inner side's rise on the TX200's
-pyramid fell by up to 70 % for a tool radius or two past each corner, and a learned force that weighs it fell with
-it). Not behind: there lies the tool's own trail, and past a groove's reversal the end wall it has just left would
-read as a side wall (on the TX200's groove a learned twin then would not converge). On a cone's circle and along
-a pyramid's side the square point is the highest, as before. With
+with no law of how a membrane or a bend turns them into force. Each side's u_s is the higher of the rise at the
+point square to the travel and at the point 30 deg ahead of it, one tool radius out (`SIDE_ARC_DEG`, 60 deg off the
+travel): just past a corner the square point lies in the trough the last side has just formed, while the wall
+beside the tool stands a little ahead of it (read at that one point, the inner side's rise on the TX200's pyramid
+fell by up to 70 % for a tool radius or two past each corner, and a learned force that weighs it fell with it).
+Not behind: there lies the tool's own trail, and past a groove's reversal the end wall it has just left reads as a
+side wall (on the TX200's groove, with points 120 and 150 deg off the travel too, the learned compensation did not
+converge); nor further ahead, where an end wall the tool comes to reads as one (with 30 deg too, the TX200's
+law-2 groove compensated 0.02 mm worse). On a cone's circle and along a pyramid's side the square point is the
+higher, as before. With
 w = 1 and the rest 0 it is the ISF model itself; what `twin.analysis.learn` fits is marked fitted wherever it is
 reported.
 
@@ -114,7 +116,7 @@ CAP = 1.0
 #: Where on each side of the travel the side rises are read beside the point square to it: angles off the travel
 #: direction [deg], ahead of the tool, on one tool radius's circle; u_s is the highest (module docstring). Mirrored in
 #: `twin.sim.compiled.learned` (`ARC_COS`, `ARC_SIN`).
-SIDE_ARC_DEG = (30.0, 60.0)
+SIDE_ARC_DEG = (60.0,)
 _ARC = tuple((math.cos(math.radians(a)), math.sin(math.radians(a))) for a in SIDE_ARC_DEG)
 #: The keys of `LearnedWeights`, as `Process.force_fit` carries them beside the ISF constants.
 WEIGHT_KEYS = tuple(f.name for f in fields(LearnedWeights))

@@ -16,7 +16,7 @@ from twin.sim.compiled.isf_map import ALPHA, DIR_X, DIR_Y, RISE, IsfArrays, met_
 
 #: `twin.process.force.learned.SIDE_ARC_DEG`, written here (numba bakes a global in at compile time and keys its
 #: cache on this file alone; `tests/test_compiled_replay.py` holds the two equal), and as cosines and sines.
-SIDE_ARC_DEG = (30.0, 60.0)
+SIDE_ARC_DEG = (60.0,)
 ARC_COS = tuple(math.cos(math.radians(a)) for a in SIDE_ARC_DEG)
 ARC_SIN = tuple(math.sin(math.radians(a)) for a in SIDE_ARC_DEG)
 N_ARC = len(SIDE_ARC_DEG)
