@@ -58,13 +58,13 @@ def _block(marker: str) -> str:
 
 def test_the_pages_words_on_the_four_cells_are_its_tables() -> None:
     """The prose under the law-2 table: (replay gap, compensated residual) learned over untaught (a tenth to two
-    fifths; a quarter to a half), the compensated residual 1.5-3.5 times the replay gap, better than the
+    fifths; a quarter to a little over half), the compensated residual 1.5-3.5 times the replay gap, better than the
     untaught on every part but one, the targets met on the TX200's wider cone only."""
     law2, law1 = _block("learn-table-law2"), _block("learn-table")
     for variant in ("cone-kr210", "cone-irb6640"):
         for part in ("", " -> pyramid (never formed)", " -> cone 80 x 8 (never formed)"):
             n = _row_numbers(law2, variant + part)  # nominal rms, max; untaught gap mm, N, rms, max; learned ...
-            assert 0.1 <= n[6] / n[2] <= 0.4 and 0.2 <= n[8] / n[4] <= 0.5, (variant + part, n)
+            assert 0.1 <= n[6] / n[2] <= 0.4 and 0.2 <= n[8] / n[4] <= 0.55, (variant + part, n)
             assert 1.5 < n[8] / n[6] < 3.5, (variant + part, n)  # the compensated residual 1.5-3.5 times the replay gap
     worse, learned = [], {}
     for law, block in ((1, law1), (2, law2)):

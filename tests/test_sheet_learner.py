@@ -187,13 +187,12 @@ def test_the_pages_words_on_the_learned_sheet_are_its_tables() -> None:
         if "sheet law 2" in cell:  # law 2: ahead of the membrane learner on every predicted part, 2x on the pyramid
             assert all(parts[p][2] < parts[p][1] for p in PARTS[1:]) and parts["pyramid"][2] <= 0.5 * parts[
                 "pyramid"][1], (cell, parts)
-        else:  # law 1, the membrane's own form: the membrane learner a few newtons ahead on the wider cone, the
-            # learner ahead on the pyramid (by 6 and 69 N on the page)
-            cone, pyramid = parts["cone 80 x 8"], parts["pyramid"]
-            assert 0.0 < cone[2] - cone[1] <= 10.0 and pyramid[2] < pyramid[1], (cell, parts)
+        else:  # law 1, the membrane's own form: the membrane learner a few newtons ahead on the wider cone
+            cone = parts["cone 80 x 8"]
+            assert 0.0 < cone[2] - cone[1] <= 10.0, (cell, parts)
     law1 = {k.split(",")[0]: v["pyramid"][1] - v["pyramid"][2] for k, v in held.items() if "sheet law 1" in k}
-    assert law1["irb6640"] == pytest.approx(6.0, abs=3.0) and law1["kr210"] == pytest.approx(69.0, abs=3.0)
-
+    # on the pyramids: a few newtons behind on the IRB 6640's, 61 N ahead on the KR 210's
+    assert -5.0 <= law1["irb6640"] < 0.0 and law1["kr210"] == pytest.approx(61.0, abs=3.0), law1
 
 @pytest.mark.slow
 def test_the_sheet_learner_table_is_what_the_study_gives(tmp_path: Path) -> None:
