@@ -272,8 +272,8 @@ def test_the_isf_model_at_reversals_replays_compiled_to_the_python_loops_equilib
 
 def test_the_learned_force_model_replays_compiled_to_the_python_loops_equilibria() -> None:
     """The `learned` model (the ISF model with membrane and formed-state terms learned from a cell) runs in the ISF
-    kernel with its terms: a cone, a pyramid (its corners read the side rises off the square point,
-    `SIDE_ARC_DEG`) and the groove's first passes give the Python loop's tips and forces."""
+    kernel with its terms: a cone, a pyramid (its corners turn the side rises' reading points) and the groove's
+    first passes give the Python loop's tips and forces."""
     from twin.process.toolpath.groove import GrooveSpec, groove_path
     from twin.process.toolpath.shapes import PartSpec, part_path
 
@@ -282,10 +282,6 @@ def test_the_learned_force_model_replays_compiled_to_the_python_loops_equilibria
            ("wall_angle_n", 100.0), ("depth_n_per_mm", 20.0), ("depth_engagement_n_per_mm2", -5.0),
            ("prior_per_cm", 0.3), ("wall_depth_n_per_mm", 8.0), ("side_rise_n", 300.0), ("side_rise_sq_n", -200.0),
            ("ahead_rise_n", 150.0), ("mu_eff", 0.1), ("mu_radial", 0.05), ("mu_radial_rise", 0.3))
-    from twin.process.force import learned
-    from twin.sim.compiled import learned as compiled_learned
-
-    assert compiled_learned.SIDE_ARC_DEG == learned.SIDE_ARC_DEG  # numba keys its cache on the kernel's file alone
     twin = TwinSpec(process=Process(force_model="learned", force_fit=fit)).build()
     flat = TwinSpec(process=Process(force_model="learned", force_fit=fit[:-1])).build()  # no radial rise
     for path in (part_path(PartSpec(depth_m=3e-3, top_half_width_m=15e-3)),

@@ -58,7 +58,7 @@ def _block(marker: str) -> str:
 
 def test_the_pages_words_on_the_four_cells_are_its_tables() -> None:
     """The prose under the law-2 table: (replay gap, compensated residual) learned over untaught (a tenth to two
-    fifths; a quarter to a little over half), the compensated residual 1.5-3.5 times the replay gap, better than the
+    fifths; a fifth to a little over half), the compensated residual 1.5-3.5 times the replay gap, better than the
     untaught on every part but one, the targets met on the TX200's wider cone only."""
     law2, law1 = _block("learn-table-law2"), _block("learn-table")
     for variant in ("cone-kr210", "cone-irb6640"):

@@ -208,7 +208,7 @@ def test_the_servers_keep_the_compensators_setting_as_predicting_over_the_hold_d
 def test_the_pages_words_on_a_model_learned_from_another_part_are_its_table() -> None:
     """docs/online.md's table of `experiments/online_other_part.py`: learned against default, offline and online."""
     table = other_part("online-other-part")
-    rms, true = table["rms"], table["true"]
+    rms, less, true = table["rms"], table["less"], table["true"]
     # the page's numbers first (a guard before the claims): on the true tip the learned online compensation of the
     # wider cone meets #50's 0.10 mm on the three robots, and of the TX200's groove; the other grooves, the pyramids not
     said = quoted("online.md", "On the true tip the learned model's online compensation of the wider cone", 9)
@@ -216,7 +216,7 @@ def test_the_pages_words_on_a_model_learned_from_another_part_are_its_table() ->
     for k, value in enumerate(measured):
         said[k].check(value)
     better = {("kr210", "cone 80 x 8"): (True, True), ("kr210", "pyramid"): (True, True),
-              ("tx200", "cone 80 x 8"): (True, True), ("tx200", "pyramid"): (True, True),
+              ("tx200", "cone 80 x 8"): (True, True), ("tx200", "pyramid"): (None, True),
               ("tx200", "groove"): (False, False), ("kr210", "groove"): (False, True),
               ("irb6640", "cone 80 x 8"): (False, True), ("irb6640", "pyramid"): (False, True),
               ("irb6640", "groove"): (False, True)}
@@ -225,6 +225,10 @@ def test_the_pages_words_on_a_model_learned_from_another_part_are_its_table() ->
         for claim, learned, default in ((offline, r[OFF_L], r[OFF_D]), (online, r[ON_L], r[ON_D])):
             if claim is not None:
                 assert (learned < default) == claim, (key, r)
+    pyramid = rms[("tx200", "pyramid")]
+    offset = less[("tx200", "pyramid")]
+    # as well offline, better less the offset
+    assert abs(pyramid[OFF_L] - pyramid[OFF_D]) <= 0.02 and offset[OFF_L] < offset[OFF_D]
     groove = rms[("tx200", "groove")]
     assert 1.7 * groove[OFF_D] <= groove[OFF_L] < 2.0 * groove[OFF_D]  # offline by a factor of almost two
     assert all(min(r[OFF_D:BOTH_L]) > (0.15 if part == "pyramid" else 0.10) for (_, part), r in rms.items())
@@ -272,10 +276,6 @@ def test_the_pages_words_on_another_part_on_the_second_sheet_law_are_its_table()
     grooves = quoted("online.md", "far worse on their grooves (", 4)
     for k, value in enumerate([true[(r, "groove")][c] for c in (BOTH_L, OFF_L) for r in ROBOTS[1:]]):
         grooves[k].check(value)
-    first = quoted("online.md", "on the first robot's groove too (", 4)
-    tx_groove = true[("tx200", "groove")]
-    for k, value in enumerate([tx_groove[BOTH_L], tx_groove[ON_L], tx_groove[OFF_L], tx_groove[OFF_D]]):
-        first[k].check(value)
     cone = [true[(r, "cone 80 x 8")][ON_L] for r in ROBOTS]
     # the target (0.10 mm) on the first robot only: just over it alone (within the printed digit), under it on top
     # of the learned offline command
@@ -284,8 +284,7 @@ def test_the_pages_words_on_another_part_on_the_second_sheet_law_are_its_table()
         for part in ("cone 80 x 8", "pyramid"):  # better with its offline command under it
             assert true[(robot, part)][BOTH_L] < true[(robot, part)][ON_L], (robot, part)
         assert true[(robot, "groove")][BOTH_L] > 3.0 * true[(robot, "groove")][ON_L]  # far worse
-    # the first robot's too, its learned offline command worse than the default model's
-    assert tx_groove[BOTH_L] > 3.0 * tx_groove[ON_L] and tx_groove[OFF_L] > tx_groove[OFF_D]
+    assert true[("tx200", "groove")][OFF_L] is None and true[("tx200", "groove")][BOTH_L] is None  # refused
 
 
 def test_the_pages_words_on_the_second_sheet_law_are_its_table() -> None:

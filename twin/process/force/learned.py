@@ -21,16 +21,7 @@ held wall angle α and the depth D = max(−z, 0) [mm] below the original sheet;
 their products up to second order in E and D (`STATE_TERMS`: E, σ, σα, σD, E², σD², σDE, Fz_isf,lin·D/10 mm,
 σαD). They read no part shape around the tool. The rise terms read it as plainly as it can be read, the sines
 u_s, u_a of the walls' rise to the sides and ahead and their squares (the wall angle on each side and ahead),
-with no law of how a membrane or a bend turns them into force. Each side's u_s is the higher of the rise at the
-point square to the travel and at the point 30 deg ahead of it, one tool radius out (`SIDE_ARC_DEG`, 60 deg off the
-travel): just past a corner the square point lies in the trough the last side has just formed, while the wall
-beside the tool stands a little ahead of it (read at that one point, the inner side's rise on the TX200's pyramid
-fell by up to 70 % for a tool radius or two past each corner, and a learned force that weighs it fell with it).
-Not behind: there lies the tool's own trail, and past a groove's reversal the end wall it has just left reads as a
-side wall (on the TX200's groove, with points 120 and 150 deg off the travel too, the learned compensation did not
-converge); nor further ahead, where an end wall the tool comes to reads as one (with 30 deg too, the TX200's
-law-2 groove compensated 0.02 mm worse). On a cone's circle and along a pyramid's side the square point is the
-higher, as before. With
+with no law of how a membrane or a bend turns them into force. With
 w = 1 and the rest 0 it is the ISF model itself; what `twin.analysis.learn` fits is marked fitted wherever it is
 reported.
 
@@ -113,11 +104,6 @@ class LearnedWeights:
 REACH = 1.0
 #: Largest rise read, in tool radii [-].
 CAP = 1.0
-#: Where on each side of the travel the side rises are read beside the point square to it: angles off the travel
-#: direction [deg], ahead of the tool, on one tool radius's circle; u_s is the highest (module docstring). Mirrored in
-#: `twin.sim.compiled.learned` (`ARC_COS`, `ARC_SIN`).
-SIDE_ARC_DEG = (60.0,)
-_ARC = tuple((math.cos(math.radians(a)), math.sin(math.radians(a))) for a in SIDE_ARC_DEG)
 #: The keys of `LearnedWeights`, as `Process.force_fit` carries them beside the ISF constants.
 WEIGHT_KEYS = tuple(f.name for f in fields(LearnedWeights))
 #: The keys every learned model file has carried (the later ones are read as 0 where a file lacks them).
@@ -229,17 +215,11 @@ class LearnedForceField(IsfForceField):
         values[0] = lin
         grads = np.zeros((len(WEIGHT_KEYS), 3))
         grads[0] = gx, gy, gz
-        for dx, dy, ahead, left in ((-vy, vx, False, 1.0), (vy, -vx, False, -1.0), (vx, vy, True, 0.0)):
+        for dx, dy, ahead in ((-vy, vx, False), (vy, -vx, False), (vx, vy, True)):
             s, sx, sy = self.map.met_height(x + reach * dx, y + reach * dy)
             m, dm, cube, dcube = _membrane(s - z, radius)
             u, du = _rise(s - z, radius)
             rise = (du * sx, du * sy, -du)
-            for c, sn in _ARC if not ahead else ():  # the highest rise on this side's half circle
-                s2, sx2, sy2 = self.map.met_height(x + reach * (vx * c - left * vy * sn),
-                                                   y + reach * (left * vx * sn + vy * c))
-                u2, du2 = _rise(s2 - z, radius)
-                if u2 > u:
-                    u, rise = u2, (du2 * sx2, du2 * sy2, -du2)
             if ahead:
                 values[15] = u
                 grads[15] = rise

@@ -14,13 +14,6 @@ from numba import njit
 from twin.process.force.learned import STATE_FACTORS, STATE_TERMS
 from twin.sim.compiled.isf_map import ALPHA, DIR_X, DIR_Y, RISE, IsfArrays, met_height
 
-#: `twin.process.force.learned.SIDE_ARC_DEG`, written here (numba bakes a global in at compile time and keys its
-#: cache on this file alone; `tests/test_compiled_replay.py` holds the two equal), and as cosines and sines.
-SIDE_ARC_DEG = (60.0,)
-ARC_COS = tuple(math.cos(math.radians(a)) for a in SIDE_ARC_DEG)
-ARC_SIN = tuple(math.sin(math.radians(a)) for a in SIDE_ARC_DEG)
-N_ARC = len(SIDE_ARC_DEG)
-
 
 @njit(cache=True)
 def _membrane(s: float, radius: float, cap: float) -> tuple:
@@ -83,17 +76,9 @@ def learned_terms(M: IsfArrays, x: float, y: float, z: float, lin: float, gx: fl
         s, sx, sy = met_height(M, x + reach * dx, y + reach * dy)
         m, dm, c3, dc3 = _membrane(s - z, radius, prm[20])
         u, du = _rise(s - z, radius, prm[20])
-        ux, uy = sx, sy  # the met surface's slope where the side's highest rise is read
-        left = 1.0 if k == 0 else -1.0
-        for j in range(N_ARC if k < 2 else 0):  # the highest rise on this side's half circle
-            c, sn = ARC_COS[j], ARC_SIN[j]
-            s2, sx2, sy2 = met_height(M, x + reach * (vx * c - left * vy * sn), y + reach * (left * vx * sn + vy * c))
-            u2, du2 = _rise(s2 - z, radius, prm[20])
-            if u2 > u:
-                u, du, ux, uy = u2, du2, sx2, sy2
         wr = r2 if k == 2 else r0 + 2.0 * r1 * u  # the weight on du: the ahead rise's, or Σu's and Σu²'s
         f_rise += r2 * u if k == 2 else r0 * u + r1 * u * u
-        fx_rise, fy_rise, fz_rise = fx_rise + wr * du * ux, fy_rise + wr * du * uy, fz_rise - wr * du
+        fx_rise, fy_rise, fz_rise = fx_rise + wr * du * sx, fy_rise + wr * du * sy, fz_rise - wr * du
         if k < 2:
             rise_sum += u
             side, side_x, side_y, side_z = side + m, side_x + dm * sx, side_y + dm * sy, side_z - dm
