@@ -94,3 +94,27 @@ def test_the_model_file_keeps_the_learned_sheet(tmp_path, small_cone) -> None:
     field = build_force_field(back.process)
     assert isinstance(field, LearnedForceField)
     np.testing.assert_array_equal(field.rigid_forces(small_cone), build_force_field(spec.process).rigid_forces(small_cone))
+
+
+def test_past_a_pyramids_corner_the_side_rise_falls_as_the_page_says() -> None:
+    """docs/learning.md ("What is left on the pyramid sits at its corners"): on each level of a pyramid formed on
+    the twin's own sheet, the side rise read one tool radius square to the travel falls past the corners to
+    0.59-0.76 of its median along the level (the point lies in the trough the last side formed)."""
+    from doc_numbers import quoted
+
+    from twin.process.force.learned import SIDE_RISE_INDEX
+
+    path = part_path(PartSpec(shape="pyramid", top_half_width_m=0.02, depth_m=3e-3, mode="z-level"))
+    field = build_force_field(Process(force_model="learned", force_fit=WEIGHTS))
+    field.reset()
+    rise = []
+    for p in path.p_sheet_m:
+        rise.append(field.features(p)[0][SIDE_RISE_INDEX])
+        field.advance(p)
+    rise_arr, level = np.array(rise), np.round(path.p_sheet_m[:, 2] * 1e4)  # the z-levels [0.1 mm]
+    lows = [np.min(rise_arr[level == z]) / np.median(rise_arr[level == z])
+            for z in np.unique(level[path.p_sheet_m[:, 2] < -0.8e-3]) if np.count_nonzero(level == z) >= 100]
+    low, high = quoted("learning.md", "side rise the learner reads there falls to", 2)
+    low.check(min(lows))
+    high.check(max(lows))
+    assert len(lows) >= 4 and max(lows) < 0.8
