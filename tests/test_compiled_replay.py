@@ -272,8 +272,8 @@ def test_the_isf_model_at_reversals_replays_compiled_to_the_python_loops_equilib
 
 def test_the_learned_force_model_replays_compiled_to_the_python_loops_equilibria() -> None:
     """The `learned` model (the ISF model with membrane and formed-state terms learned from a cell) runs in the ISF
-    kernel with its terms: a cone, a pyramid (its corners turn the side rises' reading points) and the groove's
-    first passes give the Python loop's tips and forces."""
+    kernel with its terms: a cone, a pyramid (past its corners the side rises fall into the last side's trough)
+    and the groove's first passes give the Python loop's tips and forces."""
     from twin.process.toolpath.groove import GrooveSpec, groove_path
     from twin.process.toolpath.shapes import PartSpec, part_path
 
