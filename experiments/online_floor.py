@@ -31,8 +31,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from online_other_part import ONLINE_LIMIT_MM, lab_run, learn_cone, per_robot_main, target_ideal
-from online_study import rms_mm, true_tip_miss_mm
+from online_other_part import ONLINE_LIMIT_MM, learn_cone, learned_online_miss, per_robot_main, target_ideal
+from online_study import rms_mm
 
 from twin.analysis.check import ideal_times
 from twin.analysis.resolve import resolve_robot, resolve_spec
@@ -111,9 +111,8 @@ def robot_floor(out: Path, robot: str) -> dict[str, Any]:
     ideal = target_ideal(out, robot, "pyramid")
     row: dict[str, Any] = {"robot": robot}
     for name, plant_set in (("online", ()), ("perfect_sensor", PERFECT_SENSOR)):
-        run = lab_run(robot, ideal, out / f"pyramid_{name}", 3, "nominal", "--online", "--model", str(model),
-                      plant_set=plant_set)
-        row[name] = rms_mm(true_tip_miss_mm(run, ideal))
+        row[name] = rms_mm(learned_online_miss(robot, model, ideal, ideal, out / f"pyramid_{name}", 3, "nominal",
+                                               plant_set))
     spec = resolve_spec(model=model, robot=resolve_robot(None, robot), placement=None,
                         p_sheet_m=read_commanded_csv(ideal).values, cell=None)
     t_plain, tip_plain, miss = _air_run(robot, ideal, None)

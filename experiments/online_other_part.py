@@ -30,12 +30,13 @@ from __future__ import annotations
 
 import argparse
 import json
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
+import numpy as np
 from experiments_cli import cli, cli_json, write_between_markers
-from online_study import _residual
+from online_study import _residual, true_tip_miss_mm
 
 LEARN_FROM = ["--shape", "cone", "--top-width-mm", "60", "--depth-mm", "10"]
 TARGETS = {"cone 80 x 8": ["--shape", "cone", "--top-width-mm", "80", "--depth-mm", "8"],
@@ -89,6 +90,32 @@ def offline_command(robot: str, ideal: Path, twin: str, *model_args: str) -> Pat
     command = ideal.with_name(f"{ideal.stem}_offline_{twin}.csv")
     cli("compensate", "--method", "twin", "--robot", robot, *model_args, "--ideal", str(ideal), "--out", str(command))
     return command
+
+
+class LearnedPart(NamedTuple):
+    """A part of `ROBOT_TARGETS` with what a model learned from the cone gives it (`learned_parts`)."""
+
+    part: str
+    ideal: Path  # its ideal path (`target_ideal`)
+    command: Path  # the learned twin's offline command for it (`offline_command`)
+    model: Path  # the model file learned from the nominal cone (`learn_cone`)
+
+
+def learned_parts(out: Path, robot: str) -> Iterator[LearnedPart]:
+    """Learn the nominal cone in `out` (`learn_cone`), then each of the robot's parts with its learned offline
+    command: the loop of the studies that form those parts online again (`online_timestep.py`, `online_seeds.py`)."""
+    model, _ = learn_cone(out, robot)
+    for part in ROBOT_TARGETS[robot]:
+        ideal = target_ideal(out, robot, part)
+        yield LearnedPart(part, ideal, offline_command(robot, ideal, "learned", "--model", str(model)), model)
+
+
+def learned_online_miss(robot: str, model: Path, formed: Path, ideal: Path, out: Path, seed: int = 3,
+                        scenario: str = "nominal", plant_set: tuple[str, ...] = ()) -> np.ndarray:
+    """Form `formed` on the plant with the controller compensating online with the learned `model` (`lab_run`, into
+    `out`) and return its true tip's miss of `ideal` [mm], shape (m, 3)."""
+    run = lab_run(robot, formed, out, seed, scenario, "--online", "--model", str(model), plant_set=plant_set)
+    return true_tip_miss_mm(run, ideal)
 
 
 def robot_study(out: Path, robot: str, plant_set: tuple[str, ...] = (),

@@ -22,15 +22,8 @@ import statistics
 from pathlib import Path
 from typing import Any
 
-from online_other_part import (
-    ROBOT_TARGETS,
-    lab_run,
-    learn_cone,
-    offline_command,
-    per_robot_main,
-    target_ideal,
-)
-from online_study import rms_mm, true_tip_miss_mm
+from online_other_part import learned_online_miss, learned_parts, per_robot_main
+from online_study import rms_mm
 from online_timestep import FINE_STEP
 
 #: The lab's seeds each part is formed with (3: the other-part table's).
@@ -43,18 +36,14 @@ MODES = ("online", "both")
 
 def robot_rows(out: Path, robot: str) -> list[dict[str, Any]]:
     """One robot's rows (module docstring): each mode's true-tip rms [mm] per seed."""
-    model, _ = learn_cone(out, robot)
     rows = []
-    for part in ROBOT_TARGETS[robot]:
-        ideal = target_ideal(out, robot, part)
-        tag = ideal.stem
-        command = offline_command(robot, ideal, "learned", "--model", str(model))
-        row: dict[str, Any] = {"robot": robot, "part": part}
-        for mode, formed, scenario, step in (("online", ideal, "nominal", ()), ("both", command, "compensated", ()),
-                                             ("online_fine", ideal, "nominal", FINE_STEP)):
-            row[mode] = [rms_mm(true_tip_miss_mm(lab_run(robot, formed, out / f"{tag}_{mode}_{seed}", seed, scenario,
-                                                         "--online", "--model", str(model), plant_set=step), ideal))
-                         for seed in SEEDS]
+    for p in learned_parts(out, robot):
+        row: dict[str, Any] = {"robot": robot, "part": p.part}
+        for mode, formed, scenario, step in (("online", p.ideal, "nominal", ()),
+                                             ("both", p.command, "compensated", ()),
+                                             ("online_fine", p.ideal, "nominal", FINE_STEP)):
+            row[mode] = [rms_mm(learned_online_miss(robot, p.model, formed, p.ideal, out / f"{p.ideal.stem}_{mode}_{seed}",
+                                                    seed, scenario, step)) for seed in SEEDS]
         rows.append(row)
         print(table(rows[-1:]).splitlines()[-1], flush=True)
     return rows

@@ -22,15 +22,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from online_other_part import (
-    ROBOT_TARGETS,
-    lab_run,
-    learn_cone,
-    offline_command,
-    per_robot_main,
-    target_ideal,
-)
-from online_study import rms_mm, true_tip_miss_mm
+from online_other_part import learned_online_miss, learned_parts, per_robot_main
+from online_study import rms_mm
 
 #: The finer step [s] (the plant's default is 1 ms), and the miss above which a sample counts as an event [mm].
 FINE_STEP_S, EVENT_MM = 5e-4, 0.5
@@ -38,8 +31,8 @@ FINE_STEP_S, EVENT_MM = 5e-4, 0.5
 FINE_STEP = (f"timestep_s={FINE_STEP_S:g}",)
 
 
-def _score(run_dir: Path, ideal: Path) -> dict[str, float]:
-    miss = true_tip_miss_mm(run_dir, ideal)
+def _score(miss: np.ndarray) -> dict[str, float]:
+    """A run's true-tip rms [mm] and the share of its mean square from samples that miss by more than `EVENT_MM`."""
     square = np.sum(miss**2, axis=1)
     return {"true_tip_rms_mm": rms_mm(miss),
             "event_share": float(np.sum(square[np.sqrt(square) > EVENT_MM]) / np.sum(square))}
@@ -47,18 +40,14 @@ def _score(run_dir: Path, ideal: Path) -> dict[str, float]:
 
 def robot_rows(out: Path, robot: str) -> list[dict[str, Any]]:
     """One robot's rows (module docstring)."""
-    model, _ = learn_cone(out, robot)
     rows = []
-    for part in ROBOT_TARGETS[robot]:
-        ideal = target_ideal(out, robot, part)
-        tag = ideal.stem
-        command = offline_command(robot, ideal, "learned", "--model", str(model))
-        row: dict[str, Any] = {"robot": robot, "part": part}
+    for p in learned_parts(out, robot):
+        row: dict[str, Any] = {"robot": robot, "part": p.part}
         for name, plant_set in (("default", ()), ("fine", FINE_STEP)):
-            row[name] = _score(lab_run(robot, ideal, out / f"{tag}_online_{name}", 3, "nominal", "--online", "--model",
-                                       str(model), plant_set=plant_set), ideal)
-            row[f"both_{name}"] = _score(lab_run(robot, command, out / f"{tag}_both_{name}", 3, "compensated",
-                                                 "--online", "--model", str(model), plant_set=plant_set), ideal)
+            for key, run, formed, scenario in ((name, f"online_{name}", p.ideal, "nominal"),
+                                               (f"both_{name}", f"both_{name}", p.command, "compensated")):
+                row[key] = _score(learned_online_miss(robot, p.model, formed, p.ideal, out / f"{p.ideal.stem}_{run}", 3,
+                                                      scenario, plant_set))
         rows.append(row)
         print(table(rows[-1:]).splitlines()[-1], flush=True)
     return rows

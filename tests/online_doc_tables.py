@@ -40,3 +40,13 @@ def rows_by_part(marker: str, read: Callable[[list[str]], dict[str, float]]) -> 
     rows = {(cells[0], cells[1]): read(cells) for cells in table_rows(marker)}
     assert list(rows) == [(r, p) for r in ROBOTS for p in PARTS], list(rows)
     return rows
+
+
+def assert_other_part_true_tip(rows: dict[tuple[str, str], dict[str, float]], columns: tuple[tuple[int, str], ...]) -> None:
+    """The rows' named numbers are the law-1 other-part table's true tip in those columns (`ON_L`, `BOTH_L`, ...),
+    to the printed digit: a study that forms that table's runs again (same code, seed and step) gives the same runs,
+    and a table regenerated apart from the other shows here."""
+    true = other_part("online-other-part")["true"]
+    for key, row in rows.items():
+        for column, name in columns:
+            assert abs(row[name] - true[key][column]) <= 0.0015, (key, name, true[key][column])

@@ -5,7 +5,7 @@ the same runs, formed again."""
 from __future__ import annotations
 
 from doc_numbers import quoted
-from online_doc_tables import BOTH_L, ON_L, other_part, rows_by_part
+from online_doc_tables import BOTH_L, ON_L, assert_other_part_true_tip, rows_by_part
 
 
 def _read(cells: list[str]) -> dict[str, float]:
@@ -21,11 +21,7 @@ def _rows() -> dict[tuple[str, str], dict[str, float]]:
 
 def test_the_default_step_columns_are_the_other_part_tables_true_tip() -> None:
     """Same code, seeds and step: the same runs (a table regenerated apart from the other would show here)."""
-    rows = _rows()
-    true = other_part("online-other-part")["true"]
-    for key, row in rows.items():
-        for column, name in ((ON_L, "ms1"), (BOTH_L, "both1")):
-            assert abs(row[name] - true[key][column]) <= 0.0015, (key, name, true[key][column])
+    assert_other_part_true_tip(_rows(), ((ON_L, "ms1"), (BOTH_L, "both1")))
 
 
 def test_the_words_on_the_plants_step_are_its_table() -> None:
