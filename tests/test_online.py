@@ -3,6 +3,7 @@ spikes, a sensor that freezes or drops out, size and rate limits), written again
 
 from __future__ import annotations
 
+import itertools
 from pathlib import Path
 
 import numpy as np
@@ -11,7 +12,8 @@ from doc_numbers import quoted
 
 from twin.errors import InputError
 from twin.robot.kinematics import Kinematics
-from twin.sim.compiled.online import AT, MAX_ADVANCE, OFFSET_TAU_S, STATE_SIZE, progress
+from twin.sim.compiled.online import OFFSET_TAU_S
+from twin.sim.compiled.progress import MAX_ADVANCE, SEGMENT, TRACK_SIZE, progress
 from twin.sim.online import (
     HOLDING,
     NO_SENSOR,
@@ -262,19 +264,44 @@ def test_the_progress_along_a_command_goes_forward_over_its_return_and_its_dwell
     back = np.column_stack([x[::-1], np.zeros_like(x), np.full_like(x, -5e-4)])
     path = np.vstack([out_pass, np.repeat(out_pass[-1:], 3, axis=0), back])  # a dwell (repeated samples) at the turn
     walked = np.vstack([out_pass, back]) + np.array([0.3, 0.0, 1.0]) * 1e-3 * offset_mm
-    state = np.zeros(STATE_SIZE)
+    track = np.zeros(TRACK_SIZE)
     seen = []
     for point in walked:
-        before = int(state[AT])
-        s = progress(path, state, *point, 1.0 - np.exp(-0.004 / OFFSET_TAU_S))
-        assert 0.0 <= s <= 1.0 and 0 <= int(state[AT]) - before <= MAX_ADVANCE
-        seen.append(int(state[AT]))
+        before = int(track[SEGMENT])
+        s = progress(path, track, *point, 1.0 - np.exp(-0.004 / OFFSET_TAU_S))
+        assert 0.0 <= s <= 1.0 and 0 <= int(track[SEGMENT]) - before <= MAX_ADVANCE
+        seen.append(int(track[SEGMENT]))
     assert seen == sorted(seen)  # only forward
     assert seen[40] < 51 and seen[-1] >= 54 + 40  # out: on the outbound segments; back: on the return's
-    state[:] = 0.0
-    progress(path, state, *path[0], 0.0)
-    progress(path, state, *path[-1], 0.0)  # far along at once (after a dropout): a bounded walk
-    assert int(state[AT]) <= MAX_ADVANCE
+    track[:] = 0.0
+    progress(path, track, *path[0], 0.0)
+    progress(path, track, *path[-1], 0.0)  # far along at once (after a dropout): a bounded walk
+    assert int(track[SEGMENT]) <= MAX_ADVANCE
+
+
+def test_the_progress_finds_its_place_again_past_a_detour_the_robot_cut_short() -> None:
+    """A pass's reversal as a learned offline command made it (the KR 210's law-2 groove, learned from a cone: x, z
+    [mm]): down and back, then up 1.4 mm over 1 mm of travel and down again. The controller's motion cuts that hump
+    short, and the robot goes on along the return. The hump's top segment is never the nearer one, so the walk alone
+    stopped at its foot for the rest of the run, its offset running off by millimetres (as `lab --online` on top of
+    that command did); the progress ends at the command's end, its offset within 0.1 mm of where it started."""
+    turn = 1e-3 * np.array([
+        [31.471, -4.602], [31.965, -4.616], [32.459, -4.63], [32.954, -4.644], [33.448, -4.66], [31.508, -5.192],
+        [30.849, -5.253], [30.266, -5.286], [29.726, -5.304], [29.208, -5.315], [28.7, -5.326], [28.321, -5.192],
+        [28.052, -4.676], [27.797, -4.261], [27.723, -3.783], [28.763, -2.379], [28.069, -2.413], [27.654, -2.453],
+        [27.246, -2.492], [26.356, -3.02], [25.384, -3.582], [24.489, -4.061], [23.947, -4.133]])
+    turn = np.column_stack([turn[:, 0], np.zeros(len(turn)), turn[:, 1]])
+    out_pass = np.column_stack([np.arange(0.020, 0.0314, 5e-4), np.zeros(23), np.full(23, -4.6e-3)])
+    back = np.column_stack([np.arange(0.0234, 0.005, -5e-4), np.zeros(37), np.full(37, -4.15e-3)])
+    path = np.vstack([out_pass, turn, back])
+    walked = np.vstack([out_pass, turn[:15], turn[21:], back])  # from the hump's foot straight on along the return
+    walked = np.vstack([np.linspace(a, b, 5, endpoint=False) for a, b in itertools.pairwise(walked)]
+                       + [walked[-1:]])  # about every 0.1 mm
+    track = np.zeros(TRACK_SIZE)
+    for point in walked:
+        progress(path, track, *point, 1.0 - np.exp(-0.004 / OFFSET_TAU_S))
+    assert int(track[SEGMENT]) == len(path) - 2
+    assert np.linalg.norm(track[1:4]) < 1e-4
 
 
 def test_the_lab_says_when_the_correction_sat_at_its_limit() -> None:

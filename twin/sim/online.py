@@ -38,8 +38,9 @@ needs:
 
 Every cycle is one compiled call (`twin.sim.compiled.online.online_cycle`) on arrays allocated when the compensator
 is built: no allocation per cycle, bounded work (two chain evaluations, the planned tip's and the measured
-joints', a 3x3 product; on top of an offline command, a few segments' walk along it). `OnlineCompensator.step` returns a view of its own correction array; the status
-of the cycle is one of `STATUS`.
+joints', a 3x3 product; on top of an offline command, a few segments' walk along it, at most
+`twin.sim.compiled.progress.LOST_SEARCH` segments where the robot cut a detour of it short).
+`OnlineCompensator.step` returns a view of its own correction array; the status of the cycle is one of `STATUS`.
 """
 
 from __future__ import annotations

@@ -35,8 +35,8 @@ from twin.sim.result import LoopOutput
 
 #: The numba kernel modules (their sources together key the kernel cache).
 KERNEL_SOURCES = (
-    "chain.py", "field.py", "isf.py", "isf_map.py", "learned.py", "loop.py", "online.py", "rigid.py", "sheet.py",
-    "work.py",
+    "chain.py", "field.py", "isf.py", "isf_map.py", "learned.py", "loop.py", "online.py", "progress.py", "rigid.py",
+    "sheet.py", "work.py",
 )
 
 

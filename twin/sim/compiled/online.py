@@ -9,9 +9,7 @@ On top of an offline command the force that command assumed is looked up by *pos
 controller re-times its path (it stops at sharp corners, ramps its speed) by rules the PC beside it does not know,
 but it reports its joints every cycle, and the twin's forward kinematics of them, less the correction the
 compensator itself added, less a slowly followed offset (the twin's kinematic error), is where along the command
-the robot is (`progress`). The progress is one segment index that only moves forward, a few segments per cycle at
-most (`MAX_ADVANCE`): bounded work, and a path that comes back over itself (a groove's passes) is not mistaken for
-its return.
+the robot is (`twin.sim.compiled.progress`: one segment index that only moves forward, in bounded work per cycle).
 """
 
 from __future__ import annotations
@@ -21,18 +19,19 @@ import math
 from numba import njit
 
 from twin.sim.compiled.chain import chain_eval
+from twin.sim.compiled.progress import progress
 
 #: Status codes of a cycle (`twin.sim.online.STATUS` names them).
 NO_SENSOR, TRACKING, SPIKE, HOLDING, RAMPING = range(5)
 #: Slots of the state vector: a sample seen, its stamp, spikes rejected, filtered force (3), its rate (3), the
-#: correction (3), spikes in a row, joints seen, the segment along an offline command, the offset of the reported
-#: tip from that command (3), that progress started, the time of the last call, a call seen; the travel's last
-#: anchor point (2, sheet plane) and direction (2), a direction found, the side force's share
-#: of the normal force (slowly filtered), that share seen; the last turn of the travel (the friction's change of
-#: direction there (2), the filtered in-plane force at it (2), its time, its state: 0 over, 1 fed forward, 2 shown
-#: by the force and waiting to be read), the sheet's friction force along the
-#: travel as a share of the normal force (slowly filtered), that share seen; the planned tip of the last cycle (2);
-#: the friction at the last turn, mu [N]; how much of mu u the cell's turns have turned, less 1 (zeros start at 1).
+#: correction (3), spikes in a row, joints seen, the progress along an offline command (`progress`'s track: the
+#: segment, the offset of the reported tip from the command (3), that progress started), the time of the last call,
+#: a call seen; the travel's last anchor point (2, sheet plane) and direction (2), a direction found, the side
+#: force's share of the normal force (slowly filtered), that share seen; the last turn of the travel (the friction's
+#: change of direction there (2), the filtered in-plane force at it (2), its time, its state: 0 over, 1 fed forward,
+#: 2 shown by the force and waiting to be read), the sheet's friction force along the travel as a share of the
+#: normal force (slowly filtered), that share seen; the planned tip of the last cycle (2); the friction at the last
+#: turn, mu [N]; how much of mu u the cell's turns have turned, less 1 (zeros start at 1).
 HAVE, T_LAST, SPIKES, F, DF, CORR, RUN, HAVE_Q, AT, OFFSET, HAVE_AT, T_CALL, HAVE_T = (
     0, 1, 2, 3, 6, 9, 12, 13, 14, 15, 18, 19, 20)
 ANCHOR, DIRECTION, HAVE_DIR, SIDE, HAVE_SIDE = 21, 23, 25, 26, 27
@@ -70,64 +69,6 @@ MAX_GAP_CYCLES = 4.0
 #: step to the next (a groove's 0.5 mm down at a turn, in ~0.1 s), fast against the twin's kinematic error, which
 #: changes over the workspace (mm over tens of mm).
 OFFSET_TAU_S = 1.0
-#: Most command segments the progress along an offline command moves in one cycle (bounded work per cycle: a
-#: command sampled at 1 ms at 0.5 m/s moves ~2 segments in a 4 ms cycle).
-MAX_ADVANCE = 32
-
-
-@njit(cache=True)
-def _segment(path, i, x0, x1, x2):  # type: ignore[no-untyped-def]
-    """Where along segment i of `path` (points i, i+1) the point x is nearest: (fraction in [0, 1], squared
-    distance [m^2])."""
-    a0, a1, a2 = path[i, 0], path[i, 1], path[i, 2]
-    d0, d1, d2 = path[i + 1, 0] - a0, path[i + 1, 1] - a1, path[i + 1, 2] - a2
-    length2 = d0 * d0 + d1 * d1 + d2 * d2
-    s = 0.0
-    if length2 > 0.0:
-        s = min(max(((x0 - a0) * d0 + (x1 - a1) * d1 + (x2 - a2) * d2) / length2, 0.0), 1.0)
-    e0, e1, e2 = x0 - a0 - s * d0, x1 - a1 - s * d1, x2 - a2 - s * d2
-    return s, e0 * e0 + e1 * e1 + e2 * e2
-
-
-@njit(cache=True)
-def progress(path, state, x0, x1, x2, alpha):  # type: ignore[no-untyped-def]
-    """Move the progress along `path` ((n, 3), n >= 2) to the reported tip x; returns the fraction along the
-    segment it stops on (the segment is in `state[AT]`).
-
-    The twin's forward kinematics of the reported joints is not the command: the twin's model of the robot and its
-    placement are off by millimetres, more than a groove's passes are apart. So x less an offset is matched: the
-    offset starts as x less the command's first tip (a controller starts a command where it begins) and follows,
-    low-passed by `alpha` per cycle, only the part of the mismatch across the path (along it, it would drift the
-    progress). From the segment in `state[AT]` the progress moves forward to the next segment while that one is at
-    least as near, at most `MAX_ADVANCE` of them. Ties go forward: a dwell's repeated samples (segments of no
-    length) are passed, and of a pass that comes back exactly over itself the return is taken at most one segment
-    early (the same place either way)."""
-    if state[HAVE_AT] == 0.0:
-        state[OFFSET], state[OFFSET + 1], state[OFFSET + 2] = x0 - path[0, 0], x1 - path[0, 1], x2 - path[0, 2]
-        state[AT], state[HAVE_AT] = 0.0, 1.0
-    y0, y1, y2 = x0 - state[OFFSET], x1 - state[OFFSET + 1], x2 - state[OFFSET + 2]
-    last = path.shape[0] - 2
-    i = min(int(state[AT]), last)
-    s, d = _segment(path, i, y0, y1, y2)
-    for _ in range(MAX_ADVANCE):
-        if i >= last:
-            break
-        s_next, d_next = _segment(path, i + 1, y0, y1, y2)
-        if d_next > d:
-            break
-        i, s, d = i + 1, s_next, d_next
-    state[AT] = i
-    # the mismatch across the segment only
-    u0, u1, u2 = path[i + 1, 0] - path[i, 0], path[i + 1, 1] - path[i, 1], path[i + 1, 2] - path[i, 2]
-    r0, r1, r2 = y0 - path[i, 0] - s * u0, y1 - path[i, 1] - s * u1, y2 - path[i, 2] - s * u2
-    length2 = u0 * u0 + u1 * u1 + u2 * u2
-    if length2 > 0.0:
-        along = (r0 * u0 + r1 * u1 + r2 * u2) / length2
-        r0, r1, r2 = r0 - along * u0, r1 - along * u1, r2 - along * u2
-    state[OFFSET] += alpha * r0
-    state[OFFSET + 1] += alpha * r1
-    state[OFFSET + 2] += alpha * r2
-    return s
 
 
 @njit(cache=True)
@@ -247,8 +188,8 @@ def online_cycle(chain, params, k_inv, friction, c_tool, assumed_p, assumed_f, s
     if n_assumed > 0:  # on top of an offline command: where along it the robot is, every cycle (no gap to catch up)
         chain_eval(chain, q, p, jac, g, False)
         # the commanded tip the joints report, less the correction this compensator added to it
-        w_at = progress(assumed_p, state, p[0] - state[CORR], p[1] - state[CORR + 1], p[2] - state[CORR + 2],
-                        1.0 - math.exp(-cycle / OFFSET_TAU_S))
+        w_at = progress(assumed_p, state[AT:HAVE_AT + 1], p[0] - state[CORR], p[1] - state[CORR + 1],
+                        p[2] - state[CORR + 2], 1.0 - math.exp(-cycle / OFFSET_TAU_S))
         i_at = int(state[AT])
     target0, target1, target2 = 0.0, 0.0, 0.0
     if state[HAVE] == 0.0:
