@@ -273,8 +273,8 @@ def test_the_pages_words_on_another_part_on_the_second_sheet_law_are_its_table()
     measured += [true[(r, p)][ON_L] for p in ("cone 80 x 8", "pyramid") for r in ROBOTS[1:]]
     for k, value in enumerate(measured):
         under[k].check(value)
-    grooves = quoted("online.md", "far worse on their grooves (", 4)
-    for k, value in enumerate([true[(r, "groove")][c] for c in (BOTH_L, OFF_L) for r in ROBOTS[1:]]):
+    grooves = quoted("online.md", "and worse on their grooves (", 6)
+    for k, value in enumerate([true[(r, "groove")][c] for c in (BOTH_L, ON_L, OFF_L) for r in ROBOTS[1:]]):
         grooves[k].check(value)
     cone = [true[(r, "cone 80 x 8")][ON_L] for r in ROBOTS]
     # the target (0.10 mm) on the first robot only: just over it alone (within the printed digit), under it on top
@@ -283,7 +283,7 @@ def test_the_pages_words_on_another_part_on_the_second_sheet_law_are_its_table()
     for robot in ROBOTS[1:]:
         for part in ("cone 80 x 8", "pyramid"):  # better with its offline command under it
             assert true[(robot, part)][BOTH_L] < true[(robot, part)][ON_L], (robot, part)
-        assert true[(robot, "groove")][BOTH_L] > 3.0 * true[(robot, "groove")][ON_L]  # far worse
+        assert true[(robot, "groove")][BOTH_L] > 1.2 * true[(robot, "groove")][ON_L]  # worse
     assert true[("tx200", "groove")][OFF_L] is None and true[("tx200", "groove")][BOTH_L] is None  # refused
 
 
