@@ -268,8 +268,8 @@ def test_the_progress_along_a_command_goes_forward_over_its_return_and_its_dwell
     seen = []
     for point in walked:
         before = int(track[SEGMENT])
-        s = progress(path, track, *point, 1.0 - np.exp(-0.004 / OFFSET_TAU_S))
-        assert 0.0 <= s <= 1.0 and 0 <= int(track[SEGMENT]) - before <= MAX_ADVANCE
+        s, lost = progress(path, track, *point, 1.0 - np.exp(-0.004 / OFFSET_TAU_S))
+        assert 0.0 <= s <= 1.0 and 0 <= int(track[SEGMENT]) - before <= MAX_ADVANCE and not lost
         seen.append(int(track[SEGMENT]))
     assert seen == sorted(seen)  # only forward
     assert seen[40] < 51 and seen[-1] >= 54 + 40  # out: on the outbound segments; back: on the return's
@@ -298,10 +298,34 @@ def test_the_progress_finds_its_place_again_past_a_detour_the_robot_cut_short() 
     walked = np.vstack([np.linspace(a, b, 5, endpoint=False) for a, b in itertools.pairwise(walked)]
                        + [walked[-1:]])  # about every 0.1 mm
     track = np.zeros(TRACK_SIZE)
-    for point in walked:
-        progress(path, track, *point, 1.0 - np.exp(-0.004 / OFFSET_TAU_S))
+    lost = [progress(path, track, *point, 1.0 - np.exp(-0.004 / OFFSET_TAU_S))[1] for point in walked]
     assert int(track[SEGMENT]) == len(path) - 2
     assert np.linalg.norm(track[1:4]) < 1e-4
+    assert 0 < sum(lost) <= 5 and not any(lost[-100:])  # lost for a few samples past the hump, then found
+
+
+def test_the_compensator_counts_the_cycles_the_robot_was_lost_on_its_command(setup) -> None:
+    """Joints that put the tip 15 mm off an offline command (a detour it cut short, or a command that is not the
+    one running): counted, and the lab says so; joints on the command are not."""
+    from dataclasses import replace
+
+    from twin.apps.tasks.lab_dynamic import DynamicRunReport, online_summary
+    from twin.lab.dynamic.online import OnlineLog
+
+    spec, q, _ = setup
+    path = _tip(spec, q) + np.outer([0.0, 1.0, 2.0, 3.0], [0.01, 0.0, 0.0])  # the command starts at the robot
+    comp = OnlineCompensator(spec, assumed=(path, np.zeros_like(path)))
+    off = q + np.array([0.01, 0.0, 0.0, 0.0, 0.0, 0.0])  # joint 1 by 10 mrad: the tip ~15 mm sideways
+    for k in range(10):
+        comp.step(0.004 * k, 0.004 * k, F_N, q if k < 4 else off)
+    assert comp.cycles_lost_on_command == 6
+    log = OnlineLog(0.004 * np.arange(10), np.zeros((10, 3)), np.full(10, 1e-5), np.ones(10, int))
+    summary = online_summary(log, 5.0, comp.cycles_lost_on_command)
+    assert summary["lost_on_command_cycles"] == 6
+    report = DynamicRunReport("compensated", Path("run"), 1, {}, 10, 10, 1.0, 100.0, 4, 0.1, summary)
+    assert any("lost on the offline command" in line and " 6 cycles" in line for line in report.lines())
+    calm = replace(report, online=online_summary(log, 5.0))
+    assert not any("lost on the offline command" in line for line in calm.lines())
 
 
 def test_the_lab_says_when_the_correction_sat_at_its_limit() -> None:

@@ -58,6 +58,7 @@ from twin.sim.compiled.chain import ChainArrays, chain_arrays
 from twin.sim.compiled.online import (
     CORR,
     HOLDING,
+    LOST,
     NO_SENSOR,
     RAMPING,
     SPIKE,
@@ -163,6 +164,12 @@ class OnlineCompensator:
     def spikes_rejected(self) -> int:
         """Samples rejected as spikes so far."""
         return int(self._state[SPIKES])
+
+    @property
+    def cycles_lost_on_command(self) -> int:
+        """Cycles so far in which the robot's reported tip was lost on the offline command (a detour of it cut
+        short: `twin.sim.compiled.progress`), the force it assumed taken at the nearest segment ahead."""
+        return int(self._state[LOST])
 
     def step(self, t_s: float, sample_t_s: float, f_sheet_n: np.ndarray, q_rad: np.ndarray,
              q_planned_rad: np.ndarray | None = None) -> int:

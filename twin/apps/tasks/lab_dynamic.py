@@ -84,6 +84,10 @@ class DynamicRunReport(Report):
             if o["at_limit_share"] > 0.0:  # the cell needs more than the compensator may give: say so
                 lines.append(f"  online: the correction sat at its limit ({o['limit_mm']:.1f} mm, "
                              f"max_correction_mm) in {100.0 * o['at_limit_share']:.1f} % of the cycles")
+            if o.get("lost_on_command_cycles", 0.0) > 0.0:  # the command has a detour the robot cut short
+                lines.append(f"  online: the robot was lost on the offline command (a detour of it cut short) in "
+                             f"{o['lost_on_command_cycles']:.0f} cycles; the force the command assumed was taken at "
+                             "the nearest of its segments ahead")
         return lines
 
     def record(self) -> dict[str, Any]:
@@ -144,7 +148,8 @@ def dynamic_lab_task(request: LabRequest, note: Note = silent) -> Report:
         request.scenario, request.out, request.seed, knobs.changed(), len(run.tracker.t_s), len(run.forces.t_s),
         1e3 * float(np.max(np.linalg.norm(deviation, axis=1))),
         float(np.max(np.linalg.norm(run.forces.values, axis=1))), log.t_s.size, log.wall_s,
-        None if log.online is None else online_summary(log.online, request.max_correction_mm),
+        None if log.online is None else online_summary(log.online, request.max_correction_mm,
+                                                       compensator.cycles_lost_on_command if compensator is not None else 0),
     )
 
 
@@ -205,13 +210,16 @@ def write_online_log(path: Path, log: OnlineLog) -> None:
                 formats={"t_s": ".4f", "dx_mm": ".5f", "dy_mm": ".5f", "dz_mm": ".5f", "compute_us": ".2f"})
 
 
-def online_summary(log: OnlineLog, limit_mm: float) -> dict[str, float]:
+def online_summary(log: OnlineLog, limit_mm: float, lost_cycles: int = 0) -> dict[str, float]:
     """The correction's largest size [mm], the share of cycles it sat at its size limit `limit_mm` [mm] (a cell
-    whose deflection the limit leaves uncorrected), and the per-cycle compute time's p50, p99 and max [µs]."""
+    whose deflection the limit leaves uncorrected), the cycles the robot was lost on an offline command
+    (`lost_cycles`, `OnlineCompensator.cycles_lost_on_command`), and the per-cycle compute time's p50, p99 and max
+    [µs]."""
     compute = 1e6 * log.compute_s[1:]  # the first cycle compiles nothing but warms caches
     size_mm = 1e3 * np.linalg.norm(log.correction_m, axis=1)
     return {"cycles": float(log.t_s.size), "correction_max_mm": float(np.max(size_mm)), "limit_mm": float(limit_mm),
             "at_limit_share": float(np.mean(size_mm >= limit_mm - AT_LIMIT_MM)),
+            "lost_on_command_cycles": float(lost_cycles),
             "compute_p50_us": float(np.percentile(compute, 50)), "compute_p99_us": float(np.percentile(compute, 99)),
             "compute_max_us": float(np.max(compute))}
 

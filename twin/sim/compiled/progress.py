@@ -9,7 +9,8 @@ that comes back over itself (a groove's passes) is not mistaken for its return. 
 controller's motion cuts short (a learned command's hump at a groove's reversal), the tip leaves the segment it is
 on while the next segment, at the detour's top, is never the nearer: the progress would stay there for the rest of
 the run, and the force it looked up with it (what `lab --online` on top of such a command showed: CHANGELOG). A
-tip `LOST_M` away is lost, and the progress takes the nearest of the next `LOST_SEARCH` segments.
+tip `LOST_M` away is lost, and the progress takes the nearest of the next `LOST_SEARCH` segments; the compensator
+counts such cycles (`OnlineCompensator.cycles_lost_on_command`; `lab --online` says their share).
 """
 
 from __future__ import annotations
@@ -45,8 +46,9 @@ def _segment(path, i, x0, x1, x2):  # type: ignore[no-untyped-def]
 
 @njit(cache=True)
 def progress(path, track, x0, x1, x2, alpha):  # type: ignore[no-untyped-def]
-    """Move the progress along `path` ((n, 3), n >= 2) to the reported tip x; returns the fraction along the
-    segment it stops on (the segment is in `track[SEGMENT]`).
+    """Move the progress along `path` ((n, 3), n >= 2) to the reported tip x; returns (the fraction along the
+    segment it stops on, the segment being in `track[SEGMENT]`; whether the tip was lost, `LOST_M` or more from the
+    segment its walk reached).
 
     The twin's forward kinematics of the reported joints is not the command: the twin's model of the robot and its
     placement are off by millimetres, more than a groove's passes are apart. So x less an offset is matched: the
@@ -71,14 +73,15 @@ def progress(path, track, x0, x1, x2, alpha):  # type: ignore[no-untyped-def]
         if d_next > d:
             break
         i, s, d = i + 1, s_next, d_next
-    if d > LOST_M * LOST_M:
+    lost = d > LOST_M * LOST_M
+    if lost:
         for j in range(i + 1, min(i + LOST_SEARCH, last) + 1):
             s_j, d_j = _segment(path, j, y0, y1, y2)
             if d_j < d:
                 i, s, d = j, s_j, d_j
     track[SEGMENT] = i
     if d > LOST_M * LOST_M:  # a lost match, not the twin's kinematic error
-        return s
+        return s, True
     # the mismatch across the segment only
     u0, u1, u2 = path[i + 1, 0] - path[i, 0], path[i + 1, 1] - path[i, 1], path[i + 1, 2] - path[i, 2]
     r0, r1, r2 = y0 - path[i, 0] - s * u0, y1 - path[i, 1] - s * u1, y2 - path[i, 2] - s * u2
@@ -89,4 +92,4 @@ def progress(path, track, x0, x1, x2, alpha):  # type: ignore[no-untyped-def]
     track[OFFSET] += alpha * r0
     track[OFFSET + 1] += alpha * r1
     track[OFFSET + 2] += alpha * r2
-    return s
+    return s, lost
