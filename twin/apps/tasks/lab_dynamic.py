@@ -144,12 +144,12 @@ def dynamic_lab_task(request: LabRequest, note: Note = silent) -> Report:
         write_online_log(request.out / ONLINE_LOG, log.online)
     deviation = run.tracker.values - interp_rows(run.tracker.t_s, run.commanded.t_s, p_cmd)
     assert run.forces is not None
+    lost = 0 if compensator is None else compensator.cycles_lost_on_command
     return DynamicRunReport(
         request.scenario, request.out, request.seed, knobs.changed(), len(run.tracker.t_s), len(run.forces.t_s),
         1e3 * float(np.max(np.linalg.norm(deviation, axis=1))),
         float(np.max(np.linalg.norm(run.forces.values, axis=1))), log.t_s.size, log.wall_s,
-        None if log.online is None else online_summary(log.online, request.max_correction_mm,
-                                                       compensator.cycles_lost_on_command if compensator is not None else 0),
+        None if log.online is None else online_summary(log.online, request.max_correction_mm, lost),
     )
 
 
