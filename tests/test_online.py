@@ -13,7 +13,7 @@ from doc_numbers import quoted
 from twin.errors import InputError
 from twin.robot.kinematics import Kinematics
 from twin.sim.compiled.online import OFFSET_TAU_S
-from twin.sim.compiled.progress import MAX_ADVANCE, SEGMENT, TRACK_SIZE, progress
+from twin.sim.compiled.progress import LOST_M, MAX_ADVANCE, SEGMENT, TRACK_SIZE, progress
 from twin.sim.online import (
     HOLDING,
     NO_SENSOR,
@@ -297,6 +297,7 @@ def test_the_progress_finds_its_place_again_past_a_detour_the_robot_cut_short() 
     walked = np.vstack([out_pass, turn[:15], turn[21:], back])  # from the hump's foot straight on along the return
     walked = np.vstack([np.linspace(a, b, 5, endpoint=False) for a, b in itertools.pairwise(walked)]
                        + [walked[-1:]])  # about every 0.1 mm
+    quoted("online.md", "short and is left", 1)[0].check(1e3 * LOST_M)  # the page's threshold is the code's
     track = np.zeros(TRACK_SIZE)
     lost = [progress(path, track, *point, 1.0 - np.exp(-0.004 / OFFSET_TAU_S))[1] for point in walked]
     assert int(track[SEGMENT]) == len(path) - 2
