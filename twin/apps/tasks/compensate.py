@@ -6,6 +6,7 @@ forces it assumed (`CMD.compensation.json`, what `check` names a gain's cause fr
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -22,11 +23,12 @@ from twin.analysis.compensate import (
     gain_of,
 )
 from twin.analysis.compensation_record import CompensationRecord, write_record
+from twin.analysis.off_sheet import off_sheet_warning
 from twin.analysis.resolve import AUTO, resolve_spec
 from twin.apps.tasks.base import Note, Report, silent
 from twin.apps.tasks.inputs import HistoryDeclaration, ideal_path
 from twin.base.jsonio import read_json
-from twin.errors import DataFileError, InputError
+from twin.errors import DataFileError, ExtrapolationWarning, InputError
 from twin.process.fe.load import ForceHistory
 from twin.process.force.registry import build_force_field
 from twin.process.force.span import warn_outside_span
@@ -240,6 +242,8 @@ def compensate_task(request: CompensateRequest, note: Note = silent) -> Report:
     warn_outside_span(spec.process, ideal.p_sheet_m, f"the ideal path {request.ideal or '(the groove)'}")
     f_reference = rigid_forces(build_force_field(spec.process, reference), ideal)
     comp, c_r, predicted, f_used, dynamic = _compensate(request, spec, ideal, declared)
+    if (sentence := off_sheet_warning(comp.t_s, ideal.p_sheet_m, f_used)) is not None:
+        warnings.warn(sentence, ExtrapolationWarning, stacklevel=2)
     gain = gain_of(comp, f_reference, c_r)
     # an FE history's symmetry is evidence only where its forces were used (the table model; the formula's K_R)
     uses_history = request.method == "formula" or spec.process.force_model == "table"
