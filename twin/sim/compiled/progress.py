@@ -10,7 +10,7 @@ controller's motion cuts short (a learned command's hump at a groove's reversal)
 on while the next segment, at the detour's top, is never the nearer: the progress would stay there for the rest of
 the run, and the force it looked up with it (what `lab --online` on top of such a command showed: CHANGELOG). A
 tip `LOST_M` away is lost, and the progress takes the nearest of the next `LOST_SEARCH` segments; the compensator
-counts such cycles (`OnlineCompensator.cycles_lost_on_command`; `lab --online` says their share).
+counts such cycles (`OnlineCompensator.cycles_lost_on_command`; `lab --online` says how many).
 """
 
 from __future__ import annotations
