@@ -1,9 +1,8 @@
 """`compensate` warns where its twin leaves the tool off the sheet the ideal path is in (`twin.analysis.off_sheet`).
 
-The counts the module docstring gives (the KR 210's and the IRB 6640's law-2 groove commands learned from a cone:
-35 and 200 samples) were read with the same thresholds from those commands' compensation records
-(`experiments/online_other_part.py OUT --plant-set sheet_law=2`); here the rule itself, on paths written in the
-test, and the task's wiring.
+The counts the CHANGELOG gives (the KR 210's and the IRB 6640's law-2 groove commands learned from a cone) are what
+`compensate` printed for those commands (`experiments/online_other_part.py OUT --plant-set sheet_law=2` makes them);
+here the rule itself, on paths written in the test, and the task's wiring.
 """
 
 from __future__ import annotations

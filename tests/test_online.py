@@ -13,7 +13,7 @@ from doc_numbers import quoted
 from twin.errors import InputError
 from twin.robot.kinematics import Kinematics
 from twin.sim.compiled.online import OFFSET_TAU_S
-from twin.sim.compiled.progress import LOST_M, MAX_ADVANCE, SEGMENT, TRACK_SIZE, progress
+from twin.sim.compiled.progress import LOST_M, MAX_ADVANCE, OFFSET, SEGMENT, TRACK_SIZE, progress
 from twin.sim.online import (
     HOLDING,
     NO_SENSOR,
@@ -301,7 +301,7 @@ def test_the_progress_finds_its_place_again_past_a_detour_the_robot_cut_short() 
     track = np.zeros(TRACK_SIZE)
     lost = [progress(path, track, *point, 1.0 - np.exp(-0.004 / OFFSET_TAU_S))[1] for point in walked]
     assert int(track[SEGMENT]) == len(path) - 2
-    assert np.linalg.norm(track[1:4]) < 1e-4
+    assert np.linalg.norm(track[OFFSET:OFFSET + 3]) < 1e-4
     assert 0 < sum(lost) <= 5 and not any(lost[-100:])  # lost for a few samples past the hump, then found
 
 

@@ -15,7 +15,7 @@ import numpy as np
 from doc_numbers import quoted
 
 from twin.lab.dynamic.knobs import Knobs
-from twin.lab.dynamic.metrics import resample
+from twin.lab.dynamic.metrics import resample, rigid_forces
 from twin.lab.dynamic.sheet_laws import make_sheet
 from twin.process.description import Process
 from twin.process.toolpath.groove import groove_path
@@ -32,12 +32,7 @@ def _lateral_stiffness_on_a_weave(law: int, amplitude_m: float) -> tuple[float, 
     p = resample(groove_path().p_sheet_m)
     weave = (-p[:, 2] > DEEP_M[0]) & (-p[:, 2] < DEEP_M[1]) & (np.abs(p[:, 0]) < HALF_LENGTH_M)
     p[weave, 1] = amplitude_m * np.sin(2.0 * np.pi * p[weave, 0] / WAVELENGTH_M)
-    sheet = make_sheet(Knobs({"sheet_law": law}), Process())
-    sheet.start(p[0], 1.0 if p[1, 0] >= p[0, 0] else -1.0)
-    f = np.empty_like(p)
-    for k, point in enumerate(p):
-        f[k] = sheet.force(point)
-        sheet.advance(point)
+    f = rigid_forces(make_sheet(Knobs({"sheet_law": law}), Process()), p)
     travel = np.sign(np.gradient(p[:, 0]))
     slope = np.gradient(p[:, 1]) / np.gradient(p[:, 0]) * travel
     out = []
@@ -55,10 +50,7 @@ def _still_tool_stiffness(offset_m: float = 2e-4) -> float:
     middle = np.flatnonzero(np.abs(p[:, 0]) < 2e-3)
     stop = int(middle[np.argmin(np.abs(-p[middle, 2] - PROBE_DEPTH_M))])
     sheet = make_sheet(Knobs({"sheet_law": 1}), Process())
-    sheet.start(p[0], 1.0 if p[1, 0] >= p[0, 0] else -1.0)
-    for point in p[:stop]:
-        sheet.force(point)
-        sheet.advance(point)
+    rigid_forces(sheet, p[:stop])
     fy = [copy.deepcopy(sheet).force(p[stop] + np.array([0.0, dy, 0.0]))[1] for dy in (-offset_m, offset_m)]
     return float((fy[1] - fy[0]) / (2.0 * offset_m))
 

@@ -4,11 +4,10 @@ The twin's compensation moves each command sample until the simulated tip lies o
 it takes off comes from the force its sheet predicts there. Where that sheet predicts no force although the ideal
 path goes into the sheet, the command carries no compensation at those samples, between neighbours compensated by
 millimetres: a hump the arm will not follow, and a part that misses there. A learned sheet does this outside what
-its runs showed. One learned from a cone, on the plant's second law, predicts no force where a groove's pass turns
-back onto the material it has just formed: 35 of the KR 210 groove's 1187 samples in the sheet, 200 of the IRB
-6640's. That IRB 6640 command then missed the groove by more than the uncompensated path did
-(docs/online.md). Such a command is written, since the sheet may be right (a pass over material already formed
-that deep), but `compensate` warns (`off_sheet_warning`), naming how many samples and the first.
+its runs showed: one learned from a cone, on the plant's second law, predicts no force where a groove's pass turns
+back onto the material it has just formed (how many samples, and what the command then missed: CHANGELOG). Such a
+command is written, since the sheet may be right (a pass over material already formed that deep), but
+`compensate` warns (`off_sheet_warning`), naming how many samples and the first.
 """
 
 from __future__ import annotations

@@ -84,7 +84,7 @@ class DynamicRunReport(Report):
             if o["at_limit_share"] > 0.0:  # the cell needs more than the compensator may give: say so
                 lines.append(f"  online: the correction sat at its limit ({o['limit_mm']:.1f} mm, "
                              f"max_correction_mm) in {100.0 * o['at_limit_share']:.1f} % of the cycles")
-            if o.get("lost_on_command_cycles", 0.0) > 0.0:  # the command has a detour the robot cut short
+            if o["lost_on_command_cycles"] > 0.0:  # the command has a detour the robot cut short
                 lines.append(f"  online: the robot was lost on the offline command (a detour of it cut short) in "
                              f"{o['lost_on_command_cycles']:.0f} cycles; the force the command assumed was taken at "
                              "the nearest of its segments ahead")

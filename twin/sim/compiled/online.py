@@ -19,22 +19,22 @@ import math
 from numba import njit
 
 from twin.sim.compiled.chain import chain_eval
-from twin.sim.compiled.progress import progress
+from twin.sim.compiled.progress import SEGMENT, TRACK_SIZE, progress
 
 #: Status codes of a cycle (`twin.sim.online.STATUS` names them).
 NO_SENSOR, TRACKING, SPIKE, HOLDING, RAMPING = range(5)
 #: Slots of the state vector: a sample seen, its stamp, spikes rejected, filtered force (3), its rate (3), the
-#: correction (3), spikes in a row, joints seen, the progress along an offline command (`progress`'s track: the
-#: segment, the offset of the reported tip from the command (3), that progress started), the time of the last call,
-#: a call seen; the travel's last anchor point (2, sheet plane) and direction (2), a direction found, the side
-#: force's share of the normal force (slowly filtered), that share seen; the last turn of the travel (the friction's
-#: change of direction there (2), the filtered in-plane force at it (2), its time, its state: 0 over, 1 fed forward,
-#: 2 shown by the force and waiting to be read), the sheet's friction force along the travel as a share of the
-#: normal force (slowly filtered), that share seen; the planned tip of the last cycle (2); the friction at the last
-#: turn, mu [N]; how much of mu u the cell's turns have turned, less 1 (zeros start at 1); the cycles the reported
-#: tip was lost on the offline command (`progress`).
-HAVE, T_LAST, SPIKES, F, DF, CORR, RUN, HAVE_Q, AT, OFFSET, HAVE_AT, T_CALL, HAVE_T = (
-    0, 1, 2, 3, 6, 9, 12, 13, 14, 15, 18, 19, 20)
+#: correction (3), spikes in a row, joints seen, the progress along an offline command (`progress`'s track, its
+#: `TRACK_SIZE` slots: the segment, the offset of the reported tip from it (3), that progress started), the time of
+#: the last call, a call seen; the travel's last anchor point (2, sheet plane) and direction (2), a direction found,
+#: the side force's share of the normal force (slowly filtered), that share seen; the last turn of the travel (the
+#: friction's change of direction there (2), the filtered in-plane force at it (2), its time, its state: 0 over, 1
+#: fed forward, 2 shown by the force and waiting to be read), the sheet's friction force along the travel as a share
+#: of the normal force (slowly filtered), that share seen; the planned tip of the last cycle (2); the friction at
+#: the last turn, mu [N]; how much of mu u the cell's turns have turned, less 1 (zeros start at 1); the cycles the
+#: reported tip was lost on the offline command (`progress`).
+HAVE, T_LAST, SPIKES, F, DF, CORR, RUN, HAVE_Q, TRACK = 0, 1, 2, 3, 6, 9, 12, 13, 14
+T_CALL, HAVE_T = TRACK + TRACK_SIZE, TRACK + TRACK_SIZE + 1
 ANCHOR, DIRECTION, HAVE_DIR, SIDE, HAVE_SIDE = 21, 23, 25, 26, 27
 TURN_U, TURN_F, TURN_T, TURNING, FRICTION, HAVE_FRICTION, PREV, TURN_MU, TURN_GAIN = (
     28, 30, 32, 33, 34, 35, 36, 38, 39)
@@ -190,9 +190,9 @@ def online_cycle(chain, params, k_inv, friction, c_tool, assumed_p, assumed_f, s
     if n_assumed > 0:  # on top of an offline command: where along it the robot is, every cycle (no gap to catch up)
         chain_eval(chain, q, p, jac, g, False)
         # the commanded tip the joints report, less the correction this compensator added to it
-        w_at, lost = progress(assumed_p, state[AT:HAVE_AT + 1], p[0] - state[CORR], p[1] - state[CORR + 1],
-                              p[2] - state[CORR + 2], 1.0 - math.exp(-cycle / OFFSET_TAU_S))
-        i_at = int(state[AT])
+        w_at, lost = progress(assumed_p, state[TRACK:TRACK + TRACK_SIZE], p[0] - state[CORR],
+                              p[1] - state[CORR + 1], p[2] - state[CORR + 2], 1.0 - math.exp(-cycle / OFFSET_TAU_S))
+        i_at = int(state[TRACK + SEGMENT])
         if lost:
             state[LOST] += 1.0
     target0, target1, target2 = 0.0, 0.0, 0.0
