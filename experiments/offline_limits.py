@@ -1,0 +1,152 @@
+"""What the offline targets ask of the learned twin: on each part it never formed, how much of the compensated run's
+miss its robot leaves with the run's own forces, and how much of the force its sheet's form can take at all.
+
+On `experiments/learn_cell.py`'s cone variants (the twin learned from the nominal 60 x 10 mm cone, seed 1; the
+80 x 8 mm cone and the 40 x 6 mm pyramid compensated with it and formed with seed 3, neutral knobs), for each of
+those two parts:
+
+- **the compensated run's true tip** (the plant's `truth_tip.csv`, read here on the experiment's side only): the
+  miss issue #48's targets are set on;
+- **the robot with the run's own forces**: the learned twin's robot (its joint springs, friction and servo
+  transient; quasi-static, `twin.analysis.learn.split.measured_force_tip`) driven by the forces the run measured,
+  against the same true tip. What is left there is what a compensation by that robot leaves even with a sheet model
+  that knew the force exactly (a perfect sheet); its part above `FAST_HZ` is the arm moving faster than a
+  quasi-static robot does;
+- **the sheet's force**: the learned sheet's axial force along the run's measured tip against its measured Fz
+  (predicted: the sheet never saw the part), and the most the learner's library can take: the published formula
+  and every candidate term fitted by least squares to that run itself (in-sample: the floor of the form, not a
+  prediction); the same for the force in the sheet's plane, its law given the measured Fz (`in_plane_columns`:
+  the learned ratios μ_t, μ_r, μ_ρ, and all three fitted to the run itself).
+
+Writes OUT/offline_limits.json, OUT/offline_limits.md and with `--doc` the table between the page's
+offline-limits markers:
+
+    .venv/bin/python experiments/learn_cell.py L1 --variants cone-tx200,cone-kr210,cone-irb6640
+    .venv/bin/python experiments/learn_cell.py L2 --variants cone-tx200,cone-kr210,cone-irb6640 \\
+        --plant-set sheet_law=2
+    .venv/bin/python experiments/offline_limits.py OUT --law1 L1 --law2 L2 [--doc docs/learning.md]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from experiments_cli import write_between_markers
+from online_study import rms_mm, true_tip_miss_mm
+from scipy.signal import butter, filtfilt
+
+from twin.analysis.learn import sheet as learner
+from twin.analysis.learn.cell import declared_process
+from twin.analysis.learn.split import measured_force_tip
+from twin.analysis.replay import spec_for_run
+from twin.base.signals import interp_rows
+from twin.process.force.learned import RADIAL_RISE_KEY, WEIGHT_KEYS
+from twin.runs.read import read_commanded_csv, read_run
+from twin.sim.model_file import read_model_file
+
+#: The cells, in the table's order (robot, whether the learner was built on it).
+CELLS = (("tx200", "development"), ("kr210", "held out"), ("irb6640", "held out"))
+#: The parts (file prefix in a learn_cell variant, name).
+PARTS = (("cone80_", "cone 80 x 8"), ("pyramid_", "pyramid"))
+#: Above this the robot's miss is the arm moving faster than a quasi-static robot [Hz].
+FAST_HZ = 0.5
+
+
+def _rms(e: np.ndarray) -> float:
+    return float(np.sqrt(np.mean(e**2)))
+
+
+def _rms_xy(stacked: np.ndarray, m: int) -> float:
+    """The rms length [N] of an in-plane force stacked as (Fx..., Fy...), m samples each."""
+    return float(np.sqrt(np.mean(stacked[:m] ** 2 + stacked[m:] ** 2)))
+
+
+def _fast_mm(miss_mm: np.ndarray, t_s: np.ndarray) -> float:
+    """The rms length [mm] of a miss's part above `FAST_HZ` (a zero-phase second-order high-pass)."""
+    fs = 1.0 / float(np.median(np.diff(t_s)))
+    b, a = butter(2, FAST_HZ / (0.5 * fs), "high")
+    return rms_mm(filtfilt(b, a, miss_mm, axis=0))
+
+
+def _learned_weights(process: Any) -> np.ndarray:
+    """The model's axial-force weights in `WEIGHT_KEYS` order: the learned ones, or the prior mean (the published
+    formula) where `learn` kept the declared model."""
+    if process.force_model != "learned":
+        return learner.PRIOR_MEAN.copy()
+    fit = dict(process.force_fit)
+    return np.array([fit.get(k, float(learner.PRIOR_MEAN[i])) for i, k in enumerate(WEIGHT_KEYS)])
+
+
+def part_limits(folder: Path, prefix: str) -> dict[str, float]:
+    """One part's numbers (module docstring) from a learn_cell variant folder."""
+    run_dir, ideal = folder / f"{prefix}learned_formed", folder / f"{prefix}path.csv"
+    run, spec = read_run(run_dir), read_model_file(folder / "learned.json")
+    miss = true_tip_miss_mm(run_dir, ideal)
+    truth = read_commanded_csv(run_dir / "truth_tip.csv")
+    true_tip = interp_rows(run.tracker.t_s, truth.t_s, truth.values)
+    robot_miss = 1e3 * (true_tip - measured_force_tip(run, spec_for_run(run, spec).build()))
+    rows = learner.sheet_rows(run, declared_process(run))
+    fz = rows.measured_n[:, 2]
+    learned = np.maximum(rows.terms @ _learned_weights(spec.process), 0.0)
+    cols = [0, *(WEIGHT_KEYS.index(k) for k in learner.CANDIDATES)]
+    library, *_ = np.linalg.lstsq(rows.terms[:, cols], fz, rcond=None)
+    plane = learner.in_plane_columns(rows, fz)
+    fxy = np.concatenate([rows.measured_n[:, 0], rows.measured_n[:, 1]])
+    fit = dict(spec.process.force_fit)
+    ratios = np.array([fit.get("mu_eff", spec.process.tool_friction), fit.get("mu_radial", 0.0),
+                       fit.get(RADIAL_RISE_KEY, 0.0)])
+    own, *_ = np.linalg.lstsq(plane, fxy, rcond=None)
+    m = len(fz)
+    return {"learned_fxy_n": _rms_xy(fxy - plane @ ratios, m), "library_fxy_n": _rms_xy(fxy - plane @ own, m),
+            "true_tip_mm": rms_mm(miss), "robot_mm": rms_mm(robot_miss),
+            "robot_fast_mm": _fast_mm(robot_miss, run.tracker.t_s),
+            "learned_fz_n": _rms(fz - learned), "library_fz_n": _rms(fz - rows.terms[:, cols] @ library)}
+
+
+def table(rows: list[dict[str, Any]]) -> str:
+    """The markdown table (module docstring)."""
+    lines = ["Each part compensated with the twin learned from the nominal cone and formed (neutral knobs, seed 3); "
+             "the robot driven by the run's own measured forces against the plant's true tip; the sheet's Fz along "
+             "the run's measured tip.", "",
+             f"| cell | part | true tip [mm] | robot with the run's own forces: all / above {FAST_HZ:g} Hz [mm] | "
+             "Fz rms: learned sheet (predicted) / the library fitted to the run itself [N] | "
+             "Fxy rms, given the measured Fz: learned / fitted to the run itself [N] |",
+             "|---|---|---|---|---|---|"]
+    for r in rows:
+        lines.append(f"| {r['cell']} | {r['part']} | {r['true_tip_mm']:.3f} | {r['robot_mm']:.3f} / "
+                     f"{r['robot_fast_mm']:.3f} | {r['learned_fz_n']:.0f} / {r['library_fz_n']:.0f} | "
+                     f"{r['learned_fxy_n']:.0f} / {r['library_fxy_n']:.0f} |")
+    return "\n".join(lines) + "\n"
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("out", type=Path)
+    parser.add_argument("--law1", type=Path, required=True, help="learn_cell.py's output on the plant's law 1")
+    parser.add_argument("--law2", type=Path, help="learn_cell.py's output with --plant-set sheet_law=2")
+    parser.add_argument("--doc", type=Path, help="write the table into this page between its markers")
+    args = parser.parse_args()
+    rows: list[dict[str, Any]] = []
+    for law, source in ((1, args.law1), (2, args.law2)):
+        if source is None:
+            continue
+        for robot, role in CELLS:
+            for prefix, part in PARTS:
+                row = {"cell": f"{robot}, sheet law {law} ({role})", "part": part,
+                       **part_limits(source / f"cone-{robot}", prefix)}
+                rows.append(row)
+                print(table([row]).splitlines()[-1], flush=True)
+    args.out.mkdir(parents=True, exist_ok=True)
+    (args.out / "offline_limits.json").write_text(json.dumps(rows, indent=1))
+    (args.out / "offline_limits.md").write_text(table(rows))
+    print(table(rows))
+    if args.doc is not None:
+        write_between_markers(args.doc, "offline-limits", table(rows))
+
+
+if __name__ == "__main__":
+    main()

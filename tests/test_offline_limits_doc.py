@@ -1,0 +1,69 @@
+"""docs/learning.md's words on what the offline targets ask are its generated table's
+(`experiments/offline_limits.py`, between the offline-limits markers): each claim is read off the table, with the
+tolerance of its words, and the numbers the words quote are the table's."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from doc_numbers import quoted
+
+PAGE = Path(__file__).resolve().parents[1] / "docs" / "learning.md"
+#: Issue #48's offline pyramid target [mm].
+PYRAMID_TARGET_MM = 0.15
+
+
+def _rows() -> list[dict[str, float | str]]:
+    page = PAGE.read_text(encoding="utf-8")
+    block = page[page.index("<!-- offline-limits:begin"):page.index("<!-- offline-limits:end")]
+    rows: list[dict[str, float | str]] = []
+    for line in block.splitlines():
+        if not line.startswith("| ") or line.startswith("| cell"):
+            continue
+        cell, part, true, robot, fz, fxy = (c.strip() for c in line.split("|")[1:-1])
+        (r_all, r_fast), (fz_l, fz_o), (xy_l, xy_o) = ([float(v) for v in c.split("/")] for c in (robot, fz, fxy))
+        rows.append({"robot": cell.split(",")[0], "law": 1 if "sheet law 1" in cell else 2, "part": part,
+                     "true": float(true), "robot_all": r_all, "robot_fast": r_fast, "fz_learned": fz_l,
+                     "fz_own": fz_o, "fxy_learned": xy_l, "fxy_own": xy_o})
+    return rows
+
+
+def _pick(rows: list[dict[str, float | str]], **match: object) -> list[dict[str, float | str]]:
+    return [r for r in rows if all(r[k] == v for k, v in match.items())]
+
+
+def test_the_words_on_what_the_offline_targets_ask_are_the_table_s() -> None:
+    rows = _rows()
+    assert len(rows) == 12 and {(r["robot"], r["law"]) for r in rows} == {
+        (robot, law) for robot in ("tx200", "kr210", "irb6640") for law in (1, 2)}
+    pyramids, cones = _pick(rows, part="pyramid"), _pick(rows, part="cone 80 x 8")
+    law1_pyr = [float(r["robot_all"]) for r in _pick(pyramids, law=1)]
+    held_law2_pyr = [float(_pick(pyramids, law=2, robot=robot)[0]["robot_all"]) for robot in ("kr210", "irb6640")]
+    cone_robot = [float(r["robot_all"]) for r in cones]
+    law2_cones = _pick(cones, law=2)
+    law1_pyr_own = [float(r["fz_own"]) for r in _pick(pyramids, law=1)]
+    # the page's numbers first (a guard before the claims)
+    words = quoted("learning.md", "on every cell but the TX200's on law 2:", 4)
+    words[0].check(min(law1_pyr))
+    words[1].check(max(law1_pyr))
+    words[2].check(held_law2_pyr[0])
+    words[3].check(held_law2_pyr[1])
+    robot_words = quoted("learning.md", "On the cones the robot\nleaves", 2)
+    robot_words[0].check(min(cone_robot))
+    robot_words[1].check(max(cone_robot))
+    sheet = quoted("learning.md", "on law 2 the learned sheet misses the wider cone's", 8)
+    for k, key in enumerate(("fz_learned", "fxy_learned", "fz_own", "fxy_own")):
+        values = [float(r[key]) for r in law2_cones]
+        sheet[2 * k].check(min(values))
+        sheet[2 * k + 1].check(max(values))
+    own = quoted("learning.md", "The library fitted to a law-1 pyramid\nitself still misses its Fz by", 2)
+    own[0].check(min(law1_pyr_own))
+    own[1].check(max(law1_pyr_own))
+    # "more than 0.15 mm on every cell but the TX200's on law 2"
+    for r in pyramids:
+        assert (float(r["robot_all"]) > PYRAMID_TARGET_MM) == (r["robot"] != "tx200" or r["law"] == 1), r
+        assert float(r["robot_fast"]) > 0.8 * float(r["robot_all"]), r  # "nearly all of it above 0.5 Hz"
+    for r in cones:  # "most of what is left there is the sheet's": the robot's under half of the mean square
+        assert float(r["robot_all"]) ** 2 < 0.5 * float(r["true"]) ** 2, r
+    for r in rows:  # the library fitted to the run itself is the floor of the learned sheet's form
+        assert float(r["fz_own"]) <= float(r["fz_learned"]) and float(r["fxy_own"]) <= float(r["fxy_learned"]) + 0.5, r
