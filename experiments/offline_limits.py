@@ -11,7 +11,8 @@ those two parts:
   transient; quasi-static, `twin.analysis.learn.split.measured_force_tip`) driven by the forces the run measured,
   against the same true tip. What is left there is what a compensation by that robot leaves even with a sheet model
   that knew the force exactly (a perfect sheet); its part above `FAST_HZ` is the arm moving faster than a
-  quasi-static robot does;
+  quasi-static robot does, and its share of the mean square within `NEAR_STOP_S` of a stop of the controller
+  (its commanded speed under half the run's median: a pyramid's corners);
 - **the sheet's force**: the learned sheet's axial force along the run's measured tip against its measured Fz
   (predicted: the sheet never saw the part), and the most the learner's library can take: the published formula
   and every candidate term fitted by least squares to that run itself (in-sample: the floor of the form, not a
@@ -54,6 +55,8 @@ CELLS = (("tx200", "development"), ("kr210", "held out"), ("irb6640", "held out"
 PARTS = (("cone80_", "cone 80 x 8"), ("pyramid_", "pyramid"))
 #: Above this the robot's miss is the arm moving faster than a quasi-static robot [Hz].
 FAST_HZ = 0.5
+#: Near a stop of the controller: within this of one [s] (`learn_cell.py`'s away-from-stops margin).
+NEAR_STOP_S = 0.3
 
 
 def _rms(e: np.ndarray) -> float:
@@ -70,6 +73,19 @@ def _fast_mm(miss_mm: np.ndarray, t_s: np.ndarray) -> float:
     fs = 1.0 / float(np.median(np.diff(t_s)))
     b, a = butter(2, FAST_HZ / (0.5 * fs), "high")
     return rms_mm(filtfilt(b, a, miss_mm, axis=0))
+
+
+def _near_stop_share(miss_mm: np.ndarray, run: Any) -> tuple[float, float]:
+    """The share of a miss's mean square at the tracker's samples within `NEAR_STOP_S` of a stop (where the
+    commanded speed falls under half the run's median), and the share of the samples there."""
+    t_c = run.commanded.t_s
+    speed = np.linalg.norm(np.gradient(run.commanded.values, t_c, axis=0), axis=1)
+    stops = t_c[speed < 0.5 * np.median(speed)]
+    if not len(stops):
+        return 0.0, 0.0
+    near = np.min(np.abs(run.tracker.t_s[:, None] - stops[None, :]), axis=1) < NEAR_STOP_S
+    square = np.sum(miss_mm**2, axis=1)
+    return float(np.sum(square[near]) / np.sum(square)), float(np.mean(near))
 
 
 def _learned_weights(process: Any) -> np.ndarray:
@@ -104,6 +120,7 @@ def part_limits(folder: Path, prefix: str) -> dict[str, float]:
     return {"learned_fxy_n": _rms_xy(fxy - plane @ ratios, m), "library_fxy_n": _rms_xy(fxy - plane @ own, m),
             "true_tip_mm": rms_mm(miss), "robot_mm": rms_mm(robot_miss),
             "robot_fast_mm": _fast_mm(robot_miss, run.tracker.t_s),
+            **dict(zip(("robot_near_stop", "samples_near_stop"), _near_stop_share(robot_miss, run), strict=True)),
             "learned_fz_n": _rms(fz - learned), "library_fz_n": _rms(fz - rows.terms[:, cols] @ library)}
 
 
@@ -112,13 +129,13 @@ def table(rows: list[dict[str, Any]]) -> str:
     lines = ["Each part compensated with the twin learned from the nominal cone and formed (neutral knobs, seed 3); "
              "the robot driven by the run's own measured forces against the plant's true tip; the sheet's Fz along "
              "the run's measured tip.", "",
-             f"| cell | part | true tip [mm] | robot with the run's own forces: all / above {FAST_HZ:g} Hz [mm] | "
+             f"| cell | part | true tip [mm] | robot with the run's own forces: all / above {FAST_HZ:g} Hz [mm]; its mean square's share within {NEAR_STOP_S:g} s of a stop, of the samples' | "
              "Fz rms: learned sheet (predicted) / the library fitted to the run itself [N] | "
              "Fxy rms, given the measured Fz: learned / fitted to the run itself [N] |",
              "|---|---|---|---|---|---|"]
     for r in rows:
         lines.append(f"| {r['cell']} | {r['part']} | {r['true_tip_mm']:.3f} | {r['robot_mm']:.3f} / "
-                     f"{r['robot_fast_mm']:.3f} | {r['learned_fz_n']:.0f} / {r['library_fz_n']:.0f} | "
+                     f"{r['robot_fast_mm']:.3f}; {r['robot_near_stop']:.2f} of {r['samples_near_stop']:.2f} | {r['learned_fz_n']:.0f} / {r['library_fz_n']:.0f} | "
                      f"{r['learned_fxy_n']:.0f} / {r['library_fxy_n']:.0f} |")
     return "\n".join(lines) + "\n"
 
