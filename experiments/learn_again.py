@@ -17,18 +17,14 @@ OUT/learn_again.json, OUT/learn_again.md and with `--doc` the table between the 
 
 from __future__ import annotations
 
-import argparse
 import json
 import shutil
 from pathlib import Path
 from typing import Any
 
 from experiments_cli import cli, cli_json, write_between_markers
-from learn_cell import OTHER_NAMES, VARIANTS
+from learn_cell import OTHER_NAMES, VARIANTS, cone_cells, cone_cells_parser
 from online_study import rms_mm, true_tip_miss_mm
-
-#: The cells, in the table's order (robot, whether the learner was built on it).
-CELLS = (("tx200", "development"), ("kr210", "held out"), ("irb6640", "held out"))
 
 
 def _judged(run_dir: Path, ideal: Path) -> dict[str, float]:
@@ -72,21 +68,12 @@ def table(rows: list[dict[str, Any]]) -> str:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("out", type=Path)
-    parser.add_argument("--law1", type=Path, required=True, help="learn_cell.py's output on the plant's law 1")
-    parser.add_argument("--law2", type=Path, help="learn_cell.py's output with --plant-set sheet_law=2")
-    parser.add_argument("--doc", type=Path, help="write the table into this page between its markers")
-    args = parser.parse_args()
+    args = cone_cells_parser(__doc__.splitlines()[0]).parse_args()
     rows: list[dict[str, Any]] = []
-    for law, source in ((1, args.law1), (2, args.law2)):
-        if source is None:
-            continue
-        plant_set = () if law == 1 else ("sheet_law=2",)
-        for robot, role in CELLS:
-            for row in cell_again(source / f"cone-{robot}", args.out / f"law{law}-{robot}", robot, plant_set):
-                rows.append({"cell": f"{robot}, sheet law {law} ({role})", **row})
-                print(table(rows[-1:]).splitlines()[-1], flush=True)
+    for cell, robot, folder, plant_set in cone_cells(args.law1, args.law2):
+        for row in cell_again(folder, args.out / cell.split(" (")[0].replace(", sheet law ", "-law"), robot, plant_set):
+            rows.append({"cell": cell, **row})
+            print(table(rows[-1:]).splitlines()[-1], flush=True)
     args.out.mkdir(parents=True, exist_ok=True)
     (args.out / "learn_again.json").write_text(json.dumps(rows, indent=1))
     (args.out / "learn_again.md").write_text(table(rows))

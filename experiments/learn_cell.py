@@ -18,6 +18,7 @@ from __future__ import annotations
 import argparse
 import json
 import shutil
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -44,6 +45,30 @@ OTHER_PARTS = {"pyramid_": ["--shape", "pyramid", "--top-width-mm", "40", "--dep
                "cone80_": ["--shape", "cone", "--top-width-mm", "80", "--depth-mm", "8"]}
 #: Their names in the table.
 OTHER_NAMES = {"pyramid_": "pyramid", "cone80_": "cone 80 x 8"}
+#: The cone variants' robots in the order of the studies that read this one's output, and whether the learner was
+#: built on each (`offline_limits.py`, `learn_again.py`).
+CONE_CELLS = (("tx200", "development"), ("kr210", "held out"), ("irb6640", "held out"))
+
+
+def cone_cells_parser(description: str) -> argparse.ArgumentParser:
+    """The command line of a study of this one's cone variants: OUT, `--law1 L1`, `--law2 L2`, `--doc PAGE`."""
+    parser = argparse.ArgumentParser(description=description)
+    parser.add_argument("out", type=Path)
+    parser.add_argument("--law1", type=Path, required=True, help="learn_cell.py's output on the plant's law 1")
+    parser.add_argument("--law2", type=Path, help="learn_cell.py's output with --plant-set sheet_law=2")
+    parser.add_argument("--doc", type=Path, help="write the table into this page between its markers")
+    return parser
+
+
+def cone_cells(law1: Path, law2: Path | None) -> Iterator[tuple[str, str, Path, tuple[str, ...]]]:
+    """The cone variants of this study's outputs on the plant's two laws (`law2` None: the first alone), in the
+    order of `CONE_CELLS`: (the cell's name in a table, its robot, the variant's folder, the plant knobs its runs
+    took)."""
+    for law, source in ((1, law1), (2, law2)):
+        if source is not None:
+            for robot, role in CONE_CELLS:
+                yield (f"{robot}, sheet law {law} ({role})", robot, source / f"cone-{robot}",
+                       () if law == 1 else ("sheet_law=2",))
 
 
 def _lab(robot: str, knobs: list[str], strength: float, command: Path, out: Path, seed: int,

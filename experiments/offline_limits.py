@@ -30,13 +30,13 @@ offline-limits markers:
 
 from __future__ import annotations
 
-import argparse
 import json
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from experiments_cli import write_between_markers
+from learn_cell import cone_cells, cone_cells_parser
 from online_study import rms_mm, true_tip_miss_mm
 from scipy.signal import butter, filtfilt
 
@@ -49,8 +49,6 @@ from twin.process.force.learned import RADIAL_RISE_KEY, WEIGHT_KEYS
 from twin.runs.read import read_commanded_csv, read_run
 from twin.sim.model_file import read_model_file
 
-#: The cells, in the table's order (robot, whether the learner was built on it).
-CELLS = (("tx200", "development"), ("kr210", "held out"), ("irb6640", "held out"))
 #: The parts (file prefix in a learn_cell variant, name).
 PARTS = (("cone80_", "cone 80 x 8"), ("pyramid_", "pyramid"))
 #: Above this the robot's miss is the arm moving faster than a quasi-static robot [Hz].
@@ -135,28 +133,19 @@ def table(rows: list[dict[str, Any]]) -> str:
              "|---|---|---|---|---|---|"]
     for r in rows:
         lines.append(f"| {r['cell']} | {r['part']} | {r['true_tip_mm']:.3f} | {r['robot_mm']:.3f} / "
-                     f"{r['robot_fast_mm']:.3f}; {r['robot_near_stop']:.2f} of {r['samples_near_stop']:.2f} | {r['learned_fz_n']:.0f} / {r['library_fz_n']:.0f} | "
+                     f"{r['robot_fast_mm']:.3f}; {r['robot_near_stop']:.2f} of {r['samples_near_stop']:.2f} | "
+                     f"{r['learned_fz_n']:.0f} / {r['library_fz_n']:.0f} | "
                      f"{r['learned_fxy_n']:.0f} / {r['library_fxy_n']:.0f} |")
     return "\n".join(lines) + "\n"
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("out", type=Path)
-    parser.add_argument("--law1", type=Path, required=True, help="learn_cell.py's output on the plant's law 1")
-    parser.add_argument("--law2", type=Path, help="learn_cell.py's output with --plant-set sheet_law=2")
-    parser.add_argument("--doc", type=Path, help="write the table into this page between its markers")
-    args = parser.parse_args()
+    args = cone_cells_parser(__doc__.splitlines()[0]).parse_args()
     rows: list[dict[str, Any]] = []
-    for law, source in ((1, args.law1), (2, args.law2)):
-        if source is None:
-            continue
-        for robot, role in CELLS:
-            for prefix, part in PARTS:
-                row = {"cell": f"{robot}, sheet law {law} ({role})", "part": part,
-                       **part_limits(source / f"cone-{robot}", prefix)}
-                rows.append(row)
-                print(table([row]).splitlines()[-1], flush=True)
+    for cell, _, folder, _ in cone_cells(args.law1, args.law2):
+        for prefix, part in PARTS:
+            rows.append({"cell": cell, "part": part, **part_limits(folder, prefix)})
+            print(table(rows[-1:]).splitlines()[-1], flush=True)
     args.out.mkdir(parents=True, exist_ok=True)
     (args.out / "offline_limits.json").write_text(json.dumps(rows, indent=1))
     (args.out / "offline_limits.md").write_text(table(rows))
