@@ -12,7 +12,7 @@ those two parts:
   against the same true tip. What is left there is what a compensation by that robot leaves even with a sheet model
   that knew the force exactly (a perfect sheet); its part above `FAST_HZ` is the arm moving faster than a
   quasi-static robot does, and its share of the mean square within `NEAR_STOP_S` of a stop of the controller
-  (its commanded speed under half the run's median: a pyramid's corners);
+  (`twin.analysis.learn.split.controller_stops`: a pyramid's corners);
 - **the sheet's force**: the learned sheet's axial force along the run's measured tip against its measured Fz
   (predicted: the sheet never saw the part), and the most the learner's library can take: the published formula
   and every candidate term fitted by least squares to that run itself (in-sample: the floor of the form, not a
@@ -38,11 +38,10 @@ import numpy as np
 from experiments_cli import write_between_markers
 from learn_cell import cone_cells, cone_cells_parser
 from online_study import rms_mm, true_tip_miss_mm
-from scipy.signal import butter, filtfilt
 
 from twin.analysis.learn import sheet as learner
 from twin.analysis.learn.cell import declared_process
-from twin.analysis.learn.split import measured_force_tip
+from twin.analysis.learn.split import FAST_HZ, NEAR_STOP_S, fast_part_mm, measured_force_tip, near_stop_shares
 from twin.analysis.replay import spec_for_run
 from twin.base.signals import interp_rows
 from twin.process.force.learned import RADIAL_RISE_KEY, WEIGHT_KEYS
@@ -51,10 +50,6 @@ from twin.sim.model_file import read_model_file
 
 #: The parts (file prefix in a learn_cell variant, name).
 PARTS = (("cone80_", "cone 80 x 8"), ("pyramid_", "pyramid"))
-#: Above this the robot's miss is the arm moving faster than a quasi-static robot [Hz].
-FAST_HZ = 0.5
-#: Near a stop of the controller: within this of one [s] (`learn_cell.py`'s away-from-stops margin).
-NEAR_STOP_S = 0.3
 
 
 def _rms(e: np.ndarray) -> float:
@@ -64,26 +59,6 @@ def _rms(e: np.ndarray) -> float:
 def _rms_xy(stacked: np.ndarray, m: int) -> float:
     """The rms length [N] of an in-plane force stacked as (Fx..., Fy...), m samples each."""
     return float(np.sqrt(np.mean(stacked[:m] ** 2 + stacked[m:] ** 2)))
-
-
-def _fast_mm(miss_mm: np.ndarray, t_s: np.ndarray) -> float:
-    """The rms length [mm] of a miss's part above `FAST_HZ` (a zero-phase second-order high-pass)."""
-    fs = 1.0 / float(np.median(np.diff(t_s)))
-    b, a = butter(2, FAST_HZ / (0.5 * fs), "high")
-    return rms_mm(filtfilt(b, a, miss_mm, axis=0))
-
-
-def _near_stop_share(miss_mm: np.ndarray, run: Any) -> tuple[float, float]:
-    """The share of a miss's mean square at the tracker's samples within `NEAR_STOP_S` of a stop (where the
-    commanded speed falls under half the run's median), and the share of the samples there."""
-    t_c = run.commanded.t_s
-    speed = np.linalg.norm(np.gradient(run.commanded.values, t_c, axis=0), axis=1)
-    stops = t_c[speed < 0.5 * np.median(speed)]
-    if not len(stops):
-        return 0.0, 0.0
-    near = np.min(np.abs(run.tracker.t_s[:, None] - stops[None, :]), axis=1) < NEAR_STOP_S
-    square = np.sum(miss_mm**2, axis=1)
-    return float(np.sum(square[near]) / np.sum(square)), float(np.mean(near))
 
 
 def _learned_weights(process: Any) -> np.ndarray:
@@ -102,7 +77,7 @@ def part_limits(folder: Path, prefix: str) -> dict[str, float]:
     miss = true_tip_miss_mm(run_dir, ideal)
     truth = read_commanded_csv(run_dir / "truth_tip.csv")
     true_tip = interp_rows(run.tracker.t_s, truth.t_s, truth.values)
-    robot_miss = 1e3 * (true_tip - measured_force_tip(run, spec_for_run(run, spec).build()))
+    robot_miss_m = true_tip - measured_force_tip(run, spec_for_run(run, spec).build())
     rows = learner.sheet_rows(run, declared_process(run))
     fz = rows.measured_n[:, 2]
     learned = np.maximum(rows.terms @ _learned_weights(spec.process), 0.0)
@@ -115,10 +90,11 @@ def part_limits(folder: Path, prefix: str) -> dict[str, float]:
                        fit.get(RADIAL_RISE_KEY, 0.0)])
     own, *_ = np.linalg.lstsq(plane, fxy, rcond=None)
     m = len(fz)
+    near = near_stop_shares(run, run.tracker.t_s, robot_miss_m)
     return {"learned_fxy_n": _rms_xy(fxy - plane @ ratios, m), "library_fxy_n": _rms_xy(fxy - plane @ own, m),
-            "true_tip_mm": rms_mm(miss), "robot_mm": rms_mm(robot_miss),
-            "robot_fast_mm": _fast_mm(robot_miss, run.tracker.t_s),
-            **dict(zip(("robot_near_stop", "samples_near_stop"), _near_stop_share(robot_miss, run), strict=True)),
+            "true_tip_mm": rms_mm(miss), "robot_mm": rms_mm(1e3 * robot_miss_m),
+            "robot_fast_mm": fast_part_mm(run.tracker.t_s, robot_miss_m),
+            "robot_near_stop": near[0], "samples_near_stop": near[1],
             "learned_fz_n": _rms(fz - learned), "library_fz_n": _rms(fz - rows.terms[:, cols] @ library)}
 
 

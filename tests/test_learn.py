@@ -102,11 +102,20 @@ def test_cli_learn_writes_a_model_replay_takes(plant_runs: dict[int, Path], tmp_
     assert metrics["robot_gap_rms_mm"] < 0.2 and metrics["sheet_gap_rms_mm"] < 0.2
 
 
-def test_the_untaught_gap_is_the_sheets(plant_runs: dict[int, Path], tmp_path: Path) -> None:
+def test_the_untaught_gap_is_the_sheets(plant_runs: dict[int, Path], tmp_path: Path,
+                                       capsys: pytest.CaptureFixture[str]) -> None:
     out = tmp_path / "r.json"
     assert main(["replay", str(plant_runs[2]), "--forces", "measured", "--json", str(out)]) == 0
     metrics = json.loads(out.read_text())
     assert metrics["sheet_gap_rms_mm"] > 3 * metrics["robot_gap_rms_mm"]
+    # where the robot's part lies (twin.analysis.learn.split): the groove's reversals are the controller's stops
+    fast, share, samples = (metrics[k] for k in ("robot_gap_fast_mm", "robot_gap_near_stop_share",
+                                                 "samples_near_stop_share"))
+    assert 0.0 < samples < 1.0 and 0.0 <= share <= 1.0 and 0.0 < fast <= metrics["robot_gap_rms_mm"]
+    printed = capsys.readouterr().out
+    assert (f"the robot's part: {fast:.3f} mm rms above 0.5 Hz" in printed
+            and f"{100 * share:.0f} % of its mean square within 0.3 s of the controller's stops, where "
+                f"{100 * samples:.0f} % of the samples are" in printed), printed
 
 
 def test_learn_refuses_a_run_without_forces(plant_runs: dict[int, Path], tmp_path: Path,

@@ -6,6 +6,11 @@ joint friction against the joints' motion and its servo's transient where it has
 what compliance, servo, backlash and friction the twin gets wrong. The difference between that tool tip and the
 one the twin predicts with its own forces is the sheet's part: where the forces the twin assumes move the tool
 elsewhere than the forces the cell measured.
+
+Where the robot's part lies says what a compensation can do with it: its part above `FAST_HZ` is the arm moving
+faster than a quasi-static robot follows, and its share of the mean square within `NEAR_STOP_S` of the
+controller's stops (a pyramid's corners, a groove's reversals), against the share of the samples there, says
+whether the stops hold it. docs/learning.md ("What the offline targets ask") has them on the plant's parts.
 """
 
 from __future__ import annotations
@@ -13,11 +18,17 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
+from scipy.signal import butter, filtfilt
 
 from twin.analysis.learn.robot import RobotFit, predicted_deflection, rms_norm_mm, robot_rows
 from twin.analysis.replay import ReplayResult
 from twin.runs.format import Run
 from twin.sim.quasi_static import Twin
+
+#: Above this a gap is the arm moving faster than a quasi-static robot follows [Hz].
+FAST_HZ = 0.5
+#: Near a stop of the controller: within this of one [s].
+NEAR_STOP_S = 0.3
 
 
 class GapSplit(NamedTuple):
@@ -26,10 +37,57 @@ class GapSplit(NamedTuple):
     Attributes:
         robot_rms_mm: RMS of the tracker minus the twin's robot driven by the measured forces.
         sheet_rms_mm: RMS of the twin's predicted tip minus that tip (what the twin's forces add).
+        robot_fast_mm: The robot's part above `FAST_HZ`, rms (`fast_part_mm`).
+        robot_near_stop: Its mean square's share within `NEAR_STOP_S` of a stop [-] (`near_stop_shares`).
+        samples_near_stop: The tracker samples' share there [-].
     """
 
     robot_rms_mm: float
     sheet_rms_mm: float
+    robot_fast_mm: float = float("nan")
+    robot_near_stop: float = float("nan")
+    samples_near_stop: float = float("nan")
+
+
+def fast_part_mm(t_s: np.ndarray, gap_m: np.ndarray) -> float:
+    """The rms length [mm] of a gap's part above `FAST_HZ`: a zero-phase second-order high-pass at the samples'
+    median rate (a tracker's stream, near enough uniform).
+
+    Args:
+        t_s: Sample times [s], (m,), m > 15.
+        gap_m: The gap at them [m], (m, 3).
+    """
+    rate_hz = 1.0 / float(np.median(np.diff(t_s)))
+    b, a = butter(2, min(FAST_HZ / (0.5 * rate_hz), 0.99), "high")
+    return rms_norm_mm(filtfilt(b, a, gap_m, axis=0))
+
+
+def controller_stops(run: Run) -> np.ndarray:
+    """The times [s] at which the run's command moves slower than half its median speed: the controller's stops
+    (a sharp corner's, a reversal's)."""
+    t_c = run.commanded.t_s
+    speed = np.linalg.norm(np.gradient(run.commanded.values, t_c, axis=0), axis=1)
+    return t_c[speed < 0.5 * np.median(speed)]
+
+
+def near_stop_shares(run: Run, t_s: np.ndarray, gap_m: np.ndarray) -> tuple[float, float]:
+    """(the share of a gap's mean square within `NEAR_STOP_S` of the run's stops, the samples' share there) [-];
+    (0, 0) for a run without stops.
+
+    Args:
+        run: The run (its command's stops, `controller_stops`).
+        t_s: Sample times [s], (m,).
+        gap_m: The gap at them [m], (m, 3).
+    """
+    stops = controller_stops(run)
+    if not len(stops):
+        return 0.0, 0.0
+    index = np.searchsorted(stops, t_s)
+    before, after = stops[np.clip(index - 1, 0, len(stops) - 1)], stops[np.clip(index, 0, len(stops) - 1)]
+    near = np.minimum(np.abs(t_s - before), np.abs(t_s - after)) < NEAR_STOP_S
+    square = np.sum(np.asarray(gap_m) ** 2, axis=1)
+    total = float(np.sum(square))
+    return (float(np.sum(square[near]) / total) if total > 0.0 else 0.0), float(np.mean(near))
 
 
 def measured_force_tip(run: Run, twin: Twin) -> np.ndarray:
@@ -44,4 +102,7 @@ def measured_force_tip(run: Run, twin: Twin) -> np.ndarray:
 def split_gap(run: Run, twin: Twin, replayed: ReplayResult) -> GapSplit:
     """Split `replayed`'s position gap (module docstring); `twin` is the one that replayed the run."""
     tip = measured_force_tip(run, twin)
-    return GapSplit(rms_norm_mm(run.tracker.values - tip), rms_norm_mm(replayed.tracker_pred_m - tip))
+    robot = run.tracker.values - tip
+    fast = fast_part_mm(run.tracker.t_s, robot) if len(robot) > 15 else float("nan")
+    return GapSplit(rms_norm_mm(robot), rms_norm_mm(replayed.tracker_pred_m - tip), fast,
+                    *near_stop_shares(run, run.tracker.t_s, robot))
