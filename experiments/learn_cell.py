@@ -139,25 +139,19 @@ def variant_study(out: Path, name: str, plant_set: tuple[str, ...] = (), reuse: 
     return row
 
 
-def _away_from_stops(run_dir: Path, ideal: Path, margin_s: float = 0.3) -> float:
-    """RMS residual [mm] over the tracker samples more than `margin_s` from any stop of the controller (where its
-    commanded speed falls below half the run's median): where a quasi-static compensation can reach."""
+def _away_from_stops(run_dir: Path, ideal: Path) -> float:
+    """RMS residual [mm] over the tracker samples more than 0.3 s from any stop of the controller
+    (`twin.analysis.learn.split.near_stops`): where a quasi-static compensation can reach."""
     import numpy as np
 
     from twin.analysis.check import check_run
+    from twin.analysis.learn.split import near_stops
     from twin.runs.read import read_run
 
     run, cmd = read_run(run_dir), read_commanded_csv(ideal)
     residual = check_run(run, cmd.t_s, cmd.values).residual_m
-    t_c = run.commanded.t_s
-    speed = np.linalg.norm(np.gradient(run.commanded.values, t_c, axis=0), axis=1)
-    stops = t_c[speed < 0.5 * np.median(speed)]
-    t = run.tracker.t_s
-    near = np.zeros(len(t), dtype=bool)
-    if len(stops):
-        index = np.clip(np.searchsorted(stops, t), 1, len(stops) - 1)
-        near = np.minimum(np.abs(t - stops[index - 1]), np.abs(t - stops[index])) < margin_s
-    return 1e3 * float(np.sqrt(np.mean(np.sum(residual[~near] ** 2, axis=1))))
+    far = ~near_stops(run, run.tracker.t_s)
+    return 1e3 * float(np.sqrt(np.mean(np.sum(residual[far] ** 2, axis=1))))
 
 
 def _less_offset(run_dir: Path, ideal: Path, offset_mm: list[float]) -> float:

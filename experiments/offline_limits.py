@@ -13,11 +13,11 @@ those two parts:
   that knew the force exactly (a perfect sheet); its part above `FAST_HZ` is the arm moving faster than a
   quasi-static robot does, and its share of the mean square within `NEAR_STOP_S` of a stop of the controller
   (`twin.analysis.learn.split.controller_stops`: a pyramid's corners);
-- **the sheet's force**: the learned sheet's axial force along the run's measured tip against its measured Fz
-  (predicted: the sheet never saw the part), and the most the learner's library can take: the published formula
-  and every candidate term fitted by least squares to that run itself (in-sample: the floor of the form, not a
-  prediction); the same for the force in the sheet's plane, its law given the measured Fz (`in_plane_columns`:
-  the learned ratios μ_t, μ_r, μ_ρ, and all three fitted to the run itself).
+- **the sheet's force**: the learned sheet's force along the run's measured tip against the measured force, axial
+  and in the sheet's plane (`sheet_learner_study.force_gap`: the model file's sheet itself; predicted, the sheet
+  never saw the part), and the most the learner's form can take: the published formula and every candidate term
+  fitted by least squares to that run's Fz, and the in-plane ratios μ_t, μ_r, μ_ρ fitted to its Fx, Fy with its
+  measured Fz (`in_plane_columns`; in-sample: the floor of the form, not a prediction).
 
 Writes OUT/offline_limits.json, OUT/offline_limits.md and with `--doc` the table between the page's
 offline-limits markers:
@@ -38,13 +38,14 @@ import numpy as np
 from experiments_cli import write_between_markers
 from learn_cell import cone_cells, cone_cells_parser
 from online_study import rms_mm, true_tip_miss_mm
+from sheet_learner_study import force_gap
 
 from twin.analysis.learn import sheet as learner
 from twin.analysis.learn.cell import declared_process
 from twin.analysis.learn.split import FAST_HZ, NEAR_STOP_S, fast_part_mm, measured_force_tip, near_stop_shares
 from twin.analysis.replay import spec_for_run
 from twin.base.signals import interp_rows
-from twin.process.force.learned import RADIAL_RISE_KEY, WEIGHT_KEYS
+from twin.process.force.learned import WEIGHT_KEYS
 from twin.runs.read import read_commanded_csv, read_run
 from twin.sim.model_file import read_model_file
 
@@ -61,15 +62,6 @@ def _rms_xy(stacked: np.ndarray, m: int) -> float:
     return float(np.sqrt(np.mean(stacked[:m] ** 2 + stacked[m:] ** 2)))
 
 
-def _learned_weights(process: Any) -> np.ndarray:
-    """The model's axial-force weights in `WEIGHT_KEYS` order: the learned ones, or the prior mean (the published
-    formula) where `learn` kept the declared model."""
-    if process.force_model != "learned":
-        return learner.PRIOR_MEAN.copy()
-    fit = dict(process.force_fit)
-    return np.array([fit.get(k, float(learner.PRIOR_MEAN[i])) for i, k in enumerate(WEIGHT_KEYS)])
-
-
 def part_limits(folder: Path, prefix: str) -> dict[str, float]:
     """One part's numbers (module docstring) from a learn_cell variant folder."""
     run_dir, ideal = folder / f"{prefix}learned_formed", folder / f"{prefix}path.csv"
@@ -79,23 +71,18 @@ def part_limits(folder: Path, prefix: str) -> dict[str, float]:
     true_tip = interp_rows(run.tracker.t_s, truth.t_s, truth.values)
     robot_miss_m = true_tip - measured_force_tip(run, spec_for_run(run, spec).build())
     rows = learner.sheet_rows(run, declared_process(run))
-    fz = rows.measured_n[:, 2]
-    learned = np.maximum(rows.terms @ _learned_weights(spec.process), 0.0)
+    fz, fxy, m = rows.measured_n[:, 2], np.concatenate([rows.measured_n[:, 0], rows.measured_n[:, 1]]), len(rows.t_s)
     cols = [0, *(WEIGHT_KEYS.index(k) for k in learner.CANDIDATES)]
     library, *_ = np.linalg.lstsq(rows.terms[:, cols], fz, rcond=None)
     plane = learner.in_plane_columns(rows, fz)
-    fxy = np.concatenate([rows.measured_n[:, 0], rows.measured_n[:, 1]])
-    fit = dict(spec.process.force_fit)
-    ratios = np.array([fit.get("mu_eff", spec.process.tool_friction), fit.get("mu_radial", 0.0),
-                       fit.get(RADIAL_RISE_KEY, 0.0)])
-    own, *_ = np.linalg.lstsq(plane, fxy, rcond=None)
-    m = len(fz)
+    ratios, *_ = np.linalg.lstsq(plane, fxy, rcond=None)
+    learned = force_gap(run_dir, spec.process)  # the learned model itself, along the run's measured tip
     near = near_stop_shares(run, run.tracker.t_s, robot_miss_m)
-    return {"learned_fxy_n": _rms_xy(fxy - plane @ ratios, m), "library_fxy_n": _rms_xy(fxy - plane @ own, m),
-            "true_tip_mm": rms_mm(miss), "robot_mm": rms_mm(1e3 * robot_miss_m),
+    return {"true_tip_mm": rms_mm(miss), "robot_mm": rms_mm(1e3 * robot_miss_m),
             "robot_fast_mm": fast_part_mm(run.tracker.t_s, robot_miss_m),
             "robot_near_stop": near[0], "samples_near_stop": near[1],
-            "learned_fz_n": _rms(fz - learned), "library_fz_n": _rms(fz - rows.terms[:, cols] @ library)}
+            "learned_fz_n": learned["fz_n"], "library_fz_n": _rms(fz - rows.terms[:, cols] @ library),
+            "learned_fxy_n": learned["plane_n"], "library_fxy_n": _rms_xy(fxy - plane @ ratios, m)}
 
 
 def table(rows: list[dict[str, Any]]) -> str:
@@ -105,7 +92,7 @@ def table(rows: list[dict[str, Any]]) -> str:
              "the run's measured tip.", "",
              f"| cell | part | true tip [mm] | robot with the run's own forces: all / above {FAST_HZ:g} Hz [mm]; its mean square's share within {NEAR_STOP_S:g} s of a stop, of the samples' | "
              "Fz rms: learned sheet (predicted) / the library fitted to the run itself [N] | "
-             "Fxy rms, given the measured Fz: learned / fitted to the run itself [N] |",
+             "Fxy rms: learned sheet (predicted) / its ratios fitted to the run itself with the measured Fz [N] |",
              "|---|---|---|---|---|---|"]
     for r in rows:
         lines.append(f"| {r['cell']} | {r['part']} | {r['true_tip_mm']:.3f} | {r['robot_mm']:.3f} / "

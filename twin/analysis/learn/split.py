@@ -37,16 +37,16 @@ class GapSplit(NamedTuple):
     Attributes:
         robot_rms_mm: RMS of the tracker minus the twin's robot driven by the measured forces.
         sheet_rms_mm: RMS of the twin's predicted tip minus that tip (what the twin's forces add).
-        robot_fast_mm: The robot's part above `FAST_HZ`, rms (`fast_part_mm`).
+        robot_fast_mm: The robot's part above `FAST_HZ`, rms (`fast_part_mm`; NaN for 15 samples or fewer).
         robot_near_stop: Its mean square's share within `NEAR_STOP_S` of a stop [-] (`near_stop_shares`).
         samples_near_stop: The tracker samples' share there [-].
     """
 
     robot_rms_mm: float
     sheet_rms_mm: float
-    robot_fast_mm: float = float("nan")
-    robot_near_stop: float = float("nan")
-    samples_near_stop: float = float("nan")
+    robot_fast_mm: float
+    robot_near_stop: float
+    samples_near_stop: float
 
 
 def fast_part_mm(t_s: np.ndarray, gap_m: np.ndarray) -> float:
@@ -70,6 +70,17 @@ def controller_stops(run: Run) -> np.ndarray:
     return t_c[speed < 0.5 * np.median(speed)]
 
 
+def near_stops(run: Run, t_s: np.ndarray) -> np.ndarray:
+    """Which of the times `t_s` [s], (m,), lie within `NEAR_STOP_S` of one of the run's stops (`controller_stops`),
+    (m,) bool: none for a run without stops."""
+    stops = controller_stops(run)
+    if not len(stops):
+        return np.zeros(len(t_s), dtype=bool)
+    index = np.searchsorted(stops, t_s)
+    before, after = stops[np.clip(index - 1, 0, len(stops) - 1)], stops[np.clip(index, 0, len(stops) - 1)]
+    return np.asarray(np.minimum(np.abs(t_s - before), np.abs(t_s - after)) < NEAR_STOP_S)
+
+
 def near_stop_shares(run: Run, t_s: np.ndarray, gap_m: np.ndarray) -> tuple[float, float]:
     """(the share of a gap's mean square within `NEAR_STOP_S` of the run's stops, the samples' share there) [-];
     (0, 0) for a run without stops.
@@ -79,12 +90,9 @@ def near_stop_shares(run: Run, t_s: np.ndarray, gap_m: np.ndarray) -> tuple[floa
         t_s: Sample times [s], (m,).
         gap_m: The gap at them [m], (m, 3).
     """
-    stops = controller_stops(run)
-    if not len(stops):
+    near = near_stops(run, t_s)
+    if not near.any():
         return 0.0, 0.0
-    index = np.searchsorted(stops, t_s)
-    before, after = stops[np.clip(index - 1, 0, len(stops) - 1)], stops[np.clip(index, 0, len(stops) - 1)]
-    near = np.minimum(np.abs(t_s - before), np.abs(t_s - after)) < NEAR_STOP_S
     square = np.sum(np.asarray(gap_m) ** 2, axis=1)
     total = float(np.sum(square))
     return (float(np.sum(square[near]) / total) if total > 0.0 else 0.0), float(np.mean(near))

@@ -74,10 +74,9 @@ class ReplayReport(Report):
         run_dir: The run replayed.
         spec: The twin it was replayed on.
         result: The prediction and its metrics (`twin.analysis.replay.replay_metrics`).
-        robot_gap_rms_mm: With forces="measured": the robot's part of the gap [mm rms], else None.
-        sheet_gap_rms_mm: With forces="measured": the sheet's part [mm rms], else None.
-        split: With forces="measured": the whole split (`twin.analysis.learn.split.GapSplit`: where the robot's
-            part lies, above 0.5 Hz and near the controller's stops), else None.
+        split: With forces="measured": the gap split into the robot's part and the sheet's, and where the robot's
+            part lies, above 0.5 Hz and near the controller's stops (`twin.analysis.learn.split.GapSplit`, [mm]);
+            else None.
         figure: The figure written, or None.
         servo: With dynamic: the servo of the dynamic replay (`twin.sim.dynamic.ServoModel`), the result the
             dynamic replay's; else None.
@@ -88,22 +87,18 @@ class ReplayReport(Report):
     run_dir: Path
     spec: TwinSpec
     result: ReplayResult
-    robot_gap_rms_mm: float | None = None
-    sheet_gap_rms_mm: float | None = None
+    split: GapSplit | None = None
     figure: Path | None = None
     servo: ServoModel | None = None
     quasi_static_rms_mm: float | None = None
     servo_fitted: bool = False
-    split: GapSplit | None = None
 
     def metrics(self) -> dict[str, Any]:
         """The replay's metrics, with the split when there is one."""
         m: dict[str, Any] = dict(self.result.metrics)
-        if self.robot_gap_rms_mm is not None:
-            m.update(robot_gap_rms_mm=self.robot_gap_rms_mm, sheet_gap_rms_mm=self.sheet_gap_rms_mm)
-        if self.split is not None:
-            m.update(robot_gap_fast_mm=self.split.robot_fast_mm, robot_gap_near_stop_share=self.split.robot_near_stop,
-                     samples_near_stop_share=self.split.samples_near_stop)
+        if (s := self.split) is not None:
+            m.update(robot_gap_rms_mm=s.robot_rms_mm, sheet_gap_rms_mm=s.sheet_rms_mm, robot_gap_fast_mm=s.robot_fast_mm,
+                     robot_gap_near_stop_share=s.robot_near_stop, samples_near_stop_share=s.samples_near_stop)
         if self.servo is not None:
             m.update(quasi_static_position_rms_mm=self.quasi_static_rms_mm, dynamic_servo={
                 **self.servo.to_json(), "fitted_on_this_run": self.servo_fitted})
@@ -119,18 +114,17 @@ class ReplayReport(Report):
             f"measured deflection max {m['deflection_max_mm']:.2f} mm; process {process.material}, "
             f"{1e3 * process.thickness_m:g} mm, {process.force_model} model"
         ]
-        if self.robot_gap_rms_mm is not None:
-            lines.append(f"  split: the robot's part (the twin's robot driven by the measured forces) "
-                         f"{self.robot_gap_rms_mm:.3f} mm rms; the sheet's part (what the twin's forces move the "
-                         f"tip by) {self.sheet_gap_rms_mm:.3f} mm rms")
-        if self.split is not None and self.split.samples_near_stop > 0.0:
+        if (s := self.split) is not None:
             from twin.analysis.learn.split import FAST_HZ, NEAR_STOP_S
 
-            s = self.split
+            lines.append(f"  split: the robot's part (the twin's robot driven by the measured forces) "
+                         f"{s.robot_rms_mm:.3f} mm rms; the sheet's part (what the twin's forces move the "
+                         f"tip by) {s.sheet_rms_mm:.3f} mm rms")
+            stops = "" if s.samples_near_stop == 0.0 else (
+                f"; {100 * s.robot_near_stop:.0f} % of its mean square within {NEAR_STOP_S:g} s of the "
+                f"controller's stops, where {100 * s.samples_near_stop:.0f} % of the samples are")
             lines.append(f"  the robot's part: {s.robot_fast_mm:.3f} mm rms above {FAST_HZ:g} Hz (faster than a "
-                         f"quasi-static robot follows); {100 * s.robot_near_stop:.0f} % of its mean square within "
-                         f"{NEAR_STOP_S:g} s of the controller's stops, where {100 * s.samples_near_stop:.0f} % of "
-                         "the samples are")
+                         f"quasi-static robot follows){stops}")
         if self.servo is not None:
             servo, whose = self.servo, "fitted on this run" if self.servo_fitted else "the model's (predicted)"
             lines.append(f"  dynamic (the arm stepped in time, docs/dynamic-twin.md), its servo {whose}: "
@@ -187,6 +181,5 @@ def replay_task(request: ReplayRequest, note: Note = silent) -> ReplayReport:
                              interp_rows(tracker.t_s, commanded.t_s, commanded.values),
                              title=f"replay of {request.run_dir}: measured vs simulated tool tip, minus the command")
         note(f"figure -> {figure}")
-    return ReplayReport(request.run_dir, spec, result, None if split is None else split.robot_rms_mm,
-                        None if split is None else split.sheet_rms_mm, figure, servo, quasi_static_rms,
-                        request.dynamic and spec.dynamic_servo is None, split)
+    return ReplayReport(request.run_dir, spec, result, split, figure, servo, quasi_static_rms,
+                        request.dynamic and spec.dynamic_servo is None)
