@@ -16,10 +16,14 @@ On `experiments/learn_cell.py`'s cone variants (the twin learned from the nomina
   (along the path; about the tool's radius), beside the samples' share there;
 - **the arm's answer to the measured force**: the learned robot driven by the run's measured forces
   (`twin.analysis.learn.split.measured_force_tip`: springs, sticking friction, servo transient) against the true
-  tip, each axis less its mean; then with a linear dynamic term added, each joint's torque from the measured force
-  through `TAPS` taps `TAP_S` apart (the arm's answer over 0.4 s, its servo's and modes' included), fitted by
-  ridge regression on another run and predicting this one: on the nominal run of the same pyramid (a run with the
-  same corners) and on the nominal cone the twin learned from (no corner).
+  tip; then with a linear dynamic term added: each joint's torque from the measured force, as it was `TAP_S` to
+  (`TAPS` - 1) x `TAP_S` earlier less as it is now (the arm's answer over 0.4 s, its servo's and modes' included;
+  nothing at rest, so the springs keep the static part), fitted by ridge regression (an offset per axis free) on
+  the tracker of another run and predicting this one: the nominal run of a 60 x 8 mm pyramid (another part, with
+  corners; seed 1) and the nominal cone the twin learned from (no corner);
+- **the next pyramid from this run's measured forces**: the command moved by the learned robot's predicted miss
+  with the forces this run measured (less the ideal path), without and with the dynamic term fitted on the 60 x 8
+  mm pyramid, and formed (seed 3): what a sheet known exactly, the last part's, leaves with that robot.
 
 The plant's `truth_tip.csv` is read on the experiment's side only. Writes OUT/pyramid_corners.json,
 OUT/pyramid_corners.md and with `--doc` the table between the page's pyramid-corners markers:
@@ -28,13 +32,15 @@ OUT/pyramid_corners.md and with `--doc` the table between the page's pyramid-cor
     .venv/bin/python experiments/learn_cell.py L2 --variants cone-tx200,cone-kr210,cone-irb6640 \\
         --plant-set sheet_law=2
     .venv/bin/python experiments/pyramid_corners.py OUT --law1 L1 --law2 L2 [--doc docs/learning.md]
+
+(about 2 minutes on top of `learn_cell.py`'s runs).
 """
 
 from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from experiments_cli import cli, write_between_markers
@@ -55,6 +61,8 @@ ROUND_MM = 1.0
 STOP_TURN_DEG = 30.0
 #: How near a corner along the path counts as at it [mm] (about the tool's radius, 7.5 mm).
 NEAR_CORNER_MM = 8.0
+#: The other pyramid the dynamic term is fitted on (`path`'s arguments): another part with corners.
+OTHER_PYRAMID = ("--shape", "pyramid", "--top-width-mm", "60", "--depth-mm", "8")
 #: The dynamic term's taps: how many, and how far apart [s].
 TAPS, TAP_S = 20, 0.02
 #: Its ridge: this share of the mean diagonal of the normal equations.
@@ -127,31 +135,70 @@ def near_corner_shares(run_dir: Path, ideal: Path, miss_mm: np.ndarray) -> tuple
     return float(np.sum(square[near]) / np.sum(square)), float(np.mean(near))
 
 
-def _arm(run_dir: Path, model: Path) -> tuple[np.ndarray, np.ndarray]:
-    """(the learned robot's miss of the true tip with the run's measured forces, each axis less its mean [m],
-    (m, 3); the dynamic term's columns on that run, (3m, dof * TAPS), each less its mean per axis)."""
+class Arm(NamedTuple):
+    """A run as the dynamic term sees it."""
+
+    predicted_m: np.ndarray  # the learned robot's tip with the run's measured forces, at the tracker, (m, 3) [m]
+    miss_m: np.ndarray  # the true tip or the tracker less it, (m, 3) [m]
+    columns: np.ndarray  # the dynamic term's columns, (3m, dof * (TAPS - 1)), stacked x, y, z
+    tracker_t_s: np.ndarray  # the tracker's times [s], (m,)
+
+
+def _arm(run_dir: Path, model: Path, truth: bool) -> Arm:
+    """The learned robot's miss of the run's true tip (`truth`; the experiment's side only) or of its tracker (what a
+    lab has), and the dynamic term's columns on that run."""
     run = read_run(run_dir)
     twin = spec_for_run(run, read_model_file(model)).build()
-    truth = read_commanded_csv(run_dir / "truth_tip.csv")
-    miss = interp_rows(run.tracker.t_s, truth.t_s, truth.values) - measured_force_tip(run, twin)
+    if truth:
+        tip = read_commanded_csv(run_dir / "truth_tip.csv")
+        seen = interp_rows(run.tracker.t_s, tip.t_s, tip.values)
+    else:
+        seen = run.tracker.values
     rows = robot_rows(run, twin)
-    m, dof = len(rows.t_s), rows.jacobian.shape[2]
+    dof = rows.jacobian.shape[2]
+    now = np.einsum("nij,ni->nj", rows.jacobian, interp_rows(rows.t_s, rows.force_t_s, rows.force_n))
     cols = []
     for j in range(dof):
-        for k in range(TAPS):
-            force = interp_rows(rows.t_s - k * TAP_S, rows.force_t_s, rows.force_n)
-            torque = np.einsum("nij,ni->n", rows.jacobian[:, :, j:j + 1], force)
-            cols.append((rows.jacobian[:, :, j] * torque[:, None]).T.reshape(-1))
-    x = np.array(cols).T.reshape(3, m, -1)
-    return miss - miss.mean(axis=0), (x - x.mean(axis=1, keepdims=True)).reshape(3 * m, -1)
+        for k in range(1, TAPS):
+            then = np.einsum("ni,ni->n", rows.jacobian[:, :, j], interp_rows(rows.t_s - k * TAP_S, rows.force_t_s,
+                                                                            rows.force_n))
+            cols.append((rows.jacobian[:, :, j] * (then - now[:, j])[:, None]).T.reshape(-1))
+    predicted = measured_force_tip(run, twin)
+    return Arm(predicted, seen - predicted, np.array(cols).T, run.tracker.t_s)
 
 
-def dynamic_term(train: list[tuple[np.ndarray, np.ndarray]]) -> np.ndarray:
-    """The dynamic term's coefficients fitted by ridge regression on runs' (`_arm`) misses."""
-    x = np.vstack([cols for _, cols in train])
-    y = np.concatenate([miss.T.reshape(-1) for miss, _ in train])
+def dynamic_term(arm: Arm) -> np.ndarray:
+    """The dynamic term's coefficients, fitted by ridge regression on a run's miss (`_arm`), its offset per axis
+    free."""
+    m = len(arm.tracker_t_s)
+    x = np.hstack([arm.columns, np.kron(np.eye(3), np.ones((m, 1)))])
     gram = x.T @ x
-    return np.linalg.solve(gram + RIDGE * np.mean(np.diag(gram)) * np.eye(len(gram)), x.T @ y)
+    ridge = RIDGE * np.mean(np.diag(gram)) * np.eye(len(gram))
+    ridge[-3:, -3:] = 0.0
+    return np.linalg.solve(gram + ridge, x.T @ arm.miss_m.T.reshape(-1))[:-3]
+
+
+def _robot_mm(arm: Arm, coef: np.ndarray | None) -> float:
+    """The rms of the robot's miss [mm], less the dynamic term with `coef` where given."""
+    miss = arm.miss_m if coef is None else arm.miss_m - (arm.columns @ coef).reshape(3, -1).T
+    return rms_mm(1e3 * miss)
+
+
+def next_command(old: Path, ideal: Path, run_dir: Path, arm: Arm, coef: np.ndarray | None, out: Path) -> Path:
+    """`old` (the command `run_dir` was formed with) less the learned robot's predicted miss of `ideal` with the
+    forces that run measured (and the dynamic term with `coef`), written as `out` in `old`'s columns."""
+    run, cmd, before = read_run(run_dir), read_commanded_csv(ideal), read_commanded_csv(old)
+    tip = arm.predicted_m if coef is None else arm.predicted_m + (arm.columns @ coef).reshape(3, -1).T
+    at_ideal = interp_rows(ideal_times(run.commanded.t_s, cmd.t_s), arm.tracker_t_s, tip)
+    p_mm = 1e3 * (before.values - (at_ideal - cmd.values))
+    lines = old.read_text(encoding="utf-8").splitlines()
+    header, rows = lines[0], [line.split(",") for line in lines[1:]]
+    cols = [header.split(",").index(c) for c in ("x_mm", "y_mm", "z_mm")]
+    for r, x in zip(rows, p_mm, strict=True):
+        for c, v in zip(cols, x, strict=True):
+            r[c] = f"{v:.4f}"
+    out.write_text("\n".join([header, *(",".join(r) for r in rows)]) + "\n", encoding="utf-8")
+    return out
 
 
 def cell_row(out: Path, robot: str, folder: Path, plant_set: tuple[str, ...]) -> dict[str, Any]:
@@ -163,25 +210,36 @@ def cell_row(out: Path, robot: str, folder: Path, plant_set: tuple[str, ...]) ->
     for old in (command, command.with_suffix(".compensation.json")):
         old.unlink(missing_ok=True)
     cli("compensate", "--method", "twin", "--model", str(model), "--ideal", str(path), "--out", str(command))
-    knobs = ("--plant", "dynamic", "--neutral", *(a for item in plant_set for a in ("--set", item)))
-    cli("lab", *knobs, "--scenario", "compensated", "--commanded", str(command), "--seed", "3", "--robot", robot,
-        "--out", str(formed), "--overwrite")
-    cli("lab", *knobs, "--scenario", "nominal", "--commanded", str(path), "--seed", "3", "--robot", robot, "--out",
-        str(out / "rounded_nominal"), "--overwrite")
+    knobs = ("--plant", "dynamic", "--neutral", *(a for item in plant_set for a in ("--set", item)), "--robot", robot,
+             "--overwrite")
+
+    def lab(program: Path, run_dir: Path, scenario: str, seed: int) -> Path:
+        cli("lab", *knobs, "--scenario", scenario, "--commanded", str(program), "--seed", str(seed), "--out",
+            str(run_dir))
+        return run_dir
+
+    lab(command, formed, "compensated", 3)
+    lab(path, out / "rounded_nominal", "nominal", 3)
+    other = out / "pyramid60.csv"
+    cli("path", *OTHER_PYRAMID, "--robot", robot, "--out", str(other))
+    terms = {"pyramid60": dynamic_term(_arm(lab(other, out / "pyramid60_nominal", "nominal", 1), model, False)),
+             "cone": dynamic_term(_arm(folder / "nominal1", model, False))}
     miss = true_tip_miss_mm(sharp, ideal)
     near, samples = near_corner_shares(sharp, ideal, miss)
-    target = _arm(sharp, model)
-    predicted = {name: target[0].T.reshape(-1) - target[1] @ dynamic_term([_arm(folder / run, model)])
-                 for name, run in (("pyramid", "pyramid_nominal"), ("cone", "nominal1"))}
-    return {"sharp_mm": rms_mm(miss), "sharp_stops_s": stop_seconds(sharp, ideal),
-            "rounded_mm": rms_mm(true_tip_miss_mm(formed, ideal)), "rounded_stops_s": stop_seconds(formed, path),
-            "rounding_mm": deviation, "near_corner": near, "samples_near_corner": samples,
-            "arm_mm": rms_mm(1e3 * target[0]),
-            "nominal_arm_mm": rms_mm(1e3 * _arm(folder / "pyramid_nominal", model)[0]),
-            "nominal_stops_s": stop_seconds(folder / "pyramid_nominal", ideal),
-            "rounded_nominal_arm_mm": rms_mm(1e3 * _arm(out / "rounded_nominal", model)[0]),
-            "rounded_nominal_stops_s": stop_seconds(out / "rounded_nominal", path),
-            **{f"arm_dynamic_{name}_mm": rms_mm(1e3 * e.reshape(3, -1).T) for name, e in predicted.items()}}
+    target = _arm(sharp, model, True)
+    row = {"sharp_mm": rms_mm(miss), "sharp_stops_s": stop_seconds(sharp, ideal),
+           "rounded_mm": rms_mm(true_tip_miss_mm(formed, ideal)), "rounded_stops_s": stop_seconds(formed, path),
+           "rounding_mm": deviation, "near_corner": near, "samples_near_corner": samples,
+           "nominal_arm_mm": _robot_mm(_arm(folder / "pyramid_nominal", model, True), None),
+           "nominal_stops_s": stop_seconds(folder / "pyramid_nominal", ideal),
+           "rounded_nominal_arm_mm": _robot_mm(_arm(out / "rounded_nominal", model, True), None),
+           "rounded_nominal_stops_s": stop_seconds(out / "rounded_nominal", path),
+           "arm_mm": _robot_mm(target, None),
+           **{f"arm_dynamic_{name}_mm": _robot_mm(target, coef) for name, coef in terms.items()}}
+    for name, coef in (("static", None), ("dynamic", terms["pyramid60"])):
+        program = next_command(folder / "pyramid_learned.csv", ideal, sharp, target, coef, out / f"next_{name}.csv")
+        row[f"next_{name}_mm"] = rms_mm(true_tip_miss_mm(lab(program, out / f"next_{name}", "compensated", 3), ideal))
+    return row
 
 
 def table(rows: list[dict[str, Any]]) -> str:
@@ -189,21 +247,23 @@ def table(rows: list[dict[str, Any]]) -> str:
     lines = [f"The pyramid compensated with the twin learned from the nominal cone, formed with seed 3 (neutral knobs)"
              f": its sharp corners, and each rounded {ROUND_MM:g} mm either side so that the controller does not stop "
              f"there (true tip against the sharp ideal path); where the sharp run misses; the learned robot driven by "
-             f"a run's measured forces against its true tip, each axis less its mean: on the nominal runs, sharp and "
-             f"rounded; on the compensated sharp run, alone and with a linear dynamic term of the force fitted on "
-             f"another run.", "",
+             f"a run's measured forces against its true tip: on the nominal runs, sharp and rounded; on the "
+             f"compensated sharp run, alone and with a linear dynamic term of the force fitted on another run's "
+             f"tracker; and the next pyramid, its command moved by that robot's predicted miss with the forces the "
+             f"compensated run measured.", "",
              "| cell | true tip, sharp corners [mm] (stops [s]) | rounded [mm] (stops [s]; the rounding alone [mm]) "
              "| nominal runs, robot with the run's forces [mm]: sharp (stops [s]) / rounded (stops [s]) "
              f"| share of the sharp run's mean square within {NEAR_CORNER_MM:g} mm of a corner, of the samples' | "
-             "robot with the run's forces [mm]: learned / + dynamic term fitted on the nominal pyramid / "
-             "on the nominal cone |", "|---|---|---|---|---|---|"]
+             "robot with the run's forces [mm]: learned / + dynamic term fitted on a 60 x 8 pyramid / "
+             "on the nominal cone | the next pyramid from the run's forces, true tip [mm]: learned robot / + dynamic "
+             "term |", "|---|---|---|---|---|---|---|"]
     for r in rows:
         lines.append(f"| {r['cell']} | {r['sharp_mm']:.3f} ({r['sharp_stops_s']:.1f}) | {r['rounded_mm']:.3f} "
                      f"({r['rounded_stops_s']:.1f}; {r['rounding_mm']:.3f}) | {r['nominal_arm_mm']:.3f} "
                      f"({r['nominal_stops_s']:.1f}) / {r['rounded_nominal_arm_mm']:.3f} "
                      f"({r['rounded_nominal_stops_s']:.1f}) | {r['near_corner']:.2f} of "
-                     f"{r['samples_near_corner']:.2f} | {r['arm_mm']:.3f} / {r['arm_dynamic_pyramid_mm']:.3f} / "
-                     f"{r['arm_dynamic_cone_mm']:.3f} |")
+                     f"{r['samples_near_corner']:.2f} | {r['arm_mm']:.3f} / {r['arm_dynamic_pyramid60_mm']:.3f} / "
+                     f"{r['arm_dynamic_cone_mm']:.3f} | {r['next_static_mm']:.3f} / {r['next_dynamic_mm']:.3f} |")
     return "\n".join(lines) + "\n"
 
 
