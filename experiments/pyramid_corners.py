@@ -21,9 +21,10 @@ On `experiments/learn_cell.py`'s cone variants (the twin learned from the nomina
   nothing at rest, so the springs keep the static part), fitted by ridge regression (an offset per axis free) on
   the tracker of another run and predicting this one: the nominal run of a 60 x 8 mm pyramid (another part, with
   corners; seed 1) and the nominal cone the twin learned from (no corner);
-- **the next pyramid from this run's measured forces**: the command moved by the learned robot's predicted miss
-  with the forces this run measured (less the ideal path), without and with the dynamic term fitted on the 60 x 8
-  mm pyramid, and formed (seed 3): what a sheet known exactly, the last part's, leaves with that robot.
+- **the next pyramid from this run's measured forces** (`compensate --forces-from`, `twin.analysis.next_part`): the
+  command moved by the learned robot's predicted miss with the forces this run measured, without and with the
+  dynamic term fitted on the 60 x 8 mm pyramid, and formed (seed 3): what a sheet known exactly, the last part's,
+  leaves with that robot.
 
 The plant's `truth_tip.csv` is read on the experiment's side only. Writes OUT/pyramid_corners.json,
 OUT/pyramid_corners.md and with `--doc` the table between the page's pyramid-corners markers:
@@ -50,9 +51,12 @@ from online_study import rms_mm, true_tip_miss_mm
 from twin.analysis.check import ideal_times
 from twin.analysis.learn.robot import robot_rows
 from twin.analysis.learn.split import measured_force_tip
+from twin.analysis.next_part import next_command
 from twin.analysis.replay import spec_for_run
 from twin.base.signals import interp_rows
+from twin.runs.format import Stream
 from twin.runs.read import read_commanded_csv, read_run
+from twin.runs.write import write_path_csv
 from twin.sim.model_file import read_model_file
 
 #: How far either side of a corner the rounded path leaves the sharp one [mm].
@@ -138,7 +142,6 @@ def near_corner_shares(run_dir: Path, ideal: Path, miss_mm: np.ndarray) -> tuple
 class Arm(NamedTuple):
     """A run as the dynamic term sees it."""
 
-    predicted_m: np.ndarray  # the learned robot's tip with the run's measured forces, at the tracker, (m, 3) [m]
     miss_m: np.ndarray  # the true tip or the tracker less it, (m, 3) [m]
     columns: np.ndarray  # the dynamic term's columns, (3m, dof * (TAPS - 1)), stacked x, y, z
     tracker_t_s: np.ndarray  # the tracker's times [s], (m,)
@@ -163,8 +166,7 @@ def _arm(run_dir: Path, model: Path, truth: bool) -> Arm:
             then = np.einsum("ni,ni->n", rows.jacobian[:, :, j], interp_rows(rows.t_s - k * TAP_S, rows.force_t_s,
                                                                             rows.force_n))
             cols.append((rows.jacobian[:, :, j] * (then - now[:, j])[:, None]).T.reshape(-1))
-    predicted = measured_force_tip(run, twin)
-    return Arm(predicted, seen - predicted, np.array(cols).T, run.tracker.t_s)
+    return Arm(seen - measured_force_tip(run, twin), np.array(cols).T, run.tracker.t_s)
 
 
 def dynamic_term(arm: Arm) -> np.ndarray:
@@ -184,20 +186,16 @@ def _robot_mm(arm: Arm, coef: np.ndarray | None) -> float:
     return rms_mm(1e3 * miss)
 
 
-def next_command(old: Path, ideal: Path, run_dir: Path, arm: Arm, coef: np.ndarray | None, out: Path) -> Path:
-    """`old` (the command `run_dir` was formed with) less the learned robot's predicted miss of `ideal` with the
-    forces that run measured (and the dynamic term with `coef`), written as `out` in `old`'s columns."""
-    run, cmd, before = read_run(run_dir), read_commanded_csv(ideal), read_commanded_csv(old)
-    tip = arm.predicted_m if coef is None else arm.predicted_m + (arm.columns @ coef).reshape(3, -1).T
-    at_ideal = interp_rows(ideal_times(run.commanded.t_s, cmd.t_s), arm.tracker_t_s, tip)
-    p_mm = 1e3 * (before.values - (at_ideal - cmd.values))
-    lines = old.read_text(encoding="utf-8").splitlines()
-    header, rows = lines[0], [line.split(",") for line in lines[1:]]
-    cols = [header.split(",").index(c) for c in ("x_mm", "y_mm", "z_mm")]
-    for r, x in zip(rows, p_mm, strict=True):
-        for c, v in zip(cols, x, strict=True):
-            r[c] = f"{v:.4f}"
-    out.write_text("\n".join([header, *(",".join(r) for r in rows)]) + "\n", encoding="utf-8")
+def next_part(ideal: Path, run_dir: Path, model: Path, arm: Arm, coef: np.ndarray | None, out: Path) -> Path:
+    """The next part's command from `run_dir`'s measured forces (`twin.analysis.next_part`, `compensate
+    --forces-from`), less the dynamic term with `coef` where given, written as `out`."""
+    run, cmd = read_run(run_dir), read_commanded_csv(ideal)
+    following = next_command(run, cmd.t_s, cmd.values, spec_for_run(run, read_model_file(model)).build())
+    p = following.p_cmd_sheet_m
+    if coef is not None:
+        t_run = ideal_times(run.commanded.t_s, cmd.t_s)
+        p = p - interp_rows(t_run, arm.tracker_t_s, (arm.columns @ coef).reshape(3, -1).T)
+    write_path_csv(Stream(cmd.t_s, p), out)
     return out
 
 
@@ -237,7 +235,7 @@ def cell_row(out: Path, robot: str, folder: Path, plant_set: tuple[str, ...]) ->
            "arm_mm": _robot_mm(target, None),
            **{f"arm_dynamic_{name}_mm": _robot_mm(target, coef) for name, coef in terms.items()}}
     for name, coef in (("static", None), ("dynamic", terms["pyramid60"])):
-        program = next_command(folder / "pyramid_learned.csv", ideal, sharp, target, coef, out / f"next_{name}.csv")
+        program = next_part(ideal, sharp, model, target, coef, out / f"next_{name}.csv")
         row[f"next_{name}_mm"] = rms_mm(true_tip_miss_mm(lab(program, out / f"next_{name}", "compensated", 3), ideal))
     return row
 

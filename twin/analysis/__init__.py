@@ -4,7 +4,8 @@ Modules: `resolve` (the one rule for which twin a task runs: the run's robot and
 process, the force model; the tool it simulates in `tool_choice`), `replay` (a run replayed on the twin, with the gap), `identify/` (K_R by Methods 1 and 2, K_q from K_R
 or by rollouts), `compensate` (offline compensation, formula or iterated on the twin, and its gain), `anderson` (the
 acceleration of that iteration), `off_sheet` (where that iteration leaves the tool off the sheet the ideal path is
-in), `compensate_dynamic` (the command iterated on the dynamic twin after it),
+in), `compensate_dynamic` (the command iterated on the dynamic twin after it), `next_part` (the next part's
+command from the last part's measured forces),
 `part_compensation` (the formed part to the design, springback included), `scan_learning` (the next part's
 command learned from the last part's scan, at the points each sample formed),
 `compensation_record` (what a compensation used, carried with its command into its runs), `check` (the check of a

@@ -41,6 +41,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--max-iter", type=count, default=TWIN_MAX_ITER, help="--method twin: iteration limit")
     parser.add_argument("--dynamic", action="store_true", help="--method twin: then iterate the command on the dynamic "
                         "twin, under the servo the model learned (`learn --dynamic`; docs/dynamic-twin.md)")
+    parser.add_argument("--forces-from", type=Path, metavar="RUN", help="--method twin: the next part from the "
+                        "last one's run of --ideal: its command less the twin's miss with the run's forces")
     _add_part_arguments(parser)
     parser.add_argument("--out", type=Path, required=True, help="compensated path, commanded.csv format")
     add_json_argument(parser, "the numbers")
@@ -53,21 +55,16 @@ def _add_part_arguments(parser: argparse.ArgumentParser) -> None:
                       help="design surface (STL, PLY or OBJ; sheet frame, mm, tool side, z = 0 at the sheet's top): "
                       "compensate so that the twin's part after unclamping lies on it, springback included")
     part.add_argument("--part-iterations", type=count, default=2, help="outer iterations on the part (default 2)")
-    part.add_argument("--learn-from", type=Path, metavar="RUN",
-                      help="the last part's run (its command, part scan and tool radius): the next command learned "
-                      "from its scan (--learn-at)")
+    part.add_argument("--learn-from", type=Path, metavar="RUN", help="the last part's run (its command, part "
+                      "scan and tool radius): the next command learned from its scan (--learn-at)")
     part.add_argument("--learn-at", choices=("twin", "formed", "tip"), default="twin",
-                      help="how the scan's error is learned: twin, as the part's miss of the twin's prediction, "
-                      "with the next command the twin's part compensation to the design minus that miss (needs "
-                      "--ideal); formed, the command moved by the error of the surface each sample formed (the "
-                      "tool resting on the design); tip, by the error under its own tip's x-y (default twin)")
+                      help="how the scan's error is learned: twin, the part's miss of the twin's (needs --ideal); "
+                      "formed, the error of the surface each sample formed; tip, under its tip (default twin)")
     part.add_argument("--learn-gain", type=finite, default=1.0, help="learning gain (0, 1] (default 1)")
-    part.add_argument("--learn-smoothing-mm", type=finite, default=2.0,
-                      help="Gaussian smoothing of the learned error, along the path (tip, formed) or over x-y "
-                      "(twin), > 0 (default 2)")
-    part.add_argument("--figure", type=Path, metavar="PNG",
-                      help="deviation maps from the design: the twin's predicted part at each iteration "
-                      "(with --learn-from: the last part's scan)")
+    part.add_argument("--learn-smoothing-mm", type=finite, default=2.0, help="Gaussian smoothing of the learned "
+                      "error, along the path (tip, formed) or over x-y (twin), > 0 (default 2)")
+    part.add_argument("--figure", type=Path, metavar="PNG", help="deviation maps from the design: the twin's "
+                      "predicted part at each iteration (with --learn-from: the last part's scan)")
     part.add_argument("--rrd", type=Path, metavar="RRD",
                       help="rerun recording: the design, and each iteration's surface coloured by its deviation")
 
@@ -75,6 +72,12 @@ def _add_part_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     """Compensate."""
     from twin.apps.tasks.compensate import CompensateRequest, compensate_task
+
+    if args.forces_from is not None:  # the next part from the last one's forces (`twin.apps.tasks.compensate_next`)
+        from twin.apps.tasks.compensate_next import next_part_request, next_part_task
+
+        following = next_part_request(vars(args))
+        return finish(args, next_part_task(following, note), protect=following.inputs())
     from twin.apps.tasks.inputs import HistoryDeclaration
 
     history = (HistoryDeclaration(args.history, args.symmetry, args.unchecked_symmetry) if args.target_stl is None

@@ -1,0 +1,97 @@
+"""`compensate --forces-from RUN`: the next part from the last part's measured forces (`twin.analysis.next_part`).
+
+On the dynamic plant's groove (neutral knobs, a cell the twin did not build), the untaught twin's robot driven by
+the nominal run's measured forces makes a command whose groove misses far less than the nominal one and than the
+untaught twin's own compensation (its sheet model's forces); the thresholds were set before the run. And a run that
+cannot give a next command is refused with exit 2, naming it.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from twin.analysis.compensation_record import read_record
+from twin.cli import main
+from twin.runs.read import read_commanded_csv, read_run
+
+
+def _true_miss_mm(run_dir: Path, ideal: Path) -> float:
+    """The plant's true tip (truth_tip.csv, read on the test's side) against the ideal path, rms [mm]."""
+    from twin.analysis.check import ideal_times
+    from twin.base.signals import interp_rows
+
+    run, cmd, tip = read_run(run_dir), read_commanded_csv(ideal), read_commanded_csv(run_dir / "truth_tip.csv")
+    ideal_at = interp_rows(run.tracker.t_s, ideal_times(run.commanded.t_s, cmd.t_s), cmd.values)
+    return 1e3 * float(np.sqrt(np.mean(np.sum((tip.values - ideal_at) ** 2, axis=1))))
+
+
+@pytest.fixture(scope="module")
+def groove(tmp_path_factory) -> Path:
+    ideal = tmp_path_factory.mktemp("next-part") / "groove.csv"
+    assert main(["path", "--shape", "groove", "--out", str(ideal)]) == 0
+    return ideal
+
+
+def _form(command: Path, out: Path) -> Path:
+    assert main(["lab", "--plant", "dynamic", "--neutral", "--scenario", "compensated", "--commanded", str(command),
+                 "--seed", "3", "--out", str(out)]) == 0
+    return out
+
+
+def test_the_next_groove_from_the_last_one_s_forces_misses_less_than_the_sheet_model_s(
+        neutral_groove_runs, groove: Path, tmp_path: Path) -> None:
+    nominal = neutral_groove_runs(1)
+    following, untaught = tmp_path / "next.csv", tmp_path / "untaught.csv"
+    assert main(["compensate", "--method", "twin", "--ideal", str(groove), "--forces-from", str(nominal),
+                 "--out", str(following)]) == 0
+    assert main(["compensate", "--method", "twin", "--ideal", str(groove), "--out", str(untaught)]) == 0
+    record = read_record(following)
+    assert record is not None and record.method == "twin"
+    measured = read_run(nominal).forces
+    assert measured is not None  # the record holds the forces the run measured, at the ideal's samples
+    assert np.max(np.abs(record.f_used_n[:, 2])) == pytest.approx(np.max(np.abs(measured.values[:, 2])), rel=0.05)
+    before = _true_miss_mm(nominal, groove)
+    after = _true_miss_mm(_form(following, tmp_path / "next_run"), groove)
+    model = _true_miss_mm(_form(untaught, tmp_path / "untaught_run"), groove)
+    assert after <= 0.25 * before
+    assert after <= 0.5 * model
+
+
+def test_a_run_that_cannot_give_the_next_command_is_refused(neutral_groove_runs, groove: Path, tmp_path: Path,
+                                                            capsys: pytest.CaptureFixture[str]) -> None:
+    nominal = neutral_groove_runs(1)
+    small, large = tmp_path / "small.csv", tmp_path / "large.csv"
+    assert main(["path", "--shape", "cone", "--top-width-mm", "30", "--depth-mm", "2", "--out", str(small)]) == 0
+    assert main(["path", "--shape", "cone", "--top-width-mm", "80", "--depth-mm", "8", "--out", str(large)]) == 0
+    capsys.readouterr()
+    out = tmp_path / "next.csv"
+    cases = [
+        (["--method", "twin", "--ideal", str(large)], "expected the run of that program"),  # longer than the run
+        (["--method", "twin", "--ideal", str(small)], "expected a run of that part"),  # within its time, elsewhere
+        (["--method", "formula", "--ideal", str(groove)], "expected --method twin"),
+        (["--method", "twin"], "needs --ideal PART.csv"),
+    ]
+    for extra, said in cases:
+        argv = ["compensate", "--forces-from", str(nominal), "--out", str(out), *extra]
+        assert main(argv) == 2, argv
+        err = capsys.readouterr().err
+        assert said in err and "Traceback" not in err, err
+        assert not out.exists()
+    # a program of the same length moved 10 mm: not a compensation of that path
+    moved = tmp_path / "moved.csv"
+    lines = groove.read_text(encoding="utf-8").splitlines()
+    z = lines[0].split(",").index("z_mm")
+    rows = [line.split(",") for line in lines[1:]]
+    for r in rows:
+        r[z] = f"{float(r[z]) - 10.0:.4f}"
+    moved.write_text("\n".join([lines[0], *(",".join(r) for r in rows)]) + "\n", encoding="utf-8")
+    assert main(["compensate", "--method", "twin", "--ideal", str(moved), "--forces-from", str(nominal),
+                 "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "mm (rms) from --ideal" in err and "expected a run of that part" in err
+    assert main(["compensate", "--method", "twin", "--ideal", str(groove), "--forces-from", str(tmp_path / "none"),
+                 "--out", str(out)]) == 2
+    assert not out.exists()

@@ -1,0 +1,86 @@
+"""The next part's command from the last part's measured forces.
+
+The last run of a part carries the force its sheet pushed the tool with along the whole path, as the F/T sensor
+measured it. For the next part of the same program that is the sheet's force known as well as a cell can know it,
+without a sheet model: the twin's robot (its joint springs, friction and servo transient, learned where the model
+file says so; `twin.analysis.learn.split.measured_force_tip`) driven by those forces predicts where the last run's
+tip was, and the next command is the last one moved by that predicted miss of the ideal path. It is the thesis's
+compensation (forces and a stiffness, Eq. 4.28) with the forces measured on the part itself instead of an FE model's
+(docs/thesis-reproduction.md), and a learning from part to part: repeated, the command follows the sheet as it
+answers a deeper tool with more force. The tracker is not read, so its registration error stays out of the command.
+
+What it cannot do: a part whose forces change from one run to the next more than the command does (a new sheet
+lot, another tool) carries the last part's forces over; a run of another program is refused.
+
+Measured on the dynamic plant: docs/learning.md ("The next part from the last part's forces").
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from twin.analysis.check import ideal_times
+from twin.analysis.learn.split import measured_force_tip
+from twin.base.signals import interp_rows
+from twin.errors import InputError
+from twin.runs.format import Run
+from twin.sim.quasi_static import Twin
+
+#: A run whose command lies further than this from the ideal path (rms) is of another program [m].
+SAME_PROGRAM_M = 0.005
+
+
+class NextCommand(NamedTuple):
+    """The next part's command (`next_command`).
+
+    Attributes:
+        t_s: The ideal path's sample times [s], (n,).
+        p_cmd_sheet_m: The next command at those samples, sheet frame [m], (n, 3).
+        miss_m: The last run's tip as the twin's robot predicts it with the measured forces, less the ideal path,
+            at its samples [m], (n, 3).
+        f_measured_n: The last run's measured force by the sheet on the tool at those samples, sheet frame [N],
+            (n, 3): the force the next command assumes.
+    """
+
+    t_s: np.ndarray
+    p_cmd_sheet_m: np.ndarray
+    miss_m: np.ndarray
+    f_measured_n: np.ndarray
+
+
+def next_command(run: Run, t_ideal_s: np.ndarray, p_ideal_sheet_m: np.ndarray, twin: Twin,
+                 ideal_name: str = "the ideal path") -> NextCommand:
+    """The next part's command: the last run's command less the twin's predicted miss with its measured forces.
+
+    Args:
+        run: The last part's run (its commanded stream and forces; the twin at its placement and robot).
+        t_ideal_s: The ideal path's sample times [s], (n,).
+        p_ideal_sheet_m: The ideal path, sheet frame [m], (n, 3).
+        twin: The twin whose robot predicts the tip (`twin.analysis.resolve.spec_for_run`'s, built).
+        ideal_name: How the ideal path is named in errors (the CLI: `--ideal FILE`).
+
+    Raises:
+        InputError: The run has no forces, does not span the ideal path's times, or its command is not a
+            compensation of that path (further than `SAME_PROGRAM_M` from it, rms).
+    """
+    if run.forces is None or len(run.forces.t_s) < 10:
+        raise InputError(f"run {run.directory}: no forces.csv (or fewer than 10 samples): expected the last part's "
+                         "run with its F/T sensor on")
+    t_ideal = np.asarray(t_ideal_s, dtype=float)
+    p_ideal = np.asarray(p_ideal_sheet_m, dtype=float)
+    t_run = ideal_times(run.commanded.t_s, t_ideal)  # the controller's re-timed program where it re-timed it
+    start, end = run.tracker.t_s[0], run.tracker.t_s[-1]
+    if t_run[0] < start - 0.1 or t_run[-1] > end + 0.1:
+        raise InputError(f"run {run.directory}: its tracker spans {start:.2f} to {end:.2f} s, {ideal_name} "
+                         f"{t_run[0]:.2f} to {t_run[-1]:.2f} s on its clock: expected the run of that program")
+    last = (run.commanded.values if len(run.commanded.t_s) == len(t_ideal)
+            else interp_rows(t_run, run.commanded.t_s, run.commanded.values))
+    apart = float(np.sqrt(np.mean(np.sum((last - p_ideal) ** 2, axis=1))))
+    if apart > SAME_PROGRAM_M:
+        raise InputError(f"run {run.directory}: its command lies {1e3 * apart:.1f} mm (rms) from {ideal_name}: "
+                         f"expected a run of that part (a command within {1e3 * SAME_PROGRAM_M:g} mm of it)")
+    tip = interp_rows(t_run, run.tracker.t_s, measured_force_tip(run, twin))
+    miss = tip - p_ideal
+    return NextCommand(t_ideal, last - miss, miss, interp_rows(t_run, run.forces.t_s, run.forces.values))

@@ -1,0 +1,112 @@
+"""`compensate --forces-from RUN`: the next part's command from the last part's run, its measured forces driving the
+twin's robot (`twin.analysis.next_part`), written as a command (commanded.csv format) with the record of the forces
+it assumed (`CMD.compensation.json`: the measured ones), so that `check` names a gain's cause as for any command.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from twin.analysis.compensation_record import CompensationRecord, write_record
+from twin.analysis.next_part import NextCommand, next_command
+from twin.analysis.resolve import resolve_spec, spec_for_run
+from twin.apps.tasks.base import Note, Report, silent
+from twin.apps.tasks.compensate import write_command
+from twin.apps.tasks.inputs import ideal_path
+from twin.errors import InputError
+from twin.runs.read import read_run
+from twin.sim.spec import TwinSpec
+
+
+@dataclass(frozen=True)
+class NextPartRequest:
+    """The next part from the last one.
+
+    Attributes:
+        forces_from: The last part's run (its command and measured forces).
+        ideal: The part's ideal path U_ID (CSV t_s, x_mm, y_mm, z_mm), the program the run formed.
+        out: The command to write (commanded.csv format; its record goes beside it).
+        model: A model file (the learned robot), or None (the run's robot with its shipped model).
+        robot: A robot name or description file, or None (the run's).
+        cell: A `--cell` file's record (`CellDeclaration.record`), or None.
+    """
+
+    forces_from: Path
+    ideal: Path
+    out: Path
+    model: Path | None = None
+    robot: str | None = None
+    cell: Mapping[str, Any] | None = None
+
+    def inputs(self) -> list[Path]:
+        """The files it reads (which its outputs must not replace)."""
+        return [p for p in (self.forces_from, self.ideal, self.model) if p is not None]
+
+
+#: The `compensate` options that do not go with `--forces-from` (their value when not given).
+OTHER_SOURCES = {"stiffness": None, "history": None, "target_stl": None, "learn_from": None, "dynamic": False}
+
+
+def next_part_request(options: Mapping[str, Any]) -> NextPartRequest:
+    """The request from `compensate`'s options (the CLI's, by name), or an `InputError` naming what does not go with
+    `--forces-from`: another method, another source of the command's forces, the part or the dynamic twin."""
+    forces_from, ideal = options["forces_from"], options.get("ideal")
+    if ideal is None:
+        raise InputError(f"--forces-from {forces_from} needs --ideal PART.csv: the program that run formed")
+    given = [f"--{k.replace('_', '-')} {options[k]}" for k, unset in OTHER_SOURCES.items()
+             if options.get(k, unset) != unset]
+    if options.get("method", "twin") != "twin":
+        given.insert(0, f"--method {options['method']}")
+    if given:
+        raise InputError(f"--forces-from {forces_from}: expected --method twin and no other source of the command's "
+                         f"forces; got {', '.join(given)}")
+    return NextPartRequest(forces_from, ideal, options["out"], model=options.get("model"), robot=options.get("robot"),
+                           cell=options.get("cell_record"))
+
+
+@dataclass(frozen=True)
+class NextPartReport(Report):
+    """The next command and what the twin's robot saw of the last part."""
+
+    request: NextPartRequest
+    spec: TwinSpec
+    next: NextCommand
+    record_file: Path
+
+    def lines(self) -> list[str]:
+        miss_mm = 1e3 * np.linalg.norm(self.next.miss_m, axis=1)
+        return [f"compensate (the next part, {self.spec.robot.name}'s twin with {self.request.forces_from}'s measured "
+                f"forces): the last part's tip as the twin predicts it missed {self.request.ideal} by "
+                f"{float(np.sqrt(np.mean(miss_mm**2))):.3f} mm rms (max {float(np.max(miss_mm)):.2f}); the last "
+                f"command moved by that miss -> {self.request.out}",
+                f"  record: {self.record_file} (the forces it assumes: the last part's, measured)"]
+
+    def record(self) -> dict[str, Any]:
+        miss_mm = 1e3 * np.linalg.norm(self.next.miss_m, axis=1)
+        return {"method": "twin", "forces_from": str(self.request.forces_from), "ideal": str(self.request.ideal),
+                "out": str(self.request.out), "robot": self.spec.robot.name, "samples": len(self.next.t_s),
+                "last_predicted_miss_rms_mm": float(np.sqrt(np.mean(miss_mm**2))),
+                "last_predicted_miss_max_mm": float(np.max(miss_mm)), "record": str(self.record_file)}
+
+
+def next_part_task(request: NextPartRequest, note: Note = silent) -> NextPartReport:
+    """Write the next part's command (module docstring).
+
+    Raises:
+        InputError: The run or the ideal path cannot give it (`twin.analysis.next_part.next_command`).
+    """
+    if request.out.resolve() in {p.resolve() for p in request.inputs()}:
+        raise InputError(f"--out {request.out} is one of the inputs; expected a new file")
+    run = read_run(request.forces_from)
+    ideal = ideal_path(request.ideal)
+    spec = spec_for_run(run, resolve_spec(cell=request.cell, model=request.model, robot=request.robot, run=run,
+                                          p_sheet_m=ideal.p_sheet_m, note=note))
+    nxt = next_command(run, ideal.t_s, ideal.p_sheet_m, spec.build(), f"--ideal {request.ideal}")
+    write_command(request.out, nxt.t_s, nxt.p_cmd_sheet_m, request.inputs())
+    record_file = write_record(request.out, CompensationRecord("twin", nxt.t_s, nxt.f_measured_n))
+    return NextPartReport(request, spec, nxt, record_file)
