@@ -69,8 +69,8 @@ def test_a_run_that_cannot_give_the_next_command_is_refused(neutral_groove_runs,
     capsys.readouterr()
     out = tmp_path / "next.csv"
     cases = [
-        (["--method", "twin", "--ideal", str(large)], "expected the run of that program"),  # longer than the run
-        (["--method", "twin", "--ideal", str(small)], "expected a run of that part"),  # within its time, elsewhere
+        (["--method", "twin", "--ideal", str(large)], "expected a run of that part"),  # another program, longer
+        (["--method", "twin", "--ideal", str(small)], "expected a run of that part"),  # another, shorter
         (["--method", "formula", "--ideal", str(groove)], "expected --method twin"),
         (["--method", "twin"], "needs --ideal PART.csv"),
     ]
@@ -95,3 +95,28 @@ def test_a_run_that_cannot_give_the_next_command_is_refused(neutral_groove_runs,
     assert main(["compensate", "--method", "twin", "--ideal", str(groove), "--forces-from", str(tmp_path / "none"),
                  "--out", str(out)]) == 2
     assert not out.exists()
+
+
+def test_a_controller_s_log_at_its_own_rate_gives_the_same_next_command(neutral_groove_runs, groove: Path,
+                                                                        tmp_path: Path) -> None:
+    """The run's commanded stream as a controller logs it (every 12 ms, its stops included) instead of the program's
+    samples: each ideal sample is placed by the share of the path travelled, and the command comes out the same."""
+    from dataclasses import replace
+
+    from twin.base.signals import interp_rows
+    from twin.runs.format import Stream
+    from twin.runs.write import write_run
+
+    nominal = neutral_groove_runs(1)
+    run = read_run(nominal)
+    t_log = np.arange(run.commanded.t_s[0], run.commanded.t_s[-1], 0.012)
+    logged = replace(run, commanded=Stream(t_log, interp_rows(t_log, run.commanded.t_s, run.commanded.values)))
+    write_run(tmp_path / "logged", logged)
+    commands = []
+    for source, out in ((nominal, tmp_path / "a.csv"), (tmp_path / "logged", tmp_path / "b.csv")):
+        assert main(["compensate", "--method", "twin", "--ideal", str(groove), "--forces-from", str(source),
+                     "--out", str(out)]) == 0
+        commands.append(read_commanded_csv(out).values)
+    assert len(read_run(tmp_path / "logged").commanded.t_s) != len(commands[0])
+    apart_mm = 1e3 * np.sqrt(np.mean(np.sum((commands[1] - commands[0]) ** 2, axis=1)))
+    assert apart_mm < 0.05, apart_mm

@@ -9,8 +9,15 @@ compensation (forces and a stiffness, Eq. 4.28) with the forces measured on the 
 (docs/thesis-reproduction.md), and a learning from part to part: repeated, the command follows the sheet as it
 answers a deeper tool with more force. The tracker is not read, so its registration error stays out of the command.
 
+Which sample of the run is which of the ideal path: a run whose commanded stream has as many samples as the ideal
+path is the same program re-timed by its controller (stops at the corners; `twin.analysis.check.ideal_times`), sample
+for sample; a controller's log at its own rate is placed by the share of its length it has travelled, so its stops
+(time without travel) do not shift it.
+
 What it cannot do: a part whose forces change from one run to the next more than the command does (a new sheet
-lot, another tool) carries the last part's forces over; a run of another program is refused.
+lot, another tool) carries the last part's forces over; a run of another program is refused; a log that holds more
+than the program (an approach from home) is placed wrong, and refused where that leaves its command too far from the
+ideal path.
 
 Measured on the dynamic plant: docs/learning.md ("The next part from the last part's forces").
 """
@@ -50,6 +57,23 @@ class NextCommand(NamedTuple):
     f_measured_n: np.ndarray
 
 
+def _arc(p: np.ndarray) -> np.ndarray:
+    return np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(p, axis=0), axis=1))]
+
+
+def run_times(run: Run, t_ideal_s: np.ndarray, p_ideal_sheet_m: np.ndarray) -> np.ndarray:
+    """The run's clock time of each ideal sample [s], (n,) (module docstring): the commanded stream's own where it has
+    as many samples as the ideal path, else where it has travelled the share of its length the ideal has."""
+    t_cmd = np.asarray(run.commanded.t_s, dtype=float)
+    if len(t_cmd) == len(t_ideal_s):
+        return ideal_times(t_cmd, t_ideal_s)
+    s_run, s_ideal = _arc(run.commanded.values), _arc(np.asarray(p_ideal_sheet_m, dtype=float))
+    if s_run[-1] <= 0.0 or s_ideal[-1] <= 0.0:
+        return np.asarray(t_ideal_s, dtype=float)
+    rising = s_run + 1e-12 * np.arange(len(s_run))  # a stop travels nothing: its first sample is where it is reached
+    return np.interp(s_ideal / s_ideal[-1] * s_run[-1], rising, t_cmd)
+
+
 def next_command(run: Run, t_ideal_s: np.ndarray, p_ideal_sheet_m: np.ndarray, twin: Twin,
                  ideal_name: str = "the ideal path") -> NextCommand:
     """The next part's command: the last run's command less the twin's predicted miss with its measured forces.
@@ -70,7 +94,7 @@ def next_command(run: Run, t_ideal_s: np.ndarray, p_ideal_sheet_m: np.ndarray, t
                          "run with its F/T sensor on")
     t_ideal = np.asarray(t_ideal_s, dtype=float)
     p_ideal = np.asarray(p_ideal_sheet_m, dtype=float)
-    t_run = ideal_times(run.commanded.t_s, t_ideal)  # the controller's re-timed program where it re-timed it
+    t_run = run_times(run, t_ideal, p_ideal)
     start, end = run.tracker.t_s[0], run.tracker.t_s[-1]
     if t_run[0] < start - 0.1 or t_run[-1] > end + 0.1:
         raise InputError(f"run {run.directory}: its tracker spans {start:.2f} to {end:.2f} s, {ideal_name} "
