@@ -3,8 +3,10 @@
 The last run of a part carries the force its sheet pushed the tool with along the whole path, as the F/T sensor
 measured it. For the next part of the same program that is the sheet's force known as well as a cell can know it,
 without a sheet model: the twin's robot (its joint springs, friction and servo transient, learned where the model
-file says so; `twin.analysis.learn.split.measured_force_tip`) driven by those forces predicts where the last run's
-tip was, and the next command is the last one moved by that predicted miss of the ideal path. It is the thesis's
+file says so; `twin.analysis.learn.split.measured_force_tip`) driven by those forces, along the last run's command,
+deflects the tool by some amount, and the next command is the ideal path less that deflection (the last command
+moved by the last tip's predicted miss comes to the same). A run compensated online is taken as well: its logged
+command leaves out the online correction, and the deflection under its forces does not need it. It is the thesis's
 compensation (forces and a stiffness, Eq. 4.28) with the forces measured on the part itself instead of an FE model's
 (docs/thesis-reproduction.md), and a learning from part to part: repeated, the command follows the sheet as it
 answers a deeper tool with more force. The tracker is not read, so its registration error stays out of the command.
@@ -45,15 +47,15 @@ class NextCommand(NamedTuple):
     Attributes:
         t_s: The ideal path's sample times [s], (n,).
         p_cmd_sheet_m: The next command at those samples, sheet frame [m], (n, 3).
-        miss_m: The last run's tip as the twin's robot predicts it with the measured forces, less the ideal path,
-            at its samples [m], (n, 3).
+        deflection_m: The twin's robot's deflection of the tool under the last run's measured forces, along its
+            command, at the ideal's samples [m], (n, 3).
         f_measured_n: The last run's measured force by the sheet on the tool at those samples, sheet frame [N],
             (n, 3): the force the next command assumes.
     """
 
     t_s: np.ndarray
     p_cmd_sheet_m: np.ndarray
-    miss_m: np.ndarray
+    deflection_m: np.ndarray
     f_measured_n: np.ndarray
 
 
@@ -76,7 +78,7 @@ def run_times(run: Run, t_ideal_s: np.ndarray, p_ideal_sheet_m: np.ndarray) -> n
 
 def next_command(run: Run, t_ideal_s: np.ndarray, p_ideal_sheet_m: np.ndarray, twin: Twin,
                  ideal_name: str = "the ideal path") -> NextCommand:
-    """The next part's command: the last run's command less the twin's predicted miss with its measured forces.
+    """The next part's command: the ideal path less the twin's deflection under the last run's measured forces.
 
     Args:
         run: The last part's run (its commanded stream and forces; the twin at its placement and robot).
@@ -105,6 +107,7 @@ def next_command(run: Run, t_ideal_s: np.ndarray, p_ideal_sheet_m: np.ndarray, t
     if apart > SAME_PROGRAM_M:
         raise InputError(f"run {run.directory}: its command lies {1e3 * apart:.1f} mm (rms) from {ideal_name}: "
                          f"expected a run of that part (a command within {1e3 * SAME_PROGRAM_M:g} mm of it)")
-    tip = interp_rows(t_run, run.tracker.t_s, measured_force_tip(run, twin))
-    miss = tip - p_ideal
-    return NextCommand(t_ideal, last - miss, miss, interp_rows(t_run, run.forces.t_s, run.forces.values))
+    unloaded = interp_rows(run.tracker.t_s, run.commanded.t_s, run.commanded.values)
+    deflection = interp_rows(t_run, run.tracker.t_s, measured_force_tip(run, twin) - unloaded)
+    return NextCommand(t_ideal, p_ideal - deflection, deflection,
+                       interp_rows(t_run, run.forces.t_s, run.forces.values))

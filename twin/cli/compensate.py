@@ -42,7 +42,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--dynamic", action="store_true", help="--method twin: then iterate the command on the dynamic "
                         "twin, under the servo the model learned (`learn --dynamic`; docs/dynamic-twin.md)")
     parser.add_argument("--forces-from", type=Path, metavar="RUN", help="--method twin: the next part from the "
-                        "last one's run of --ideal: its command less the twin's miss with the run's forces")
+                        "last one's run of --ideal: the ideal less the twin's deflection under the run's forces")
     _add_part_arguments(parser)
     parser.add_argument("--out", type=Path, required=True, help="compensated path, commanded.csv format")
     add_json_argument(parser, "the numbers")

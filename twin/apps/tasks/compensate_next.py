@@ -79,19 +79,18 @@ class NextPartReport(Report):
     record_file: Path
 
     def lines(self) -> list[str]:
-        miss_mm = 1e3 * np.linalg.norm(self.next.miss_m, axis=1)
-        return [f"compensate (the next part, {self.spec.robot.name}'s twin with {self.request.forces_from}'s measured "
-                f"forces): the last part's tip as the twin predicts it missed {self.request.ideal} by "
-                f"{float(np.sqrt(np.mean(miss_mm**2))):.3f} mm rms (max {float(np.max(miss_mm)):.2f}); the last "
-                f"command moved by that miss -> {self.request.out}",
+        bend_mm = 1e3 * np.linalg.norm(self.next.deflection_m, axis=1)
+        return [f"compensate (the next part): {self.spec.robot.name}'s twin deflects the tool by "
+                f"{float(np.sqrt(np.mean(bend_mm**2))):.3f} mm rms (max {float(np.max(bend_mm)):.2f}) under the forces "
+                f"{self.request.forces_from} measured; {self.request.ideal} less that -> {self.request.out}",
                 f"  record: {self.record_file} (the forces it assumes: the last part's, measured)"]
 
     def record(self) -> dict[str, Any]:
-        miss_mm = 1e3 * np.linalg.norm(self.next.miss_m, axis=1)
+        bend_mm = 1e3 * np.linalg.norm(self.next.deflection_m, axis=1)
         return {"method": "twin", "forces_from": str(self.request.forces_from), "ideal": str(self.request.ideal),
                 "out": str(self.request.out), "robot": self.spec.robot.name, "samples": len(self.next.t_s),
-                "last_predicted_miss_rms_mm": float(np.sqrt(np.mean(miss_mm**2))),
-                "last_predicted_miss_max_mm": float(np.max(miss_mm)), "record": str(self.record_file)}
+                "deflection_rms_mm": float(np.sqrt(np.mean(bend_mm**2))),
+                "deflection_max_mm": float(np.max(bend_mm)), "record": str(self.record_file)}
 
 
 def next_part_task(request: NextPartRequest, note: Note = silent) -> NextPartReport:
