@@ -71,7 +71,9 @@ def test_a_run_that_cannot_give_the_next_command_is_refused(neutral_groove_runs,
     cases = [
         (["--method", "twin", "--ideal", str(large)], "expected a run of that part"),  # another program, longer
         (["--method", "twin", "--ideal", str(small)], "expected a run of that part"),  # another, shorter
-        (["--method", "formula", "--ideal", str(groove)], "expected --method twin"),
+        (["--method", "formula", "--ideal", str(groove)], "expected --method twin without --method formula"),
+        (["--method", "twin", "--ideal", str(groove), "--yaw-deg", "30"], "without --yaw-deg 30.0"),
+        (["--method", "twin", "--ideal", str(groove), "--force-model", "isf"], "without --force-model isf"),
         (["--method", "twin"], "needs --ideal PART.csv"),
     ]
     for extra, said in cases:

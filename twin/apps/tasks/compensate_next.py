@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 
+from twin.analysis.compensate import TWIN_MAX_ITER, TWIN_TOL_M
 from twin.analysis.compensation_record import CompensationRecord, write_record
 from twin.analysis.next_part import NextCommand, next_command
 from twin.analysis.resolve import resolve_spec, spec_for_run
@@ -48,23 +49,28 @@ class NextPartRequest:
         return [p for p in (self.forces_from, self.ideal, self.model) if p is not None]
 
 
-#: The `compensate` options that do not go with `--forces-from` (their value when not given).
-OTHER_SOURCES = {"stiffness": None, "history": None, "target_stl": None, "learn_from": None, "dynamic": False}
+#: The `compensate` options that do not go with `--forces-from` (their value when not given): another method's or
+#: another source's of the command's forces, the sheet's (the run's forces are its), the placement (the run's), the
+#: twin's iteration (none runs), the part and the dynamic twin.
+NOT_WITH_FORCES_FROM: dict[str, Any] = {
+    "stiffness": None, "history": None, "symmetry": None, "force_model": "auto", "process": None, "material": None,
+    "thickness_mm": None, "tool_radius_mm": None, "origin_mm": None, "yaw_deg": None, "tol_mm": 1e3 * TWIN_TOL_M,
+    "max_iter": TWIN_MAX_ITER, "target_stl": None, "learn_from": None, "figure": None, "rrd": None, "dynamic": False}
 
 
 def next_part_request(options: Mapping[str, Any]) -> NextPartRequest:
-    """The request from `compensate`'s options (the CLI's, by name), or an `InputError` naming what does not go with
-    `--forces-from`: another method, another source of the command's forces, the part or the dynamic twin."""
+    """The request from `compensate`'s options (the CLI's, by name), or an `InputError` naming those given that do
+    not go with `--forces-from` (`NOT_WITH_FORCES_FROM`)."""
     forces_from, ideal = options["forces_from"], options.get("ideal")
     if ideal is None:
         raise InputError(f"--forces-from {forces_from} needs --ideal PART.csv: the program that run formed")
-    given = [f"--{k.replace('_', '-')} {options[k]}" for k, unset in OTHER_SOURCES.items()
+    given = [f"--{k.replace('_', '-')} {options[k]}" for k, unset in NOT_WITH_FORCES_FROM.items()
              if options.get(k, unset) != unset]
     if options.get("method", "twin") != "twin":
         given.insert(0, f"--method {options['method']}")
     if given:
-        raise InputError(f"--forces-from {forces_from}: expected --method twin and no other source of the command's "
-                         f"forces; got {', '.join(given)}")
+        raise InputError(f"--forces-from {forces_from} takes the run's forces, sheet and placement as they were: "
+                         f"expected --method twin without {', '.join(given)}")
     return NextPartRequest(forces_from, ideal, options["out"], model=options.get("model"), robot=options.get("robot"),
                            cell=options.get("cell_record"))
 
