@@ -122,3 +122,33 @@ def test_a_controller_s_log_at_its_own_rate_gives_the_same_next_command(neutral_
     assert len(read_run(tmp_path / "logged").commanded.t_s) != len(commands[0])
     apart_mm = 1e3 * np.sqrt(np.mean(np.sum((commands[1] - commands[0]) ** 2, axis=1)))
     assert apart_mm < 0.05, apart_mm
+
+
+def test_the_forces_are_taken_as_the_sheet_pushed_not_as_a_miscalibrated_sensor_read_them(
+        neutral_groove_runs, groove: Path) -> None:
+    """A run whose F/T sensor read with a bias, a gain and cross-talk, and a model file that carries them (as `learn`
+    or `discrepancy` finds them): the next command is the one the true forces give."""
+    from dataclasses import replace
+
+    from twin.analysis.next_part import next_command
+    from twin.analysis.resolve import spec_for_run
+    from twin.runs.format import Stream
+    from twin.sim.instruments import Instruments
+
+    run = read_run(neutral_groove_runs(1))
+    assert run.forces is not None
+    sensor = Instruments(force_bias_n=(40.0, -25.0, 60.0), force_gain=(1.05, 0.97, 1.08),
+                         force_crosstalk=(0.02, -0.01, 0.0, 0.03, 0.01, 0.0))
+    reading = sensor.force_reading(run.forces.values)
+    assert np.allclose(sensor.force_from_reading(reading), run.forces.values)
+    read = replace(run, forces=Stream(run.forces.t_s, reading))
+    ideal = read_commanded_csv(groove)
+    plain = spec_for_run(run)
+    calibrated = plain.replace(effects=plain.effects.with_instruments(sensor))
+    truth = next_command(run, ideal.t_s, ideal.values, plain.build())
+    carried = next_command(read, ideal.t_s, ideal.values, calibrated.build())
+    ignored = next_command(read, ideal.t_s, ideal.values, plain.build())
+    apart_mm = [1e3 * float(np.sqrt(np.mean(np.sum((c.p_cmd_sheet_m - truth.p_cmd_sheet_m) ** 2, axis=1))))
+                for c in (carried, ignored)]
+    assert apart_mm[0] < 1e-3 < 0.02 < apart_mm[1], apart_mm
+    assert np.allclose(carried.f_measured_n, truth.f_measured_n)

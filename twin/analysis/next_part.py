@@ -16,6 +16,9 @@ path is the same program re-timed by its controller (stops at the corners; `twin
 for sample; a controller's log at its own rate is placed by the share of its length it has travelled, so its stops
 (time without travel) do not shift it.
 
+The forces are taken as the sheet pushed, not as the sensor read them: a model file's instruments (the F/T sensor's
+bias, gain, cross-talk and clock, as `learn` or `discrepancy` found them; `twin.sim.instruments`) are undone first.
+
 What it cannot do: a part whose forces change from one run to the next more than the command does (a new sheet
 lot, another tool) carries the last part's forces over; a run of another program is refused; a log that holds more
 than the program (an approach from home) is placed wrong, and refused where that leaves its command too far from the
@@ -26,6 +29,7 @@ Measured on the dynamic plant: docs/learning.md ("The next part from the last pa
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import NamedTuple
 
 import numpy as np
@@ -34,7 +38,8 @@ from twin.analysis.check import ideal_times
 from twin.analysis.learn.split import measured_force_tip
 from twin.base.signals import interp_rows
 from twin.errors import InputError
-from twin.runs.format import Run
+from twin.runs.format import Run, Stream
+from twin.sim.instruments import Instruments
 from twin.sim.quasi_static import Twin
 
 #: A run whose command lies further than this from the ideal path (rms) is of another program [m].
@@ -107,7 +112,17 @@ def next_command(run: Run, t_ideal_s: np.ndarray, p_ideal_sheet_m: np.ndarray, t
     if apart > SAME_PROGRAM_M:
         raise InputError(f"run {run.directory}: its command lies {1e3 * apart:.1f} mm (rms) from {ideal_name}: "
                          f"expected a run of that part (a command within {1e3 * SAME_PROGRAM_M:g} mm of it)")
+    sheet = sheet_forces(run, twin.spec.effects.instruments)
+    pushed = replace(run, forces=sheet)
     unloaded = interp_rows(run.tracker.t_s, run.commanded.t_s, run.commanded.values)
-    deflection = interp_rows(t_run, run.tracker.t_s, measured_force_tip(run, twin) - unloaded)
-    return NextCommand(t_ideal, p_ideal - deflection, deflection,
-                       interp_rows(t_run, run.forces.t_s, run.forces.values))
+    deflection = interp_rows(t_run, run.tracker.t_s, measured_force_tip(pushed, twin) - unloaded)
+    return NextCommand(t_ideal, p_ideal - deflection, deflection, interp_rows(t_run, sheet.t_s, sheet.values))
+
+
+def sheet_forces(run: Run, instruments: Instruments) -> Stream:
+    """The run's F/T stream as the sheet pushed (`Instruments.force_from_reading`, on the sensor's own clock)."""
+    if run.forces is None:
+        raise InputError(f"run {run.directory}: no forces.csv: expected a run with its F/T sensor on")
+    t_s = instruments.force_times(run.forces.t_s, float(run.commanded.t_s[0]))
+    order = np.argsort(t_s, kind="stable")
+    return Stream(t_s[order], instruments.force_from_reading(run.forces.values)[order])

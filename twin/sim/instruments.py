@@ -130,6 +130,16 @@ class Instruments:
             m[i, j] += ratio
         return f_n @ m.T + np.asarray(self.force_bias_n)
 
+    def force_from_reading(self, f_read_n: np.ndarray) -> np.ndarray:
+        """The forces [N], shape (k, 3), the F/T sensor read as `f_read_n`: `force_reading` undone (a cell's
+        measured forces taken back to the sheet's, with the calibration a model file carries)."""
+        if self.force_gain == (1.0, 1.0, 1.0) and not any(self.force_crosstalk) and not any(self.force_bias_n):
+            return np.asarray(f_read_n, dtype=float)
+        m = np.diag(self.force_gain)
+        for (i, j), ratio in zip(CROSSTALK_PAIRS, self.force_crosstalk, strict=True):
+            m[i, j] += ratio
+        return np.linalg.solve(m, (np.asarray(f_read_n, dtype=float) - np.asarray(self.force_bias_n)).T).T
+
     def tracker_times(self, t_s: np.ndarray, t0_s: float) -> np.ndarray:
         """When the tracker samples stamped `t_s` were taken [s]."""
         return t_s - self.tracker_time_offset_s[0] - self.tracker_time_rate[0] * (t_s - t0_s)
