@@ -2,8 +2,10 @@
 
 On the dynamic plant's groove (neutral knobs, a cell the twin did not build), the untaught twin's robot driven by
 the nominal run's measured forces makes a command whose groove misses far less than the nominal one and than the
-untaught twin's own compensation (its sheet model's forces); the thresholds were set before the run. And a run that
-cannot give a next command is refused with exit 2, naming it.
+untaught twin's own compensation (its sheet model's forces); the thresholds were set before the run. A run that
+cannot give a next command is refused with exit 2, naming it; a controller's log at its own rate gives the same
+command as the program's samples; and the forces are taken as the sheet pushed, through the F/T calibration the
+model carries.
 """
 
 from __future__ import annotations
