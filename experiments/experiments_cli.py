@@ -36,3 +36,23 @@ def write_between_markers(doc: Path, marker: str, text: str) -> None:
     begin = page.index("\n", page.index(f"<!-- {marker}:begin")) + 1
     end = page.index(f"<!-- {marker}:end")
     doc.write_text(page[:begin] + text + page[end:], encoding="utf-8")
+
+
+def write_study(out: Path, stem: str, rows: list[dict[str, Any]], table: str, doc: Path | None, marker: str) -> None:
+    """A study's outputs: OUT/STEM.json (its rows), OUT/STEM.md (its `table`), the table printed, and with `doc` the
+    table between the page's `marker` markers."""
+    out.mkdir(parents=True, exist_ok=True)
+    (out / f"{stem}.json").write_text(json.dumps(rows, indent=1))
+    (out / f"{stem}.md").write_text(table)
+    print(table)
+    if doc is not None:
+        write_between_markers(doc, marker, table)
+
+
+def lab_neutral(robot: str, program: Path, out: Path, seed: int, scenario: str = "nominal",
+                plant_set: tuple[str, ...] = ()) -> Path:
+    """Form `program` on the dynamic plant with neutral knobs and `plant_set` (NAME=VALUE) into `out`, replacing an
+    earlier run there (`lab --plant dynamic --neutral`)."""
+    cli("lab", "--plant", "dynamic", "--neutral", *(a for item in plant_set for a in ("--set", item)), "--robot", robot,
+        "--scenario", scenario, "--commanded", str(program), "--seed", str(seed), "--out", str(out), "--overwrite")
+    return out

@@ -17,12 +17,11 @@ OUT/learn_again.json, OUT/learn_again.md and with `--doc` the table between the 
 
 from __future__ import annotations
 
-import json
 import shutil
 from pathlib import Path
 from typing import Any
 
-from experiments_cli import cli, cli_json, write_between_markers
+from experiments_cli import cli, cli_json, write_study
 from learn_cell import OTHER_NAMES, VARIANTS, cone_cells, cone_cells_parser
 from online_study import rms_mm, true_tip_miss_mm
 
@@ -74,12 +73,7 @@ def main() -> None:
         for row in cell_again(folder, args.out / cell.split(" (")[0].replace(", sheet law ", "-law"), robot, plant_set):
             rows.append({"cell": cell, **row})
             print(table(rows[-1:]).splitlines()[-1], flush=True)
-    args.out.mkdir(parents=True, exist_ok=True)
-    (args.out / "learn_again.json").write_text(json.dumps(rows, indent=1))
-    (args.out / "learn_again.md").write_text(table(rows))
-    print(table(rows))
-    if args.doc is not None:
-        write_between_markers(args.doc, "learn-again", table(rows))
+    write_study(args.out, "learn_again", rows, table(rows), args.doc, "learn-again")
 
 
 if __name__ == "__main__":

@@ -21,11 +21,10 @@ Writes OUT/next_part.json, OUT/next_part.md and with `--doc` the table between t
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Any
 
-from experiments_cli import cli, cli_json, write_between_markers
+from experiments_cli import cli, cli_json, lab_neutral, write_study
 from learn_cell import OTHER_NAMES, cone_cells, cone_cells_parser
 from online_study import rms_mm, true_tip_miss_mm
 
@@ -51,10 +50,7 @@ def part_batch(out: Path, robot: str, folder: Path, prefix: str, plant_set: tupl
             old.unlink(missing_ok=True)
         cli("compensate", "--method", "twin", "--model", str(model), "--ideal", str(ideal), "--forces-from", str(last),
             "--out", str(command))
-        last = out / f"{prefix}next{k}_formed"
-        cli("lab", "--plant", "dynamic", "--neutral", *(a for item in plant_set for a in ("--set", item)), "--robot",
-            robot, "--scenario", "compensated", "--commanded", str(command), "--seed", str(3 + k), "--out", str(last),
-            "--overwrite")
+        last = lab_neutral(robot, command, out / f"{prefix}next{k}_formed", 3 + k, "compensated", plant_set)
         scores.append(_scores(last, ideal))
     return scores
 
@@ -80,11 +76,7 @@ def main() -> None:
             rows.append({"cell": cell, "part": part,
                          "parts": part_batch(args.out / tag, robot, folder, prefix, plant_set)})
             print(table(rows[-1:]).splitlines()[-1], flush=True)
-    (args.out / "next_part.json").write_text(json.dumps(rows, indent=1))
-    (args.out / "next_part.md").write_text(table(rows))
-    print(table(rows))
-    if args.doc is not None:
-        write_between_markers(args.doc, "next-part", table(rows))
+    write_study(args.out, "next_part", rows, table(rows), args.doc, "next-part")
 
 
 if __name__ == "__main__":

@@ -30,12 +30,11 @@ offline-limits markers:
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-from experiments_cli import write_between_markers
+from experiments_cli import write_study
 from learn_cell import cone_cells, cone_cells_parser
 from online_study import rms_mm, true_tip_miss_mm
 from sheet_learner_study import force_gap
@@ -109,12 +108,7 @@ def main() -> None:
         for prefix, part in PARTS:
             rows.append({"cell": cell, "part": part, **part_limits(folder, prefix)})
             print(table(rows[-1:]).splitlines()[-1], flush=True)
-    args.out.mkdir(parents=True, exist_ok=True)
-    (args.out / "offline_limits.json").write_text(json.dumps(rows, indent=1))
-    (args.out / "offline_limits.md").write_text(table(rows))
-    print(table(rows))
-    if args.doc is not None:
-        write_between_markers(args.doc, "offline-limits", table(rows))
+    write_study(args.out, "offline_limits", rows, table(rows), args.doc, "offline-limits")
 
 
 if __name__ == "__main__":

@@ -39,12 +39,11 @@ OUT/pyramid_corners.md and with `--doc` the table between the page's pyramid-cor
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Any, NamedTuple
 
 import numpy as np
-from experiments_cli import cli, write_between_markers
+from experiments_cli import cli, lab_neutral, write_study
 from learn_cell import cone_cells, cone_cells_parser
 from online_study import rms_mm, true_tip_miss_mm
 
@@ -53,7 +52,7 @@ from twin.analysis.learn.robot import robot_rows
 from twin.analysis.learn.split import measured_force_tip
 from twin.analysis.next_part import next_command
 from twin.analysis.replay import spec_for_run
-from twin.base.signals import interp_rows
+from twin.base.signals import arc_length, interp_rows
 from twin.runs.format import Stream
 from twin.runs.read import read_commanded_csv, read_run
 from twin.runs.write import write_path_csv
@@ -80,10 +79,6 @@ def turns_deg(p: np.ndarray) -> np.ndarray:
     return np.degrees(np.arccos(np.clip(np.sum(u[1:] * u[:-1], axis=1), -1.0, 1.0)))
 
 
-def _arc(p: np.ndarray) -> np.ndarray:
-    return np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(p, axis=0), axis=1))]
-
-
 def corners(p_mm: np.ndarray) -> np.ndarray:
     """The indices of the samples where the path turns by more than `STOP_TURN_DEG`."""
     return np.nonzero(turns_deg(p_mm) > STOP_TURN_DEG)[0] + 1
@@ -92,7 +87,7 @@ def corners(p_mm: np.ndarray) -> np.ndarray:
 def rounded(p_mm: np.ndarray, reach_mm: float = ROUND_MM) -> np.ndarray:
     """The path with each corner replaced, on the same samples, by the quadratic Bezier curve from the point
     `reach_mm` before it along the path, through the corner as control point, to the point `reach_mm` after it."""
-    s, q = _arc(p_mm), p_mm.copy()
+    s, q = arc_length(p_mm), p_mm.copy()
     for k in corners(p_mm):
         if s[k] - reach_mm < 0.0 or s[k] + reach_mm > s[-1]:
             continue
@@ -132,7 +127,7 @@ def near_corner_shares(run_dir: Path, ideal: Path, miss_mm: np.ndarray) -> tuple
     share there) [-]; the tracker's samples placed on the ideal path by the run's clock (`ideal_times`)."""
     run, cmd = read_run(run_dir), read_commanded_csv(ideal)
     p_mm = 1e3 * cmd.values
-    s = _arc(p_mm)
+    s = arc_length(p_mm)
     s_tr = np.interp(run.tracker.t_s, ideal_times(run.commanded.t_s, cmd.t_s), s)
     near = np.min(np.abs(s_tr[:, None] - s[corners(p_mm)][None, :]), axis=1) < NEAR_CORNER_MM
     square = np.sum(miss_mm**2, axis=1)
@@ -208,13 +203,9 @@ def cell_row(out: Path, robot: str, folder: Path, plant_set: tuple[str, ...]) ->
     for old in (command, command.with_suffix(".compensation.json")):
         old.unlink(missing_ok=True)
     cli("compensate", "--method", "twin", "--model", str(model), "--ideal", str(path), "--out", str(command))
-    knobs = ("--plant", "dynamic", "--neutral", *(a for item in plant_set for a in ("--set", item)), "--robot", robot,
-             "--overwrite")
 
     def lab(program: Path, run_dir: Path, scenario: str, seed: int) -> Path:
-        cli("lab", *knobs, "--scenario", scenario, "--commanded", str(program), "--seed", str(seed), "--out",
-            str(run_dir))
-        return run_dir
+        return lab_neutral(robot, program, run_dir, seed, scenario, plant_set)
 
     lab(command, formed, "compensated", 3)
     lab(path, out / "rounded_nominal", "nominal", 3)
@@ -272,11 +263,7 @@ def main() -> None:
         tag = f"{robot}_law{2 if plant_set else 1}"
         rows.append({"cell": cell, **cell_row(args.out / tag, robot, folder, plant_set)})
         print(table(rows[-1:]).splitlines()[-1], flush=True)
-    (args.out / "pyramid_corners.json").write_text(json.dumps(rows, indent=1))
-    (args.out / "pyramid_corners.md").write_text(table(rows))
-    print(table(rows))
-    if args.doc is not None:
-        write_between_markers(args.doc, "pyramid-corners", table(rows))
+    write_study(args.out, "pyramid_corners", rows, table(rows), args.doc, "pyramid-corners")
 
 
 if __name__ == "__main__":

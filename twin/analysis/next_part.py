@@ -3,7 +3,7 @@
 The last run of a part carries the force its sheet pushed the tool with along the whole path, as the F/T sensor
 measured it. For the next part of the same program that is the sheet's force known as well as a cell can know it,
 without a sheet model: the twin's robot (its joint springs, friction and servo transient, learned where the model
-file says so; `twin.analysis.learn.split.measured_force_tip`) driven by those forces, along the last run's command,
+file says so; `twin.analysis.learn.split.measured_force_deflection`) driven by those forces, along the last run's command,
 deflects the tool by some amount, and the next command is the ideal path less that deflection (the last command
 moved by the last tip's predicted miss comes to the same). A run compensated online is taken as well: its logged
 command leaves out the online correction, and the deflection under its forces does not need it. It is the thesis's
@@ -35,8 +35,8 @@ from typing import NamedTuple
 import numpy as np
 
 from twin.analysis.check import ideal_times
-from twin.analysis.learn.split import measured_force_tip
-from twin.base.signals import interp_rows
+from twin.analysis.learn.split import measured_force_deflection
+from twin.base.signals import arc_length, interp_rows
 from twin.errors import InputError
 from twin.runs.format import Run, Stream
 from twin.sim.instruments import Instruments
@@ -64,17 +64,13 @@ class NextCommand(NamedTuple):
     f_measured_n: np.ndarray
 
 
-def _arc(p: np.ndarray) -> np.ndarray:
-    return np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(p, axis=0), axis=1))]
-
-
 def run_times(run: Run, t_ideal_s: np.ndarray, p_ideal_sheet_m: np.ndarray) -> np.ndarray:
     """The run's clock time of each ideal sample [s], (n,) (module docstring): the commanded stream's own where it has
     as many samples as the ideal path, else where it has travelled the share of its length the ideal has."""
     t_cmd = np.asarray(run.commanded.t_s, dtype=float)
     if len(t_cmd) == len(t_ideal_s):
         return ideal_times(t_cmd, t_ideal_s)
-    s_run, s_ideal = _arc(run.commanded.values), _arc(np.asarray(p_ideal_sheet_m, dtype=float))
+    s_run, s_ideal = arc_length(run.commanded.values), arc_length(p_ideal_sheet_m)
     if s_run[-1] <= 0.0 or s_ideal[-1] <= 0.0:
         return np.asarray(t_ideal_s, dtype=float)
     rising = s_run + 1e-12 * np.arange(len(s_run))  # a stop travels nothing: its first sample is where it is reached
@@ -106,23 +102,19 @@ def next_command(run: Run, t_ideal_s: np.ndarray, p_ideal_sheet_m: np.ndarray, t
     if t_run[0] < start - 0.1 or t_run[-1] > end + 0.1:
         raise InputError(f"run {run.directory}: its tracker spans {start:.2f} to {end:.2f} s, {ideal_name} "
                          f"{t_run[0]:.2f} to {t_run[-1]:.2f} s on its clock: expected the run of that program")
-    last = (run.commanded.values if len(run.commanded.t_s) == len(t_ideal)
-            else interp_rows(t_run, run.commanded.t_s, run.commanded.values))
+    last = interp_rows(t_run, run.commanded.t_s, run.commanded.values)  # the program's own samples where it has them
     apart = float(np.sqrt(np.mean(np.sum((last - p_ideal) ** 2, axis=1))))
     if apart > SAME_PROGRAM_M:
         raise InputError(f"run {run.directory}: its command lies {1e3 * apart:.1f} mm (rms) from {ideal_name}: "
                          f"expected a run of that part (a command within {1e3 * SAME_PROGRAM_M:g} mm of it)")
-    sheet = sheet_forces(run, twin.spec.effects.instruments)
-    pushed = replace(run, forces=sheet)
-    unloaded = interp_rows(run.tracker.t_s, run.commanded.t_s, run.commanded.values)
-    deflection = interp_rows(t_run, run.tracker.t_s, measured_force_tip(pushed, twin) - unloaded)
+    sheet = sheet_forces(run.forces, float(run.commanded.t_s[0]), twin.spec.effects.instruments)
+    deflection = interp_rows(t_run, run.tracker.t_s, measured_force_deflection(replace(run, forces=sheet), twin))
     return NextCommand(t_ideal, p_ideal - deflection, deflection, interp_rows(t_run, sheet.t_s, sheet.values))
 
 
-def sheet_forces(run: Run, instruments: Instruments) -> Stream:
-    """The run's F/T stream as the sheet pushed (`Instruments.force_from_reading`, on the sensor's own clock)."""
-    if run.forces is None:
-        raise InputError(f"run {run.directory}: no forces.csv: expected a run with its F/T sensor on")
-    t_s = instruments.force_times(run.forces.t_s, float(run.commanded.t_s[0]))
+def sheet_forces(forces: Stream, t0_s: float, instruments: Instruments) -> Stream:
+    """An F/T stream as the sheet pushed (`Instruments.force_from_reading`, on the sensor's own clock; `t0_s`: the
+    run's first commanded time)."""
+    t_s = instruments.force_times(forces.t_s, t0_s)
     order = np.argsort(t_s, kind="stable")
-    return Stream(t_s[order], instruments.force_from_reading(run.forces.values)[order])
+    return Stream(t_s[order], instruments.force_from_reading(forces.values)[order])

@@ -1,4 +1,4 @@
-"""Sampled signals: interpolation of many channels at once, and the sample clock of a stream."""
+"""Sampled signals: interpolation of many channels at once, a path's arc length, and the sample clock of a stream."""
 
 from __future__ import annotations
 
@@ -18,6 +18,11 @@ def interp_rows(query: np.ndarray, sample: np.ndarray, values: np.ndarray) -> np
     """
     values = np.asarray(values, dtype=float)
     return np.column_stack([np.interp(query, sample, values[:, j]) for j in range(values.shape[1])])
+
+
+def arc_length(p: np.ndarray) -> np.ndarray:
+    """The length travelled along a polyline up to each of its points, from 0 [its unit], shape (n,)."""
+    return np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(np.asarray(p, dtype=float), axis=0), axis=1))]
 
 
 def uniform_times(t_end_s: float, rate_hz: float) -> np.ndarray:

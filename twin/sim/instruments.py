@@ -121,24 +121,25 @@ class Instruments:
         """When the force samples stamped `t_s` were measured [s] (the F/T clock; `stream_time_offset` aside)."""
         return t_s - self.force_clock_offset_s[0] - self.force_clock_rate[0] * (t_s - t0_s)
 
-    def force_reading(self, f_n: np.ndarray) -> np.ndarray:
-        """What the F/T sensor reads of forces `f_n` [N], shape (k, 3)."""
+    def _force_matrix(self) -> np.ndarray | None:
+        """I + M + diag(g - 1) of the F/T reading (module docstring), or None where the sensor reads the truth."""
         if self.force_gain == (1.0, 1.0, 1.0) and not any(self.force_crosstalk) and not any(self.force_bias_n):
-            return f_n
+            return None
         m = np.diag(self.force_gain)
         for (i, j), ratio in zip(CROSSTALK_PAIRS, self.force_crosstalk, strict=True):
             m[i, j] += ratio
-        return f_n @ m.T + np.asarray(self.force_bias_n)
+        return m
+
+    def force_reading(self, f_n: np.ndarray) -> np.ndarray:
+        """What the F/T sensor reads of forces `f_n` [N], shape (k, 3)."""
+        m = self._force_matrix()
+        return f_n if m is None else f_n @ m.T + np.asarray(self.force_bias_n)
 
     def force_from_reading(self, f_read_n: np.ndarray) -> np.ndarray:
         """The forces [N], shape (k, 3), the F/T sensor read as `f_read_n`: `force_reading` undone (a cell's
         measured forces taken back to the sheet's, with the calibration a model file carries)."""
-        if self.force_gain == (1.0, 1.0, 1.0) and not any(self.force_crosstalk) and not any(self.force_bias_n):
-            return np.asarray(f_read_n, dtype=float)
-        m = np.diag(self.force_gain)
-        for (i, j), ratio in zip(CROSSTALK_PAIRS, self.force_crosstalk, strict=True):
-            m[i, j] += ratio
-        return np.linalg.solve(m, (np.asarray(f_read_n, dtype=float) - np.asarray(self.force_bias_n)).T).T
+        m, f_read = self._force_matrix(), np.asarray(f_read_n, dtype=float)
+        return f_read if m is None else np.linalg.solve(m, (f_read - np.asarray(self.force_bias_n)).T).T
 
     def tracker_times(self, t_s: np.ndarray, t0_s: float) -> np.ndarray:
         """When the tracker samples stamped `t_s` were taken [s]."""

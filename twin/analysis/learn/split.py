@@ -22,6 +22,7 @@ from scipy.signal import butter, filtfilt
 
 from twin.analysis.learn.robot import RobotFit, predicted_deflection, rms_norm_mm, robot_rows
 from twin.analysis.replay import ReplayResult
+from twin.base.signals import interp_rows
 from twin.runs.format import Run
 from twin.sim.quasi_static import Twin
 
@@ -98,13 +99,21 @@ def near_stop_shares(run: Run, t_s: np.ndarray, gap_m: np.ndarray) -> tuple[floa
     return (float(np.sum(square[near]) / total) if total > 0.0 else 0.0), float(np.mean(near))
 
 
-def measured_force_tip(run: Run, twin: Twin) -> np.ndarray:
-    """The twin's tool tip at the tracker's times driven by the run's measured forces, sheet frame [m]."""
+def measured_force_deflection(run: Run, twin: Twin) -> np.ndarray:
+    """The twin's deflection of the tool tip under the run's measured forces, along its command, at the tracker's
+    times, sheet frame [m], (m, 3)."""
     rows = robot_rows(run, twin)
     dof = len(twin.joint_stiffness)
     own = RobotFit(twin.joint_stiffness, np.zeros(dof), twin.joint_stiffness, twin.joint_friction,
                    np.ones(dof, dtype=bool), twin.spec.servo, twin.joint_friction, np.zeros(3), (), ())
-    return run.tracker.values - rows.deflection_m + predicted_deflection(rows, own, np.zeros(3))
+    return predicted_deflection(rows, own, np.zeros(3))
+
+
+def measured_force_tip(run: Run, twin: Twin) -> np.ndarray:
+    """The twin's tool tip at the tracker's times driven by the run's measured forces, sheet frame [m]: the command
+    there (`robot_rows`' unloaded tip) plus `measured_force_deflection`."""
+    unloaded = interp_rows(run.tracker.t_s, run.commanded.t_s, run.commanded.values)
+    return unloaded + measured_force_deflection(run, twin)
 
 
 def split_gap(run: Run, twin: Twin, replayed: ReplayResult) -> GapSplit:

@@ -84,29 +84,32 @@ class NextPartReport(Report):
     next: NextCommand
     record_file: Path
 
-    def lines(self) -> list[str]:
+    def _deflection_mm(self) -> tuple[float, float]:
+        """The twin's deflection along the path: (rms, max) [mm]."""
         bend_mm = 1e3 * np.linalg.norm(self.next.deflection_m, axis=1)
-        return [f"compensate (the next part): {self.spec.robot.name}'s twin deflects the tool by "
-                f"{float(np.sqrt(np.mean(bend_mm**2))):.3f} mm rms (max {float(np.max(bend_mm)):.2f}) under the forces "
-                f"{self.request.forces_from} measured; {self.request.ideal} less that -> {self.request.out}",
+        return float(np.sqrt(np.mean(bend_mm**2))), float(np.max(bend_mm))
+
+    def lines(self) -> list[str]:
+        rms_mm, max_mm = self._deflection_mm()
+        return [f"compensate (the next part): {self.spec.robot.name}'s twin deflects the tool by {rms_mm:.3f} mm rms "
+                f"(max {max_mm:.2f}) under the forces {self.request.forces_from} measured; {self.request.ideal} less "
+                f"that -> {self.request.out}",
                 f"  record: {self.record_file} (the forces it assumes: the last part's, measured)"]
 
     def record(self) -> dict[str, Any]:
-        bend_mm = 1e3 * np.linalg.norm(self.next.deflection_m, axis=1)
+        rms_mm, max_mm = self._deflection_mm()
         return {"method": "twin", "forces_from": str(self.request.forces_from), "ideal": str(self.request.ideal),
                 "out": str(self.request.out), "robot": self.spec.robot.name, "samples": len(self.next.t_s),
-                "deflection_rms_mm": float(np.sqrt(np.mean(bend_mm**2))),
-                "deflection_max_mm": float(np.max(bend_mm)), "record": str(self.record_file)}
+                "deflection_rms_mm": rms_mm, "deflection_max_mm": max_mm, "record": str(self.record_file)}
 
 
 def next_part_task(request: NextPartRequest, note: Note = silent) -> NextPartReport:
     """Write the next part's command (module docstring).
 
     Raises:
-        InputError: The run or the ideal path cannot give it (`twin.analysis.next_part.next_command`).
+        InputError: The run or the ideal path cannot give it (`twin.analysis.next_part.next_command`), or `out`
+            would replace one of them (`write_command`'s protection).
     """
-    if request.out.resolve() in {p.resolve() for p in request.inputs()}:
-        raise InputError(f"--out {request.out} is one of the inputs; expected a new file")
     run = read_run(request.forces_from)
     ideal = ideal_path(request.ideal)
     spec = spec_for_run(run, resolve_spec(cell=request.cell, model=request.model, robot=request.robot, run=run,
