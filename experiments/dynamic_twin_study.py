@@ -111,7 +111,7 @@ def cell_study(out: Path, name: str, knobs: tuple[str, ...]) -> dict[str, Any]:
     s = fit.servo
     return {"cell": name, "knobs": list(knobs), "rows": rows, "steps": int(1e3 * (run2.commanded.t_s[-1])) + 1,
             "fit": {"bandwidth_over_mode": s.bandwidth_over_mode, "damping_ratio": s.damping_ratio,
-                    "delay_s": s.delay_s, "feedforward": s.feedforward,
+                    "delay_s": s.delay_s, "feedforward": s.feedforward, "load_feedforward": s.load_feedforward,
                     "bandwidth_hz": [w / (2 * math.pi) for w in fit.bandwidth_rad_s], "stop_lag_s": fit.stop_lag_s,
                     "rms_rigid_mm": fit.rms_rigid_mm, "rms_mm": fit.rms_mm, "evaluations": fit.evaluations,
                     "wall_s": fit.wall_s}}
@@ -129,14 +129,15 @@ def table(cells: list[dict[str, Any]]) -> str:
             lines.append(f"| {c['cell']} | {r['twin']} | {r['tracker_mm']:.3f} / {r['tracker_corners_mm']:.3f} | "
                          f"{r['true_mm']:.3f} / {r['true_corners_mm']:.3f} | {wall} |")
     lines += ["", "Servo fitted on run 1 (`fit_servo`; mj_steps per dynamic replay: the run's milliseconds):", "",
-              "| cell | beta | zeta | delay [ms] | feed-forward | bandwidth j1-j3 [Hz] | stop lag [ms] | "
-              "run 1 tracker rms, rigid -> fitted [mm] | replays | fit wall [s] | mj_steps |",
-              "|---|---|---|---|---|---|---|---|---|---|---|"]
+              "| cell | beta | zeta | delay [ms] | feed-forward | load fed forward | bandwidth j1-j3 [Hz] | "
+              "stop lag [ms] | run 1 tracker rms, rigid -> fitted [mm] | replays | fit wall [s] | mj_steps |",
+              "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for c in cells:
         f = c["fit"]
         hz = ", ".join(f"{w:.1f}" for w in f["bandwidth_hz"][:3])
         lines.append(f"| {c['cell']} | {f['bandwidth_over_mode']:.2f} | {f['damping_ratio']:.2f} | "
-                     f"{1e3 * f['delay_s']:.1f} | {f['feedforward']:.2f} | {hz} | {1e3 * f['stop_lag_s']:.0f} | "
+                     f"{1e3 * f['delay_s']:.1f} | {f['feedforward']:.2f} | {f['load_feedforward']:.2f} | {hz} | "
+                     f"{1e3 * f['stop_lag_s']:.0f} | "
                      f"{f['rms_rigid_mm']:.3f} -> {f['rms_mm']:.3f} | {f['evaluations']} | {f['wall_s']:.0f} | "
                      f"{c['steps']} |")
     return "\n".join(lines) + "\n"

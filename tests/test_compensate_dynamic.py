@@ -121,17 +121,18 @@ def test_the_pages_words_on_compensation_with_the_dynamic_twin_are_its_tables() 
     pair = lambda cell: [float(v) for v in cell.split("/")]  # noqa: E731
     first = lambda cell: pair(cell)[0]  # noqa: E731
     neutral, default = "TX200 groove, neutral knobs", "TX200 groove, plant's default knobs"
-    said = quoted("dynamic-twin.md", "the dynamic twin's command with the online correction on top reaches", 5)
-    for quote, value in zip(said, (first(both[(neutral, "dynamic")][3]), first(both[(neutral, "dynamic")][2]),
-                                   first(comp[(neutral, "dynamic")][6]), first(comp[(neutral, "dynamic")][5]),
-                                   first(both[(neutral, "quasi-static")][3])), strict=True):
+    said = quoted("dynamic-twin.md", "the quasi-static command with it\nreaches", 1)
+    said += quoted("dynamic-twin.md", "and the dynamic command", 1) + quoted("dynamic-twin.md", "on the default-knob groove", 2)
+    for quote, value in zip(said, (first(both[(neutral, "quasi-static")][3]), first(both[(neutral, "dynamic")][3]),
+                                   first(both[(default, "quasi-static")][3]), first(both[(default, "dynamic")][3])),
+                            strict=True):
         quote.check(value)
-    said = quoted("dynamic-twin.md", "On the default-knob groove the pair takes the true tip from", 2)
-    said[0].check(first(comp[(default, "dynamic")][6]))
-    said[1].check(first(both[(default, "dynamic")][3]))
-    # "both commands are under issue #50's 0.10 mm there, where neither alone is"
-    for command in named:
-        assert first(both[(neutral, command)][3]) <= 0.10 < first(comp[(neutral, command)][6]), command
+    assert first(both[(neutral, "quasi-static")][3]) <= 0.10  # "under issue #50's 0.10 mm"
+    said = quoted("dynamic-twin.md", "worse, the true tip from", 4)
+    for quote, value in zip(said, (first(comp[(neutral, "quasi-static")][6]), first(comp[(neutral, "dynamic")][6]),
+                                   first(comp[(default, "quasi-static")][6]), first(comp[(default, "dynamic")][6])),
+                            strict=True):
+        quote.check(value)
     assert len(both) == 4
     cells = {key[0] for key in comp}
     grooves = {"TX200 groove, neutral knobs", "TX200 groove, plant's default knobs"}
@@ -139,22 +140,21 @@ def test_the_pages_words_on_compensation_with_the_dynamic_twin_are_its_tables() 
     for cell in cells:
         qs, dyn = comp[(cell, "quasi-static")], comp[(cell, "dynamic")]
         before, after = (float(v) for v in dyn[2].split("->"))
-        if cell in grooves:  # "takes a quarter to two fifths off it on the grooves"
-            assert 0.2 <= 1 - after / before <= 0.45, cell
-        else:  # "halves what the dynamic twin itself predicts ... on the pyramids"
-            assert after <= 0.5 * before, cell
+        if cell == "TX200, servo variant (bandwidth 0.35 of mode, damping 0.7)":  # "less on the servo variant's"
+            assert 0.5 * before < after < before, cell
+        else:  # "more than half off ... on the default servo's pyramid and on both grooves"
+            assert after < 0.5 * before, cell
         assert float(dyn[4]) >= 3 * float(qs[4])  # "at several times its wall"
-        if cell == "TX200 groove, neutral knobs":  # "a little off at the pass reversals ... not under 0.10 mm"
-            for col in (5, 6):
-                assert pair(dyn[col])[1] < 0.9 * pair(qs[col])[1] and pair(dyn[col])[0] < pair(qs[col])[0], col
-                assert pair(dyn[col])[0] > 0.10, col
+        if cell in grooves:  # "worse"; "most of it at the reversals on the second"
+            assert pair(dyn[6])[0] > pair(qs[6])[0] and pair(dyn[5])[0] > pair(qs[5])[0], cell
+            if cell == default:
+                assert pair(dyn[6])[1] - pair(qs[6])[1] > pair(dyn[6])[0] - pair(qs[6])[0]
             continue
-        for col in (5, 6):  # "within a few hundredths of a millimetre" (pyramids); "nothing" (the default groove)
+        for col in (5, 6):  # "within a few hundredths of a millimetre" (pyramids)
             assert np.allclose(pair(dyn[col]), pair(qs[col]), atol=0.03, rtol=0), (cell, col)
-            assert cell not in grooves or pair(qs[col])[1] > pair(qs[col])[0]  # "its residual is largest there"
         for r in (qs, dyn):  # "below the pyramid's half depth the true tip stays above the path"
             shallow, deep = pair(r[7])
-            assert cell in grooves or (deep > 0.1 and deep > 5 * abs(shallow)), r
+            assert deep > 0.1 and deep > 5 * abs(shallow), r
     for r in depth:  # "the learned sheet's force ... too low there; nearly a straight line; the plant's starts lower"
         measured, twin = np.array([pair(c) for c in r[1:] if c != "-"]).T
         assert np.all(twin[3:] < measured[3:]) and np.all(twin[:3] > measured[:3]), r

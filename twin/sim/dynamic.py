@@ -12,23 +12,32 @@ and Control", 2nd ed. 2020, ch. 9, independent joint control of flexible joints)
 loop closes on the motor angle θ, with derivative on the error, feed-forward and a pure delay d of the reference r:
 
     J_m θ̈ = K_p e + K_i ∫e dt + K_d ė + τ_ff − K_q (θ − q) − c (θ̇ − q̇),   e = r(t − d) − θ,
-    τ_ff = K_q (r − q_qs)(t − d) + a J r̈(t − d),
+    τ_ff = K_q (r − q_0 − b (q_qs − q_0))(t − d) + a J r̈(t − d),
 
-q_qs the quasi-static twin's link pose (the load torque a settled loop holds) and a the share of the inertial
-torque fed forward. The gains are placed for the rigid joint (J = J_m + the link's inertia at the first pose) at
-the poles (s + ω_s)(s² + 2ζω_s s + ω_s²) (Åström & Hägglund, "Advanced PID Control", ISA 2006, ch. 6, pole
-placement): K_d = J(2ζ+1)ω_s, K_p = J(2ζ+1)ω_s², K_i = Jω_s³. For a rigid joint the motor then follows
+q_0 the unloaded link pose (K_q (r − q_0) is the arm's gravity, the set-points being taught under it), q_qs the
+quasi-static twin's (its load), a the share of the inertial torque fed forward and b the share of the twin's own load. A
+controller knows its own arm's gravity and inertia, not the sheet's force (b = 0): the sheet's load (and the joint
+friction) reaches the loop as a disturbance, the motor gives way to it and the integral takes it up (Spong et al., ch.
+9, the load torque as a disturbance of independent joint control), so the loop's rest state is still the quasi-static
+twin's. Driven by a run's measured forces that is the loop that follows the arm (docs/dynamic-twin.md, "The arm under
+the measured forces"); b = 1, the loop held on its reference while the twin's force turns, was this mode's first form,
+and a fit on a run may take it where the twin's own sheet drives the arm. The gains are placed for the rigid joint (J =
+J_m + the link's inertia at the first pose) at the poles (s + ω_s)(s² + 2ζω_s s + ω_s²) (Åström & Hägglund, "Advanced
+PID Control", ISA 2006, ch. 6, pole placement): K_d = J(2ζ+1)ω_s, K_p = J(2ζ+1)ω_s², K_i = Jω_s³. For a rigid joint the
+motor then follows
 
     θ/r = (a s³ + (2ζ+1)ω_s s² + (2ζ+1)ω_s² s + ω_s³) / ((s + ω_s)(s² + 2ζω_s s + ω_s²)) · e^(−sd),
 
 each joint's bandwidth a share β of its first mode, ω_s = β sqrt(K_q / J) (the loop is set below the drive's
-resonance, the usual design rule: G. Ellis, "Control System Design Guide", 4th ed. 2012, ch. 16). Four numbers
-(β, ζ, d, a) are all it has, so they are learned from a run (`twin.analysis.learn.servo_fit`); its rest state is
+resonance, the usual design rule: G. Ellis, "Control System Design Guide", 4th ed. 2012, ch. 16). Five numbers
+(β, ζ, d, a, b) are all it has, so they are learned from a run (`twin.analysis.learn.servo_fit`); its rest state is
 the quasi-static one. The motor step is implicit Euler; β = inf puts the motor on r(t − d).
 
 **Sheet (linearised contact).** The quasi-static replay at t − d gives the force f_qs, the tip p_qs and the sheet's
 D = ∂f/∂p, recovered from its tip gain G = (I − C D)⁻¹ (`SimResult.tip_gain`, C = J K⁻¹ Jᵀ): D = C⁻¹(I − G⁻¹).
-The moving arm feels f = f_qs + D (p − p_qs) at its tip; the formed surface is the quasi-static replay's.
+The moving arm feels f = f_qs + D (p − p_qs) at its tip; the formed surface is the quasi-static replay's. Given a
+run's measured forces (`forces`), the arm is driven by them instead, with no sheet stiffness: the robot's part of a
+run's gap with the arm moving, as `twin.analysis.learn.split` takes it with the arm at rest.
 
 Cost: one quasi-static replay, then one `mj_step` per millisecond of the run (a fixed loop, arrays made before it).
 """
@@ -116,9 +125,12 @@ class DynamicTwin:
         twin: The quasi-static twin (model, springs, friction); its `spec.servo` transient is not used.
         sim: Its quasi-static replay of the path, made without a servo transient (`Twin.simulate`).
         timestep_s: MuJoCo timestep [s].
+        forces: (times [s] (k,), forces of the sheet on the tool, sheet frame [N] (k, 3)) to drive the arm by (a
+            run's measured ones), with no sheet stiffness; None: the linearised sheet of `sim`.
     """
 
-    def __init__(self, twin: Twin, sim: SimResult, timestep_s: float = TIMESTEP_S) -> None:
+    def __init__(self, twin: Twin, sim: SimResult, timestep_s: float = TIMESTEP_S,
+                 forces: tuple[np.ndarray, np.ndarray] | None = None) -> None:
         if not (math.isfinite(timestep_s) and 1e-5 <= timestep_s <= 2e-3):
             raise InputError(f"timestep_s = {timestep_s!r}: expected [1e-5, 2e-3] s (the arm's modes are 10-130 Hz)")
         self.twin, self.sim = twin, sim
@@ -138,6 +150,7 @@ class DynamicTwin:
         self._arm, self._act, self._passive = arm.dof, arm.actuator, np.setdiff1d(np.arange(m.nq), arm.qpos)
         m.dof_armature[arm.dof] = 0.0
         self.data, self.k_q, self._ref = mujoco.MjData(m), twin.joint_stiffness, references(twin, sim)
+        self.forces = forces
         self.data.qpos[:] = sim.qpos[0]
         mujoco.mj_forward(m, self.data)
         full_m = np.zeros((m.nv, m.nv))
@@ -153,14 +166,18 @@ class DynamicTwin:
 
     def _at(self, t: np.ndarray) -> tuple[np.ndarray, ...]:
         """At times `t` (a step apart) of the quasi-static replay: references, their rate, the base-frame force,
-        tip and sheet stiffness, and the arm joints' pose."""
+        tip and sheet stiffness, and the arm joints' unloaded and loaded (quasi-static) poses."""
         sim, rot, h = self.sim, self.twin.R_base_sheet, self.model.opt.timestep
         t = np.clip(t, sim.t_s[0], sim.t_s[-1])
         ref = interp_rows(t, sim.t_s, self._ref)
-        d_sheet = interp_rows(t, sim.t_s, self._d_sheet).reshape(-1, 3, 3)
-        return (ref, np.gradient(ref, h, axis=0), sim.force_at(t) @ rot.T,
+        if self.forces is None:
+            force, d_sheet = sim.force_at(t), interp_rows(t, sim.t_s, self._d_sheet).reshape(-1, 3, 3)
+        else:
+            force, d_sheet = interp_rows(t, *self.forces), np.zeros((len(t), 3, 3))
+        return (ref, np.gradient(ref, h, axis=0), force @ rot.T,
                 self.twin.p_base_sheet_origin + interp_rows(t, sim.t_s, sim.p_sheet_m) @ rot.T,
-                np.einsum("ij,njk,lk->nil", rot, d_sheet, rot), interp_rows(t, sim.t_s, sim.qpos[:, self._arm]))
+                np.einsum("ij,njk,lk->nil", rot, d_sheet, rot), interp_rows(t, sim.t_s, sim.q_ik),
+                interp_rows(t, sim.t_s, sim.qpos[:, self._arm]))
 
     def simulate(self, servo: ServoModel) -> SimResult:
         """Step the arm along the path under `servo`.
@@ -176,17 +193,20 @@ class DynamicTwin:
             InputError: The arm diverged (a servo, gear or friction too stiff for the timestep).
         """
         m, d, h, arm = self.model, self.data, self.model.opt.timestep, self._arm
-        ref, rate, f_base, x_base, d_base, q_static = self._at(self.t_steps - servo.delay_s)
+        ref, rate, f_base, x_base, d_base, q_unloaded, q_static = self._at(self.t_steps - servo.delay_s)
         arm_ref, pas_ref = np.ascontiguousarray(ref[:, arm]), np.ascontiguousarray(ref[:, self._passive])
         arm_rate, jm, jt, k_q = np.ascontiguousarray(rate[:, arm]), self.motor_inertia, self.joint_inertia, self.k_q
-        ff = k_q * (arm_ref - q_static) + servo.feedforward * jt * np.gradient(arm_rate, h, axis=0)
+        q_fed = q_unloaded + servo.load_feedforward * (q_static - q_unloaded)
+        ff = k_q * (arm_ref - q_fed) + servo.feedforward * jt * np.gradient(arm_rate, h, axis=0)
         damping = m.dof_damping.copy()  # the gear's damper acts on the motor's speed less the link's
         c_arm, w, z, rigid = damping[arm], servo.bandwidth_over_mode * self.mode_rad_s, servo.damping_ratio, servo.rigid
         kd, kp, ki = jt * (2 * z + 1) * w, jt * (2 * z + 1) * w**2, jt * w**3
         denom = jm / h + kd + c_arm + (kp + k_q) * h  # implicit Euler: ω⁺ denom = J_m ω / h + ...
         mujoco.mj_resetData(m, d)
         d.qpos[:] = self.sim.qpos[0]
-        theta, omega, integral = arm_ref[0].copy(), np.zeros(len(arm)), np.zeros(len(arm))
+        theta, omega = arm_ref[0].copy(), np.zeros(len(arm))
+        # the arm starts at rest in the quasi-static pose: its integral holds the load there
+        integral = np.zeros(len(arm)) if rigid else k_q * (q_fed[0] - self.sim.qpos[0, arm]) / ki
         n = len(self.t_steps)
         tips, qpos, force = np.empty((n, 3)), np.empty((n, m.nq)), np.empty((n, 3))
         jacp, dx, df, f, drive = np.zeros((3, m.nv)), np.empty(3), np.empty(3), np.empty(3), np.empty(m.nv)

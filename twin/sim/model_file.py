@@ -12,7 +12,8 @@ read with `--model`:
      "effects": {"lost_motion": 0.15}, "units": {"lost_motion": "mrad"}, "lost_motion_takeup_mm": 2.0,
      "joint_stiffness_nm_per_rad": [...], "joint_friction_nm": [...],
      "servo": {"compliance_rad_per_nm": [...], "time_constant_s": ...} (learned by `learn`),
-     "dynamic_servo": {"bandwidth_over_mode": ..., "damping_ratio": ..., "delay_s": ..., "feedforward": ...}
+     "dynamic_servo": {"bandwidth_over_mode": ..., "damping_ratio": ..., "delay_s": ..., "feedforward": ...,
+                      "load_feedforward": ...}
              (the dynamic mode's joint servo, `learn --dynamic`; absent: none),
      "tool": {"length_mm": 300.0, "mass_kg": 8.0, "cog_mm": [0, 0, 150], "bending_stiffness_n_per_mm": 450.0}
              (the declared tool, `TwinSpec.tool`, its bending at the tip optional; absent: the robot model's own),
@@ -59,6 +60,8 @@ MODEL_KEYS = ("format", "robot", "process", "placement", "effects", "units", "lo
               "gear_play_mrad", "dynamic_servo")
 #: The keys of its `dynamic_servo` object (`twin.sim.dynamic_servo.ServoModel`'s fields).
 DYNAMIC_SERVO_KEYS = tuple(f.name for f in fields(ServoModel))
+#: The keys a model file written before `load_feedforward` carries (read with it at 1).
+LEGACY_SERVO_KEYS = tuple(key for key in DYNAMIC_SERVO_KEYS if key != "load_feedforward")
 #: The keys of its `process` object and of `process.history`.
 PROCESS_KEYS = (*RECORD_KEYS, "friction_reversal_mm", "force_model", "force_fit", "history")
 HISTORY_KEYS = ("file", "symmetry", "unchecked_symmetry")
@@ -258,12 +261,13 @@ def _dynamic_servo(path: Path, entry: Any) -> ServoModel | None:
     """The `dynamic_servo` object (`twin.sim.dynamic.ServoModel`), or None."""
     if entry is None:
         return None
-    if not isinstance(entry, Mapping) or set(entry) != set(DYNAMIC_SERVO_KEYS) or not all(
+    if not isinstance(entry, Mapping) or set(entry) not in (set(DYNAMIC_SERVO_KEYS), set(LEGACY_SERVO_KEYS)) or not all(
         isinstance(v, int | float) and not isinstance(v, bool) for v in entry.values()
     ):
         raise DataFileError(path, f"dynamic_servo = {entry!r}: expected an object with the numbers "
                             f"{', '.join(DYNAMIC_SERVO_KEYS)}")
-    return ServoModel(**{key: float(entry[key]) for key in DYNAMIC_SERVO_KEYS})
+    # fitted before `load_feedforward` existed: with the twin's load fed forward, as the loop then was
+    return ServoModel(**{"load_feedforward": 1.0, **{key: float(value) for key, value in entry.items()}})
 
 
 def _tool(path: Path, entry: Any) -> ToolSpec | None:

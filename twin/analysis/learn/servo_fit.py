@@ -1,7 +1,7 @@
 """The servo and its stop timing, learned from a run's own data for the dynamic twin (`twin.sim.dynamic`).
 
-The dynamic twin's generic servo has four numbers (`ServoModel`: bandwidth over each joint's mode β, damping ζ,
-reference delay d, inertial feed-forward share a). They are fitted to the run's tracker: the residual tracker −
+The dynamic twin's generic servo has five numbers (`ServoModel`: bandwidth over each joint's mode β, damping ζ,
+reference delay d, inertial feed-forward share a, the share b of the twin's own sheet load fed forward). They are fitted to the run's tracker: the residual tracker −
 the dynamic replay's predicted tracker (`twin.sim.measure.predict_tracker`, the twin's instruments) at every
 tracker sample, by a coarse grid (`GRID`) and then `scipy.optimize.least_squares` (trust region, bounded, from the
 grid's best; deterministic). One quasi-static replay serves every evaluation (`DynamicTwin`).
@@ -32,12 +32,13 @@ from twin.sim.spec import TwinSpec
 
 #: A turn of the commanded path over this is a corner the controller stops at [deg].
 CORNER_TURN_DEG = 30.0
-#: The grid the fit starts from: β, ζ, a (d starts at the stamps' stop lag).
-GRID = {"bandwidth_over_mode": (0.25, 0.5, 1.0, 2.0), "damping_ratio": (0.7, 1.4), "feedforward": (0.0, 1.0)}
-#: Bounds of the fit: β, ζ, d [s], a.
-BOUNDS = ((0.05, 0.3, 0.0, 0.0), (3.0, 5.0, 0.1, 1.0))
+#: The grid the fit starts from: β, ζ, a, b (d starts at the stamps' stop lag).
+GRID = {"bandwidth_over_mode": (0.25, 0.5, 1.0, 2.0), "damping_ratio": (0.7, 1.4), "feedforward": (0.0, 1.0),
+        "load_feedforward": (0.0, 1.0)}
+#: Bounds of the fit: β, ζ, d [s], a, b.
+BOUNDS = ((0.05, 0.3, 0.0, 0.0, 0.0), (3.0, 5.0, 0.1, 1.0, 1.0))
 #: The fit's unit of each: it steps in these (finite differences of 2 % of a unit).
-SCALE = np.array([1.0, 1.0, 0.01, 1.0])
+SCALE = np.array([1.0, 1.0, 0.01, 1.0, 1.0])
 #: Window around a commanded stop in which the tracker's slowest sample is looked for [s].
 STOP_WINDOW_S = 0.3
 
@@ -172,15 +173,15 @@ def fit_servo(run: Run, twin: Twin | TwinSpec | DynamicTwin | None = None, *, ma
     def residual(scaled: np.ndarray) -> np.ndarray:
         count[0] += 1
         x = np.clip(scaled * SCALE, BOUNDS[0], BOUNDS[1])
-        servo = ServoModel(float(x[0]), float(x[1]), float(x[2]), float(x[3]))
+        servo = ServoModel(*(float(v) for v in x))
         try:
             return 1e3 * tracker_residual(run, dynamic, servo)[inside].ravel()
         except InputError:  # a diverged replay: the worst the fit can see
             return np.full(3 * int(inside.sum()), 1e3)
 
     rigid = _rms_mm(tracker_residual(run, dynamic, ServoModel(math.inf, 1.0, 0.0))[inside])
-    grid = [np.array([b, z, d0, a]) for b, z, a in product(*GRID.values())]
-    costs = [float(np.sum(residual(x / SCALE) ** 2)) for x in grid]  # bounded: the grid's 16 points
+    grid = [np.array([beta, z, d0, a, b]) for beta, z, a, b in product(*GRID.values())]
+    costs = [float(np.sum(residual(x / SCALE) ** 2)) for x in grid]  # bounded: the grid's 32 points
     x0 = grid[int(np.argmin(costs))]
     fit = least_squares(residual, x0 / SCALE, bounds=(BOUNDS[0] / SCALE, BOUNDS[1] / SCALE), diff_step=0.02,
                         max_nfev=max_evaluations)

@@ -7,6 +7,12 @@ what compliance, servo, backlash and friction the twin gets wrong. The differenc
 one the twin predicts with its own forces is the sheet's part: where the forces the twin assumes move the tool
 elsewhere than the forces the cell measured.
 
+Given the dynamic twin's servo, the same forces also drive the arm stepped in time (`twin.sim.dynamic.DynamicTwin`
+with `forces`: its loop gives way to the force and its integral takes it up): the robot's part with the arm moving.
+Where that is well below the quasi-static one, what the quasi-static robot misses is the arm's motion, not its
+springs (docs/dynamic-twin.md, "The arm under the measured forces"; an F/T stream of tens of hertz folds the
+force's fast content into the band the arm follows, and the moving arm then misses more).
+
 Where the robot's part lies says what a compensation can do with it: its part above `FAST_HZ` is the arm moving
 faster than a quasi-static robot follows, and its share of the mean square within `NEAR_STOP_S` of the
 controller's stops (a pyramid's corners, a groove's reversals), against the share of the samples there, says
@@ -23,7 +29,9 @@ from scipy.signal import butter, filtfilt
 from twin.analysis.learn.robot import RobotFit, predicted_deflection, rms_norm_mm, robot_rows
 from twin.analysis.replay import ReplayResult
 from twin.base.signals import interp_rows
+from twin.errors import InputError
 from twin.runs.format import Run
+from twin.sim.dynamic import DynamicTwin, ServoModel, without_servo
 from twin.sim.quasi_static import Twin
 
 #: Above this a gap is the arm moving faster than a quasi-static robot follows [Hz].
@@ -41,6 +49,8 @@ class GapSplit(NamedTuple):
         robot_fast_mm: The robot's part above `FAST_HZ`, rms (`fast_part_mm`; NaN for 15 samples or fewer).
         robot_near_stop: Its mean square's share within `NEAR_STOP_S` of a stop [-] (`near_stop_shares`).
         samples_near_stop: The tracker samples' share there [-].
+        robot_moving_mm: RMS of the tracker minus the dynamic twin's arm driven by the measured forces under the
+            servo given (`moving_arm_tip`); NaN without one.
     """
 
     robot_rms_mm: float
@@ -48,6 +58,7 @@ class GapSplit(NamedTuple):
     robot_fast_mm: float
     robot_near_stop: float
     samples_near_stop: float
+    robot_moving_mm: float = float("nan")
 
 
 def fast_part_mm(t_s: np.ndarray, gap_m: np.ndarray) -> float:
@@ -116,10 +127,24 @@ def measured_force_tip(run: Run, twin: Twin) -> np.ndarray:
     return unloaded + measured_force_deflection(run, twin)
 
 
-def split_gap(run: Run, twin: Twin, replayed: ReplayResult) -> GapSplit:
-    """Split `replayed`'s position gap (module docstring); `twin` is the one that replayed the run."""
+def moving_arm_tip(run: Run, twin: Twin, servo: ServoModel) -> np.ndarray:
+    """The dynamic twin's tool tip at the tracker's times, the arm stepped along the run's command under `servo` and
+    driven by the run's measured forces as `measured_force_tip` takes them, sheet frame [m], (m, 3)."""
+    if run.forces is None:
+        raise InputError(f"run {run.directory}: no forces.csv: the arm is driven by the measured forces")
+    still = without_servo(twin)
+    arm = DynamicTwin(still, still.simulate(run.commanded.t_s, run.commanded.values),
+                      forces=(run.forces.t_s, run.forces.values))
+    moved = arm.simulate(servo)
+    return interp_rows(run.tracker.t_s, moved.t_s, moved.p_sheet_m)
+
+
+def split_gap(run: Run, twin: Twin, replayed: ReplayResult, servo: ServoModel | None = None) -> GapSplit:
+    """Split `replayed`'s position gap (module docstring); `twin` is the one that replayed the run; with `servo`,
+    the robot's part with the arm moving too."""
     tip = measured_force_tip(run, twin)
     robot = run.tracker.values - tip
     fast = fast_part_mm(run.tracker.t_s, robot) if len(robot) > 15 else float("nan")
+    moving = float("nan") if servo is None else rms_norm_mm(run.tracker.values - moving_arm_tip(run, twin, servo))
     return GapSplit(rms_norm_mm(robot), rms_norm_mm(replayed.tracker_pred_m - tip), fast,
-                    *near_stop_shares(run, run.tracker.t_s, robot))
+                    *near_stop_shares(run, run.tracker.t_s, robot), moving)

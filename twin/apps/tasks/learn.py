@@ -138,8 +138,8 @@ class LearnReport(Report):
             fit, servo = self.servo_fit, self.servo_fit.servo
             lines.append(f"  dynamic mode's servo (fitted on the first run): bandwidth {servo.bandwidth_over_mode:.2f} x "
                          f"each joint's mode, damping {servo.damping_ratio:.2f}, delay {1e3 * servo.delay_s:.1f} ms, "
-                         f"feed-forward {servo.feedforward:.2f}; its replay {fit.rms_rigid_mm:.3f} -> {fit.rms_mm:.3f} "
-                         "mm against a rigid servo")
+                         f"feed-forward {servo.feedforward:.2f}, load fed forward {servo.load_feedforward:.2f}; its "
+                         f"replay {fit.rms_rigid_mm:.3f} -> {fit.rms_mm:.3f} mm against a rigid servo")
         if self.model_file is not None:
             lines.append(f"-> {self.model_file}")
         return lines

@@ -76,7 +76,7 @@ class ReplayReport(Report):
         result: The prediction and its metrics (`twin.analysis.replay.replay_metrics`).
         split: With forces="measured": the gap split into the robot's part and the sheet's, and where the robot's
             part lies, above 0.5 Hz and near the controller's stops (`twin.analysis.learn.split.GapSplit`, [mm]);
-            else None.
+            with dynamic too, the robot's part with the arm moving; else None.
         figure: The figure written, or None.
         servo: With dynamic: the servo of the dynamic replay (`twin.sim.dynamic.ServoModel`), the result the
             dynamic replay's; else None.
@@ -99,6 +99,8 @@ class ReplayReport(Report):
         if (s := self.split) is not None:
             m.update(robot_gap_rms_mm=s.robot_rms_mm, sheet_gap_rms_mm=s.sheet_rms_mm, robot_gap_fast_mm=s.robot_fast_mm,
                      robot_gap_near_stop_share=s.robot_near_stop, samples_near_stop_share=s.samples_near_stop)
+            if self.servo is not None:
+                m.update(robot_gap_moving_rms_mm=s.robot_moving_mm)
         if self.servo is not None:
             m.update(quasi_static_position_rms_mm=self.quasi_static_rms_mm, dynamic_servo={
                 **self.servo.to_json(), "fitted_on_this_run": self.servo_fitted})
@@ -125,12 +127,16 @@ class ReplayReport(Report):
                 f"controller's stops, where {100 * s.samples_near_stop:.0f} % of the samples are")
             lines.append(f"  the robot's part: {s.robot_fast_mm:.3f} mm rms above {FAST_HZ:g} Hz (faster than a "
                          f"quasi-static robot follows){stops}")
+            if self.servo is not None:
+                lines.append(f"  with the arm moving (the dynamic twin's arm driven by the measured forces under the "
+                             f"servo below): {s.robot_moving_mm:.3f} mm rms")
         if self.servo is not None:
             servo, whose = self.servo, "fitted on this run" if self.servo_fitted else "the model's (predicted)"
             lines.append(f"  dynamic (the arm stepped in time, docs/dynamic-twin.md), its servo {whose}: "
                          f"bandwidth {servo.bandwidth_over_mode:.2f} x each joint's mode, damping "
                          f"{servo.damping_ratio:.2f}, delay {1e3 * servo.delay_s:.1f} ms, feed-forward "
-                         f"{servo.feedforward:.2f}; the quasi-static replay's gap {self.quasi_static_rms_mm:.3f} mm rms")
+                         f"{servo.feedforward:.2f}, load fed forward {servo.load_feedforward:.2f}; the quasi-static "
+                         f"replay's gap {self.quasi_static_rms_mm:.3f} mm rms")
         return lines
 
     def record(self) -> dict[str, Any]:
@@ -166,7 +172,7 @@ def replay_task(request: ReplayRequest, note: Note = silent) -> ReplayReport:
 
         if measured.forces is None:
             raise InputError(f"run {request.run_dir} has no forces.csv: --forces measured needs the F/T stream")
-        split = split_gap(measured, twin, result)
+        split = split_gap(measured, twin, result, servo)
     if request.rrd is not None:
         from twin.viz.recording import record_replay
 

@@ -1,0 +1,70 @@
+"""docs/dynamic-twin.md's "The arm under the measured forces": the table `experiments/pyramid_dynamic_arm.py`
+wrote, and every number and claim its words make of it (a stale or edited page fails here)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from tests.doc_numbers import quoted
+
+PAGE = Path(__file__).resolve().parents[1] / "docs" / "dynamic-twin.md"
+
+
+def _rows() -> dict[tuple[str, str], list[float]]:
+    """(robot and law, sensor) -> [β, ζ, cone rms, quasi-static, dynamic, rigid, the stream above 20 Hz (NaN: -)]
+    of the generated table."""
+    text = PAGE.read_text(encoding="utf-8")
+    block = text[text.index("<!-- pyramid-dynamic-arm:begin"):text.index("<!-- pyramid-dynamic-arm:end")]
+    out = {}
+    for line in block.splitlines():
+        if line.startswith("| ") and "sheet law" in line:
+            cell, sensor, above, servo, parts = (c.strip() for c in line.split("|")[1:-1])
+            (beta, zeta), cone = servo.split(";")[0].split("/"), servo.split(";")[1]
+            key = ("kr210" if "kr210" in cell else "irb6640" if "irb6640" in cell else "tx200",
+                   "law 2" if "law 2" in cell else "law 1")
+            out[(" ".join(key), "fast" if sensor.startswith("1000") else "30")] = [
+                float(beta), float(zeta), float(cone), *(float(v) for v in parts.split("/")),
+                float("nan") if above == "-" else float(above)]
+    return out
+
+
+def test_the_table_has_every_cell_and_both_sensors() -> None:
+    rows = _rows()
+    assert len(rows) == 12 and {k[1] for k in rows} == {"fast", "30"}
+
+
+def test_with_the_fast_sensor_the_cones_servo_takes_the_held_out_pyramids_robot_part_down() -> None:
+    rows = _rows()
+    for robot in ("kr210", "irb6640"):
+        for law in ("law 1", "law 2"):
+            *_, static, dynamic, rigid, _ = rows[(f"{robot} {law}", "fast")]
+            assert dynamic < 0.75 * static and dynamic < rigid, (robot, law)
+    kr, irb = rows[("kr210 law 1", "fast")], rows[("irb6640 law 1", "fast")]
+    for q, v in zip([*quoted("dynamic-twin.md", "law the KR 210's from", 2),
+                     *quoted("dynamic-twin.md", "and the IRB 6640's from", 2)], (kr[3], kr[4], irb[3], irb[4]), strict=True):
+        q.check(v)
+    for q, v in zip(quoted("dynamic-twin.md", "where a rigid servo leaves", 2), (kr[5], irb[5]), strict=True):
+        q.check(v)
+
+
+def test_with_the_thesiss_stream_it_gains_less() -> None:
+    rows = _rows()
+    irb = rows[("irb6640 law 1", "30")]
+    for q, v in zip(quoted("dynamic-twin.md", "the IRB 6640's first law from", 2), (irb[3], irb[4]), strict=True):
+        q.check(v)
+    for robot in ("kr210", "irb6640"):
+        for law in ("law 1", "law 2"):
+            slow, fast = rows[(f"{robot} {law}", "30")], rows[(f"{robot} {law}", "fast")]
+            assert fast[4] < slow[4], (robot, law)
+    for cell in ("tx200 law 2", "kr210 law 2"):  # "on the second law's TX200 and KR 210 it loses"
+        _, _, _, static, dynamic, _, _ = rows[(cell, "30")]
+        assert dynamic > static, cell
+
+
+def test_the_fast_stream_shows_what_a_30_hz_one_folds_back() -> None:
+    rows = _rows()
+    above = [v[6] for k, v in rows.items() if k[1] == "fast"]
+    assert len(above) == 6 and all(a > 0 for a in above)
+    low, high = quoted("dynamic-twin.md", "on these runs the plant's force moves by", 2)
+    low.check(min(above))
+    high.check(max(above))
