@@ -100,23 +100,31 @@ def test_the_loop_takes_the_sheets_load_through_its_integral() -> None:
     assert gap[-1] < 0.01 * springs  # and the integral took the load up
 
 
-def _servo_written_here(twin, t: np.ndarray, sim, mode_rad_s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # type: ignore[no-untyped-def]
-    """The tip of a rigid arm whose motors follow their references through the test's own servo (TRUE)."""
+def _servo_written_here(twin, t: np.ndarray, sim, mode_rad_s: np.ndarray, joint_inertia: np.ndarray | None = None,
+                        force=None) -> tuple[np.ndarray, np.ndarray]:  # type: ignore[no-untyped-def]
+    """The tip of a rigid arm whose motors follow their references through the test's own servo (TRUE); with
+    `force` (a function of time, sheet frame [N]) the springs also bend under it and each motor gives way to its
+    load torque tau through the same loop, theta / tau = s / (J (s + w)(s^2 + 2 zeta w s + w^2)), until the integral
+    takes it up (J: `joint_inertia`)."""
     beta, zeta, delay = TRUE["bandwidth_over_mode"], TRUE["damping_ratio"], TRUE["delay_s"]
     arm = twin.robot.addresses(twin.model).qpos
     ref = references(twin, sim)[:, arm]
     fine = np.arange(t[0], t[-1], 1e-3)
-    motor = np.empty((len(fine), len(arm)))
-    for j, w in enumerate(beta * mode_rad_s):
-        loop = ([(2 * zeta + 1) * w, (2 * zeta + 1) * w**2, w**3], np.polymul([1, w], [1, 2 * zeta * w, w**2]))
-        r = np.interp(fine - delay, t, ref[:, j])
-        motor[:, j] = r[0] + signal.lsim(loop, r - r[0], fine)[1]
-    on_ref = np.column_stack([np.interp(fine, t, ref[:, j]) for j in range(len(arm))])
     q = np.column_stack([np.interp(fine, t, sim.q_ik[:, j]) for j in range(len(arm))])
-    jac = twin.kinematics.jacobians(q)[:, :3, :]
-    moved = np.einsum("ki,nkj,nj->ni", twin.R_base_sheet, jac, motor - on_ref)
-    tip = np.column_stack([np.interp(fine, t, sim.p_sheet_m[:, j]) for j in range(3)]) + moved
-    return fine, tip
+    jac = np.einsum("ki,nkj->nij", twin.R_base_sheet, twin.kinematics.jacobians(q)[:, :3, :])  # sheet frame
+    tau = np.zeros((len(fine), len(arm))) if force is None else np.einsum("nij,ni->nj", jac, force(fine))
+    moved = np.empty((len(fine), len(arm)))
+    for j, w in enumerate(beta * mode_rad_s):
+        poles = np.polymul([1, w], [1, 2 * zeta * w, w**2])
+        loop = ([(2 * zeta + 1) * w, (2 * zeta + 1) * w**2, w**3], poles)
+        r = np.interp(fine - delay, t, ref[:, j])
+        moved[:, j] = r[0] + signal.lsim(loop, r - r[0], fine)[1] - np.interp(fine, t, ref[:, j])
+        if force is not None:
+            assert joint_inertia is not None
+            give = signal.lsim(([1.0, 0.0], joint_inertia[j] * poles), tau[:, j], fine)[1]
+            moved[:, j] += give + tau[:, j] / twin.joint_stiffness[j]
+    tip = np.column_stack([np.interp(fine, t, sim.p_sheet_m[:, j]) for j in range(3)])
+    return fine, tip + np.einsum("nij,nj->ni", jac, moved)
 
 
 def test_fit_servo_finds_a_servo_written_in_the_test_again(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -165,6 +173,38 @@ def test_fit_servo_finds_a_servo_written_in_the_test_again(tmp_path: Path, capsy
     split = json.loads(capsys.readouterr().out)
     assert split["robot_gap_moving_rms_mm"] == pytest.approx(again["position_rms_mm"], rel=0.05)
     assert split["robot_gap_rms_mm"] > 2 * split["robot_gap_moving_rms_mm"]
+
+
+def test_fit_servo_driven_by_a_fast_streams_forces_finds_the_loop_that_gives_way_to_them() -> None:
+    """Above the sheet, a force of the test's making pushes the tool (steps of Fz, a slow swing of Fx) and a 500 Hz
+    F/T stream measures it: `fit_servo` drives the arm by it (the stream is fast enough, `MEASURED_FORCES_MIN_HZ`)
+    and finds the loop written here again; driven by the twin's own sheet, which pushes nowhere above the sheet, the
+    same fit cannot see the force and misses the tracker by more."""
+    twin = TwinSpec(process=Process(force_model="isf"), joint_friction_nm=(0.0,) * 6).build()
+    t, p = square(0.02, 1e-3, 0.0333, 0.5, 0.004)
+    sim = twin.simulate(t, p)
+    dynamic = DynamicTwin(twin, sim)
+
+    def force(at: np.ndarray) -> np.ndarray:
+        fz = 150.0 + 100.0 * np.sum([np.tanh((at - s) / 0.02) for s in (0.3, 0.9, 1.6, 2.2)], axis=0)
+        return np.column_stack([60.0 * np.sin(2 * np.pi * 0.7 * at), 0 * at, fz])
+
+    fine, tip = _servo_written_here(twin, t, sim, dynamic.mode_rad_s, dynamic.joint_inertia, force)
+    t_k, t_f = np.arange(0.0, t[-1], 0.02), np.arange(0.0, t[-1], 0.002)
+    tracker = np.column_stack([np.interp(t_k, fine, tip[:, j]) for j in range(3)])
+    meta = run_meta(scenario="nominal", source="test: a loop that gives way, written in the test",
+                    tracker_rate_hz=50.0, sensor_rate_hz=500.0, seed=0, tool_length_m=twin.robot.tool_length_m,
+                    robot=twin.robot.name)
+    run = Run(None, meta, Stream(t, p), Stream(t_k, tracker), Stream(t_f, force(t_f)))
+    fit = fit_servo(run, twin, max_evaluations=30)
+    assert fit.measured_forces and fit.servo.load_feedforward == 0.0
+    for name, truth in TRUE.items():
+        found = getattr(fit.servo, name)
+        tol = FOUND[name] if name == "delay_s" else FOUND[name] * truth
+        assert found == pytest.approx(truth, abs=tol), f"{name}: found {found:.4g}, wrote {truth}"
+    assert fit.rms_mm < 0.3 * fit.rms_rigid_mm
+    blind = fit_servo(run, twin, max_evaluations=10, measured_forces=False)
+    assert not blind.measured_forces and blind.rms_mm > 2 * fit.rms_mm
 
 
 def test_the_model_file_refuses_a_bad_dynamic_servo(tmp_path: Path) -> None:

@@ -6,6 +6,12 @@ the dynamic replay's predicted tracker (`twin.sim.measure.predict_tracker`, the 
 tracker sample, by a coarse grid (`GRID`) and then `scipy.optimize.least_squares` (trust region, bounded, from the
 grid's best; deterministic). One quasi-static replay serves every evaluation (`DynamicTwin`).
 
+What drives the fit's arm: the twin's own sheet (the quasi-static replay's force, linearised), or, where the run's
+F/T stream is fast enough (`MEASURED_FORCES_MIN_HZ`), the forces it measured (`DynamicTwin`'s `forces`): the robot
+alone, as `learn` fits the springs, with none of the twin's load fed forward (b = 0). A stream of tens of hertz folds
+the force's fast content into the band the arm follows; driven by it, the arm misses more (docs/dynamic-twin.md,
+"The arm under the measured forces").
+
 The stop timing is read from the stamps themselves as well: at each sharp corner or reversal of the command (a turn
 over `CORNER_TURN_DEG`, where the controller brings the tool to rest), the time of the tracker's slowest sample
 minus that of the command's, the median over the corners (`stop_lag`); it seeds d.
@@ -39,6 +45,9 @@ GRID = {"bandwidth_over_mode": (0.25, 0.5, 1.0, 2.0), "damping_ratio": (0.7, 1.4
 BOUNDS = ((0.05, 0.3, 0.0, 0.0, 0.0), (3.0, 5.0, 0.1, 1.0, 1.0))
 #: The fit's unit of each: it steps in these (finite differences of 2 % of a unit).
 SCALE = np.array([1.0, 1.0, 0.01, 1.0, 1.0])
+#: An F/T stream at this rate or faster drives the fit's arm by its measured forces [Hz]: its Nyquist frequency lies
+#: above the arm's first modes (10-75 Hz on the shipped robots, `DynamicTwin.mode_rad_s`).
+MEASURED_FORCES_MIN_HZ = 250.0
 #: Window around a commanded stop in which the tracker's slowest sample is looked for [s].
 STOP_WINDOW_S = 0.3
 
@@ -55,6 +64,7 @@ class ServoFit:
         rms_mm: Tracker residual rms with the fitted servo [mm].
         evaluations: Dynamic replays the fit ran.
         wall_s: Its wall time [s].
+        measured_forces: Whether the run's measured forces drove the arm (else the twin's sheet).
     """
 
     servo: ServoModel
@@ -64,6 +74,7 @@ class ServoFit:
     rms_mm: float
     evaluations: int
     wall_s: float
+    measured_forces: bool = False
 
 
 def corner_indices(p_cmd_sheet_m: np.ndarray, turn_deg: float = CORNER_TURN_DEG) -> np.ndarray:
@@ -120,17 +131,31 @@ def _twin_for(run: Run, twin: Twin | TwinSpec | None) -> Twin:
     return without_servo(twin) if isinstance(twin, Twin) else spec_for_run(run, twin).replace(servo=None).build()
 
 
-def prepare(run: Run, twin: Twin | TwinSpec | None = None) -> DynamicTwin:
+def force_rate_hz(run: Run) -> float:
+    """The run's F/T stream's rate [Hz] (its median sample interval's inverse); 0 without one."""
+    if run.forces is None or len(run.forces.t_s) < 2:
+        return 0.0
+    return 1.0 / float(np.median(np.diff(run.forces.t_s)))
+
+
+def prepare(run: Run, twin: Twin | TwinSpec | None = None, measured_forces: bool = False) -> DynamicTwin:
     """The dynamic twin of a run's commanded path, its quasi-static replay made once.
 
     Args:
         run: A measured run (at least 2 commanded samples).
         twin: A spec (placed at the run's placement) or a twin at the run's placement; None: the run's robot.
+        measured_forces: Drive the arm by the run's measured forces (module docstring), not the twin's sheet.
+
+    Raises:
+        InputError: `measured_forces` on a run without forces.csv.
     """
     if len(run.commanded.t_s) < 2:
         raise RunFormatError("commanded.csv", "needs at least 2 samples to replay")
+    if measured_forces and run.forces is None:
+        raise InputError(f"run {run.directory}: no forces.csv to drive the dynamic twin's arm by")
     qs = _twin_for(run, twin)
-    return DynamicTwin(qs, qs.simulate(run.commanded.t_s, run.commanded.values))
+    forces = (run.forces.t_s, run.forces.values) if measured_forces and run.forces is not None else None
+    return DynamicTwin(qs, qs.simulate(run.commanded.t_s, run.commanded.values), forces=forces)
 
 
 def tracker_residual(run: Run, dynamic: DynamicTwin, servo: ServoModel) -> np.ndarray:
@@ -143,13 +168,17 @@ def _rms_mm(residual: np.ndarray) -> float:
     return 1e3 * float(np.sqrt(np.mean(np.sum(residual**2, axis=1))))
 
 
-def fit_servo(run: Run, twin: Twin | TwinSpec | DynamicTwin | None = None, *, max_evaluations: int = 40) -> ServoFit:
+def fit_servo(run: Run, twin: Twin | TwinSpec | DynamicTwin | None = None, *, max_evaluations: int = 40,
+              measured_forces: bool | None = None) -> ServoFit:
     """Learn the dynamic twin's servo from a run's tracker (module docstring).
 
     Args:
         run: A measured run with corners or reversals (their transients carry the servo).
-        twin: The cell's twin (a learned spec, say), a `DynamicTwin` of this run, or None (the run's robot).
+        twin: The cell's twin (a learned spec, say), a `DynamicTwin` of this run (which says what drives it), or
+            None (the run's robot).
         max_evaluations: Dynamic replays the least-squares stage may run after the grid.
+        measured_forces: Drive the arm by the run's measured forces (b held at 0); None: where its F/T stream runs
+            at `MEASURED_FORCES_MIN_HZ` or faster.
 
     Returns:
         The fitted servo and the residual before and after.
@@ -161,7 +190,13 @@ def fit_servo(run: Run, twin: Twin | TwinSpec | DynamicTwin | None = None, *, ma
     if max_evaluations < 1:
         raise InputError(f"max_evaluations = {max_evaluations!r}: expected >= 1")
     start = time.perf_counter()
-    dynamic = twin if isinstance(twin, DynamicTwin) else prepare(run, twin)
+    if isinstance(twin, DynamicTwin):
+        dynamic, measured = twin, twin.forces is not None
+    else:
+        measured = force_rate_hz(run) >= MEASURED_FORCES_MIN_HZ if measured_forces is None else measured_forces
+        dynamic = prepare(run, twin, measured)
+    width = 4 if measured else 5  # measured forces: none of the twin's load is fed forward (b = 0)
+    low, high, scale = BOUNDS[0][:width], BOUNDS[1][:width], SCALE[:width]
     inside = (run.tracker.t_s >= run.commanded.t_s[0]) & (run.tracker.t_s <= run.commanded.t_s[-1])
     if inside.sum() < 8:
         raise IdentificationError(f"the run's tracker has {int(inside.sum())} samples within its command; "
@@ -172,7 +207,7 @@ def fit_servo(run: Run, twin: Twin | TwinSpec | DynamicTwin | None = None, *, ma
 
     def residual(scaled: np.ndarray) -> np.ndarray:
         count[0] += 1
-        x = np.clip(scaled * SCALE, BOUNDS[0], BOUNDS[1])
+        x = np.clip(scaled * scale, low, high)
         servo = ServoModel(*(float(v) for v in x))
         try:
             return 1e3 * tracker_residual(run, dynamic, servo)[inside].ravel()
@@ -180,16 +215,18 @@ def fit_servo(run: Run, twin: Twin | TwinSpec | DynamicTwin | None = None, *, ma
             return np.full(3 * int(inside.sum()), 1e3)
 
     rigid = _rms_mm(tracker_residual(run, dynamic, ServoModel(math.inf, 1.0, 0.0))[inside])
-    grid = [np.array([beta, z, d0, a, b]) for beta, z, a, b in product(*GRID.values())]
-    costs = [float(np.sum(residual(x / SCALE) ** 2)) for x in grid]  # bounded: the grid's 32 points
+    axes = [GRID["bandwidth_over_mode"], GRID["damping_ratio"], GRID["feedforward"]]
+    axes += [] if measured else [GRID["load_feedforward"]]
+    grid = [np.array([beta, z, d0, *shares]) for beta, z, *shares in product(*axes)]
+    costs = [float(np.sum(residual(x / scale) ** 2)) for x in grid]  # bounded: the grid's 16 or 32 points
     x0 = grid[int(np.argmin(costs))]
-    fit = least_squares(residual, x0 / SCALE, bounds=(BOUNDS[0] / SCALE, BOUNDS[1] / SCALE), diff_step=0.02,
+    fit = least_squares(residual, x0 / scale, bounds=(low / scale, high / scale), diff_step=0.02,
                         max_nfev=max_evaluations)
-    best = np.clip(fit.x * SCALE, BOUNDS[0], BOUNDS[1]) if 2 * fit.cost <= min(costs) else x0
+    best = np.clip(fit.x * scale, low, high) if 2 * fit.cost <= min(costs) else x0
     servo = ServoModel(*(float(v) for v in best))
     return ServoFit(servo, tuple(float(w) for w in servo.bandwidth_over_mode * dynamic.mode_rad_s), lag, rigid,
                     _rms_mm(tracker_residual(run, dynamic, servo)[inside]), count[0] + 2,
-                    time.perf_counter() - start)
+                    time.perf_counter() - start, measured)
 
 
 def dynamic_replay(
@@ -215,5 +252,5 @@ def dynamic_replay(
     return ReplayResult(sim, tracker, forces, replay_metrics(run, tracker, forces))
 
 
-__all__ = ["ServoFit", "corner_indices", "dynamic_replay", "fit_servo", "near_corners", "prepare",
-           "stop_lag", "tracker_residual"]
+__all__ = ["MEASURED_FORCES_MIN_HZ", "ServoFit", "corner_indices", "dynamic_replay", "fit_servo", "force_rate_hz",
+           "near_corners", "prepare", "stop_lag", "tracker_residual"]

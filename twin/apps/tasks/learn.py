@@ -136,9 +136,11 @@ class LearnReport(Report):
             lines.append(f"  dynamic mode's servo: not learned ({self.servo_refused}); the model has none")
         if self.servo_fit is not None:
             fit, servo = self.servo_fit, self.servo_fit.servo
+            drive = "its measured forces" if fit.measured_forces else "the twin's sheet"
             lines.append(f"  dynamic mode's servo (fitted on the first run): bandwidth {servo.bandwidth_over_mode:.2f} x "
                          f"each joint's mode, damping {servo.damping_ratio:.2f}, delay {1e3 * servo.delay_s:.1f} ms, "
-                         f"feed-forward {servo.feedforward:.2f}, load fed forward {servo.load_feedforward:.2f}; its "
+                         f"feed-forward {servo.feedforward:.2f}, load fed forward {servo.load_feedforward:.2f}, the arm "
+                         f"driven by {drive}; its "
                          f"replay {fit.rms_rigid_mm:.3f} -> {fit.rms_mm:.3f} mm against a rigid servo")
         if self.model_file is not None:
             lines.append(f"-> {self.model_file}")
@@ -180,7 +182,8 @@ class LearnReport(Report):
             "floor": None if self.floor is None else self.floor.to_json(),
             "dynamic_servo": self.servo_refused if self.servo_fit is None else {
                 **self.servo_fit.servo.to_json(),
-                "rms_rigid_mm": self.servo_fit.rms_rigid_mm, "rms_mm": self.servo_fit.rms_mm},
+                "rms_rigid_mm": self.servo_fit.rms_rigid_mm, "rms_mm": self.servo_fit.rms_mm,
+                "measured_forces": self.servo_fit.measured_forces},
         }
 
 

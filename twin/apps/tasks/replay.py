@@ -164,7 +164,8 @@ def replay_task(request: ReplayRequest, note: Note = silent) -> ReplayReport:
         from twin.analysis.learn.servo_fit import dynamic_replay, fit_servo, prepare
 
         dynamic, quasi_static_rms = prepare(measured, twin), float(result.metrics["position_rms_mm"])
-        servo = spec.dynamic_servo or fit_servo(measured, dynamic).servo  # the model's (predicted), else fitted here
+        # the model's (predicted), else fitted here (driven by the measured forces where the stream is fast enough)
+        servo = spec.dynamic_servo or fit_servo(measured, twin).servo
         result = dynamic_replay(measured, dynamic, servo)
     split = None
     if request.forces == "measured":
