@@ -18,11 +18,11 @@ from __future__ import annotations
 import argparse
 import json
 import shutil
-from collections.abc import Iterator
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 from typing import Any
 
-from experiments_cli import cli, cli_json, write_between_markers
+from experiments_cli import cli, cli_json, write_between_markers, write_study
 
 from twin.lab.dynamic.knobs import Knobs
 from twin.lab.dynamic.run import run_dynamic_lab
@@ -69,6 +69,21 @@ def cone_cells(law1: Path, law2: Path | None) -> Iterator[tuple[str, str, Path, 
             for robot, role in CONE_CELLS:
                 yield (f"{robot}, sheet law {law} ({role})", robot, source / f"cone-{robot}",
                        () if law == 1 else ("sheet_law=2",))
+
+
+def cone_study(description: str, stem: str, marker: str,
+               rows_of: Callable[[Path, str, Path, tuple[str, ...]], Iterable[dict[str, Any]]],
+               table: Callable[[list[dict[str, Any]]], str]) -> None:
+    """A study of these cone variants from its command line (`cone_cells_parser`): each cell's rows from
+    `rows_of(work, robot, folder, plant_set)` (work: OUT/ROBOT_lawN, for the runs it forms), each printed as its
+    table line as it comes, then OUT/STEM.json and .md and the page's `marker` table (`write_study`)."""
+    args = cone_cells_parser(description).parse_args()
+    rows: list[dict[str, Any]] = []
+    for cell, robot, folder, plant_set in cone_cells(args.law1, args.law2):
+        for row in rows_of(args.out / f"{robot}_law{2 if plant_set else 1}", robot, folder, plant_set):
+            rows.append({"cell": cell, **row})
+            print(table(rows[-1:]).splitlines()[-1], flush=True)
+    write_study(args.out, stem, rows, table(rows), args.doc, marker)
 
 
 def _lab(robot: str, knobs: list[str], strength: float, command: Path, out: Path, seed: int,

@@ -24,8 +24,8 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from experiments_cli import cli, cli_json, lab_neutral, write_study
-from learn_cell import OTHER_NAMES, cone_cells, cone_cells_parser
+from experiments_cli import cli, cli_json, lab_neutral
+from learn_cell import OTHER_NAMES, cone_study
 from online_study import rms_mm, true_tip_miss_mm
 
 #: How many parts follow the first.
@@ -68,15 +68,10 @@ def table(rows: list[dict[str, Any]]) -> str:
 
 
 def main() -> None:
-    args = cone_cells_parser(__doc__.splitlines()[0]).parse_args()
-    rows: list[dict[str, Any]] = []
-    for cell, robot, folder, plant_set in cone_cells(args.law1, args.law2):
-        for prefix, part in OTHER_NAMES.items():
-            tag = f"{robot}_law{2 if plant_set else 1}"
-            rows.append({"cell": cell, "part": part,
-                         "parts": part_batch(args.out / tag, robot, folder, prefix, plant_set)})
-            print(table(rows[-1:]).splitlines()[-1], flush=True)
-    write_study(args.out, "next_part", rows, table(rows), args.doc, "next-part")
+    cone_study(__doc__.splitlines()[0], "next_part", "next-part",
+               lambda work, robot, folder, plant_set: [{"part": part, "parts": part_batch(work, robot, folder, prefix,
+                                                                                          plant_set)}
+                                                       for prefix, part in OTHER_NAMES.items()], table)
 
 
 if __name__ == "__main__":

@@ -34,8 +34,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from experiments_cli import write_study
-from learn_cell import cone_cells, cone_cells_parser
+from learn_cell import cone_study
 from online_study import rms_mm, true_tip_miss_mm
 from sheet_learner_study import force_gap
 
@@ -102,13 +101,9 @@ def table(rows: list[dict[str, Any]]) -> str:
 
 
 def main() -> None:
-    args = cone_cells_parser(__doc__.splitlines()[0]).parse_args()
-    rows: list[dict[str, Any]] = []
-    for cell, _, folder, _ in cone_cells(args.law1, args.law2):
-        for prefix, part in PARTS:
-            rows.append({"cell": cell, "part": part, **part_limits(folder, prefix)})
-            print(table(rows[-1:]).splitlines()[-1], flush=True)
-    write_study(args.out, "offline_limits", rows, table(rows), args.doc, "offline-limits")
+    cone_study(__doc__.splitlines()[0], "offline_limits", "offline-limits",
+               lambda _, __, folder, ___: [{"part": part, **part_limits(folder, prefix)} for prefix, part in PARTS],
+               table)
 
 
 if __name__ == "__main__":

@@ -43,8 +43,8 @@ from pathlib import Path
 from typing import Any, NamedTuple
 
 import numpy as np
-from experiments_cli import cli, lab_neutral, write_study
-from learn_cell import cone_cells, cone_cells_parser
+from experiments_cli import cli, lab_neutral
+from learn_cell import cone_study
 from online_study import rms_mm, true_tip_miss_mm
 
 from twin.analysis.check import ideal_times
@@ -257,13 +257,8 @@ def table(rows: list[dict[str, Any]]) -> str:
 
 
 def main() -> None:
-    args = cone_cells_parser(__doc__.splitlines()[0]).parse_args()
-    rows: list[dict[str, Any]] = []
-    for cell, robot, folder, plant_set in cone_cells(args.law1, args.law2):
-        tag = f"{robot}_law{2 if plant_set else 1}"
-        rows.append({"cell": cell, **cell_row(args.out / tag, robot, folder, plant_set)})
-        print(table(rows[-1:]).splitlines()[-1], flush=True)
-    write_study(args.out, "pyramid_corners", rows, table(rows), args.doc, "pyramid-corners")
+    cone_study(__doc__.splitlines()[0], "pyramid_corners", "pyramid-corners",
+               lambda work, robot, folder, plant_set: [cell_row(work, robot, folder, plant_set)], table)
 
 
 if __name__ == "__main__":

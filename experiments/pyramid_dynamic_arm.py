@@ -30,8 +30,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from experiments_cli import lab_neutral, write_study
-from learn_cell import cone_cells, cone_cells_parser
+from experiments_cli import lab_neutral
+from learn_cell import cone_study
 from scipy.signal import butter, filtfilt
 
 from twin.analysis.learn.split import measured_force_tip
@@ -130,14 +130,7 @@ def table(rows: list[dict[str, Any]]) -> str:
 
 
 def main() -> None:
-    args = cone_cells_parser(__doc__.splitlines()[0]).parse_args()
-    rows: list[dict[str, Any]] = []
-    for cell, robot, folder, plant_set in cone_cells(args.law1, args.law2):
-        tag = f"{robot}_law{2 if plant_set else 1}"
-        for row in cell_rows(args.out / tag, robot, folder, plant_set):
-            rows.append({"cell": cell, **row})
-            print(table(rows[-1:]).splitlines()[-1], flush=True)
-    write_study(args.out, "pyramid_dynamic_arm", rows, table(rows), args.doc, "pyramid-dynamic-arm")
+    cone_study(__doc__.splitlines()[0], "pyramid_dynamic_arm", "pyramid-dynamic-arm", cell_rows, table)
 
 
 if __name__ == "__main__":
