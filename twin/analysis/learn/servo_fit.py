@@ -1,10 +1,11 @@
 """The servo and its stop timing, learned from a run's own data for the dynamic twin (`twin.sim.dynamic`).
 
 The dynamic twin's generic servo has five numbers (`ServoModel`: bandwidth over each joint's mode β, damping ζ,
-reference delay d, inertial feed-forward share a, the share b of the twin's own sheet load fed forward). They are fitted to the run's tracker: the residual tracker −
-the dynamic replay's predicted tracker (`twin.sim.measure.predict_tracker`, the twin's instruments) at every
-tracker sample, by a coarse grid (`GRID`) and then `scipy.optimize.least_squares` (trust region, bounded, from the
-grid's best; deterministic). One quasi-static replay serves every evaluation (`DynamicTwin`).
+reference delay d, inertial feed-forward share a, the share b of the twin's own sheet load fed forward). They are
+fitted to the run's tracker: the residual tracker − the dynamic replay's predicted tracker
+(`twin.sim.measure.predict_tracker`, the twin's instruments) at every tracker sample, by a coarse grid (`GRID`) and
+then `scipy.optimize.least_squares` (trust region, bounded, from the grid's best; deterministic). One quasi-static
+replay serves every evaluation (`DynamicTwin`).
 
 What drives the fit's arm: the twin's own sheet (the quasi-static replay's force, linearised), or, where the run's
 F/T stream is fast enough (`MEASURED_FORCES_MIN_HZ`), the forces it measured (`DynamicTwin`'s `forces`): the robot
