@@ -20,17 +20,24 @@ undone). The true tip (`truth_tip.csv`) is read here, on the experiment's side o
 .json and .md, and with `--doc` the table between the page's `pyramid-dynamic-arm` markers:
 
     .venv/bin/python experiments/pyramid_dynamic_arm.py OUT --law1 L1 [--law2 L2] [--doc docs/dynamic-twin.md]
+
+With `--commands` it takes the same path through the commands a user runs instead, on the 1 kHz runs: `learn CONE
+--dynamic --write-model` (the cone's learned robot and sheet, and the servo fitted with the arm driven by the
+cone's measured forces, `twin.analysis.learn.servo_fit`), then `replay PYRAMID --model --dynamic --forces measured`
+(the robot's part quasi-static and with the arm moving, on the tracker; neutral knobs: the true tip and its noise),
+into OUT/pyramid_dynamic_commands.json and .md and the page's `pyramid-dynamic-commands` markers.
 """
 
 from __future__ import annotations
 
 import math
+import sys
 from itertools import product
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-from experiments_cli import lab_neutral
+from experiments_cli import cli_json, lab_neutral
 from learn_cell import cone_study
 from scipy.signal import butter, filtfilt
 
@@ -113,6 +120,34 @@ def cell_rows(out: Path, robot: str, folder: Path, plant_set: tuple[str, ...]) -
              **sensor_row(cone_fast, pyramid_fast, spec, LOWPASS_HZ)}]
 
 
+def command_rows(out: Path, robot: str, folder: Path, plant_set: tuple[str, ...]) -> list[dict[str, Any]]:
+    """The `--commands` row of one learn_cell variant (module docstring), its 1 kHz runs formed into `out`."""
+    fast = (*plant_set, f"ft_rate_hz={FAST_HZ:g}")
+    cone = lab_neutral(robot, folder / "ideal.csv", out / "cone_fast", 1, "nominal", fast)
+    pyramid = lab_neutral(robot, folder / "pyramid_learned.csv", out / "pyramid_fast", 3, "compensated", fast)
+    model = out / "learned_dynamic.json"
+    model.unlink(missing_ok=True)
+    learned = cli_json("learn", str(cone), "--dynamic", "--write-model", str(model))["dynamic_servo"]
+    split = cli_json("replay", str(pyramid), "--model", str(model), "--dynamic", "--forces", "measured")
+    return [{"beta": learned["bandwidth_over_mode"], "zeta": learned["damping_ratio"],
+             "delay_ms": 1e3 * learned["delay_s"], "measured_forces": learned["measured_forces"],
+             "quasi_static_mm": split["robot_gap_rms_mm"], "moving_mm": split["robot_gap_moving_rms_mm"]}]
+
+
+def command_table(rows: list[dict[str, Any]]) -> str:
+    """The `--commands` markdown table (module docstring)."""
+    lines = ["Each cell's nominal cone and compensated pyramid formed with the plant's F/T sensor at "
+             f"{FAST_HZ:g} Hz (neutral knobs; seeds 1 and 3): `learn CONE --dynamic`, then `replay PYRAMID --dynamic "
+             "--forces measured` with that model.", "",
+             "| cell | servo `learn --dynamic` fitted: beta / zeta / delay [ms]; arm driven by | pyramid, robot part "
+             "on the tracker [mm]: quasi-static / the arm moving |", "|---|---|---|"]
+    for r in rows:
+        drive = "its measured forces" if r["measured_forces"] else "the twin's sheet"
+        lines.append(f"| {r['cell']} | {r['beta']:.2f} / {r['zeta']:.2f} / {r['delay_ms']:.1f}; {drive} | "
+                     f"{r['quasi_static_mm']:.3f} / {r['moving_mm']:.3f} |")
+    return "\n".join(lines) + "\n"
+
+
 def table(rows: list[dict[str, Any]]) -> str:
     """The markdown table (module docstring)."""
     lines = ["Each pyramid compensated with the twin learned from the nominal cone (neutral knobs, seed 3); the "
@@ -130,7 +165,12 @@ def table(rows: list[dict[str, Any]]) -> str:
 
 
 def main() -> None:
-    cone_study(__doc__.splitlines()[0], "pyramid_dynamic_arm", "pyramid-dynamic-arm", cell_rows, table)
+    if "--commands" in sys.argv:
+        sys.argv.remove("--commands")
+        cone_study(__doc__.splitlines()[0], "pyramid_dynamic_commands", "pyramid-dynamic-commands", command_rows,
+                   command_table)
+    else:
+        cone_study(__doc__.splitlines()[0], "pyramid_dynamic_arm", "pyramid-dynamic-arm", cell_rows, table)
 
 
 if __name__ == "__main__":

@@ -68,3 +68,46 @@ def test_the_fast_stream_shows_what_a_30_hz_one_folds_back() -> None:
     low, high = quoted("dynamic-twin.md", "on these runs the plant's force moves by", 2)
     low.check(min(above))
     high.check(max(above))
+
+
+def _command_rows() -> dict[str, list[float]]:
+    """robot and law -> [β, ζ, delay ms, quasi-static, moving] of the `--commands` table; every row's arm driven by
+    its measured forces (asserted: the 1 kHz stream is fast enough)."""
+    text = PAGE.read_text(encoding="utf-8")
+    block = text[text.index("<!-- pyramid-dynamic-commands:begin"):text.index("<!-- pyramid-dynamic-commands:end")]
+    out = {}
+    for line in block.splitlines():
+        if line.startswith("| ") and "sheet law" in line:
+            cell, servo, parts = (c.strip() for c in line.split("|")[1:-1])
+            numbers, drive = servo.split(";")
+            assert drive.strip() == "its measured forces", line
+            robot = "kr210" if "kr210" in cell else "irb6640" if "irb6640" in cell else "tx200"
+            out[f"{robot} {'law 2' if 'law 2' in cell else 'law 1'}"] = [
+                *(float(v) for v in numbers.split("/")), *(float(v) for v in parts.split("/"))]
+    return out
+
+
+def test_through_the_commands_the_held_out_pyramids_robot_part_comes_down() -> None:
+    rows = _command_rows()
+    assert len(rows) == 6
+    for robot in ("kr210", "irb6640"):
+        for law in ("law 1", "law 2"):
+            *_, static, moving = rows[f"{robot} {law}"]
+            assert moving < static, (robot, law)
+    kr, irb = rows["kr210 law 1"], rows["irb6640 law 1"]
+    for q, v in zip([*quoted("dynamic-twin.md", "on the first law the KR 210's pyramid from", 2),
+                     *quoted("dynamic-twin.md", "the IRB 6640's pyramid from", 2)], (kr[3], kr[4], irb[3], irb[4]),
+                    strict=True):
+        q.check(v)
+    kr2, irb2 = rows["kr210 law 2"], rows["irb6640 law 2"]
+    for q, v in zip([*quoted("dynamic-twin.md", "on the second law the KR 210's pyramid from", 2),
+                     *quoted("dynamic-twin.md", "the IRB 6640's second-law pyramid from", 2)],
+                    (kr2[3], kr2[4], irb2[3], irb2[4]), strict=True):
+        q.check(v)
+    # "further than with the study's grid above" (first law); "the grid's servo took that one to"
+    grid = _rows()
+    for robot, row in (("kr210", kr), ("irb6640", irb)):
+        assert row[4] < grid[(f"{robot} law 1", "fast")][4], robot
+    took = quoted("dynamic-twin.md", "the grid's servo took that one to", 1)[0]
+    took.check(grid[("irb6640 law 2", "fast")][4])
+    assert grid[("irb6640 law 2", "fast")][4] < irb2[4]
