@@ -122,3 +122,25 @@ def test_the_pages_words_on_the_learned_robot_without_friction_are_its_table() -
     on, off = _robot_rows("robot-learning"), _robot_rows("robot-learning-no-friction")
     assert on.keys() == off.keys()
     assert all(abs(on[k][0] - off[k][0]) <= 0.05 for k in on), (on, off)  # the same within 5 %
+
+
+def test_the_pages_words_on_the_robot_learned_with_a_fast_ft_stream_are_its_table() -> None:
+    slow, fast = _robot_rows("robot-learning"), _robot_rows("robot-learning-fast-ft")
+    assert fast.keys() == slow.keys()
+    cones = [key for key in fast if key[0].endswith(":cone")]
+    assert len(cones) == 12
+    misses = [fast[key][1] for key in cones]
+    assert all(fast[key][2] <= 15 for key in cones) and max(misses) <= 2.0  # "12 of 12"
+    quoted("learning.md", "12 of 12, within", 1)[0].check(max(misses))
+    alone = [slow[(robot + ":cone", "j1")][2] for robot in ("tx200", "kr210", "irb6640")]
+    quick = [fast[(robot + ":cone", "j1")][2] for robot in ("tx200", "kr210", "irb6640")]
+    said = quoted("learning.md", "joint 1's spread narrows from", 4)
+    for q, v in zip(said, (min(alone), max(alone), min(quick), max(quick)), strict=True):
+        q.check(v)
+    groove = [*quoted("learning.md", "On the groove joint 1's narrows from", 2),
+              *quoted("learning.md", "joint 5's widens from", 2)]
+    for q, v in zip(groove, (slow[("tx200:groove", "j1")][2], fast[("tx200:groove", "j1")][2],
+                             slow[("tx200:groove", "j5")][2], fast[("tx200:groove", "j5")][2]), strict=True):
+        q.check(v)
+    met = [k for k, (_, miss, spread) in fast.items() if miss <= 2.0 and spread <= 15]
+    assert {k for k in fast if k not in met} == {("tx200:groove", "j1"), ("tx200:groove", "j5")}  # "two joints out"
