@@ -71,13 +71,12 @@ def cone_cells(law1: Path, law2: Path | None) -> Iterator[tuple[str, str, Path, 
                        () if law == 1 else ("sheet_law=2",))
 
 
-def cone_study(description: str, stem: str, marker: str,
+def cone_study(args: argparse.Namespace, stem: str, marker: str,
                rows_of: Callable[[Path, str, Path, tuple[str, ...]], Iterable[dict[str, Any]]],
                table: Callable[[list[dict[str, Any]]], str]) -> None:
-    """A study of these cone variants from its command line (`cone_cells_parser`): each cell's rows from
+    """A study of these cone variants, `args` its command line (`cone_cells_parser`'s): each cell's rows from
     `rows_of(work, robot, folder, plant_set)` (work: OUT/ROBOT_lawN, for the runs it forms), each printed as its
     table line as it comes, then OUT/STEM.json and .md and the page's `marker` table (`write_study`)."""
-    args = cone_cells_parser(description).parse_args()
     rows: list[dict[str, Any]] = []
     for cell, robot, folder, plant_set in cone_cells(args.law1, args.law2):
         for row in rows_of(args.out / f"{robot}_law{2 if plant_set else 1}", robot, folder, plant_set):

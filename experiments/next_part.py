@@ -25,7 +25,7 @@ from pathlib import Path
 from typing import Any
 
 from experiments_cli import cli, cli_json, lab_neutral
-from learn_cell import OTHER_NAMES, cone_study
+from learn_cell import OTHER_NAMES, cone_cells_parser, cone_study
 from online_study import rms_mm, true_tip_miss_mm
 
 #: How many parts follow the first.
@@ -68,7 +68,7 @@ def table(rows: list[dict[str, Any]]) -> str:
 
 
 def main() -> None:
-    cone_study(__doc__.splitlines()[0], "next_part", "next-part",
+    cone_study(cone_cells_parser(__doc__.splitlines()[0]).parse_args(), "next_part", "next-part",
                lambda work, robot, folder, plant_set: [{"part": part, "parts": part_batch(work, robot, folder, prefix,
                                                                                           plant_set)}
                                                        for prefix, part in OTHER_NAMES.items()], table)

@@ -34,7 +34,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from learn_cell import cone_study
+from learn_cell import cone_cells_parser, cone_study
 from online_study import rms_mm, true_tip_miss_mm
 from sheet_learner_study import force_gap
 
@@ -101,7 +101,7 @@ def table(rows: list[dict[str, Any]]) -> str:
 
 
 def main() -> None:
-    cone_study(__doc__.splitlines()[0], "offline_limits", "offline-limits",
+    cone_study(cone_cells_parser(__doc__.splitlines()[0]).parse_args(), "offline_limits", "offline-limits",
                lambda _, __, folder, ___: [{"part": part, **part_limits(folder, prefix)} for prefix, part in PARTS],
                table)
 

@@ -44,11 +44,12 @@ from typing import Any, NamedTuple
 
 import numpy as np
 from experiments_cli import cli, lab_neutral
-from learn_cell import cone_study
+from learn_cell import cone_cells_parser, cone_study
 from online_study import rms_mm, true_tip_miss_mm
 
 from twin.analysis.check import ideal_times
 from twin.analysis.learn.robot import robot_rows
+from twin.analysis.learn.servo_fit import corner_indices
 from twin.analysis.learn.split import measured_force_tip
 from twin.analysis.next_part import next_command
 from twin.analysis.replay import spec_for_run
@@ -60,8 +61,6 @@ from twin.sim.model_file import read_model_file
 
 #: How far either side of a corner the rounded path leaves the sharp one [mm].
 ROUND_MM = 1.0
-#: A turn of the program past this is a corner the controller stops at [deg] (docs/dynamic-plant.md).
-STOP_TURN_DEG = 30.0
 #: How near a corner along the path counts as at it [mm] (about the tool's radius, 7.5 mm).
 NEAR_CORNER_MM = 8.0
 #: The other pyramid the dynamic term is fitted on (`path`'s arguments): another part with corners.
@@ -79,16 +78,11 @@ def turns_deg(p: np.ndarray) -> np.ndarray:
     return np.degrees(np.arccos(np.clip(np.sum(u[1:] * u[:-1], axis=1), -1.0, 1.0)))
 
 
-def corners(p_mm: np.ndarray) -> np.ndarray:
-    """The indices of the samples where the path turns by more than `STOP_TURN_DEG`."""
-    return np.nonzero(turns_deg(p_mm) > STOP_TURN_DEG)[0] + 1
-
-
 def rounded(p_mm: np.ndarray, reach_mm: float = ROUND_MM) -> np.ndarray:
     """The path with each corner replaced, on the same samples, by the quadratic Bezier curve from the point
     `reach_mm` before it along the path, through the corner as control point, to the point `reach_mm` after it."""
     s, q = arc_length(p_mm), p_mm.copy()
-    for k in corners(p_mm):
+    for k in corner_indices(p_mm):
         if s[k] - reach_mm < 0.0 or s[k] + reach_mm > s[-1]:
             continue
         p0, p2 = (np.array([np.interp(s[k] + sign * reach_mm, s, p_mm[:, i]) for i in range(3)]) for sign in (-1, 1))
@@ -101,13 +95,13 @@ def rounded(p_mm: np.ndarray, reach_mm: float = ROUND_MM) -> np.ndarray:
 def write_rounded(ideal: Path, out: Path) -> float:
     """Write `ideal` (a `path` file) with its corners `rounded` to `out`, every other column as it was; return the
     rounded path's rms deviation from the sharp one [mm]. Raises SystemExit where a sample still turns past
-    `STOP_TURN_DEG` (the controller would stop there)."""
+    `CORNER_TURN_DEG` (the controller would stop there, `twin.analysis.learn.servo_fit.corner_indices`)."""
     lines = ideal.read_text(encoding="utf-8").splitlines()
     header, rows = lines[0], [line.split(",") for line in lines[1:]]
     cols = [header.split(",").index(c) for c in ("x_mm", "y_mm", "z_mm")]
     p = np.array([[float(r[c]) for c in cols] for r in rows])
     q = rounded(p)
-    if np.max(turns_deg(q)) >= STOP_TURN_DEG:
+    if len(corner_indices(q)):
         raise SystemExit(f"{ideal}: rounded by {ROUND_MM} mm a sample still turns by {np.max(turns_deg(q)):.1f} deg")
     for r, x in zip(rows, q, strict=True):
         for c, v in zip(cols, x, strict=True):
@@ -129,7 +123,7 @@ def near_corner_shares(run_dir: Path, ideal: Path, miss_mm: np.ndarray) -> tuple
     p_mm = 1e3 * cmd.values
     s = arc_length(p_mm)
     s_tr = np.interp(run.tracker.t_s, ideal_times(run.commanded.t_s, cmd.t_s), s)
-    near = np.min(np.abs(s_tr[:, None] - s[corners(p_mm)][None, :]), axis=1) < NEAR_CORNER_MM
+    near = np.min(np.abs(s_tr[:, None] - s[corner_indices(p_mm)][None, :]), axis=1) < NEAR_CORNER_MM
     square = np.sum(miss_mm**2, axis=1)
     return float(np.sum(square[near]) / np.sum(square)), float(np.mean(near))
 
@@ -257,7 +251,7 @@ def table(rows: list[dict[str, Any]]) -> str:
 
 
 def main() -> None:
-    cone_study(__doc__.splitlines()[0], "pyramid_corners", "pyramid-corners",
+    cone_study(cone_cells_parser(__doc__.splitlines()[0]).parse_args(), "pyramid_corners", "pyramid-corners",
                lambda work, robot, folder, plant_set: [cell_row(work, robot, folder, plant_set)], table)
 
 

@@ -31,14 +31,13 @@ into OUT/pyramid_dynamic_commands.json and .md and the page's `pyramid-dynamic-c
 from __future__ import annotations
 
 import math
-import sys
 from itertools import product
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from experiments_cli import cli_json, lab_neutral
-from learn_cell import cone_study
+from learn_cell import cone_cells_parser, cone_study
 from scipy.signal import butter, filtfilt
 
 from twin.analysis.learn.split import measured_force_tip
@@ -165,12 +164,14 @@ def table(rows: list[dict[str, Any]]) -> str:
 
 
 def main() -> None:
-    if "--commands" in sys.argv:
-        sys.argv.remove("--commands")
-        cone_study(__doc__.splitlines()[0], "pyramid_dynamic_commands", "pyramid-dynamic-commands", command_rows,
-                   command_table)
+    parser = cone_cells_parser(__doc__.splitlines()[0])
+    parser.add_argument("--commands", action="store_true",
+                        help="the 1 kHz path through `learn --dynamic` and `replay --forces measured` instead")
+    args = parser.parse_args()
+    if args.commands:
+        cone_study(args, "pyramid_dynamic_commands", "pyramid-dynamic-commands", command_rows, command_table)
     else:
-        cone_study(__doc__.splitlines()[0], "pyramid_dynamic_arm", "pyramid-dynamic-arm", cell_rows, table)
+        cone_study(args, "pyramid_dynamic_arm", "pyramid-dynamic-arm", cell_rows, table)
 
 
 if __name__ == "__main__":

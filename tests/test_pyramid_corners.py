@@ -11,7 +11,9 @@ import numpy as np
 import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "experiments"))
-from pyramid_corners import ROUND_MM, STOP_TURN_DEG, corners, rounded, turns_deg
+from pyramid_corners import ROUND_MM, rounded, turns_deg
+
+from twin.analysis.learn.servo_fit import CORNER_TURN_DEG, corner_indices
 
 
 def _square_corner(step_mm: float = 0.41) -> np.ndarray:
@@ -24,11 +26,11 @@ def _square_corner(step_mm: float = 0.41) -> np.ndarray:
 
 def test_a_rounded_corner_turns_nowhere_past_the_stop_and_keeps_the_rest_of_the_path() -> None:
     p = _square_corner()
-    assert len(corners(p)) == 1 and np.max(turns_deg(p)) == pytest.approx(90.0)
+    assert len(corner_indices(p)) == 1 and np.max(turns_deg(p)) == pytest.approx(90.0)
     q = rounded(p)
-    assert q.shape == p.shape and len(corners(q)) == 0
-    assert np.max(turns_deg(q)) < STOP_TURN_DEG
-    k = corners(p)[0]
+    assert q.shape == p.shape and len(corner_indices(q)) == 0
+    assert np.max(turns_deg(q)) < CORNER_TURN_DEG
+    k = corner_indices(p)[0]
     far = np.abs(np.arange(len(p)) - k) * 0.41 > ROUND_MM + 1e-9
     assert np.array_equal(q[far], p[far])
     # the Bezier curve's middle lies a quarter of |P0 + P2 - 2 P1| = reach * sqrt(2) / 4 from the corner

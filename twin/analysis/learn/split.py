@@ -27,11 +27,11 @@ import numpy as np
 from scipy.signal import butter, filtfilt
 
 from twin.analysis.learn.robot import RobotFit, predicted_deflection, rms_norm_mm, robot_rows
+from twin.analysis.learn.servo_fit import prepare
 from twin.analysis.replay import ReplayResult
 from twin.base.signals import interp_rows
-from twin.errors import InputError
 from twin.runs.format import Run
-from twin.sim.dynamic import DynamicTwin, ServoModel, without_servo
+from twin.sim.dynamic import ServoModel
 from twin.sim.quasi_static import Twin
 
 #: Above this a gap is the arm moving faster than a quasi-static robot follows [Hz].
@@ -129,13 +129,13 @@ def measured_force_tip(run: Run, twin: Twin) -> np.ndarray:
 
 def moving_arm_tip(run: Run, twin: Twin, servo: ServoModel) -> np.ndarray:
     """The dynamic twin's tool tip at the tracker's times, the arm stepped along the run's command under `servo` and
-    driven by the run's measured forces as `measured_force_tip` takes them, sheet frame [m], (m, 3)."""
-    if run.forces is None:
-        raise InputError(f"run {run.directory}: no forces.csv: the arm is driven by the measured forces")
-    still = without_servo(twin)
-    arm = DynamicTwin(still, still.simulate(run.commanded.t_s, run.commanded.values),
-                      forces=(run.forces.t_s, run.forces.values))
-    moved = arm.simulate(servo)
+    driven by the run's measured forces as `measured_force_tip` takes them (`servo_fit.prepare`), sheet frame [m],
+    (m, 3).
+
+    Raises:
+        InputError: A run without forces.csv.
+    """
+    moved = prepare(run, twin, measured_forces=True).simulate(servo)
     return interp_rows(run.tracker.t_s, moved.t_s, moved.p_sheet_m)
 
 
