@@ -1,20 +1,21 @@
-"""Where the online compensation of a pyramid stops, on the dynamic plant: the sensor, the arm's own miss, the path
-of the correction.
+"""Where the online compensation of a pyramid and a groove stops, on the dynamic plant: the sensor, the arm's own
+miss, the path of the correction.
 
-For each robot a model is learned from one nominal cone (60 x 10 mm, seed 1) and the pyramid 40 x 6 mm is formed
-online with it (seed 3), as `experiments/online_other_part.py`'s "online, learned" column; then, each scored on the
-plant's true tip against the ideal path, timed as `check` times it (the plant's `truth_tip.csv` or its log, read on
-the experiment's side only):
+For each robot a model is learned from one nominal cone (60 x 10 mm, seed 1) and the pyramid 40 x 6 mm and the groove
+are formed online with it (seed 3), as `experiments/online_other_part.py`'s "online, learned" column; then, each
+scored on the plant's true tip against the ideal path, timed as `check` times it (the plant's `truth_tip.csv` or its
+log, read on the experiment's side only):
 
 * **a perfect F/T sensor**: the same run with the sensor at 1 kHz and no noise, latency, quantum, bias, cross-talk
   or clock error (`lab --set`): how much of the miss is the sensor's;
 * **in air**: the same program 30 mm above the sheet, nominal and online (the compensator's joint-friction term its
-  only correction: there is no force) -- the arm's own miss at the controller's corner stops, which no force
-  measures;
+  only correction: there is no force) -- the arm's own miss at the controller's corner stops and the groove's
+  reversals, which no force measures; and nominal again with the plant's joint friction off (`link_friction_scale=0`,
+  a knob of the plant the twin never sees): what of that miss is the joints' friction, what their servo's;
 * **the correction's step**: in air, a 0.5 mm step of the correction along x, y and z in turn every 4 s (on for
   2 s), the true tip's answer less the same run's without them: the median over the steps' edges of the time to
   90 % of the step [ms] and of the peak over the first 0.5 s [-] -- how late and how far a correction reaches the
-  tip.
+  tip (on the pyramid's program; the robot's, shown on both of its rows).
 
 Writes OUT/online_floor.json, OUT/online_floor.md and with `--doc` the table between the online-floor markers of that
 page (docs/online.md; `tests/test_online_floor_doc.py` reads it):
@@ -45,6 +46,10 @@ from twin.sim.online import OnlineCompensator, OnlineSettings
 #: The sensor as good as the plant's knobs make it.
 PERFECT_SENSOR = ("ft_rate_hz=1000", "ft_noise_n=0", "ft_latency_s=0", "ft_quantum_n=0", "ft_bias_n=0",
                   "ft_crosstalk=0", "ft_clock_offset_s=0", "ft_clock_skew_ppm=0")
+#: The parts, as `online_other_part.TARGETS` names them.
+PARTS = ("pyramid", "groove")
+#: The plant's joints without their friction (a diagnosis on the experiment's side).
+NO_FRICTION = ("link_friction_scale=0",)
 #: How far above the sheet the program runs in air [m], the correction's step [m], its period [s] and first start.
 AIR_LIFT_M, STEP_M, STEP_PERIOD_S, STEP_START_S = 0.03, 5e-4, 4.0, 6.0
 #: Over how long a step's answer is read [s].
@@ -75,12 +80,13 @@ class StepCorrector:
         return 1
 
 
-def _air_run(robot: str, ideal: Path, corrector: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The program `AIR_LIFT_M` above the sheet: (the log's times [s], the true tip [m], its miss at the tracker's
-    stamps against the lifted ideal, timed as `check` times it [mm])."""
+def _air_run(robot: str, ideal: Path, corrector: Any, knobs: tuple[str, ...] = ()) -> tuple[np.ndarray, np.ndarray,
+                                                                                            np.ndarray]:
+    """The program `AIR_LIFT_M` above the sheet (`knobs`: the plant's, NAME=VALUE): (the log's times [s], the true tip
+    [m], its miss at the tracker's stamps against the lifted ideal, timed as `check` times it [mm])."""
     cmd = read_commanded_csv(ideal)
     p = cmd.values + np.array([0.0, 0.0, AIR_LIFT_M])
-    run, _, log = run_dynamic_lab(cmd.t_s, p, scenario="nominal", knobs=parse_set_args([]), seed=3,
+    run, _, log = run_dynamic_lab(cmd.t_s, p, scenario="nominal", knobs=parse_set_args(list(knobs)), seed=3,
                                   robot=resolve_robot(None, robot), corrector=corrector)
     tip = interp_rows(run.tracker.t_s, log.t_s, log.p_tip_sheet_m)
     ideal_tr = interp_rows(run.tracker.t_s, ideal_times(run.commanded.t_s, cmd.t_s), p)
@@ -105,42 +111,52 @@ def step_answer(t_s: np.ndarray, tip_m: np.ndarray, plain_tip_m: np.ndarray) -> 
     return {"rise_90_ms": float(np.median(rise)), "peak": float(np.median(peak)), "edges": float(len(rise))}
 
 
-def robot_floor(out: Path, robot: str) -> dict[str, Any]:
-    """One robot's row (module docstring)."""
-    model, _ = learn_cone(out, robot)
-    ideal = target_ideal(out, robot, "pyramid")
-    row: dict[str, Any] = {"robot": robot}
+def _part_floor(out: Path, robot: str, model: Path, part: str) -> dict[str, Any]:
+    """One part's numbers (module docstring) but the step's."""
+    ideal = target_ideal(out, robot, part)
+    row: dict[str, Any] = {"robot": robot, "part": part}
     for name, plant_set in (("online", ()), ("perfect_sensor", PERFECT_SENSOR)):
-        row[name] = rms_mm(learned_online_miss(robot, model, ideal, ideal, out / f"pyramid_{name}", 3, "nominal",
+        row[name] = rms_mm(learned_online_miss(robot, model, ideal, ideal, out / f"{ideal.stem}_{name}", 3, "nominal",
                                                plant_set))
     spec = resolve_spec(model=model, robot=resolve_robot(None, robot), placement=None,
                         p_sheet_m=read_commanded_csv(ideal).values, cell=None)
-    t_plain, tip_plain, miss = _air_run(robot, ideal, None)
-    row["air_nominal"] = rms_mm(miss)
+    row["air_nominal"] = rms_mm(_air_run(robot, ideal, None)[2])
     row["air_online"] = rms_mm(_air_run(robot, ideal, OnlineCompensator(
         spec, OnlineSettings(max_correction_mm=ONLINE_LIMIT_MM)))[2])  # as lab_run's online runs
+    row["air_nominal_no_friction"] = rms_mm(_air_run(robot, ideal, None, NO_FRICTION)[2])
+    return row
+
+
+def robot_floor(out: Path, robot: str) -> list[dict[str, Any]]:
+    """One robot's rows (module docstring), a part each."""
+    model, _ = learn_cone(out, robot)
+    rows = [_part_floor(out, robot, model, part) for part in PARTS]
+    ideal = target_ideal(out, robot, "pyramid")
+    t_plain, tip_plain, _ = _air_run(robot, ideal, None)
     t_step, tip_step, _ = _air_run(robot, ideal, StepCorrector())
     if t_step.shape != t_plain.shape:
         raise SystemExit(f"{robot}: the runs with and without the steps have different logs")
-    row["step"] = step_answer(t_step, tip_step, tip_plain)
-    return row
+    step = step_answer(t_step, tip_step, tip_plain)
+    return [{**row, "step": step} for row in rows]
 
 
 def table(rows: list[dict[str, Any]]) -> str:
     """The markdown table: true tip rms [mm]; the step's median time to 90 % [ms] and peak [-]."""
-    lines = ["| robot | pyramid online, learned | the same, a perfect F/T sensor | in air, nominal | in air, online | "
-             "a correction's step: 90 % after / peak |", "|---|---|---|---|---|---|"]
+    lines = ["| robot | part | online, learned | the same, a perfect F/T sensor | in air, nominal | in air, online | "
+             "in air, nominal, the joints' friction off | a correction's step: 90 % after / peak |",
+             "|---|---|---|---|---|---|---|---|"]
     for r in rows:
-        lines.append(f"| {r['robot']} | {r['online']:.3f} mm | {r['perfect_sensor']:.3f} mm | {r['air_nominal']:.3f} mm"
-                     f" | {r['air_online']:.3f} mm | {r['step']['rise_90_ms']:.0f} ms / {r['step']['peak']:.2f} |")
+        lines.append(f"| {r['robot']} | {r['part']} | {r['online']:.3f} mm | {r['perfect_sensor']:.3f} mm | "
+                     f"{r['air_nominal']:.3f} mm | {r['air_online']:.3f} mm | {r['air_nominal_no_friction']:.3f} mm | "
+                     f"{r['step']['rise_90_ms']:.0f} ms / {r['step']['peak']:.2f} |")
     return "\n".join(lines) + "\n"
 
 
 def robot_rows(out: Path, robot: str) -> list[dict[str, Any]]:
-    """One robot's row, said as it comes."""
-    row = robot_floor(out, robot)
-    print(table([row]).splitlines()[-1], flush=True)
-    return [row]
+    """One robot's rows, said as they come."""
+    rows = robot_floor(out, robot)
+    print("\n".join(table(rows).splitlines()[2:]), flush=True)
+    return rows
 
 
 def main() -> None:

@@ -1,4 +1,4 @@
-"""docs/online.md's words on where the pyramid's online miss comes from are its table's
+"""docs/online.md's words on where the pyramid's and the groove's online miss comes from are its table's
 (`experiments/online_floor.py`, generated between the online-floor markers)."""
 
 from __future__ import annotations
@@ -6,35 +6,59 @@ from __future__ import annotations
 from doc_numbers import quoted
 from online_doc_tables import ROBOTS, table_rows
 
+PARTS = ("pyramid", "groove")
 
-def _rows() -> dict[str, dict[str, float]]:
+
+def _rows() -> dict[tuple[str, str], dict[str, float]]:
     rows = {}
     for cells in table_rows("online-floor"):
-        mm = [float(c.split(" mm")[0]) for c in cells[1:5]]
-        rise, peak = cells[5].split(" / ")
-        rows[cells[0]] = {"online": mm[0], "perfect": mm[1], "air_nominal": mm[2], "air_online": mm[3],
-                          "rise_ms": float(rise.split(" ms")[0]), "peak": float(peak)}
-    assert tuple(rows) == ROBOTS, rows
+        mm = [float(c.split(" mm")[0]) for c in cells[2:7]]
+        rise, peak = cells[7].split(" / ")
+        rows[(cells[0], cells[1])] = {"online": mm[0], "perfect": mm[1], "air_nominal": mm[2], "air_online": mm[3],
+                                      "air_no_friction": mm[4], "rise_ms": float(rise.split(" ms")[0]),
+                                      "peak": float(peak)}
+    assert list(rows) == [(r, p) for r in ROBOTS for p in PARTS], list(rows)
     return rows
 
 
-def test_the_words_on_the_pyramid_s_floor_are_its_table() -> None:
+def test_the_words_on_the_online_floor_are_its_table() -> None:
     rows = _rows()
     # the page's numbers first (a guard before the claims)
     sensor = quoted("online.md", "A perfect sensor takes little off (from", 6)
     for k, robot in enumerate(ROBOTS):
-        sensor[2 * k].check(rows[robot]["online"])
-        sensor[2 * k + 1].check(rows[robot]["perfect"])
+        sensor[2 * k].check(rows[(robot, "pyramid")]["online"])
+        sensor[2 * k + 1].check(rows[(robot, "pyramid")]["perfect"])
     air = quoted("online.md", "misses the pyramid online by", 3)
+    groove = quoted("online.md", "where the controller stops at the corners, and the groove by", 5)
     step = quoted("online.md", "90 % of a step after", 6)
+    kr_pyramid = quoted("online.md", "on every row but the KR 210's pyramid (", 2)
     for k, robot in enumerate(ROBOTS):
-        air[k].check(rows[robot]["air_online"])
-        step[k].check(rows[robot]["rise_ms"])
-        step[3 + k].check(rows[robot]["peak"])
-    for robot, r in rows.items():
-        # "takes little off": a perfect sensor lowers the miss by under a tenth
-        assert 0.0 <= r["online"] - r["perfect"] < 0.1 * r["online"], (robot, r)
-        # the arm's own miss in air is a large share of what is left online (the floor the force cannot lower)
-        assert r["air_online"] > 0.4 * r["online"], (robot, r)
+        air[k].check(rows[(robot, "pyramid")]["air_online"])
+        groove[k].check(rows[(robot, "groove")]["air_online"])
+        step[k].check(rows[(robot, "pyramid")]["rise_ms"])
+        step[3 + k].check(rows[(robot, "pyramid")]["peak"])
+    groove[3].check(rows[("tx200", "groove")]["online"])
+    groove[4].check(rows[("irb6640", "groove")]["online"])
+    kr_pyramid[0].check(rows[("kr210", "pyramid")]["air_no_friction"])
+    kr_pyramid[1].check(rows[("kr210", "pyramid")]["air_nominal"])
+    for (robot, part), r in rows.items():
+        if part == "pyramid":
+            # "takes little off": a perfect sensor lowers the pyramid's miss by under a tenth
+            assert 0.0 <= r["online"] - r["perfect"] < 0.1 * r["online"], (robot, r)
+            # the arm's own miss in air is a large share of what is left online (the floor the force cannot lower)
+            assert r["air_online"] > 0.4 * r["online"], (robot, r)
+        else:
+            # "moves each groove's miss by under a fifth"
+            assert abs(r["online"] - r["perfect"]) < 0.2 * r["online"], (robot, r)
+        # "the joints' friction more than their servo": under a third with it off, but the KR 210's pyramid
+        share = r["air_no_friction"] / r["air_nominal"]
+        assert share < (1.0 if (robot, part) == ("kr210", "pyramid") else 1.0 / 3.0), (robot, part, r)
+        # the friction's lag turned with the planned travel: two fifths to two thirds off on the TX200 and the IRB
+        # 6640, none on the KR 210
+        off = 1.0 - r["air_online"] / r["air_nominal"]
+        assert (off <= 0.0) if robot == "kr210" else (0.4 <= off <= 2.0 / 3.0), (robot, part, off)
         # "reaches the tip late and overshoots"
         assert r["rise_ms"] >= 30.0 and r["peak"] > 1.2, (robot, r)
+    for robot in ("tx200", "irb6640"):  # "about seven tenths of what the grooves miss online"
+        r = rows[(robot, "groove")]
+        assert 0.65 <= r["air_online"] / r["online"] <= 0.8, (robot, r)
