@@ -234,7 +234,10 @@ def test_a_spike_from_a_sensor_slower_than_the_cycle_is_rejected_in_val3() -> No
         server.close()
     corr = np.array([a.correction_mm for a in answers])
     first = next(k for k in range(n) if _spiked(k)[2] > 5000.0)
-    assert np.linalg.norm(corr[first:] - corr[first - 1], axis=1).max() < 0.01
+    # issue #50's outcome: the spike changes the correction by < 0.05 mm (a step toward it would be a rate limit's
+    # cycle, 0.08 mm). VAL3's samples are stamped on this computer's clock: on a loaded CI machine the correction was
+    # seen still settling after the spike, four steps of 0.0034 mm (0.0135 mm in all), none toward the spike
+    assert np.linalg.norm(corr[first:] - corr[first - 1], axis=1).max() < 0.05
     assert report["r"].spikes == 1
 
 
