@@ -12,6 +12,8 @@ log, read on the experiment's side only):
   only correction: there is no force) -- the arm's own miss at the controller's corner stops and the groove's
   reversals, which no force measures; and nominal again with the plant's joint friction off (`link_friction_scale=0`,
   a knob of the plant the twin never sees): what of that miss is the joints' friction, what their servo's;
+* **the online run less its in-air miss**: the online run's miss less the in-air online run's, sample by sample (the
+  same program and timing): an oracle, the most any feed-forward of the arm's own miss at the stops could take off;
 * **the correction's step**: in air, a 0.5 mm step of the correction along x, y and z in turn every 4 s (on for
   2 s), the true tip's answer less the same run's without them: the median over the steps' edges of the time to
   90 % of the step [ms] and of the peak over the first 0.5 s [-] -- how late and how far a correction reaches the
@@ -115,14 +117,19 @@ def _part_floor(out: Path, robot: str, model: Path, part: str) -> dict[str, Any]
     """One part's numbers (module docstring) but the step's."""
     ideal = target_ideal(out, robot, part)
     row: dict[str, Any] = {"robot": robot, "part": part}
+    misses = {}
     for name, plant_set in (("online", ()), ("perfect_sensor", PERFECT_SENSOR)):
-        row[name] = rms_mm(learned_online_miss(robot, model, ideal, ideal, out / f"{ideal.stem}_{name}", 3, "nominal",
-                                               plant_set))
+        misses[name] = learned_online_miss(robot, model, ideal, ideal, out / f"{ideal.stem}_{name}", 3, "nominal",
+                                           plant_set)
+        row[name] = rms_mm(misses[name])
     spec = resolve_spec(model=model, robot=resolve_robot(None, robot), placement=None,
                         p_sheet_m=read_commanded_csv(ideal).values, cell=None)
     row["air_nominal"] = rms_mm(_air_run(robot, ideal, None)[2])
-    row["air_online"] = rms_mm(_air_run(robot, ideal, OnlineCompensator(
-        spec, OnlineSettings(max_correction_mm=ONLINE_LIMIT_MM)))[2])  # as lab_run's online runs
+    air_online = _air_run(robot, ideal, OnlineCompensator(spec, OnlineSettings(max_correction_mm=ONLINE_LIMIT_MM)))[2]
+    row["air_online"] = rms_mm(air_online)  # as lab_run's online runs
+    if air_online.shape != misses["online"].shape:
+        raise SystemExit(f"{robot} {part}: the runs on the sheet and in air have different tracker samples")
+    row["online_less_air_online"] = rms_mm(misses["online"] - air_online)  # the oracle (module docstring)
     row["air_nominal_no_friction"] = rms_mm(_air_run(robot, ideal, None, NO_FRICTION)[2])
     return row
 
@@ -143,12 +150,12 @@ def robot_floor(out: Path, robot: str) -> list[dict[str, Any]]:
 def table(rows: list[dict[str, Any]]) -> str:
     """The markdown table: true tip rms [mm]; the step's median time to 90 % [ms] and peak [-]."""
     lines = ["| robot | part | online, learned | the same, a perfect F/T sensor | in air, nominal | in air, online | "
-             "in air, nominal, the joints' friction off | a correction's step: 90 % after / peak |",
-             "|---|---|---|---|---|---|---|---|"]
+             "in air, nominal, the joints' friction off | online less its in-air miss (oracle) | "
+             "a correction's step: 90 % after / peak |", "|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         lines.append(f"| {r['robot']} | {r['part']} | {r['online']:.3f} mm | {r['perfect_sensor']:.3f} mm | "
                      f"{r['air_nominal']:.3f} mm | {r['air_online']:.3f} mm | {r['air_nominal_no_friction']:.3f} mm | "
-                     f"{r['step']['rise_90_ms']:.0f} ms / {r['step']['peak']:.2f} |")
+                     f"{r['online_less_air_online']:.3f} mm | {r['step']['rise_90_ms']:.0f} ms / {r['step']['peak']:.2f} |")
     return "\n".join(lines) + "\n"
 
 

@@ -12,10 +12,10 @@ PARTS = ("pyramid", "groove")
 def _rows() -> dict[tuple[str, str], dict[str, float]]:
     rows = {}
     for cells in table_rows("online-floor"):
-        mm = [float(c.split(" mm")[0]) for c in cells[2:7]]
-        rise, peak = cells[7].split(" / ")
+        mm = [float(c.split(" mm")[0]) for c in cells[2:8]]
+        rise, peak = cells[8].split(" / ")
         rows[(cells[0], cells[1])] = {"online": mm[0], "perfect": mm[1], "air_nominal": mm[2], "air_online": mm[3],
-                                      "air_no_friction": mm[4], "rise_ms": float(rise.split(" ms")[0]),
+                                      "air_no_friction": mm[4], "oracle": mm[5], "rise_ms": float(rise.split(" ms")[0]),
                                       "peak": float(peak)}
     assert list(rows) == [(r, p) for r in ROBOTS for p in PARTS], list(rows)
     return rows
@@ -32,11 +32,14 @@ def test_the_words_on_the_online_floor_are_its_table() -> None:
     groove = quoted("online.md", "where the controller stops at the corners, and the groove by", 5)
     step = quoted("online.md", "90 % of a step after", 6)
     kr_pyramid = quoted("online.md", "on every row but the KR 210's pyramid (", 2)
+    oracle = quoted("online.md", "the arm's own miss would leave the pyramids at", 6)
     for k, robot in enumerate(ROBOTS):
         air[k].check(rows[(robot, "pyramid")]["air_online"])
         groove[k].check(rows[(robot, "groove")]["air_online"])
         step[k].check(rows[(robot, "pyramid")]["rise_ms"])
         step[3 + k].check(rows[(robot, "pyramid")]["peak"])
+        oracle[k].check(rows[(robot, "pyramid")]["oracle"])
+        oracle[3 + k].check(rows[(robot, "groove")]["oracle"])
     groove[3].check(rows[("tx200", "groove")]["online"])
     groove[4].check(rows[("irb6640", "groove")]["online"])
     kr_pyramid[0].check(rows[("kr210", "pyramid")]["air_no_friction"])
@@ -59,6 +62,11 @@ def test_the_words_on_the_online_floor_are_its_table() -> None:
         assert (off <= 0.0) if robot == "kr210" else (0.4 <= off <= 2.0 / 3.0), (robot, part, off)
         # "reaches the tip late and overshoots"
         assert r["rise_ms"] >= 30.0 and r["peak"] > 1.2, (robot, r)
+    # "no feed-forward of the arm's own miss takes a pyramid, or a second robot's groove, to the targets" (#50: 0.15 mm
+    # on a pyramid, 0.10 mm on the groove; the first robot's groove meets it already)
+    for robot in ROBOTS:
+        assert rows[(robot, "pyramid")]["oracle"] > 0.15, robot
+    assert sum(rows[(robot, "groove")]["oracle"] <= 0.10 for robot in ROBOTS) <= 1
     for robot in ("tx200", "irb6640"):  # "about seven tenths of what the grooves miss online"
         r = rows[(robot, "groove")]
         assert 0.65 <= r["air_online"] / r["online"] <= 0.8, (robot, r)
