@@ -113,8 +113,10 @@ def step_answer(t_s: np.ndarray, tip_m: np.ndarray, plain_tip_m: np.ndarray) -> 
     return {"rise_90_ms": float(np.median(rise)), "peak": float(np.median(peak)), "edges": float(len(rise))}
 
 
-def _part_floor(out: Path, robot: str, model: Path, part: str) -> dict[str, Any]:
-    """One part's numbers (module docstring) but the step's."""
+def _part_floor(out: Path, robot: str, model: Path, part: str,
+                plain: dict[str, tuple[np.ndarray, np.ndarray]]) -> dict[str, Any]:
+    """One part's numbers (module docstring) but the step's; its nominal run in air (log times [s], true tip [m]) goes
+    into `plain` by part, for the step's."""
     ideal = target_ideal(out, robot, part)
     row: dict[str, Any] = {"robot": robot, "part": part}
     misses = {}
@@ -124,7 +126,9 @@ def _part_floor(out: Path, robot: str, model: Path, part: str) -> dict[str, Any]
         row[name] = rms_mm(misses[name])
     spec = resolve_spec(model=model, robot=resolve_robot(None, robot), placement=None,
                         p_sheet_m=read_commanded_csv(ideal).values, cell=None)
-    row["air_nominal"] = rms_mm(_air_run(robot, ideal, None)[2])
+    t_plain, tip_plain, air_nominal = _air_run(robot, ideal, None)
+    plain[part] = (t_plain, tip_plain)
+    row["air_nominal"] = rms_mm(air_nominal)
     air_online = _air_run(robot, ideal, OnlineCompensator(spec, OnlineSettings(max_correction_mm=ONLINE_LIMIT_MM)))[2]
     row["air_online"] = rms_mm(air_online)  # as lab_run's online runs
     if air_online.shape != misses["online"].shape:
@@ -137,10 +141,10 @@ def _part_floor(out: Path, robot: str, model: Path, part: str) -> dict[str, Any]
 def robot_floor(out: Path, robot: str) -> list[dict[str, Any]]:
     """One robot's rows (module docstring), a part each."""
     model, _ = learn_cone(out, robot)
-    rows = [_part_floor(out, robot, model, part) for part in PARTS]
-    ideal = target_ideal(out, robot, "pyramid")
-    t_plain, tip_plain, _ = _air_run(robot, ideal, None)
-    t_step, tip_step, _ = _air_run(robot, ideal, StepCorrector())
+    plain: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+    rows = [_part_floor(out, robot, model, part, plain) for part in PARTS]
+    t_plain, tip_plain = plain["pyramid"]
+    t_step, tip_step, _ = _air_run(robot, target_ideal(out, robot, "pyramid"), StepCorrector())
     if t_step.shape != t_plain.shape:
         raise SystemExit(f"{robot}: the runs with and without the steps have different logs")
     step = step_answer(t_step, tip_step, tip_plain)
