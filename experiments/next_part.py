@@ -67,11 +67,14 @@ def table(rows: list[dict[str, Any]]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def cell_rows(work: Path, robot: str, folder: Path, plant_set: tuple[str, ...]) -> list[dict[str, Any]]:
+    """One learn_cell variant's rows: each part it never formed, its batch formed into `work`."""
+    return [{"part": part, "parts": part_batch(work, robot, folder, prefix, plant_set)}
+            for prefix, part in OTHER_NAMES.items()]
+
+
 def main() -> None:
-    cone_study(cone_cells_parser(__doc__.splitlines()[0]).parse_args(), "next_part", "next-part",
-               lambda work, robot, folder, plant_set: [{"part": part, "parts": part_batch(work, robot, folder, prefix,
-                                                                                          plant_set)}
-                                                       for prefix, part in OTHER_NAMES.items()], table)
+    cone_study(cone_cells_parser(__doc__.splitlines()[0]).parse_args(), "next_part", "next-part", cell_rows, table)
 
 
 if __name__ == "__main__":

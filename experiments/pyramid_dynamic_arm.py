@@ -40,6 +40,8 @@ from experiments_cli import cli_json, lab_neutral
 from learn_cell import cone_cells_parser, cone_study
 from scipy.signal import butter, filtfilt
 
+from twin.analysis.learn.robot import rms_norm_mm
+from twin.analysis.learn.servo_fit import force_rate_hz
 from twin.analysis.learn.split import measured_force_tip
 from twin.analysis.next_part import sheet_forces
 from twin.analysis.replay import spec_for_run
@@ -57,10 +59,6 @@ BETAS, ZETAS = (0.35, 0.5, 0.7, 1.0), (0.6, 1.0, 2.0)
 FAST_HZ, LOWPASS_HZ = 1000.0, 20.0
 
 
-def _rms(e_m: np.ndarray) -> float:
-    return 1e3 * float(np.sqrt(np.mean(np.sum(e_m**2, axis=1))))
-
-
 def driven_arm(run: Run, spec: TwinSpec, lowpass_hz: float | None) -> DynamicTwin:
     """The dynamic arm along `run`'s command, driven by its measured forces (low-passed at `lowpass_hz`)."""
     twin = without_servo(spec_for_run(run, spec).build())
@@ -73,6 +71,7 @@ def driven_arm(run: Run, spec: TwinSpec, lowpass_hz: float | None) -> DynamicTwi
 
 
 def tip_at(arm: DynamicTwin, servo: ServoModel, t_s: np.ndarray) -> np.ndarray:
+    """The stepped arm's tool tip under `servo` at the times `t_s`, sheet frame [m], (m, 3)."""
     result = arm.simulate(servo)
     return interp_rows(t_s, result.t_s, result.p_sheet_m)
 
@@ -82,7 +81,7 @@ def cone_servo(cone: Run, spec: TwinSpec, lowpass_hz: float | None) -> tuple[Ser
     arm, best = driven_arm(cone, spec, lowpass_hz), (ServoModel(), math.inf)
     for beta, zeta in product(BETAS, ZETAS):  # bounded: the grid's points
         miss = cone.tracker.values - tip_at(arm, ServoModel(beta, zeta, 0.0, 1.0), cone.tracker.t_s)
-        rms = _rms(miss - miss.mean(axis=0))
+        rms = rms_norm_mm(miss - miss.mean(axis=0))
         if rms < best[1]:
             best = (ServoModel(beta, zeta, 0.0, 1.0), rms)
     return best
@@ -98,21 +97,26 @@ def sensor_row(cone_dir: Path, pyramid_dir: Path, spec: TwinSpec, lowpass_hz: fl
     arm = driven_arm(pyramid, spec, lowpass_hz)
     fast = np.nan
     if lowpass_hz is not None:  # the stream's own content above the low-pass: what a 30 Hz stream folds back
-        rate = 1.0 / float(np.median(np.diff(pyramid.forces.t_s)))
-        fast = float(np.sqrt(np.mean(np.sum(
-            filtfilt(*butter(2, 2.0 * lowpass_hz / rate, "high"), pyramid.forces.values, axis=0) ** 2, axis=1))))
+        high = filtfilt(*butter(2, 2.0 * lowpass_hz / force_rate_hz(pyramid), "high"), pyramid.forces.values, axis=0)
+        fast = float(np.sqrt(np.mean(np.sum(high**2, axis=1))))
     return {"beta": servo.bandwidth_over_mode, "zeta": servo.damping_ratio, "cone_mm": cone_mm, "above_n": fast,
-            "quasi_static_mm": _rms(true_tip - measured_force_tip(pyramid, spec_for_run(pyramid, spec).build())),
-            "dynamic_mm": _rms(true_tip - tip_at(arm, servo, t)),
-            "rigid_mm": _rms(true_tip - tip_at(arm, ServoModel(math.inf, 1.0, 0.0, 0.0), t))}
+            "quasi_static_mm": rms_norm_mm(true_tip - measured_force_tip(pyramid, spec_for_run(pyramid, spec).build())),
+            "dynamic_mm": rms_norm_mm(true_tip - tip_at(arm, servo, t)),
+            "rigid_mm": rms_norm_mm(true_tip - tip_at(arm, ServoModel(math.inf, 1.0, 0.0, 0.0), t))}
+
+
+def fast_runs(out: Path, robot: str, folder: Path, plant_set: tuple[str, ...]) -> tuple[Path, Path]:
+    """The learn_cell variant's nominal cone (seed 1) and its learned twin's compensated pyramid (seed 3) formed
+    again with the plant's F/T sensor at `FAST_HZ` (neutral knobs), into `out`: (cone, pyramid)."""
+    fast = (*plant_set, f"ft_rate_hz={FAST_HZ:g}")
+    return (lab_neutral(robot, folder / "ideal.csv", out / "cone_fast", 1, "nominal", fast),
+            lab_neutral(robot, folder / "pyramid_learned.csv", out / "pyramid_fast", 3, "compensated", fast))
 
 
 def cell_rows(out: Path, robot: str, folder: Path, plant_set: tuple[str, ...]) -> list[dict[str, Any]]:
     """Both sensors' rows of one learn_cell variant; the fast sensor's runs formed into `out`."""
     spec = read_model_file(folder / "learned.json")
-    fast = (*plant_set, f"ft_rate_hz={FAST_HZ:g}")
-    cone_fast = lab_neutral(robot, folder / "ideal.csv", out / "cone_fast", 1, "nominal", fast)
-    pyramid_fast = lab_neutral(robot, folder / "pyramid_learned.csv", out / "pyramid_fast", 3, "compensated", fast)
+    cone_fast, pyramid_fast = fast_runs(out, robot, folder, plant_set)
     return [{"sensor": "30 Hz (the thesis's)", **sensor_row(folder / "nominal1", folder / "pyramid_learned_formed",
                                                           spec, None)},
             {"sensor": f"{FAST_HZ:g} Hz, low-passed {LOWPASS_HZ:g} Hz",
@@ -121,9 +125,7 @@ def cell_rows(out: Path, robot: str, folder: Path, plant_set: tuple[str, ...]) -
 
 def command_rows(out: Path, robot: str, folder: Path, plant_set: tuple[str, ...]) -> list[dict[str, Any]]:
     """The `--commands` row of one learn_cell variant (module docstring), its 1 kHz runs formed into `out`."""
-    fast = (*plant_set, f"ft_rate_hz={FAST_HZ:g}")
-    cone = lab_neutral(robot, folder / "ideal.csv", out / "cone_fast", 1, "nominal", fast)
-    pyramid = lab_neutral(robot, folder / "pyramid_learned.csv", out / "pyramid_fast", 3, "compensated", fast)
+    cone, pyramid = fast_runs(out, robot, folder, plant_set)
     model = out / "learned_dynamic.json"
     model.unlink(missing_ok=True)
     learned = cli_json("learn", str(cone), "--dynamic", "--write-model", str(model))["dynamic_servo"]
