@@ -144,7 +144,7 @@ def test_the_pages_words_on_compensation_with_the_dynamic_twin_are_its_tables() 
             assert 0.5 * before < after < before, cell
         else:  # "more than half off ... on the default servo's pyramid and on both grooves"
             assert after < 0.5 * before, cell
-        assert float(dyn[4]) >= 3 * float(qs[4])  # "at several times its wall"
+        assert 2 * float(qs[4]) <= float(dyn[4]) <= 30 * float(qs[4])  # "at two to twenty-odd times its wall"
         if cell in grooves:  # "worse"; "most of it at the reversals on the second"
             assert pair(dyn[6])[0] > pair(qs[6])[0] and pair(dyn[5])[0] > pair(qs[5])[0], cell
             if cell == default:

@@ -55,6 +55,21 @@ import numpy as np
 from twin.base.signals import interp_rows
 from twin.errors import InputError
 from twin.robot.model import lost_joint_name, lost_motion_schedule
+from twin.sim.compiled.drive import (
+    C_GEAR,
+    DENOM,
+    GAINS_SIZE,
+    INTEGRAL,
+    J_MOTOR,
+    K_D,
+    K_GEAR,
+    K_I,
+    K_P,
+    STATE_SIZE,
+    THETA,
+    contact_forces,
+    motor_step,
+)
 from twin.sim.dynamic_servo import ServoModel
 from twin.sim.gear_play import gear_play_references, rne_along
 from twin.sim.result import SimResult
@@ -201,40 +216,31 @@ class DynamicTwin:
         damping = m.dof_damping.copy()  # the gear's damper acts on the motor's speed less the link's
         c_arm, w, z, rigid = damping[arm], servo.bandwidth_over_mode * self.mode_rad_s, servo.damping_ratio, servo.rigid
         kd, kp, ki = jt * (2 * z + 1) * w, jt * (2 * z + 1) * w**2, jt * w**3
-        denom = jm / h + kd + c_arm + (kp + k_q) * h  # implicit Euler: ω⁺ denom = J_m ω / h + ...
+        gains = np.empty((GAINS_SIZE, len(arm)))
+        gains[J_MOTOR], gains[K_P], gains[K_I], gains[K_D], gains[C_GEAR], gains[K_GEAR] = jm, kp, ki, kd, c_arm, k_q
+        gains[DENOM] = jm / h + kd + c_arm + (kp + k_q) * h  # implicit Euler: ω⁺ denom = J_m ω / h + ...
         mujoco.mj_resetData(m, d)
         d.qpos[:] = self.sim.qpos[0]
-        theta, omega = arm_ref[0].copy(), np.zeros(len(arm))
+        state = np.zeros((STATE_SIZE, len(arm)))
+        state[THETA] = arm_ref[0]
         # the arm starts at rest in the quasi-static pose: its integral holds the load there
-        integral = np.zeros(len(arm)) if rigid else k_q * (q_fed[0] - self.sim.qpos[0, arm]) / ki
+        if not rigid:
+            state[INTEGRAL] = k_q * (q_fed[0] - self.sim.qpos[0, arm]) / ki
         n = len(self.t_steps)
         tips, qpos, force = np.empty((n, 3)), np.empty((n, m.nq)), np.empty((n, 3))
-        jacp, dx, df, f, drive = np.zeros((3, m.nv)), np.empty(3), np.empty(3), np.empty(3), np.empty(m.nv)
-        num, err = np.empty(len(arm)), np.empty(len(arm))
-        tip, act, passive, spring, tcp = d.site_xpos[self._tcp], self._act, self._passive, m.qpos_spring, self._tcp
-        step1, step2, jac_site = mujoco.mj_step1, mujoco.mj_step2, mujoco.mj_jacSite
+        jacp, drive = np.zeros((3, m.nv)), np.empty(m.nv)
+        rate, ff = np.ascontiguousarray(rate), np.ascontiguousarray(ff)
+        act, passive = np.asarray(self._act, dtype=np.int64), np.asarray(self._passive, dtype=np.int64)
+        arm_i = np.asarray(arm, dtype=np.int64)
+        tip, tcp, jac_site = d.site_xpos[self._tcp], self._tcp, mujoco.mj_jacSite
+        step1, step2 = mujoco.mj_step1, mujoco.mj_step2
+        q, v, ctrl, qfrc, spring = d.qpos, d.qvel, d.ctrl, d.qfrc_applied, m.qpos_spring  # views of MuJoCo's memory
         for k in range(n):  # bounded: one step per timestep of the run
-            spring[passive] = pas_ref[k]
-            if rigid:
-                theta[:], omega[:] = arm_ref[k], arm_rate[k]
-            else:
-                np.subtract(arm_ref[k], theta, out=err)
-                integral += h * err
-                num[:] = jm * omega / h + kp * err + ki * integral + kd * arm_rate[k] + ff[k]
-                num += c_arm * d.qvel[arm] - k_q * (theta - d.qpos[arm])
-                np.divide(num, denom, out=omega)
-                theta += h * omega
-            d.ctrl[act] = theta
-            drive[:] = rate[k]
-            drive[arm] = omega
+            motor_step(k, rigid, h, arm_ref, arm_rate, rate, ff, pas_ref, gains, state, arm_i, act, passive, q, v,
+                       ctrl, spring, drive)
             step1(m, d)
-            np.subtract(tip, x_base[k], out=dx)
-            np.dot(d_base[k], dx, out=df)
-            np.add(f_base[k], df, out=f)
             jac_site(m, d, jacp, None, tcp)
-            np.dot(f, jacp, out=d.qfrc_applied)
-            d.qfrc_applied += damping * drive
-            tips[k], qpos[k], force[k] = tip, d.qpos, f
+            contact_forces(k, tip, x_base, d_base, f_base, jacp, damping, drive, qfrc, q, tips, qpos, force)
             step2(m, d)
         return self._result(tips, qpos, force)
 
