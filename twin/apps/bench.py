@@ -91,7 +91,7 @@ def run_benchmarks(
     out["analytic_vs_twin_max_mm"] = 1e3 * float(np.max(np.linalg.norm(linear.p_sheet_m - sim.p_sheet_m, axis=1)))
     _bench_analysis(out, run, twin, t_s, p_cmd, repeats)
     _bench_force_models(out, t_s, p_cmd, repeats)
-    _bench_dynamic(out, t_s, p_cmd, seed, repeats)
+    _bench_dynamic(out, t_s, p_cmd, seed, repeats, (twin, sim))
     _bench_discrepancy(out, run, t_s, p_cmd, seed)
     _bench_gcode(out, repeats, smoke=samples is not None)
     out["cli_startup"] = cli_startup(max(3, repeats) if samples is None else repeats)
@@ -201,14 +201,20 @@ def _bench_force_models(out: dict[str, Any], t_s: np.ndarray, p_cmd: np.ndarray,
     out["cone_realtime_factor"] = float(cone.t_s[-1] - cone.t_s[0]) / out["cone_simulate_s"]
 
 
-def _bench_dynamic(out: dict[str, Any], t_s: np.ndarray, p_cmd: np.ndarray, seed: int, repeats: int) -> None:
-    """The dynamic lab plant (mj_step at 1 kHz with its sensor chain) on the same command."""
+def _bench_dynamic(out: dict[str, Any], t_s: np.ndarray, p_cmd: np.ndarray, seed: int, repeats: int,
+                   replayed: tuple[Twin, SimResult]) -> None:
+    """The dynamic lab plant (mj_step at 1 kHz with its sensor chain) on the same command; the dynamic twin's step of
+    the replayed command under a servo (one `mj_step` per millisecond), over its quasi-static `Twin.simulate`."""
     from twin.lab.dynamic.knobs import Knobs as DynamicKnobs
     from twin.lab.dynamic.run import run_dynamic_lab
+    from twin.sim.dynamic import DynamicTwin, ServoModel
 
     out["dynamic_lab_run_s"], _ = time_call(
         lambda: run_dynamic_lab(t_s, p_cmd, scenario="nominal", knobs=DynamicKnobs(), seed=seed), repeats
     )
+    dynamic = DynamicTwin(*replayed)
+    out["dynamic_twin_step_s"], _ = time_call(lambda: dynamic.simulate(ServoModel()), repeats)
+    out["dynamic_twin_over_simulate"] = out["dynamic_twin_step_s"] / out["simulate_warm_s"]
 
 
 def _bench_discrepancy(out: dict[str, Any], run: Run, t_s: np.ndarray, p_cmd: np.ndarray, seed: int) -> None:

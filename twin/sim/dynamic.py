@@ -39,7 +39,8 @@ The moving arm feels f = f_qs + D (p − p_qs) at its tip; the formed surface is
 run's measured forces (`forces`), the arm is driven by them instead, with no sheet stiffness: the robot's part of a
 run's gap with the arm moving, as `twin.analysis.learn.split` takes it with the arm at rest.
 
-Cost: one quasi-static replay, then one `mj_step` per millisecond of the run (a fixed loop, arrays made before it).
+Cost: one quasi-static replay, then one `mj_step` per millisecond of the run (a fixed loop, arrays made before it;
+the work around each step compiled, `twin.sim.compiled.drive`).
 """
 
 from __future__ import annotations
