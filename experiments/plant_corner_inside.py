@@ -117,31 +117,12 @@ def rigid_row(variant: type[law1.PlantSheet] | None) -> dict[str, float]:
     try:
         path = corner._resampled(corner.part_path(corner._part("pyramid")).p_sheet_m)
         f, _ = corner._rigid(path, corner.Process())
-        ratios = corner_ratios(path, f, corner.Process().tool_radius_m, corner._part("pyramid").depth_m)
+        ratios = corner.corner_ratios(path, f)
         cone = corner._resampled(corner.part_path(corner._part("cone")).p_sheet_m)
         fc, _ = corner._rigid(cone, corner.Process())
     finally:
         corner.PlantSheet = law1.PlantSheet
     return {"ratio_min": min(ratios), "ratio_max": max(ratios), "cone_fz_n": float(fc[:, 2].mean())}
-
-
-def corner_ratios(path: np.ndarray, f: np.ndarray, radius: float, depth: float) -> list[float]:
-    """The strict xfail's measure (`tests/test_plant_corner.py`): per side of the deeper half, the largest axial
-    force 0.5-1.5 radii from a corner over the median of the side's middle."""
-    import itertools
-
-    heading = np.unwrap(np.arctan2(*np.diff(path[:, 1::-1], axis=0).T))
-    turning = np.abs(heading[5:] - heading[:-5]) > math.radians(45)
-    corners = np.flatnonzero(np.diff(turning.astype(int)) == 1) + 3
-    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(path, axis=0), axis=1))])
-    out = []
-    for a, b in itertools.pairwise(corners):
-        side = np.arange(a, b)
-        from_corner = np.minimum(s[side] - s[a], s[b] - s[side])
-        middle, near = side[from_corner >= 2 * radius], side[(from_corner >= 0.5 * radius) & (from_corner <= 1.5 * radius)]
-        if path[a, 2] < -0.5 * depth and len(middle) > 10 and len(near) > 10:
-            out.append(float(f[near, 2].max() / np.median(f[middle, 2])))
-    return out
 
 
 def online_miss_mm(robot: str, folder: Path, variant: type[law1.PlantSheet] | None) -> float:
