@@ -25,7 +25,6 @@ from __future__ import annotations
 import argparse
 import math
 import sys
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -112,16 +111,11 @@ def rigid_row(variant: type[law1.PlantSheet] | None) -> dict[str, float]:
     """The xfail's ratios on the rigid KR 210 pyramid, and the rigid cone's mean axial force [N]."""
     import test_plant_corner as corner
 
-    made: Callable[..., law1.PlantSheet] = variant or law1.PlantSheet
-    corner.PlantSheet = made  # the test module's own sheet, for its rigid drive
-    try:
-        path = corner._resampled(corner.part_path(corner._part("pyramid")).p_sheet_m)
-        f, _ = corner._rigid(path, corner.Process())
-        ratios = corner.corner_ratios(path, f)
-        cone = corner._resampled(corner.part_path(corner._part("cone")).p_sheet_m)
-        fc, _ = corner._rigid(cone, corner.Process())
-    finally:
-        corner.PlantSheet = law1.PlantSheet
+    law = variant or law1.PlantSheet
+    path = corner._resampled(corner.part_path(corner._part("pyramid")).p_sheet_m)
+    f, _ = corner._rigid(path, corner.Process(), law=law)
+    ratios = corner.corner_ratios(path, f)
+    fc, _ = corner._rigid(corner._resampled(corner.part_path(corner._part("cone")).p_sheet_m), corner.Process(), law=law)
     return {"ratio_min": min(ratios), "ratio_max": max(ratios), "cone_fz_n": float(fc[:, 2].mean())}
 
 

@@ -1,6 +1,7 @@
-"""The dynamic twin's compiled work around each `mj_step` (`twin.sim.compiled.drive`) against the step written here
-in numpy from `twin.sim.dynamic`'s docstring: the motor's implicit-Euler PID step, J_m ω⁺/h + ... = ω⁺ denom, and
-the sheet's linearised force f = f_qs + D (x − x_qs) applied through the tip's Jacobian with the gear dampers' drive."""
+"""The dynamic twin's compiled work around each `mj_step` (`twin.sim.compiled.drive`, its gains packed by `pack_gains`)
+against the step written here in numpy from `twin.sim.dynamic`'s docstring: the motor's implicit-Euler PID step, J_m
+ω⁺/h + ... = ω⁺ denom, and the sheet's linearised force f = f_qs + D (x − x_qs) applied through the tip's Jacobian
+with the gear dampers' drive."""
 
 from __future__ import annotations
 
@@ -8,20 +9,13 @@ import numpy as np
 import pytest
 
 from twin.sim.compiled.drive import (
-    C_GEAR,
-    DENOM,
-    GAINS_SIZE,
     INTEGRAL,
-    J_MOTOR,
-    K_D,
-    K_GEAR,
-    K_I,
-    K_P,
     OMEGA,
-    STATE_SIZE,
     THETA,
     contact_forces,
+    motor_state,
     motor_step,
+    pack_gains,
 )
 
 ARM, PASSIVE, NV, STEPS, H = np.array([0, 1, 3, 4, 5, 7]), np.array([2, 6]), 8, 5, 1e-3
@@ -30,34 +24,33 @@ ARM, PASSIVE, NV, STEPS, H = np.array([0, 1, 3, 4, 5, 7]), np.array([2, 6]), 8, 
 def _inputs(seed: int) -> dict[str, np.ndarray]:
     rng = np.random.default_rng(seed)
     n = len(ARM)
-    gains = np.empty((GAINS_SIZE, n))
-    gains[J_MOTOR], gains[K_P], gains[K_I] = rng.uniform(0.5, 2, n), rng.uniform(1e4, 1e5, n), rng.uniform(1e5, 1e6, n)
-    gains[K_D], gains[C_GEAR], gains[K_GEAR] = rng.uniform(10, 100, n), rng.uniform(1, 50, n), rng.uniform(1e5, 1e6, n)
-    gains[DENOM] = gains[J_MOTOR] / H + gains[K_D] + gains[C_GEAR] + (gains[K_P] + gains[K_GEAR]) * H
-    state = np.zeros((STATE_SIZE, n))
-    state[THETA], state[OMEGA], state[INTEGRAL] = rng.normal(0, 0.1, n), rng.normal(0, 0.01, n), rng.normal(0, 1e-4, n)
-    return {"arm_ref": rng.normal(0, 0.1, (STEPS, n)), "arm_rate": rng.normal(0, 0.1, (STEPS, n)),
+    jm, kp, ki = rng.uniform(0.5, 2, n), rng.uniform(1e4, 1e5, n), rng.uniform(1e5, 1e6, n)
+    kd, c, kq = rng.uniform(10, 100, n), rng.uniform(1, 50, n), rng.uniform(1e5, 1e6, n)
+    state = motor_state(rng.normal(0, 0.1, n), rng.normal(0, 0.01, n), rng.normal(0, 1e-4, n))
+    return {"jm": jm, "kp": kp, "ki": ki, "kd": kd, "c": c, "kq": kq, "gains": pack_gains(jm, kp, ki, kd, c, kq, H),
+            "arm_ref": rng.normal(0, 0.1, (STEPS, n)), "arm_rate": rng.normal(0, 0.1, (STEPS, n)),
             "rate": rng.normal(0, 0.1, (STEPS, NV)), "ff": rng.normal(0, 50, (STEPS, n)),
-            "pas_ref": rng.normal(0, 1e-3, (STEPS, len(PASSIVE))), "gains": gains, "state": state,
+            "pas_ref": rng.normal(0, 1e-3, (STEPS, len(PASSIVE))), "state": state,
             "qpos": rng.normal(0, 0.1, NV), "qvel": rng.normal(0, 0.01, NV)}
 
 
 @pytest.mark.parametrize("rigid", [False, True])
 def test_the_motor_step_is_the_implicit_euler_pid_step(rigid: bool) -> None:
     given, k = _inputs(1), 3
-    g, s0 = given["gains"], given["state"].copy()
+    s0 = given["state"].copy()
     ctrl, spring, drive = np.full(len(ARM) + 1, np.nan), np.zeros(NV), np.full(NV, np.nan)
     act = np.arange(len(ARM)) + 1  # the actuators after one that is not the arm's
-    motor_step(k, rigid, H, given["arm_ref"], given["arm_rate"], given["rate"], given["ff"], given["pas_ref"], g,
-               given["state"], ARM, act, PASSIVE, given["qpos"], given["qvel"], ctrl, spring, drive)
+    motor_step(k, rigid, H, given["arm_ref"], given["arm_rate"], given["rate"], given["ff"], given["pas_ref"],
+               given["gains"], given["state"], ARM, act, PASSIVE, given["qpos"], given["qvel"], ctrl, spring, drive)
     if rigid:
         theta, omega, integral = given["arm_ref"][k], given["arm_rate"][k], s0[INTEGRAL]
     else:
         err = given["arm_ref"][k] - s0[THETA]
         integral = s0[INTEGRAL] + H * err
-        rhs = (g[J_MOTOR] * s0[OMEGA] / H + g[K_P] * err + g[K_I] * integral + g[K_D] * given["arm_rate"][k]
-               + given["ff"][k] + g[C_GEAR] * given["qvel"][ARM] - g[K_GEAR] * (s0[THETA] - given["qpos"][ARM]))
-        omega = rhs / g[DENOM]
+        jm, kp, ki, kd, c, kq = (given[key] for key in ("jm", "kp", "ki", "kd", "c", "kq"))
+        rhs = (jm * s0[OMEGA] / H + kp * err + ki * integral + kd * given["arm_rate"][k] + given["ff"][k]
+               + c * given["qvel"][ARM] - kq * (s0[THETA] - given["qpos"][ARM]))
+        omega = rhs / (jm / H + kd + c + (kp + kq) * H)  # J_m ω⁺/h = rhs - (K_d + c + (K_p + K_q) h) ω⁺
         theta = s0[THETA] + H * omega
     np.testing.assert_allclose(given["state"][THETA], theta, rtol=1e-12, atol=1e-15)
     np.testing.assert_allclose(given["state"][OMEGA], omega, rtol=1e-12, atol=1e-15)

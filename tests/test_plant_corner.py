@@ -38,9 +38,11 @@ def _resampled(p_m: np.ndarray, step_m: float = STEP_M) -> np.ndarray:
     return np.column_stack([np.interp(u, s, p_m[:, i]) for i in range(3)])
 
 
-def _rigid(path_m: np.ndarray, process: Process, stop: int | None = None) -> tuple[np.ndarray, PlantSheet]:
-    """The force [N] (n, 3) along a path driven rigidly (every point committed), and the sheet after `stop`."""
-    sheet = PlantSheet(process, REVERSAL_M)
+def _rigid(path_m: np.ndarray, process: Process, stop: int | None = None,
+           law: type[PlantSheet] = PlantSheet) -> tuple[np.ndarray, PlantSheet]:
+    """The force [N] (n, 3) along a path driven rigidly (every point committed), and the sheet after `stop`; `law`
+    the sheet (`experiments/plant_corner_inside.py` drives its readings of law 1 here)."""
+    sheet = law(process, REVERSAL_M)
     sheet.start(path_m[0], 1.0 if path_m[1, 0] >= path_m[0, 0] else -1.0)
     path_m = path_m[:stop]
     out = np.empty((len(path_m), 3))

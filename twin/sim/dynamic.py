@@ -56,21 +56,7 @@ import numpy as np
 from twin.base.signals import interp_rows
 from twin.errors import InputError
 from twin.robot.model import lost_joint_name, lost_motion_schedule
-from twin.sim.compiled.drive import (
-    C_GEAR,
-    DENOM,
-    GAINS_SIZE,
-    INTEGRAL,
-    J_MOTOR,
-    K_D,
-    K_GEAR,
-    K_I,
-    K_P,
-    STATE_SIZE,
-    THETA,
-    contact_forces,
-    motor_step,
-)
+from twin.sim.compiled.drive import contact_forces, motor_state, motor_step, pack_gains
 from twin.sim.dynamic_servo import ServoModel
 from twin.sim.gear_play import gear_play_references, rne_along
 from twin.sim.result import SimResult
@@ -163,7 +149,9 @@ class DynamicTwin:
         m.opt.timestep, m.opt.integrator = timestep_s, mujoco.mjtIntegrator.mjINT_IMPLICITFAST
         m.actuator_ctrllimited[:] = 0
         m.dof_solref[:, 0], m.dof_solimp[:, :2] = 2 * timestep_s, 0.999  # the hard friction constraint
-        self._arm, self._act, self._passive = arm.dof, arm.actuator, np.setdiff1d(np.arange(m.nq), arm.qpos)
+        # the kernels' indices (`twin.sim.compiled.drive`), made once
+        self._arm, self._act = np.asarray(arm.dof, dtype=np.int64), np.asarray(arm.actuator, dtype=np.int64)
+        self._passive = np.setdiff1d(np.arange(m.nq), arm.qpos).astype(np.int64)
         m.dof_armature[arm.dof] = 0.0
         self.data, self.k_q, self._ref = mujoco.MjData(m), twin.joint_stiffness, references(twin, sim)
         self.forces = forces
@@ -217,28 +205,21 @@ class DynamicTwin:
         damping = m.dof_damping.copy()  # the gear's damper acts on the motor's speed less the link's
         c_arm, w, z, rigid = damping[arm], servo.bandwidth_over_mode * self.mode_rad_s, servo.damping_ratio, servo.rigid
         kd, kp, ki = jt * (2 * z + 1) * w, jt * (2 * z + 1) * w**2, jt * w**3
-        gains = np.empty((GAINS_SIZE, len(arm)))
-        gains[J_MOTOR], gains[K_P], gains[K_I], gains[K_D], gains[C_GEAR], gains[K_GEAR] = jm, kp, ki, kd, c_arm, k_q
-        gains[DENOM] = jm / h + kd + c_arm + (kp + k_q) * h  # implicit Euler: ω⁺ denom = J_m ω / h + ...
+        gains = pack_gains(jm, kp, ki, kd, c_arm, k_q, h)
         mujoco.mj_resetData(m, d)
         d.qpos[:] = self.sim.qpos[0]
-        state = np.zeros((STATE_SIZE, len(arm)))
-        state[THETA] = arm_ref[0]
         # the arm starts at rest in the quasi-static pose: its integral holds the load there
-        if not rigid:
-            state[INTEGRAL] = k_q * (q_fed[0] - self.sim.qpos[0, arm]) / ki
+        integral = np.zeros(len(arm)) if rigid else k_q * (q_fed[0] - self.sim.qpos[0, arm]) / ki
+        state = motor_state(arm_ref[0], np.zeros(len(arm)), integral)
         n = len(self.t_steps)
         tips, qpos, force = np.empty((n, 3)), np.empty((n, m.nq)), np.empty((n, 3))
         jacp, drive = np.zeros((3, m.nv)), np.empty(m.nv)
-        rate, ff = np.ascontiguousarray(rate), np.ascontiguousarray(ff)
-        act, passive = np.asarray(self._act, dtype=np.int64), np.asarray(self._passive, dtype=np.int64)
-        arm_i = np.asarray(arm, dtype=np.int64)
         tip, tcp, jac_site = d.site_xpos[self._tcp], self._tcp, mujoco.mj_jacSite
         step1, step2 = mujoco.mj_step1, mujoco.mj_step2
         q, v, ctrl, qfrc, spring = d.qpos, d.qvel, d.ctrl, d.qfrc_applied, m.qpos_spring  # views of MuJoCo's memory
         for k in range(n):  # bounded: one step per timestep of the run
-            motor_step(k, rigid, h, arm_ref, arm_rate, rate, ff, pas_ref, gains, state, arm_i, act, passive, q, v,
-                       ctrl, spring, drive)
+            motor_step(k, rigid, h, arm_ref, arm_rate, rate, ff, pas_ref, gains, state, arm, self._act,
+                       self._passive, q, v, ctrl, spring, drive)
             step1(m, d)
             jac_site(m, d, jacp, None, tcp)
             contact_forces(k, tip, x_base, d_base, f_base, jacp, damping, drive, qfrc, q, tips, qpos, force)

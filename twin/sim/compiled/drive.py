@@ -10,6 +10,7 @@ made before the loop, in place; the arithmetic is the loop's, in its order.
 
 from __future__ import annotations
 
+import numpy as np
 from numba import njit
 
 #: Rows of `gains` (per arm joint): the rotor's inertia J_m, the PID gains K_p, K_i, K_d, the gear's damper c and
@@ -19,6 +20,25 @@ GAINS_SIZE = 7
 #: Rows of `state` (per arm joint): the motor's angle θ, its speed ω and the integral of the error.
 THETA, OMEGA, INTEGRAL = range(3)
 STATE_SIZE = 3
+
+
+def pack_gains(j_motor: np.ndarray, k_p: np.ndarray, k_i: np.ndarray, k_d: np.ndarray, c_gear: np.ndarray,
+               k_gear: np.ndarray, h: float) -> np.ndarray:
+    """`motor_step`'s `gains` (rows `J_MOTOR` .. `DENOM`, a column per arm joint) from each joint's rotor inertia
+    [kg·m²], PID gains [N·m/rad, N·m/(rad·s), N·m·s/rad], gear damper [N·m·s/rad] and spring [N·m/rad], with the
+    implicit step's denominator for the step `h` [s] worked out once."""
+    gains = np.empty((GAINS_SIZE, len(j_motor)))
+    gains[J_MOTOR], gains[K_P], gains[K_I], gains[K_D], gains[C_GEAR], gains[K_GEAR] = j_motor, k_p, k_i, k_d, c_gear, k_gear
+    gains[DENOM] = j_motor / h + k_d + c_gear + (k_p + k_gear) * h  # implicit Euler: ω⁺ denom = J_m ω / h + ...
+    return gains
+
+
+def motor_state(theta: np.ndarray, omega: np.ndarray, integral: np.ndarray) -> np.ndarray:
+    """`motor_step`'s `state` (rows `THETA`, `OMEGA`, `INTEGRAL`) from the motors' angles [rad], speeds [rad/s] and
+    error integrals [rad·s]."""
+    state = np.empty((STATE_SIZE, len(theta)))
+    state[THETA], state[OMEGA], state[INTEGRAL] = theta, omega, integral
+    return state
 
 
 @njit(cache=True)
