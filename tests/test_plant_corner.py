@@ -38,11 +38,9 @@ def _resampled(p_m: np.ndarray, step_m: float = STEP_M) -> np.ndarray:
     return np.column_stack([np.interp(u, s, p_m[:, i]) for i in range(3)])
 
 
-def _rigid(path_m: np.ndarray, process: Process, stop: int | None = None,
-           law: type[PlantSheet] = PlantSheet) -> tuple[np.ndarray, PlantSheet]:
-    """The force [N] (n, 3) along a path driven rigidly (every point committed), and the sheet after `stop`; `law`
-    the sheet (`experiments/plant_corner_inside.py` drives its readings of law 1 here)."""
-    sheet = law(process, REVERSAL_M)
+def _rigid(path_m: np.ndarray, process: Process, stop: int | None = None) -> tuple[np.ndarray, PlantSheet]:
+    """The force [N] (n, 3) along a path driven rigidly (every point committed), and the sheet after `stop`."""
+    sheet = PlantSheet(process, REVERSAL_M)
     sheet.start(path_m[0], 1.0 if path_m[1, 0] >= path_m[0, 0] else -1.0)
     path_m = path_m[:stop]
     out = np.empty((len(path_m), 3))
@@ -68,10 +66,9 @@ def test_the_in_plane_force_changes_smoothly_along_a_rigid_pyramid() -> None:
         assert jump[worst] <= 0.10 * steady + turn[worst], (mu, jump[worst], steady, path[worst])
 
 
-def corner_ratios(path_m: np.ndarray, f_n: np.ndarray) -> list[float]:
+def _corner_ratios(path_m: np.ndarray, f_n: np.ndarray) -> list[float]:
     """Per side of the pyramid's deeper half, the largest axial force 0.5-1.5 tool radii from a corner over the
-    median of the side's middle (>= 2 radii from either corner), along a rigid path [m] and its force [N]
-    (`experiments/plant_corner_inside.py` reads it too)."""
+    median of the side's middle (>= 2 radii from either corner), along a rigid path [m] and its force [N]."""
     radius = Process().tool_radius_m
     heading = np.unwrap(np.arctan2(*np.diff(path_m[:, 1::-1], axis=0).T))
     turning = np.abs(heading[5:] - heading[:-5]) > math.radians(45)  # over 0.5 mm of travel
@@ -88,11 +85,6 @@ def corner_ratios(path_m: np.ndarray, f_n: np.ndarray) -> list[float]:
     return ratios
 
 
-@pytest.mark.xfail(strict=True, raises=AssertionError, reason=(
-    "law 1 reads the inside of a pyramid's corner as a wall: within ~1.5 tool radii of a corner the side read "
-    "towards the part's inside lands on the adjacent side's track (formed), its bottom test no longer holds it flat, "
-    "and its chord to the sheet's unformed height makes the axial force nearly double a tool radius before and after each "
-    "corner (not at it); most of a rigid pyramid's 1.5-8 Hz Fz (CHANGELOG, found with issue #50's pyramid)"))
 def test_the_axial_force_does_not_peak_a_tool_radius_from_a_rigid_pyramids_corners() -> None:
     """On a side of a rigid pyramid, 0.5-1.5 tool radii from a corner, the tool meets the side's wall and, inside,
     the hanging bottom, as in the side's middle (>= 2 radii from either corner): its axial force there stays within
@@ -100,7 +92,7 @@ def test_the_axial_force_does_not_peak_a_tool_radius_from_a_rigid_pyramids_corne
     deeper half of the part, where a side is long enough to have a middle."""
     path = _resampled(part_path(_part("pyramid")).p_sheet_m)
     f, _ = _rigid(path, Process())
-    ratios = corner_ratios(path, f)
+    ratios = _corner_ratios(path, f)
     assert len(ratios) >= 8  # sides measured
     assert max(ratios) <= 1.25, ratios
 
@@ -221,3 +213,25 @@ def test_the_kr210_pyramid_corners_on_the_plant() -> None:
     lost = pressed & (np.linalg.norm(log.f_sheet_n, axis=1) == 0.0)
     assert pressed.sum() > 1000
     assert lost.sum() <= 0.005 * pressed.sum()
+
+
+def test_a_closed_tracks_inside_hangs_and_an_open_ones_sides_do_not() -> None:
+    """The hanging bottom (`PlantSheet.hanging`) is the sheet a closed track encloses, grown by a tool radius: after
+    a rigid pyramid it holds the part's centre and none of the sheet outside the first pass's track; a groove
+    encloses nothing; the compiled flood and distance transform mark the nodes scipy's do."""
+    from twin.lab.dynamic import sheet_kernels
+    from twin.process.toolpath.groove import groove_path
+
+    path = _resampled(part_path(_part("pyramid")).p_sheet_m)
+    _, sheet = _rigid(path, Process())
+    centre = np.argmin(np.abs(sheet.x_m))
+    assert sheet.hanging[centre, centre]
+    radius = Process().tool_radius_m
+    outside = np.hypot(*np.meshgrid(sheet.x_m, sheet.y_m)) > np.abs(path[0, :2]).max() + 1.5 * radius
+    assert not sheet.hanging[outside].any()
+    compiled = np.zeros_like(sheet.hanging)
+    sheet_kernels.fill(sheet.pressed, sheet._box, compiled, radius / GRID_SPACING_M)
+    sheet._fill()
+    np.testing.assert_array_equal(compiled, sheet.hanging)
+    _, groove = _rigid(_resampled(groove_path().p_sheet_m[:2000]), Process())
+    assert groove.pressed.any() and not groove.hanging.any()

@@ -159,8 +159,8 @@ def test_the_compiled_sheet_is_the_python_sheet() -> None:
 
     for name in ("VOCE_S0_MPA", "VOCE_Q_MPA", "VOCE_B", "VOCE_M", "YOUNGS_MODULUS_PA", "POISSON_RATIO"):
         assert getattr(sheet_kernels, name) == getattr(sheet_material, name), name
-    for name in ("GRID_SPACING_M", "HALF_SIZE_M", "MIN_RECOVERY_M", "FORMED_READ", "FORMED_PATCH", "FORMED_TRACK",
-                 "FORMED_GAIN", "HUNT_CROSSLEY_ALPHA_S_PER_M", "MAX_ANGLE_RAD"):
+    for name in ("GRID_SPACING_M", "HALF_SIZE_M", "MIN_RECOVERY_M", "FORMED_READ", "FORMED_PATCH", "FORMED_TRACK", "FORMED_GAIN",
+                 "HUNT_CROSSLEY_ALPHA_S_PER_M", "MAX_ANGLE_RAD"):
         assert getattr(sheet_kernels, name) == getattr(python_sheet, name), name
     groove = groove_path().p_sheet_m[:400]
     cone = part_path(PartSpec(top_half_width_m=0.02, depth_m=4e-3)).p_sheet_m

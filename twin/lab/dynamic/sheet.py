@@ -23,9 +23,7 @@ plant forms its own sheet from its own material law, in a form the twin does not
   and Coulomb friction against the travel, -mu F_up (mu the process's declared tool friction). The lateral pull
   is towards the flatter side, and it grows as the tool moves towards the steeper one (the chord there rises), so
   a wall does not pull the tool into itself (the lateral stiffness along a pyramid's and a cone's path, corners
-  included: tests/test_plant_corner.py). (Before, each side pulled with its own N_s and w_s: a
-  wall across from a formed, flat floor pulled the tool into itself with w N cos alpha, harder the closer it came,
-  a negative lateral stiffness of up to ~230 N/mm near a pyramid's corners.)
+  included: tests/test_plant_corner.py).
   *Unsupported bottom*: a side the tool never pressed, across from one it did, is the bottom hanging from the
   wall (a cone's inside; its grid height 0 is not where that sheet is): the strip runs on from the wall flat
   (alpha 0; its horizontal pull is then tan(alpha/2) of F_up, inwards). Which side is formed is read as a
@@ -39,9 +37,13 @@ plant forms its own sheet from its own material law, in a form the twin does not
   there). The fractions, and the wall's slope from R to 2R, are read from the committed tip: which side hangs
   from which, and the wall formed beside the track, are the sheet's state along the track, not a servo tick's
   sub-grid excursion (read from the tip itself, a wall whose slope flattens away from the tool pulled it in).
-  Before, one grid node read 1.2 R across decided it, and near every pyramid corner that node landed on the
-  adjacent side's footprint: the in-plane force jumped by up to ~750 N between 0.1 mm steps of a rigid path and
-  the plant chattered at every corner (issue #45).
+  *A closed part's inside*: the sheet a closed track (a cone's, a pyramid's) encloses is joined to the clamped
+  frame only through that track: it is the bottom, hanging from it, wherever the fraction test reads (near a
+  pyramid's corner that test read the adjacent side's track and let the inside go: a wall that is not there).
+  `_fill` finds it every FILL_EVERY_M of travel (the unpressed nodes the pressed ones enclose, 4-connected),
+  grown by one tool radius (the innermost track's inner half, whose grid heights are the sphere's flank):
+  `hanging`. Its share h_s of a side's near disc makes that side a bottom and the other side the wall: b_s =
+  max(h_s, (1 - h_o) b_s) (tests/test_plant_corner.py). An open part (a groove) encloses nothing.
   The wall thickness follows the sine law t_s = t0 cos alpha_s (t = t0 sin(90 deg - alpha), Jeswiet, Micari,
   Hirt, Bramley, Duflou, Allwood, "Asymmetric single point incremental forming of sheet metal", CIRP Annals 54/2
   (2005) 623-649), the strain is the plane-strain thinning eps = (2/sqrt 3) ln(t0/t_s) and sigma_phi =
@@ -85,6 +87,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from scipy import ndimage
 
 from twin.lab.dynamic import sheet_kernels as kernels
 from twin.lab.dynamic.sheet_grid import GRID_SPACING_M, HALF_SIZE_M, GridSheet, turned
@@ -101,6 +104,7 @@ FORMED_READ = 1.2  # a side's formed fraction is read around this many tool radi
 FORMED_PATCH = 0.6  # over a disc of this many tool radii around it (0.6 R to 1.8 R across the travel)
 FORMED_TRACK = 0.05  # a difference in formed fraction below this is no wall across (a stray press, a lead-in) [-]
 FORMED_GAIN = 2.0  # a bottom by this times the difference past it (fully one at FORMED_TRACK + 1 / FORMED_GAIN)
+FILL_EVERY_M = 4 * GRID_SPACING_M  # the hanging bottom is found again after this much travel of the tip [m]
 HUNT_CROSSLEY_ALPHA_S_PER_M = 0.2  # contact damping of the elastic unloading [s/m] (module docstring)
 MAX_ANGLE_RAD = math.radians(70.0)  # a side steeper than this is a step, read as this angle
 HEADING_TURN_M = 2 * GRID_SPACING_M  # travel over which the heading (sides, step ahead) turns [m]
@@ -135,6 +139,9 @@ class PlantSheet(GridSheet):
         """A flat sheet, the tool at rest along +x."""
         self.z_m = np.zeros((len(self.y_m), len(self.x_m)))
         self.pressed = np.zeros(self.z_m.shape, dtype=bool)
+        self.hanging = np.zeros(self.z_m.shape, dtype=bool)  # the sheet inside the innermost track (`_fill`)
+        self._unfilled_m = 0.0  # the tip's travel since `hanging` was found [m]
+        self._box = np.array([len(self.y_m), -1, len(self.x_m), -1])  # rows, columns the tool pressed: first, last
         self.slip = np.array([1.0, 0.0])
         self.heading = self.slip.copy()
         self.travel = self.slip.copy()
@@ -165,8 +172,8 @@ class PlantSheet(GridSheet):
             out = np.empty(3)
             x, y, z = p_sheet_m
             last = np.array([x, y, z], dtype=float) if self._last is None else self._last
-            kernels.force(self.z_m, self.pressed, self.radius, self.t0, self.scale, self.mu, self.travel, self.slip,
-                          last, self.timestep_s, float(x), float(y), float(z), out)
+            kernels.force(self.z_m, self.pressed, self.hanging, self.radius, self.t0, self.scale, self.mu, self.travel,
+                          self.slip, last, self.timestep_s, float(x), float(y), float(z), out)
             return out
         return self.force_reference(p_sheet_m)
 
@@ -177,16 +184,19 @@ class PlantSheet(GridSheet):
         tx, ty = float(self.travel[0]), float(self.travel[1])
         sides = ((-ty, tx), (ty, -tx))  # left, right of the travel
         met = self.height(x + r * tx, y + r * ty) - z  # the step the tool meets one radius ahead
-        # the sides' formed fractions next to the committed tip's own track (near) and under the wall read (far)
+        # the sides' formed fractions next to the committed tip's own track (near) and under the wall read (far), and
+        # how much of the near read is a closed part's inside (hung)
         cx, cy, cz = (x, y, z) if self._last is None else (float(v) for v in self._last)
         near = [self.formed_fraction(cx + FORMED_READ * r * sx, cy + FORMED_READ * r * sy) for sx, sy in sides]
         far = [self.formed_fraction(cx + 2.0 * r * sx, cy + 2.0 * r * sy) for sx, sy in sides]
+        hung = [self.hanging_share(cx + FORMED_READ * r * sx, cy + FORMED_READ * r * sy) for sx, sy in sides]
         alpha = [0.0, 0.0]
         for s, o in ((0, 1), (1, 0)):
             chord, slope = self._side_angles(x, y, z, *sides[s], cx, cy)
             # its slope read lands on the hanging bottom; the side is an unsupported bottom itself, flat
             hanging = min(1.0, max(0.0, FORMED_GAIN * (near[o] - far[s] - FORMED_TRACK)))
             bottom = min(1.0, max(0.0, FORMED_GAIN * (near[o] - near[s] - FORMED_TRACK)))
+            bottom = max((1.0 - hung[o]) * bottom, hung[s])
             alpha[s] = (1.0 - bottom) * min(max(chord, (1.0 - hanging) * slope), MAX_ANGLE_RAD)
         steep = max(alpha)  # one strip wraps the tool: one tension, the steeper side's, and its front contact
         n, w = self.membrane_n_per_m(steep), r * math.sin(steep)
@@ -204,6 +214,14 @@ class PlantSheet(GridSheet):
     def formed_fraction(self, x: float, y: float) -> float:
         """The share [-] of the grid the tool sphere has pressed around (x, y) [m], weighted by the smooth bump
         (1 - (d / rho)^2)^2 over the disc d < rho = FORMED_PATCH R: continuous in (x, y); 0 off the grid."""
+        return self._share(self.pressed, x, y)
+
+    def hanging_share(self, x: float, y: float) -> float:
+        """The share [-] of the grid around (x, y) [m] that is the hanging bottom (`hanging`), as `formed_fraction`."""
+        return self._share(self.hanging, x, y)
+
+    def _share(self, mask: np.ndarray, x: float, y: float) -> float:
+        """The bump-weighted share [-] of `mask` over the disc of radius FORMED_PATCH R around (x, y) [m]."""
         rho = FORMED_PATCH * self.radius
         i0 = max(math.ceil((x - rho + HALF_SIZE_M) / GRID_SPACING_M), 0)
         i1 = min(math.floor((x + rho + HALF_SIZE_M) / GRID_SPACING_M), len(self.x_m) - 1)
@@ -217,7 +235,7 @@ class PlantSheet(GridSheet):
                 q = 1.0 - dx * dx - dy * dy
                 if q > 0.0:
                     total += q * q
-                    if self.pressed[j, i]:
+                    if mask[j, i]:
                         pressed += q * q
         return pressed / total if total > 0.0 else 0.0
 
@@ -240,18 +258,24 @@ class PlantSheet(GridSheet):
         x, y, z = (float(v) for v in p_sheet_m)
         if self._last is not None:
             dx, dy = x - float(self._last[0]), y - float(self._last[1])
+            self._unfilled_m += math.hypot(dx, dy)
             kernels.turned(self.slip, self.slip_gain, dx, dy)
             kernels.turned(self.heading, self.heading_gain, dx, dy)
             norm = float(np.hypot(*self.heading))
             if norm > 0.1:
                 self.travel = self.heading / norm
         self._last = np.array([x, y, z])
-        kernels.press(self.z_m, self.pressed, self.x_m, self.y_m, self.radius, len(self._offsets) // 2, x, y, z)
+        kernels.press(self.z_m, self.pressed, self._box, self.x_m, self.y_m, self.radius, len(self._offsets) // 2, x,
+                      y, z)
+        if self._unfilled_m >= FILL_EVERY_M:
+            kernels.fill(self.pressed, self._box, self.hanging, self.radius / GRID_SPACING_M)
+            self._unfilled_m = 0.0
 
     def advance_reference(self, p_sheet_m: np.ndarray) -> None:
         """`advance` in Python, operation for operation what the compiled kernels do."""
         p = np.asarray(p_sheet_m, dtype=float)
         if self._last is not None:
+            self._unfilled_m += float(np.hypot(*(p[:2] - self._last[:2])))
             self.slip = turned(self.slip, self.slip_gain * (p[:2] - self._last[:2]))
             self.heading = turned(self.heading, self.heading_gain * (p[:2] - self._last[:2]))
             norm = float(np.hypot(*self.heading))
@@ -259,6 +283,22 @@ class PlantSheet(GridSheet):
                 self.travel = self.heading / norm
         self._last = p[:3].copy()
         self._press(p)
+        if self._unfilled_m >= FILL_EVERY_M:
+            self._fill()
+            self._unfilled_m = 0.0
+
+    def _fill(self) -> None:
+        """The hanging bottom: the nodes within one tool radius of the unpressed ones the pressed ones enclose (not
+        joined to the grid's edge, the clamped frame, through unpressed nodes side by side: 4-connected)."""
+        self.hanging = np.zeros(self.z_m.shape, dtype=bool)
+        j0, j1, i0, i1 = (int(v) for v in self._box)
+        reach = self.radius / GRID_SPACING_M
+        grow = 1 + math.ceil(reach)  # outside the pressed nodes' box so grown, every node is free and out of reach
+        rows, cols = slice(max(j0 - grow, 0), j1 + grow + 1), slice(max(i0 - grow, 0), i1 + grow + 1)
+        pressed = self.pressed[rows, cols]
+        enclosed = ndimage.binary_fill_holes(pressed) & ~pressed
+        if j1 >= 0 and enclosed.any():
+            self.hanging[rows, cols] = ndimage.distance_transform_edt(~enclosed) <= reach
 
     def _press(self, p: np.ndarray) -> None:
         """Lower the grid to the tool sphere's underside around the tip."""
@@ -269,6 +309,8 @@ class PlantSheet(GridSheet):
         y0, y1 = max(iy - k, 0), min(iy + k + 1, len(self.y_m))
         if x0 >= x1 or y0 >= y1:
             return
+        box = self._box
+        box[:] = min(box[0], y0), max(box[1], y1 - 1), min(box[2], x0), max(box[3], x1 - 1)
         dx = self.x_m[x0:x1] - p[0]
         dy = self.y_m[y0:y1] - p[1]
         r2 = dy[:, None] ** 2 + dx[None, :] ** 2

@@ -27,6 +27,7 @@ FORMED_GAIN = 2.0
 HUNT_CROSSLEY_ALPHA_S_PER_M = 0.2
 MAX_ANGLE_RAD = math.radians(70.0)
 PLANE = 2.0 / math.sqrt(3.0)
+FAR = 1e18  # a squared distance [nodes^2] no node of the grid is from another: no enclosed node in reach
 
 
 @njit(cache=True)
@@ -52,7 +53,7 @@ def height(z: np.ndarray, x: float, y: float) -> float:
 
 @njit(cache=True)
 def formed_fraction(pressed: np.ndarray, rho: float, x: float, y: float) -> float:
-    """`PlantSheet.formed_fraction` over the disc of radius `rho` [m]."""
+    """`PlantSheet.formed_fraction` (of `pressed`) or `hanging_share` (of `hanging`) over the disc of radius `rho`."""
     i0 = max(math.ceil((x - rho + HALF_SIZE_M) / GRID_SPACING_M), 0)
     i1 = min(math.floor((x + rho + HALF_SIZE_M) / GRID_SPACING_M), pressed.shape[1] - 1)
     j0 = max(math.ceil((y - rho + HALF_SIZE_M) / GRID_SPACING_M), 0)
@@ -72,6 +73,100 @@ def formed_fraction(pressed: np.ndarray, rho: float, x: float, y: float) -> floa
 
 
 @njit(cache=True)
+def fill(pressed: np.ndarray, box: np.ndarray, hanging: np.ndarray, reach: float) -> None:
+    """`PlantSheet._fill` into `hanging`: a 4-connected flood of the unpressed nodes from the edge of the pressed
+    nodes' bounding box `box` (rows j0, j1, columns i0, i1) grown by one node (outside it every node is unpressed
+    and joined to the grid's edge); the unpressed nodes it does not reach are enclosed; `hanging` is every node
+    within `reach` nodes of one (an exact squared distance transform, Felzenszwalb and Huttenlocher, "Distance
+    transforms of sampled functions", Theory of Computing 8 (2012) 415-428)."""
+    ny, nx = pressed.shape
+    hanging[:, :] = False
+    j0, j1, i0, i1 = box[0], box[1], box[2], box[3]
+    if j1 < 0:
+        return
+    j0, j1, i0, i1 = max(j0 - 1, 0), min(j1 + 1, ny - 1), max(i0 - 1, 0), min(i1 + 1, nx - 1)
+    h, w = j1 - j0 + 1, i1 - i0 + 1
+    outside = np.zeros((h, w), dtype=np.bool_)
+    stack = np.empty(h * w + 4, dtype=np.int64)
+    top = 0
+    for j in range(h):
+        for i in range(w):
+            if (j == 0 or i == 0 or j == h - 1 or i == w - 1) and not pressed[j0 + j, i0 + i]:
+                outside[j, i] = True
+                stack[top] = j * w + i
+                top += 1
+    while top > 0:
+        top -= 1
+        j, i = stack[top] // w, stack[top] % w
+        for dj, di in ((1, 0), (-1, 0), (0, 1), (0, -1)):
+            jj, ii = j + dj, i + di
+            if 0 <= jj < h and 0 <= ii < w and not outside[jj, ii] and not pressed[j0 + jj, i0 + ii]:
+                outside[jj, ii] = True
+                stack[top] = jj * w + ii
+                top += 1
+    g = math.ceil(reach)
+    b0, b1, a0, a1 = max(j0 - g, 0), min(j1 + g, ny - 1), max(i0 - g, 0), min(i1 + g, nx - 1)
+    hb, wb = b1 - b0 + 1, a1 - a0 + 1
+    d2 = np.full((hb, wb), FAR)
+    any_enclosed = False
+    for j in range(h):
+        for i in range(w):
+            if not outside[j, i] and not pressed[j0 + j, i0 + i]:
+                d2[j0 + j - b0, i0 + i - a0] = 0.0
+                any_enclosed = True
+    if not any_enclosed:
+        return
+    n = max(hb, wb)
+    f = np.empty(n)
+    out = np.empty(n)
+    v = np.empty(n, dtype=np.int64)
+    zb = np.empty(n + 1)
+    for j in range(hb):  # along rows
+        for i in range(wb):
+            f[i] = d2[j, i]
+        _edt_1d(f, wb, out, v, zb)
+        for i in range(wb):
+            d2[j, i] = out[i]
+    for i in range(wb):  # along columns
+        for j in range(hb):
+            f[j] = d2[j, i]
+        _edt_1d(f, hb, out, v, zb)
+        for j in range(hb):
+            hanging[b0 + j, a0 + i] = out[j] <= reach * reach
+
+
+@njit(cache=True)
+def _edt_1d(f: np.ndarray, n: int, out: np.ndarray, v: np.ndarray, zb: np.ndarray) -> None:
+    """The squared distance transform of the sampled function f[:n] into out[:n]: the lower envelope of the
+    parabolas (q - p)^2 + f[p] (Felzenszwalb and Huttenlocher's algorithm DT)."""
+    k = 0
+    v[0] = 0
+    zb[0], zb[1] = -1e300, 1e300
+    for q in range(1, n):
+        if f[q] >= FAR:
+            continue
+        if f[v[k]] >= FAR:
+            v[k] = q
+            continue
+        s = ((f[q] + q * q) - (f[v[k]] + v[k] * v[k])) / (2.0 * q - 2.0 * v[k])
+        while s <= zb[k]:
+            k -= 1
+            s = ((f[q] + q * q) - (f[v[k]] + v[k] * v[k])) / (2.0 * q - 2.0 * v[k])
+        k += 1
+        v[k] = q
+        zb[k], zb[k + 1] = s, 1e300
+    if f[v[0]] >= FAR:
+        for q in range(n):
+            out[q] = FAR
+        return
+    k = 0
+    for q in range(n):
+        while zb[k + 1] < q:
+            k += 1
+        out[q] = (q - v[k]) * (q - v[k]) + f[v[k]]
+
+
+@njit(cache=True)
 def membrane(scale: float, t0: float, alpha: float) -> float:
     """`PlantSheet.membrane_n_per_m`."""
     c = math.cos(alpha)
@@ -88,10 +183,10 @@ def springback(scale: float, depth: float, alpha: float) -> float:
 
 
 @njit(cache=True)
-def side_angle(z: np.ndarray, pressed: np.ndarray, r: float, cx: float, cy: float, near_o: float, x: float,
-               y: float, zt: float, sx: float, sy: float) -> float:
+def side_angle(z: np.ndarray, pressed: np.ndarray, hanging: np.ndarray, r: float, cx: float, cy: float,
+               near_o: float, hung_o: float, x: float, y: float, zt: float, sx: float, sy: float) -> float:
     """One side's angle in `PlantSheet.force_reference`: its chord and slope (`PlantSheet._side_angles`), the
-    slope dropped where its far read is the hanging bottom, flattened where the side is a bottom."""
+    slope dropped where its far read is the hanging bottom, flattened where the side is the hanging bottom."""
     h1 = height(z, x + r * sx, y + r * sy)
     w1 = height(z, cx + r * sx, cy + r * sy)
     w2 = height(z, cx + 2.0 * r * sx, cy + 2.0 * r * sy)
@@ -99,13 +194,15 @@ def side_angle(z: np.ndarray, pressed: np.ndarray, r: float, cx: float, cy: floa
     rho = FORMED_PATCH * r
     near_s = formed_fraction(pressed, rho, cx + FORMED_READ * r * sx, cy + FORMED_READ * r * sy)
     far_s = formed_fraction(pressed, rho, cx + 2.0 * r * sx, cy + 2.0 * r * sy)
-    hanging = min(1.0, max(0.0, FORMED_GAIN * (near_o - far_s - FORMED_TRACK)))
+    hung_s = formed_fraction(hanging, rho, cx + FORMED_READ * r * sx, cy + FORMED_READ * r * sy)
+    on_bottom = min(1.0, max(0.0, FORMED_GAIN * (near_o - far_s - FORMED_TRACK)))
     bottom = min(1.0, max(0.0, FORMED_GAIN * (near_o - near_s - FORMED_TRACK)))
-    return (1.0 - bottom) * min(max(chord, (1.0 - hanging) * slope), MAX_ANGLE_RAD)
+    bottom = max((1.0 - hung_o) * bottom, hung_s)
+    return (1.0 - bottom) * min(max(chord, (1.0 - on_bottom) * slope), MAX_ANGLE_RAD)
 
 
 @njit(cache=True)
-def force(z: np.ndarray, pressed: np.ndarray, r: float, t0: float, scale: float, mu: float, travel: np.ndarray,
+def force(z: np.ndarray, pressed: np.ndarray, hanging: np.ndarray, r: float, t0: float, scale: float, mu: float, travel: np.ndarray,
           slip: np.ndarray, last: np.ndarray, dt: float, x: float, y: float, zt: float, out: np.ndarray) -> None:
     """`PlantSheet.force` into `out` (3,) [N]; `last` (3,) the committed tip [m]."""
     tx, ty = travel[0], travel[1]
@@ -114,8 +211,10 @@ def force(z: np.ndarray, pressed: np.ndarray, r: float, t0: float, scale: float,
     rho = FORMED_PATCH * r
     near0 = formed_fraction(pressed, rho, cx - FORMED_READ * r * ty, cy + FORMED_READ * r * tx)
     near1 = formed_fraction(pressed, rho, cx + FORMED_READ * r * ty, cy - FORMED_READ * r * tx)
-    a0 = side_angle(z, pressed, r, cx, cy, near1, x, y, zt, -ty, tx)
-    a1 = side_angle(z, pressed, r, cx, cy, near0, x, y, zt, ty, -tx)
+    hung0 = formed_fraction(hanging, rho, cx - FORMED_READ * r * ty, cy + FORMED_READ * r * tx)
+    hung1 = formed_fraction(hanging, rho, cx + FORMED_READ * r * ty, cy - FORMED_READ * r * tx)
+    a0 = side_angle(z, pressed, hanging, r, cx, cy, near1, hung1, x, y, zt, -ty, tx)
+    a1 = side_angle(z, pressed, hanging, r, cx, cy, near0, hung0, x, y, zt, ty, -tx)
     steep = max(a0, a1)  # one strip: the steeper side's tension and front contact
     n, w = membrane(scale, t0, steep), r * math.sin(steep)
     up = w * n * (math.sin(a0) + math.sin(a1))
@@ -142,9 +241,10 @@ def turned(state: np.ndarray, gain: float, dx: float, dy: float) -> None:
 
 
 @njit(cache=True)
-def press(z: np.ndarray, pressed: np.ndarray, x_m: np.ndarray, y_m: np.ndarray, r: float, half: int, x: float,
-          y: float, zt: float) -> None:
-    """`PlantSheet._press`: the grid (nodes `x_m`, `y_m`) lowered to the tool sphere's underside around the tip."""
+def press(z: np.ndarray, pressed: np.ndarray, box: np.ndarray, x_m: np.ndarray, y_m: np.ndarray, r: float,
+          half: int, x: float, y: float, zt: float) -> None:
+    """`PlantSheet._press`: the grid (nodes `x_m`, `y_m`) lowered to the tool sphere's underside around the tip, the
+    pressed nodes' bounding box `box` grown to the square pressed."""
     ix = int(np.rint((x + HALF_SIZE_M) / GRID_SPACING_M))
     iy = int(np.rint((y + HALF_SIZE_M) / GRID_SPACING_M))
     ny, nx = z.shape
@@ -161,3 +261,5 @@ def press(z: np.ndarray, pressed: np.ndarray, x_m: np.ndarray, y_m: np.ndarray, 
                 if under < z[j, i]:
                     z[j, i] = under
                 pressed[j, i] = True
+    if x0 < x1 and y0 < y1:
+        box[0], box[1], box[2], box[3] = min(box[0], y0), max(box[1], y1 - 1), min(box[2], x0), max(box[3], x1 - 1)
