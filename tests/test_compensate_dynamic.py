@@ -140,10 +140,10 @@ def test_the_pages_words_on_compensation_with_the_dynamic_twin_are_its_tables() 
     for cell in cells:
         qs, dyn = comp[(cell, "quasi-static")], comp[(cell, "dynamic")]
         before, after = (float(v) for v in dyn[2].split("->"))
-        if cell == "TX200, servo variant (bandwidth 0.35 of mode, damping 0.7)":  # "less on the servo variant's"
-            assert 0.5 * before < after < before, cell
-        else:  # "more than half off ... on the default servo's pyramid and on both grooves"
+        if cell in grooves:  # "more than half off ... on both grooves"
             assert after < 0.5 * before, cell
+        else:  # "about a fifth on the pyramids"
+            assert 0.75 * before <= after <= 0.85 * before, cell
         assert 2 * float(qs[4]) <= float(dyn[4]) <= 30 * float(qs[4])  # "at two to twenty-odd times its wall"
         if cell in grooves:  # "worse"; "most of it at the reversals on the second"
             assert pair(dyn[6])[0] > pair(qs[6])[0] and pair(dyn[5])[0] > pair(qs[5])[0], cell
@@ -152,12 +152,9 @@ def test_the_pages_words_on_compensation_with_the_dynamic_twin_are_its_tables() 
             continue
         for col in (5, 6):  # "within a few hundredths of a millimetre" (pyramids)
             assert np.allclose(pair(dyn[col]), pair(qs[col]), atol=0.03, rtol=0), (cell, col)
-        for r in (qs, dyn):  # "below the pyramid's half depth the true tip stays above the path"
-            shallow, deep = pair(r[7])
-            assert deep > 0.1 and deep > 5 * abs(shallow), r
-    for r in depth:  # "the learned sheet's force ... too low there; nearly a straight line; the plant's starts lower"
+        for r in (qs, dyn):  # "the true tip's mean height within 0.04 mm of the path above and below half depth"
+            assert max(abs(v) for v in pair(r[7])) <= 0.04, r
+            assert pair(r[6])[1] > pair(r[6])[0], r  # "largest within 5 mm of the corners"
+    for r in depth:  # "the learned sheet's force follows the plant's by depth within 60 N"
         measured, twin = np.array([pair(c) for c in r[1:] if c != "-"]).T
-        assert np.all(twin[3:] < measured[3:]) and np.all(twin[:3] > measured[:3]), r
-        rises_twin, rises_plant = np.diff(twin), np.diff(measured)
-        assert rises_twin.max() <= 1.5 * rises_twin.min() and rises_plant.max() >= 3 * rises_plant.min(), r
-        assert rises_plant[2:4].min() > rises_twin.max() and rises_plant[-1] < rises_twin.min(), r
+        assert np.abs(twin - measured).max() <= 60.0, r

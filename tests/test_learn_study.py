@@ -59,8 +59,10 @@ def _block(marker: str) -> str:
 def test_the_pages_words_on_the_four_cells_are_its_tables() -> None:
     """The prose under the law-2 table: (replay gap, compensated residual) learned over untaught (a tenth to two
     fifths; a fifth to a little over half), the compensated residual 1.5-3.5 times the replay gap, better than the
-    untaught on every part but one, the targets met on the TX200's wider cone only."""
+    untaught on every part, the targets met on the TX200's wider cone only (its pyramid under 0.15 mm only)."""
     law2, law1 = _block("learn-table-law2"), _block("learn-table")
+    pyramid = _row_numbers(law1, "cone-tx200 -> pyramid (never formed)")
+    quoted("learning.md", "its pyramid comes\nunder 0.15 mm (", 1)[0].check(pyramid[8])  # a guard before the claims
     for variant in ("cone-kr210", "cone-irb6640"):
         for part in ("", " -> pyramid (never formed)", " -> cone 80 x 8 (never formed)"):
             n = _row_numbers(law2, variant + part)  # nominal rms, max; untaught gap mm, N, rms, max; learned ...
@@ -77,10 +79,11 @@ def test_the_pages_words_on_the_four_cells_are_its_tables() -> None:
                 learned[(law, name)] = n[8]
                 cone = "pyramid" not in name
                 assert n[8] > (0.10 if cone else 0.15) or n[8] > 0.25 * n[4], name  # not met on these two robots
-    assert worse == [(1, "cone-irb6640")], worse
+    assert worse == [], worse
     assert min(learned, key=learned.get) == (1, "cone-kr210 -> cone 80 x 8 (never formed)"), learned
     n = _row_numbers(law1, "cone-tx200 -> cone 80 x 8 (never formed)")
     assert n[8] <= 0.10 and n[8] <= 0.25 * n[4], n
+    assert 0.25 * pyramid[4] < pyramid[8] <= 0.15, pyramid  # under 0.15 mm, not under a quarter of the untaught's
 
 
 def _robot_rows(marker: str) -> dict[tuple[str, str], tuple[float, float, float]]:
@@ -102,7 +105,8 @@ def test_the_pages_words_on_the_learned_robot_are_its_table() -> None:
         elif cell in ("tx200:cone", "kr210:cone"):
             assert 1.16 <= ratio <= 1.2, (cell, joint, ratio)
     met = [k for k, (_, miss, spread) in rows.items() if miss <= 2.0 and spread <= 15]
-    assert len(met) == 14 and {k for k in rows if k not in met} == {("tx200:groove", "j1"), ("kr210:cone", "j1")}
+    assert len(met) == 13 and {k for k in rows if k not in met} == {("tx200:groove", "j1"), ("kr210:cone", "j1"),
+                                                                    ("irb6640:cone", "j1")}
 
 
 def test_the_pages_words_on_the_robot_learned_from_two_runs_are_its_table() -> None:
@@ -110,12 +114,20 @@ def test_the_pages_words_on_the_robot_learned_from_two_runs_are_its_table() -> N
     assert len(two) == 16
     pairs = [key for key in two if key[0].endswith("cone+pyramid")]
     assert len(pairs) == 12
-    for key in pairs:  # within 1.1 stated spreads, the spread at most 13 %
-        assert two[key][1] <= 1.1 and two[key][2] <= 13, (key, two[key])
     alone = [one[(robot + ":cone", "j1")][2] for robot in ("tx200", "kr210", "irb6640")]
     both = [two[(robot + ":cone+pyramid", "j1")][2] for robot in ("tx200", "kr210", "irb6640")]
-    assert [min(alone), max(alone), min(both), max(both)] == pytest.approx([14, 17, 12, 13], abs=0.5), (alone, both)
-    assert [two[("tx200:groove+cone", "j1")][2], one[("tx200:groove", "j1")][2]] == pytest.approx([18, 21], abs=0.5)
+    # the page's numbers first (a guard before the claims)
+    said = quoted("learning.md", "but the spreads do not\nnarrow: joint 1's is", 4)
+    for q, v in zip(said, (min(both), max(both), min(alone), max(alone)), strict=True):
+        q.check(v)
+    quoted("learning.md", "and the IRB 6640's joint 5's", 1)[0].check(two[("irb6640:cone+pyramid", "j5")][2])
+    groove = quoted("learning.md", "The groove and the cone leave joint 1's at", 2)
+    groove[0].check(two[("tx200:groove+cone", "j1")][2])
+    groove[1].check(one[("tx200:groove", "j1")][2])
+    for key in pairs:  # within 1.2 stated spreads
+        assert two[key][1] <= 1.2, (key, two[key])
+    met = [key for key in pairs if two[key][1] <= 2.0 and two[key][2] <= 15]
+    assert len(met) == 9, met  # "met on 9 of the 12"
 
 
 def test_the_pages_words_on_the_learned_robot_without_friction_are_its_table() -> None:

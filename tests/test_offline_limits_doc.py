@@ -41,16 +41,16 @@ def test_the_words_on_what_the_offline_targets_ask_are_the_table_s() -> None:
         (robot, law) for robot in ("tx200", "kr210", "irb6640") for law in (1, 2)}
     pyramids, cones = _pick(rows, part="pyramid"), _pick(rows, part="cone 80 x 8")
     law1_pyr = [float(r["robot_all"]) for r in _pick(pyramids, law=1)]
-    held_law2_pyr = [float(_pick(pyramids, law=2, robot=robot)[0]["robot_all"]) for robot in ("kr210", "irb6640")]
     cone_robot = [float(r["robot_all"]) for r in cones]
     law2_cones = _pick(cones, law=2)
     law1_pyr_own = [float(r["fz_own"]) for r in _pick(pyramids, law=1)]
     # the page's numbers first (a guard before the claims)
-    words = quoted("learning.md", "on every cell but the TX200's on law 2:", 4)
+    law2_pyr = [float(_pick(pyramids, law=2, robot=robot)[0]["robot_all"]) for robot in ("tx200", "kr210", "irb6640")]
+    words = quoted("learning.md", "On the pyramids the robot alone leaves", 7)  # [2], [3]: issue #48's 0.15 mm
     words[0].check(min(law1_pyr))
     words[1].check(max(law1_pyr))
-    words[2].check(held_law2_pyr[0])
-    words[3].check(held_law2_pyr[1])
+    for k in range(3):
+        words[4 + k].check(law2_pyr[k])
     near = quoted("learning.md", "Nearly all of it is above 0.5 Hz, and", 5)  # [2]: the 0.3 s
     near[0].check(100.0 * min(float(r["near_stop"]) for r in pyramids))
     near[1].check(100.0 * max(float(r["near_stop"]) for r in pyramids))
@@ -64,12 +64,15 @@ def test_the_words_on_what_the_offline_targets_ask_are_the_table_s() -> None:
         values = [float(r[key]) for r in law2_cones]
         sheet[2 * k].check(min(values))
         sheet[2 * k + 1].check(max(values))
-    own = quoted("learning.md", "The library fitted to a law-1 pyramid itself still misses its Fz by", 2)
-    own[0].check(min(law1_pyr_own))
-    own[1].check(max(law1_pyr_own))
-    # "more than 0.15 mm on every cell but the TX200's on law 2"
+    own = quoted("learning.md", "On law 1's pyramids the learned sheet misses their Fz by", 4)
+    law1_pyr_learned = [float(r["fz_learned"]) for r in _pick(pyramids, law=1)]
+    own[0].check(min(law1_pyr_learned))
+    own[1].check(max(law1_pyr_learned))
+    own[2].check(min(law1_pyr_own))
+    own[3].check(max(law1_pyr_own))
+    # "under 0.15 mm on every robot" on law 1; on law 2 "the KR 210's and the IRB 6640's are over it"
     for r in pyramids:
-        assert (float(r["robot_all"]) > PYRAMID_TARGET_MM) == (r["robot"] != "tx200" or r["law"] == 1), r
+        assert (float(r["robot_all"]) > PYRAMID_TARGET_MM) == (r["robot"] != "tx200" and r["law"] == 2), r
         assert float(r["robot_fast"]) > 0.8 * float(r["robot_all"]), r  # "nearly all of it above 0.5 Hz"
         # "within 0.3 s of the controller's stops": more of the mean square there than of the samples
         assert float(r["near_stop"]) > 1.2 * float(r["near_samples"]), r
@@ -77,3 +80,5 @@ def test_the_words_on_what_the_offline_targets_ask_are_the_table_s() -> None:
         assert float(r["robot_all"]) ** 2 < 0.5 * float(r["true"]) ** 2, r
     for r in rows:  # the library fitted to the run itself is the floor of the learned sheet's form
         assert float(r["fz_own"]) <= float(r["fz_learned"]) and float(r["fxy_own"]) <= float(r["fxy_learned"]) + 0.5, r
+    for r in _pick(pyramids, law=1):  # "what the cone taught is not the pyramid's force": three times the floor
+        assert float(r["fz_learned"]) > 3.0 * float(r["fz_own"]), r

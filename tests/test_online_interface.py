@@ -208,15 +208,15 @@ def test_the_servers_keep_the_compensators_setting_as_predicting_over_the_hold_d
 def test_the_pages_words_on_a_model_learned_from_another_part_are_its_table() -> None:
     """docs/online.md's table of `experiments/online_other_part.py`: learned against default, offline and online."""
     table = other_part("online-other-part")
-    rms, less, true = table["rms"], table["less"], table["true"]
+    rms, true = table["rms"], table["true"]
     # the page's numbers first (a guard before the claims): on the true tip the learned online compensation of the
-    # wider cone meets #50's 0.10 mm on the three robots, and of the TX200's groove; the other grooves, the pyramids not
+    # wider cone meets #50's 0.10 mm on the three robots, and of the TX200's groove and pyramid; the others not
     said = quoted("online.md", "On the true tip the learned model's online compensation of the wider cone", 9)
     measured = [true[(r, part)][ON_L] for part in ("cone 80 x 8", "groove", "pyramid") for r in ROBOTS]
     for k, value in enumerate(measured):
         said[k].check(value)
     better = {("kr210", "cone 80 x 8"): (True, True), ("kr210", "pyramid"): (True, True),
-              ("tx200", "cone 80 x 8"): (True, True), ("tx200", "pyramid"): (None, True),
+              ("tx200", "cone 80 x 8"): (True, True), ("tx200", "pyramid"): (True, True),
               ("tx200", "groove"): (False, False), ("kr210", "groove"): (False, True),
               ("irb6640", "cone 80 x 8"): (False, True), ("irb6640", "pyramid"): (False, True),
               ("irb6640", "groove"): (False, True)}
@@ -225,15 +225,11 @@ def test_the_pages_words_on_a_model_learned_from_another_part_are_its_table() ->
         for claim, learned, default in ((offline, r[OFF_L], r[OFF_D]), (online, r[ON_L], r[ON_D])):
             if claim is not None:
                 assert (learned < default) == claim, (key, r)
-    pyramid = rms[("tx200", "pyramid")]
-    offset = less[("tx200", "pyramid")]
-    # as well offline, better less the offset
-    assert abs(pyramid[OFF_L] - pyramid[OFF_D]) <= 0.02 and offset[OFF_L] < offset[OFF_D]
     groove = rms[("tx200", "groove")]
     assert 1.7 * groove[OFF_D] <= groove[OFF_L] < 2.0 * groove[OFF_D]  # offline by a factor of almost two
     assert all(min(r[OFF_D:BOTH_L]) > (0.15 if part == "pyramid" else 0.10) for (_, part), r in rms.items())
     assert max(true[(r, "cone 80 x 8")][ON_L] for r in ROBOTS) <= 0.10 and true[("tx200", "groove")][ON_L] <= 0.10
-    assert min(true[(r, "pyramid")][ON_L] for r in ROBOTS) > 0.15
+    assert true[("tx200", "pyramid")][ON_L] <= 0.15 < min(true[(r, "pyramid")][ON_L] for r in ("kr210", "irb6640"))
     assert min(true[(r, "groove")][ON_L] for r in ("kr210", "irb6640")) > 0.10
 
 
@@ -255,9 +251,12 @@ def test_the_pages_words_on_both_together_on_another_part_are_its_table() -> Non
         assert true[(robot, "groove")][BOTH_L] < true[(robot, "groove")][ON_L]
     assert true[("kr210", "groove")][BOTH_L] < 0.75 * true[("kr210", "groove")][ON_L]
     assert true[("tx200", "groove")][BOTH_L] > 1.5 * true[("tx200", "groove")][ON_L]  # goes up
-    for robot in ROBOTS:  # within 0.04 mm of online alone
+    for robot in ROBOTS:  # within 0.04 mm of online alone, but the third robot's pyramid: up by a tenth of a mm
         for part in ("cone 80 x 8", "pyramid"):
-            assert abs(true[(robot, part)][BOTH_L] - true[(robot, part)][ON_L]) <= 0.04, (robot, part)
+            if (robot, part) == ("irb6640", "pyramid"):
+                assert 0.08 <= true[(robot, part)][BOTH_L] - true[(robot, part)][ON_L] <= 0.12
+            else:
+                assert abs(true[(robot, part)][BOTH_L] - true[(robot, part)][ON_L]) <= 0.04, (robot, part)
 
 
 def test_the_pages_words_on_another_part_on_the_second_sheet_law_are_its_table() -> None:

@@ -37,27 +37,29 @@ def test_the_seed_3_columns_are_the_other_part_tables_true_tip() -> None:
 def test_the_words_on_the_seed_are_its_table() -> None:
     rows = _rows()
     # the page's numbers first (a guard before the claims)
-    most = quoted("online.md", "Every row but one spans at most", 1)[0]
+    most = quoted("online.md", "Every row but the KR 210's groove spans at most", 1)[0]
     groove = quoted("online.md", "The KR 210's groove online spans", 3)
-    both = quoted("online.md", "command under it the same groove spans", 2)
+    both = quoted("online.md", "command under it the same groove spans", 3)
     fine = quoted("online.md", "at the plant's step halved it spans", 3)
     kr = rows[("kr210", "groove")]
     for q, value in zip(groove, (kr["on_least"], kr["on_largest"], kr["on_median"]), strict=True):
         q.check(value)
     for q, value in zip(fine, (kr["fine_least"], kr["fine_largest"], kr["fine_median"]), strict=True):
         q.check(value)
-    both[0].check(kr["both_least"])
-    both[1].check(kr["both_largest"])
+    for q, value in zip(both, (kr["both_least"], kr["both_largest"], kr["both_median"]), strict=True):
+        q.check(value)
     spans = [r[f"{m}_largest"] - r[f"{m}_least"] for key, r in rows.items() for m in ("on", "both")
-             if (key, m) != (("kr210", "groove"), "on")]
+             if key != ("kr210", "groove")]
     most.check(max(spans), slack=2.0)  # a difference of two printed numbers: up to two units of the last digit
-    # "every row but one": a draw moves it by hundredths at most, against the KR 210's groove online by tenths
-    assert max(spans) <= 0.03, spans
+    # "every row but the KR 210's groove": a draw moves it by hundredths at most, against that groove by tenths,
+    # online and under its learned command ("a draw that rings there too", its median with the quiet draws)
+    assert max(spans) <= 0.05, spans
     assert kr["on_largest"] - kr["on_least"] > 0.2, kr
-    assert kr["both_largest"] - kr["both_least"] <= 0.03, kr
+    assert kr["both_largest"] - kr["both_least"] > 0.2 and kr["both_median"] - kr["both_least"] <= 0.03, kr
     # at the plant's step halved it spans as much: the draw's, more than the integrator's (the timestep table's words)
     assert kr["fine_largest"] - kr["fine_least"] > 0.2 and kr["fine_least"] < kr["on_median"] < kr["fine_largest"], kr
     assert max(r["fine_largest"] - r["fine_least"] for key, r in rows.items() if key != ("kr210", "groove")) <= 0.03
     # every cone within the 0.10 mm target on each seed, and the TX200's groove
     assert max(rows[(r, "cone 80 x 8")]["on_largest"] for r in ROBOTS) <= 0.10
     assert rows[("tx200", "groove")]["on_largest"] <= 0.10
+    assert rows[("tx200", "pyramid")]["on_largest"] <= 0.15  # "and its pyramid within the pyramid's 0.15 mm"

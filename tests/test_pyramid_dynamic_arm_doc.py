@@ -52,7 +52,7 @@ def test_with_the_fast_sensor_the_cones_servo_takes_the_held_out_pyramids_robot_
     for robot in ("kr210", "irb6640"):
         for law in ("law 1", "law 2"):
             *_, static, dynamic, rigid, _ = rows[(f"{robot} {law}", "fast")]
-            assert dynamic < 0.75 * static and dynamic < rigid, (robot, law)
+            assert dynamic < 0.8 * static and dynamic < rigid, (robot, law)  # "by a fifth or more"
 
 
 def test_with_the_thesiss_stream_it_gains_less() -> None:

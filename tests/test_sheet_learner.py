@@ -228,7 +228,8 @@ def test_learn_says_so_when_its_twin_replays_its_own_run_worse(runs: dict[str, P
 
 def test_the_pages_words_on_the_learned_in_plane_force_are_its_table() -> None:
     """docs/learning.md's sheet-learner-plane table: μ_ρ and no μ_r on every cell; against the constant ratio, on law
-    2 below half on the wider cone and about two thirds on the pyramid, on law 1 four fifths to nearly as much;
+    2 below half on the wider cone and about two thirds on the pyramid, on law 1 within a quarter either way (less on
+    the wider cone, more on the pyramid);
     below the published formula's everywhere."""
     text = DOC.read_text()
     block = text[text.index("<!-- sheet-learner-plane:begin"):text.index("<!-- sheet-learner-plane:end")]
@@ -245,4 +246,4 @@ def test_the_pages_words_on_the_learned_in_plane_force_are_its_table() -> None:
         if "sheet law 2" in cells[0]:
             assert cone < 0.5 and 0.55 <= pyramid <= 0.75, (line, cone, pyramid)
         else:
-            assert 0.75 <= cone <= 1.0 and 0.75 <= pyramid <= 1.0, (line, cone, pyramid)
+            assert 0.8 <= cone <= 1.0 <= pyramid <= 1.25, (line, cone, pyramid)
