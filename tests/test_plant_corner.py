@@ -85,14 +85,22 @@ def _corner_ratios(path_m: np.ndarray, f_n: np.ndarray) -> list[float]:
     return ratios
 
 
-def test_the_axial_force_does_not_peak_a_tool_radius_from_a_rigid_pyramids_corners() -> None:
+@pytest.fixture(scope="module")
+def rigid_pyramid() -> tuple[np.ndarray, np.ndarray, PlantSheet]:
+    """The issue's pyramid driven rigidly with the declared process: its path [m], force [N] and the sheet after."""
+    path = _resampled(part_path(_part("pyramid")).p_sheet_m)
+    return (path, *_rigid(path, Process()))
+
+
+def test_the_axial_force_does_not_peak_a_tool_radius_from_a_rigid_pyramids_corners(
+        rigid_pyramid: tuple[np.ndarray, np.ndarray, PlantSheet]) -> None:
     """On a side of a rigid pyramid, 0.5-1.5 tool radii from a corner, the tool meets the side's wall and, inside,
     the hanging bottom, as in the side's middle (>= 2 radii from either corner): its axial force there stays within
     a quarter of the middle's median (a corner's own support acts where the tool turns, not a radius away). The
     deeper half of the part, where a side is long enough to have a middle."""
-    path = _resampled(part_path(_part("pyramid")).p_sheet_m)
-    f, _ = _rigid(path, Process())
+    path, f, _ = rigid_pyramid
     ratios = _corner_ratios(path, f)
+    print(f"force a radius from a corner / the side's middle: {min(ratios):.3f}-{max(ratios):.3f}")
     assert len(ratios) >= 8  # sides measured
     assert max(ratios) <= 1.25, ratios
 
@@ -215,15 +223,15 @@ def test_the_kr210_pyramid_corners_on_the_plant() -> None:
     assert lost.sum() <= 0.005 * pressed.sum()
 
 
-def test_a_closed_tracks_inside_hangs_and_an_open_ones_sides_do_not() -> None:
+def test_a_closed_tracks_inside_hangs_and_an_open_ones_sides_do_not(
+        rigid_pyramid: tuple[np.ndarray, np.ndarray, PlantSheet]) -> None:
     """The hanging bottom (`PlantSheet.hanging`) is the sheet a closed track encloses, grown by a tool radius: after
     a rigid pyramid it holds the part's centre and none of the sheet outside the first pass's track; a groove
     encloses nothing; the compiled flood and distance transform mark the nodes scipy's do."""
     from twin.lab.dynamic import sheet_kernels
     from twin.process.toolpath.groove import groove_path
 
-    path = _resampled(part_path(_part("pyramid")).p_sheet_m)
-    _, sheet = _rigid(path, Process())
+    path, _, sheet = rigid_pyramid
     centre = np.argmin(np.abs(sheet.x_m))
     assert sheet.hanging[centre, centre]
     radius = Process().tool_radius_m

@@ -87,7 +87,7 @@ def fill(pressed: np.ndarray, box: np.ndarray, hanging: np.ndarray, reach: float
     j0, j1, i0, i1 = max(j0 - 1, 0), min(j1 + 1, ny - 1), max(i0 - 1, 0), min(i1 + 1, nx - 1)
     h, w = j1 - j0 + 1, i1 - i0 + 1
     outside = np.zeros((h, w), dtype=np.bool_)
-    stack = np.empty(h * w + 4, dtype=np.int64)
+    stack = np.empty(h * w, dtype=np.int64)  # each node is pushed once at most
     top = 0
     for j in range(h):
         for i in range(w):
@@ -183,18 +183,18 @@ def springback(scale: float, depth: float, alpha: float) -> float:
 
 
 @njit(cache=True)
-def side_angle(z: np.ndarray, pressed: np.ndarray, hanging: np.ndarray, r: float, cx: float, cy: float,
-               near_o: float, hung_o: float, x: float, y: float, zt: float, sx: float, sy: float) -> float:
+def side_angle(z: np.ndarray, pressed: np.ndarray, r: float, cx: float, cy: float, near_s: float, near_o: float,
+               hung_s: float, hung_o: float, x: float, y: float, zt: float, sx: float, sy: float) -> float:
     """One side's angle in `PlantSheet.force_reference`: its chord and slope (`PlantSheet._side_angles`), the
-    slope dropped where its far read is the hanging bottom, flattened where the side is the hanging bottom."""
+    slope dropped where its far read is the hanging bottom, flattened where the side is the hanging bottom; `near_s`,
+    `hung_s` this side's near formed fraction and hanging share, `near_o`, `hung_o` the other side's (`force` reads
+    each once)."""
     h1 = height(z, x + r * sx, y + r * sy)
     w1 = height(z, cx + r * sx, cy + r * sy)
     w2 = height(z, cx + 2.0 * r * sx, cy + 2.0 * r * sy)
     chord, slope = math.atan2(max(h1 - zt, 0.0), r), math.atan2(max(w2 - w1, 0.0), r)
     rho = FORMED_PATCH * r
-    near_s = formed_fraction(pressed, rho, cx + FORMED_READ * r * sx, cy + FORMED_READ * r * sy)
     far_s = formed_fraction(pressed, rho, cx + 2.0 * r * sx, cy + 2.0 * r * sy)
-    hung_s = formed_fraction(hanging, rho, cx + FORMED_READ * r * sx, cy + FORMED_READ * r * sy)
     on_bottom = min(1.0, max(0.0, FORMED_GAIN * (near_o - far_s - FORMED_TRACK)))
     bottom = min(1.0, max(0.0, FORMED_GAIN * (near_o - near_s - FORMED_TRACK)))
     bottom = max((1.0 - hung_o) * bottom, hung_s)
@@ -202,8 +202,9 @@ def side_angle(z: np.ndarray, pressed: np.ndarray, hanging: np.ndarray, r: float
 
 
 @njit(cache=True)
-def force(z: np.ndarray, pressed: np.ndarray, hanging: np.ndarray, r: float, t0: float, scale: float, mu: float, travel: np.ndarray,
-          slip: np.ndarray, last: np.ndarray, dt: float, x: float, y: float, zt: float, out: np.ndarray) -> None:
+def force(z: np.ndarray, pressed: np.ndarray, hanging: np.ndarray, r: float, t0: float, scale: float, mu: float,
+          travel: np.ndarray, slip: np.ndarray, last: np.ndarray, dt: float, x: float, y: float, zt: float,
+          out: np.ndarray) -> None:
     """`PlantSheet.force` into `out` (3,) [N]; `last` (3,) the committed tip [m]."""
     tx, ty = travel[0], travel[1]
     met = height(z, x + r * tx, y + r * ty) - zt
@@ -213,8 +214,8 @@ def force(z: np.ndarray, pressed: np.ndarray, hanging: np.ndarray, r: float, t0:
     near1 = formed_fraction(pressed, rho, cx + FORMED_READ * r * ty, cy - FORMED_READ * r * tx)
     hung0 = formed_fraction(hanging, rho, cx - FORMED_READ * r * ty, cy + FORMED_READ * r * tx)
     hung1 = formed_fraction(hanging, rho, cx + FORMED_READ * r * ty, cy - FORMED_READ * r * tx)
-    a0 = side_angle(z, pressed, hanging, r, cx, cy, near1, hung1, x, y, zt, -ty, tx)
-    a1 = side_angle(z, pressed, hanging, r, cx, cy, near0, hung0, x, y, zt, ty, -tx)
+    a0 = side_angle(z, pressed, r, cx, cy, near0, near1, hung0, hung1, x, y, zt, -ty, tx)
+    a1 = side_angle(z, pressed, r, cx, cy, near1, near0, hung1, hung0, x, y, zt, ty, -tx)
     steep = max(a0, a1)  # one strip: the steeper side's tension and front contact
     n, w = membrane(scale, t0, steep), r * math.sin(steep)
     up = w * n * (math.sin(a0) + math.sin(a1))
