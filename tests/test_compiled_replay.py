@@ -280,7 +280,8 @@ def test_the_learned_force_model_replays_compiled_to_the_python_loops_equilibria
     fit = (("prior_weight", -0.1), ("side_membrane_n", 2200.0), ("side_cubic_n", 1300.0),
            ("ahead_membrane_n", 100.0), ("engagement_n_per_mm", -300.0), ("contact_n", 200.0),
            ("wall_angle_n", 100.0), ("depth_n_per_mm", 20.0), ("depth_engagement_n_per_mm2", -5.0),
-           ("prior_per_cm", 0.3), ("wall_depth_n_per_mm", 8.0), ("side_rise_n", 300.0), ("side_rise_sq_n", -200.0),
+           ("prior_per_cm", 0.3), ("wall_depth_n_per_mm", 8.0), ("depth_sat_1mm_n", 120.0), ("depth_sat_2mm_n", -80.0),
+           ("depth_sat_4mm_n", 60.0), ("side_rise_n", 300.0), ("side_rise_sq_n", -200.0),
            ("ahead_rise_n", 150.0), ("mu_eff", 0.1), ("mu_radial", 0.05), ("mu_radial_rise", 0.3))
     twin = TwinSpec(process=Process(force_model="learned", force_fit=fit)).build()
     flat = TwinSpec(process=Process(force_model="learned", force_fit=fit[:-1])).build()  # no radial rise

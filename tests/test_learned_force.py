@@ -19,8 +19,9 @@ from twin.sim.spec import TwinSpec
 WEIGHTS = (("prior_weight", 0.2), ("side_membrane_n", 2000.0), ("side_cubic_n", 900.0), ("ahead_membrane_n", 150.0),
            ("engagement_n_per_mm", -300.0), ("contact_n", 200.0), ("wall_angle_n", 100.0), ("depth_n_per_mm", 20.0),
            ("engagement_sq_n_per_mm2", 40.0), ("depth_sq_n_per_mm2", 2.0), ("depth_engagement_n_per_mm2", -5.0),
-           ("prior_per_cm", 0.3), ("wall_depth_n_per_mm", 8.0), ("side_rise_n", 300.0),
-           ("side_rise_sq_n", -200.0), ("ahead_rise_n", 150.0))
+           ("prior_per_cm", 0.3), ("wall_depth_n_per_mm", 8.0), ("depth_sat_1mm_n", 120.0),
+           ("depth_sat_2mm_n", -80.0), ("depth_sat_4mm_n", 60.0), ("side_rise_n", 300.0), ("side_rise_sq_n", -200.0),
+           ("ahead_rise_n", 150.0))
 
 
 @pytest.fixture(scope="module")

@@ -31,7 +31,8 @@ FITS = {"table": (), "isf": (("scale", 1.2), ("mu_eff", 0.12)),
                     ("ahead_membrane_n", 20.0), ("engagement_n_per_mm", -150.0), ("contact_n", 80.0),
                     ("wall_angle_n", -40.0), ("depth_n_per_mm", 12.0), ("engagement_sq_n_per_mm2", 30.0),
                     ("depth_sq_n_per_mm2", 1.5), ("depth_engagement_n_per_mm2", -4.0), ("prior_per_cm", 0.2),
-                    ("wall_depth_n_per_mm", 6.0), ("side_rise_n", 90.0), ("side_rise_sq_n", 40.0),
+                    ("wall_depth_n_per_mm", 6.0), ("depth_sat_1mm_n", -30.0), ("depth_sat_2mm_n", 50.0),
+                    ("depth_sat_4mm_n", 20.0), ("side_rise_n", 90.0), ("side_rise_sq_n", 40.0),
                     ("ahead_rise_n", -10.0), ("mu_eff", 0.11), ("recovery_scale", 0.4))}
 
 

@@ -70,9 +70,9 @@ def test_the_words_on_what_the_offline_targets_ask_are_the_table_s() -> None:
     own[1].check(max(law1_pyr_learned))
     own[2].check(min(law1_pyr_own))
     own[3].check(max(law1_pyr_own))
-    # "under 0.15 mm on every robot" on law 1; on law 2 "the KR 210's and the IRB 6640's are over it"
+    # "under 0.15 mm on every robot" on law 1; on law 2 "the KR 210's is over it"
     for r in pyramids:
-        assert (float(r["robot_all"]) > PYRAMID_TARGET_MM) == (r["robot"] != "tx200" and r["law"] == 2), r
+        assert (float(r["robot_all"]) > PYRAMID_TARGET_MM) == (r["robot"] == "kr210" and r["law"] == 2), r
         assert float(r["robot_fast"]) > 0.8 * float(r["robot_all"]), r  # "nearly all of it above 0.5 Hz"
         # "within 0.3 s of the controller's stops": more of the mean square there than of the samples
         assert float(r["near_stop"]) > 1.2 * float(r["near_samples"]), r
@@ -80,5 +80,5 @@ def test_the_words_on_what_the_offline_targets_ask_are_the_table_s() -> None:
         assert float(r["robot_all"]) ** 2 < 0.5 * float(r["true"]) ** 2, r
     for r in rows:  # the library fitted to the run itself is the floor of the learned sheet's form
         assert float(r["fz_own"]) <= float(r["fz_learned"]) and float(r["fxy_own"]) <= float(r["fxy_learned"]) + 0.5, r
-    for r in _pick(pyramids, law=1):  # "what the cone taught is not the pyramid's force": three times the floor
-        assert float(r["fz_learned"]) > 3.0 * float(r["fz_own"]), r
+    for r in _pick(pyramids, law=1):  # "the cone teaches the pyramid's force only in part": twice the floor
+        assert float(r["fz_learned"]) > 2.0 * float(r["fz_own"]), r

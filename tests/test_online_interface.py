@@ -218,7 +218,7 @@ def test_the_pages_words_on_a_model_learned_from_another_part_are_its_table() ->
     better = {("kr210", "cone 80 x 8"): (True, True), ("kr210", "pyramid"): (True, True),
               ("tx200", "cone 80 x 8"): (True, True), ("tx200", "pyramid"): (True, True),
               ("tx200", "groove"): (False, False), ("kr210", "groove"): (False, True),
-              ("irb6640", "cone 80 x 8"): (False, True), ("irb6640", "pyramid"): (False, True),
+              ("irb6640", "cone 80 x 8"): (False, True), ("irb6640", "pyramid"): (True, True),
               ("irb6640", "groove"): (False, True)}
     for key, (offline, online) in better.items():
         r = rms[key]
@@ -238,30 +238,25 @@ def test_the_pages_words_on_both_together_on_another_part_are_its_table() -> Non
     command with the learned online correction on top, against online alone (the true tip)."""
     true = other_part("online-other-part")["true"]
     # the page's numbers first (a guard before the claims)
-    said = quoted("online.md", "robot come down, to", 10)
-    measured = [true[("kr210", "groove")][BOTH_L], true[("irb6640", "groove")][BOTH_L], true[("kr210", "groove")][ON_L],
-                true[("irb6640", "groove")][ON_L], true[("tx200", "groove")][BOTH_L], true[("tx200", "groove")][ON_L],
-                true[("tx200", "groove")][OFF_L]] + [true[(r, "cone 80 x 8")][BOTH_L] for r in ROBOTS]
+    said = quoted("online.md", "the third robot's groove comes down, to", 11)
+    measured = [true[("irb6640", "groove")][BOTH_L], true[("irb6640", "groove")][ON_L]]
+    measured += [true[(r, "groove")][c] for c in (BOTH_L, ON_L, OFF_L) for r in ("tx200", "kr210")]
+    measured += [true[(r, "cone 80 x 8")][BOTH_L] for r in ROBOTS]
     for k, value in enumerate(measured):
         said[k].check(value)
     pyramids = quoted("online.md", "mm) and pyramids (", 3)
     for k, robot in enumerate(ROBOTS):
         pyramids[k].check(true[(robot, "pyramid")][BOTH_L])
-    for robot in ("kr210", "irb6640"):  # come down (the KR 210's by a third)
-        assert true[(robot, "groove")][BOTH_L] < true[(robot, "groove")][ON_L]
-    assert true[("kr210", "groove")][BOTH_L] < 0.75 * true[("kr210", "groove")][ON_L]
-    assert true[("tx200", "groove")][BOTH_L] > 1.5 * true[("tx200", "groove")][ON_L]  # goes up
-    for robot in ROBOTS:  # within 0.04 mm of online alone, but the third robot's pyramid: up by a tenth of a mm
+    assert true[("irb6640", "groove")][BOTH_L] < true[("irb6640", "groove")][ON_L]  # comes down
+    for robot in ("tx200", "kr210"):  # go up
+        assert true[(robot, "groove")][BOTH_L] > 1.5 * true[(robot, "groove")][ON_L]
+    for robot in ROBOTS:  # within 0.04 mm of online alone
         for part in ("cone 80 x 8", "pyramid"):
-            if (robot, part) == ("irb6640", "pyramid"):
-                assert 0.08 <= true[(robot, part)][BOTH_L] - true[(robot, part)][ON_L] <= 0.12
-            else:
-                assert abs(true[(robot, part)][BOTH_L] - true[(robot, part)][ON_L]) <= 0.04, (robot, part)
+            assert abs(true[(robot, part)][BOTH_L] - true[(robot, part)][ON_L]) <= 0.04, (robot, part)
 
 
 def test_the_pages_words_on_another_part_on_the_second_sheet_law_are_its_table() -> None:
-    """docs/online.md under the law-2 table of a model learned from another part (the true tip; "refused": the
-    twin's compensation diverged and `compensate` exited 2)."""
+    """docs/online.md under the law-2 table of a model learned from another part (the true tip)."""
     true = other_part("online-other-part-law2")["true"]
     # the page's numbers first (a guard before the claims)
     said = quoted("online.md", "comes to the target on the first robot only (true tip", 3)
@@ -275,6 +270,9 @@ def test_the_pages_words_on_another_part_on_the_second_sheet_law_are_its_table()
     grooves = quoted("online.md", "and worse on their grooves (", 6)
     for k, value in enumerate([true[(r, "groove")][c] for c in (BOTH_L, ON_L, OFF_L) for r in ROBOTS[1:]]):
         grooves[k].check(value)
+    first = quoted("online.md", "the first robot's groove the learned twin's offline command and both leave", 2)
+    first[0].check(true[("tx200", "groove")][OFF_L])
+    first[1].check(true[("tx200", "groove")][BOTH_L])
     cone = [true[(r, "cone 80 x 8")][ON_L] for r in ROBOTS]
     # the target (0.10 mm) on the first robot only: just over it alone (within the printed digit), under it on top
     # of the learned offline command
@@ -283,7 +281,7 @@ def test_the_pages_words_on_another_part_on_the_second_sheet_law_are_its_table()
         for part in ("cone 80 x 8", "pyramid"):  # better with its offline command under it
             assert true[(robot, part)][BOTH_L] < true[(robot, part)][ON_L], (robot, part)
         assert true[(robot, "groove")][BOTH_L] > 1.2 * true[(robot, "groove")][ON_L]  # worse
-    assert true[("tx200", "groove")][OFF_L] is None and true[("tx200", "groove")][BOTH_L] is None  # refused
+    assert min(true[("tx200", "groove")][c] for c in (OFF_L, BOTH_L)) > 3.5 * true[("tx200", "groove")][ON_L]
 
 
 def test_the_pages_words_on_the_second_sheet_law_are_its_table() -> None:

@@ -29,20 +29,26 @@ def test_the_pages_words_on_what_a_cone_teaches_of_a_pyramid_are_its_table() -> 
     rows = _rows()
     law1 = [r for r in rows if r["law"] == 1]
     # the page's numbers first (a guard before the claims)
-    said = quoted("learning.md", "sheet law 1 it misses the pyramid by", 2)
+    said = quoted("learning.md", "better than either fitted form: it misses the pyramid by", 2)
     said[0].check(min(float(r["table"]) for r in law1))
     said[1].check(max(float(r["table"]) for r in law1))
-    chosen = quoted("learning.md", "the side rise), miss it by", 2)
+    chosen = quoted("learning.md", "formed state at the tip, miss it by", 2)
     chosen[0].check(min(float(r["chosen"]) for r in law1))
     chosen[1].check(max(float(r["chosen"]) for r in law1))
     assert len(rows) == 6 and {r["law"] for r in rows} == {1, 2}
-    for r in rows:  # "the cone's own force read as a table of depth predicts the pyramid better than either form"
-        assert float(r["table"]) < min(float(r["chosen"]), float(r["depth_only"])), r
-        assert 1.8 <= float(r["depth_look"]) / float(r["chosen_look"]) <= 3.0, r  # "two to three times as badly"
-        if r["law"] == 1:  # "25 to 41 N, less than the look-ahead error; as the cone within 3 N; chosen 94 to 95 N"
+    for r in rows:  # law 1: "the table predicts the pyramid better than either form"; law 2: "alike, about 50 N"
+        if r["law"] == 1:
+            assert float(r["table"]) < min(float(r["chosen"]), float(r["depth_only"])), r
+        else:
+            assert abs(float(r["table"]) - float(r["chosen"])) <= 10.0 and 45.0 <= float(r["chosen"]) <= 60.0, r
+        assert 1.8 <= float(r["depth_look"]) / float(r["chosen_look"]) <= 3.1, r  # "two to three times as badly"
+        # "on every cell by less than the polynomial in depth"
+        assert float(r["chosen"]) < float(r["depth_only"]), r
+        if r["law"] == 1:  # "25 to 41 N, less than the look-ahead error; as the cone within 3 N"
             assert 20.0 <= float(r["table"]) <= 45.0 and float(r["table"]) < float(r["chosen_look"]), r
-            assert abs(float(r["over"])) <= 3.5 and 90.0 <= float(r["chosen"]) <= 100.0, r
+            assert abs(float(r["over"])) <= 3.5, r
         else:  # "on law 2 the pyramid pushes a little less than the cone and the table misses it by about 50 N"
             assert -30.0 < float(r["over"]) < 0.0 and 45.0 <= float(r["table"]) <= 60.0, r
-    # "the depth-only form predicts the pyramid better than the chosen terms on five of the six cells"
-    assert sum(float(r["depth_only"]) < float(r["chosen"]) for r in rows) == 5
+    # "the learner's form carries most of it over, not all of it": under a quarter of the published formula's miss
+    # (the sheet-learner table: 264-333 N), above the table's
+    assert all(float(r["chosen"]) < 70.0 for r in rows)

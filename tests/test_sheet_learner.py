@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from doc_numbers import quoted
 
 from twin.analysis.learn.cell import declared_process
 from twin.analysis.learn.sheet import SheetFit, fit_sheet
@@ -179,16 +180,22 @@ def _doc_rows() -> dict[str, dict[str, tuple[float, float, float]]]:
 def test_the_pages_words_on_the_learned_sheet_are_its_tables() -> None:
     rows = _doc_rows()
     held = {k: v for k, v in rows.items() if "(held out)" in k}
+    ratios = [100.0 * parts[p][2] / parts[p][0] for parts in held.values() for p in PARTS[1:]]  # predicted parts
+    said = quoted("learning.md", "the learner misses the parts it never formed by", 2)  # a guard before the claims
+    said[0].check(min(ratios))
+    said[1].check(max(ratios))
+    law1 = [parts["cone 80 x 8"][2] - parts["cone 80 x 8"][1] for cell, parts in rows.items() if "sheet law 1" in cell]
+    more = quoted("learning.md", "and the wider cone by", 2)
+    more[0].check(min(law1))
+    more[1].check(max(law1))
     assert len(held) == 4 and {"kr210", "irb6640"} == {k.split(",")[0] for k in held}
     for cell, parts in held.items():
-        for part in PARTS[1:]:  # predicted: at most three fifths of the published formula's miss
-            published, _, learned = parts[part]
-            assert learned <= 0.6 * published, (cell, part, parts[part])
-        if "sheet law 2" in cell:  # law 2: ahead of the membrane learner on every predicted part, 2x on the pyramid
-            assert all(parts[p][2] < parts[p][1] for p in PARTS[1:]) and parts["pyramid"][2] <= 0.5 * parts[
+        if "sheet law 2" in cell:  # law 2: ahead of the membrane learner on every predicted part, 4x on the pyramid
+            assert all(parts[p][2] < parts[p][1] for p in PARTS[1:]) and parts["pyramid"][2] <= 0.25 * parts[
                 "pyramid"][1], (cell, parts)
-        else:  # law 1, the membrane's own form: within a few tens of newtons
-            assert all(abs(parts[p][2] - parts[p][1]) <= 60.0 for p in PARTS[1:]), (cell, parts)
+        else:  # law 1, the membrane's own form: ahead of it on the pyramid, behind it on the wider cone
+            assert parts["pyramid"][2] < parts["pyramid"][1], (cell, parts)
+            assert 0.0 < parts["cone 80 x 8"][2] - parts["cone 80 x 8"][1] <= 20.0, (cell, parts)
 
 
 @pytest.mark.slow
@@ -247,3 +254,41 @@ def test_the_pages_words_on_the_learned_in_plane_force_are_its_table() -> None:
             assert cone < 0.5 and 0.55 <= pyramid <= 0.75, (line, cone, pyramid)
         else:
             assert 0.8 <= cone <= 1.0 <= pyramid <= 1.25, (line, cone, pyramid)
+
+
+def _selection_rows(rise_n: float, depth_n: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[str]]:
+    """Regression rows of a part formed deeper as it goes (six blocks of time): the force a saturating rise with
+    depth over 2.5 mm (a form the library does not have) and `rise_n` times the square of a side rise that follows
+    the depth over 3 mm plus a term of its own (as a groove's walls do), with seeded noise; (terms, Fz, blocks,
+    names of the terms that read the shape around the tool)."""
+    from twin.process.force.learned import RISE_KEYS, WEIGHT_KEYS, LearnedForceField
+
+    rng = np.random.default_rng(11)
+    m = 1800
+    depth_mm = np.linspace(0.2, 10.0, m)
+    own = 0.5 + 0.4 * np.sin(np.linspace(0.0, 37.0, m))  # what the side walls do apart from the depth
+    rise = 0.5 * (1.0 - np.exp(-depth_mm / 3.0)) * own
+    field, terms = LearnedForceField(), np.zeros((m, len(WEIGHT_KEYS)))
+    for i, d in enumerate(depth_mm):
+        values, _ = field.features(np.array([0.0, 0.0, -1e-3 * d]))  # a flat sheet: in contact at every depth
+        terms[i] = values
+    terms[:, WEIGHT_KEYS.index("side_rise_n")] = rise
+    terms[:, WEIGHT_KEYS.index("side_rise_sq_n")] = rise**2
+    fz = depth_n * (1.0 - np.exp(-depth_mm / 2.5)) + rise_n * rise**2 + rng.normal(0.0, 5.0, m)
+    return terms, fz, np.arange(m) * 6 // m, list(RISE_KEYS)
+
+
+@pytest.mark.parametrize(("rise_n", "depth_n", "takes_shape"), [(300.0, 400.0, False), (3000.0, 100.0, True)])
+def test_terms_that_read_the_parts_shape_enter_only_where_they_carry_most_of_the_force(
+        rise_n: float, depth_n: float, takes_shape: bool) -> None:
+    """A force mostly of the depth is learned from the tip's state, not from a side rise that grows with the depth
+    although it takes a fifth off the look-ahead error here (on one part the rise stands in for the depth; on a
+    part of another shape it reads otherwise); a force that follows the walls around the tool (a groove's) is
+    learned from them (`SHAPE_GAIN`)."""
+    from twin.analysis.learn.sheet import select_terms
+    from twin.process.force.learned import WEIGHT_KEYS
+
+    terms, fz, block, shape_keys = _selection_rows(rise_n, depth_n)
+    cols, _ = select_terms(terms, fz, block)
+    chosen = {WEIGHT_KEYS[c] for c in cols}
+    assert bool(chosen & set(shape_keys)) is takes_shape, chosen

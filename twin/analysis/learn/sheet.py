@@ -3,23 +3,28 @@ their weights, chosen from the data under regularisation, with their uncertainty
 
 Each run's measured tool tip (its commanded path moved by the tracker's deflection,
 `twin.analysis.identify.forces.measured_tip_path`) drives a `LearnedForceField` from a flat sheet; at every
-sample it gives the library of terms its axial force is a weighted sum of (`twin.process.force.learned`): the
-published formula's force, the membrane terms a model file may carry, the formed state (engagement, contact,
-wall angle, depth) and the walls' rise around the tool. The model is linear in its weights; the fit is a ridge regression towards the
-prior mean (the published formula: its weight 1, every other 0; `RIDGE` of the samples' weight, on terms scaled
-to unit rms), and which terms enter is chosen by best-subset selection on validation that looks ahead: each run's
-samples in `BLOCKS` blocks of time, the blocks before b fitted, block b predicted, for b = 2 .. BLOCKS-1 (a part
-is formed deeper as it goes, so this scores what a term predicts for the material the fit has not seen, as the
-next part asks); of 1, 2, .. `MAX_TERMS` terms, the subset that predicts best is taken while it lowers that error
-by more than `ENTRY_GAIN` below the last taken (not forward selection: on a cone, the term best alone can be the
-wrong one beside others). The candidates are the
-formed-state terms (`STATE_KEYS`) and the walls' rise around the tool (`RISE_KEYS`), never the membrane terms of
-Silva et al. (the form the plant's sheet law 1 is written in: a learner of that form fits that plant and nothing
-says it fits a real cell); a model file's membrane weights are still read and replayed. The radial in-plane
-ratio μ_r and its part that follows the side walls' rise μ_ρ (`twin.process.force.learned`: the contact's normal
-tilted by the walls around the tool) are chosen the same way, by best-subset selection on the look-ahead of the
-measured Fx, Fy (each held at 0 where it does not show: a groove's walls run along its travel), μ_t always
-fitted; the ratios are non-negative. docs/learning.md has what it gives on parts it never formed.
+sample it gives the library of terms its axial force is a weighted sum of (`twin.process.force.learned`). The
+model is linear in its weights; the fit is a ridge regression towards the prior mean (the published formula: its
+weight 1, every other 0; `RIDGE` of the samples' weight, on terms scaled to unit rms), and which terms enter is
+chosen by best-subset selection on validation that looks ahead: each run's samples in `BLOCKS` blocks of time,
+the blocks before b fitted, block b predicted, for b = 2 .. BLOCKS-1 (a part is formed deeper as it goes, so this
+scores what a term predicts for the material the fit has not seen, as the next part asks); of 1, 2, ..
+`MAX_TERMS` terms, the subset that predicts best is taken while it lowers that error by more than `ENTRY_GAIN`
+below the last taken (not forward selection: the term best alone can be the wrong one beside others).
+
+The candidates are the formed state at the tip (`STATE_KEYS`: engagement, contact, wall angle, depth and the
+depth's saturating rise). The walls' rise around the tool (`RISE_KEYS`) enters beside them only where it takes off
+more than 40 % (`SHAPE_GAIN`) of the look-ahead error the tip's terms leave: it reads the part's shape, and on one
+cone the rise grows with the depth and stands in for it, which a look-ahead on that cone cannot tell apart, while
+on a part of another shape it reads otherwise (at a pyramid's corner the rise to the side is the next side's
+wall). On the TX200's nominal cones it took off 1-24 % and predicted a pyramid's force worse than the depth alone;
+on its grooves, whose force is their walls', 52-65 %. Never the membrane terms of Silva et al. (the form the
+plant's sheet law 1 is written in: a learner of that form fits that plant and nothing says it fits a real cell). A
+model file's rise and membrane weights are still read and replayed. The radial in-plane ratio μ_r and its part
+that follows the side walls' rise μ_ρ (the contact's normal tilted by the walls around the tool) are chosen the
+same way on the look-ahead of the measured Fx, Fy (each held at 0 where it does not show: a groove's walls run
+along its travel), μ_t always fitted; the ratios are non-negative. docs/learning.md has what it gives on parts it
+never formed.
 
 The uncertainty is a moving-block bootstrap (`BOOT` resamples of blocks of `BOOT_BLOCK_S`, seeded): the spread of
 each selected weight over resamples (the residuals of a run are correlated in time; the least-squares standard
@@ -43,14 +48,8 @@ from twin.analysis.identify.forces import measured_tip_path
 from twin.base.signals import interp_rows
 from twin.errors import InputError
 from twin.process.description import Process
-from twin.process.force.learned import (
-    RADIAL_RISE_KEY,
-    RISE_KEYS,
-    SIDE_RISE_INDEX,
-    STATE_KEYS,
-    WEIGHT_KEYS,
-    LearnedForceField,
-)
+from twin.process.force import learned as learned_force
+from twin.process.force.learned import RADIAL_RISE_KEY, SIDE_RISE_INDEX, STATE_KEYS, WEIGHT_KEYS
 from twin.process.force.registry import build_force_field
 from twin.process.force.span import SPAN_KEYS, learned_span
 from twin.runs.format import Run
@@ -64,9 +63,11 @@ RIDGE = 1e-3
 #: Blocks of time per run for the look-ahead validation, and the least relative drop of its error to take a term.
 BLOCKS = 6
 ENTRY_GAIN = 0.03
-#: The terms selection may add to the published formula's, and the most it adds.
-CANDIDATES = STATE_KEYS + RISE_KEYS
+#: The terms selection may add to the published formula's (module docstring), and the most it adds.
+CANDIDATES: tuple[str, ...] = STATE_KEYS
 MAX_TERMS = 5
+#: The share of the tip terms' look-ahead error the walls' rise around the tool must take off to enter.
+SHAPE_GAIN = 0.4
 #: The prior mean of the weights: the published formula (`prior_weight` 1), every other term 0.
 PRIOR_MEAN = np.array([1.0 if key == "prior_weight" else 0.0 for key in WEIGHT_KEYS])
 #: Weights that cannot be negative: the published formula's (a sheet does not push the less for it), and those on
@@ -120,7 +121,7 @@ def sheet_rows(run: Run, process: Process) -> SheetRows:
                          "samples (a run formed with the F/T sensor on)")
     path = measured_tip_path(run, 0.0)
     field = build_force_field(replace(process, force_model="learned", force_fit=()))
-    assert isinstance(field, LearnedForceField)
+    assert isinstance(field, learned_force.LearnedForceField)
     field.reset()
     n = len(path.t_s)
     terms, travel, side = np.empty((n, len(WEIGHT_KEYS))), np.empty((n, 2)), np.empty(n)
@@ -229,8 +230,12 @@ def _best_subset(score: Callable[[list[int]], float], candidates: Sequence[int],
 
 
 def select_terms(terms: np.ndarray, fz_n: np.ndarray, block: np.ndarray) -> tuple[list[int], float]:
-    """Best-subset selection of the formed-state terms on the look-ahead validation: (columns, its RMS [N])."""
-    return _best_subset(_LookAhead(terms, fz_n, block), [WEIGHT_KEYS.index(k) for k in CANDIDATES], MAX_TERMS)
+    """Best-subset selection on the look-ahead validation, of the formed state at the tip and, where they take off
+    more than `SHAPE_GAIN` of its error, of the walls' rise around the tool beside it: (columns, its RMS [N])."""
+    score = _LookAhead(terms, fz_n, block)
+    tip = _best_subset(score, [WEIGHT_KEYS.index(k) for k in CANDIDATES], MAX_TERMS)
+    shape = _best_subset(score, [WEIGHT_KEYS.index(k) for k in (*CANDIDATES, *learned_force.RISE_KEYS)], MAX_TERMS)
+    return shape if shape[1] < (1.0 - SHAPE_GAIN) * tip[1] else tip
 
 
 def _bootstrap_std(rows: list[SheetRows], terms: np.ndarray, fz_n: np.ndarray, cols: list[int]) -> np.ndarray:

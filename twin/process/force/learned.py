@@ -7,7 +7,7 @@ the formed state at the tip (a library; `twin.analysis.learn.sheet` chooses whic
 
     Fz_lin = w · Fz_isf,lin                                  the published formula (the prior mean: w = 1)
            + a_side · Σ_{left, right} m(u_s) + b_side · Σ_{left, right} u_s³ + a_ahead · m(u_a)   membrane wrap
-           + Σ_k c_k · Π_{q in term k} q,   q in {Fz_isf,lin, E(Δz), σ(Δz), α / 45°, D}          formed state
+           + Σ_k c_k · Π_{q in term k} q,   q in {Fz_isf,lin, E(Δz), σ(Δz), α / 45°, D, S_d(D)}   formed state
 
 Membrane wrap: u = sin β = r / sqrt(r² + R²), r = max(S(p + R·d) − z, 0) the rise of the met surface one tool
 radius R from the tip, to the left and the right of the held travel direction and ahead of it, and
@@ -19,7 +19,10 @@ depth; e.g. Aerens et al., IJAMT 46 (2010); Duflou et al., CIRP Annals 56 (2007)
 contact σ(Δz) = 1/(1 + exp(−Δz/W)) (W = `CONTACT_WIDTH_M`: off the sheet every formed-state term fades), the
 held wall angle α and the depth D = max(−z, 0) [mm] below the original sheet; the terms are those quantities and
 their products up to second order in E and D (`STATE_TERMS`: E, σ, σα, σD, E², σD², σDE, Fz_isf,lin·D/10 mm,
-σαD). They read no part shape around the tool. The rise terms read it as plainly as it can be read, the sines
+σαD), and the depth's saturating rise σ·S_d(D), S_d = 1 − exp(−D/d), d = 1, 2, 4 mm (`SATURATION_MM`: the
+force of a wall formed pass by pass builds up over its first millimetres of depth and then levels off, the
+course the ISF force measurements show, e.g. Duflou et al. 2007; a polynomial in D fitted to that rise keeps
+rising where the part goes deeper). They read no part shape around the tool. The rise terms read it as plainly as it can be read, the sines
 u_s, u_a of the walls' rise to the sides and ahead and their squares (the wall angle on each side and ahead),
 with no law of how a membrane or a bend turns them into force. With
 w = 1 and the rest 0 it is the ISF model itself; what `twin.analysis.learn` fits is marked fitted wherever it is
@@ -67,6 +70,9 @@ class LearnedWeights:
         depth_engagement_n_per_mm2: on σ D E [N/mm²].
         prior_per_cm: on Fz_isf,lin · D / 10 mm [-].
         wall_depth_n_per_mm: on σ α / 45° · D [N/mm].
+        depth_sat_1mm_n: on σ (1 − exp(−D / 1 mm)), the depth's saturating rise [N].
+        depth_sat_2mm_n: on σ (1 − exp(−D / 2 mm)) [N].
+        depth_sat_4mm_n: on σ (1 − exp(−D / 4 mm)) [N].
         side_rise_n: on Σ_{left, right} u_s, the sines of the side walls' rise [N].
         side_rise_sq_n: on Σ_{left, right} u_s² [N].
         ahead_rise_n: on u_a, ahead [N].
@@ -85,6 +91,9 @@ class LearnedWeights:
     depth_engagement_n_per_mm2: float = 0.0
     prior_per_cm: float = 0.0
     wall_depth_n_per_mm: float = 0.0
+    depth_sat_1mm_n: float = 0.0
+    depth_sat_2mm_n: float = 0.0
+    depth_sat_4mm_n: float = 0.0
     side_rise_n: float = 0.0
     side_rise_sq_n: float = 0.0
     ahead_rise_n: float = 0.0
@@ -109,14 +118,17 @@ WEIGHT_KEYS = tuple(f.name for f in fields(LearnedWeights))
 #: The keys every learned model file has carried (the later ones are read as 0 where a file lacks them).
 REQUIRED_WEIGHT_KEYS = WEIGHT_KEYS[:4]
 #: The formed-state terms (read no part shape around the tool: `twin.analysis.learn.sheet`'s library).
-STATE_KEYS = WEIGHT_KEYS[4:13]
+STATE_KEYS = WEIGHT_KEYS[4:16]
 #: The rise terms: the sines of the walls' rise one tool radius to the sides and ahead, as a polynomial.
-RISE_KEYS = WEIGHT_KEYS[13:]
+RISE_KEYS = WEIGHT_KEYS[16:]
+#: The depths [mm] over which the saturating depth terms rise to 1 - 1/e of their plateau.
+SATURATION_MM = (1.0, 2.0, 4.0)
 #: Each formed-state term (in the order of `STATE_KEYS`) as a product of up to three base quantities, indices
-#: into (Fz_isf,lin [N], E [mm], σ [-], α / 45° [-], D [mm]) (-1: none), and its factor.
+#: into (Fz_isf,lin [N], E [mm], σ [-], α / 45° [-], D [mm], 1 − exp(−D / d) for each d of `SATURATION_MM`)
+#: (-1: none), and its factor.
 STATE_TERMS = np.array([[1, -1, -1], [2, -1, -1], [2, 3, -1], [2, 4, -1], [1, 1, -1], [2, 4, 4], [2, 4, 1],
-                        [0, 4, -1], [2, 3, 4]], dtype=np.int64)
-STATE_FACTORS = np.array([1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 0.1, 1.0])
+                        [0, 4, -1], [2, 3, 4], [2, 5, -1], [2, 6, -1], [2, 7, -1]], dtype=np.int64)
+STATE_FACTORS = np.array([1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 0.1, 1.0, 1.0, 1.0, 1.0])
 #: `STATE_TERMS` as `features` walks them: each term's scale and factors, and each factor with the others beside it
 #: (the product rule), worked out once.
 _STATE_WALK = tuple(
@@ -126,6 +138,7 @@ _STATE_WALK = tuple(
 )
 #: The column of the side walls' rise Σ u_s among the terms (`features`; the radial ratio's μ_ρ reads it).
 SIDE_RISE_INDEX = WEIGHT_KEYS.index("side_rise_n")
+_SIDE_RISE_SQ_INDEX, _AHEAD_RISE_INDEX = WEIGHT_KEYS.index("side_rise_sq_n"), WEIGHT_KEYS.index("ahead_rise_n")
 #: The learned model's in-plane constant beyond the ISF model's: μ_ρ, the radial ratio per unit of the side walls'
 #: rise Σ u_s [-] (module docstring).
 RADIAL_RISE_KEY = "mu_radial_rise"
@@ -221,13 +234,13 @@ class LearnedForceField(IsfForceField):
             u, du = _rise(s - z, radius)
             rise = (du * sx, du * sy, -du)
             if ahead:
-                values[15] = u
-                grads[15] = rise
+                values[_AHEAD_RISE_INDEX] = u
+                grads[_AHEAD_RISE_INDEX] = rise
             else:
-                values[13] += u
-                values[14] += u * u
-                grads[13] += rise
-                grads[14] += 2.0 * u * np.array(rise)
+                values[SIDE_RISE_INDEX] += u
+                values[_SIDE_RISE_SQ_INDEX] += u * u
+                grads[SIDE_RISE_INDEX] += rise
+                grads[_SIDE_RISE_SQ_INDEX] += 2.0 * u * np.array(rise)
             k = 3 if ahead else 1
             values[k] += m
             grads[k] += (dm * sx, dm * sy, -dm)
@@ -236,9 +249,12 @@ class LearnedForceField(IsfForceField):
                 grads[2] += (dcube * sx, dcube * sy, -dcube)
         s, sx, sy = self.map.met_height(x, y)
         soft, sig, dsig = contact_terms(s - z)
-        base = np.array([lin, soft, sig, self._alpha / ALPHA_REF_DEG, 1e3 * max(-z, 0.0)])
+        depth_mm, d_depth = 1e3 * max(-z, 0.0), -1e3 if z < 0.0 else 0.0
+        fade = [math.exp(-depth_mm / d) for d in SATURATION_MM]
+        base = np.array([lin, soft, sig, self._alpha / ALPHA_REF_DEG, depth_mm, *[1.0 - e for e in fade]])
         base_grad = np.array([[gx, gy, gz], [1e3 * sig * sx, 1e3 * sig * sy, -1e3 * sig],
-                              [dsig * sx, dsig * sy, -dsig], [0.0, 0.0, 0.0], [0.0, 0.0, -1e3 if z < 0.0 else 0.0]])
+                              [dsig * sx, dsig * sy, -dsig], [0.0, 0.0, 0.0], [0.0, 0.0, d_depth],
+                              *[[0.0, 0.0, e / d * d_depth] for e, d in zip(fade, SATURATION_MM, strict=True)]])
         b = base.tolist()
         for k, (scale, used, rule) in enumerate(_STATE_WALK):  # product rule
             values[4 + k] = scale * math.prod([b[f] for f in used])

@@ -11,7 +11,7 @@ import math
 
 from numba import njit
 
-from twin.process.force.learned import STATE_FACTORS, STATE_TERMS
+from twin.process.force.learned import SATURATION_MM, STATE_FACTORS, STATE_TERMS
 from twin.sim.compiled.isf_map import ALPHA, DIR_X, DIR_Y, RISE, IsfArrays, met_height
 
 
@@ -98,10 +98,14 @@ def learned_terms(M: IsfArrays, x: float, y: float, z: float, lin: float, gx: fl
         s, sx, sy = met_height(M, x, y)
         soft, sig, dsig = _contact(s - z, prm[24 + n_state])
         dz_depth = -1e3 if z < 0.0 else 0.0
-        b = (lin, soft, sig, M.state[ALPHA] / prm[25 + n_state], 1e3 * max(-z, 0.0))
-        bx = (gx, 1e3 * sig * sx, dsig * sx, 0.0, 0.0)
-        by = (gy, 1e3 * sig * sy, dsig * sy, 0.0, 0.0)
-        bz = (gz, -1e3 * sig, -dsig, 0.0, dz_depth)
+        depth = 1e3 * max(-z, 0.0)
+        e1, e2, e4 = (math.exp(-depth / SATURATION_MM[0]), math.exp(-depth / SATURATION_MM[1]),
+                      math.exp(-depth / SATURATION_MM[2]))
+        b = (lin, soft, sig, M.state[ALPHA] / prm[25 + n_state], depth, 1.0 - e1, 1.0 - e2, 1.0 - e4)
+        bx = (gx, 1e3 * sig * sx, dsig * sx, 0.0, 0.0, 0.0, 0.0, 0.0)
+        by = (gy, 1e3 * sig * sy, dsig * sy, 0.0, 0.0, 0.0, 0.0, 0.0)
+        bz = (gz, -1e3 * sig, -dsig, 0.0, dz_depth, e1 / SATURATION_MM[0] * dz_depth,
+              e2 / SATURATION_MM[1] * dz_depth, e4 / SATURATION_MM[2] * dz_depth)
         for k in range(n_state):
             w = prm[21 + k] * STATE_FACTORS[k]
             if w == 0.0:
