@@ -61,9 +61,9 @@ def cell_study(name: str, folder: Path) -> dict[str, Any]:
     rc, rp = learner.sheet_rows(cone, process), learner.sheet_rows(pyramid, process)
     fc, fp = rc.measured_n[:, 2], rp.measured_n[:, 2]
     block = learner._blocks([rc], learner.BLOCKS)
-    chosen, chosen_look_ahead = learner.select_terms(rc.terms, fc, block)  # the learner's choice and its score
+    chosen, chosen_look_ahead, share = learner.select_terms(rc.terms, fc, block)  # the learner's choice, its score
     depth_only_look_ahead = learner._LookAhead(rc.terms, fc, block)(DEPTH_ONLY)
-    row: dict[str, Any] = {"cell": name, "chosen": [WEIGHT_KEYS[c] for c in chosen]}
+    row: dict[str, Any] = {"cell": name, "chosen": [WEIGHT_KEYS[c] for c in chosen], "rise_share": share}
     for key, cols, look_ahead in (("chosen", chosen, chosen_look_ahead),
                                   ("depth_only", DEPTH_ONLY, depth_only_look_ahead)):
         w = learner._ridge(rc.terms[:, cols], fc, cols)
@@ -86,14 +86,18 @@ def table(rows: list[dict[str, Any]]) -> str:
     """The markdown table (module docstring)."""
     lines = ["Pyramid (never formed) Fz rms gap [N], predicted from the nominal cone by: the learner's chosen terms; "
              "σ, σD, σD²; the cone's Fz as a table of the tip's depth. Look-ahead on the cone [N] (what the learner "
-             f"chooses by). Pyramid over cone at the same tip depth, mean deeper than {DEEP_MM:g} mm [N].", "",
+             f"chooses by). Pyramid over cone at the same tip depth, mean deeper than {DEEP_MM:g} mm [N]. The share "
+             "of the tip terms' look-ahead error on the cone the walls' rise around the tool would take off (taken "
+             f"over {100 * learner.SHAPE_GAIN:.0f} %).", "",
              "| cell | terms chosen | chosen: pyramid / cone look-ahead | σ, σD, σD²: pyramid / cone look-ahead | "
-             "cone's Fz(depth) table: pyramid | pyramid over cone |", "|---|---|---|---|---|---|"]
+             "cone's Fz(depth) table: pyramid | pyramid over cone | walls' rise: share off |",
+             "|---|---|---|---|---|---|---|"]
     for r in rows:
         lines.append(f"| {r['cell']} | {', '.join(k for k in r['chosen'] if k != 'prior_weight')} | "
                      f"{r['chosen_pyramid_rms_n']:.0f} / {r['chosen_look_ahead_n']:.0f} | "
                      f"{r['depth_only_pyramid_rms_n']:.0f} / {r['depth_only_look_ahead_n']:.0f} | "
-                     f"{r['depth_table_pyramid_rms_n']:.0f} | {r['pyramid_over_cone_deep_n']:+.0f} |")
+                     f"{r['depth_table_pyramid_rms_n']:.0f} | {r['pyramid_over_cone_deep_n']:+.0f} | "
+                     f"{100 * r['rise_share']:.0f} % |")
     return "\n".join(lines) + "\n"
 
 

@@ -59,9 +59,14 @@ def test_cone_compensation_reaches_the_tolerance_in_four_simulations(cone_and_tw
 
 
 def test_the_plain_iteration_does_not_reach_it_in_four(cone_and_twin) -> None:
+    """Out of iterations still falling, under the tracker's noise (twice the tolerance): the best command, said not
+    converged; in three, above it: an error."""
     cone, twin = cone_and_twin
-    with pytest.raises(CompensationError, match=r"did not reach 0\.01 mm rms in 4 iterations"):
-        compensate_twin(cone.t_s, cone.p_sheet_m, twin, max_iter=4, memory=0)
+    comp = compensate_twin(cone.t_s, cone.p_sheet_m, twin, max_iter=4, memory=0)
+    assert not comp.converged and TWIN_TOL_M < min(comp.history_m) <= compensate.NOISE_TOL_RATIO * TWIN_TOL_M
+    assert comp.history_m[-1] == min(comp.history_m), comp.history_m  # still falling
+    with pytest.raises(CompensationError, match=r"did not reach 0\.01 mm rms in 3 iterations"):
+        compensate_twin(cone.t_s, cone.p_sheet_m, twin, max_iter=3, memory=0)
 
 
 def test_an_iteration_that_runs_away_is_refused_in_millimetres(cone_and_twin, monkeypatch) -> None:

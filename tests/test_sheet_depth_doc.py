@@ -18,10 +18,11 @@ def _rows() -> list[dict[str, float | str]]:
     for line in block.splitlines():
         if not line.startswith("| ") or line.startswith("| cell"):
             continue
-        cell, _, chosen, depth_only, table, over = (c.strip() for c in line.split("|")[1:-1])
+        cell, _, chosen, depth_only, table, over, share = (c.strip() for c in line.split("|")[1:-1])
         (cp, cl), (dp, dl) = ([float(v) for v in c.split("/")] for c in (chosen, depth_only))
         rows.append({"cell": cell, "law": 1 if "sheet law 1" in cell else 2, "chosen": cp, "chosen_look": cl,
-                     "depth_only": dp, "depth_look": dl, "table": float(table), "over": float(over)})
+                     "depth_only": dp, "depth_look": dl, "table": float(table), "over": float(over),
+                     "share": float(share.removesuffix(" %"))})
     return rows
 
 
@@ -32,10 +33,14 @@ def test_the_pages_words_on_what_a_cone_teaches_of_a_pyramid_are_its_table() -> 
     said = quoted("learning.md", "better than either fitted form: it misses the pyramid by", 2)
     said[0].check(min(float(r["table"]) for r in law1))
     said[1].check(max(float(r["table"]) for r in law1))
+    shares = quoted("learning.md", "On the nominal cones of the sheet-depth table below it takes", 2)
+    shares[0].check(min(float(r["share"]) for r in rows))
+    shares[1].check(max(float(r["share"]) for r in rows))
     chosen = quoted("learning.md", "formed state at the tip, miss it by", 2)
     chosen[0].check(min(float(r["chosen"]) for r in law1))
     chosen[1].check(max(float(r["chosen"]) for r in law1))
     assert len(rows) == 6 and {r["law"] for r in rows} == {1, 2}
+    assert all(float(r["share"]) <= 40.0 for r in rows)  # the walls' rise is not taken on a cone
     for r in rows:  # law 1: "the table predicts the pyramid better than either form"; law 2: "alike, about 50 N"
         if r["law"] == 1:
             assert float(r["table"]) < min(float(r["chosen"]), float(r["depth_only"])), r

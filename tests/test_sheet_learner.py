@@ -289,6 +289,7 @@ def test_terms_that_read_the_parts_shape_enter_only_where_they_carry_most_of_the
     from twin.process.force.learned import WEIGHT_KEYS
 
     terms, fz, block, shape_keys = _selection_rows(rise_n, depth_n)
-    cols, _ = select_terms(terms, fz, block)
+    cols, _, share = select_terms(terms, fz, block)
     chosen = {WEIGHT_KEYS[c] for c in cols}
     assert bool(chosen & set(shape_keys)) is takes_shape, chosen
+    assert (share > 0.4) is takes_shape and share > 0.1, share  # the rise takes a fifth off where it is not taken

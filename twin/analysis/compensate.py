@@ -46,6 +46,9 @@ STEP_LIMIT = 1.5  # largest command step of one iteration, in units of that samp
 # before them. Joint friction flips with the joints' motion at each reversal, a discontinuity no command removes.
 STALL_ITERATIONS = 3
 STALL_RATIO = 0.95
+# Out of iterations with its best within this many tolerances (the tracker's noise sigma, module docstring): the best
+# command, not converged, as a stall; beyond it an error.
+NOISE_TOL_RATIO = 2.0
 
 
 @dataclass(frozen=True)
@@ -145,11 +148,13 @@ def compensate_twin(
 
     Returns:
         The compensation; `converged` is False when the iteration stalled above `tol_m` (joint friction that
-        flips with the joints' motion, at reversals and corners, leaves a few samples that no command settles):
-        the best command is returned.
+        flips with the joints' motion, at reversals and corners, leaves a few samples that no command settles),
+        or ran out of iterations still falling with its best within `NOISE_TOL_RATIO` x `tol_m`: the best command
+        is returned.
 
     Raises:
-        CompensationError: The iteration diverges, or runs out of iterations with its rms residual above `tol_m`.
+        CompensationError: The iteration diverges, or runs out of iterations with its best rms residual above
+            `NOISE_TOL_RATIO` x `tol_m`.
     """
     if isinstance(twin, TwinSpec):
         twin = twin.build()
@@ -187,6 +192,8 @@ def compensate_twin(
         cmd = accelerate.next(cmd, -trust_region_step(sim.tip_gain, residual))
         # the command moved by micrometres to millimetres: its IK starts from the last one's
         q_ik = twin.kinematics.ik_path(twin.p_base_sheet_origin + cmd @ twin.R_base_sheet.T, q_near=sim.q_ik)
+    if best is not None and best[0] <= NOISE_TOL_RATIO * tol_m:  # still falling, under what a tracker can see
+        return Compensation("twin", t, p_id, best[1], max_iter, best[2], tuple(history), False, best[3])
     raise CompensationError(
         f"twin compensation did not reach {tol_m * 1e3:g} mm rms in {max_iter} iterations "
         f"(rms residual after each: {[round(h * 1e3, 4) for h in history]} mm)"

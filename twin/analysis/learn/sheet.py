@@ -17,20 +17,17 @@ depth's saturating rise). The walls' rise around the tool (`RISE_KEYS`) enters b
 more than 40 % (`SHAPE_GAIN`) of the look-ahead error the tip's terms leave: it reads the part's shape, and on one
 cone the rise grows with the depth and stands in for it, which a look-ahead on that cone cannot tell apart, while
 on a part of another shape it reads otherwise (at a pyramid's corner the rise to the side is the next side's
-wall). On the TX200's nominal cones it took off 1-24 % and predicted a pyramid's force worse than the depth alone;
-on its grooves, whose force is their walls', 52-65 %. Never the membrane terms of Silva et al. (the form the
-plant's sheet law 1 is written in: a learner of that form fits that plant and nothing says it fits a real cell). A
-model file's rise and membrane weights are still read and replayed. The radial in-plane ratio μ_r and its part
-that follows the side walls' rise μ_ρ (the contact's normal tilted by the walls around the tool) are chosen the
-same way on the look-ahead of the measured Fx, Fy (each held at 0 where it does not show: a groove's walls run
-along its travel), μ_t always fitted; the ratios are non-negative. docs/learning.md has what it gives on parts it
-never formed.
+wall). On nominal cones it took off under a third and predicted a pyramid's force worse than the depth alone; on
+grooves, whose force is their walls', over half. Never the membrane terms of Silva et al. (the form the plant's
+sheet law 1 is written in). A model file's rise and membrane weights are still read and replayed. The radial
+in-plane ratio μ_r and its part that follows the side walls' rise μ_ρ are chosen the same way on the look-ahead of
+the measured Fx, Fy (each held at 0 where it does not show), μ_t always fitted; the ratios are non-negative.
 
 The uncertainty is a moving-block bootstrap (`BOOT` resamples of blocks of `BOOT_BLOCK_S`, seeded): the spread of
-each selected weight over resamples (the residuals of a run are correlated in time; the least-squares standard
-error would understate it), and the validation error is reported as what the next part's force should be
-expected to miss by. The in-plane ratios μ_t, μ_r, μ_ρ come from a second least squares against the measured
-Fx, Fy with the fitted Fz. The runs' commanded paths, trackers and forces are all it reads; `truth.json` never.
+each selected weight over resamples (a run's residuals are correlated in time; the least-squares standard error
+would understate it); the validation error is what the next part's force should be expected to miss by. The
+in-plane ratios come from a second least squares against the measured Fx, Fy with the fitted Fz. The runs'
+commanded paths, trackers and forces are all it reads; `truth.json` never.
 """
 
 from __future__ import annotations
@@ -102,6 +99,7 @@ class SheetFit(NamedTuple):
         terms: The terms selected (`WEIGHT_KEYS` names; the prior's always, first).
         validation_rms_n: The look-ahead validation's RMS axial-force error with those terms [N] (predicted).
         prior_validation_rms_n: The same with the published formula alone [N].
+        shape_share: The share of the tip terms' look-ahead error the walls' rise takes off (`SHAPE_GAIN`) [-].
     """
 
     force_fit: tuple[tuple[str, float], ...]
@@ -112,6 +110,7 @@ class SheetFit(NamedTuple):
     terms: tuple[str, ...] = ("prior_weight",)
     validation_rms_n: float = float("nan")
     prior_validation_rms_n: float = float("nan")
+    shape_share: float = float("nan")
 
 
 def sheet_rows(run: Run, process: Process) -> SheetRows:
@@ -229,13 +228,15 @@ def _best_subset(score: Callable[[list[int]], float], candidates: Sequence[int],
     return chosen, best
 
 
-def select_terms(terms: np.ndarray, fz_n: np.ndarray, block: np.ndarray) -> tuple[list[int], float]:
+def select_terms(terms: np.ndarray, fz_n: np.ndarray, block: np.ndarray) -> tuple[list[int], float, float]:
     """Best-subset selection on the look-ahead validation, of the formed state at the tip and, where they take off
-    more than `SHAPE_GAIN` of its error, of the walls' rise around the tool beside it: (columns, its RMS [N])."""
+    more than `SHAPE_GAIN` of its error, of the walls' rise around the tool beside it: (columns, its RMS [N], the
+    share of the tip terms' error the rise takes off [-])."""
     score = _LookAhead(terms, fz_n, block)
     tip = _best_subset(score, [WEIGHT_KEYS.index(k) for k in CANDIDATES], MAX_TERMS)
     shape = _best_subset(score, [WEIGHT_KEYS.index(k) for k in (*CANDIDATES, *learned_force.RISE_KEYS)], MAX_TERMS)
-    return shape if shape[1] < (1.0 - SHAPE_GAIN) * tip[1] else tip
+    share = 1.0 - shape[1] / tip[1] if tip[1] > 0.0 else 0.0
+    return (*shape, share) if share > SHAPE_GAIN else (*tip, share)
 
 
 def _bootstrap_std(rows: list[SheetRows], terms: np.ndarray, fz_n: np.ndarray, cols: list[int]) -> np.ndarray:
@@ -289,7 +290,7 @@ def fit_sheet(runs: list[Run], process: Process, declared: Sequence[Process] | N
         raise InputError("the runs do not determine the sheet's terms: the published formula pushes nowhere along "
                          "their tips (no forming contact in the path?)")
     block = _blocks(rows, BLOCKS)
-    cols, validation = select_terms(terms, measured[:, 2], block)
+    cols, validation, shape_share = select_terms(terms, measured[:, 2], block)
     prior_validation = _LookAhead(terms, measured[:, 2], block)([0], fitted=False)
     weights, w_std = PRIOR_MEAN.copy(), np.zeros(len(WEIGHT_KEYS))
     weights[cols] = _ridge(terms[:, cols], measured[:, 2], cols)
@@ -311,7 +312,7 @@ def fit_sheet(runs: list[Run], process: Process, declared: Sequence[Process] | N
     after = [_rms_along(run, learned) for run in runs]
     return SheetFit(fit, tuple((k, float(v)) for k, v in zip(keys, (*w_std, *mu_std), strict=True)),
                     tuple(before), tuple(after), len(measured), tuple(WEIGHT_KEYS[c] for c in cols), validation,
-                    prior_validation)
+                    prior_validation, shape_share)
 
 
 def _rms_along(run: Run, process: Process) -> float:

@@ -177,7 +177,7 @@ class CompensateReport(Report):
                  f"{r['correction_max_mm']:.2f} mm -> {self.request.out}"]
         if not self.compensation.converged:
             which = "twin" if self.dynamic is None else "dynamic twin's"
-            lines.append(f"note: the {which} iteration stalled at {r['predicted_residual_rms_mm']:.4f} mm rms (max "
+            lines.append(f"note: the {which} iteration stopped at {r['predicted_residual_rms_mm']:.4f} mm rms (max "
                          f"{r['predicted_residual_max_mm']:.3f} mm, where joint friction flips: reversals, corners, "
                          "stick-slip); the best command is written")
         if self.dynamic is not None:

@@ -1,8 +1,6 @@
-"""`learn`: a twin of a cell it did not build, from that cell's nominal runs (`twin.analysis.learn.learn`): the
-robot's joint stiffness K_q, joint friction, servo transient and the tracker's offset, the sheet's `learned` force
-model and its springback, each replay gap before and after (fitted) and on a run left out (predicted); optionally
-the learned twin saved as a model file that `replay`, `compensate`, `discrepancy` and `place` take.
-"""
+"""`learn`: a twin of a cell it did not build, from its nominal runs (`twin.analysis.learn.learn`): the robot's K_q,
+joint friction, servo transient and tracker offset, the sheet's `learned` force model and its springback, each replay
+gap before and after (fitted) and on a run left out (predicted); optionally the twin saved as a model file."""
 
 from __future__ import annotations
 
@@ -16,6 +14,7 @@ import numpy as np
 
 from twin.analysis.discrepancy.floor import Floor, mean_floor, measure_floor
 from twin.analysis.learn import Gap, LearnResult, RobotFit, SheetFit, learn
+from twin.analysis.learn.sheet import SHAPE_GAIN
 from twin.apps.tasks.base import Note, Report, silent
 from twin.base.outputs import repeated_input
 from twin.errors import InputError
@@ -175,7 +174,8 @@ class LearnReport(Report):
                       "force_rms_before_n": list(sheet.rms_before_n), "force_rms_after_n": list(sheet.rms_after_n),
                       "samples": sheet.samples, "terms": list(sheet.terms),
                       "validation_rms_n": sheet.validation_rms_n,
-                      "published_formula_validation_rms_n": sheet.prior_validation_rms_n},
+                      "published_formula_validation_rms_n": sheet.prior_validation_rms_n,
+                      "walls_rise_share": sheet.shape_share},
             "springback": None if result.springback is None else result.springback._asdict(),
             "before": gaps(result.before), "after_fitted": gaps(result.after),
             "held_out_predicted": gaps(result.held_out),
@@ -267,8 +267,7 @@ SERVO_SHARE_PLAUSIBLE = 3.0
 
 
 def _grew_words(robot: RobotFit) -> str:
-    """A flag when the learned robot fits its runs worse than the prior did (the fit's bounds cost more than its
-    freedom gains: friction >= 0, unobserved joints held at the prior)."""
+    """A flag when the learned robot fits its runs worse than the prior did (its bounds cost more than it gains)."""
     if all(b <= a for a, b in zip(robot.rms_prior_mm, robot.rms_after_mm, strict=True)):
         return ""
     return (" (WORSE than the prior: the robot's terms do not describe these runs; its K_q and friction are not "
@@ -324,6 +323,8 @@ def _sheet_words(sheet: SheetFit) -> str:
     if fit.get(RADIAL_RISE_KEY, 0.0) > 0.0:
         parts.append(f"{fit[RADIAL_RISE_KEY]:.3f} x the side walls' rise")
     radial = f"mu_r {' + '.join(parts)}" if parts else "mu_r 0 (no radial force the data support)"
+    rise = "taken" if sheet.shape_share > SHAPE_GAIN else f"not taken, under {100.0 * SHAPE_GAIN:.0f} %"
     return (f"terms chosen from the data: {terms}; mu_t {fit['mu_eff']:.3f}, {radial}; predicting each run's later "
             f"material from its earlier: {sheet.validation_rms_n:.0f} N rms (the published formula: "
-            f"{sheet.prior_validation_rms_n:.0f} N)")
+            f"{sheet.prior_validation_rms_n:.0f} N); the walls' rise around the tool takes "
+            f"{100.0 * sheet.shape_share:.0f} % off the tip terms' error ({rise})")
