@@ -44,9 +44,10 @@ def test_the_words_on_learning_twice_are_the_table_s() -> None:
     pyramids = [r for r in rows if r["part"] == "pyramid"]
     kr = next(r for r in cones if r["robot"] == "kr210" and r["law"] == 1)
     irb = next(r for r in cones if r["robot"] == "irb6640" and r["law"] == 1)
-    worst = max(pyramids, key=lambda r: float(r["twice"]) - float(r["once"]))
     # the page's numbers first (a guard before the claims)
-    ranges = quoted("learning.md", "better on every cell (on the tracker, from", 8)
+    tx = next(r for r in cones if r["robot"] == "tx200" and r["law"] == 1)
+    quoted("learning.md", "but the TX200's first law, where it is", 1)[0].check(float(tx["twice"]) - float(tx["once"]))
+    ranges = quoted("learning.md", "on the tracker, from", 8)
     for k, (law, key) in enumerate(((1, "once"), (1, "twice"), (2, "once"), (2, "twice"))):
         values = [float(r[key]) for r in cones if r["law"] == law]
         ranges[2 * k].check(min(values))
@@ -56,18 +57,13 @@ def test_the_words_on_learning_twice_are_the_table_s() -> None:
     target[1].check(float(kr["twice_true"]))
     target[2].check(_untaught_cone80_mm("kr210"))
     quoted("learning.md", "the IRB 6640's, at", 1)[0].check(float(irb["twice"]))
-    pyr = quoted("learning.md", "The pyramid gains nothing: within", 3)
-    kr_pyramids = sorted((r for r in pyramids if r["robot"] == "kr210"), key=lambda r: r["law"])
-    for k, r in enumerate(kr_pyramids):
-        pyr[1 + k].check(float(r["twice"]) - float(r["once"]))
-    # "better on every cell", on the tracker and on the true tip
+    quoted("learning.md", "The pyramid changes little: within", 1)[0].check(
+        max(abs(float(r["twice"]) - float(r["once"])) for r in pyramids))
+    # "better on every cell but the TX200's first law", on the tracker and on the true tip
     for r in cones:
-        assert float(r["twice"]) < float(r["once"]) and float(r["twice_true"]) < float(r["once_true"]), r
+        better = float(r["twice"]) < float(r["once"]) and float(r["twice_true"]) < float(r["once_true"])
+        assert better == (r is not tx), r
     # the KR 210's meets the cone target; the IRB 6640's is not under a quarter of its untaught twin's
     assert max(float(kr["twice"]), float(kr["twice_true"])) <= CONE_TARGET_MM
     assert float(kr["twice"]) <= UNTAUGHT_SHARE * _untaught_cone80_mm("kr210")
     assert float(irb["twice"]) > UNTAUGHT_SHARE * _untaught_cone80_mm("irb6640")
-    # "within 0.015 mm on four cells", the other two the KR 210's, worse
-    inside = [r for r in pyramids if abs(float(r["twice"]) - float(r["once"])) <= pyr[0].value + pyr[0].tol / 2]
-    assert len(inside) == 4 and {r["robot"] for r in pyramids if r not in inside} == {"kr210"}
-    assert (worst["robot"], worst["law"]) == ("kr210", 2) and all(r["twice"] > r["once"] for r in kr_pyramids)
