@@ -259,13 +259,13 @@ def test_the_page_holds_its_generated_table_and_what_its_words_say_of_it() -> No
         for cell in (r[2], r[3]):
             whole, corners = (float(v) for v in cell.split("/"))
             assert corners > whole
-    # "Speed": a dynamic replay five to eight times the quasi-static one; a fit of 100-140 of them, about a minute
+    # "Speed": a dynamic replay five to eight times the quasi-static one; a fit of 90-170 of them, one to two minutes
     walls = {(r[0].strip(), r[1].strip()): r[4].strip() for r in replays}
     for cell in {key[0] for key in walls}:
         ratio = (float(walls[(cell, "dynamic, servo fitted on run 1")])
                  / float(walls[(cell, "quasi-static (learned, its servo transient)")]))
         assert 5.0 <= ratio <= 8.0, (cell, ratio)
-    assert all(100 <= int(r[9]) <= 140 and 40 <= float(r[10]) <= 80 for r in fits), fits
+    assert all(90 <= int(r[9]) <= 170 and 40 <= float(r[10]) <= 120 for r in fits), fits
     # the default servo's fit over-damped, the variant's lower; no load fed forward
     assert all(float(r[5]) < 0.05 for r in fits), fits
     assert float(default[2]) > 1.0 and float(default[4]) < 0.1
