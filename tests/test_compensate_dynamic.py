@@ -142,8 +142,8 @@ def test_the_pages_words_on_compensation_with_the_dynamic_twin_are_its_tables() 
         before, after = (float(v) for v in dyn[2].split("->"))
         if cell in grooves:  # "more than half off ... on both grooves"
             assert after < 0.5 * before, cell
-        else:  # "about a fifth on the pyramids"
-            assert 0.75 * before <= after <= 0.85 * before, cell
+        else:  # "a tenth to a sixth on the pyramids"
+            assert 0.83 * before <= after <= 0.92 * before, cell
         assert 2 * float(qs[4]) <= float(dyn[4]) <= 30 * float(qs[4])  # "at two to twenty-odd times its wall"
         if cell in grooves:  # "worse"; "most of it at the reversals on the second"
             assert pair(dyn[6])[0] > pair(qs[6])[0] and pair(dyn[5])[0] > pair(qs[5])[0], cell
