@@ -98,7 +98,7 @@ def test_the_model_file_keeps_the_learned_sheet(tmp_path, small_cone) -> None:
 
 
 def test_past_a_pyramids_corner_the_side_rise_falls_as_the_page_says() -> None:
-    """docs/learning.md ("What is left on the pyramid sits at its corners"): on each level of a pyramid formed on
+    """docs/learning.md (the learned sheet on parts it never formed): on each level of a pyramid formed on
     the twin's own sheet, the side rise read one tool radius square to the travel falls past the corners to
     0.59-0.76 of its median along the level (the point lies in the trough the last side formed)."""
     from doc_numbers import quoted
@@ -115,7 +115,7 @@ def test_past_a_pyramids_corner_the_side_rise_falls_as_the_page_says() -> None:
     rise_arr, level = np.array(rise), np.round(path.p_sheet_m[:, 2] * 1e4)  # the z-levels [0.1 mm]
     lows = [np.min(rise_arr[level == z]) / np.median(rise_arr[level == z])
             for z in np.unique(level[path.p_sheet_m[:, 2] < -0.8e-3]) if np.count_nonzero(level == z) >= 100]
-    low, high = quoted("learning.md", "side rise the learner reads there falls to", 2)
+    low, high = quoted("learning.md", "so the side rise falls there to", 2)
     low.check(min(lows))
     high.check(max(lows))
     assert len(lows) >= 4 and max(lows) < 0.8
