@@ -13,20 +13,19 @@ Membrane wrap: u = sin β = r / sqrt(r² + R²), r = max(S(p + R·d) − z, 0) t
 radius R from the tip, to the left and the right of the held travel direction and ahead of it, and
 m(u) = u²·sqrt(1 − u²): the vertical part of a membrane force per side σ·t·cos β over a contact length R·sin β
 (Silva, Skjødt, Atkins, Bay, Martins, J Strain Anal 43 (2008) 15-35); u³ lets the membrane stress harden.
-Formed state, the quantities the ISF literature's force correlations are written in (step-down, wall angle,
-depth; e.g. Aerens et al., IJAMT 46 (2010); Duflou et al., CIRP Annals 56 (2007)): the engagement
-Δz = S(p) − z (the step-down where a wall is formed), its smooth part E(Δz) = W·ln(1 + exp(Δz/W)) [mm] and the
-contact σ(Δz) = 1/(1 + exp(−Δz/W)) (W = `CONTACT_WIDTH_M`: off the sheet every formed-state term fades), the
-held wall angle α and the depth D = max(−z, 0) [mm] below the original sheet; the terms are those quantities and
-their products up to second order in E and D (`STATE_TERMS`: E, σ, σα, σD, E², σD², σDE, Fz_isf,lin·D/10 mm,
-σαD), and the depth's saturating rise σ·S_d(D), S_d = 1 − exp(−D/d), d = 1, 2, 4 mm (`SATURATION_MM`: the
-force of a wall formed pass by pass builds up over its first millimetres of depth and then levels off, the
-course the ISF force measurements show, e.g. Duflou et al. 2007; a polynomial in D fitted to that rise keeps
-rising where the part goes deeper). They read no part shape around the tool. The rise terms read it as plainly as it can be read, the sines
-u_s, u_a of the walls' rise to the sides and ahead and their squares (the wall angle on each side and ahead),
-with no law of how a membrane or a bend turns them into force. With
-w = 1 and the rest 0 it is the ISF model itself; what `twin.analysis.learn` fits is marked fitted wherever it is
-reported.
+Formed state, the quantities the ISF literature's force correlations are written in (step-down, wall angle, depth;
+e.g. Aerens et al., IJAMT 46 (2010); Duflou et al., CIRP Annals 56 (2007)): the engagement Δz = S(p) − z (the
+step-down where a wall is formed), its smooth part E(Δz) = W·ln(1 + exp(Δz/W)) [mm] and the contact
+σ(Δz) = 1/(1 + exp(−Δz/W)) (W = `CONTACT_WIDTH_M`: off the sheet every formed-state term fades), the held wall
+angle α and the depth D = max(−z, 0) [mm] below the original sheet; the terms are those quantities and their
+products up to second order in E and D (`STATE_TERMS`: E, σ, σα, σD, E², σD², σDE, Fz_isf,lin·D/10 mm, σαD), and
+the depth's saturating rise σ·S_d(D), S_d = 1 − exp(−D/d), d = 1, 2, 4 mm (`SATURATION_MM`: the force of a wall
+formed pass by pass builds up over its first millimetres of depth and then levels off, the course the ISF force
+measurements show, e.g. Duflou et al. 2007; a polynomial in D fitted to that rise keeps rising where the part goes
+deeper). They read no part shape around the tool. The rise terms read it as plainly as it can be read, the sines
+u_s, u_a of the walls' rise to the sides and ahead and their squares (the wall angle on each side and ahead), with
+no law of how a membrane or a bend turns them into force. With w = 1 and the rest 0 it is the ISF model itself;
+what `twin.analysis.learn` fits is marked fitted wherever it is reported.
 
 The in-plane law is the ISF model's, F_xy = -Fz·(μ_t·v + μ_r'·σ·L·v), with the radial ratio
 μ_r' = μ_r + μ_ρ·Σ_{left, right} u_s: where the walls around the tool rise, the contact's normal tilts off the
