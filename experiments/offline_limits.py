@@ -43,7 +43,7 @@ from twin.analysis.learn.cell import declared_process
 from twin.analysis.learn.split import FAST_HZ, NEAR_STOP_S, fast_part_mm, measured_force_tip, near_stop_shares
 from twin.analysis.replay import spec_for_run
 from twin.base.signals import interp_rows
-from twin.process.force.learned import RISE_KEYS, WEIGHT_KEYS
+from twin.process.force.learned import WEIGHT_KEYS
 from twin.runs.read import read_commanded_csv, read_run
 from twin.sim.model_file import read_model_file
 
@@ -70,7 +70,7 @@ def part_limits(folder: Path, prefix: str) -> dict[str, float]:
     robot_miss_m = true_tip - measured_force_tip(run, spec_for_run(run, spec).build())
     rows = learner.sheet_rows(run, declared_process(run))
     fz, fxy, m = rows.measured_n[:, 2], np.concatenate([rows.measured_n[:, 0], rows.measured_n[:, 1]]), len(rows.t_s)
-    cols = [0, *(WEIGHT_KEYS.index(k) for k in (*learner.CANDIDATES, *RISE_KEYS))]
+    cols = [0, *(WEIGHT_KEYS.index(k) for k in learner.LIBRARY)]
     library, *_ = np.linalg.lstsq(rows.terms[:, cols], fz, rcond=None)
     plane = learner.in_plane_columns(rows, fz)
     ratios, *_ = np.linalg.lstsq(plane, fxy, rcond=None)

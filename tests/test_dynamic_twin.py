@@ -254,18 +254,22 @@ def test_the_page_holds_its_generated_table_and_what_its_words_say_of_it() -> No
     zeta.check(float(variant[2]))
     for q, r in zip(quoted("dynamic-twin.md", "load forward (b", 2), (default, variant), strict=True):
         q.check(float(r[5]))
+    fit = quoted("dynamic-twin.md", "and a fit runs", 4)  # "Speed": the fits' replays and walls
+    for k, column in enumerate((9, 10)):
+        fit[2 * k].check(min(float(r[column]) for r in fits))
+        fit[2 * k + 1].check(max(float(r[column]) for r in fits))
     assert len(replays) == 6 and {r[0].strip() for r in replays} == {r[0].strip() for r in fits}
     for r in replays:  # "the corner rows are larger than the whole-run rows for both twins alike"
         for cell in (r[2], r[3]):
             whole, corners = (float(v) for v in cell.split("/"))
             assert corners > whole
-    # "Speed": a dynamic replay five to eight times the quasi-static one; a fit of 90-170 of them, one to two minutes
+    # "Speed": a dynamic replay five to eight times the quasi-static one; a fit of 93 to 170 of them in 55 to 94 s
     walls = {(r[0].strip(), r[1].strip()): r[4].strip() for r in replays}
     for cell in {key[0] for key in walls}:
         ratio = (float(walls[(cell, "dynamic, servo fitted on run 1")])
                  / float(walls[(cell, "quasi-static (learned, its servo transient)")]))
         assert 5.0 <= ratio <= 8.0, (cell, ratio)
-    assert all(90 <= int(r[9]) <= 170 and 40 <= float(r[10]) <= 120 for r in fits), fits
+    assert all(90 <= int(r[9]) <= 170 and 50 <= float(r[10]) <= 100 for r in fits), fits
     # the default servo's fit over-damped, the variant's lower; no load fed forward
     assert all(float(r[5]) < 0.05 for r in fits), fits
     assert float(default[2]) > 1.0 and float(default[4]) < 0.1

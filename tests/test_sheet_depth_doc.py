@@ -57,3 +57,14 @@ def test_the_pages_words_on_what_a_cone_teaches_of_a_pyramid_are_its_table() -> 
     # "the learner's form carries most of it over, not all of it": under a quarter of the published formula's miss
     # (the sheet-learner table: 264-333 N), above the table's
     assert all(float(r["chosen"]) < 70.0 for r in rows)
+
+
+def test_the_pages_words_on_the_learners_settings_are_its_constants() -> None:
+    """docs/learning.md's "The sheet": the saturating depths and the walls' rise's entry share are the learner's."""
+    from twin.analysis.learn.sheet import SHAPE_GAIN
+    from twin.process.force.learned import SATURATION_MM
+
+    for q, depth_mm in zip(quoted("learning.md", "the depth's saturating rise 1 − exp(−D/d), d =", 3), SATURATION_MM,
+                           strict=True):
+        q.check(depth_mm, slack=0.0)
+    quoted("learning.md", "only where it takes more than", 1)[0].check(100.0 * SHAPE_GAIN, slack=0.0)

@@ -65,16 +65,15 @@ CANDIDATES: tuple[str, ...] = STATE_KEYS
 MAX_TERMS = 5
 #: The share of the tip terms' look-ahead error the walls' rise around the tool must take off to enter.
 SHAPE_GAIN = 0.4
+#: Every term selection may take: the tip's and, past `SHAPE_GAIN`, the walls' rise around the tool.
+LIBRARY: tuple[str, ...] = (*CANDIDATES, *learned_force.RISE_KEYS)
 #: The prior mean of the weights: the published formula (`prior_weight` 1), every other term 0.
 PRIOR_MEAN = np.array([1.0 if key == "prior_weight" else 0.0 for key in WEIGHT_KEYS])
-#: Weights that cannot be negative: the published formula's (a sheet does not push the less for it), and those on
-#: the engagement (the force does not fall as the tool goes deeper into the same surface; a negative slope there is
-#: the robot's own give read as the sheet's: the tip rises where the sheet pushes harder).
+#: Weights that cannot be negative: the published formula's, and those on the engagement (the force does not fall as
+#: the tool goes deeper into the same surface; a negative slope is the robot's give read as the sheet's).
 NON_NEGATIVE = ("prior_weight", "engagement_n_per_mm", "engagement_sq_n_per_mm2", "depth_engagement_n_per_mm2")
 #: Moving-block bootstrap: resamples, block length [s], seed.
-BOOT = 64
-BOOT_BLOCK_S = 2.0
-BOOT_SEED = 0
+BOOT, BOOT_BLOCK_S, BOOT_SEED = 64, 2.0, 0
 
 
 class SheetRows(NamedTuple):
@@ -146,8 +145,7 @@ def _lstsq(X: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _ridge(X: np.ndarray, y: np.ndarray, cols: list[int]) -> np.ndarray:
-    """Ridge regression of the terms `cols` towards the prior mean, with weight `RIDGE` per sample on unit-rms
-    columns and the physical bounds (`NON_NEGATIVE`) held (module docstring)."""
+    """Ridge regression of `cols` towards the prior mean, `RIDGE` on unit-rms columns, `NON_NEGATIVE` held."""
     return _ridge_normal(X.T @ X, X.T @ y, len(y), cols)
 
 
@@ -232,9 +230,11 @@ def select_terms(terms: np.ndarray, fz_n: np.ndarray, block: np.ndarray) -> tupl
     """Best-subset selection on the look-ahead validation, of the formed state at the tip and, where they take off
     more than `SHAPE_GAIN` of its error, of the walls' rise around the tool beside it: (columns, its RMS [N], the
     share of the tip terms' error the rise takes off [-])."""
-    score = _LookAhead(terms, fz_n, block)
+    look, seen = _LookAhead(terms, fz_n, block), dict[tuple[int, ...], float]()
+    def score(cols: list[int]) -> float:  # the tip terms' subsets, in both searches, are scored once
+        return seen[key] if (key := tuple(cols)) in seen else seen.setdefault(key, look(cols))
     tip = _best_subset(score, [WEIGHT_KEYS.index(k) for k in CANDIDATES], MAX_TERMS)
-    shape = _best_subset(score, [WEIGHT_KEYS.index(k) for k in (*CANDIDATES, *learned_force.RISE_KEYS)], MAX_TERMS)
+    shape = _best_subset(score, [WEIGHT_KEYS.index(k) for k in LIBRARY], MAX_TERMS)
     share = 1.0 - shape[1] / tip[1] if tip[1] > 0.0 else 0.0
     return (*shape, share) if share > SHAPE_GAIN else (*tip, share)
 

@@ -18,7 +18,7 @@ from twin.analysis.learn.sheet import SHAPE_GAIN
 from twin.apps.tasks.base import Note, Report, silent
 from twin.base.outputs import repeated_input
 from twin.errors import InputError
-from twin.process.force.learned import RADIAL_RISE_KEY
+from twin.process.force.learned import RADIAL_RISE_KEY, RISE_KEYS
 from twin.runs.read import read_run
 from twin.sim.model_file import read_model_file, write_model_file
 from twin.sim.spec import TwinSpec
@@ -323,7 +323,7 @@ def _sheet_words(sheet: SheetFit) -> str:
     if fit.get(RADIAL_RISE_KEY, 0.0) > 0.0:
         parts.append(f"{fit[RADIAL_RISE_KEY]:.3f} x the side walls' rise")
     radial = f"mu_r {' + '.join(parts)}" if parts else "mu_r 0 (no radial force the data support)"
-    rise = "taken" if sheet.shape_share > SHAPE_GAIN else f"not taken, under {100.0 * SHAPE_GAIN:.0f} %"
+    rise = "taken" if set(sheet.terms) & set(RISE_KEYS) else f"not taken, under {100.0 * SHAPE_GAIN:.0f} %"
     return (f"terms chosen from the data: {terms}; mu_t {fit['mu_eff']:.3f}, {radial}; predicting each run's later "
             f"material from its earlier: {sheet.validation_rms_n:.0f} N rms (the published formula: "
             f"{sheet.prior_validation_rms_n:.0f} N); the walls' rise around the tool takes "

@@ -14,6 +14,9 @@ from numba import njit
 from twin.process.force.learned import SATURATION_MM, STATE_FACTORS, STATE_TERMS
 from twin.sim.compiled.isf_map import ALPHA, DIR_X, DIR_Y, RISE, IsfArrays, met_height
 
+#: `SATURATION_MM`, unpacked: the kernel's base quantities are written for these three (a fourth fails here)
+_D1, _D2, _D3 = SATURATION_MM
+
 
 @njit(cache=True)
 def _membrane(s: float, radius: float, cap: float) -> tuple:
@@ -99,13 +102,11 @@ def learned_terms(M: IsfArrays, x: float, y: float, z: float, lin: float, gx: fl
         soft, sig, dsig = _contact(s - z, prm[24 + n_state])
         dz_depth = -1e3 if z < 0.0 else 0.0
         depth = 1e3 * max(-z, 0.0)
-        e1, e2, e4 = (math.exp(-depth / SATURATION_MM[0]), math.exp(-depth / SATURATION_MM[1]),
-                      math.exp(-depth / SATURATION_MM[2]))
-        b = (lin, soft, sig, M.state[ALPHA] / prm[25 + n_state], depth, 1.0 - e1, 1.0 - e2, 1.0 - e4)
+        e1, e2, e3 = math.exp(-depth / _D1), math.exp(-depth / _D2), math.exp(-depth / _D3)
+        b = (lin, soft, sig, M.state[ALPHA] / prm[25 + n_state], depth, 1.0 - e1, 1.0 - e2, 1.0 - e3)
         bx = (gx, 1e3 * sig * sx, dsig * sx, 0.0, 0.0, 0.0, 0.0, 0.0)
         by = (gy, 1e3 * sig * sy, dsig * sy, 0.0, 0.0, 0.0, 0.0, 0.0)
-        bz = (gz, -1e3 * sig, -dsig, 0.0, dz_depth, e1 / SATURATION_MM[0] * dz_depth,
-              e2 / SATURATION_MM[1] * dz_depth, e4 / SATURATION_MM[2] * dz_depth)
+        bz = (gz, -1e3 * sig, -dsig, 0.0, dz_depth, e1 / _D1 * dz_depth, e2 / _D2 * dz_depth, e3 / _D3 * dz_depth)
         for k in range(n_state):
             w = prm[21 + k] * STATE_FACTORS[k]
             if w == 0.0:
