@@ -6,7 +6,7 @@ with seed 3, and its residual (`check`). The learned twin learns from seed 1's r
 learn`; nothing here reads the plant's truth, knobs or code on the twin's side. Writes OUT/learn_cell.json and
 OUT/learn_cell.md (the table in docs/learning.md):
 
-    .venv/bin/python experiments/learn_cell.py OUT [--variants groove-neutral,...] [--reuse] [--tracker-errors]
+    .venv/bin/python experiments/learn_cell.py OUT [--variants groove-neutral,...] [--reuse] [--tracker-errors | --tracker-late]
 
 `--reuse` keeps the runs an earlier call left under OUT that do not depend on what `learn` gives (the nominal runs
 and the untaught twin's compensated ones: a run is its seed's) and forms the learned twin's again, for a change of
@@ -212,12 +212,15 @@ def main() -> None:
                         help="a plant knob for every run (repeat), e.g. sheet_law=2")
     parser.add_argument("--reuse", action="store_true", help="keep the runs an earlier call left that do not depend on "
                         "the learned model")
-    parser.add_argument("--tracker-errors", action="store_true", help="learn with --tracker-errors")
+    tracker = parser.add_mutually_exclusive_group()
+    tracker.add_argument("--tracker-errors", action="store_true", help="learn with --tracker-errors")
+    tracker.add_argument("--tracker-late", action="store_true", help="learn with --tracker-late")
     args = parser.parse_args()
     rows = []
     for name in args.variants.split(","):
         rows.append(variant_study(args.out / name, name, tuple(args.plant_set), args.reuse,
-                                  ("--tracker-errors",) if args.tracker_errors else ()))
+                                  ("--tracker-errors",) if args.tracker_errors else
+                                  ("--tracker-late",) if args.tracker_late else ()))
         print(table(rows[-1:]).splitlines()[-1], flush=True)
     (args.out / "learn_cell.json").write_text(json.dumps(rows, indent=1, default=str))
     (args.out / "learn_cell.md").write_text(table(rows))

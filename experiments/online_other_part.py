@@ -15,7 +15,8 @@ markers of that page (docs/online.md; `tests/test_online_interface.py` reads it)
         [--plant-set sheet_law=2 --marker online-other-part-law2]
 
 `--plant-set NAME=VALUE` (repeatable) adds a plant knob to every run (the second sheet law, say); `--marker` names
-the page's markers the table goes between; `--tracker-errors` learns with `learn --tracker-errors`.
+the page's markers the table goes between; `--tracker-errors` (`--tracker-late`) learns with `learn --tracker-errors`
+(`learn --tracker-late`).
 
 Every online run may correct up to `ONLINE_LIMIT_MM` (`--max-correction-mm`; the default is less): the IRB 6640's
 arm bends on the groove as far as the default limit, where its online correction sat through the deepest passes, and
@@ -197,11 +198,14 @@ def main() -> None:
     parser.add_argument("--plant-set", action="append", default=[], metavar="NAME=VALUE",
                         help="a plant knob added to every run, repeatable")
     parser.add_argument("--marker", default="online-other-part", help="the page's markers (default: %(default)s)")
-    parser.add_argument("--tracker-errors", action="store_true",
-                        help="learn with `learn --tracker-errors` (the tracker's turn and lateness beside the robot)")
+    tracker = parser.add_mutually_exclusive_group()
+    tracker.add_argument("--tracker-errors", action="store_true",
+                         help="learn with `learn --tracker-errors` (the tracker's turn and lateness beside the robot)")
+    tracker.add_argument("--tracker-late", action="store_true",
+                         help="learn with `learn --tracker-late` (the tracker's lateness alone beside the robot)")
     args = parser.parse_args()
     plant_set = tuple(args.plant_set)
-    learn_args = ("--tracker-errors",) if args.tracker_errors else ()
+    learn_args = ("--tracker-errors",) if args.tracker_errors else ("--tracker-late",) if args.tracker_late else ()
     rows = [row for robot in args.robots.split(",") for row in robot_study(args.out / robot, robot, plant_set,
                                                                              learn_args)]
     (args.out / "online_other_part.json").write_text(json.dumps(rows, indent=1))

@@ -1,5 +1,4 @@
-"""`tx200-twin learn`: from a cell's nominal runs, a twin of that cell (robot and sheet), saved as a model file
-(`twin.apps.tasks.learn`)."""
+"""`tx200-twin learn`: a cell's twin (robot, sheet) from its nominal runs, as a model file (`twin.apps.tasks.learn`)."""
 
 from __future__ import annotations
 
@@ -20,8 +19,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--write-model", type=Path, help="write the learned twin to FILE (a model file: --model's)")
     parser.add_argument("--dynamic", action="store_true", help="also learn the dynamic mode's servo from the first "
                         "run, for `replay --dynamic` (docs/dynamic-twin.md)")
-    parser.add_argument("--tracker-errors", action="store_true", help="also fit each run's tracker turned and late, "
-                        "carried as its clock (a robot's lag along the path is then not compensated; docs/learning.md)")
+    tracker = parser.add_mutually_exclusive_group()
+    tracker.add_argument("--tracker-errors", action="store_true", help="also fit each run's tracker turned and late, "
+                         "carried as its clock (a robot's lag along the path is then not compensated; docs/learning.md)")
+    tracker.add_argument("--tracker-late", action="store_true", help="as --tracker-errors, its lateness alone")
     add_json_argument(parser, "what was learned and the gaps")
 
 
@@ -29,5 +30,6 @@ def run(args: argparse.Namespace) -> int:
     """Learn from the runs."""
     from twin.apps.tasks.learn import LearnRequest, learn_task
 
-    report = learn_task(LearnRequest(tuple(args.runs), args.model, args.write_model, args.dynamic, args.tracker_errors))
+    report = learn_task(LearnRequest(tuple(args.runs), args.model, args.write_model, args.dynamic,
+                                     args.tracker_errors or args.tracker_late, not args.tracker_late))
     return finish(args, report, protect=(*args.runs, args.model))

@@ -71,9 +71,10 @@ class LearnResult(NamedTuple):
 
 
 def learned_spec(runs: list[Run], spec: TwinSpec, tracker_errors: bool = False, declared: list[Process] | None = None,
-                 one_sheet: bool = True) -> tuple[TwinSpec, RobotFit, SheetFit, SpringbackFit | None]:
+                 one_sheet: bool = True,
+                 turned: bool = True) -> tuple[TwinSpec, RobotFit, SheetFit, SpringbackFit | None]:
     """The spec with the robot, the sheet and its springback learned from `runs` (no gaps computed);
-    `tracker_errors`: `fit_robot`'s, and the tracker's lateness carried (`fit_instruments`' `lateness`);
+    `tracker_errors`, `turned`: `fit_robot`'s, and the tracker's lateness carried (`fit_instruments`' `lateness`);
     `declared`: per run, the sheet it declares (default `spec`'s for every run); `one_sheet`: False where the
     cell's runs (these and any held out) declare several sheets, so the learned one is taken."""
     base = spec.replace(placement=run_placement(runs[0].meta))
@@ -82,7 +83,7 @@ def learned_spec(runs: list[Run], spec: TwinSpec, tracker_errors: bool = False, 
     # learned again from these runs: a model learned twice from the same runs is the same sheet)
     isf_fit = tuple((k, v) for k, v in base.process.force_fit if k not in (*WEIGHT_KEYS, RADIAL_RISE_KEY, *SPAN_KEYS))
     robot = fit_robot(runs, replace(base, process=replace(base.process, force_model="isf", force_fit=isf_fit)).build(),
-                      tracker_errors)
+                      tracker_errors, turned)
     sheet = fit_sheet(runs, base.process, declared)
     friction = np.where(robot.observable, robot.friction_nm, robot.prior_friction_nm)
     # the learned sheet replaces the declared force model only where it forces nearer the measured force along the
@@ -109,7 +110,8 @@ def sheet_kept(sheet: SheetFit) -> bool:
     return float(np.mean(sheet.rms_after_n)) >= float(np.mean(sheet.rms_before_n))
 
 
-def learn(runs: list[Run], spec: TwinSpec | None = None, tracker_errors: bool = False) -> LearnResult:
+def learn(runs: list[Run], spec: TwinSpec | None = None, tracker_errors: bool = False,
+          turned: bool = True) -> LearnResult:
     """Learn the cell's robot and sheet from its runs (module docstring).
 
     Args:
@@ -117,6 +119,7 @@ def learn(runs: list[Run], spec: TwinSpec | None = None, tracker_errors: bool = 
         spec: The declared twin (robot, process: the priors); None: the first run's robot in its cell.
         tracker_errors: Fit each run's tracker rotation and lateness beside the robot, keep unobserved joints'
             spread in the robot's fit, and carry the lateness as the tracker's clock (`learn --tracker-errors`).
+        turned: With `tracker_errors`; False: the lateness alone, unobserved joints held (`learn --tracker-late`).
 
     Raises:
         InputError: No run, runs of different robots or placements, or runs without forces.
@@ -142,7 +145,7 @@ def learn(runs: list[Run], spec: TwinSpec | None = None, tracker_errors: bool = 
     declared = [declared_process(run) for run in runs] if spec is None else [spec.process] * len(runs)
     spec = (spec or TwinSpec(robot=robot, process=declared[0])).replace(placement=placement, tool=tools[0])
     one_sheet = all(process == declared[0] for process in declared)
-    learned, robot_fit, sheet_fit, springback_fit = learned_spec(runs, spec, tracker_errors, declared, one_sheet)
+    learned, robot_fit, sheet_fit, springback_fit = learned_spec(runs, spec, tracker_errors, declared, one_sheet, turned)
     before = tuple(replay_gap(run, spec.replace(process=process)) for run, process in zip(runs, declared, strict=True))
     after = tuple(replay_gap(run, learned) for run in runs)
     held: list[Gap] = []
@@ -151,7 +154,7 @@ def learn(runs: list[Run], spec: TwinSpec | None = None, tracker_errors: bool = 
         for k, run in enumerate(runs):
             others = [r for i, r in enumerate(runs) if i != k]
             held_specs.append(learned_spec(others, spec, tracker_errors, [d for i, d in enumerate(declared) if i != k],
-                                           one_sheet)[0])
+                                           one_sheet, turned)[0])
             held.append(replay_gap(run, held_specs[-1]))
     models = tuple(dict.fromkeys(process.force_model for process in declared))
     return LearnResult(learned, robot_fit, sheet_fit, springback_fit, before, after, tuple(held), tuple(held_specs),

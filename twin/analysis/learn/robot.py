@@ -18,11 +18,11 @@ column kept free in the spring's fit whatever its sign, since a deflection that 
 cell's too, and only its non-negative part is the friction the twin takes), the servo's transient compliance c_s,j on
 the force's high-pass F − lag_τ(F) (`twin.sim.servo`: the position loop gives way while the force changes and recovers
 over τ, picked on a grid by the least residual), and per run the tracker's own errors: a constant offset per axis and,
-with `tracker_errors` (`learn --tracker-errors`; both options together), its registration's rotation about the sheet
-origin and a lateness (`tracker_columns`: the tracker's latency, or the robot's lag along the path, both read the tip
-a velocity times a time behind). Without them a registration's tilt goes into joint 1 and a few milliseconds of
-lateness into joints 2 and 3's friction; with them a lag of the robot along the path is the tracker's, and no
-compensation takes it. They are reported, not put into the robot; the model carries the registration as the
+with `tracker_errors` (`learn --tracker-errors`), its registration's rotation about the sheet origin and a lateness
+(`tracker_columns`: the tracker's latency, or the robot's lag along the path, both read the tip a velocity times a
+time behind; `learn --tracker-late`: the lateness alone). Without them a registration's tilt goes into joint 1 and a
+few milliseconds of lateness into a friction (joints 2 and 3's on a groove, joint 1's on a cone); with them a lag of
+the robot along the path is the tracker's, and no compensation takes it. They are reported, not put into the robot; the model carries the registration as the
 instruments' (`twin.analysis.learn.instruments`). That linear fit is the start: the observable joints' springs and
 friction are then refined as the twin's equilibrium holds them, a friction that sticks
 (`twin.analysis.learn.stick_slip`), which is what their stated spread is of. `truth.json` is never read.
@@ -75,17 +75,19 @@ class RobotRows(NamedTuple):
     nuisance: np.ndarray | None = None  # (3m, r) the tracker's own columns (`tracker_columns`), stacked as `design`'s
 
 
-def tracker_columns(tip_m: np.ndarray, velocity_m_s: np.ndarray) -> np.ndarray:
+def tracker_columns(tip_m: np.ndarray, velocity_m_s: np.ndarray, turned: bool = True) -> np.ndarray:
     """(3m, 4) a tracker's own errors beside its offset, stacked as `design`'s: its registration's rotation about
-    the sheet origin (w x p, three columns [rad]) and a reading late by dt (-v dt [s]: the tracker's clock, or the
-    servo's following error, which is the same), from the unloaded tip p [m] and its velocity v [m/s] at the
-    tracker's times. A clock's rate (a lateness growing with t) is not among them: on a groove whose force grows
-    pass by pass, -v t is nearly a wrist joint's column (its deflection under a drag that flips with the travel)."""
+    the sheet origin (w x p, three columns [rad]; zeros unless `turned`) and a reading late by dt (-v dt [s]: the
+    tracker's clock, or the servo's following error, which is the same), from the unloaded tip p [m] and its
+    velocity v [m/s] at the tracker's times. A clock's rate (a lateness growing with t) is not among them: on a
+    groove whose force grows pass by pass, -v t is nearly a wrist joint's column (its deflection under a drag that
+    flips with the travel)."""
     p, v = tip_m, velocity_m_s
     cols = np.zeros((len(p), 3, TRACKER_COLUMNS))
-    cols[:, 1, 0], cols[:, 2, 0] = -p[:, 2], p[:, 1]  # w_x: (0, -p_z, p_y)
-    cols[:, 0, 1], cols[:, 2, 1] = p[:, 2], -p[:, 0]  # w_y: (p_z, 0, -p_x)
-    cols[:, 0, 2], cols[:, 1, 2] = -p[:, 1], p[:, 0]  # w_z: (-p_y, p_x, 0)
+    if turned:
+        cols[:, 1, 0], cols[:, 2, 0] = -p[:, 2], p[:, 1]  # w_x: (0, -p_z, p_y)
+        cols[:, 0, 1], cols[:, 2, 1] = p[:, 2], -p[:, 0]  # w_y: (p_z, 0, -p_x)
+        cols[:, 0, 2], cols[:, 1, 2] = -p[:, 1], p[:, 0]  # w_z: (-p_y, p_x, 0)
     cols[:, :, 3] = -v
     return cols.transpose(1, 0, 2).reshape(-1, TRACKER_COLUMNS)
 
@@ -124,9 +126,9 @@ class RobotFit(NamedTuple):
     late_ms: float = 0.0
 
 
-def robot_rows(run: Run, twin: Twin, tracker_errors: bool = False) -> RobotRows:
+def robot_rows(run: Run, twin: Twin, tracker_errors: bool = False, turned: bool = True) -> RobotRows:
     """The twin's unloaded tool tip and per-joint levers along the run's command, at its tracker times
-    (`tracker_errors`: with the tracker's rotation and lateness columns, `tracker_columns`)."""
+    (`tracker_errors`: with the tracker's lateness column, and its rotation's where `turned`: `tracker_columns`)."""
     if run.forces is None or len(run.forces.t_s) < 10:
         raise InputError(f"run {run.directory}: learning the robot needs forces.csv (the F/T sensor on)")
     q_ik = twin.ik_path(run.commanded.values)
@@ -142,7 +144,7 @@ def robot_rows(run: Run, twin: Twin, tracker_errors: bool = False) -> RobotRows:
     velocity = interp_rows(t, run.commanded.t_s, np.gradient(run.commanded.values, run.commanded.t_s, axis=0))
     return RobotRows(run.tracker.values - unloaded, t, run.forces.t_s, run.forces.values, lever,
                      -J_sheet * sign[:, None, :], q, J_sheet,
-                     tracker_columns(unloaded, velocity) if tracker_errors else None)
+                     tracker_columns(unloaded, velocity, turned) if tracker_errors else None)
 
 
 def design(rows: RobotRows, servo_s: float = 0.0) -> np.ndarray:
@@ -233,7 +235,7 @@ def predicted_deflection(rows: RobotRows, fit: RobotFit, offset_m: np.ndarray) -
     return spring + servo + offset_m
 
 
-def fit_robot(runs: list[Run], twin: Twin, tracker_errors: bool = False) -> RobotFit:
+def fit_robot(runs: list[Run], twin: Twin, tracker_errors: bool = False, turned: bool = True) -> RobotFit:
     """Learn the effective joint compliances, the servo lag and the tracker offset from runs (module docstring).
 
     Args:
@@ -241,9 +243,11 @@ def fit_robot(runs: list[Run], twin: Twin, tracker_errors: bool = False) -> Robo
         twin: The twin (its robot's K_q is the prior).
         tracker_errors: Also fit each run's tracker rotation and lateness (`tracker_columns`), and keep a joint
             the runs cannot observe in the fit with its prior's spread (`fit_rows`' `keep_unobserved`).
+        turned: With `tracker_errors`; False: the lateness alone, the joints the runs cannot observe held (free,
+            a wrist joint trades with joint 1 as a late tracker's reading does on a cone).
     """
-    return fit_rows([robot_rows(run, twin, tracker_errors) for run in runs], twin.joint_stiffness,
-                    twin.joint_friction, twin.spec.servo, keep_unobserved=tracker_errors)
+    return fit_rows([robot_rows(run, twin, tracker_errors, turned) for run in runs], twin.joint_stiffness,
+                    twin.joint_friction, twin.spec.servo, keep_unobserved=tracker_errors and turned)
 
 
 def fit_rows(rows: list[RobotRows], k0: np.ndarray, prior_friction_nm: np.ndarray,

@@ -41,6 +41,8 @@ class LearnRequest:
             carried in the model file for `replay --dynamic`.
         tracker_errors: Fit each run's tracker rotation and lateness beside the robot and carry the lateness as the
             tracker's clock (`twin.analysis.learn.cell.learn`).
+        tracker_turned: With `tracker_errors`; False: its lateness alone, the joints the runs cannot observe held
+            (`learn --tracker-late`).
     """
 
     runs: tuple[Path, ...]
@@ -48,6 +50,7 @@ class LearnRequest:
     write_model: Path | None = None
     dynamic: bool = False
     tracker_errors: bool = False
+    tracker_turned: bool = True
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "runs", tuple(self.runs))
@@ -139,8 +142,7 @@ class LearnReport(Report):
             lines.append(f"  dynamic mode's servo (fitted on the first run): bandwidth {servo.bandwidth_over_mode:.2f} x "
                          f"each joint's mode, damping {servo.damping_ratio:.2f}, delay {1e3 * servo.delay_s:.1f} ms, "
                          f"feed-forward {servo.feedforward:.2f}, load fed forward {servo.load_feedforward:.2f}, the arm "
-                         f"driven by {drive}; its "
-                         f"replay {fit.rms_rigid_mm:.3f} -> {fit.rms_mm:.3f} mm against a rigid servo")
+                         f"driven by {drive}; its replay {fit.rms_rigid_mm:.3f} -> {fit.rms_mm:.3f} mm against a rigid servo")
         if self.model_file is not None:
             lines.append(f"-> {self.model_file}")
         return lines
@@ -149,10 +151,6 @@ class LearnReport(Report):
         """The robot's and the sheet's fits, the springback's, and the gaps before, after and held out."""
         result = self.result
         robot, sheet = result.robot, result.sheet
-
-        def gaps(items: Any) -> list[dict[str, Any]]:
-            return [g._asdict() for g in items]
-
         spec = result.spec
         return {
             "fitted_for": {"robot": spec.robot.name, "placement": spec.placement.to_json(),
@@ -177,8 +175,8 @@ class LearnReport(Report):
                       "published_formula_validation_rms_n": sheet.prior_validation_rms_n,
                       "walls_rise_share": sheet.shape_share},
             "springback": None if result.springback is None else result.springback._asdict(),
-            "before": gaps(result.before), "after_fitted": gaps(result.after),
-            "held_out_predicted": gaps(result.held_out),
+            "before": [g._asdict() for g in result.before], "after_fitted": [g._asdict() for g in result.after],
+            "held_out_predicted": [g._asdict() for g in result.held_out],
             "floor": None if self.floor is None else self.floor.to_json(),
             "dynamic_servo": self.servo_refused if self.servo_fit is None else {
                 **self.servo_fit.servo.to_json(),
@@ -196,7 +194,7 @@ def learn_task(request: LearnRequest, note: Note = silent) -> LearnReport:
     """
     runs = [read_run(path) for path in request.runs]
     prior = read_model_file(request.model) if request.model is not None else None
-    result = learn(runs, prior, request.tracker_errors)
+    result = learn(runs, prior, request.tracker_errors, request.tracker_turned)
     servo_fit, refused = None, None
     if request.dynamic:
         from twin.analysis.learn.servo_fit import fit_servo
@@ -212,11 +210,11 @@ def learn_task(request: LearnRequest, note: Note = silent) -> LearnReport:
         note("learn: the floor the learned cell leaves on its own clean runs (each run held out)")
         floor = mean_floor([measure_floor(run, spec) for run, spec in zip(runs, result.held_specs, strict=True)])
     if request.write_model is not None:
-        names = ", ".join(str(p) for p in request.runs)
         write_model_file(request.write_model, result.spec,
                          protect=[*request.runs, *([request.model] if request.model is not None else [])],
-                         note=f"learned by `tx200-twin learn` from {names}: K_q, joint friction and the sheet's "
-                         "force model are fitted to those runs", floor=None if floor is None else floor.to_json())
+                         note=f"learned by `tx200-twin learn` from {', '.join(str(p) for p in request.runs)}: K_q, joint "
+                         "friction and the sheet's force model are fitted to those runs",
+                         floor=None if floor is None else floor.to_json())
     return LearnReport(result, request.write_model, _run_tool_mm(runs[0].meta), floor, servo_fit, refused)
 
 
@@ -247,13 +245,11 @@ def _springback_words(result: LearnResult) -> str:
     """The springback learned from the part profiles, or why none was."""
     spring = result.springback
     if spring is None:
-        return ("  springback: no part profile in the runs (a 3-D scan: `identify --springback RUN --design "
-                "STL`)")
+        return "  springback: no part profile in the runs (a 3-D scan: `identify --springback RUN --design STL`)"
     bound = f" (at its bound: {', '.join(spring.at_bound)})" if spring.at_bound else ""
     return (f"  springback (from the part profiles): recovery {spring.recovery_scale:.3f} x the model's "
             f"F/k_unload, depth kept {spring.depth_ratio:.3f}{bound}; profile "
-            + ", ".join(f"{a:.3f} -> {b:.3f} mm" for a, b in zip(spring.rms_before_mm, spring.rms_after_mm,
-                                                                  strict=True)))
+            + ", ".join(f"{a:.3f} -> {b:.3f} mm" for a, b in zip(spring.rms_before_mm, spring.rms_after_mm, strict=True)))
 
 
 def _gap(gap: Gap) -> str:
@@ -288,8 +284,9 @@ def _tracker_words(robot: RobotFit) -> str:
     """The tracker's errors the robot's fit took apart, in words (`learn --tracker-errors`: turned and late too)."""
     if not any(robot.rotation_mrad) and not robot.late_ms:
         return " (not a robot effect: a registration error of the tracker)"
-    return (f", turned ({', '.join(f'{v:.2f}' for v in robot.rotation_mrad)}) mrad, {robot.late_ms:.1f} ms late "
-            "(not robot effects: the tracker's registration and clock, or the robot's lag along the path)")
+    turned = f", turned ({', '.join(f'{v:.2f}' for v in robot.rotation_mrad)}) mrad" * any(robot.rotation_mrad)
+    return (f"{turned}, {robot.late_ms:.1f} ms late (not robot effects: the tracker's registration and clock, or the "
+            "robot's lag along the path)")
 
 
 def _servo_words(robot: RobotFit) -> str:
