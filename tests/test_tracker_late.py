@@ -38,7 +38,7 @@ def test_a_late_tracker_is_carried_as_its_clock_not_as_joint_1s_friction(tmp_pat
     late = np.stack([np.interp(t - LATE_S, t, run.tracker.values[:, a]) for a in range(3)], axis=1)
     edited = read_run(write_run(tmp_path / "late", replace(run, tracker=Stream(t, late))))
     on_time, plain, alone = learn([run]), learn([edited]), learn([edited], tracker_errors=True, turned=False)
-    # the default learner reads the lateness as joint 1's friction (and joint 5's spring softer); the lateness alone
+    # the default learner reads the lateness as joint 1's friction (and bends a spring); the lateness alone
     # is carried as the tracker's clock, the robot as it was learned from the run on time
     assert on_time.robot.friction_nm[0] < 20.0, on_time.robot.friction_nm
     assert plain.robot.friction_nm[0] > 100.0, plain.robot.friction_nm

@@ -1,32 +1,31 @@
 """The robot learned from a cell's runs: the compliance of every joint a run excites, its friction, its servo.
 
-Driven by the measured forces, a compliant arm's tool tip leaves the unloaded one by δp(t) = Σ_j c_j · J_j(q) ·
-(J_j(q)ᵀ F(t)) (J_j the tool tip's translational Jacobian column of joint j, c_j its compliance [rad/(N·m)]): linear
-in the c_j, whatever the part and whatever the robot. The tracker gives δp (its reading minus the twin's unloaded tool
-tip), the F/T sensor F. So the c_j come from one regularised least squares over the runs, each pulled towards the
-robot's prior 1/K_q with a prior spread of `PRIOR_SPREAD` (a Gaussian prior; the posterior's standard deviations are
-the uncertainties). A joint whose posterior spread is not below `OBSERVABLE_RATIO` of its prior spread is one the runs
-cannot observe: it is named and held at its prior in the twin, and in the fit (with `keep_unobserved` it keeps its
-prior's spread there instead: held, its prior's error goes to a joint whose column is nearly collinear with its own,
-with a spread that does not say so; with the tool vertical and the forearm level, joints 1 and 4 turn the tip alike,
-and with joint 4 held a groove's joint 1 came out far from the cell's K_q at a spread that called it learned). One the
-fit pulls outside `stick_slip.COMPLIANCE_RANGE` of its prior (a quarter to four times its compliance: no gear of the
-class is there, the fit is pulled by what its columns lack, and clipping it there would push its share onto its
-neighbours) is held in the fit as well. Beside the gear spring the same solve fits what a real arm adds: each joint's
-Coulomb friction against its motion (a deflection J_j·c_j·τ_f,j that flips with the sign of the joint's speed: a
-column kept free in the spring's fit whatever its sign, since a deflection that leads the joint's motion is a real
-cell's too, and only its non-negative part is the friction the twin takes), the servo's transient compliance c_s,j on
-the force's high-pass F − lag_τ(F) (`twin.sim.servo`: the position loop gives way while the force changes and recovers
-over τ, picked on a grid by the least residual), and per run the tracker's own errors: a constant offset per axis and,
-with `tracker_errors` (`learn --tracker-errors`), its registration's rotation about the sheet origin and a lateness
-(`tracker_columns`: the tracker's latency, or the robot's lag along the path, both read the tip a velocity times a
-time behind; `learn --tracker-late`: the lateness alone). Without them a registration's tilt goes into joint 1 and a
-few milliseconds of lateness into a friction (joints 2 and 3's on a groove, joint 1's on a cone); with them a lag of
-the robot along the path is the tracker's, and no compensation takes it. They are reported, not put into the robot; the model carries the registration as the
-instruments' (`twin.analysis.learn.instruments`). That linear fit is the start: the observable joints' springs and
-friction are then refined as the twin's equilibrium holds them, a friction that sticks
-(`twin.analysis.learn.stick_slip`), which is what their stated spread is of. `truth.json` is never read.
-"""
+Driven by the measured forces, a compliant arm's tool tip leaves the unloaded one by δp(t) = Σ_j c_j · J_j(q) · (J_j(q)ᵀ
+F(t)) (J_j the tool tip's translational Jacobian column of joint j, c_j its compliance [rad/(N·m)]): linear in the c_j,
+whatever the part and whatever the robot. The tracker gives δp (its reading minus the twin's unloaded tool tip), the F/T
+sensor F. So the c_j come from one regularised least squares over the runs, each pulled towards the robot's prior 1/K_q
+with a prior spread of `PRIOR_SPREAD` (a Gaussian prior; the posterior's standard deviations are the uncertainties). A
+joint whose posterior spread is not below `OBSERVABLE_RATIO` of its prior spread is one the runs cannot observe: it is
+named and held at its prior in the twin, and in the fit (with `keep_unobserved` it keeps its prior's spread there
+instead: held, its prior's error goes to a joint whose column is nearly collinear with its own, with a spread that does
+not say so; with the tool vertical and the forearm level, joints 1 and 4 turn the tip alike, and with joint 4 held a
+groove's joint 1 came out far from the cell's K_q at a spread that called it learned). One the fit pulls outside
+`stick_slip.COMPLIANCE_RANGE` of its prior (a quarter to four times its compliance: no gear of the class is there, the
+fit is pulled by what its columns lack, and clipping it there would push its share onto its neighbours) is held in the
+fit as well. Beside the gear spring the same solve fits what a real arm adds: each joint's Coulomb friction against its
+motion (a deflection J_j·c_j·τ_f,j that flips with the sign of the joint's speed: a column kept free in the spring's fit
+whatever its sign, since a deflection that leads the joint's motion is a real cell's too, and only its non-negative part
+is the friction the twin takes), the servo's transient compliance c_s,j on the force's high-pass F − lag_τ(F)
+(`twin.sim.servo`: the position loop gives way while the force changes and recovers over τ, picked on a grid by the
+least residual), and per run the tracker's own errors: a constant offset per axis and, with `tracker_errors` (`learn
+--tracker-errors`), its registration's rotation about the sheet origin and a lateness (`tracker_columns`: the tracker's
+latency, or the robot's lag along the path, both read the tip a velocity times a time behind; `learn --tracker-late`:
+the lateness alone). Without them a registration's tilt goes into joint 1 and a few milliseconds of lateness into a
+friction (joints 2 and 3's on a groove, joint 1's on a cone); with them a lag of the robot along the path is the
+tracker's, and no compensation takes it. They are reported, not put into the robot; the model carries the registration
+as the instruments' (`twin.analysis.learn.instruments`). That linear fit is the start: the observable joints' springs
+and friction are then refined as the twin's equilibrium holds them, a friction that sticks
+(`twin.analysis.learn.stick_slip`), which is what their stated spread is of. `truth.json` is never read."""
 
 from __future__ import annotations
 
