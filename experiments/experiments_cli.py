@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import argparse
 import json
 from contextlib import redirect_stdout
 from io import StringIO
@@ -27,6 +28,19 @@ def cli_json(*argv: str) -> dict[str, Any]:
     if code not in (0, 1):
         raise SystemExit(f"`tx200-twin {' '.join(argv)}` exited with {code}")
     return dict(json.loads(out.getvalue()))
+
+
+def add_tracker_options(parser: argparse.ArgumentParser) -> None:
+    """`learn`'s tracker options, one at most: `--tracker-errors` (its turn and lateness beside the robot) or
+    `--tracker-late` (its lateness alone); `tracker_options` gives them back as `learn` arguments."""
+    tracker = parser.add_mutually_exclusive_group()
+    tracker.add_argument("--tracker-errors", action="store_true", help="learn with `learn --tracker-errors`")
+    tracker.add_argument("--tracker-late", action="store_true", help="learn with `learn --tracker-late`")
+
+
+def tracker_options(args: argparse.Namespace) -> tuple[str, ...]:
+    """The `learn` arguments of `add_tracker_options`' options as given."""
+    return ("--tracker-errors",) if args.tracker_errors else ("--tracker-late",) if args.tracker_late else ()
 
 
 def write_between_markers(doc: Path, marker: str, text: str) -> None:

@@ -22,7 +22,14 @@ from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 from typing import Any
 
-from experiments_cli import cli, cli_json, write_between_markers, write_study
+from experiments_cli import (
+    add_tracker_options,
+    cli,
+    cli_json,
+    tracker_options,
+    write_between_markers,
+    write_study,
+)
 
 from twin.lab.dynamic.knobs import Knobs
 from twin.lab.dynamic.run import run_dynamic_lab
@@ -212,15 +219,12 @@ def main() -> None:
                         help="a plant knob for every run (repeat), e.g. sheet_law=2")
     parser.add_argument("--reuse", action="store_true", help="keep the runs an earlier call left that do not depend on "
                         "the learned model")
-    tracker = parser.add_mutually_exclusive_group()
-    tracker.add_argument("--tracker-errors", action="store_true", help="learn with --tracker-errors")
-    tracker.add_argument("--tracker-late", action="store_true", help="learn with --tracker-late")
+    add_tracker_options(parser)
     args = parser.parse_args()
     rows = []
     for name in args.variants.split(","):
         rows.append(variant_study(args.out / name, name, tuple(args.plant_set), args.reuse,
-                                  ("--tracker-errors",) if args.tracker_errors else
-                                  ("--tracker-late",) if args.tracker_late else ()))
+                                  tracker_options(args)))
         print(table(rows[-1:]).splitlines()[-1], flush=True)
     (args.out / "learn_cell.json").write_text(json.dumps(rows, indent=1, default=str))
     (args.out / "learn_cell.md").write_text(table(rows))

@@ -36,7 +36,7 @@ from pathlib import Path
 from typing import Any, NamedTuple
 
 import numpy as np
-from experiments_cli import cli, cli_json, write_between_markers
+from experiments_cli import add_tracker_options, cli, cli_json, tracker_options, write_between_markers
 from online_study import _residual, true_tip_miss_mm
 
 LEARN_FROM = ["--shape", "cone", "--top-width-mm", "60", "--depth-mm", "10"]
@@ -198,14 +198,10 @@ def main() -> None:
     parser.add_argument("--plant-set", action="append", default=[], metavar="NAME=VALUE",
                         help="a plant knob added to every run, repeatable")
     parser.add_argument("--marker", default="online-other-part", help="the page's markers (default: %(default)s)")
-    tracker = parser.add_mutually_exclusive_group()
-    tracker.add_argument("--tracker-errors", action="store_true",
-                         help="learn with `learn --tracker-errors` (the tracker's turn and lateness beside the robot)")
-    tracker.add_argument("--tracker-late", action="store_true",
-                         help="learn with `learn --tracker-late` (the tracker's lateness alone beside the robot)")
+    add_tracker_options(parser)
     args = parser.parse_args()
     plant_set = tuple(args.plant_set)
-    learn_args = ("--tracker-errors",) if args.tracker_errors else ("--tracker-late",) if args.tracker_late else ()
+    learn_args = tracker_options(args)
     rows = [row for robot in args.robots.split(",") for row in robot_study(args.out / robot, robot, plant_set,
                                                                              learn_args)]
     (args.out / "online_other_part.json").write_text(json.dumps(rows, indent=1))

@@ -5,9 +5,10 @@ learned K_q and stated spread are set against the plant's (`truth.json`). Prints
 the observed joints within two stated spreads of the plant's, with a spread of at most 15 % (issue #48's target),
 and at the bound of the learner's range. Writes OUT (JSON):
 
-    .venv/bin/python experiments/robot_learning_cells.py WORK OUT [--tracker-errors]
+    .venv/bin/python experiments/robot_learning_cells.py WORK OUT [--tracker-errors | --tracker-late]
 
-`--tracker-errors`: `learn --tracker-errors` (each run's tracker rotation and lateness fitted beside the robot).
+`--tracker-errors` (`--tracker-late`): `learn --tracker-errors` (`--tracker-late`): each run's tracker rotation and
+lateness (its lateness alone) fitted beside the robot.
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from experiments_cli import cli_json
+from experiments_cli import add_tracker_options, cli_json, tracker_options
 
 from twin.analysis.learn.stick_slip import COMPLIANCE_RANGE
 
@@ -52,11 +53,11 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("work", type=Path)
     parser.add_argument("out", type=Path)
-    parser.add_argument("--tracker-errors", action="store_true", help="learn with --tracker-errors")
+    add_tracker_options(parser)
     args = parser.parse_args()
     rows = []
     for cell in sorted(p.parent for p in args.work.glob("*/*/clean1")):
-        row = cell_row(cell, *(["--tracker-errors"] if args.tracker_errors else []))
+        row = cell_row(cell, *tracker_options(args))
         rows.append(row)
         joints = " ".join(f"{'*' if seen else ' '}{1e-6 * k:.2f}/{1e-6 * p:.2f}({s / k:.0%})" for k, s, p, seen in
                           zip(row["k"], row["std"], row["plant"], row["observable"], strict=True))

@@ -156,7 +156,7 @@ def _cone_rows(late_s: float, turned: bool | None) -> RobotRows:
 
 def test_a_late_tracker_alone_is_carried_without_bending_the_springs() -> None:
     # `learn --tracker-late`: the lateness column alone (the rotation's left out), the unobserved joints held; a
-    # reading 6 ms late is carried as such, where the default fit bends joint 1's spring by more than half
+    # reading 6 ms late is carried as such, where the default fit bends a spring (joint 1's) by more than half
     alone = fit_rows([_cone_rows(0.006, False)], K0, np.zeros(3), None)
     assert 5.0 <= alone.late_ms <= 7.0 and not any(alone.rotation_mrad)
     assert alone.k_q_nm_per_rad * TRUE / K0 == pytest.approx(np.ones(3), abs=0.25)

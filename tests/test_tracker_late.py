@@ -31,8 +31,8 @@ LATE_S = 0.006
 def test_a_late_tracker_is_carried_as_its_clock_not_as_joint_1s_friction(tmp_path: Path) -> None:
     cli_out(["path", "--shape", "cone", "--top-width-mm", "60", "--depth-mm", "10", "--robot", "irb6640",
              "--out", str(tmp_path / "cone.csv")])
-    cli_out(["lab", "--plant", "dynamic", "--neutral", "--scenario", "nominal", "--commanded", str(tmp_path / "cone.csv"),
-             "--seed", "1", "--robot", "irb6640", "--out", str(tmp_path / "run")])
+    cli_out(["lab", "--plant", "dynamic", "--neutral", "--scenario", "nominal", "--commanded",
+             str(tmp_path / "cone.csv"), "--seed", "1", "--robot", "irb6640", "--out", str(tmp_path / "run")])
     run = read_run(tmp_path / "run")
     t = run.tracker.t_s
     late = np.stack([np.interp(t - LATE_S, t, run.tracker.values[:, a]) for a in range(3)], axis=1)
@@ -67,4 +67,6 @@ def test_the_option_asks_for_the_lateness_alone_and_not_with_tracker_errors(tmp_
     refused(["learn", str(tmp_path), "--tracker-late"], capsys, "asked")
     refused(["learn", str(tmp_path), "--tracker-errors"], capsys, "asked")
     refused(["learn", str(tmp_path)], capsys, "asked")
-    assert [(r.tracker_errors, r.tracker_turned) for r in asked] == [(True, False), (True, True), (False, True)]
+    assert [(r.tracker_errors, r.tracker_late) for r in asked] == [(False, True), (True, False), (False, False)]
+    with pytest.raises(InputError, match="tracker_errors and tracker_late"):
+        learn_task_module.LearnRequest((tmp_path,), tracker_errors=True, tracker_late=True)

@@ -31,5 +31,5 @@ def run(args: argparse.Namespace) -> int:
     from twin.apps.tasks.learn import LearnRequest, learn_task
 
     report = learn_task(LearnRequest(tuple(args.runs), args.model, args.write_model, args.dynamic,
-                                     args.tracker_errors or args.tracker_late, not args.tracker_late))
+                                     args.tracker_errors, args.tracker_late))
     return finish(args, report, protect=(*args.runs, args.model))

@@ -145,7 +145,8 @@ def learn(runs: list[Run], spec: TwinSpec | None = None, tracker_errors: bool = 
     declared = [declared_process(run) for run in runs] if spec is None else [spec.process] * len(runs)
     spec = (spec or TwinSpec(robot=robot, process=declared[0])).replace(placement=placement, tool=tools[0])
     one_sheet = all(process == declared[0] for process in declared)
-    learned, robot_fit, sheet_fit, springback_fit = learned_spec(runs, spec, tracker_errors, declared, one_sheet, turned)
+    learned, robot_fit, sheet_fit, springback_fit = learned_spec(runs, spec, tracker_errors, declared, one_sheet,
+                                                                 turned)
     before = tuple(replay_gap(run, spec.replace(process=process)) for run, process in zip(runs, declared, strict=True))
     after = tuple(replay_gap(run, learned) for run in runs)
     held: list[Gap] = []

@@ -41,8 +41,8 @@ class LearnRequest:
             carried in the model file for `replay --dynamic`.
         tracker_errors: Fit each run's tracker rotation and lateness beside the robot and carry the lateness as the
             tracker's clock (`twin.analysis.learn.cell.learn`).
-        tracker_turned: With `tracker_errors`; False: its lateness alone, the joints the runs cannot observe held
-            (`learn --tracker-late`).
+        tracker_late: Fit each run's tracker lateness alone beside the robot, the joints the runs cannot observe
+            held, and carry it as the tracker's clock (`learn --tracker-late`; not with `tracker_errors`).
     """
 
     runs: tuple[Path, ...]
@@ -50,7 +50,7 @@ class LearnRequest:
     write_model: Path | None = None
     dynamic: bool = False
     tracker_errors: bool = False
-    tracker_turned: bool = True
+    tracker_late: bool = False
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "runs", tuple(self.runs))
@@ -60,6 +60,8 @@ class LearnRequest:
         if twice is not None:
             raise InputError(f"run {twice[0]} given twice (as {twice[0]} and {twice[1]}): give each run once (a run "
                              "given twice is learned twice and, with two runs, held out from itself)")
+        if self.tracker_errors and self.tracker_late:
+            raise InputError("tracker_errors and tracker_late: expected one (the second is the first's lateness)")
 
 
 @dataclass(frozen=True)
@@ -128,8 +130,7 @@ class LearnReport(Report):
                 " WORSE: the learned twin replays the run it learned from worse than the declared one; do not "
                 "compensate with it, look for an effect the learner has no term for (`tx200-twin discrepancy`)"
                 if worse else ""))
-        for held in result.held_out:
-            lines.append(f"  left out {held.run}: {_gap(held)} (predicted: learned from the other runs)")
+        lines += [f"  left out {h.run}: {_gap(h)} (predicted: learned from the other runs)" for h in result.held_out]
         if self.floor is not None:
             lines.append("  floor on its own clean runs (predicted; what `discrepancy --model` judges a change above): "
                          + ", ".join(f"{s} {v:.3g}" for s, v in self.floor.excess.items())
@@ -142,7 +143,8 @@ class LearnReport(Report):
             lines.append(f"  dynamic mode's servo (fitted on the first run): bandwidth {servo.bandwidth_over_mode:.2f} x "
                          f"each joint's mode, damping {servo.damping_ratio:.2f}, delay {1e3 * servo.delay_s:.1f} ms, "
                          f"feed-forward {servo.feedforward:.2f}, load fed forward {servo.load_feedforward:.2f}, the arm "
-                         f"driven by {drive}; its replay {fit.rms_rigid_mm:.3f} -> {fit.rms_mm:.3f} mm against a rigid servo")
+                         f"driven by {drive}; its "
+                         f"replay {fit.rms_rigid_mm:.3f} -> {fit.rms_mm:.3f} mm against a rigid servo")
         if self.model_file is not None:
             lines.append(f"-> {self.model_file}")
         return lines
@@ -194,7 +196,7 @@ def learn_task(request: LearnRequest, note: Note = silent) -> LearnReport:
     """
     runs = [read_run(path) for path in request.runs]
     prior = read_model_file(request.model) if request.model is not None else None
-    result = learn(runs, prior, request.tracker_errors, request.tracker_turned)
+    result = learn(runs, prior, request.tracker_errors or request.tracker_late, not request.tracker_late)
     servo_fit, refused = None, None
     if request.dynamic:
         from twin.analysis.learn.servo_fit import fit_servo
@@ -210,11 +212,11 @@ def learn_task(request: LearnRequest, note: Note = silent) -> LearnReport:
         note("learn: the floor the learned cell leaves on its own clean runs (each run held out)")
         floor = mean_floor([measure_floor(run, spec) for run, spec in zip(runs, result.held_specs, strict=True)])
     if request.write_model is not None:
+        names = ", ".join(str(p) for p in request.runs)
         write_model_file(request.write_model, result.spec,
                          protect=[*request.runs, *([request.model] if request.model is not None else [])],
-                         note=f"learned by `tx200-twin learn` from {', '.join(str(p) for p in request.runs)}: K_q, joint "
-                         "friction and the sheet's force model are fitted to those runs",
-                         floor=None if floor is None else floor.to_json())
+                         note=f"learned by `tx200-twin learn` from {names}: K_q, joint friction and the sheet's "
+                         "force model are fitted to those runs", floor=None if floor is None else floor.to_json())
     return LearnReport(result, request.write_model, _run_tool_mm(runs[0].meta), floor, servo_fit, refused)
 
 
@@ -249,7 +251,8 @@ def _springback_words(result: LearnResult) -> str:
     bound = f" (at its bound: {', '.join(spring.at_bound)})" if spring.at_bound else ""
     return (f"  springback (from the part profiles): recovery {spring.recovery_scale:.3f} x the model's "
             f"F/k_unload, depth kept {spring.depth_ratio:.3f}{bound}; profile "
-            + ", ".join(f"{a:.3f} -> {b:.3f} mm" for a, b in zip(spring.rms_before_mm, spring.rms_after_mm, strict=True)))
+            + ", ".join(f"{a:.3f} -> {b:.3f} mm" for a, b in zip(spring.rms_before_mm, spring.rms_after_mm,
+                                                                  strict=True)))
 
 
 def _gap(gap: Gap) -> str:
@@ -284,7 +287,7 @@ def _tracker_words(robot: RobotFit) -> str:
     """The tracker's errors the robot's fit took apart, in words (`learn --tracker-errors`: turned and late too)."""
     if not any(robot.rotation_mrad) and not robot.late_ms:
         return " (not a robot effect: a registration error of the tracker)"
-    turned = f", turned ({', '.join(f'{v:.2f}' for v in robot.rotation_mrad)}) mrad" * any(robot.rotation_mrad)
+    turned = f", turned ({', '.join(f'{v:.2f}' for v in robot.rotation_mrad)}) mrad" if any(robot.rotation_mrad) else ""
     return (f"{turned}, {robot.late_ms:.1f} ms late (not robot effects: the tracker's registration and clock, or the "
             "robot's lag along the path)")
 
