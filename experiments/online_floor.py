@@ -34,7 +34,14 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from online_other_part import ONLINE_LIMIT_MM, learn_cone, learned_online_miss, per_robot_main, target_ideal
+from online_other_part import (
+    ONLINE_LIMIT_MM,
+    ONLINE_RATE_MM_S,
+    learn_cone,
+    learned_online_miss,
+    per_robot_main,
+    target_ideal,
+)
 from online_study import rms_mm
 
 from twin.analysis.check import ideal_times
@@ -129,7 +136,8 @@ def _part_floor(out: Path, robot: str, model: Path, part: str,
     t_plain, tip_plain, air_nominal = _air_run(robot, ideal, None)
     plain[part] = (t_plain, tip_plain)
     row["air_nominal"] = rms_mm(air_nominal)
-    air_online = _air_run(robot, ideal, OnlineCompensator(spec, OnlineSettings(max_correction_mm=ONLINE_LIMIT_MM)))[2]
+    settings = OnlineSettings(max_correction_mm=ONLINE_LIMIT_MM, max_rate_mm_s=ONLINE_RATE_MM_S)
+    air_online = _air_run(robot, ideal, OnlineCompensator(spec, settings))[2]
     row["air_online"] = rms_mm(air_online)  # as lab_run's online runs
     if air_online.shape != misses["online"].shape:
         raise SystemExit(f"{robot} {part}: the runs on the sheet and in air have different tracker samples")

@@ -118,3 +118,20 @@ def test_another_robot_than_the_cells_does_not_take_its_controller(tmp_path: Pat
     args = argparse.Namespace(cell=cell, robot=None, tool_number=None, max_correction_mm=None, online=True)
     apply_cell(args)
     assert args.tool_number == 7 and args.max_correction_mm == 8.0 and args.cell_record["controller"]["tool_number"] == 7
+
+
+def test_the_cells_rate_limit_is_the_online_labs_and_the_flag_overrides_it(tmp_path: Path) -> None:
+    """`lab --online`: the compensator takes the cell's `max_rate_mm_s` as the server does, `--max-rate-mm-s` over
+    it; without `--online` the flag is refused (it would limit nothing)."""
+    cell = tmp_path / "cell.toml"
+    cell.write_text('format = "tx200-twin-cell/1"\nrobot = "tx200"\n[controller]\nmax_rate_mm_s = 35.0\n')
+    cone = tmp_path / "cone.csv"
+    assert main(["path", "--shape", "cone", "--top-width-mm", "30", "--depth-mm", "1", "--out", str(cone)]) == 0
+    lab = ["lab", "--plant", "dynamic", "--scenario", "nominal", "--seed", "1", "--commanded", str(cone)]
+    assert main([*lab, "--online", "--cell", str(cell), "--out", str(tmp_path / "a")]) == 0
+    assert json.loads((tmp_path / "a" / "meta.json").read_text())["online"]["settings"]["max_rate_mm_s"] == 35.0
+    assert main([*lab, "--online", "--cell", str(cell), "--max-rate-mm-s", "80", "--out", str(tmp_path / "b")]) == 0
+    assert json.loads((tmp_path / "b" / "meta.json").read_text())["online"]["settings"]["max_rate_mm_s"] == 80.0
+    assert main([*lab, "--max-rate-mm-s", "80", "--out", str(tmp_path / "c")]) == 2
+    assert main([*lab, "--online", "--max-rate-mm-s", "0", "--out", str(tmp_path / "d")]) == 2
+    assert not (tmp_path / "c").exists() and not (tmp_path / "d").exists()

@@ -24,12 +24,18 @@ def _rows() -> dict[tuple[str, str], dict[str, float]]:
 def test_the_words_on_the_online_floor_are_its_table() -> None:
     rows = _rows()
     # the page's numbers first (a guard before the claims)
-    sensor = quoted("online.md", "A perfect sensor takes little off (from", 6)
+    sensor = quoted("online.md", "A perfect sensor changes the pyramids' miss by little (from", 6)
     for k, robot in enumerate(ROBOTS):
         sensor[2 * k].check(rows[(robot, "pyramid")]["online"])
         sensor[2 * k + 1].check(rows[(robot, "pyramid")]["perfect"])
+    sensor_grooves = quoted("online.md", "On the grooves it moves the first robot's from", 6)
+    for k, robot in enumerate(("tx200", "irb6640")):
+        sensor_grooves[2 * k].check(rows[(robot, "groove")]["online"])
+        sensor_grooves[2 * k + 1].check(rows[(robot, "groove")]["perfect"])
+    sensor_grooves[4].check(rows[("kr210", "groove")]["online"])
+    sensor_grooves[5].check(rows[("kr210", "groove")]["perfect"])
     air = quoted("online.md", "misses the pyramid online by", 3)
-    groove = quoted("online.md", "where the controller stops at the corners, and the groove by", 5)
+    groove = quoted("online.md", "where the controller stops at the corners, and the groove\nby", 5)
     step = quoted("online.md", "90 % of a step after", 6)
     kr_pyramid = quoted("online.md", "on every row but the KR 210's pyramid (", 2)
     oracle = quoted("online.md", "the arm's own miss would leave the pyramids at", 6)
@@ -46,13 +52,12 @@ def test_the_words_on_the_online_floor_are_its_table() -> None:
     kr_pyramid[1].check(rows[("kr210", "pyramid")]["air_nominal"])
     for (robot, part), r in rows.items():
         if part == "pyramid":
-            # "takes little off": a perfect sensor lowers the pyramid's miss by under a tenth
-            assert 0.0 <= r["online"] - r["perfect"] < 0.1 * r["online"], (robot, r)
+            # "changes the pyramids' miss by little": a perfect sensor moves it by under a tenth
+            assert abs(r["online"] - r["perfect"]) < 0.1 * r["online"], (robot, r)
             # the arm's own miss in air is a large share of what is left online (the floor the force cannot lower)
             assert r["air_online"] > 0.4 * r["online"], (robot, r)
-        else:
-            # "moves each groove's miss by under a fifth"
-            assert abs(r["online"] - r["perfect"]) < 0.2 * r["online"], (robot, r)
+        elif robot != "kr210":  # "the sensor is not what stops them": at most a fifth and a bit off, or worse
+            assert r["online"] - r["perfect"] < 0.25 * r["online"], (robot, r)
         # "the joints' friction more than their servo": under a third with it off, but the KR 210's pyramid
         share = r["air_no_friction"] / r["air_nominal"]
         assert share < (1.0 if (robot, part) == ("kr210", "pyramid") else 1.0 / 3.0), (robot, part, r)
@@ -69,9 +74,7 @@ def test_the_words_on_the_online_floor_are_its_table() -> None:
     assert sum(rows[(robot, "groove")]["oracle"] <= 0.10 for robot in ROBOTS) <= 1
     for robot in ("kr210", "irb6640"):  # "on their pyramids most of what is left online is the arm's own miss"
         assert rows[(robot, "pyramid")]["air_online"] > 0.5 * rows[(robot, "pyramid")]["online"], robot
-    for robot in ("tx200", "irb6640"):  # "about four fifths of what the first and the third robot's pyramids do"
-        r = rows[(robot, "pyramid")]
-        assert 0.75 <= r["air_online"] / r["online"] <= 0.85, (robot, r)
-    for robot in ("tx200", "irb6640"):  # "about seven tenths of what the grooves miss online"
-        r = rows[(robot, "groove")]
-        assert 0.65 <= r["air_online"] / r["online"] <= 0.8, (robot, r)
+    for robot in ("tx200", "irb6640"):  # "about four fifths of what the first and the third robot's grooves and
+        for part in PARTS:  # pyramids miss online"
+            r = rows[(robot, part)]
+            assert 0.75 <= r["air_online"] / r["online"] <= 0.85, (robot, part, r)

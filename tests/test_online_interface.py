@@ -280,8 +280,8 @@ def test_the_pages_words_on_another_part_on_the_second_sheet_law_are_its_table()
     for robot in ROBOTS[1:]:
         for part in ("cone 80 x 8", "pyramid"):  # better with its offline command under it
             assert true[(robot, part)][BOTH_L] < true[(robot, part)][ON_L], (robot, part)
-        assert true[(robot, "groove")][BOTH_L] > 1.2 * true[(robot, "groove")][ON_L]  # worse
-    assert min(true[("tx200", "groove")][c] for c in (OFF_L, BOTH_L)) > 3.5 * true[("tx200", "groove")][ON_L]
+        assert true[(robot, "groove")][BOTH_L] > 1.1 * true[(robot, "groove")][ON_L]  # worse
+    assert min(true[("tx200", "groove")][c] for c in (OFF_L, BOTH_L)) > 4.0 * true[("tx200", "groove")][ON_L]
 
 
 def test_the_pages_words_on_the_second_sheet_law_are_its_table() -> None:

@@ -18,7 +18,7 @@ from twin.cli._common import (
 )
 from twin.cli._types import seed
 from twin.sim.effects import EFFECTS
-from twin.sim.online_settings import MAX_CORRECTION_HELP
+from twin.sim.online_settings import MAX_CORRECTION_HELP, MAX_RATE_HELP
 
 HELP = "Run the virtual lab (richer plant, noise, hidden effects) and write a measured run."
 
@@ -45,6 +45,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         "each 4 ms cycle with the twin's compensator on the plant's F/T stream (docs/online.md)")
     parser.add_argument("--model", type=Path, help="with --online: the compensator's twin (a `learn`ed model file)")
     parser.add_argument("--max-correction-mm", type=float, metavar="MM", help=MAX_CORRECTION_HELP)
+    parser.add_argument("--max-rate-mm-s", type=float, metavar="MM_S", help=MAX_RATE_HELP)
     parser.add_argument("--seed", type=seed, required=True, help="seed of the lab's noise")
     add_force_model_argument(parser)
     add_process_arguments(parser)
@@ -63,6 +64,6 @@ def run(args: argparse.Namespace) -> int:
         args.scenario, args.out, args.seed, args.commanded, tuple(args.effect or ()), args.plant,
         tuple(args.set or ()), args.neutral, args.force_model, process_declaration(args), args.robot,
         placement_from(args), args.overwrite, args.online, args.model, getattr(args, "cell_record", None),
-        args.max_correction_mm,
+        args.max_correction_mm, args.max_rate_mm_s,
     )
     return finish(args, lab_task(request, note), protect=(args.commanded, args.process, args.model))

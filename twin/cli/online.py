@@ -15,8 +15,7 @@ from twin.cli._common import (
     placement_given,
 )
 from twin.cli._types import finite
-from twin.robot.controller import DEFAULT_MAX_RATE_MM_S
-from twin.sim.online_settings import MAX_CORRECTION_HELP
+from twin.sim.online_settings import MAX_CORRECTION_HELP, MAX_RATE_HELP
 
 HELP = ("Serve the online compensator over a robot's real-time interface (KUKA RSI, ABB EGM, Stäubli VAL3 alter), for a bounded time; "
         "the F/T from the robot's packets or the sensor's RDT stream.")
@@ -45,10 +44,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "program is started after the twin; a session that answered none exits 1)")
     parser.add_argument("--idle-timeout-s", type=finite, default=5.0,
                         help="stop when no packet was answered this long after the last one [s]")
-    parser.add_argument("--max-rate-mm-s", type=finite,
-                        help="largest rate of change of the correction [mm/s]: per second of the controller's clock "
-                             "and of this computer's, not per packet (a burst of packets moves it no faster; "
-                             f"default: a --cell's controller.max_rate_mm_s, else {DEFAULT_MAX_RATE_MM_S:g})")
+    parser.add_argument("--max-rate-mm-s", type=finite, metavar="MM_S", help=MAX_RATE_HELP)
     parser.add_argument("--max-correction-mm", type=float, metavar="MM", help=MAX_CORRECTION_HELP)
     parser.add_argument("--guidance", type=Path, metavar="FILE", help="--serve egm: stream the path of this table "
                         "(NAME_egm_pose.csv of `export --online`: EGM position guidance); without it, path correction")

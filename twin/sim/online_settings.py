@@ -10,7 +10,12 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from twin.errors import InputError
-from twin.robot.controller import DEFAULT_MAX_CORRECTION_MM, DEFAULT_MAX_RATE_MM_S, MAX_CORRECTION_LIMIT_MM
+from twin.robot.controller import (
+    DEFAULT_MAX_CORRECTION_MM,
+    DEFAULT_MAX_RATE_MM_S,
+    MAX_CORRECTION_LIMIT_MM,
+    MAX_RATE_MM_S,
+)
 
 #: A correction within this of its size limit sits at it [mm] (`lab --online`'s share, a server's count).
 AT_LIMIT_MM = 1e-3
@@ -26,6 +31,20 @@ def check_max_correction_mm(value: float, option: str = "--max-correction-mm", o
         raise InputError(f"{option} {value!r}: expected the correction's size limit in mm, a finite number > 0 and at "
                          f"most {MAX_CORRECTION_LIMIT_MM:g} (default {OnlineSettings.max_correction_mm:g})")
     if value != OnlineSettings.max_correction_mm and not online:
+        raise InputError(f"{option} {value:g} without --online: it limits the online correction; expected --online "
+                         "with it")
+    return float(value)
+
+
+def check_max_rate_mm_s(value: float, option: str = "--max-rate-mm-s", online: bool = True) -> float:
+    """`value` as the correction's rate limit [mm/s], or an `InputError` naming `option`: a finite number > 0 and at
+    most `MAX_RATE_MM_S`; other than the default only where there is an online correction to limit (`online`)."""
+    if isinstance(value, bool) or not isinstance(value, int | float) or not (
+            math.isfinite(value) and 0.0 < value <= MAX_RATE_MM_S):
+        shown = repr(value) if isinstance(value, bool) or not isinstance(value, int | float) else f"{value:g}"
+        raise InputError(f"{option} {shown}: expected mm/s > 0 and <= {MAX_RATE_MM_S:g} (the correction's rate "
+                         f"limit; default {DEFAULT_MAX_RATE_MM_S:g})")
+    if value != DEFAULT_MAX_RATE_MM_S and not online:
         raise InputError(f"{option} {value:g} without --online: it limits the online correction; expected --online "
                          "with it")
     return float(value)
@@ -98,6 +117,7 @@ class OnlineSettings:
             raise InputError(f"online setting side_share = {self.side_share!r}: expected a share of the normal "
                              "force in [0, 1] (0: the correction across the travel taken in full)")
         check_max_correction_mm(self.max_correction_mm, "online setting max_correction_mm")
+        check_max_rate_mm_s(self.max_rate_mm_s, "online setting max_rate_mm_s")
         if self.gain > 1.5:
             raise InputError(f"online setting gain = {self.gain!r}: expected at most 1.5 (1: the whole deflection)")
 
@@ -117,6 +137,10 @@ class OnlineSettings:
                          float(self.feed_turns)])
 
 
+#: `--max-rate-mm-s`'s help (`lab --online`, `online`).
+MAX_RATE_HELP = ("largest rate of change of the online correction [mm/s]: per second of the controller's clock and of "
+                 "this computer's, not per packet (a burst of packets moves it no faster; default: a --cell's "
+                 f"controller.max_rate_mm_s, else {DEFAULT_MAX_RATE_MM_S:g})")
 #: `--max-correction-mm`'s help (`lab --online`, `export --online`, `online`).
 MAX_CORRECTION_HELP = (f"the online correction's size limit [mm] (default: a --cell's controller.max_correction_mm, else "
                        f"{OnlineSettings.max_correction_mm:g}): the "

@@ -27,7 +27,7 @@ from twin.process.toolpath.placement import Placement
 from twin.runs.read import lab_commanded
 from twin.runs.write import write_run
 from twin.sim.effects import Effects, parse_effect_args
-from twin.sim.online_settings import OnlineSettings, check_max_correction_mm
+from twin.sim.online_settings import OnlineSettings, check_max_correction_mm, check_max_rate_mm_s
 from twin.sim.spec import TwinSpec
 
 SCENARIOS = ("nominal", "compensated", "loadtest", "cnc")
@@ -59,6 +59,9 @@ class LabRequest:
             its meta.json, or None.
         max_correction_mm: The online compensator's size limit on the correction [mm] (`--max-correction-mm`;
             with `online` only).
+        max_rate_mm_s: The online compensator's rate limit on the correction [mm/s] (`--max-rate-mm-s`; with
+            `online` only): a sheet's friction turning at a reversal steps the correction, which this limit spreads
+            over time.
     """
 
     scenario: str
@@ -78,9 +81,11 @@ class LabRequest:
     model: Path | None = None
     cell: Mapping[str, Any] | None = None
     max_correction_mm: float = OnlineSettings.max_correction_mm
+    max_rate_mm_s: float = OnlineSettings.max_rate_mm_s
 
     def __post_init__(self) -> None:
         check_max_correction_mm(self.max_correction_mm, online=self.online)
+        check_max_rate_mm_s(self.max_rate_mm_s, online=self.online)
         for option, value, valid in (("--scenario", self.scenario, SCENARIOS), ("--plant", self.plant,
                                                                                  tuple(LAB_PLANTS))):
             if value not in valid:

@@ -127,7 +127,8 @@ def dynamic_lab_task(request: LabRequest, note: Note = silent) -> Report:
     if request.online:  # the twin beside the controller, at the run's placement
         spec = resolve_spec(model=request.model, robot=robot, placement=request.placement, p_sheet_m=p_cmd,
                             cell=request.cell)
-        compensator = OnlineCompensator(spec, OnlineSettings(max_correction_mm=request.max_correction_mm),
+        compensator = OnlineCompensator(spec, OnlineSettings(max_correction_mm=request.max_correction_mm,
+                                                             max_rate_mm_s=request.max_rate_mm_s),
                                         assumed=assumed_forces(record, commanded))
     run, truth, log = run_dynamic_lab(
         commanded.t_s, p_cmd, scenario=request.scenario, knobs=knobs, seed=request.seed, progress=_NoteStream(note),

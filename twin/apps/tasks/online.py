@@ -22,8 +22,8 @@ from twin.analysis.resolve import resolve_spec
 from twin.apps.tasks.base import Note, Report, silent
 from twin.errors import InputError
 from twin.process.toolpath.placement import Placement
-from twin.robot.controller import DEFAULT_MAX_RATE_MM_S, MAX_RATE_MM_S
-from twin.sim.online_settings import OnlineSettings, check_max_correction_mm
+from twin.robot.controller import DEFAULT_MAX_RATE_MM_S
+from twin.sim.online_settings import OnlineSettings, check_max_correction_mm, check_max_rate_mm_s
 
 if TYPE_CHECKING:
     from twin.apps.online.cycle import ServeReport
@@ -169,8 +169,7 @@ class OnlineRequest:
         for option, value in (("--idle-timeout-s", self.idle_timeout_s), ("--start-timeout-s", self.start_timeout_s)):
             if not 0 < value <= MAX_IDLE_TIMEOUT_S:
                 raise InputError(f"{option} {value:g}: expected seconds > 0 and <= {MAX_IDLE_TIMEOUT_S:g}")
-        if not (math.isfinite(self.max_rate_mm_s) and 0 < self.max_rate_mm_s <= MAX_RATE_MM_S):
-            raise InputError(f"--max-rate-mm-s {self.max_rate_mm_s:g}: expected mm/s > 0 and <= {MAX_RATE_MM_S:g}")
+        check_max_rate_mm_s(self.max_rate_mm_s)
         self._check_ports(defaulted)
 
     def _check_ports(self, defaulted: bool) -> None:
