@@ -21,33 +21,33 @@ from twin.robot.controller import (
 AT_LIMIT_MM = 1e-3
 
 
-def check_max_correction_mm(value: float, option: str = "--max-correction-mm", online: bool = True) -> float:
-    """`value` as the correction's size limit [mm], or an `InputError` naming `option`: a finite number > 0 and at
-    most `MAX_CORRECTION_LIMIT_MM` (the controller's own limits, RSI's POSCORR, EGM's end tolerance, take it too);
-    other than the default only where there is an online correction to limit (`online`: a `lab` or `export`
-    without `--online` would ignore it)."""
-    if isinstance(value, bool) or not isinstance(value, int | float) or not (
-            math.isfinite(value) and 0.0 < value <= MAX_CORRECTION_LIMIT_MM):
-        raise InputError(f"{option} {value!r}: expected the correction's size limit in mm, a finite number > 0 and at "
-                         f"most {MAX_CORRECTION_LIMIT_MM:g} (default {OnlineSettings.max_correction_mm:g})")
-    if value != OnlineSettings.max_correction_mm and not online:
+def _limit(value: float, option: str, high: float, default: float, expected: str, online: bool,
+           number: str = "{!r}") -> float:
+    """`value` as a limit of the online correction, or an `InputError` naming `option` and `expected`: a finite
+    number > 0 and at most `high`; other than `default` only where there is an online correction to limit
+    (`online`: a `lab` or `export` without `--online` would ignore it). `number`: how a number is shown."""
+    is_number = not isinstance(value, bool) and isinstance(value, int | float)
+    if not (is_number and math.isfinite(value) and 0.0 < value <= high):
+        raise InputError(f"{option} {number.format(value) if is_number else repr(value)}: {expected}")
+    if value != default and not online:
         raise InputError(f"{option} {value:g} without --online: it limits the online correction; expected --online "
                          "with it")
     return float(value)
+
+
+def check_max_correction_mm(value: float, option: str = "--max-correction-mm", online: bool = True) -> float:
+    """`value` as the correction's size limit [mm] (`_limit`): at most `MAX_CORRECTION_LIMIT_MM` (the controller's
+    own limits, RSI's POSCORR, EGM's end tolerance, take it too)."""
+    return _limit(value, option, MAX_CORRECTION_LIMIT_MM, DEFAULT_MAX_CORRECTION_MM,
+                  f"expected the correction's size limit in mm, a finite number > 0 and at most "
+                  f"{MAX_CORRECTION_LIMIT_MM:g} (default {DEFAULT_MAX_CORRECTION_MM:g})", online)
 
 
 def check_max_rate_mm_s(value: float, option: str = "--max-rate-mm-s", online: bool = True) -> float:
-    """`value` as the correction's rate limit [mm/s], or an `InputError` naming `option`: a finite number > 0 and at
-    most `MAX_RATE_MM_S`; other than the default only where there is an online correction to limit (`online`)."""
-    if isinstance(value, bool) or not isinstance(value, int | float) or not (
-            math.isfinite(value) and 0.0 < value <= MAX_RATE_MM_S):
-        shown = repr(value) if isinstance(value, bool) or not isinstance(value, int | float) else f"{value:g}"
-        raise InputError(f"{option} {shown}: expected mm/s > 0 and <= {MAX_RATE_MM_S:g} (the correction's rate "
-                         f"limit; default {DEFAULT_MAX_RATE_MM_S:g})")
-    if value != DEFAULT_MAX_RATE_MM_S and not online:
-        raise InputError(f"{option} {value:g} without --online: it limits the online correction; expected --online "
-                         "with it")
-    return float(value)
+    """`value` as the correction's rate limit [mm/s] (`_limit`): at most `MAX_RATE_MM_S`."""
+    return _limit(value, option, MAX_RATE_MM_S, DEFAULT_MAX_RATE_MM_S,
+                  f"expected mm/s > 0 and <= {MAX_RATE_MM_S:g} (the correction's rate limit; default "
+                  f"{DEFAULT_MAX_RATE_MM_S:g})", online, "{:g}")
 
 
 @dataclass(frozen=True)
