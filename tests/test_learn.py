@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 from doc_numbers import quoted
 
-from twin.analysis.learn import learn
+from twin.analysis.learn import TrackerErrors, learn
 from twin.analysis.replay import replay
 from twin.cli import main
 from twin.runs.read import read_run
@@ -237,7 +237,7 @@ def test_learn_with_tracker_errors_carries_a_late_tracker_as_its_clock(plant_run
     t = run.tracker.t_s
     late = np.stack([np.interp(t - 0.006, t, run.tracker.values[:, a]) for a in range(3)], axis=1)
     edited = read_run(write_run(tmp_path / "late6ms", replace(run, tracker=Stream(t, late))))
-    as_came, with_late = learn([run], tracker_errors=True), learn([edited], tracker_errors=True)
+    as_came, with_late = learn([run], tracker=TrackerErrors.TURNED), learn([edited], tracker=TrackerErrors.TURNED)
     found = [r.spec.effects.instruments.tracker_time_offset_s[0] for r in (as_came, with_late)]
     assert 0.003 <= found[1] - found[0] <= 0.0066, found
     k0, k1 = as_came.robot.k_q_nm_per_rad, with_late.robot.k_q_nm_per_rad

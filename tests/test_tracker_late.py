@@ -16,7 +16,7 @@ import pytest
 from cli_refusal import cli_out, refused
 
 import twin.apps.tasks.learn as learn_task_module
-from twin.analysis.learn import learn
+from twin.analysis.learn import TrackerErrors, learn
 from twin.cli import main
 from twin.errors import InputError
 from twin.runs.format import Stream
@@ -37,7 +37,7 @@ def test_a_late_tracker_is_carried_as_its_clock_not_as_joint_1s_friction(tmp_pat
     t = run.tracker.t_s
     late = np.stack([np.interp(t - LATE_S, t, run.tracker.values[:, a]) for a in range(3)], axis=1)
     edited = read_run(write_run(tmp_path / "late", replace(run, tracker=Stream(t, late))))
-    on_time, plain, alone = learn([run]), learn([edited]), learn([edited], tracker_errors=True, turned=False)
+    on_time, plain, alone = learn([run]), learn([edited]), learn([edited], tracker=TrackerErrors.LATE)
     # the default learner reads the lateness as joint 1's friction (and bends a spring); the lateness alone
     # is carried as the tracker's clock, the robot as it was learned from the run on time
     assert on_time.robot.friction_nm[0] < 20.0, on_time.robot.friction_nm
@@ -67,6 +67,6 @@ def test_the_option_asks_for_the_lateness_alone_and_not_with_tracker_errors(tmp_
     refused(["learn", str(tmp_path), "--tracker-late"], capsys, "asked")
     refused(["learn", str(tmp_path), "--tracker-errors"], capsys, "asked")
     refused(["learn", str(tmp_path)], capsys, "asked")
-    assert [(r.tracker_errors, r.tracker_late) for r in asked] == [(False, True), (True, False), (False, False)]
-    with pytest.raises(InputError, match="tracker_errors and tracker_late"):
-        learn_task_module.LearnRequest((tmp_path,), tracker_errors=True, tracker_late=True)
+    assert [r.tracker for r in asked] == [TrackerErrors.LATE, TrackerErrors.TURNED, TrackerErrors.OFFSET]
+    with pytest.raises(InputError, match="tracker 'late': expected one of OFFSET, LATE, TURNED"):
+        learn_task_module.LearnRequest((tmp_path,), tracker="late")  # type: ignore[arg-type]

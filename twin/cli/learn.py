@@ -28,8 +28,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Learn from the runs."""
+    from twin.analysis.learn.robot import TrackerErrors
     from twin.apps.tasks.learn import LearnRequest, learn_task
 
-    report = learn_task(LearnRequest(tuple(args.runs), args.model, args.write_model, args.dynamic,
-                                     args.tracker_errors, args.tracker_late))
+    tracker = (TrackerErrors.TURNED if args.tracker_errors else TrackerErrors.LATE if args.tracker_late
+               else TrackerErrors.OFFSET)
+    report = learn_task(LearnRequest(tuple(args.runs), args.model, args.write_model, args.dynamic, tracker))
     return finish(args, report, protect=(*args.runs, args.model))

@@ -18,7 +18,7 @@ from typing import NamedTuple
 import numpy as np
 
 from twin.analysis.learn.instruments import fit_instruments
-from twin.analysis.learn.robot import RobotFit, fit_robot
+from twin.analysis.learn.robot import RobotFit, TrackerErrors, fit_robot
 from twin.analysis.learn.sheet import SheetFit, fit_sheet
 from twin.analysis.learn.springback import SpringbackFit, fit_springback
 from twin.analysis.replay import replay
@@ -70,11 +70,11 @@ class LearnResult(NamedTuple):
     sheet_kept: bool = False
 
 
-def learned_spec(runs: list[Run], spec: TwinSpec, tracker_errors: bool = False, declared: list[Process] | None = None,
-                 one_sheet: bool = True,
-                 turned: bool = True) -> tuple[TwinSpec, RobotFit, SheetFit, SpringbackFit | None]:
+def learned_spec(runs: list[Run], spec: TwinSpec, tracker: TrackerErrors = TrackerErrors.OFFSET,
+                 declared: list[Process] | None = None,
+                 one_sheet: bool = True) -> tuple[TwinSpec, RobotFit, SheetFit, SpringbackFit | None]:
     """The spec with the robot, the sheet and its springback learned from `runs` (no gaps computed);
-    `tracker_errors`, `turned`: `fit_robot`'s, and the tracker's lateness carried (`fit_instruments`' `lateness`);
+    `tracker`: `fit_robot`'s, and beyond the offset the tracker's lateness carried (`fit_instruments`' `lateness`);
     `declared`: per run, the sheet it declares (default `spec`'s for every run); `one_sheet`: False where the
     cell's runs (these and any held out) declare several sheets, so the learned one is taken."""
     base = spec.replace(placement=run_placement(runs[0].meta))
@@ -83,7 +83,7 @@ def learned_spec(runs: list[Run], spec: TwinSpec, tracker_errors: bool = False, 
     # learned again from these runs: a model learned twice from the same runs is the same sheet)
     isf_fit = tuple((k, v) for k, v in base.process.force_fit if k not in (*WEIGHT_KEYS, RADIAL_RISE_KEY, *SPAN_KEYS))
     robot = fit_robot(runs, replace(base, process=replace(base.process, force_model="isf", force_fit=isf_fit)).build(),
-                      tracker_errors, turned)
+                      tracker)
     sheet = fit_sheet(runs, base.process, declared)
     friction = np.where(robot.observable, robot.friction_nm, robot.prior_friction_nm)
     # the learned sheet replaces the declared force model only where it forces nearer the measured force along the
@@ -99,7 +99,7 @@ def learned_spec(runs: list[Run], spec: TwinSpec, tracker_errors: bool = False, 
         fit = (*sheet.force_fit, ("recovery_scale", springback.recovery_scale),
                ("depth_ratio", springback.depth_ratio))
         learned = learned.replace(process=replace(process, force_fit=fit))
-    instruments = fit_instruments(runs, learned, lateness=tracker_errors).instruments
+    instruments = fit_instruments(runs, learned, lateness=tracker is not TrackerErrors.OFFSET).instruments
     learned = learned.replace(effects=learned.effects.with_instruments(instruments))
     return learned.replace(placement=spec.placement), robot, sheet, springback
 
@@ -110,16 +110,14 @@ def sheet_kept(sheet: SheetFit) -> bool:
     return float(np.mean(sheet.rms_after_n)) >= float(np.mean(sheet.rms_before_n))
 
 
-def learn(runs: list[Run], spec: TwinSpec | None = None, tracker_errors: bool = False,
-          turned: bool = True) -> LearnResult:
+def learn(runs: list[Run], spec: TwinSpec | None = None, tracker: TrackerErrors = TrackerErrors.OFFSET) -> LearnResult:
     """Learn the cell's robot and sheet from its runs (module docstring).
 
     Args:
         runs: Nominal runs of the cell, each with tracker and F/T streams, made by one robot at one placement.
         spec: The declared twin (robot, process: the priors); None: the first run's robot in its cell.
-        tracker_errors: Fit each run's tracker rotation and lateness beside the robot, keep unobserved joints'
-            spread in the robot's fit, and carry the lateness as the tracker's clock (`learn --tracker-errors`).
-        turned: With `tracker_errors`; False: the lateness alone, unobserved joints held (`learn --tracker-late`).
+        tracker: Which of each run's tracker errors are fitted beside the robot (`fit_robot`); beyond its offset,
+            the lateness is carried as the tracker's clock (`learn --tracker-errors`, `--tracker-late`).
 
     Raises:
         InputError: No run, runs of different robots or placements, or runs without forces.
@@ -145,8 +143,7 @@ def learn(runs: list[Run], spec: TwinSpec | None = None, tracker_errors: bool = 
     declared = [declared_process(run) for run in runs] if spec is None else [spec.process] * len(runs)
     spec = (spec or TwinSpec(robot=robot, process=declared[0])).replace(placement=placement, tool=tools[0])
     one_sheet = all(process == declared[0] for process in declared)
-    learned, robot_fit, sheet_fit, springback_fit = learned_spec(runs, spec, tracker_errors, declared, one_sheet,
-                                                                 turned)
+    learned, robot_fit, sheet_fit, springback_fit = learned_spec(runs, spec, tracker, declared, one_sheet)
     before = tuple(replay_gap(run, spec.replace(process=process)) for run, process in zip(runs, declared, strict=True))
     after = tuple(replay_gap(run, learned) for run in runs)
     held: list[Gap] = []
@@ -154,8 +151,8 @@ def learn(runs: list[Run], spec: TwinSpec | None = None, tracker_errors: bool = 
     if len(runs) > 1:
         for k, run in enumerate(runs):
             others = [r for i, r in enumerate(runs) if i != k]
-            held_specs.append(learned_spec(others, spec, tracker_errors, [d for i, d in enumerate(declared) if i != k],
-                                           one_sheet, turned)[0])
+            held_specs.append(learned_spec(others, spec, tracker, [d for i, d in enumerate(declared) if i != k],
+                                           one_sheet)[0])
             held.append(replay_gap(run, held_specs[-1]))
     models = tuple(dict.fromkeys(process.force_model for process in declared))
     return LearnResult(learned, robot_fit, sheet_fit, springback_fit, before, after, tuple(held), tuple(held_specs),

@@ -23,7 +23,8 @@ from typing import NamedTuple
 import numpy as np
 
 from twin.analysis.discrepancy.residuals import ResidualModel
-from twin.analysis.learn.robot import TRACKER_SPREADS, gaussian_posterior
+from twin.analysis.learn.robot import gaussian_posterior
+from twin.analysis.learn.tracker import TRACKER_SPREADS
 from twin.runs.format import Run
 from twin.sim.instruments import Instruments
 from twin.sim.spec import TwinSpec
@@ -79,7 +80,7 @@ def fit_instruments(runs: list[Run], spec: TwinSpec, lateness: bool = False) -> 
 
 
 def _with_priors(X: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """The tracker's coefficients with the rotation and the lateness within `robot.TRACKER_SPREADS`: on a cone at a
+    """The tracker's coefficients with the rotation and the lateness within `tracker.TRACKER_SPREADS`: on a cone at a
     steady speed a turn about z and a lateness move the reading alike (along the travel, by w r and v dt), and
     unweighted they trade without end."""
     spreads = np.asarray(TRACKER_SPREADS)

@@ -17,7 +17,7 @@ motion (a deflection J_j·c_j·τ_f,j that flips with the sign of the joint's sp
 whatever its sign, since a deflection that leads the joint's motion is a real cell's too, and only its non-negative part
 is the friction the twin takes), the servo's transient compliance c_s,j on the force's high-pass F − lag_τ(F)
 (`twin.sim.servo`: the position loop gives way while the force changes and recovers over τ, picked on a grid by the
-least residual), and per run the tracker's own errors: a constant offset per axis and, with `tracker_errors` (`learn
+least residual), and per run the tracker's own errors (`TrackerErrors`): a constant offset per axis and, where asked (`learn
 --tracker-errors`), its registration's rotation about the sheet origin and a lateness (`tracker_columns`: the tracker's
 latency, or the robot's lag along the path, both read the tip a velocity times a time behind; `learn --tracker-late`:
 the lateness alone). Without them a registration's tilt goes into joint 1 and a few milliseconds of lateness into a
@@ -34,6 +34,7 @@ from typing import NamedTuple
 import numpy as np
 
 from twin.analysis.learn.stick_slip import COMPLIANCE_RANGE, JointRows, play_deflection, refine
+from twin.analysis.learn.tracker import TRACKER_COLUMNS, TRACKER_SPREADS, TrackerErrors, tracker_columns
 from twin.base.signals import interp_rows
 from twin.errors import InputError
 from twin.runs.format import Run
@@ -51,11 +52,6 @@ SPEED_SMOOTHING_RAD_S = 2e-4
 #: A joint is refined with its friction sticking (`stick_slip`) where the linear fit's spread is below this share of
 #: its compliance.
 REFINE_SPREAD = 0.1
-#: Prior spreads of a run's tracker errors beside its offset (`tracker_columns`): its registration's rotation per
-#: axis [rad] (a registration to the usual care is within ~1 mrad) and its lateness [s] (a tracker's latency is a
-#: few milliseconds).
-TRACKER_SPREADS = (2e-3, 2e-3, 2e-3, 0.01)
-TRACKER_COLUMNS = len(TRACKER_SPREADS)
 #: Servo time constants tried [s].
 SERVO_TIME_CONSTANTS_S = (0.01, 0.02, 0.03, 0.05, 0.075, 0.1, 0.15, 0.2, 0.3)
 
@@ -72,23 +68,6 @@ class RobotRows(NamedTuple):
     q: np.ndarray  # (m, dof) the commanded joint angles [rad]
     jacobian: np.ndarray  # (m, 3, dof) the tool tip's translational Jacobian, sheet frame [m/rad]
     nuisance: np.ndarray | None = None  # (3m, r) the tracker's own columns (`tracker_columns`), stacked as `design`'s
-
-
-def tracker_columns(tip_m: np.ndarray, velocity_m_s: np.ndarray, turned: bool = True) -> np.ndarray:
-    """(3m, 4) a tracker's own errors beside its offset, stacked as `design`'s: its registration's rotation about
-    the sheet origin (w x p, three columns [rad]; zeros unless `turned`) and a reading late by dt (-v dt [s]: the
-    tracker's clock, or the servo's following error, which is the same), from the unloaded tip p [m] and its
-    velocity v [m/s] at the tracker's times. A clock's rate (a lateness growing with t) is not among them: on a
-    groove whose force grows pass by pass, -v t is nearly a wrist joint's column (its deflection under a drag that
-    flips with the travel)."""
-    p, v = tip_m, velocity_m_s
-    cols = np.zeros((len(p), 3, TRACKER_COLUMNS))
-    if turned:
-        cols[:, 1, 0], cols[:, 2, 0] = -p[:, 2], p[:, 1]  # w_x: (0, -p_z, p_y)
-        cols[:, 0, 1], cols[:, 2, 1] = p[:, 2], -p[:, 0]  # w_y: (p_z, 0, -p_x)
-        cols[:, 0, 2], cols[:, 1, 2] = -p[:, 1], p[:, 0]  # w_z: (-p_y, p_x, 0)
-    cols[:, :, 3] = -v
-    return cols.transpose(1, 0, 2).reshape(-1, TRACKER_COLUMNS)
 
 
 class RobotFit(NamedTuple):
@@ -125,9 +104,9 @@ class RobotFit(NamedTuple):
     late_ms: float = 0.0
 
 
-def robot_rows(run: Run, twin: Twin, tracker_errors: bool = False, turned: bool = True) -> RobotRows:
-    """The twin's unloaded tool tip and per-joint levers along the run's command, at its tracker times
-    (`tracker_errors`: with the tracker's lateness column, and its rotation's where `turned`: `tracker_columns`)."""
+def robot_rows(run: Run, twin: Twin, tracker: TrackerErrors = TrackerErrors.OFFSET) -> RobotRows:
+    """The twin's unloaded tool tip and per-joint levers along the run's command, at its tracker times, with the
+    `tracker`'s columns beyond its offset (`tracker_columns`: its lateness, and its rotation where TURNED)."""
     if run.forces is None or len(run.forces.t_s) < 10:
         raise InputError(f"run {run.directory}: learning the robot needs forces.csv (the F/T sensor on)")
     q_ik = twin.ik_path(run.commanded.values)
@@ -143,7 +122,8 @@ def robot_rows(run: Run, twin: Twin, tracker_errors: bool = False, turned: bool 
     velocity = interp_rows(t, run.commanded.t_s, np.gradient(run.commanded.values, run.commanded.t_s, axis=0))
     return RobotRows(run.tracker.values - unloaded, t, run.forces.t_s, run.forces.values, lever,
                      -J_sheet * sign[:, None, :], q, J_sheet,
-                     tracker_columns(unloaded, velocity, turned) if tracker_errors else None)
+                     None if tracker is TrackerErrors.OFFSET
+                     else tracker_columns(unloaded, velocity, tracker is TrackerErrors.TURNED))
 
 
 def design(rows: RobotRows, servo_s: float = 0.0) -> np.ndarray:
@@ -234,19 +214,18 @@ def predicted_deflection(rows: RobotRows, fit: RobotFit, offset_m: np.ndarray) -
     return spring + servo + offset_m
 
 
-def fit_robot(runs: list[Run], twin: Twin, tracker_errors: bool = False, turned: bool = True) -> RobotFit:
+def fit_robot(runs: list[Run], twin: Twin, tracker: TrackerErrors = TrackerErrors.OFFSET) -> RobotFit:
     """Learn the effective joint compliances, the servo lag and the tracker offset from runs (module docstring).
 
     Args:
         runs: Runs with tracker and force streams, made by the twin's robot at the twin's placement.
         twin: The twin (its robot's K_q is the prior).
-        tracker_errors: Also fit each run's tracker rotation and lateness (`tracker_columns`), and keep a joint
-            the runs cannot observe in the fit with its prior's spread (`fit_rows`' `keep_unobserved`).
-        turned: With `tracker_errors`; False: the lateness alone, the joints the runs cannot observe held (free,
-            a wrist joint trades with joint 1 as a late tracker's reading does on a cone).
+        tracker: Which of each run's tracker errors are fitted beside its offset (`tracker_columns`). TURNED keeps a
+            joint the runs cannot observe in the fit with its prior's spread (`fit_rows`' `keep_unobserved`); LATE
+            holds it (free, a wrist joint trades with joint 1 as a late tracker's reading does on a cone).
     """
-    return fit_rows([robot_rows(run, twin, tracker_errors, turned) for run in runs], twin.joint_stiffness,
-                    twin.joint_friction, twin.spec.servo, keep_unobserved=tracker_errors and turned)
+    return fit_rows([robot_rows(run, twin, tracker) for run in runs], twin.joint_stiffness,
+                    twin.joint_friction, twin.spec.servo, keep_unobserved=tracker is TrackerErrors.TURNED)
 
 
 def fit_rows(rows: list[RobotRows], k0: np.ndarray, prior_friction_nm: np.ndarray,

@@ -14,6 +14,7 @@ import numpy as np
 
 from twin.analysis.discrepancy.floor import Floor, mean_floor, measure_floor
 from twin.analysis.learn import Gap, LearnResult, RobotFit, SheetFit, learn
+from twin.analysis.learn.robot import TrackerErrors
 from twin.analysis.learn.sheet import SHAPE_GAIN
 from twin.apps.tasks.base import Note, Report, silent
 from twin.base.outputs import repeated_input
@@ -39,18 +40,16 @@ class LearnRequest:
         write_model: Where to write the learned twin (a model file), or None.
         dynamic: Also learn the dynamic mode's joint servo from the first run (`fit_servo`, docs/dynamic-twin.md),
             carried in the model file for `replay --dynamic`.
-        tracker_errors: Fit each run's tracker rotation and lateness beside the robot and carry the lateness as the
-            tracker's clock (`twin.analysis.learn.cell.learn`).
-        tracker_late: Fit each run's tracker lateness alone beside the robot, the joints the runs cannot observe
-            held, and carry it as the tracker's clock (`learn --tracker-late`; not with `tracker_errors`).
+        tracker: Which of each run's tracker errors are fitted beside the robot, beyond its offset the lateness
+            carried as the tracker's clock (`twin.analysis.learn.cell.learn`; `learn --tracker-errors`: TURNED,
+            `--tracker-late`: LATE).
     """
 
     runs: tuple[Path, ...]
     model: Path | None = None
     write_model: Path | None = None
     dynamic: bool = False
-    tracker_errors: bool = False
-    tracker_late: bool = False
+    tracker: TrackerErrors = TrackerErrors.OFFSET
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "runs", tuple(self.runs))
@@ -60,8 +59,8 @@ class LearnRequest:
         if twice is not None:
             raise InputError(f"run {twice[0]} given twice (as {twice[0]} and {twice[1]}): give each run once (a run "
                              "given twice is learned twice and, with two runs, held out from itself)")
-        if self.tracker_errors and self.tracker_late:
-            raise InputError("tracker_errors and tracker_late: expected one (the second is the first's lateness)")
+        if not isinstance(self.tracker, TrackerErrors):
+            raise InputError(f"tracker {self.tracker!r}: expected one of {', '.join(e.name for e in TrackerErrors)}")
 
 
 @dataclass(frozen=True)
@@ -196,7 +195,7 @@ def learn_task(request: LearnRequest, note: Note = silent) -> LearnReport:
     """
     runs = [read_run(path) for path in request.runs]
     prior = read_model_file(request.model) if request.model is not None else None
-    result = learn(runs, prior, request.tracker_errors or request.tracker_late, not request.tracker_late)
+    result = learn(runs, prior, request.tracker)
     servo_fit, refused = None, None
     if request.dynamic:
         from twin.analysis.learn.servo_fit import fit_servo
