@@ -15,4 +15,5 @@ from twin.analysis.learn.robot import RobotFit, fit_robot
 from twin.analysis.learn.sheet import SheetFit, fit_sheet
 from twin.analysis.learn.tracker import TrackerErrors
 
-__all__ = ["Gap", "LearnResult", "RobotFit", "SheetFit", "TrackerErrors", "fit_robot", "fit_sheet", "learn", "learned_spec"]
+__all__ = ["Gap", "LearnResult", "RobotFit", "SheetFit", "TrackerErrors", "fit_robot", "fit_sheet", "learn",
+           "learned_spec"]

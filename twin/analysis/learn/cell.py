@@ -18,9 +18,10 @@ from typing import NamedTuple
 import numpy as np
 
 from twin.analysis.learn.instruments import fit_instruments
-from twin.analysis.learn.robot import RobotFit, TrackerErrors, fit_robot
+from twin.analysis.learn.robot import RobotFit, fit_robot
 from twin.analysis.learn.sheet import SheetFit, fit_sheet
 from twin.analysis.learn.springback import SpringbackFit, fit_springback
+from twin.analysis.learn.tracker import TrackerErrors
 from twin.analysis.replay import replay
 from twin.errors import InputError
 from twin.process.description import Process
