@@ -17,14 +17,14 @@ motion (a deflection J_j·c_j·τ_f,j that flips with the sign of the joint's sp
 whatever its sign, since a deflection that leads the joint's motion is a real cell's too, and only its non-negative part
 is the friction the twin takes), the servo's transient compliance c_s,j on the force's high-pass F − lag_τ(F)
 (`twin.sim.servo`: the position loop gives way while the force changes and recovers over τ, picked on a grid by the
-least residual), and per run the tracker's own errors (`TrackerErrors`): a constant offset per axis and, where
-asked (`learn --tracker-errors`), its registration's rotation about the sheet origin and a lateness (`tracker_columns`:
-the tracker's latency, or the robot's lag along the path, both read the tip a velocity times a time behind; `learn
---tracker-late`: the lateness alone). Without them a registration's tilt goes into joint 1 and a few milliseconds of lateness into a
-friction (joints 2 and 3's on a groove, joint 1's on a cone); with them a lag of the robot along the path is the
-tracker's, and no compensation takes it. They are reported, not put into the robot; the model carries the registration
-as the instruments' (`twin.analysis.learn.instruments`). That linear fit is the start: the observable joints' springs
-and friction are then refined as the twin's equilibrium holds them, a friction that sticks
+least residual), and per run the tracker's own errors (`TrackerErrors`): a constant offset per axis and, where asked
+(`learn --tracker-errors`), its registration's rotation about the sheet origin and a lateness (`tracker_columns`: the
+tracker's latency, or the robot's lag along the path, both read the tip a velocity times a time behind; `learn
+--tracker-late`: the lateness alone). Without them a registration's tilt goes into joint 1 and a few milliseconds of
+lateness into a friction (joints 2 and 3's on a groove, joint 1's on a cone); with them a lag of the robot along the
+path is the tracker's, and no compensation takes it. They are reported, not put into the robot; the model carries the
+registration as the instruments' (`twin.analysis.learn.instruments`). That linear fit is the start: the observable
+joints' springs and friction are then refined as the twin's equilibrium holds them, a friction that sticks
 (`twin.analysis.learn.stick_slip`), which is what their stated spread is of. `truth.json` is never read."""
 
 from __future__ import annotations
