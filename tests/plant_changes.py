@@ -23,7 +23,8 @@ TX200 pyramid, written before any of its runs, run once; then again after a fix)
 groove and a TX200 variable-wall-angle cone, written before any of its runs, run once), `held-out-4` and `held-out-5`
 (a clamping frame that gives on four cells, written before any of its runs, run once) and `held-out-6` (the frame
 on six other cells, written before any of its runs after the part scan's judge, run once). `python -m tests.plant_changes --set held-out --out
-changes.json` runs a set (`make test-slow` checks all).
+changes.json` runs a set, `--set both --jobs 2` all of them two at a time (`make test-slow` checks all, a set per
+core).
 """
 
 from __future__ import annotations
@@ -32,9 +33,11 @@ import argparse
 import contextlib
 import io
 import json
+import multiprocessing
 import re
 import shutil
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
@@ -524,6 +527,17 @@ def run_set(which: str, root: Path, reuse: bool = False) -> list[dict[str, Any]]
     return rows
 
 
+def run_sets(whiches: Iterable[str], root: Path, reuse: bool = False, jobs: int = 1) -> dict[str, list[dict[str, Any]]]:
+    """`run_set` of each of `whiches` under root/WHICH, `jobs` sets at a time, each in a process of its own (the sets
+    share no folder and every run its seed, so the rows are those the sets give one at a time)."""
+    whiches = list(whiches)
+    if jobs <= 1 or len(whiches) <= 1:
+        return {which: run_set(which, root / which, reuse) for which in whiches}
+    with ProcessPoolExecutor(min(jobs, len(whiches)), mp_context=multiprocessing.get_context("spawn")) as pool:
+        done = {which: pool.submit(run_set, which, root / which, reuse) for which in whiches}
+        return {which: future.result() for which, future in done.items()}
+
+
 def right(row: dict[str, Any]) -> bool:
     """A change the next run shows above the floor (`Floor.observable`'s share): named right and the next run's
     excess over the floor at most SHRINK_TO of the cell's; one it does not show: `none` (not observable)."""
@@ -584,9 +598,10 @@ if __name__ == "__main__":
     parser.add_argument("--markdown", type=Path, help="write both sets' tables into this file (with --set both)")
     parser.add_argument("--reuse-cells", action="store_true",
                         help="keep cells already learned under --work, and the runs already formed there")
+    parser.add_argument("--jobs", type=int, default=1, help="sets run at a time, each in its own process (default 1)")
     args = parser.parse_args()
     sets = tuple(SETS) if args.set == "both" else (args.set,)
-    tables = {which: run_set(which, args.work / which, args.reuse_cells) for which in sets}
+    tables = run_sets(sets, args.work, args.reuse_cells, args.jobs)
     args.out.write_text(json.dumps(tables, indent=1))
     for table in tables.values():
         print(markdown(table))
