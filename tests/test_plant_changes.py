@@ -275,11 +275,11 @@ def test_the_scan_bias_is_as_the_docs_say(both_sets: dict[str, list[dict[str, An
 
 
 @pytest.mark.slow
-def test_without_the_scan_the_tx200_cones_frame_is_taken_for_a_softer_sheet(
+def test_without_the_scan_the_tx200_cones_frame_is_named_a_frame_all_the_same(
         both_sets: dict[str, list[dict[str, Any]]], sets_root: Path, tmp_path: Path,
         monkeypatch: pytest.MonkeyPatch) -> None:
-    """docs/discrepancy.md: the part scan's judge decides one row of the sixth set; the same runs with it switched
-    off name the TX200 cone's 0.8 mm/kN frame a softer sheet (`force_scale`)."""
+    """docs/discrepancy.md: the row of the sixth set the part scan's judge decided when the set was first run, the
+    TX200 cone's 0.8 mm/kN frame, is named `frame_compliance` by the same runs with the judge switched off."""
     from twin.analysis.discrepancy import search
     from twin.analysis.discrepancy.scan import ScanVerdict
 
@@ -291,4 +291,4 @@ def test_without_the_scan_the_tx200_cones_frame_is_taken_for_a_softer_sheet(
         shutil.copytree(cell / "frame_gives_0p8" / tag, tmp_path / "frame_gives_0p8" / tag)
     monkeypatch.setattr(search, "_judge_by_scan", lambda *args: ScanVerdict(None, {}))
     row = run_case("tx200-cone", HELD_OUT_6[1], tmp_path, reuse=True)
-    assert row["named"] == "force_scale", row
+    assert row["named"] == "frame_compliance", row
