@@ -77,7 +77,7 @@ def sets_root(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 @pytest.fixture(scope="module")
 def both_sets(sets_root: Path) -> dict[str, list[dict[str, Any]]]:
-    return run_sets(SETS, sets_root, jobs=os.cpu_count() or 1)  # a set per core: ~35 min on two, not ~60
+    return run_sets(SETS, sets_root, jobs=os.cpu_count() or 1)  # a set per core: 25-28 min on two, ~60 one at a time
 
 
 def _structure_ratios(cell_dir: Path) -> list[float]:

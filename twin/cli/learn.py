@@ -11,7 +11,7 @@ HELP = "Learn the cell's robot (compliance, friction, servo) and sheet (forces, 
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """Add the `learn` options."""
+    """Add the `learn` options (the tracker's: a `TrackerErrors` value, as a string: the parser loads no learner)."""
     parser.add_argument("runs", type=Path, nargs="+", metavar="RUN",
                         help="nominal runs of one cell (tracker and F/T streams), one robot at one placement; "
                         "with two or more, each is also replayed on a twin learned from the others")
@@ -20,18 +20,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--dynamic", action="store_true", help="also learn the dynamic mode's servo from the first "
                         "run, for `replay --dynamic` (docs/dynamic-twin.md)")
     tracker = parser.add_mutually_exclusive_group()
-    tracker.add_argument("--tracker-errors", action="store_true", help="also fit each run's tracker turned and late, "
-                         "carried as its clock (a robot's lag along the path is then not compensated; docs/learning.md)")
-    tracker.add_argument("--tracker-late", action="store_true", help="as --tracker-errors, its lateness alone")
+    tracker.add_argument("--tracker-errors", dest="tracker", action="store_const", const="turned", default="offset",
+                         help="also fit each run's tracker turned and late, carried as its clock (a robot's lag along "
+                         "the path is then not compensated; docs/learning.md)")
+    tracker.add_argument("--tracker-late", dest="tracker", action="store_const", const="late",
+                         help="as --tracker-errors, its lateness alone")
     add_json_argument(parser, "what was learned and the gaps")
 
 
 def run(args: argparse.Namespace) -> int:
     """Learn from the runs."""
-    from twin.analysis.learn.robot import TrackerErrors
+    from twin.analysis.learn.tracker import TrackerErrors
     from twin.apps.tasks.learn import LearnRequest, learn_task
 
-    tracker = (TrackerErrors.TURNED if args.tracker_errors else TrackerErrors.LATE if args.tracker_late
-               else TrackerErrors.OFFSET)
-    report = learn_task(LearnRequest(tuple(args.runs), args.model, args.write_model, args.dynamic, tracker))
+    report = learn_task(LearnRequest(tuple(args.runs), args.model, args.write_model, args.dynamic,
+                                     TrackerErrors(args.tracker)))
     return finish(args, report, protect=(*args.runs, args.model))
