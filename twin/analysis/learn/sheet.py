@@ -146,21 +146,20 @@ def _lstsq(X: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def _ridge(X: np.ndarray, y: np.ndarray, cols: list[int]) -> np.ndarray:
     """Ridge regression of `cols` towards the prior mean, `RIDGE` on unit-rms columns, `NON_NEGATIVE` held."""
-    return _ridge_normal(X.T @ X, X.T @ y, len(y), cols)
+    return _ridge_scaled(*_unit_rms(X.T @ X, X.T @ y, len(y), PRIOR_MEAN[cols]), cols)
 
 
-def _ridge_normal(G: np.ndarray, g: np.ndarray, n: int, cols: list[int]) -> np.ndarray:
-    """`_ridge` from the normal equations G = XᵀX, g = Xᵀy of n samples of the terms `cols`.
+def _unit_rms(G: np.ndarray, g: np.ndarray, n: int, prior: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The ridge's system on unit-rms columns from the normal equations G = XᵀX, g = Xᵀy of n samples: (A, b, the
+    columns' rms); a subset's is, element by element, the whole one's rows and columns (the look-ahead's spans)."""
+    scale = np.where((rms := np.sqrt(np.diag(G) / max(n, 1))) > 0.0, rms, 1.0)
+    return G / np.outer(scale, scale) + RIDGE * n * np.eye(len(g)), g / scale + RIDGE * n * prior * scale, scale
 
-    The bounded problem is solved exactly: its optimum holds some of the bounded weights at 0 and the rest free,
-    so it is the free solution if that keeps the bounds, else the least objective over those choices whose free
-    weights keep them (at most 2^4 small solves; the search over subsets scores thousands of fits).
-    """
-    scale = np.sqrt(np.diag(G) / max(n, 1))
-    scale = np.where(scale > 0.0, scale, 1.0)
-    k2 = RIDGE * n
-    A = G / np.outer(scale, scale) + k2 * np.eye(len(cols))
-    b = g / scale + k2 * PRIOR_MEAN[cols] * scale
+
+def _ridge_scaled(A: np.ndarray, b: np.ndarray, scale: np.ndarray, cols: list[int]) -> np.ndarray:
+    """The ridge's weights of the terms `cols` from its unit-rms system (`_unit_rms`), `NON_NEGATIVE` held: exactly,
+    as the optimum holds some bounded weights at 0 and the rest free, it is the free solution if that keeps the
+    bounds, else the least objective over those choices whose free weights keep them (at most 2^4 small solves)."""
     bounded = [i for i, c in enumerate(cols) if WEIGHT_KEYS[c] in NON_NEGATIVE]
     coef = np.linalg.solve(A, b)
     if np.any(coef[bounded] < 0.0):
@@ -169,7 +168,7 @@ def _ridge_normal(G: np.ndarray, g: np.ndarray, n: int, cols: list[int]) -> np.n
             for held in itertools.combinations(bounded, n_held):
                 free = [i for i in range(len(cols)) if i not in held]
                 z = np.zeros(len(cols))
-                z[free] = np.linalg.solve(A[np.ix_(free, free)], b[free])
+                z[free] = np.linalg.solve(A[free][:, free], b[free])
                 value = float(z @ A @ z - 2.0 * b @ z)
                 if np.all(z[bounded] >= 0.0) and value < best:
                     best, coef = value, z
@@ -186,14 +185,15 @@ class _LookAhead:
     training span's normal equations formed once, so that a subset of terms is scored in a few small solves."""
 
     def __init__(self, terms: np.ndarray, fz_n: np.ndarray, block: np.ndarray) -> None:
-        self.spans = [(terms[block < b].T @ terms[block < b], terms[block < b].T @ fz_n[block < b],
-                       int(np.sum(block < b)), terms[block == b], fz_n[block == b]) for b in range(2, BLOCKS)]
+        self.spans = [(*_unit_rms(terms[block < b].T @ terms[block < b], terms[block < b].T @ fz_n[block < b],
+                                  int(np.sum(block < b)), PRIOR_MEAN), terms[block == b], fz_n[block == b])
+                      for b in range(2, BLOCKS)]
 
     def __call__(self, cols: list[int], fitted: bool = True) -> float:
         """The error with the terms `cols` fitted; `fitted` False: the published formula as it is (weight 1)."""
         error, count = 0.0, 0
-        for G, g, n, X_test, y_test in self.spans:
-            w = _ridge_normal(G[np.ix_(cols, cols)], g[cols], n, cols) if fitted else PRIOR_MEAN[cols]
+        for A, b, scale, X_test, y_test in self.spans:
+            w = _ridge_scaled(A[cols][:, cols], b[cols], scale[cols], cols) if fitted else PRIOR_MEAN[cols]
             error += float(np.sum((y_test - np.maximum(X_test[:, cols] @ w, 0.0)) ** 2))
             count += len(y_test)
         return math.sqrt(error / max(count, 1))

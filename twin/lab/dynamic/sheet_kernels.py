@@ -89,9 +89,9 @@ def fill(pressed: np.ndarray, box: np.ndarray, hanging: np.ndarray, reach: float
     outside = np.zeros((h, w), dtype=np.bool_)
     stack = np.empty(h * w, dtype=np.int64)  # each node is pushed once at most
     top = 0
-    for j in range(h):
-        for i in range(w):
-            if (j == 0 or i == 0 or j == h - 1 or i == w - 1) and not pressed[j0 + j, i0 + i]:
+    for j in range(h):  # the box's edge: whole first and last rows, the ends of the others
+        for i in range(0, w, 1 if j == 0 or j == h - 1 else max(w - 1, 1)):
+            if not pressed[j0 + j, i0 + i]:
                 outside[j, i] = True
                 stack[top] = j * w + i
                 top += 1
@@ -104,18 +104,22 @@ def fill(pressed: np.ndarray, box: np.ndarray, hanging: np.ndarray, reach: float
                 outside[jj, ii] = True
                 stack[top] = jj * w + ii
                 top += 1
-    g = math.ceil(reach)
-    b0, b1, a0, a1 = max(j0 - g, 0), min(j1 + g, ny - 1), max(i0 - g, 0), min(i1 + g, nx - 1)
-    hb, wb = b1 - b0 + 1, a1 - a0 + 1
-    d2 = np.full((hb, wb), FAR)
-    any_enclosed = False
+    e0, e1, c0, c1 = h, -1, w, -1  # the enclosed nodes' rows and columns: first, last (none: e1 < 0)
     for j in range(h):
         for i in range(w):
             if not outside[j, i] and not pressed[j0 + j, i0 + i]:
-                d2[j0 + j - b0, i0 + i - a0] = 0.0
-                any_enclosed = True
-    if not any_enclosed:
+                e0, e1, c0, c1 = min(e0, j), j, min(c0, i), max(c1, i)
+    if e1 < 0:
         return
+    g = math.ceil(reach)  # no node further than `g` from the enclosed ones' box hangs: the transform stays inside
+    b0, b1 = max(j0 + e0 - g, 0), min(j0 + e1 + g, ny - 1)
+    a0, a1 = max(i0 + c0 - g, 0), min(i0 + c1 + g, nx - 1)
+    hb, wb = b1 - b0 + 1, a1 - a0 + 1
+    d2 = np.full((hb, wb), FAR)
+    for j in range(e0, e1 + 1):
+        for i in range(c0, c1 + 1):
+            if not outside[j, i] and not pressed[j0 + j, i0 + i]:
+                d2[j0 + j - b0, i0 + i - a0] = 0.0
     n = max(hb, wb)
     f = np.empty(n)
     out = np.empty(n)
