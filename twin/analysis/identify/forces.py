@@ -35,6 +35,7 @@ from twin.process.description import Process
 from twin.process.force.registry import build_force_field
 from twin.process.toolpath.groove import ToolPath, label_passes
 from twin.runs.format import Run
+from twin.sim.compiled.rigid import rigid_forces
 
 #: Window over which measured and model forces are averaged, and the tracker's deflection too [s] (0: compare
 #: sample by sample, at the sensor's times, along the raw deflection).
@@ -135,8 +136,7 @@ def fit_forces(run: Run, process: Process, window_s: float = WINDOW_S) -> ForceF
     start = dict(process.force_fit)
 
     def forces(values: dict[str, float]) -> np.ndarray:
-        field = build_force_field(replace(process, force_fit=tuple(values.items())))
-        model = field.rigid_forces(path)
+        model = rigid_forces(build_force_field(replace(process, force_fit=tuple(values.items()))), path)
         if window_s > 0.0:
             return window_means(path.t_s, model, edges)[0][keep]
         return interp_rows(t_f, path.t_s, model)

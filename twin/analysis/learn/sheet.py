@@ -50,6 +50,7 @@ from twin.process.force.learned import RADIAL_RISE_KEY, SIDE_RISE_INDEX, STATE_K
 from twin.process.force.registry import build_force_field
 from twin.process.force.span import SPAN_KEYS, learned_span
 from twin.runs.format import Run
+from twin.sim.compiled.rigid import rigid_forces
 
 #: Fewest force samples a run must give.
 MIN_SAMPLES = 50
@@ -128,9 +129,8 @@ def sheet_rows(run: Run, process: Process) -> SheetRows:
         travel[i] = field.sliding_direction(p)
         side[i] = field.state.wall_side
         field.advance(p)
-    t_f = run.forces.t_s
-    inside = (t_f >= path.t_s[0]) & (t_f <= path.t_s[-1])
-    t_f = t_f[inside]
+    inside = (run.forces.t_s >= path.t_s[0]) & (run.forces.t_s <= path.t_s[-1])
+    t_f = run.forces.t_s[inside]
     return SheetRows(interp_rows(t_f, path.t_s, terms), t_f, interp_rows(t_f, path.t_s, travel),
                      interp_rows(t_f, path.t_s, side[:, None])[:, 0], run.forces.values[inside])
 
@@ -320,7 +320,7 @@ def _rms_along(run: Run, process: Process) -> float:
     assert run.forces is not None
     path = measured_tip_path(run, 0.0)
     try:
-        model = build_force_field(process).rigid_forces(path)
+        model = rigid_forces(build_force_field(process), path)
     except InputError as exc:  # a declared FE history shorter than the run's passes, say
         raise InputError(f"run {run.directory}: the declared sheet ({process.force_model}) cannot be driven along "
                          f"it: {exc}") from exc
