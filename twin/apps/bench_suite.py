@@ -1,9 +1,9 @@
 """The test suite's own time: what every developer waits for at each step (`make bench` records it).
 
-`make test` runs the suite on two workers (pytest-xdist, one test file per worker at a time); its target is
-150 s on a quiet 2-core machine. This module runs that very command in a child process, parses pytest's closing
-line and records the wall time, the counts and the machine, so the number sits beside the speed ratios of
-`benchmarks/results.json` instead of in a developer's memory.
+`make test` runs the suite on two workers (pytest-xdist, one test file per worker at a time); its target is 150 s on a
+quiet 2-core machine. This module runs its two steps, the warm-up (`twin.apps.warm`) and that very command, in child
+processes, parses pytest's closing line and records the wall times, the counts and the machine, so the number sits
+beside the speed ratios of `benchmarks/results.json` instead of in a developer's memory.
 """
 
 from __future__ import annotations
@@ -39,21 +39,26 @@ def parse_summary(line: str) -> dict[str, Any]:
 
 
 def time_suite(root: str | Path) -> dict[str, Any]:
-    """Run the suite in `root` as `make test` does and time it.
+    """Run the suite in `root` as `make test` does, its warm-up first, and time both.
 
     Returns:
-        `wall_s` (the whole child process, start-up included), `pytest_s` (pytest's own), the counts, the exit
-        code and the machine (`twin.apps.machine.machine_info`).
+        `warm_s` (`make test`'s first step, `twin.apps.warm`: the compiled kernels into numba's cache), `wall_s`
+        (the suite's child process, start-up included), `pytest_s` (pytest's own), the counts, the exit code and the
+        machine (`twin.apps.machine.machine_info`).
     """
+    env = {**os.environ, "PYTHONDONTWRITEBYTECODE": "1"}
     start = time.perf_counter()
-    done = subprocess.run([sys.executable, *SUITE_ARGS], cwd=root, capture_output=True, text=True,
-                          env={**os.environ, "PYTHONDONTWRITEBYTECODE": "1"}, check=False)
+    subprocess.run([sys.executable, "-m", "twin.apps.warm"], cwd=root, capture_output=True, env=env, check=False)
+    warm = time.perf_counter() - start
+    start = time.perf_counter()
+    done = subprocess.run([sys.executable, *SUITE_ARGS], cwd=root, capture_output=True, text=True, env=env, check=False)
     wall = time.perf_counter() - start
     lines = [line for line in done.stdout.splitlines() if _SECONDS.search(line) and _COUNT.search(line)]
     if not lines:
         raise InputError(f"the suite in {root} printed no pytest summary (exit {done.returncode}): "
                          f"{done.stdout[-400:]}{done.stderr[-400:]}")
-    return {"command": "pytest " + " ".join(SUITE_ARGS[2:]), "wall_s": round(wall, 1), **parse_summary(lines[-1]),
+    return {"command": "pytest " + " ".join(SUITE_ARGS[2:]), "warm_s": round(warm, 1), "wall_s": round(wall, 1),
+            **parse_summary(lines[-1]),
             "exit_code": done.returncode, "machine": machine_info()}
 
 
