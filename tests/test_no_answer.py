@@ -29,6 +29,8 @@ ALLOWED: dict[str, str] = {
     "twin.apps.demo": "`demo`: makes lab runs for the twin to learn from and be checked against",
     "twin.apps.force_validation": "validates the force model against runs of the rigid CNC lab",
     "twin.apps.springback_validation": "validates the springback model against runs of the rigid CNC lab",
+    "twin.apps.warm": "`make test`'s warm-up: drives the plant's sheets along a pass to compile their kernels, "
+                      "reads nothing back",
 }
 #: Modules that may name `truth.json`: the run writer writes the lab's truth there (and nothing reads it back).
 TRUTH_WRITERS = {"twin.runs.write": "write_run(..., truth=...) writes it for the lab; read_run never opens it"}

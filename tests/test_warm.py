@@ -26,3 +26,4 @@ def test_the_warm_up_jobs_call_the_replay_loop_and_the_online_cycle(monkeypatch:
         monkeypatch.setattr(module, name, counted(name, getattr(module, name)))
     assert warm._replay() == "replay loop" and "replay_loop" in called
     assert warm._online() == "online cycle" and "online_cycle" in called
+    assert warm._others() == "rigid drives and plant sheets"
