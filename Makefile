@@ -19,8 +19,8 @@ demo: $(STAMP)
 	$(BIN)/tx200-twin demo --out out/demo
 
 # bytecode written even where the environment says not to (PYTHONDONTWRITEBYTECODE): the CLI processes the suite
-# starts, and the workers' test modules, load it instead of compiling every module again (~4 s); the two large
-# numba kernels compiled once, before the workers start, not in each of them (twin/apps/warm.py)
+# starts, and the workers' test modules, load it instead of compiling every module again (~4 s); the numba
+# kernels compiled once, before the workers start, not in each of them (twin/apps/warm.py)
 test: $(STAMP)
 	env -u PYTHONDONTWRITEBYTECODE $(BIN)/python -m twin.apps.warm
 	env -u PYTHONDONTWRITEBYTECODE $(BIN)/python -m pytest -q -n 2 --dist loadfile --no-loadscope-reorder

@@ -1,5 +1,5 @@
 """`make test`'s warm-up (twin/apps/warm.py) reaches the kernels it is there to compile: if a default changed so
-that its replay ran the Python loop, or its cycle another path, the suite would compile them in every worker again."""
+that a job ran a Python loop instead, the suite would compile those kernels in every worker again."""
 
 from __future__ import annotations
 
@@ -8,12 +8,15 @@ from typing import Any
 
 import pytest
 
+import twin.lab.dynamic.sheet_kernels as plant_law_1
+import twin.lab.dynamic.sheet_patch_kernels as plant_law_2
 import twin.sim.compiled as compiled
+import twin.sim.compiled.rigid as rigid
 import twin.sim.online as online
 from twin.apps import warm
 
 
-def test_the_warm_up_jobs_call_the_replay_loop_and_the_online_cycle(monkeypatch: pytest.MonkeyPatch) -> None:
+def test_each_warm_up_job_calls_the_kernels_it_is_there_to_compile(monkeypatch: pytest.MonkeyPatch) -> None:
     called: list[str] = []
 
     def counted(name: str, kernel: Callable[..., Any]) -> Callable[..., Any]:
@@ -22,8 +25,11 @@ def test_the_warm_up_jobs_call_the_replay_loop_and_the_online_cycle(monkeypatch:
             return kernel(*args)
         return call
 
-    for module, name in ((compiled, "replay_loop"), (online, "online_cycle")):
-        monkeypatch.setattr(module, name, counted(name, getattr(module, name)))
-    assert warm._replay() == "replay loop" and "replay_loop" in called
-    assert warm._online() == "online cycle" and "online_cycle" in called
-    assert warm._others() == "rigid drives and plant sheets"
+    kernels = ((compiled, "replay_loop"), (online, "online_cycle"), (rigid, "isf_rigid_loop"),
+               (rigid, "table_rigid_loop"), (plant_law_1, "force"), (plant_law_1, "fill"), (plant_law_2, "force"))
+    for module, name in kernels:
+        monkeypatch.setattr(module, name, counted(f"{module.__name__}.{name}", getattr(module, name)))
+    for job, expected in ((warm._replay, kernels[:1]), (warm._online, kernels[1:2]), (warm._others, kernels[2:])):
+        called.clear()
+        job()
+        assert set(called) == {f"{module.__name__}.{name}" for module, name in expected}, job.__name__

@@ -5,7 +5,7 @@ Modules: `demo` (the thesis story) and its `report`, `reproduction` (the thesis-
 section, `springback_validation`), `springback_scans` and `springback_page` (the formed part's springback against 32
 scanned cones), `bench`, `bench_speed`, `bench_place` (the placement search's cost), `bench_cli` (`compensate` and
 `place` over `replay`, fresh CLI processes), `bench_suite` (the test suite's own time), `bench_online` (the online
-compensator's real-time figures), `warm` (the large compiled kernels into numba's cache before a suite's processes
+compensator's real-time figures), `warm` (the compiled kernels into numba's cache before a suite's processes
 start) and `machine` (the speed ratios and the machine they ran on), `analytic_replay` (the replay with the linear
 model, the physical floor), `sweep` (a Monte Carlo of the compensated groove) with its `uncertainty` and
 `sweep_figure`, `readme` (the README's generated tables), `export/` (robot programs from a path), `online/` (the

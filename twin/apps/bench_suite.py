@@ -48,8 +48,11 @@ def time_suite(root: str | Path) -> dict[str, Any]:
     """
     env = {**os.environ, "PYTHONDONTWRITEBYTECODE": "1"}
     start = time.perf_counter()
-    subprocess.run([sys.executable, "-m", "twin.apps.warm"], cwd=root, capture_output=True, env=env, check=False)
+    warmed = subprocess.run([sys.executable, "-m", "twin.apps.warm"], cwd=root, capture_output=True, text=True,
+                            env=env, check=False)
     warm = time.perf_counter() - start
+    if warmed.returncode != 0:
+        raise InputError(f"the warm-up in {root} failed (exit {warmed.returncode}): {warmed.stderr[-400:]}")
     start = time.perf_counter()
     done = subprocess.run([sys.executable, *SUITE_ARGS], cwd=root, capture_output=True, text=True, env=env, check=False)
     wall = time.perf_counter() - start
@@ -58,8 +61,7 @@ def time_suite(root: str | Path) -> dict[str, Any]:
         raise InputError(f"the suite in {root} printed no pytest summary (exit {done.returncode}): "
                          f"{done.stdout[-400:]}{done.stderr[-400:]}")
     return {"command": "pytest " + " ".join(SUITE_ARGS[2:]), "warm_s": round(warm, 1), "wall_s": round(wall, 1),
-            **parse_summary(lines[-1]),
-            "exit_code": done.returncode, "machine": machine_info()}
+            **parse_summary(lines[-1]), "exit_code": done.returncode, "machine": machine_info()}
 
 
 def main(argv: list[str] | None = None) -> int:

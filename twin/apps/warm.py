@@ -1,14 +1,13 @@
-"""Compile the twin's two large kernels into numba's cache, once, before many processes need them.
+"""Compile the kernels a test suite needs into numba's cache, once, before many processes need them.
 
 Every compiled kernel is compiled on its first call and cached beside its module (`cache=True`). Until that cache
-is written, each new process compiles it again: the replay loop (`twin.sim.compiled.loop.replay_loop`, with the
-chain, field and ISF kernels it calls) takes ~20 s, the online cycle (`twin.sim.compiled.online.online_cycle`) ~7 s,
-on this project's 2-core machine. A test suite on a fresh clone starts its workers, and they start CLI processes,
-before either cache exists, so each compiles them side by side (measured: `make test` on a fresh clone 354 s, the
-same run again 283 s). `make test` runs this first: the two compile at once, one process each, and every later
-process loads them; the second process, done first, then compiles the rigid drives' and the plant sheets' kernels
-(~18 s), which the suite would otherwise compile in its workers. Cold ~34 s in all; where the cache is already
-written, the two processes' start-up (~2 s).
+is written, each new process compiles it again. A suite on a fresh clone starts its workers, and they start CLI
+processes, before any cache exists, so each compiled the same kernels side by side (CHANGELOG has the times).
+`make test` runs this first, in two processes at once: one compiles the replay loop
+(`twin.sim.compiled.loop.replay_loop`, with the chain, field and ISF kernels it calls; the longest compile), the
+other the online cycle (`twin.sim.compiled.online.online_cycle`) and then, whichever process is free first, the rigid
+drives (`twin.sim.compiled.rigid`) and the plant's two sheet laws. Every later process loads them. Where the cache is
+already written it costs the processes' start-up.
 
 `python -m twin.apps.warm` prints what it compiled and how long it took.
 """
@@ -23,15 +22,22 @@ from concurrent.futures import ProcessPoolExecutor
 import numpy as np
 
 
-def _replay() -> str:
-    """A short quasi-static replay: the first groove pass, compiled loop."""
+def _first_pass() -> tuple[np.ndarray, np.ndarray]:
+    """The thesis groove's first pass: sample times [s] (n,) and tool tips [m] (n, 3), sheet frame."""
     from twin.process.toolpath.groove import groove_path
+
+    path = groove_path()
+    keep = path.pass_index == 1
+    return path.t_s[keep], path.p_sheet_m[keep]
+
+
+def _replay() -> str:
+    """A short quasi-static replay (the first 20 samples of the groove's first pass): the compiled loop."""
     from twin.sim.quasi_static import Twin
     from twin.sim.spec import TwinSpec
 
-    path = groove_path()
-    first = path.pass_index == 1
-    Twin(TwinSpec()).simulate(path.t_s[first][:20].copy(), path.p_sheet_m[first][:20].copy())
+    t_s, p_sheet_m = _first_pass()
+    Twin(TwinSpec()).simulate(t_s[:20], p_sheet_m[:20])
     return "replay loop"
 
 
@@ -46,9 +52,8 @@ def _online() -> str:
 
 
 def _others() -> str:
-    """The kernels a suite compiles beside those two, in the other process while the replay loop compiles: the rigid
-    drives (`twin.sim.compiled.rigid`, the ISF model and the FE table) and the plant's sheets (laws 1 and 2) along
-    the groove's first pass."""
+    """The other kernels a suite compiles: the rigid drives (`twin.sim.compiled.rigid`, the ISF model and the FE
+    table) along the groove, the plant's sheets (laws 1 and 2) along its first pass."""
     from twin.lab.dynamic.sheet import PlantSheet
     from twin.lab.dynamic.sheet_patch import PatchSheet
     from twin.process.description import Process
@@ -60,7 +65,7 @@ def _others() -> str:
     path = groove_path()
     rigid_forces(IsfForceField(), path)
     rigid_forces(build_force_field(Process()), path)
-    first = path.p_sheet_m[path.pass_index == 1]
+    _, first = _first_pass()
     for sheet in (PlantSheet(Process(), 5e-5), PatchSheet(Process(), 5e-5)):
         sheet.start(first[0], 1.0)
         for p in first:
@@ -70,10 +75,9 @@ def _others() -> str:
 
 
 def warm() -> list[str]:
-    """Compile (or load) both kernels, each in its own process, at once; the names of the jobs done."""
+    """Compile (or load) the kernels in two processes at once (module docstring); the names of the jobs done."""
     with ProcessPoolExecutor(2, mp_context=multiprocessing.get_context("spawn")) as pool:
-        jobs = [pool.submit(_replay), pool.submit(_online)]
-        jobs.append(pool.submit(_others))  # queued behind the online cycle, in its process
+        jobs = [pool.submit(job) for job in (_replay, _online, _others)]  # the third: the first process free
         return [job.result() for job in jobs]
 
 
