@@ -4,9 +4,10 @@ Every compiled kernel is compiled on its first call and cached beside its module
 is written, each new process compiles it again. A suite on a fresh clone starts its workers, and they start CLI
 processes, before any cache exists, so each compiled the same kernels side by side (CHANGELOG has the times).
 `make test` runs this first, in two processes at once: one compiles the replay loop
-(`twin.sim.compiled.loop.replay_loop`, with the chain, field and ISF kernels it calls; the longest compile), the
-other the online cycle (`twin.sim.compiled.online.online_cycle`) and then, whichever process is free first, the rigid
-drives (`twin.sim.compiled.rigid`) and the plant's two sheet laws. Every later process loads them. Where the cache is
+(`twin.sim.compiled.loop.replay_loop`, with the chain, field and ISF kernels it calls; the longest compile) and then
+the ISF model's rigid drive, which calls the same ISF kernels; the other the online cycle
+(`twin.sim.compiled.online.online_cycle`) and then, whichever process is free first, the FE table's rigid drive
+(`twin.sim.compiled.rigid`) and the plant's two sheet laws. Every later process loads them. Where the cache is
 already written it costs the processes' start-up.
 
 `python -m twin.apps.warm` prints what it compiled and how long it took.
@@ -32,12 +33,17 @@ def _first_pass() -> tuple[np.ndarray, np.ndarray]:
 
 
 def _replay() -> str:
-    """A short quasi-static replay (the first 20 samples of the groove's first pass): the compiled loop."""
+    """A short quasi-static replay (the first 20 samples of the groove's first pass): the compiled loop; then the ISF
+    model's rigid drive along the groove, whose kernels the replay loop has just compiled in this process."""
+    from twin.process.force.isf import IsfForceField
+    from twin.process.toolpath.groove import groove_path
+    from twin.sim.compiled.rigid import rigid_forces
     from twin.sim.quasi_static import Twin
     from twin.sim.spec import TwinSpec
 
     t_s, p_sheet_m = _first_pass()
     Twin(TwinSpec()).simulate(t_s[:20], p_sheet_m[:20])
+    rigid_forces(IsfForceField(), groove_path())
     return "replay loop"
 
 
@@ -52,19 +58,16 @@ def _online() -> str:
 
 
 def _others() -> str:
-    """The other kernels a suite compiles: the rigid drives (`twin.sim.compiled.rigid`, the ISF model and the FE
-    table) along the groove, the plant's sheets (laws 1 and 2) along its first pass."""
+    """The other kernels a suite compiles: the FE table's rigid drive (`twin.sim.compiled.rigid`) along the groove,
+    the plant's sheets (laws 1 and 2) along its first pass."""
     from twin.lab.dynamic.sheet import PlantSheet
     from twin.lab.dynamic.sheet_patch import PatchSheet
     from twin.process.description import Process
-    from twin.process.force.isf import IsfForceField
     from twin.process.force.registry import build_force_field
     from twin.process.toolpath.groove import groove_path
     from twin.sim.compiled.rigid import rigid_forces
 
-    path = groove_path()
-    rigid_forces(IsfForceField(), path)
-    rigid_forces(build_force_field(Process()), path)
+    rigid_forces(build_force_field(Process()), groove_path())
     _, first = _first_pass()
     for sheet in (PlantSheet(Process(), 5e-5), PatchSheet(Process(), 5e-5)):
         sheet.start(first[0], 1.0)

@@ -145,18 +145,14 @@ def chain_arrays(
 
 
 @njit(cache=True)
-def chain_eval(
-    c: ChainArrays, q: np.ndarray, p: np.ndarray, jac: np.ndarray, g: np.ndarray, tip_only: bool = False
-) -> None:
-    """Site position, translational Jacobian and gravity torques at `q`, into `p`, `jac`, `g`.
+def chain_tip(c: ChainArrays, q: np.ndarray, p: np.ndarray) -> None:
+    """Site position at `q`, into `p` (`chain_eval` without the Jacobian and gravity; the bodies' frames are left in
+    the chain's scratch space for it).
 
     Args:
         c: The chain (`chain_arrays`).
         q: Joint positions [rad], shape (nv,).
         p: Out: site position in the chain's frame (the sheet frame; the base frame by default) [m], shape (3,).
-        jac: Out: d p / d q in that frame [m/rad], shape (3, nv).
-        g: Out: gravity torques, as `mj_rne` at rest [N·m], shape (nv,).
-        tip_only: Only the site's position (`jac` and `g` not written).
     """
     xpos, xmat = c.xpos, c.xmat
     nb = xpos.shape[0]
@@ -209,8 +205,22 @@ def chain_eval(
     R, o = c.frame_rot, c.frame_origin
     for r in range(3):
         p[r] = R[r, 0] * (pw[0] - o[0]) + R[r, 1] * (pw[1] - o[1]) + R[r, 2] * (pw[2] - o[2])
-    if tip_only:
-        return
+
+
+@njit(cache=True)
+def chain_eval(c: ChainArrays, q: np.ndarray, p: np.ndarray, jac: np.ndarray, g: np.ndarray) -> None:
+    """Site position, translational Jacobian and gravity torques at `q`, into `p`, `jac`, `g`.
+
+    Args:
+        c: The chain (`chain_arrays`).
+        q: Joint positions [rad], shape (nv,).
+        p: Out: site position in the chain's frame (the sheet frame; the base frame by default) [m], shape (3,).
+        jac: Out: d p / d q in that frame [m/rad], shape (3, nv).
+        g: Out: gravity torques, as `mj_rne` at rest [N·m], shape (nv,).
+    """
+    chain_tip(c, q, p)
+    xpos, xmat, pw, R = c.xpos, c.xmat, c.pw, c.frame_rot
+    nb = xpos.shape[0]
     # subtree masses and mass-weighted centres of mass, leaves first (children have larger ids)
     for b in range(nb):
         c.sub_m[b] = c.mass[b]

@@ -130,7 +130,8 @@ def field_force(F: FieldArrays, current_pass: int, x: float, z: float, pass_inde
 def field_advance(F: FieldArrays, current_pass: int, x: float, z: float, pass_index: int) -> int:
     """`SheetForceField.advance` with a given pass (never before the current one); returns the current pass."""
     if pass_index != current_pass:
-        F.snapshot[:] = F.formed
+        for i in range(F.formed.shape[0]):  # element by element: a slice copy compiles its shape check's message
+            F.snapshot[i] = F.formed[i]
         current_pass = pass_index
     x0, dx, n, r = F.grid[0], F.grid[1], int(F.grid[2]), F.grid[3]
     i0 = max(0, math.ceil((x - r - x0) / dx))

@@ -22,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from twin.sim.compiled.chain import ChainArrays, chain_eval
+from twin.sim.compiled.chain import ChainArrays, chain_eval, chain_tip
 from twin.sim.compiled.field import FieldArrays, field_advance, field_force
 from twin.sim.compiled.isf import IsfArrays, isf_advance_from, isf_eval
 from twin.sim.compiled.sheet import frame_give, sheet
@@ -199,14 +199,15 @@ def replay_loop(
         total = 0
         stick = 0.0
         if not friction or i == 0:
-            q_try[:] = q
+            for j in range(nv):
+                q_try[j] = q[j]
             k, status, stick = _equilibrium(C, F, M, kind, cur, ZERO, slip, x_prev, gain, frame, pi, di, q_try, q_ref, k_diag,
                                             h_const, e_prev, tau_f, predict, hold, jac, S, W)
             total += k
             if status != 0:
                 return status, i
             stick = 0.0
-            chain_eval(C, q_try, p, jac_nom, g_nom, True)
+            chain_tip(C, q_try, p)
             if i == 0:
                 first_dir = di
         else:
@@ -214,7 +215,8 @@ def replay_loop(
                 regime = float(di) if attempt == 0 else (0.0 if attempt == 1 else -float(di))
                 mode = ONE if regime == 0.0 else ZERO
                 sign = di if attempt == 0 else -di
-                q_try[:] = q
+                for j in range(nv):
+                    q_try[j] = q[j]
                 k, status, stick = _equilibrium(C, F, M, kind, cur, mode, slip, x_prev, gain, frame, pi, sign, q_try, q_ref,
                                                 k_diag, h_const, e_prev, tau_f, predict, hold, jac, S, W)
                 total += k
@@ -222,7 +224,7 @@ def replay_loop(
                     return status, i
                 if mode == 0:
                     stick = 0.0
-                chain_eval(C, q_try, p, jac_nom, g_nom, True)
+                chain_tip(C, q_try, p)
                 u = slip + gain * (p[0] - x_prev)
                 if (regime == 0.0 and -1.0 <= u <= 1.0) or (regime != 0.0 and u * regime >= 1.0):
                     break
@@ -249,7 +251,9 @@ def replay_loop(
                 s_out[i, r, c] = S[r, c]
             p_out[i, r] = p[r]
         s_out[i, 0, 0] -= stick
-        jac_out[i] = jac
+        for r in range(3):  # element by element: an array copy compiles its shape check's message (seconds)
+            for j in range(nv):
+                jac_out[i, r, j] = jac[r, j]
         if friction:
             slip = float(first_dir) if i == 0 else min(1.0, max(-1.0, slip + gain * (x - x_prev)))
             x_prev = x

@@ -156,7 +156,7 @@ def online_cycle(chain, params, k_inv, friction, c_tool, assumed_p, assumed_f, s
     stale, hold, gain, spike_run, side_share = params[6], params[7], params[8], params[9], params[10]
     cycle, turn_feed, w0 = params[0], params[11], params[12]
     if side_share > 0.0 or turn_feed > 0.0:  # the travel in the sheet plane, from the planned tip (`q_ref`)
-        chain_eval(chain, q_ref, p, jac, g, False)
+        chain_eval(chain, q_ref, p, jac, g)
         _travel(state, t, p[0], p[1], turn_feed, planned)
     status = TRACKING
     if sample_t == sample_t and (state[HAVE] == 0.0 or sample_t > state[T_LAST]):  # a new sample (not NaN)
@@ -188,7 +188,7 @@ def online_cycle(chain, params, k_inv, friction, c_tool, assumed_p, assumed_f, s
     n_assumed = assumed_p.shape[0]
     w_at, i_at = 0.0, 0
     if n_assumed > 0:  # on top of an offline command: where along it the robot is, every cycle (no gap to catch up)
-        chain_eval(chain, q, p, jac, g, False)
+        chain_eval(chain, q, p, jac, g)
         # the commanded tip the joints report, less the correction this compensator added to it
         w_at, lost = progress(assumed_p, state[TRACK:TRACK + TRACK_SIZE], p[0] - state[CORR],
                               p[1] - state[CORR + 1], p[2] - state[CORR + 2], 1.0 - math.exp(-cycle / OFFSET_TAU_S))
@@ -203,7 +203,7 @@ def online_cycle(chain, params, k_inv, friction, c_tool, assumed_p, assumed_f, s
         if age <= stale:
             ahead = latency + max(age, 0.0)
             if n_assumed == 0:
-                chain_eval(chain, q, p, jac, g, False)
+                chain_eval(chain, q, p, jac, g)
             fp0 = state[F] + state[DF] * ahead
             fp1 = state[F + 1] + state[DF + 1] * ahead
             fp2 = state[F + 2] + state[DF + 2] * ahead
