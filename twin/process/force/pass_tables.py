@@ -7,7 +7,9 @@ a regular x grid and read back by linear interpolation (`lerp`, `lerp_slope`) in
 
 from __future__ import annotations
 
+import hashlib
 import math
+from collections import OrderedDict
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -139,6 +141,43 @@ def build_pass_tables(history: ForceHistory, profile: FormedProfile, *, deadband
                 direction=int(direction[sel[0]]),
             )
         )
+    return tables
+
+
+#: The tables built in this process, by what they are built from (`shared_pass_tables`); the most kept.
+_SHARED: OrderedDict[tuple, list[PassTable]] = OrderedDict()
+SHARED_MAX = 16
+
+
+def shared_pass_tables(history: ForceHistory, radius_m: float, grid_step_m: float, half_length_m: float, *,
+                       deadband_m: float) -> list[PassTable]:
+    """`build_pass_tables` of `history` on a flat profile of that tool, grid and length, built once per process for
+    each history (by its samples' bytes) and shared: every twin built from the same history fits the same tables
+    (a discrepancy search builds a twin per candidate), and nothing changes them (their arrays are read-only).
+
+    Args:
+        history: Physical force history along the ideal path.
+        radius_m: Tool sphere radius [m].
+        grid_step_m: Spacing of the profile grid [m].
+        half_length_m: The profile spans [-half_length_m, half_length_m] [m].
+        deadband_m: Dead band for labelling the history's passes [m].
+    """
+    digest = hashlib.blake2b(digest_size=16)
+    for array in (history.s_m, history.p_sheet_m, history.f_sheet_n):
+        a = np.ascontiguousarray(array, dtype=float)
+        digest.update(repr(a.shape).encode())
+        digest.update(a.tobytes())
+    key = (digest.hexdigest(), float(radius_m), float(grid_step_m), float(half_length_m), float(deadband_m))
+    if key in _SHARED:
+        _SHARED.move_to_end(key)
+        return _SHARED[key]
+    tables = build_pass_tables(history, FormedProfile(radius_m, grid_step_m, half_length_m), deadband_m=deadband_m)
+    for t in tables:
+        for a in (t.fz, t.ratio, t.z_plan, t.delta_plan):
+            a.flags.writeable = False
+    _SHARED[key] = tables
+    if len(_SHARED) > SHARED_MAX:
+        _SHARED.popitem(last=False)
     return tables
 
 

@@ -50,7 +50,7 @@ import numpy as np
 from twin.errors import InputError
 from twin.process.fe.load import ForceHistory
 from twin.process.force.base import FieldState, ForceField
-from twin.process.force.pass_tables import PassTable, build_pass_tables
+from twin.process.force.pass_tables import PassTable, shared_pass_tables
 from twin.process.force.pass_tables import lerp as _lerp
 from twin.process.force.pass_tables import lerp_slope as _lerp_slope
 from twin.process.force.pass_tables import lerp_slope3 as _lerp_slope3
@@ -128,7 +128,8 @@ class SheetForceField(ForceField):
         self._formed, self._snapshot = p.z_m, p.snapshot_m  # never rebound: the hot path reads them directly
         self._pass = 0
         self._hyst: tuple[float, float, int] | None = None  # (start x, extreme x, direction) for inference
-        self._tables = tables if tables is not None else build_pass_tables(history, self._profile, deadband_m=deadband_m)
+        self._tables = tables if tables is not None else shared_pass_tables(
+            history, self.radius, grid_step_m, SHEET_HALF_LENGTH_M, deadband_m=deadband_m)
         self.n_passes = len(self._tables)
         self.reset()
 

@@ -39,7 +39,7 @@ def isf_rigid_loop(M: IsfArrays, p: np.ndarray, out: np.ndarray) -> None:
 def table_rigid_loop(F: FieldArrays, p: np.ndarray, passes: np.ndarray, dirs: np.ndarray, out: np.ndarray) -> int:
     """The table field along `p` (n, 3) [m] with its passes and directions: each sample's force into `out`
     (n, 3) [N] (Fy = 0), then the commit; returns the current pass at the end."""
-    current = 0
+    current = np.int64(0)  # typed, not literal: the field kernels compile once
     for i in range(p.shape[0]):
         x, z = p[i, 0], p[i, 2]
         fx, fz = field_force(F, current, x, z, passes[i], dirs[i])
@@ -58,7 +58,7 @@ def rigid_forces(field: ForceField, path: ToolPath) -> np.ndarray:
     Returns:
         Forces exerted by the sheet on the tool at each sample [N], shape (n, 3), sheet frame.
     """
-    p = np.ascontiguousarray(path.p_sheet_m, dtype=float)
+    p = np.array(path.p_sheet_m, dtype=float, order="C")  # a writable copy: a read-only path is another compile
     n = p.shape[0]
     out = np.empty((n, 3))
     if n and field.kernel() == "isf" and isinstance(field, IsfForceField):
@@ -69,8 +69,8 @@ def rigid_forces(field: ForceField, path: ToolPath) -> np.ndarray:
             write_back(field, arrays)
             return out
     if n and field.kernel() == "table" and isinstance(field, SheetForceField):
-        passes = np.asarray(path.pass_index, dtype=np.int64)
-        dirs = np.asarray(path.direction, dtype=np.int64)
+        passes = np.array(path.pass_index, dtype=np.int64)  # writable copies, as `p`
+        dirs = np.array(path.direction, dtype=np.int64)
         if (passes.min() >= 1 and passes.max() <= field.n_passes and not np.any(np.diff(passes) < 0)
                 and np.all(np.abs(dirs) == 1)):
             field.reset()
