@@ -175,8 +175,9 @@ def test_the_compiled_sheet_is_the_python_sheet() -> None:
             for i, p in enumerate(path):
                 forces[i] = sheet.force(p)
                 sheet.advance(p)
-            runs.append((forces, sheet.z_m.copy(), sheet.pressed.copy(), sheet.travel.copy()))
-        (f1, z1, p1, t1), (f2, z2, p2, t2) = runs
+            runs.append((forces, sheet.z_m.copy(), sheet.pressed.copy(), sheet.travel.copy(), sheet.hanging.copy()))
+        (f1, z1, p1, t1, h1), (f2, z2, p2, t2, h2) = runs
+        np.testing.assert_array_equal(h1, h2)  # the compiled fill finds again only what changed: the same nodes
         assert np.max(np.abs(f1)) > 100.0
         np.testing.assert_allclose(f1, f2, rtol=1e-12, atol=1e-9)
         np.testing.assert_array_equal(z1, z2)

@@ -123,8 +123,7 @@ class PlantSheet(GridSheet):
         timestep_s: The plant's servo tick, between two `advance` calls [s].
     """
 
-    #: Run `force` and `advance` compiled (False: the Python reference).
-    compiled: bool = True
+    compiled: bool = True  #: run `force` and `advance` compiled (False: the Python reference)
 
     def __init__(self, process: Process, reversal_m: float, timestep_s: float = 1e-3) -> None:
         self._grid(process, timestep_s)
@@ -140,6 +139,7 @@ class PlantSheet(GridSheet):
         self.z_m = np.zeros((len(self.y_m), len(self.x_m)))
         self.pressed = np.zeros(self.z_m.shape, dtype=bool)
         self.hanging = np.zeros(self.z_m.shape, dtype=bool)  # the sheet inside the innermost track (`_fill`)
+        self._enclosed = np.zeros(self.z_m.shape, dtype=bool)  # what the compiled fill found enclosed last
         self._unfilled_m = 0.0  # the tip's travel since `hanging` was found [m]
         self._box = np.array([len(self.y_m), -1, len(self.x_m), -1])  # rows, columns the tool pressed: first, last
         self.slip = np.array([1.0, 0.0])
@@ -268,7 +268,7 @@ class PlantSheet(GridSheet):
         kernels.press(self.z_m, self.pressed, self._box, self.x_m, self.y_m, self.radius, len(self._offsets) // 2, x,
                       y, z)
         if self._unfilled_m >= FILL_EVERY_M:
-            kernels.fill(self.pressed, self._box, self.hanging, self.radius / GRID_SPACING_M)
+            kernels.fill(self.pressed, self._box, self.hanging, self._enclosed, self.radius / GRID_SPACING_M)
             self._unfilled_m = 0.0
 
     def advance_reference(self, p_sheet_m: np.ndarray) -> None:

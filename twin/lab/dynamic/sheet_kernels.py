@@ -73,14 +73,17 @@ def formed_fraction(pressed: np.ndarray, rho: float, x: float, y: float) -> floa
 
 
 @njit(cache=True)
-def fill(pressed: np.ndarray, box: np.ndarray, hanging: np.ndarray, reach: float) -> None:
-    """`PlantSheet._fill` into `hanging`: a 4-connected flood of the unpressed nodes from the edge of the pressed
-    nodes' bounding box `box` (rows j0, j1, columns i0, i1) grown by one node (outside it every node is unpressed
-    and joined to the grid's edge); the unpressed nodes it does not reach are enclosed; `hanging` is every node
-    within `reach` nodes of one (an exact squared distance transform, Felzenszwalb and Huttenlocher, "Distance
-    transforms of sampled functions", Theory of Computing 8 (2012) 415-428)."""
+def fill(pressed: np.ndarray, box: np.ndarray, hanging: np.ndarray, enclosed: np.ndarray, reach: float) -> None:
+    """`PlantSheet._fill` into `hanging`, kept with `enclosed` from the last call (both False on a fresh sheet): a
+    4-connected flood of the unpressed nodes from the edge of the pressed nodes' bounding box `box` (rows j0, j1,
+    columns i0, i1) grown by one node (outside it every node is unpressed and joined to the grid's edge); the
+    unpressed nodes it does not reach are enclosed; `hanging` is every node within `reach` nodes of one (an exact
+    squared distance transform, Felzenszwalb and Huttenlocher, "Distance transforms of sampled functions", Theory
+    of Computing 8 (2012) 415-428). Only where a node changed from enclosed or back is `hanging` found again, over
+    the changed nodes' box grown by `reach` (a node further from every changed node keeps the enclosed nodes in its
+    reach, so its answer), from the enclosed nodes within `reach` of that box: the same answer as the whole grid's,
+    at a fraction of the work once a part is deep."""
     ny, nx = pressed.shape
-    hanging[:, :] = False
     j0, j1, i0, i1 = box[0], box[1], box[2], box[3]
     if j1 < 0:
         return
@@ -104,22 +107,20 @@ def fill(pressed: np.ndarray, box: np.ndarray, hanging: np.ndarray, reach: float
                 outside[jj, ii] = True
                 stack[top] = jj * w + ii
                 top += 1
-    e0, e1, c0, c1 = h, -1, w, -1  # the enclosed nodes' rows and columns: first, last (none: e1 < 0)
-    for j in range(h):
+    d0, d1, c0, c1 = ny, -1, nx, -1  # the changed nodes' rows and columns, grid indices: first, last (none: d1 < 0)
+    for j in range(h):  # the box only grows: every node enclosed before lies in it
         for i in range(w):
-            if not outside[j, i] and not pressed[j0 + j, i0 + i]:
-                e0, e1, c0, c1 = min(e0, j), j, min(c0, i), max(c1, i)
-    if e1 < 0:
+            now = not outside[j, i] and not pressed[j0 + j, i0 + i]
+            if now != enclosed[j0 + j, i0 + i]:
+                enclosed[j0 + j, i0 + i] = now
+                d0, d1, c0, c1 = min(d0, j0 + j), j0 + j, min(c0, i0 + i), max(c1, i0 + i)
+    if d1 < 0:
         return
-    g = math.ceil(reach)  # no node further than `g` from the enclosed ones' box hangs: the transform stays inside
-    b0, b1 = max(j0 + e0 - g, 0), min(j0 + e1 + g, ny - 1)
-    a0, a1 = max(i0 + c0 - g, 0), min(i0 + c1 + g, nx - 1)
-    hb, wb = b1 - b0 + 1, a1 - a0 + 1
-    d2 = np.full((hb, wb), FAR)
-    for j in range(e0, e1 + 1):
-        for i in range(c0, c1 + 1):
-            if not outside[j, i] and not pressed[j0 + j, i0 + i]:
-                d2[j0 + j - b0, i0 + i - a0] = 0.0
+    g = math.ceil(reach)  # found again: rows r0..r1, columns a0..a1; read from the enclosed nodes g further out
+    r0, r1, a0, a1 = max(d0 - g, 0), min(d1 + g, ny - 1), max(c0 - g, 0), min(c1 + g, nx - 1)
+    b0, b1, e0, e1 = max(r0 - g, 0), min(r1 + g, ny - 1), max(a0 - g, 0), min(a1 + g, nx - 1)
+    hb, wb = b1 - b0 + 1, e1 - e0 + 1
+    d2 = np.empty((hb, wb))
     n = max(hb, wb)
     f = np.empty(n)
     out = np.empty(n)
@@ -127,16 +128,16 @@ def fill(pressed: np.ndarray, box: np.ndarray, hanging: np.ndarray, reach: float
     zb = np.empty(n + 1)
     for j in range(hb):  # along rows
         for i in range(wb):
-            f[i] = d2[j, i]
+            f[i] = 0.0 if enclosed[b0 + j, e0 + i] else FAR
         _edt_1d(f, wb, out, v, zb)
         for i in range(wb):
             d2[j, i] = out[i]
-    for i in range(wb):  # along columns
+    for i in range(a0 - e0, a1 - e0 + 1):  # along the columns found again
         for j in range(hb):
             f[j] = d2[j, i]
         _edt_1d(f, hb, out, v, zb)
-        for j in range(hb):
-            hanging[b0 + j, a0 + i] = out[j] <= reach * reach
+        for j in range(r0 - b0, r1 - b0 + 1):
+            hanging[b0 + j, e0 + i] = out[j] <= reach * reach
 
 
 @njit(cache=True)
