@@ -238,7 +238,8 @@ def test_a_closed_tracks_inside_hangs_and_an_open_ones_sides_do_not(
     outside = np.hypot(*np.meshgrid(sheet.x_m, sheet.y_m)) > np.abs(path[0, :2]).max() + 1.5 * radius
     assert not sheet.hanging[outside].any()
     compiled = np.zeros_like(sheet.hanging)
-    sheet_kernels.fill(sheet.pressed, sheet._box, compiled, np.zeros_like(compiled), radius / GRID_SPACING_M)
+    regions = np.array([compiled, ~compiled])  # a fresh sheet's: nothing enclosed, all outside
+    sheet_kernels.fill(sheet.pressed, sheet._box, compiled, regions, radius / GRID_SPACING_M)
     sheet._fill()
     np.testing.assert_array_equal(compiled, sheet.hanging)
     _, groove = _rigid(_resampled(groove_path().p_sheet_m[:2000]), Process())

@@ -139,7 +139,7 @@ class PlantSheet(GridSheet):
         self.z_m = np.zeros((len(self.y_m), len(self.x_m)))
         self.pressed = np.zeros(self.z_m.shape, dtype=bool)
         self.hanging = np.zeros(self.z_m.shape, dtype=bool)  # the sheet inside the innermost track (`_fill`)
-        self._enclosed = np.zeros(self.z_m.shape, dtype=bool)  # what the compiled fill found enclosed last
+        self._regions = np.array([self.hanging, ~self.hanging])  # the compiled fill's last enclosed and outside nodes
         self._unfilled_m = 0.0  # the tip's travel since `hanging` was found [m]
         self._box = np.array([len(self.y_m), -1, len(self.x_m), -1])  # rows, columns the tool pressed: first, last
         self.slip = np.array([1.0, 0.0])
@@ -268,7 +268,7 @@ class PlantSheet(GridSheet):
         kernels.press(self.z_m, self.pressed, self._box, self.x_m, self.y_m, self.radius, len(self._offsets) // 2, x,
                       y, z)
         if self._unfilled_m >= FILL_EVERY_M:
-            kernels.fill(self.pressed, self._box, self.hanging, self._enclosed, self.radius / GRID_SPACING_M)
+            kernels.fill(self.pressed, self._box, self.hanging, self._regions, self.radius / GRID_SPACING_M)
             self._unfilled_m = 0.0
 
     def advance_reference(self, p_sheet_m: np.ndarray) -> None:

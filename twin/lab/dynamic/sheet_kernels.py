@@ -73,47 +73,61 @@ def formed_fraction(pressed: np.ndarray, rho: float, x: float, y: float) -> floa
 
 
 @njit(cache=True)
-def fill(pressed: np.ndarray, box: np.ndarray, hanging: np.ndarray, enclosed: np.ndarray, reach: float) -> None:
-    """`PlantSheet._fill` into `hanging`, kept with `enclosed` from the last call (both False on a fresh sheet): a
-    4-connected flood of the unpressed nodes from the edge of the pressed nodes' bounding box `box` (rows j0, j1,
-    columns i0, i1) grown by one node (outside it every node is unpressed and joined to the grid's edge); the
-    unpressed nodes it does not reach are enclosed; `hanging` is every node within `reach` nodes of one (an exact
-    squared distance transform, Felzenszwalb and Huttenlocher, "Distance transforms of sampled functions", Theory
-    of Computing 8 (2012) 415-428). Only where a node changed from enclosed or back is `hanging` found again, over
-    the changed nodes' box grown by `reach` (a node further from every changed node keeps the enclosed nodes in its
-    reach, so its answer), from the enclosed nodes within `reach` of that box: the same answer as the whole grid's,
-    at a fraction of the work once a part is deep."""
+def fill(pressed: np.ndarray, box: np.ndarray, hanging: np.ndarray, regions: np.ndarray, reach: float) -> None:
+    """`PlantSheet._fill` into `hanging`, kept with `regions` from the last call ((2, ny, nx): the enclosed nodes, all
+    False on a fresh sheet; the outside ones, all True): the unpressed nodes joined to the clamped frame through
+    unpressed nodes side by side (4-connected) are outside, the other unpressed nodes enclosed, and `hanging` is every
+    node within `reach` nodes of an enclosed one (an exact squared distance transform, Felzenszwalb and Huttenlocher,
+    "Distance transforms of sampled functions", Theory of Computing 8 (2012) 415-428). The outside is flooded again,
+    from the edge of the pressed nodes' bounding box `box` (rows j0, j1, columns i0, i1) grown by one node (beyond it
+    every node is unpressed and joined to the grid's edge), only when the tool pressed an outside node since: pressing
+    no outside node leaves the outside as it was. `hanging` is found again only over the box of the nodes that turned
+    enclosed or back, grown by `reach` (a node further from every changed node keeps the enclosed nodes in its reach,
+    so its answer), from the enclosed nodes within `reach` of that box: the same answer as the whole grid's, at a
+    fraction of the work once a part is deep."""
     ny, nx = pressed.shape
     j0, j1, i0, i1 = box[0], box[1], box[2], box[3]
     if j1 < 0:
         return
     j0, j1, i0, i1 = max(j0 - 1, 0), min(j1 + 1, ny - 1), max(i0 - 1, 0), min(i1 + 1, nx - 1)
     h, w = j1 - j0 + 1, i1 - i0 + 1
-    outside = np.zeros((h, w), dtype=np.bool_)
-    stack = np.empty(h * w, dtype=np.int64)  # each node is pushed once at most
-    top = 0
-    for j in range(h):  # the box's edge: whole first and last rows, the ends of the others
-        for i in range(0, w, 1 if j == 0 or j == h - 1 else max(w - 1, 1)):
-            if not pressed[j0 + j, i0 + i]:
-                outside[j, i] = True
-                stack[top] = j * w + i
-                top += 1
-    while top > 0:
-        top -= 1
-        j, i = stack[top] // w, stack[top] % w
-        for dj, di in ((1, 0), (-1, 0), (0, 1), (0, -1)):
-            jj, ii = j + dj, i + di
-            if 0 <= jj < h and 0 <= ii < w and not outside[jj, ii] and not pressed[j0 + jj, i0 + ii]:
-                outside[jj, ii] = True
-                stack[top] = jj * w + ii
-                top += 1
-    d0, d1, c0, c1 = ny, -1, nx, -1  # the changed nodes' rows and columns, grid indices: first, last (none: d1 < 0)
-    for j in range(h):  # the box only grows: every node enclosed before lies in it
-        for i in range(w):
-            now = not outside[j, i] and not pressed[j0 + j, i0 + i]
-            if now != enclosed[j0 + j, i0 + i]:
-                enclosed[j0 + j, i0 + i] = now
-                d0, d1, c0, c1 = min(d0, j0 + j), j0 + j, min(c0, i0 + i), max(c1, i0 + i)
+    enclosed, outside = regions[0], regions[1]
+    pressed_outside = False
+    for j in range(j0, j1 + 1):
+        for i in range(i0, i1 + 1):
+            if pressed[j, i] and outside[j, i]:
+                pressed_outside = True
+                break
+        if pressed_outside:
+            break
+    if pressed_outside:
+        for j in range(j0, j1 + 1):
+            for i in range(i0, i1 + 1):
+                outside[j, i] = False
+        stack = np.empty(h * w, dtype=np.int64)  # each node is pushed once at most
+        top = 0
+        for j in range(h):  # the box's edge: whole first and last rows, the ends of the others
+            for i in range(0, w, 1 if j == 0 or j == h - 1 else max(w - 1, 1)):
+                if not pressed[j0 + j, i0 + i]:
+                    outside[j0 + j, i0 + i] = True
+                    stack[top] = j * w + i
+                    top += 1
+        while top > 0:
+            top -= 1
+            j, i = stack[top] // w, stack[top] % w
+            for dj, di in ((1, 0), (-1, 0), (0, 1), (0, -1)):
+                jj, ii = j + dj, i + di
+                if 0 <= jj < h and 0 <= ii < w and not outside[j0 + jj, i0 + ii] and not pressed[j0 + jj, i0 + ii]:
+                    outside[j0 + jj, i0 + ii] = True
+                    stack[top] = jj * w + ii
+                    top += 1
+    d0, d1, c0, c1 = ny, -1, nx, -1  # the changed nodes' rows and columns: first, last (none: d1 < 0)
+    for j in range(j0, j1 + 1):  # the box only grows: every node enclosed before lies in it
+        for i in range(i0, i1 + 1):
+            now = not outside[j, i] and not pressed[j, i]
+            if now != enclosed[j, i]:
+                enclosed[j, i] = now
+                d0, d1, c0, c1 = min(d0, j), j, min(c0, i), max(c1, i)
     if d1 < 0:
         return
     g = math.ceil(reach)  # found again: rows r0..r1, columns a0..a1; read from the enclosed nodes g further out
