@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -10,7 +11,9 @@ from doc_numbers import quoted
 
 from twin.errors import InputError
 from twin.process.fe.load import default_force_history
-from twin.process.force.table import K_LOAD_N_PER_M, K_UNLOAD_N_PER_M, SheetForceField
+from twin.process.force.pass_tables import build_pass_tables
+from twin.process.force.table import K_LOAD_N_PER_M, K_UNLOAD_N_PER_M, SHEET_HALF_LENGTH_M, SheetForceField
+from twin.process.part.formed_profile import FormedProfile
 from twin.process.toolpath.groove import ToolPath, groove_path
 
 UP = np.array([0.0, 0.0, 1.0])
@@ -203,12 +206,6 @@ def test_the_numbers_docs_forces_md_quotes_are_the_shipped_field_and_history() -
 def test_fields_of_one_history_share_its_tables_and_cannot_change_them(history) -> None:
     """Every field built from the same samples gets the tables a fresh build gives, read-only; other samples or
     another tool get their own."""
-    from dataclasses import replace
-
-    from twin.process.force.pass_tables import build_pass_tables
-    from twin.process.force.table import SHEET_HALF_LENGTH_M
-    from twin.process.part.formed_profile import FormedProfile
-
     first, again = SheetForceField(history), SheetForceField(replace(history, p_sheet_m=history.p_sheet_m.copy()))
     assert again.pass_tables is first.pass_tables
     fresh = build_pass_tables(history, FormedProfile(7.5e-3, 1e-4, SHEET_HALF_LENGTH_M), deadband_m=1e-6)

@@ -19,31 +19,34 @@ import multiprocessing
 import sys
 import time
 from concurrent.futures import ProcessPoolExecutor
+from typing import TYPE_CHECKING
 
 import numpy as np
 
+if TYPE_CHECKING:
+    from twin.process.toolpath.groove import ToolPath
 
-def _first_pass() -> tuple[np.ndarray, np.ndarray]:
-    """The thesis groove's first pass: sample times [s] (n,) and tool tips [m] (n, 3), sheet frame."""
+
+def _groove() -> tuple[ToolPath, np.ndarray, np.ndarray]:
+    """The thesis groove, and its first pass: sample times [s] (n,) and tool tips [m] (n, 3), sheet frame."""
     from twin.process.toolpath.groove import groove_path
 
     path = groove_path()
     keep = path.pass_index == 1
-    return path.t_s[keep], path.p_sheet_m[keep]
+    return path, path.t_s[keep], path.p_sheet_m[keep]
 
 
 def _replay() -> str:
     """A short quasi-static replay (the first 20 samples of the groove's first pass): the compiled loop; then the ISF
     model's rigid drive along the groove, whose kernels the replay loop has just compiled in this process."""
     from twin.process.force.isf import IsfForceField
-    from twin.process.toolpath.groove import groove_path
     from twin.sim.compiled.rigid import rigid_forces
     from twin.sim.quasi_static import Twin
     from twin.sim.spec import TwinSpec
 
-    t_s, p_sheet_m = _first_pass()
+    path, t_s, p_sheet_m = _groove()
     Twin(TwinSpec()).simulate(t_s[:20], p_sheet_m[:20])
-    rigid_forces(IsfForceField(), groove_path())
+    rigid_forces(IsfForceField(), path)
     return "replay loop"
 
 
@@ -64,11 +67,10 @@ def _others() -> str:
     from twin.lab.dynamic.sheet_patch import PatchSheet
     from twin.process.description import Process
     from twin.process.force.registry import build_force_field
-    from twin.process.toolpath.groove import groove_path
     from twin.sim.compiled.rigid import rigid_forces
 
-    rigid_forces(build_force_field(Process()), groove_path())
-    _, first = _first_pass()
+    path, _, first = _groove()
+    rigid_forces(build_force_field(Process()), path)
     for sheet in (PlantSheet(Process(), 5e-5), PatchSheet(Process(), 5e-5)):
         sheet.start(first[0], 1.0)
         for p in first:

@@ -73,6 +73,43 @@ def formed_fraction(pressed: np.ndarray, rho: float, x: float, y: float) -> floa
 
 
 @njit(cache=True)
+def _pressed_outside(pressed: np.ndarray, outside: np.ndarray, j0: int, j1: int, i0: int, i1: int) -> bool:
+    """Whether a node of rows j0..j1, columns i0..i1 was pressed since `outside` was flooded."""
+    for j in range(j0, j1 + 1):
+        for i in range(i0, i1 + 1):
+            if pressed[j, i] and outside[j, i]:
+                return True
+    return False
+
+
+@njit(cache=True)
+def _flood(pressed: np.ndarray, outside: np.ndarray, j0: int, j1: int, i0: int, i1: int) -> None:
+    """`outside` over rows j0..j1, columns i0..i1 anew: the unpressed nodes a 4-connected flood of unpressed nodes
+    reaches from the box's edge."""
+    h, w = j1 - j0 + 1, i1 - i0 + 1
+    for j in range(j0, j1 + 1):
+        for i in range(i0, i1 + 1):
+            outside[j, i] = False
+    stack = np.empty(h * w, dtype=np.int64)  # each node is pushed once at most
+    top = 0
+    for j in range(h):  # the box's edge: whole first and last rows, the ends of the others
+        for i in range(0, w, 1 if j == 0 or j == h - 1 else max(w - 1, 1)):
+            if not pressed[j0 + j, i0 + i]:
+                outside[j0 + j, i0 + i] = True
+                stack[top] = j * w + i
+                top += 1
+    while top > 0:
+        top -= 1
+        j, i = stack[top] // w, stack[top] % w
+        for dj, di in ((1, 0), (-1, 0), (0, 1), (0, -1)):
+            jj, ii = j + dj, i + di
+            if 0 <= jj < h and 0 <= ii < w and not outside[j0 + jj, i0 + ii] and not pressed[j0 + jj, i0 + ii]:
+                outside[j0 + jj, i0 + ii] = True
+                stack[top] = jj * w + ii
+                top += 1
+
+
+@njit(cache=True)
 def fill(pressed: np.ndarray, box: np.ndarray, hanging: np.ndarray, regions: np.ndarray, reach: float) -> None:
     """`PlantSheet._fill` into `hanging`, kept with `regions` from the last call ((2, ny, nx): the enclosed nodes, all
     False on a fresh sheet; the outside ones, all True): the unpressed nodes joined to the clamped frame through
@@ -90,37 +127,9 @@ def fill(pressed: np.ndarray, box: np.ndarray, hanging: np.ndarray, regions: np.
     if j1 < 0:
         return
     j0, j1, i0, i1 = max(j0 - 1, 0), min(j1 + 1, ny - 1), max(i0 - 1, 0), min(i1 + 1, nx - 1)
-    h, w = j1 - j0 + 1, i1 - i0 + 1
     enclosed, outside = regions[0], regions[1]
-    pressed_outside = False
-    for j in range(j0, j1 + 1):
-        for i in range(i0, i1 + 1):
-            if pressed[j, i] and outside[j, i]:
-                pressed_outside = True
-                break
-        if pressed_outside:
-            break
-    if pressed_outside:
-        for j in range(j0, j1 + 1):
-            for i in range(i0, i1 + 1):
-                outside[j, i] = False
-        stack = np.empty(h * w, dtype=np.int64)  # each node is pushed once at most
-        top = 0
-        for j in range(h):  # the box's edge: whole first and last rows, the ends of the others
-            for i in range(0, w, 1 if j == 0 or j == h - 1 else max(w - 1, 1)):
-                if not pressed[j0 + j, i0 + i]:
-                    outside[j0 + j, i0 + i] = True
-                    stack[top] = j * w + i
-                    top += 1
-        while top > 0:
-            top -= 1
-            j, i = stack[top] // w, stack[top] % w
-            for dj, di in ((1, 0), (-1, 0), (0, 1), (0, -1)):
-                jj, ii = j + dj, i + di
-                if 0 <= jj < h and 0 <= ii < w and not outside[j0 + jj, i0 + ii] and not pressed[j0 + jj, i0 + ii]:
-                    outside[j0 + jj, i0 + ii] = True
-                    stack[top] = jj * w + ii
-                    top += 1
+    if _pressed_outside(pressed, outside, j0, j1, i0, i1):
+        _flood(pressed, outside, j0, j1, i0, i1)
     d0, d1, c0, c1 = ny, -1, nx, -1  # the changed nodes' rows and columns: first, last (none: d1 < 0)
     for j in range(j0, j1 + 1):  # the box only grows: every node enclosed before lies in it
         for i in range(i0, i1 + 1):
