@@ -324,3 +324,27 @@ def test_the_learned_online_grooves_away_from_their_reversals_are_at_the_target(
             cell = [c.strip() for c in line.strip("|").split("|")][5]  # online, learned
             whole, away = (float(v) for v in cell.split("(")[1].rstrip(")").split(";"))
             assert away <= 0.105 and away < 0.8 * whole, line
+
+
+def test_the_pages_words_on_the_finer_sheet_grid_are_its_table() -> None:
+    """docs/online.md under the table formed again on the plant's 0.25 mm sheet grid: the grooves against the default
+    grid's table, and the cones and pyramids within the page's bound (the true tip)."""
+    coarse, fine = other_part("online-other-part")["true"], other_part("online-other-part-grid")["true"]
+    # the page's numbers first (a guard before the claims)
+    kr = quoted("online.md", "online it comes from", 4)
+    for q, value in zip(kr, (coarse[("kr210", "groove")][ON_L], fine[("kr210", "groove")][ON_L],
+                             coarse[("kr210", "groove")][BOTH_L], fine[("kr210", "groove")][BOTH_L]), strict=True):
+        q.check(value)
+    irb = quoted("online.md", "the IRB 6640's from", 4)
+    for q, value in zip(irb, (coarse[("irb6640", "groove")][ON_L], fine[("irb6640", "groove")][ON_L],
+                              coarse[("irb6640", "groove")][BOTH_L], fine[("irb6640", "groove")][BOTH_L]), strict=True):
+        q.check(value)
+    tx = quoted("online.md", "the TX200's online from", 2)
+    tx[0].check(coarse[("tx200", "groove")][ON_L])
+    tx[1].check(fine[("tx200", "groove")][ON_L])
+    bound = quoted("online.md", "The cones and the pyramids, online and both, move by at most", 1)[0]
+    moved = max(abs(fine[(r, p)][c] - coarse[(r, p)][c]) for r in ROBOTS for p in ("cone 80 x 8", "pyramid")
+                for c in (ON_L, BOTH_L))
+    assert moved <= bound.value + 0.0015, moved
+    assert fine[("kr210", "groove")][ON_L] < 0.5 * coarse[("kr210", "groove")][ON_L]  # it does not weave
+    assert fine[("tx200", "groove")][ON_L] <= 0.10 < min(fine[(r, "groove")][ON_L] for r in ROBOTS[1:])

@@ -159,16 +159,16 @@ def test_the_compiled_sheet_is_the_python_sheet() -> None:
 
     for name in ("VOCE_S0_MPA", "VOCE_Q_MPA", "VOCE_B", "VOCE_M", "YOUNGS_MODULUS_PA", "POISSON_RATIO"):
         assert getattr(sheet_kernels, name) == getattr(sheet_material, name), name
-    for name in ("GRID_SPACING_M", "HALF_SIZE_M", "MIN_RECOVERY_M", "FORMED_READ", "FORMED_PATCH", "FORMED_TRACK", "FORMED_GAIN",
+    for name in ("HALF_SIZE_M", "MIN_RECOVERY_M", "FORMED_READ", "FORMED_PATCH", "FORMED_TRACK", "FORMED_GAIN",
                  "HUNT_CROSSLEY_ALPHA_S_PER_M", "MAX_ANGLE_RAD"):
         assert getattr(sheet_kernels, name) == getattr(python_sheet, name), name
     groove = groove_path().p_sheet_m[:400]
     cone = part_path(PartSpec(top_half_width_m=0.02, depth_m=4e-3)).p_sheet_m
     pyramid = part_path(PartSpec(shape="pyramid", top_half_width_m=0.02, depth_m=3e-3)).p_sheet_m
-    for path in (groove, cone, pyramid):
+    for path, spacing in ((groove, 5e-4), (cone, 5e-4), (pyramid, 5e-4), (groove, 2.5e-4)):  # and a finer grid
         runs = []
         for compiled in (True, False):
-            sheet = PlantSheet(Process(), 5e-5)
+            sheet = PlantSheet(Process(), 5e-5, spacing_m=spacing)
             sheet.compiled = compiled
             sheet.start(path[0], 1)
             forces = np.empty((len(path), 3))

@@ -116,6 +116,10 @@ KNOBS: dict[str, KnobSpec] = {
         1e-4,
         1e-3,
     ),
+    "sheet_grid_mm": KnobSpec(
+        0.5, 0.5, "mm", "the sheet's formed-surface grid spacing, a whole number of them across its 240 mm (finer: "
+        "slower; the groove's lateral force is not converged at 0.5, docs/dynamic-plant.md)", 0.1, 1.0
+    ),
     # ---- controller
     "servo_bandwidth_over_mode": KnobSpec(
         0.5,

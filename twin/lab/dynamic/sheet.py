@@ -3,9 +3,9 @@
 Nothing here comes from the twin's force models (no FE history, no fitted field, not Aerens's formula): the
 plant forms its own sheet from its own material law, in a form the twin does not have.
 
-* **Formed surface**: a 2-D grid (0.5 mm) of the lower envelope of the tool sphere along the real tool-tip path
-  (`advance`), the sheet's loaded shape under the tool (pure geometry; the sheet's sag between contours is not
-  modelled).
+* **Formed surface**: a 2-D grid (0.5 mm; `sheet_grid_mm`) of the lower envelope of the tool sphere along the real
+  tool-tip path (`advance`), the sheet's loaded shape under the tool (pure geometry; the sheet's sag between
+  contours is not modelled).
 * **Force: membrane equilibrium across the tool** (the membrane analysis of SPIF: Silva, Skjoedt, Martins,
   Bay, "Revisiting the fundamentals of single point incremental forming by means of membrane analysis", Int J
   Mach Tools Manuf 48 (2008) 73-83: the deforming sheet carries a meridional membrane force sigma_phi t per
@@ -104,10 +104,10 @@ FORMED_READ = 1.2  # a side's formed fraction is read around this many tool radi
 FORMED_PATCH = 0.6  # over a disc of this many tool radii around it (0.6 R to 1.8 R across the travel)
 FORMED_TRACK = 0.05  # a difference in formed fraction below this is no wall across (a stray press, a lead-in) [-]
 FORMED_GAIN = 2.0  # a bottom by this times the difference past it (fully one at FORMED_TRACK + 1 / FORMED_GAIN)
-FILL_EVERY_M = 4 * GRID_SPACING_M  # the hanging bottom is found again after this much travel of the tip [m]
+FILL_EVERY = 4  # the hanging bottom is found again after this many grid spacings of the tip's travel
 HUNT_CROSSLEY_ALPHA_S_PER_M = 0.2  # contact damping of the elastic unloading [s/m] (module docstring)
 MAX_ANGLE_RAD = math.radians(70.0)  # a side steeper than this is a step, read as this angle
-HEADING_TURN_M = 2 * GRID_SPACING_M  # travel over which the heading (sides, step ahead) turns [m]
+HEADING_TURN = 2  # grid spacings of travel over which the heading (sides, step ahead) turns
 _PLANE = 2.0 / math.sqrt(3.0)
 
 
@@ -121,17 +121,19 @@ class PlantSheet(GridSheet):
             thesis's flow curve).
         reversal_m: Tool travel over which the friction and the sides turn with the travel [m].
         timestep_s: The plant's servo tick, between two `advance` calls [s].
+        spacing_m: The grid's spacing [m].
     """
 
     compiled: bool = True  #: run `force` and `advance` compiled (False: the Python reference)
 
-    def __init__(self, process: Process, reversal_m: float, timestep_s: float = 1e-3) -> None:
-        self._grid(process, timestep_s)
+    def __init__(self, process: Process, reversal_m: float, timestep_s: float = 1e-3,
+                 spacing_m: float = GRID_SPACING_M) -> None:
+        self._grid(process, timestep_s, spacing_m)
         self.scale = float(process.tensile_strength_mpa) / voce_tensile_strength_mpa()
         self.slip_gain = 2.0 / reversal_m
-        self.heading_gain = 2.0 / max(HEADING_TURN_M, reversal_m)
-        half = math.ceil(self.radius / GRID_SPACING_M) + 1
-        self._offsets = GRID_SPACING_M * np.arange(-half, half + 1)
+        self.heading_gain = 2.0 / max(HEADING_TURN * self.spacing, reversal_m)
+        half = math.ceil(self.radius / self.spacing) + 1
+        self._offsets = self.spacing * np.arange(-half, half + 1)
         self.reset()
 
     def reset(self) -> None:
@@ -143,16 +145,14 @@ class PlantSheet(GridSheet):
         self._unfilled_m = 0.0  # the tip's travel since `hanging` was found [m]
         self._box = np.array([len(self.y_m), -1, len(self.x_m), -1])  # rows, columns the tool pressed: first, last
         self.slip = np.array([1.0, 0.0])
-        self.heading = self.slip.copy()
-        self.travel = self.slip.copy()
+        self.heading, self.travel = self.slip.copy(), self.slip.copy()
         self._last: np.ndarray | None = None
 
     def start(self, p_sheet_m: np.ndarray, direction: float) -> None:
         """Where the tool starts [m] and the direction along x it starts to travel (+1 or -1)."""
         self._last = np.asarray(p_sheet_m, dtype=float)[:3].copy()
         self.slip = np.array([float(direction), 0.0])
-        self.heading = self.slip.copy()
-        self.travel = self.slip.copy()
+        self.heading, self.travel = self.slip.copy(), self.slip.copy()
 
     def membrane_n_per_m(self, alpha: float) -> float:
         """Membrane force per unit width sigma_phi t of a side leaving the tool at `alpha` [rad], in [N/m]."""
@@ -172,8 +172,8 @@ class PlantSheet(GridSheet):
             out = np.empty(3)
             x, y, z = p_sheet_m
             last = np.array([x, y, z], dtype=float) if self._last is None else self._last
-            kernels.force(self.z_m, self.pressed, self.hanging, self.radius, self.t0, self.scale, self.mu, self.travel,
-                          self.slip, last, self.timestep_s, float(x), float(y), float(z), out)
+            kernels.force(self.z_m, self.pressed, self.hanging, self.spacing, self.radius, self.t0, self.scale, self.mu,
+                          self.travel, self.slip, last, self.timestep_s, float(x), float(y), float(z), out)
             return out
         return self.force_reference(p_sheet_m)
 
@@ -222,16 +222,16 @@ class PlantSheet(GridSheet):
 
     def _share(self, mask: np.ndarray, x: float, y: float) -> float:
         """The bump-weighted share [-] of `mask` over the disc of radius FORMED_PATCH R around (x, y) [m]."""
-        rho = FORMED_PATCH * self.radius
-        i0 = max(math.ceil((x - rho + HALF_SIZE_M) / GRID_SPACING_M), 0)
-        i1 = min(math.floor((x + rho + HALF_SIZE_M) / GRID_SPACING_M), len(self.x_m) - 1)
-        j0 = max(math.ceil((y - rho + HALF_SIZE_M) / GRID_SPACING_M), 0)
-        j1 = min(math.floor((y + rho + HALF_SIZE_M) / GRID_SPACING_M), len(self.y_m) - 1)
+        rho, h = FORMED_PATCH * self.radius, self.spacing
+        i0 = max(math.ceil((x - rho + HALF_SIZE_M) / h), 0)
+        i1 = min(math.floor((x + rho + HALF_SIZE_M) / h), len(self.x_m) - 1)
+        j0 = max(math.ceil((y - rho + HALF_SIZE_M) / h), 0)
+        j1 = min(math.floor((y + rho + HALF_SIZE_M) / h), len(self.y_m) - 1)
         total = pressed = 0.0
         for j in range(j0, j1 + 1):
-            dy = (j * GRID_SPACING_M - HALF_SIZE_M - y) / rho
+            dy = (j * h - HALF_SIZE_M - y) / rho
             for i in range(i0, i1 + 1):
-                dx = (i * GRID_SPACING_M - HALF_SIZE_M - x) / rho
+                dx = (i * h - HALF_SIZE_M - x) / rho
                 q = 1.0 - dx * dx - dy * dy
                 if q > 0.0:
                     total += q * q
@@ -265,10 +265,10 @@ class PlantSheet(GridSheet):
             if norm > 0.1:
                 self.travel = self.heading / norm
         self._last = np.array([x, y, z])
-        kernels.press(self.z_m, self.pressed, self._box, self.x_m, self.y_m, self.radius, len(self._offsets) // 2, x,
-                      y, z)
-        if self._unfilled_m >= FILL_EVERY_M:
-            kernels.fill(self.pressed, self._box, self.hanging, self._regions, self.radius / GRID_SPACING_M)
+        kernels.press(self.z_m, self.pressed, self._box, self.x_m, self.y_m, self.spacing, self.radius,
+                      len(self._offsets) // 2, x, y, z)
+        if self._unfilled_m >= FILL_EVERY * self.spacing:
+            kernels.fill(self.pressed, self._box, self.hanging, self._regions, self.radius / self.spacing)
             self._unfilled_m = 0.0
 
     def advance_reference(self, p_sheet_m: np.ndarray) -> None:
@@ -283,7 +283,7 @@ class PlantSheet(GridSheet):
                 self.travel = self.heading / norm
         self._last = p[:3].copy()
         self._press(p)
-        if self._unfilled_m >= FILL_EVERY_M:
+        if self._unfilled_m >= FILL_EVERY * self.spacing:
             self._fill()
             self._unfilled_m = 0.0
 
@@ -292,7 +292,7 @@ class PlantSheet(GridSheet):
         joined to the grid's edge, the clamped frame, through unpressed nodes side by side: 4-connected)."""
         self.hanging = np.zeros(self.z_m.shape, dtype=bool)
         j0, j1, i0, i1 = (int(v) for v in self._box)
-        reach = self.radius / GRID_SPACING_M
+        reach = self.radius / self.spacing
         grow = 1 + math.ceil(reach)  # outside the pressed nodes' box so grown, every node is free and out of reach
         rows, cols = slice(max(j0 - grow, 0), j1 + grow + 1), slice(max(i0 - grow, 0), i1 + grow + 1)
         pressed = self.pressed[rows, cols]
@@ -302,8 +302,8 @@ class PlantSheet(GridSheet):
 
     def _press(self, p: np.ndarray) -> None:
         """Lower the grid to the tool sphere's underside around the tip."""
-        ix = round((p[0] + HALF_SIZE_M) / GRID_SPACING_M)
-        iy = round((p[1] + HALF_SIZE_M) / GRID_SPACING_M)
+        ix = round((p[0] + HALF_SIZE_M) / self.spacing)
+        iy = round((p[1] + HALF_SIZE_M) / self.spacing)
         k = len(self._offsets) // 2
         x0, x1 = max(ix - k, 0), min(ix + k + 1, len(self.x_m))
         y0, y1 = max(iy - k, 0), min(iy + k + 1, len(self.y_m))
@@ -322,7 +322,7 @@ class PlantSheet(GridSheet):
 
     def unloaded_surface(self) -> np.ndarray:
         """The surface after unclamping [m], (ny, nx): each point risen by its springback, never above 0."""
-        gy, gx = np.gradient(self.z_m, GRID_SPACING_M)
+        gy, gx = np.gradient(self.z_m, self.spacing)
         alpha = np.minimum(np.arctan(np.hypot(gx, gy)), MAX_ANGLE_RAD)
         cos = np.cos(alpha)
         sigma_phi = _PLANE * self.scale * voce_mpa(_PLANE * np.log(1.0 / cos)) * 1e6

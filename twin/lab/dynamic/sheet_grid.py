@@ -1,6 +1,7 @@
 """What the plant's sheet laws share: the formed-surface grid's layout, its sections, and the travel state.
 
-Each law (`sheet.py`, `sheet_patch.py`) forms its own surface by its own rule on the same 0.5 mm grid; how a section
+Each law (`sheet.py`, `sheet_patch.py`) forms its own surface by its own rule on the same grid (0.5 mm; the knob
+`sheet_grid_mm`); how a section
 is read off it and how a direction state turns with the tip's travel are one piece of code here.
 """
 
@@ -11,9 +12,10 @@ from abc import ABC, abstractmethod
 
 import numpy as np
 
+from twin.errors import InputError
 from twin.process.description import Process
 
-GRID_SPACING_M = 5e-4  # formed-surface grid [m]
+GRID_SPACING_M = 5e-4  # formed-surface grid [m], by default (the knob `sheet_grid_mm`)
 HALF_SIZE_M = 0.12  # the grid covers +/- this around the sheet origin [m]
 
 
@@ -24,20 +26,26 @@ class GridSheet(ABC):
     y_m: np.ndarray
     z_m: np.ndarray
 
-    def _grid(self, process: Process, timestep_s: float) -> None:
-        """The declared sheet and tool (thickness, tool radius and friction) [SI] and the grid's nodes."""
+    def _grid(self, process: Process, timestep_s: float, spacing_m: float) -> None:
+        """The declared sheet and tool (thickness, tool radius and friction) [SI] and the grid's nodes, `spacing_m`
+        [m] apart (a whole number of them across the grid)."""
+        cells = 2 * HALF_SIZE_M / spacing_m
+        if not (math.isfinite(cells) and cells >= 1.0 and abs(cells - round(cells)) <= 1e-6 * cells):
+            raise InputError(f"sheet_grid_mm = {1e3 * spacing_m:g}: expected a spacing that divides the plant sheet's "
+                             f"{2e3 * HALF_SIZE_M:g} mm grid (0.5, 0.25, 0.2, 0.125, 0.1, ...)")
+        self.spacing = float(spacing_m)
         self.timestep_s = float(timestep_s)
         self.radius = float(process.tool_radius_m)
         self.t0 = float(process.thickness_m)
         self.mu = float(process.tool_friction)
-        n = round(2 * HALF_SIZE_M / GRID_SPACING_M) + 1
+        n = round(cells) + 1
         self.x_m = np.linspace(-HALF_SIZE_M, HALF_SIZE_M, n)
         self.y_m = self.x_m.copy()
 
     def height(self, x: float, y: float) -> float:
         """Formed (loaded) surface at (x, y) [m], bilinear; 0 off the grid."""
-        fx = (x + HALF_SIZE_M) / GRID_SPACING_M
-        fy = (y + HALF_SIZE_M) / GRID_SPACING_M
+        fx = (x + HALF_SIZE_M) / self.spacing
+        fy = (y + HALF_SIZE_M) / self.spacing
         ix, iy = math.floor(fx), math.floor(fy)
         if ix < 0 or iy < 0 or ix >= len(self.x_m) - 1 or iy >= len(self.y_m) - 1:
             return 0.0
@@ -60,7 +68,7 @@ class GridSheet(ABC):
         return self.x_m.copy(), self._row(self.unloaded_surface())
 
     def _row(self, z: np.ndarray) -> np.ndarray:
-        iy = round(HALF_SIZE_M / GRID_SPACING_M)
+        iy = round(HALF_SIZE_M / self.spacing)
         return z[iy].copy()
 
 

@@ -17,7 +17,6 @@ from numba import njit
 # the sheet's constants (`twin.lab.dynamic.sheet`), repeated for the compiled code; a test compares them
 VOCE_S0_MPA, VOCE_Q_MPA, VOCE_B, VOCE_M = 130.2, 300.37, 3.94, 0.5
 YOUNGS_MODULUS_PA, POISSON_RATIO = 71.0e9, 0.33
-GRID_SPACING_M = 5e-4
 HALF_SIZE_M = 0.12
 MIN_RECOVERY_M = 0.01e-3
 FORMED_READ = 1.2
@@ -38,10 +37,10 @@ def voce(eps: float) -> float:
 
 
 @njit(cache=True)
-def height(z: np.ndarray, x: float, y: float) -> float:
-    """`PlantSheet.height`."""
-    fx = (x + HALF_SIZE_M) / GRID_SPACING_M
-    fy = (y + HALF_SIZE_M) / GRID_SPACING_M
+def height(z: np.ndarray, h: float, x: float, y: float) -> float:
+    """`PlantSheet.height` on the grid of spacing `h` [m]."""
+    fx = (x + HALF_SIZE_M) / h
+    fy = (y + HALF_SIZE_M) / h
     ix, iy = math.floor(fx), math.floor(fy)
     if ix < 0 or iy < 0 or ix >= z.shape[1] - 1 or iy >= z.shape[0] - 1:
         return 0.0
@@ -52,18 +51,19 @@ def height(z: np.ndarray, x: float, y: float) -> float:
 
 
 @njit(cache=True)
-def formed_fraction(pressed: np.ndarray, rho: float, x: float, y: float) -> float:
-    """`PlantSheet.formed_fraction` (of `pressed`) or `hanging_share` (of `hanging`) over the disc of radius `rho`."""
-    i0 = max(math.ceil((x - rho + HALF_SIZE_M) / GRID_SPACING_M), 0)
-    i1 = min(math.floor((x + rho + HALF_SIZE_M) / GRID_SPACING_M), pressed.shape[1] - 1)
-    j0 = max(math.ceil((y - rho + HALF_SIZE_M) / GRID_SPACING_M), 0)
-    j1 = min(math.floor((y + rho + HALF_SIZE_M) / GRID_SPACING_M), pressed.shape[0] - 1)
+def formed_fraction(pressed: np.ndarray, h: float, rho: float, x: float, y: float) -> float:
+    """`PlantSheet.formed_fraction` (of `pressed`) or `hanging_share` (of `hanging`) over the disc of radius `rho` (the
+    grid's spacing `h` [m])."""
+    i0 = max(math.ceil((x - rho + HALF_SIZE_M) / h), 0)
+    i1 = min(math.floor((x + rho + HALF_SIZE_M) / h), pressed.shape[1] - 1)
+    j0 = max(math.ceil((y - rho + HALF_SIZE_M) / h), 0)
+    j1 = min(math.floor((y + rho + HALF_SIZE_M) / h), pressed.shape[0] - 1)
     total = 0.0
     hit = 0.0
     for j in range(j0, j1 + 1):
-        dy = (j * GRID_SPACING_M - HALF_SIZE_M - y) / rho
+        dy = (j * h - HALF_SIZE_M - y) / rho
         for i in range(i0, i1 + 1):
-            dx = (i * GRID_SPACING_M - HALF_SIZE_M - x) / rho
+            dx = (i * h - HALF_SIZE_M - x) / rho
             q = 1.0 - dx * dx - dy * dy
             if q > 0.0:
                 total += q * q
@@ -211,18 +211,19 @@ def springback(scale: float, depth: float, alpha: float) -> float:
 
 
 @njit(cache=True)
-def side_angle(z: np.ndarray, pressed: np.ndarray, r: float, cx: float, cy: float, near_s: float, near_o: float,
-               hung_s: float, hung_o: float, x: float, y: float, zt: float, sx: float, sy: float) -> float:
+def side_angle(z: np.ndarray, pressed: np.ndarray, h: float, r: float, cx: float, cy: float, near_s: float,
+               near_o: float, hung_s: float, hung_o: float, x: float, y: float, zt: float, sx: float, sy: float
+               ) -> float:
     """One side's angle in `PlantSheet.force_reference`: its chord and slope (`PlantSheet._side_angles`), the
     slope dropped where its far read is the hanging bottom, flattened where the side is the hanging bottom; `near_s`,
     `hung_s` this side's near formed fraction and hanging share, `near_o`, `hung_o` the other side's (`force` reads
     each once)."""
-    h1 = height(z, x + r * sx, y + r * sy)
-    w1 = height(z, cx + r * sx, cy + r * sy)
-    w2 = height(z, cx + 2.0 * r * sx, cy + 2.0 * r * sy)
+    h1 = height(z, h, x + r * sx, y + r * sy)
+    w1 = height(z, h, cx + r * sx, cy + r * sy)
+    w2 = height(z, h, cx + 2.0 * r * sx, cy + 2.0 * r * sy)
     chord, slope = math.atan2(max(h1 - zt, 0.0), r), math.atan2(max(w2 - w1, 0.0), r)
     rho = FORMED_PATCH * r
-    far_s = formed_fraction(pressed, rho, cx + 2.0 * r * sx, cy + 2.0 * r * sy)
+    far_s = formed_fraction(pressed, h, rho, cx + 2.0 * r * sx, cy + 2.0 * r * sy)
     on_bottom = min(1.0, max(0.0, FORMED_GAIN * (near_o - far_s - FORMED_TRACK)))
     bottom = min(1.0, max(0.0, FORMED_GAIN * (near_o - near_s - FORMED_TRACK)))
     bottom = max((1.0 - hung_o) * bottom, hung_s)
@@ -230,20 +231,20 @@ def side_angle(z: np.ndarray, pressed: np.ndarray, r: float, cx: float, cy: floa
 
 
 @njit(cache=True)
-def force(z: np.ndarray, pressed: np.ndarray, hanging: np.ndarray, r: float, t0: float, scale: float, mu: float,
-          travel: np.ndarray, slip: np.ndarray, last: np.ndarray, dt: float, x: float, y: float, zt: float,
+def force(z: np.ndarray, pressed: np.ndarray, hanging: np.ndarray, h: float, r: float, t0: float, scale: float,
+          mu: float, travel: np.ndarray, slip: np.ndarray, last: np.ndarray, dt: float, x: float, y: float, zt: float,
           out: np.ndarray) -> None:
-    """`PlantSheet.force` into `out` (3,) [N]; `last` (3,) the committed tip [m]."""
+    """`PlantSheet.force` into `out` (3,) [N]; `last` (3,) the committed tip [m]; `h` the grid's spacing [m]."""
     tx, ty = travel[0], travel[1]
-    met = height(z, x + r * tx, y + r * ty) - zt
+    met = height(z, h, x + r * tx, y + r * ty) - zt
     cx, cy, cz = last[0], last[1], last[2]
     rho = FORMED_PATCH * r
-    near0 = formed_fraction(pressed, rho, cx - FORMED_READ * r * ty, cy + FORMED_READ * r * tx)
-    near1 = formed_fraction(pressed, rho, cx + FORMED_READ * r * ty, cy - FORMED_READ * r * tx)
-    hung0 = formed_fraction(hanging, rho, cx - FORMED_READ * r * ty, cy + FORMED_READ * r * tx)
-    hung1 = formed_fraction(hanging, rho, cx + FORMED_READ * r * ty, cy - FORMED_READ * r * tx)
-    a0 = side_angle(z, pressed, r, cx, cy, near0, near1, hung0, hung1, x, y, zt, -ty, tx)
-    a1 = side_angle(z, pressed, r, cx, cy, near1, near0, hung1, hung0, x, y, zt, ty, -tx)
+    near0 = formed_fraction(pressed, h, rho, cx - FORMED_READ * r * ty, cy + FORMED_READ * r * tx)
+    near1 = formed_fraction(pressed, h, rho, cx + FORMED_READ * r * ty, cy - FORMED_READ * r * tx)
+    hung0 = formed_fraction(hanging, h, rho, cx - FORMED_READ * r * ty, cy + FORMED_READ * r * tx)
+    hung1 = formed_fraction(hanging, h, rho, cx + FORMED_READ * r * ty, cy - FORMED_READ * r * tx)
+    a0 = side_angle(z, pressed, h, r, cx, cy, near0, near1, hung0, hung1, x, y, zt, -ty, tx)
+    a1 = side_angle(z, pressed, h, r, cx, cy, near1, near0, hung1, hung0, x, y, zt, ty, -tx)
     steep = max(a0, a1)  # one strip: the steeper side's tension and front contact
     n, w = membrane(scale, t0, steep), r * math.sin(steep)
     up = w * n * (math.sin(a0) + math.sin(a1))
@@ -270,12 +271,12 @@ def turned(state: np.ndarray, gain: float, dx: float, dy: float) -> None:
 
 
 @njit(cache=True)
-def press(z: np.ndarray, pressed: np.ndarray, box: np.ndarray, x_m: np.ndarray, y_m: np.ndarray, r: float,
-          half: int, x: float, y: float, zt: float) -> None:
+def press(z: np.ndarray, pressed: np.ndarray, box: np.ndarray, x_m: np.ndarray, y_m: np.ndarray, h: float,
+          r: float, half: int, x: float, y: float, zt: float) -> None:
     """`PlantSheet._press`: the grid (nodes `x_m`, `y_m`) lowered to the tool sphere's underside around the tip, the
-    pressed nodes' bounding box `box` grown to the square pressed."""
-    ix = int(np.rint((x + HALF_SIZE_M) / GRID_SPACING_M))
-    iy = int(np.rint((y + HALF_SIZE_M) / GRID_SPACING_M))
+    pressed nodes' bounding box `box` grown to the square pressed; `h` the grid's spacing [m]."""
+    ix = int(np.rint((x + HALF_SIZE_M) / h))
+    iy = int(np.rint((y + HALF_SIZE_M) / h))
     ny, nx = z.shape
     x0, x1 = max(ix - half, 0), min(ix + half + 1, nx)
     y0, y1 = max(iy - half, 0), min(iy + half + 1, ny)

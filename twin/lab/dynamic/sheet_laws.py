@@ -49,15 +49,15 @@ def make_sheet(knobs: Knobs, process: Process) -> SheetLaw:
     """The sheet law the knobs choose, for this declared sheet and tool.
 
     Args:
-        knobs: The plant's knobs (`sheet_law`, `friction_reversal_mm`, `timestep_s`).
+        knobs: The plant's knobs (`sheet_law`, `friction_reversal_mm`, `timestep_s`, `sheet_grid_mm`).
         process: The sheet and tool formed (thickness, tool radius, friction, R_m).
     """
     reversal_m = 1e-3 * knobs["friction_reversal_mm"]
-    timestep_s = knobs["timestep_s"]
+    timestep_s, spacing_m = knobs["timestep_s"], 1e-3 * knobs["sheet_grid_mm"]
     if int(knobs["sheet_law"]) == 2:
         from twin.lab.dynamic.sheet_patch import PatchSheet
 
-        return PatchSheet(process, reversal_m, timestep_s)
+        return PatchSheet(process, reversal_m, timestep_s, spacing_m)
     from twin.lab.dynamic.sheet import PlantSheet
 
-    return PlantSheet(process, reversal_m, timestep_s)
+    return PlantSheet(process, reversal_m, timestep_s, spacing_m)

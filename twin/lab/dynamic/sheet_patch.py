@@ -116,19 +116,21 @@ class PatchSheet(GridSheet):
             `make_sheet`'s call and not used: this law turns its friction over its own pre-sliding travel
             (`presliding_m`, module docstring).
         timestep_s: The plant's servo tick, between two `advance` calls [s].
+        spacing_m: The grid's spacing [m].
     """
 
     #: Run `force` and `advance` compiled (False: the Python reference).
     compiled: bool = True
 
-    def __init__(self, process: Process, reversal_m: float, timestep_s: float = 1e-3) -> None:
-        self._grid(process, timestep_s)
+    def __init__(self, process: Process, reversal_m: float, timestep_s: float = 1e-3,
+                 spacing_m: float = GRID_SPACING_M) -> None:
+        self._grid(process, timestep_s, spacing_m)
         self.scale = float(process.tensile_strength_mpa) / swift_tensile_strength_mpa()
         del reversal_m  # law 1's knob; this law's friction turns over `presliding_m`
         self.presliding_m = self._presliding_m()
         self.slip_gain = 1.0 / max(self.presliding_m, 1e-12)  # s = u / delta: each step adds step / delta
         self.rate_gain = DAMPING_TIME_S / self.timestep_s
-        self.half = math.ceil(self.radius / GRID_SPACING_M) + 1
+        self.half = math.ceil(self.radius / self.spacing) + 1
         self.reset()
 
     def reset(self) -> None:
@@ -168,15 +170,15 @@ class PatchSheet(GridSheet):
         if self.compiled:
             out = np.empty(3)
             x, y, z = p_sheet_m
-            kernels.force(self.z_m, self.strain, self.x_m, self.y_m, self.radius, self.t0, self.scale, self.mu,
-                          self.slip, self.last, self.rate_gain, self.half, float(x), float(y), float(z), out)
+            kernels.force(self.z_m, self.strain, self.x_m, self.y_m, self.spacing, self.radius, self.t0, self.scale,
+                          self.mu, self.slip, self.last, self.rate_gain, self.half, float(x), float(y), float(z), out)
             return out
         return self.force_reference(p_sheet_m)
 
     def _box(self, x: float, y: float) -> tuple[slice, slice] | None:
         """The grid rows and columns around (x, y) [m] that a tool sphere can reach; None off the grid."""
-        ix = round((x + HALF_SIZE_M) / GRID_SPACING_M)
-        iy = round((y + HALF_SIZE_M) / GRID_SPACING_M)
+        ix = round((x + HALF_SIZE_M) / self.spacing)
+        iy = round((y + HALF_SIZE_M) / self.spacing)
         x0, x1 = max(ix - self.half, 0), min(ix + self.half + 1, len(self.x_m))
         y0, y1 = max(iy - self.half, 0), min(iy + self.half + 1, len(self.y_m))
         if x0 >= x1 or y0 >= y1:
@@ -209,7 +211,7 @@ class PatchSheet(GridSheet):
         p = stiffness * (depth + self.rate_gain * (depth - before))
         p = np.maximum(np.minimum(p, cap), 0.0)
         n = np.stack([-dx / dist, -dy / dist, -dz / dist])
-        fn = p * GRID_SPACING_M * GRID_SPACING_M / np.maximum(n[2], MIN_NORMAL_Z)
+        fn = p * self.spacing * self.spacing / np.maximum(n[2], MIN_NORMAL_Z)
         sx, sy = float(self.slip[0]), float(self.slip[1])
         along = sx * n[0] + sy * n[1]
         mu = self.mu
@@ -224,8 +226,8 @@ class PatchSheet(GridSheet):
             return
         x, y, z = (float(v) for v in p_sheet_m)
         turned_in_place(self.slip, self.slip_gain, x - float(self.last[0]), y - float(self.last[1]))
-        kernels.yield_nodes(self.z_m, self.strain, self.yielded, self.x_m, self.y_m, self.radius, self.t0, self.scale,
-                            self.half, x, y, z)
+        kernels.yield_nodes(self.z_m, self.strain, self.yielded, self.x_m, self.y_m, self.spacing, self.radius, self.t0,
+                            self.scale, self.half, x, y, z)
         self.last = np.array([x, y, z])
 
     def advance_reference(self, p_sheet_m: np.ndarray) -> None:
@@ -261,8 +263,8 @@ class PatchSheet(GridSheet):
         if j0 >= j1 or i0 >= i1:
             return
         zz = self.z_m
-        gx = (zz[j0:j1, i0 + 1 : i1 + 1] - zz[j0:j1, i0 - 1 : i1 - 1]) / (2.0 * GRID_SPACING_M)
-        gy = (zz[j0 + 1 : j1 + 1, i0:i1] - zz[j0 - 1 : j1 - 1, i0:i1]) / (2.0 * GRID_SPACING_M)
+        gx = (zz[j0:j1, i0 + 1 : i1 + 1] - zz[j0:j1, i0 - 1 : i1 - 1]) / (2.0 * self.spacing)
+        gy = (zz[j0 + 1 : j1 + 1, i0:i1] - zz[j0 - 1 : j1 - 1, i0:i1]) / (2.0 * self.spacing)
         slope = np.minimum(np.sqrt(gx * gx + gy * gy), MAX_SLOPE)
         e = 0.5 * np.log(1.0 + slope * slope)
         np.maximum(self.strain[j0:j1, i0:i1], e, out=self.strain[j0:j1, i0:i1])
@@ -272,7 +274,7 @@ class PatchSheet(GridSheet):
         over the tool's reach (node by node, as the kernel: the sweeps' order matters)."""
         z = self.z_m
         ny, nx = z.shape
-        rise = GRID_SPACING_M * HANG_SLOPE
+        rise = self.spacing * HANG_SLOPE
         free = self.yielded
         js = range(max(rows.start, 1), min(rows.stop, ny - 1))
         is_ = range(max(cols.start, 1), min(cols.stop, nx - 1))

@@ -17,7 +17,6 @@ from numba import njit
 # the law's constants (`twin.lab.dynamic.sheet_patch`), repeated for the compiled code; a test compares them
 SWIFT_K_MPA, SWIFT_EPS0, SWIFT_N = 576.79, 0.01658, 0.3593
 YOUNGS_MODULUS_PA, POISSON_RATIO = 71.0e9, 0.33
-GRID_SPACING_M = 5e-4
 HALF_SIZE_M = 0.12
 DAMPING_TIME_S = 2e-5
 MIN_NORMAL_Z = math.cos(math.radians(70.0))
@@ -38,17 +37,18 @@ def node_law(strain: float, r: float, t0: float, scale: float) -> tuple[float, f
 
 
 @njit(cache=True)
-def force(z: np.ndarray, strain: np.ndarray, x_m: np.ndarray, y_m: np.ndarray, r: float, t0: float, scale: float,
-          mu: float, slip: np.ndarray, last: np.ndarray, rate_gain: float, half: int, x: float, y: float, zt: float,
-          out: np.ndarray) -> None:
-    """`PatchSheet.force` into `out` (3,) [N]; `last` the previous committed tip (3,), `rate_gain` tau / dt [-]."""
-    ix = int(np.rint((x + HALF_SIZE_M) / GRID_SPACING_M))
-    iy = int(np.rint((y + HALF_SIZE_M) / GRID_SPACING_M))
+def force(z: np.ndarray, strain: np.ndarray, x_m: np.ndarray, y_m: np.ndarray, h: float, r: float, t0: float,
+          scale: float, mu: float, slip: np.ndarray, last: np.ndarray, rate_gain: float, half: int, x: float, y: float,
+          zt: float, out: np.ndarray) -> None:
+    """`PatchSheet.force` into `out` (3,) [N]; `last` the previous committed tip (3,), `rate_gain` tau / dt [-], `h`
+    the grid's spacing [m]."""
+    ix = int(np.rint((x + HALF_SIZE_M) / h))
+    iy = int(np.rint((y + HALF_SIZE_M) / h))
     ny, nx = z.shape
     x0, x1 = max(ix - half, 0), min(ix + half + 1, nx)
     y0, y1 = max(iy - half, 0), min(iy + half + 1, ny)
     zc, lzc = zt + r, last[2] + r
-    area = GRID_SPACING_M * GRID_SPACING_M
+    area = h * h
     sx, sy = slip[0], slip[1]
     fx, fy, fz = 0.0, 0.0, 0.0
     for j in range(y0, y1):
@@ -77,12 +77,12 @@ def force(z: np.ndarray, strain: np.ndarray, x_m: np.ndarray, y_m: np.ndarray, r
 
 
 @njit(cache=True)
-def yield_nodes(z: np.ndarray, strain: np.ndarray, yielded: np.ndarray, x_m: np.ndarray, y_m: np.ndarray, r: float,
-                t0: float, scale: float, half: int, x: float, y: float, zt: float) -> None:
+def yield_nodes(z: np.ndarray, strain: np.ndarray, yielded: np.ndarray, x_m: np.ndarray, y_m: np.ndarray, h: float,
+                r: float, t0: float, scale: float, half: int, x: float, y: float, zt: float) -> None:
     """`PatchSheet._yield`: the nodes pressed past the cap lowered to it, the sheet never yielded hung from them;
-    the thinning strain updated."""
-    ix = int(np.rint((x + HALF_SIZE_M) / GRID_SPACING_M))
-    iy = int(np.rint((y + HALF_SIZE_M) / GRID_SPACING_M))
+    the thinning strain updated (the grid's spacing `h` [m])."""
+    ix = int(np.rint((x + HALF_SIZE_M) / h))
+    iy = int(np.rint((y + HALF_SIZE_M) / h))
     ny, nx = z.shape
     x0, x1 = max(ix - half, 0), min(ix + half + 1, nx)
     y0, y1 = max(iy - half, 0), min(iy + half + 1, ny)
@@ -98,7 +98,7 @@ def yield_nodes(z: np.ndarray, strain: np.ndarray, yielded: np.ndarray, x_m: np.
             if dist < reach:
                 z[j, i] = zc - math.sqrt(reach * reach - dx * dx - dy * dy)
                 yielded[j, i] = True
-    rise = GRID_SPACING_M * HANG_SLOPE
+    rise = h * HANG_SLOPE
     for j in range(max(y0, 1), min(y1, ny - 1)):  # forward sweep: no never-yielded node above a neighbour by more
         for i in range(max(x0, 1), min(x1, nx - 1)):
             low = min(min(z[j, i - 1], z[j, i + 1]), min(z[j - 1, i], z[j + 1, i])) + rise
@@ -111,8 +111,8 @@ def yield_nodes(z: np.ndarray, strain: np.ndarray, yielded: np.ndarray, x_m: np.
                 z[j, i] = low
     for j in range(max(y0 - 1, 1), min(y1 + 1, ny - 1)):
         for i in range(max(x0 - 1, 1), min(x1 + 1, nx - 1)):
-            gx = (z[j, i + 1] - z[j, i - 1]) / (2.0 * GRID_SPACING_M)
-            gy = (z[j + 1, i] - z[j - 1, i]) / (2.0 * GRID_SPACING_M)
+            gx = (z[j, i + 1] - z[j, i - 1]) / (2.0 * h)
+            gy = (z[j + 1, i] - z[j - 1, i]) / (2.0 * h)
             slope = min(math.sqrt(gx * gx + gy * gy), MAX_SLOPE)
             e = 0.5 * math.log(1.0 + slope * slope)
             if e > strain[j, i]:
