@@ -40,7 +40,7 @@ plant forms its own sheet from its own material law, in a form the twin does not
   *A closed part's inside*: the sheet a closed track (a cone's, a pyramid's) encloses is joined to the clamped
   frame only through that track: it is the bottom, hanging from it, wherever the fraction test reads (near a
   pyramid's corner that test read the adjacent side's track and let the inside go: a wall that is not there).
-  `_fill` finds it every FILL_EVERY_M of travel (the unpressed nodes the pressed ones enclose, 4-connected),
+  `_fill` finds it every FILL_EVERY grid spacings of travel (the unpressed nodes the pressed ones enclose, 4-connected),
   grown by one tool radius (the innermost track's inner half, whose grid heights are the sphere's flank):
   `hanging`. Its share h_s of a side's near disc makes that side a bottom and the other side the wall: b_s =
   max(h_s, (1 - h_o) b_s) (tests/test_plant_corner.py). An open part (a groove) encloses nothing.
@@ -71,8 +71,8 @@ plant forms its own sheet from its own material law, in a form the twin does not
   ahead is taken as still over a tick).
 * **Travel**: a 2-D slip state follows the real tip, turning over `reversal_m` of travel (the knob
   `friction_reversal_mm`): friction acts against it, so it needs the tool to move. The heading, across which the
-  sides are read and along which the step ahead is met, is a second such state turning over `HEADING_TURN_M`
-  (two grid cells, or `reversal_m` if longer): the sides are the formed surface's geometry, which the grid does
+  sides are read and along which the step ahead is met, is a second such state turning over `HEADING_TURN`
+  grid spacings (or `reversal_m` if longer): the sides are the formed surface's geometry, which the grid does
   not resolve below its spacing, not the direction of one servo tick's motion. Read across the tick's own
   velocity, a servo-rate vibration faster than the feed flipped the sides every tick and the force fed energy
   into the vibration (a chatter on the 80 mm cone; tests/test_plant_sheet.py's jitter test).

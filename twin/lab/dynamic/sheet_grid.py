@@ -1,8 +1,8 @@
 """What the plant's sheet laws share: the formed-surface grid's layout, its sections, and the travel state.
 
 Each law (`sheet.py`, `sheet_patch.py`) forms its own surface by its own rule on the same grid (0.5 mm; the knob
-`sheet_grid_mm`); how a section
-is read off it and how a direction state turns with the tip's travel are one piece of code here.
+`sheet_grid_mm`); how a section is read off it and how a direction state turns with the tip's travel are one piece of
+code here.
 """
 
 from __future__ import annotations

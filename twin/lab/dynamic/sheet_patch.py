@@ -6,8 +6,8 @@ plant whose only sheet has the learner's form cannot show what the twin does on 
 This law pushes back on the tool by another mechanism, with another hardening law and other constants; it shares
 no code or constant with the twin (nor with law 1, except the grid's layout and the elastic constants of Al).
 
-* **Formed surface**: a 2-D grid (0.5 mm) of the sheet's committed (plastic) surface, as law 1's, but formed by
-  this law's own yielding (`advance`), not by the tool's envelope. The sheet the tool never yielded cannot stand
+* **Formed surface**: a 2-D grid (0.5 mm; `sheet_grid_mm`) of the sheet's committed (plastic) surface, as law 1's,
+  but formed by this law's own yielding (`advance`), not by the tool's envelope. The sheet the tool never yielded cannot stand
   as a cliff beside a yielded node: after each yield, no never-yielded node in the tool's reach stays above a
   neighbour by more than h tan 10 deg (`HANG_SLOPE`; a forward and a backward sweep), so the unformed inside of a
   cone or pyramid hangs down with the groove instead of standing as a rigid plateau for the tool to cut (the
