@@ -1,11 +1,11 @@
 """The plant's groove does not hold a tool that weaves across it, on its 0.5 mm grid: the groove is formed where the
-tool goes, and neither law's answer to a sub-millimetre weave is converged on that grid.
+tool goes, and law 1's answer to a sub-millimetre weave is not converged on that grid (law 2's force a little).
 
 What the KR 210's deepest groove passes show on the plant, offline and online alike (docs/online.md): the tool
 weaves across the groove. Driven rigidly (no robot), the sheet's lateral force is fitted along passes whose path
 weaves sinusoidally across the groove; its part in phase with the weave is a lateral stiffness (negative: it
 pushes the tool further out). A tool held still off the centre of the same groove is pushed back. On a 0.25 mm grid
-(the knob `sheet_grid_mm`) law 1 holds the same weave. The numbers are the page's (docs/dynamic-plant.md), read
+(the knob `sheet_grid_mm`) law 1 holds the same weave, and law 2 still pushes it out. The numbers are the page's (docs/dynamic-plant.md), read
 before the claims.
 """
 
@@ -64,7 +64,7 @@ def test_the_groove_does_not_hold_a_tool_that_weaves_as_the_page_says() -> None:
     wide = quoted("dynamic-plant.md", "by 0.5 mm, law 1's holds it (", 2)
     still = quoted("dynamic-plant.md", "7.5 mm deep is pushed back (", 1)
     fine_1 = quoted("dynamic-plant.md", "(`--set sheet_grid_mm=0.25`) law 1 holds the same 0.2 mm weave (", 2)
-    fine_2 = quoted("dynamic-plant.md", "and law 2 pushes it out harder (", 2)
+    fine_2 = quoted("dynamic-plant.md", "where law 2 still pushes it out (", 2)
     small_1, small_2 = _lateral_stiffness_on_a_weave(1, 2e-4), _lateral_stiffness_on_a_weave(2, 2e-4)
     large_1 = _lateral_stiffness_on_a_weave(1, 5e-4)
     k_still = _still_tool_stiffness()
@@ -76,7 +76,7 @@ def test_the_groove_does_not_hold_a_tool_that_weaves_as_the_page_says() -> None:
     assert min(*small_1, *small_2) > 0.0  # pushed out along the weave, under either law
     assert max(large_1) < 0.0 and k_still < 0.0  # held at a wider weave, and held still
     assert max(finer[:2]) < 0.0  # law 1 on a 0.25 mm grid: held (the sign of the answer is the grid's)
-    assert min(finer[2:]) > max(small_2)  # law 2: pushed out harder on the finer grid: not converged either
+    assert min(finer[2:]) > 0.0  # law 2 pushes it out on the finer grid too: its own answer
 
 
 def test_the_grid_is_a_knob_that_divides_the_sheet(tmp_path, capsys) -> None:  # type: ignore[no-untyped-def]
@@ -98,7 +98,7 @@ def test_law_1s_force_is_converged_on_the_grid_and_law_2s_is_not_as_the_page_say
     """A rigid 40 mm cone 4 mm deep, the axial force's mean over its deeper half on the 0.5 and the 0.25 mm grid,
     under each law: the page's numbers, read before the claims."""
     law_1 = quoted("dynamic-plant.md", "the same on the 0.5 and the 0.25 mm grid (", 2)
-    law_2 = quoted("dynamic-plant.md", "Law 2's is not converged at all:", 3)
+    law_2 = quoted("dynamic-plant.md", "Law 2's is not converged:", 3)
     cone = resample(part_path(PartSpec(top_half_width_m=0.02, depth_m=0.004)).p_sheet_m)
     mean = {(law, grid): float(np.mean(rigid_forces(make_sheet(Knobs({"sheet_law": law, "sheet_grid_mm": grid}),
                                                                Process()), cone)[len(cone) // 2 :, 2]))
@@ -108,4 +108,4 @@ def test_law_1s_force_is_converged_on_the_grid_and_law_2s_is_not_as_the_page_say
         q.check(f, slack=2.0)  # [N]; two units of the printed digit
     assert law_2[1].value == 0.5  # the quote's middle number is the grid's
     assert abs(mean[1, 0.25] - mean[1, 0.5]) < 1e-3 * mean[1, 0.5]  # law 1: the same force
-    assert mean[2, 0.25] > 1.1 * mean[2, 0.5]  # law 2: a tenth more on the finer grid
+    assert 1.0 < mean[2, 0.25] / mean[2, 0.5] < 1.1  # law 2: more on the finer grid, by less than a tenth

@@ -204,7 +204,7 @@ def test_the_compiled_patch_is_the_python_patch() -> None:
     from twin.lab.dynamic import sheet_patch, sheet_patch_kernels
 
     for name in ("SWIFT_K_MPA", "SWIFT_EPS0", "SWIFT_N", "YOUNGS_MODULUS_PA", "POISSON_RATIO", "HALF_SIZE_M",
-                 "DAMPING_TIME_S", "MIN_NORMAL_Z", "MAX_SLOPE", "PLANE", "HANG_SLOPE"):
+                 "DAMPING_TIME_S", "MIN_NORMAL_Z", "MAX_SLOPE", "PLANE", "HANG_SLOPE", "STRAIN_BASE_M"):
         assert getattr(sheet_patch_kernels, name) == getattr(sheet_patch, name), name
     cone = _cone()[:600]
     x = np.concatenate([np.linspace(-0.01, 0.01, 100), np.linspace(0.01, -0.01, 100)])

@@ -118,7 +118,7 @@ KNOBS: dict[str, KnobSpec] = {
     ),
     "sheet_grid_mm": KnobSpec(
         0.5, 0.5, "mm", "the sheet's formed-surface grid spacing, a whole number of them across its 240 mm (finer: "
-        "slower; at 0.5 neither law's answer to a weave nor law 2's force is converged, docs/dynamic-plant.md)", 0.1,
+        "slower; at 0.5 law 1's answer to a weave and law 2's force are not converged, docs/dynamic-plant.md)", 0.1,
         1.0
     ),
     # ---- controller

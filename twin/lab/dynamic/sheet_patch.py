@@ -40,8 +40,10 @@ no code or constant with the twin (nor with law 1, except the grid's layout and 
   sheet, R_m ~ 283 MPa by the Considere condition, like AA5182-O), scaled by the declared R_m over this law's own
   engineering R_m (K n^n exp(-(n - eps0)) at eps = n - eps0), as law 1 scales its own law. eps is the node's
   thinning strain, eps = ln sqrt(1 + |grad z|^2) (volume constancy: a node lowered vertically thins as its area
-  grows), kept as the largest it has been (a history state per node), the slope capped at 45 deg;
-  t = t0 exp(-eps).
+  grows), kept as the largest it has been (a history state per node), the slope capped at 45 deg and read over
+  `STRAIN_BASE_M` (1 mm, the nearest whole number of grid spacings), not over the grid's own spacing: on a finer
+  grid the spacing resolved the tool's cup steeper and the force of a rigid cone grew with it (+20 % at 0.25 mm;
+  docs/dynamic-plant.md, the grid); t = t0 exp(-eps).
 * **Friction**: Coulomb over the patch: each node's friction mu p A acts against the slip direction projected
   on the sphere's tangent plane at the node. The slip is a 2-D state s = u / delta, u the contact's tangential
   elastic displacement and delta its value at gross slip (Mindlin-Cattaneo partial slip: where the tool turns,
@@ -90,6 +92,7 @@ MIN_NORMAL_Z = math.cos(math.radians(70.0))  # least vertical share of the spher
 MAX_SLOPE = math.tan(math.radians(45.0))  # steepest slope read for a node's thinning [-]
 PLANE = 2.0 / math.sqrt(3.0)  # plane-strain von Mises factor [-]
 HANG_SLOPE = math.tan(math.radians(10.0))  # steepest slope of the never-yielded sheet beside a yielded node [-]
+STRAIN_BASE_M = 1e-3  # the baseline a node's slope is read over, for its thinning (module docstring) [m]
 
 
 def swift_mpa(eps: np.ndarray | float) -> np.ndarray:
@@ -239,7 +242,8 @@ class PatchSheet(GridSheet):
 
     def _yield(self, p: np.ndarray) -> None:
         """Lower the nodes the tool pressed past the cap to the sphere less the elastic penetration at the cap, then
-        update the thinning strain of the nodes around them (central differences, the largest so far)."""
+        update the thinning strain of the nodes around them (central differences over `STRAIN_BASE_M`, the largest
+        so far)."""
         box = self._box(float(p[0]), float(p[1]))
         if box is None:
             return
@@ -258,13 +262,14 @@ class PatchSheet(GridSheet):
         self.yielded[rows, cols] |= yielded
         ny, nx = self.z_m.shape
         self._hang(rows, cols)
-        j0, j1 = max(rows.start - 1, 1), min(rows.stop + 1, ny - 1)
-        i0, i1 = max(cols.start - 1, 1), min(cols.stop + 1, nx - 1)
+        k = max(math.floor(0.5 * STRAIN_BASE_M / self.spacing + 0.5), 1)  # `sheet_patch_kernels.strain_step`
+        j0, j1 = max(rows.start - k, k), min(rows.stop + k, ny - k)
+        i0, i1 = max(cols.start - k, k), min(cols.stop + k, nx - k)
         if j0 >= j1 or i0 >= i1:
             return
         zz = self.z_m
-        gx = (zz[j0:j1, i0 + 1 : i1 + 1] - zz[j0:j1, i0 - 1 : i1 - 1]) / (2.0 * self.spacing)
-        gy = (zz[j0 + 1 : j1 + 1, i0:i1] - zz[j0 - 1 : j1 - 1, i0:i1]) / (2.0 * self.spacing)
+        gx = (zz[j0:j1, i0 + k : i1 + k] - zz[j0:j1, i0 - k : i1 - k]) / (2.0 * k * self.spacing)
+        gy = (zz[j0 + k : j1 + k, i0:i1] - zz[j0 - k : j1 - k, i0:i1]) / (2.0 * k * self.spacing)
         slope = np.minimum(np.sqrt(gx * gx + gy * gy), MAX_SLOPE)
         e = 0.5 * np.log(1.0 + slope * slope)
         np.maximum(self.strain[j0:j1, i0:i1], e, out=self.strain[j0:j1, i0:i1])

@@ -23,6 +23,13 @@ MIN_NORMAL_Z = math.cos(math.radians(70.0))
 MAX_SLOPE = math.tan(math.radians(45.0))
 PLANE = 2.0 / math.sqrt(3.0)
 HANG_SLOPE = math.tan(math.radians(10.0))
+STRAIN_BASE_M = 1e-3
+
+
+@njit(cache=True)
+def strain_step(h: float) -> int:
+    """Grid spacings either side of a node its thinning slope is read over: half of `STRAIN_BASE_M`, at least one."""
+    return max(math.floor(0.5 * STRAIN_BASE_M / h + 0.5), 1)
 
 
 @njit(cache=True)
@@ -109,10 +116,11 @@ def yield_nodes(z: np.ndarray, strain: np.ndarray, yielded: np.ndarray, x_m: np.
             low = min(min(z[j, i - 1], z[j, i + 1]), min(z[j - 1, i], z[j + 1, i])) + rise
             if low < z[j, i] and not yielded[j, i]:
                 z[j, i] = low
-    for j in range(max(y0 - 1, 1), min(y1 + 1, ny - 1)):
-        for i in range(max(x0 - 1, 1), min(x1 + 1, nx - 1)):
-            gx = (z[j, i + 1] - z[j, i - 1]) / (2.0 * h)
-            gy = (z[j + 1, i] - z[j - 1, i]) / (2.0 * h)
+    k = strain_step(h)
+    for j in range(max(y0 - k, k), min(y1 + k, ny - k)):
+        for i in range(max(x0 - k, k), min(x1 + k, nx - k)):
+            gx = (z[j, i + k] - z[j, i - k]) / (2.0 * k * h)
+            gy = (z[j + k, i] - z[j - k, i]) / (2.0 * k * h)
             slope = min(math.sqrt(gx * gx + gy * gy), MAX_SLOPE)
             e = 0.5 * math.log(1.0 + slope * slope)
             if e > strain[j, i]:
