@@ -18,7 +18,7 @@ import pytest
 
 from twin.lab.dynamic.knobs import Knobs
 from twin.lab.dynamic.run import run_dynamic_lab
-from twin.lab.dynamic.sheet import GRID_SPACING_M, HUNT_CROSSLEY_ALPHA_S_PER_M, MAX_ANGLE_RAD, PlantSheet
+from twin.lab.dynamic.sheet import HUNT_CROSSLEY_ALPHA_S_PER_M, MAX_ANGLE_RAD, PlantSheet
 from twin.process.description import Process
 from twin.process.toolpath.shapes import PartSpec, part_path
 
@@ -160,7 +160,7 @@ def test_the_force_is_continuous_across_a_corner_footprint() -> None:
     size = float(np.max(np.linalg.norm(forces, axis=1)))
     assert size > 300.0
     step = float(np.max(np.linalg.norm(np.diff(forces, axis=0), axis=1)))
-    assert step <= size * ds / GRID_SPACING_M, (step, size * ds / GRID_SPACING_M)
+    assert step <= size * ds / sheet.spacing, (step, size * ds / sheet.spacing)
 
 
 def test_lifting_the_tool_unloads_the_sheet_elastically_to_zero() -> None:
@@ -239,7 +239,7 @@ def test_a_closed_tracks_inside_hangs_and_an_open_ones_sides_do_not(
     assert not sheet.hanging[outside].any()
     compiled = np.zeros_like(sheet.hanging)
     regions = np.array([compiled, ~compiled])  # a fresh sheet's: nothing enclosed, all outside
-    sheet_kernels.fill(sheet.pressed, sheet._box, compiled, regions, radius / GRID_SPACING_M)
+    sheet_kernels.fill(sheet.pressed, sheet._box, compiled, regions, radius / sheet.spacing)
     sheet._fill()
     np.testing.assert_array_equal(compiled, sheet.hanging)
     _, groove = _rigid(_resampled(groove_path().p_sheet_m[:2000]), Process())

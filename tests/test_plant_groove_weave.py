@@ -5,17 +5,20 @@ What the KR 210's deepest groove passes show on the plant, offline and online al
 weaves across the groove. Driven rigidly (no robot), the sheet's lateral force is fitted along passes whose path
 weaves sinusoidally across the groove; its part in phase with the weave is a lateral stiffness (negative: it
 pushes the tool further out). A tool held still off the centre of the same groove is pushed back. On a 0.25 mm grid
-(the knob `sheet_grid_mm`) law 1 holds the same weave, and law 2 still pushes it out. The numbers are the page's (docs/dynamic-plant.md), read
-before the claims.
+(the knob `sheet_grid_mm`) law 1 holds the same weave, and law 2 still pushes it out. The numbers are the page's
+(docs/dynamic-plant.md), read before the claims.
 """
 
 from __future__ import annotations
 
 import copy
+from pathlib import Path
 
 import numpy as np
+import pytest
 from doc_numbers import quoted
 
+from twin.cli import main
 from twin.lab.dynamic.knobs import Knobs
 from twin.lab.dynamic.metrics import resample, rigid_forces
 from twin.lab.dynamic.sheet_laws import make_sheet
@@ -79,11 +82,9 @@ def test_the_groove_does_not_hold_a_tool_that_weaves_as_the_page_says() -> None:
     assert min(finer[2:]) > 0.0  # law 2 pushes it out on the finer grid too: its own answer
 
 
-def test_the_grid_is_a_knob_that_divides_the_sheet(tmp_path, capsys) -> None:  # type: ignore[no-untyped-def]
+def test_the_grid_is_a_knob_that_divides_the_sheet(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """`sheet_grid_mm` sets both laws' grid; a spacing that does not divide the sheet is refused (exit 2), naming the
     knob as typed, and nothing is written."""
-    from twin.cli import main
-
     for law in (1, 2):
         sheet = make_sheet(Knobs({"sheet_law": law, "sheet_grid_mm": 0.25}), Process())
         assert sheet.spacing == 2.5e-4 and len(sheet.x_m) == 961

@@ -16,6 +16,7 @@ from doc_numbers import quoted
 
 import twin
 from twin.lab.dynamic.sheet import PlantSheet, voce_mpa, voce_tensile_strength_mpa
+from twin.lab.dynamic.sheet_grid import GRID_SPACING_M
 from twin.process.description import Process
 from twin.process.toolpath.groove import groove_path
 from twin.process.toolpath.shapes import PartSpec, part_path
@@ -165,7 +166,8 @@ def test_the_compiled_sheet_is_the_python_sheet() -> None:
     groove = groove_path().p_sheet_m[:400]
     cone = part_path(PartSpec(top_half_width_m=0.02, depth_m=4e-3)).p_sheet_m
     pyramid = part_path(PartSpec(shape="pyramid", top_half_width_m=0.02, depth_m=3e-3)).p_sheet_m
-    for path, spacing in ((groove, 5e-4), (cone, 5e-4), (pyramid, 5e-4), (groove, 2.5e-4)):  # and a finer grid
+    for path, spacing in ((groove, GRID_SPACING_M), (cone, GRID_SPACING_M), (pyramid, GRID_SPACING_M),
+                          (groove, GRID_SPACING_M / 2)):  # and a finer grid
         runs = []
         for compiled in (True, False):
             sheet = PlantSheet(Process(), 5e-5, spacing_m=spacing)

@@ -25,6 +25,7 @@ import pytest
 
 from twin.lab.dynamic.knobs import Knobs
 from twin.lab.dynamic.sheet import PlantSheet
+from twin.lab.dynamic.sheet_grid import GRID_SPACING_M
 from twin.lab.dynamic.sheet_laws import make_sheet
 from twin.lab.dynamic.sheet_patch import PatchSheet, swift_mpa, swift_tensile_strength_mpa
 from twin.process.description import Process
@@ -204,13 +205,13 @@ def test_the_compiled_patch_is_the_python_patch() -> None:
     from twin.lab.dynamic import sheet_patch, sheet_patch_kernels
 
     for name in ("SWIFT_K_MPA", "SWIFT_EPS0", "SWIFT_N", "YOUNGS_MODULUS_PA", "POISSON_RATIO", "HALF_SIZE_M",
-                 "DAMPING_TIME_S", "MIN_NORMAL_Z", "MAX_SLOPE", "PLANE", "HANG_SLOPE", "STRAIN_BASE_M"):
+                 "DAMPING_TIME_S", "MIN_NORMAL_Z", "MAX_SLOPE", "PLANE", "HANG_SLOPE"):
         assert getattr(sheet_patch_kernels, name) == getattr(sheet_patch, name), name
     cone = _cone()[:600]
     x = np.concatenate([np.linspace(-0.01, 0.01, 100), np.linspace(0.01, -0.01, 100)])
     groove = np.column_stack([np.tile(x, 2), np.zeros(400), -np.linspace(0.0, 2e-3, 400)])
     groove[300:, 2] += 0.3e-3 * np.linspace(0.0, 1.0, 100)  # the tool backs off: elastic unloading
-    for path, spacing in ((cone, 5e-4), (groove, 5e-4), (groove[:200], 2.5e-4)):  # and a finer grid
+    for path, spacing in ((cone, GRID_SPACING_M), (groove, GRID_SPACING_M), (groove[:200], GRID_SPACING_M / 2)):
         runs = []
         for compiled in (True, False):
             sheet = PatchSheet(Process(), 5e-5, TIMESTEP_S, spacing)

@@ -130,8 +130,8 @@ class PlantSheet(GridSheet):
                  spacing_m: float = GRID_SPACING_M) -> None:
         self._grid(process, timestep_s, spacing_m)
         self.scale = float(process.tensile_strength_mpa) / voce_tensile_strength_mpa()
-        self.slip_gain = 2.0 / reversal_m
-        self.heading_gain = 2.0 / max(HEADING_TURN * self.spacing, reversal_m)
+        self.slip_gain, self.heading_gain = 2.0 / reversal_m, 2.0 / max(HEADING_TURN * self.spacing, reversal_m)
+        self.fill_every_m = FILL_EVERY * self.spacing  # the tip's travel between two `_fill`s [m]
         half = math.ceil(self.radius / self.spacing) + 1
         self._offsets = self.spacing * np.arange(-half, half + 1)
         self.reset()
@@ -267,7 +267,7 @@ class PlantSheet(GridSheet):
         self._last = np.array([x, y, z])
         kernels.press(self.z_m, self.pressed, self._box, self.x_m, self.y_m, self.spacing, self.radius,
                       len(self._offsets) // 2, x, y, z)
-        if self._unfilled_m >= FILL_EVERY * self.spacing:
+        if self._unfilled_m >= self.fill_every_m:
             kernels.fill(self.pressed, self._box, self.hanging, self._regions, self.radius / self.spacing)
             self._unfilled_m = 0.0
 
@@ -283,7 +283,7 @@ class PlantSheet(GridSheet):
                 self.travel = self.heading / norm
         self._last = p[:3].copy()
         self._press(p)
-        if self._unfilled_m >= FILL_EVERY * self.spacing:
+        if self._unfilled_m >= self.fill_every_m:
             self._fill()
             self._unfilled_m = 0.0
 

@@ -7,8 +7,8 @@ This law pushes back on the tool by another mechanism, with another hardening la
 no code or constant with the twin (nor with law 1, except the grid's layout and the elastic constants of Al).
 
 * **Formed surface**: a 2-D grid (0.5 mm; `sheet_grid_mm`) of the sheet's committed (plastic) surface, as law 1's,
-  but formed by this law's own yielding (`advance`), not by the tool's envelope. The sheet the tool never yielded cannot stand
-  as a cliff beside a yielded node: after each yield, no never-yielded node in the tool's reach stays above a
+  but formed by this law's own yielding (`advance`), not by the tool's envelope. The sheet the tool never yielded
+  cannot stand as a cliff beside a yielded node: after each yield, no never-yielded node in the tool's reach stays above a
   neighbour by more than h tan 10 deg (`HANG_SLOPE`; a forward and a backward sweep), so the unformed inside of a
   cone or pyramid hangs down with the groove instead of standing as a rigid plateau for the tool to cut (the
   grid's stand-in for law 1's unsupported bottom). Yielded nodes keep their formed shape (a 45 deg wall stays).
@@ -134,6 +134,7 @@ class PatchSheet(GridSheet):
         self.slip_gain = 1.0 / max(self.presliding_m, 1e-12)  # s = u / delta: each step adds step / delta
         self.rate_gain = DAMPING_TIME_S / self.timestep_s
         self.half = math.ceil(self.radius / self.spacing) + 1
+        self.strain_step = max(math.floor(0.5 * STRAIN_BASE_M / self.spacing + 0.5), 1)  # spacings either side
         self.reset()
 
     def reset(self) -> None:
@@ -230,7 +231,7 @@ class PatchSheet(GridSheet):
         x, y, z = (float(v) for v in p_sheet_m)
         turned_in_place(self.slip, self.slip_gain, x - float(self.last[0]), y - float(self.last[1]))
         kernels.yield_nodes(self.z_m, self.strain, self.yielded, self.x_m, self.y_m, self.spacing, self.radius, self.t0,
-                            self.scale, self.half, x, y, z)
+                            self.scale, self.half, self.strain_step, x, y, z)
         self.last = np.array([x, y, z])
 
     def advance_reference(self, p_sheet_m: np.ndarray) -> None:
@@ -262,7 +263,7 @@ class PatchSheet(GridSheet):
         self.yielded[rows, cols] |= yielded
         ny, nx = self.z_m.shape
         self._hang(rows, cols)
-        k = max(math.floor(0.5 * STRAIN_BASE_M / self.spacing + 0.5), 1)  # `sheet_patch_kernels.strain_step`
+        k = self.strain_step
         j0, j1 = max(rows.start - k, k), min(rows.stop + k, ny - k)
         i0, i1 = max(cols.start - k, k), min(cols.stop + k, nx - k)
         if j0 >= j1 or i0 >= i1:

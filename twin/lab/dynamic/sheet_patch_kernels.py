@@ -23,13 +23,6 @@ MIN_NORMAL_Z = math.cos(math.radians(70.0))
 MAX_SLOPE = math.tan(math.radians(45.0))
 PLANE = 2.0 / math.sqrt(3.0)
 HANG_SLOPE = math.tan(math.radians(10.0))
-STRAIN_BASE_M = 1e-3
-
-
-@njit(cache=True)
-def strain_step(h: float) -> int:
-    """Grid spacings either side of a node its thinning slope is read over: half of `STRAIN_BASE_M`, at least one."""
-    return max(math.floor(0.5 * STRAIN_BASE_M / h + 0.5), 1)
 
 
 @njit(cache=True)
@@ -85,9 +78,9 @@ def force(z: np.ndarray, strain: np.ndarray, x_m: np.ndarray, y_m: np.ndarray, h
 
 @njit(cache=True)
 def yield_nodes(z: np.ndarray, strain: np.ndarray, yielded: np.ndarray, x_m: np.ndarray, y_m: np.ndarray, h: float,
-                r: float, t0: float, scale: float, half: int, x: float, y: float, zt: float) -> None:
+                r: float, t0: float, scale: float, half: int, k: int, x: float, y: float, zt: float) -> None:
     """`PatchSheet._yield`: the nodes pressed past the cap lowered to it, the sheet never yielded hung from them;
-    the thinning strain updated (the grid's spacing `h` [m])."""
+    the thinning strain updated, its slope over `k` spacings `h` [m] either side (`PatchSheet.strain_step`)."""
     ix = int(np.rint((x + HALF_SIZE_M) / h))
     iy = int(np.rint((y + HALF_SIZE_M) / h))
     ny, nx = z.shape
@@ -116,7 +109,6 @@ def yield_nodes(z: np.ndarray, strain: np.ndarray, yielded: np.ndarray, x_m: np.
             low = min(min(z[j, i - 1], z[j, i + 1]), min(z[j - 1, i], z[j + 1, i])) + rise
             if low < z[j, i] and not yielded[j, i]:
                 z[j, i] = low
-    k = strain_step(h)
     for j in range(max(y0 - k, k), min(y1 + k, ny - k)):
         for i in range(max(x0 - k, k), min(x1 + k, nx - k)):
             gx = (z[j, i + k] - z[j, i - k]) / (2.0 * k * h)
