@@ -67,12 +67,16 @@ class SurfaceDeviation:
         }
 
 
-def surface_deviation(points_m: np.ndarray, target: trimesh.Trimesh) -> SurfaceDeviation:
+def surface_deviation(
+    points_m: np.ndarray, target: trimesh.Trimesh, *, target_mm: trimesh.Trimesh | None = None
+) -> SurfaceDeviation:
     """Signed normal distances of scan points to a target mesh, over the target's formed region.
 
     Args:
         points_m: Scanned surface points, sheet frame [m], shape (n, 3).
         target: The target part's upper surface, sheet frame [m] (normals up, e.g. `heightmap_mesh`).
+        target_mm: The same mesh in millimetres where the caller holds one (`DesignIndex.mesh_mm`): its search tree,
+            built on the first query, is built once; None: a copy made here.
 
     Raises:
         InputError: The points are not (n, 3) finite values, or none lies over the target's formed region.
@@ -80,7 +84,7 @@ def surface_deviation(points_m: np.ndarray, target: trimesh.Trimesh) -> SurfaceD
     points = _points(points_m)
     lo, hi = target.bounds[0], target.bounds[1]
     points = points[over_interior(points, target)]
-    closest, deviation, _ = signed_distance(millimetre_copy(target), points)
+    closest, deviation, _ = signed_distance(millimetre_copy(target) if target_mm is None else target_mm, points)
     formed = closest[:, 2] < -COMPARE_BELOW_M
     if not formed.any():
         raise InputError(

@@ -279,7 +279,7 @@ def _surface(request: CheckRequest, target: Path, measured: Run, ideal_m: np.nda
                                      min_inlier_fraction=request.fit_fraction)
         points = registration.apply(points)
     check_same_part(ideal_m, points, f"the scan {source}", path_what=of_run)
-    deviation = surface_deviation(points, index.mesh)
+    deviation = surface_deviation(points, index.mesh, target_mm=index.mesh_mm)
     regions = region_deviation(points, index)
     figure = None
     if request.figure is not None:
