@@ -21,7 +21,6 @@ printed as a note, a model used outside its published range (`ExtrapolationWarni
 from __future__ import annotations
 
 import argparse
-import functools
 import importlib
 import sys
 import warnings
@@ -112,10 +111,8 @@ def uniform_metavars(command: str, parser: argparse.ArgumentParser) -> None:
             action.metavar = "FILE"
 
 
-@functools.cache
 def build_parser() -> argparse.ArgumentParser:
-    """Build the top-level parser with one sub-parser per command, once per process: parsing leaves a parser as it
-    was, and a process that calls `main` again (a test suite: over a thousand calls) built all commands each time."""
+    """Build the top-level parser with one sub-parser per command."""
     parser = argparse.ArgumentParser(
         prog="tx200-twin",
         description="MuJoCo digital twin of a compliant robot forming sheet metal incrementally (ISF): any part, "
