@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from twin.analysis.surface_check import read_target_mesh, surface_deviation
+from twin.analysis.surface_check import millimetre_copy, read_target_mesh, surface_deviation
 from twin.errors import DataFileError, InputError
 from twin.process.part.bottom import with_floating_bottom
 from twin.process.part.surface import heightmap_mesh, surface_points, target_part_surface
@@ -39,6 +39,9 @@ def test_a_surface_shifted_up_deviates_by_the_normal_distance_with_a_plus_sign()
     assert below.mean_m < 0.0
     exact = surface_deviation(points, target)
     assert exact.max_abs_m < 1e-12
+    # the millimetre mesh a caller holds (`DesignIndex.mesh_mm`) gives the same answer as the copy made inside
+    held = surface_deviation(points + np.array([0.0, 0.0, lift]), target, target_mm=millimetre_copy(target))
+    np.testing.assert_array_equal(held.deviation_m, result.deviation_m)
 
 
 def test_only_the_formed_region_is_compared():
