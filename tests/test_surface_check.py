@@ -8,7 +8,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from twin.analysis.surface_check import millimetre_copy, read_target_mesh, surface_deviation
+from twin.analysis.surface_check import (
+    DesignIndex,
+    deviations,
+    read_target_mesh,
+    region_deviation,
+    surface_deviation,
+)
 from twin.errors import DataFileError, InputError
 from twin.process.part.bottom import with_floating_bottom
 from twin.process.part.surface import heightmap_mesh, surface_points, target_part_surface
@@ -39,9 +45,14 @@ def test_a_surface_shifted_up_deviates_by_the_normal_distance_with_a_plus_sign()
     assert below.mean_m < 0.0
     exact = surface_deviation(points, target)
     assert exact.max_abs_m < 1e-12
-    # the millimetre mesh a caller holds (`DesignIndex.mesh_mm`) gives the same answer as the copy made inside
-    held = surface_deviation(points + np.array([0.0, 0.0, lift]), target, target_mm=millimetre_copy(target))
-    np.testing.assert_array_equal(held.deviation_m, result.deviation_m)
+    # `check`'s one query for both is each of them
+    index = DesignIndex(target)
+    surface, regions = deviations(points + np.array([0.0, 0.0, lift]), index)
+    alone = region_deviation(points + np.array([0.0, 0.0, lift]), index)
+    np.testing.assert_array_equal(surface.deviation_m, result.deviation_m)
+    np.testing.assert_array_equal(surface.points_m, result.points_m)
+    np.testing.assert_array_equal(regions.deviation_m, alone.deviation_m)
+    np.testing.assert_array_equal(regions.region, alone.region)
 
 
 def test_only_the_formed_region_is_compared():

@@ -67,26 +67,27 @@ class SurfaceDeviation:
         }
 
 
-def surface_deviation(
-    points_m: np.ndarray, target: trimesh.Trimesh, *, target_mm: trimesh.Trimesh | None = None
-) -> SurfaceDeviation:
+def surface_deviation(points_m: np.ndarray, target: trimesh.Trimesh) -> SurfaceDeviation:
     """Signed normal distances of scan points to a target mesh, over the target's formed region.
 
     Args:
         points_m: Scanned surface points, sheet frame [m], shape (n, 3).
         target: The target part's upper surface, sheet frame [m] (normals up, e.g. `heightmap_mesh`).
-        target_mm: The same mesh in millimetres where the caller holds one (`DesignIndex.mesh_mm`): its search tree,
-            built on the first query, is built once; None: a copy made here.
 
     Raises:
         InputError: The points are not (n, 3) finite values, or none lies over the target's formed region.
     """
     points = _points(points_m)
-    lo, hi = target.bounds[0], target.bounds[1]
     points = points[over_interior(points, target)]
-    closest, deviation, _ = signed_distance(millimetre_copy(target) if target_mm is None else target_mm, points)
+    closest, deviation, _ = signed_distance(millimetre_copy(target), points)
+    return _formed(points, closest, deviation, target)
+
+
+def _formed(points: np.ndarray, closest: np.ndarray, deviation: np.ndarray, target: trimesh.Trimesh) -> SurfaceDeviation:
+    """`surface_deviation` of the points whose closest target points [m] lie in its formed region."""
     formed = closest[:, 2] < -COMPARE_BELOW_M
     if not formed.any():
+        lo, hi = target.bounds[0], target.bounds[1]
         raise InputError(
             f"no scan point lies over the target's formed region (target {COMPARE_BELOW_M * 1e3:g} mm below the "
             f"sheet, x in [{lo[0] * 1e3:.1f}, {hi[0] * 1e3:.1f}] mm, y in [{lo[1] * 1e3:.1f}, {hi[1] * 1e3:.1f}] mm)"
@@ -290,6 +291,19 @@ def region_deviation(points_m: np.ndarray, design: trimesh.Trimesh | DesignIndex
         raise InputError("no scan point lies over the design's interior")
     closest, deviation, normal = signed_distance(index.mesh_mm, points)
     return RegionDeviation(points, deviation, index.classify(closest, normal))
+
+
+def deviations(points_m: np.ndarray, index: DesignIndex) -> tuple[SurfaceDeviation, RegionDeviation]:
+    """`surface_deviation` and `region_deviation` of the same scan points from one closest-point query.
+
+    Raises:
+        InputError: As `surface_deviation`.
+    """
+    points = _points(points_m)
+    points = points[over_interior(points, index.mesh)]
+    closest, deviation, normal = signed_distance(index.mesh_mm, points)
+    surface = _formed(points, closest, deviation, index.mesh)
+    return surface, RegionDeviation(points, deviation, index.classify(closest, normal))
 
 
 def design_heights(design: trimesh.Trimesh, x_m: np.ndarray, y_m: np.ndarray) -> np.ndarray:

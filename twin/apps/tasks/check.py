@@ -37,9 +37,8 @@ from twin.analysis.surface_check import (
     DesignIndex,
     RegionDeviation,
     SurfaceDeviation,
+    deviations,
     read_target_mesh,
-    region_deviation,
-    surface_deviation,
 )
 from twin.analysis.tracker_frame import FREE_FORCE_N, TrackerRegistration, fit_on_free_moves
 from twin.apps.tasks.base import Note, Report, silent
@@ -279,8 +278,7 @@ def _surface(request: CheckRequest, target: Path, measured: Run, ideal_m: np.nda
                                      min_inlier_fraction=request.fit_fraction)
         points = registration.apply(points)
     check_same_part(ideal_m, points, f"the scan {source}", path_what=of_run)
-    deviation = surface_deviation(points, index.mesh, target_mm=index.mesh_mm)
-    regions = region_deviation(points, index)
+    deviation, regions = deviations(points, index)
     figure = None
     if request.figure is not None:
         from twin.viz.surface_figures import plot_surface_deviation
