@@ -101,7 +101,7 @@ class Context:
         `depth_ratio`, the `sheet_springback` effect)."""
         last = self.sim.pass_index == self.sim.pass_index.max()
         x, dz = self.sim.p_sheet_m[last, 0], dp_cmd[last, 2]
-        order = np.argsort(x)
+        order = np.argsort(x, kind="stable")  # ties (the stops) in time order on every machine
         inside = (self.profile_x_m >= x.min()) & (self.profile_x_m <= x.max())
         if "profile" in self.pred:
             inside &= self.pred["profile"] < 0.0
