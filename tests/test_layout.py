@@ -7,6 +7,7 @@ The stages, in data-flow order (README "Layout"). A module may import its own st
 from __future__ import annotations
 
 import ast
+import functools
 from pathlib import Path
 
 import numpy as np
@@ -46,10 +47,20 @@ def _type_checking_only(tree: ast.AST) -> set[int]:
     return inside
 
 
+@functools.cache
+def _parsed_text(text: str, filename: str) -> ast.Module:
+    return ast.parse(text, filename=filename)
+
+
+def _parsed(path: Path) -> ast.Module:
+    """`path` parsed, once per text a session reads (several checks walk every module; none edits a tree)."""
+    return _parsed_text(path.read_text(), str(path))
+
+
 def _twin_imports(path: Path, *, type_checking: bool = True) -> list[tuple[int, str, list[str]]]:
     """(line, imported module, imported names) of every `twin` import in a file, lazy ones included
     (`type_checking=False`: without those of `if TYPE_CHECKING:` blocks)."""
-    tree = ast.parse(path.read_text(), filename=str(path))
+    tree = _parsed(path)
     skip = set() if type_checking else _type_checking_only(tree)
     found: list[tuple[int, str, list[str]]] = []
     for node in ast.walk(tree):
@@ -277,7 +288,7 @@ def _robot_violations(files: list[Path]) -> list[str]:
     for path in files:
         if ROBOT_STAGE in path.parents:
             continue
-        tree = ast.parse(path.read_text(), filename=str(path))
+        tree = _parsed(path)
         docs = _docstrings(tree)
         where = str(path.relative_to(PACKAGE_DIR.parent))
         for node in ast.walk(tree):
@@ -371,7 +382,7 @@ def test_the_cli_is_thin() -> None:
     assert total <= CLI_MAX_LINES, f"twin/cli has {total} lines; move work into a task (twin/apps/tasks/)"
     long = []
     for f in files:
-        for node in ast.walk(ast.parse(f.read_text())):
+        for node in ast.walk(_parsed(f)):
             if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
                 length = (node.end_lineno or node.lineno) - node.lineno + 1
                 if length > CLI_MAX_FUNCTION_LINES:

@@ -10,6 +10,7 @@ import by name (`importlib`, the package's lazy table) count as imports.
 from __future__ import annotations
 
 import ast
+import functools
 import re
 from pathlib import Path
 
@@ -50,8 +51,10 @@ def _module(path: Path) -> str:
     return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
 
 
+@functools.cache
 def _outside_lab() -> dict[str, tuple[ast.Module, bool]]:
-    """Every module under twin/ but twin/lab, parsed, and whether it is a package's __init__."""
+    """Every module under twin/ but twin/lab, parsed, and whether it is a package's __init__ (once per session: the
+    checks only walk the trees)."""
     return {_module(p): (ast.parse(p.read_text(encoding="utf-8"), str(p)), p.name == "__init__.py")
             for p in sorted(TWIN.rglob("*.py")) if p.relative_to(TWIN).parts[0] != "lab"}
 
