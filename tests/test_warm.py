@@ -26,10 +26,11 @@ def test_each_warm_up_job_calls_the_kernels_it_is_there_to_compile(monkeypatch: 
         return call
 
     jobs = {
-        warm._replay: ((compiled, "replay_loop"), (rigid, "isf_rigid_loop")),
+        warm._replay: ((compiled, "replay_loop"),),
+        warm._isf: ((rigid, "isf_rigid_loop"),),
+        warm._table: ((rigid, "table_rigid_loop"),),
         warm._online: ((online, "online_cycle"),),
-        warm._others: ((rigid, "table_rigid_loop"), (plant_law_1, "force"), (plant_law_1, "fill"),
-                       (plant_law_2, "force")),
+        warm._sheets: ((plant_law_1, "force"), (plant_law_1, "fill"), (plant_law_2, "force")),
     }
     for module, name in (kernel for kernels in jobs.values() for kernel in kernels):
         monkeypatch.setattr(module, name, counted(f"{module.__name__}.{name}", getattr(module, name)))
