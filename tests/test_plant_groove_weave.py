@@ -32,14 +32,16 @@ WAVELENGTH_M = 0.022  # the weave's wavelength along the travel (1.5 Hz at the g
 PROBE_DEPTH_M = 7.5e-3  # the still tool's depth [m]
 
 
-def _lateral_stiffness_on_a_weave(law: int, amplitude_m: float, grid_mm: float = 0.5) -> tuple[float, float]:
+def _lateral_stiffness_on_a_weave(law: int, amplitude_m: float, grid_mm: float = 0.5, side_read: float = 1.0
+                                  ) -> tuple[float, float]:
     """The lateral force's part in phase with the weave, over its lateral offset [N/m], on the forward and the return
     passes (a least-squares fit of F_y to the offset, its slope along the travel and a constant), on a grid of
-    `grid_mm`."""
+    `grid_mm`, law 1's chord read `side_read` tool radii out."""
     p = resample(groove_path().p_sheet_m)
     weave = (-p[:, 2] > DEEP_M[0]) & (-p[:, 2] < DEEP_M[1]) & (np.abs(p[:, 0]) < HALF_LENGTH_M)
     p[weave, 1] = amplitude_m * np.sin(2.0 * np.pi * p[weave, 0] / WAVELENGTH_M)
-    f = rigid_forces(make_sheet(Knobs({"sheet_law": law, "sheet_grid_mm": grid_mm}), Process()), p)
+    knobs = Knobs({"sheet_law": law, "sheet_grid_mm": grid_mm, "sheet_side_read_radii": side_read})
+    f = rigid_forces(make_sheet(knobs, Process()), p)
     travel = np.sign(np.gradient(p[:, 0]))
     slope = np.gradient(p[:, 1]) / np.gradient(p[:, 0]) * travel
     out = []
@@ -93,6 +95,28 @@ def test_the_grid_is_a_knob_that_divides_the_sheet(tmp_path: Path, capsys: pytes
     assert main(["lab", "--plant", "dynamic", "--scenario", "nominal", "--seed", "1", "--set", "sheet_grid_mm=0.7",
                  "--out", str(out)]) == 2
     assert "sheet_grid_mm = 0.7" in capsys.readouterr().err and not out.exists()
+
+
+def test_law_1s_chord_read_past_the_tools_imprint_answers_a_weave_alike_on_both_grids() -> None:
+    """Law 1's weave answer comes from its chord read at the tool's own imprint's equator: read 1.1 radii out it is
+    the same on the 0.5 and the 0.25 mm grid; the groove's force falls with it (docs/dynamic-plant.md)."""
+    said = quoted("dynamic-plant.md", "law 1's answer to the same weave is", 4)
+    axial = quoted("dynamic-plant.md", "the rigid groove's mean axial force falls from", 2)
+    read = (*_lateral_stiffness_on_a_weave(1, 2e-4, 0.5, 1.1), *_lateral_stiffness_on_a_weave(1, 2e-4, 0.25, 1.1))
+    p = groove_path().p_sheet_m
+    deep = (-p[:, 2] > DEEP_M[0]) & (-p[:, 2] < DEEP_M[1]) & (np.abs(p[:, 0]) < HALF_LENGTH_M)  # the weaving passes
+    f = [rigid_forces(make_sheet(Knobs({"sheet_law": 1, "sheet_side_read_radii": k}), Process()), p)[:, 2]
+         for k in (1.0, 1.1)]
+    fz = [float(np.mean(np.abs(one))) for one in f]
+    for q, k in zip(said, read, strict=True):
+        q.check(1e-6 * k, slack=2.0)  # [kN/mm]; two units of the printed digit: the fit's floating point
+    for q, mean in zip(axial, fz, strict=True):
+        q.check(mean, slack=2.0)
+    assert max(abs(k) for k in read) < 0.02e6  # converged near 0, where the default read differs by 0.5 kN/mm
+    for q, mean in zip(quoted("dynamic-plant.md", "over the passes the weave study weaves from", 2),
+                       [float(np.mean(one[deep])) for one in f], strict=True):
+        q.check(mean, slack=2.0)
+    assert fz[1] < 0.95 * fz[0]
 
 
 def test_law_1s_force_is_converged_on_the_grid_and_law_2s_is_not_as_the_page_says() -> None:

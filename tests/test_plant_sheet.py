@@ -166,11 +166,11 @@ def test_the_compiled_sheet_is_the_python_sheet() -> None:
     groove = groove_path().p_sheet_m[:400]
     cone = part_path(PartSpec(top_half_width_m=0.02, depth_m=4e-3)).p_sheet_m
     pyramid = part_path(PartSpec(shape="pyramid", top_half_width_m=0.02, depth_m=3e-3)).p_sheet_m
-    for path, spacing in ((groove, GRID_SPACING_M), (cone, GRID_SPACING_M), (pyramid, GRID_SPACING_M),
-                          (groove, GRID_SPACING_M / 2)):  # and a finer grid
+    for path, spacing, read in ((groove, GRID_SPACING_M, 1.0), (cone, GRID_SPACING_M, 1.0), (pyramid, GRID_SPACING_M, 1.0),
+                                (groove, GRID_SPACING_M / 2, 1.0), (groove, GRID_SPACING_M, 1.1)):  # a finer grid, a read
         runs = []
         for compiled in (True, False):
-            sheet = PlantSheet(Process(), 5e-5, spacing_m=spacing)
+            sheet = PlantSheet(Process(), 5e-5, spacing_m=spacing, side_read=read)
             sheet.compiled = compiled
             sheet.start(path[0], 1)
             forces = np.empty((len(path), 3))

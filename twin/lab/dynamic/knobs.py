@@ -121,6 +121,11 @@ KNOBS: dict[str, KnobSpec] = {
         "slower; at 0.5 law 1's answer to a weave and law 2's force are not converged, docs/dynamic-plant.md)", 0.1,
         1.0
     ),
+    "sheet_side_read_radii": KnobSpec(
+        1.0, 1.0, "-", "law 1: how far from the tip a side's chord is read, in tool radii (at 1 a groove's read is "
+        "the tool's own imprint at its equator: its answer to a weave is the grid's; at 1.1 it is not, "
+        "docs/dynamic-plant.md)", 1.0, 1.5
+    ),
     # ---- controller
     "servo_bandwidth_over_mode": KnobSpec(
         0.5,

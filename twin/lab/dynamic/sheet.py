@@ -11,8 +11,8 @@ plant forms its own sheet from its own material law, in a form the twin does not
   Mach Tools Manuf 48 (2008) 73-83: the deforming sheet carries a meridional membrane force sigma_phi t per
   unit width in plane strain). One membrane strip wraps the tool across its travel, from the formed surface on
   its left to the one on its right; each side leaves the tool at its angle alpha_s, the larger of the chord
-  atan(rise_s / R), rise_s the formed surface one tool radius R to that side above the tip (0 on flat sheet, so
-  the force builds up with depth to the tool's own flank angle, 45 deg), and the slope of the formed surface from
+  atan(rise_s / kR), rise_s the formed surface kR to that side above the tip (0 on flat sheet: the force builds up
+  with depth to the tool's flank angle, 45 deg; k, `sheet_side_read_radii`), and the formed surface's slope from
   R to 2R (a wall formed by earlier contours: a cone's wall angle), at most `MAX_ANGLE_RAD`. One strip over a
   tool that does not hold it along its length carries one tension on both sides: N = sigma_phi(alpha) t(alpha)
   and the front contact along the travel w = R sin alpha (the front of the sphere against a wall tangent at
@@ -122,13 +122,15 @@ class PlantSheet(GridSheet):
         reversal_m: Tool travel over which the friction and the sides turn with the travel [m].
         timestep_s: The plant's servo tick, between two `advance` calls [s].
         spacing_m: The grid's spacing [m].
+        side_read: How far from the tip a side's chord is read, in tool radii [-] (the knob `sheet_side_read_radii`).
     """
 
     compiled: bool = True  #: run `force` and `advance` compiled (False: the Python reference)
 
     def __init__(self, process: Process, reversal_m: float, timestep_s: float = 1e-3,
-                 spacing_m: float = GRID_SPACING_M) -> None:
+                 spacing_m: float = GRID_SPACING_M, side_read: float = 1.0) -> None:
         self._grid(process, timestep_s, spacing_m)
+        self.chord_read_m = side_read * self.radius  # a side's chord read this far from the tip [m]
         self.scale = float(process.tensile_strength_mpa) / voce_tensile_strength_mpa()
         self.slip_gain, self.heading_gain = 2.0 / reversal_m, 2.0 / max(HEADING_TURN * self.spacing, reversal_m)
         self.fill_every_m = FILL_EVERY * self.spacing  # the tip's travel between two `_fill`s [m]
@@ -173,7 +175,8 @@ class PlantSheet(GridSheet):
             x, y, z = p_sheet_m
             last = np.array([x, y, z], dtype=float) if self._last is None else self._last
             kernels.force(self.z_m, self.pressed, self.hanging, self.spacing, self.radius, self.t0, self.scale, self.mu,
-                          self.travel, self.slip, last, self.timestep_s, float(x), float(y), float(z), out)
+                          self.travel, self.slip, last, self.timestep_s, float(x), float(y), float(z), out,
+                          self.chord_read_m)
             return out
         return self.force_reference(p_sheet_m)
 
@@ -241,14 +244,13 @@ class PlantSheet(GridSheet):
 
     def _side_angles(self, x: float, y: float, z: float, sx: float, sy: float, cx: float, cy: float
                      ) -> tuple[float, float]:
-        """Angles [rad] at which the sheet leaves the tool at (x, y, z) towards (sx, sy): the chord from the tip to
-        the surface one radius away, and the surface's own slope from one to two radii away from the committed tip
-        (cx, cy) (a formed wall beside the track); 0 where falling."""
-        r = self.radius
-        h1 = self.height(x + r * sx, y + r * sy)
+        """Angles [rad] at which the sheet leaves the tool at (x, y, z) towards (sx, sy): the chord to the surface
+        `chord_read_m` away, and its slope from R to 2R off the committed tip (cx, cy) (a wall); 0 where falling."""
+        r, k = self.radius, self.chord_read_m
+        h1 = self.height(x + k * sx, y + k * sy)
         w1 = self.height(cx + r * sx, cy + r * sy)
         w2 = self.height(cx + 2.0 * r * sx, cy + 2.0 * r * sy)
-        return math.atan2(max(h1 - z, 0.0), r), math.atan2(max(w2 - w1, 0.0), r)
+        return math.atan2(max(h1 - z, 0.0), k), math.atan2(max(w2 - w1, 0.0), r)
 
     def advance(self, p_sheet_m: np.ndarray) -> None:
         """Commit: the tool tip passed through `p_sheet_m` [m]: the surface under the sphere, the travel state."""
@@ -302,8 +304,7 @@ class PlantSheet(GridSheet):
 
     def _press(self, p: np.ndarray) -> None:
         """Lower the grid to the tool sphere's underside around the tip."""
-        ix = round((p[0] + HALF_SIZE_M) / self.spacing)
-        iy = round((p[1] + HALF_SIZE_M) / self.spacing)
+        ix, iy = round((p[0] + HALF_SIZE_M) / self.spacing), round((p[1] + HALF_SIZE_M) / self.spacing)
         k = len(self._offsets) // 2
         x0, x1 = max(ix - k, 0), min(ix + k + 1, len(self.x_m))
         y0, y1 = max(iy - k, 0), min(iy + k + 1, len(self.y_m))
@@ -311,8 +312,7 @@ class PlantSheet(GridSheet):
             return
         box = self._box
         box[:] = min(box[0], y0), max(box[1], y1 - 1), min(box[2], x0), max(box[3], x1 - 1)
-        dx = self.x_m[x0:x1] - p[0]
-        dy = self.y_m[y0:y1] - p[1]
+        dx, dy = self.x_m[x0:x1] - p[0], self.y_m[y0:y1] - p[1]
         r2 = dy[:, None] ** 2 + dx[None, :] ** 2
         inside = r2 < self.radius**2
         under = p[2] + self.radius - np.sqrt(np.where(inside, self.radius**2 - r2, 0.0))

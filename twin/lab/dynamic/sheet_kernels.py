@@ -212,16 +212,16 @@ def springback(scale: float, depth: float, alpha: float) -> float:
 
 @njit(cache=True)
 def side_angle(z: np.ndarray, pressed: np.ndarray, h: float, r: float, cx: float, cy: float, near_s: float,
-               near_o: float, hung_s: float, hung_o: float, x: float, y: float, zt: float, sx: float, sy: float
-               ) -> float:
+               near_o: float, hung_s: float, hung_o: float, x: float, y: float, zt: float, sx: float, sy: float,
+               read: float) -> float:
     """One side's angle in `PlantSheet.force_reference`: its chord and slope (`PlantSheet._side_angles`), the
     slope dropped where its far read is the hanging bottom, flattened where the side is the hanging bottom; `near_s`,
     `hung_s` this side's near formed fraction and hanging share, `near_o`, `hung_o` the other side's (`force` reads
-    each once)."""
-    h1 = height(z, h, x + r * sx, y + r * sy)
+    each once); `read` [m] how far from the tip the chord is read."""
+    h1 = height(z, h, x + read * sx, y + read * sy)
     w1 = height(z, h, cx + r * sx, cy + r * sy)
     w2 = height(z, h, cx + 2.0 * r * sx, cy + 2.0 * r * sy)
-    chord, slope = math.atan2(max(h1 - zt, 0.0), r), math.atan2(max(w2 - w1, 0.0), r)
+    chord, slope = math.atan2(max(h1 - zt, 0.0), read), math.atan2(max(w2 - w1, 0.0), r)
     rho = FORMED_PATCH * r
     far_s = formed_fraction(pressed, h, rho, cx + 2.0 * r * sx, cy + 2.0 * r * sy)
     on_bottom = min(1.0, max(0.0, FORMED_GAIN * (near_o - far_s - FORMED_TRACK)))
@@ -233,8 +233,9 @@ def side_angle(z: np.ndarray, pressed: np.ndarray, h: float, r: float, cx: float
 @njit(cache=True)
 def force(z: np.ndarray, pressed: np.ndarray, hanging: np.ndarray, h: float, r: float, t0: float, scale: float,
           mu: float, travel: np.ndarray, slip: np.ndarray, last: np.ndarray, dt: float, x: float, y: float, zt: float,
-          out: np.ndarray) -> None:
-    """`PlantSheet.force` into `out` (3,) [N]; `last` (3,) the committed tip [m]; `h` the grid's spacing [m]."""
+          out: np.ndarray, read: float) -> None:
+    """`PlantSheet.force` into `out` (3,) [N]; `last` (3,) the committed tip [m]; `h` the grid's spacing [m]; `read`
+    how far from the tip a side's chord is read [m]."""
     tx, ty = travel[0], travel[1]
     met = height(z, h, x + r * tx, y + r * ty) - zt
     cx, cy, cz = last[0], last[1], last[2]
@@ -243,8 +244,8 @@ def force(z: np.ndarray, pressed: np.ndarray, hanging: np.ndarray, h: float, r: 
     near1 = formed_fraction(pressed, h, rho, cx + FORMED_READ * r * ty, cy - FORMED_READ * r * tx)
     hung0 = formed_fraction(hanging, h, rho, cx - FORMED_READ * r * ty, cy + FORMED_READ * r * tx)
     hung1 = formed_fraction(hanging, h, rho, cx + FORMED_READ * r * ty, cy - FORMED_READ * r * tx)
-    a0 = side_angle(z, pressed, h, r, cx, cy, near0, near1, hung0, hung1, x, y, zt, -ty, tx)
-    a1 = side_angle(z, pressed, h, r, cx, cy, near1, near0, hung1, hung0, x, y, zt, ty, -tx)
+    a0 = side_angle(z, pressed, h, r, cx, cy, near0, near1, hung0, hung1, x, y, zt, -ty, tx, read)
+    a1 = side_angle(z, pressed, h, r, cx, cy, near1, near0, hung1, hung0, x, y, zt, ty, -tx, read)
     steep = max(a0, a1)  # one strip: the steeper side's tension and front contact
     n, w = membrane(scale, t0, steep), r * math.sin(steep)
     up = w * n * (math.sin(a0) + math.sin(a1))

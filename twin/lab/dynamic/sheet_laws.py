@@ -49,7 +49,8 @@ def make_sheet(knobs: Knobs, process: Process) -> SheetLaw:
     """The sheet law the knobs choose, for this declared sheet and tool.
 
     Args:
-        knobs: The plant's knobs (`sheet_law`, `friction_reversal_mm`, `timestep_s`, `sheet_grid_mm`).
+        knobs: The plant's knobs (`sheet_law`, `friction_reversal_mm`, `timestep_s`, `sheet_grid_mm`,
+            `sheet_side_read_radii`).
         process: The sheet and tool formed (thickness, tool radius, friction, R_m).
     """
     reversal_m = 1e-3 * knobs["friction_reversal_mm"]
@@ -60,4 +61,4 @@ def make_sheet(knobs: Knobs, process: Process) -> SheetLaw:
         return PatchSheet(process, reversal_m, timestep_s, spacing_m)
     from twin.lab.dynamic.sheet import PlantSheet
 
-    return PlantSheet(process, reversal_m, timestep_s, spacing_m)
+    return PlantSheet(process, reversal_m, timestep_s, spacing_m, knobs["sheet_side_read_radii"])
