@@ -5,9 +5,9 @@ number that moves in its third digit between them must not fail a test. The suit
 one BLAS thread per process (tests/conftest.py: a worker per core); this test runs the guards of the generated pages
 (the force-validation page, whose springback number once failed on another machine, the robots page, a plant number: the
 rigid groove's, the cheapest) again in a child process with the machine's thread count (at least 2), an older kernel
-(x86: Prescott, SSE3; arm: ARMV8) and numpy's own SIMD kernels held to its baseline (`NPY_DISABLE_CPU_FEATURES`: every
-dispatched feature this machine has; a sort's order of ties once moved the springback number by 0.13 mm between an
-AVX2 and an AVX-512 machine), so every `make test` checks them under two set-ups (the tolerances: `tests/doc_numbers.py`).
+(x86: Prescott, SSE3; arm: ARMV8) and numpy's own SIMD kernels held to its baseline (`NPY_DISABLE_CPU_FEATURES`:
+every dispatched feature this machine has; a sort's order of ties once moved the springback number by 0.13 mm between
+machines), so every `make test` checks them under two set-ups (the tolerances: `tests/doc_numbers.py`).
 """
 
 from __future__ import annotations

@@ -166,8 +166,9 @@ def test_the_compiled_sheet_is_the_python_sheet() -> None:
     groove = groove_path().p_sheet_m[:400]
     cone = part_path(PartSpec(top_half_width_m=0.02, depth_m=4e-3)).p_sheet_m
     pyramid = part_path(PartSpec(shape="pyramid", top_half_width_m=0.02, depth_m=3e-3)).p_sheet_m
-    for path, spacing, read in ((groove, GRID_SPACING_M, 1.0), (cone, GRID_SPACING_M, 1.0), (pyramid, GRID_SPACING_M, 1.0),
-                                (groove, GRID_SPACING_M / 2, 1.0), (groove, GRID_SPACING_M, 1.1)):  # a finer grid, a read
+    cases = ((groove, GRID_SPACING_M, 1.0), (cone, GRID_SPACING_M, 1.0), (pyramid, GRID_SPACING_M, 1.0),
+             (groove, GRID_SPACING_M / 2, 1.0), (groove, GRID_SPACING_M, 1.1))  # and a finer grid, a chord read further
+    for path, spacing, read in cases:
         runs = []
         for compiled in (True, False):
             sheet = PlantSheet(Process(), 5e-5, spacing_m=spacing, side_read=read)

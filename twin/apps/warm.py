@@ -4,13 +4,12 @@ Every compiled kernel is compiled on its first call and cached beside its module
 is written, each new process compiles it again. A suite on a fresh clone starts its workers, and they start CLI
 processes, before any cache exists, so each compiled the same kernels side by side (CHANGELOG has the times).
 `make test` runs this first, in two processes at once. The replay loop (`twin.sim.compiled.loop.replay_loop`) is the
-longest compile, and a kernel it calls that is already in the cache is loaded, not compiled again (its ISF kernels
-are a quarter of it). So one process compiles
-the online cycle (`twin.sim.compiled.online.online_cycle`, with the chain kernels the loop calls too), waits for the
-ISF kernels (at most `WAIT_S`) and compiles the replay loop on them; the other compiles the ISF kernels (through the
-ISF model's rigid drive), then the FE table's rigid drive (`twin.sim.compiled.rigid`) and the plant's two sheet laws
-(CHANGELOG has the times).
-Every later process loads them. Where the cache is already written it costs the processes' start-up.
+longest compile, and a kernel it calls that is already in the cache is loaded, not compiled again (its ISF kernels are a
+quarter of it). So one process compiles the online cycle (`twin.sim.compiled.online.online_cycle`, with the chain
+kernels the loop calls too), waits for the ISF kernels (at most `WAIT_S`) and compiles the replay loop on them; the
+other compiles the ISF kernels (through the ISF model's rigid drive), then the FE table's rigid drive
+(`twin.sim.compiled.rigid`) and the plant's two sheet laws. Every later process loads them.
+Where the cache is already written it costs the processes' start-up.
 
 `python -m twin.apps.warm` prints what it compiled and how long it took.
 """
