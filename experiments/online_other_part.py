@@ -12,10 +12,10 @@ OUT/online_other_part.json, OUT/online_other_part.md and with `--doc` the table 
 markers of that page (docs/online.md; `tests/test_online_interface.py` reads it):
 
     .venv/bin/python experiments/online_other_part.py OUT [--robots tx200,kr210,irb6640] [--doc docs/online.md]
-        [--plant-set sheet_law=2 --marker online-other-part-law2]
+        [--plant-set sheet_law=2 --marker online-other-part-law2] [--merge OUT1/online_other_part.json ...]
 
 `--plant-set NAME=VALUE` (repeatable) adds a plant knob to every run (the second sheet law, say); `--marker` names
-the page's markers the table goes between; `--tracker-errors` (`--tracker-late`) learns with `learn --tracker-errors`
+the page's markers the table goes between; `--merge` joins the rows of runs made a robot per process (`--robots`); `--tracker-errors` (`--tracker-late`) learns with `learn --tracker-errors`
 (`learn --tracker-late`).
 
 Every online run may correct up to `ONLINE_LIMIT_MM` (`--max-correction-mm`; the default is less): the IRB 6640's
@@ -204,12 +204,19 @@ def main() -> None:
     parser.add_argument("--plant-set", action="append", default=[], metavar="NAME=VALUE",
                         help="a plant knob added to every run, repeatable")
     parser.add_argument("--marker", default="online-other-part", help="the page's markers (default: %(default)s)")
+    parser.add_argument("--merge", type=Path, nargs="*", default=None,
+                        help="instead of running, join these runs' online_other_part.json files (a robot per process)")
     add_tracker_options(parser)
     args = parser.parse_args()
     plant_set = tuple(args.plant_set)
     learn_args = tracker_options(args)
-    rows = [row for robot in args.robots.split(",") for row in robot_study(args.out / robot, robot, plant_set,
-                                                                             learn_args)]
+    if args.merge is not None:
+        rows = [row for path in args.merge for row in json.loads(path.read_text())]
+        rows.sort(key=lambda r: list(ROBOT_TARGETS).index(r["robot"]))  # stable: each robot's parts in their order
+    else:
+        rows = [row for robot in args.robots.split(",") for row in robot_study(args.out / robot, robot, plant_set,
+                                                                                 learn_args)]
+    args.out.mkdir(parents=True, exist_ok=True)
     (args.out / "online_other_part.json").write_text(json.dumps(rows, indent=1))
     (args.out / "online_other_part.md").write_text(table(rows))
     print(table(rows))
