@@ -171,8 +171,10 @@ def table(rows: list[dict[str, Any]]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def robot_rows(out: Path, robot: str) -> list[dict[str, Any]]:
-    """One robot's rows, said as they come."""
+def robot_rows(out: Path, robot: str, plant_set: tuple[str, ...] = ()) -> list[dict[str, Any]]:
+    """One robot's rows, said as they come; on the plant's default knobs only (its runs set knobs of their own)."""
+    if plant_set:
+        raise SystemExit(f"online_floor.py --plant-set {' '.join(plant_set)}: not taken here; expected none")
     rows = robot_floor(out, robot)
     print("\n".join(table(rows).splitlines()[2:]), flush=True)
     return rows

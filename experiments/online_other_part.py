@@ -108,10 +108,11 @@ class LearnedPart(NamedTuple):
     model: Path  # the model file learned from the nominal cone (`learn_cone`)
 
 
-def learned_parts(out: Path, robot: str) -> Iterator[LearnedPart]:
-    """Learn the nominal cone in `out` (`learn_cone`), then each of the robot's parts with its learned offline
-    command: the loop of the studies that form those parts online again (`online_timestep.py`, `online_seeds.py`)."""
-    model, _ = learn_cone(out, robot)
+def learned_parts(out: Path, robot: str, plant_set: tuple[str, ...] = ()) -> Iterator[LearnedPart]:
+    """Learn the nominal cone in `out` (`learn_cone`, on the plant with knobs `plant_set`), then each of the robot's
+    parts with its learned offline command: the loop of the studies that form those parts online again
+    (`online_timestep.py`, `online_seeds.py`)."""
+    model, _ = learn_cone(out, robot, plant_set)
     for part in ROBOT_TARGETS[robot]:
         ideal = target_ideal(out, robot, part)
         yield LearnedPart(part, ideal, offline_command(robot, ideal, "learned", "--model", str(model)), model)
@@ -168,17 +169,22 @@ def table(rows: list[dict[str, Any]]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def per_robot_main(description: str, name: str, robot_rows: Callable[[Path, str], list[dict[str, Any]]],
+def per_robot_main(description: str, name: str,
+                   robot_rows: Callable[[Path, str, tuple[str, ...]], list[dict[str, Any]]],
                    table: Callable[[list[dict[str, Any]]], str]) -> None:
     """The command line of a study formed robot by robot (`online_timestep.py`, `online_seeds.py`): OUT, `--robots`
-    (a robot per process, then `--merge` their OUT/NAME.json files), `--doc` (the table between the page's NAME
-    markers, `_` read as `-`); writes OUT/NAME.json and OUT/NAME.md."""
+    (a robot per process, then `--merge` their OUT/NAME.json files), `--plant-set NAME=VALUE` (a plant knob added to
+    every run, repeatable), `--doc` (the table between the page's `--marker` markers, by default NAME with `_` read
+    as `-`); writes OUT/NAME.json and OUT/NAME.md."""
     parser = argparse.ArgumentParser(description=description)
     parser.add_argument("out", type=Path)
     parser.add_argument("--robots", default=",".join(ROBOT_TARGETS))
     parser.add_argument("--merge", type=Path, nargs="*", default=None,
                         help=f"instead of running, join these robots' {name}.json files")
     parser.add_argument("--doc", type=Path, help="write the table into this page between its markers")
+    parser.add_argument("--plant-set", action="append", default=[], metavar="NAME=VALUE",
+                        help="a plant knob added to every run, repeatable")
+    parser.add_argument("--marker", default=name.replace("_", "-"), help="the page's markers (default: %(default)s)")
     args = parser.parse_args()
     rows: list[dict[str, Any]] = []
     if args.merge is not None:
@@ -186,14 +192,14 @@ def per_robot_main(description: str, name: str, robot_rows: Callable[[Path, str]
             rows.extend(json.loads(path.read_text()))
     else:
         for robot in args.robots.split(","):
-            rows.extend(robot_rows(args.out / robot, robot))
+            rows.extend(robot_rows(args.out / robot, robot, tuple(args.plant_set)))
     rows.sort(key=lambda r: list(ROBOT_TARGETS).index(r["robot"]))  # stable: each robot's parts in their order
     args.out.mkdir(parents=True, exist_ok=True)
     (args.out / f"{name}.json").write_text(json.dumps(rows, indent=1))
     (args.out / f"{name}.md").write_text(table(rows))
     print(table(rows))
     if args.doc is not None:
-        write_between_markers(args.doc, name.replace("_", "-"), table(rows))
+        write_between_markers(args.doc, args.marker, table(rows))
 
 
 def main() -> None:

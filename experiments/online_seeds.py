@@ -34,16 +34,18 @@ SEEDS = (3, 4, 5, 6, 7, 8)
 MODES = ("online", "both")
 
 
-def robot_rows(out: Path, robot: str) -> list[dict[str, Any]]:
-    """One robot's rows (module docstring): each mode's true-tip rms [mm] per seed."""
+def robot_rows(out: Path, robot: str, plant_set: tuple[str, ...] = ()) -> list[dict[str, Any]]:
+    """One robot's rows (module docstring): each mode's true-tip rms [mm] per seed; `plant_set`: plant knobs
+    NAME=VALUE added to every run."""
     rows = []
-    for p in learned_parts(out, robot):
+    for p in learned_parts(out, robot, plant_set):
         row: dict[str, Any] = {"robot": robot, "part": p.part}
         for mode, formed, scenario, step in (("online", p.ideal, "nominal", ()),
                                              ("both", p.command, "compensated", ()),
                                              ("online_fine", p.ideal, "nominal", FINE_STEP)):
+            knobs = (*plant_set, *step)
             row[mode] = [rms_mm(learned_online_miss(robot, p.model, formed, p.ideal, out / f"{p.ideal.stem}_{mode}_{seed}",
-                                                    seed, scenario, step)) for seed in SEEDS]
+                                                    seed, scenario, knobs)) for seed in SEEDS]
         rows.append(row)
         print(table(rows[-1:]).splitlines()[-1], flush=True)
     return rows

@@ -38,16 +38,16 @@ def _score(miss: np.ndarray) -> dict[str, float]:
             "event_share": float(np.sum(square[np.sqrt(square) > EVENT_MM]) / np.sum(square))}
 
 
-def robot_rows(out: Path, robot: str) -> list[dict[str, Any]]:
-    """One robot's rows (module docstring)."""
+def robot_rows(out: Path, robot: str, plant_set: tuple[str, ...] = ()) -> list[dict[str, Any]]:
+    """One robot's rows (module docstring); `plant_set`: plant knobs NAME=VALUE added to every run."""
     rows = []
-    for p in learned_parts(out, robot):
+    for p in learned_parts(out, robot, plant_set):
         row: dict[str, Any] = {"robot": robot, "part": p.part}
-        for name, plant_set in (("default", ()), ("fine", FINE_STEP)):
+        for name, step in (("default", ()), ("fine", FINE_STEP)):
             for key, run, formed, scenario in ((name, f"online_{name}", p.ideal, "nominal"),
                                                (f"both_{name}", f"both_{name}", p.command, "compensated")):
                 row[key] = _score(learned_online_miss(robot, p.model, formed, p.ideal, out / f"{p.ideal.stem}_{run}", 3,
-                                                      scenario, plant_set))
+                                                      scenario, (*plant_set, *step)))
         rows.append(row)
         print(table(rows[-1:]).splitlines()[-1], flush=True)
     return rows

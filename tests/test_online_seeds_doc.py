@@ -5,7 +5,7 @@ again; at the plant's step halved the KR 210's groove spans as much (the timeste
 from __future__ import annotations
 
 from doc_numbers import quoted
-from online_doc_tables import BOTH_L, ON_L, ROBOTS, assert_other_part_true_tip, rows_by_part
+from online_doc_tables import BOTH_L, ON_L, ROBOTS, assert_other_part_true_tip, other_part, rows_by_part
 
 
 def _spans(cell: str) -> tuple[float, float, float]:
@@ -62,3 +62,27 @@ def test_the_words_on_the_seed_are_its_table() -> None:
     assert max(rows[(r, "cone 80 x 8")]["on_largest"] for r in ROBOTS) <= 0.10
     assert rows[("tx200", "groove")]["on_largest"] <= 0.10
     assert rows[("tx200", "pyramid")]["on_largest"] <= 0.15  # "and its pyramid within the pyramid's 0.15 mm"
+
+
+def test_the_words_on_the_seed_with_the_side_read_past_the_imprint_are_its_table() -> None:
+    """The seeds table formed again with law 1 reading each side 1.1 tool radii out: its seed-3 columns are that
+    plant's other-part table's, and no row spans more than the page says, the KR 210's groove included."""
+    rows = rows_by_part("online-seeds-read", _read)
+    default = _rows()[("kr210", "groove")]
+    # the page's numbers first (a guard before the claims)
+    most = quoted("online.md", "Over the six seeds every row there spans at most", 1)[0]
+    kr = quoted("online.md", "at either step: the KR 210's groove online", 4)
+    was = quoted("online.md", "where on the default read it spans", 4)
+    groove = rows[("kr210", "groove")]
+    for q, value in zip(kr, (groove["on_least"], groove["on_largest"], groove["both_least"], groove["both_largest"]),
+                        strict=True):
+        q.check(value)
+    for q, value in zip(was, (default["on_least"], default["on_largest"], default["both_least"],
+                              default["both_largest"]), strict=True):
+        q.check(value)
+    spans = [r[f"{m}_largest"] - r[f"{m}_least"] for r in rows.values() for m in ("on", "both", "fine")]
+    most.check(max(spans), slack=2.0)  # a difference of two printed numbers: up to two units of the last digit
+    true = other_part("online-other-part-read")["true"]
+    for key, row in rows.items():
+        assert (row["on3"], row["both3"]) == (true[key][ON_L], true[key][BOTH_L]), key  # the same runs
+    assert max(spans) <= 0.02 and groove["on_largest"] <= 0.12 and groove["both_largest"] <= 0.10, groove
