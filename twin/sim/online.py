@@ -26,9 +26,12 @@ needs:
   not one (correcting it closes a loop through the walls' stiffness);
 * **turns**: where the planned travel turns by more than 45 deg (a pyramid's corner, a groove's reversal), the
   sheet's friction along the travel (its share of Fz followed between turns) is turned with it at once, ahead of
-  the filtered force, which shows it only after the sensor's sample, latency and filter; what of the turn the
-  filtered force has shown since is taken off, so nothing counts twice, and how much of it the cell's turns turned
-  is learned from them (`OnlineSettings.feed_turns`);
+  the filtered force, which shows it only after the sensor's sample, latency and filter; at a corner (a turn by
+  less than 135 deg) the wall's push across the travel too, which the next side's wall pushes across the new
+  travel as the last one did across the old (a groove's walls, at a reversal, stay where they are); what of the
+  turn the filtered force has shown since is taken off, so nothing counts twice, and how much of it the cell's
+  turns turned is learned from them (`OnlineSettings.feed_turns`). On top of an offline command, whose assumed
+  force turns at the corner by position, the wall is not turned again;
 * **limits**: the correction's size (`max_correction_mm`, default 5 mm) and its rate (`max_rate_mm_s`) per unit
   of the controller's time (`t_s`): no correction moves faster than the rate allows since the last call, however
   often it is called (a burst moves it by the rate times the time the burst spans; a stalled controller earns at

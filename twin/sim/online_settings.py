@@ -78,8 +78,9 @@ class OnlineSettings:
             stiffness) [-]. 0: taken in full everywhere.
         feed_turns: At a turn of the planned travel (a pyramid's corner, a groove's reversal), the sheet's friction
             is turned with it at once, ahead of the filtered force, which shows it only after the sensor's sample,
-            latency and filter, by as much as the cell's earlier turns turned it
-            (`twin.sim.compiled.online._turned_friction`). False: the filtered force alone.
+            latency and filter, and at a corner the wall's push across the travel with it, by as much as the cell's
+            earlier turns turned them (`twin.sim.compiled.online._turned_friction`). False: the filtered force
+            alone.
     """
 
     cycle_s: float = 0.004

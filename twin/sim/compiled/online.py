@@ -28,18 +28,17 @@ NO_SENSOR, TRACKING, SPIKE, HOLDING, RAMPING = range(5)
 #: `TRACK_SIZE` slots: the segment, the offset of the reported tip from it (3), that progress started), the time of
 #: the last call, a call seen; the travel's last anchor point (2, sheet plane) and direction (2), a direction found,
 #: the side force's share of the normal force (slowly filtered), that share seen; the last turn of the travel (the
-#: friction's change of direction there (2), the filtered in-plane force at it (2), its time, its state: 0 over, 1
-#: fed forward, 2 shown by the force and waiting to be read), the sheet's friction force along the travel as a share
-#: of the normal force (slowly filtered), that share seen; the planned tip of the last cycle (2); the friction at
-#: the last turn, mu [N]; how much of mu u the cell's turns have turned, less 1 (zeros start at 1); the cycles the
-#: reported tip was lost on the offline command (`progress`).
+#: in-plane force's change expected there [N] (2): the friction's, and at a corner the wall's, the filtered in-plane
+#: force at it (2), its time, its state: 0 over, 1 fed forward, 2 shown by the force and waiting to be read), the
+#: sheet's friction force along the travel as a share of the normal force (slowly filtered), that share seen; the
+#: planned tip of the last cycle (2); how much of the expected change the cell's turns have turned, less 1 (zeros
+#: start at 1); the cycles the reported tip was lost on the offline command (`progress`).
 HAVE, T_LAST, SPIKES, F, DF, CORR, RUN, HAVE_Q, TRACK = 0, 1, 2, 3, 6, 9, 12, 13, 14
 T_CALL, HAVE_T = TRACK + TRACK_SIZE, TRACK + TRACK_SIZE + 1
 ANCHOR, DIRECTION, HAVE_DIR, SIDE, HAVE_SIDE = 21, 23, 25, 26, 27
-TURN_U, TURN_F, TURN_T, TURNING, FRICTION, HAVE_FRICTION, PREV, TURN_MU, TURN_GAIN = (
-    28, 30, 32, 33, 34, 35, 36, 38, 39)
-LOST = 40
-STATE_SIZE = 41
+TURN_U, TURN_F, TURN_T, TURNING, FRICTION, HAVE_FRICTION, PREV, TURN_GAIN = 28, 30, 32, 33, 34, 35, 36, 38
+LOST = 39
+STATE_SIZE = 40
 #: The travel's direction is taken over this much of the tool's planned travel [m]: a joint's vibration (um) does
 #: not turn it, a pass's reversal does within a tenth of a millimetre.
 TRAVEL_STEP_M = 1e-4
@@ -52,6 +51,9 @@ SIDE_MIN_FZ_N = 100.0
 #: A turn of the planned travel's direction by more than this is a turn whose friction is fed forward (cosine): a
 #: pyramid's corner turns by 90 deg, a groove's reversal by 180; a spiral's 0.1 mm steps by a fraction of a degree.
 COS_TURN = math.cos(math.radians(45.0))
+#: A turn by less than this is a corner (cosine): the wall that pushes the tool across its travel turns with it,
+#: as a pyramid's does at its corner; past it a reversal, whose walls stay where they are (a groove's).
+COS_CORNER = math.cos(math.radians(135.0))
 #: Where the controller reports its planned joints (no vibration in them), a turn is seen in the plan's first step
 #: of at least this much in a cycle [m] (2.5 mm/s in 4 ms; a joint quantum of 1e-4 deg, RSI's, moves a tip at 1.5 m
 #: by 2.6 um, which cannot turn such a step by 45 deg), not after `TRAVEL_STEP_M` of it (~20 ms out of a stop).
@@ -84,10 +86,12 @@ def _follow(state, at, seen, value, cycle):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True)
-def _travel(state, t, x0, x1, turn_feed, planned):  # type: ignore[no-untyped-def]
+def _travel(state, t, x0, x1, turn_feed, planned, corners):  # type: ignore[no-untyped-def]
     """Follow the planned tip (x0, x1) [m]: the travel's direction over each `TRAVEL_STEP_M` (or, `planned`, a turn
-    of it in one cycle's step of `TURN_STEP_M`), and a turn of it by more than `COS_TURN` recorded (the friction's
-    change of direction, the filtered force there, the time)."""
+    of it in one cycle's step of `TURN_STEP_M`), and a turn of it by more than `COS_TURN` recorded (the in-plane
+    force's change expected there: the friction's, and where `corners` and the turn is a corner (`COS_CORNER`) the
+    wall's push across the travel turned with it; the filtered force there; the time). `corners`: False on top of
+    an offline command, whose assumed force turns at the corner by position already."""
     if state[HAVE_Q] == 0.0:
         state[ANCHOR], state[ANCHOR + 1], state[PREV], state[PREV + 1] = x0, x1, x0, x1
     s0, s1 = x0 - state[PREV], x1 - state[PREV + 1]
@@ -101,37 +105,44 @@ def _travel(state, t, x0, x1, turn_feed, planned):  # type: ignore[no-untyped-de
     elif moved < TRAVEL_STEP_M:
         return
     n0, n1 = m0 / moved, m1 / moved
-    if (turn_feed > 0.0 and state[HAVE_DIR] != 0.0 and state[HAVE_FRICTION] != 0.0
-            and n0 * state[DIRECTION] + n1 * state[DIRECTION + 1] < COS_TURN):
-        state[TURN_U], state[TURN_U + 1] = state[DIRECTION] - n0, state[DIRECTION + 1] - n1
+    d0, d1 = state[DIRECTION], state[DIRECTION + 1]
+    turn = n0 * d0 + n1 * d1
+    if turn_feed > 0.0 and state[HAVE_DIR] != 0.0 and state[HAVE_FRICTION] != 0.0 and turn < COS_TURN:
+        mu = state[FRICTION] * abs(state[F + 2])
+        w0, w1 = mu * (d0 - n0), mu * (d1 - n1)
+        if corners and turn > COS_CORNER:  # a corner: the wall's push across the travel turns with it
+            across = state[F] * (-d1) + state[F + 1] * d0
+            w0 += across * (d1 - n1)
+            w1 += across * (n0 - d0)
+        state[TURN_U], state[TURN_U + 1] = w0, w1
         state[TURN_F], state[TURN_F + 1], state[TURN_T], state[TURNING] = state[F], state[F + 1], t, 1.0
-        state[TURN_MU] = state[FRICTION] * abs(state[F + 2])
     state[DIRECTION], state[DIRECTION + 1], state[HAVE_DIR] = n0, n1, 1.0
     state[ANCHOR], state[ANCHOR + 1] = x0, x1
 
 
 @njit(cache=True)
 def _turned_friction(state, t, cycle):  # type: ignore[no-untyped-def]
-    """The sheet's friction force the filtered force has not yet turned with the travel [N] (in-plane, 2 values).
+    """The sheet's force the filtered force has not yet turned with the travel [N] (in-plane, 2 values).
 
     The sheet's friction opposes the tool's travel, -mu d. At a turn of the planned travel from d_old to d_new it
-    changes by mu (d_old - d_new) = mu u, at once where the tool turns; the filtered force shows it only after the
-    sensor's sample, its latency and the filter. Of k mu u (k, the turn gain: 1 at first) what the filtered force
-    has not yet shown, measured by its change since the turn along u, is added to it, until it has shown it all.
-    `TURN_SETTLE_S` after the turn the share of mu u it has shown is read into k (`TURN_ADAPT`): the along-travel
-    force of a real cell is not only friction (a groove's end wall pushes before the reversal and not after), and
-    its turns teach the compensator how much of it turns. Between turns, mu's share of the normal force is followed
-    slowly (`SIDE_TAU_S`) from the filtered force along the travel, while the tool presses the sheet
-    (`SIDE_MIN_FZ_N`)."""
+    changes by mu (d_old - d_new), at once where the tool turns; at a corner the wall's push across the travel, s a
+    (a, the travel's left normal), changes by s (a_new - a_old) as well (`_travel`): together u [N]. The filtered
+    force shows it only after the sensor's sample, its latency and the filter. Of k u (k, the turn gain: 1 at first)
+    what the filtered force has not yet shown, measured by its change since the turn along u, is added to it, until
+    it has shown it all. `TURN_SETTLE_S` after the turn the share of u it has shown is read into k (`TURN_ADAPT`):
+    the along-travel force of a real cell is not only friction (a groove's end wall pushes before the reversal and
+    not after), and its turns teach the compensator how much of it turns. Between turns, mu's share of the normal
+    force is followed slowly (`SIDE_TAU_S`) from the filtered force along the travel, while the tool presses the
+    sheet (`SIDE_MIN_FZ_N`)."""
     fz = abs(state[F + 2])
     if state[TURNING] != 0.0:
-        mu, gain = state[TURN_MU], 1.0 + state[TURN_GAIN]
+        gain = 1.0 + state[TURN_GAIN]
         u0, u1 = state[TURN_U], state[TURN_U + 1]
-        uu = mu * (u0 * u0 + u1 * u1)
+        uu = u0 * u0 + u1 * u1
         seen = gain if uu <= 0.0 else ((state[F] - state[TURN_F]) * u0 + (state[F + 1] - state[TURN_F + 1]) * u1) / uu
         if t - state[TURN_T] < TURN_SETTLE_S:
             if state[TURNING] == 1.0 and seen < gain:
-                left = (gain - max(seen, 0.0)) * mu
+                left = gain - max(seen, 0.0)
                 return left * u0, left * u1
             state[TURNING] = 2.0  # shown: the rest is the filtered force's; read at TURN_SETTLE_S
             return 0.0, 0.0
@@ -157,7 +168,7 @@ def online_cycle(chain, params, k_inv, friction, c_tool, assumed_p, assumed_f, s
     cycle, turn_feed, w0 = params[0], params[11], params[12]
     if side_share > 0.0 or turn_feed > 0.0:  # the travel in the sheet plane, from the planned tip (`q_ref`)
         chain_eval(chain, q_ref, p, jac, g)
-        _travel(state, t, p[0], p[1], turn_feed, planned)
+        _travel(state, t, p[0], p[1], turn_feed, planned, assumed_p.shape[0] == 0)
     status = TRACKING
     if sample_t == sample_t and (state[HAVE] == 0.0 or sample_t > state[T_LAST]):  # a new sample (not NaN)
         if state[HAVE] == 0.0:
