@@ -89,14 +89,17 @@ def _walled(d: np.ndarray, wall_n: np.ndarray) -> np.ndarray:
     return _friction(d) + wall_n
 
 
-def _fed_against_timely(turn_deg: float, wall: object) -> tuple[float, float]:
+def _fed_against_timely(turn_deg: float, wall: object, ploughed_n: float = 0.0) -> tuple[float, float]:
     """At a turn of `turn_deg` with a wall pushing the tool (`wall(d)`: its push on a tool travelling along d [N]),
     the measured force showing the turn `LATE` cycles late: how far the correction misses that of a force that showed
-    it at once, without the turn fed forward and with it, the last cycle before the force shows it [m]."""
+    it at once, without the turn fed forward and with it, the last cycle before the force shows it [m].
+    `ploughed_n`: a push against the travel the first leg builds over its last fifth, on top of the friction (a
+    plough toward a corner), gone on the second."""
     spec, Q, d1, d2 = _path(turn_deg)
     push = wall  # type: ignore[assignment]
-    late = [_walled(d1, push(d1))] * (LEG + LATE) + [_walled(d2, push(d2))] * (len(Q) - LEG - LATE)
-    timely = _run(spec, Q, np.array([_walled(d1, push(d1))] * LEG + [_walled(d2, push(d2))] * LEG), False)
+    first = [_walled(d1, push(d1) - ploughed_n * max(0.0, 5.0 * k / LEG - 4.0) * d1) for k in range(LEG)]
+    late = first + [first[-1]] * LATE + [_walled(d2, push(d2))] * (len(Q) - LEG - LATE)
+    timely = _run(spec, Q, np.array(first + [_walled(d2, push(d2))] * LEG), False)
     fed, plain = _run(spec, Q, np.array(late), True), _run(spec, Q, np.array(late), False)
     k = LEG + LATE - 1
     return float(np.linalg.norm(plain[k] - timely[k])), float(np.linalg.norm(fed[k] - timely[k]))
@@ -108,6 +111,14 @@ def test_at_a_corner_the_walls_push_across_the_travel_turns_with_it(turn_deg: fl
     side's wall pushes it across the new travel as the last one did across the old: fed forward, the correction
     misses the timely one by less than a tenth of what it misses without."""
     missed, fed = _fed_against_timely(turn_deg, lambda d: FZ_N / 3.0 * np.array([-d[1], d[0], 0.0]))
+    assert missed > 1e-4 and fed < 0.1 * missed, (missed, fed)
+
+
+def test_after_a_corner_the_side_pushes_as_a_side_does_not_as_the_plough_before_it() -> None:
+    """Toward a corner the force against the travel builds up (here by 0.2 Fz over the leg's last fifth, a plough, on
+    top of the friction) and is gone on the next side: the force fed at the corner is the next side's steady one
+    (its friction along the new travel, the wall's push across it), not the plough turned with the travel."""
+    missed, fed = _fed_against_timely(90.0, lambda d: FZ_N / 3.0 * np.array([-d[1], d[0], 0.0]), 0.2 * FZ_N)
     assert missed > 1e-4 and fed < 0.1 * missed, (missed, fed)
 
 

@@ -89,9 +89,10 @@ def _follow(state, at, seen, value, cycle):  # type: ignore[no-untyped-def]
 def _travel(state, t, x0, x1, turn_feed, planned, corners):  # type: ignore[no-untyped-def]
     """Follow the planned tip (x0, x1) [m]: the travel's direction over each `TRAVEL_STEP_M` (or, `planned`, a turn
     of it in one cycle's step of `TURN_STEP_M`), and a turn of it by more than `COS_TURN` recorded (the in-plane
-    force's change expected there: the friction's, and where `corners` and the turn is a corner (`COS_CORNER`) the
-    wall's push across the travel turned with it; the filtered force there; the time). `corners`: False on top of
-    an offline command, whose assumed force turns at the corner by position already."""
+    force's change expected there: the friction's turned, and where `corners` and the turn is a corner
+    (`COS_CORNER`) the filtered force's to the new side's steady one, its friction along the new travel and the
+    wall's push across it; the filtered force there; the time). `corners`: False on top of an offline command,
+    whose assumed force turns at the corner by position already."""
     if state[HAVE_Q] == 0.0:
         state[ANCHOR], state[ANCHOR + 1], state[PREV], state[PREV + 1] = x0, x1, x0, x1
     s0, s1 = x0 - state[PREV], x1 - state[PREV + 1]
@@ -112,8 +113,9 @@ def _travel(state, t, x0, x1, turn_feed, planned, corners):  # type: ignore[no-u
         w0, w1 = mu * (d0 - n0), mu * (d1 - n1)
         if corners and turn > COS_CORNER:  # a corner: the wall's push across the travel turns with it
             across = state[F] * (-d1) + state[F + 1] * d0
-            w0 += across * (d1 - n1)
-            w1 += across * (n0 - d0)
+            along = state[F] * d0 + state[F + 1] * d1
+            w0 += across * (d1 - n1) - (along + mu) * d0
+            w1 += across * (n0 - d0) - (along + mu) * d1
         state[TURN_U], state[TURN_U + 1] = w0, w1
         state[TURN_F], state[TURN_F + 1], state[TURN_T], state[TURNING] = state[F], state[F + 1], t, 1.0
     state[DIRECTION], state[DIRECTION + 1], state[HAVE_DIR] = n0, n1, 1.0
@@ -125,8 +127,10 @@ def _turned_friction(state, t, cycle):  # type: ignore[no-untyped-def]
     """The sheet's force the filtered force has not yet turned with the travel [N] (in-plane, 2 values).
 
     The sheet's friction opposes the tool's travel, -mu d. At a turn of the planned travel from d_old to d_new it
-    changes by mu (d_old - d_new), at once where the tool turns; at a corner the wall's push across the travel, s a
-    (a, the travel's left normal), changes by s (a_new - a_old) as well (`_travel`): together u [N]. The filtered
+    changes by mu (d_old - d_new), at once where the tool turns. At a corner the new side's force is taken as a
+    side's steady one, -mu d_new + s a_new (a, the travel's left normal; s, the wall's push across the travel at the
+    turn): the change from the force at the turn, whose part along d_old may have built up toward the corner
+    (`_travel`). Either is u [N]. The filtered
     force shows it only after the sensor's sample, its latency and the filter. Of k u (k, the turn gain: 1 at first)
     what the filtered force has not yet shown, measured by its change since the turn along u, is added to it, until
     it has shown it all. `TURN_SETTLE_S` after the turn the share of u it has shown is read into k (`TURN_ADAPT`):
