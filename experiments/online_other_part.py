@@ -15,8 +15,8 @@ markers of that page (docs/online.md; `tests/test_online_interface.py` reads it)
         [--plant-set sheet_law=2 --marker online-other-part-law2] [--merge OUT1/online_other_part.json ...]
 
 `--plant-set NAME=VALUE` (repeatable) adds a plant knob to every run (the second sheet law, say); `--marker` names
-the page's markers the table goes between; `--merge` joins the rows of runs made a robot per process (`--robots`); `--tracker-errors` (`--tracker-late`) learns with `learn --tracker-errors`
-(`learn --tracker-late`).
+the page's markers the table goes between; `--merge` joins the rows of runs made a robot per process (`--robots`);
+`--tracker-errors` (`--tracker-late`) learns with `learn --tracker-errors` (`learn --tracker-late`).
 
 Every online run may correct up to `ONLINE_LIMIT_MM` (`--max-correction-mm`; the default is less): the IRB 6640's
 arm bends on the groove as far as the default limit, where its online correction sat through the deepest passes, and
@@ -169,6 +169,12 @@ def table(rows: list[dict[str, Any]]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def merged_rows(paths: list[Path]) -> list[dict[str, Any]]:
+    """The rows of runs made a robot per process (their JSON files), each robot's parts in their order."""
+    rows = [row for path in paths for row in json.loads(path.read_text())]
+    return sorted(rows, key=lambda r: list(ROBOT_TARGETS).index(r["robot"]))  # stable
+
+
 def per_robot_main(description: str, name: str,
                    robot_rows: Callable[[Path, str, tuple[str, ...]], list[dict[str, Any]]],
                    table: Callable[[list[dict[str, Any]]], str]) -> None:
@@ -186,14 +192,11 @@ def per_robot_main(description: str, name: str,
                         help="a plant knob added to every run, repeatable")
     parser.add_argument("--marker", default=name.replace("_", "-"), help="the page's markers (default: %(default)s)")
     args = parser.parse_args()
-    rows: list[dict[str, Any]] = []
     if args.merge is not None:
-        for path in args.merge:
-            rows.extend(json.loads(path.read_text()))
+        rows = merged_rows(args.merge)
     else:
-        for robot in args.robots.split(","):
-            rows.extend(robot_rows(args.out / robot, robot, tuple(args.plant_set)))
-    rows.sort(key=lambda r: list(ROBOT_TARGETS).index(r["robot"]))  # stable: each robot's parts in their order
+        rows = [row for robot in args.robots.split(",")
+                for row in robot_rows(args.out / robot, robot, tuple(args.plant_set))]
     args.out.mkdir(parents=True, exist_ok=True)
     (args.out / f"{name}.json").write_text(json.dumps(rows, indent=1))
     (args.out / f"{name}.md").write_text(table(rows))
@@ -217,8 +220,7 @@ def main() -> None:
     plant_set = tuple(args.plant_set)
     learn_args = tracker_options(args)
     if args.merge is not None:
-        rows = [row for path in args.merge for row in json.loads(path.read_text())]
-        rows.sort(key=lambda r: list(ROBOT_TARGETS).index(r["robot"]))  # stable: each robot's parts in their order
+        rows = merged_rows(args.merge)
     else:
         rows = [row for robot in args.robots.split(",") for row in robot_study(args.out / robot, robot, plant_set,
                                                                                  learn_args)]

@@ -1,11 +1,12 @@
 """At a turn of the planned travel (a pyramid's corner, a groove's reversal) the sheet's friction turns with the tool
 at once, and the filtered force shows it only later: the online compensator turns it ahead (`OnlineSettings.
-feed_turns`, `twin.sim.compiled.online._turned_friction`). Written against the twin's own kinematics, with a
+feed_turns`, `twin.sim.compiled.online._turned_force`). Written against the twin's own kinematics, with a
 measured force that shows the turn a fixed number of cycles late (a sensor's sample, latency and filter)."""
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 import pytest
@@ -89,17 +90,17 @@ def _walled(d: np.ndarray, wall_n: np.ndarray) -> np.ndarray:
     return _friction(d) + wall_n
 
 
-def _fed_against_timely(turn_deg: float, wall: object, ploughed_n: float = 0.0) -> tuple[float, float]:
+def _fed_against_timely(turn_deg: float, wall: Callable[[np.ndarray], np.ndarray],
+                        ploughed_n: float = 0.0) -> tuple[float, float]:
     """At a turn of `turn_deg` with a wall pushing the tool (`wall(d)`: its push on a tool travelling along d [N]),
     the measured force showing the turn `LATE` cycles late: how far the correction misses that of a force that showed
     it at once, without the turn fed forward and with it, the last cycle before the force shows it [m].
     `ploughed_n`: a push against the travel the first leg builds over its last fifth, on top of the friction (a
     plough toward a corner), gone on the second."""
     spec, Q, d1, d2 = _path(turn_deg)
-    push = wall  # type: ignore[assignment]
-    first = [_walled(d1, push(d1) - ploughed_n * max(0.0, 5.0 * k / LEG - 4.0) * d1) for k in range(LEG)]
-    late = first + [first[-1]] * LATE + [_walled(d2, push(d2))] * (len(Q) - LEG - LATE)
-    timely = _run(spec, Q, np.array(first + [_walled(d2, push(d2))] * LEG), False)
+    first = [_walled(d1, wall(d1) - ploughed_n * max(0.0, 5.0 * k / LEG - 4.0) * d1) for k in range(LEG)]
+    late = first + [first[-1]] * LATE + [_walled(d2, wall(d2))] * (len(Q) - LEG - LATE)
+    timely = _run(spec, Q, np.array(first + [_walled(d2, wall(d2))] * LEG), False)
     fed, plain = _run(spec, Q, np.array(late), True), _run(spec, Q, np.array(late), False)
     k = LEG + LATE - 1
     return float(np.linalg.norm(plain[k] - timely[k])), float(np.linalg.norm(fed[k] - timely[k]))

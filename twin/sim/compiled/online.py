@@ -28,11 +28,11 @@ NO_SENSOR, TRACKING, SPIKE, HOLDING, RAMPING = range(5)
 #: `TRACK_SIZE` slots: the segment, the offset of the reported tip from it (3), that progress started), the time of
 #: the last call, a call seen; the travel's last anchor point (2, sheet plane) and direction (2), a direction found,
 #: the side force's share of the normal force (slowly filtered), that share seen; the last turn of the travel (the
-#: in-plane force's change expected there [N] (2): the friction's, and at a corner the wall's, the filtered in-plane
-#: force at it (2), its time, its state: 0 over, 1 fed forward, 2 shown by the force and waiting to be read), the
-#: sheet's friction force along the travel as a share of the normal force (slowly filtered), that share seen; the
-#: planned tip of the last cycle (2); how much of the expected change the cell's turns have turned, less 1 (zeros
-#: start at 1); the cycles the reported tip was lost on the offline command (`progress`).
+#: in-plane force's change expected there [N] (2; `_travel`), the filtered in-plane force at it (2), its time, its
+#: state: 0 over, 1 fed forward, 2 shown by the force and waiting to be read), the sheet's friction force along the
+#: travel as a share of the normal force (slowly filtered), that share seen; the planned tip of the last cycle (2);
+#: how much of the expected change the cell's turns have turned, less 1 (zeros start at 1); the cycles the reported
+#: tip was lost on the offline command (`progress`).
 HAVE, T_LAST, SPIKES, F, DF, CORR, RUN, HAVE_Q, TRACK = 0, 1, 2, 3, 6, 9, 12, 13, 14
 T_CALL, HAVE_T = TRACK + TRACK_SIZE, TRACK + TRACK_SIZE + 1
 ANCHOR, DIRECTION, HAVE_DIR, SIDE, HAVE_SIDE = 21, 23, 25, 26, 27
@@ -110,12 +110,12 @@ def _travel(state, t, x0, x1, turn_feed, planned, corners):  # type: ignore[no-u
     turn = n0 * d0 + n1 * d1
     if turn_feed > 0.0 and state[HAVE_DIR] != 0.0 and state[HAVE_FRICTION] != 0.0 and turn < COS_TURN:
         mu = state[FRICTION] * abs(state[F + 2])
-        w0, w1 = mu * (d0 - n0), mu * (d1 - n1)
-        if corners and turn > COS_CORNER:  # a corner: the wall's push across the travel turns with it
-            across = state[F] * (-d1) + state[F + 1] * d0
-            along = state[F] * d0 + state[F + 1] * d1
-            w0 += across * (d1 - n1) - (along + mu) * d0
-            w1 += across * (n0 - d0) - (along + mu) * d1
+        if corners and turn > COS_CORNER:  # a corner: from the force at the turn to the next side's steady one
+            across = -state[F] * d1 + state[F + 1] * d0  # the wall's push, along the old travel's left normal
+            w0 = (-mu * n0 - across * n1) - state[F]  # -mu d_new + s a_new, less the in-plane force at the turn
+            w1 = (-mu * n1 + across * n0) - state[F + 1]
+        else:  # the friction turned: -mu d_new - (-mu d_old)
+            w0, w1 = mu * (d0 - n0), mu * (d1 - n1)
         state[TURN_U], state[TURN_U + 1] = w0, w1
         state[TURN_F], state[TURN_F + 1], state[TURN_T], state[TURNING] = state[F], state[F + 1], t, 1.0
     state[DIRECTION], state[DIRECTION + 1], state[HAVE_DIR] = n0, n1, 1.0
@@ -123,21 +123,20 @@ def _travel(state, t, x0, x1, turn_feed, planned, corners):  # type: ignore[no-u
 
 
 @njit(cache=True)
-def _turned_friction(state, t, cycle):  # type: ignore[no-untyped-def]
+def _turned_force(state, t, cycle):  # type: ignore[no-untyped-def]
     """The sheet's force the filtered force has not yet turned with the travel [N] (in-plane, 2 values).
 
     The sheet's friction opposes the tool's travel, -mu d. At a turn of the planned travel from d_old to d_new it
     changes by mu (d_old - d_new), at once where the tool turns. At a corner the new side's force is taken as a
     side's steady one, -mu d_new + s a_new (a, the travel's left normal; s, the wall's push across the travel at the
     turn): the change from the force at the turn, whose part along d_old may have built up toward the corner
-    (`_travel`). Either is u [N]. The filtered
-    force shows it only after the sensor's sample, its latency and the filter. Of k u (k, the turn gain: 1 at first)
-    what the filtered force has not yet shown, measured by its change since the turn along u, is added to it, until
-    it has shown it all. `TURN_SETTLE_S` after the turn the share of u it has shown is read into k (`TURN_ADAPT`):
-    the along-travel force of a real cell is not only friction (a groove's end wall pushes before the reversal and
-    not after), and its turns teach the compensator how much of it turns. Between turns, mu's share of the normal
-    force is followed slowly (`SIDE_TAU_S`) from the filtered force along the travel, while the tool presses the
-    sheet (`SIDE_MIN_FZ_N`)."""
+    (`_travel`). Either is u [N]. The filtered force shows it only after the sensor's sample, its latency and the
+    filter. Of k u (k, the turn gain: 1 at first) what the filtered force has not yet shown, measured by its change
+    since the turn along u, is added to it, until it has shown it all. `TURN_SETTLE_S` after the turn the share of u
+    it has shown is read into k (`TURN_ADAPT`): the along-travel force of a real cell is not only friction (a
+    groove's end wall pushes before the reversal and not after), and its turns teach the compensator how much of it
+    turns. Between turns, mu's share of the normal force is followed slowly (`SIDE_TAU_S`) from the filtered force
+    along the travel, while the tool presses the sheet (`SIDE_MIN_FZ_N`)."""
     fz = abs(state[F + 2])
     if state[TURNING] != 0.0:
         gain = 1.0 + state[TURN_GAIN]
@@ -224,7 +223,7 @@ def online_cycle(chain, params, k_inv, friction, c_tool, assumed_p, assumed_f, s
             fp2 = state[F + 2] + state[DF + 2] * ahead
             ff0, ff1 = 0.0, 0.0
             if turn_feed > 0.0:  # the friction's turn the filtered force has not shown yet
-                ff0, ff1 = _turned_friction(state, t, cycle)
+                ff0, ff1 = _turned_force(state, t, cycle)
                 if state[TURNING] == 1.0:  # the turn is fed forward: its rate in the filtered force is not
                     u0, u1 = state[TURN_U], state[TURN_U + 1]  # extrapolated past it as well
                     along = (state[DF] * u0 + state[DF + 1] * u1) * ahead / (u0 * u0 + u1 * u1)
