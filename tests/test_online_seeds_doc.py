@@ -73,9 +73,9 @@ def test_the_words_on_the_seed_with_the_side_read_past_the_imprint_are_its_table
     most = quoted("online.md", "Over the six seeds every row there spans at most", 1)[0]
     kr = quoted("online.md", "at either step: the KR 210's groove online", 4)
     was = quoted("online.md", "where on the default read it spans", 4)
-    edge = quoted("online.md", "the IRB 6640's at its edge: online", 3)[1:]  # its seeds' least and largest
-    edge[0].check(rows[("irb6640", "pyramid")]["on_least"])
-    edge[1].check(rows[("irb6640", "pyramid")]["on_largest"])
+    edge = quoted("online.md", "the IRB 6640's at its edge: online", 4)[1:]  # its seeds' least, largest, median
+    for q, key in zip(edge, ("on_least", "on_largest", "on_median"), strict=True):
+        q.check(rows[("irb6640", "pyramid")][key])
     groove = rows[("kr210", "groove")]
     for q, value in zip(kr, (groove["on_least"], groove["on_largest"], groove["both_least"], groove["both_largest"]),
                         strict=True):

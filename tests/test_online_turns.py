@@ -10,10 +10,11 @@ from collections.abc import Callable
 
 import numpy as np
 import pytest
+from doc_numbers import quoted
 
 from twin.errors import InputError
 from twin.robot.kinematics import Kinematics
-from twin.sim.compiled.online import TURN_SETTLE_S
+from twin.sim.compiled.online import TURN_SETTLE_S, WALL_BUILD_M
 from twin.sim.online import OnlineCompensator, OnlineSettings
 from twin.sim.spec import TwinSpec
 
@@ -121,6 +122,40 @@ def test_after_a_corner_the_side_pushes_as_a_side_does_not_as_the_plough_before_
     (its friction along the new travel, the wall's push across it), not the plough turned with the travel."""
     missed, fed = _fed_against_timely(90.0, lambda d: FZ_N / 3.0 * np.array([-d[1], d[0], 0.0]), 0.2 * FZ_N)
     assert missed > 1e-4 and fed < 0.1 * missed, (missed, fed)
+
+
+def test_past_a_corner_the_new_walls_push_is_fed_as_the_tool_moves_into_it() -> None:
+    """The friction turns at once with the travel, the old side's wall lets go; the next side's wall pushes only as
+    the tool moves into it: the part of the fed force a wall adds grows over the first `WALL_BUILD_M` of the new
+    travel, by the new wall's push, and then stays (the measured force here never shows the turn)."""
+    said = quoted("online.md", "whole after", 5)  # its length, then the lengths it was chosen among [mm]
+    assert said[0].value == pytest.approx(1e3 * WALL_BUILD_M) and said[0].value in [q.value for q in said[1:]]
+    spec, Q, d1, d2 = _path(90.0)
+    left = np.array([-d1[1], d1[0], 0.0])  # the new travel, d2, at a left turn of 90 deg
+    wall = FZ_N / 3.0
+
+    def fed(wall_n: float) -> np.ndarray:
+        forces = np.array([_friction(d1) + wall_n * left] * len(Q))  # the old side's, throughout
+        return _run(spec, Q, forces, True) - _run(spec, Q, forces, False)
+
+    built = fed(wall) - fed(0.0)  # what the walls add to the fed correction [m]
+    moved = np.linalg.norm(np.array([(k - LEG) * STEP_M for k in range(len(Q))])[:, None] * d2[:2], axis=1)
+    whole = LEG + int(np.argmax(moved[LEG:] >= WALL_BUILD_M))
+    grown = built[whole] - built[LEG]
+    # the new wall's push alone, s a_new (a_new = -d1 here), in the correction: its steady answer at the corner
+    comp = OnlineCompensator(spec, OnlineSettings(max_rate_mm_s=1000.0, feed_turns=False))
+    answer = []
+    for push in (0.0, wall):
+        comp.reset()
+        for k in range(200):
+            comp.step(CYCLE_S * k, CYCLE_S * k, np.array([0.0, 0.0, FZ_N]) - push * d1, Q[LEG])
+        answer.append(comp.correction_m.copy())
+    expected = answer[1] - answer[0]
+    assert np.linalg.norm(expected) > 5e-5
+    assert np.linalg.norm(grown - expected) < 0.15 * np.linalg.norm(expected), (grown, expected)
+    first = built[LEG + 1] - built[LEG]  # one cycle's travel in: a share of it
+    assert 0.1 * np.linalg.norm(expected) < np.linalg.norm(first) < 0.4 * np.linalg.norm(expected)
+    assert np.linalg.norm(built[whole + 5] - built[whole]) < 0.05 * np.linalg.norm(expected)  # then it stays
 
 
 def test_at_a_reversal_the_walls_stay_where_they_are() -> None:

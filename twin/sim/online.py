@@ -29,7 +29,8 @@ needs:
   the filtered force, which shows it only after the sensor's sample, latency and filter; at a corner (a turn by
   less than 135 deg) the wall's push across the travel too, which the next side's wall pushes across the new
   travel as the last one did across the old: the force fed there is the next side's steady one, not a push against
-  the travel that built up toward the corner (a groove's walls, at a reversal, stay where they are); what of the
+  the travel that built up toward the corner, the new wall's push fed as the tool moves into it, over its first
+  0.5 mm (a groove's walls, at a reversal, stay where they are); what of the
   turn the filtered force has shown since is taken off, so nothing counts twice, and how much of it the cell's
   turns turned is learned from them (`OnlineSettings.feed_turns`). On top of an offline command, whose assumed
   force turns at the corner by position, the wall is not turned again;

@@ -78,8 +78,8 @@ class OnlineSettings:
             stiffness) [-]. 0: taken in full everywhere.
         feed_turns: At a turn of the planned travel (a pyramid's corner, a groove's reversal), the sheet's friction
             is turned with it at once, ahead of the filtered force, which shows it only after the sensor's sample,
-            latency and filter, and at a corner the wall's push across the travel with it, by as much as the cell's
-            earlier turns turned them (`twin.sim.compiled.online._turned_force`). False: the filtered force
+            latency and filter, and at a corner the wall's push across the travel with it (the next side's as the
+            tool moves into it), by as much as the cell's earlier turns turned them (`twin.sim.compiled.online._turned_force`). False: the filtered force
             alone.
     """
 

@@ -32,13 +32,14 @@ NO_SENSOR, TRACKING, SPIKE, HOLDING, RAMPING = range(5)
 #: state: 0 over, 1 fed forward, 2 shown by the force and waiting to be read), the sheet's friction force along the
 #: travel as a share of the normal force (slowly filtered), that share seen; the planned tip of the last cycle (2);
 #: how much of the expected change the cell's turns have turned, less 1 (zeros start at 1); the cycles the reported
-#: tip was lost on the offline command (`progress`).
+#: tip was lost on the offline command (`progress`); at the last turn, the planned tip (2) and the wall's push across
+#: the new travel [N] (2; zeros at a reversal).
 HAVE, T_LAST, SPIKES, F, DF, CORR, RUN, HAVE_Q, TRACK = 0, 1, 2, 3, 6, 9, 12, 13, 14
 T_CALL, HAVE_T = TRACK + TRACK_SIZE, TRACK + TRACK_SIZE + 1
 ANCHOR, DIRECTION, HAVE_DIR, SIDE, HAVE_SIDE = 21, 23, 25, 26, 27
 TURN_U, TURN_F, TURN_T, TURNING, FRICTION, HAVE_FRICTION, PREV, TURN_GAIN = 28, 30, 32, 33, 34, 35, 36, 38
-LOST = 39
-STATE_SIZE = 40
+LOST, TURN_P, TURN_WALL = 39, 40, 42
+STATE_SIZE = 44
 #: The travel's direction is taken over this much of the tool's planned travel [m]: a joint's vibration (um) does
 #: not turn it, a pass's reversal does within a tenth of a millimetre.
 TRAVEL_STEP_M = 1e-4
@@ -54,6 +55,11 @@ COS_TURN = math.cos(math.radians(45.0))
 #: A turn by less than this is a corner (cosine): the wall that pushes the tool across its travel turns with it,
 #: as a pyramid's does at its corner; past it a reversal, whose walls stay where they are (a groove's).
 COS_CORNER = math.cos(math.radians(135.0))
+#: Past a corner the new side's wall pushes across the new travel as the tool moves into it: that push is fed in
+#: proportion to the planned travel since the turn, whole after this much of it [m] (the friction turns at once).
+#: Chosen among 0.25, 0.5, 1 and 2 mm on the development robots' pyramids (the TX200's and the KR 210's, both sheet
+#: laws), not on the IRB 6640's; CHANGELOG.
+WALL_BUILD_M = 5e-4
 #: Where the controller reports its planned joints (no vibration in them), a turn is seen in the plan's first step
 #: of at least this much in a cycle [m] (2.5 mm/s in 4 ms; a joint quantum of 1e-4 deg, RSI's, moves a tip at 1.5 m
 #: by 2.6 um, which cannot turn such a step by 45 deg), not after `TRAVEL_STEP_M` of it (~20 ms out of a stop).
@@ -114,9 +120,12 @@ def _travel(state, t, x0, x1, turn_feed, planned, corners):  # type: ignore[no-u
             across = -state[F] * d1 + state[F + 1] * d0  # the wall's push, along the old travel's left normal
             w0 = (-mu * n0 - across * n1) - state[F]  # -mu d_new + s a_new, less the in-plane force at the turn
             w1 = (-mu * n1 + across * n0) - state[F + 1]
+            state[TURN_WALL], state[TURN_WALL + 1] = -across * n1, across * n0  # s a_new: built as the tool moves
         else:  # the friction turned: -mu d_new - (-mu d_old)
             w0, w1 = mu * (d0 - n0), mu * (d1 - n1)
+            state[TURN_WALL], state[TURN_WALL + 1] = 0.0, 0.0
         state[TURN_U], state[TURN_U + 1] = w0, w1
+        state[TURN_P], state[TURN_P + 1] = x0, x1
         state[TURN_F], state[TURN_F + 1], state[TURN_T], state[TURNING] = state[F], state[F + 1], t, 1.0
     state[DIRECTION], state[DIRECTION + 1], state[HAVE_DIR] = n0, n1, 1.0
     state[ANCHOR], state[ANCHOR + 1] = x0, x1
@@ -130,7 +139,8 @@ def _turned_force(state, t, cycle):  # type: ignore[no-untyped-def]
     changes by mu (d_old - d_new), at once where the tool turns. At a corner the new side's force is taken as a
     side's steady one, -mu d_new + s a_new (a, the travel's left normal; s, the wall's push across the travel at the
     turn): the change from the force at the turn, whose part along d_old may have built up toward the corner
-    (`_travel`). Either is u [N]. The filtered force shows it only after the sensor's sample, its latency and the
+    (`_travel`); its wall's part, s a_new, is met as the tool moves into the new side and is fed in proportion to
+    the planned travel since the turn (`WALL_BUILD_M`). Either is u [N]. The filtered force shows it only after the sensor's sample, its latency and the
     filter. Of k u (k, the turn gain: 1 at first) what the filtered force has not yet shown, measured by its change
     since the turn along u, is added to it, until it has shown it all. `TURN_SETTLE_S` after the turn the share of u
     it has shown is read into k (`TURN_ADAPT`): the along-travel force of a real cell is not only friction (a
@@ -146,7 +156,9 @@ def _turned_force(state, t, cycle):  # type: ignore[no-untyped-def]
         if t - state[TURN_T] < TURN_SETTLE_S:
             if state[TURNING] == 1.0 and seen < gain:
                 left = gain - max(seen, 0.0)
-                return left * u0, left * u1
+                p0, p1 = state[PREV] - state[TURN_P], state[PREV + 1] - state[TURN_P + 1]
+                unbuilt = gain * (1.0 - min(math.sqrt(p0 * p0 + p1 * p1) / WALL_BUILD_M, 1.0))
+                return left * u0 - unbuilt * state[TURN_WALL], left * u1 - unbuilt * state[TURN_WALL + 1]
             state[TURNING] = 2.0  # shown: the rest is the filtered force's; read at TURN_SETTLE_S
             return 0.0, 0.0
         if uu > 0.0:
