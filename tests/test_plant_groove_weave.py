@@ -52,16 +52,20 @@ def _lateral_stiffness_on_a_weave(law: int, amplitude_m: float, grid_mm: float =
     return out[0], out[1]
 
 
-def _still_tool_stiffness(offset_m: float = 2e-4) -> float:
-    """A tool held still `offset_m` to either side of the groove's middle at `PROBE_DEPTH_M`, the groove formed
-    rigidly up to there (law 1): the change of the lateral force over the offset [N/m]."""
+def _still_tool_stiffness(offsets_m: tuple[float, ...] = (2e-4,), side_read: float = 1.0) -> list[float]:
+    """A tool held still each of `offsets_m` to either side of the groove's middle at `PROBE_DEPTH_M`, the groove
+    formed rigidly up to there (law 1, its chord read `side_read` tool radii out): the change of the lateral force
+    over the offset [N/m], one per offset."""
     p = resample(groove_path().p_sheet_m)
     middle = np.flatnonzero(np.abs(p[:, 0]) < 2e-3)
     stop = int(middle[np.argmin(np.abs(-p[middle, 2] - PROBE_DEPTH_M))])
-    sheet = make_sheet(Knobs({"sheet_law": 1}), Process())
+    sheet = make_sheet(Knobs({"sheet_law": 1, "sheet_side_read_radii": side_read}), Process())
     rigid_forces(sheet, p[:stop])
-    fy = [copy.deepcopy(sheet).force(p[stop] + np.array([0.0, dy, 0.0]))[1] for dy in (-offset_m, offset_m)]
-    return float((fy[1] - fy[0]) / (2.0 * offset_m))
+    out = []
+    for offset_m in offsets_m:
+        fy = [copy.deepcopy(sheet).force(p[stop] + np.array([0.0, dy, 0.0]))[1] for dy in (-offset_m, offset_m)]
+        out.append(float((fy[1] - fy[0]) / (2.0 * offset_m)))
+    return out
 
 
 def test_the_groove_does_not_hold_a_tool_that_weaves_as_the_page_says() -> None:
@@ -72,7 +76,7 @@ def test_the_groove_does_not_hold_a_tool_that_weaves_as_the_page_says() -> None:
     fine_2 = quoted("dynamic-plant.md", "where law 2 still pushes it out (", 2)
     small_1, small_2 = _lateral_stiffness_on_a_weave(1, 2e-4), _lateral_stiffness_on_a_weave(2, 2e-4)
     large_1 = _lateral_stiffness_on_a_weave(1, 5e-4)
-    k_still = _still_tool_stiffness()
+    k_still = _still_tool_stiffness()[0]
     finer = (*_lateral_stiffness_on_a_weave(1, 2e-4, 0.25), *_lateral_stiffness_on_a_weave(2, 2e-4, 0.25))
     # [kN/mm]; two units of the printed digit: the fit's floating point
     for q, k in zip((*said, *wide, *still, *fine_1, *fine_2), (*small_1, *small_2, *large_1, k_still, *finer),
@@ -117,6 +121,22 @@ def test_law_1s_chord_read_past_the_tools_imprint_answers_a_weave_alike_on_both_
         q.check(mean, slack=2.0)
     assert max(abs(k) for k in read) < 0.02e6  # converged near 0, where the default read differs by 0.5 kN/mm
     assert fz[1] < 0.95 * fz[0]
+
+
+def test_law_1s_chord_read_past_the_imprint_does_not_see_the_grooves_own_walls() -> None:
+    """Read 1.1 tool radii out, law 1 pushes a tool held still near the groove's middle back by nothing (a dead
+    band no sheet has), where read one radius out it pushes it back: the read past the imprint is no fix of the law
+    (docs/dynamic-plant.md)."""
+    said = quoted("dynamic-plant.md", "pushed back by nothing within half a millimetre of it (", 6)
+    one = quoted("dynamic-plant.md", "where one radius out it is pushed back by", 2)
+    assert [said[i].value for i in (0, 1, 4)] == [0.2, 0.5, 1.0] and one[1].value == 0.2  # the offsets [mm]
+    assert quoted("online.md", "whose walls do not push a tool within", 1)[0].value == said[1].value  # its dead band
+    past = _still_tool_stiffness((2e-4, 5e-4, 1e-3), side_read=1.1)
+    at_one = _still_tool_stiffness((2e-4,))[0]
+    for q, k in zip((said[2], said[3], said[5], one[0]), (*past, at_one), strict=True):
+        q.check(1e-6 * k, slack=2.0)  # [kN/mm]
+    assert max(abs(past[0]), abs(past[1])) < 1e3  # no lateral force change within half a millimetre (< 1 N/mm)
+    assert past[2] < 0.0 and at_one < 0.0
 
 
 def test_law_1s_force_is_converged_on_the_grid_and_law_2s_is_not_as_the_page_says() -> None:

@@ -123,8 +123,8 @@ KNOBS: dict[str, KnobSpec] = {
     ),
     "sheet_side_read_radii": KnobSpec(
         1.0, 1.0, "-", "law 1: how far from the tip a side's chord is read, in tool radii (at 1 a groove's read is "
-        "the tool's own imprint at its equator: its answer to a weave is the grid's; at 1.1 it is not, "
-        "docs/dynamic-plant.md)", 1.0, 1.5
+        "the tool's own imprint at its equator: its answer to a weave is the grid's; at 1.1 it is not, but a tool "
+        "within 0.5 mm of a groove's middle feels no wall, docs/dynamic-plant.md)", 1.0, 1.5
     ),
     # ---- controller
     "servo_bandwidth_over_mode": KnobSpec(
