@@ -15,7 +15,7 @@ from doc_numbers import quoted
 from twin.errors import InputError
 from twin.robot.kinematics import Kinematics
 from twin.sim.compiled.online import TURN_SETTLE_S, WALL_BUILD_M
-from twin.sim.online import OnlineCompensator, OnlineSettings
+from twin.sim.online import AssumedForces, OnlineCompensator, OnlineSettings
 from twin.sim.spec import TwinSpec
 
 CYCLE_S = 0.004
@@ -156,6 +156,38 @@ def test_past_a_corner_the_new_walls_push_is_fed_as_the_tool_moves_into_it() -> 
     first = built[LEG + 1] - built[LEG]  # one cycle's travel in: a share of it
     assert 0.1 * np.linalg.norm(expected) < np.linalg.norm(first) < 0.4 * np.linalg.norm(expected)
     assert np.linalg.norm(built[whole + 5] - built[whole]) < 0.05 * np.linalg.norm(expected)  # then it stays
+
+
+def test_on_top_of_an_offline_command_a_corner_turns_the_friction_only() -> None:
+    """On top of an offline command, whose assumed force turns at the corner by position, the compensator does not
+    turn the wall again: what a wall adds to the force fed at a corner is nothing there, where on a nominal command
+    it is the new wall's push (`_fed_against_timely`'s wall, the measured force never showing the turn)."""
+    spec, Q, d1, _ = _path(90.0)
+    twin = spec.build()
+    kin = Kinematics(robot=twin.robot)
+    tips = np.array([twin.R_base_sheet.T @ (kin.fk(q)[0] - twin.p_base_sheet_origin) for q in Q])
+    left = np.array([-d1[1], d1[0], 0.0])
+
+    def fed(wall_n: float, assumed: AssumedForces | None) -> np.ndarray:
+        forces = np.array([_friction(d1) + wall_n * left] * len(Q))
+
+        def run(feed: bool) -> np.ndarray:
+            # the side force's share (`side_share`) off: the wall's push then changes nothing but the force fed
+            comp = OnlineCompensator(spec, OnlineSettings(max_rate_mm_s=1000.0, feed_turns=feed, side_share=0.0),
+                                     assumed=assumed)
+            out = np.empty((len(Q), 3))
+            for k, q in enumerate(Q):
+                comp.step(CYCLE_S * k, CYCLE_S * k, forces[k], q, q)
+                out[k] = comp.correction_m
+            return out
+
+        return run(True) - run(False)
+
+    k = LEG + 10  # 1.2 mm into the new side: its wall whole, were it fed
+    nothing = AssumedForces(tips, np.zeros_like(tips))  # a command that assumed no force: all of it is corrected
+    walls = {name: fed(FZ_N / 3.0, a)[k] - fed(0.0, a)[k] for name, a in (("nominal", None), ("offline", nothing))}
+    assert np.linalg.norm(walls["nominal"]) > 5e-5
+    assert np.linalg.norm(walls["offline"]) < 0.02 * np.linalg.norm(walls["nominal"]), walls
 
 
 def test_at_a_reversal_the_walls_stay_where_they_are() -> None:
