@@ -32,15 +32,16 @@ WAVELENGTH_M = 0.022  # the weave's wavelength along the travel (1.5 Hz at the g
 PROBE_DEPTH_M = 7.5e-3  # the still tool's depth [m]
 
 
-def _lateral_stiffness_on_a_weave(law: int, amplitude_m: float, grid_mm: float = 0.5, side_read: float = 1.0
-                                  ) -> tuple[float, float]:
+def _lateral_stiffness_on_a_weave(law: int, amplitude_m: float, grid_mm: float = 0.5, side_read: float = 1.0,
+                                  side_band: float = 0.0) -> tuple[float, float]:
     """The lateral force's part in phase with the weave, over its lateral offset [N/m], on the forward and the return
     passes (a least-squares fit of F_y to the offset, its slope along the travel and a constant), on a grid of
     `grid_mm`, law 1's chord read `side_read` tool radii out."""
     p = resample(groove_path().p_sheet_m)
     weave = (-p[:, 2] > DEEP_M[0]) & (-p[:, 2] < DEEP_M[1]) & (np.abs(p[:, 0]) < HALF_LENGTH_M)
     p[weave, 1] = amplitude_m * np.sin(2.0 * np.pi * p[weave, 0] / WAVELENGTH_M)
-    knobs = Knobs({"sheet_law": law, "sheet_grid_mm": grid_mm, "sheet_side_read_radii": side_read})
+    knobs = Knobs({"sheet_law": law, "sheet_grid_mm": grid_mm, "sheet_side_read_radii": side_read,
+                   "sheet_side_read_band": side_band})
     f = rigid_forces(make_sheet(knobs, Process()), p)
     travel = np.sign(np.gradient(p[:, 0]))
     slope = np.gradient(p[:, 1]) / np.gradient(p[:, 0]) * travel
@@ -52,14 +53,16 @@ def _lateral_stiffness_on_a_weave(law: int, amplitude_m: float, grid_mm: float =
     return out[0], out[1]
 
 
-def _still_tool_stiffness(offsets_m: tuple[float, ...] = (2e-4,), side_read: float = 1.0) -> list[float]:
+def _still_tool_stiffness(offsets_m: tuple[float, ...] = (2e-4,), side_read: float = 1.0, side_band: float = 0.0,
+                          grid_mm: float = 0.5) -> list[float]:
     """A tool held still each of `offsets_m` to either side of the groove's middle at `PROBE_DEPTH_M`, the groove
     formed rigidly up to there (law 1, its chord read `side_read` tool radii out): the change of the lateral force
     over the offset [N/m], one per offset."""
     p = resample(groove_path().p_sheet_m)
     middle = np.flatnonzero(np.abs(p[:, 0]) < 2e-3)
     stop = int(middle[np.argmin(np.abs(-p[middle, 2] - PROBE_DEPTH_M))])
-    sheet = make_sheet(Knobs({"sheet_law": 1, "sheet_side_read_radii": side_read}), Process())
+    sheet = make_sheet(Knobs({"sheet_law": 1, "sheet_side_read_radii": side_read, "sheet_side_read_band": side_band,
+                              "sheet_grid_mm": grid_mm}), Process())
     rigid_forces(sheet, p[:stop])
     out = []
     for offset_m in offsets_m:
@@ -137,6 +140,47 @@ def test_law_1s_chord_read_past_the_imprint_does_not_see_the_grooves_own_walls()
         q.check(1e-6 * k, slack=2.0)  # [kN/mm]
     assert max(abs(past[0]), abs(past[1])) < 1e3  # no lateral force change within half a millimetre (< 1 N/mm)
     assert past[2] < 0.0 and at_one < 0.0
+
+
+def test_law_1s_chord_read_over_the_imprints_rim_pushes_a_still_tool_back_alike_on_both_grids() -> None:
+    """A side's chord angle averaged over 0.9-1.1 radii (`sheet_side_read_band`): a tool held still off the groove's
+    middle is pushed back by the same on the 0.5 and the 0.25 mm grid, where the single read's push is the grid's,
+    and the rigid cone's force is the single read's (docs/dynamic-plant.md)."""
+    still = quoted("dynamic-plant.md", "pushed back alike on the 0.5 and the 0.25 mm grid (", 4)
+    cone_said = quoted("dynamic-plant.md", "and the rigid cone's force stays where it was (", 2)
+    band = [_still_tool_stiffness(side_band=0.1, grid_mm=g)[0] for g in (0.5, 0.25)]
+    one = [_still_tool_stiffness(grid_mm=g)[0] for g in (0.5, 0.25)]
+    cone = resample(part_path(PartSpec(top_half_width_m=0.02, depth_m=0.004)).p_sheet_m)
+    force = [float(np.mean(rigid_forces(make_sheet(Knobs({"sheet_law": 1, "sheet_grid_mm": g, "sheet_side_read_band":
+                                                          0.1}), Process()), cone)[len(cone) // 2:, 2]))
+             for g in (0.5, 0.25)]
+    for q, k in zip(still, (*band, *one), strict=True):
+        q.check(1e-6 * k, slack=2.0)  # [kN/mm]
+    for q, f in zip(cone_said, force, strict=True):
+        q.check(f, slack=2.0)  # [N]
+    assert max(band) < 0.0 and abs(band[0] - band[1]) < 0.02 * abs(band[0])  # the band: pushed back, converged
+    assert abs(one[0] - one[1]) > 0.3 * abs(one[0])  # the single read: the grid's
+
+
+def test_law_1s_chord_read_over_the_imprints_rim_answers_a_weave_converged_with_the_grid() -> None:
+    """The 0.2 mm weave on the 0.5, 0.25 and 0.125 mm grids, the chord read over the band and once: with the band
+    the two finer grids agree, once they do not; the groove's force falls with the band (docs/dynamic-plant.md)."""
+    band_said = quoted("dynamic-plant.md", "The 0.2 mm weave is then answered by", 9)
+    once_said = quoted("dynamic-plant.md", "still moves between the last two (", 4)
+    groove_said = quoted("dynamic-plant.md", "axial force falls with it from", 5)
+    assert [band_said[i].value for i in (2, 5, 8)] == [0.5, 0.25, 0.125]  # the grids [mm]
+    band = [k for g in (0.5, 0.25, 0.125) for k in _lateral_stiffness_on_a_weave(1, 2e-4, g, side_band=0.1)]
+    once = [k for g in (0.25, 0.125) for k in _lateral_stiffness_on_a_weave(1, 2e-4, g)]
+    p = groove_path().p_sheet_m
+    groove = [float(np.mean(np.abs(rigid_forces(make_sheet(Knobs({"sheet_law": 1, "sheet_grid_mm": g,
+                                                                   "sheet_side_read_band": b}), Process()), p)[:, 2])))
+              for g, b in ((0.5, 0.0), (0.5, 0.1), (0.25, 0.1))]
+    for q, k in zip([band_said[i] for i in (0, 1, 3, 4, 6, 7)] + once_said, band + once, strict=True):
+        q.check(1e-6 * k, slack=2.0)  # [kN/mm]
+    for q, f in zip([groove_said[i] for i in (0, 1, 3)], groove, strict=True):
+        q.check(f, slack=2.0)  # [N]
+    assert max(abs(a - b) for a, b in zip(band[2:4], band[4:6], strict=True)) < 0.02e6  # converged
+    assert max(abs(a - b) for a, b in zip(once[0:2], once[2:4], strict=True)) > 0.1e6  # not
 
 
 def test_law_1s_force_is_converged_on_the_grid_and_law_2s_is_not_as_the_page_says() -> None:

@@ -161,17 +161,18 @@ def test_the_compiled_sheet_is_the_python_sheet() -> None:
     for name in ("VOCE_S0_MPA", "VOCE_Q_MPA", "VOCE_B", "VOCE_M", "YOUNGS_MODULUS_PA", "POISSON_RATIO"):
         assert getattr(sheet_kernels, name) == getattr(sheet_material, name), name
     for name in ("HALF_SIZE_M", "MIN_RECOVERY_M", "FORMED_READ", "FORMED_PATCH", "FORMED_TRACK", "FORMED_GAIN",
-                 "HUNT_CROSSLEY_ALPHA_S_PER_M", "MAX_ANGLE_RAD"):
+                 "HUNT_CROSSLEY_ALPHA_S_PER_M", "MAX_ANGLE_RAD", "BAND_READS"):
         assert getattr(sheet_kernels, name) == getattr(python_sheet, name), name
     groove = groove_path().p_sheet_m[:400]
     cone = part_path(PartSpec(top_half_width_m=0.02, depth_m=4e-3)).p_sheet_m
     pyramid = part_path(PartSpec(shape="pyramid", top_half_width_m=0.02, depth_m=3e-3)).p_sheet_m
-    cases = ((groove, GRID_SPACING_M, 1.0), (cone, GRID_SPACING_M, 1.0), (pyramid, GRID_SPACING_M, 1.0),
-             (groove, GRID_SPACING_M / 2, 1.0), (groove, GRID_SPACING_M, 1.1))  # and a finer grid, a chord read further
-    for path, spacing, read in cases:
+    cases = ((groove, GRID_SPACING_M, 1.0, 0.0), (cone, GRID_SPACING_M, 1.0, 0.0), (pyramid, GRID_SPACING_M, 1.0, 0.0),
+             (groove, GRID_SPACING_M / 2, 1.0, 0.0), (groove, GRID_SPACING_M, 1.1, 0.0),
+             (groove, GRID_SPACING_M / 2, 1.0, 0.1))  # a finer grid, a chord read further, read over a band
+    for path, spacing, read, band in cases:
         runs = []
         for compiled in (True, False):
-            sheet = PlantSheet(Process(), 5e-5, spacing_m=spacing, side_read=read)
+            sheet = PlantSheet(Process(), 5e-5, spacing_m=spacing, side_read=read, side_band=band)
             sheet.compiled = compiled
             sheet.start(path[0], 1)
             forces = np.empty((len(path), 3))

@@ -126,6 +126,11 @@ KNOBS: dict[str, KnobSpec] = {
         "the tool's own imprint at its equator: its answer to a weave is the grid's; at 1.1 it is not, but a tool "
         "within 0.5 mm of a groove's middle feels no wall, docs/dynamic-plant.md)", 1.0, 1.5
     ),
+    "sheet_side_read_band": KnobSpec(
+        0.0, 0.0, "-", "law 1: half-width of the band about that read over which a side's chord angle is averaged "
+        "(9 reads), in tool radii (0: one read; at 0.1 on a 0.25 mm grid a groove's answer to a weave converges and "
+        "a tool off its middle is pushed back, docs/dynamic-plant.md)", 0.0, 0.3
+    ),
     # ---- controller
     "servo_bandwidth_over_mode": KnobSpec(
         0.5,

@@ -12,7 +12,8 @@ plant forms its own sheet from its own material law, in a form the twin does not
   unit width in plane strain). One membrane strip wraps the tool across its travel, from the formed surface on
   its left to the one on its right; each side leaves the tool at its angle alpha_s, the larger of the chord
   atan(rise_s / kR), rise_s the formed surface kR to that side above the tip (0 on flat sheet: the force builds up
-  with depth to the tool's flank angle, 45 deg; k, `sheet_side_read_radii`), and the formed surface's slope from
+  with depth to the tool's flank angle, 45 deg; k, `sheet_side_read_radii`, its angle averaged over a band of
+  `sheet_side_read_band` either side of kR), and the formed surface's slope from
   R to 2R (a wall formed by earlier contours: a cone's wall angle), at most `MAX_ANGLE_RAD`. One strip over a
   tool that does not hold it along its length carries one tension on both sides: N = sigma_phi(alpha) t(alpha)
   and the front contact along the travel w = R sin alpha (the front of the sphere against a wall tangent at
@@ -107,6 +108,7 @@ FORMED_GAIN = 2.0  # a bottom by this times the difference past it (fully one at
 FILL_EVERY = 4  # the hanging bottom is found again after this many grid spacings of the tip's travel
 HUNT_CROSSLEY_ALPHA_S_PER_M = 0.2  # contact damping of the elastic unloading [s/m] (module docstring)
 MAX_ANGLE_RAD = math.radians(70.0)  # a side steeper than this is a step, read as this angle
+BAND_READS = 9  # a side's chord angle averaged over a band (`side_band`) is this many reads
 HEADING_TURN = 2  # grid spacings of travel over which the heading (sides, step ahead) turns
 _PLANE = 2.0 / math.sqrt(3.0)
 
@@ -123,14 +125,16 @@ class PlantSheet(GridSheet):
         timestep_s: The plant's servo tick, between two `advance` calls [s].
         spacing_m: The grid's spacing [m].
         side_read: How far from the tip a side's chord is read, in tool radii [-] (the knob `sheet_side_read_radii`).
+        side_band: Half-width of the band its angle is averaged over, in tool radii (`sheet_side_read_band`).
     """
 
     compiled: bool = True  #: run `force` and `advance` compiled (False: the Python reference)
 
     def __init__(self, process: Process, reversal_m: float, timestep_s: float = 1e-3,
-                 spacing_m: float = GRID_SPACING_M, side_read: float = 1.0) -> None:
+                 spacing_m: float = GRID_SPACING_M, side_read: float = 1.0, side_band: float = 0.0) -> None:
         self._grid(process, timestep_s, spacing_m)
         self.chord_read_m = side_read * self.radius  # a side's chord read this far from the tip [m]
+        self.chord_band_m = side_band * self.radius  # its angle averaged over a band this wide either side [m]
         self.scale = float(process.tensile_strength_mpa) / voce_tensile_strength_mpa()
         self.slip_gain, self.heading_gain = 2.0 / reversal_m, 2.0 / max(HEADING_TURN * self.spacing, reversal_m)
         self.fill_every_m = FILL_EVERY * self.spacing  # the tip's travel between two `_fill`s [m]
@@ -176,7 +180,7 @@ class PlantSheet(GridSheet):
             last = np.array([x, y, z], dtype=float) if self._last is None else self._last
             kernels.force(self.z_m, self.pressed, self.hanging, self.spacing, self.radius, self.t0, self.scale, self.mu,
                           self.travel, self.slip, last, self.timestep_s, float(x), float(y), float(z), out,
-                          self.chord_read_m)
+                          self.chord_read_m, self.chord_band_m)
             return out
         return self.force_reference(p_sheet_m)
 
@@ -217,40 +221,24 @@ class PlantSheet(GridSheet):
     def formed_fraction(self, x: float, y: float) -> float:
         """The share [-] of the grid the tool sphere has pressed around (x, y) [m], weighted by the smooth bump
         (1 - (d / rho)^2)^2 over the disc d < rho = FORMED_PATCH R: continuous in (x, y); 0 off the grid."""
-        return self._share(self.pressed, x, y)
+        return self._share(self.pressed, x, y, FORMED_PATCH * self.radius)
 
     def hanging_share(self, x: float, y: float) -> float:
         """The share [-] of the grid around (x, y) [m] that is the hanging bottom (`hanging`), as `formed_fraction`."""
-        return self._share(self.hanging, x, y)
-
-    def _share(self, mask: np.ndarray, x: float, y: float) -> float:
-        """The bump-weighted share [-] of `mask` over the disc of radius FORMED_PATCH R around (x, y) [m]."""
-        rho, h = FORMED_PATCH * self.radius, self.spacing
-        i0 = max(math.ceil((x - rho + HALF_SIZE_M) / h), 0)
-        i1 = min(math.floor((x + rho + HALF_SIZE_M) / h), len(self.x_m) - 1)
-        j0 = max(math.ceil((y - rho + HALF_SIZE_M) / h), 0)
-        j1 = min(math.floor((y + rho + HALF_SIZE_M) / h), len(self.y_m) - 1)
-        total = pressed = 0.0
-        for j in range(j0, j1 + 1):
-            dy = (j * h - HALF_SIZE_M - y) / rho
-            for i in range(i0, i1 + 1):
-                dx = (i * h - HALF_SIZE_M - x) / rho
-                q = 1.0 - dx * dx - dy * dy
-                if q > 0.0:
-                    total += q * q
-                    if mask[j, i]:
-                        pressed += q * q
-        return pressed / total if total > 0.0 else 0.0
+        return self._share(self.hanging, x, y, FORMED_PATCH * self.radius)
 
     def _side_angles(self, x: float, y: float, z: float, sx: float, sy: float, cx: float, cy: float
                      ) -> tuple[float, float]:
         """Angles [rad] at which the sheet leaves the tool at (x, y, z) towards (sx, sy): the chord to the surface
-        `chord_read_m` away, and its slope from R to 2R off the committed tip (cx, cy) (a wall); 0 where falling."""
-        r, k = self.radius, self.chord_read_m
-        h1 = self.height(x + k * sx, y + k * sy)
+        `chord_read_m` away (its angle averaged over `BAND_READS` reads `chord_band_m` either side of it, where that
+        is not 0), and its slope from R to 2R off the committed tip (cx, cy) (a wall); 0 where falling."""
+        r, k, b = self.radius, self.chord_read_m, self.chord_band_m
+        n = BAND_READS if b > 0.0 else 1
+        reads = [k + b * (2.0 * i / (n - 1) - 1.0) if n > 1 else k for i in range(n)]
+        chord = sum(math.atan2(max(self.height(x + d * sx, y + d * sy) - z, 0.0), d) for d in reads) / n
         w1 = self.height(cx + r * sx, cy + r * sy)
         w2 = self.height(cx + 2.0 * r * sx, cy + 2.0 * r * sy)
-        return math.atan2(max(h1 - z, 0.0), k), math.atan2(max(w2 - w1, 0.0), r)
+        return chord, math.atan2(max(w2 - w1, 0.0), r)
 
     def advance(self, p_sheet_m: np.ndarray) -> None:
         """Commit: the tool tip passed through `p_sheet_m` [m]: the surface under the sphere, the travel state."""

@@ -67,6 +67,26 @@ class GridSheet(ABC):
         """The surface after unclamping along y = 0: x [m], z [m]."""
         return self.x_m.copy(), self._row(self.unloaded_surface())
 
+    def _share(self, mask: np.ndarray, x: float, y: float, rho: float) -> float:
+        """The share [-] of `mask` around (x, y) [m], weighted by the smooth bump (1 - (d / rho)^2)^2 over the disc
+        d < rho [m]: continuous in (x, y); 0 off the grid."""
+        h = self.spacing
+        i0 = max(math.ceil((x - rho + HALF_SIZE_M) / h), 0)
+        i1 = min(math.floor((x + rho + HALF_SIZE_M) / h), len(self.x_m) - 1)
+        j0 = max(math.ceil((y - rho + HALF_SIZE_M) / h), 0)
+        j1 = min(math.floor((y + rho + HALF_SIZE_M) / h), len(self.y_m) - 1)
+        total = pressed = 0.0
+        for j in range(j0, j1 + 1):
+            dy = (j * h - HALF_SIZE_M - y) / rho
+            for i in range(i0, i1 + 1):
+                dx = (i * h - HALF_SIZE_M - x) / rho
+                q = 1.0 - dx * dx - dy * dy
+                if q > 0.0:
+                    total += q * q
+                    if mask[j, i]:
+                        pressed += q * q
+        return pressed / total if total > 0.0 else 0.0
+
     def _row(self, z: np.ndarray) -> np.ndarray:
         iy = round(HALF_SIZE_M / self.spacing)
         return z[iy].copy()

@@ -25,6 +25,7 @@ FORMED_TRACK = 0.05
 FORMED_GAIN = 2.0
 HUNT_CROSSLEY_ALPHA_S_PER_M = 0.2
 MAX_ANGLE_RAD = math.radians(70.0)
+BAND_READS = 9
 PLANE = 2.0 / math.sqrt(3.0)
 FAR = 1e18  # a squared distance [nodes^2] no node of the grid is from another: no enclosed node in reach
 
@@ -213,15 +214,20 @@ def springback(scale: float, depth: float, alpha: float) -> float:
 @njit(cache=True)
 def side_angle(z: np.ndarray, pressed: np.ndarray, h: float, r: float, cx: float, cy: float, near_s: float,
                near_o: float, hung_s: float, hung_o: float, x: float, y: float, zt: float, sx: float, sy: float,
-               read: float) -> float:
+               read: float, band: float) -> float:
     """One side's angle in `PlantSheet.force_reference`: its chord and slope (`PlantSheet._side_angles`), the
     slope dropped where its far read is the hanging bottom, flattened where the side is the hanging bottom; `near_s`,
     `hung_s` this side's near formed fraction and hanging share, `near_o`, `hung_o` the other side's (`force` reads
-    each once); `read` [m] how far from the tip the chord is read."""
-    h1 = height(z, h, x + read * sx, y + read * sy)
+    each once); `read` [m] how far from the tip the chord is read, `band` [m] the half-width it is averaged over."""
+    n = BAND_READS if band > 0.0 else 1
+    chord = 0.0
+    for i in range(n):
+        k = read + band * (2.0 * i / (n - 1) - 1.0) if n > 1 else read
+        chord += math.atan2(max(height(z, h, x + k * sx, y + k * sy) - zt, 0.0), k)
+    chord /= n
     w1 = height(z, h, cx + r * sx, cy + r * sy)
     w2 = height(z, h, cx + 2.0 * r * sx, cy + 2.0 * r * sy)
-    chord, slope = math.atan2(max(h1 - zt, 0.0), read), math.atan2(max(w2 - w1, 0.0), r)
+    slope = math.atan2(max(w2 - w1, 0.0), r)
     rho = FORMED_PATCH * r
     far_s = formed_fraction(pressed, h, rho, cx + 2.0 * r * sx, cy + 2.0 * r * sy)
     on_bottom = min(1.0, max(0.0, FORMED_GAIN * (near_o - far_s - FORMED_TRACK)))
@@ -233,9 +239,9 @@ def side_angle(z: np.ndarray, pressed: np.ndarray, h: float, r: float, cx: float
 @njit(cache=True)
 def force(z: np.ndarray, pressed: np.ndarray, hanging: np.ndarray, h: float, r: float, t0: float, scale: float,
           mu: float, travel: np.ndarray, slip: np.ndarray, last: np.ndarray, dt: float, x: float, y: float, zt: float,
-          out: np.ndarray, read: float) -> None:
+          out: np.ndarray, read: float, band: float) -> None:
     """`PlantSheet.force` into `out` (3,) [N]; `last` (3,) the committed tip [m]; `h` the grid's spacing [m]; `read`
-    how far from the tip a side's chord is read [m]."""
+    how far from the tip a side's chord is read, `band` the half-width it is averaged over [m]."""
     tx, ty = travel[0], travel[1]
     met = height(z, h, x + r * tx, y + r * ty) - zt
     cx, cy, cz = last[0], last[1], last[2]
@@ -244,8 +250,8 @@ def force(z: np.ndarray, pressed: np.ndarray, hanging: np.ndarray, h: float, r: 
     near1 = formed_fraction(pressed, h, rho, cx + FORMED_READ * r * ty, cy - FORMED_READ * r * tx)
     hung0 = formed_fraction(hanging, h, rho, cx - FORMED_READ * r * ty, cy + FORMED_READ * r * tx)
     hung1 = formed_fraction(hanging, h, rho, cx + FORMED_READ * r * ty, cy - FORMED_READ * r * tx)
-    a0 = side_angle(z, pressed, h, r, cx, cy, near0, near1, hung0, hung1, x, y, zt, -ty, tx, read)
-    a1 = side_angle(z, pressed, h, r, cx, cy, near1, near0, hung1, hung0, x, y, zt, ty, -tx, read)
+    a0 = side_angle(z, pressed, h, r, cx, cy, near0, near1, hung0, hung1, x, y, zt, -ty, tx, read, band)
+    a1 = side_angle(z, pressed, h, r, cx, cy, near1, near0, hung1, hung0, x, y, zt, ty, -tx, read, band)
     steep = max(a0, a1)  # one strip: the steeper side's tension and front contact
     n, w = membrane(scale, t0, steep), r * math.sin(steep)
     up = w * n * (math.sin(a0) + math.sin(a1))

@@ -50,7 +50,7 @@ def make_sheet(knobs: Knobs, process: Process) -> SheetLaw:
 
     Args:
         knobs: The plant's knobs (`sheet_law`, `friction_reversal_mm`, `timestep_s`, `sheet_grid_mm`,
-            `sheet_side_read_radii`).
+            `sheet_side_read_radii`, `sheet_side_read_band`).
         process: The sheet and tool formed (thickness, tool radius, friction, R_m).
     """
     reversal_m = 1e-3 * knobs["friction_reversal_mm"]
@@ -61,4 +61,5 @@ def make_sheet(knobs: Knobs, process: Process) -> SheetLaw:
         return PatchSheet(process, reversal_m, timestep_s, spacing_m)
     from twin.lab.dynamic.sheet import PlantSheet
 
-    return PlantSheet(process, reversal_m, timestep_s, spacing_m, knobs["sheet_side_read_radii"])
+    return PlantSheet(process, reversal_m, timestep_s, spacing_m, knobs["sheet_side_read_radii"],
+                      knobs["sheet_side_read_band"])
