@@ -131,8 +131,8 @@ def test_past_a_corner_the_new_walls_push_is_fed_as_the_tool_moves_into_it() -> 
     travel, by the new wall's push, and then stays (the measured force here never shows the turn)."""
     said = quoted("online.md", "whole after", 5)  # its length, then the lengths it was chosen among [mm]
     assert said[0].value == pytest.approx(1e3 * WALL_BUILD_M) and said[0].value in [q.value for q in said[1:]]
-    spec, Q, d1, d2 = _path(90.0)
-    left = np.array([-d1[1], d1[0], 0.0])  # the new travel, d2, at a left turn of 90 deg
+    spec, Q, d1, _ = _path(90.0)
+    left = np.array([-d1[1], d1[0], 0.0])  # the new travel, at a left turn of 90 deg
     wall = FZ_N / 3.0
 
     def fed(wall_n: float) -> np.ndarray:
@@ -140,8 +140,7 @@ def test_past_a_corner_the_new_walls_push_is_fed_as_the_tool_moves_into_it() -> 
         return _run(spec, Q, forces, True) - _run(spec, Q, forces, False)
 
     built = fed(wall) - fed(0.0)  # what the walls add to the fed correction [m]
-    moved = np.linalg.norm(np.array([(k - LEG) * STEP_M for k in range(len(Q))])[:, None] * d2[:2], axis=1)
-    whole = LEG + int(np.argmax(moved[LEG:] >= WALL_BUILD_M))
+    whole = LEG + math.ceil(WALL_BUILD_M / STEP_M)  # the turn is seen at LEG; then STEP_M of travel a cycle
     grown = built[whole] - built[LEG]
     # the new wall's push alone, s a_new (a_new = -d1 here), in the correction: its steady answer at the corner
     comp = OnlineCompensator(spec, OnlineSettings(max_rate_mm_s=1000.0, feed_turns=False))

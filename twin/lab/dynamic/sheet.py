@@ -234,7 +234,7 @@ class PlantSheet(GridSheet):
         is not 0), and its slope from R to 2R off the committed tip (cx, cy) (a wall); 0 where falling."""
         r, k, b = self.radius, self.chord_read_m, self.chord_band_m
         n = BAND_READS if b > 0.0 else 1
-        reads = [k + b * (2.0 * i / (n - 1) - 1.0) if n > 1 else k for i in range(n)]
+        reads = [k + b * (2.0 * i - (n - 1)) / max(n - 1, 1) for i in range(n)]
         chord = sum(math.atan2(max(self.height(x + d * sx, y + d * sy) - z, 0.0), d) for d in reads) / n
         w1 = self.height(cx + r * sx, cy + r * sy)
         w2 = self.height(cx + 2.0 * r * sx, cy + 2.0 * r * sy)

@@ -221,8 +221,8 @@ def side_angle(z: np.ndarray, pressed: np.ndarray, h: float, r: float, cx: float
     each once); `read` [m] how far from the tip the chord is read, `band` [m] the half-width it is averaged over."""
     n = BAND_READS if band > 0.0 else 1
     chord = 0.0
-    for i in range(n):
-        k = read + band * (2.0 * i / (n - 1) - 1.0) if n > 1 else read
+    for i in range(n):  # n reads spread evenly from read - band to read + band (one: at read)
+        k = read + band * (2.0 * i - (n - 1)) / max(n - 1, 1)
         chord += math.atan2(max(height(z, h, x + k * sx, y + k * sy) - zt, 0.0), k)
     chord /= n
     w1 = height(z, h, cx + r * sx, cy + r * sy)

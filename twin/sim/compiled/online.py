@@ -140,9 +140,9 @@ def _turned_force(state, t, cycle):  # type: ignore[no-untyped-def]
     side's steady one, -mu d_new + s a_new (a, the travel's left normal; s, the wall's push across the travel at the
     turn): the change from the force at the turn, whose part along d_old may have built up toward the corner
     (`_travel`); its wall's part, s a_new, is met as the tool moves into the new side and is fed in proportion to
-    the planned travel since the turn (`WALL_BUILD_M`). Either is u [N]. The filtered force shows it only after the sensor's sample, its latency and the
-    filter. Of k u (k, the turn gain: 1 at first) what the filtered force has not yet shown, measured by its change
-    since the turn along u, is added to it, until it has shown it all. `TURN_SETTLE_S` after the turn the share of u
+    the planned travel since the turn (`WALL_BUILD_M`). Either is u [N]. The filtered force shows it only after the
+    sensor's sample, its latency and the filter. Of k u (k, the turn gain: 1 at first) what the filtered force has
+    not yet shown, measured by its change since the turn along u, is added to it, until it has shown it all. `TURN_SETTLE_S` after the turn the share of u
     it has shown is read into k (`TURN_ADAPT`): the along-travel force of a real cell is not only friction (a
     groove's end wall pushes before the reversal and not after), and its turns teach the compensator how much of it
     turns. Between turns, mu's share of the normal force is followed slowly (`SIDE_TAU_S`) from the filtered force
